@@ -1,0 +1,39 @@
+# The two commands of the README: `make run` and `make test`. Each creates .venv.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+
+.PHONY: run test generate check-generated bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+
+$(VENV)/.installed: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e .
+	touch $@
+
+$(VENV)/.installed-test: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	touch $@ $(VENV)/.installed
+
+## run: the main job on the embedded Heli4 default
+run: $(VENV)/.installed
+	$(BIN)/eigentwist reproduce
+
+## test: the whole suite
+test: $(VENV)/.installed-test
+	$(BIN)/python -m pytest
+
+## generate: regenerate eigentwist/generated (checked in)
+generate: $(VENV)/.installed
+	$(BIN)/eigentwist generate
+
+check-generated: $(VENV)/.installed
+	$(BIN)/eigentwist generate --check
+
+bench: $(VENV)/.installed-test
+	$(BIN)/python benchmarks/run.py
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache

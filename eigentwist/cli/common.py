@@ -1,0 +1,69 @@
+"""Shared CLI helpers: options, progress, tables and the one-line error contract."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+__all__ = ["CliError", "add_model_options", "parse_sets", "progress", "format_table", "eprint"]
+
+
+class CliError(Exception):
+    """An error reported to the user as one line (exit status 2)."""
+
+
+def eprint(*args) -> None:
+    print(*args, file=sys.stderr)
+
+
+def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "paper") -> None:
+    """``--robot``, ``--pose``, ``--k-a``, ``--set`` and ``--model`` with units in the help."""
+    p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
+                   help="generated evaluator to use (default: numpy)")
+    p.add_argument("--pose", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                   help="end-effector position in the base frame, m (default: the robot's x_ref)")
+    p.add_argument("--k-a", type=float, dest="k_a", metavar="KA",
+                   help="commanded actuator stiffness, N m/rad (default: 2000)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a design parameter in SI units, e.g. --set l2=0.55 (repeatable)")
+    if model_default is not None:
+        p.add_argument("--model", default=model_default,
+                       help="preset (rigid, paper) or comma-separated effects, e.g. rigid,payload_mass "
+                            f"(default: {model_default})")
+
+
+def parse_sets(items: list[str]) -> dict[str, float]:
+    """``["l2=0.55"]`` -> ``{"l2": 0.55}``; malformed items raise :class:`CliError`."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise CliError(f"--set {item!r}: expected NAME=VALUE, e.g. --set l2=0.55")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise CliError(f"--set {item!r}: value {value!r} is not a number") from None
+    return out
+
+
+def progress(iterable=None, **kwargs):
+    """tqdm progress bar on stderr, silent when stderr is not a terminal."""
+    from tqdm.auto import tqdm
+
+    kwargs.setdefault("disable", not sys.stderr.isatty())
+    kwargs.setdefault("file", sys.stderr)
+    return tqdm(iterable, **kwargs)
+
+
+def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g") -> str:
+    """Plain-text table with right-aligned numbers."""
+    def fmt(v):
+        if isinstance(v, (float, np.floating)):
+            return format(float(v), floatfmt)
+        return str(v)
+    cells = [[fmt(v) for v in r] for r in rows]
+    widths = [max(len(h), *(len(r[k]) for r in cells)) if cells else len(h) for k, h in enumerate(headers)]
+    line = lambda r: "  ".join(c.rjust(w) for c, w in zip(r, widths))  # noqa: E731
+    return "\n".join([line(headers), line(["-" * w for w in widths])] + [line(r) for r in cells])

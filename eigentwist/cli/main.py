@@ -1,0 +1,47 @@
+"""Entry point of the ``eigentwist`` command."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .common import CliError
+
+SUBCOMMANDS = ("reproduce", "matrices", "generate")
+
+DESCRIPTION = """eigentwist: closed-form natural-frequency models of parallel manipulators
+(Hoevenaars, Krut & Herder 2020, DOI 10.1016/j.mechmachtheory.2019.103775).
+Units are SI throughout: m, rad, kg, N, N m/rad, Pa, Hz."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="eigentwist", description=DESCRIPTION,
+                                     epilog="example: eigentwist matrices --pose 0 0 -0.625 --k-a 2000 --json",
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in SUBCOMMANDS:
+        importlib.import_module(f".{name}", __package__).add_parser(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except (CliError, ValueError, OSError, KeyError) as exc:
+        if args.debug:
+            raise
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        print(f"eigentwist {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Code generation: kernels (CSE), Jinja templates, render / write / check."""

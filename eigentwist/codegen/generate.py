@@ -1,0 +1,104 @@
+"""Regenerate the evaluators in ``eigentwist/generated/`` (render, write, check).
+
+``render_all`` returns ``{relative path: text}`` without touching the disk;
+``write`` writes; ``stale`` compares with what is checked in. The command line
+``eigentwist generate [--check]`` wraps these.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from ..description.effects import switch_name
+from ..robots import NAMES, get
+from ..symbolic import POSE, derive
+from .kernel import Kernel, Output, build_kernel, source_hash
+from .numpy_backend import render_numpy
+from .render import TEMPLATES
+
+__all__ = ["GENERATED", "kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS"]
+
+GENERATED = Path(__file__).resolve().parent.parent / "generated"
+
+KERNEL_DOCS = {
+    "inverse_kinematics": "Joint angles of every leg for end-effector positions (facts file IK).",
+    "matrices": "Cartesian inertia M (Eq. 12), rigid-body stiffness K_R (Eq. 14) and flexible-body stiffness K_F (Eq. 13, tau_e = 0) at the EE origin.",
+    "jacobians": "Inverse-Jacobian rows of joints 1, 2, 3 and the virtual joint of every leg (Huang's method), and the actuation levers (m).",
+    "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40) and the series actuator stiffness k_act.",
+}
+SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
+
+
+def kernels_for(model, progress=None) -> list[Kernel]:
+    """CSE'd kernels of a derived model, in a fixed order."""
+    robot = model.robot
+    params = list(robot.parameter_names) + [switch_name(e) for e in robot.effects]
+    kernels = []
+    ik_outs = [Output(k, sh, ex) for k, (sh, ex) in model.ik_outputs.items()]
+    kernels.append(build_kernel("inverse_kinematics", KERNEL_DOCS["inverse_kinematics"], model.ik,
+                                ik_outs, list(POSE), [], params))
+    for group in ("matrices", "jacobians", "gravity"):
+        if progress:
+            progress(f"CSE {group}")
+        outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
+        kernels.append(build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints, params))
+    return kernels
+
+
+def _template_text(backend: str) -> str:
+    return "".join(p.read_text() for p in sorted((TEMPLATES / backend).glob("*.jinja")))
+
+
+def _render_numpy(robot, kernels, digest):
+    return render_numpy(robot, kernels, digest, [switch_name(e) for e in robot.effects])
+
+
+BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy)}
+
+
+def render_robot(name: str, progress=None, timings: dict | None = None) -> dict[str, str]:
+    """Derive, CSE and render every backend for robot ``name``: ``{filename: text}``."""
+    timings = {} if timings is None else timings
+    t0 = time.perf_counter()
+    if progress:
+        progress(f"{name}: derive")
+    model = derive(get(name))
+    t1 = time.perf_counter()
+    kernels = kernels_for(model, progress=(lambda m: progress(f"{name}: {m}")) if progress else None)
+    t2 = time.perf_counter()
+    files = {}
+    for backend, (pattern, render) in BACKENDS.items():
+        digest = source_hash(kernels, _template_text(backend))
+        files[pattern.format(robot=name)] = render(model.robot, kernels, digest)
+    t3 = time.perf_counter()
+    timings[name] = {"derive_s": t1 - t0, "cse_s": t2 - t1, "emit_s": t3 - t2}
+    return files
+
+
+def render_all(robots=NAMES, progress=None, timings=None) -> dict[str, str]:
+    """Render the generated files of every robot (nothing is written)."""
+    files = {}
+    for name in robots:
+        files.update(render_robot(name, progress=progress, timings=timings))
+    return files
+
+
+def write(files: dict[str, str], directory: Path = GENERATED) -> list[Path]:
+    """Write rendered files into ``directory``; return the paths written."""
+    directory.mkdir(parents=True, exist_ok=True)
+    written = []
+    for rel, text in files.items():
+        path = directory / rel
+        path.write_bytes(text.encode("utf-8"))
+        written.append(path)
+    return written
+
+
+def stale(files: dict[str, str], directory: Path = GENERATED) -> list[str]:
+    """Names of files whose checked-in bytes differ from the rendered text."""
+    out = []
+    for rel, text in files.items():
+        path = directory / rel
+        if not path.exists() or path.read_bytes() != text.encode("utf-8"):
+            out.append(rel)
+    return out

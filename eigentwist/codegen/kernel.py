@@ -1,0 +1,158 @@
+"""Backend-neutral kernels: pruned, CSE'd straight-line code with named outputs.
+
+A :class:`Kernel` is what every backend template renders: ordered statements
+``name = expression`` over declared inputs, and output entries placed right after the
+statement that completes them (so dead temporaries can be freed early).
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from ..symbolic.program import Program
+
+__all__ = ["Output", "Kernel", "build_kernel", "UndeclaredSymbolError", "source_hash"]
+
+
+class UndeclaredSymbolError(ValueError):
+    """An expression uses a symbol that is neither an input nor an intermediate."""
+
+
+@dataclass
+class Output:
+    """One output array: ``shape`` per pose and its flattened entry expressions.
+
+    ``symmetric`` outputs (square in their last two axes) are emitted for the upper
+    triangle only and mirrored.
+    """
+
+    name: str
+    shape: tuple
+    exprs: list
+    symmetric: bool = False
+
+    def entries(self):
+        """Yield ``(index tuple, flat position)`` of the entries to compute."""
+        import itertools
+
+        for flat, idx in enumerate(itertools.product(*[range(n) for n in self.shape])):
+            if self.symmetric and idx[-2] > idx[-1]:
+                continue
+            yield idx, flat
+
+
+@dataclass
+class Kernel:
+    """CSE'd code for one function.
+
+    ``inputs`` is a list of ``(group, names)``: ``"pose"`` (x, y, z arrays), ``"q"``
+    (joint angle names in (leg, joint) order), ``"param"`` (parameter and switch names).
+    ``body`` is a list of ``("let", symbol, expr)`` and ``("out", output, index, expr)``.
+    """
+
+    name: str
+    doc: str
+    inputs: list
+    outputs: list
+    body: list = field(default_factory=list)
+    joint_order: list = field(default_factory=list)
+
+    @property
+    def input_names(self) -> list[str]:
+        return [n for _, names in self.inputs for n in names]
+
+    @property
+    def params_used(self) -> list[str]:
+        return [n for g, names in self.inputs if g == "param" for n in names]
+
+
+def _sorted_syms(expr) -> list:
+    return sorted(expr.free_symbols, key=lambda s: s.name)
+
+
+def build_kernel(name: str, doc: str, program: Program, outputs: list[Output],
+                 pose: list, joints: list, params: list) -> Kernel:
+    """Prune ``program`` to what ``outputs`` need, run CSE and order the statements.
+
+    Raises :class:`UndeclaredSymbolError` naming the symbol when an expression uses
+    anything that is not a declared input (style: fail fast, as pydy does).
+    """
+    defs = program.definitions()
+    out_exprs = [sp.sympify(out.exprs[flat]) for out in outputs for _, flat in out.entries()]
+    # prune: intermediates reachable from the outputs
+    needed, stack = set(), [s for e in out_exprs for s in e.free_symbols]
+    while stack:
+        s_ = stack.pop()
+        if s_ in needed or s_ not in defs:
+            continue
+        needed.add(s_)
+        stack.extend(defs[s_].free_symbols)
+    lets = [(s_, r) for s_, r in program.assignments if s_ in needed]
+    declared = {s.name for s in list(pose) + list(joints)} | set(params)
+    used_inputs = set()
+    for e in [r for _, r in lets] + out_exprs:
+        for s_ in e.free_symbols:
+            if s_ in needed:
+                continue
+            if s_.name not in declared:
+                raise UndeclaredSymbolError(
+                    f"kernel {name!r}: symbol {s_.name!r} is not a declared input "
+                    f"(declare it as a parameter of the robot description)")
+            used_inputs.add(s_.name)
+
+    replacements, reduced = sp.cse([r for _, r in lets] + out_exprs,
+                                   symbols=sp.numbered_symbols("t", real=True))
+    stmts = {s_: e for s_, e in replacements}
+    stmts.update({s_: red for (s_, _), red in zip(lets, reduced[:len(lets)])})
+    order: list = []
+    done: set = set()
+
+    def visit(s_):
+        if s_ in done or s_ not in stmts:
+            return
+        done.add(s_)
+        for dep in _sorted_syms(stmts[s_]):
+            visit(dep)
+        order.append(s_)
+
+    for s_, _ in lets:
+        visit(s_)
+    out_reduced = reduced[len(lets):]
+    for e in out_reduced:
+        for dep in _sorted_syms(e):
+            visit(dep)
+    position = {s_: k for k, s_ in enumerate(order)}
+    placed: dict[int, list] = {}
+    k = 0
+    for out in outputs:
+        for idx, _ in out.entries():
+            e = out_reduced[k]
+            k += 1
+            at = max((position[d] for d in e.free_symbols if d in position), default=-1)
+            placed.setdefault(at, []).append(("out", out, idx, e))
+    body = list(placed.get(-1, []))
+    for pos, s_ in enumerate(order):
+        body.append(("let", s_, stmts[s_]))
+        body.extend(placed.get(pos, []))
+    inputs = [
+        ("pose", [s.name for s in pose if s.name in used_inputs]),
+        ("q", [s.name for s in joints if s.name in used_inputs]),
+        ("param", [p for p in params if p in used_inputs]),
+    ]
+    return Kernel(name, doc, inputs, outputs, body, [s.name for s in joints])
+
+
+def source_hash(kernels: list[Kernel], extra: str = "") -> str:
+    """SHA-256 over a canonical text of the kernels (statements, outputs) and ``extra``."""
+    h = hashlib.sha256()
+    for kern in kernels:
+        h.update(f"kernel {kern.name} {kern.input_names}\n".encode())
+        for item in kern.body:
+            if item[0] == "let":
+                h.update(f"{item[1].name}={sp.srepr(item[2])}\n".encode())
+            else:
+                h.update(f"{item[1].name}{item[2]}={sp.srepr(item[3])}\n".encode())
+    h.update(extra.encode())
+    return h.hexdigest()

@@ -1,0 +1,123 @@
+"""A parallel manipulator described as data: legs as joint chains, bodies, compliances.
+
+A description holds no derivation logic. The derivation (``eigentwist.symbolic``) reads
+it; a second robot with the same joint types needs a new description only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from .parameters import Parameter
+
+__all__ = ["Joint", "Leg", "EECompliance", "RobotDescription", "RRPIRR_CHAIN"]
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One joint of a leg: ``kind`` is ``"R"`` (revolute), ``"Pi"`` (planar
+    parallelogram, a curvilinear translation) or ``"virtual"`` (the constrained
+    direction of a leg with fewer than six freedoms)."""
+
+    kind: str
+    actuated: bool = False
+    doc: str = ""
+
+
+RRPIRR_CHAIN = (
+    Joint("R", actuated=True, doc="actuated base joint, axis s_i through B_i"),
+    Joint("R", doc="elbow joint, axis s_i"),
+    Joint("Pi", doc="parallelogram, translation along s_i3 (its coordinate is l2*q_i3, m)"),
+    Joint("R", doc="twist of the rods about each other, axis s_i4 through a_i"),
+    Joint("R", doc="joint at the platform, axis s_i through a_i"),
+    Joint("virtual", doc="constrained rotation about c_i1 through a_i (twist of restriction)"),
+)
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One RR(Pi)RR leg.
+
+    Vectors are 3-tuples of SymPy expressions in design-parameter symbols (m, unitless
+    for directions); all are in base-frame axes.
+
+    base : actuated joint centre B_i in the base frame (m).
+    radial : outward unit vector u_i in the base plane.
+    axis : actuator axis s_i, with ``radial x axis = e_z``.
+    attachment : a_i, from the end-effector origin to the leg's connection point (m).
+    """
+
+    name: str
+    base: tuple
+    radial: tuple
+    axis: tuple
+    attachment: tuple
+    chain: tuple = RRPIRR_CHAIN
+    platform_body: str = "platform"
+
+    def vector(self, which: str) -> sp.Matrix:
+        return sp.Matrix(getattr(self, which))
+
+
+@dataclass(frozen=True)
+class EECompliance:
+    """End-effector assembly compliance split over the legs (App. D, Eqs. 45-49).
+
+    ``per_leg`` maps a leg index to a 6x6 compliance in a frame at ``origin`` (m from the
+    EE origin, axes parallel to the EE frame), in rad/(N m), m/N. The effect's switch
+    and stiffness symbols appear inside these matrices.
+    """
+
+    origin: tuple
+    per_leg: dict
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    """Everything the derivation needs to know about one manipulator.
+
+    Link and body data are expressions in the parameter symbols so that every design
+    quantity stays symbolic:
+
+    * ``l1``, ``l2``: lower link and parallelogram lengths (m);
+    * ``lower_link_inertia``: 6x6 spatial inertia of body 1 (link + rotor) in frame
+      J_i1 (origin at the actuated joint, x = r_i1, y = s_i1), Eqs. 21-23;
+    * ``rod``: dict of ``r_i``, ``r_o`` (m), ``rho`` (kg/m^3), ``w_pi`` (m), ``E``, ``G`` (Pa)
+      for the parallelogram tubes (Eqs. 27-29, App. C);
+    * ``ee_inertia``: 6x6 spatial inertia of the end-effector at its origin (Eq. 31);
+    * ``lower_link_tube``: ``r_o``, ``r_i`` (m), ``E`` (Pa), ``nu`` for the
+      ``lower_link_compliance`` effect;
+    * ``ee_compliance``: :class:`EECompliance` or None;
+    * ``x_ref``: reference pose (m).
+    """
+
+    name: str
+    title: str
+    parameters: tuple[Parameter, ...]
+    legs: tuple[Leg, ...]
+    l1: sp.Expr
+    l2: sp.Expr
+    lower_link_inertia: sp.Matrix
+    rod: dict
+    ee_inertia: sp.Matrix
+    lower_link_tube: dict
+    ee_compliance: EECompliance | None
+    x_ref: tuple[float, float, float]
+    workspace: tuple = ((-0.1, 0.1), (-0.1, 0.1), (-0.70, -0.55))
+    source: str = ""
+    effects: tuple[str, ...] = field(default=())
+
+    def parameter(self, name: str) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def defaults(self) -> dict[str, float]:
+        return {p.name: p.default for p in self.parameters}

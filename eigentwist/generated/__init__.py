@@ -1,0 +1,1 @@
+"""Generated evaluators (checked in; regenerate with ``eigentwist generate``)."""

@@ -1,0 +1,17 @@
+"""Robot descriptions shipped with eigentwist. ``get(name)`` returns one."""
+from __future__ import annotations
+
+from importlib import import_module
+
+from ..description import RobotDescription
+
+__all__ = ["get", "NAMES"]
+
+NAMES = ("heli4",)
+
+
+def get(name: str) -> RobotDescription:
+    """The description of robot ``name`` (one of :data:`NAMES`)."""
+    if name not in NAMES:
+        raise ValueError(f"unknown robot {name!r}: expected one of {', '.join(NAMES)}")
+    return import_module(f".{name}", __name__).describe()

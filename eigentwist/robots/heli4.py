@@ -1,0 +1,109 @@
+"""The Heli4 robot (4-RR(Pi)RR), as analysed by Hoevenaars, Krut & Herder (2020).
+
+Sources: Table 1, Eqs. 22-31, 34, Appendix A (corrected), C, D of the paper
+(DOI 10.1016/j.mechmachtheory.2019.103775) and ``heli4-facts.md`` (base geometry,
+frames, the rod modulus E = 170 GPa, misprints).
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from ..description import EECompliance, Leg, Parameter, RobotDescription, sym
+from ..description.effects import switch_name
+from ..symbolic.screw import spatial_inertia
+
+INF = float("inf")
+
+PARAMETERS = (
+    # geometry (Table 1, App. A, facts file)
+    Parameter("R", 0.135, "m", "radius of the actuated joints about the base centre (facts file)"),
+    Parameter("l1", 0.20, "m", "length of the lower link (Table 1)"),
+    Parameter("l2", 0.53, "m", "length of the parallelogram (Table 1)"),
+    Parameter("r", 0.048, "m", "radial offset of the leg attachments on the traveling plates (App. A)"),
+    Parameter("d", 0.078, "m", "height of the lower traveling plate attachments above the EE origin (App. A)"),
+    Parameter("h", 0.060, "m", "extra height of the upper traveling plate attachments, legs 3 and 4 (App. A)"),
+    Parameter("w_pi", 0.055, "m", "parallelogram width (Table 1)"),
+    # parallelogram rods (Table 1, Eqs. 27-29, App. C)
+    Parameter("r_i", 0.0035, "m", "inner radius of the rods (Table 1)"),
+    Parameter("r_o", 0.005, "m", "outer radius of the rods (Table 1)"),
+    Parameter("rho", 2000.0, "kg/m^3", "density of the rods (Table 1)"),
+    Parameter("E_rod", 170e9, "Pa", "Young's modulus of the rods (facts file: fitted to K_F(3,3), carbon fibre)", effect="rod_compliance"),
+    Parameter("G_rod", 65e9, "Pa", "shear modulus of the rods (not in the paper; no influence on K_F)", effect="rod_compliance"),
+    # lower link with rotor (Eqs. 21-23)
+    Parameter("m_1", 0.479, "kg", "mass of the lower link (Eq. 23)"),
+    Parameter("l1_cog", 0.0612, "m", "distance from the actuated joint to the lower link's centre of gravity (Table 1)"),
+    Parameter("I1_xx", 0.0003, "kg m^2", "lower link inertia about x of frame J_i1 (Eq. 23)"),
+    Parameter("I1_yy", 0.0044, "kg m^2", "lower link inertia about the actuated axis (Eq. 23)"),
+    Parameter("I1_zz", 0.0042, "kg m^2", "lower link inertia about z of frame J_i1 (Eq. 23)"),
+    Parameter("I_rotor", 4.1e-3, "kg m^2", "actuator rotor inertia about its axis (Eq. 22)"),
+    # end-effector assembly (Eq. 31)
+    Parameter("m_e", 0.592, "kg", "mass of the end-effector assembly (Eq. 31)"),
+    Parameter("I_e_xx", 0.009, "kg m^2", "EE inertia about X (Eq. 31)"),
+    Parameter("I_e_yy", 0.009, "kg m^2", "EE inertia about Y (Eq. 31)"),
+    Parameter("I_e_zz", 0.001, "kg m^2", "EE inertia about Z (Eq. 31, printed to one digit)"),
+    # actuators (Eqs. 34, 42)
+    Parameter("k_a", 2000.0, "N m/rad", "commanded actuator stiffness (Table 2)"),
+    Parameter("eta_a", 0.82, "-", "delivered/commanded actuator stiffness (App. B)", (0.05, 1.5), effect="actuator_loss"),
+    # end-effector assembly compliance (App. D; facts file: 500 and 100/0.77e-3 reproduce Eq. 58)
+    Parameter("k_E_rot", 500.0, "N m/rad", "EE assembly rotational stiffness about Y (Eq. D.1)", effect="ee_compliance"),
+    Parameter("k_E_lin", 100 / 0.77e-3, "N/m", "EE assembly linear stiffness along Y (Eq. D.2)", effect="ee_compliance"),
+    # catalogue effects beyond the paper
+    Parameter("r_o_l1", 0.012, "m", "outer radius of the lower link tube", effect="lower_link_compliance"),
+    Parameter("r_i_l1", 0.010, "m", "inner radius of the lower link tube", effect="lower_link_compliance"),
+    Parameter("E_l1", 70e9, "Pa", "Young's modulus of the lower link tube (aluminium)", effect="lower_link_compliance"),
+    Parameter("nu_l1", 0.33, "-", "Poisson ratio of the lower link tube (G = E/(2(1+nu)))", (0.0, 0.5), effect="lower_link_compliance"),
+    Parameter("k_t", 20000.0, "N m/rad", "torsional stiffness of each transmission, in series with the actuator", effect="transmission_compliance"),
+    Parameter("m_p", 0.2, "kg", "payload mass on the end-effector", effect="payload_mass"),
+    Parameter("p_x", 0.0, "m", "payload offset from the EE origin along X", (-1.0, 1.0), effect="payload_mass"),
+    Parameter("p_y", 0.0, "m", "payload offset from the EE origin along Y", (-1.0, 1.0), effect="payload_mass"),
+    Parameter("p_z", 0.0, "m", "payload offset from the EE origin along Z", (-1.0, 1.0), effect="payload_mass"),
+    Parameter("I_add", 2e-3, "kg m^2", "additional inertia about each actuated axis", effect="rotor_inertia"),
+    Parameter("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload", (0.0, 100.0), effect="gravity_preload"),
+    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance given to ideally rigid constrained directions so K_F stays finite", (0.0, 1e-6)),
+)
+
+
+def describe() -> RobotDescription:
+    """The Heli4 description with the paper's values as defaults."""
+    p = {q.name: q.symbol for q in PARAMETERS}
+    R, r, d, h = p["R"], p["r"], p["d"], p["h"]
+    ex, ey, ez = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    neg = lambda v: tuple(-c for c in v)  # noqa: E731
+    # (u_i, s_i, a_i) with u_i x s_i = e_z (facts file)
+    layout = (
+        ("leg 1", ex, ey, (r, 0, d)),
+        ("leg 2", neg(ex), neg(ey), (-r, 0, d)),
+        ("leg 3", ey, neg(ex), (0, r, d + h)),
+        ("leg 4", neg(ey), ex, (0, -r, d + h)),
+    )
+    legs = tuple(
+        Leg(name, tuple(R * c for c in u), u, s, a) for name, u, s, a in layout
+    )
+    rotor = p["I_rotor"] + sym(switch_name("rotor_inertia")) * p["I_add"]
+    lower_link = spatial_inertia(
+        p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
+        sp.diag(p["I1_xx"], p["I1_yy"] + rotor, p["I1_zz"]),
+    )
+    ee = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
+    on_ee = sym(switch_name("ee_compliance"))
+    c_rot = sp.diag(0, on_ee / (p["k_E_rot"] / 2), 0, 0, 0, 0)   # Eqs. 45, 46
+    c_lin = sp.diag(0, 0, 0, 0, on_ee / (p["k_E_lin"] / 2), 0)   # Eqs. 47, 48
+    return RobotDescription(
+        name="heli4",
+        title="Heli4 (4-RR(Pi)RR), Hoevenaars, Krut & Herder 2020",
+        parameters=PARAMETERS,
+        legs=legs,
+        l1=p["l1"],
+        l2=p["l2"],
+        lower_link_inertia=lower_link,
+        rod=dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"], E=p["E_rod"], G=p["G_rod"]),
+        ee_inertia=ee,
+        lower_link_tube=dict(r_o=p["r_o_l1"], r_i=p["r_i_l1"], E=p["E_l1"], nu=p["nu_l1"]),
+        # lower traveling plate centre at EE origin + [0, 0, d] (facts file)
+        ee_compliance=EECompliance(origin=(0, 0, d), per_leg={0: c_rot, 1: c_rot, 2: c_lin, 3: c_lin}),
+        x_ref=(0.0, 0.0, -0.625),
+        workspace=((-0.1, 0.1), (-0.1, 0.1), (-0.70, -0.55)),
+        source="Hoevenaars, Krut & Herder (2020), DOI 10.1016/j.mechmachtheory.2019.103775",
+        effects=("actuator_loss", "rod_compliance", "ee_compliance", "lower_link_compliance",
+                 "transmission_compliance", "payload_mass", "rotor_inertia", "gravity_preload"),
+    )

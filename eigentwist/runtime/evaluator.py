@@ -1,0 +1,203 @@
+"""The evaluator users import: validated batches in, matrices and frequencies out."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import ModuleType
+
+import numpy as np
+
+from ..description import RobotDescription
+from ..description.effects import EFFECTS, STRUCTURAL, resolve_model, switch_name
+from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+from .errors import InputError, SingularPoseError, UnreachablePoseError
+
+__all__ = ["Evaluator", "Modes", "AXES"]
+
+AXES = ("rx", "ry", "rz", "x", "y", "z")
+CHUNK = 4096
+LEVER_TOL = 1e-3   # |w_a1 . t_a1| / l1 below this is treated as singular
+
+
+@dataclass
+class Modes:
+    """Natural frequencies and eigentwists of a batch of poses.
+
+    freq_hz : (N, n) ascending, Hz.
+    eigentwists : (N, n, n), one column per mode, largest entry +1 (Eqs. 57, 65).
+    axes : names of the n coordinates (``("x", "y", "z")`` for the rigid model,
+        ``("rx", "ry", "rz", "x", "y", "z")`` for the flexible one).
+    kind : ``"rigid"`` (K_R with the 3x3 translational subsets) or ``"flexible"`` (K_F).
+    """
+
+    freq_hz: np.ndarray
+    eigentwists: np.ndarray
+    axes: tuple
+    kind: str
+
+    @property
+    def direction(self) -> np.ndarray:
+        """(N, n) axis index (into :data:`AXES`) of each mode's largest eigentwist entry."""
+        local = np.argmax(np.abs(self.eigentwists), axis=-2)
+        offset = 3 if self.kind == "rigid" else 0
+        return local + offset
+
+
+class Evaluator:
+    """Evaluate a generated model for batches of poses and parameter values.
+
+    Obtain one with :func:`eigentwist.load`. Poses are end-effector positions (m) in
+    the base frame, shape (N, 3) or (3,); parameters are keyword arguments, scalars or
+    (N,) arrays, overriding the description's defaults (SI units, see
+    ``evaluator.parameters``). ``model`` is a preset (``"rigid"``, ``"paper"``) or a
+    comma-separated list of effects.
+    """
+
+    def __init__(self, robot: RobotDescription, module: ModuleType, backend: str, kernels=None):
+        self.robot = robot
+        self.module = module
+        self.backend = backend
+        self._kernels = kernels or module
+        self.parameters = {p.name: p for p in robot.parameters}
+        self.defaults = robot.defaults
+        self.effects = robot.effects
+        self.n_legs = len(robot.legs)
+
+    def __repr__(self) -> str:
+        return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
+
+    # ----------------------------------------------------------------- inputs
+    def _poses(self, poses) -> np.ndarray:
+        arr = np.asarray(poses, dtype=float)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] != 3:
+            raise InputError(f"poses has shape {np.shape(poses)}: expected (N, 3) end-effector positions in m")
+        if arr.shape[0] == 0:
+            raise InputError("poses is empty: expected at least one (x, y, z) position in m")
+        bad = ~np.isfinite(arr).all(axis=1)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers in m")
+        return arr
+
+    def _params(self, n: int, params: dict, model) -> dict:
+        unknown = sorted(set(params) - set(self.parameters))
+        if unknown:
+            raise InputError(f"unknown parameter(s) {', '.join(map(repr, unknown))} for {self.robot.name}: "
+                             f"expected names from {', '.join(self.parameters)}")
+        effects = resolve_model(model, self.effects)
+        out = {}
+        for name, p in self.parameters.items():
+            value = params.get(name, p.default)
+            arr = np.asarray(value, dtype=float)
+            if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in (1, n)):
+                raise InputError(f"parameter {name!r} has shape {arr.shape}: expected a scalar or ({n},) for {n} poses")
+            if name in params or p.effect is None or p.effect in effects:
+                try:
+                    p.check(arr)
+                except ValueError as exc:
+                    raise InputError(str(exc)) from None
+            out[name] = arr
+        for e in self.effects:
+            out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
+        return out
+
+    @staticmethod
+    def kind(model) -> str:
+        """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""
+        effects = resolve_model(model)
+        return "flexible" if any(e in STRUCTURAL for e in effects) else "rigid"
+
+    # ---------------------------------------------------------------- kernels
+    def _chunks(self, n: int):
+        for start in range(0, n, CHUNK):
+            yield slice(start, min(n, start + CHUNK))
+
+    @staticmethod
+    def _take(p: dict, sl: slice) -> dict:
+        return {k: (v[sl] if v.ndim == 1 and v.shape[0] > 1 else v) for k, v in p.items()}
+
+    def _ik(self, poses: np.ndarray, p: dict) -> np.ndarray:
+        with np.errstate(invalid="ignore"):
+            out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
+        for key in ("sin_q3", "cos_q2"):
+            arg = out[key]
+            bad = ~(np.abs(arg) <= 1.0)
+            if bad.any():
+                k, leg = np.argwhere(bad)[0]
+                what = "the parallelogram cannot tilt that far" if key == "sin_q3" else "the lower link and parallelogram cannot span that distance"
+                raise UnreachablePoseError(
+                    f"pose {poses[k].tolist()} m is unreachable for {self.robot.legs[leg].name}: "
+                    f"{what} ({key} = {arg[k, leg]:.4g}, expected within [-1, 1])")
+        return out["q"]
+
+    def _run(self, kernel: str, poses, model, params: dict) -> dict:
+        poses = self._poses(poses)
+        n = len(poses)
+        p = self._params(n, params, model)
+        results: dict = {}
+        for sl in self._chunks(n):
+            pc = self._take(p, sl)
+            q = self._ik(poses[sl], pc)
+            jac = self._kernels.jacobians(q, pc)
+            lever = jac["lever"] / np.asarray(pc["l1"])[..., None]
+            bad = ~(np.abs(lever) > LEVER_TOL)
+            if bad.any():
+                k, leg = np.argwhere(bad)[0]
+                raise SingularPoseError(
+                    f"pose {poses[sl][k].tolist()} m is singular for {self.robot.legs[leg].name}: actuation lever "
+                    f"w_a1.t_a1/l1 = {lever[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")
+            out = {"q": q, **jac} if kernel == "jacobians" else {"q": q, **getattr(self._kernels, kernel)(q, pc)}
+            for key, val in out.items():
+                results.setdefault(key, []).append(val)
+        return {k: np.concatenate(v, axis=0) for k, v in results.items()}
+
+    # ----------------------------------------------------------------- public
+    def joint_angles(self, poses, **params) -> np.ndarray:
+        """Joint angles (rad), shape (N, legs, 3): (q1, q2, q3) per leg (closed-form IK)."""
+        poses = self._poses(poses)
+        p = self._params(len(poses), params, "paper")
+        return np.concatenate([self._ik(poses[sl], self._take(p, sl)) for sl in self._chunks(len(poses))])
+
+    def jacobians(self, poses, **params) -> dict:
+        """Inverse-Jacobian rows ``J_rows`` (N, legs, 4, 6) and levers ``lever`` (N, legs), m."""
+        return self._run("jacobians", poses, "paper", params)
+
+    def matrices(self, poses, model="paper", **params) -> dict:
+        """``M``, ``K_R``, ``K_F`` at the EE origin, each (N, 6, 6) (Eqs. 12, 14, 13).
+
+        ``model`` switches effects on or off (K_R uses only the actuator-side effects).
+        """
+        out = self._run("matrices", poses, model, params)
+        return {k: out[k] for k in ("M", "K_R", "K_F")}
+
+    def stiffness(self, poses, model="paper", **params):
+        """The (M, K) pair the model's eigenproblem uses, with the gravity preload if on.
+
+        Rigid models use the 3x3 translational subsets of M and K_R (as the paper does);
+        flexible models the full 6x6 M and K_F.
+        """
+        poses_arr = self._poses(poses)
+        effects = resolve_model(model, self.effects)
+        mats = self.matrices(poses_arr, model, **params)
+        rigid = self.kind(effects) == "rigid"
+        M = mats["M"][:, 3:, 3:] if rigid else mats["M"]
+        K = mats["K_R"][:, 3:, 3:] if rigid else mats["K_F"]
+        if "gravity_preload" in effects:
+            from .gravity import gravity_stiffness
+
+            K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid)
+        return M, K
+
+    def modes(self, poses, model="paper", **params) -> Modes:
+        """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7)."""
+        M, K = self.stiffness(poses, model, **params)
+        lam, V = generalized_eigh(K, M)
+        rigid = M.shape[-1] == 3
+        return Modes(frequencies_hz(lam), normalize_eigentwists(V),
+                     AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible")
+
+    def frequencies(self, poses, model="paper", **params) -> np.ndarray:
+        """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
+        ``"paper"``) or (N, 3) for ``"rigid"``, ascending."""
+        return self.modes(poses, model, **params).freq_hz

@@ -1,0 +1,51 @@
+"""Load a generated evaluator: ``load("heli4", backend="numpy" | "c" | "auto")``."""
+from __future__ import annotations
+
+import importlib
+import warnings
+
+from ..robots import NAMES, get
+from .errors import InputError
+from .evaluator import Evaluator
+
+__all__ = ["load", "load_module", "BACKENDS"]
+
+BACKENDS = ("numpy", "c", "auto")
+
+
+def load_module(robot: str, backend: str = "numpy"):
+    """Import the generated module ``eigentwist.generated.<robot>_<backend>``."""
+    return importlib.import_module(f"eigentwist.generated.{robot}_{backend}")
+
+
+def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
+    """An :class:`Evaluator` for ``robot`` (one of ``eigentwist.robots.NAMES``).
+
+    ``backend="numpy"`` uses the generated NumPy module; ``"c"`` the generated C source
+    compiled with the system compiler (cached by content hash); ``"auto"`` tries C and
+    falls back to NumPy with one warning when no compiler is available.
+    """
+    if robot not in NAMES:
+        raise InputError(f"unknown robot {robot!r}: expected one of {', '.join(NAMES)}")
+    if backend not in BACKENDS:
+        raise InputError(f"unknown backend {backend!r}: expected one of {', '.join(BACKENDS)}")
+    description = get(robot)
+    module = load_module(robot, "numpy")
+    if backend == "numpy":
+        return Evaluator(description, module, "numpy")
+    try:
+        from .cbackend import load_c_kernels
+    except ImportError:
+        load_c_kernels = None
+    if load_c_kernels is None:
+        if backend == "c":
+            raise InputError("the C backend is not available in this build")
+        return Evaluator(description, module, "numpy")
+    try:
+        kernels = load_c_kernels(robot, module)
+    except Exception as exc:  # compiler missing or failing: reported, never swallowed silently
+        if backend == "c":
+            raise
+        warnings.warn(f"eigentwist: C backend unavailable ({exc}); falling back to NumPy", RuntimeWarning, stacklevel=2)
+        return Evaluator(description, module, "numpy")
+    return Evaluator(description, module, "c", kernels=kernels)

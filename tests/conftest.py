@@ -1,0 +1,35 @@
+"""Shared fixtures: one canonical model for all tests (style: pydy models.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import eigentwist
+
+
+@pytest.fixture(scope="session")
+def ev():
+    """The Heli4 evaluator on the generated NumPy backend."""
+    return eigentwist.load("heli4", backend="numpy")
+
+
+@pytest.fixture(scope="session")
+def derived():
+    """The symbolic Heli4 model (derivation only, no CSE)."""
+    from eigentwist.robots import get
+    from eigentwist.symbolic import derive
+
+    return derive(get("heli4"))
+
+
+def workspace_grid(robot, n=4) -> np.ndarray:
+    """A grid of poses (m) over the robot's workspace box."""
+    axes = [np.linspace(lo, hi, n) for lo, hi in robot.workspace]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+def random_poses(robot, n, seed) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    lo = np.array([a for a, _ in robot.workspace])
+    hi = np.array([b for _, b in robot.workspace])
+    return lo + (hi - lo) * rng.random((n, 3))

@@ -1,0 +1,67 @@
+"""Bad input: each a clear error naming the value, never a NaN in the output."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from eigentwist.runtime import InputError, SingularPoseError, UnreachablePoseError
+import eigentwist
+
+
+def test_unreachable_pose_names_pose_and_leg(ev):
+    with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, -1.2\].*leg 1"):
+        ev.frequencies([0.0, 0.0, -1.2])
+    with pytest.raises(UnreachablePoseError, match="leg"):
+        ev.frequencies([[0.0, 0.0, -0.625], [0.6, 0.0, -0.6]])
+
+
+def test_singular_pose(ev):
+    # z where the lower link of legs 1/2 is aligned with the parallelogram (lever -> 0)
+    l1, l2, R, r, d = (ev.defaults[k] for k in ("l1", "l2", "R", "r", "d"))
+    z = -np.sqrt((l1 + l2) ** 2 - (R - r) ** 2) - d + 1e-9
+    with pytest.raises((SingularPoseError, UnreachablePoseError), match="leg"):
+        ev.frequencies([0.0, 0.0, z])
+
+
+@pytest.mark.parametrize("name", ["k_a", "m_e", "E_rod", "k_E_rot", "l2"])
+@pytest.mark.parametrize("value", [0.0, -5.0, np.nan, np.inf])
+def test_non_positive_or_nonfinite_parameter(ev, name, value):
+    with pytest.raises(InputError, match=name):
+        ev.frequencies(ev.robot.x_ref, **{name: value})
+
+
+def test_nan_in_pose(ev):
+    with pytest.raises(InputError, match="not finite"):
+        ev.frequencies([[0.0, 0.0, -0.6], [0.0, np.nan, -0.6]])
+
+
+@pytest.mark.parametrize("poses", [np.zeros((2, 2)), np.zeros((2, 3, 1)), np.zeros((0, 3))])
+def test_wrongly_shaped_poses(ev, poses):
+    with pytest.raises(InputError, match="poses|empty"):
+        ev.frequencies(poses)
+
+
+def test_wrongly_shaped_parameter(ev):
+    with pytest.raises(InputError, match="k_a"):
+        ev.frequencies(np.zeros((4, 3)) + ev.robot.x_ref, k_a=np.ones(3))
+
+
+def test_unknown_parameter_and_model(ev):
+    with pytest.raises(InputError, match="k_A"):
+        ev.frequencies(ev.robot.x_ref, k_A=1000.0)
+    with pytest.raises(ValueError, match="flux_capacitor"):
+        ev.frequencies(ev.robot.x_ref, model="paper,flux_capacitor")
+
+
+def test_unknown_robot_and_backend():
+    with pytest.raises(ValueError, match="nonexistent"):
+        eigentwist.load("nonexistent")
+    with pytest.raises(ValueError, match="fortran"):
+        eigentwist.load("heli4", backend="fortran")
+
+
+def test_batch_outputs_are_finite(ev):
+    from .conftest import random_poses
+
+    f = ev.frequencies(random_poses(ev.robot, 200, seed=11), k_a=np.linspace(100, 5000, 200))
+    assert f.shape == (200, 6) and np.isfinite(f).all()
