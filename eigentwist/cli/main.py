@@ -7,7 +7,19 @@ import sys
 
 from .common import CliError
 
-SUBCOMMANDS = ("reproduce", "matrices", "generate")
+# Subcommands are the modules of this package that define ``add_parser``; this order
+# first, any others alphabetically (adding a command needs no edit here).
+ORDER = ("reproduce", "matrices", "compare", "diagnose", "synth", "sweep", "report", "generate")
+
+
+def subcommands() -> list[str]:
+    import pkgutil
+
+    from pathlib import Path
+
+    names = [m.name for m in pkgutil.iter_modules([str(Path(__file__).parent)])
+             if m.name not in ("main", "common", "__init__")]
+    return sorted(names, key=lambda n: (ORDER.index(n) if n in ORDER else len(ORDER), n))
 
 DESCRIPTION = """eigentwist: closed-form natural-frequency models of parallel manipulators
 (Hoevenaars, Krut & Herder 2020, DOI 10.1016/j.mechmachtheory.2019.103775).
@@ -20,8 +32,10 @@ def build_parser() -> argparse.ArgumentParser:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in SUBCOMMANDS:
-        importlib.import_module(f".{name}", __package__).add_parser(sub)
+    for name in subcommands():
+        module = importlib.import_module(f".{name}", __package__)
+        if hasattr(module, "add_parser"):
+            module.add_parser(sub)
     return parser
 
 
