@@ -56,18 +56,26 @@ def _render_numpy(robot, kernels, digest):
 BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy)}
 
 
-def render_robot(name: str, progress=None, timings: dict | None = None) -> dict[str, str]:
-    """Derive, CSE and render every backend for robot ``name``: ``{filename: text}``."""
+def render_robot(robot, progress=None, timings: dict | None = None, backends=None) -> dict[str, str]:
+    """Derive, CSE and render every backend: ``{filename: text}`` (nothing written).
+
+    ``robot`` is a robot name or a :class:`~eigentwist.description.RobotDescription`
+    (e.g. a modified copy of a shipped one, for design studies in memory).
+    """
+    description = get(robot) if isinstance(robot, str) else robot
+    name = description.name
     timings = {} if timings is None else timings
     t0 = time.perf_counter()
     if progress:
         progress(f"{name}: derive")
-    model = derive(get(name))
+    model = derive(description)
     t1 = time.perf_counter()
     kernels = kernels_for(model, progress=(lambda m: progress(f"{name}: {m}")) if progress else None)
     t2 = time.perf_counter()
     files = {}
     for backend, (pattern, render) in BACKENDS.items():
+        if backends is not None and backend not in backends:
+            continue
         digest = source_hash(kernels, _template_text(backend))
         files[pattern.format(robot=name)] = render(model.robot, kernels, digest)
     t3 = time.perf_counter()

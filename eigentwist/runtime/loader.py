@@ -8,7 +8,7 @@ from ..robots import NAMES, get
 from .errors import InputError
 from .evaluator import Evaluator
 
-__all__ = ["load", "load_module", "BACKENDS"]
+__all__ = ["load", "load_module", "evaluator_from_description", "BACKENDS"]
 
 BACKENDS = ("numpy", "c", "auto")
 
@@ -49,3 +49,21 @@ def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
         warnings.warn(f"eigentwist: C backend unavailable ({exc}); falling back to NumPy", RuntimeWarning, stacklevel=2)
         return Evaluator(description, module, "numpy")
     return Evaluator(description, module, "c", kernels=kernels)
+
+
+def evaluator_from_description(description, progress=None) -> Evaluator:
+    """Derive, generate and load a NumPy evaluator for ``description`` in memory.
+
+    For design studies on a modified description (``dataclasses.replace`` of a shipped
+    one): nothing is written to ``eigentwist/generated``. Takes a few seconds (derivation
+    and CSE).
+    """
+    import types
+
+    from ..codegen.generate import render_robot
+
+    files = render_robot(description, progress=progress, backends=("numpy",))
+    (text,) = files.values()
+    module = types.ModuleType(f"eigentwist_generated_{description.name}_inmemory")
+    exec(compile(text, module.__name__, "exec"), module.__dict__)
+    return Evaluator(description, module, "numpy")
