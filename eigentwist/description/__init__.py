@@ -1,9 +1,9 @@
 """Descriptions of parallel manipulators as data (parameters, legs, bodies, effects)."""
 from .parameters import Parameter, sym
-from .robot import Joint, Leg, RobotDescription, EECompliance, RRPIRR_CHAIN
+from .robot import Coupling, Joint, Leg, RobotDescription, EECompliance, RRPIRR_CHAIN
 from .effects import EFFECTS, PRESETS, Effect, resolve_model
 
 __all__ = [
-    "Parameter", "sym", "Joint", "Leg", "RobotDescription", "EECompliance", "RRPIRR_CHAIN",
+    "Parameter", "sym", "Coupling", "Joint", "Leg", "RobotDescription", "EECompliance", "RRPIRR_CHAIN",
     "EFFECTS", "PRESETS", "Effect", "resolve_model",
 ]

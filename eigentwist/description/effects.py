@@ -42,6 +42,9 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
     Effect("ee_compliance",
            "end-effector assembly compliance k_E_rot about Y and k_E_lin along Y, split over the legs (App. D, Eqs. 45-49)",
            ("k_E_rot", "k_E_lin"), ("k_E_rot", "k_E_lin"), structural=True),
+    Effect("ee_coupling",
+           "traveling plates as rigid bodies joined to the tool by compliant couplings (k_E_rot about Y, k_E_lin along Y), condensed in closed form at any pose (issue 7)",
+           ("k_E_rot", "k_E_lin"), ("k_E_rot", "k_E_lin"), structural=True),
     Effect("lower_link_compliance",
            "bending and torsion of the lower links l1 as hollow tubes clamped at the actuated joint",
            ("r_o_l1", "r_i_l1", "E_l1", "nu_l1"), ("E_l1",), structural=True),
@@ -64,6 +67,7 @@ STRUCTURAL = tuple(n for n, e in EFFECTS.items() if e.structural)
 PRESETS: dict[str, tuple[str, ...]] = {
     "rigid": ("actuator_loss",),
     "paper": ("actuator_loss", "rod_compliance", "ee_compliance"),
+    "coupled": ("actuator_loss", "rod_compliance", "ee_coupling"),
 }
 
 
@@ -75,9 +79,11 @@ def switch_name(effect: str) -> str:
 def resolve_model(spec, available=None) -> tuple[str, ...]:
     """Turn a model spec into a sorted-by-catalogue tuple of effect names.
 
-    ``spec`` is a preset name (``"rigid"``, ``"paper"``), a comma-separated list of
-    presets and effects (``"rigid,payload_mass"``), or an iterable of names. Unknown
-    names raise ``ValueError`` listing the valid ones.
+    ``spec`` is a preset name (``"rigid"``, ``"paper"``, ``"coupled"``), a
+    comma-separated list of presets and effects (``"rigid,payload_mass"``), or an
+    iterable of names. Unknown names raise ``ValueError`` listing the valid ones. A
+    preset keeps only the effects the robot has (``available``); an effect named
+    explicitly that the robot lacks is an error.
     """
     if isinstance(spec, str):
         items = [s.strip() for s in spec.replace("+", ",").split(",") if s.strip()]
@@ -86,7 +92,8 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
     names: set[str] = set()
     for item in items:
         if item in PRESETS:
-            names.update(PRESETS[item])
+            preset = PRESETS[item]
+            names.update(e for e in preset if available is None or e in available)
         elif item in EFFECTS:
             names.add(item)
         else:

@@ -11,7 +11,7 @@ import sympy as sp
 
 from .parameters import Parameter
 
-__all__ = ["Joint", "Leg", "EECompliance", "RobotDescription", "RRPIRR_CHAIN"]
+__all__ = ["Joint", "Leg", "EECompliance", "Coupling", "RobotDescription", "RRPIRR_CHAIN"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,27 @@ class EECompliance:
 
 
 @dataclass(frozen=True)
+class Coupling:
+    """A compliant coupling between the tool body (which carries the EE frame) and
+    another rigid body of the platform, to which some legs attach (issue 7).
+
+    ``twists`` are the m unit twists ``[omega; v]`` of the compliant directions in a
+    local frame at ``origin`` (m from the EE origin) with axes ``rotation`` (columns, in
+    EE axes; identity by default); ``stiffness`` are the m stiffnesses (N m/rad for
+    rotations, N/m for translations) as parameter expressions. The coupling is rigid
+    in every other direction. ``effect`` names the effect that switches it on.
+    """
+
+    body: str
+    origin: tuple
+    twists: tuple
+    stiffness: tuple
+    rotation: tuple = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+    effect: str = "ee_coupling"
+    doc: str = ""
+
+
+@dataclass(frozen=True)
 class RobotDescription:
     """Everything the derivation needs to know about one manipulator.
 
@@ -88,7 +109,9 @@ class RobotDescription:
     * ``ee_inertia``: 6x6 spatial inertia of the end-effector at its origin (Eq. 31);
     * ``lower_link_tube``: ``r_o``, ``r_i`` (m), ``E`` (Pa), ``nu`` for the
       ``lower_link_compliance`` effect;
-    * ``ee_compliance``: :class:`EECompliance` or None;
+    * ``ee_compliance``: :class:`EECompliance` or None (the paper's split, Eqs. 45-49);
+    * ``couplings``: :class:`Coupling` of each platform body other than the tool body
+      (``tool_body``); legs name the body they attach to (``Leg.platform_body``);
     * ``x_ref``: reference pose (m).
     """
 
@@ -105,6 +128,8 @@ class RobotDescription:
     ee_compliance: EECompliance | None
     x_ref: tuple[float, float, float]
     workspace: tuple = ((-0.1, 0.1), (-0.1, 0.1), (-0.70, -0.55))
+    couplings: tuple = ()
+    tool_body: str = "platform"
     source: str = ""
     effects: tuple[str, ...] = field(default=())
 

@@ -7,7 +7,7 @@ from ..description import RobotDescription
 
 __all__ = ["get", "NAMES"]
 
-NAMES = ("heli4",)
+NAMES = ("heli4", "delta")
 
 
 def get(name: str) -> RobotDescription:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..description import EECompliance, Leg, Parameter, RobotDescription, sym
+from ..description import Coupling, EECompliance, Leg, Parameter, RobotDescription, sym
 from ..description.effects import switch_name
 from ..symbolic.screw import spatial_inertia
 
@@ -76,8 +76,19 @@ def describe() -> RobotDescription:
         ("leg 3", ey, neg(ex), (0, r, d + h)),
         ("leg 4", neg(ey), ex, (0, -r, d + h)),
     )
+    # legs 1, 2 attach to plate A (lower traveling plate), legs 3, 4 to plate B (upper)
+    plates = ("plate_A", "plate_A", "plate_B", "plate_B")
     legs = tuple(
-        Leg(name, tuple(R * c for c in u), u, s, a) for name, u, s, a in layout
+        Leg(name, tuple(R * c for c in u), u, s, a, platform_body=body)
+        for (name, u, s, a), body in zip(layout, plates)
+    )
+    # issue 7: the tool body T couples to plate A through a rotation about Y through the
+    # lower plate centre (k_E_rot) and to plate B through a translation along Y (k_E_lin)
+    couplings = (
+        Coupling("plate_A", (0, 0, d), ((0, 1, 0, 0, 0, 0),), (p["k_E_rot"],),
+                 doc="rotation about Y through the lower traveling plate centre (App. D, k_E_rot)"),
+        Coupling("plate_B", (0, 0, d), ((0, 0, 0, 0, 1, 0),), (p["k_E_lin"],),
+                 doc="translation along Y (App. D, k_E_lin)"),
     )
     rotor = p["I_rotor"] + sym(switch_name("rotor_inertia")) * p["I_add"]
     lower_link = spatial_inertia(
@@ -101,9 +112,11 @@ def describe() -> RobotDescription:
         lower_link_tube=dict(r_o=p["r_o_l1"], r_i=p["r_i_l1"], E=p["E_l1"], nu=p["nu_l1"]),
         # lower traveling plate centre at EE origin + [0, 0, d] (facts file)
         ee_compliance=EECompliance(origin=(0, 0, d), per_leg={0: c_rot, 1: c_rot, 2: c_lin, 3: c_lin}),
+        couplings=couplings,
+        tool_body="tool",
         x_ref=(0.0, 0.0, -0.625),
         workspace=((-0.1, 0.1), (-0.1, 0.1), (-0.70, -0.55)),
         source="Hoevenaars, Krut & Herder (2020), DOI 10.1016/j.mechmachtheory.2019.103775",
-        effects=("actuator_loss", "rod_compliance", "ee_compliance", "lower_link_compliance",
+        effects=("actuator_loss", "rod_compliance", "ee_compliance", "ee_coupling", "lower_link_compliance",
                  "transmission_compliance", "payload_mass", "rotor_inertia", "gravity_preload"),
     )

@@ -22,8 +22,9 @@ from .inertia import body_inertia_contribution, parallelogram_inertia, point_mas
 from .kinematics import leg_inverse_kinematics
 from .leg import leg_screws
 from .program import Program, derivative
-from .screw import compliance_to_frame
-from .stiffness import inverse_2x2, rod_pair_compliance, rows_outer, tube_cantilever_compliance
+from .screw import adjoint, compliance_to_frame
+from .stiffness import (condense_coupling, inverse_2x2, rod_pair_compliance, rows_outer,
+                        tube_cantilever_compliance)
 
 __all__ = ["DerivedModel", "derive", "POSE"]
 
@@ -106,7 +107,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
     M = robot.ee_inertia + on["payload_mass"] * point_mass_inertia(
         params["m_p"], sp.Matrix([params["p_x"], params["p_y"], params["p_z"]]))
     K_R = sp.zeros(6, 6)
-    K_F = sp.zeros(6, 6)
+    K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all = [], [], [], [], []
     for i, (leg, q) in enumerate(zip(robot.legs, q_all), start=1):
         tag = str(i)
@@ -134,11 +135,14 @@ def derive(robot: RobotDescription) -> DerivedModel:
         Cq = Je * Cs * Je.T + sp.diag(c_act, params["c_rigid"])        # Eqs. 41-43
         Cq = prog.let_matrix(f"Cq_{tag}", Cq)
         Kqe = prog.let_matrix(f"Kqe_{tag}", inverse_2x2(Cq))             # Eq. 40 block
-        K_F += rows_outer(Je, Kqe)
+        body = leg.platform_body
+        K_groups[body] = K_groups.get(body, sp.zeros(6, 6)) + rows_outer(Je, Kqe)
         J_rows.append(sp.Matrix.vstack(ls.rows[1], ls.rows[2], ls.rows[3], ls.rows["c"]))
         levers.append(_lever(prog, tag))
         Je_all.append(Je)
         Kqe_all.append(Kqe)
+
+    K_F = _platform_stiffness(prog, robot, K_groups, on)
 
     # gravity preload, first term of Eq. 13. With tau_e the elastic joint torques of the
     # loaded state (W_ext = J_e^-T tau_e, tau_e = K_qe J_e delta), d(J_e^-T tau_e)/dx gives
@@ -169,6 +173,28 @@ def derive(robot: RobotDescription) -> DerivedModel:
         },
     }
     return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws)
+
+
+def _platform_stiffness(prog: Program, robot: RobotDescription, K_groups: dict, on: dict) -> sp.Matrix:
+    """K_F as the sum over platform bodies (issue 7): legs on the tool body add directly,
+    legs on a body coupled to the tool add through the condensed coupling."""
+    couplings = {c.body: c for c in robot.couplings}
+    unknown = sorted(set(K_groups) - set(couplings) - {robot.tool_body})
+    if unknown:
+        raise ValueError(f"{robot.name}: legs attach to platform bodies {unknown} that are neither the tool body "
+                         f"{robot.tool_body!r} nor coupled to it (couplings: {sorted(couplings)})")
+    K_F = sp.zeros(6, 6)
+    for body in sorted(K_groups):
+        Kp = K_groups[body]
+        c = couplings.get(body)
+        if c is None:
+            K_F += Kp
+            continue
+        Ad = adjoint(sp.Matrix(c.rotation).T, sp.Matrix(c.origin))
+        G = Ad * sp.Matrix([list(t) for t in c.twists]).T
+        Kc = sp.diag(*c.stiffness)
+        K_F += condense_coupling(prog, Kp, G, Kc, on[c.effect], body)
+    return K_F
 
 
 def _lever(prog: Program, tag: str):

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-__all__ = ["rod_pair_compliance", "tube_cantilever_compliance", "inverse_2x2", "rows_outer"]
+__all__ = ["rod_pair_compliance", "tube_cantilever_compliance", "inverse_2x2", "inverse_small", "rows_outer",
+           "condense_coupling"]
 
 
 def rod_pair_compliance(L, r_i, r_o, E, G, d_pi) -> sp.Matrix:
@@ -67,3 +68,33 @@ def inverse_2x2(C: sp.Matrix) -> sp.Matrix:
 def rows_outer(rows: sp.Matrix, K: sp.Matrix) -> sp.Matrix:
     """``rows^T K rows``: a joint-space stiffness mapped to the EE frame (Eqs. 13, 14)."""
     return rows.T * K * rows
+
+
+def inverse_small(S: sp.Matrix) -> sp.Matrix:
+    """Closed-form inverse of a 1x1, 2x2 or 3x3 matrix (adjugate / determinant)."""
+    if S.shape == (1, 1):
+        return sp.Matrix([[1 / S[0, 0]]])
+    if S.shape == (2, 2):
+        return inverse_2x2(S)
+    if S.shape == (3, 3):
+        return S.adjugate() / S.det(method="berkowitz")
+    raise ValueError(f"coupling with {S.shape[0]} compliant directions: expected at most 3")
+
+
+def condense_coupling(prog, Kp: sp.Matrix, G: sp.Matrix, Kc: sp.Matrix, switch, name: str) -> sp.Matrix:
+    """Stiffness of a group of legs reaching the tool through a compliant coupling.
+
+    ``Kp`` (6x6) is the legs' Cartesian stiffness at the EE origin, ``G`` (6xm) the
+    coupling's unit twists at the EE origin, ``Kc`` (mxm) its stiffness. Condensing the
+    coupling coordinates in closed form gives (issue 7)::
+
+        Kp - Kp G (G^T Kp G + Kc)^-1 G^T Kp
+
+    which tends to ``Kp`` (rigid connection) as Kc -> infinity; ``switch`` (0/1)
+    multiplies the correction so the coupling can be switched off.
+    """
+    Kp = prog.let_matrix(f"Kp_{name}", Kp)
+    KpG = prog.let_matrix(f"KpG_{name}", Kp * G)
+    S = prog.let_matrix(f"Sc_{name}", G.T * KpG + Kc)
+    Sinv = prog.let_matrix(f"Sci_{name}", inverse_small(S))
+    return Kp - switch * (KpG * Sinv * KpG.T)

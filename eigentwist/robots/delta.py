@@ -1,0 +1,87 @@
+"""A Delta robot (3-RR(Pi)RR): three legs at 0, 120 and 240 degrees (issue 6).
+
+The same joint types as the Heli4, so this description is all the Delta needs: the
+derivation, code generation, runtime and diagnosis are shared. Actuated revolute joints
+on a base circle of radius R, upper arms l1 (0.40 kg, centre of gravity at mid-length,
+rotor 2e-3 kg m^2), parallelogram forearms l2 of two carbon tubes like the Heli4's, a
+platform of radius r_p and 0.30 kg.
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from ..description import Leg, Parameter, RobotDescription, sym
+from ..description.effects import switch_name
+from ..symbolic.screw import spatial_inertia
+
+PARAMETERS = (
+    Parameter("R", 0.20, "m", "radius of the actuated joints about the base centre"),
+    Parameter("l1", 0.30, "m", "length of the upper arm (actuated link)"),
+    Parameter("l2", 0.80, "m", "length of the parallelogram forearm"),
+    Parameter("r_p", 0.05, "m", "radius of the leg attachments on the platform"),
+    Parameter("w_pi", 0.060, "m", "parallelogram width"),
+    Parameter("r_i", 0.0035, "m", "inner radius of the forearm tubes"),
+    Parameter("r_o", 0.005, "m", "outer radius of the forearm tubes"),
+    Parameter("rho", 2000.0, "kg/m^3", "density of the forearm tubes"),
+    Parameter("E_rod", 170e9, "Pa", "Young's modulus of the forearm tubes (carbon fibre)", effect="rod_compliance"),
+    Parameter("G_rod", 65e9, "Pa", "shear modulus of the forearm tubes (no influence on K_F)", effect="rod_compliance"),
+    Parameter("m_1", 0.40, "kg", "mass of the upper arm"),
+    Parameter("l1_cog", 0.15, "m", "distance from the actuated joint to the upper arm's centre of gravity (mid-length)"),
+    Parameter("I1_xx", 1e-5, "kg m^2", "upper arm inertia about its own axis, frame J_i1"),
+    Parameter("I1_yy", 0.012, "kg m^2", "upper arm inertia about the actuated axis (slender rod, m l1^2/3)"),
+    Parameter("I1_zz", 0.012, "kg m^2", "upper arm inertia about z of frame J_i1"),
+    Parameter("I_rotor", 2e-3, "kg m^2", "actuator rotor inertia about its axis"),
+    Parameter("m_e", 0.30, "kg", "mass of the platform"),
+    Parameter("I_e_xx", 1.875e-4, "kg m^2", "platform inertia about X (disc, m r_p^2/4)"),
+    Parameter("I_e_yy", 1.875e-4, "kg m^2", "platform inertia about Y (disc, m r_p^2/4)"),
+    Parameter("I_e_zz", 3.75e-4, "kg m^2", "platform inertia about Z (disc, m r_p^2/2)"),
+    Parameter("k_a", 2000.0, "N m/rad", "commanded actuator stiffness"),
+    Parameter("eta_a", 0.82, "-", "delivered/commanded actuator stiffness (as the Heli4's, App. B)", (0.05, 1.5),
+              effect="actuator_loss"),
+    Parameter("r_o_l1", 0.015, "m", "outer radius of the upper arm tube", effect="lower_link_compliance"),
+    Parameter("r_i_l1", 0.013, "m", "inner radius of the upper arm tube", effect="lower_link_compliance"),
+    Parameter("E_l1", 70e9, "Pa", "Young's modulus of the upper arm tube (aluminium)", effect="lower_link_compliance"),
+    Parameter("nu_l1", 0.33, "-", "Poisson ratio of the upper arm tube", (0.0, 0.5), effect="lower_link_compliance"),
+    Parameter("k_t", 20000.0, "N m/rad", "torsional stiffness of each transmission", effect="transmission_compliance"),
+    Parameter("m_p", 0.2, "kg", "payload mass on the platform", effect="payload_mass"),
+    Parameter("p_x", 0.0, "m", "payload offset along X", (-1.0, 1.0), effect="payload_mass"),
+    Parameter("p_y", 0.0, "m", "payload offset along Y", (-1.0, 1.0), effect="payload_mass"),
+    Parameter("p_z", 0.0, "m", "payload offset along Z", (-1.0, 1.0), effect="payload_mass"),
+    Parameter("I_add", 2e-3, "kg m^2", "additional inertia about each actuated axis", effect="rotor_inertia"),
+    Parameter("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload", (0.0, 100.0),
+              effect="gravity_preload"),
+    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance given to ideally rigid constrained directions", (0.0, 1e-6)),
+)
+
+
+def describe() -> RobotDescription:
+    """The Delta description with the issue's values as defaults."""
+    p = {q.name: q.symbol for q in PARAMETERS}
+    legs = []
+    for k in range(3):
+        phi = 2 * sp.pi * k / 3
+        u = (sp.cos(phi), sp.sin(phi), 0)          # outward radial direction
+        s = (-sp.sin(phi), sp.cos(phi), 0)         # actuator axis, u x s = e_z
+        legs.append(Leg(f"leg {k + 1}", tuple(p["R"] * c for c in u), u, s, tuple(p["r_p"] * c for c in u)))
+    rotor = p["I_rotor"] + sym(switch_name("rotor_inertia")) * p["I_add"]
+    upper_arm = spatial_inertia(p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
+                                sp.diag(p["I1_xx"], p["I1_yy"] + rotor, p["I1_zz"]))
+    platform = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
+    return RobotDescription(
+        name="delta",
+        title="Delta robot (3-RR(Pi)RR)",
+        parameters=PARAMETERS,
+        legs=tuple(legs),
+        l1=p["l1"],
+        l2=p["l2"],
+        lower_link_inertia=upper_arm,
+        rod=dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"], E=p["E_rod"], G=p["G_rod"]),
+        ee_inertia=platform,
+        lower_link_tube=dict(r_o=p["r_o_l1"], r_i=p["r_i_l1"], E=p["E_l1"], nu=p["nu_l1"]),
+        ee_compliance=None,
+        x_ref=(0.0, 0.0, -0.75),
+        workspace=((-0.2, 0.2), (-0.2, 0.2), (-0.95, -0.60)),
+        source="description in eigentwist/robots/delta.py (issue 6); method DOI 10.1016/j.mechmachtheory.2019.103775",
+        effects=("actuator_loss", "rod_compliance", "lower_link_compliance", "transmission_compliance",
+                 "payload_mass", "rotor_inertia", "gravity_preload"),
+    )
