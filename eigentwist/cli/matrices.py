@@ -29,7 +29,7 @@ def add_parser(sub):
 
 
 def compute(args) -> dict:
-    from ..description.effects import resolve_model
+    from ..description.effects import STRUCTURAL, resolve_model
     from ..runtime import load
 
     ev = load(args.robot, backend=args.backend)
@@ -38,8 +38,11 @@ def compute(args) -> dict:
     if args.k_a is not None:
         params["k_a"] = args.k_a
     effects = resolve_model(args.model, ev.effects)
-    flex_model = effects if ev.kind(effects) == "flexible" else tuple(effects) + ("rod_compliance", "ee_compliance")
-    rigid_model = tuple(e for e in effects if e not in ("rod_compliance", "ee_compliance", "lower_link_compliance"))
+    # the JSON carries both models: the structural effects of the chosen model (or, for a
+    # rigid choice, of the robot's "paper" preset) make the flexible one
+    structural = tuple(e for e in resolve_model("paper", ev.effects) if e in STRUCTURAL)
+    flex_model = effects if ev.kind(effects) == "flexible" else tuple(effects) + structural
+    rigid_model = tuple(e for e in effects if e not in STRUCTURAL)
     mats = ev.matrices(pose, effects, **params)
     q = ev.joint_angles(pose, **params)[0]
     rigid = ev.modes(pose, rigid_model, **params)
