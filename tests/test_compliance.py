@@ -62,3 +62,19 @@ def test_compliance_transport_preserves_elastic_energy():
     w_e = rng.normal(size=6)
     w_local = Ad.T @ w_e                       # wrenches transform with Ad^T
     assert np.isclose(w_e @ Ce @ w_e, w_local @ np.array(Cl, dtype=float) @ w_local, rtol=1e-12)
+
+
+def test_adjoint_of_homogeneous_composes_and_inverts():
+    from eigentwist.symbolic.screw import adjoint_of_homogeneous, homogeneous
+
+    rng = np.random.default_rng(8)
+    Hs = [homogeneous(sp.Matrix(np.linalg.qr(rng.normal(size=(3, 3)))[0]), sp.Matrix(rng.normal(size=3)))
+          for _ in range(2)]
+    A = [np.array(adjoint_of_homogeneous(H).evalf(), dtype=float) for H in Hs]
+    A12 = np.array(adjoint_of_homogeneous(Hs[0] * Hs[1]).evalf(), dtype=float)
+    np.testing.assert_allclose(A[0] @ A[1], A12, atol=1e-12)
+    Ainv = np.array(adjoint_of_homogeneous(Hs[0].inv()).evalf(), dtype=float)
+    np.testing.assert_allclose(Ainv @ A[0], np.eye(6), atol=1e-12)
+    # the reciprocal product is invariant: wrenches move with Ad^-T
+    t, w = rng.normal(size=6), rng.normal(size=6)
+    assert np.isclose((np.linalg.inv(A[0]).T @ w) @ (A[0] @ t), w @ t)

@@ -22,6 +22,8 @@ __all__ = [
     "pure_moment",
     "reciprocal_product",
     "adjoint",
+    "homogeneous",
+    "adjoint_of_homogeneous",
     "inertia_to_frame",
     "compliance_to_frame",
     "spatial_inertia",
@@ -87,6 +89,19 @@ def adjoint(rotation: sp.Matrix, origin: sp.Matrix) -> sp.Matrix:
     top = sp.Matrix.hstack(R, sp.zeros(3, 3))
     bottom = sp.Matrix.hstack(skew(origin) * R, R)
     return sp.Matrix.vstack(top, bottom)
+
+
+def homogeneous(rotation: sp.Matrix, origin: sp.Matrix) -> sp.Matrix:
+    """4x4 homogeneous transform ``[[R, p], [0, 1]]`` of a frame (axes R, origin p in m)."""
+    H = sp.eye(4)
+    H[:3, :3] = rotation
+    H[:3, 3] = origin
+    return H
+
+
+def adjoint_of_homogeneous(H: sp.Matrix) -> sp.Matrix:
+    """Adjoint ``Ad_H`` of a homogeneous transform (twists [omega; v]), as in Eqs. 24, 44."""
+    return adjoint(H[:3, :3], H[:3, 3])
 
 
 def _inverse_adjoint(rotation: sp.Matrix, origin: sp.Matrix) -> sp.Matrix:
