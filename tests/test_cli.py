@@ -60,7 +60,7 @@ def test_generate_check_names_stale_files(tmp_path, monkeypatch, capsys):
     import eigentwist.codegen.generate as g2
 
     files = g2.render_all(["heli4"])
-    assert g2.stale(files, tmp_path) == ["heli4_numpy.py"]
+    assert set(g2.stale(files, tmp_path)) == set(files) and "heli4_numpy.py" in files
     g2.write(files, tmp_path)
     assert g2.stale(files, tmp_path) == []
 

@@ -56,4 +56,4 @@ class Parameter:
         if np.any(bad):
             first = arr.reshape(-1)[np.argmax(bad.reshape(-1))]
             rng = f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else f"a finite value in [{lo:g}, {hi:g}]"
-            raise ValueError(f"{where}parameter {self.name!r} = {first!r} {self.unit}: expected {rng}")
+            raise ValueError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")

@@ -117,19 +117,50 @@ class Evaluator:
     def _take(p: dict, sl: slice) -> dict:
         return {k: (v[sl] if v.ndim == 1 and v.shape[0] > 1 else v) for k, v in p.items()}
 
-    def _ik(self, poses: np.ndarray, p: dict) -> np.ndarray:
-        with np.errstate(invalid="ignore"):
+    def _check_rows(self, poses: np.ndarray, p: dict, strict: bool):
+        """Inverse kinematics with the reachability and singularity checks.
+
+        Returns ``(q, jacobians, ok)``: joint angles (n, legs, 3), the ``jacobians``
+        kernel output for the valid rows (None when none is valid) and the (n,) mask of
+        valid rows. With ``strict`` the first invalid row raises an error naming the
+        pose, the leg and the violated condition.
+        """
+        n = len(poses)
+        with np.errstate(invalid="ignore", divide="ignore"):
             out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
+        ok = np.ones(n, bool)
         for key in ("sin_q3", "cos_q2"):
             arg = out[key]
             bad = ~(np.abs(arg) <= 1.0)
-            if bad.any():
+            if strict and bad.any():
                 k, leg = np.argwhere(bad)[0]
-                what = "the parallelogram cannot tilt that far" if key == "sin_q3" else "the lower link and parallelogram cannot span that distance"
+                what = ("the parallelogram cannot tilt that far" if key == "sin_q3"
+                        else "the lower link and parallelogram cannot span that distance")
                 raise UnreachablePoseError(
                     f"pose {poses[k].tolist()} m is unreachable for {self.robot.legs[leg].name}: "
                     f"{what} ({key} = {arg[k, leg]:.4g}, expected within [-1, 1])")
-        return out["q"]
+            ok &= ~bad.any(axis=1)
+        q, jac = out["q"], None
+        if ok.any():
+            sub = p if ok.all() else self._mask(p, ok, n)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
+            lever = jac["lever"] / np.asarray(sub["l1"], dtype=float)[..., None]
+            bad = ~(np.abs(lever) > LEVER_TOL)
+            if strict and bad.any():
+                k, leg = np.argwhere(bad)[0]
+                raise SingularPoseError(
+                    f"pose {poses[ok][k].tolist()} m is singular for {self.robot.legs[leg].name}: actuation lever "
+                    f"w_a1.t_a1/l1 = {lever[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")
+            ok[ok] = ~bad.any(axis=1)
+        return q, jac, ok
+
+    @staticmethod
+    def _mask(p: dict, mask: np.ndarray, n: int) -> dict:
+        return {k: (v[mask] if v.ndim == 1 and v.shape[0] == n and n > 1 else v) for k, v in p.items()}
+
+    def _ik(self, poses: np.ndarray, p: dict) -> np.ndarray:
+        return self._check_rows(poses, p, strict=True)[0]
 
     def _run(self, kernel: str, poses, model, params: dict) -> dict:
         poses = self._poses(poses)
@@ -138,21 +169,24 @@ class Evaluator:
         results: dict = {}
         for sl in self._chunks(n):
             pc = self._take(p, sl)
-            q = self._ik(poses[sl], pc)
-            jac = self._kernels.jacobians(q, pc)
-            lever = jac["lever"] / np.asarray(pc["l1"])[..., None]
-            bad = ~(np.abs(lever) > LEVER_TOL)
-            if bad.any():
-                k, leg = np.argwhere(bad)[0]
-                raise SingularPoseError(
-                    f"pose {poses[sl][k].tolist()} m is singular for {self.robot.legs[leg].name}: actuation lever "
-                    f"w_a1.t_a1/l1 = {lever[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")
+            q, jac, _ = self._check_rows(poses[sl], pc, strict=True)
             out = {"q": q, **jac} if kernel == "jacobians" else {"q": q, **getattr(self._kernels, kernel)(q, pc)}
             for key, val in out.items():
                 results.setdefault(key, []).append(val)
         return {k: np.concatenate(v, axis=0) for k, v in results.items()}
 
     # ----------------------------------------------------------------- public
+    def valid(self, poses, model="paper", **params) -> np.ndarray:
+        """(N,) bool: which poses are reachable and not singular for these parameters.
+
+        The per-row form of the checks that make :meth:`modes` raise; use it to filter
+        a batch (e.g. a sweep over a workspace box) instead of catching errors.
+        """
+        poses = self._poses(poses)
+        p = self._params(len(poses), params, model)
+        return np.concatenate([self._check_rows(poses[sl], self._take(p, sl), strict=False)[2]
+                               for sl in self._chunks(len(poses))])
+
     def joint_angles(self, poses, **params) -> np.ndarray:
         """Joint angles (rad), shape (N, legs, 3): (q1, q2, q3) per leg (closed-form IK)."""
         poses = self._poses(poses)

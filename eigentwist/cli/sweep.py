@@ -1,0 +1,113 @@
+"""``eigentwist sweep``: natural frequencies over designs x k_a x workspace poses, in chunks."""
+from __future__ import annotations
+
+import argparse
+
+from .common import CliError, eprint, format_table, parse_sets, progress
+
+HELP = "sweep designs, k_a and workspace poses in chunks of bounded memory (.npz or Parquet)"
+EPILOG = """examples:
+  eigentwist sweep --grid 10 10 10 --k-a 500:4000:8 --vary l2=0.45:0.60:16 -o l2_sweep --lowest
+  eigentwist sweep --random 1000000 --seed 1 --backend c -o poses.parquet
+  eigentwist sweep --random 100000 --vary l1=0.18,0.2,0.22 --engine dask --workers 2 -o out
+  eigentwist sweep --grid 5 5 5 --engine dask --scheduler tcp://10.0.0.5:8786 -o out
+
+Rows are the Cartesian product designs x k_a x poses (poses fastest). Units: poses and
+box in m, k_a in N m/rad, design parameters in SI units (see `eigentwist matrices`),
+frequencies in Hz. Values: a list A,B,C or a range LO:HI:N (N values, ends included).
+Unreachable or singular poses do not stop the sweep: their rows are NaN, reachable=0.
+
+Output: a directory with manifest.json, chunk-NNNNNN.npz (arrays pose, k_a, design,
+freq_hz, direction, reachable, pose_index, case) and lowest.npz; or, for OUT.parquet,
+one Parquet file (columns x, y, z, k_a, <varied>, f1_hz.., dir1.., reachable,
+pose_index, case) and OUT.lowest.parquet. Read either with
+eigentwist.runtime.sweep.load_sweep(OUT). Parquet needs pip install "eigentwist[parquet]",
+the dask engine pip install "eigentwist[dask]".
+"""
+
+
+def add_parser(sub):
+    p = sub.add_parser("sweep", help=HELP, description=HELP, epilog=EPILOG,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
+                   help="generated evaluator to use (default: numpy)")
+    p.add_argument("--model", default="paper",
+                   help="preset (rigid, paper) or comma-separated effects (default: paper)")
+    poses = p.add_mutually_exclusive_group()
+    poses.add_argument("--grid", nargs=3, type=int, metavar=("NX", "NY", "NZ"),
+                       help="regular grid of poses over the box, ends included; an axis of 1 point sits mid-box (default: 5 5 5)")
+    poses.add_argument("--random", type=int, metavar="N", help="N uniform random poses in the box")
+    p.add_argument("--seed", type=int, default=0, help="seed of --random (default: 0)")
+    p.add_argument("--box", nargs=6, type=float, metavar=("XLO", "XHI", "YLO", "YHI", "ZLO", "ZHI"),
+                   help="workspace box of the poses, m (default: the robot's workspace)")
+    p.add_argument("--k-a", dest="k_a", metavar="VALUES",
+                   help="commanded actuator stiffness, N m/rad: 500,1000,2000 or 500:4000:8 (default: the robot's)")
+    p.add_argument("--vary", action="extend", nargs="+", default=[], metavar="NAME=VALUES",
+                   help="design parameter to vary, SI units: l2=0.45:0.60:16 or l2=0.5,0.55 (repeatable)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="fix a design parameter for every row, SI units, e.g. --set m_e=0.6 (repeatable)")
+    p.add_argument("--chunk-size", type=int, default=None, metavar="ROWS",
+                   help="rows per chunk, bounds the memory (default: 65536, about 250 MB peak RSS)")
+    p.add_argument("--engine", default="inprocess", choices=("inprocess", "dask"),
+                   help="where chunks run: this process, or a Dask cluster (default: inprocess)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler address, e.g. tcp://host:8786 (default: a local cluster)")
+    p.add_argument("--workers", type=int, metavar="N",
+                   help="worker processes of the local Dask cluster (default: one per CPU)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT",
+                   help="output: a directory of .npz chunks, or a file ending in .parquet")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing sweep at OUT")
+    p.add_argument("--lowest", action="store_true",
+                   help="print per design the worst-case lowest frequency over the poses and where it occurs")
+    p.add_argument("--top", type=int, default=20, metavar="N",
+                   help="with --lowest, print the N designs with the highest worst case (default: 20)")
+    p.set_defaults(func=run)
+
+
+def spec_from_args(args):
+    from ..runtime.sweep import DEFAULT_CHUNK_SIZE, make_spec
+
+    if args.engine == "inprocess" and (args.scheduler or args.workers):
+        raise CliError("--scheduler and --workers apply to --engine dask")
+    if args.scheduler and args.workers:
+        raise CliError("--workers sizes the local cluster: it cannot be combined with --scheduler")
+    return make_spec(args.robot, model=args.model, backend=args.backend, grid=args.grid, random=args.random,
+                     seed=args.seed, box=args.box, k_a=args.k_a, vary=args.vary, fixed=parse_sets(args.set),
+                     chunk_size=args.chunk_size or DEFAULT_CHUNK_SIZE)
+
+
+def lowest_table(low: dict, spec, top: int) -> str:
+    """Designs sorted by worst-case lowest frequency, best first, at most ``top`` rows."""
+    import numpy as np
+
+    from ..runtime.evaluator import AXES
+
+    order = np.argsort(-np.nan_to_num(low["freq_hz"], nan=-np.inf), kind="stable")[:max(top, 0)]
+    rows = []
+    for c in order:
+        where = "-" if low["pose_index"][c] < 0 else "[" + ", ".join(f"{v:.4f}" for v in low["pose"][c]) + "]"
+        label = AXES[low["direction"][c]] if low["direction"][c] >= 0 else "-"
+        rows.append([*low["design"][c], low["k_a"][c], low["freq_hz"][c], label, where,
+                     f"{low['n_reachable'][c] / spec.n_poses:.1%}"])
+    headers = [*spec.design_names, "k_a", "lowest Hz", "mode 1", "at pose (m)", "reachable"]
+    return format_table(headers, rows)
+
+
+def run(args) -> int:
+    from ..runtime.sweep import open_writer, run_sweep
+
+    spec = spec_from_args(args)
+    writer = open_writer(args.output, spec, overwrite=args.overwrite)
+    with progress(total=spec.n_rows, unit="row", unit_scale=True, desc="sweep") as bar:
+        summary = run_sweep(spec, writer, engine=args.engine, scheduler=args.scheduler, workers=args.workers,
+                            on_chunk=lambda i, result: bar.update(len(result["case"])))
+    eprint(f"{spec.n_rows} rows ({spec.n_cases} designs x k_a, {spec.n_poses} poses) in {spec.n_chunks} chunks, "
+           f"{summary.n_reachable / max(spec.n_rows, 1):.1%} reachable, {summary.seconds:.2f} s "
+           f"({summary.rows_per_second:,.0f} poses/s, backend {summary.backend}, engine {args.engine}) -> {args.output}")
+    if args.lowest:
+        shown = min(args.top, spec.n_cases)
+        print(f"worst-case lowest natural frequency over {spec.n_poses} poses, per design "
+              f"({shown} of {spec.n_cases}, highest first; all in {args.output}):")
+        print(lowest_table(summary.lowest, spec, args.top))
+    return 0
