@@ -10,16 +10,17 @@ $(BIN)/python:
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e .
+	$(BIN)/python -m pip install --quiet -e ".[plot]"
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $@ $(VENV)/.installed
 
-## run: the main job on the embedded Heli4 default
+## run: the main job on the embedded Heli4 default: the paper's numbers, then report.html
 run: $(VENV)/.installed
 	$(BIN)/eigentwist reproduce
+	$(BIN)/eigentwist report -o report.html
 
 ## test: the whole suite
 test: $(VENV)/.installed-test

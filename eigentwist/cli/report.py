@@ -1,0 +1,51 @@
+"""``eigentwist report [DATA.csv] [-o report.html]``: one self-contained HTML report."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .common import format_table, progress
+
+HELP = "write a self-contained HTML report: model, paper reproduction, comparison, diagnosis"
+EPILOG = """examples:
+  eigentwist report                          # Heli4 with the paper's embedded measurements -> report.html
+  eigentwist report my_data.csv -o out.html --model paper --baseline rigid
+  eigentwist report delta_data.csv --robot delta
+
+DATA.csv: one measured natural frequency per row, columns k_a (N m/rad), mode (1..6 or
+x, y, z, rx, ry, rz), freq_hz (Hz), optional x, y, z (m), sigma_hz (Hz) and parameter columns.
+"""
+
+
+def add_parser(sub):
+    p = sub.add_parser("report", help=HELP, description=HELP, epilog=EPILOG,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("data", nargs="?", help="measurement CSV (default: the robot's embedded measurements)")
+    p.add_argument("-o", "--output", default="report.html", help="HTML file to write (default: report.html)")
+    p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    p.add_argument("--model", default="paper", help="model compared with the data (default: paper)")
+    p.add_argument("--baseline", default="rigid", help="where the diagnosis starts (default: rigid)")
+    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"))
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..report import build_report, write_report
+
+    rep = build_report(args.data, robot=args.robot, model=args.model, baseline=args.baseline,
+                       backend=args.backend, progress=progress)
+    path = write_report(args.output, rep)
+    d = rep.diagnosis
+    rows = [["compared model", " + ".join(rep.model), rep.comparison["summary"]["rms_pct"],
+             rep.comparison["summary"]["max_pct"]]]
+    for k, s in enumerate(d["steps"]):
+        rows.append([f"diagnosis step {k}", " + ".join(s["effects"]) or "(no effect)", s["rms_pct"], s["max_pct"]])
+    print(format_table(["", "effects", "RMS error [%]", "max error [%]"], rows, ".3g"))
+    if rep.reproduction:
+        print(f"paper reproduction: {rep.reproduction['within']} of {rep.reproduction['printed']} printed numbers "
+              f"within print rounding; {rep.reproduction['required_ok']}/{rep.reproduction['required']} required ok")
+    verdict = "explained within the measurement uncertainty" if d["final"]["explained"] else \
+        "NOT explained: an effect outside the catalogue is missing"
+    print(f"final model: {' + '.join(d['final']['effects'])}: {verdict}")
+    print(f"report written to {Path(path).resolve()}")
+    return 0
