@@ -1,0 +1,102 @@
+"""``eigentwist compare``: a model beside measured natural frequencies, row by row."""
+from __future__ import annotations
+
+import argparse
+import json
+
+from .common import CliError
+
+HELP = "compare a model with measured natural frequencies (table, RMS/max error, Fig. 6 style plot)"
+DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Columns:
+  k_a       commanded actuator stiffness, N m/rad (required)
+  mode      rank 1, 2, ... (1 = the model's lowest mode) or direction x, y, z, rx, ry, rz:
+            the mode whose eigentwist's largest component is along that axis (required)
+  freq_hz   measured natural frequency, Hz (required)
+  x, y, z   end-effector position in the base frame, m (optional; default the robot's x_ref)
+  sigma_hz  standard uncertainty, Hz (optional; default 2 % of freq_hz)
+  <param>   any model parameter name (e.g. m_e, l2), SI units: overrides it for that row
+Use `paper` as DATA to load the paper's measurements shipped with eigentwist
+(Tables E.1/E.2: modes x and y at x_ref, k_a = 125 ... 4000 N m/rad)."""
+EPILOG = DATA_HELP + """
+
+error = (predicted - measured) / measured (the paper's App. E); a row fails when
+|predicted - measured| > 2 sigma.
+
+examples:
+  eigentwist compare paper --model rigid          # 13.6 % RMS, 32.9 % max
+  eigentwist compare paper --model paper --plot fig6.png
+  eigentwist compare data.csv --model rigid,ee_compliance,payload_mass --json
+"""
+
+
+def add_data_options(p: argparse.ArgumentParser) -> None:
+    """DATA, --robot and --backend (shared with diagnose)."""
+    p.add_argument("data", metavar="DATA.csv", help="measurements (see below), or `paper`")
+    p.add_argument("--robot", default="heli4", help="robot description (default: heli4; see eigentwist.robots.NAMES)")
+    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
+                   help="generated evaluator to use (default: numpy)")
+
+
+def add_parser(sub):
+    p = sub.add_parser("compare", help=HELP, description=HELP, epilog=EPILOG,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_data_options(p)
+    p.add_argument("--model", default="paper",
+                   help="preset (rigid, paper, ...), comma-separated effects, or none (default: paper)")
+    p.add_argument("--plot", metavar="FILE.png", help="write a Fig. 6 style plot")
+    p.add_argument("--json", action="store_true", help="print one JSON object (rows, rms_pct, max_pct, failing)")
+    p.set_defaults(func=run)
+
+
+def load_data(args):
+    """(evaluator, measurements) from the DATA argument; errors become one line."""
+    from pathlib import Path
+
+    from ..diagnose.evaluators import evaluator
+    from ..diagnose.measurements import load_measurements, paper_csv, parse_csv
+    from ..robots import NAMES
+
+    if args.robot not in NAMES:
+        raise CliError(f"--robot {args.robot!r}: expected one of {', '.join(NAMES)}")
+    ev = evaluator(args.robot, args.backend)
+    if args.data == "paper" and not Path(args.data).exists():
+        return ev, parse_csv(paper_csv(args.robot), f"{args.robot}_paper.csv", ev)
+    if not Path(args.data).is_file():
+        raise CliError(f"{args.data}: no such file (expected a CSV file of measurements, or `paper`)")
+    return ev, load_measurements(args.data, args.robot, ev)
+
+
+def to_json(cmp) -> dict:
+    from ..diagnose.select import _clean
+
+    m = cmp.meas
+    rows = [{"line": int(m.lines[i]), "k_a": m.k_a[i], "pose": m.poses[i].tolist(), "mode": m.mode[i],
+             "model_mode": int(cmp.mode_index[i]) + 1, "measured_hz": m.freq_hz[i], "sigma_hz": m.sigma_hz[i],
+             "predicted_hz": cmp.predicted[i], "error_pct": cmp.error_pct[i], "error_sigma": cmp.error_sigma[i],
+             "fails": bool(cmp.failing[i])} for i in range(len(m))]
+    return _clean({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
+                   "rms_pct": cmp.rms_pct, "max_pct": cmp.max_pct, "chi2": cmp.chi2,
+                   "failing": cmp.where_it_fails()})
+
+
+def run(args) -> int:
+    from ..diagnose.compare import compare
+    from ..diagnose.report import comparison_summary, comparison_table, failing_text
+
+    ev, meas = load_data(args)
+    cmp = compare(meas, args.model, ev)
+    if args.plot:
+        from ..diagnose.plots import plot_comparison
+
+        plot_comparison(cmp, args.plot, ev)
+    if args.json:
+        print(json.dumps(to_json(cmp), allow_nan=False))
+        return 0
+    print(f"{meas.robot}: {len(meas)} measured frequencies from {meas.source}; model: "
+          f"{', '.join(cmp.effects) or '(no effect)'} ({ev.kind(cmp.effects)})\n")
+    print(comparison_table(cmp))
+    print("\n" + comparison_summary(cmp))
+    print("where it fails:\n" + "\n".join("  " + t for t in failing_text(cmp)))
+    if args.plot:
+        print(f"plot: {args.plot}")
+    return 0

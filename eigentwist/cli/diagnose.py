@@ -1,0 +1,70 @@
+"""``eigentwist diagnose``: which physical effect is the model missing?"""
+from __future__ import annotations
+
+import argparse
+
+from .compare import DATA_HELP, add_data_options, load_data
+
+HELP = "find the physical effect a model is missing from measured frequencies, add it, watch the error fall"
+EPILOG = DATA_HELP + """
+
+What it does:
+  1. compares the baseline and says where it fails and what the residual pattern suggests;
+  2. fits every catalogue effect the baseline lacks (bounded weighted least squares on the
+     frequencies), with standard errors, RMS/max error, AICc and an F-test p-value; ranks them;
+  3. says which effects these data cannot tell apart and where to measure next to separate them;
+  4. adds the best significant effect and repeats (forward selection), then says whether the final
+     model explains the data within the uncertainties (chi-square test) or an effect outside the
+     catalogue is missing.
+--add EFFECT replaces step 4 by your own choice (fitted in the order given).
+
+JSON keys: baseline {effects, rms_pct, max_pct, ...}, ranking [{effect, params, param_std, rms_pct,
+max_pct, aicc, p_value, indistinguishable_from, ...}], selected, steps [{effects, rms_pct, max_pct, ...}],
+final {effects, rms_pct, max_pct, explained, ...}, next_measurement, criteria. Units: SI (params), %.
+
+examples:
+  eigentwist diagnose paper                       # the paper's measurements from the rigid model
+  eigentwist diagnose data.csv --baseline paper --json
+  eigentwist diagnose data.csv --add ee_compliance --plot steps.png
+"""
+
+
+def add_parser(sub):
+    p = sub.add_parser("diagnose", help=HELP, description=HELP, epilog=EPILOG,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_data_options(p)
+    p.add_argument("--baseline", default="rigid",
+                   help="starting model: preset (rigid, paper, ...), comma-separated effects, or none (default: rigid)")
+    p.add_argument("--add", action="append", metavar="EFFECT",
+                   help="add this effect by hand (fitted) instead of the automatic selection; repeatable or comma-separated")
+    p.add_argument("--alpha", type=float, default=None,
+                   help="significance level of the F test and of the goodness of fit (default: 0.01)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--plot", metavar="FILE.png", help="write the baseline/final model plot and the error step by step")
+    p.add_argument("--rows", action="store_true", help="also print the per-row tables of the baseline and final model")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..diagnose.report import diagnosis_text
+    from ..diagnose.select import diagnose
+    from ..diagnose.stats import ALPHA
+    from .common import CliError, progress
+
+    alpha = ALPHA if args.alpha is None else args.alpha
+    if not 0 < alpha < 1:
+        raise CliError(f"--alpha {alpha!r}: expected a probability in (0, 1)")
+    ev, meas = load_data(args)
+    add = None if not args.add else [e for item in args.add for e in item.split(",") if e.strip()]
+    d = diagnose(meas, args.baseline, ev=ev, add=add, alpha=alpha, progress=progress)
+    if args.plot:
+        from ..diagnose.plots import plot_diagnosis
+
+        plot_diagnosis(d, args.plot, ev)
+    if args.json:
+        print(d.json())
+        return 0
+    print(diagnosis_text(d, ev, show_rows=args.rows))
+    if args.plot:
+        print(f"\nplot: {args.plot}")
+    return 0

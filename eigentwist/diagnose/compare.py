@@ -1,0 +1,104 @@
+"""How a model compares with measurements: per-row errors, RMS/max, where it fails.
+
+Errors are relative to the measured value, as in the paper's Appendix E:
+``error_pct = 100 (f_pred - f_meas) / f_meas`` (signed here; the paper's |.|), and in
+standard uncertainties ``error_sigma = (f_pred - f_meas) / sigma``. The model *fails* on
+a row when ``|error_sigma| > 2``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..description.effects import resolve_model
+from .evaluators import resolve
+from .predict import Predictor
+from .stats import chi2_value
+
+__all__ = ["Comparison", "compare", "FAIL_SIGMA", "model_effects"]
+
+FAIL_SIGMA = 2.0
+
+
+def model_effects(model, ev) -> tuple:
+    """Effects of a model spec; ``"none"`` (or ``""``) is the bare model without any effect."""
+    if isinstance(model, str) and model.strip().lower() in ("", "none"):
+        return ()
+    return resolve_model(model, ev.effects)
+
+
+@dataclass
+class Comparison:
+    """A model's predictions beside the measurements.
+
+    effects : the model; values : parameter values differing from the defaults (SI).
+    predicted : (N,) Hz; mode_index : (N,) matched mode (0 = lowest) per row.
+    """
+
+    meas: object
+    effects: tuple
+    predicted: np.ndarray
+    mode_index: np.ndarray
+    values: dict = field(default_factory=dict)
+
+    @property
+    def error_pct(self) -> np.ndarray:
+        """(N,) signed relative error, % of the measured value."""
+        return 100.0 * (self.predicted - self.meas.freq_hz) / self.meas.freq_hz
+
+    @property
+    def error_sigma(self) -> np.ndarray:
+        """(N,) signed error in standard uncertainties."""
+        return (self.predicted - self.meas.freq_hz) / self.meas.sigma_hz
+
+    @property
+    def rms_pct(self) -> float:
+        return float(np.sqrt(np.mean(self.error_pct ** 2)))
+
+    @property
+    def max_pct(self) -> float:
+        return float(np.max(np.abs(self.error_pct)))
+
+    @property
+    def chi2(self) -> float:
+        return chi2_value(self.predicted, self.meas.freq_hz, self.meas.sigma_hz)
+
+    @property
+    def failing(self) -> np.ndarray:
+        """(N,) bool: |error| > 2 sigma."""
+        return np.abs(self.error_sigma) > FAIL_SIGMA
+
+    def where_it_fails(self) -> list[dict]:
+        """Per mode label with failing rows: k_a range (N m/rad), poses (m), rows, sign."""
+        out = []
+        fail = self.failing
+        for label in dict.fromkeys(self.meas.mode):
+            rows = np.flatnonzero(fail & (np.asarray(self.meas.mode) == label))
+            if not len(rows):
+                continue
+            total = int(np.sum(np.asarray(self.meas.mode) == label))
+            poses = np.unique(np.round(self.meas.poses[rows], 6), axis=0)
+            err = self.error_pct[rows]
+            out.append({"mode": label, "rows": len(rows), "of": total,
+                        "k_a_range": [float(self.meas.k_a[rows].min()), float(self.meas.k_a[rows].max())],
+                        "poses": poses.tolist(),
+                        "predicted": "too high" if np.all(err > 0) else "too low" if np.all(err < 0) else "both ways",
+                        "lines": [int(v) for v in self.meas.lines[rows]]})
+        return out
+
+    def summary(self) -> dict:
+        return {"effects": list(self.effects), "rms_pct": self.rms_pct, "max_pct": self.max_pct}
+
+
+def compare(meas, model="rigid", ev=None, values: dict | None = None) -> Comparison:
+    """Compare ``model`` (preset, effect list or ``"none"``) with the measurements.
+
+    ``values`` override parameter defaults (SI units; the measurements' own parameter
+    columns win). Mode labels are matched strictly: a direction no mode points along is
+    an error naming the line.
+    """
+    ev = resolve(ev, meas.robot)
+    effects = model_effects(model, ev)
+    pred, idx = Predictor(meas, effects, ev, values).predict(strict=True)
+    return Comparison(meas, effects, pred, idx, dict(values or {}))

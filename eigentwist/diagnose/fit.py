@@ -1,0 +1,247 @@
+"""Bounded weighted least squares of model parameters on measured frequencies.
+
+Minimises chi2 = sum(((f_pred,i(p) - f_meas,i) / sigma_i)^2) with
+``scipy.optimize.least_squares`` (trust-region reflective, bounds) in a well-scaled
+parameterisation: theta = ln(p) for parameters that are positive by their bounds (all
+of the catalogue's fitted parameters: stiffnesses, moduli, masses, inertias, g, eta_a),
+theta = (p - p_default)/scale otherwise. The search range is the parameter's physical
+bounds intersected with [p_default/1000, 1000 p_default] (``SPAN``).
+
+The Jacobian is a central difference in theta computed in the same evaluator call as
+the residuals (B = 1 + 2P parameter sets, one batch). A coarse grid of starts (the new
+parameters at 1/10 ... 10 times their start value) is screened in one batch first, so
+a fit does not hinge on the default being close.
+
+Standard errors: cov_theta = (J^T J)^-1 * max(1, chi2/(n-k)) with J the whitened
+Jacobian at the optimum (absolute sigma, inflated by the Birge ratio when the fit is
+worse than the stated uncertainty), propagated to p by the delta method
+(std_p = p std_theta for log-parameters). A parameter that the data do not determine
+(J^T J singular in its direction) gets std = inf.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .compare import Comparison
+from .predict import Predictor
+from .stats import aicc, chi2_value, gof_p_value
+
+__all__ = ["FitResult", "fit", "Transform", "SPAN"]
+
+SPAN = 1e3          # search range: default / SPAN ... default * SPAN (within the physical bounds)
+STEP = 1e-2         # central-difference step in theta (1 % in p): K_F carries ~1e-7 relative
+                    # round-off (the 1e-12 rad/(N m) "rigid" compliances), so smaller steps give noise
+START_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
+
+
+@dataclass(frozen=True)
+class Transform:
+    """Map between a parameter p (SI) and the fit variable theta."""
+
+    name: str
+    log: bool
+    lo: float
+    hi: float
+    ref: float
+    scale: float
+
+    @classmethod
+    def of(cls, parameter) -> "Transform":
+        lo, hi = parameter.bounds
+        d = float(parameter.default)
+        if lo >= 0 and d > 0:
+            lo_f = max(d / SPAN, lo * (1 + 1e-9) if lo > 0 else 0.0, np.nextafter(lo, np.inf))
+            hi_f = min(d * SPAN, hi * (1 - 1e-9))
+            return cls(parameter.name, True, lo_f, hi_f, d, 1.0)
+        scale = max(abs(d), (hi - lo) / 20 if math.isfinite(hi - lo) else 1.0, 1e-12)
+        return cls(parameter.name, False, max(lo, d - SPAN * scale), min(hi, d + SPAN * scale), d, scale)
+
+    def theta(self, p):
+        p = np.clip(p, self.lo, self.hi)
+        return np.log(p) if self.log else (p - self.ref) / self.scale
+
+    def value(self, theta):
+        return np.exp(theta) if self.log else self.ref + self.scale * np.asarray(theta)
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        return float(self.theta(self.lo)), float(self.theta(self.hi))
+
+    def std(self, value: float, std_theta: float) -> float:
+        """Delta method: std of p from the std of theta."""
+        return float(value * std_theta) if self.log else float(self.scale * std_theta)
+
+
+@dataclass
+class FitResult:
+    """A fitted model.
+
+    effects : the model; names : fitted parameters; values, std : fitted values and
+    standard errors (SI; std inf where the data do not determine a parameter);
+    fixed : every parameter value used that differs from the default (fitted included).
+    comparison : predictions and errors at the optimum; chi2, n, k, dof, aicc.
+    at_bound : names that ended at an edge of their search range.
+    """
+
+    effects: tuple
+    names: tuple
+    values: dict
+    std: dict
+    fixed: dict
+    comparison: Comparison
+    chi2: float
+    n: int
+    k: int
+    aicc: float
+    success: bool = True
+    message: str = ""
+    nfev: int = 0
+    at_bound: tuple = ()
+    cov_theta: np.ndarray = field(default=None, repr=False)
+
+    @property
+    def dof(self) -> int:
+        return self.n - self.k
+
+    @property
+    def rms_pct(self) -> float:
+        return self.comparison.rms_pct
+
+    @property
+    def max_pct(self) -> float:
+        return self.comparison.max_pct
+
+    @property
+    def reduced_chi2(self) -> float:
+        return self.chi2 / self.dof if self.dof > 0 else math.nan
+
+    @property
+    def gof_p_value(self) -> float:
+        return gof_p_value(self.chi2, self.n, self.k)
+
+
+class _Objective:
+    """Residuals and their Jacobian from one batched evaluation per point."""
+
+    def __init__(self, predictor: Predictor, transforms: list[Transform]):
+        self.pred = predictor
+        self.tr = transforms
+        self.names = [t.name for t in transforms]
+        self.meas = predictor.meas
+        self.cache: dict = {}
+        self.nfev = 0
+
+    def _sets(self, theta: np.ndarray) -> np.ndarray:
+        """theta, then for each j the points theta -/+ STEP e_j (shifted inside the bounds)."""
+        p = len(theta)
+        thetas = np.repeat(theta[None, :], 1 + 2 * p, axis=0)
+        for j, t in enumerate(self.tr):
+            lo, hi = t.bounds
+            centre = min(max(theta[j], lo + STEP), hi - STEP) if hi - lo > 2 * STEP else theta[j]
+            thetas[1 + 2 * j, j] = centre - STEP
+            thetas[2 + 2 * j, j] = centre + STEP
+        return thetas
+
+    def _eval(self, theta: np.ndarray):
+        key = theta.tobytes()
+        if key not in self.cache:
+            thetas = self._sets(theta)
+            values = np.column_stack([t.value(thetas[:, j]) for j, t in enumerate(self.tr)])
+            f = self.pred.predict_sets(self.names, values, strict=False)
+            self.nfev += 1
+            r = (f - self.meas.freq_hz) / self.meas.sigma_hz
+            jac = ((r[2::2] - r[1::2]) / (2 * STEP)).T
+            self.cache = {key: (r[0], jac)}
+        return self.cache[key]
+
+    def residuals(self, theta):
+        return self._eval(np.asarray(theta, dtype=float))[0]
+
+    def jacobian(self, theta):
+        return self._eval(np.asarray(theta, dtype=float))[1]
+
+    def chi2_of(self, value_table: np.ndarray) -> np.ndarray:
+        f = self.pred.predict_sets(self.names, value_table, strict=False)
+        self.nfev += 1
+        r = (f - self.meas.freq_hz) / self.meas.sigma_hz
+        return np.sum(r * r, axis=1)
+
+
+def _starts(transforms, start: dict, explore) -> np.ndarray:
+    grids = []
+    for t in transforms:
+        v0 = start[t.name]
+        factors = START_FACTORS if t.name in explore and t.log else (1.0,)
+        grids.append([float(np.clip(v0 * f, t.lo, t.hi)) for f in factors])
+    return np.array(list(itertools.product(*grids)))
+
+
+def _covariance(jac: np.ndarray, chi2: float, dof: int) -> np.ndarray:
+    u, s, vt = np.linalg.svd(jac, full_matrices=False)
+    tol = s.max() * 1e-9 if s.size and s.max() > 0 else 1.0
+    inv = np.where(s > tol, 1.0 / np.where(s > tol, s, 1.0) ** 2, np.inf)
+    cov = (vt.T * np.where(np.isfinite(inv), inv, 0.0)) @ vt
+    null = vt[~np.isfinite(inv)]
+    if null.size:
+        undetermined = np.any(np.abs(null) > 1e-3, axis=0)
+        cov[undetermined, :] = np.inf
+        cov[:, undetermined] = np.inf
+    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
+    return cov * scale
+
+
+def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None = None,
+        explore=None) -> FitResult:
+    """Fit parameters ``names`` of the model ``effects`` to the measurements.
+
+    Parameters
+    ----------
+    meas : :class:`~eigentwist.diagnose.measurements.Measurements`.
+    effects : tuple of effect names (the model).
+    ev : evaluator.
+    names : parameters to fit (SI); parameters given as data columns are not fitted.
+    start : start values (default: ``fixed`` values, else the parameter defaults).
+    fixed : other parameter values (SI) held fixed (e.g. from an earlier step).
+    explore : names whose start is screened over a grid (default: all).
+
+    Returns
+    -------
+    :class:`FitResult`.
+    """
+    names = tuple(n for n in names if n not in meas.params)
+    fixed = {k: v for k, v in (fixed or {}).items() if k not in names}
+    predictor = Predictor(meas, effects, ev, fixed)
+    n = len(meas)
+    if not names:
+        comp = Comparison(meas, tuple(effects), *predictor.predict(strict=False), dict(fixed))
+        chi2 = comp.chi2
+        return FitResult(tuple(effects), (), {}, {}, dict(fixed), comp, chi2, n, 0, aicc(chi2, n, 0))
+    transforms = [Transform.of(ev.parameters[nm]) for nm in names]
+    start = {nm: float((start or {}).get(nm, fixed.get(nm, ev.parameters[nm].default))) for nm in names}
+    obj = _Objective(predictor, transforms)
+    table = _starts(transforms, start, set(names if explore is None else explore))
+    best = table[int(np.argmin(obj.chi2_of(table)))]
+    theta0 = np.array([t.theta(v) for t, v in zip(transforms, best)])
+    lo = np.array([t.bounds[0] for t in transforms])
+    hi = np.array([t.bounds[1] for t in transforms])
+    theta0 = np.clip(theta0, lo + 1e-12, hi - 1e-12)
+    res = least_squares(obj.residuals, theta0, jac=obj.jacobian, bounds=(lo, hi), method="trf",
+                        x_scale=1.0, xtol=1e-8, ftol=1e-9, gtol=1e-9, max_nfev=200)
+    theta = res.x
+    values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}
+    all_values = {**fixed, **values}
+    comp = Comparison(meas, tuple(effects), *Predictor(meas, effects, ev, all_values).predict(strict=False),
+                      all_values)
+    chi2 = chi2_value(comp.predicted, meas.freq_hz, meas.sigma_hz)
+    k = len(names)
+    cov = _covariance(obj.jacobian(theta), chi2, n - k)
+    std = {t.name: t.std(values[t.name], math.sqrt(cov[j, j])) for j, t in enumerate(transforms)}
+    at_bound = tuple(t.name for j, t in enumerate(transforms)
+                     if min(theta[j] - lo[j], hi[j] - theta[j]) < 1e-6 * max(1.0, abs(theta[j])))
+    return FitResult(tuple(effects), names, values, std, all_values, comp, chi2, n, k, aicc(chi2, n, k),
+                     bool(res.success), str(res.message), obj.nfev, at_bound, cov)

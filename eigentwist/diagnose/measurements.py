@@ -1,0 +1,297 @@
+"""Measured natural frequencies: CSV loading and validation, the paper's data set.
+
+CSV format (one measured frequency per row, header on the first line; ``#`` lines and
+blank lines are skipped):
+
+* required: ``k_a`` (commanded actuator stiffness, N m/rad), ``mode`` (a rank ``1``,
+  ``2``, ... with 1 the lowest mode, or a direction ``x``, ``y``, ``z``, ``rx``, ``ry``,
+  ``rz``; see :mod:`eigentwist.diagnose.matching`), ``freq_hz`` (measured frequency, Hz);
+* optional: ``x``, ``y``, ``z`` (end-effector position in the base frame, m; default the
+  robot's x_ref), ``sigma_hz`` (standard uncertainty, Hz; default 2 % of ``freq_hz``),
+  and any column named after a model parameter (SI units), which overrides that
+  parameter for its row. A blank optional cell takes the default.
+
+Every error names the file, the line (the header is line 1) and the column.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ..runtime import EigentwistError, InputError
+from .evaluators import resolve
+from .matching import parse_mode
+
+__all__ = ["Measurements", "MeasurementError", "load_measurements", "paper_measurements", "paper_csv",
+           "REQUIRED", "OPTIONAL", "DEFAULT_SIGMA_REL", "check_poses"]
+
+REQUIRED = ("k_a", "mode", "freq_hz")
+OPTIONAL = ("x", "y", "z", "sigma_hz")
+DEFAULT_SIGMA_REL = 0.02      # default standard uncertainty: 2 % of the measured value
+
+
+class MeasurementError(InputError):
+    """Bad measurement input; the message starts with ``FILE, line L, column 'C':``."""
+
+    def __init__(self, source: str, message: str, line: int | None = None, column: str | None = None):
+        self.source, self.line, self.column = source, line, column
+        where = source
+        if line is not None:
+            where += f", line {line}"
+        if column is not None:
+            where += f", column {column!r}"
+        super().__init__(f"{where}: {message}")
+
+
+@dataclass
+class Measurements:
+    """N measured frequencies with their conditions.
+
+    k_a : (N,) commanded actuator stiffness, N m/rad.
+    mode : N normalised mode labels (``"x"``, ``"2"``, ...).
+    freq_hz : (N,) measured natural frequency, Hz.
+    sigma_hz : (N,) standard uncertainty, Hz.
+    poses : (N, 3) end-effector position, m.
+    params : per-row parameter overrides, name -> (N,) array in SI units.
+    lines : (N,) source line of each row (header = line 1).
+    source : file name used in messages.
+    robot : robot the data belong to (``eigentwist.robots.NAMES``).
+    """
+
+    k_a: np.ndarray
+    mode: tuple
+    freq_hz: np.ndarray
+    sigma_hz: np.ndarray
+    poses: np.ndarray
+    params: dict = field(default_factory=dict)
+    lines: np.ndarray | None = None
+    source: str = "<data>"
+    robot: str = "heli4"
+
+    def __post_init__(self):
+        n = len(self.freq_hz)
+        if self.lines is None:
+            self.lines = np.arange(2, n + 2)
+        self.mode = tuple(self.mode)
+
+    def __len__(self) -> int:
+        return len(self.freq_hz)
+
+    @property
+    def relative_sigma(self) -> np.ndarray:
+        """sigma_hz / freq_hz, (N,)."""
+        return self.sigma_hz / self.freq_hz
+
+    def where(self, i: int) -> str:
+        """``"FILE, line L"`` of row ``i``."""
+        return f"{self.source}, line {int(self.lines[i])}"
+
+    def evaluation_params(self) -> dict:
+        """Keyword arguments for the evaluator: ``k_a`` and the per-row overrides."""
+        return {"k_a": self.k_a, **self.params}
+
+    def subset(self, rows) -> "Measurements":
+        """The rows ``rows`` (index array or boolean mask) as new Measurements."""
+        rows = np.arange(len(self))[rows]
+        return Measurements(self.k_a[rows], tuple(self.mode[i] for i in rows), self.freq_hz[rows],
+                            self.sigma_hz[rows], self.poses[rows], {k: v[rows] for k, v in self.params.items()},
+                            self.lines[rows], self.source, self.robot)
+
+    @classmethod
+    def from_arrays(cls, k_a, mode, freq_hz, poses=None, sigma_hz=None, params=None, robot: str = "heli4",
+                    source: str = "<data>", ev=None) -> "Measurements":
+        """Build validated measurements from arrays (defaults as in the CSV format).
+
+        The arrays go through the same parser as a file, so every check applies; row i
+        is reported as line i + 2 of ``source``.
+        """
+        ev = resolve(ev, robot)
+        freq = np.asarray(freq_hz, dtype=float).reshape(-1)
+        n = len(freq)
+        rows = []
+        for i in range(n):
+            row = {"k_a": np.broadcast_to(k_a, (n,))[i], "mode": np.broadcast_to(np.asarray(mode, dtype=object), (n,))[i],
+                   "freq_hz": freq[i]}
+            if poses is not None:
+                row.update(zip("xyz", np.broadcast_to(np.asarray(poses, dtype=float), (n, 3))[i]))
+            if sigma_hz is not None:
+                row["sigma_hz"] = np.broadcast_to(sigma_hz, (n,))[i]
+            for name, val in (params or {}).items():
+                row[name] = np.broadcast_to(val, (n,))[i]
+            rows.append(row)
+        header = list(rows[0]) if rows else list(REQUIRED)
+        text = io.StringIO()
+        w = csv.DictWriter(text, header, lineterminator="\n")
+        w.writeheader()
+        for row in rows:
+            w.writerow({k: (repr(float(v)) if k != "mode" else v) for k, v in row.items()})
+        return parse_csv(text.getvalue(), source, ev)
+
+    def to_csv(self, path=None) -> str:
+        """CSV text of these measurements (written to ``path`` when given)."""
+        cols = ["k_a", "mode", "freq_hz", "sigma_hz", "x", "y", "z", *self.params]
+        out = io.StringIO()
+        w = csv.writer(out, lineterminator="\n")
+        w.writerow(cols)
+        for i in range(len(self)):
+            vals = [self.k_a[i], self.mode[i], self.freq_hz[i], self.sigma_hz[i], *self.poses[i],
+                    *(self.params[k][i] for k in self.params)]
+            w.writerow([v if isinstance(v, str) else format(float(v), ".10g") for v in vals])
+        text = out.getvalue()
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+
+def _number(text: str, source: str, line: int, column: str, positive: bool) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise MeasurementError(source, f"value {text!r} is not a number", line, column) from None
+    if not math.isfinite(value):
+        raise MeasurementError(source, f"value {text!r} is not finite: expected a number", line, column)
+    if positive and value < 0:
+        raise MeasurementError(source, f"negative value {value:g}: expected a value > 0", line, column)
+    if positive and value == 0:
+        raise MeasurementError(source, "value 0: expected a value > 0", line, column)
+    return value
+
+
+def _header(cells: list[str], source: str, ev) -> list[str]:
+    names = [c.strip() for c in cells]
+    allowed = set(REQUIRED) | set(OPTIONAL) | set(ev.parameters)
+    for k, name in enumerate(names):
+        if not name:
+            raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
+        if names.index(name) != k:
+            raise MeasurementError(source, f"column {name!r} appears twice (columns {names.index(name) + 1} and {k + 1})", 1, name)
+        if name not in allowed:
+            raise MeasurementError(
+                source, f"unknown column (column {k + 1}): not one of {', '.join(REQUIRED + OPTIONAL)} and not a "
+                f"parameter of {ev.robot.name} (parameters: {', '.join(ev.parameters)})", 1, name)
+    for name in REQUIRED:
+        if name not in names:
+            raise MeasurementError(source, f"missing required column {name!r} (header: {', '.join(names)}); "
+                                   f"required: {', '.join(REQUIRED)}", 1, name)
+    return names
+
+
+def _records(text: str, source: str):
+    """(line number, cells) of the header and data rows, skipping blank and ``#`` lines."""
+    reader = csv.reader(io.StringIO(text))
+    for cells in reader:
+        if not cells or all(not c.strip() for c in cells) or cells[0].lstrip().startswith("#"):
+            continue
+        yield reader.line_num, cells
+
+
+def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4") -> Measurements:
+    """Parse and validate CSV ``text`` (see the module docstring); ``source`` names it in errors."""
+    ev = resolve(ev, robot)
+    records = list(_records(text, source))
+    if not records:
+        raise MeasurementError(source, "empty file: expected a header line with the columns "
+                               f"{', '.join(REQUIRED)} and one row per measured frequency")
+    header_line, header_cells = records[0]
+    names = _header(header_cells, source, ev)
+    if len(records) == 1:
+        raise MeasurementError(source, "no data rows after the header: expected one row per measured frequency",
+                               header_line)
+    x_ref = np.asarray(ev.robot.x_ref, dtype=float)
+    cols: dict[str, list] = {n: [] for n in names}
+    lines = []
+    for line, cells in records[1:]:
+        if len(cells) != len(names):
+            raise MeasurementError(source, f"{len(cells)} cells where the header has {len(names)} columns", line)
+        lines.append(line)
+        for name, cell in zip(names, (c.strip() for c in cells)):
+            cols[name].append(_cell(name, cell, source, line, ev, x_ref))
+    n = len(lines)
+    freq = np.array(cols["freq_hz"], dtype=float)
+    sigma = np.array([s if s is not None else DEFAULT_SIGMA_REL * f
+                      for s, f in zip(cols.get("sigma_hz", [None] * n), freq)], dtype=float)
+    poses = np.stack([np.array([v if v is not None else x_ref[k] for v in cols.get(a, [None] * n)], dtype=float)
+                      for k, a in enumerate("xyz")], axis=1)
+    params = {name: np.array([v if v is not None else ev.parameters[name].default for v in cols[name]], dtype=float)
+              for name in names if name in ev.parameters and name != "k_a"}
+    meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
+                        np.array(lines), source, ev.robot.name)
+    check_poses(meas, ev)
+    return meas
+
+
+def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
+    if name == "mode":
+        if not cell:
+            raise MeasurementError(source, "empty cell: expected a mode label", line, name)
+        try:
+            return parse_mode(cell)
+        except ValueError as exc:
+            raise MeasurementError(source, str(exc), line, name) from None
+    if not cell:
+        if name in REQUIRED:
+            raise MeasurementError(source, "empty cell: a value is required", line, name)
+        return None
+    if name in ("x", "y", "z"):
+        return _number(cell, source, line, name, positive=False)
+    if name in ("k_a", "freq_hz", "sigma_hz"):
+        return _number(cell, source, line, name, positive=True)
+    p = ev.parameters[name]
+    value = _number(cell, source, line, name, positive=p.bounds[0] >= 0)
+    try:
+        p.check(value)
+    except ValueError as exc:
+        raise MeasurementError(source, str(exc), line, name) from None
+    return value
+
+
+def check_poses(meas: Measurements, ev) -> None:
+    """Raise :class:`MeasurementError` naming the line of the first unreachable or singular pose."""
+    try:
+        ev.jacobians(meas.poses, **meas.params)
+        return
+    except EigentwistError:
+        pass
+    for i in range(len(meas)):
+        try:
+            ev.jacobians(meas.poses[i], **{k: v[i] for k, v in meas.params.items()})
+        except EigentwistError as exc:
+            raise MeasurementError(meas.source, str(exc), int(meas.lines[i]), "x, y, z") from None
+
+
+def load_measurements(path, robot: str = "heli4", ev=None) -> Measurements:
+    """Read and validate a measurement CSV file (see the module docstring).
+
+    Raises :class:`MeasurementError` (an ``InputError``/``ValueError``) naming the
+    file, line and column of the first problem; ``OSError`` if the file is unreadable.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise MeasurementError(path.name, f"not a UTF-8 text file ({exc.reason})") from None
+    return parse_csv(text, str(path), ev, robot)
+
+
+def paper_csv(robot: str = "heli4") -> str:
+    """Text of the shipped measurements of ``robot`` (``eigentwist/data/<robot>_paper.csv``)."""
+    ref = resources.files("eigentwist").joinpath("data", f"{robot}_paper.csv")
+    if not ref.is_file():
+        raise InputError(f"no shipped measurements for robot {robot!r} (expected eigentwist/data/{robot}_paper.csv)")
+    return ref.read_text(encoding="utf-8")
+
+
+def paper_measurements(ev=None) -> Measurements:
+    """The paper's measured omega_1 (mode x) and omega_2 (mode y) at x_ref over k_a.
+
+    Hoevenaars, Krut & Herder (2020), Tables E.1/E.2, "Meas." columns; 16 rows, default
+    uncertainty (2 %).
+    """
+    ev = resolve(ev, "heli4")
+    return parse_csv(paper_csv("heli4"), "heli4_paper.csv", ev)

@@ -1,0 +1,75 @@
+"""Model predictions of measured frequencies, batched over rows and parameter sets.
+
+Every prediction is one call of the generated evaluator: parameters go in as per-row
+arrays, so B parameter sets for N measurements are B*N rows of a single batch (the
+finite-difference Jacobian of a fit costs one call). Effects are switched by the
+evaluator's 0/1 switches; nothing is re-derived.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .matching import match_modes
+
+__all__ = ["evaluate", "Predictor"]
+
+
+def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, lines=None):
+    """Frequency (Hz) of the mode each row's label names.
+
+    Parameters
+    ----------
+    ev : evaluator; effects : tuple of effect names (the model).
+    poses : (N, 3) m; labels : N normalised mode labels.
+    params : parameter name -> scalar or (N,) array (SI units).
+    strict, lines : see :func:`eigentwist.diagnose.matching.match_modes`.
+
+    Returns
+    -------
+    freq : (N,) Hz; index : (N,) matched mode index into the model's ascending modes.
+    """
+    modes = ev.modes(poses, tuple(effects), **params)
+    idx = match_modes(modes, labels, strict=strict, lines=lines)
+    return modes.freq_hz[np.arange(len(idx)), idx], idx
+
+
+class Predictor:
+    """Predictions of one model (a set of effects) for one set of measurements.
+
+    ``fixed`` are parameter values (SI, scalars) that replace the defaults, e.g. values
+    fitted at an earlier step; the measurements' own per-row parameter columns always
+    win over them.
+    """
+
+    def __init__(self, meas, effects, ev, fixed: dict | None = None):
+        self.meas = meas
+        self.effects = tuple(effects)
+        self.ev = ev
+        self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in meas.params}
+
+    def _params(self, values: dict, repeat: int = 1) -> dict:
+        n = len(self.meas)
+        out = {k: np.tile(v, repeat) for k, v in self.meas.evaluation_params().items()}
+        for k, v in {**self.fixed, **values}.items():
+            if k in self.meas.params:
+                continue
+            arr = np.asarray(v, dtype=float)
+            out[k] = np.repeat(arr, n) if arr.ndim == 1 else arr
+        return out
+
+    def predict(self, values: dict | None = None, strict: bool = True):
+        """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar)."""
+        return evaluate(self.ev, self.effects, self.meas.poses, self.meas.mode, self._params(values or {}),
+                        strict, self.meas.lines)
+
+    def predict_sets(self, names, table: np.ndarray, strict: bool = False) -> np.ndarray:
+        """Predictions for B parameter sets in one call: ``table`` is (B, P) values of
+        ``names``; returns (B, N) Hz."""
+        table = np.atleast_2d(np.asarray(table, dtype=float))
+        b = table.shape[0]
+        values = {name: table[:, j] for j, name in enumerate(names)}
+        params = self._params(values, repeat=b)
+        poses = np.tile(self.meas.poses, (b, 1))
+        labels = self.meas.mode * b
+        freq, _ = evaluate(self.ev, self.effects, poses, labels, params, strict, np.tile(self.meas.lines, b))
+        return freq.reshape(b, len(self.meas))

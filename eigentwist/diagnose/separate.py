@@ -1,0 +1,109 @@
+"""The next measurement that best tells two fitted models apart.
+
+Both models (with their fitted parameters) are evaluated over a coarse grid of poses
+in the robot's workspace box (plus the measured poses), a range of k_a (log-spaced over
+the measured range, plus the measured values) and every mode direction both models
+have. The measurement proposed is the (pose, k_a, mode) where the predictions differ
+most relative to the expected uncertainty sigma = (median relative sigma of the data)
+x (mean prediction).
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from ..runtime import EigentwistError
+from .matching import DIRECTIONS, match_modes
+
+__all__ = ["next_measurement", "workspace_poses"]
+
+GRID = 3          # poses per axis of the workspace box
+N_KA = 9          # log-spaced k_a values over the measured range
+
+
+@lru_cache(maxsize=None)
+def _reachable_grid(ev, n: int) -> np.ndarray:
+    axes = [np.linspace(lo, hi, n) for lo, hi in ev.robot.workspace]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    try:
+        ev.jacobians(grid)
+        return grid
+    except EigentwistError:
+        pass
+    keep = []
+    for p in grid:
+        try:
+            ev.jacobians(p)
+            keep.append(p)
+        except EigentwistError:
+            continue
+    return np.array(keep).reshape(-1, 3)
+
+
+def workspace_poses(ev, meas, n: int = GRID) -> np.ndarray:
+    """Reachable grid poses of the workspace box (n per axis) and the measured poses, m."""
+    poses = np.concatenate([_reachable_grid(ev, n), meas.poses])
+    return np.unique(np.round(poses, 9), axis=0)
+
+
+def _constant_columns(meas) -> dict:
+    return {k: float(v[0]) for k, v in meas.params.items() if np.all(v == v[0])}
+
+
+def _best(modes_of, labels, rel_sigma):
+    """(separation, label, row, f_a, f_b) of the largest separation over ``labels``."""
+    best = None
+    n = len(modes_of[0].freq_hz)
+    for label in labels:
+        fs, ok = [], np.ones(n, dtype=bool)
+        for m in modes_of:
+            idx = match_modes(m, [label] * n, strict=False)
+            fs.append(m.freq_hz[np.arange(n), idx])
+            ok &= m.direction[np.arange(n), idx] == DIRECTIONS.index(label)
+        sep = np.abs(fs[0] - fs[1]) / (rel_sigma * 0.5 * (fs[0] + fs[1]))
+        sep = np.where(ok, sep, -np.inf)
+        k = int(np.argmax(sep))
+        if np.isfinite(sep[k]) and (best is None or sep[k] > best[0]):
+            best = (float(sep[k]), label, k, float(fs[0][k]), float(fs[1][k]))
+    return best
+
+
+def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -> dict | None:
+    """Where ``fit_a`` and ``fit_b`` (:class:`~eigentwist.diagnose.fit.FitResult`) differ most.
+
+    Returns None when the models share no mode direction, else a dict: ``between`` (the
+    two models, named by the effects that differ), ``pose`` (m), ``k_a`` (N m/rad),
+    ``mode`` (direction), ``predicted_hz`` (per model), ``separation_sigma``,
+    ``sigma_hz``, and ``with_measured_modes``: the same restricted to the mode
+    directions the data already contain (None if they contain none).
+    """
+    lo, hi = k_a_range or (float(meas.k_a.min()), float(meas.k_a.max()))
+    k_a = np.unique(np.concatenate([np.geomspace(lo, hi, N_KA), meas.k_a[(meas.k_a >= lo) & (meas.k_a <= hi)]]))
+    poses = workspace_poses(ev, meas, grid)
+    pose_rows = np.repeat(poses, len(k_a), axis=0)
+    ka_rows = np.tile(k_a, len(poses))
+    base = _constant_columns(meas)
+    modes_of = [ev.modes(pose_rows, f.effects, k_a=ka_rows, **{**base, **f.fixed}) for f in (fit_a, fit_b)]
+    labels = [a for a in modes_of[0].axes if a in modes_of[1].axes]
+    rel_sigma = float(np.median(meas.relative_sigma))
+    name_a, name_b = _label(fit_a, fit_b), _label(fit_b, fit_a)
+
+    def describe(best):
+        if best is None:
+            return None
+        sep, label, k, fa, fb = best
+        return {"between": [name_a, name_b], "pose": pose_rows[k].tolist(), "k_a": float(ka_rows[k]),
+                "mode": label, "predicted_hz": {name_a: fa, name_b: fb}, "separation_sigma": sep,
+                "sigma_hz": rel_sigma * 0.5 * (fa + fb)}
+
+    out = describe(_best(modes_of, labels, rel_sigma))
+    if out is not None:
+        measured = [lb for lb in labels if lb in set(meas.mode)]
+        out["with_measured_modes"] = describe(_best(modes_of, measured, rel_sigma)) if measured else None
+    return out
+
+
+def _label(f, other) -> str:
+    extra = [e for e in f.effects if e not in other.effects]
+    return ",".join(extra) if extra else ",".join(f.effects)
