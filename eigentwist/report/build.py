@@ -67,6 +67,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     from ..description.effects import resolve_model
     from ..diagnose import compare, diagnose, load_measurements, paper_measurements
     from ..diagnose.plots import plot_comparison, plot_diagnosis
+    from ..diagnose.report import failing_text
     from ..paper import reproduce
     from ..runtime import load
 
@@ -99,7 +100,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     return ReportData(
         robot=robot, title=ev.robot.title, source=ev.robot.source, data_source=data_source,
         model=effects, baseline=tuple(diag.baseline.effects), parameters=params, reproduction=repro,
-        comparison=dict(summary=cmp.summary(), rows=_comparison_rows(cmp), failing=cmp.where_it_fails()),
+        comparison=dict(summary=cmp.summary(), rows=_comparison_rows(cmp), failing=failing_text(cmp)),
         diagnosis=diag.to_json(), figures=figures,
     )
 
