@@ -46,3 +46,36 @@ def test_delta_has_no_ee_compliance_effect(delta):
     assert "ee_compliance" not in delta.effects
     with pytest.raises(ValueError, match="ee_compliance"):
         delta.frequencies(delta.robot.x_ref, "rigid,ee_compliance")
+
+
+def test_diagnosis_finds_hidden_payload_on_delta(delta):
+    from eigentwist.diagnose import diagnose, synth
+
+    poses = [[0.0, 0.0, -0.75], [0.12, -0.05, -0.70]]
+    meas = synth("paper+payload_mass:m_p=0.25", k_a=[250, 500, 1000, 2000, 4000], poses=poses,
+                 modes=("x", "y", "z"), noise="0.5%", seed=4, robot="delta", ev=delta)
+    d = diagnose(meas, baseline="paper", ev=delta)
+    first = d.ranking[0]
+    assert first.effect == "payload_mass" or "payload_mass" in first.indistinguishable_from
+    pm = next(c for c in d.ranking if c.effect == "payload_mass")
+    assert abs(pm.params["m_p"] - 0.25) <= 3 * pm.param_std["m_p"]
+    assert "payload_mass" in d.selected and d.explained
+    assert d.final.rms_pct < 1.0
+
+
+def test_every_command_takes_robot_delta(tmp_path, capsys):
+    import json
+
+    from eigentwist.cli.main import main
+
+    data = tmp_path / "delta.csv"
+    assert main(["synth", "--robot", "delta", "--truth", "paper+payload_mass:m_p=0.2", "--k-a", "500,2000",
+                 "--pose", "0", "0", "-0.75", "--modes", "x,y,z", "--seed", "1", "-o", str(data)]) == 0
+    assert main(["matrices", "--robot", "delta", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert out["robot"] == "delta" and len(out["joint_angles_deg"]) == 3
+    assert main(["compare", str(data), "--robot", "delta", "--model", "paper"]) == 0
+    assert main(["diagnose", str(data), "--robot", "delta", "--baseline", "paper", "--json"]) == 0
+    assert main(["sweep", "--robot", "delta", "--random", "200", "--seed", "2", "-o", str(tmp_path / "sw")]) == 0
+    assert main(["report", str(data), "--robot", "delta", "-o", str(tmp_path / "r.html")]) == 0
+    assert "Delta" in (tmp_path / "r.html").read_text()
