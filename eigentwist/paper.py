@@ -164,5 +164,7 @@ def reproduce(ev) -> dict:
     """Counts of the comparison: total, within rounding, ok (incl. accepted tolerances)."""
     vals = paper_values(ev)
     req = [v for v in vals if v.required]
+    nonzero = [v for v in vals if v.paper != 0]
     return {"values": vals, "printed": len(vals), "within_rounding": sum(v.within_rounding for v in vals),
+            "nonzero": len(nonzero), "nonzero_within": sum(v.within_rounding for v in nonzero),
             "required": len(req), "required_ok": sum(v.ok for v in req)}

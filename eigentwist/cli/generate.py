@@ -4,7 +4,7 @@ from __future__ import annotations
 import difflib
 import time
 
-from .common import CliError, eprint
+from .common import CliError, eprint, progress
 
 HELP = "regenerate the evaluators in eigentwist/generated (derivation + CSE + emit)"
 EPILOG = """examples:
@@ -32,7 +32,13 @@ def run(args) -> int:
             raise CliError(f"--robot {r!r}: expected one of {', '.join(NAMES)}")
     timings: dict = {}
     t0 = time.perf_counter()
-    files = render_all(robots, progress=lambda m: eprint(f"[generate] {m}"), timings=timings)
+    # derive + CSE of 4 kernels per robot; the bar is silent when stderr is not a terminal
+    with progress(total=5 * len(robots), desc="generate", unit="step") as bar:
+        def step(message):
+            bar.set_description(message)
+            bar.update(1)
+
+        files = render_all(robots, progress=step, timings=timings)
     total = time.perf_counter() - t0
     for r, t in timings.items():
         eprint(f"[generate] {r}: derive {t['derive_s']:.1f} s, CSE {t['cse_s']:.1f} s, emit {t['emit_s']:.1f} s")

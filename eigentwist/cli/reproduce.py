@@ -39,6 +39,7 @@ def run(args) -> int:
     print("paper: Hoevenaars, Krut & Herder (2020), DOI 10.1016/j.mechmachtheory.2019.103775\n")
     print(table(res, args.all))
     print(f"\n{res['within_rounding']} of {res['printed']} printed numbers within print rounding "
-          f"(half a unit of the last printed digit); {res['required_ok']} of {res['required']} required numbers "
+          f"(half a unit of the last printed digit; matrix zeros included), {res['nonzero_within']} of the "
+          f"{res['nonzero']} non-zero ones; {res['required_ok']} of {res['required']} required numbers "
           "reproduce (within rounding or the accepted tolerance). no*: not expected to reproduce (see note).")
     return 0 if res["required_ok"] == res["required"] else 1
