@@ -45,7 +45,8 @@ def run(args) -> int:
         print(f"paper reproduction: {rep.reproduction['within']} of {rep.reproduction['printed']} printed numbers "
               f"within print rounding; {rep.reproduction['required_ok']}/{rep.reproduction['required']} required ok")
     verdict = "explained within the measurement uncertainty" if d["final"]["explained"] else \
-        "NOT explained: an effect outside the catalogue is missing"
+        ("NOT explained within the stated uncertainty (sigma_hz, default 2 % of each value): an effect outside "
+         "the catalogue is missing, or the uncertainty is larger than stated")
     print(f"final model: {' + '.join(d['final']['effects'])}: {verdict}")
     print(f"report written to {Path(path).resolve()}")
     return 0
