@@ -12,6 +12,7 @@ from pathlib import Path
 from ..description.effects import switch_name
 from ..robots import NAMES, get
 from ..symbolic import POSE, derive
+from .c_backend import render_c
 from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
@@ -53,7 +54,7 @@ def _render_numpy(robot, kernels, digest):
     return render_numpy(robot, kernels, digest, [switch_name(e) for e in robot.effects])
 
 
-BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy)}
+BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", render_c)}
 
 
 def render_robot(robot, progress=None, timings: dict | None = None, backends=None) -> dict[str, str]:

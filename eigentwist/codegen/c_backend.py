@@ -1,0 +1,260 @@
+"""C backend: render the kernels and a fused pose-to-frequency pipeline as one C source.
+
+Render only (a string comes back; nothing is written or compiled here: see
+``eigentwist.runtime.cbackend`` for compiling and loading). The source has
+
+* one exported function per :class:`~eigentwist.codegen.kernel.Kernel`
+  (``et_<robot>_<kernel>``), evaluating a batch of poses in blocks of ``ET_BLOCK``
+  with the CSE temporaries as ``const double`` locals inside a ``#pragma omp simd``
+  loop over the poses of a block (structure-of-arrays);
+* a batched symmetric-definite eigen-solver ``et_<robot>_eigh`` (Cholesky reduction and
+  cyclic Jacobi, :mod:`eigentwist.codegen.c_eigen`) for 6x6 and 3x3 pairs;
+* ``et_<robot>_fused``: poses and parameters -> joint angles -> M, K_R, K_F -> natural
+  frequencies (and eigentwists) in one pass over each block, nothing but the requested
+  outputs leaving the cache;
+* ``et_<robot>_signature()``: a JSON description of every function's inputs and outputs,
+  which the loader reads so that nothing robot-specific is hard-coded in Python.
+"""
+from __future__ import annotations
+
+import json
+import re
+
+import sympy as sp
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.precedence import PRECEDENCE
+
+from . import c_eigen
+from .kernel import Kernel, UndeclaredSymbolError
+from .render import environment, header
+
+__all__ = ["render_c", "CCodePrinter", "c_identifiers", "ABI_VERSION", "BLOCK", "EIGEN_MODELS"]
+
+ABI_VERSION = 1
+BLOCK = 64                 # poses per block: inputs, outputs and temporaries stay in L1/L2
+# eigenproblems of the fused pipeline: (model, dimension, first index, inertia, stiffness).
+# The flexible model uses the full 6x6 M and K_F (Eq. 13); the rigid one the lower-right
+# 3x3 translational blocks of M and K_R (Eq. 14), as the paper does (Eqs. 54-56).
+EIGEN_MODELS = (("flexible", 6, 0, "M", "K_F"), ("rigid", 3, 3, "M", "K_R"))
+EIGEN_DIMS = tuple(n for _, n, _, _, _ in EIGEN_MODELS)
+JACOBI_MAX_SWEEPS = 20
+JACOBI_TOL = 1e-30         # sum of squared off-diagonals relative to the squared diagonal
+
+C_RESERVED = frozenset("""
+auto break case char const continue default do double else enum extern float for goto if
+inline int long register restrict return short signed sizeof static struct switch typedef
+union unsigned void volatile while bool true false NULL main errno _Bool _Complex _Imaginary
+_Alignas _Alignof _Atomic _Generic _Noreturn _Static_assert _Thread_local
+acos asin atan atan2 cos sin tan acosh asinh atanh cosh sinh tanh exp exp2 exp10 expm1 frexp
+ilogb ldexp log log10 log1p log2 logb modf scalb scalbn scalbln cbrt fabs hypot pow pow10
+sqrt erf erfc lgamma tgamma gamma ceil floor nearbyint rint lrint llrint round lround llround
+trunc fmod remainder remquo drem copysign nan nextafter nexttoward fdim fmax fmin fma j0 j1
+jn y0 y1 yn signgam significand finite isnan isinf isfinite signbit fpclassify sincos
+HUGE_VAL INFINITY NAN M_PI int64_t int32_t size_t ptrdiff_t
+""".split())
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+def c_identifiers(names) -> dict[str, str]:
+    """Map symbol names to unique C identifiers that clash with no C or ``math.h`` name.
+
+    Names that are already valid and free are kept (readable code); others get
+    invalid characters replaced and ``_`` appended until free. ``et_``/``ET_`` is
+    reserved for the generated scaffolding.
+    """
+    out: dict[str, str] = {}
+    taken: set[str] = set()
+    for name in names:
+        c = name if _IDENT.match(name) else re.sub(r"\W", "_", name)
+        if not _IDENT.match(c) or c.lower().startswith("et_"):
+            c = "v_" + c
+        while c in C_RESERVED or c in taken:
+            c += "_"
+        out[name] = c
+        taken.add(c)
+    return out
+
+
+class CCodePrinter(C99CodePrinter):
+    """C99 printer for kernel expressions.
+
+    Symbols print as their C identifiers (``names``); an unknown symbol raises
+    :class:`UndeclaredSymbolError`. Small integer powers are products, parenthesised
+    because they may stand in a denominator (``a/(b*b)``, never ``a/b*b``); square
+    roots use ``sqrt``; ``pi`` is ``ET_PI``; anything else falls back to ``pow``.
+    """
+
+    def __init__(self, names: dict[str, str]):
+        super().__init__({"allow_unknown_functions": False})
+        self._names = names
+
+    def _print_Symbol(self, expr):
+        try:
+            return self._names[expr.name]
+        except KeyError:
+            raise UndeclaredSymbolError(f"symbol {expr.name!r} is not an input or a temporary of this kernel") from None
+
+    def _print_Pi(self, expr):
+        return "ET_PI"
+
+    def _product(self, base, k: int) -> str:
+        b = self.parenthesize(base, PRECEDENCE["Pow"])
+        return "(" + "*".join([b] * k) + ")"
+
+    def _print_Pow(self, expr, rational=False):
+        base, exp = expr.args
+        if exp.is_Integer and 2 <= exp <= 4:
+            return self._product(base, int(exp))
+        if exp.is_Integer and -4 <= exp <= -1:
+            inner = self._product(base, -int(exp)) if exp < -1 else self.parenthesize(base, PRECEDENCE["Pow"])
+            return f"(1.0/{inner})"
+        if exp == sp.Rational(1, 2):
+            return f"sqrt({self._print(base)})"
+        if exp == -sp.Rational(1, 2):
+            return f"(1.0/sqrt({self._print(base)}))"
+        if exp == sp.Rational(3, 2):
+            return f"({self.parenthesize(base, PRECEDENCE['Pow'])}*sqrt({self._print(base)}))"
+        return f"pow({self._print(base)}, {self._print(sp.Float(exp, 17))})"
+
+
+# ------------------------------------------------------------------ kernels
+def _entries(kern: Kernel) -> list[dict]:
+    """Output entries in body-independent order: one row of the block buffer each."""
+    rows = []
+    for k, out in enumerate(kern.outputs):
+        for idx, flat in out.entries():
+            mirror = -1
+            if out.symmetric and idx[-2] != idx[-1]:
+                mirror = flat + (idx[-1] - idx[-2]) * (out.shape[-1] - 1)
+            rows.append(dict(output=k, name=out.name, idx=idx, pos=flat, mirror=mirror))
+    return rows
+
+
+def _size(shape) -> int:
+    n = 1
+    for s in shape:
+        n *= s
+    return n
+
+
+def _input_doc(name: str, group: str, joint, units: dict) -> str:
+    if group == "q":
+        return f"{name}: joint angle of leg {joint[0] + 1}, joint {joint[1] + 1} (rad)"
+    if group == "pose":
+        return f"{name}: end-effector position (m)"
+    if name in units:
+        return f"{name}: parameter ({units[name]})"
+    return f"{name}: effect switch (0 or 1)"
+
+
+def _kernel_context(kern: Kernel, prefix: str, units: dict) -> dict:
+    names = c_identifiers(kern.input_names + [item[1].name for item in kern.body if item[0] == "let"])
+    printer = CCodePrinter(names)
+    entries = _entries(kern)
+    row = {(e["name"], e["idx"]): r for r, e in enumerate(entries)}
+    lines = []
+    for item in kern.body:
+        if item[0] == "let":
+            lines.append(f"const double {names[item[1].name]} = {printer.doprint(item[2])};")
+        else:
+            _, out, idx, expr = item
+            lines.append(f"et_o{row[(out.name, idx)]}[et_i] = {printer.doprint(expr)};")
+    inputs = []
+    for name in kern.input_names:
+        group = next(g for g, ns in kern.inputs if name in ns)
+        where = None
+        if group == "q":
+            flat = kern.joint_order.index(name)
+            where = [flat // 3, flat % 3]
+        inputs.append(dict(name=name, cname=names[name], group=group, joint=where,
+                           doc=_input_doc(name, group, where, units)))
+    return dict(
+        name=kern.name, doc=kern.doc, cname=f"{prefix}_{kern.name}", inputs=inputs, entries=entries,
+        outputs=[dict(name=o.name, shape=list(o.shape), size=_size(o.shape)) for o in kern.outputs],
+        lines=lines, n_in=len(inputs), n_ent=len(entries),
+    )
+
+
+# ------------------------------------------------------------------- fused
+def _fused_context(kctx: dict) -> dict:
+    """Wire the IK outputs into the matrices and jacobians kernels; index M, K_R, K_F."""
+    ik, mats, jac = kctx["inverse_kinematics"], kctx["matrices"], kctx["jacobians"]
+    inputs: list[dict] = []
+    seen: dict[str, int] = {}
+
+    def source(inp) -> str:
+        if inp["group"] == "q":
+            leg, j = inp["joint"]
+            r = next(r for r, e in enumerate(ik["entries"]) if e["name"] == "q" and tuple(e["idx"]) == (leg, j))
+            return f"et_ikb[{r}]"
+        if inp["name"] not in seen:
+            seen[inp["name"]] = len(inputs)
+            inputs.append(dict(name=inp["name"], group=inp["group"], doc=inp["doc"]))
+        return f"et_ip[{seen[inp['name']]}]"
+
+    wiring = {k: [source(inp) for inp in kc["inputs"]] for k, kc in (("ik", ik), ("matrices", mats), ("jacobians", jac))}
+    row = {(e["name"], tuple(e["idx"])): r for r, e in enumerate(mats["entries"])}
+    eig = []
+    for model, n, off, mname, kname in EIGEN_MODELS:
+        eig.append(dict(
+            n=n, model=model, M=mname, K=kname,
+            m_src=[f"et_mb[{row[(mname, (i + off, j + off))]}]" for i, j in c_eigen.upper(n)],
+            k_src=[f"et_mb[{row[(kname, (i + off, j + off))]}]" for i, j in c_eigen.upper(n)],
+        ))
+    n = max(EIGEN_DIMS)
+    work = max(_eigen_work(d) for d in EIGEN_DIMS)
+    blocks = len(inputs) + ik["n_ent"] + mats["n_ent"] + jac["n_ent"] + n + n * n + work
+    return dict(inputs=inputs, wiring=wiring, eigen=eig, n_in=len(inputs), max_n=n,
+                max_up=len(c_eigen.upper(n)), n_blocks=blocks)
+
+
+def _eigen_work(n: int) -> int:
+    """Scratch blocks of the eigen-solver: L (lower), A (upper) and W (n x n)."""
+    return len(c_eigen.lower(n)) + len(c_eigen.upper(n)) + n * n
+
+
+def _eigen_context(n: int) -> dict:
+    return dict(
+        n=n, n_up=len(c_eigen.upper(n)), n_low=len(c_eigen.lower(n)), work=_eigen_work(n),
+        reduce=c_eigen.reduce_lines(n), sweep=c_eigen.sweep_lines(n, False), sweepv=c_eigen.sweep_lines(n, True),
+        finish=c_eigen.finish_lines(n, False), finishv=c_eigen.finish_lines(n, True),
+        upper=c_eigen.upper(n),
+    )
+
+
+def _signature(robot, prefix: str, kernels: list[dict], fused: dict, digest: str) -> dict:
+    return dict(
+        abi=ABI_VERSION, robot=robot.name, prefix=prefix, block=BLOCK, source_hash=digest,
+        kernels={k["name"]: dict(
+            function=k["cname"],
+            inputs=[[i["group"], i["name"], i["joint"]] for i in k["inputs"]],
+            outputs=[[o["name"], o["shape"]] for o in k["outputs"]],
+        ) for k in kernels},
+        fused=dict(function=f"{prefix}_fused", inputs=[[i["group"], i["name"]] for i in fused["inputs"]],
+                   models=[e["model"] for e in fused["eigen"]]),
+        eigh=dict(function=f"{prefix}_eigh", dims=list(EIGEN_DIMS)),
+    )
+
+
+def _c_string(text: str, width: int = 96) -> list[str]:
+    """``text`` as adjacent C string literals (escaped), one per line."""
+    chunks = [text[i:i + width] for i in range(0, len(text), width)] or [""]
+    return ['"' + c.replace("\\", "\\\\").replace('"', '\\"') + '"' for c in chunks]
+
+
+def render_c(robot, kernels: list[Kernel], digest: str) -> str:
+    """Render the C source for ``kernels`` of ``robot`` (pure: returns a string)."""
+    prefix = "et_" + re.sub(r"\W", "_", robot.name)
+    units = {p.name: p.unit for p in robot.parameters}
+    kctx = [_kernel_context(k, prefix, units) for k in kernels]
+    by_name = {k["name"]: k for k in kctx}
+    fused = _fused_context(by_name)
+    sig = _signature(robot, prefix, kctx, fused, digest)
+    env = environment()
+    tmpl = env.get_template("c/module.c.jinja")
+    return tmpl.render(
+        header=header(robot.name, digest, comment="//"), robot=robot, prefix=prefix, hash=digest,
+        abi=ABI_VERSION, block=BLOCK, kernels=kctx, k=by_name, fused=fused,
+        eigen=[_eigen_context(n) for n in EIGEN_DIMS], max_sweeps=JACOBI_MAX_SWEEPS, tol=repr(JACOBI_TOL),
+        signature=_c_string(json.dumps(sig, sort_keys=True, separators=(",", ":"))),
+    )
