@@ -321,3 +321,26 @@ def test_portable_fallback_when_native_flags_fail(c_cache, ev, monkeypatch):
 def test_compiler_error_is_reported(c_cache, tmp_path):
     with pytest.raises(cb.CompileError, match="error"):
         cb.compile_and_load("heli4", source="this is not C;\n", directory=tmp_path)
+
+
+@pytest.mark.compiled
+@pytest.mark.parametrize("model", ["rigid", "paper", "coupled", "paper,lower_link_compliance,payload_mass"])
+def test_evaluator_modes_c_equals_numpy(model):
+    """The evaluator's fused C path gives the NumPy evaluator's frequencies and eigentwists."""
+    import eigentwist
+
+    try:
+        ev_c = eigentwist.load("heli4", backend="c")
+    except Exception as exc:  # pragma: no cover - depends on the machine
+        pytest.skip(f"no C backend here: {exc}")
+    ev_n = eigentwist.load("heli4", backend="numpy")
+    rng = np.random.default_rng(21)
+    lo = np.array([a for a, _ in ev_n.robot.workspace])
+    hi = np.array([b for _, b in ev_n.robot.workspace])
+    poses = lo + (hi - lo) * rng.random((300, 3))
+    ka = rng.uniform(100, 5000, 300)
+    mc, mn = ev_c.modes(poses, model, k_a=ka), ev_n.modes(poses, model, k_a=ka)
+    np.testing.assert_allclose(mc.freq_hz, mn.freq_hz, rtol=1e-9)
+    np.testing.assert_allclose(np.abs(mc.eigentwists), np.abs(mn.eigentwists), atol=1e-6)
+    with pytest.raises(ValueError, match="unreachable"):
+        ev_c.frequencies([0.0, 0.0, -1.5], model)

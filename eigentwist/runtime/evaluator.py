@@ -225,11 +225,30 @@ class Evaluator:
 
     def modes(self, poses, model="paper", **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7)."""
+        fused = getattr(self._kernels, "fused_frequencies", None)
+        effects = resolve_model(model, self.effects)
+        if fused is not None and "gravity_preload" not in effects:
+            return self._fused_modes(fused, poses, effects, params)
         M, K = self.stiffness(poses, model, **params)
         lam, V = generalized_eigh(K, M)
         rigid = M.shape[-1] == 3
         return Modes(frequencies_hz(lam), normalize_eigentwists(V),
                      AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible")
+
+    def _fused_modes(self, fused, poses, effects, params) -> Modes:
+        """The C backend's single pass from poses to frequencies and eigentwists."""
+        poses = self._poses(poses)
+        n = len(poses)
+        p = self._params(n, params, effects)
+        kind = self.kind(effects)
+        freq, vec = [], []
+        for start in range(0, n, 16 * CHUNK):
+            sl = slice(start, min(n, start + 16 * CHUNK))
+            pc = self._take(p, sl)
+            out = fused(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc, model=kind, vectors=True, check=True)
+            freq.append(out["freq_hz"])
+            vec.append(out["eigentwists"])
+        return Modes(np.concatenate(freq), np.concatenate(vec), AXES[3:] if kind == "rigid" else AXES, kind)
 
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
