@@ -52,3 +52,19 @@ def test_coupling_needs_no_per_leg_split(ev):
     fc = ev.frequencies(pose, "coupled")[0]
     assert np.isfinite(fc).all() and (fc > 0).all()
     assert not np.allclose(fs[:2], fc[:2], rtol=1e-6)
+
+
+def test_paper_data_cannot_tell_split_from_coupled_and_the_next_measurement_can(ev):
+    """Modes x and y at x_ref only: ee_compliance and ee_coupling are indistinguishable;
+    the proposed measurement is where their predictions differ most relative to sigma."""
+    from eigentwist.diagnose import diagnose, paper_measurements
+
+    d = diagnose(paper_measurements(ev), "rigid", ev=ev)
+    ranked = {c.effect: c for c in d.ranking}
+    assert "ee_coupling" in ranked["ee_compliance"].indistinguishable_from
+    assert "ee_compliance" in ranked["ee_coupling"].indistinguishable_from
+    nm = d.next_measurement
+    assert set(nm["between"]) == {"ee_compliance", "ee_coupling"}
+    assert nm["mode"] == "z"                       # they differ in the vertical stiffness only
+    pred = nm["predicted_hz"]
+    assert abs(pred["ee_coupling"] - pred["ee_compliance"]) / nm["sigma_hz"] > 3
