@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import argparse
 
-HELP = "reproduce the paper's printed model numbers (Eqs. 52-65, Tables E.1/E.2)"
+HELP = ("reproduce the paper's printed model numbers (Eqs. 52-65 at x_ref = [0, 0, -0.625] m and k_a = 2000 N m/rad, "
+        "Tables E.1/E.2 over k_a in N m/rad; frequencies in Hz)")
 EPILOG = """examples:
   eigentwist reproduce          # table: paper, eigentwist, deviation, within print rounding
   eigentwist reproduce --all    # also list the zero entries of the matrices
