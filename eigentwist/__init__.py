@@ -9,8 +9,13 @@ __version__ = "0.1.0"
 __all__ = ["load", "__version__"]
 
 
-def load(robot: str = "heli4", backend: str = "numpy", **kwargs):
-    """Load the generated evaluator of ``robot`` (see :func:`eigentwist.runtime.load`)."""
+def load(robot: str = "heli4", backend: str = "auto", **kwargs):
+    """Load the generated evaluator of ``robot`` (see :func:`eigentwist.runtime.load`).
+
+    ``backend="auto"`` (the default) uses the generated C library when a C compiler is
+    available and falls back to the generated NumPy module with one warning otherwise;
+    ``"numpy"`` and ``"c"`` choose explicitly.
+    """
     from .runtime import load as _load
 
     return _load(robot, backend=backend, **kwargs)

@@ -58,9 +58,13 @@ class Program:
         return dict(self.assignments)
 
     def expand(self, expr):
-        """Substitute every intermediate recursively: the closed form in inputs only."""
-        defs = {}
-        for sym, rhs in self.assignments:
+        """Substitute every intermediate recursively: the closed form in inputs only.
+
+        The table of expanded intermediates is built once and extended when the program
+        grows, so expanding many entries one by one stays cheap.
+        """
+        defs = self.__dict__.setdefault("_expanded", {})
+        for sym, rhs in self.assignments[len(defs):]:
             defs[sym] = rhs.xreplace(defs)
         if isinstance(expr, sp.MatrixBase):
             return expr.applyfunc(lambda e: sp.sympify(e).xreplace(defs))
