@@ -81,11 +81,14 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
 
     ``spec`` is a preset name (``"rigid"``, ``"paper"``, ``"coupled"``), a
     comma-separated list of presets and effects (``"rigid,payload_mass"``), or an
-    iterable of names. Unknown names raise ``ValueError`` listing the valid ones. A
+    iterable of names; ``"none"`` is the bare model without any effect. Unknown names
+    raise ``ValueError`` listing the valid ones. A
     preset keeps only the effects the robot has (``available``); an effect named
     explicitly that the robot lacks is an error.
     """
     if isinstance(spec, str):
+        if spec.strip().lower() in ("", "none"):
+            return ()                      # the bare model: no effect at all
         items = [s.strip() for s in spec.replace("+", ",").split(",") if s.strip()]
     else:
         items = list(spec)

@@ -16,16 +16,9 @@ from .evaluators import resolve
 from .predict import Predictor
 from .stats import chi2_value
 
-__all__ = ["Comparison", "compare", "FAIL_SIGMA", "model_effects"]
+__all__ = ["Comparison", "compare", "FAIL_SIGMA"]
 
 FAIL_SIGMA = 2.0
-
-
-def model_effects(model, ev) -> tuple:
-    """Effects of a model spec; ``"none"`` (or ``""``) is the bare model without any effect."""
-    if isinstance(model, str) and model.strip().lower() in ("", "none"):
-        return ()
-    return resolve_model(model, ev.effects)
 
 
 @dataclass
@@ -99,6 +92,6 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None) -> Compari
     an error naming the line.
     """
     ev = resolve(ev, meas.robot)
-    effects = model_effects(model, ev)
+    effects = resolve_model(model, ev.effects)
     pred, idx = Predictor(meas, effects, ev, values).predict(strict=True)
     return Comparison(meas, effects, pred, idx, dict(values or {}))

@@ -67,7 +67,7 @@ def describe() -> RobotDescription:
     """The Heli4 description with the paper's values as defaults."""
     p = {q.name: q.symbol for q in PARAMETERS}
     R, r, d, h = p["R"], p["r"], p["d"], p["h"]
-    ex, ey, ez = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    ex, ey = (1, 0, 0), (0, 1, 0)
     neg = lambda v: tuple(-c for c in v)  # noqa: E731
     # (u_i, s_i, a_i) with u_i x s_i = e_z (facts file)
     layout = (

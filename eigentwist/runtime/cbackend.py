@@ -368,38 +368,31 @@ def _lever_ratio(out: dict, p: dict) -> np.ndarray:
 
 
 def _validity(out: dict, ik_names: list, p: dict) -> np.ndarray:
-    """Reachable (every IK check quantity within [-1, 1]), not singular (|lever / l1| above
-    the evaluator's tolerance for every leg) and finite; NaN counts as invalid."""
-    from .evaluator import LEVER_TOL
+    """Reachable, not singular (:mod:`.validity`) and finite; NaN counts as invalid."""
+    from .validity import lever_mask, reachable_mask
 
     ok = np.isfinite(out["freq_hz"]).all(axis=-1)
-    for name in ik_names:
-        arg = np.abs(out[name])
-        ok &= arg.reshape(ok.shape + (-1,)).max(axis=-1) <= 1.0
+    ik = {name: np.reshape(out[name], ok.shape + (-1,)) for name in ik_names}
+    reach = reachable_mask(ik)
+    if reach is not None:
+        ok &= reach
     if "lever" in out:
-        ok &= np.abs(_lever_ratio(out, p)).min(axis=-1) > LEVER_TOL
+        ok &= lever_mask(_lever_ratio(out, p))
     return ok
 
 
 def _raise_invalid(robot: str, out: dict, valid: np.ndarray, ik_names: list, p: dict, x, y, z) -> None:
+    """Raise the evaluator's error (:mod:`.validity`) for the first invalid pose."""
     from ..robots import get
-    from .errors import SingularPoseError, UnreachablePoseError
-    from .evaluator import LEVER_TOL
+    from .errors import UnreachablePoseError
+    from .validity import raise_singular, raise_unreachable
 
     legs = get(robot).legs
-    k = int(np.argmax(~valid.reshape(-1)))
-    idx = np.unravel_index(k, valid.shape)
-    pose = [float(np.broadcast_to(c, valid.shape)[idx]) for c in (x, y, z)]
-    for name in ik_names:
-        arg = out[name][idx]
-        bad = ~(np.abs(arg) <= 1.0)
-        if bad.any():
-            leg = int(np.argmax(bad))
-            raise UnreachablePoseError(f"pose {pose} m is unreachable for {legs[leg].name}: "
-                                       f"{name} = {arg[leg]:.4g} (expected within [-1, 1])")
+    shape = valid.shape
+    poses = np.stack([np.broadcast_to(c, shape).reshape(-1) for c in (x, y, z)], axis=-1)
+    ik = {name: np.reshape(out[name], (poses.shape[0], -1)) for name in ik_names}
+    raise_unreachable(legs, poses, ik)
     if "lever" in out:
-        lever = _lever_ratio(out, p)[idx]
-        leg = int(np.argmin(np.abs(lever)))
-        raise SingularPoseError(f"pose {pose} m is singular for {legs[leg].name}: actuation lever "
-                                f"w_a1.t_a1/l1 = {lever[leg]:.3g} (expected |.| > {LEVER_TOL:g})")
-    raise UnreachablePoseError(f"pose {pose} m gives non-finite frequencies")
+        raise_singular(legs, poses, np.reshape(_lever_ratio(out, p), (poses.shape[0], -1)))
+    k = int(np.argmax(~valid.reshape(-1)))
+    raise UnreachablePoseError(f"pose {poses[k].tolist()} m gives non-finite frequencies")

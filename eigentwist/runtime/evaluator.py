@@ -7,15 +7,15 @@ from types import ModuleType
 import numpy as np
 
 from ..description import RobotDescription
-from ..description.effects import EFFECTS, STRUCTURAL, resolve_model, switch_name
+from ..description.effects import STRUCTURAL, resolve_model, switch_name
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
-from .errors import InputError, SingularPoseError, UnreachablePoseError
+from .errors import InputError
+from .validity import LEVER_TOL, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
-__all__ = ["Evaluator", "Modes", "AXES"]
+__all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL"]
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 CHUNK = 4096
-LEVER_TOL = 1e-3   # |w_a1 . t_a1| / l1 below this is treated as singular
 
 
 @dataclass
@@ -27,12 +27,15 @@ class Modes:
     axes : names of the n coordinates (``("x", "y", "z")`` for the rigid model,
         ``("rx", "ry", "rz", "x", "y", "z")`` for the flexible one).
     kind : ``"rigid"`` (K_R with the 3x3 translational subsets) or ``"flexible"`` (K_F).
+    valid : (N,) bool, which poses were evaluated (reachable, not singular); the others
+        hold NaN. Set by ``modes(..., invalid="nan")``; None when every pose is valid.
     """
 
     freq_hz: np.ndarray
     eigentwists: np.ndarray
     axes: tuple
     kind: str
+    valid: np.ndarray | None = None
 
     @property
     def direction(self) -> np.ndarray:
@@ -123,36 +126,24 @@ class Evaluator:
         Returns ``(q, jacobians, ok)``: joint angles (n, legs, 3), the ``jacobians``
         kernel output for the valid rows (None when none is valid) and the (n,) mask of
         valid rows. With ``strict`` the first invalid row raises an error naming the
-        pose, the leg and the violated condition.
+        pose, the leg and the violated condition (:mod:`.validity`).
         """
         n = len(poses)
+        legs = self.robot.legs
         with np.errstate(invalid="ignore", divide="ignore"):
             out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
-        ok = np.ones(n, bool)
-        for key in ("sin_q3", "cos_q2"):
-            arg = out[key]
-            bad = ~(np.abs(arg) <= 1.0)
-            if strict and bad.any():
-                k, leg = np.argwhere(bad)[0]
-                what = ("the parallelogram cannot tilt that far" if key == "sin_q3"
-                        else "the lower link and parallelogram cannot span that distance")
-                raise UnreachablePoseError(
-                    f"pose {poses[k].tolist()} m is unreachable for {self.robot.legs[leg].name}: "
-                    f"{what} ({key} = {arg[k, leg]:.4g}, expected within [-1, 1])")
-            ok &= ~bad.any(axis=1)
+        if strict:
+            raise_unreachable(legs, poses, out)
+        ok = reachable_mask(out)
         q, jac = out["q"], None
         if ok.any():
             sub = p if ok.all() else self._mask(p, ok, n)
             with np.errstate(invalid="ignore", divide="ignore"):
                 jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
             lever = jac["lever"] / np.asarray(sub["l1"], dtype=float)[..., None]
-            bad = ~(np.abs(lever) > LEVER_TOL)
-            if strict and bad.any():
-                k, leg = np.argwhere(bad)[0]
-                raise SingularPoseError(
-                    f"pose {poses[ok][k].tolist()} m is singular for {self.robot.legs[leg].name}: actuation lever "
-                    f"w_a1.t_a1/l1 = {lever[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")
-            ok[ok] = ~bad.any(axis=1)
+            if strict:
+                raise_singular(legs, poses[ok], lever)
+            ok[ok] = lever_mask(lever)
         return q, jac, ok
 
     @staticmethod
@@ -170,7 +161,8 @@ class Evaluator:
         for sl in self._chunks(n):
             pc = self._take(p, sl)
             q, jac, _ = self._check_rows(poses[sl], pc, strict=True)
-            out = {"q": q, **jac} if kernel == "jacobians" else {"q": q, **getattr(self._kernels, kernel)(q, pc)}
+            # the checks already evaluated the jacobians kernel: every result carries it
+            out = {"q": q, **jac} if kernel == "jacobians" else {"q": q, **jac, **getattr(self._kernels, kernel)(q, pc)}
             for key, val in out.items():
                 results.setdefault(key, []).append(val)
         return {k: np.concatenate(v, axis=0) for k, v in results.items()}
@@ -223,32 +215,56 @@ class Evaluator:
             K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid)
         return M, K
 
-    def modes(self, poses, model="paper", **params) -> Modes:
-        """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7)."""
-        fused = getattr(self._kernels, "fused_frequencies", None)
+    def modes(self, poses, model="paper", *, invalid: str = "raise", **params) -> Modes:
+        """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
+
+        ``invalid="raise"`` (the default) raises on the first unreachable or singular
+        pose; ``invalid="nan"`` evaluates the valid poses only, fills the others with NaN
+        and reports them in ``Modes.valid`` (for sweeps over a workspace box).
+        """
+        if invalid not in ("raise", "nan"):
+            raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
+        poses = self._poses(poses)
         effects = resolve_model(model, self.effects)
+        fused = getattr(self._kernels, "fused_frequencies", None)
         if fused is not None and "gravity_preload" not in effects:
-            return self._fused_modes(fused, poses, effects, params)
-        M, K = self.stiffness(poses, model, **params)
+            return self._fused_modes(fused, poses, effects, params, check=invalid == "raise")
+        if invalid == "raise":
+            return self._solve(*self.stiffness(poses, effects, **params))
+        ok = self.valid(poses, effects, **params)
+        n = len(poses)
+        rows = {k: (np.asarray(v)[ok] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
+                for k, v in params.items()}
+        kind = self.kind(effects)
+        size = 3 if kind == "rigid" else 6
+        freq, vec = np.full((n, size), np.nan), np.full((n, size, size), np.nan)
+        if ok.any():
+            m = self._solve(*self.stiffness(poses[ok], effects, **rows))
+            freq[ok], vec[ok] = m.freq_hz, m.eigentwists
+        return Modes(freq, vec, AXES[3:] if kind == "rigid" else AXES, kind, ok)
+
+    @staticmethod
+    def _solve(M, K) -> Modes:
         lam, V = generalized_eigh(K, M)
         rigid = M.shape[-1] == 3
         return Modes(frequencies_hz(lam), normalize_eigentwists(V),
                      AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible")
 
-    def _fused_modes(self, fused, poses, effects, params) -> Modes:
+    def _fused_modes(self, fused, poses, effects, params, check: bool = True) -> Modes:
         """The C backend's single pass from poses to frequencies and eigentwists."""
-        poses = self._poses(poses)
         n = len(poses)
         p = self._params(n, params, effects)
         kind = self.kind(effects)
-        freq, vec = [], []
+        freq, vec, ok = [], [], []
         for start in range(0, n, 16 * CHUNK):
             sl = slice(start, min(n, start + 16 * CHUNK))
             pc = self._take(p, sl)
-            out = fused(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc, model=kind, vectors=True, check=True)
+            out = fused(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc, model=kind, vectors=True, check=check)
             freq.append(out["freq_hz"])
             vec.append(out["eigentwists"])
-        return Modes(np.concatenate(freq), np.concatenate(vec), AXES[3:] if kind == "rigid" else AXES, kind)
+            ok.append(out["valid"])
+        return Modes(np.concatenate(freq), np.concatenate(vec), AXES[3:] if kind == "rigid" else AXES, kind,
+                     None if check else np.concatenate(ok))
 
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,

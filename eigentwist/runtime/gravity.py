@@ -38,22 +38,17 @@ def gravity_stiffness(ev, poses: np.ndarray, effects, params: dict, mats: dict, 
     n = len(poses)
     p = ev._params(n, params, effects)
     W = np.broadcast_to(gravity_wrench(p, effects), (n, 6))
-    K_G = np.zeros((n, 6, 6))
-    for sl in ev._chunks(n):
-        pc = ev._take(p, sl)
-        q = ev._ik(poses[sl], pc)
-        gk = ev._kernels.gravity(q, pc)
-        jr = ev._kernels.jacobians(q, pc)["J_rows"]          # (n, legs, 4, 6)
-        if rigid:
-            K3 = mats["K_R"][sl, 3:, 3:]
-            delta = np.zeros((sl.stop - sl.start, 6))
-            delta[:, 3:] = np.linalg.solve(K3, W[sl, 3:, None])[..., 0]
-            tau = np.zeros(jr.shape[:2] + (2,))
-            tau[..., 0] = gk["k_act"][:, None] * np.einsum("nlj,nj->nl", jr[:, :, 0, :], delta)
-        else:
-            delta = np.linalg.solve(mats["K_F"][sl], W[sl, :, None])[..., 0]
-            je = jr[:, :, [0, 3], :]                              # (n, legs, 2, 6)
-            tau = np.einsum("nlab,nlbj,nj->nla", gk["Kqe"], je, delta)
-        K_G[sl] = np.einsum("nla,nlaij->nij", tau, gk["G"])
+    gk = ev._run("gravity", poses, effects, params)         # G, Kqe, k_act and J_rows
+    jr = gk["J_rows"]                                        # (n, legs, 4, 6)
+    if rigid:
+        delta = np.zeros((n, 6))
+        delta[:, 3:] = np.linalg.solve(mats["K_R"][:, 3:, 3:], W[:, 3:, None])[..., 0]
+        tau = np.zeros(jr.shape[:2] + (2,))
+        tau[..., 0] = gk["k_act"][:, None] * np.einsum("nlj,nj->nl", jr[:, :, 0, :], delta)
+    else:
+        delta = np.linalg.solve(mats["K_F"], W[:, :, None])[..., 0]
+        je = jr[:, :, [0, 3], :]                                  # (n, legs, 2, 6)
+        tau = np.einsum("nlab,nlbj,nj->nla", gk["Kqe"], je, delta)
+    K_G = np.einsum("nla,nlaij->nij", tau, gk["G"])
     K_G = 0.5 * (K_G + np.swapaxes(K_G, -1, -2))
     return K_G[:, 3:, 3:] if rigid else K_G

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, SingularPoseError, UnreachablePoseError
+from .errors import InputError
 from .evaluator import AXES, Evaluator
 
 __all__ = ["PoseSet", "SweepSpec", "SweepSummary", "SweepData", "LowestTracker", "make_spec", "parse_values",
@@ -352,44 +352,6 @@ def reachable_rows(ev: Evaluator, poses: np.ndarray, params: dict, model) -> np.
     return ev.valid(poses, model, **params)
 
 
-def _rows(params: dict, mask: np.ndarray, n: int) -> dict:
-    """The rows ``mask`` of per-row parameter arrays; scalars pass through."""
-    return {k: (np.asarray(v)[mask] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
-            for k, v in params.items()}
-
-
-def _modes_or_nan(ev: Evaluator, poses: np.ndarray, model, params: dict, n_modes: int):
-    """Frequencies (Hz), directions and success mask; rows that raise are bisected out."""
-    n = len(poses)
-    try:
-        m = ev.modes(poses, model, **params)
-        return m.freq_hz, m.direction.astype(np.int8), np.ones(n, bool)
-    except (UnreachablePoseError, SingularPoseError, np.linalg.LinAlgError):
-        if n == 1:
-            return np.full((1, n_modes), np.nan), np.full((1, n_modes), -1, np.int8), np.zeros(1, bool)
-    half = np.arange(n) < n // 2
-    parts = [_modes_or_nan(ev, poses[m], model, _rows(params, m, n), n_modes) for m in (half, ~half)]
-    return tuple(np.concatenate(a) for a in zip(*parts))
-
-
-def _fused(ev: Evaluator, poses: np.ndarray, params: dict, model):
-    """``(freq_hz, direction, reachable)`` from the C backend's one-call path
-    (``fused_frequencies``: pose to frequencies and eigentwists, unreachable and singular
-    rows NaN and invalid), or None when the kernels have no such path or the model needs
-    the gravity preload (which that path leaves out)."""
-    from ..description.effects import resolve_model
-
-    fused = getattr(ev._kernels, "fused_frequencies", None)
-    if fused is None or "gravity_preload" in resolve_model(model, ev.effects):
-        return None
-    rigid = ev.kind(model) == "rigid"
-    p = ev._params(len(poses), params, model)
-    out = fused(poses[:, 0], poses[:, 1], poses[:, 2], p, model="rigid" if rigid else "flexible",
-                vectors=True, check=False)
-    direction = np.argmax(np.abs(out["eigentwists"]), axis=-2) + (3 if rigid else 0)   # invalid rows: reset to -1
-    return out["freq_hz"], direction.astype(np.int8), np.asarray(out["valid"], dtype=bool)
-
-
 def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
     """Evaluate chunk ``chunk`` of the sweep: a dict of arrays, one row per product row.
 
@@ -407,23 +369,13 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
     k_a, design = spec.case_values(case)
     params = {**dict(spec.fixed), "k_a": k_a, **{name: design[:, k] for k, name in enumerate(spec.design_names)}}
     ev = _evaluator(spec.robot, spec.backend)
-    n, m = len(rows), spec.n_modes
-    freq, direction = np.full((n, m), np.nan), np.full((n, m), -1, np.int8)
-    fast = _fused(ev, poses, params, spec.model)
-    if fast is not None:
-        freq[:], direction[:], reachable = fast
-        direction[~reachable] = -1
-        return {"pose": poses, "k_a": k_a, "design": design, "freq_hz": freq, "direction": direction,
-                "reachable": reachable, "pose_index": pose_index, "case": case}
-    try:
-        modes = ev.modes(poses, spec.model, **params)
-        freq[:], direction[:], reachable = modes.freq_hz, modes.direction, np.ones(n, bool)
-    except (UnreachablePoseError, SingularPoseError, np.linalg.LinAlgError):
-        reachable = reachable_rows(ev, poses, params, spec.model)
-        if reachable.any():
-            f, d, ok = _modes_or_nan(ev, poses[reachable], spec.model, _rows(params, reachable, n), m)
-            freq[reachable], direction[reachable] = f, d
-            reachable[reachable] = ok
+    # invalid="nan": unreachable or singular rows are NaN and marked, never raise
+    modes = ev.modes(poses, spec.model, invalid="nan", **params)
+    reachable = np.ones(len(rows), bool) if modes.valid is None else np.asarray(modes.valid, bool)
+    freq = modes.freq_hz
+    direction = modes.direction.astype(np.int8)
+    freq[~reachable] = np.nan
+    direction[~reachable] = -1
     return {"pose": poses, "k_a": k_a, "design": design, "freq_hz": freq, "direction": direction,
             "reachable": reachable, "pose_index": pose_index, "case": case}
 
