@@ -6,7 +6,8 @@ import sys
 
 import numpy as np
 
-__all__ = ["CliError", "add_model_options", "parse_sets", "progress", "format_table", "eprint"]
+__all__ = ["CliError", "add_model_options", "add_set_option", "parse_sets", "check_values", "model_and_values",
+           "progress", "format_table", "eprint", "SET_HELP", "MODEL_SYNTAX"]
 
 
 class CliError(Exception):
@@ -15,6 +16,18 @@ class CliError(Exception):
 
 def eprint(*args) -> None:
     print(*args, file=sys.stderr)
+
+
+SET_HELP = ("set a design parameter for this run, SI units: NAME=VALUE, e.g. --set l2=0.60, or one leg's value "
+            "NAME@N=VALUE (leg N = 1, 2, ...), e.g. --set eta_a@3=0.5; repeatable. A CSV column of the same "
+            "name wins over it; it wins over the robot's default")
+MODEL_SYNTAX = ("PRESET or EFFECT items joined by ',' or '+', each optionally with :PARAM=VALUE,... "
+                "(the syntax of synth --truth), e.g. paper:l2=0.60 or rigid,payload_mass:m_p=0.5; none is the bare model")
+
+
+def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
+    """The shared ``--set NAME=VALUE`` / ``--set NAME@N=VALUE`` option (repeatable)."""
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="set", help=help)
 
 
 def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "paper") -> None:
@@ -26,26 +39,90 @@ def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "p
                    help="end-effector position in the base frame, m (default: the robot's x_ref)")
     p.add_argument("--k-a", type=float, dest="k_a", metavar="KA",
                    help="commanded actuator stiffness, N m/rad (default: 2000)")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="override a design parameter in SI units, e.g. --set l2=0.55 (repeatable)")
+    add_set_option(p)
     if model_default is not None:
-        p.add_argument("--model", default=model_default,
-                       help="preset (rigid, paper) or comma-separated effects, e.g. rigid,payload_mass "
-                            f"(default: {model_default})")
+        p.add_argument("--model", default=model_default, help=f"{MODEL_SYNTAX} (default: {model_default})")
+
+
+def _set_name(item: str, name: str) -> str:
+    """``"l2"`` -> ``"l2"``, ``"eta_a@03"`` -> ``"eta_a@3"``; malformed names raise :class:`CliError`."""
+    base, at, leg = name.partition("@")
+    if not base.isidentifier():
+        raise CliError(f"--set {item!r}: {base!r} is not a parameter name: expected NAME=VALUE or NAME@N=VALUE, "
+                       "e.g. --set l2=0.60 or --set eta_a@3=0.5")
+    if not at:
+        return base
+    if not leg.isdigit() or int(leg) < 1:
+        raise CliError(f"--set {item!r}: leg {leg!r} is not a leg number: expected NAME@N=VALUE with N = 1, 2, ..., "
+                       "e.g. --set eta_a@3=0.5")
+    return f"{base}@{int(leg)}"
 
 
 def parse_sets(items: list[str]) -> dict[str, float]:
-    """``["l2=0.55"]`` -> ``{"l2": 0.55}``; malformed items raise :class:`CliError`."""
-    out = {}
+    """``["l2=0.55", "eta_a@3=0.5"]`` -> ``{"l2": 0.55, "eta_a@3": 0.5}``.
+
+    The one parser of ``--set`` for every command. Malformed items (no ``=``, a name
+    that is not an identifier, a leg that is not a positive integer, a value that is
+    not a finite number, one name given twice with different values) raise
+    :class:`CliError` naming the item. Whether the name is a parameter of the robot is
+    checked by :func:`check_values`, per-leg ranges by the evaluator.
+    """
+    import math
+
+    out: dict[str, float] = {}
     for item in items:
         name, sep, value = item.partition("=")
         if not sep or not name.strip():
-            raise CliError(f"--set {item!r}: expected NAME=VALUE, e.g. --set l2=0.55")
+            raise CliError(f"--set {item!r}: expected NAME=VALUE or NAME@N=VALUE, e.g. --set l2=0.60")
+        key = _set_name(item, name.strip())
         try:
-            out[name.strip()] = float(value)
+            number = float(value)
         except ValueError:
-            raise CliError(f"--set {item!r}: value {value!r} is not a number") from None
+            raise CliError(f"--set {item!r}: value {value!r} is not a number (SI units expected)") from None
+        if not math.isfinite(number):
+            raise CliError(f"--set {item!r}: value {value!r} is not finite: expected a number in SI units")
+        if key in out and out[key] != number:
+            raise CliError(f"--set {item!r}: {key} is already set to {out[key]:g}: give it once")
+        out[key] = number
     return out
+
+
+def check_values(values: dict, ev, option: str = "--set") -> dict:
+    """Check that each name of ``values`` is a parameter of ``ev``'s robot (per-leg names
+    by their base name) and within its bounds; return ``values``."""
+    from ..description.names import did_you_mean
+
+    for key, value in values.items():
+        base = key.partition("@")[0]
+        if base not in ev.parameters:
+            raise CliError(f"{option} {key}={value:g}: unknown parameter {base!r} of {ev.robot.name}"
+                           f"{did_you_mean(base, ev.parameters)}; expected one of {', '.join(ev.parameters)}")
+        try:
+            ev.parameters[base].check(value)
+        except ValueError as exc:
+            raise CliError(f"{option} {key}={value:g}: {exc}") from None
+    return values
+
+
+def model_and_values(spec: str, sets: list[str], ev, option: str = "--model") -> tuple[tuple, dict]:
+    """The effects and parameter values of ``--model SPEC`` and ``--set``.
+
+    ``spec`` is a preset or effects, each item optionally carrying ``:PARAM=VALUE,...``
+    (the ``synth --truth`` syntax, :func:`eigentwist.diagnose.synth.parse_truth`);
+    values given both in ``spec`` and by ``--set`` must agree. Returns
+    ``(effects, {name: value})`` in SI units.
+    """
+    from ..description.effects import resolve_model
+    from ..diagnose.synth import parse_truth
+
+    values = check_values(parse_sets(sets), ev)
+    if ":" not in spec:
+        return resolve_model(spec, ev.effects), values
+    truth = parse_truth(spec, ev, what=option)
+    for name, value in truth.values.items():
+        if name in values and values[name] != value:
+            raise CliError(f"{option} {spec!r} sets {name} = {value:g} and --set {name}={values[name]:g}: give it once")
+    return truth.effects, {**values, **truth.values}
 
 
 def progress(iterable=None, **kwargs):

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from .common import CliError
+from .common import MODEL_SYNTAX, CliError, add_set_option, model_and_values
 
 HELP = "compare a model with measured natural frequencies (table, RMS/max error, Fig. 6 style plot)"
 DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Columns:
@@ -14,7 +14,11 @@ DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Colum
   freq_hz   measured natural frequency, Hz (required)
   x, y, z   end-effector position in the base frame, m (optional; default the robot's x_ref)
   sigma_hz  standard uncertainty, Hz (optional; default 2 % of freq_hz)
-  <param>   any model parameter name (e.g. m_e, l2), SI units: overrides it for that row
+  <param>   any model parameter name (e.g. m_e, l2; per leg eta_a@3), SI units: overrides it
+            for that row (and wins over --set); its effect must be in the model
+  damping_ratio, phi_x, phi_y, phi_z   modal-test results (optional; accepted, not used yet)
+Separator ',', ';' or tab (with ';' or tab a decimal comma is accepted); UTF-8 (BOM
+allowed) or UTF-16 with BOM. Two rows with the same pose, k_a and mode are an error.
 Use `paper` as DATA to load the paper's measurements shipped with eigentwist
 (Tables E.1/E.2: modes x and y at x_ref, k_a = 125 ... 4000 N m/rad)."""
 EPILOG = DATA_HELP + """
@@ -25,6 +29,7 @@ error = (predicted - measured) / measured (the paper's App. E); a row fails when
 examples:
   eigentwist compare paper --model rigid          # 13.6 % RMS, 32.9 % max
   eigentwist compare paper --model paper --plot fig6.png
+  eigentwist compare paper --model paper --set l2=0.60     # same as --model paper:l2=0.60
   eigentwist compare data.csv --model rigid,ee_compliance,payload_mass --json
 """
 
@@ -35,38 +40,48 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4; see eigentwist.robots.NAMES)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
+    add_set_option(p)
 
 
 def add_parser(sub):
     p = sub.add_parser("compare", help=HELP, description=HELP, epilog=EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     add_data_options(p)
-    p.add_argument("--model", default="paper",
-                   help="preset (rigid, paper, ...), comma-separated effects, or none (default: paper)")
+    p.add_argument("--model", default="paper", help=f"{MODEL_SYNTAX} (default: paper)")
     p.add_argument("--plot", metavar="FILE.png", help="write a Fig. 6 style plot")
     p.add_argument("--json", action="store_true", help="print one JSON object (rows, rms_pct, max_pct, failing)")
     p.set_defaults(func=run)
 
 
-def load_data(args):
-    """(evaluator, measurements) from the DATA argument; errors become one line."""
+def load_data(args, values: dict | None = None):
+    """(evaluator, measurements) from the DATA argument; errors become one line.
+
+    ``values`` (SI, from ``--set``) fill blank parameter cells and check the poses.
+    """
     from pathlib import Path
 
-    from ..diagnose.evaluators import evaluator
     from ..diagnose.measurements import load_measurements, paper_csv, parse_csv
+
+    ev = evaluator_of(args)
+    if args.data == "paper" and not Path(args.data).exists():
+        return ev, parse_csv(paper_csv(args.robot), f"{args.robot}_paper.csv", ev, values=values)
+    if not Path(args.data).is_file():
+        raise CliError(f"{args.data}: no such file (expected a CSV file of measurements, or `paper`)")
+    return ev, load_measurements(args.data, args.robot, ev, values)
+
+
+def evaluator_of(args):
+    """The cached evaluator of ``--robot`` and ``--backend``."""
+    from ..description.names import did_you_mean
+    from ..diagnose.evaluators import evaluator
     from ..robots import NAMES
 
     if args.robot not in NAMES:
-        raise CliError(f"--robot {args.robot!r}: expected one of {', '.join(NAMES)}")
-    ev = evaluator(args.robot, args.backend)
-    if args.data == "paper" and not Path(args.data).exists():
-        return ev, parse_csv(paper_csv(args.robot), f"{args.robot}_paper.csv", ev)
-    if not Path(args.data).is_file():
-        raise CliError(f"{args.data}: no such file (expected a CSV file of measurements, or `paper`)")
-    return ev, load_measurements(args.data, args.robot, ev)
+        raise CliError(f"--robot {args.robot!r}{did_you_mean(args.robot, NAMES)}: expected one of {', '.join(NAMES)}")
+    return evaluator(args.robot, args.backend)
 
 
-def to_json(cmp) -> dict:
+def to_json(cmp, parameters: list) -> dict:
     from ..diagnose.select import _clean
 
     m = cmp.meas
@@ -76,24 +91,29 @@ def to_json(cmp) -> dict:
              "fails": bool(cmp.failing[i])} for i in range(len(m))]
     return _clean({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
                    "rms_pct": cmp.rms_pct, "max_pct": cmp.max_pct, "chi2": cmp.chi2,
-                   "failing": cmp.where_it_fails()})
+                   "failing": cmp.where_it_fails(), "parameters": parameters})
 
 
 def run(args) -> int:
     from ..diagnose.compare import compare
     from ..diagnose.report import comparison_summary, comparison_table, failing_text
 
-    ev, meas = load_data(args)
-    cmp = compare(meas, args.model, ev)
+    from ..diagnose.values import changed_text, used_parameters
+
+    effects, values = model_and_values(args.model, args.set, evaluator_of(args))
+    ev, meas = load_data(args, values)
+    cmp = compare(meas, effects, ev, values)
+    parameters = used_parameters(ev, effects, values, meas)
     if args.plot:
         from ..diagnose.plots import plot_comparison
 
         plot_comparison(cmp, args.plot, ev)
     if args.json:
-        print(json.dumps(to_json(cmp), allow_nan=False))
+        print(json.dumps(to_json(cmp, parameters), allow_nan=False))
         return 0
     print(f"{meas.robot}: {len(meas)} measured frequencies from {meas.source}; model: "
-          f"{', '.join(cmp.effects) or '(no effect)'} ({ev.kind(cmp.effects)})\n")
+          f"{', '.join(cmp.effects) or '(no effect)'} ({ev.kind(cmp.effects)})")
+    print(changed_text(parameters, meas.robot) + "\n")
     print(comparison_table(cmp))
     print("\n" + comparison_summary(cmp))
     print("where it fails:\n" + "\n".join("  " + t for t in failing_text(cmp)))

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import argparse
 
-from .compare import DATA_HELP, add_data_options, load_data
+from .common import MODEL_SYNTAX
+from .compare import DATA_HELP, add_data_options, evaluator_of, load_data
 
 HELP = "find the physical effect a model is missing from measured frequencies, add it, watch the error fall"
 EPILOG = DATA_HELP + """
@@ -17,10 +18,13 @@ What it does:
      model explains the data within the uncertainties (chi-square test) or an effect outside the
      catalogue is missing.
 --add EFFECT replaces step 4 by your own choice (fitted in the order given).
+--set NAME=VALUE (or --baseline paper:NAME=VALUE) gives the model's values; a parameter the
+diagnosis fits starts from it. A CSV column wins over --set, which wins over the default.
 
 JSON keys: baseline {effects, rms_pct, max_pct, ...}, ranking [{effect, params, param_std, rms_pct,
 max_pct, aicc, p_value, indistinguishable_from, ...}], selected, steps [{effects, rms_pct, max_pct, ...}],
-final {effects, rms_pct, max_pct, explained, ...}, next_measurement, criteria. Units: SI (params), %.
+final {effects, rms_pct, max_pct, explained, ...}, next_measurement, criteria, parameters [{name, value,
+unit, default, differs, source (default, given, data column, fitted), ...}]. Units: SI (params), %.
 
 examples:
   eigentwist diagnose paper                       # the paper's measurements from the rigid model
@@ -34,7 +38,7 @@ def add_parser(sub):
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     add_data_options(p)
     p.add_argument("--baseline", default="rigid",
-                   help="starting model: preset (rigid, paper, ...), comma-separated effects, or none (default: rigid)")
+                   help=f"starting model: {MODEL_SYNTAX} (default: rigid)")
     p.add_argument("--add", action="append", metavar="EFFECT",
                    help="add this effect by hand (fitted) instead of the automatic selection; repeatable or comma-separated")
     p.add_argument("--alpha", type=float, default=None,
@@ -49,14 +53,15 @@ def run(args) -> int:
     from ..diagnose.report import diagnosis_text
     from ..diagnose.select import diagnose
     from ..diagnose.stats import ALPHA
-    from .common import CliError, progress
+    from .common import CliError, model_and_values, progress
 
     alpha = ALPHA if args.alpha is None else args.alpha
     if not 0 < alpha < 1:
         raise CliError(f"--alpha {alpha!r}: expected a probability in (0, 1)")
-    ev, meas = load_data(args)
+    effects, values = model_and_values(args.baseline, args.set, evaluator_of(args), "--baseline")
+    ev, meas = load_data(args, values)
     add = None if not args.add else [e for item in args.add for e in item.split(",") if e.strip()]
-    d = diagnose(meas, args.baseline, ev=ev, add=add, alpha=alpha, progress=progress)
+    d = diagnose(meas, effects, ev=ev, add=add, alpha=alpha, progress=progress, values=values)
     if args.plot:
         from ..diagnose.plots import plot_diagnosis
 

@@ -3,8 +3,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
+from ..runtime.errors import BackendUnavailableError
 from .common import CliError
 
 # Subcommands are the modules of this package that define ``add_parser``; this order
@@ -47,7 +49,14 @@ def main(argv=None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
-    except (CliError, ValueError, OSError, KeyError) as exc:
+    except BrokenPipeError:
+        # the reader stopped reading (``eigentwist diagnose paper | head -1``): what it took
+        # was what it wanted, so this is no error; point stdout at devnull so that the
+        # interpreter's final flush does not raise again (Python docs, "Note on SIGPIPE")
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except (CliError, ValueError, OSError, KeyError, BackendUnavailableError) as exc:
         if args.debug:
             raise
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

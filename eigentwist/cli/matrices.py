@@ -6,17 +6,27 @@ import json
 
 import numpy as np
 
-from .common import add_model_options, format_table, parse_sets
+from .common import add_model_options, format_table
 
 HELP = "M, K_R, K_F, natural frequencies and eigentwists at one pose"
 EPILOG = """examples:
   eigentwist matrices                                 # Heli4 at x_ref = [0, 0, -0.625] m, k_a = 2000 N m/rad
   eigentwist matrices --pose 0.05 0 -0.6 --k-a 1000 --json
   eigentwist matrices --set l2=0.55 --model rigid,payload_mass --set m_p=0.5
+  eigentwist matrices --model paper:l2=0.55           # the same as --model paper --set l2=0.55
 
-JSON keys: pose, k_a, joint_angles_deg (per leg), M, K_R, K_F (6x6), freq_rigid_hz (3),
-freq_flexible_hz (6), eigentwists_rigid (3x3), eigentwists_flexible (6x6); eigentwists are
-columns, one per mode, scaled so the largest entry is +1. Units: kg, kg m, kg m^2; N/m, N, N m/rad.
+M, K_R and K_F are the printed model's (its effects switched on). Its natural frequencies
+and eigentwists come from those matrices: a rigid model (no structural compliance) from
+the 3x3 translational subsets of M and K_R (as the paper does), a flexible one from the
+full M and K_F (plus the gravity preload when gravity_preload is on).
+
+JSON keys: robot, model, kind (rigid or flexible), frequencies_from, pose, k_a,
+joint_angles_deg (per leg), M, K_R, K_F (6x6), freq_hz and eigentwists (the model's: 3 or 6
+modes), freq_rigid_hz (3, from the printed M and K_R, 3x3 translational subsets),
+freq_flexible_hz (6, from the printed M and K_F), eigentwists_rigid (3x3),
+eigentwists_flexible (6x6), parameters [{name, value, unit, default, differs, source}];
+eigentwists are columns, one per mode, scaled so the largest entry is +1. Units: kg, kg m,
+kg m^2; N/m, N, N m/rad; Hz.
 """
 
 
@@ -28,55 +38,79 @@ def add_parser(sub):
     p.set_defaults(func=run)
 
 
+FROM = {"rigid": "M and K_R, 3x3 translational subsets", "flexible": "M and K_F, 6x6"}
+
+
+def _modes_of(M, K):
+    from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+
+    lam, V = generalized_eigh(K, M)
+    return frequencies_hz(lam)[0], normalize_eigentwists(V)[0]
+
+
 def compute(args) -> dict:
-    from ..description.effects import STRUCTURAL, resolve_model
+    from ..diagnose.values import used_parameters
     from ..runtime import load
+    from .common import model_and_values
+    from .poses import check_pose
 
     ev = load(args.robot, backend=args.backend)
     pose = np.array(args.pose if args.pose else ev.robot.x_ref, dtype=float)
-    params = parse_sets(args.set)
+    effects, params = model_and_values(args.model, args.set, ev)
     if args.k_a is not None:
         params["k_a"] = args.k_a
-    effects = resolve_model(args.model, ev.effects)
-    # the JSON carries both models: the structural effects of the chosen model (or, for a
-    # rigid choice, of the robot's "paper" preset) make the flexible one
-    structural = tuple(e for e in resolve_model("paper", ev.effects) if e in STRUCTURAL)
-    flex_model = effects if ev.kind(effects) == "flexible" else tuple(effects) + structural
-    rigid_model = tuple(e for e in effects if e not in STRUCTURAL)
+    check_pose(ev, pose, effects, params)
     mats = ev.matrices(pose, effects, **params)
     q = ev.joint_angles(pose, **params)[0]
-    rigid = ev.modes(pose, rigid_model, **params)
-    flex = ev.modes(pose, flex_model, **params)
+    model = ev.modes(pose, effects, **params)
+    f_rigid, v_rigid = _modes_of(mats["M"][:, 3:, 3:], mats["K_R"][:, 3:, 3:])
+    f_flex, v_flex = _modes_of(mats["M"], mats["K_F"])
+    kind = ev.kind(effects)
+    source = FROM[kind] + (" + gravity preload" if "gravity_preload" in effects else "")
     return {
         "robot": ev.robot.name,
         "model": list(effects),
+        "kind": kind,
+        "frequencies_from": source,
         "pose": pose.tolist(),
         "k_a": params.get("k_a", ev.defaults["k_a"]),
         "joint_angles_deg": {leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)},
         "M": mats["M"][0].tolist(),
         "K_R": mats["K_R"][0].tolist(),
         "K_F": mats["K_F"][0].tolist(),
-        "freq_rigid_hz": rigid.freq_hz[0].tolist(),
-        "freq_flexible_hz": flex.freq_hz[0].tolist(),
-        "eigentwists_rigid": rigid.eigentwists[0].tolist(),
-        "eigentwists_flexible": flex.eigentwists[0].tolist(),
+        "freq_hz": model.freq_hz[0].tolist(),
+        "eigentwists": model.eigentwists[0].tolist(),
+        "freq_rigid_hz": f_rigid.tolist(),
+        "freq_flexible_hz": f_flex.tolist(),
+        "eigentwists_rigid": v_rigid.tolist(),
+        "eigentwists_flexible": v_flex.tolist(),
+        "parameters": used_parameters(ev, effects, params),
     }
 
 
 def run(args) -> int:
+    from ..diagnose.values import changed_text
+
     out = compute(args)
     if args.json:
         print(json.dumps(out))
         return 0
-    print(f"{out['robot']} at pose {out['pose']} m, k_a = {out['k_a']:g} N m/rad, model: {', '.join(out['model'])}")
+    print(f"{out['robot']} at pose {out['pose']} m, k_a = {out['k_a']:g} N m/rad, model: "
+          f"{', '.join(out['model']) or '(no effect)'} ({out['kind']})")
+    print(changed_text([r for r in out["parameters"] if r["name"] != "k_a"], out["robot"]))
     print("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)
                                              for k, vals in out["joint_angles_deg"].items()))
     axes = ["rx", "ry", "rz", "x", "y", "z"]
     for key, fmt in (("M", ".6f"), ("K_R", ".2f"), ("K_F", ".2f")):
-        print(f"\n{key}:")
+        print(f"\n{key} (model: {', '.join(out['model']) or 'no effect'}):")
         print(format_table([""] + axes, [[a] + row for a, row in zip(axes, out[key])], fmt))
-    print("\nnatural frequencies, rigid (K_R, 3x3 translational), Hz: " + ", ".join(f"{f:.3f}" for f in out["freq_rigid_hz"]))
-    print("natural frequencies, flexible (K_F), Hz: " + ", ".join(f"{f:.3f}" for f in out["freq_flexible_hz"]))
-    print("\neigentwists, flexible (columns):")
-    print(format_table([""] + [f"w{k + 1}" for k in range(6)], [[a] + row for a, row in zip(axes, out["eigentwists_flexible"])], ".3f"))
+    n = len(out["freq_hz"])
+    print(f"\nnatural frequencies of this {out['kind']} model (from {out['frequencies_from']}), Hz: "
+          + ", ".join(f"{f:.3f}" for f in out["freq_hz"]))
+    other = "flexible" if out["kind"] == "rigid" else "rigid"
+    print(f"(for reference, from the printed {FROM[other]}: "
+          + ", ".join(f"{f:.3f}" for f in out[f"freq_{other}_hz"]) + " Hz; not this model's frequencies)")
+    print(f"\neigentwists of this model (columns; {', '.join(axes[6 - n:])}):")
+    print(format_table([""] + [f"w{k + 1}" for k in range(n)],
+                       [[a] + row for a, row in zip(axes[6 - n:], out["eigentwists"])], ".3f"))
     return 0

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .names import did_you_mean
+
 __all__ = ["Effect", "EFFECTS", "PRESETS", "STRUCTURAL", "resolve_model", "switch_name"]
 
 
@@ -100,8 +102,9 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
         elif item in EFFECTS:
             names.add(item)
         else:
-            valid = ", ".join(list(PRESETS) + list(EFFECTS))
-            raise ValueError(f"unknown model or effect {item!r}: expected one of {valid}")
+            valid = list(PRESETS) + list(EFFECTS)
+            raise ValueError(f"unknown model or effect {item!r}{did_you_mean(item, valid)}: "
+                             f"expected one of {', '.join(valid)}")
     if available is not None:
         missing = sorted(names - set(available))
         if missing:

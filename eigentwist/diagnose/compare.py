@@ -84,14 +84,19 @@ class Comparison:
         return {"effects": list(self.effects), "rms_pct": self.rms_pct, "max_pct": self.max_pct}
 
 
-def compare(meas, model="rigid", ev=None, values: dict | None = None) -> Comparison:
+def compare(meas, model="rigid", ev=None, values: dict | None = None, check: bool = True) -> Comparison:
     """Compare ``model`` (preset, effect list or ``"none"``) with the measurements.
 
     ``values`` override parameter defaults (SI units; the measurements' own parameter
     columns win). Mode labels are matched strictly: a direction no mode points along is
-    an error naming the line.
+    an error naming the line. With ``check``, a parameter column of an effect the model
+    lacks is an error naming the column (:func:`~.measurements.check_columns`).
     """
+    from .measurements import check_columns
+
     ev = resolve(ev, meas.robot)
     effects = resolve_model(model, ev.effects)
+    if check:
+        check_columns(meas, effects, ev)
     pred, idx = Predictor(meas, effects, ev, values).predict(strict=True)
     return Comparison(meas, effects, pred, idx, dict(values or {}))

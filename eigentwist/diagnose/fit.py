@@ -205,8 +205,10 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     effects : tuple of effect names (the model).
     ev : evaluator.
     names : parameters to fit (SI); parameters given as data columns are not fitted.
-    start : start values (default: ``fixed`` values, else the parameter defaults).
-    fixed : other parameter values (SI) held fixed (e.g. from an earlier step).
+    start : start values (default: the ``fixed`` value of a fitted name, e.g. ``--set``,
+        else the parameter default).
+    fixed : parameter values (SI) held fixed (e.g. from an earlier step or ``--set``);
+        a name also in ``names`` is fitted, starting from this value.
     explore : names whose start is screened over a grid (default: all).
 
     Returns
@@ -214,7 +216,8 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     :class:`FitResult`.
     """
     names = tuple(n for n in names if n not in meas.params)
-    fixed = {k: v for k, v in (fixed or {}).items() if k not in names}
+    given = dict(fixed or {})
+    fixed = {k: v for k, v in given.items() if k not in names}
     predictor = Predictor(meas, effects, ev, fixed)
     n = len(meas)
     if not names:
@@ -222,7 +225,7 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
         chi2 = comp.chi2
         return FitResult(tuple(effects), (), {}, {}, dict(fixed), comp, chi2, n, 0, aicc(chi2, n, 0))
     transforms = [Transform.of(ev.parameters[nm]) for nm in names]
-    start = {nm: float((start or {}).get(nm, fixed.get(nm, ev.parameters[nm].default))) for nm in names}
+    start = {nm: float((start or {}).get(nm, given.get(nm, ev.parameters[nm].default))) for nm in names}
     obj = _Objective(predictor, transforms)
     table = _starts(transforms, start, set(names if explore is None else explore))
     best = table[int(np.argmin(obj.chi2_of(table)))]

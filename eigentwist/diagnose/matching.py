@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..description.names import did_you_mean
 from ..runtime import AXES, InputError
 
 __all__ = ["ModeMatchError", "parse_mode", "match_modes", "DIRECTIONS"]
@@ -33,7 +34,7 @@ def parse_mode(label) -> str:
         return text
     if text.isdigit() and int(text) >= 1:
         return str(int(text))
-    raise ValueError(f"unknown mode label {label!r}: expected a rank 1, 2, ... (1 = lowest) "
+    raise ValueError(f"unknown mode label {label!r}{did_you_mean(text, DIRECTIONS)}: expected a rank 1, 2, ... (1 = lowest) "
                      f"or a direction {', '.join(DIRECTIONS)}")
 
 

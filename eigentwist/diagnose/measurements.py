@@ -8,8 +8,18 @@ blank lines are skipped):
   ``rz``; see :mod:`eigentwist.diagnose.matching`), ``freq_hz`` (measured frequency, Hz);
 * optional: ``x``, ``y``, ``z`` (end-effector position in the base frame, m; default the
   robot's x_ref), ``sigma_hz`` (standard uncertainty, Hz; default 2 % of ``freq_hz``),
-  and any column named after a model parameter (SI units), which overrides that
-  parameter for its row. A blank optional cell takes the default.
+  and any column named after a model parameter (SI units; per leg ``NAME@N``), which
+  overrides that parameter for its row; ``damping_ratio``, ``phi_x``, ``phi_y``,
+  ``phi_z`` (modal-test results, accepted and not used yet). A blank optional cell
+  takes the default (or the value given for the run, e.g. ``--set``).
+
+Files as spreadsheets export them are accepted: the separator is ``,``, ``;`` or a tab
+(whichever splits the header into the most columns); with ``;`` or a tab a decimal
+comma (``15,5``) is read as a decimal point; a UTF-8 BOM, a UTF-16 BOM and CRLF line
+ends are accepted. Two rows with the same pose, ``k_a``, mode and parameter columns
+are an error naming both lines (they would count twice in chi2): average them first.
+A parameter column whose effect the model lacks is an error where the measurements meet
+the model (:func:`check_columns`).
 
 Every error names the file, the line (the header is line 1) and the column.
 """
@@ -24,15 +34,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..runtime import EigentwistError, InputError
+from ..description.names import did_you_mean
+from ..runtime import InputError, SingularPoseError, UnreachablePoseError
 from .evaluators import resolve
 from .matching import parse_mode
 
 __all__ = ["Measurements", "MeasurementError", "load_measurements", "paper_measurements", "paper_csv",
-           "REQUIRED", "OPTIONAL", "DEFAULT_SIGMA_REL", "check_poses"]
+           "REQUIRED", "OPTIONAL", "DOCUMENTED", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
 
 REQUIRED = ("k_a", "mode", "freq_hz")
 OPTIONAL = ("x", "y", "z", "sigma_hz")
+DOCUMENTED = ("damping_ratio", "phi_x", "phi_y", "phi_z")   # modal-test columns: accepted, not used yet
+SEPARATORS = {",": "','", ";": "';'", "\t": "a tab"}
 DEFAULT_SIGMA_REL = 0.02      # default standard uncertainty: 2 % of the measured value
 
 
@@ -163,18 +176,27 @@ def _number(text: str, source: str, line: int, column: str, positive: bool) -> f
     return value
 
 
+def _parameter(name: str, ev):
+    """The Parameter a column names (``l2``, or per leg ``eta_a@3``), or None."""
+    base, at, leg = name.partition("@")
+    if base not in ev.parameters or (at and not (leg.isdigit() and int(leg) >= 1)):
+        return None
+    return ev.parameters[base]
+
+
 def _header(cells: list[str], source: str, ev) -> list[str]:
     names = [c.strip() for c in cells]
-    allowed = set(REQUIRED) | set(OPTIONAL) | set(ev.parameters)
+    known = REQUIRED + OPTIONAL + DOCUMENTED
     for k, name in enumerate(names):
         if not name:
             raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
         if names.index(name) != k:
             raise MeasurementError(source, f"column {name!r} appears twice (columns {names.index(name) + 1} and {k + 1})", 1, name)
-        if name not in allowed:
+        if name not in known and _parameter(name, ev) is None:
+            hint = did_you_mean(name, list(known) + list(ev.parameters))
             raise MeasurementError(
-                source, f"unknown column (column {k + 1}): not one of {', '.join(REQUIRED + OPTIONAL)} and not a "
-                f"parameter of {ev.robot.name} (parameters: {', '.join(ev.parameters)})", 1, name)
+                source, f"unknown column (column {k + 1}){hint}: not one of {', '.join(known)} and not a "
+                f"parameter of {ev.robot.name} (NAME or NAME@LEG; parameters: {', '.join(ev.parameters)})", 1, name)
     for name in REQUIRED:
         if name not in names:
             raise MeasurementError(source, f"missing required column {name!r} (header: {', '.join(names)}); "
@@ -182,19 +204,49 @@ def _header(cells: list[str], source: str, ev) -> list[str]:
     return names
 
 
-def _records(text: str, source: str):
-    """(line number, cells) of the header and data rows, skipping blank and ``#`` lines."""
-    reader = csv.reader(io.StringIO(text))
-    for cells in reader:
-        if not cells or all(not c.strip() for c in cells) or cells[0].lstrip().startswith("#"):
-            continue
-        yield reader.line_num, cells
+def _separator(text: str, source: str) -> str:
+    """The separator that splits the header line into the most columns (``,`` on a tie)."""
+    header = next((ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
+    best = max(SEPARATORS, key=lambda sep: (header.count(sep), sep == ","))
+    if header.count(best) == 0 and header.strip():
+        raise MeasurementError(source, f"header {header.strip()[:60]!r} has a single column: expected the columns "
+                               f"{', '.join(REQUIRED)}, ... separated by ',', ';' or a tab", 1)
+    return best
 
 
-def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4") -> Measurements:
-    """Parse and validate CSV ``text`` (see the module docstring); ``source`` names it in errors."""
+def _records(text: str, source: str, sep: str = ","):
+    """(line number, cells) of the header and data rows, skipping blank and ``#`` lines.
+
+    With ``;`` or tab separators a decimal comma in a data cell becomes a point.
+    """
+    reader = csv.reader(io.StringIO(text, newline=""), delimiter=sep)
+    first = True
+    try:
+        for cells in reader:
+            if not cells or all(not c.strip() for c in cells) or cells[0].lstrip().startswith("#"):
+                continue
+            if sep != "," and not first:
+                cells = [c.replace(",", ".") for c in cells]
+            first = False
+            yield reader.line_num, cells
+    except csv.Error as exc:
+        raise MeasurementError(source, f"not readable as CSV ({exc}): expected text with one row per line",
+                               reader.line_num or None) from None
+
+
+def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", values: dict | None = None) -> Measurements:
+    """Parse and validate CSV ``text`` (see the module docstring); ``source`` names it in errors.
+
+    ``values`` (SI) replace the robot's defaults for blank parameter cells and for the
+    reachability check of the poses (the values given for the run, e.g. ``--set``).
+    """
     ev = resolve(ev, robot)
-    records = list(_records(text, source))
+    values = dict(values or {})
+    if "\0" in text:
+        raise MeasurementError(source, "contains NUL characters: expected a text file (CSV)")
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    records = list(_records(text, source, _separator(text, source)))
     if not records:
         raise MeasurementError(source, "empty file: expected a header line with the columns "
                                f"{', '.join(REQUIRED)} and one row per measured frequency")
@@ -218,12 +270,41 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4") 
                       for s, f in zip(cols.get("sigma_hz", [None] * n), freq)], dtype=float)
     poses = np.stack([np.array([v if v is not None else x_ref[k] for v in cols.get(a, [None] * n)], dtype=float)
                       for k, a in enumerate("xyz")], axis=1)
-    params = {name: np.array([v if v is not None else ev.parameters[name].default for v in cols[name]], dtype=float)
-              for name in names if name in ev.parameters and name != "k_a"}
+    params = {}
+    for name in names:
+        p = _parameter(name, ev) if name not in REQUIRED + OPTIONAL + DOCUMENTED else None
+        if p is not None:
+            fill = values.get(name, values.get(p.name, p.default))
+            params[name] = np.array([v if v is not None else fill for v in cols[name]], dtype=float)
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
                         np.array(lines), source, ev.robot.name)
-    check_poses(meas, ev)
+    _check_duplicates(meas)
+    check_poses(meas, ev, values)
     return meas
+
+
+def _check_duplicates(meas: Measurements) -> None:
+    """Two rows with the same conditions would count twice in chi2: an error naming both lines."""
+    seen: dict = {}
+    for i in range(len(meas)):
+        key = (tuple(meas.poses[i]), float(meas.k_a[i]), meas.mode[i], *(float(v[i]) for v in meas.params.values()))
+        if key in seen:
+            j = seen[key]
+            raise MeasurementError(
+                meas.source, f"duplicate of line {int(meas.lines[j])} (same pose {meas.poses[i].tolist()} m, k_a = "
+                f"{meas.k_a[i]:g} N m/rad, mode {meas.mode[i]}): give one row per condition (average repeated "
+                "measurements and state their sigma_hz)", int(meas.lines[i]))
+        seen[key] = i
+
+
+def check_columns(meas: Measurements, effects, ev, what: str = "the model") -> None:
+    """Raise :class:`MeasurementError` for a parameter column whose effect is not in ``effects``."""
+    for name in meas.params:
+        p = _parameter(name, ev)
+        if p is not None and p.effect is not None and p.effect not in effects:
+            raise MeasurementError(
+                meas.source, f"parameter column of effect {p.effect}, which {what} ({', '.join(effects) or 'no effect'}) "
+                f"does not have: add {p.effect} to the model or drop the column", 1, name)
 
 
 def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
@@ -242,7 +323,9 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
         return _number(cell, source, line, name, positive=False)
     if name in ("k_a", "freq_hz", "sigma_hz"):
         return _number(cell, source, line, name, positive=True)
-    p = ev.parameters[name]
+    if name in DOCUMENTED:
+        return _number(cell, source, line, name, positive=False)
+    p = _parameter(name, ev)
     value = _number(cell, source, line, name, positive=p.bounds[0] >= 0)
     try:
         p.check(value)
@@ -251,32 +334,44 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
     return value
 
 
-def check_poses(meas: Measurements, ev) -> None:
-    """Raise :class:`MeasurementError` naming the line of the first unreachable or singular pose."""
+def check_poses(meas: Measurements, ev, values: dict | None = None) -> None:
+    """Raise :class:`MeasurementError` naming the line of the first unreachable or singular pose.
+
+    ``values`` (SI) are the parameter values of the run where no column gives one.
+    """
+    given = {k: v for k, v in (values or {}).items() if k not in meas.params}
     try:
-        ev.jacobians(meas.poses, **meas.params)
+        ev.jacobians(meas.poses, **given, **meas.params)
         return
-    except EigentwistError:
+    except (UnreachablePoseError, SingularPoseError):
         pass
     for i in range(len(meas)):
         try:
-            ev.jacobians(meas.poses[i], **{k: v[i] for k, v in meas.params.items()})
-        except EigentwistError as exc:
+            ev.jacobians(meas.poses[i], **given, **{k: v[i] for k, v in meas.params.items()})
+        except (UnreachablePoseError, SingularPoseError) as exc:
             raise MeasurementError(meas.source, str(exc), int(meas.lines[i]), "x, y, z") from None
 
 
-def load_measurements(path, robot: str = "heli4", ev=None) -> Measurements:
+def _decode(data: bytes, name: str) -> str:
+    """Text of a file: UTF-16 with a BOM, else UTF-8 (a BOM is dropped)."""
+    try:
+        if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+            return data.decode("utf-16")
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise MeasurementError(name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start}): save it as "
+                               "UTF-8 CSV") from None
+
+
+def load_measurements(path, robot: str = "heli4", ev=None, values: dict | None = None) -> Measurements:
     """Read and validate a measurement CSV file (see the module docstring).
 
-    Raises :class:`MeasurementError` (an ``InputError``/``ValueError``) naming the
-    file, line and column of the first problem; ``OSError`` if the file is unreadable.
+    ``values``: see :func:`parse_csv`. Raises :class:`MeasurementError` (an
+    ``InputError``/``ValueError``) naming the file, line and column of the first
+    problem; ``OSError`` if the file is unreadable.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise MeasurementError(path.name, f"not a UTF-8 text file ({exc.reason})") from None
-    return parse_csv(text, str(path), ev, robot)
+    return parse_csv(_decode(path.read_bytes(), str(path)), str(path), ev, robot, values)
 
 
 def paper_csv(robot: str = "heli4") -> str:

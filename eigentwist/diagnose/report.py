@@ -8,6 +8,7 @@ import numpy as np
 from ..cli.common import format_table
 from .compare import FAIL_SIGMA
 from .stats import CRITERIA
+from .values import changed_text
 
 __all__ = ["comparison_table", "comparison_summary", "failing_text", "diagnosis_text", "format_params"]
 
@@ -87,7 +88,8 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     """The full diagnosis as text (sections 1-4 of the issue)."""
     m = d.meas
     out = [f"{d.robot}: {len(m)} measured frequencies from {m.source}; baseline: "
-           f"{', '.join(d.baseline.effects) or '(no effect)'}", ""]
+           f"{', '.join(d.baseline.effects) or '(no effect)'}"]
+    out += [changed_text([r for r in d.parameters if r["source"] != "fitted"], d.robot), ""]
     out += ["1. Baseline", "   " + comparison_summary(d.baseline), "   where it fails:"]
     out += ["     " + t for t in failing_text(d.baseline)]
     out += ["   residual pattern:"] + ["     - " + h for h in (d.hints or ["no clear pattern over k_a"])]

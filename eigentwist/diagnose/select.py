@@ -32,6 +32,7 @@ from .fit import FitResult, fit
 from .predict import Predictor
 from .patterns import classify, hints
 from .separate import next_measurement
+from .values import used_parameters
 from .stats import ALPHA, CRITERIA, explained, f_test, gof_p_value, indistinguishable
 
 __all__ = ["Candidate", "Step", "Diagnosis", "diagnose", "rank_candidates", "candidates_for"]
@@ -99,6 +100,7 @@ class Diagnosis:
     hints: list
     alpha: float = ALPHA
     manual: bool = False
+    parameters: list = field(default_factory=list)
 
     @property
     def final_comparison(self) -> Comparison:
@@ -149,6 +151,7 @@ class Diagnosis:
                       "hints": self.final_hints},
             "next_measurement": self.next_measurement,
             "manual": self.manual, "alpha": self.alpha, "criteria": CRITERIA,
+            "parameters": self.parameters,
         })
 
     def json(self, **kwargs) -> str:
@@ -273,7 +276,7 @@ def _effect_list(add, ev) -> list[str]:
 
 
 def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None, alpha: float = ALPHA,
-             progress=None, backend: str = "numpy") -> Diagnosis:
+             progress=None, backend: str = "numpy", values: dict | None = None) -> Diagnosis:
     """Diagnose what ``baseline`` misses on the measurements ``meas``.
 
     Parameters
@@ -286,6 +289,9 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
         selection.
     alpha : significance level (F test; goodness of fit for ``explained``).
     progress : optional wrapper of an iterable (e.g. ``eigentwist.cli.common.progress``).
+    values : parameter values (SI) of the model instead of the robot's defaults (``--set``;
+        the measurements' columns win); a fitted parameter starts from its value here.
+        A parameter column whose effect is in neither the baseline nor ``add`` is an error.
 
     Returns
     -------
@@ -293,12 +299,18 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     """
     from .measurements import load_measurements
 
+    from .measurements import check_columns
+
+    values = dict(values or {})
     if not hasattr(meas, "freq_hz"):
-        meas = load_measurements(meas, robot or "heli4", ev)
+        meas = load_measurements(meas, robot or "heli4", ev, values)
     ev = resolve(ev, robot or meas.robot, backend)
     base_effects = resolve_model(baseline, ev.effects)
-    base_cmp = compare(meas, base_effects, ev)                       # strict mode matching
-    current = fit(meas, base_effects, ev, ())
+    manual_effects = _effect_list(add, ev) if add is not None else []
+    check_columns(meas, tuple(base_effects) + tuple(manual_effects), ev,
+                  "the baseline" + (" with the added effects" if manual_effects else ""))
+    base_cmp = compare(meas, base_effects, ev, values, check=False)  # strict mode matching
+    current = fit(meas, base_effects, ev, (), fixed=values)
     steps = [Step(current)]
     first = None
     manual = add is not None
@@ -339,4 +351,4 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
         selected=[s.added for s in steps[1:]], steps=steps, final=current,
         explained=explained(current.chi2, current.n, current.k, alpha),
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
-        manual=manual)
+        manual=manual, parameters=used_parameters(ev, current.effects, values, meas, current.values))

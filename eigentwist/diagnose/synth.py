@@ -18,6 +18,7 @@ import itertools
 import numpy as np
 
 from ..description.effects import EFFECTS, PRESETS, resolve_model
+from ..description.names import did_you_mean
 from ..runtime import InputError, Modes
 from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .evaluators import resolve
@@ -38,40 +39,46 @@ class Truth:
         return f"Truth(effects={self.effects}, values={self.values})"
 
 
-def parse_truth(spec: str, ev) -> Truth:
-    """Parse ``PRESET[+EFFECT:PARAM=VALUE,...]`` (see module doc); errors name the item."""
+def parse_truth(spec: str, ev, what: str = "truth") -> Truth:
+    """Parse ``PRESET[+EFFECT:PARAM=VALUE,...]`` (see module doc); errors name the item.
+
+    ``what`` names the spec in messages (``"truth"``, ``"--model"``); the same syntax
+    gives ``--model`` of the commands that evaluate a model.
+    """
     if not isinstance(spec, str) or not spec.strip():
-        raise InputError("truth spec is empty: expected PRESET[+EFFECT:PARAM=VALUE,...], e.g. paper+payload_mass:m_p=0.5")
+        raise InputError(f"{what} spec is empty: expected PRESET[+EFFECT:PARAM=VALUE,...], e.g. paper+payload_mass:m_p=0.5")
     names: list[str] = []
     values: dict[str, float] = {}
     for item in spec.split("+"):
         head, _, tail = item.partition(":")
-        head = head.strip()
-        if head.lower() != "none":
+        for head in filter(None, (h.strip() for h in head.split(","))):
+            if head.lower() == "none":
+                continue
             if head not in PRESETS and head not in EFFECTS:
-                raise InputError(f"truth item {item!r}: {head!r} is not a preset or effect "
-                                 f"(expected one of {', '.join(list(PRESETS) + list(ev.effects))} or none)")
+                valid = list(PRESETS) + list(ev.effects)
+                raise InputError(f"{what} item {item!r}: {head!r} is not a preset or effect{did_you_mean(head, valid)} "
+                                 f"(expected one of {', '.join(valid)} or none)")
             names.append(head)
         for assignment in filter(None, (a.strip() for a in tail.split(","))):
             name, sep, text = assignment.partition("=")
             name = name.strip()
             if not sep:
-                raise InputError(f"truth item {item!r}: {assignment!r} is not PARAM=VALUE")
+                raise InputError(f"{what} item {item!r}: {assignment!r} is not PARAM=VALUE")
             if name not in ev.parameters:
-                raise InputError(f"truth item {item!r}: unknown parameter {name!r} "
+                raise InputError(f"{what} item {item!r}: unknown parameter {name!r}{did_you_mean(name, ev.parameters)} "
                                  f"(parameters of {ev.robot.name}: {', '.join(ev.parameters)})")
             try:
                 values[name] = float(text)
             except ValueError:
-                raise InputError(f"truth item {item!r}: value {text!r} of {name} is not a number") from None
+                raise InputError(f"{what} item {item!r}: value {text!r} of {name} is not a number") from None
             try:
                 ev.parameters[name].check(values[name])
             except ValueError as exc:
-                raise InputError(f"truth item {item!r}: {exc}") from None
+                raise InputError(f"{what} item {item!r}: {exc}") from None
     try:
         effects = resolve_model(names, ev.effects)
     except ValueError as exc:
-        raise InputError(f"truth {spec!r}: {exc}") from None
+        raise InputError(f"{what} {spec!r}: {exc}") from None
     return Truth(effects, values)
 
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from .ccompile import CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
 from .eigen import normalize_eigentwists
+from .errors import BackendUnavailableError
 
 __all__ = ["load_c_kernels", "CKernels", "CompilerNotFoundError", "CompileError", "find_compiler",
            "cache_dir", "build_library", "flag_sets", "source_path"]
@@ -32,7 +33,7 @@ ABI_VERSION = 1
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
 
-class CompileError(RuntimeError):
+class CompileError(BackendUnavailableError):
     """The compiler failed on every flag set (the message holds its output)."""
 
 

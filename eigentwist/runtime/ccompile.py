@@ -17,10 +17,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .errors import BackendUnavailableError
+
 __all__ = ["CompilerNotFoundError", "find_compiler", "compiler_version", "flag_sets", "cache_dir", "build_library"]
 
 
-class CompilerNotFoundError(RuntimeError):
+class CompilerNotFoundError(BackendUnavailableError):
     """No C compiler: ``$CC`` is not an executable, or neither ``cc`` nor ``gcc`` is on PATH."""
 
 
@@ -103,6 +105,7 @@ def build_library(source: str, name: str, cc: str, flags: list[str], directory: 
     try:
         with os.fdopen(fd, "w") as f:
             f.write(source)
+        print(f"eigentwist: compiling {name} with {cc} (once; cached in {directory})", file=sys.stderr, flush=True)
         subprocess.run([cc, *flags, "-o", tmp, src, "-lm"], check=True, capture_output=True, text=True)
         os.replace(tmp, target)
     finally:

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..description import RobotDescription
 from ..description.effects import STRUCTURAL, resolve_model, switch_name
+from ..description.names import did_you_mean
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .errors import InputError
 from .validity import LEVER_TOL, lever_mask, raise_singular, raise_unreachable, reachable_mask
@@ -86,7 +87,8 @@ class Evaluator:
     def _params(self, n: int, params: dict, model) -> dict:
         unknown = sorted(set(params) - set(self.parameters))
         if unknown:
-            raise InputError(f"unknown parameter(s) {', '.join(map(repr, unknown))} for {self.robot.name}: "
+            raise InputError(f"unknown parameter(s) {', '.join(map(repr, unknown))} for {self.robot.name}"
+                             f"{did_you_mean(unknown[0], self.parameters)}: "
                              f"expected names from {', '.join(self.parameters)}")
         effects = resolve_model(model, self.effects)
         out = {}

@@ -4,8 +4,9 @@ from __future__ import annotations
 import importlib
 import warnings
 
+from ..description.names import did_you_mean
 from ..robots import NAMES, get
-from .errors import InputError
+from .errors import BackendUnavailableError, InputError
 from .evaluator import Evaluator
 
 __all__ = ["load", "load_module", "evaluator_from_description", "BACKENDS"]
@@ -23,10 +24,11 @@ def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
 
     ``backend="numpy"`` uses the generated NumPy module; ``"c"`` the generated C source
     compiled with the system compiler (cached by content hash); ``"auto"`` tries C and
-    falls back to NumPy with one warning when no compiler is available.
+    falls back to NumPy with one warning when no compiler is available. ``"c"`` without
+    a working compiler raises :class:`BackendUnavailableError`.
     """
     if robot not in NAMES:
-        raise InputError(f"unknown robot {robot!r}: expected one of {', '.join(NAMES)}")
+        raise InputError(f"unknown robot {robot!r}{did_you_mean(robot, NAMES)}: expected one of {', '.join(NAMES)}")
     if backend not in BACKENDS:
         raise InputError(f"unknown backend {backend!r}: expected one of {', '.join(BACKENDS)}")
     description = get(robot)
@@ -44,8 +46,10 @@ def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
     try:
         kernels = load_c_kernels(robot, module)
     except Exception as exc:  # compiler missing or failing: reported, never swallowed silently
-        if backend == "c":
+        if backend == "c" and isinstance(exc, BackendUnavailableError):
             raise
+        if backend == "c":
+            raise BackendUnavailableError(f"the C backend of {robot!r} is unavailable: {exc}") from exc
         warnings.warn(f"eigentwist: C backend unavailable ({exc}); falling back to NumPy", RuntimeWarning, stacklevel=2)
         return Evaluator(description, module, "numpy")
     return Evaluator(description, module, "c", kernels=kernels)
