@@ -62,12 +62,16 @@ def load_data(args, values: dict | None = None):
 
     from ..diagnose.measurements import load_measurements, paper_csv, parse_csv
 
+    from .poses import warn_workspace
+
     ev = evaluator_of(args)
     if args.data == "paper" and not Path(args.data).exists():
         return ev, parse_csv(paper_csv(args.robot), f"{args.robot}_paper.csv", ev, values=values)
     if not Path(args.data).is_file():
         raise CliError(f"{args.data}: no such file (expected a CSV file of measurements, or `paper`)")
-    return ev, load_measurements(args.data, args.robot, ev, values)
+    meas = load_measurements(args.data, args.robot, ev, values)
+    warn_workspace(ev, meas.poses, getattr(args, "command", "compare"))
+    return ev, meas
 
 
 def evaluator_of(args):
@@ -78,7 +82,7 @@ def evaluator_of(args):
 
     if args.robot not in NAMES:
         raise CliError(f"--robot {args.robot!r}{did_you_mean(args.robot, NAMES)}: expected one of {', '.join(NAMES)}")
-    return evaluator(args.robot, args.backend)
+    return evaluator(args.robot, getattr(args, "backend", "numpy"))
 
 
 def to_json(cmp, parameters: list) -> dict:

@@ -17,14 +17,15 @@ def warn_workspace(ev, poses, command: str) -> None:
 
 
 def check_pose(ev, pose, model, params: dict, command: str = "matrices") -> None:
-    """Warn outside the workspace box; for an unreachable or singular pose raise a
-    :class:`CliError` that also says which heights are reachable at its x, y."""
+    """For an unreachable or singular pose raise a :class:`CliError` that also says which
+    heights are reachable at its x, y (the error is the only line); else warn when the
+    pose lies outside the workspace box."""
     from ..runtime import SingularPoseError, UnreachablePoseError
     from ..runtime.reach import reach_hint
 
-    warn_workspace(ev, pose, command)
     try:
         ev.jacobians(pose, **params)
     except (UnreachablePoseError, SingularPoseError) as exc:
         hint = reach_hint(ev, pose, model, **params)
         raise CliError(f"{exc}" + (f"; {hint}" if hint else "")) from None
+    warn_workspace(ev, pose, command)

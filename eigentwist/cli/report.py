@@ -4,13 +4,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import format_table, progress
+from .common import MODEL_SYNTAX, add_set_option, format_table, progress
 
 HELP = "write a self-contained HTML report: model, paper reproduction, comparison, diagnosis"
 EPILOG = """examples:
   eigentwist report                          # Heli4 with the paper's embedded measurements -> report.html
   eigentwist report my_data.csv -o out.html --model paper --baseline rigid
   eigentwist report delta_data.csv --robot delta
+  eigentwist report --set l2=0.60 -o l2_060.html  # a design change: the parameter table shows l2 = 0.6
 
 DATA.csv: one measured natural frequency per row, columns k_a (N m/rad), mode (1..6 or
 x, y, z, rx, ry, rz), freq_hz (Hz), optional x, y, z (m), sigma_hz (Hz) and parameter columns.
@@ -23,17 +24,28 @@ def add_parser(sub):
     p.add_argument("data", nargs="?", help="measurement CSV (default: the robot's embedded measurements)")
     p.add_argument("-o", "--output", default="report.html", help="HTML file to write (default: report.html)")
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
-    p.add_argument("--model", default="paper", help="model compared with the data (default: paper)")
-    p.add_argument("--baseline", default="rigid", help="where the diagnosis starts (default: rigid)")
+    p.add_argument("--model", default="paper", help=f"model compared with the data: {MODEL_SYNTAX} (default: paper)")
+    p.add_argument("--baseline", default="rigid", help="where the diagnosis starts, same syntax (default: rigid)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"))
+    add_set_option(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    from ..diagnose.values import changed_text
     from ..report import build_report, write_report
 
-    rep = build_report(args.data, robot=args.robot, model=args.model, baseline=args.baseline,
-                       backend=args.backend, progress=progress)
+    from ..runtime import load
+    from .common import CliError, model_and_values
+
+    ev = load(args.robot, backend=args.backend)
+    effects, values = model_and_values(args.model, args.set, ev)
+    baseline, base_values = model_and_values(args.baseline, args.set, ev, "--baseline")
+    for name, value in base_values.items():
+        if values.get(name, value) != value:
+            raise CliError(f"--model and --baseline set {name} to {values[name]:g} and {value:g}: give it once")
+    rep = build_report(args.data, robot=args.robot, model=effects, baseline=baseline, backend=args.backend,
+                       progress=progress, values={**values, **base_values})
     path = write_report(args.output, rep)
     d = rep.diagnosis
     rows = [["compared model", " + ".join(rep.model), rep.comparison["summary"]["rms_pct"],
@@ -41,6 +53,7 @@ def run(args) -> int:
     for k, s in enumerate(d["steps"]):
         rows.append([f"diagnosis step {k}", " + ".join(s["effects"]) or "(no effect)", s["rms_pct"], s["max_pct"]])
     print(format_table(["", "effects", "RMS error [%]", "max error [%]"], rows, ".3g"))
+    print(changed_text(rep.parameters, rep.robot))
     if rep.reproduction:
         print(f"paper reproduction: {rep.reproduction['within']} of {rep.reproduction['printed']} printed numbers "
               f"within print rounding; {rep.reproduction['required_ok']}/{rep.reproduction['required']} required ok")

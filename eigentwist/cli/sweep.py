@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import CliError, eprint, format_table, parse_sets, progress
+from .common import MODEL_SYNTAX, CliError, add_set_option, eprint, format_table, model_and_values, progress
 
 HELP = "sweep designs, k_a and workspace poses in chunks of bounded memory (.npz or Parquet)"
 EPILOG = """examples:
@@ -32,8 +32,7 @@ def add_parser(sub):
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
-    p.add_argument("--model", default="paper",
-                   help="preset (rigid, paper) or comma-separated effects (default: paper)")
+    p.add_argument("--model", default="paper", help=f"{MODEL_SYNTAX} (default: paper)")
     poses = p.add_mutually_exclusive_group()
     poses.add_argument("--grid", nargs=3, type=int, metavar=("NX", "NY", "NZ"),
                        help="regular grid of poses over the box, ends included; an axis of 1 point sits mid-box (default: 5 5 5)")
@@ -45,8 +44,8 @@ def add_parser(sub):
                    help="commanded actuator stiffness, N m/rad: 500,1000,2000 or 500:4000:8 (default: the robot's)")
     p.add_argument("--vary", action="extend", nargs="+", default=[], metavar="NAME=VALUES",
                    help="design parameter to vary, SI units: l2=0.45:0.60:16 or l2=0.5,0.55 (repeatable)")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="fix a design parameter for every row, SI units, e.g. --set m_e=0.6 (repeatable)")
+    add_set_option(p, help="fix a design parameter for every row, SI units: NAME=VALUE, e.g. --set m_e=0.6, or one "
+                   "leg's NAME@N=VALUE, e.g. --set eta_a@3=0.5 (repeatable)")
     p.add_argument("--chunk-size", type=int, default=None, metavar="ROWS",
                    help="rows per chunk, bounds the memory (default: 65536, about 250 MB peak RSS)")
     p.add_argument("--engine", default="inprocess", choices=("inprocess", "dask"),
@@ -72,8 +71,11 @@ def spec_from_args(args):
         raise CliError("--scheduler and --workers apply to --engine dask")
     if args.scheduler and args.workers:
         raise CliError("--workers sizes the local cluster: it cannot be combined with --scheduler")
-    return make_spec(args.robot, model=args.model, backend=args.backend, grid=args.grid, random=args.random,
-                     seed=args.seed, box=args.box, k_a=args.k_a, vary=args.vary, fixed=parse_sets(args.set),
+    from ..diagnose.evaluators import evaluator
+
+    effects, fixed = model_and_values(args.model, args.set, evaluator(args.robot))
+    return make_spec(args.robot, model=",".join(effects) or "none", backend=args.backend, grid=args.grid,
+                     random=args.random, seed=args.seed, box=args.box, k_a=args.k_a, vary=args.vary, fixed=fixed,
                      chunk_size=args.chunk_size or DEFAULT_CHUNK_SIZE)
 
 
@@ -94,6 +96,17 @@ def lowest_table(low: dict, spec, top: int) -> str:
     return format_table(headers, rows)
 
 
+def fixed_text(spec) -> str:
+    """The parameters set for every row, beside the robot's defaults (one line)."""
+    from ..description.effects import resolve_model
+    from ..diagnose.evaluators import evaluator
+    from ..diagnose.values import changed_text, used_parameters
+
+    ev = evaluator(spec.robot)
+    text = changed_text(used_parameters(ev, resolve_model(spec.model, ev.effects), dict(spec.fixed)), spec.robot)
+    return text + (f"; varied: {', '.join(spec.design_names)}" if spec.design_names else "")
+
+
 def run(args) -> int:
     from ..runtime.sweep import open_writer, run_sweep
 
@@ -105,6 +118,7 @@ def run(args) -> int:
     eprint(f"{spec.n_rows} rows ({spec.n_cases} designs x k_a, {spec.n_poses} poses) in {spec.n_chunks} chunks, "
            f"{summary.n_reachable / max(spec.n_rows, 1):.1%} reachable, {summary.seconds:.2f} s "
            f"({summary.rows_per_second:,.0f} poses/s, backend {summary.backend}, engine {args.engine}) -> {args.output}")
+    eprint(fixed_text(spec))
     if args.lowest:
         shown = min(args.top, spec.n_cases)
         print(f"worst-case lowest natural frequency over {spec.n_poses} poses, per design "

@@ -3,11 +3,13 @@ from __future__ import annotations
 
 import argparse
 
-from .common import CliError
+from .common import CliError, add_set_option
 
 HELP = "synthesize measurements from a truth model with a hidden effect and noise (CSV)"
 EPILOG = """The truth is PRESET[+EFFECT[:PARAM=VALUE,...]]...; any item may set parameters (SI units),
-e.g. paper:m_e=0.7; `none` is the bare model. Rows: every pose x k_a x mode; measured value
+e.g. paper:m_e=0.7; `none` is the bare model. --set NAME=VALUE sets a parameter of the
+truth as well (the same as :NAME=VALUE on an item; giving one name both ways with
+different values is an error). Rows: every pose x k_a x mode; measured value
 f_true (1 + noise N(0,1)) from a seeded generator; sigma_hz = noise x value. Output columns:
 k_a, mode, freq_hz, sigma_hz, x, y, z (the input of compare and diagnose).
 
@@ -37,6 +39,7 @@ def add_parser(sub):
                    help="add a spring to ground at the EE origin, N/m (x,y,z) or N m/rad (rx,ry,rz): "
                         "an effect outside the catalogue (repeatable)")
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    add_set_option(p)
     p.add_argument("-o", "--output", metavar="DATA.csv", help="write here (default: print to stdout)")
     p.set_defaults(func=run)
 
@@ -76,19 +79,28 @@ def _extra(items) -> dict:
 
 
 def run(args) -> int:
-    from ..diagnose.evaluators import evaluator
-    from ..diagnose.synth import synth
-    from ..robots import NAMES
+    from ..diagnose.synth import parse_truth, synth
+    from ..diagnose.values import changed_text, used_parameters
+    from .common import check_values, parse_sets
+    from .compare import evaluator_of
+    from .poses import warn_workspace
 
-    if args.robot not in NAMES:
-        raise CliError(f"--robot {args.robot!r}: expected one of {', '.join(NAMES)}")
-    ev = evaluator(args.robot)
-    meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), _poses(args.poses, args.pose),
+    ev = evaluator_of(args)
+    values = check_values(parse_sets(args.set), ev)
+    truth = parse_truth(args.truth, ev)
+    for name, value in truth.values.items():
+        if values.get(name, value) != value:
+            raise CliError(f"--truth sets {name} = {value:g} and --set {name}={values[name]:g}: give it once")
+    poses = _poses(args.poses, args.pose)
+    if poses is not None:
+        warn_workspace(ev, poses, "synth")
+    meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), poses,
                  [m for m in args.modes.split(",") if m.strip()], args.noise, args.seed, ev=ev,
-                 extra_stiffness=_extra(args.extra_stiffness) or None)
+                 extra_stiffness=_extra(args.extra_stiffness) or None, values=values)
     text = meas.to_csv(args.output)
     if args.output:
         print(f"wrote {len(meas)} rows to {args.output} (truth: {args.truth})")
+        print(changed_text(used_parameters(ev, truth.effects, {**values, **truth.values}), ev.robot.name))
     else:
         print(text, end="")
     return 0

@@ -349,7 +349,11 @@ def check_poses(meas: Measurements, ev, values: dict | None = None) -> None:
         try:
             ev.jacobians(meas.poses[i], **given, **{k: v[i] for k, v in meas.params.items()})
         except (UnreachablePoseError, SingularPoseError) as exc:
-            raise MeasurementError(meas.source, str(exc), int(meas.lines[i]), "x, y, z") from None
+            from ..runtime.reach import reach_hint
+
+            hint = reach_hint(ev, meas.poses[i], "paper", **given, **{k: v[i] for k, v in meas.params.items()})
+            raise MeasurementError(meas.source, str(exc) + (f"; {hint}" if hint else ""), int(meas.lines[i]),
+                                   "x, y, z") from None
 
 
 def _decode(data: bytes, name: str) -> str:

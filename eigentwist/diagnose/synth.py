@@ -112,7 +112,8 @@ def _truth_modes(ev, truth: Truth, poses, k_a, extra_stiffness) -> Modes:
 
 
 def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed: int = 0,
-          robot: str = "heli4", ev=None, extra_stiffness: dict | None = None) -> Measurements:
+          robot: str = "heli4", ev=None, extra_stiffness: dict | None = None,
+          values: dict | None = None) -> Measurements:
     """Measurements of every (pose, k_a, mode) from the truth model, with relative noise.
 
     Parameters
@@ -124,9 +125,11 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
     noise : relative standard deviation (0.005 or ``"0.5%"``).
     seed : seed of ``numpy.random.default_rng``.
     extra_stiffness : {axis: stiffness} added at the EE origin (outside the catalogue).
+    values : parameter values (SI) of the truth besides those in ``truth`` (which win).
     """
     ev = resolve(ev, robot)
     t = parse_truth(truth, ev)
+    t.values = {**dict(values or {}), **t.values}
     rel = parse_noise(noise)
     poses = np.atleast_2d(np.asarray(ev.robot.x_ref if poses is None else poses, dtype=float))
     k_a = np.atleast_1d(np.asarray(k_a, dtype=float))

@@ -56,16 +56,21 @@ def _comparison_rows(cmp) -> list[dict]:
 
 
 def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid", backend: str = "numpy",
-                 progress=None) -> ReportData:
+                 progress=None, values: dict | None = None) -> ReportData:
     """Compute every section of the report.
 
     data : path of a measurement CSV (see the README), or None for the robot's embedded
         measurements (the paper's Tables E.1/E.2 for the Heli4).
     model : the model compared with the data (preset or effects).
     baseline : where the diagnosis starts.
+    values : parameter values of the run (SI, e.g. ``--set``) instead of the robot's
+        defaults, for the comparison and the diagnosis; the parameter table shows the
+        values used (a data column wins over these).
     """
     from ..description.effects import resolve_model
-    from ..diagnose import compare, diagnose, load_measurements, paper_measurements
+    from ..diagnose import compare, diagnose, load_measurements
+    from ..diagnose.measurements import paper_csv, parse_csv
+    from ..diagnose.values import used_parameters
     from ..diagnose.plots import plot_comparison, plot_diagnosis
     from ..diagnose.report import failing_text
     from ..paper import reproduce
@@ -75,16 +80,15 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     if data is None:
         if robot != "heli4":
             raise ValueError(f"no embedded measurements for robot {robot!r}: pass a measurement CSV")
-        meas = paper_measurements(ev)
+        meas = parse_csv(paper_csv(robot), "heli4_paper.csv", ev, values=values)
         data_source = "the paper's measurements (Tables E.1/E.2, 'Meas.'), embedded"
     else:
-        meas = load_measurements(data, robot, ev)
+        meas = load_measurements(data, robot, ev, values)
         data_source = str(data)
     effects = resolve_model(model, ev.effects)
-    cmp = compare(meas, effects, ev)
-    diag = diagnose(meas, baseline=baseline, ev=ev, progress=progress)
-    params = [dict(name=p.name, value=p.default, unit=p.unit, effect=p.effect or "", doc=p.doc,
-                   active=p.effect is None or p.effect in effects) for p in ev.robot.parameters]
+    cmp = compare(meas, effects, ev, values)
+    diag = diagnose(meas, baseline=baseline, ev=ev, progress=progress, values=values)
+    params = used_parameters(ev, effects, values, meas)
     repro = None
     if robot == "heli4":
         res = reproduce(ev)
