@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from eigentwist.cli.main import main
 
@@ -69,3 +70,100 @@ def test_reproduce_main_job(capsys):
     assert main(["reproduce"]) == 0
     out = capsys.readouterr().out
     assert "Eq. 58 K_F" in out and "Table E.2" in out and "within print rounding" in out
+
+
+# ------------------------------------------------------------ issue 12.2 and 12.6
+def test_matrices_rigid_prints_the_frequencies_of_its_printed_matrices():
+    """The rigid model's frequencies are those of the printed M, K_R (3x3 translational
+    subsets), and the output says so; no flexible frequencies of another model."""
+    from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh
+
+    r = run_cli("matrices", "--model", "rigid", "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    M, K_R = np.array(out["M"]), np.array(out["K_R"])
+    expected = frequencies_hz(generalized_eigh(K_R[None, 3:, 3:], M[None, 3:, 3:])[0])[0]
+    assert out["kind"] == "rigid" and np.allclose(out["freq_hz"], expected, rtol=1e-9)
+    assert "3x3 translational" in out["frequencies_from"]
+    K_F = np.array(out["K_F"])
+    flex = frequencies_hz(generalized_eigh(K_F[None], M[None])[0])[0]
+    assert np.allclose(out["freq_flexible_hz"], flex, rtol=1e-9)       # of the printed K_F, not the paper model's
+    text = run_cli("matrices", "--model", "rigid").stdout
+    line = next(ln for ln in text.splitlines() if ln.startswith("natural frequencies of this"))
+    assert "rigid model (from M and K_R, 3x3 translational subsets)" in line
+    assert ", ".join(f"{f:.3f}" for f in expected) in line
+
+
+def test_matrices_flexible_prints_its_own_frequencies():
+    out = json.loads(run_cli("matrices", "--json").stdout)
+    assert out["kind"] == "flexible" and out["freq_hz"] == pytest.approx(out["freq_flexible_hz"], rel=1e-9)
+
+
+def test_piping_into_head_is_no_error():
+    p = subprocess.Popen([sys.executable, "-m", "eigentwist", "reproduce", "--all"], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE)
+    p.stdout.readline()
+    p.stdout.close()                      # the reader goes away, as `| head -1` does
+    err = p.stderr.read().decode()
+    assert p.wait() == 0 and "Broken pipe" not in err and "Traceback" not in err, err
+
+
+def test_c_backend_without_compiler_is_one_line(tmp_path):
+    import os
+
+    env = {**os.environ, "CC": str(tmp_path / "no-such-cc"), "EIGENTWIST_CACHE": str(tmp_path)}
+    r = subprocess.run([sys.executable, "-m", "eigentwist", "matrices", "--backend", "c"], capture_output=True,
+                       text=True, env=env)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines() == [r.stderr.strip()] and "no C compiler found" in r.stderr
+
+
+@pytest.mark.parametrize("argv, hint", [
+    (["compare", "paper", "--model", "rigid,rod_complience"], "did you mean rod_compliance?"),
+    (["compare", "paper", "--model", "papr"], "did you mean paper?"),
+    (["matrices", "--set", "E_rdo=1e11"], "did you mean E_rod?"),
+    (["compare", "paper", "--robot", "heli5"], "did you mean heli4?"),
+    (["synth", "--truth", "paper+payload_mas", "--k-a", "500"], "did you mean payload_mass?"),
+    (["synth", "--truth", "paper", "--k-a", "500", "--modes", "xx"], "did you mean x?"),
+])
+def test_typos_suggest_the_closest_name(argv, hint, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and hint in err, err
+
+
+def test_pose_outside_the_workspace_box_warns(capsys):
+    assert main(["matrices", "--pose", "0.12", "0", "-0.6"]) == 0
+    err = capsys.readouterr().err
+    assert "outside heli4's documented workspace box" in err and "x in [-0.1, 0.1]" in err
+    assert main(["matrices", "--pose", "0.05", "0", "-0.6"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_unreachable_pose_says_which_heights_are_reachable(capsys, ev):
+    assert main(["matrices", "--pose", "0", "0", "-3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "reachable, non-singular heights are z in [" in err
+    lo, hi = (float(v) for v in err.split("z in [")[1].split("]")[0].split(","))
+    assert lo < -0.70 and hi > -0.55                                    # the workspace box lies inside
+    assert ev.valid([[0, 0, lo + 1e-3], [0, 0, hi - 1e-3]]).all()
+    assert not ev.valid([[0, 0, lo - 1e-3], [0, 0, hi + 1e-3]]).any()
+
+
+@pytest.mark.compiled
+def test_first_c_compile_says_so(tmp_path):
+    import os
+
+    from eigentwist.runtime import ccompile
+
+    try:
+        ccompile.find_compiler()
+    except ccompile.CompilerNotFoundError as exc:
+        pytest.skip(f"compiled tier skipped: {exc}")
+    env = {**os.environ, "EIGENTWIST_CACHE": str(tmp_path)}
+    cmd = [sys.executable, "-m", "eigentwist", "matrices", "--backend", "c", "--json"]
+    first = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    assert first.returncode == 0 and "compiling heli4_c" in first.stderr
+    assert first.stderr.count("\n") == 1 or all("compiling" in ln for ln in first.stderr.splitlines())
+    again = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    assert again.returncode == 0 and "compiling" not in again.stderr
