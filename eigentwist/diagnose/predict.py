@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..runtime import InputError
 from .matching import match_modes
 
 __all__ = ["evaluate", "Predictor"]
@@ -28,9 +29,37 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     -------
     freq : (N,) Hz; index : (N,) matched mode index into the model's ascending modes.
     """
-    modes = ev.modes(poses, tuple(effects), **params)
+    try:
+        with np.errstate(all="ignore"):          # overflow is detected below and named
+            modes = ev.modes(poses, tuple(effects), **params)
+    except np.linalg.LinAlgError as exc:
+        raise InputError(_numerical_failure(ev, effects, poses, params, lines, exc)) from None
     idx = match_modes(modes, labels, strict=strict, lines=lines)
-    return modes.freq_hz[np.arange(len(idx)), idx], idx
+    freq = modes.freq_hz[np.arange(len(idx)), idx]
+    if strict and not np.all(np.isfinite(freq)):
+        raise InputError(_numerical_failure(ev, effects, poses, params, lines, "non-finite frequency",
+                                            int(np.argmin(np.isfinite(freq)))))
+    return freq, idx
+
+
+def _numerical_failure(ev, effects, poses, params, lines, exc, row: int | None = None) -> str:
+    """One line naming the first row whose model cannot be evaluated, and its values."""
+    n = len(poses)
+    rows = [row] if row is not None else range(n)
+    for i in rows:
+        one = {k: (np.asarray(v)[i] if np.ndim(v) == 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
+        try:
+            with np.errstate(all="ignore"):
+                ok = np.all(np.isfinite(ev.modes(poses[i], tuple(effects), **one).freq_hz))
+        except np.linalg.LinAlgError:
+            ok = False
+        if not ok:
+            where = f"line {lines[i]}" if lines is not None else f"row {i}"
+            values = ", ".join(f"{k} = {float(np.asarray(v)):g}" for k, v in one.items()
+                               if np.ndim(v) == 0 and k in ev.parameters)
+            return (f"{where}: the model cannot be evaluated there ({exc}): the values are beyond what it can "
+                    f"represent ({values}); expected physically plausible values in SI units")
+    return f"the model cannot be evaluated for these inputs ({exc}): check them for extreme values"
 
 
 class Predictor:
