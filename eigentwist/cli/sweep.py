@@ -67,6 +67,7 @@ def add_parser(sub):
 
 def spec_from_args(args):
     from ..runtime.sweep import DEFAULT_CHUNK_SIZE, make_spec
+    from .sweep_args import parse_values, parse_vary
 
     if args.engine == "inprocess" and (args.scheduler or args.workers):
         raise CliError("--scheduler and --workers apply to --engine dask")
@@ -76,7 +77,9 @@ def spec_from_args(args):
 
     effects, fixed = model_and_values(args.model, args.set, evaluator(args.robot))
     return make_spec(args.robot, model=",".join(effects) or "none", backend=args.backend, grid=args.grid,
-                     random=args.random, seed=args.seed, box=args.box, k_a=args.k_a, vary=args.vary, fixed=fixed,
+                     random=args.random, seed=args.seed, box=args.box,
+                     k_a=None if args.k_a is None else parse_values(args.k_a, f"--k-a {args.k_a!r}"),
+                     vary=[parse_vary(item) for item in args.vary], fixed=fixed,
                      chunk_size=args.chunk_size or DEFAULT_CHUNK_SIZE)
 
 
@@ -109,10 +112,13 @@ def fixed_text(spec) -> str:
 
 
 def run(args) -> int:
-    from ..runtime.sweep import open_writer, run_sweep
+    from ..runtime.sweep import OutputExistsError, open_writer, run_sweep
 
     spec = spec_from_args(args)
-    writer = open_writer(args.output, spec, overwrite=args.overwrite)
+    try:
+        writer = open_writer(args.output, spec, overwrite=args.overwrite)
+    except OutputExistsError as exc:
+        raise CliError(str(exc).replace("pass overwrite=True", "give --overwrite")) from None
     with progress(total=spec.n_rows, unit="row", unit_scale=True, desc="sweep") as bar:
         summary = run_sweep(spec, writer, engine=args.engine, scheduler=args.scheduler, workers=args.workers,
                             on_chunk=lambda i, result: bar.update(len(result["case"])))
