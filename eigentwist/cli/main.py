@@ -53,7 +53,9 @@ def main(argv=None) -> int:
         # floating-point overflow on absurd inputs is detected and named by the checks
         # (unreachable pose, non-finite frequency); NumPy's own warnings would only add lines
         with np.errstate(all="ignore"):
-            return int(args.func(args) or 0)
+            code = int(args.func(args) or 0)
+        sys.stdout.flush()                   # a closed pipe shows here, not at interpreter exit
+        return code
     except BrokenPipeError:
         # the reader stopped reading (``eigentwist diagnose paper | head -1``): what it took
         # was what it wanted, so this is no error; point stdout at devnull so that the
