@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-__all__ = ["format_table", "json_safe"]
+__all__ = ["format_table", "json_safe", "format_estimate"]
 
 
 def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g") -> str:
@@ -43,3 +43,37 @@ def json_safe(obj):
     if isinstance(obj, (float, np.floating)):
         return float(obj) if math.isfinite(obj) else None
     return obj
+
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def format_estimate(value, std=None, unit: str = "") -> str:
+    """A fitted value with its standard error and unit, as people write it.
+
+    The error keeps two significant digits and the value as many decimals;
+    values of 10^4 and more (or below 10^-3) share a power of ten:
+    ``format_estimate(373.6, 37.72, "N m/rad")`` is ``"374 ± 38 N m/rad"``,
+    ``format_estimate(164072.4, 30643.8, "N/m")`` is ``"(1.64 ± 0.31)·10⁵ N/m"``.
+    A missing or infinite error gives ``"... (± undetermined)"``; unit ``"-"`` is dropped.
+    """
+    unit = "" if unit in (None, "-") else unit
+    if value is None or not math.isfinite(float(value)):
+        return f"(undetermined) {unit}".strip()
+    v = float(value)
+    exp = math.floor(math.log10(abs(v))) if v != 0 else 0
+    scale_exp = exp if (exp >= 4 or exp <= -4) else 0
+    scale = 10.0 ** scale_exp
+    finite = std is not None and math.isfinite(float(std)) and float(std) > 0
+    if finite:
+        s = float(std) / scale
+        decimals = max(0, 1 - math.floor(math.log10(s)))
+        text = f"{v / scale:.{decimals}f} ± {s:.{decimals}f}"
+    else:
+        text = f"{v / scale:.4g}"
+    if scale_exp:
+        text = f"({text})·10{str(scale_exp).translate(_SUPERSCRIPT)}" if finite else \
+            f"{text}·10{str(scale_exp).translate(_SUPERSCRIPT)}"
+    if not finite and std is not None:
+        text += " (± undetermined)"
+    return f"{text} {unit}".strip()
