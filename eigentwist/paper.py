@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["X_REF", "K_A_REF", "PaperValue", "paper_values", "reproduce", "summary", "TABLE_KA", "MEASURED",
-           "CALIBRATION", "EXCEPTIONS"]
+           "RIGID_HZ", "FLEX_HZ", "TABLE_E1", "TABLE_E2", "CALIBRATION", "EXCEPTIONS"]
 
 X_REF = (0.0, 0.0, -0.625)
 K_A_REF = 2000.0
