@@ -9,6 +9,7 @@ import numpy as np
 from ..description import RobotDescription
 from ..description.effects import STRUCTURAL, resolve_model, switch_name
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+from .constraints import check_constraints, compile_constraints
 from .errors import InputError
 from .validity import LEVER_TOL, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
@@ -64,6 +65,7 @@ class Evaluator:
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
+        self.constraints = compile_constraints(robot)
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -101,6 +103,7 @@ class Evaluator:
                 except ValueError as exc:
                     raise InputError(str(exc)) from None
             out[name] = arr
+        check_constraints(self.constraints, out, effects)
         for e in self.effects:
             out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
         return out
