@@ -293,3 +293,17 @@ def test_script_in_the_file_name_is_escaped(tmp_path):
     assert main(["report", str(src), "-o", str(out)]) == 0
     parsed = _no_script(out.read_text(encoding="utf-8"))
     assert "<script>alert(1)<_script>.csv" in " ".join(parsed.text)
+
+
+def test_delta_report_draws_its_robot(tmp_path):
+    """Any robot: the Delta's report has its own picture and the final fitted values with units."""
+    csv = tmp_path / "delta.csv"
+    assert main(["synth", "--robot", "delta", "--truth", "paper+payload_mass:m_p=0.2", "--k-a", "500,1000,2000",
+                 "--modes", "x,y,z", "--noise", "0.5%", "--seed", "1", "-o", str(csv)]) == 0
+    from eigentwist.report import build_report, render_html
+
+    rep = build_report(csv, robot="delta")
+    parsed = _no_script(render_html(rep))
+    assert len(parsed.images) >= 3
+    assert "The robot at the most measured pose, [0, 0, -0.75] m" in parsed.section_text("model")
+    assert "fits m_p = 0.1998 ± 0.0031 kg" in parsed.section_text("diagnosis")
