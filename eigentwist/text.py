@@ -70,7 +70,7 @@ def format_estimate(value, std=None, unit: str = "") -> str:
         decimals = max(0, 1 - math.floor(math.log10(s)))
         text = f"{v / scale:.{decimals}f} ± {s:.{decimals}f}"
     else:
-        text = f"{v / scale:.4g}"
+        text = f"{v / scale:.6g}"
     if scale_exp:
         text = f"({text})·10{str(scale_exp).translate(_SUPERSCRIPT)}" if finite else \
             f"{text}·10{str(scale_exp).translate(_SUPERSCRIPT)}"

@@ -227,6 +227,7 @@ def _env() -> jinja2.Environment:
     env.filters["b64"] = lambda b: base64.b64encode(b).decode("ascii")
     env.filters["g"] = lambda v, fmt=".4g": "" if v is None else format(float(v), fmt)
     env.filters["est"] = lambda v, std=None, unit="": format_estimate(v, math.inf if std is None else std, unit)
+    env.filters["num"] = lambda v: "" if v is None else format_estimate(v)
     env.filters["plain"] = plain_text
     return env
 
