@@ -103,7 +103,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     diag = diagnose(meas, baseline=baseline, ev=ev, progress=progress, values=values)
     params = used_parameters(ev, effects, values, meas)
     repro = _reproduction(ev) if robot == "heli4" else None
-    modes = _modes_view(meas, effects)
+    modes = {**_modes_view(meas, effects), "values": dict(values or {})}     # the picture with the used values
     figures = {
         "comparison": _png(plot_comparison, cmp, ev),
         "diagnosis": _png(plot_diagnosis, diag, ev),
@@ -147,7 +147,7 @@ def _modes_png(ev, view: dict) -> bytes:
     from ..plots import plot_modes
 
     buf = io.BytesIO()
-    plot_modes(ev, view["pose"], buf, model=view["model"], k_a=view["k_a"])
+    plot_modes(ev, view["pose"], buf, model=view["model"], **{**view.get("values", {}), "k_a": view["k_a"]})
     return buf.getvalue()
 
 
