@@ -36,6 +36,7 @@ class ReportData:
     diagnosis: dict
     figures: dict = field(default_factory=dict)
     command: str = "eigentwist report"
+    campaign_html: str = ""          # section of a modal-test campaign (eigentwist.modal.report)
 
 
 def _png(plot, *args) -> bytes:
@@ -72,13 +73,19 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     from ..runtime import load
 
     ev = load(robot, backend=backend)
+    campaign_html = ""
     if data is None:
         if robot != "heli4":
             raise ValueError(f"no embedded measurements for robot {robot!r}: pass a measurement CSV")
         meas = paper_measurements(ev)
         data_source = "the paper's measurements (Tables E.1/E.2, 'Meas.'), embedded"
     else:
-        meas = load_measurements(data, robot, ev)
+        from ..modal.report import campaign_section, is_manifest
+
+        if is_manifest(data):       # a modal-test campaign: identify it first (issue 14)
+            meas, campaign_html = campaign_section(data, ev)
+        else:
+            meas = load_measurements(data, robot, ev)
         data_source = str(data)
     effects = resolve_model(model, ev.effects)
     cmp = compare(meas, effects, ev)
@@ -101,7 +108,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
         robot=robot, title=ev.robot.title, source=ev.robot.source, data_source=data_source,
         model=effects, baseline=tuple(diag.baseline.effects), parameters=params, reproduction=repro,
         comparison=dict(summary=cmp.summary(), rows=_comparison_rows(cmp), failing=failing_text(cmp)),
-        diagnosis=diag.to_json(), figures=figures,
+        diagnosis=diag.to_json(), figures=figures, campaign_html=campaign_html,
     )
 
 
