@@ -50,6 +50,8 @@ def test_diagnose_on_the_identified_csv_finds_the_payload(campaign, ev):
     assert d.selected[0] == "payload_mass"
     m_p, std = d.final.values["m_p"], d.final.std["m_p"]
     assert abs(m_p - 0.35) < 3 * std, (m_p, std)
+    shapes = d.to_json()["shapes"]                           # the final model's shape term
+    assert shapes["n"] == 24 and shapes["mac_min"] > 0.99
 
 
 def test_two_modes_three_percent_apart_at_three_percent_noise_are_resolved():
