@@ -17,9 +17,10 @@ EPILOG = """MANIFEST.csv: one setting per row, header on line 1. Columns:
 FRFs: responses at --node along +X, +Y, +Z; references at any node along X, Y, Z; the form
 (accelerance, mobility, receptance) from the ordinate type of each dataset. Poles: LSCF
 (sdypy-EMA), orders 2..60, stable when within 0.5 % in frequency and 10 % in damping of
-the previous order; a mode is a column of stable poles over >= 6 orders. Shapes: LSFD
-residues, made real at their dominant phase, unit norm, largest component positive;
-sigma_hz: spread of the pole over the stable orders, at least 0.1 % of the frequency.
+the previous order; a mode is a column of stable poles over >= 6 orders, refined by an
+output-error least-squares fit (no LSCF noise bias). Shapes: LSFD residues, made real at
+their dominant phase, unit norm, largest component positive; sigma_hz: the largest of the
+pole's spread over the stable orders, the fit's standard error and 0.1 % of the frequency.
 
 Output columns: k_a, mode, freq_hz, sigma_hz, x, y, z, damping_ratio, phi_x, phi_y, phi_z
 (+ sensor_x, sensor_y, sensor_z when the manifest has them, + its parameter columns).

@@ -6,7 +6,7 @@ point along +X, +Y, +Z, modal damping ratio ``damping`` for every mode. Complex 
 (seeded) is either *proportional*, ``H (1 + noise (n1 + i n2) / sqrt(2))``, or
 *additive*, ``H + noise rms(|H_ij|) (n1 + i n2) / sqrt(2)`` per FRF, with n1, n2 ~ N(0, 1).
 
-The frequency axis of a setting runs from 0 to 1.25 times its highest mode along x, y
+The frequency axis of a setting runs from 0 to twice its highest mode along x, y
 or z, with a step that puts at least 8 lines in the half-power bandwidth 2 zeta f of
 its lowest mode (1, 2 or 5 times a power of ten, so that UFF's 6-digit abscissa holds it
 exactly).
@@ -32,7 +32,7 @@ from .uff_io import write_frf_uff, write_modes_uff
 __all__ = ["synth_campaign", "frequency_axis", "add_noise", "NOISE_KINDS"]
 
 NOISE_KINDS = ("proportional", "additive")
-SPAN = 1.25
+SPAN = 2.0
 LINES_PER_BANDWIDTH = 8
 
 
