@@ -69,7 +69,7 @@ def load_data(args):
 
 
 def to_json(cmp) -> dict:
-    from ..diagnose.select import _clean
+    from ..text import json_safe
 
     m = cmp.meas
     rows = [{"line": int(m.lines[i]), "k_a": m.k_a[i], "pose": m.poses[i].tolist(), "mode": m.mode[i],
@@ -79,7 +79,7 @@ def to_json(cmp) -> dict:
     if getattr(cmp, "mac", None) is not None:             # measured mode shapes (issue 14)
         for row, value in zip(rows, cmp.mac):
             row["mac"] = value
-    return _clean({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
+    return json_safe({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
                    "rms_pct": cmp.rms_pct, "max_pct": cmp.max_pct, "chi2": cmp.chi2,
                    "failing": cmp.where_it_fails()})
 
