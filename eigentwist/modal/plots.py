@@ -12,9 +12,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..diagnose.plots import _pyplot
-
 __all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes"]
+
+
+def _pyplot():
+    try:
+        import matplotlib
+    except ImportError:  # pragma: no cover - matplotlib comes with the modal extra
+        raise OSError("plotting needs matplotlib: pip install 'eigentwist[modal]'") from None
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def plot_stabilisation(res, path) -> None:
