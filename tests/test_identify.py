@@ -5,6 +5,8 @@ damping 1.5 %, 1 % complex noise, from a truth with a hidden 0.35 kg payload.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -17,6 +19,7 @@ from eigentwist.modal.synth import add_noise
 from eigentwist.runtime import InputError
 
 TRUTH = "paper+payload_mass:m_p=0.35"
+DATA = Path(__file__).resolve().parent.parent / "eigentwist" / "data"
 K_A = [250.0, 500.0, 1000.0, 4000.0]
 POSES = [[0.0, 0.0, -0.625], [0.06, -0.04, -0.6]]
 
@@ -92,3 +95,17 @@ def test_cli_synth_identify_compare(tmp_path, capsys):
     assert main(["compare", str(tmp_path / "id.csv"), "--model", "paper"]) == 0
     text = capsys.readouterr().out
     assert "MAC" in text and "1.0000" in text
+
+
+def test_plots_and_report_section(campaign, tmp_path):
+    from eigentwist.modal.plots import plot_frfs, plot_stabilisation
+    from eigentwist.modal.report import is_manifest, render_section
+
+    dataset, res = campaign
+    assert is_manifest(res.campaign.source) and not is_manifest(DATA / "heli4_paper.csv")
+    html = render_section(res, figures=False)
+    assert html.startswith('<section id="campaign">') and "setting_08.uff" in html and html.count("<tr>") == 1 + 24
+    if dataset == 58:
+        plot_stabilisation(res.results[0], tmp_path / "stab.png")
+        plot_frfs(res.results[0], tmp_path / "frf.png")
+        assert (tmp_path / "stab.png").read_bytes()[:4] == b"\x89PNG" and (tmp_path / "frf.png").stat().st_size > 0
