@@ -28,7 +28,8 @@ from ..diagnose.measurements import MeasurementError, Measurements, parse_csv
 from .identify import SIGMA_FLOOR_REL, SettingModes, identify_frfs, modes_from_set
 from .uff_io import FrfSet, read_uff
 
-__all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_manifest", "identify_campaign",
+__all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_manifest", "identify_campaign", "identify_setting",
+           "measurement_csv",
            "SENSOR", "OUTPUT_COLUMNS"]
 
 SENSOR = ("sensor_x", "sensor_y", "sensor_z")
