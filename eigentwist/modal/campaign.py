@@ -28,9 +28,8 @@ from ..diagnose.measurements import MeasurementError, Measurements, parse_csv
 from .identify import SIGMA_FLOOR_REL, SettingModes, identify_frfs, modes_from_set
 from .uff_io import FrfSet, read_uff
 
-__all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_manifest", "identify_campaign", "identify_setting",
-           "measurement_csv",
-           "SENSOR", "OUTPUT_COLUMNS"]
+__all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_manifest", "identify_campaign",
+           "identify_setting", "measurement_csv", "SENSOR", "OUTPUT_COLUMNS"]
 
 SENSOR = ("sensor_x", "sensor_y", "sensor_z")
 OUTPUT_COLUMNS = ("k_a", "mode", "freq_hz", "sigma_hz", "x", "y", "z", "damping_ratio", "phi_x", "phi_y", "phi_z")
