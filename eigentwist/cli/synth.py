@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from .common import CliError, add_set_option
+from .synth_uff import UFF_EPILOG, add_uff_options, run_uff
 
 HELP = "synthesize measurements from a truth model with a hidden effect and noise (CSV)"
 EPILOG = """The truth is PRESET[+EFFECT[:PARAM=VALUE,...]]...; any item may set parameters (SI units),
@@ -22,7 +23,7 @@ examples:
 
 
 def add_parser(sub):
-    p = sub.add_parser("synth", help=HELP, description=HELP, epilog=EPILOG,
+    p = sub.add_parser("synth", help=HELP, description=HELP, epilog=EPILOG + UFF_EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--truth", required=True, metavar="SPEC", help="PRESET[+EFFECT:PARAM=VALUE,...] (see below)")
     p.add_argument("--k-a", dest="k_a", nargs="+", required=True, metavar="KA",
@@ -41,6 +42,7 @@ def add_parser(sub):
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
     add_set_option(p)
     p.add_argument("-o", "--output", metavar="DATA.csv", help="write here (default: print to stdout)")
+    add_uff_options(p)
     p.set_defaults(func=run)
 
 
@@ -94,6 +96,10 @@ def run(args) -> int:
     poses = _poses(args.poses, args.pose)
     if poses is not None:
         warn_workspace(ev, poses, "synth")
+    if args.uff:
+        if values:
+            raise CliError(f"--set {', '.join(values)} with --uff: give the values in --truth (PRESET:NAME=VALUE)")
+        return run_uff(args, ev, _numbers(args.k_a, "--k-a value"), poses)
     meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), poses,
                  [m for m in args.modes.split(",") if m.strip()], args.noise, args.seed, ev=ev,
                  extra_stiffness=_extra(args.extra_stiffness) or None, values=values)
