@@ -3,9 +3,10 @@
 Every ```sh and ```python block of README.md runs, block after block, in one temporary
 directory (later blocks may use files earlier ones wrote) with an ``eigentwist`` shim on
 PATH that runs ``sys.executable -m eigentwist`` from this checkout. Each command must exit
-0, and every figure in its trailing comment -- a number (or a list ``a, b, c`` or ``a +-
-b``) followed by a unit, e.g. ``# RMS 14.8 %`` -- must appear in its output within the
-stated rounding.
+0, and every figure in its trailing comment -- a number (or a list ``a, b, c``, ``a +- b``,
+or a range ``a-b``) followed by a unit, e.g. ``# RMS 14.8 %`` -- must appear in its output
+within the stated rounding (a range: some output number inside it). Durations (unit ``s``)
+depend on the machine and are not checked.
 
 Markers, HTML comments just above a block (between it and the previous block):
 
@@ -33,7 +34,9 @@ README = ROOT / "README.md"
 MARKER = re.compile(r"<!--\s*doc-test:\s*(skip|replace)\s*(.*?)\s*-->")
 REPLACE = re.compile(r'"([^"]*)"\s+"([^"]*)"\s*\((.+)\)$')
 NUM = r"-?\d+(?:\.\d+)?"
-FIGURE = re.compile(rf"({NUM}(?:\s*(?:,|\+-|±)\s*{NUM})*)\s*(%|Hz|kg|MB|N m/rad|N/m|s|m)(?![\w/])")
+UNIT = r"(%|Hz|kg|MB|N m/rad|N/m|m)(?![\w/])"          # not s: durations depend on the machine
+RANGE = re.compile(rf"(?<![\d.])({NUM})\s*(?:-|–|\.\.\.)\s*(\d+(?:\.\d+)?)\s*(?:s|{UNIT})")
+FIGURE = re.compile(rf"({NUM}(?:\s*(?:,|\+-|±)\s*{NUM})*)\s*{UNIT}")
 OUTPUT_NUMBER = re.compile(r"-?\d+(?:\.(\d+))?(?:[eE]([-+]?\d+))?")
 TIMEOUT = 300
 
@@ -109,8 +112,14 @@ def commands(text: str) -> list[tuple[str, str]]:
 
 
 def figures(comment: str) -> list[str]:
-    """The numbers stated with a unit in a comment, as written (``"14.8"``)."""
-    return [n for m in FIGURE.finditer(comment) for n in re.findall(NUM, m.group(1))]
+    """The numbers stated with a unit in a comment, as written (``"14.8"``; a range as
+    ``"0.1..0.3"``); durations (``s``) are left out."""
+    out = []
+    for m in RANGE.finditer(comment):
+        if not m.group(0).rstrip().endswith(" s") and not m.group(0).endswith("s"):
+            out.append(f"{m.group(1)}..{m.group(2)}")
+    rest = RANGE.sub(" ", comment)
+    return out + [n for m in FIGURE.finditer(rest) for n in re.findall(NUM, m.group(1))]
 
 
 def _half_unit(decimals: str | None, exponent: str | None) -> float:
@@ -120,11 +129,14 @@ def _half_unit(decimals: str | None, exponent: str | None) -> float:
 def shows(output: str, figure: str) -> bool:
     """Whether ``output`` holds a number that rounds like ``figure`` (their rounding
     intervals overlap)."""
-    value = float(figure)
-    tol = _half_unit(figure.partition(".")[2] or None, None)
+    lo_text, _, hi_text = figure.partition("..")
+    hi_text = hi_text or lo_text
+    lo = float(lo_text) - _half_unit(lo_text.partition(".")[2] or None, None)
+    hi = float(hi_text) + _half_unit(hi_text.partition(".")[2] or None, None)
     for m in OUTPUT_NUMBER.finditer(output):
         x = float(m.group(0))
-        if math.isfinite(x) and abs(x - value) <= (tol + _half_unit(m.group(1), m.group(2))) * (1 + 1e-9):
+        tol = _half_unit(m.group(1), m.group(2)) + 1e-9 * abs(x)
+        if math.isfinite(x) and lo - tol <= x <= hi + tol:
             return True
     return False
 
@@ -179,6 +191,8 @@ def test_figure_parser():
     assert figures("exit 1, naming stale files") == []
     assert figures("23.502, 26.321, 45.796 Hz: from M and K_R, 3x3") == ["23.502", "26.321", "45.796"]
     assert shows("max 32.95 %", "32.9") and not shows("max 33.05 %", "32.9") and shows("m_p = 0.3493", "0.349")
+    assert figures("0.1-0.3 s per setting") == [] and figures("stays 4.8–5.0 Hz higher") == ["4.8..5.0"]
+    assert shows("4.93 Hz", "4.8..5.0") and not shows("5.2 Hz", "4.8..5.0")
 
 
 @pytest.mark.parametrize("block", BLOCKS, ids=[b.id for b in BLOCKS])
