@@ -67,7 +67,7 @@ def load_data(args):
 
 
 def to_json(cmp) -> dict:
-    from ..diagnose.select import _clean
+    from ..diagnose.render_json import clean as _clean
 
     m = cmp.meas
     rows = [{"line": int(m.lines[i]), "k_a": m.k_a[i], "pose": m.poses[i].tolist(), "mode": m.mode[i],
