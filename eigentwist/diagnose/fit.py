@@ -199,7 +199,7 @@ def _covariance(jac: np.ndarray, chi2: float, dof: int) -> np.ndarray:
 
 
 def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None = None,
-        explore=None, starts: dict | None = None) -> FitResult:
+        explore=None, starts: dict | None = None, max_nfev: int = 200) -> FitResult:
     """Fit parameters ``names`` of the model ``effects`` to the measurements.
 
     Parameters
@@ -213,6 +213,7 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     explore : names whose start is screened over a grid (default: all).
     starts : name -> start values screened for it instead (e.g. both signs of an offset,
         where the Jacobian at 0 is singular).
+    max_nfev : most batched evaluations of the least-squares solver.
 
     Returns
     -------
@@ -236,7 +237,7 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     hi = np.array([t.bounds[1] for t in transforms])
     theta0 = np.clip(theta0, lo + 1e-12, hi - 1e-12)
     res = least_squares(obj.residuals, theta0, jac=obj.jacobian, bounds=(lo, hi), method="trf",
-                        x_scale=1.0, xtol=1e-8, ftol=1e-9, gtol=1e-9, max_nfev=200)
+                        x_scale=1.0, xtol=1e-8, ftol=1e-9, gtol=1e-9, max_nfev=max_nfev)
     theta = res.x
     values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}
     all_values = {**fixed, **values}

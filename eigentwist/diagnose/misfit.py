@@ -11,7 +11,8 @@ Decided in this order (issue 10):
    allows); ``"understated"`` when P(chi2_nu >= chi2) < alpha *and* the residuals show no
    systematic pattern (:func:`~.patterns.systematic`: a shape over k_a, the pose spread
    scaled by B; :func:`clusters`: neighbouring rows deviating together) *and*
-   no catalogue effect is significant any more (implausible ones included); otherwise
+   no catalogue effect is significant any more (implausible ones included) or would
+   explain the data without being significant (too few rows for the F test); otherwise
    ``"consistent"``, with ``possibly_understated`` set when the fit is far worse than
    sigma but a pattern or a significant effect points at a missing effect too.
 3. **Outliers** (:func:`find_outliers`): each row's residual in units of sigma_i times the

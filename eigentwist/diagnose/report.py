@@ -123,6 +123,9 @@ def _why(d) -> str:
                 "an effect outside the catalogue is missing (or the stated uncertainties are too small)")
     if u is not None and u.verdict == "too few rows":
         return "Too few rows to tell a missing effect from the stated uncertainty: measure more (below)"
+    if any(a.replaced is None for a in d.alternatives):
+        return ("Catalogue effects would explain it, but these rows cannot show it significantly (below), or the stated "
+                "uncertainties are too small")
     if u is not None and u.verdict == "understated":
         return (f"The residuals are {u.birge_ratio:.2g} times the stated uncertainty, without a systematic pattern, and "
                 "no catalogue effect is significant: the stated uncertainties are too small (understated), rather than "
@@ -158,10 +161,7 @@ def _uncertainty_sentence(d) -> str | None:
                 f"{u.chi2:.3g}) = {u.p_low:.2g}); with honest uncertainties smaller effects may become visible")
     if u.verdict == "understated":
         return f"The stated uncertainties look understated by a factor of about {u.birge_ratio:.2g} (Birge ratio)"
-    if u.possibly_understated:
-        return (f"Either an effect is missing or the stated uncertainties are too small (Birge ratio "
-                f"{u.birge_ratio:.2g}): these data cannot tell which")
-    return None
+    return None                 # possibly understated: said in the reason for the misfit
 
 
 def _outlier_sentence(d, ev) -> str | None:
@@ -178,7 +178,17 @@ def _outlier_sentence(d, ev) -> str | None:
 
 def _alternatives_sentence(d) -> str | None:
     parts = []
+    unproven = [a.by for a in d.alternatives if a.replaced is None]
+    if unproven:
+        text = (f"{' or '.join(unproven)} would explain the data, but not significantly with {len(d.meas)} rows"
+                + (": these data cannot tell them apart" if len(unproven) > 1 else "") + "; measure more")
+        nm = next((a.next_measurement for a in d.alternatives if a.replaced is None and a.next_measurement), None)
+        if nm:
+            text += f" ({nm['message']})"
+        parts.append(text)
     for a in d.alternatives:
+        if a.replaced is None:
+            continue
         text = f"{a.replaced} or {a.by}: these data cannot tell them apart"
         nm = a.next_measurement
         if nm:

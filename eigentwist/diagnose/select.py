@@ -52,6 +52,8 @@ from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 __all__ = ["Candidate", "Step", "Alternative", "Diagnosis", "diagnose", "rank_candidates", "candidates_for",
            "MAX_OUTLIER_SHARE"]
 
+CANDIDATE_NFEV = 60     # solver budget of a candidate's fit: one the data do not want crawls towards its
+                        # "switched off" limit (stiffness -> inf) without converging; the ones that matter need < 30
 AICC_DIGITS = 2          # AICc differences below 0.01 are optimiser noise: the next key decides (and the tie is reported)
 MAX_OUTLIER_SHARE = 0.1  # at most this share of the rows (and at least one) is set aside as outliers
 
@@ -113,10 +115,12 @@ class Step:
 
 @dataclass
 class Alternative:
-    """A final model the data support as well as the one selected: ``replaced`` -> ``by``."""
+    """A final model the data support as well as the one selected: ``replaced`` -> ``by``
+    (``replaced`` None: ``by`` added to a final model that misfits, which it would explain
+    though these rows cannot show it significantly)."""
 
     effects: tuple
-    replaced: str
+    replaced: str | None
     by: str
     fit: FitResult
     next_measurement: dict | None = None
@@ -216,13 +220,14 @@ def _fit_effect(meas, ev, current: FitResult, effect: str) -> tuple[FitResult, t
     """``effect`` fitted on top of ``current``: (fit, its own fitted parameter names)."""
     effects = _order(current.effects + (effect,))
     own = tuple(p for p in EFFECTS[effect].fit if p not in current.names and p not in meas.params)
-    f = fit(meas, effects, ev, current.names + own, start=current.values, fixed=current.fixed, explore=own)
+    f = fit(meas, effects, ev, current.names + own, start=current.values, fixed=current.fixed, explore=own,
+            max_nfev=CANDIDATE_NFEV)
     extra = extra_parameters(meas, ev, effects, effect, f.values, f.fixed)
     if not extra:
         return f, own
     start, starts = _starts(ev, extra)
     g = fit(meas, effects, ev, f.names + extra, start={**f.values, **start}, fixed=f.fixed, explore=extra,
-            starts=starts)
+            starts=starts, max_nfev=CANDIDATE_NFEV)
     if _implausible(ev, g) and not _implausible(ev, f):
         return f, own                 # the extra parameters ran away: keep what the data pin down
     return g, own + extra
@@ -384,6 +389,24 @@ def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
     return out
 
 
+def unproven(meas, ev, steps, alpha: float) -> list[Alternative]:
+    """When the final model misfits: plausible candidates of the last step that would explain
+    the data (chi2 test) without being significant (too few rows for the F test), and their
+    equals."""
+    final, last = steps[-1].fit, steps[-1].ranking
+    if explained(final.chi2, final.n, final.k, alpha):
+        return []
+    good = [c for c in last if c.plausible and explained(c.fit.chi2, c.fit.n, c.fit.k, alpha)]
+    names = {c.effect for c in good} | {e for c in good for e in c.indistinguishable_from}
+    chosen = [c for c in last if c.effect in names and c.plausible]
+    out = []
+    for k, c in enumerate(chosen):
+        rival = chosen[1] if k == 0 and len(chosen) > 1 else chosen[0]
+        out.append(Alternative(c.fit.effects, None, c.effect, c.fit,
+                               _between(ev, meas, c.fit, rival.fit, True) if rival is not c else None))
+    return out
+
+
 def _select(meas, ev, base_effects, add, alpha, progress) -> Diagnosis:
     """Rank, select and judge on these rows (no outlier handling)."""
     base_cmp = compare(meas, base_effects, ev)                       # strict mode matching
@@ -404,7 +427,7 @@ def _select(meas, ev, base_effects, add, alpha, progress) -> Diagnosis:
         selected=[s.added for s in steps[1:]], steps=steps, final=final,
         explained=explained(final.chi2, final.n, final.k, alpha),
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
-        manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps),
+        manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
         untestable=_untestable(meas, ev, steps if not manual else steps[:1]))
 
 
@@ -420,8 +443,9 @@ def _untestable(meas, ev, steps) -> dict:
 
 def _judge(d: Diagnosis) -> Diagnosis:
     last = d.steps[-1].ranking
-    d.uncertainty = judge_uncertainty(d.final, d.untestable, any(significant(c, d.final, len(last), d.alpha, False)
-                                                                 for c in last), d.alpha)
+    effect = (any(significant(c, d.final, len(last), d.alpha, False) for c in last)
+              or any(a.replaced is None for a in d.alternatives))
+    d.uncertainty = judge_uncertainty(d.final, d.untestable, effect, d.alpha)
     return d
 
 
