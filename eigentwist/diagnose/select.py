@@ -14,8 +14,8 @@
    measured), jointly with those selected before. Each gets an AICc, a p-value (F test; a
    switched effect without fitted parameters: the chi2_1 test of :func:`~.stats.switch_test`)
    and a plausibility verdict: a fitted value outside its parameter's ``plausible`` range
-   or at a search bound makes the candidate *implausible*; it is reported with the value
-   it would need and never selected.
+   by more than 3 standard errors, or at a search bound, makes the candidate
+   *implausible*; it is reported with the value it would need and never selected.
 4. Candidates are ranked by ``sorted`` with the explicit key (implausible last, AICc to
    0.01, catalogue position); every candidate indistinguishable from the one added
    (:func:`~.stats.indistinguishable`) is listed as that step's ``alternatives``, so no tie
@@ -54,6 +54,7 @@ __all__ = ["Candidate", "Step", "Alternative", "Diagnosis", "diagnose", "rank_ca
 
 CANDIDATE_NFEV = 60     # solver budget of a candidate's fit: one the data do not want crawls towards its
                         # "switched off" limit (stiffness -> inf) without converging; the ones that matter need < 30
+PLAUSIBLE_SIGMA = 3.0   # a fit this many standard errors outside the plausible range is implausible
 AICC_DIGITS = 2          # AICc differences below 0.01 are optimiser noise: the next key decides (and the tie is reported)
 MAX_OUTLIER_SHARE = 0.1  # at most this share of the rows (and at least one) is set aside as outliers
 
@@ -86,13 +87,10 @@ class Candidate:
 
     @property
     def implausible(self) -> dict:
-        """Fitted parameters outside their plausible range or at a search bound: name -> value it would need."""
-        out = {}
-        for name, value in self.fit.values.items():
-            lo, hi = self.plausible_range.get(name, (-math.inf, math.inf))
-            if not lo <= value <= hi or name in self.fit.at_bound:
-                out[name] = value
-        return out
+        """Fitted parameters at a search bound, or outside their plausible range by more than
+        ``PLAUSIBLE_SIGMA`` standard errors: name -> the value it would need."""
+        return {n: v for n, v in self.fit.values.items()
+                if not _plausible(v, self.fit.std.get(n, math.inf), self.plausible_range.get(n), n in self.fit.at_bound)}
 
     @property
     def plausible(self) -> bool:
@@ -233,12 +231,31 @@ def _fit_effect(meas, ev, current: FitResult, effect: str) -> tuple[FitResult, t
     return g, own + extra
 
 
+def _plausible(value: float, std: float, bounds, at_bound: bool) -> bool:
+    """Inside ``bounds`` (low, high), or within PLAUSIBLE_SIGMA standard errors of it (relative
+    errors for a positive range, where the fit is on the log); never at a search bound."""
+    if at_bound:
+        return False
+    if bounds is None:
+        return True
+    lo, hi = bounds
+    if lo <= value <= hi:
+        return True
+    if not math.isfinite(std):
+        return False
+    edge = lo if value < lo else hi
+    if lo > 0 and value > 0:
+        return abs(math.log(value / edge)) <= PLAUSIBLE_SIGMA * std / value
+    return abs(value - edge) <= PLAUSIBLE_SIGMA * std
+
+
 def _ranges(ev, names) -> dict:
     return {n: tuple(ev.parameters[n].plausible_range) for n in names}
 
 
 def _implausible(ev, f: FitResult) -> bool:
-    return bool(f.at_bound) or not all(ev.parameters[n].is_plausible(v) for n, v in f.values.items())
+    return not all(_plausible(v, f.std.get(n, math.inf), ev.parameters[n].plausible_range, n in f.at_bound)
+                   for n, v in f.values.items())
 
 
 def _candidate(meas, ev, current: FitResult, effect: str) -> Candidate:
@@ -367,7 +384,8 @@ def _swap(meas, ev, final: FitResult, step: Step, rival: Candidate) -> FitResult
     effects = [e for e in final.effects if e != step.added]
     if set(EFFECTS[rival.effect].parameters) & _parameters(effects):
         return None
-    names = tuple(n for n in final.names if n not in dropped) + tuple(n for n in rival.names if n not in final.names)
+    kept = tuple(n for n in final.names if n not in dropped)
+    names = kept + tuple(n for n in rival.names if n not in kept)
     fixed = {k: v for k, v in final.fixed.items() if k not in dropped}
     start = {**fixed, **rival.params}
     return fit(meas, _order(effects + [rival.effect]), ev, names, start=start, fixed=fixed, explore=())

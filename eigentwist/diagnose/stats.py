@@ -43,8 +43,9 @@ CRITERIA = {
     "ranking": "AICc with sigma known up to a common scale factor (n ln(chi2/n) + 2K + 2K(K+1)/(n-K-1), K = k+1)",
     "p_value": "extra-sum-of-squares F test against the model of the previous step",
     "switched": "an effect without fitted parameters: p = P(chi2_1 >= (chi2_0 - chi2_1)/max(1, chi2_1/(n-k)))",
-    "plausible": "a candidate whose fitted value lies outside its parameter's documented plausible range, or at a search "
-                 "bound, is reported implausible (with the value it would need) and never selected",
+    "plausible": "a candidate whose fitted value lies outside its parameter's documented plausible range by more than 3 "
+                 "standard errors, or at a search bound, is reported implausible (with the value it would need) and never "
+                 "selected",
     "selection": "add the best-ranked effect while its p-value < alpha/m (Bonferroni over m candidates) and it lowers AICc",
     "explained": "chi-square goodness of fit with the given sigma: P(chi2_{n-k} >= chi2) > alpha",
     "indistinguishable": "|delta AICc| < 2 (comparable support), or the two fitted models' predictions on the measured rows "
