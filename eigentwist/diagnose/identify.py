@@ -16,6 +16,10 @@ sensitive to them beyond what the parameters already fitted can absorb:
   outer radius and its Young's modulus both scale the bending stiffness: correlation
   > 0.99, so only E_l1 is fitted).
 
+After the fit, the extras are kept only if the fit still determines every parameter
+(:func:`eigentwist.diagnose.select` checks the standard errors); otherwise the effect is
+fitted with its ``fit`` tuple alone.
+
 A switched effect (empty ``fit``: ``gravity_preload``) stays switched: its parameters
 are known constants. Parameters given as data columns are never fitted.
 """

@@ -226,9 +226,19 @@ def _fit_effect(meas, ev, current: FitResult, effect: str) -> tuple[FitResult, t
     start, starts = _starts(ev, extra)
     g = fit(meas, effects, ev, f.names + extra, start={**f.values, **start}, fixed=f.fixed, explore=extra,
             starts=starts, max_nfev=CANDIDATE_NFEV)
-    if _implausible(ev, g) and not _implausible(ev, f):
+    if not _determined(ev, g, f, extra) or (_implausible(ev, g) and not _implausible(ev, f)):
         return f, own                 # the extra parameters ran away: keep what the data pin down
     return g, own + extra
+
+
+def _determined(ev, g: FitResult, f: FitResult, extra) -> bool:
+    """Whether the fit with the ``extra`` parameters still determines every parameter: each extra
+    within a quarter of its plausible range, no other standard error inflated tenfold."""
+    for name in extra:
+        lo, hi = ev.parameters[name].plausible_range
+        if not g.std[name] <= 0.25 * (hi - lo):
+            return False
+    return all(g.std[n] <= 10 * f.std[n] for n in f.names if math.isfinite(f.std[n]))
 
 
 def _plausible(value: float, std: float, bounds, at_bound: bool) -> bool:
