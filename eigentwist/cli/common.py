@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..text import format_table  # re-exported: moved to the core (eigentwist.text)
+from ..text import format_table  # re-exported: the CLI's tables
 
 __all__ = ["CliError", "add_model_options", "parse_sets", "progress", "format_table", "eprint"]
 

@@ -7,29 +7,12 @@ ranking entry, ``plausible`` and ``plausible_range``.
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import asdict
 
-import numpy as np
-
+from ..text import json_safe as clean
 from .stats import CRITERIA, gof_p_value
 
 __all__ = ["diagnosis_json", "candidate_json", "step_json", "clean", "dumps"]
-
-
-def clean(obj):
-    """JSON-safe: numpy scalars to float, NaN/inf to None, tuples to lists."""
-    if isinstance(obj, dict):
-        return {str(k): clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [clean(v) for v in obj]
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
 
 
 def dumps(obj, **kwargs) -> str:
