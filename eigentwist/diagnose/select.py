@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..description.effects import EFFECTS, resolve_model
+from ..runtime import InputError
 from .compare import Comparison, compare
 from .evaluators import resolve
 from .fit import FitResult, fit
@@ -220,12 +221,15 @@ def _fit_effect(meas, ev, current: FitResult, effect: str) -> tuple[FitResult, t
     own = tuple(p for p in EFFECTS[effect].fit if p not in current.names and p not in meas.params)
     f = fit(meas, effects, ev, current.names + own, start=current.values, fixed=current.fixed, explore=own,
             max_nfev=CANDIDATE_NFEV)
-    extra = extra_parameters(meas, ev, effects, effect, f.values, f.fixed)
-    if not extra:
+    try:
+        extra = extra_parameters(meas, ev, effects, effect, f.values, f.fixed)
+        if not extra:
+            return f, own
+        start, starts = _starts(ev, extra)
+        g = fit(meas, effects, ev, f.names + extra, start={**f.values, **start}, fixed=f.fixed, explore=(),
+                starts=starts, max_nfev=CANDIDATE_NFEV)
+    except InputError:                # the extra parameters left their joint constraints (r_i < r_o): not identifiable
         return f, own
-    start, starts = _starts(ev, extra)
-    g = fit(meas, effects, ev, f.names + extra, start={**f.values, **start}, fixed=f.fixed, explore=extra,
-            starts=starts, max_nfev=CANDIDATE_NFEV)
     if not _determined(ev, g, f, extra) or (_implausible(ev, g) and not _implausible(ev, f)):
         return f, own                 # the extra parameters ran away: keep what the data pin down
     return g, own + extra
