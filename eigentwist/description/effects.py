@@ -40,7 +40,7 @@ class Effect:
         unit, default, plausible range, doc and paper equation; a robot passes only the
         values that differ (:func:`effect_parameters`).
     fit : the subset that ``diagnose`` always fits to measurements (more join when the data
-        identify them, :mod:`eigentwist.diagnose.identify`); empty for an effect that is
+        identify them, :mod:`eigentwist.diagnose.identifiable`); empty for an effect that is
         switched on or off with known parameter values (``gravity_preload``: g is known).
     structural : True when it adds compliance in the legs' constrained directions, so
         that the model needs the full-rank flexible stiffness K_F (Eq. 13) instead of

@@ -10,7 +10,7 @@ Modules, one job each: :mod:`.measurements` (CSV loading/validation, the paper's
 :mod:`.matching` (which model mode a label names), :mod:`.predict` (batched
 predictions), :mod:`.compare` (errors, where a model fails), :mod:`.patterns` (what the
 residual shape suggests), :mod:`.fit` (weighted least squares), :mod:`.stats` (the
-criteria), :mod:`.identify` (which parameters the data can fit), :mod:`.select` (ranking,
+criteria), :mod:`.identifiable` (which parameters the data can fit), :mod:`.select` (ranking,
 forward selection, ties), :mod:`.misfit` (too few rows, the stated uncertainty, outliers),
 :mod:`.separate` (the next measurement), :mod:`.synth` (synthetic data), :mod:`.report`
 (text), :mod:`.render_json` (JSON), :mod:`.plots`.

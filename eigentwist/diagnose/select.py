@@ -10,7 +10,7 @@
    described (:mod:`.patterns`).
 3. Every catalogue effect the robot has and the model lacks (:func:`candidates_for`) is
    fitted on top of the current model: its ``Effect.fit`` parameters, plus those the data
-   identify (:mod:`.identify`, e.g. the payload offsets when rotational modes are
+   identify (:mod:`.identifiable`, e.g. the payload offsets when rotational modes are
    measured), jointly with those selected before. Each gets an AICc, a p-value (F test; a
    switched effect without fitted parameters: the chi2_1 test of :func:`~.stats.switch_test`)
    and a plausibility verdict: a fitted value outside its parameter's ``plausible`` range
@@ -43,7 +43,7 @@ from ..runtime import InputError
 from .compare import Comparison, compare
 from .evaluators import resolve
 from .fit import FitResult, fit
-from .identify import extra_parameters, sign_free, trial_value
+from .identifiable import extra_parameters, sign_free, trial_value
 from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
 from .predict import Predictor

@@ -6,7 +6,7 @@ import pytest
 import eigentwist
 from eigentwist.description.effects import resolve_model
 from eigentwist.diagnose import synth
-from eigentwist.diagnose.identify import extra_parameters, sign_free, trial_value
+from eigentwist.diagnose.identifiable import extra_parameters, sign_free, trial_value
 
 KA = (250, 1000, 4000)
 POSES = ((0.0, 0.0, -0.625), (-0.1, 0.0, -0.55))
