@@ -12,7 +12,7 @@ from dataclasses import asdict
 from ..text import json_safe as clean
 from .stats import CRITERIA, gof_p_value
 
-__all__ = ["diagnosis_json", "candidate_json", "step_json", "clean", "dumps"]
+__all__ = ["diagnosis_json", "candidate_json", "step_json", "shape_json", "clean", "dumps"]
 
 
 def dumps(obj, **kwargs) -> str:
@@ -56,6 +56,15 @@ def _uncertainty(u) -> dict:
     return {"verdict": out.pop("verdict"), "birge_ratio": out.pop("birge_ratio"), **out}
 
 
+def shape_json(d):
+    """The final model's mode-shape residual term (:func:`.shapes.shape_term`), or None."""
+    from .evaluators import evaluator
+    from .shapes import shape_term
+
+    term = shape_term(d.meas, d.final.effects, evaluator(d.robot), d.final.fixed)
+    return term and {k: v for k, v in term.items() if k != "residuals"}
+
+
 def diagnosis_json(d) -> dict:
     """The diagnosis as one JSON-safe dict (see module doc)."""
     out = {
@@ -71,6 +80,7 @@ def diagnosis_json(d) -> dict:
         "uncertainty": _uncertainty(d.uncertainty) if d.uncertainty else None,
         "untestable": dict(d.untestable),
         "manual": d.manual, "alpha": d.alpha, "criteria": CRITERIA,
+        "shapes": shape_json(d),          # measured mode shapes (issue 14), else None
     }
     if d.all_rows is not None:
         a = d.all_rows
