@@ -12,6 +12,8 @@ from eigentwist.robots import NAMES
 from eigentwist.runtime import InputError
 from eigentwist.runtime import sweep as sw
 
+from .conftest import skip_tier
+
 # x in [0, 0.3], y = 0, z in [-0.8, -0.3]: both reachable and unreachable poses (heli4)
 MIXED_BOX = (0.0, 0.3, 0.0, 0.0, -0.8, -0.3)
 
@@ -312,7 +314,7 @@ def test_c_backend_sweep_agrees_with_numpy(request, monkeypatch):
     try:
         cb.find_compiler()
     except cb.CompilerNotFoundError as exc:
-        pytest.skip(f"compiled tier skipped: {exc}")
+        skip_tier("compiled", str(exc))
     monkeypatch.setenv("EIGENTWIST_CACHE", str(request.config.cache.mkdir("eigentwist-c")))
     kwargs = dict(grid=(6, 1, 6), box=MIXED_BOX, vary=["l2=0.5,0.56"], k_a="1000,2000", chunk_size=19)
     for model in ("paper", "rigid"):

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .ccompile import CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
+from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
 from .validity import STATUS
 
 __all__ = ["load_c_kernels", "CKernels", "CompilerNotFoundError", "CompileError", "find_compiler",
@@ -32,7 +32,7 @@ ABI_VERSION = 2
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
 
-class CompileError(RuntimeError):
+class CompileError(BuildError):
     """The compiler failed on every flag set (the message holds its output)."""
 
 
