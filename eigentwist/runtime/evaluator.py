@@ -8,7 +8,7 @@ import numpy as np
 
 from ..description import RobotDescription
 from ..description.effects import STRUCTURAL, resolve_model, switch_name
-from .eigen import frequencies_hz, generalized_eigh, generalized_eigvalsh, normalize_eigentwists, unstable_modes
+from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
 from .threads import resolve_threads
 from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular, raise_unreachable, reachable_mask
@@ -360,10 +360,10 @@ class Evaluator:
     def _solve(self, M, K, vectors: bool = True) -> Modes:
         if self._fused:                               # the C solver, on the evaluator's threads
             lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
-        elif vectors:
-            lam, V = generalized_eigh(K, M)
         else:
-            lam, V = generalized_eigvalsh(K, M), None
+            # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
+            # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
+            lam, V = generalized_eigh(K, M)
         rigid = M.shape[-1] == 3
         return Modes(frequencies_hz(lam), normalize_eigentwists(V) if vectors else None,
                      AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible",
