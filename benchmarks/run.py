@@ -187,18 +187,23 @@ def public_path(n: int, repeat: int, log) -> dict:
         "numpy_public": ("`Evaluator.frequencies`, NumPy backend", lambda: ev_np.frequencies(poses)),
     }
     rates: dict = {k: [] for k in rows}
+    cpu: dict = {k: [] for k in rows}
+    load = [os.getloadavg()[0]]
     for r in range(repeat):                      # interleaved, so slow phases of a shared machine hit all rows
         for key, (_, fn) in rows.items():
             if key == "numpy_public" and r > 0:
                 continue
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             fn()
-            rates[key].append(n / (time.perf_counter() - t0))
-            log(f"[bench] public N={n} {key}: {rates[key][-1]:.3g} poses/s")
+            t1, c1 = time.perf_counter(), time.process_time()
+            rates[key].append(n / (t1 - t0))
+            cpu[key].append(n / (c1 - c0))      # poses per CPU-second of this process (all its threads)
+            log(f"[bench] public N={n} {key}: {rates[key][-1]:.3g} poses/s, {cpu[key][-1]:.3g} per CPU-s")
+        load.append(os.getloadavg()[0])
     ref = pipelines.per_pose(ev1.defaults)
     m_pp = 2000
     _, _, t_pp = ref.timed(poses[:m_pp])
-    out = dict(n=n, labels={k: v[0] for k, v in rows.items()}, rates=rates,
+    out = dict(n=n, labels={k: v[0] for k, v in rows.items()}, rates=rates, cpu_rates=cpu, loadavg=load,
                best={k: max(v) for k, v in rates.items()}, per_pose_per_s=m_pp / t_pp, per_pose_n=m_pp)
     log("[bench] peak RSS (fresh processes)")
     out["rss_mb"] = {case: peak_rss(case, n) for case in MEMORY_CASES}
@@ -222,6 +227,7 @@ def public_report(out: dict) -> str:
     for case, (base, peak) in out["rss_mb"].items():
         lines.append(f"| {case} | {base:.0f} MiB | {peak:.0f} MiB | {peak - base:.0f} MiB |")
     lines.append(f"\n`iter_matrices` (default chunk) traced peak: {out['iter_matrices_traced_mb']:.1f} MiB.")
+    lines.append(f"\nLoad average (1 min) during the run: {', '.join(f'{v:.1f}' for v in out['loadavg'])}.")
     lines.append("\nAll rates per run: " + json.dumps({k: [round(v) for v in vs] for k, vs in out["rates"].items()}))
     return "\n".join(lines)
 
