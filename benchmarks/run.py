@@ -134,14 +134,20 @@ def poses_for(robot, n: int, seed: int = 0) -> np.ndarray:
 
 # ------------------------------------------------------------ public path
 RSS_SNIPPET = """
-import resource, sys, numpy as np, eigentwist
+import numpy as np, eigentwist
+
+def hwm():  # peak RSS of this process in MiB (VmHWM: exec starts it afresh, unlike ru_maxrss)
+    for line in open('/proc/self/status'):
+        if line.startswith('VmHWM:'):
+            return int(line.split()[1]) / 1024
+
 ev = eigentwist.load('heli4', backend='c')
 rng = np.random.default_rng(0)
 lo = np.array([a for a, _ in ev.robot.workspace]); hi = np.array([b for _, b in ev.robot.workspace])
 poses = lo + (hi - lo) * rng.random(({n}, 3))
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+base = hwm()
 {body}
-print(base / 1024, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+print(base, hwm())
 """
 MEMORY_CASES = {
     "matrices": "m = ev.matrices(poses)",

@@ -282,8 +282,8 @@ class Evaluator:
         """Yield ``(rows, matrices)`` chunk by chunk: ``rows`` a slice of ``poses``,
         ``matrices`` what :meth:`matrices` returns for those rows.
 
-        Memory stays bounded by the chunk (3 x 288 B per pose: 57 MB for the default 65536
-        poses) whatever the batch. Every input is checked before the first chunk; an
+        Memory stays bounded by the chunk whatever the batch: 3 x 288 B per pose, 57 MB for
+        the default 65536 poses, twice that while the caller still holds the previous chunk. Every input is checked before the first chunk; an
         unreachable or singular pose raises when its chunk is reached.
         """
         poses = self._poses(poses)
