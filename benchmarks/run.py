@@ -176,7 +176,7 @@ def public_path(n: int, repeat: int, log) -> dict:
     ev_np = eigentwist.load("heli4", backend="numpy")
     poses = poses_for(ev1.robot, n)
     x, y, z = (np.ascontiguousarray(poses[:, k]) for k in range(3))
-    params = ev1._params(n, {}, "paper")
+    params = ev1.parameter_values(n, "paper")
     rows = {
         "raw_1": ("raw fused kernel, frequencies only, no checks (`CKernels.fused`), 1 thread",
                   lambda: ck.fused(x, y, z, params, matrices=(), model="flexible")),
@@ -276,7 +276,7 @@ def main(argv=None) -> int:
     ck = load_c_kernels("heli4", ev.module)
     load_s = time.perf_counter() - t0
     evc = load("heli4", backend="c", threads=1)
-    params = ev._params(1, {}, "paper")
+    params = ev.parameter_values(1, "paper")
     log("[bench] lambdify (expand + lambdify with cse=True)")
     lam = pipelines.lambdify_pipeline(derive(ev.robot), params)
     pipes = [pipelines.per_pose(ev.defaults), lam, pipelines.numpy_pipeline(ev.module, params),

@@ -204,7 +204,7 @@ def test_unstable_model_in_c(ev_c, ev):
     # the fused pass (no gravity): a negative actuator stiffness, below any parameter check
     ck = ev_c._kernels
     poses = random_poses(ev.robot, 200, seed=47)
-    p = ev._params(200, {}, "rigid")
+    p = ev.parameter_values(200, "rigid")
     p["k_a"] = np.where(np.arange(200) % 3 == 0, -1500.0, 1500.0)
     out = ck.fused(*poses.T, p, matrices=("M", "K_R"), model="rigid", status=True)
     lam = generalized_eigh(out["K_R"][:, 3:, 3:], out["M"][:, 3:, 3:])[0]

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import sympy as sp
 
@@ -33,6 +33,15 @@ class Parameter:
         outside it and fits stay inside it.
     effect : str or None
         Name of the effect this parameter belongs to (None: the base model).
+    plausible : tuple or None
+        Documented physically plausible range ``(low, high)`` in the same unit (e.g. the
+        Young's modulus of aluminium to steel tubes). ``bounds`` is what the mathematics
+        admits; ``plausible`` is what a real robot can have. The diagnosis searches
+        beyond it and reports a fit outside it as implausible; joint parameter checks use
+        it too. None: the same as ``bounds``. Overridable per robot
+        (:meth:`with_values`).
+    equation : str
+        The paper equation or appendix the parameter enters (``"Eq. 34, App. B"``), or "".
     """
 
     name: str
@@ -41,10 +50,26 @@ class Parameter:
     doc: str
     bounds: tuple[float, float] = (0.0, math.inf)
     effect: str | None = None
+    plausible: tuple[float, float] | None = None
+    equation: str = ""
 
     @property
     def symbol(self) -> sp.Symbol:
         return sym(self.name)
+
+    @property
+    def plausible_range(self) -> tuple[float, float]:
+        """The plausible range, ``bounds`` when none is documented."""
+        return tuple(self.plausible) if self.plausible is not None else tuple(self.bounds)
+
+    def is_plausible(self, value: float) -> bool:
+        """True when ``value`` lies inside :attr:`plausible_range` (closed interval)."""
+        lo, hi = self.plausible_range
+        return bool(lo <= float(value) <= hi)
+
+    def with_values(self, **changes) -> "Parameter":
+        """A copy with some fields changed (a robot's own default, doc or plausible range)."""
+        return replace(self, **changes)
 
     def check(self, value, where: str = "") -> None:
         """Raise ``ValueError`` naming the parameter when ``value`` is outside ``bounds``."""

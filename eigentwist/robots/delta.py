@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..description import Leg, Parameter, RobotDescription, sym
-from ..description.effects import switch_name
+from ..description import Leg, Parameter, RobotDescription, sym, triangle_inequality, tube
+from ..description.effects import effect_parameters, switch_name
 from ..symbolic.screw import spatial_inertia
 
 PARAMETERS = (
@@ -23,8 +23,6 @@ PARAMETERS = (
     Parameter("r_i", 0.0035, "m", "inner radius of the forearm tubes"),
     Parameter("r_o", 0.005, "m", "outer radius of the forearm tubes"),
     Parameter("rho", 2000.0, "kg/m^3", "density of the forearm tubes"),
-    Parameter("E_rod", 170e9, "Pa", "Young's modulus of the forearm tubes (carbon fibre)", effect="rod_compliance"),
-    Parameter("G_rod", 65e9, "Pa", "shear modulus of the forearm tubes (no influence on K_F)", effect="rod_compliance"),
     Parameter("m_1", 0.40, "kg", "mass of the upper arm"),
     Parameter("l1_cog", 0.15, "m", "distance from the actuated joint to the upper arm's centre of gravity (mid-length)"),
     Parameter("I1_xx", 1e-5, "kg m^2", "upper arm inertia about its own axis, frame J_i1"),
@@ -36,27 +34,24 @@ PARAMETERS = (
     Parameter("I_e_yy", 1.875e-4, "kg m^2", "platform inertia about Y (disc, m r_p^2/4)"),
     Parameter("I_e_zz", 3.75e-4, "kg m^2", "platform inertia about Z (disc, m r_p^2/2)"),
     Parameter("k_a", 2000.0, "N m/rad", "commanded actuator stiffness"),
-    Parameter("eta_a", 0.82, "-", "delivered/commanded actuator stiffness (as the Heli4's, App. B)", (0.05, 1.5),
-              effect="actuator_loss"),
-    Parameter("r_o_l1", 0.015, "m", "outer radius of the upper arm tube", effect="lower_link_compliance"),
-    Parameter("r_i_l1", 0.013, "m", "inner radius of the upper arm tube", effect="lower_link_compliance"),
-    Parameter("E_l1", 70e9, "Pa", "Young's modulus of the upper arm tube (aluminium)", effect="lower_link_compliance"),
-    Parameter("nu_l1", 0.33, "-", "Poisson ratio of the upper arm tube", (0.0, 0.5), effect="lower_link_compliance"),
-    Parameter("k_t", 20000.0, "N m/rad", "torsional stiffness of each transmission", effect="transmission_compliance"),
-    Parameter("m_p", 0.2, "kg", "payload mass on the platform", effect="payload_mass"),
-    Parameter("p_x", 0.0, "m", "payload offset along X", (-1.0, 1.0), effect="payload_mass"),
-    Parameter("p_y", 0.0, "m", "payload offset along Y", (-1.0, 1.0), effect="payload_mass"),
-    Parameter("p_z", 0.0, "m", "payload offset along Z", (-1.0, 1.0), effect="payload_mass"),
-    Parameter("I_add", 2e-3, "kg m^2", "additional inertia about each actuated axis", effect="rotor_inertia"),
-    Parameter("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload", (0.0, 100.0),
-              effect="gravity_preload"),
     Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance given to ideally rigid constrained directions", (0.0, 1e-6)),
 )
 
 
+EFFECTS = ("actuator_loss", "rod_compliance", "lower_link_compliance", "transmission_compliance",
+           "payload_mass", "rotor_inertia", "gravity_preload")
+
+# only the values that differ from the catalogue's (eigentwist/description/effects.py)
+EFFECT_VALUES = {
+    "r_o_l1": {"default": 0.015, "doc": "outer radius of the upper arm tube"},
+    "r_i_l1": {"default": 0.013, "doc": "inner radius of the upper arm tube (below r_o_l1)"},
+}
+
+
 def describe() -> RobotDescription:
     """The Delta description with the issue's values as defaults."""
-    p = {q.name: q.symbol for q in PARAMETERS}
+    parameters = PARAMETERS + effect_parameters(EFFECTS, EFFECT_VALUES)
+    p = {q.name: q.symbol for q in parameters}
     legs = []
     for k in range(3):
         phi = 2 * sp.pi * k / 3
@@ -70,7 +65,7 @@ def describe() -> RobotDescription:
     return RobotDescription(
         name="delta",
         title="Delta robot (3-RR(Pi)RR)",
-        parameters=PARAMETERS,
+        parameters=parameters,
         legs=tuple(legs),
         l1=p["l1"],
         l2=p["l2"],
@@ -82,6 +77,8 @@ def describe() -> RobotDescription:
         x_ref=(0.0, 0.0, -0.75),
         workspace=((-0.2, 0.2), (-0.2, 0.2), (-0.95, -0.60)),
         source="description in eigentwist/robots/delta.py (issue 6); method DOI 10.1016/j.mechmachtheory.2019.103775",
-        effects=("actuator_loss", "rod_compliance", "lower_link_compliance", "transmission_compliance",
-                 "payload_mass", "rotor_inertia", "gravity_preload"),
+        effects=EFFECTS,
+        constraints=(tube(p["r_i"], p["r_o"], "the forearm tubes")
+                     + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
+                     + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")),
     )
