@@ -99,9 +99,8 @@ class Evaluator:
             raise InputError(f"poses has shape {np.shape(poses)}: expected (N, 3) end-effector positions in m")
         if arr.shape[0] == 0:
             raise InputError("poses is empty: expected at least one (x, y, z) position in m")
-        bad = ~np.isfinite(arr).all(axis=1)
-        if bad.any():
-            k = int(np.argmax(bad))
+        if not np.isfinite(arr).all():             # one pass over the batch; per row only on failure
+            k = int(np.argmax(~np.isfinite(arr).all(axis=1)))
             raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers in m")
         return arr
 
