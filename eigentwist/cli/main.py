@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 
-from ..runtime.errors import BackendUnavailableError
+from ..runtime.ccompile import BuildError
 from .common import CliError
 
 # Subcommands are the modules of this package that define ``add_parser``; this order
@@ -63,7 +63,7 @@ def main(argv=None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
-    except (CliError, ValueError, OSError, KeyError, BackendUnavailableError) as exc:
+    except (CliError, ValueError, OSError, KeyError, BuildError) as exc:
         if args.debug:
             raise
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

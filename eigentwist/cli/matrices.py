@@ -62,7 +62,8 @@ def compute(args) -> dict:
     check_pose(ev, pose, effects, params)
     mats = ev.matrices(pose, effects, **params)
     q = ev.joint_angles(pose, **params)[0]
-    model = ev.modes(pose, effects, **params)
+    # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
+    model = ev.modes(pose, effects, unstable="raise", **params)
     f_rigid, v_rigid = _modes_of(mats["M"][:, 3:, 3:], mats["K_R"][:, 3:, 3:])
     f_flex, v_flex = _modes_of(mats["M"], mats["K_F"])
     kind = ev.kind(effects)

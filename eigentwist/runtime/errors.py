@@ -1,6 +1,6 @@
 """Errors raised on bad input: each names the value and what was expected."""
 
-__all__ = ["EigentwistError", "UnreachablePoseError", "SingularPoseError", "InputError", "BackendUnavailableError"]
+__all__ = ["EigentwistError", "UnreachablePoseError", "SingularPoseError", "UnstablePoseError", "InputError"]
 
 
 class EigentwistError(ValueError):
@@ -19,6 +19,5 @@ class SingularPoseError(EigentwistError):
     """A leg's actuation lever is (nearly) zero: the Jacobian is singular there."""
 
 
-class BackendUnavailableError(RuntimeError):
-    """``backend="c"`` was asked for and cannot be had: no C compiler, or compiling or
-    loading failed (the message's first line says which; the cause is chained)."""
+class UnstablePoseError(EigentwistError):
+    """The stiffness is not positive semi-definite at a pose: a mode has omega^2 < 0."""

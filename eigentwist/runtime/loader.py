@@ -6,8 +6,9 @@ import warnings
 
 from ..description.names import did_you_mean
 from ..robots import NAMES, get
-from .errors import BackendUnavailableError, InputError
+from .errors import InputError
 from .evaluator import Evaluator
+from .threads import resolve_threads
 
 __all__ = ["load", "load_module", "evaluator_from_description", "BACKENDS"]
 
@@ -19,13 +20,17 @@ def load_module(robot: str, backend: str = "numpy"):
     return importlib.import_module(f"eigentwist.generated.{robot}_{backend}")
 
 
-def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
+def load(robot: str = "heli4", backend: str = "auto", threads: int | None = None) -> Evaluator:
     """An :class:`Evaluator` for ``robot`` (one of ``eigentwist.robots.NAMES``).
 
     ``backend="numpy"`` uses the generated NumPy module; ``"c"`` the generated C source
     compiled with the system compiler (cached by content hash); ``"auto"`` tries C and
-    falls back to NumPy with one warning when no compiler is available. ``"c"`` without
-    a working compiler raises :class:`BackendUnavailableError`.
+    falls back to NumPy with one warning when no compiler is available.
+
+    ``threads`` (C backend): how many threads one batch may use. None: the
+    ``EIGENTWIST_THREADS`` environment variable, else 1 inside a Dask worker, else every
+    core; a batch of fewer than 16 blocks of 64 poses per thread uses fewer threads.
+    Results are bit-identical whatever the count.
     """
     if robot not in NAMES:
         raise InputError(f"unknown robot {robot!r}{did_you_mean(robot, NAMES)}: expected one of {', '.join(NAMES)}")
@@ -33,8 +38,10 @@ def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
         raise InputError(f"unknown backend {backend!r}: expected one of {', '.join(BACKENDS)}")
     description = get(robot)
     module = load_module(robot, "numpy")
+    if threads is not None:
+        resolve_threads(threads)                # a bad value is an error on every backend
     if backend == "numpy":
-        return Evaluator(description, module, "numpy")
+        return Evaluator(description, module, "numpy", threads=threads)
     try:
         from .cbackend import load_c_kernels
     except ImportError:
@@ -46,13 +53,11 @@ def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
     try:
         kernels = load_c_kernels(robot, module)
     except Exception as exc:  # compiler missing or failing: reported, never swallowed silently
-        if backend == "c" and isinstance(exc, BackendUnavailableError):
-            raise
         if backend == "c":
-            raise BackendUnavailableError(f"the C backend of {robot!r} is unavailable: {exc}") from exc
+            raise
         warnings.warn(f"eigentwist: C backend unavailable ({exc}); falling back to NumPy", RuntimeWarning, stacklevel=2)
-        return Evaluator(description, module, "numpy")
-    return Evaluator(description, module, "c", kernels=kernels)
+        return Evaluator(description, module, "numpy", threads=threads)
+    return Evaluator(description, module, "c", kernels=kernels, threads=threads)
 
 
 def evaluator_from_description(description, progress=None) -> Evaluator:
