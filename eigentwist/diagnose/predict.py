@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .matching import match_modes
+from .matching import match_frequencies
 
 __all__ = ["evaluate", "Predictor"]
 
@@ -26,11 +26,11 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
 
     Returns
     -------
-    freq : (N,) Hz; index : (N,) matched mode index into the model's ascending modes.
+    freq : (N,) Hz; index : (N,) matched mode index into the model's ascending modes
+    (:func:`eigentwist.diagnose.matching.match_frequencies`).
     """
     modes = ev.modes(poses, tuple(effects), **params)
-    idx = match_modes(modes, labels, strict=strict, lines=lines)
-    return modes.freq_hz[np.arange(len(idx)), idx], idx
+    return match_frequencies(modes, labels, strict=strict, lines=lines)
 
 
 class Predictor:

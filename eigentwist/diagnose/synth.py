@@ -25,7 +25,7 @@ from ..description.effects import EFFECTS, PRESETS, resolve_model
 from ..runtime import InputError, Modes
 from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .evaluators import resolve
-from .matching import DIRECTIONS, match_modes, parse_mode
+from .matching import DIRECTIONS, match_frequencies, parse_mode
 from .measurements import Measurements
 
 __all__ = ["Truth", "parse_truth", "synth", "parse_noise", "noise_generator"]
@@ -147,8 +147,7 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
     row_ka = k_a[[r[1] for r in rows]]
     row_modes = [r[2] for r in rows]
     m = _truth_modes(ev, t, row_poses, row_ka, extra_stiffness)
-    idx = match_modes(m, row_modes, strict=True)
-    f_true = m.freq_hz[np.arange(len(idx)), idx]
+    f_true, _ = match_frequencies(m, row_modes, strict=True)
     f = f_true * (1.0 + rel * noise_generator(seed, rel).standard_normal(len(f_true)))
     sigma_hz = stated * f if stated > 0 else None
     return Measurements.from_arrays(row_ka, row_modes, f, row_poses, sigma_hz, robot=ev.robot.name,

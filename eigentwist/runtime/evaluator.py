@@ -10,6 +10,7 @@ from ..description import RobotDescription
 from ..description.effects import STRUCTURAL, resolve_model, switch_name
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .errors import InputError
+from .labels import directions
 from .validity import LEVER_TOL, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL"]
@@ -39,10 +40,9 @@ class Modes:
 
     @property
     def direction(self) -> np.ndarray:
-        """(N, n) axis index (into :data:`AXES`) of each mode's largest eigentwist entry."""
-        local = np.argmax(np.abs(self.eigentwists), axis=-2)
-        offset = 3 if self.kind == "rigid" else 0
-        return local + offset
+        """(N, n) axis index (into :data:`AXES`) carrying the largest share of each mode's
+        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist)."""
+        return directions(self.eigentwists, offset=3 if self.kind == "rigid" else 0)
 
 
 class Evaluator:
