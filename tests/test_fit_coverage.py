@@ -192,3 +192,111 @@ def test_a_fit_that_ends_on_its_search_bound_says_so(ev_fast):
     empty = synth("rigid", KA, POSES, ("x", "y", "z"), 0, ev=ev_fast)   # no payload at all: m_p -> 0
     r = fit(empty, MODEL, ev_fast, ["m_p"])
     assert r.at_bound == ("m_p",) and r.values["m_p"] == pytest.approx(0.2 / SPAN, rel=1e-3)
+
+
+# --------------------------------------------------------- two parameters, the objective
+TWO = ("actuator_loss", "payload_mass", "transmission_compliance")
+
+
+def test_two_parameter_covariance_matches_scipy_curve_fit(ev_fast):
+    truth2 = synth("rigid+payload_mass:m_p=0.4+transmission_compliance:k_t=8000", [125.0, 500.0, 2000.0, 8000.0],
+                   POSES, ("x", "y", "z"), 0, ev=ev_fast)
+    meas = _draw(truth2, 0.01, 0.01, np.random.default_rng(8))
+    r = fit(meas, TWO, ev_fast, ["m_p", "k_t"])
+    predictor = Predictor(meas, TWO, ev_fast)
+
+    def model(_x, m_p, k_t):
+        return predictor.predict_sets(["m_p", "k_t"], [[m_p, k_t]])[0]
+
+    p0 = [r.values["m_p"], r.values["k_t"]]
+    p, cov = curve_fit(model, np.arange(len(meas)), meas.freq_hz, p0=p0, sigma=meas.sigma_hz,
+                       absolute_sigma=True, method="trf", x_scale=p0, diff_step=1e-6)
+    assert [r.values["m_p"], r.values["k_t"]] == pytest.approx(p, rel=1e-3)
+    cov = cov * max(1.0, r.chi2 / r.dof)                         # the Birge scaling, when chi2/nu > 1
+    cov_p = r.cov_theta * np.outer(p0, p0)                       # delta method for log-parameters
+    assert np.sqrt(np.diag(cov_p)) == pytest.approx(np.sqrt(np.diag(cov)), rel=0.03)
+    corr = cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1])
+    assert cov_p[0, 1] / np.sqrt(cov_p[0, 0] * cov_p[1, 1]) == pytest.approx(corr, abs=0.02)
+    assert [r.std["m_p"], r.std["k_t"]] == pytest.approx(np.sqrt(np.diag(cov_p)), rel=1e-9)
+
+
+def _objective(transforms, meas=None):
+    from types import SimpleNamespace
+
+    from eigentwist.diagnose.fit import STEP, _Objective
+
+    return _Objective(SimpleNamespace(meas=meas), transforms), STEP
+
+
+def test_difference_points_stay_inside_the_search_range(ev_fast):
+    m_p = Transform.of(ev_fast.parameters["m_p"])
+    narrow = Transform("narrow", False, -0.01, 0.01, 0.0, 1.0)           # narrower than two steps
+    obj, step = _objective([m_p, narrow])
+    lo, hi = m_p.bounds
+    sets = obj._sets(np.array([lo, 0.005]))
+    assert sets.shape == (5, 2)
+    assert sets[:, 0] == pytest.approx([lo, lo, lo + 2 * step, lo, lo])   # one-sided at the lower bound
+    assert sets[:, 1] == pytest.approx([0.005, 0.005, 0.005, 0.005 - step, 0.005 + step])
+    sets = obj._sets(np.array([hi, 0.0]))
+    assert sets[:, 0] == pytest.approx([hi, hi - 2 * step, hi, hi, hi])
+    middle = obj._sets(np.array([0.0, 0.0]))[:, 0]
+    assert middle == pytest.approx([0.0, -step, step, 0.0, 0.0])
+
+
+def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth):
+    meas = _draw(truth, 0.01, 0.01, np.random.default_rng(12))
+    from eigentwist.diagnose.fit import STEP, _Objective
+
+    predictor = Predictor(meas, TWO, ev_fast)
+    tr = [Transform.of(ev_fast.parameters[n]) for n in ("m_p", "k_t")]
+    obj = _Objective(predictor, tr)
+    assert obj.nfev == 0 and obj.names == ["m_p", "k_t"]
+    theta = np.array([math.log(0.3), math.log(5000.0)])
+    r = obj.residuals(list(theta))
+    jac = obj.jacobian(theta)
+    assert obj.nfev == 1                                                   # one batched call for both
+    f = predictor.predict_sets(["m_p", "k_t"], [[0.3, 5000.0]])[0]
+    assert r == pytest.approx((f - meas.freq_hz) / meas.sigma_hz, rel=1e-12)
+    for j, name in enumerate(("m_p", "k_t")):
+        lo_hi = [np.exp(theta) for _ in range(2)]
+        lo_hi[0][j] *= math.exp(-STEP)
+        lo_hi[1][j] *= math.exp(STEP)
+        f_lo, f_hi = predictor.predict_sets(["m_p", "k_t"], lo_hi)
+        assert jac[:, j] == pytest.approx((f_hi - f_lo) / meas.sigma_hz / (2 * STEP), rel=1e-9), name
+    table = np.array([[0.3, 5000.0], [0.4, 1e6], [2.0, 100.0]])
+    chi2 = obj.chi2_of(table)
+    assert obj.nfev == 2 and chi2.shape == (3,)
+    want = np.sum(((predictor.predict_sets(["m_p", "k_t"], table) - meas.freq_hz) / meas.sigma_hz) ** 2, axis=1)
+    assert chi2 == pytest.approx(want, rel=1e-12) and chi2[0] == pytest.approx(r @ r, rel=1e-12)
+
+
+def test_fit_result_carries_its_model_covariance_and_message(ev_fast, truth):
+    meas = _draw(truth, 0.01, 0.01, np.random.default_rng(13))
+    r = fit(meas, MODEL, ev_fast, ["m_p"])
+    assert r.effects == MODEL and r.comparison.effects == MODEL and r.comparison.values == r.fixed
+    assert isinstance(r.message, str) and r.message and r.cov_theta.shape == (1, 1)
+    assert r.std["m_p"] == pytest.approx(r.values["m_p"] * math.sqrt(r.cov_theta[0, 0]))
+    none = fit(meas, MODEL, ev_fast, [], fixed={"m_p": TRUTH_MP})
+    assert none.effects == MODEL and none.comparison.effects == MODEL and none.comparison.values == {"m_p": TRUTH_MP}
+    assert none.values == {} and none.std == {} and none.fixed == {"m_p": TRUTH_MP} and none.n == len(meas)
+    assert none.comparison.predicted == pytest.approx(truth.freq_hz, rel=1e-12)
+
+
+def test_a_fit_that_ends_on_its_upper_search_bound_says_so(ev_fast, truth):
+    r = fit(truth, TWO, ev_fast, ["k_t"], fixed={"m_p": TRUTH_MP})   # no transmission compliance: k_t -> inf
+    assert r.at_bound == ("k_t",) and r.values["k_t"] == pytest.approx(20000.0 * SPAN, rel=1e-3)
+
+
+def test_linear_transform_of_a_parameter_with_an_offset_default():
+    from types import SimpleNamespace
+
+    p = SimpleNamespace(name="offset", default=0.2, bounds=(-1.0, 1.0))
+    t = Transform.of(p)
+    assert not t.log and t.ref == 0.2 and t.scale == pytest.approx(0.2)
+    assert t.theta(0.3) == pytest.approx(0.5) and t.value(0.5) == pytest.approx(0.3)
+
+
+def test_start_grid_is_clipped_at_the_lower_bound(ev_fast):
+    t = Transform.of(ev_fast.parameters["m_p"])
+    table = _starts([t], {"m_p": 5e-4}, {"m_p"})
+    assert table[:, 0].min() == pytest.approx(t.lo) and table[:, 0].max() == pytest.approx(5e-3)
