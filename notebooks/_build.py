@@ -649,7 +649,7 @@ k_a = np.linspace(0.0, 4000.0, 161)[1:]                 # N m/rad (k_a = 0 gives
 poses = np.repeat(x_ref, len(k_a), axis=0)
 rigid = ev.modes(poses, "rigid", k_a=k_a)
 flex = ev.modes(poses, "paper", k_a=k_a)
-# omega_1 is the X mode and omega_2 the Y mode at every k_a (largest eigentwist entry)
+# omega_1 is the X mode and omega_2 the Y mode at every k_a (largest share of the energy)
 assert (rigid.direction[:, :2] == [3, 4]).all() and (flex.direction[:, :2] == [3, 4]).all()
 
 ka_meas = np.array(paper.TABLE_KA, dtype=float)
@@ -1020,7 +1020,7 @@ poses = np.concatenate([xy + [0, 0, z] for z in zs] + [xz, yz])
 modes = timed("slices", lambda: ev.modes(poses, MODEL), len(poses))
 f_slices = modes.freq_hz[:, :2].reshape(5, n, n, 2)
 along_x = np.mean(modes.direction[:, 0] == 3)
-print(f"the lowest mode moves mainly along X at {100 * along_x:.1f} % of these poses (largest eigentwist entry)")
+print(f"the lowest mode moves mainly along X at {100 * along_x:.1f} % of these poses (largest share of its energy)")
 
 
 def panel(ax, X, Y, Z, title, xlabel, ylabel):

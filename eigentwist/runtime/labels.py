@@ -37,8 +37,10 @@ def energy_shares(eigentwists: np.ndarray) -> np.ndarray:
     non-finite entries (invalid poses) give NaN.
     """
     v = np.asarray(eigentwists, dtype=float)
-    out = np.full(v.shape, np.nan)
     ok = np.isfinite(v).all(axis=(-2, -1))
+    if ok.all():
+        return v * np.swapaxes(np.linalg.inv(v), -1, -2)
+    out = np.full(v.shape, np.nan)
     if ok.any():
         good = v[ok]
         out[ok] = good * np.swapaxes(np.linalg.inv(good), -1, -2)
@@ -49,7 +51,9 @@ def directions(eigentwists: np.ndarray, offset: int = 0) -> np.ndarray:
     """(N, n) index of the coordinate with the largest energy share of each mode, plus
     ``offset`` (3 maps the rigid model's x, y, z onto ``AXES``)."""
     s = energy_shares(eigentwists)
-    return np.argmax(np.nan_to_num(s, nan=-np.inf), axis=-2) + offset
+    if np.isnan(s).any():
+        s = np.nan_to_num(s, nan=-np.inf)
+    return np.argmax(s, axis=-2) + offset
 
 
 def degenerate_groups(freq_hz: np.ndarray, rel: float = DEGENERATE_REL) -> np.ndarray:
