@@ -230,17 +230,20 @@ def _objective(transforms, meas=None):
 
 def test_difference_points_stay_inside_the_search_range(ev_fast):
     m_p = Transform.of(ev_fast.parameters["m_p"])
-    narrow = Transform("narrow", False, -0.01, 0.01, 0.0, 1.0)           # narrower than two steps
-    obj, step = _objective([m_p, narrow])
+    narrow = Transform("narrow", False, -0.0075, 0.0075, 0.0, 1.0)       # narrower than two steps
+    room = Transform("room", False, -0.0125, 0.0125, 0.0, 1.0)          # 2.5 steps: the points move inside
+    obj, step = _objective([m_p, narrow, room])
+    assert step == 0.01
     lo, hi = m_p.bounds
-    sets = obj._sets(np.array([lo, 0.005]))
-    assert sets.shape == (5, 2)
-    assert sets[:, 0] == pytest.approx([lo, lo, lo + 2 * step, lo, lo])   # one-sided at the lower bound
-    assert sets[:, 1] == pytest.approx([0.005, 0.005, 0.005, 0.005 - step, 0.005 + step])
-    sets = obj._sets(np.array([hi, 0.0]))
-    assert sets[:, 0] == pytest.approx([hi, hi - 2 * step, hi, hi, hi])
-    middle = obj._sets(np.array([0.0, 0.0]))[:, 0]
-    assert middle == pytest.approx([0.0, -step, step, 0.0, 0.0])
+    sets = obj._sets(np.array([lo, 0.005, 0.005]))
+    assert sets.shape == (7, 3)
+    assert sets[:, 0] == pytest.approx([lo, lo, lo + 2 * step, lo, lo, lo, lo])   # one-sided at the lower bound
+    assert sets[:, 1] == pytest.approx([0.005] * 3 + [0.005 - step, 0.005 + step] + [0.005] * 2)
+    assert sets[:, 2] == pytest.approx([0.005] * 5 + [-0.0075, 0.0125])
+    sets = obj._sets(np.array([hi, 0.0, 0.0]))
+    assert sets[:, 0] == pytest.approx([hi, hi - 2 * step, hi, hi, hi, hi, hi])
+    middle = obj._sets(np.array([0.0, 0.0, 0.0]))[:, 0]
+    assert middle == pytest.approx([0.0, -step, step, 0.0, 0.0, 0.0, 0.0])
 
 
 def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth):
@@ -268,13 +271,16 @@ def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth):
     assert obj.nfev == 2 and chi2.shape == (3,)
     want = np.sum(((predictor.predict_sets(["m_p", "k_t"], table) - meas.freq_hz) / meas.sigma_hz) ** 2, axis=1)
     assert chi2 == pytest.approx(want, rel=1e-12) and chi2[0] == pytest.approx(r @ r, rel=1e-12)
+    obj.residuals(theta + 0.1)
+    obj.jacobian(theta + 0.1)
+    assert obj.nfev == 3                                                   # one more call, cached for both
 
 
 def test_fit_result_carries_its_model_covariance_and_message(ev_fast, truth):
     meas = _draw(truth, 0.01, 0.01, np.random.default_rng(13))
     r = fit(meas, MODEL, ev_fast, ["m_p"])
     assert r.effects == MODEL and r.comparison.effects == MODEL and r.comparison.values == r.fixed
-    assert isinstance(r.message, str) and r.message and r.cov_theta.shape == (1, 1)
+    assert isinstance(r.message, str) and r.message not in ("", "None") and r.cov_theta.shape == (1, 1)
     assert r.std["m_p"] == pytest.approx(r.values["m_p"] * math.sqrt(r.cov_theta[0, 0]))
     none = fit(meas, MODEL, ev_fast, [], fixed={"m_p": TRUTH_MP})
     assert none.effects == MODEL and none.comparison.effects == MODEL and none.comparison.values == {"m_p": TRUTH_MP}
@@ -300,3 +306,28 @@ def test_start_grid_is_clipped_at_the_lower_bound(ev_fast):
     t = Transform.of(ev_fast.parameters["m_p"])
     table = _starts([t], {"m_p": 5e-4}, {"m_p"})
     assert table[:, 0].min() == pytest.approx(t.lo) and table[:, 0].max() == pytest.approx(5e-3)
+
+
+def test_a_parameter_without_influence_stays_at_its_start(ev_fast, truth):
+    paper = ("actuator_loss", "rod_compliance", "ee_compliance")     # G_rod has no influence (README)
+    r = fit(truth, paper, ev_fast, ["G_rod"], start={"G_rod": 3e10}, explore=())
+    assert r.values["G_rod"] == pytest.approx(3e10, rel=1e-3) and r.std["G_rod"] > 100 * r.values["G_rod"]
+
+
+def test_a_fit_near_but_inside_its_bound_is_not_at_the_bound(ev_fast):
+    small = synth("rigid+payload_mass:m_p=0.0005", KA, POSES, ("x", "y", "z"), 0, ev=ev_fast)   # bound: 0.0002 kg
+    r = fit(small, MODEL, ev_fast, ["m_p"])
+    assert r.values["m_p"] == pytest.approx(0.0005, rel=1e-3) and r.at_bound == ()
+
+
+@pytest.mark.parametrize("default, bounds, scale, lo, hi", [
+    (0.0, (0.0, 1.0), 0.05, 0.0, 1.0),                    # zero default: linear even if p >= 0
+    (5.0, (-math.inf, math.inf), 5.0, 5.0 - 5000.0, 5.0 + 5000.0),
+    (0.5, (-math.inf, math.inf), 1.0, 0.5 - 1000.0, 0.5 + 1000.0),
+])
+def test_linear_transform_scale_and_range(default, bounds, scale, lo, hi):
+    from types import SimpleNamespace
+
+    t = Transform.of(SimpleNamespace(name="q", default=default, bounds=bounds))
+    assert t.log is False and t.scale == pytest.approx(scale)
+    assert (t.lo, t.hi) == pytest.approx((lo, hi))

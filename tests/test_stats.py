@@ -70,6 +70,8 @@ def test_f_test_edge_cases():
     assert stats.f_test(0.0, 0, 0.0, 1, 10) == 1.0
     assert stats.f_test(5.0, 0, 6.0, 1, 10) == 1.0            # a worse fit is no improvement
     assert 0.0 < stats.f_test(5.0, 0, 4.0, 1, 3) < 1.0        # dof = 2 is enough
+    assert stats.f_test(5.0, 0, 4.0, 1, 2) == pytest.approx(sps.f.sf(0.25, 1, 1))   # and dof = 1
+    assert stats.f_test(0.5, 0, 0.0, 1, 10) == 0.0            # any misfit of model 0 that model 1 removes
 
 
 def test_f_test_false_positive_rate_under_the_null_is_alpha():
@@ -94,6 +96,7 @@ def test_chi2_and_goodness_of_fit():
     assert stats.chi2_value([10.0, 20.0], [11.0, 18.0], [0.5, 1.0]) == pytest.approx(4.0 + 4.0)
     assert stats.gof_p_value(12.0, 10, 2) == pytest.approx(sps.chi2.sf(12.0, 8), rel=1e-12)
     assert math.isnan(stats.gof_p_value(1.0, 3, 3))
+    assert stats.gof_p_value(1.0, 3, 2) == pytest.approx(sps.chi2.sf(1.0, 1))      # one dof is enough
     dof = 8
     edge = sps.chi2.isf(stats.ALPHA, dof)                     # the chi2 at p = alpha
     assert stats.explained(edge * 0.999, dof + 2, 2) and not stats.explained(edge * 1.001, dof + 2, 2)
