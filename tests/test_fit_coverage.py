@@ -121,8 +121,10 @@ def test_log_transform_round_trips_and_keeps_to_the_search_range(ev_fast):
     assert t.theta(1e6) == pytest.approx(math.log(t.hi)) and t.theta(0.0) == pytest.approx(math.log(t.lo))
     assert t.bounds == pytest.approx((math.log(t.lo), math.log(t.hi)))
     assert t.std(0.5, 0.1) == pytest.approx(0.05)               # delta method: std_p = p std_theta
+    assert t.ref == 0.2 and t.scale == 1.0
     eta = Transform.of(ev_fast.parameters["eta_a"])             # physical bounds (0.05, 1.5) are tighter
-    assert eta.lo == pytest.approx(0.05) and eta.lo > 0.05 and eta.hi == pytest.approx(1.5) and eta.hi < 1.5
+    # inside them by a relative margin (not one ulp), so that exp(log(p)) cannot round outside
+    assert eta.lo == pytest.approx(0.05 * (1 + 1e-9), rel=1e-13) and eta.hi == pytest.approx(1.5 * (1 - 1e-9), rel=1e-13)
 
 
 def test_linear_transform_for_a_parameter_that_can_be_negative(ev_fast):
@@ -141,6 +143,7 @@ def test_covariance_is_the_inverse_normal_matrix_scaled_only_upwards():
     assert _covariance(jac, 1.0, 2) == pytest.approx(normal_inv)           # better than sigma: not shrunk
     assert _covariance(jac, 8.0, 2) == pytest.approx(4 * normal_inv)       # worse: Birge ratio^2
     assert _covariance(jac, 8.0, 0) == pytest.approx(normal_inv)           # no dof: no scale
+    assert _covariance(0.01 * jac, 2.0, 2) == pytest.approx(1e4 * normal_inv)   # small but determined
 
 
 def test_covariance_of_an_undetermined_parameter_is_infinite():
