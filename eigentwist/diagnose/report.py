@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from ..cli.common import format_table
+from ..text import format_table
 from .compare import FAIL_SIGMA
 from .stats import CRITERIA
 
@@ -28,15 +28,19 @@ def format_params(values: dict, std: dict, ev) -> str:
 
 
 def comparison_table(cmp) -> str:
-    """One line per measurement: measured, predicted, error in % and in sigma."""
+    """One line per measurement: measured, predicted, error in % and in sigma (and the
+    MAC of the mode shapes when the data have them)."""
     m = cmp.meas
+    mac = getattr(cmp, "mac", None)
     rows = []
     for i in range(len(m)):
         rows.append([int(m.lines[i]), f"{m.k_a[i]:g}", _pose(m.poses[i]), m.mode[i], int(cmp.mode_index[i]) + 1,
                      f"{m.freq_hz[i]:.4g}", f"{m.sigma_hz[i]:.3g}", f"{cmp.predicted[i]:.4g}",
-                     f"{cmp.error_pct[i]:+.2f}", f"{cmp.error_sigma[i]:+.2f}", "FAILS" if cmp.failing[i] else ""])
+                     f"{cmp.error_pct[i]:+.2f}", f"{cmp.error_sigma[i]:+.2f}", "FAILS" if cmp.failing[i] else ""]
+                    + ([] if mac is None else ["-" if np.isnan(mac[i]) else f"{mac[i]:.4f}"]))
     return format_table(["line", "k_a [N m/rad]", "pose [m]", "mode", "model mode", "measured [Hz]", "sigma [Hz]",
-                         "predicted [Hz]", "error [%]", "error [sigma]", f"|err|>{FAIL_SIGMA:g}sigma"], rows)
+                         "predicted [Hz]", "error [%]", "error [sigma]", f"|err|>{FAIL_SIGMA:g}sigma"]
+                        + ([] if mac is None else ["MAC"]), rows)
 
 
 def comparison_summary(cmp) -> str:

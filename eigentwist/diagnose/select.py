@@ -149,6 +149,7 @@ class Diagnosis:
                       "hints": self.final_hints},
             "next_measurement": self.next_measurement,
             "manual": self.manual, "alpha": self.alpha, "criteria": CRITERIA,
+            "shapes": _shape_term(self),          # measured mode shapes (issue 14), else None
         })
 
     def json(self, **kwargs) -> str:
@@ -160,6 +161,15 @@ class Diagnosis:
         from .report import diagnosis_text
 
         return diagnosis_text(self, evaluator(self.robot), show_rows)
+
+
+def _shape_term(d: Diagnosis):
+    """Hook: the final model's shape residual term (:func:`.shapes.shape_term`), or None."""
+    from .evaluators import evaluator
+    from .shapes import shape_term
+
+    term = shape_term(d.meas, d.final.effects, evaluator(d.robot), d.final.fixed)
+    return term and {k: v for k, v in term.items() if k != "residuals"}
 
 
 def _clean(obj):
