@@ -163,3 +163,27 @@ def test_criteria_state_the_numbers_the_code_uses():
     text = " ".join(stats.CRITERIA.values())
     assert f"D = {stats.SEPARATION:g}" in text and f"< {stats.DELTA_AICC:g}" in text
     assert "2K(K+1)/(n-K-1)" in text and "max(1, chi2/(n-k))" in text
+
+
+# ------------------------------------------------------------ switched effects (no parameter)
+def test_switch_test_is_the_chi2_of_one_dof_scaled_up_only():
+    # sigma right (chi2_1/nu <= 1): delta chi2 against chi2 with 1 dof, as written
+    assert stats.switch_test(30.0, 18.0, 20, 2) == pytest.approx(sps.chi2.sf(12.0, 1), rel=1e-12)
+    # fit worse than sigma: delta chi2 divided by chi2_1/nu = 2
+    assert stats.switch_test(76.0, 36.0, 20, 2) == pytest.approx(sps.chi2.sf(20.0, 1), rel=1e-12)
+    assert stats.switch_test(10.0, 12.0, 20, 2) == 1.0           # worse with it: no evidence
+    assert math.isnan(stats.switch_test(10.0, 5.0, 3, 3))
+    assert stats.switch_test(10.0, 5.0, 4, 3) == pytest.approx(sps.chi2.sf(1.0, 1), rel=1e-12)   # dof 1
+
+
+def test_switch_test_false_positive_rate_under_the_null_is_alpha():
+    # an effect that changes nothing real: delta chi2 ~ chi2_1 under the null (projection on one direction)
+    rng = np.random.default_rng(5)
+    n, reps, alpha = 20, 6000, 0.05
+    d = rng.standard_normal(n)
+    d /= np.linalg.norm(d)
+    e = rng.standard_normal((reps, n))
+    chi2_0 = np.sum(e ** 2, axis=1)
+    chi2_1 = chi2_0 - (e @ d) ** 2                               # the switched model removes one direction
+    p = np.array([stats.switch_test(c0, c1, n, 0) for c0, c1 in zip(chi2_0, chi2_1)])
+    assert abs(np.mean(p < alpha) - alpha) < 4 * math.sqrt(alpha * (1 - alpha) / reps)
