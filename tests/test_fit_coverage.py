@@ -337,8 +337,9 @@ def test_linear_transform_scale_and_range(default, bounds, scale, lo, hi):
 
 
 def test_given_start_values_replace_the_grid_for_their_parameter(ev_fast):
-    tr = [Transform.of(ev_fast.parameters[n]) for n in ("m_p", "p_z")]
-    table = _starts(tr, {"m_p": 0.3, "p_z": 0.0}, {"m_p", "p_z"}, {"p_z": [-0.05, 0.05, 5.0]})
-    assert table.shape == (15, 2)
-    assert sorted(set(table[:, 1])) == pytest.approx([-0.05, 0.05, 1.0])       # clipped to the search range
+    tr = [Transform.of(ev_fast.parameters[n]) for n in ("p_z", "m_p")]
+    table = _starts(tr, {"m_p": 0.3, "p_z": 0.0}, {"m_p", "p_z"}, {"p_z": [-5.0, -0.05, 0.05, 5.0]})
+    assert table.shape == (20, 2)
+    assert sorted(set(table[:, 0])) == pytest.approx([-1.0, -0.05, 0.05, 1.0])   # clipped to the search range
+    assert sorted(set(table[:, 1])) == pytest.approx([0.03, 0.09, 0.3, 0.9, 3.0])  # the others keep their grid
     assert _starts(tr, {"m_p": 0.3, "p_z": 0.0}, set(), None).shape == (1, 2)
