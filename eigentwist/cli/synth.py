@@ -9,9 +9,11 @@ from .synth_uff import UFF_EPILOG, add_uff_options, run_uff
 HELP = "synthesize measurements from a truth model with a hidden effect and noise (CSV)"
 EPILOG = """The truth is PRESET[+EFFECT[:PARAM=VALUE,...]]...; any item may set parameters (SI units),
 e.g. paper:m_e=0.7; `none` is the bare model. --set NAME=VALUE sets a parameter of the
-truth as well (the same as :NAME=VALUE on an item; giving one name both ways with
-different values is an error). Rows: every pose x k_a x mode; measured value
-f_true (1 + noise N(0,1)) from a seeded generator; sigma_hz = noise x value. Output columns:
+truth as well (as :NAME=VALUE on an item; one name both ways with different values is an
+error). Rows: every pose x k_a x mode; measured value
+f_true (1 + noise N(0,1)) from a generator seeded by (seed, noise level), so two noise levels
+draw independently; sigma_hz = sigma x value, sigma = noise unless --sigma states it apart
+(e.g. --noise 3% --sigma 1%: uncertainty understated). Output columns:
 k_a, mode, freq_hz, sigma_hz, x, y, z (the input of compare and diagnose).
 
 examples:
@@ -35,6 +37,8 @@ def add_parser(sub):
                    help="one end-effector position, m (repeatable); added to --poses")
     p.add_argument("--modes", default="x,y,z", help="mode labels, comma-separated: ranks or x,y,z,rx,ry,rz (default: x,y,z)")
     p.add_argument("--noise", default="0.5%", help="relative noise (standard deviation), e.g. 0.5%% or 0.005 (default: 0.5%%)")
+    p.add_argument("--sigma", default=None, metavar="P%",
+                   help="relative standard uncertainty written to sigma_hz, e.g. 1%% (default: the --noise value)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     p.add_argument("--extra-stiffness", action="append", default=[], metavar="AXIS=K",
                    help="add a spring to ground at the EE origin, N/m (x,y,z) or N m/rad (rx,ry,rz): "
@@ -102,7 +106,7 @@ def run(args) -> int:
         return run_uff(args, ev, _numbers(args.k_a, "--k-a value"), poses)
     meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), poses,
                  [m for m in args.modes.split(",") if m.strip()], args.noise, args.seed, ev=ev,
-                 extra_stiffness=_extra(args.extra_stiffness) or None, values=values)
+                 extra_stiffness=_extra(args.extra_stiffness) or None, sigma=args.sigma, values=values)
     text = meas.to_csv(args.output)
     if args.output:
         print(f"wrote {len(meas)} rows to {args.output} (truth: {args.truth})")
