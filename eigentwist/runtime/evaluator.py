@@ -266,6 +266,20 @@ class Evaluator:
         return Modes(np.concatenate(freq), np.concatenate(vec), AXES[3:] if kind == "rigid" else AXES, kind,
                      None if check else np.concatenate(ok))
 
+    def sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
+                      **params) -> np.ndarray:
+        """d f / d p of the model's natural frequencies, (N, n_modes, len(wrt)), Hz per SI unit.
+
+        ``wrt``: parameter names (default: every parameter of the description). Modes in
+        ascending order; frequencies within ``rtol`` (relative) of each other form a cluster
+        whose individual derivatives are returned (sorted ascending, never the mean). The
+        code is generated on first use for each ``wrt`` and cached (see
+        :mod:`eigentwist.runtime.sensitivity`); models with ``gravity_preload`` raise.
+        """
+        from .sensitivity import frequency_sensitivities
+
+        return frequency_sensitivities(self, poses, wrt, model, params, rtol=rtol, progress=progress)[1]
+
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
         ``"paper"``) or (N, 3) for ``"rigid"``, ascending."""
