@@ -152,23 +152,41 @@ def _c_kernel(text: str, robot: str):
     raise RuntimeError(f"could not build the C sensitivity kernel of {robot!r}:\n" + "\n".join(errors))
 
 
+def _select(kern, columns):
+    """A kernel that returns only the derivative rows ``columns`` of ``kern``'s outputs."""
+    idx = np.asarray(columns)
+
+    def run(x, y, z, p):
+        out = kern(x, y, z, p)
+        return {k: (v[:, idx] if k.startswith("d") else v) for k, v in out.items()}
+    return run
+
+
 def sensitivity_kernels(ev, wrt, progress=None):
     """The sensitivity kernel of evaluator ``ev`` for parameters ``wrt`` (its backend).
 
     Generated once per content hash (seconds to a minute, ``progress`` called with
-    messages), then loaded from the cache; kept in memory for the process.
+    messages), then loaded from the cache; kept in memory for the process. A kernel
+    already loaded for a superset of ``wrt`` is reused (its rows selected).
     """
     wrt = tuple(wrt)
-    key = (cache_key(ev, wrt), ev.backend)
-    if key not in _MEMORY:
-        texts = _sources(ev, wrt, progress)
-        if ev.backend == "c":
-            if progress:
-                progress(f"{ev.robot.name}: compile (cached by content hash)")
-            _MEMORY[key] = _c_kernel(texts["c"], ev.robot.name)
-        else:
-            _MEMORY[key] = _numpy_kernel(texts["numpy"], f"eigentwist_sens_{ev.robot.name}_{key[0]}")
-    return _MEMORY[key]
+    base = (ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), repr(ev.robot), ev.backend)
+    if (base, wrt) in _MEMORY:
+        return _MEMORY[base, wrt]
+    for (b, w), kern in list(_MEMORY.items()):
+        if b == base and set(wrt) <= set(w):
+            _MEMORY[base, wrt] = _select(kern, [w.index(name) for name in wrt])
+            return _MEMORY[base, wrt]
+    key = cache_key(ev, wrt)
+    texts = _sources(ev, wrt, progress)
+    if ev.backend == "c":
+        if progress:
+            progress(f"{ev.robot.name}: compile (cached by content hash)")
+        kern = _c_kernel(texts["c"], ev.robot.name)
+    else:
+        kern = _numpy_kernel(texts["numpy"], f"eigentwist_sens_{ev.robot.name}_{key}")
+    _MEMORY[base, wrt] = kern
+    return kern
 
 
 # ------------------------------------------------------------ eigenvalue derivatives
