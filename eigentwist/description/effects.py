@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .parameters import Parameter
+from .constraints import Constraint, tube
+from .parameters import Parameter, sym
 
 __all__ = ["Effect", "EFFECTS", "PRESETS", "STRUCTURAL", "KINDS", "resolve_model", "switch_name",
            "effect_parameters"]
@@ -46,6 +47,7 @@ class Effect:
     leg_level : True when the effect acts on each leg separately, so that it can be
         scoped to one leg (``EFFECT@N``).
     equation : the paper equation or appendix it implements.
+    constraints : conditions its parameters must meet together (:mod:`.constraints`).
     """
 
     name: str
@@ -56,6 +58,7 @@ class Effect:
     kind: str = "body_compliance"
     leg_level: bool = False
     equation: str = ""
+    constraints: tuple[Constraint, ...] = ()
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -112,7 +115,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                "steel, or carbon fibre, 40-250 GPa", "lower_link_compliance", (40e9, 250e9)),
             _p("nu_l1", 0.33, "-", "Poisson ratio of the lower link tube (G = E/(2(1+nu)))", "lower_link_compliance",
                (0.2, 0.45), (0.0, 0.5))),
-           ("E_l1",), structural=True, kind="body_compliance", leg_level=True),
+           ("E_l1",), structural=True, kind="body_compliance", leg_level=True,
+           constraints=tube(sym("r_i_l1"), sym("r_o_l1"), "the lower link tube")),
     Effect("transmission_compliance",
            "torsional compliance 1/k_t in series with each actuator",
            (_p("k_t", 20000.0, "N m/rad", "torsional stiffness of each transmission, in series with the actuator; "

@@ -112,7 +112,9 @@ class RobotDescription:
     * ``ee_compliance``: :class:`EECompliance` or None (the paper's split, Eqs. 45-49);
     * ``couplings``: :class:`Coupling` of each platform body other than the tool body
       (``tool_body``); legs name the body they attach to (``Leg.platform_body``);
-    * ``x_ref``: reference pose (m).
+    * ``x_ref``: reference pose (m);
+    * ``constraints``: conditions on several parameters together
+      (:mod:`.constraints`: tube radii, inertia triangle inequalities).
     """
 
     name: str
@@ -132,6 +134,7 @@ class RobotDescription:
     tool_body: str = "platform"
     source: str = ""
     effects: tuple[str, ...] = field(default=())
+    constraints: tuple = ()
 
     def parameter(self, name: str) -> Parameter:
         for p in self.parameters:

@@ -9,6 +9,7 @@ import numpy as np
 from ..description import RobotDescription
 from ..description.effects import STRUCTURAL, resolve_model, switch_name
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+from .constraints import check_constraints, compile_constraints
 from .errors import InputError
 from .validity import LEVER_TOL, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
@@ -64,6 +65,7 @@ class Evaluator:
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
+        self.constraints = compile_constraints(robot)
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -101,6 +103,7 @@ class Evaluator:
                 except ValueError as exc:
                     raise InputError(str(exc)) from None
             out[name] = arr
+        check_constraints(self.constraints, out, effects)
         for e in self.effects:
             out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
         return out
@@ -188,6 +191,22 @@ class Evaluator:
     def jacobians(self, poses, **params) -> dict:
         """Inverse-Jacobian rows ``J_rows`` (N, legs, 4, 6) and levers ``lever`` (N, legs), m."""
         return self._run("jacobians", poses, "paper", params)
+
+    def parameter_values(self, n: int, model="paper", **params) -> dict:
+        """The generated kernels' parameter input for ``n`` poses, validated.
+
+        Every parameter of the robot (``params`` overriding the defaults, SI units) as an
+        array that broadcasts with the poses, plus the 0/1 switch of every effect.
+        """
+        return self._params(n, params, model)
+
+    def run_kernel(self, kernel: str, poses, model="paper", **params) -> dict:
+        """Outputs of the generated kernel ``kernel`` (e.g. ``"gravity"``) for ``poses``.
+
+        Poses are checked (reachable, not singular) as in :meth:`matrices`; the result
+        also holds the joint angles ``q`` and the ``jacobians`` kernel's outputs.
+        """
+        return self._run(kernel, poses, model, params)
 
     def matrices(self, poses, model="paper", **params) -> dict:
         """``M``, ``K_R``, ``K_F`` at the EE origin, each (N, 6, 6) (Eqs. 12, 14, 13).

@@ -36,9 +36,9 @@ def gravity_stiffness(ev, poses: np.ndarray, effects, params: dict, mats: dict, 
     rigid model only the actuated joints carry load (3x3 translational subset).
     """
     n = len(poses)
-    p = ev._params(n, params, effects)
+    p = ev.parameter_values(n, effects, **params)
     W = np.broadcast_to(gravity_wrench(p, effects), (n, 6))
-    gk = ev._run("gravity", poses, effects, params)         # G, Kqe, k_act and J_rows
+    gk = ev.run_kernel("gravity", poses, effects, **params)        # G, Kqe, k_act and J_rows
     jr = gk["J_rows"]                                        # (n, legs, 4, 6)
     if rigid:
         delta = np.zeros((n, 6))
