@@ -76,15 +76,15 @@ def render_c_sensitivity(robot, kernel: Kernel, wrt) -> str:
     """The C source of the sensitivity kernel: ``et_<robot>_sens_<kernel>`` and a signature."""
     import json
 
-    from .c_backend import BLOCK, _c_string, _kernel_context
+    from .c_backend import BLOCK, c_string_literals, kernel_context
 
     digest = source_hash([kernel], code_version())
     prefix = "et_" + re.sub(r"\W", "_", robot.name) + "_sens"
     units = {p.name: p.unit for p in robot.parameters}
-    kctx = _kernel_context(kernel, prefix, units)
+    kctx = kernel_context(kernel, prefix, units)
     sig = dict(robot=robot.name, prefix=prefix, block=BLOCK, source_hash=digest, wrt=list(wrt),
                function=kctx["cname"], inputs=[[i["group"], i["name"], i["joint"]] for i in kctx["inputs"]],
                outputs=[[o["name"], o["shape"]] for o in kctx["outputs"]])
     return environment().get_template("c/sensitivity.c.jinja").render(
         header=_header(robot.name, wrt, digest, "//"), robot=robot, prefix=prefix, block=BLOCK, k=kctx,
-        signature=_c_string(json.dumps(sig, sort_keys=True, separators=(",", ":"))))
+        signature=c_string_literals(json.dumps(sig, sort_keys=True, separators=(",", ":"))))

@@ -295,9 +295,27 @@ class Evaluator:
         code is generated on first use for each ``wrt`` and cached (see
         :mod:`eigentwist.runtime.sensitivity`); models with ``gravity_preload`` raise.
         """
-        from .sensitivity import frequency_sensitivities
+        return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, **params)[1]
 
-        return frequency_sensitivities(self, poses, wrt, model, params, rtol=rtol, progress=progress)[1]
+    def modes_and_sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
+                                **params):
+        """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call."""
+        from .sensitivity import check_model, check_wrt, frequency_derivatives, sensitivity_kernels
+
+        poses = self._poses(poses)
+        effects = resolve_model(model, self.effects)
+        check_model(effects)
+        wrt = check_wrt(self, wrt)
+        kern = sensitivity_kernels(self, wrt, progress)
+        p = self._params(len(poses), params, effects)
+        rigid = self.kind(effects) == "rigid"
+        parts = []
+        for sl in self._chunks(len(poses)):
+            pc = self._take(p, sl)
+            self._check_rows(poses[sl], pc, strict=True)
+            parts.append(frequency_derivatives(kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc), rigid, rtol))
+        freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
+        return Modes(freq, vec, AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible"), dfdp
 
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,

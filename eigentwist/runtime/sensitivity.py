@@ -29,7 +29,8 @@ import numpy as np
 
 from .ccompile import cache_dir
 
-__all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "clusters"]
+__all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "clusters", "check_wrt",
+           "check_model", "frequency_derivatives", "frequency_sensitivities"]
 
 CLUSTER_RTOL = 1e-6        # frequencies closer than this (relative) form one cluster
 _MEMORY: dict = {}
@@ -232,7 +233,8 @@ def eigenvalue_derivatives(lam, V, dK, dM, rtol: float = CLUSTER_RTOL) -> np.nda
 
 
 # ------------------------------------------------------------ frequencies
-def _wrt(ev, wrt) -> tuple:
+def check_wrt(ev, wrt) -> tuple:
+    """``wrt`` as a tuple of distinct parameter names of ``ev`` (None: every parameter)."""
     from .errors import InputError
 
     if wrt is None:
@@ -248,45 +250,38 @@ def _wrt(ev, wrt) -> tuple:
     return wrt
 
 
-def frequency_sensitivities(ev, poses, wrt=None, model="paper", params=None, *, rtol: float = CLUSTER_RTOL,
-                            progress=None):
-    """``(Modes, dfdp)``: the model's modes and ∂f/∂p (N, n_modes, P) in Hz per SI unit.
-
-    df/dp = (1/2π) dω/dp with dω/dp = φᵀ(dK − ω² dM)φ / (2ω φᵀMφ); clusters of repeated
-    frequencies (relative ``rtol``) get individual derivatives (:func:`eigenvalue_derivatives`).
-    Rigid models use the 3x3 translational subsets of M and K_R, flexible ones M and K_F.
-    """
-    from ..description.effects import resolve_model
-    from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+def check_model(effects) -> None:
+    """Raise :class:`InputError` for a model whose sensitivities are not generated."""
     from .errors import InputError
-    from .evaluator import AXES, Modes
 
-    poses = ev._poses(poses)
-    effects = resolve_model(model, ev.effects)
     if "gravity_preload" in effects:
         raise InputError("sensitivities of a model with gravity_preload are not available: its stiffness is solved "
                          "at run time (a static solve), not generated; drop gravity_preload from the model")
-    wrt = _wrt(ev, wrt)
-    kern = sensitivity_kernels(ev, wrt, progress)
-    n = len(poses)
-    p = ev._params(n, params or {}, effects)
-    rigid = ev.kind(effects) == "rigid"
+
+
+def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL):
+    """``(freq_hz, eigentwists, dfdp)`` from one sensitivity-kernel output.
+
+    df/dp = (1/2π) dω/dp with dω/dp = φᵀ(dK − ω² dM)φ / (2ω φᵀMφ) (Hz per SI unit,
+    (N, n_modes, P)); clusters of repeated frequencies (relative ``rtol``) get individual
+    derivatives (:func:`eigenvalue_derivatives`). Rigid models use the 3x3 translational
+    subsets of M and K_R, flexible ones M and K_F.
+    """
+    from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+
     sub = slice(3, 6) if rigid else slice(0, 6)
     kname = "K_R" if rigid else "K_F"
-    freq, vec, dfdp = [], [], []
-    for sl in ev._chunks(n):
-        pc = ev._take(p, sl)
-        ev._check_rows(poses[sl], pc, strict=True)
-        out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc)
-        M, K = out["M"][:, sub, sub], out[kname][:, sub, sub]
-        dM, dK = out["dM"][:, :, sub, sub], out["d" + kname][:, :, sub, sub]
-        lam, V = generalized_eigh(K, M)
-        dlam = eigenvalue_derivatives(lam, V, dK, dM, rtol)
-        omega = np.sqrt(np.clip(lam, 0.0, None))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dfdp.append(dlam / (2 * omega[..., None]) / (2 * np.pi))
-        freq.append(frequencies_hz(lam))
-        vec.append(normalize_eigentwists(V))
-    modes = Modes(np.concatenate(freq), np.concatenate(vec), AXES[3:] if rigid else AXES,
-                  "rigid" if rigid else "flexible")
-    return modes, np.concatenate(dfdp)
+    M, K = out["M"][:, sub, sub], out[kname][:, sub, sub]
+    dM, dK = out["dM"][:, :, sub, sub], out["d" + kname][:, :, sub, sub]
+    lam, V = generalized_eigh(K, M)
+    dlam = eigenvalue_derivatives(lam, V, dK, dM, rtol)
+    omega = np.sqrt(np.clip(lam, 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dfdp = dlam / (2 * omega[..., None]) / (2 * np.pi)
+    return frequencies_hz(lam), normalize_eigentwists(V), dfdp
+
+
+def frequency_sensitivities(ev, poses, wrt=None, model="paper", params=None, *, rtol: float = CLUSTER_RTOL,
+                            progress=None):
+    """``(Modes, dfdp)`` of evaluator ``ev``: see :meth:`Evaluator.modes_and_sensitivities`."""
+    return ev.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, **(params or {}))

@@ -103,9 +103,11 @@ def combined_program(model) -> Program:
     joints = set(model.joints)
     for s_ in model.ik.inputs:
         prog.declare(s_)
+    declared = {s_.name for s_ in model.ik.inputs}
     for s_ in model.program.inputs:
-        if s_ not in joints and s_.name not in prog._names:
+        if s_ not in joints and s_.name not in declared:
             prog.declare(s_)
+            declared.add(s_.name)
     clash = {s_.name for s_, _ in model.ik.assignments} & {s_.name for s_, _ in model.program.assignments}
     if clash:
         raise ValueError(f"IK and model programs both assign {sorted(clash)[:5]}: rename one")
