@@ -29,7 +29,7 @@ DOC = ("Cartesian inertia M (Eq. 12), stiffnesses K_R (Eq. 14) and K_F (Eq. 13, 
        "their derivatives dM, dK_R, dK_F with respect to the design parameters {wrt} (per SI unit of each), "
        "chained through the inverse kinematics (forward mode on the straight-line program).")
 _SOURCES = (Path(__file__), Path(__file__).parent.parent / "symbolic" / "sensitivity.py",
-            TEMPLATES / "c" / "sensitivity.c.jinja", TEMPLATES / "c" / "kernel.c.jinja",
+            TEMPLATES / "sensitivity" / "sensitivity.c.jinja", TEMPLATES / "c" / "kernel.c.jinja",
             TEMPLATES / "numpy" / "module.py.jinja")
 
 
@@ -85,6 +85,6 @@ def render_c_sensitivity(robot, kernel: Kernel, wrt) -> str:
     sig = dict(robot=robot.name, prefix=prefix, block=BLOCK, source_hash=digest, wrt=list(wrt),
                function=kctx["cname"], inputs=[[i["group"], i["name"], i["joint"]] for i in kctx["inputs"]],
                outputs=[[o["name"], o["shape"]] for o in kctx["outputs"]])
-    return environment().get_template("c/sensitivity.c.jinja").render(
+    return environment().get_template("sensitivity/sensitivity.c.jinja").render(
         header=_header(robot.name, wrt, digest, "//"), robot=robot, prefix=prefix, block=BLOCK, k=kctx,
         signature=c_string_literals(json.dumps(sig, sort_keys=True, separators=(",", ":"))))
