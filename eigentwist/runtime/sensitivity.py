@@ -209,10 +209,10 @@ def eigenvalue_derivatives(lam, V, dK, dM, rtol: float = CLUSTER_RTOL) -> np.nda
     dK, dM : (N, P, n, n) derivatives of K and M. Clusters (:func:`clusters`) get the
     sorted eigenvalues of V_cᵀ(dK − λ̄ dM)V_c (λ̄ the cluster's mean eigenvalue).
     """
-    B = np.einsum("nik,npij,njl->npkl", V, dK, V)
-    C = np.einsum("nik,npij,njl->npkl", V, dM, V)
-    D = B - lam[:, None, :, None] * C          # row k scaled by lambda_k: the diagonal is what counts
-    out = np.einsum("npkk->nkp", D).copy()
+    Vb = V[:, None]                                          # (N, 1, n, n)
+    dK_d = np.sum(Vb * (dK @ Vb), axis=-2)                   # (N, P, n): v_k^T dK v_k
+    dM_d = np.sum(Vb * (dM @ Vb), axis=-2)
+    out = np.swapaxes(dK_d - lam[:, None, :] * dM_d, 1, 2).copy()
     joined = clusters(lam, rtol)
     rows = np.flatnonzero(joined.any(axis=1))
     for r in rows:
@@ -225,7 +225,8 @@ def eigenvalue_derivatives(lam, V, dK, dM, rtol: float = CLUSTER_RTOL) -> np.nda
             if e > k:
                 sl = slice(k, e + 1)
                 mean = lam[r, sl].mean()
-                P = B[r][:, sl, sl] - mean * C[r][:, sl, sl]
+                Vc = V[r][:, sl]
+                P = Vc.T @ dK[r] @ Vc - mean * (Vc.T @ dM[r] @ Vc)
                 P = 0.5 * (P + np.swapaxes(P, -1, -2))
                 out[r, sl, :] = np.linalg.eigvalsh(P).T
             k = e + 1
