@@ -15,6 +15,8 @@ import pytest
 from eigentwist.cli.main import main
 from eigentwist.report.build import SECTIONS
 
+from .conftest import skip_tier
+
 
 class _Collector(HTMLParser):
     """Ids, images, text (also per section), table rows per section and every tag seen."""
@@ -115,7 +117,7 @@ def _chromium():
 def test_report_renders_in_headless_chromium(report_path, tmp_path):
     exe = _chromium()
     if exe is None:
-        pytest.skip("Chromium is not installed (CI installs it in .ci/run; apt-get install chromium)")
+        skip_tier("browser", "Chromium is not installed (CI installs it in .ci/run; apt-get install chromium)")
     png = tmp_path / "report.png"
     with tempfile.TemporaryDirectory() as profile:
         subprocess.run([exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..description.effects import EFFECTS, PRESETS, resolve_model
 from ..runtime import InputError, Modes
-from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .evaluators import resolve
 from .matching import DIRECTIONS, match_modes, parse_mode
 from .measurements import Measurements
@@ -101,7 +101,8 @@ def _truth_modes(ev, truth: Truth, poses, k_a, extra_stiffness) -> Modes:
         j = axes.index(axis)
         K[:, j, j] += k
     lam, V = generalized_eigh(K, M)
-    return Modes(frequencies_hz(lam), normalize_eigentwists(V), axes, "rigid" if len(axes) == 3 else "flexible")
+    return Modes(frequencies_hz(lam), normalize_eigentwists(V), axes, "rigid" if len(axes) == 3 else "flexible",
+                 stable=~unstable_modes(lam).any(axis=-1))
 
 
 def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed: int = 0,
