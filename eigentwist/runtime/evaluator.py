@@ -11,6 +11,7 @@ from ..description.effects import STRUCTURAL, resolve_model, switch_name
 from .constraints import check_constraints, compile_constraints
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
+from .labels import directions
 from .threads import resolve_threads
 from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
@@ -53,12 +54,11 @@ class Modes:
 
     @property
     def direction(self) -> np.ndarray:
-        """(N, n) axis index (into :data:`AXES`) of each mode's largest eigentwist entry."""
+        """(N, n) axis index (into :data:`AXES`) carrying the largest share of each mode's
+        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist)."""
         if self.eigentwists is None:
             raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
-        local = np.argmax(np.abs(self.eigentwists), axis=-2)
-        offset = 3 if self.kind == "rigid" else 0
-        return local + offset
+        return directions(self.eigentwists, offset=3 if self.kind == "rigid" else 0)
 
 
 class Evaluator:
