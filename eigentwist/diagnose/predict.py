@@ -108,12 +108,17 @@ class Predictor:
         without generated sensitivities (gravity preload).
         """
         from ..description.effects import EFFECTS
+        from ..runtime.errors import InputError
 
         fitted = {n for e in self.ev.effects for n in EFFECTS[e].fit} | set(names)
         wrt = tuple(n for n in self.ev.parameters if n in fitted)
         params = self._params({name: float(v) for name, v in zip(names, values)})
         modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, wrt, self.effects, **params)
-        idx = match_modes(modes, self.meas.mode, strict=strict, lines=self.meas.lines)
+        freq, idx = match_frequencies(modes, self.meas.mode, strict=strict, lines=self.meas.lines)
         rows = np.arange(len(idx))
+        single = modes.freq_hz[rows, idx]
+        if self._shapes() or not np.allclose(freq, single, rtol=1e-13, atol=0.0, equal_nan=True):
+            # shape-matched rows or share-weighted groups of near-equal modes: no per-mode derivative
+            raise InputError("exact Jacobian only for rows matched to one mode by label")
         cols = [wrt.index(name) for name in names]
-        return modes.freq_hz[rows, idx], dfdp[rows, idx][:, cols]
+        return single, dfdp[rows, idx][:, cols]
