@@ -273,3 +273,8 @@ def render_c(robot, kernels: list[Kernel], digest: str) -> str:
         eigen=[_eigen_context(n) for n in EIGEN_DIMS], max_sweeps=JACOBI_MAX_SWEEPS, tol=repr(JACOBI_TOL),
         signature=_c_string(json.dumps(sig, sort_keys=True, separators=(",", ":"))),
     )
+
+
+# Public names for other C renderers (the on-demand sensitivity kernel reuses the kernel template).
+kernel_context = _kernel_context
+c_string_literals = _c_string

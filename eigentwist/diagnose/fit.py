@@ -7,8 +7,10 @@ of the catalogue's fitted parameters: stiffnesses, moduli, masses, inertias, g, 
 theta = (p - p_default)/scale otherwise. The search range is the parameter's physical
 bounds intersected with [p_default/1000, 1000 p_default] (``SPAN``).
 
-The Jacobian is a central difference in theta computed in the same evaluator call as
-the residuals (B = 1 + 2P parameter sets, one batch). A coarse grid of starts (the new
+The Jacobian is exact: the generated design sensitivities of the matched modes
+(``Predictor.predict_with_jacobian``, one kernel call with the residuals; issue 16). For
+models without generated sensitivities (gravity preload) it is a central difference in
+theta computed in the same evaluator call as the residuals (B = 1 + 2P parameter sets). A coarse grid of starts (the new
 parameters at 1/10 ... 10 times their start value) is screened in one batch first, so
 a fit does not hinge on the default being close.
 
@@ -27,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..runtime.errors import InputError
 from .compare import Comparison
 from .predict import Predictor
 from .stats import aicc, chi2_value, gof_p_value
@@ -37,6 +40,7 @@ SPAN = 1e3          # search range: default / SPAN ... default * SPAN (within th
 STEP = 1e-2         # central-difference step in theta (1 % in p): K_F carries ~1e-7 relative
                     # round-off (the 1e-12 rad/(N m) "rigid" compliances), so smaller steps give noise
 START_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
+EXACT_JACOBIAN = True   # exact Jacobian from the generated sensitivities; central differences if False
 
 
 @dataclass(frozen=True)
@@ -135,6 +139,7 @@ class _Objective:
         self.meas = predictor.meas
         self.cache: dict = {}
         self.nfev = 0
+        self.exact = EXACT_JACOBIAN
 
     def _sets(self, theta: np.ndarray) -> np.ndarray:
         """theta, then for each j the points theta -/+ STEP e_j (shifted inside the bounds)."""
@@ -149,6 +154,11 @@ class _Objective:
 
     def _eval(self, theta: np.ndarray):
         key = theta.tobytes()
+        if key not in self.cache and self.exact:
+            try:
+                self.cache = {key: self._exact(theta)}
+            except InputError:            # no generated sensitivities (gravity preload): differences
+                self.exact = False
         if key not in self.cache:
             thetas = self._sets(theta)
             values = np.column_stack([t.value(thetas[:, j]) for j, t in enumerate(self.tr)])
@@ -158,6 +168,14 @@ class _Objective:
             jac = ((r[2::2] - r[1::2]) / (2 * STEP)).T
             self.cache = {key: (r[0], jac)}
         return self.cache[key]
+
+    def _exact(self, theta: np.ndarray):
+        """Residuals and the exact Jacobian in theta (generated sensitivities, issue 16)."""
+        values = np.array([t.value(theta[j]) for j, t in enumerate(self.tr)])
+        f, dfdp = self.pred.predict_with_jacobian(self.names, values, strict=False)
+        self.nfev += 1
+        dpdtheta = np.array([v if t.log else t.scale for t, v in zip(self.tr, values)])
+        return (f - self.meas.freq_hz) / self.meas.sigma_hz, dfdp * dpdtheta / self.meas.sigma_hz[:, None]
 
     def residuals(self, theta):
         return self._eval(np.asarray(theta, dtype=float))[0]

@@ -124,3 +124,29 @@ class Predictor:
         freq, _ = evaluate(self.ev, self.effects, poses, labels, params, strict, np.tile(self.meas.lines, b),
                            **self._shapes(b))
         return freq.reshape(b, len(self.meas))
+
+    def predict_with_jacobian(self, names, values, strict: bool = False):
+        """Predictions and their exact derivatives for one parameter set.
+
+        ``values`` (P,) of ``names``; returns ``(freq_hz (N,), dfdp (N, P))`` in Hz and Hz
+        per SI unit of each parameter, from the generated sensitivity kernel (one call:
+        :meth:`~eigentwist.runtime.Evaluator.modes_and_sensitivities`). The kernel is
+        generated once for every fitted parameter of the robot's catalogue (plus
+        ``names``), so each effect's fit reuses it. Raises ``InputError`` for models
+        without generated sensitivities (gravity preload).
+        """
+        from ..description.effects import EFFECTS
+        from ..runtime.errors import InputError
+
+        fitted = {n for e in self.ev.effects for n in EFFECTS[e].fit} | set(names)
+        wrt = tuple(n for n in self.ev.parameters if n in fitted)
+        params = self._params({name: float(v) for name, v in zip(names, values)})
+        modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, wrt, self.effects, **params)
+        freq, idx = match_frequencies(modes, self.meas.mode, strict=strict, lines=self.meas.lines)
+        rows = np.arange(len(idx))
+        single = modes.freq_hz[rows, idx]
+        if self._shapes() or not np.allclose(freq, single, rtol=1e-13, atol=0.0, equal_nan=True):
+            # shape-matched rows or share-weighted groups of near-equal modes: no per-mode derivative
+            raise InputError("exact Jacobian only for rows matched to one mode by label")
+        cols = [wrt.index(name) for name in names]
+        return single, dfdp[rows, idx][:, cols]

@@ -411,6 +411,38 @@ class Evaluator:
             f"{which} of {modes.freq_hz.shape[1]} {'have' if len(bad) > 1 else 'has'} a negative stiffness "
             "(omega^2 < 0, no natural frequency); check negative or extreme parameters and the gravity preload")
 
+    def sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
+                      **params) -> np.ndarray:
+        """d f / d p of the model's natural frequencies, (N, n_modes, len(wrt)), Hz per SI unit.
+
+        ``wrt``: parameter names (default: every parameter of the description). Modes in
+        ascending order; frequencies within ``rtol`` (relative) of each other form a cluster
+        whose individual derivatives are returned (sorted ascending, never the mean). The
+        code is generated on first use for each ``wrt`` and cached (see
+        :mod:`eigentwist.runtime.sensitivity`); models with ``gravity_preload`` raise.
+        """
+        return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, **params)[1]
+
+    def modes_and_sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
+                                **params):
+        """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call."""
+        from .sensitivity import check_model, check_wrt, frequency_derivatives, sensitivity_kernels
+
+        poses = self._poses(poses)
+        effects = resolve_model(model, self.effects)
+        check_model(effects)
+        wrt = check_wrt(self, wrt)
+        kern = sensitivity_kernels(self, wrt, progress)
+        p = self._params(len(poses), params, effects)
+        rigid = self.kind(effects) == "rigid"
+        parts = []
+        for sl in self._chunks(len(poses)):
+            pc = self._take(p, sl)
+            self._check_rows(poses[sl], pc, strict=True)
+            parts.append(frequency_derivatives(kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc), rigid, rtol))
+        freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
+        return Modes(freq, vec, AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible"), dfdp
+
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
         ``"paper"``) or (N, 3) for ``"rigid"``, ascending. Unstable modes are NaN."""

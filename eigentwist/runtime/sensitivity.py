@@ -1,0 +1,288 @@
+"""Design sensitivities of the natural frequencies: generated kernels and eigenvalue derivatives.
+
+``sensitivity_kernels(evaluator, wrt)`` returns a callable ``(x, y, z, p) -> dict`` with
+M, K_R, K_F and their derivatives dM, dK_R, dK_F (N, P, 6, 6) with respect to the
+parameters ``wrt``. The code is generated on demand (forward mode through the
+straight-line program, :mod:`eigentwist.symbolic.sensitivity`) and cached by content
+hash in :func:`~eigentwist.runtime.ccompile.cache_dir`: the key hashes the robot's
+generated evaluator (its source hash), the parameter list and the code that derives and
+renders the kernel, so a cache hit needs no SymPy at all. The C backend compiles the same
+kernel with :func:`~eigentwist.runtime.ccompile.build_library`.
+
+:func:`eigenvalue_derivatives` turns them into dλ/dp for ``K v = λ M v``:
+dλ = vᵀ(dK − λ dM)v for M-orthonormal v; inside a cluster of (nearly) repeated
+eigenvalues, the eigenvalues of the cluster's projected derivative
+V_cᵀ(dK − λ dM)V_c, sorted ascending (the one-sided derivatives of the sorted eigenvalues
+for an increasing p), never their mean.
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import json
+import os
+import tempfile
+import types
+from pathlib import Path
+
+import numpy as np
+
+from .ccompile import cache_dir
+
+__all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "clusters", "check_wrt",
+           "check_model", "frequency_derivatives", "frequency_sensitivities"]
+
+CLUSTER_RTOL = 1e-6        # frequencies closer than this (relative) form one cluster
+_MEMORY: dict = {}
+
+
+def cache_key(ev, wrt) -> str:
+    """Content hash of what the kernel is made from: the evaluator's source, ``wrt``, the generator."""
+    from ..codegen.sensitivity import code_version
+
+    h = hashlib.sha256()
+    for part in (ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), repr(ev.robot), ",".join(wrt), code_version()):
+        h.update(str(part).encode())
+        h.update(b"\0")
+    return h.hexdigest()[:24]
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def _sources(ev, wrt, progress) -> dict:
+    """``{"numpy": text, "c": text}`` from the cache, or generated and cached."""
+    key = cache_key(ev, wrt)
+    directory = cache_dir() / "sensitivities"
+    paths = {"numpy": directory / f"{ev.robot.name}_sens_{key}.py", "c": directory / f"{ev.robot.name}_sens_{key}.c"}
+    if all(p.exists() for p in paths.values()):
+        return {b: p.read_text() for b, p in paths.items()}
+    from ..codegen.sensitivity import render_c_sensitivity, render_numpy_sensitivity, sensitivity_kernel
+    from ..symbolic import derive
+
+    say = progress or (lambda msg: None)
+    say(f"{ev.robot.name}: generating sensitivity code for {', '.join(wrt)} (once; cached in {directory})")
+    say(f"{ev.robot.name}: derive")
+    model = derive(ev.robot)
+    kernel = sensitivity_kernel(model, wrt, progress=lambda m: say(f"{ev.robot.name}: {m}"))
+    say(f"{ev.robot.name}: render")
+    texts = {"numpy": render_numpy_sensitivity(ev.robot, kernel, wrt), "c": render_c_sensitivity(ev.robot, kernel, wrt)}
+    for b, p in paths.items():
+        _write_atomic(p, texts[b])
+    return texts
+
+
+def _numpy_kernel(text: str, name: str):
+    module = types.ModuleType(name)
+    exec(compile(text, name, "exec"), module.__dict__)
+    fn = module.sensitivities
+
+    def run(x, y, z, p):
+        return fn(x, y, z, p)
+    return run
+
+
+class _CKernel:
+    """ctypes wrapper of the generated C sensitivity kernel (same calling convention as the evaluator's)."""
+
+    def __init__(self, path: Path):
+        self._lib = ctypes.CDLL(str(path))
+        self.path = path
+        self.signature = None
+
+    def bind(self, prefix: str):
+        sig = getattr(self._lib, f"{prefix}_signature")
+        sig.restype = ctypes.c_char_p
+        self.signature = json.loads(sig().decode())
+        fn = getattr(self._lib, self.signature["function"])
+        fn.argtypes = [ctypes.c_int64, ctypes.POINTER(ctypes.c_void_p), ctypes.POINTER(ctypes.c_int64),
+                       ctypes.POINTER(ctypes.c_void_p)]
+        fn.restype = ctypes.c_int
+        self._fn = fn
+        return self
+
+    def __call__(self, x, y, z, p):
+        values = dict(p, x=x, y=y, z=z)
+        names = [name for _, name, _ in self.signature["inputs"]]
+        lead = tuple(np.broadcast_shapes(*[np.shape(values[n]) for n in names]))
+        n = int(np.prod(lead, dtype=np.int64))
+        outs = {name: np.empty(lead + tuple(shape)) for name, shape in self.signature["outputs"]}
+        if n == 0:
+            return outs
+        keep, addr, strides = [], [], []
+        for name in names:
+            arr = np.asarray(values[name], dtype=np.float64)
+            if arr.size == 1:
+                arr = np.ascontiguousarray(arr).reshape(1)
+                strides.append(0)
+            else:
+                arr = np.ascontiguousarray(np.broadcast_to(arr, lead)).reshape(-1)
+                strides.append(1)
+            keep.append(arr)
+            addr.append(arr.ctypes.data)
+        ins = (ctypes.c_void_p * len(addr))(*addr)
+        st = (ctypes.c_int64 * len(strides))(*strides)
+        out_ptrs = (ctypes.c_void_p * len(outs))(*[o.ctypes.data for o in outs.values()])
+        rc = self._fn(n, ins, st, out_ptrs)
+        if rc != 0:
+            raise MemoryError("C sensitivities: out of memory for the block buffers") if rc == -2 else \
+                RuntimeError(f"C sensitivities returned {rc}")
+        return outs
+
+
+def _c_kernel(text: str, robot: str):
+    import re
+    import subprocess
+
+    from .ccompile import build_library, find_compiler, flag_sets
+
+    cc = find_compiler()
+    prefix = "et_" + re.sub(r"\W", "_", robot) + "_sens"
+    errors = []
+    for name, flags in flag_sets():
+        try:
+            path = build_library(text, f"{robot}_sens", cc, flags)
+            return _CKernel(path).bind(prefix)
+        except (subprocess.CalledProcessError, OSError) as exc:
+            errors.append(f"[{name}] {getattr(exc, 'stderr', '') or exc}"[-2000:])
+    raise RuntimeError(f"could not build the C sensitivity kernel of {robot!r}:\n" + "\n".join(errors))
+
+
+def _select(kern, columns):
+    """A kernel that returns only the derivative rows ``columns`` of ``kern``'s outputs."""
+    idx = np.asarray(columns)
+
+    def run(x, y, z, p):
+        out = kern(x, y, z, p)
+        return {k: (v[:, idx] if k.startswith("d") else v) for k, v in out.items()}
+    return run
+
+
+def sensitivity_kernels(ev, wrt, progress=None):
+    """The sensitivity kernel of evaluator ``ev`` for parameters ``wrt`` (its backend).
+
+    Generated once per content hash (seconds to a minute, ``progress`` called with
+    messages), then loaded from the cache; kept in memory for the process. A kernel
+    already loaded for a superset of ``wrt`` is reused (its rows selected).
+    """
+    wrt = tuple(wrt)
+    base = (ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), repr(ev.robot), ev.backend)
+    if (base, wrt) in _MEMORY:
+        return _MEMORY[base, wrt]
+    for (b, w), kern in list(_MEMORY.items()):
+        if b == base and set(wrt) <= set(w):
+            _MEMORY[base, wrt] = _select(kern, [w.index(name) for name in wrt])
+            return _MEMORY[base, wrt]
+    key = cache_key(ev, wrt)
+    texts = _sources(ev, wrt, progress)
+    if ev.backend == "c":
+        if progress:
+            progress(f"{ev.robot.name}: compile (cached by content hash)")
+        kern = _c_kernel(texts["c"], ev.robot.name)
+    else:
+        kern = _numpy_kernel(texts["numpy"], f"eigentwist_sens_{ev.robot.name}_{key}")
+    _MEMORY[base, wrt] = kern
+    return kern
+
+
+# ------------------------------------------------------------ eigenvalue derivatives
+def clusters(lam: np.ndarray, rtol: float = CLUSTER_RTOL) -> np.ndarray:
+    """(N, n-1) bool: eigenvalues k and k+1 (ascending) belong to one cluster.
+
+    Neighbours are joined when their frequencies differ by less than ``rtol`` relative
+    (on omega^2: ``lam[k+1] - lam[k] <= 2 rtol lam[k+1]``).
+    """
+    lam = np.asarray(lam)
+    scale = np.maximum(np.abs(lam[:, 1:]), np.finfo(float).tiny)
+    return (lam[:, 1:] - lam[:, :-1]) <= 2 * rtol * scale
+
+
+def eigenvalue_derivatives(lam, V, dK, dM, rtol: float = CLUSTER_RTOL) -> np.ndarray:
+    """dλ/dp of ``K v = λ M v`` for every mode and parameter: (N, n, P).
+
+    lam : (N, n) ascending; V : (N, n, n) M-orthonormal eigenvectors (columns);
+    dK, dM : (N, P, n, n) derivatives of K and M. Clusters (:func:`clusters`) get the
+    sorted eigenvalues of V_cᵀ(dK − λ̄ dM)V_c (λ̄ the cluster's mean eigenvalue).
+    """
+    Vb = V[:, None]                                          # (N, 1, n, n)
+    dK_d = np.sum(Vb * (dK @ Vb), axis=-2)                   # (N, P, n): v_k^T dK v_k
+    dM_d = np.sum(Vb * (dM @ Vb), axis=-2)
+    out = np.swapaxes(dK_d - lam[:, None, :] * dM_d, 1, 2).copy()
+    joined = clusters(lam, rtol)
+    rows = np.flatnonzero(joined.any(axis=1))
+    for r in rows:
+        k = 0
+        n = lam.shape[1]
+        while k < n:
+            e = k
+            while e < n - 1 and joined[r, e]:
+                e += 1
+            if e > k:
+                sl = slice(k, e + 1)
+                mean = lam[r, sl].mean()
+                Vc = V[r][:, sl]
+                P = Vc.T @ dK[r] @ Vc - mean * (Vc.T @ dM[r] @ Vc)
+                P = 0.5 * (P + np.swapaxes(P, -1, -2))
+                out[r, sl, :] = np.linalg.eigvalsh(P).T
+            k = e + 1
+    return out
+
+
+# ------------------------------------------------------------ frequencies
+def check_wrt(ev, wrt) -> tuple:
+    """``wrt`` as a tuple of distinct parameter names of ``ev`` (None: every parameter)."""
+    from .errors import InputError
+
+    if wrt is None:
+        return tuple(ev.parameters)
+    if isinstance(wrt, str):
+        wrt = tuple(w.strip() for w in wrt.split(",") if w.strip())
+    wrt = tuple(wrt)
+    unknown = [w for w in wrt if w not in ev.parameters]
+    if unknown or not wrt or len(set(wrt)) != len(wrt):
+        what = f"unknown parameter(s) {', '.join(map(repr, unknown))}" if unknown else \
+            "an empty list" if not wrt else f"repeated names in {list(wrt)}"
+        raise InputError(f"wrt: {what} for {ev.robot.name}: expected distinct names from {', '.join(ev.parameters)}")
+    return wrt
+
+
+def check_model(effects) -> None:
+    """Raise :class:`InputError` for a model whose sensitivities are not generated."""
+    from .errors import InputError
+
+    if "gravity_preload" in effects:
+        raise InputError("sensitivities of a model with gravity_preload are not available: its stiffness is solved "
+                         "at run time (a static solve), not generated; drop gravity_preload from the model")
+
+
+def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL):
+    """``(freq_hz, eigentwists, dfdp)`` from one sensitivity-kernel output.
+
+    df/dp = (1/2π) dω/dp with dω/dp = φᵀ(dK − ω² dM)φ / (2ω φᵀMφ) (Hz per SI unit,
+    (N, n_modes, P)); clusters of repeated frequencies (relative ``rtol``) get individual
+    derivatives (:func:`eigenvalue_derivatives`). Rigid models use the 3x3 translational
+    subsets of M and K_R, flexible ones M and K_F.
+    """
+    from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+
+    sub = slice(3, 6) if rigid else slice(0, 6)
+    kname = "K_R" if rigid else "K_F"
+    M, K = out["M"][:, sub, sub], out[kname][:, sub, sub]
+    dM, dK = out["dM"][:, :, sub, sub], out["d" + kname][:, :, sub, sub]
+    lam, V = generalized_eigh(K, M)
+    dlam = eigenvalue_derivatives(lam, V, dK, dM, rtol)
+    omega = np.sqrt(np.clip(lam, 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dfdp = dlam / (2 * omega[..., None]) / (2 * np.pi)
+    return frequencies_hz(lam), normalize_eigentwists(V), dfdp
+
+
+def frequency_sensitivities(ev, poses, wrt=None, model="paper", params=None, *, rtol: float = CLUSTER_RTOL,
+                            progress=None):
+    """``(Modes, dfdp)`` of evaluator ``ev``: see :meth:`Evaluator.modes_and_sensitivities`."""
+    return ev.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, **(params or {}))

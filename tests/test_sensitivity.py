@@ -1,0 +1,155 @@
+"""Design sensitivities (issue 16): generated dM/dp, dK/dp and frequency derivatives.
+
+The derivative code is generated on first use (forward mode on the straight-line program,
+seconds to a minute per parameter list) and cached by content hash; the fixtures below ask
+for one parameter list per robot, so the suite generates it once per cache.
+"""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import eigentwist
+from eigentwist.runtime import InputError
+from eigentwist.runtime.sensitivity import eigenvalue_derivatives, sensitivity_kernels
+from eigentwist.symbolic.sensitivity import gradient
+
+from .conftest import random_poses
+
+ROOT = Path(__file__).resolve().parents[1]
+# every parameter kind: lengths, a mass, a modulus, a stiffness, k_a, a dimensionless ratio
+WRT = {
+    "heli4": ("l1", "l2", "h", "m_e", "E_rod", "k_E_lin", "k_a", "eta_a"),
+    "delta": ("l1", "r_p", "m_e", "E_rod", "k_a", "p_x", "p_y", "m_p"),
+}
+MODELS = {"heli4": ("paper", "rigid"), "delta": ("paper", "rigid")}
+compiled = pytest.mark.compiled
+
+
+@pytest.fixture(scope="session")
+def evs():
+    return {name: eigentwist.load(name, backend="numpy") for name in WRT}
+
+
+def _richardson(f, value, rel=1e-3):
+    """Central difference with one Richardson step (error O(h^4)) of f at value."""
+    h = rel * abs(value)
+    d1 = (f(value + h) - f(value - h)) / (2 * h)
+    d2 = (f(value + h / 2) - f(value - h / 2)) / h
+    return (4 * d2 - d1) / 3
+
+
+def _central(ev, poses, model, name, value, params):
+    return _richardson(lambda v: ev.frequencies(poses, model, **{**params, name: v}), value)
+
+
+def _assert_close(got, want, rtol=1e-6):
+    """Entry-wise relative agreement; entries far below their column's largest (where
+    finite differences see only round-off) are held to rtol * 1e-2 of that largest."""
+    scale = np.abs(want).max(axis=(0, 1), keepdims=True)
+    err = np.abs(got - want) / (np.abs(want) + 1e-2 * scale + 1e-300)
+    assert np.all(err <= rtol), err.max()
+
+
+def test_gradient_matches_sympy_diff():
+    x, y = sp.symbols("x y", real=True)
+    for e in (sp.atan2(x * y, x**2 + 1) + sp.sin(x) ** 3 / y, sp.acos(x / (1 + y**2)) * sp.sqrt(x + y),
+              (x + y) ** 4 / sp.asin(y / 3)):
+        g = gradient(e)
+        for s in (x, y):
+            assert sp.simplify(g[s] - sp.diff(e, s)) == 0
+
+
+@pytest.mark.parametrize("robot", sorted(WRT))
+def test_sensitivities_equal_central_differences(evs, robot):
+    ev = evs[robot]
+    poses = random_poses(ev.robot, 3, seed=16)
+    for model in MODELS[robot]:
+        params = {"m_p": 0.3, "p_x": 0.01, "p_y": -0.02} if robot == "delta" else {}
+        model_ = model + (",payload_mass" if robot == "delta" else "")
+        got = ev.sensitivities(poses, WRT[robot], model_, **params)
+        assert got.shape == (3, 3 if model == "rigid" else 6, len(WRT[robot]))
+        want = np.stack([_central(ev, poses, model_, name, {**ev.defaults, **params}[name], params)
+                         for name in WRT[robot]], axis=-1)
+        _assert_close(got, want)
+
+
+def test_sensitivities_equal_an_independent_per_pose_model(evs):
+    """Central differences of benchmarks/reference_loop.py (numeric inverses, no generated code)."""
+    spec = importlib.util.spec_from_file_location("reference_loop", ROOT / "benchmarks" / "reference_loop.py")
+    ref = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ref)
+    ev = evs["heli4"]
+    poses = random_poses(ev.robot, 2, seed=7)
+    got = ev.sensitivities(poses, WRT["heli4"], "paper")
+    for j, name in enumerate(WRT["heli4"]):
+        p = dict(ev.defaults)
+        want = _richardson(lambda v: ref.frequencies_loop(poses, {**p, name: v}), p[name])
+        _assert_close(got[..., j:j + 1], want[..., None])
+
+
+def test_cluster_gives_individual_derivatives(evs):
+    """Heli4 with h -> 0: legs 3, 4 at the height of legs 1, 2, so the rigid x and y modes
+    coincide at x_ref. h splits them: each mode's derivative is the one-sided derivative of
+    the sorted frequencies in the direction of increasing h, not the pair's mean."""
+    ev = evs["heli4"]
+    x = np.array([ev.robot.x_ref])
+    h0, d = 1e-9, 1e-5
+    f0 = ev.frequencies(x, "rigid", h=h0)
+    assert abs(f0[0, 1] - f0[0, 0]) < 1e-7 * f0[0, 0]
+    got = ev.sensitivities(x, WRT["heli4"], "rigid", h=h0)[0, :, WRT["heli4"].index("h")]
+    f1, f2 = ev.frequencies(x, "rigid", h=h0 + d), ev.frequencies(x, "rigid", h=h0 + 2 * d)
+    want = ((-3 * f0 + 4 * f1 - f2) / (2 * d))[0]
+    assert np.allclose(got, want, rtol=1e-6, atol=1e-6 * np.abs(want).max())
+    assert abs(got[1] - got[0]) > 10.0                       # split, not averaged
+
+
+def test_eigenvalue_derivatives_of_a_constructed_cluster():
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(3, 3))
+    A = A + A.T
+    K0, M = np.diag([1.0, 1.0, 2.0]), np.eye(3)
+    lam, V = np.linalg.eigh(K0)
+    got = eigenvalue_derivatives(lam[None], V[None], A[None, None], np.zeros((1, 1, 3, 3)))[0, :, 0]
+    t = 1e-7
+    want = (np.linalg.eigvalsh(K0 + t * A) - lam) / t
+    assert np.allclose(got, want, atol=1e-5)
+    assert not np.isclose(got[0], got[1])
+
+
+def test_gravity_preload_is_refused(evs):
+    ev = evs["heli4"]
+    with pytest.raises(InputError, match="gravity_preload"):
+        ev.sensitivities(ev.robot.x_ref, ("k_a",), "paper,gravity_preload")
+    with pytest.raises(InputError, match="unknown parameter"):
+        ev.sensitivities(ev.robot.x_ref, ("nope",))
+
+
+def test_subset_of_a_loaded_kernel_needs_no_generation(evs):
+    ev = evs["heli4"]
+    ev.sensitivities(ev.robot.x_ref, WRT["heli4"])
+    full = ev.sensitivities(ev.robot.x_ref, WRT["heli4"])
+    sub = ev.sensitivities(ev.robot.x_ref, ("k_a", "l2"))
+    assert np.array_equal(sub[..., 0], full[..., WRT["heli4"].index("k_a")])
+    assert np.array_equal(sub[..., 1], full[..., WRT["heli4"].index("l2")])
+
+
+@compiled
+@pytest.mark.parametrize("robot", sorted(WRT))
+def test_c_equals_numpy(evs, robot):
+    ev_np = evs[robot]
+    ev_c = eigentwist.load(robot, backend="c")
+    poses = random_poses(ev_np.robot, 50, seed=5)
+    p = ev_np._params(len(poses), {}, "paper")
+    a = sensitivity_kernels(ev_np, WRT[robot])(poses[:, 0], poses[:, 1], poses[:, 2], p)
+    b = sensitivity_kernels(ev_c, WRT[robot])(poses[:, 0], poses[:, 1], poses[:, 2], p)
+    for k in a:
+        scale = np.abs(a[k]).max()
+        assert np.allclose(b[k], a[k], rtol=1e-12, atol=1e-12 * scale), k
+    s_np = ev_np.sensitivities(poses, WRT[robot])
+    s_c = ev_c.sensitivities(poses, WRT[robot])
+    assert np.allclose(s_c, s_np, rtol=1e-9, atol=1e-12 * np.abs(s_np).max())
