@@ -243,7 +243,7 @@ class CKernels:
         return self._q_kernel("jacobians", q, p)
 
     def gravity(self, q, p: dict) -> dict:
-        """Gravity-preload terms ``G``, ``Kqe`` and ``k_act`` (see the NumPy module)."""
+        """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""
         return self._q_kernel("gravity", q, p)
 
     # ------------------------------------------------------- fast paths
@@ -341,10 +341,11 @@ class CKernels:
         of largest magnitude is +1 (Eqs. 57, 65). Unreachable or singular poses raise the
         evaluator's errors when ``check``; otherwise they get NaN and ``valid`` False.
         """
-        from ..description.effects import switch_name
+        from ..description.effects import EFFECTS, switch_name
         from .errors import InputError
 
-        if np.any(np.asarray(p.get(switch_name("gravity_preload"), 0.0)) != 0):
+        preloads = [switch_name(n) for n, e in EFFECTS.items() if e.kind == "preload"]
+        if any(np.any(np.asarray(p.get(s, 0.0)) != 0) for s in preloads):
             raise InputError("the fused C path has no gravity preload: switch it off or use Evaluator.frequencies")
         ik_names = [k for k in self.OUTPUTS["inverse_kinematics"] if k != "q"]
         jac_names = ["lever"] if "lever" in self.OUTPUTS["jacobians"] else []

@@ -7,7 +7,8 @@ from types import ModuleType
 import numpy as np
 
 from ..description import RobotDescription
-from ..description.effects import STRUCTURAL, resolve_model, switch_name
+from ..description.effects import (base_name, leg_input_name, leg_switch_name, resolve_model, split_scope,
+                                   switch_name)
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .errors import InputError
 from .validity import LEVER_TOL, lever_mask, raise_singular, raise_unreachable, reachable_mask
@@ -64,6 +65,9 @@ class Evaluator:
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
+        #: parameter name -> the leg-level effect that owns it (these take ``NAME@N``)
+        self.leg_parameters = {q.name: e for e in robot.effects if robot.effect(e).leg_level
+                               for q in robot.effect(e).params}
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -83,33 +87,65 @@ class Evaluator:
             raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers in m")
         return arr
 
-    def _params(self, n: int, params: dict, model) -> dict:
-        unknown = sorted(set(params) - set(self.parameters))
+    def _scoped(self, params: dict) -> dict:
+        """``{"eta_a@3": v}`` -> ``{("eta_a", 3): v}``; unknown names raise one line."""
+        scoped, unknown = {}, []
+        for key, value in params.items():
+            if key in self.parameters:
+                continue
+            name, at, _ = key.partition("@")
+            if not at or name not in self.parameters:
+                unknown.append(key)
+                continue
+            if name not in self.leg_parameters:
+                raise InputError(f"parameter {key!r}: {name} belongs to no leg-level effect, so it has no per-leg "
+                                 f"value (leg-level parameters: {', '.join(self.leg_parameters) or 'none'})")
+            try:
+                scoped[split_scope(key, self.n_legs, "parameter")] = value
+            except ValueError as exc:
+                raise InputError(str(exc)) from None
         if unknown:
             raise InputError(f"unknown parameter(s) {', '.join(map(repr, unknown))} for {self.robot.name}: "
-                             f"expected names from {', '.join(self.parameters)}")
-        effects = resolve_model(model, self.effects)
+                             f"expected names from {', '.join(self.parameters)} (NAME@N for one leg)")
+        return scoped
+
+    def _array(self, name: str, value, n: int, check: bool) -> np.ndarray:
+        arr = np.asarray(value, dtype=float)
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in (1, n)):
+            raise InputError(f"parameter {name!r} has shape {arr.shape}: expected a scalar or ({n},) for {n} poses")
+        if check:
+            try:
+                self.parameters[name.partition("@")[0]].check(arr)
+            except ValueError as exc:
+                raise InputError(str(exc).replace(f"parameter {name.partition('@')[0]!r}", f"parameter {name!r}")) from None
+        return arr
+
+    def _params(self, n: int, params: dict, model) -> dict:
+        """The generated code's inputs: parameters, effect switches and each leg's copies."""
+        scoped = self._scoped(params)
+        effects = resolve_model(model, self.robot)
+        on = {base_name(e) for e in effects}
         out = {}
         for name, p in self.parameters.items():
-            value = params.get(name, p.default)
-            arr = np.asarray(value, dtype=float)
-            if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in (1, n)):
-                raise InputError(f"parameter {name!r} has shape {arr.shape}: expected a scalar or ({n},) for {n} poses")
-            if name in params or p.effect is None or p.effect in effects:
-                try:
-                    p.check(arr)
-                except ValueError as exc:
-                    raise InputError(str(exc)) from None
-            out[name] = arr
+            check = name in params or p.effect is None or p.effect in on
+            out[name] = self._array(name, params.get(name, p.default), n, check)
         for e in self.effects:
-            out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
+            effect = self.robot.effect(e)
+            if not effect.leg_level:
+                out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
+                continue
+            for k in range(1, self.n_legs + 1):
+                out[leg_switch_name(e, k)] = np.asarray(1.0 if e in effects or f"{e}@{k}" in effects else 0.0)
+                for q in effect.params:
+                    own = (q.name, k) in scoped
+                    value = self._array(f"{q.name}@{k}", scoped[(q.name, k)], n, True) if own else out[q.name]
+                    out[leg_input_name(q.name, k)] = value
         return out
 
-    @staticmethod
-    def kind(model) -> str:
+    def kind(self, model) -> str:
         """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""
-        effects = resolve_model(model)
-        return "flexible" if any(e in STRUCTURAL for e in effects) else "rigid"
+        effects = resolve_model(model, self.robot)
+        return "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid"
 
     # ---------------------------------------------------------------- kernels
     def _chunks(self, n: int):
@@ -204,16 +240,19 @@ class Evaluator:
         flexible models the full 6x6 M and K_F.
         """
         poses_arr = self._poses(poses)
-        effects = resolve_model(model, self.effects)
+        effects = resolve_model(model, self.robot)
         mats = self.matrices(poses_arr, model, **params)
         rigid = self.kind(effects) == "rigid"
         M = mats["M"][:, 3:, 3:] if rigid else mats["M"]
         K = mats["K_R"][:, 3:, 3:] if rigid else mats["K_F"]
-        if "gravity_preload" in effects:
+        if self._preloaded(effects):
             from .gravity import gravity_stiffness
 
             K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid)
         return M, K
+
+    def _preloaded(self, effects) -> bool:
+        return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
@@ -225,9 +264,9 @@ class Evaluator:
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         poses = self._poses(poses)
-        effects = resolve_model(model, self.effects)
+        effects = resolve_model(model, self.robot)
         fused = getattr(self._kernels, "fused_frequencies", None)
-        if fused is not None and "gravity_preload" not in effects:
+        if fused is not None and not self._preloaded(effects):
             return self._fused_modes(fused, poses, effects, params, check=invalid == "raise")
         if invalid == "raise":
             return self._solve(*self.stiffness(poses, effects, **params))
