@@ -92,6 +92,6 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None) -> Compari
     an error naming the line.
     """
     ev = resolve(ev, meas.robot)
-    effects = resolve_model(model, ev.effects)
+    effects = resolve_model(model, ev.robot)
     pred, idx = Predictor(meas, effects, ev, values).predict(strict=True)
     return Comparison(meas, effects, pred, idx, dict(values or {}))

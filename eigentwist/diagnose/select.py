@@ -268,7 +268,7 @@ def _effect_list(add, ev) -> list[str]:
     for name in names:
         if name not in EFFECTS:
             raise ValueError(f"add {name!r}: not an effect; expected one of {', '.join(ev.effects)}")
-        resolve_model(name, ev.effects)  # raises if the robot lacks it
+        resolve_model(name, ev.robot)  # raises if the robot lacks it
     return names
 
 
@@ -296,7 +296,7 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     if not hasattr(meas, "freq_hz"):
         meas = load_measurements(meas, robot or "heli4", ev)
     ev = resolve(ev, robot or meas.robot, backend)
-    base_effects = resolve_model(baseline, ev.effects)
+    base_effects = resolve_model(baseline, ev.robot)
     base_cmp = compare(meas, base_effects, ev)                       # strict mode matching
     current = fit(meas, base_effects, ev, ())
     steps = [Step(current)]

@@ -69,7 +69,7 @@ def parse_truth(spec: str, ev) -> Truth:
             except ValueError as exc:
                 raise InputError(f"truth item {item!r}: {exc}") from None
     try:
-        effects = resolve_model(names, ev.effects)
+        effects = resolve_model(names, ev.robot)
     except ValueError as exc:
         raise InputError(f"truth {spec!r}: {exc}") from None
     return Truth(effects, values)
