@@ -171,7 +171,7 @@ def _header(cells: list[str], source: str, ev) -> list[str]:
             raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
         if names.index(name) != k:
             raise MeasurementError(source, f"column {name!r} appears twice (columns {names.index(name) + 1} and {k + 1})", 1, name)
-        if name not in allowed:
+        if name not in allowed and not ev.accepts(name):          # eta_a@3: leg 3's own value
             raise MeasurementError(
                 source, f"unknown column (column {k + 1}): not one of {', '.join(REQUIRED + OPTIONAL)} and not a "
                 f"parameter of {ev.robot.name} (parameters: {', '.join(ev.parameters)})", 1, name)
@@ -221,7 +221,7 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4") 
     params = {name: np.array([v if v is not None else ev.parameters[name].default for v in cols[name]], dtype=float)
               for name in names if name in ev.parameters and name != "k_a"}
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        np.array(lines), source, ev.robot.name)
+                        np.array(lines), source, ev.spec)
     check_poses(meas, ev)
     return meas
 

@@ -118,13 +118,14 @@ def compile_and_load(robot: str, source: str | None = None, directory: Path | No
     raise CompileError(f"could not build the C backend of {robot!r} with {cc}:\n" + "\n".join(errors))
 
 
-def load_c_kernels(robot: str, numpy_module=None) -> "CKernels":
+def load_c_kernels(robot: str, numpy_module=None, source: str | None = None) -> "CKernels":
     """The C kernels of ``robot``, with the generated NumPy module's interface.
 
     ``numpy_module`` (optional) is checked for the same outputs, so that a C source that
-    is out of step with the NumPy module is reported instead of silently used.
+    is out of step with the NumPy module is reported instead of silently used. ``source``
+    is the C text (default: the checked-in ``eigentwist/generated/<robot>_c.c``).
     """
-    lib, sig, build = compile_and_load(robot)
+    lib, sig, build = compile_and_load(robot, source)
     kernels = CKernels(lib, sig, build)
     if numpy_module is not None:
         want = {k: {o: tuple(s) for o, s in v.items()} for k, v in getattr(numpy_module, "OUTPUTS", {}).items()}

@@ -65,6 +65,8 @@ class Evaluator:
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
+        #: what :func:`eigentwist.load` was given: a shipped robot's name or a description file's path
+        self.spec = robot.name
         #: parameter name -> the leg-level effect that owns it (these take ``NAME@N``)
         self.leg_parameters = {q.name: e for e in robot.effects if robot.effect(e).leg_level
                                for q in robot.effect(e).params}
@@ -86,6 +88,16 @@ class Evaluator:
             k = int(np.argmax(bad))
             raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers in m")
         return arr
+
+    def accepts(self, name: str) -> bool:
+        """True when ``name`` is a parameter, or ``NAME@N`` of a leg-level one with N a leg."""
+        if name in self.parameters:
+            return True
+        try:
+            self._scoped({name: 0.0})
+        except InputError:
+            return False
+        return True
 
     def _scoped(self, params: dict) -> dict:
         """``{"eta_a@3": v}`` -> ``{("eta_a", 3): v}``; unknown names raise one line."""
