@@ -10,6 +10,8 @@ import pytest
 from eigentwist.cli.main import main
 from eigentwist.robots import NAMES
 from eigentwist.runtime import InputError
+from eigentwist.cli.common import CliError
+from eigentwist.cli.sweep_args import parse_values, parse_vary
 from eigentwist.runtime import sweep as sw
 
 # x in [0, 0.3], y = 0, z in [-0.8, -0.3]: both reachable and unreachable poses (heli4)
@@ -43,11 +45,11 @@ def full_product(spec):
     ("1e3:2e3:3", [1000.0, 1500.0, 2000.0]),
 ])
 def test_parse_values(text, expected):
-    assert np.array_equal(sw.parse_values(text), np.asarray(expected, dtype=float))
+    assert np.array_equal(parse_values(text), np.asarray(expected, dtype=float))
 
 
 def test_parse_vary():
-    name, values = sw.parse_vary("l2=0.45:0.60:16")
+    name, values = parse_vary("l2=0.45:0.60:16")
     assert name == "l2" and len(values) == 16 and values[0] == 0.45 and values[-1] == 0.60
 
 
@@ -62,18 +64,20 @@ def test_parse_vary():
     ("l2=", "empty"),
 ])
 def test_bad_vary_names_the_value(item, fragment):
-    with pytest.raises(InputError, match="--vary") as err:
-        sw.parse_vary(item)
+    with pytest.raises(CliError, match="--vary") as err:
+        parse_vary(item)
     assert fragment in str(err.value)
 
 
 @pytest.mark.parametrize("kwargs, fragment", [
-    ({"vary": ["nope=1,2"]}, "'nope'"),
-    ({"vary": ["l2=-0.5,0.5"]}, "'l2' = "),
-    ({"vary": ["k_a=1,2"]}, "--k-a"),
-    ({"vary": ["l2=0.5", "l2=0.6"]}, "more than once"),
-    ({"vary": ["l2=0.5"], "fixed": {"l2": 0.5}}, "both varied and fixed"),
-    ({"k_a": "0,1000"}, "'k_a' = 0"),
+    ({"vary": [("nope", [1, 2])]}, "'nope'"),
+    ({"vary": [("l2", [-0.5, 0.5])]}, "'l2' = "),
+    ({"vary": [("k_a", [1, 2])]}, "its own argument"),
+    ({"vary": [("l2", 0.5), ("l2", 0.6)]}, "more than once"),
+    ({"vary": {"l2": 0.5}, "fixed": {"l2": 0.5}}, "both varied and fixed"),
+    ({"vary": {"l2": "0.45:0.60:16"}}, "is text"),
+    ({"vary": {"l2": [0.5, float("nan")]}}, "finite numbers"),
+    ({"k_a": [0, 1000]}, "'k_a' = 0"),
     ({"box": (0.1, -0.1, 0, 0, -0.7, -0.6)}, "box x range"),
     ({"box": (0, 1, 2)}, "six finite numbers"),
     ({"grid": (2, 0, 2)}, "grid [2, 0, 2]"),
@@ -89,7 +93,7 @@ def test_bad_spec_names_the_value(kwargs, fragment):
 
 
 def test_spec_round_trips_through_json():
-    spec = sw.make_spec(random=50, seed=3, k_a="500:4000:8", vary={"l2": "0.45:0.60:16", "l1": [0.18, 0.2]},
+    spec = sw.make_spec(random=50, seed=3, k_a=parse_values("500:4000:8"), vary={"l2": parse_values("0.45:0.60:16"), "l1": [0.18, 0.2]},
                         fixed={"m_e": 0.6}, chunk_size=100)
     again = sw.SweepSpec.from_dict(json.loads(json.dumps(spec.to_dict())))
     assert again == spec
@@ -98,7 +102,7 @@ def test_spec_round_trips_through_json():
 
 # --------------------------------------------------------------------- chunking
 def test_chunks_reassemble_to_the_unchunked_evaluation(ev):
-    spec = sw.make_spec(grid=(3, 2, 3), k_a="1000,2000", vary=["l2=0.48:0.58:3", "l1=0.19,0.21"],
+    spec = sw.make_spec(grid=(3, 2, 3), k_a=parse_values("1000,2000"), vary=[parse_vary("l2=0.48:0.58:3"), parse_vary("l1=0.19,0.21")],
                         fixed={"m_e": 0.65}, chunk_size=25)       # 25 does not divide 216 rows
     cols = concat(spec)
     pose, k_a, params = full_product(spec)
@@ -111,7 +115,7 @@ def test_chunks_reassemble_to_the_unchunked_evaluation(ev):
     np.testing.assert_array_equal(cols["direction"], modes.direction)
     assert cols["reachable"].all()
     # another chunking gives the same bits
-    other = concat(sw.make_spec(grid=(3, 2, 3), k_a="1000,2000", vary=["l2=0.48:0.58:3", "l1=0.19,0.21"],
+    other = concat(sw.make_spec(grid=(3, 2, 3), k_a=parse_values("1000,2000"), vary=[parse_vary("l2=0.48:0.58:3"), parse_vary("l1=0.19,0.21")],
                                 fixed={"m_e": 0.65}, chunk_size=1000))
     for key in cols:
         np.testing.assert_array_equal(cols[key], other[key])
@@ -149,7 +153,7 @@ def test_random_poses_cross_block_boundaries():
 
 # ------------------------------------------------------------------ reachability
 def test_unreachable_poses_are_marked_not_raised(ev):
-    spec = sw.make_spec(grid=(7, 1, 7), box=MIXED_BOX, vary=["l2=0.5,0.56"], chunk_size=16)
+    spec = sw.make_spec(grid=(7, 1, 7), box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.56")], chunk_size=16)
     cols = concat(spec)
     expected = []
     for pose, l2 in zip(cols["pose"], cols["design"][:, 0]):
@@ -172,7 +176,7 @@ def test_reachable_rows_mirrors_the_evaluator(ev):
 
 # ------------------------------------------------------------------- the summary
 def test_lowest_equals_brute_force():
-    spec = sw.make_spec(grid=(5, 1, 5), box=MIXED_BOX, k_a="1000,2000", vary=["l2=0.5,0.53,0.56"], chunk_size=13)
+    spec = sw.make_spec(grid=(5, 1, 5), box=MIXED_BOX, k_a=parse_values("1000,2000"), vary=[parse_vary("l2=0.5,0.53,0.56")], chunk_size=13)
     summary = sw.run_sweep(spec)
     cols = concat(spec)
     low = summary.lowest
@@ -200,7 +204,7 @@ def test_lowest_of_a_design_with_no_reachable_pose_is_nan():
 
 # ------------------------------------------------------------------------ output
 def test_npz_directory_round_trip(tmp_path):
-    spec = sw.make_spec(grid=(4, 1, 4), box=MIXED_BOX, vary=["l2=0.5,0.55"], chunk_size=9)
+    spec = sw.make_spec(grid=(4, 1, 4), box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.55")], chunk_size=9)
     summary = sw.run_sweep(spec, sw.open_writer(tmp_path / "out", spec))
     data = sw.load_sweep(tmp_path / "out")
     assert data.spec == spec and data.manifest["complete"] and data.manifest["n_rows"] == 32
@@ -217,7 +221,7 @@ def test_npz_directory_round_trip(tmp_path):
 
 def test_parquet_round_trip(tmp_path):
     pytest.importorskip("pyarrow", reason="the parquet extra (pyarrow) is not installed")
-    spec = sw.make_spec(grid=(4, 1, 4), box=MIXED_BOX, k_a="1000,2000", chunk_size=9)
+    spec = sw.make_spec(grid=(4, 1, 4), box=MIXED_BOX, k_a=parse_values("1000,2000"), chunk_size=9)
     summary = sw.run_sweep(spec, sw.open_writer(tmp_path / "out.parquet", spec))
     data = sw.load_sweep(tmp_path / "out.parquet")
     assert data.spec == spec
@@ -270,7 +274,7 @@ def test_dask_engine_without_dask_names_the_extra(monkeypatch):
 # -------------------------------------------------------------------------- Dask
 def test_dask_two_workers_equal_in_process(tmp_path):
     distributed = pytest.importorskip("dask.distributed", reason="the dask extra is not installed")
-    spec = sw.make_spec(random=400, seed=11, box=MIXED_BOX, vary=["l2=0.5,0.56"], k_a="1000,2000", chunk_size=150)
+    spec = sw.make_spec(random=400, seed=11, box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.56")], k_a=parse_values("1000,2000"), chunk_size=150)
     local = sw.run_sweep(spec, sw.open_writer(tmp_path / "local", spec))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         remote = sw.run_sweep(spec, sw.open_writer(tmp_path / "dask", spec), engine="dask",
@@ -314,7 +318,7 @@ def test_c_backend_sweep_agrees_with_numpy(request, monkeypatch):
     except cb.CompilerNotFoundError as exc:
         pytest.skip(f"compiled tier skipped: {exc}")
     monkeypatch.setenv("EIGENTWIST_CACHE", str(request.config.cache.mkdir("eigentwist-c")))
-    kwargs = dict(grid=(6, 1, 6), box=MIXED_BOX, vary=["l2=0.5,0.56"], k_a="1000,2000", chunk_size=19)
+    kwargs = dict(grid=(6, 1, 6), box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.56")], k_a=parse_values("1000,2000"), chunk_size=19)
     for model in ("paper", "rigid"):
         a = concat(sw.make_spec(backend="numpy", model=model, **kwargs))
         b = concat(sw.make_spec(backend="c", model=model, **kwargs))

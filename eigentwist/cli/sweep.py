@@ -67,13 +67,16 @@ def add_parser(sub):
 
 def spec_from_args(args):
     from ..runtime.sweep import DEFAULT_CHUNK_SIZE, make_spec
+    from .sweep_args import parse_values, parse_vary
 
     if args.engine == "inprocess" and (args.scheduler or args.workers):
         raise CliError("--scheduler and --workers apply to --engine dask")
     if args.scheduler and args.workers:
         raise CliError("--workers sizes the local cluster: it cannot be combined with --scheduler")
     return make_spec(args.robot, model=args.model, backend=args.backend, grid=args.grid, random=args.random,
-                     seed=args.seed, box=args.box, k_a=args.k_a, vary=args.vary, fixed=parse_sets(args.set),
+                     seed=args.seed, box=args.box,
+                     k_a=None if args.k_a is None else parse_values(args.k_a, f"--k-a {args.k_a!r}"),
+                     vary=[parse_vary(item) for item in args.vary], fixed=parse_sets(args.set),
                      chunk_size=args.chunk_size or DEFAULT_CHUNK_SIZE)
 
 
@@ -95,10 +98,13 @@ def lowest_table(low: dict, spec, top: int) -> str:
 
 
 def run(args) -> int:
-    from ..runtime.sweep import open_writer, run_sweep
+    from ..runtime.sweep import OutputExistsError, open_writer, run_sweep
 
     spec = spec_from_args(args)
-    writer = open_writer(args.output, spec, overwrite=args.overwrite)
+    try:
+        writer = open_writer(args.output, spec, overwrite=args.overwrite)
+    except OutputExistsError as exc:
+        raise CliError(str(exc).replace("pass overwrite=True", "give --overwrite")) from None
     with progress(total=spec.n_rows, unit="row", unit_scale=True, desc="sweep") as bar:
         summary = run_sweep(spec, writer, engine=args.engine, scheduler=args.scheduler, workers=args.workers,
                             on_chunk=lambda i, result: bar.update(len(result["case"])))

@@ -2,8 +2,9 @@
 from .parameters import Parameter, sym
 from .robot import Coupling, Joint, Leg, RobotDescription, EECompliance, RRPIRR_CHAIN
 from .effects import EFFECTS, PRESETS, Effect, resolve_model
+from .constraints import Constraint, tube, triangle_inequality
 
 __all__ = [
     "Parameter", "sym", "Coupling", "Joint", "Leg", "RobotDescription", "EECompliance", "RRPIRR_CHAIN",
-    "EFFECTS", "PRESETS", "Effect", "resolve_model",
+    "EFFECTS", "PRESETS", "Effect", "resolve_model", "Constraint", "tube", "triangle_inequality",
 ]

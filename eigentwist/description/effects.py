@@ -18,6 +18,8 @@ from typing import Any, Callable
 
 import sympy as sp
 
+from .constraints import Constraint, tube
+
 from .parameters import Parameter, sym
 
 __all__ = ["Effect", "EffectContext", "EFFECTS", "PRESETS", "STRUCTURAL", "KINDS", "resolve_model", "switch_name",
@@ -68,6 +70,7 @@ class Effect:
         (3, m from the EE origin); ``preload``: the acceleration of gravity (3, m/s^2)
         acting on the platform's inertia. ``platform_coupling`` needs none: the robot's
         :class:`~eigentwist.description.Coupling` names the effect.
+    constraints : conditions its parameters must meet together (:mod:`.constraints`).
     """
 
     name: str
@@ -86,6 +89,7 @@ class Effect:
             raise ValueError(f"effect {self.name!r}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
         if "@" in self.name or not self.name.isidentifier():
             raise ValueError(f"effect name {self.name!r}: expected a Python identifier (no '@')")
+    constraints: tuple[Constraint, ...] = ()
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -214,7 +218,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                "steel, or carbon fibre, 40-250 GPa", "lower_link_compliance", (40e9, 250e9)),
             _p("nu_l1", 0.33, "-", "Poisson ratio of the lower link tube (G = E/(2(1+nu)))", "lower_link_compliance",
                (0.2, 0.45), (0.0, 0.5))),
-           ("E_l1",), structural=True, kind="body_compliance", leg_level=True, body="E1", build=_lower_link_tube),
+           ("E_l1",), structural=True, kind="body_compliance", leg_level=True, body="E1", build=_lower_link_tube,
+           constraints=tube(sym("r_i_l1"), sym("r_o_l1"), "the lower link tube")),
     Effect("transmission_compliance",
            "torsional compliance 1/k_t in series with each actuator",
            (_p("k_t", 20000.0, "N m/rad", "torsional stiffness of each transmission, in series with the actuator; "

@@ -117,7 +117,9 @@ class RobotDescription:
       of the user's own (their parameters are added to ``parameters`` when missing);
     * ``couplings``: :class:`Coupling` of each platform body other than the tool body
       (``tool_body``); legs name the body they attach to (``Leg.platform_body``);
-    * ``x_ref``: reference pose (m).
+    * ``x_ref``: reference pose (m);
+    * ``constraints``: conditions on several parameters together
+      (:mod:`.constraints`: tube radii, inertia triangle inequalities).
     """
 
     name: str
@@ -169,6 +171,7 @@ class RobotDescription:
             if e.name == name:
                 return e
         return EFFECTS[name]
+    constraints: tuple = ()
 
     def parameter(self, name: str) -> Parameter:
         for p in self.parameters:

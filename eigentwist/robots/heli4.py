@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..description import Coupling, EECompliance, Leg, Parameter, RobotDescription
+from ..description import Coupling, EECompliance, Leg, Parameter, RobotDescription, triangle_inequality, tube
 from ..description.effects import effect_parameters
 from ..symbolic.screw import spatial_inertia
 
@@ -109,4 +109,7 @@ def describe() -> RobotDescription:
         workspace=((-0.1, 0.1), (-0.1, 0.1), (-0.70, -0.55)),
         source="Hoevenaars, Krut & Herder (2020), DOI 10.1016/j.mechmachtheory.2019.103775",
         effects=EFFECTS,
+        constraints=(tube(p["r_i"], p["r_o"], "the parallelogram rods")
+                     + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
+                     + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")),
     )

@@ -10,6 +10,7 @@ from ..description import RobotDescription
 from ..description.effects import (base_name, leg_input_name, leg_switch_name, resolve_model, split_scope,
                                    switch_name)
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+from .constraints import check_constraints, compile_constraints
 from .errors import InputError
 from .validity import LEVER_TOL, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
@@ -70,6 +71,7 @@ class Evaluator:
         #: parameter name -> the leg-level effect that owns it (these take ``NAME@N``)
         self.leg_parameters = {q.name: e for e in robot.effects if robot.effect(e).leg_level
                                for q in robot.effect(e).params}
+        self.constraints = compile_constraints(robot)
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -152,7 +154,22 @@ class Evaluator:
                     own = (q.name, k) in scoped
                     value = self._array(f"{q.name}@{k}", scoped[(q.name, k)], n, True) if own else out[q.name]
                     out[leg_input_name(q.name, k)] = value
+        check_constraints(self.constraints, out, on)
+        self._check_leg_constraints(out, effects, scoped)
         return out
+
+    def _check_leg_constraints(self, out: dict, effects, scoped: dict) -> None:
+        """A leg's own values meet its effect's constraints (``r_i_l1@2 < r_o_l1@2``)."""
+        for c in self.constraints:
+            if c.effect is None or not self.robot.effect(c.effect).leg_level:
+                continue
+            for k in sorted({k for (_, k) in scoped}):
+                if c.effect in effects or f"{c.effect}@{k}" in effects:
+                    values = {n: out.get(leg_input_name(n, k), out.get(n)) for n in c.names}
+                    try:
+                        check_constraints([c], values, {c.effect})
+                    except InputError as exc:
+                        raise InputError(f"leg {k}: {exc}") from None
 
     def kind(self, model) -> str:
         """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""

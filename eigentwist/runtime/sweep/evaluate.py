@@ -1,0 +1,44 @@
+"""Evaluate one chunk of a sweep: natural frequencies of a block of product rows."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..evaluator import Evaluator
+from .spec import SweepSpec, sweep_evaluator
+
+__all__ = ["reachable_rows", "evaluate_chunk", "COLUMNS"]
+
+COLUMNS = ("pose", "k_a", "design", "freq_hz", "direction", "reachable", "pose_index", "case")
+
+def reachable_rows(ev: Evaluator, poses: np.ndarray, params: dict, model) -> np.ndarray:
+    """(N,) bool: the poses that :meth:`Evaluator.modes` accepts (reachable, not singular)."""
+    return ev.valid(poses, model, **params)
+
+
+def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
+    """Evaluate chunk ``chunk`` of the sweep: a dict of arrays, one row per product row.
+
+    pose (n, 3) m; k_a (n,) N m/rad; design (n, len(vary)) SI units, columns in the
+    order of ``spec.vary``; freq_hz (n, n_modes) ascending, Hz; direction (n, n_modes)
+    int8, index into ``AXES`` of each mode's largest eigentwist entry; reachable (n,)
+    bool; pose_index (n,), case (n,) int64. Unreachable or singular rows have NaN
+    frequencies, direction -1 and ``reachable=False``: they never stop the sweep.
+    Deterministic: the same spec and chunk give the same bits in any process.
+    """
+    span = spec.chunk_rows(chunk)
+    rows = np.arange(span.start, span.stop, dtype=np.int64)
+    case, pose_index = np.divmod(rows, spec.n_poses)
+    poses = spec.poses.take(pose_index)
+    k_a, design = spec.case_values(case)
+    params = {**dict(spec.fixed), "k_a": k_a, **{name: design[:, k] for k, name in enumerate(spec.design_names)}}
+    ev = sweep_evaluator(spec.robot, spec.backend)
+    # invalid="nan": unreachable or singular rows are NaN and marked, never raise
+    modes = ev.modes(poses, spec.model, invalid="nan", **params)
+    reachable = np.ones(len(rows), bool) if modes.valid is None else np.asarray(modes.valid, bool)
+    freq = modes.freq_hz
+    direction = modes.direction.astype(np.int8)
+    freq[~reachable] = np.nan
+    direction[~reachable] = -1
+    return {"pose": poses, "k_a": k_a, "design": design, "freq_hz": freq, "direction": direction,
+            "reachable": reachable, "pose_index": pose_index, "case": case}
+
