@@ -70,6 +70,9 @@ class Effect:
         (3, m from the EE origin); ``preload``: the acceleration of gravity (3, m/s^2)
         acting on the platform's inertia. ``platform_coupling`` needs none: the robot's
         :class:`~eigentwist.description.Coupling` names the effect.
+    component : the part it describes, for the diagnosis' sentences ("actuator").
+    phrase : what one leg's fitted values say, formatted with the fit parameters
+        (``"delivers {eta_a:.2f} of its commanded stiffness"``); "" lists the values.
     constraints : conditions its parameters must meet together (:mod:`.constraints`).
     """
 
@@ -83,6 +86,8 @@ class Effect:
     equation: str = ""
     body: str = ""
     build: Callable[["EffectContext"], Any] | None = None
+    component: str = ""
+    phrase: str = ""
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -191,7 +196,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "delivered/commanded actuator stiffness factor eta_a (Eq. 34, App. B: 0.82)",
            (_p("eta_a", 0.82, "-", "delivered/commanded actuator stiffness (App. B); plausible: a servo delivers "
                "30 % to 105 % of its commanded stiffness", "actuator_loss", (0.3, 1.05), (0.05, 1.5), "Eq. 34, App. B"),),
-           ("eta_a",), kind="joint_series", leg_level=True, equation="Eq. 34, App. B", build=_actuator_loss),
+           ("eta_a",), kind="joint_series", leg_level=True, equation="Eq. 34, App. B", build=_actuator_loss,
+           component="actuator", phrase="delivers {eta_a:.2f} of its commanded stiffness"),
     Effect("rod_compliance",
            "bending/axial compliance of the two parallelogram rods as cantilevers (App. C, Eqs. 44, C.10)",
            (_p("E_rod", 170e9, "Pa", "Young's modulus of the parallelogram rods (facts file: fitted to K_F(3,3), carbon "
@@ -200,7 +206,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
             _p("G_rod", 65e9, "Pa", "shear modulus of the rods (not in the paper; no influence on K_F); plausible "
                "10-90 GPa", "rod_compliance", (10e9, 90e9), equation="App. C")),
            ("E_rod",), structural=True, kind="body_compliance", leg_level=True, equation="App. C, Eqs. 44, C.10",
-           body="L2", build=_rod_pair),
+           body="L2", build=_rod_pair, component="parallelogram rods"),
     Effect("ee_compliance",
            "end-effector assembly compliance k_E_rot about Y and k_E_lin along Y, split over the legs (App. D, Eqs. 45-49)",
            _K_E, ("k_E_rot", "k_E_lin"), structural=True, kind="body_compliance", equation="App. D, Eqs. 45-49",
@@ -218,14 +224,15 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                "steel, or carbon fibre, 40-250 GPa", "lower_link_compliance", (40e9, 250e9)),
             _p("nu_l1", 0.33, "-", "Poisson ratio of the lower link tube (G = E/(2(1+nu)))", "lower_link_compliance",
                (0.2, 0.45), (0.0, 0.5))),
-           ("E_l1",), structural=True, kind="body_compliance", leg_level=True, body="E1", build=_lower_link_tube,
+           ("E_l1",), structural=True, kind="body_compliance", leg_level=True, body="E1", build=_lower_link_tube, component="lower link",
            constraints=tube(sym("r_i_l1"), sym("r_o_l1"), "the lower link tube")),
     Effect("transmission_compliance",
            "torsional compliance 1/k_t in series with each actuator",
            (_p("k_t", 20000.0, "N m/rad", "torsional stiffness of each transmission, in series with the actuator; "
                "plausible: belts and small gearboxes to large harmonic drives, 1e3-1e6 N m/rad",
                "transmission_compliance", (1.0e3, 1.0e6)),),
-           ("k_t",), kind="joint_series", leg_level=True, build=_transmission),
+           ("k_t",), kind="joint_series", leg_level=True, build=_transmission,
+           component="transmission"),
     Effect("payload_mass",
            "rigid point payload m_p on the end-effector at offset (p_x, p_y, p_z)",
            (_p("m_p", 0.2, "kg", "payload mass on the end-effector; plausible 0-20 kg", "payload_mass", (0.0, 20.0)),
@@ -237,7 +244,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "additional inertia I_add about each actuated axis (adds to Eq. 22)",
            (_p("I_add", 2e-3, "kg m^2", "additional inertia about each actuated axis; plausible 0-0.05 kg m^2 "
                "(up to ten times a large servo rotor)", "rotor_inertia", (0.0, 0.05), equation="Eq. 22"),),
-           ("I_add",), kind="added_inertia", leg_level=True, equation="Eq. 22", body="J1", build=_rotor),
+           ("I_add",), kind="added_inertia", leg_level=True, equation="Eq. 22", body="J1", build=_rotor,
+           component="actuated link", phrase="carries {I_add:.3g} kg m^2 of added inertia"),
     Effect("gravity_preload",
            "the tau_e term of Eq. 13 from the static gravity load g on the end-effector and payload",
            (_p("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload; a known constant "

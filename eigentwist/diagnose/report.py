@@ -20,7 +20,7 @@ def format_params(values: dict, std: dict, ev) -> str:
     """``"k_E_rot = 374 ± 38 N m/rad, ..."``."""
     parts = []
     for name, v in values.items():
-        unit = ev.parameters[name].unit if name in ev.parameters else ""
+        unit = ev.parameter(name).unit if ev.accepts(name) else ""
         s = std.get(name, math.nan)
         err = f" ± {s:.2g}" if math.isfinite(s) else " ± (undetermined)"
         parts.append(f"{name} = {v:.4g}{err} {unit}".rstrip())

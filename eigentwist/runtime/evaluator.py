@@ -91,6 +91,14 @@ class Evaluator:
             raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers in m")
         return arr
 
+    def parameter(self, name: str):
+        """The :class:`Parameter` ``name``; ``NAME@N`` gives leg N's copy (same unit, bounds)."""
+        if name in self.parameters:
+            return self.parameters[name]
+        if not self.accepts(name):
+            self._scoped({name: 0.0})                      # raises the one-line error
+        return self.parameters[name.partition("@")[0]].with_values(name=name)
+
     def accepts(self, name: str) -> bool:
         """True when ``name`` is a parameter, or ``NAME@N`` of a leg-level one with N a leg."""
         if name in self.parameters:
