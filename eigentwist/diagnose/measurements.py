@@ -218,8 +218,8 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4") 
                       for s, f in zip(cols.get("sigma_hz", [None] * n), freq)], dtype=float)
     poses = np.stack([np.array([v if v is not None else x_ref[k] for v in cols.get(a, [None] * n)], dtype=float)
                       for k, a in enumerate("xyz")], axis=1)
-    params = {name: np.array([v if v is not None else ev.parameters[name].default for v in cols[name]], dtype=float)
-              for name in names if name in ev.parameters and name != "k_a"}
+    params = {name: np.array([v if v is not None else ev.parameter(name).default for v in cols[name]], dtype=float)
+              for name in names if ev.accepts(name) and name != "k_a"}
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
                         np.array(lines), source, ev.spec)
     check_poses(meas, ev)
@@ -242,7 +242,7 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
         return _number(cell, source, line, name, positive=False)
     if name in ("k_a", "freq_hz", "sigma_hz"):
         return _number(cell, source, line, name, positive=True)
-    p = ev.parameters[name]
+    p = ev.parameter(name)
     value = _number(cell, source, line, name, positive=p.bounds[0] >= 0)
     try:
         p.check(value)
