@@ -35,7 +35,8 @@ KINDS = {
                        "the paper's per-leg share of the end-effector assembly)",
     "added_inertia": "inertia added to a body (payload on the platform, rotor inertia on the actuated link)",
     "platform_coupling": "a compliant coupling between two platform bodies (ee_coupling)",
-    "ground_spring": "a spring between the platform and the ground (hoses, cables, a guard)",
+    "ground_spring": "a spring between the tool and the ground (hoses, cables, a guard); no catalogue effect: "
+                     "a user's description adds one (README, 'Effects of your own')",
     "preload": "a static preload whose stiffness enters the first term of Eq. 13 (gravity)",
 }
 

@@ -157,11 +157,14 @@ class RobotDescription:
                 names.append(e)
             else:
                 raise ValueError(f"{self.name}: unknown effect {e!r}: expected a catalogue name or an Effect")
-        have = {p.name for p in self.parameters}
-        extra = tuple(p for e in custom.values() for p in e.params if p.name not in have)
+        have, extra = {p.name for p in self.parameters}, []
+        for p in (p for e in custom.values() for p in e.params):
+            if p.name not in have:
+                have.add(p.name)
+                extra.append(p)
         object.__setattr__(self, "effects", tuple(dict.fromkeys(names)))
         object.__setattr__(self, "custom_effects", tuple(custom.values()))
-        object.__setattr__(self, "parameters", tuple(self.parameters) + extra)
+        object.__setattr__(self, "parameters", tuple(self.parameters) + tuple(extra))
 
     def effect(self, name: str):
         """The :class:`Effect` called ``name`` (the robot's own first, then the catalogue)."""

@@ -126,6 +126,12 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     out.append(f"   final model: {', '.join(f.effects) or '(no effect)'}; RMS {f.rms_pct:.2f} %, max {f.max_pct:.2f} %")
     if f.values:
         out.append(f"   fitted: {format_params(f.values, f.std, ev)}")
+    from .scope import sentence
+
+    for item in f.effects:
+        text = sentence(ev, item, f.values, f.effects)
+        if text:
+            out.append(f"   {text}")
     if f.at_bound:
         out.append(f"   warning: {', '.join(f.at_bound)} ended at the edge of the search range (default/1000 ... "
                    "1000 x default, within physical bounds): the value is not physically meaningful")
