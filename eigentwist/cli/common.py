@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
+from ..text import format_table  # re-exported: the CLI's tables
 
 __all__ = ["CliError", "add_model_options", "parse_sets", "progress", "format_table", "eprint"]
 
@@ -55,15 +55,3 @@ def progress(iterable=None, **kwargs):
     kwargs.setdefault("disable", not sys.stderr.isatty())
     kwargs.setdefault("file", sys.stderr)
     return tqdm(iterable, **kwargs)
-
-
-def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g") -> str:
-    """Plain-text table with right-aligned numbers."""
-    def fmt(v):
-        if isinstance(v, (float, np.floating)):
-            return format(float(v), floatfmt)
-        return str(v)
-    cells = [[fmt(v) for v in r] for r in rows]
-    widths = [max(len(h), *(len(r[k]) for r in cells)) if cells else len(h) for k, h in enumerate(headers)]
-    line = lambda r: "  ".join(c.rjust(w) for c, w in zip(r, widths))  # noqa: E731
-    return "\n".join([line(headers), line(["-" * w for w in widths])] + [line(r) for r in cells])

@@ -63,14 +63,14 @@ def load_data(args):
 
 
 def to_json(cmp) -> dict:
-    from ..diagnose.select import _clean
+    from ..text import json_safe
 
     m = cmp.meas
     rows = [{"line": int(m.lines[i]), "k_a": m.k_a[i], "pose": m.poses[i].tolist(), "mode": m.mode[i],
              "model_mode": int(cmp.mode_index[i]) + 1, "measured_hz": m.freq_hz[i], "sigma_hz": m.sigma_hz[i],
              "predicted_hz": cmp.predicted[i], "error_pct": cmp.error_pct[i], "error_sigma": cmp.error_sigma[i],
              "fails": bool(cmp.failing[i])} for i in range(len(m))]
-    return _clean({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
+    return json_safe({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
                    "rms_pct": cmp.rms_pct, "max_pct": cmp.max_pct, "chi2": cmp.chi2,
                    "failing": cmp.where_it_fails()})
 

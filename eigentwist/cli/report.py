@@ -42,8 +42,7 @@ def run(args) -> int:
         rows.append([f"diagnosis step {k}", " + ".join(s["effects"]) or "(no effect)", s["rms_pct"], s["max_pct"]])
     print(format_table(["", "effects", "RMS error [%]", "max error [%]"], rows, ".3g"))
     if rep.reproduction:
-        print(f"paper reproduction: {rep.reproduction['within']} of {rep.reproduction['printed']} printed numbers "
-              f"within print rounding; {rep.reproduction['required_ok']}/{rep.reproduction['required']} required ok")
+        print(f"paper reproduction: {rep.reproduction['summary']}")
     verdict = "explained within the measurement uncertainty" if d["final"]["explained"] else \
         ("NOT explained within the stated uncertainty (sigma_hz, default 2 % of each value): an effect outside "
          "the catalogue is missing, or the uncertainty is larger than stated")

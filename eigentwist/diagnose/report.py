@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from ..cli.common import format_table
+from ..text import format_table
 from .compare import FAIL_SIGMA
 from .stats import CRITERIA
 

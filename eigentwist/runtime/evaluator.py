@@ -262,6 +262,22 @@ class Evaluator:
         """Inverse-Jacobian rows ``J_rows`` (N, legs, 4, 6) and levers ``lever`` (N, legs), m."""
         return self._run("jacobians", poses, "paper", params)
 
+    def parameter_values(self, n: int, model="paper", **params) -> dict:
+        """The generated kernels' parameter input for ``n`` poses, validated.
+
+        Every parameter of the robot (``params`` overriding the defaults, SI units) as an
+        array that broadcasts with the poses, plus the 0/1 switch of every effect.
+        """
+        return self._params(n, params, model)
+
+    def run_kernel(self, kernel: str, poses, model="paper", **params) -> dict:
+        """Outputs of the generated kernel ``kernel`` (e.g. ``"gravity"``) for ``poses``.
+
+        Poses are checked (reachable, not singular) as in :meth:`matrices`; the result
+        also holds the joint angles ``q`` and the ``jacobians`` kernel's outputs.
+        """
+        return self._run(kernel, poses, model, params)
+
     def matrices(self, poses, model="paper", **params) -> dict:
         """``M``, ``K_R``, ``K_F`` at the EE origin, each (N, 6, 6) (Eqs. 12, 14, 13).
 

@@ -22,7 +22,7 @@ def gravity_stiffness(ev, poses: np.ndarray, effects, params: dict, mats: dict, 
     rigid model only the actuated joints carry load (3x3 translational subset).
     """
     n = len(poses)
-    gk = ev._run("gravity", poses, effects, params)         # G, Kqe, k_act, W and J_rows
+    gk = ev.run_kernel("gravity", poses, effects, **params)        # G, Kqe, k_act, W and J_rows
     W = gk["W"]                                              # (n, 6): the preload's static wrench
     jr = gk["J_rows"]                                        # (n, legs, 4, 6)
     if rigid:

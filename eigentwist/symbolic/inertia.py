@@ -5,7 +5,7 @@ import sympy as sp
 
 from .leg import LegScrews
 from .program import Program
-from .screw import _inverse_adjoint, spatial_inertia
+from .screw import inverse_adjoint, spatial_inertia
 
 __all__ = ["parallelogram_inertia", "body_inertia_contribution", "point_mass_inertia"]
 
@@ -38,7 +38,7 @@ def body_inertia_contribution(prog: Program, legs: LegScrews, joints: int, frame
     the local frame) is formed first, then mapped with the inverse-Jacobian rows.
     """
     rotation, origin = legs.frames[frame]
-    A = _inverse_adjoint(rotation, origin)
+    A = inverse_adjoint(rotation, origin)
     local_twists = sp.Matrix.hstack(*[legs.twists[k] for k in range(1, joints + 1)])
     B = prog.let_matrix(f"B{name}", A * local_twists)
     Mq = B.T * inertia_local * B

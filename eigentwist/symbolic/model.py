@@ -60,6 +60,17 @@ class DerivedModel:
         return self.robot.parameter_names
 
     @property
+    def switches(self) -> tuple[str, ...]:
+        """Names of the 0/1 effect switches (``on_E``; ``on_E__N`` per leg for a leg-level effect)."""
+        return tuple(EffectSymbols(self.robot).switches())
+
+    @property
+    def leg_copies(self) -> dict[str, str]:
+        """Each leg's copy of a leg-level effect's parameter or switch -> the shared name
+        (``"eta_a__3": "eta_a"``, ``"on_actuator_loss__3": "on_actuator_loss"``)."""
+        return {name: name.rpartition("__")[0] for name in self.inputs if "__" in name}
+
+    @property
     def inputs(self) -> tuple[str, ...]:
         """Names of the generated code's parameter inputs: the robot's parameters, then
         each effect's switch (and each leg's copies for a leg-level effect)."""

@@ -25,6 +25,7 @@ __all__ = [
     "adjoint",
     "homogeneous",
     "adjoint_of_homogeneous",
+    "inverse_adjoint",
     "inertia_to_frame",
     "compliance_to_frame",
     "spatial_inertia",
@@ -105,7 +106,7 @@ def adjoint_of_homogeneous(H: sp.Matrix) -> sp.Matrix:
     return adjoint(H[:3, :3], H[:3, 3])
 
 
-def _inverse_adjoint(rotation: sp.Matrix, origin: sp.Matrix) -> sp.Matrix:
+def inverse_adjoint(rotation: sp.Matrix, origin: sp.Matrix) -> sp.Matrix:
     """Closed-form inverse of :func:`adjoint` (reference twist -> local twist)."""
     Rt = rotation.T
     top = sp.Matrix.hstack(Rt, sp.zeros(3, 3))
@@ -119,7 +120,7 @@ def inertia_to_frame(inertia_local: sp.Matrix, rotation: sp.Matrix, origin: sp.M
     Eqs. 24 and 30: ``M = Ad^T M_local Ad`` where ``Ad`` maps a reference twist to the
     local frame (the inverse of :func:`adjoint`).
     """
-    A = _inverse_adjoint(rotation, origin)
+    A = inverse_adjoint(rotation, origin)
     return A.T * inertia_local * A
 
 

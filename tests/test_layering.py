@@ -1,0 +1,95 @@
+"""The data flows one way and modules talk through public names (issue 12, point 9).
+
+* No module under ``eigentwist/`` imports :mod:`eigentwist.cli`, except the command line
+  itself (``eigentwist/cli/``) and ``eigentwist/__main__.py`` (``python -m eigentwist``,
+  the command line's entry point).
+* No module uses another module's private names: neither ``from X import _name`` nor
+  ``something._name`` (``self._name``, ``cls._name`` and ``super()._name`` excepted: a
+  class's own attributes, and a printer overriding its base class's ``_print_*``).
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "eigentwist"
+ENTRY_POINTS = {"eigentwist.__main__"}
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _absolute(node: ast.ImportFrom, module: str, is_package: bool) -> str:
+    if not node.level:
+        return node.module or ""
+    base = module.split(".") if is_package else module.split(".")[:-1]
+    base = base[:len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _own_object(value: ast.AST) -> bool:
+    if isinstance(value, ast.Name):
+        return value.id in ("self", "cls")
+    return isinstance(value, ast.Call) and isinstance(value.func, ast.Name) and value.func.id == "super"
+
+
+def violations(source: str, module: str, is_package: bool = False) -> list[str]:
+    """Layering and privacy violations of one module's source, as readable lines."""
+    out = []
+    in_cli = module == "eigentwist.cli" or module.startswith("eigentwist.cli.") or module in ENTRY_POINTS
+    for node in ast.walk(ast.parse(source)):
+        targets = []
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = _absolute(node, module, is_package)
+            targets = [base] + [f"{base}.{a.name}" for a in node.names]
+            if base != module:
+                out += [f"line {node.lineno}: from {base} import {a.name} (private name of another module)"
+                        for a in node.names if _private(a.name)]
+        elif isinstance(node, ast.Attribute) and _private(node.attr) and not _own_object(node.value):
+            out.append(f"line {node.lineno}: {ast.unparse(node)} (private attribute of another object)")
+        if not in_cli and any(t == "eigentwist.cli" or t.startswith("eigentwist.cli.") for t in targets):
+            out.append(f"line {node.lineno}: imports the command line ({', '.join(targets)})")
+    return sorted(set(out))
+
+
+SOURCES = sorted(PACKAGE.rglob("*.py"))
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(PACKAGE.parent)))
+def test_module_respects_the_layers(path):
+    bad = violations(path.read_text(encoding="utf-8"), module_name(path), path.name == "__init__.py")
+    assert not bad, f"{path.relative_to(PACKAGE.parent)}:\n  " + "\n  ".join(bad)
+
+
+@pytest.mark.parametrize("source, module, is_package", [
+    ("from ..cli.common import format_table", "eigentwist.diagnose.report", False),
+    ("import eigentwist.cli.main", "eigentwist.runtime.loader", False),
+    ("from eigentwist import cli", "eigentwist.report.build", False),
+    ("from .. import cli", "eigentwist.report", True),
+    ("def f():\n    from ..diagnose.select import _clean\n", "eigentwist.cli.compare", False),
+    ("def f(ev):\n    return ev._params(1, {}, 'paper')\n", "eigentwist.runtime.gravity", False),
+    ("from . import _helpers", "eigentwist.diagnose.fit", False),
+])
+def test_the_checker_catches_what_issue_12_names(source, module, is_package):
+    assert violations(source, module, is_package)
+
+
+@pytest.mark.parametrize("source, module", [
+    ("from .common import format_table", "eigentwist.cli.report"),
+    ("from eigentwist.cli.main import main", "eigentwist.__main__"),
+    ("class A:\n    def f(self):\n        return self._x + type(self).__name__\n", "eigentwist.runtime.evaluator"),
+    ("class P(Base):\n    def g(self, e):\n        return super()._print_Pow(e)\n", "eigentwist.codegen.numpy_backend"),
+    ("def _own():\n    pass\n_own()\n", "eigentwist.text"),
+])
+def test_the_checker_allows_own_names(source, module):
+    assert not violations(source, module)
