@@ -20,7 +20,9 @@ Use `paper` as DATA to load the paper's measurements shipped with eigentwist
 EPILOG = DATA_HELP + """
 
 error = (predicted - measured) / measured (the paper's App. E); a row fails when
-|predicted - measured| > 2 sigma.
+|predicted - measured| > 2 sigma. With mode-shape columns (phi_x, phi_y, phi_z, e.g. from
+`eigentwist identify`), rows are matched to model modes by shape (largest MAC) and the
+table adds the MAC between measured and model shape (transported to sensor_x/y/z).
 
 examples:
   eigentwist compare paper --model rigid          # 13.6 % RMS, 32.9 % max
@@ -70,6 +72,9 @@ def to_json(cmp) -> dict:
              "model_mode": int(cmp.mode_index[i]) + 1, "measured_hz": m.freq_hz[i], "sigma_hz": m.sigma_hz[i],
              "predicted_hz": cmp.predicted[i], "error_pct": cmp.error_pct[i], "error_sigma": cmp.error_sigma[i],
              "fails": bool(cmp.failing[i])} for i in range(len(m))]
+    if getattr(cmp, "mac", None) is not None:             # measured mode shapes (issue 14)
+        for row, value in zip(rows, cmp.mac):
+            row["mac"] = value
     return json_safe({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
                    "rms_pct": cmp.rms_pct, "max_pct": cmp.max_pct, "chi2": cmp.chi2,
                    "failing": cmp.where_it_fails()})

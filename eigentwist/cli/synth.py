@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from .common import CliError
+from .synth_uff import UFF_EPILOG, add_uff_options, run_uff
 
 HELP = "synthesize measurements from a truth model with a hidden effect and noise (CSV)"
 EPILOG = """The truth is PRESET[+EFFECT[:PARAM=VALUE,...]]...; any item may set parameters (SI units),
@@ -20,7 +21,7 @@ examples:
 
 
 def add_parser(sub):
-    p = sub.add_parser("synth", help=HELP, description=HELP, epilog=EPILOG,
+    p = sub.add_parser("synth", help=HELP, description=HELP, epilog=EPILOG + UFF_EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--truth", required=True, metavar="SPEC", help="PRESET[+EFFECT:PARAM=VALUE,...] (see below)")
     p.add_argument("--k-a", dest="k_a", nargs="+", required=True, metavar="KA",
@@ -38,6 +39,7 @@ def add_parser(sub):
                         "an effect outside the catalogue (repeatable)")
     p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("-o", "--output", metavar="DATA.csv", help="write here (default: print to stdout)")
+    add_uff_options(p)
     p.set_defaults(func=run)
 
 
@@ -79,6 +81,8 @@ def run(args) -> int:
     from ..diagnose.evaluators import evaluator
     from ..diagnose.synth import synth
     ev = evaluator(args.robot)
+    if args.uff:
+        return run_uff(args, ev, _numbers(args.k_a, "--k-a value"), _poses(args.poses, args.pose))
     meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), _poses(args.poses, args.pose),
                  [m for m in args.modes.split(",") if m.strip()], args.noise, args.seed, ev=ev,
                  extra_stiffness=_extra(args.extra_stiffness) or None)

@@ -14,6 +14,7 @@ import numpy as np
 from ..description.effects import resolve_model
 from .evaluators import resolve
 from .predict import Predictor
+from .shapes import row_mac
 from .stats import chi2_value
 
 __all__ = ["Comparison", "compare", "FAIL_SIGMA"]
@@ -27,6 +28,8 @@ class Comparison:
 
     effects : the model; values : parameter values differing from the defaults (SI).
     predicted : (N,) Hz; mode_index : (N,) matched mode (0 = lowest) per row.
+    mac : (N,) MAC between the measured mode shape and the model's (transported to the
+        sensor), NaN on rows without a shape; None when the data have no shape columns.
     """
 
     meas: object
@@ -34,6 +37,7 @@ class Comparison:
     predicted: np.ndarray
     mode_index: np.ndarray
     values: dict = field(default_factory=dict)
+    mac: np.ndarray | None = None
 
     @property
     def error_pct(self) -> np.ndarray:
@@ -93,5 +97,7 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None) -> Compari
     """
     ev = resolve(ev, meas.robot)
     effects = resolve_model(model, ev.robot)
-    pred, idx = Predictor(meas, effects, ev, values).predict(strict=True)
-    return Comparison(meas, effects, pred, idx, dict(values or {}))
+    pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=True, return_modes=True)
+    shapes = getattr(meas, "shapes", None)
+    mac = None if shapes is None else row_mac(modes, idx, shapes, meas.sensor)
+    return Comparison(meas, effects, pred, idx, dict(values or {}), mac)

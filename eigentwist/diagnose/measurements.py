@@ -9,7 +9,13 @@ blank lines are skipped):
 * optional: ``x``, ``y``, ``z`` (end-effector position in the base frame, m; default the
   robot's x_ref), ``sigma_hz`` (standard uncertainty, Hz; default 2 % of ``freq_hz``),
   and any column named after a model parameter (SI units), which overrides that
-  parameter for its row. A blank optional cell takes the default.
+  parameter for its row. A blank optional cell takes the default;
+* optional modal columns (from ``eigentwist identify``, see :mod:`eigentwist.modal`):
+  ``damping_ratio`` (-), ``phi_x``, ``phi_y``, ``phi_z`` (the measured mode shape: a real
+  unit translation of the sensor point, base-frame axes) and ``sensor_x``, ``sensor_y``,
+  ``sensor_z`` (the sensor's offset from the end-effector origin, m; default 0). When the
+  shape columns are present, ``compare`` reports the MAC per row and matches rows to
+  model modes by shape (:mod:`eigentwist.diagnose.shapes`).
 
 Every error names the file, the line (the header is line 1) and the column.
 """
@@ -29,10 +35,12 @@ from .evaluators import resolve
 from .matching import parse_mode
 
 __all__ = ["Measurements", "MeasurementError", "load_measurements", "paper_measurements", "paper_csv",
-           "REQUIRED", "OPTIONAL", "DEFAULT_SIGMA_REL", "check_poses"]
+           "REQUIRED", "OPTIONAL", "MODAL", "DEFAULT_SIGMA_REL", "check_poses"]
 
 REQUIRED = ("k_a", "mode", "freq_hz")
-OPTIONAL = ("x", "y", "z", "sigma_hz")
+# measured modal data (issue 14): NaN where blank; shapes are phi_x..z, sensor_* in m
+MODAL = ("damping_ratio", "phi_x", "phi_y", "phi_z", "sensor_x", "sensor_y", "sensor_z")
+OPTIONAL = ("x", "y", "z", "sigma_hz") + MODAL
 DEFAULT_SIGMA_REL = 0.02      # default standard uncertainty: 2 % of the measured value
 
 
@@ -62,6 +70,7 @@ class Measurements:
     lines : (N,) source line of each row (header = line 1).
     source : file name used in messages.
     robot : robot the data belong to (``eigentwist.robots.NAMES``).
+    modal : optional modal columns (``MODAL``), name -> (N,) array, NaN where blank.
     """
 
     k_a: np.ndarray
@@ -73,6 +82,7 @@ class Measurements:
     lines: np.ndarray | None = None
     source: str = "<data>"
     robot: str = "heli4"
+    modal: dict = field(default_factory=dict)
 
     def __post_init__(self):
         n = len(self.freq_hz)
@@ -92,6 +102,19 @@ class Measurements:
         """``"FILE, line L"`` of row ``i``."""
         return f"{self.source}, line {int(self.lines[i])}"
 
+    @property
+    def shapes(self):
+        """(N, 3) measured mode shapes (NaN rows: none), or None without shape columns."""
+        if not all(c in self.modal for c in ("phi_x", "phi_y", "phi_z")):
+            return None
+        return np.column_stack([self.modal[c] for c in ("phi_x", "phi_y", "phi_z")])
+
+    @property
+    def sensor(self) -> np.ndarray:
+        """(N, 3) sensor offsets from the end-effector origin, m (0 where not given)."""
+        return np.column_stack([np.nan_to_num(self.modal.get(c, np.zeros(len(self))), nan=0.0)
+                                for c in ("sensor_x", "sensor_y", "sensor_z")])
+
     def evaluation_params(self) -> dict:
         """Keyword arguments for the evaluator: ``k_a`` and the per-row overrides."""
         return {"k_a": self.k_a, **self.params}
@@ -101,11 +124,11 @@ class Measurements:
         rows = np.arange(len(self))[rows]
         return Measurements(self.k_a[rows], tuple(self.mode[i] for i in rows), self.freq_hz[rows],
                             self.sigma_hz[rows], self.poses[rows], {k: v[rows] for k, v in self.params.items()},
-                            self.lines[rows], self.source, self.robot)
+                            self.lines[rows], self.source, self.robot, {k: v[rows] for k, v in self.modal.items()})
 
     @classmethod
     def from_arrays(cls, k_a, mode, freq_hz, poses=None, sigma_hz=None, params=None, robot: str = "heli4",
-                    source: str = "<data>", ev=None) -> "Measurements":
+                    source: str = "<data>", ev=None, modal=None) -> "Measurements":
         """Build validated measurements from arrays (defaults as in the CSV format).
 
         The arrays go through the same parser as a file, so every check applies; row i
@@ -122,7 +145,7 @@ class Measurements:
                 row.update(zip("xyz", np.broadcast_to(np.asarray(poses, dtype=float), (n, 3))[i]))
             if sigma_hz is not None:
                 row["sigma_hz"] = np.broadcast_to(sigma_hz, (n,))[i]
-            for name, val in (params or {}).items():
+            for name, val in {**(params or {}), **(modal or {})}.items():
                 row[name] = np.broadcast_to(val, (n,))[i]
             rows.append(row)
         header = list(rows[0]) if rows else list(REQUIRED)
@@ -130,19 +153,21 @@ class Measurements:
         w = csv.DictWriter(text, header, lineterminator="\n")
         w.writeheader()
         for row in rows:
-            w.writerow({k: (repr(float(v)) if k != "mode" else v) for k, v in row.items()})
+            w.writerow({k: (repr(float(v)) if k != "mode" else v) if k == "mode" or np.isfinite(v) else ""
+                        for k, v in row.items()})
         return parse_csv(text.getvalue(), source, ev)
 
     def to_csv(self, path=None) -> str:
         """CSV text of these measurements (written to ``path`` when given)."""
-        cols = ["k_a", "mode", "freq_hz", "sigma_hz", "x", "y", "z", *self.params]
+        cols = ["k_a", "mode", "freq_hz", "sigma_hz", "x", "y", "z", *self.modal, *self.params]
         out = io.StringIO()
         w = csv.writer(out, lineterminator="\n")
         w.writerow(cols)
         for i in range(len(self)):
             vals = [self.k_a[i], self.mode[i], self.freq_hz[i], self.sigma_hz[i], *self.poses[i],
-                    *(self.params[k][i] for k in self.params)]
-            w.writerow([v if isinstance(v, str) else format(float(v), ".10g") for v in vals])
+                    *(self.modal[k][i] for k in self.modal), *(self.params[k][i] for k in self.params)]
+            w.writerow([v if isinstance(v, str) else format(float(v), ".10g") if np.isfinite(v) else ""
+                        for v in vals])
         text = out.getvalue()
         if path is not None:
             Path(path).write_text(text)
@@ -220,8 +245,10 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4") 
                       for k, a in enumerate("xyz")], axis=1)
     params = {name: np.array([v if v is not None else ev.parameter(name).default for v in cols[name]], dtype=float)
               for name in names if ev.accepts(name) and name != "k_a"}
+    modal = {name: np.array([np.nan if v is None else v for v in cols[name]], dtype=float)
+             for name in MODAL if name in names}
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        np.array(lines), source, ev.spec)
+                        np.array(lines), source, ev.spec, modal)
     check_poses(meas, ev)
     return meas
 
@@ -238,8 +265,10 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
         if name in REQUIRED:
             raise MeasurementError(source, "empty cell: a value is required", line, name)
         return None
-    if name in ("x", "y", "z"):
+    if name in ("x", "y", "z") or name in MODAL[1:]:
         return _number(cell, source, line, name, positive=False)
+    if name == "damping_ratio":
+        return _number(cell, source, line, name, positive=True)
     if name in ("k_a", "freq_hz", "sigma_hz"):
         return _number(cell, source, line, name, positive=True)
     p = ev.parameter(name)

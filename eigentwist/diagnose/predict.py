@@ -10,11 +10,13 @@ from __future__ import annotations
 import numpy as np
 
 from .matching import match_modes
+from .shapes import match_by_shape
 
 __all__ = ["evaluate", "Predictor"]
 
 
-def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, lines=None):
+def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, lines=None, shapes=None,
+             sensor=None, return_modes: bool = False):
     """Frequency (Hz) of the mode each row's label names.
 
     Parameters
@@ -23,6 +25,9 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     poses : (N, 3) m; labels : N normalised mode labels.
     params : parameter name -> scalar or (N,) array (SI units).
     strict, lines : see :func:`eigentwist.diagnose.matching.match_modes`.
+    shapes, sensor : optional (N, 3) measured mode shapes (NaN rows: none) and sensor
+        offsets (m): rows with a shape are matched by MAC (:mod:`.shapes`).
+    return_modes : also return the model's :class:`~eigentwist.runtime.Modes`.
 
     Returns
     -------
@@ -30,7 +35,13 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     """
     modes = ev.modes(poses, tuple(effects), **params)
     idx = match_modes(modes, labels, strict=strict, lines=lines)
-    return modes.freq_hz[np.arange(len(idx)), idx], idx
+    if shapes is not None:
+        n = len(idx)
+        keys = np.column_stack([poses, sensor if sensor is not None else np.zeros((n, 3)),
+                                *(np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in params.values())])
+        idx = match_by_shape(modes, shapes, keys, idx, sensor)
+    freq = modes.freq_hz[np.arange(len(idx)), idx]
+    return (freq, idx, modes) if return_modes else (freq, idx)
 
 
 class Predictor:
@@ -57,10 +68,17 @@ class Predictor:
             out[k] = np.repeat(arr, n) if arr.ndim == 1 else arr
         return out
 
-    def predict(self, values: dict | None = None, strict: bool = True):
-        """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar)."""
+    def _shapes(self, repeat: int = 1):
+        shapes = getattr(self.meas, "shapes", None)
+        if shapes is None:
+            return {}
+        return {"shapes": np.tile(shapes, (repeat, 1)), "sensor": np.tile(self.meas.sensor, (repeat, 1))}
+
+    def predict(self, values: dict | None = None, strict: bool = True, return_modes: bool = False):
+        """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar);
+        with ``return_modes`` also the model's modes."""
         return evaluate(self.ev, self.effects, self.meas.poses, self.meas.mode, self._params(values or {}),
-                        strict, self.meas.lines)
+                        strict, self.meas.lines, return_modes=return_modes, **self._shapes())
 
     def predict_sets(self, names, table: np.ndarray, strict: bool = False) -> np.ndarray:
         """Predictions for B parameter sets in one call: ``table`` is (B, P) values of
@@ -71,5 +89,6 @@ class Predictor:
         params = self._params(values, repeat=b)
         poses = np.tile(self.meas.poses, (b, 1))
         labels = self.meas.mode * b
-        freq, _ = evaluate(self.ev, self.effects, poses, labels, params, strict, np.tile(self.meas.lines, b))
+        freq, _ = evaluate(self.ev, self.effects, poses, labels, params, strict, np.tile(self.meas.lines, b),
+                           **self._shapes(b))
         return freq.reshape(b, len(self.meas))

@@ -50,6 +50,7 @@ class ReportData:
     next_measurement: dict = field(default_factory=dict)
     modes: dict = field(default_factory=dict)
     units: dict = field(default_factory=dict)
+    campaign_html: str = ""          # section of a modal-test campaign (eigentwist.modal.report)
 
 
 def _png(plot, *args) -> bytes:
@@ -85,13 +86,19 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     from ..runtime import load
 
     ev = load(robot, backend=backend)
+    campaign_html = ""
     if data is None:
         if robot != "heli4":
             raise ValueError(f"no embedded measurements for robot {robot!r}: pass a measurement CSV")
         meas = paper_measurements(ev)
         data_source = "the paper's measurements (Tables E.1/E.2, 'Meas.'), embedded"
     else:
-        meas = load_measurements(data, robot, ev)
+        from ..modal.report import campaign_section, is_manifest
+
+        if is_manifest(data):       # a modal-test campaign: identify it first (issue 14)
+            meas, campaign_html = campaign_section(data, ev)
+        else:
+            meas = load_measurements(data, robot, ev)
         data_source = str(data)
     effects = resolve_model(model, ev.robot)
     cmp = compare(meas, effects, ev)
@@ -112,7 +119,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
         comparison=dict(summary=cmp.summary(), rows=_comparison_rows(cmp), failing=failing_text(cmp)),
         diagnosis=diag_json, figures=figures, final=final_parameters(diag_json, ev),
         next_measurement=next_measurement_text(diag_json), modes=modes,
-        units={p.name: p.unit for p in ev.robot.parameters},
+        units={p.name: p.unit for p in ev.robot.parameters}, campaign_html=campaign_html,
     )
 
 

@@ -1,0 +1,162 @@
+"""Measured mode shapes as evidence: transport, MAC, matching by shape, the shape residual.
+
+A measured mode shape is the translation of one point of the end-effector (the sensor)
+in a mode: a real unit 3-vector ``phi = (phi_x, phi_y, phi_z)`` in the base frame's axes
+(the platform does not rotate between poses, so platform and base axes are parallel).
+The model's counterpart is the eigentwist ``t = [omega; v]`` of Eq. 6 (rotation, rad;
+translation of the end-effector origin, m) transported to the sensor at offset ``r``
+(m, from the end-effector origin):
+
+    u = v + omega x r = T(r) t,   T(r) = [-[r]x, I3]   (3 x 6).
+
+A rigid model (3x3, translations only) has no rotation: ``u = v`` whatever ``r``.
+
+* :func:`mac` compares shapes: ``MAC(a, b) = |a^H b|^2 / ((a^H a)(b^H b))`` in [0, 1]:
+  1 for parallel shapes (any scale, sign or phase), 0 for orthogonal ones.
+* :func:`match_by_shape` assigns the rows of one setting (same pose, k_a, parameters
+  and sensor) to model modes by the largest total MAC (Hungarian method), among the
+  model modes along a translation (eigentwist's largest entry x, y or z; a mode along a
+  rotation only when no translational one is left): where two frequencies cross or veer, the shape, not the
+  order or the largest component, says which mode is which. Rows without a shape keep
+  the mode their label names (:mod:`.matching`).
+* :func:`shape_residuals` is the shape term the diagnosis may add to its weighted
+  residuals (``SHAPE_CRITERION``): the angle between measured and model shape,
+  ``theta = arccos(sqrt(MAC))`` (rad), in units of its standard uncertainty
+  ``SIGMA_SHAPE_RAD``.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+__all__ = ["transport_matrix", "sensor_shapes", "mac", "match_by_shape",
+           "shape_residuals", "row_mac", "shape_term", "SIGMA_SHAPE_RAD", "SHAPE_CRITERION", "SHAPE_COLUMNS"]
+
+SHAPE_COLUMNS = ("phi_x", "phi_y", "phi_z")
+SIGMA_SHAPE_RAD = 0.05          # standard uncertainty of a measured shape's direction, rad (about 3 degrees)
+SHAPE_CRITERION = ("shape residual per row with a measured shape: theta / sigma_theta, theta = arccos(sqrt(MAC)) "
+                   "the angle between the measured shape and the model's eigentwist transported to the sensor "
+                   f"(v + omega x r), sigma_theta = {SIGMA_SHAPE_RAD} rad; rows are matched to model modes by the "
+                   "largest total MAC among the translational modes of their setting (Hungarian method)")
+
+
+def transport_matrix(r) -> np.ndarray:
+    """``T(r) = [-[r]x, I3]`` (..., 3, 6): sensor translation from an eigentwist [omega; v].
+
+    ``r`` (..., 3) is the sensor offset from the end-effector origin, m.
+    """
+    r = np.asarray(r, dtype=float)
+    T = np.zeros(r.shape[:-1] + (3, 6))
+    x, y, z = r[..., 0], r[..., 1], r[..., 2]
+    # -[r]x = [[0, z, -y], [-z, 0, x], [y, -x, 0]]
+    T[..., 0, 1], T[..., 0, 2] = z, -y
+    T[..., 1, 0], T[..., 1, 2] = -z, x
+    T[..., 2, 0], T[..., 2, 1] = y, -x
+    T[..., 0, 3] = T[..., 1, 4] = T[..., 2, 5] = 1.0
+    return T
+
+
+def sensor_shapes(eigentwists, sensor=None) -> np.ndarray:
+    """Translations at the sensor of every mode: (N, 3, n) from eigentwists (N, n, n).
+
+    ``sensor`` (N, 3) or (3,) offsets in m (None: the end-effector origin). Rigid
+    models (n = 3) are translations already.
+    """
+    V = np.asarray(eigentwists)
+    if V.shape[-2] == 3:
+        return V
+    r = np.zeros(3) if sensor is None else np.asarray(sensor, dtype=float)
+    return np.broadcast_to(transport_matrix(r), V.shape[:-2] + (3, 6)) @ V
+
+
+def mac(a, b) -> np.ndarray:
+    """MAC between shapes ``a`` (..., k) and ``b`` (..., k), real or complex: (...,) in [0, 1]."""
+    a = np.asarray(a)
+    b = np.asarray(b)
+    cross = np.abs(np.sum(np.conj(a) * b, axis=-1)) ** 2
+    na = np.sum(np.abs(a) ** 2, axis=-1)
+    nb = np.sum(np.abs(b) ** 2, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where((na > 0) & (nb > 0), cross / (na * nb), 0.0)
+
+
+def _groups(keys: np.ndarray) -> np.ndarray:
+    """Group id per row from a (N, k) array of setting keys (rows with equal keys share one)."""
+    return np.unique(np.round(keys, 12), axis=0, return_inverse=True)[1].reshape(-1)
+
+
+def match_by_shape(modes, shapes, keys, fallback, sensor=None) -> np.ndarray:
+    """Model mode of each row with a measured shape, by MAC; ``fallback`` for the others.
+
+    Parameters
+    ----------
+    modes : :class:`eigentwist.runtime.Modes` of N rows.
+    shapes : (N, 3) measured shapes (NaN rows: none measured).
+    keys : (N, k) what defines a row's setting (pose, k_a, parameters, sensor).
+    fallback : (N,) indices from the labels (used for rows without a shape).
+    sensor : (N, 3) sensor offsets, m (None: the end-effector origin).
+
+    Returns
+    -------
+    (N,) int model mode index per row.
+    """
+    shapes = np.asarray(shapes, dtype=float)
+    has = np.all(np.isfinite(shapes), axis=1)
+    idx = np.array(fallback, dtype=int, copy=True)
+    if not has.any():
+        return idx
+    U = sensor_shapes(modes.eigentwists, sensor)                     # (N, 3, n)
+    score = mac(np.swapaxes(U, -1, -2), shapes[:, None, :])           # (N, n)
+    seen = modes.direction >= 3                                       # x, y, z (AXES index)
+    score = np.where(seen, score, score - 2.0)                        # rotations only if nothing else fits
+    rows = np.flatnonzero(has)
+    group = _groups(np.asarray(keys, dtype=float)[rows])
+    for g in np.unique(group):
+        members = rows[group == g]
+        r, c = linear_sum_assignment(-score[members])
+        idx[members[r]] = c
+    return idx
+
+
+def shape_residuals(meas_shapes, modes, idx, sensor=None, sigma: float = SIGMA_SHAPE_RAD) -> np.ndarray:
+    """(N,) shape residual of each row, ``arccos(sqrt(MAC)) / sigma`` (NaN where no shape).
+
+    ``idx`` is the matched model mode per row (e.g. from :func:`match_by_shape`);
+    the diagnosis may append the finite entries to its frequency residuals
+    ``(f_pred - f_meas) / sigma_hz`` (``SHAPE_CRITERION``).
+    """
+    m = np.clip(row_mac(modes, idx, meas_shapes, sensor), 0.0, 1.0)
+    return np.arccos(np.sqrt(m)) / sigma
+
+
+def row_mac(modes, idx, meas_shapes, sensor=None) -> np.ndarray:
+    """(N,) MAC between each row's measured shape and its matched model mode (NaN: no shape)."""
+    shapes = np.asarray(meas_shapes, dtype=float)
+    U = sensor_shapes(modes.eigentwists, sensor)
+    u = np.take_along_axis(U, np.asarray(idx)[:, None, None], axis=2)[..., 0]
+    return np.where(np.all(np.isfinite(shapes), axis=1), mac(u, np.nan_to_num(shapes)), np.nan)
+
+
+def shape_term(meas, effects, ev, values: dict | None = None) -> dict | None:
+    """The shape residual term of a model on measurements with shapes (None without).
+
+    Returns ``{"chi2", "n", "p_value", "mac_min", "mac_mean", "residuals", "criterion"}``:
+    chi2 = sum of squared :func:`shape_residuals` over the rows with a shape, n those
+    rows, p_value = P(chi2_n >= chi2) (the shapes' goodness of fit, nothing fitted to
+    them). A fit may append ``residuals`` (finite entries) to its frequency residuals.
+    """
+    from scipy import stats
+
+    from .predict import Predictor
+
+    shapes = getattr(meas, "shapes", None)
+    if shapes is None or not np.isfinite(shapes).all(axis=1).any():
+        return None
+    _, idx, modes = Predictor(meas, effects, ev, values).predict(strict=False, return_modes=True)
+    res = shape_residuals(shapes, modes, idx, meas.sensor)
+    macs = row_mac(modes, idx, shapes, meas.sensor)
+    ok = np.isfinite(res)
+    chi2 = float(np.sum(res[ok] ** 2))
+    return {"chi2": chi2, "n": int(ok.sum()), "p_value": float(stats.chi2.sf(chi2, int(ok.sum()))),
+            "mac_min": float(np.nanmin(macs)), "mac_mean": float(np.nanmean(macs)),
+            "residuals": res.tolist(), "criterion": SHAPE_CRITERION}

@@ -1,0 +1,173 @@
+"""A modal-test campaign: a manifest CSV and one UFF file per setting.
+
+Manifest columns (header on line 1, ``#`` and blank lines skipped):
+
+* ``file`` (required): the setting's UFF file, relative to the manifest's folder: dataset
+  58 FRFs (identified here) or dataset 55 modes (taken as identified);
+* ``k_a`` (required): commanded actuator stiffness, N m/rad;
+* ``x``, ``y``, ``z``: end-effector position, m (default: the robot's x_ref);
+* ``sensor_x``, ``sensor_y``, ``sensor_z``: the sensor's (response node's) offset from the
+  end-effector origin, m, platform axes (default 0): model shapes are transported there;
+* any model parameter name: passed through to the measurement rows (SI units).
+
+:func:`identify_campaign` returns the measurements (the columns of a measurement CSV,
+``k_a, mode, freq_hz, sigma_hz, x, y, z, damping_ratio, phi_x, phi_y, phi_z``, the
+sensor columns when the manifest has them, then the parameter columns) and the
+per-setting results (for plots and the report).
+"""
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..diagnose.measurements import MeasurementError, Measurements, parse_csv
+from .identify import SIGMA_FLOOR_REL, SettingModes, identify_frfs, modes_from_set
+from .uff_io import FrfSet, read_uff
+
+__all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_manifest", "identify_campaign",
+           "identify_setting", "measurement_csv", "SENSOR", "OUTPUT_COLUMNS"]
+
+SENSOR = ("sensor_x", "sensor_y", "sensor_z")
+OUTPUT_COLUMNS = ("k_a", "mode", "freq_hz", "sigma_hz", "x", "y", "z", "damping_ratio", "phi_x", "phi_y", "phi_z")
+
+
+@dataclass
+class Setting:
+    """One manifest row: file (resolved path), k_a (N m/rad), pose (3,) m, sensor (3,) m,
+    params (name -> SI value), line (manifest line)."""
+
+    file: Path
+    k_a: float
+    pose: np.ndarray
+    sensor: np.ndarray
+    params: dict
+    line: int
+
+    def name(self) -> str:
+        return self.file.stem
+
+
+@dataclass
+class Campaign:
+    settings: list
+    source: str
+    has_sensor: bool = False
+    param_names: tuple = ()
+
+
+@dataclass
+class CampaignResult:
+    campaign: Campaign
+    results: list                   # SettingModes per setting
+    measurements: Measurements
+    notes: list = field(default_factory=list)
+
+
+def _number(text: str, source: str, line: int, column: str, positive: bool = False) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise MeasurementError(source, f"value {text!r} is not a number", line, column) from None
+    if not np.isfinite(value) or (positive and value <= 0):
+        raise MeasurementError(source, f"value {text!r}: expected a {'positive ' if positive else ''}finite number",
+                               line, column)
+    return value
+
+
+def read_manifest(path, ev) -> Campaign:
+    """Read and check a campaign manifest (module doc); errors name the file, line and column."""
+    path = Path(path)
+    source = str(path)
+    if not path.is_file():
+        raise MeasurementError(source, "no such file (expected a campaign manifest CSV: file, k_a, x, y, z)")
+    records = [(n, cells) for n, cells in _rows(path.read_text(encoding="utf-8-sig"))]
+    if not records:
+        raise MeasurementError(source, "empty manifest: expected a header file, k_a, x, y, z and one row per setting")
+    names = [c.strip() for c in records[0][1]]
+    allowed = {"file", "k_a", "x", "y", "z", *SENSOR, *ev.parameters}
+    for name in names:
+        if name not in allowed:
+            raise MeasurementError(source, f"unknown column: not one of file, k_a, x, y, z, {', '.join(SENSOR)} and "
+                                   f"not a parameter of {ev.robot.name}", records[0][0], name)
+    for name in ("file", "k_a"):
+        if name not in names:
+            raise MeasurementError(source, f"missing required column {name!r}", records[0][0], name)
+    if len(records) == 1:
+        raise MeasurementError(source, "no settings after the header", records[0][0])
+    params = tuple(n for n in names if n in ev.parameters and n != "k_a")
+    settings = []
+    for line, cells in records[1:]:
+        if len(cells) != len(names):
+            raise MeasurementError(source, f"{len(cells)} cells where the header has {len(names)} columns", line)
+        row = dict(zip(names, (c.strip() for c in cells)))
+        file = path.parent / row["file"]
+        if not row["file"] or not file.is_file():
+            raise MeasurementError(source, f"{row['file'] or '(empty)'}: no such file (paths are relative to the "
+                                   f"manifest's folder {path.parent})", line, "file")
+        pose = np.array([_number(row[a], source, line, a) if row.get(a) else ev.robot.x_ref[k]
+                         for k, a in enumerate("xyz")], dtype=float)
+        sensor = np.array([_number(row[a], source, line, a) if row.get(a) else 0.0 for a in SENSOR])
+        values = {n: _number(row[n], source, line, n) for n in params if row[n]}
+        settings.append(Setting(file, _number(row["k_a"], source, line, "k_a", positive=True), pose, sensor,
+                                values, line))
+    return Campaign(settings, source, any(a in names for a in SENSOR), params)
+
+
+def _rows(text: str):
+    reader = csv.reader(io.StringIO(text))
+    for cells in reader:
+        if not cells or all(not c.strip() for c in cells) or cells[0].lstrip().startswith("#"):
+            continue
+        yield reader.line_num, cells
+
+
+def write_manifest(path, rows: list[dict]) -> Path:
+    """Write a manifest: ``rows`` of {file, k_a, x, y, z[, sensor_*][, params]} (same keys each)."""
+    path = Path(path)
+    out = io.StringIO()
+    w = csv.DictWriter(out, list(rows[0]), lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: v if isinstance(v, str) else format(float(v), ".10g") for k, v in r.items()})
+    path.write_text(out.getvalue())
+    return path
+
+
+def identify_setting(setting: Setting, band=None, node: int = 1, sigma_floor_rel: float = SIGMA_FLOOR_REL,
+                     max_order: int | None = None) -> SettingModes:
+    """Modes of one setting from its UFF file (FRFs identified, or dataset 55 modes)."""
+    data = read_uff(setting.file, node)
+    if isinstance(data, FrfSet):
+        kwargs = {} if max_order is None else {"max_order": max_order}
+        return identify_frfs(data, band, sigma_floor_rel=sigma_floor_rel, **kwargs)
+    return modes_from_set(data, band, sigma_floor_rel)
+
+
+def identify_campaign(manifest, ev, band=None, node: int = 1, sigma_floor_rel: float = SIGMA_FLOOR_REL,
+                      progress=None) -> CampaignResult:
+    """Identify every setting of a campaign; the measurements are validated as a CSV would be."""
+    camp = read_manifest(manifest, ev)
+    items = progress(camp.settings, desc="identifying", leave=False) if progress else camp.settings
+    results = [identify_setting(s, band, node, sigma_floor_rel) for s in items]
+    text = measurement_csv(camp, results)
+    return CampaignResult(camp, results, parse_csv(text, f"{camp.source} (identified)", ev))
+
+
+def measurement_csv(camp: Campaign, results: list) -> str:
+    """The identified modes as measurement-CSV text (columns in ``OUTPUT_COLUMNS`` order)."""
+    cols = list(OUTPUT_COLUMNS) + (list(SENSOR) if camp.has_sensor else []) + list(camp.param_names)
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(cols)
+    for s, res in zip(camp.settings, results):
+        for m in sorted(res.modes, key=lambda m: m.freq_hz):
+            z = m.damping_ratio if np.isfinite(m.damping_ratio) else None
+            row = [s.k_a, m.label, m.freq_hz, m.sigma_hz, *s.pose, z, *m.shape]
+            row += list(s.sensor) if camp.has_sensor else []
+            row += [s.params.get(n) for n in camp.param_names]
+            w.writerow([v if isinstance(v, str) else "" if v is None else format(float(v), ".8g") for v in row])
+    return out.getvalue()

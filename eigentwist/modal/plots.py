@@ -1,0 +1,103 @@
+"""Figures of an identification (matplotlib, Agg backend), one PNG per setting.
+
+``plot_stabilisation``: the stabilisation diagram (model order over frequency: every
+physical pole as a small dot, stable ones as a filled marker), the identified modes as
+vertical lines, over the sum of the FRF magnitudes (right axis, log). ``plot_frfs``: the
+measured FRF magnitudes (3 responses x R references) with the LSFD re-synthesis on the
+band (dashed). ``plot_campaign`` writes both for every setting of a campaign.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes"]
+
+
+def _pyplot():
+    try:
+        import matplotlib
+    except ImportError:  # pragma: no cover - matplotlib comes with the modal extra
+        raise OSError("plotting needs matplotlib: pip install 'eigentwist[modal]'") from None
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_stabilisation(res, path) -> None:
+    """Stabilisation diagram of one setting's :class:`~eigentwist.modal.identify.SettingModes`."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    stab = res.stabilisation
+    for order, f, st in zip(stab.orders, stab.freq_hz, stab.stable):
+        ax.plot(f[~st], np.full((~st).sum(), order), ".", color="0.7", ms=3)
+        ax.plot(f[st], np.full(st.sum(), order), "o", color="tab:blue", ms=3.5)
+    for m in res.modes:
+        ax.axvline(m.freq_hz, color="tab:red", lw=0.8)
+        ax.text(m.freq_hz, stab.orders[-1] * 1.04, f" {m.label} {m.freq_hz:.3f} Hz", rotation=90, fontsize=7,
+                va="bottom", ha="right")
+    ax.set_ylim(0, stab.orders[-1] * 1.3)
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("LSCF model order")
+    ax.set_xlim(*res.band)
+    if res.frfs is not None:
+        band = res.band_index
+        ax2 = ax.twinx()
+        ax2.semilogy(res.frfs.freq_hz[band], np.sum(np.abs(res.frfs.H[band]), axis=(1, 2)), color="0.3", lw=0.8)
+        ax2.set_ylabel(f"sum |{res.frfs.form}|")
+    ax.set_title(f"{Path(res.source).name}: stabilisation (grey: physical pole, blue: stable)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_frfs(res, path) -> None:
+    """Measured FRF magnitudes and their LSFD re-synthesis on the band."""
+    plt = _pyplot()
+    frfs = res.frfs
+    n_r = frfs.H.shape[2]
+    fig, axes = plt.subplots(3, n_r, figsize=(3.2 * n_r, 6.5), sharex=True, squeeze=False)
+    band = res.band_index
+    f = frfs.freq_hz
+    for i, rsp in enumerate("XYZ"):
+        for r in range(n_r):
+            ax = axes[i, r]
+            ax.semilogy(f[band], np.abs(frfs.H[band, i, r]), color="tab:blue", lw=0.9, label="measured")
+            ax.semilogy(f[band], np.abs(res.resynthesised[:, i, r]), "--", color="tab:red", lw=0.9,
+                        label="re-synthesised")
+            ax.set_title(f"{frfs.node}+{rsp} / {frfs.references[r]}", fontsize=8)
+            ax.tick_params(labelsize=7)
+    axes[0, 0].legend(fontsize=7)
+    for ax in axes[-1]:
+        ax.set_xlabel("frequency [Hz]")
+    fig.suptitle(f"{Path(res.source).name}: {frfs.form} (LSFD with residuals on {res.band[0]:.3g}..{res.band[1]:.3g} Hz)",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_campaign(result, out_dir) -> list[Path]:
+    """Both figures for every setting identified from FRFs; returns the written paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for s, res in zip(result.campaign.settings, result.results):
+        if res.frfs is None:
+            continue
+        for kind, plot in (("stabilisation", plot_stabilisation), ("frf", plot_frfs)):
+            path = out / f"{s.name()}_{kind}.png"
+            plot(res, path)
+            written.append(path)
+    return written
+
+
+def figure_bytes(plot, res) -> bytes:
+    """PNG bytes of ``plot(res, file)`` (for the HTML report)."""
+    import io
+
+    buf = io.BytesIO()
+    plot(res, buf)
+    return buf.getvalue()
