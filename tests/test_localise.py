@@ -96,3 +96,18 @@ def test_add_takes_one_leg(ev):
                          ("actuator_loss@3", "already in the model")):
         with pytest.raises(ValueError, match=message):
             diagnose(meas, "paper,actuator_loss@3", ev=ev, add=[bad])
+
+
+@pytest.mark.compiled
+def test_legs_the_data_cannot_tell_apart_are_alternatives_and_the_next_pose_separates_them(ev):
+    """At the central pose legs 3 and 4 of the Heli4 are mirror images: a weak actuator on
+    either gives the same frequencies; the proposed measurement tells them apart."""
+    meas = synth("paper+actuator_loss@3:eta_a@3=0.55", [250, 500, 1000, 2000, 4000], [[0, 0, -0.625]],
+                 ["x", "y", "z"], 0.005, 0, ev=ev)
+    d = diagnose(meas, "paper", ev=ev)
+    top = d.ranking[0]
+    assert {top.effect} | set(top.indistinguishable_from) >= {"actuator_loss@3", "actuator_loss@4"}
+    nm = d.next_measurement
+    assert set(nm["between"]) == {"actuator_loss@3", "actuator_loss@4"} and nm["separation_sigma"] > 3
+    assert "leg 3's actuator delivers 0.55 of its commanded stiffness (the other legs 0.82)" in d.to_json()["final"]["message"] \
+        or "leg 4's actuator delivers" in d.to_json()["final"]["message"]
