@@ -109,5 +109,6 @@ def test_legs_the_data_cannot_tell_apart_are_alternatives_and_the_next_pose_sepa
     assert {top.effect} | set(top.indistinguishable_from) >= {"actuator_loss@3", "actuator_loss@4"}
     nm = d.next_measurement
     assert set(nm["between"]) == {"actuator_loss@3", "actuator_loss@4"} and nm["separation_sigma"] > 3
-    assert "leg 3's actuator delivers 0.55 of its commanded stiffness (the other legs 0.82)" in d.to_json()["final"]["message"] \
-        or "leg 4's actuator delivers" in d.to_json()["final"]["message"]
+    message = d.to_json()["final"]["message"]
+    assert ("leg 3's actuator delivers 0.55 of its commanded stiffness (the other legs 0.82)" in message
+            or "leg 4's actuator delivers" in message)
