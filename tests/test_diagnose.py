@@ -101,13 +101,14 @@ def test_hidden_effect_is_found_measured_and_explains_the_data(ev, effect):
 def test_effect_outside_the_catalogue_is_reported_missing(ev):
     # A cable carrier pulling the end-effector along X (a 300 N/m spring to ground on X
     # only) is not in the catalogue: no effect adds stiffness on one translation alone
-    # (gravity_preload stiffens X and Y together, with the known g only).
+    # (gravity_preload stiffens X and Y together, with the known g only; one leg's stiffer
+    # actuator, actuator_loss@N, stiffens mostly X but not X alone: it halves the error only).
     meas = synth("paper", KA, POSES, ("x", "y", "z"), NOISE, seed=3, ev=ev, extra_stiffness={"x": 300.0})
     d = diagnose(meas, "paper", ev=ev)
     assert not d.explained
     assert "outside the catalogue" in d.message and "NOT explain" in d.message
     assert d.to_json()["final"]["explained"] is False
-    assert d.final.rms_pct > 2 * 100 * NOISE           # still well above the noise
+    assert d.final.rms_pct > 1.5 * 100 * NOISE         # still above the noise
 
 
 def test_changed_end_effector_mass_is_found_as_a_payload(ev):
@@ -230,4 +231,4 @@ def test_alternatives_sharing_parameters_are_not_stacked(ev):
     cands = candidates_for(ev, ("actuator_loss", "ee_compliance"))
     assert "ee_compliance" not in cands
     for e in cands:
-        assert not set(EFFECTS[e].parameters) & set(EFFECTS["ee_compliance"].parameters)
+        assert not set(EFFECTS[e.partition("@")[0]].parameters) & set(EFFECTS["ee_compliance"].parameters)

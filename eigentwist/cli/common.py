@@ -32,7 +32,7 @@ def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
 
 def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "paper") -> None:
     """``--robot``, ``--pose``, ``--k-a``, ``--set`` and ``--model`` with units in the help."""
-    p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
     p.add_argument("--pose", nargs=3, type=float, metavar=("X", "Y", "Z"),
@@ -117,7 +117,7 @@ def model_and_values(spec: str, sets: list[str], ev, option: str = "--model") ->
 
     values = check_values(parse_sets(sets), ev)
     if ":" not in spec:
-        return resolve_model(spec, ev.effects), values
+        return resolve_model(spec, ev.robot), values
     truth = parse_truth(spec, ev, what=option)
     for name, value in truth.values.items():
         if name in values and values[name] != value:

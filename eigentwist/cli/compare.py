@@ -39,7 +39,7 @@ examples:
 def add_data_options(p: argparse.ArgumentParser) -> None:
     """DATA, --robot and --backend (shared with diagnose)."""
     p.add_argument("data", metavar="DATA.csv", help="measurements (see below), or `paper`")
-    p.add_argument("--robot", default="heli4", help="robot description (default: heli4; see eigentwist.robots.NAMES)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
     add_set_option(p)
@@ -68,22 +68,19 @@ def load_data(args, values: dict | None = None):
 
     ev = evaluator_of(args)
     if args.data == "paper" and not Path(args.data).exists():
-        return ev, parse_csv(paper_csv(args.robot), f"{args.robot}_paper.csv", ev, values=values)
+        return ev, parse_csv(paper_csv(ev.robot.name), f"{ev.robot.name}_paper.csv", ev, values=values)
     if not Path(args.data).is_file():
         raise CliError(f"{args.data}: no such file (expected a CSV file of measurements, or `paper`)")
-    meas = load_measurements(args.data, args.robot, ev, values)
+    meas = load_measurements(args.data, ev.robot.name, ev, values)
     warn_workspace(ev, meas.poses, getattr(args, "command", "compare"))
     return ev, meas
 
 
 def evaluator_of(args):
-    """The cached evaluator of ``--robot`` and ``--backend``."""
-    from ..description.names import did_you_mean
+    """The cached evaluator of ``--robot`` (a shipped name or a description file PATH.py)
+    and ``--backend``; an unknown name is a one-line error with the closest names."""
     from ..diagnose.evaluators import evaluator
-    from ..robots import NAMES
 
-    if args.robot not in NAMES:
-        raise CliError(f"--robot {args.robot!r}{did_you_mean(args.robot, NAMES)}: expected one of {', '.join(NAMES)}")
     return evaluator(args.robot, getattr(args, "backend", "numpy"))
 
 

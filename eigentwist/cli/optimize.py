@@ -108,7 +108,7 @@ def compute(args, progress=None):
         params["k_a"] = args.k_a
     vary = parse_vary(args.vary)
     constraints = parse_constraints(args.constraint)
-    effects = resolve_model(args.model, ev.effects)
+    effects = resolve_model(args.model, ev.robot)
     poses = _poses(args, ev.robot)
     res = optimize_worst_case(ev, vary, poses, effects, params, constraints, method=args.method,
                               n_track=args.track, maxiter=args.maxiter, progress=progress)

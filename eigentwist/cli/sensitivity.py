@@ -45,7 +45,7 @@ def compute(args, progress=None) -> dict:
     params = parse_sets(args.set)
     if args.k_a is not None:
         params["k_a"] = args.k_a
-    effects = resolve_model(args.model, ev.effects)
+    effects = resolve_model(args.model, ev.robot)
     modes, dfdp = frequency_sensitivities(ev, pose, args.wrt, effects, params, progress=progress)
     wrt = [w.strip() for w in args.wrt.split(",")] if args.wrt else list(ev.parameters)
     f = modes.freq_hz[0]

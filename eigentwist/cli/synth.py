@@ -43,7 +43,7 @@ def add_parser(sub):
     p.add_argument("--extra-stiffness", action="append", default=[], metavar="AXIS=K",
                    help="add a spring to ground at the EE origin, N/m (x,y,z) or N m/rad (rx,ry,rz): "
                         "an effect outside the catalogue (repeatable)")
-    p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
     add_set_option(p)
     p.add_argument("-o", "--output", metavar="DATA.csv", help="write here (default: print to stdout)")
     add_uff_options(p)

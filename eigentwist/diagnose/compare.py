@@ -99,7 +99,7 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
     from .measurements import check_columns
 
     ev = resolve(ev, meas.robot)
-    effects = resolve_model(model, ev.effects)
+    effects = resolve_model(model, ev.robot)
     if check:
         check_columns(meas, effects, ev)
     pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=True, return_modes=True)

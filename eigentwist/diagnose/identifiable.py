@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..description.effects import EFFECTS
+from .scope import fit_names, parameter_names
 from .predict import Predictor
 
 __all__ = ["extra_parameters", "trial_value", "sign_free", "TRIAL_FRACTION", "MIN_SIGMA"]
@@ -59,7 +59,7 @@ def _step(parameter, value: float) -> float:
 
 def _sensitivity(meas, ev, effects, fixed: dict, names: list, values: list) -> np.ndarray:
     """(N, P) whitened change of the predictions per change h of each parameter (one batch)."""
-    steps = [_step(ev.parameters[nm], v) for nm, v in zip(names, values)]
+    steps = [_step(ev.parameter(nm), v) for nm, v in zip(names, values)]
     table = np.repeat(np.array(values, dtype=float)[None, :], 2 * len(names), axis=0)
     for j, h in enumerate(steps):
         table[2 * j, j] -= h
@@ -75,14 +75,14 @@ def extra_parameters(meas, ev, effects, effect: str, fitted: dict, fixed: dict) 
     ``fitted``: the values of the parameters fitted so far (the effect's own included);
     ``fixed``: every other parameter value differing from the defaults.
     """
-    e = EFFECTS[effect]
-    if not e.fit:
+    own = fit_names(ev, effect)                  # scoped like the effect: E_l1@2 for lower_link_compliance@2
+    if not own:
         return ()
-    extras = [p for p in e.parameters if p not in e.fit and p not in meas.params and p not in fitted]
+    extras = [p for p in parameter_names(ev, effect) if p not in own and p not in meas.params and p not in fitted]
     if not extras:
         return ()
     base = [p for p in fitted if p not in meas.params]
-    values = [float(fitted[p]) for p in base] + [trial_value(ev.parameters[p]) for p in extras]
+    values = [float(fitted[p]) for p in base] + [trial_value(ev.parameter(p)) for p in extras]
     others = {k: v for k, v in fixed.items() if k not in base and k not in extras}
     jac = _sensitivity(meas, ev, effects, others, base + extras, values)
     keep: list[int] = list(range(len(base)))

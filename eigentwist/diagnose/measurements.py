@@ -215,7 +215,7 @@ def _header(cells: list[str], source: str, ev) -> list[str]:
             raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
         if names.index(name) != k:
             raise MeasurementError(source, f"column {name!r} appears twice (columns {names.index(name) + 1} and {k + 1})", 1, name)
-        if name not in known and _parameter(name, ev) is None:
+        if name not in known and not ev.accepts(name):          # eta_a@3: leg 3's own value
             hint = did_you_mean(name, list(known) + list(ev.parameters))
             raise MeasurementError(
                 source, f"unknown column (column {k + 1}){hint}: not one of {', '.join(known)} and not a "
@@ -302,7 +302,7 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
     modal = {name: np.array([np.nan if v is None else v for v in cols[name]], dtype=float)
              for name in MODAL if name in names}
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        np.array(lines), source, ev.robot.name, modal)
+                        np.array(lines), source, ev.spec, modal)
     _check_duplicates(meas)
     check_poses(meas, ev, values)
     return meas

@@ -138,8 +138,11 @@ class Predictor:
         from ..description.effects import EFFECTS
         from ..runtime.errors import InputError
 
-        fitted = {n for e in self.ev.effects for n in EFFECTS[e].fit} | set(names)
+        fitted = {n for e in self.ev.effects if e in EFFECTS for n in EFFECTS[e].fit} | set(names)
         wrt = tuple(n for n in self.ev.parameters if n in fitted)
+        missing = [name for name in names if name not in wrt]
+        if missing:                       # one leg's own value (eta_a@3): no generated sensitivity yet
+            raise InputError(f"no generated sensitivity for {', '.join(missing)}")
         params = self._params({name: float(v) for name, v in zip(names, values)})
         modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, wrt, self.effects, **params)
         freq, idx = match_frequencies(modes, self.meas.mode, strict=strict, lines=self.meas.lines)

@@ -21,7 +21,7 @@ def dumps(obj, **kwargs) -> str:
 
 def candidate_json(c) -> dict:
     f = c.fit
-    return {"effect": c.effect, "params": c.params, "param_std": c.param_std,
+    return {"effect": c.effect, "where": c.where, "sentence": c.sentence, "params": c.params, "param_std": c.param_std,
             "rms_pct": f.rms_pct, "max_pct": f.max_pct, "aicc": f.aicc,
             "delta_aicc": c.delta_aicc, "p_value": c.p_value,
             "indistinguishable_from": list(c.indistinguishable_from), "chi2": f.chi2,

@@ -25,7 +25,7 @@ def format_params(values: dict, std: dict, ev) -> str:
     """``"k_E_rot = 374 ± 38 N m/rad, ..."``."""
     parts = []
     for name, v in values.items():
-        unit = ev.parameters[name].unit if name in ev.parameters else ""
+        unit = ev.parameter(name).unit if ev.accepts(name) else ""
         s = std.get(name, math.nan)
         err = f" ± {s:.2g}" if math.isfinite(s) else " ± (undetermined)"
         parts.append(f"{name} = {v:.4g}{err} {unit}".rstrip())
@@ -100,7 +100,7 @@ def _needs(c, ev) -> str:
     """``"E_l1 = 3.3e+12 Pa (plausible 4e+10 ... 2.5e+11 Pa)"`` for each implausible value of a candidate."""
     parts = []
     for name, value in c.implausible.items():
-        unit = ev.parameters[name].unit if name in ev.parameters else ""
+        unit = ev.parameter(name).unit if ev.accepts(name) else ""
         lo, hi = c.plausible_range.get(name, (math.nan, math.nan))
         bound = " (at the search bound)" if name in c.fit.at_bound else ""
         parts.append(f"needs {name} = {value:.3g} {unit}{bound}, plausible {lo:.3g} ... {hi:.3g} {unit}")
@@ -219,6 +219,15 @@ def _implausible_sentence(d, ev) -> str | None:
     return "Only implausible fits would explain more: " + "; ".join(f"{c.effect} {_needs(c, ev)}" for c in bad)
 
 
+def component_sentences(d, ev) -> list[str]:
+    """What each per-leg effect of the final model says about its leg's component
+    ("leg 3's actuator delivers 0.45 of its commanded stiffness (the other legs 0.82)")."""
+    from .scope import sentence
+
+    f = d.final
+    return [t for t in (sentence(ev, item, f.values, f.effects) for item in f.effects) if t]
+
+
 def verdict_text(d, ev=None) -> str:
     """The verdict in sentences: explained or not and why, too few rows, the uncertainty,
     outliers, alternative final models, implausible fits (issue 10's order)."""
@@ -229,7 +238,7 @@ def verdict_text(d, ev=None) -> str:
     head = _head(d)
     if not d.explained and d.final.dof > 0:
         head += ". " + _why(d)
-    parts = [head]
+    parts = [head] + component_sentences(d, ev)
     if d.uncertainty is not None and d.uncertainty.verdict == "too few rows":
         parts.append(_too_few(d))
     for sentence in (_uncertainty_sentence(d), _outlier_sentence(d, ev), _alternatives_sentence(d),
@@ -283,6 +292,7 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     out.append(f"   final model: {', '.join(f.effects) or '(no effect)'}; RMS {f.rms_pct:.2f} %, max {f.max_pct:.2f} %")
     if f.values:
         out.append(f"   fitted: {format_params(f.values, f.std, ev)}")
+    out += [f"   {text}" for text in component_sentences(d, ev)]
     if f.at_bound:
         out.append(f"   warning: {', '.join(f.at_bound)} ended at the edge of the search range (default/1000 ... "
                    "1000 x default, within physical bounds): the value is not physically meaningful")

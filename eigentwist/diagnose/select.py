@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import scope
 from ..description.effects import EFFECTS, resolve_model
 from ..runtime import InputError
 from .compare import Comparison, compare
@@ -77,11 +78,22 @@ class Candidate:
     delta_aicc: float = 0.0
     indistinguishable_from: list = field(default_factory=list)
     signature: str | None = None
+    sentence: str | None = None
 
     @property
     def params(self) -> dict:
         """Fitted values of this effect's own parameters (SI)."""
         return {k: self.fit.values[k] for k in self.names if k in self.fit.values}
+
+    @property
+    def where(self) -> list[int]:
+        """Leg numbers the effect acts on alone (``[3]`` for ``EFFECT@3``), ``[]`` for all legs."""
+        return scope.where(self.effect)
+
+    @property
+    def order(self) -> tuple:
+        """Tie-break position: the catalogue's order, all legs before each leg alone."""
+        return scope.rank(self.effect)
 
     @property
     def param_std(self) -> dict:
@@ -191,26 +203,18 @@ class Diagnosis:
         return diagnosis_text(self, evaluator(self.robot), show_rows)
 
 
-def _order(effects) -> tuple:
-    names = list(EFFECTS)
-    return tuple(sorted(set(effects), key=names.index))
-
-
-def _parameters(effects) -> set:
-    return {p for e in effects for p in EFFECTS[e].parameters}
-
-
 def candidates_for(ev, effects) -> list[str]:
-    """Catalogue effects the robot has, not in ``effects`` and not an alternative to one of them."""
-    taken = _parameters(effects)
-    return [e for e in ev.effects if e not in effects and not (set(EFFECTS[e].parameters) & taken)]
+    """Effects the robot has, not in ``effects`` and not an alternative to one of them;
+    each leg-level effect also on each leg alone (``EFFECT@N``, :mod:`.scope`), so the
+    multiple-test correction counts the per-leg candidates."""
+    return scope.candidates(ev, effects, per_leg=True)
 
 
 def _starts(ev, names) -> tuple[dict, dict]:
     """Start values and screened starts of parameters the data identify: both signs of an offset."""
     start, starts = {}, {}
     for name in names:
-        p = ev.parameters[name]
+        p = ev.parameter(name)
         start[name] = trial_value(p)
         if sign_free(p):
             starts[name] = (-start[name], start[name])
@@ -219,8 +223,8 @@ def _starts(ev, names) -> tuple[dict, dict]:
 
 def _fit_effect(meas, ev, current: FitResult, effect: str) -> tuple[FitResult, tuple]:
     """``effect`` fitted on top of ``current``: (fit, its own fitted parameter names)."""
-    effects = _order(current.effects + (effect,))
-    own = tuple(p for p in EFFECTS[effect].fit if p not in current.names and p not in meas.params)
+    effects = scope.order(ev, current.effects + (effect,))
+    own = tuple(p for p in scope.fit_names(ev, effect) if p not in current.names and p not in meas.params)
     f = fit(meas, effects, ev, current.names + own, start=current.values, fixed=current.fixed, explore=own,
             max_nfev=CANDIDATE_NFEV)
     try:
@@ -241,7 +245,7 @@ def _determined(ev, g: FitResult, f: FitResult, extra) -> bool:
     """Whether the fit with the ``extra`` parameters still determines every parameter: each extra
     within a quarter of its plausible range, no other standard error inflated tenfold."""
     for name in extra:
-        lo, hi = ev.parameters[name].plausible_range
+        lo, hi = ev.parameter(name).plausible_range
         if not g.std[name] <= 0.25 * (hi - lo):
             return False
     return all(g.std[n] <= 10 * f.std[n] for n in f.names if math.isfinite(f.std[n]))
@@ -266,11 +270,11 @@ def _plausible(value: float, std: float, bounds, at_bound: bool) -> bool:
 
 
 def _ranges(ev, names) -> dict:
-    return {n: tuple(ev.parameters[n].plausible_range) for n in names}
+    return {n: tuple(ev.parameter(n).plausible_range) for n in names}
 
 
 def _implausible(ev, f: FitResult) -> bool:
-    return not all(_plausible(v, f.std.get(n, math.inf), ev.parameters[n].plausible_range, n in f.at_bound)
+    return not all(_plausible(v, f.std.get(n, math.inf), ev.parameter(n).plausible_range, n in f.at_bound)
                    for n, v in f.values.items())
 
 
@@ -280,12 +284,12 @@ def _candidate(meas, ev, current: FitResult, effect: str) -> Candidate:
         p = f_test(current.chi2, current.k, f.chi2, f.k, f.n)
     else:
         p = switch_test(current.chi2, f.chi2, f.n, f.k)
-    return Candidate(effect, f, p, own, _ranges(ev, f.names))
+    return Candidate(effect, f, p, own, _ranges(ev, f.names), sentence=scope.sentence(ev, effect, f.values, f.effects))
 
 
 def _rank_key(c: Candidate) -> tuple:
     aicc = round(c.fit.aicc, AICC_DIGITS) if math.isfinite(c.fit.aicc) else math.inf
-    return (not c.plausible, aicc, list(EFFECTS).index(c.effect))
+    return (not c.plausible, aicc, c.order)
 
 
 def rank_candidates(meas, ev, current: FitResult, candidates, progress=None) -> list[Candidate]:
@@ -306,7 +310,7 @@ def rank_candidates(meas, ev, current: FitResult, candidates, progress=None) -> 
 
 def _signature(meas, ev, current: FitResult, effect: str) -> str | None:
     """Shape (patterns.SHAPES) of what ``effect`` at its default values does to the mode it changes most."""
-    with_effect, _ = Predictor(meas, _order(current.effects + (effect,)), ev, current.fixed).predict(strict=False)
+    with_effect, _ = Predictor(meas, scope.order(ev, current.effects + (effect,)), ev, current.fixed).predict(strict=False)
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.log(with_effect / current.comparison.predicted)
     if not np.all(np.isfinite(rho)):
@@ -350,18 +354,18 @@ def _effect_list(add, ev) -> list[str]:
     items = add.split(",") if isinstance(add, str) else list(add)
     names = [str(x).strip() for x in items if str(x).strip()]
     for name in names:
-        if name not in EFFECTS:
+        if name.partition("@")[0] not in EFFECTS and name.partition("@")[0] not in ev.effects:
             raise ValueError(f"add {name!r}: not an effect; expected one of {', '.join(ev.effects)}")
-        resolve_model(name, ev.effects)  # raises if the robot lacks it
+        resolve_model(name, ev.robot)  # raises if the robot lacks it (or the leg does not exist)
     return names
 
 
-def _check_manual(order, model) -> None:
+def _check_manual(ev, order, model) -> None:
     model = list(model)
     for e in order:
         if e in model:
             raise ValueError(f"add {e!r}: the effect is already in the model ({', '.join(model)})")
-        shared = set(EFFECTS[e].parameters) & _parameters(model)
+        shared = set(scope.parameter_names(ev, e)) & scope.taken(ev, model)
         if shared:
             raise ValueError(f"add {e!r}: it describes the same part as an effect already in the model "
                              f"(shares {', '.join(sorted(shared))}); remove that one from the baseline instead")
@@ -396,15 +400,15 @@ def _forward(meas, ev, current: FitResult, alpha: float, progress) -> list[Step]
 
 def _swap(meas, ev, final: FitResult, step: Step, rival: Candidate) -> FitResult | None:
     """The final model with ``step.added`` replaced by ``rival``, refitted as a whole (None: not a model)."""
-    dropped = set(EFFECTS[step.added].parameters)
+    dropped = set(scope.parameter_names(ev, step.added))
     effects = [e for e in final.effects if e != step.added]
-    if set(EFFECTS[rival.effect].parameters) & _parameters(effects):
+    if set(scope.parameter_names(ev, rival.effect)) & scope.taken(ev, effects):
         return None
     kept = tuple(n for n in final.names if n not in dropped)
     names = kept + tuple(n for n in rival.names if n not in kept)
     fixed = {k: v for k, v in final.fixed.items() if k not in dropped}
     start = {**fixed, **rival.params}
-    return fit(meas, _order(effects + [rival.effect]), ev, names, start=start, fixed=fixed, explore=())
+    return fit(meas, scope.order(ev, effects + [rival.effect]), ev, names, start=start, fixed=fixed, explore=())
 
 
 def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
@@ -448,7 +452,7 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     manual = add is not None
     cands = candidates_for(ev, current.effects)
     if manual:
-        _check_manual(add, current.effects)
+        _check_manual(ev, add, current.effects)
         steps = _manual_steps(meas, ev, current, add)
         first = rank_candidates(meas, ev, current, cands, progress)
     else:
@@ -457,7 +461,7 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     final = steps[-1].fit
     signatures = {c.effect: c.signature for c in first}
     return Diagnosis(
-        robot=ev.robot.name, meas=meas, baseline=base_cmp, ranking=first,
+        robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
         selected=[s.added for s in steps[1:]], steps=steps, final=final,
         explained=explained(final.chi2, final.n, final.k, alpha),
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
@@ -471,7 +475,7 @@ def _untestable(meas, ev, steps) -> dict:
     out: dict = {}
     for s in steps:
         cands = candidates_for(ev, s.fit.effects)
-        for e, need in untestable(len(meas), s.fit.k, {c: len(EFFECTS[c].fit) for c in cands}).items():
+        for e, need in untestable(len(meas), s.fit.k, {c: len(scope.fit_names(ev, c)) for c in cands}).items():
             out.setdefault(e, need)
     return out
 
@@ -529,7 +533,7 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     if not hasattr(meas, "freq_hz"):
         meas = load_measurements(meas, robot or "heli4", ev, values)
     ev = resolve(ev, robot or meas.robot, backend)
-    base_effects = resolve_model(baseline, ev.effects)
+    base_effects = resolve_model(baseline, ev.robot)
     manual_effects = [] if add is None else _effect_list(add, ev)
     check_columns(meas, tuple(base_effects) + tuple(manual_effects), ev,
                   "the baseline" + (" with the added effects" if manual_effects else ""))

@@ -58,7 +58,7 @@ def parse_truth(spec: str, ev, what: str = "truth") -> Truth:
         for head in filter(None, (h.strip() for h in head.split(","))):
             if head.lower() == "none":
                 continue
-            if head not in PRESETS and head not in EFFECTS:
+            if head not in PRESETS and head.partition("@")[0] not in set(EFFECTS) | set(ev.effects):
                 valid = list(PRESETS) + list(ev.effects)
                 raise InputError(f"{what} item {item!r}: {head!r} is not a preset or effect{did_you_mean(head, valid)} "
                                  f"(expected one of {', '.join(valid)} or none)")
@@ -68,7 +68,7 @@ def parse_truth(spec: str, ev, what: str = "truth") -> Truth:
             name = name.strip()
             if not sep:
                 raise InputError(f"{what} item {item!r}: {assignment!r} is not PARAM=VALUE")
-            if name not in ev.parameters:
+            if not ev.accepts(name):
                 raise InputError(f"{what} item {item!r}: unknown parameter {name!r}{did_you_mean(name, ev.parameters)} "
                                  f"(parameters of {ev.robot.name}: {', '.join(ev.parameters)})")
             try:
@@ -76,11 +76,11 @@ def parse_truth(spec: str, ev, what: str = "truth") -> Truth:
             except ValueError:
                 raise InputError(f"{what} item {item!r}: value {text!r} of {name} is not a number") from None
             try:
-                ev.parameters[name].check(values[name])
+                ev.parameter(name).check(values[name])
             except ValueError as exc:
                 raise InputError(f"{what} item {item!r}: {exc}") from None
     try:
-        effects = resolve_model(names, ev.effects)
+        effects = resolve_model(names, ev.robot)
     except ValueError as exc:
         raise InputError(f"{what} {spec!r}: {exc}") from None
     return Truth(effects, values)

@@ -105,7 +105,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
         else:
             meas = load_measurements(data, robot, ev, values)
         data_source = str(data)
-    effects = resolve_model(model, ev.effects)
+    effects = resolve_model(model, ev.robot)
     cmp = compare(meas, effects, ev, values)
     diag = diagnose(meas, baseline=baseline, ev=ev, progress=progress, values=values)
     params = used_parameters(ev, effects, values, meas)
