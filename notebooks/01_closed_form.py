@@ -143,6 +143,7 @@ def symbol_values(poses, **params):
     """Joint angles (from the generated IK), parameter defaults and all switches on, by symbol name."""
     q = ev.joint_angles(poses, **params)[0].reshape(-1)
     values = {**ev.defaults, **params, **{s.name: v for s, v in zip(model.joints, q)}}
+    values |= {copy: values[name] for copy, name in model.leg_copies.items() if name in values}  # each leg's copy
     return {**values, **{sw: 1.0 for sw in model.switches}}
 
 
@@ -188,13 +189,16 @@ for i, ls in enumerate(model.screws):
     for k in (3, 4, 5):                                  # X, Y, Z entries of each actuated row
         simple[ls.rows[1][k]] = sp.simplify(r[k])
 k_act = sp.Symbol("k_act", real=True)
+same = {sp.Symbol(f"k_act_{i + 1}", real=True): k_act for i in range(len(model.screws))}  # legs alike here
+shared = {sp.Symbol(c, real=True): sp.Symbol(n, real=True) for c, n in model.leg_copies.items()}
 for k, axis in zip((3, 4, 5), "XYZ"):
-    show(rf"K_R({axis},{axis})", sp.factor_terms(K_R[k, k].xreplace(simple)))
-show(r"k_\mathrm{act}", prog.expand(k_act))
+    show(rf"K_R({axis},{axis})", sp.factor_terms(K_R[k, k].xreplace(simple).xreplace(same)))
+show(r"k_\mathrm{act}", prog.expand(sp.Symbol("k_act_1", real=True)).xreplace(shared))
 
 # %% [markdown]
 # $k_\mathrm{act}$ carries the effect switches ($\mathrm{on}_\bullet \in \{0, 1\}$): one generated evaluator
-# serves every combination of effects. With the paper's model it is $\eta_a k_a$ (Eq. 34, $\eta_a = 0.82$).
+# serves every combination of effects. Each leg has its own switches and values of its leg-level effects
+# (`actuator_loss@3`, `eta_a@3`); the legs are alike here, so they are shown once. With the paper's model it is $\eta_a k_a$ (Eq. 34, $\eta_a = 0.82$).
 #
 # **M (Eq. 12)** is a sum over the bodies of every leg of $J_i^{-T} J_{ij}^T M_{ij} J_{ij} J_i^{-1}$ plus the EE
 # inertia. Its closed form is large in general, but at a fixed pose it is *linear* in the inertial
@@ -204,14 +208,14 @@ show(r"k_\mathrm{act}", prog.expand(k_act))
 # %%
 S = lambda name: sp.Symbol(name, real=True)  # noqa: E731
 paper_switches = {S(sw): (1 if sw in ("on_actuator_loss", "on_rod_compliance", "on_ee_compliance") else 0)
-                  for sw in model.switches}
+                  for sw in {model.leg_copies.get(sw, sw) for sw in model.switches}}
 q_ref = {s: sp.Float(v) for s, v in zip(model.joints, ev.joint_angles(x_ref)[0].reshape(-1))}
 
 
 def at_x_ref(expr, keep):
     """``expr`` at x_ref with every parameter except ``keep`` at its default (paper model)."""
     values = {S(n): sp.Float(v) for n, v in ev.defaults.items() if n not in keep}
-    return expr.xreplace({**q_ref, **paper_switches, **values})
+    return expr.xreplace(shared).xreplace({**q_ref, **paper_switches, **values})
 
 
 M = sp.Matrix(6, 6, model.outputs["matrices"]["M"][1])
@@ -270,8 +274,9 @@ def input_dependencies(program):
 deps, ik_deps = input_dependencies(prog), input_dependencies(model.ik)
 q_deps = {q: frozenset().union(*[ik_deps.get(f, {f}) for f in sp.sympify(e).free_symbols])
           for q, e in zip(model.joints, model.ik_outputs["q"][1])}
-names = [p.name for p in heli4.parameters] + list(model.switches)
+names = [p.name for p in heli4.parameters] + sorted({model.leg_copies.get(sw, sw) for sw in model.switches})
 index = {n: k for k, n in enumerate(names)}
+index |= {copy: index[name] for copy, name in model.leg_copies.items()}    # each leg's copy counts as the input
 columns, dep = [], []
 for mat in ("M", "K_R", "K_F"):
     flat = model.outputs["matrices"][mat][1]

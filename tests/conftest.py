@@ -33,3 +33,22 @@ def random_poses(robot, n, seed) -> np.ndarray:
     lo = np.array([a for a, _ in robot.workspace])
     hi = np.array([b for _, b in robot.workspace])
     return lo + (hi - lo) * rng.random((n, 3))
+
+
+def effect_inputs(robot, p: dict, on, spread=None) -> dict:
+    """Add the generated code's effect inputs to ``p`` (parameter values by name): each
+    effect's switch (1 for the effects in ``on``), and for a leg-level effect each leg's
+    switch and copy of its parameters (the shared value, times 1 + ``spread()`` if given)."""
+    from eigentwist.description.effects import leg_input_name, leg_switch_name, switch_name
+
+    for e in robot.effects:
+        effect = robot.effect(e)
+        flag = np.asarray(1.0 if e in on else 0.0)
+        if not effect.leg_level:
+            p[switch_name(e)] = flag
+            continue
+        for k in range(1, len(robot.legs) + 1):
+            p[leg_switch_name(e, k)] = flag
+            for q in effect.params:
+                p[leg_input_name(q.name, k)] = np.asarray(p[q.name] * (1 + spread() if spread else 1.0))
+    return p

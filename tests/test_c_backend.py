@@ -19,12 +19,11 @@ import eigentwist.runtime.cbackend as cb
 import eigentwist.runtime.ccompile as ccompile
 from eigentwist.codegen.c_backend import CCodePrinter, c_identifiers
 from eigentwist.codegen.generate import GENERATED, render_robot
-from eigentwist.description.effects import switch_name
 from eigentwist.robots import NAMES
 from eigentwist.runtime import InputError, UnreachablePoseError, load
 from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 
-from .conftest import random_poses
+from .conftest import effect_inputs, random_poses
 from .test_eigen import assert_matches_scipy, random_spd_pairs
 
 compiled = pytest.mark.compiled
@@ -130,9 +129,7 @@ def _params(robot, seed, switches: str | None) -> dict:
         if inner in p:
             p[inner] = np.minimum(p[inner], 0.9 * p[outer])
     on = set(robot.effects) if switches == "all" else set() if switches == "none" else set(resolve_model(switches, robot.effects))
-    for e in robot.effects:
-        p[switch_name(e)] = np.asarray(1.0 if e in on else 0.0)
-    return p
+    return effect_inputs(robot, p, on)
 
 
 def _assert_close(got: dict, want: dict, rtol: float, what: str):

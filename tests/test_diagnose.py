@@ -204,4 +204,4 @@ def test_alternatives_sharing_parameters_are_not_stacked(ev):
     cands = candidates_for(ev, ("actuator_loss", "ee_compliance"))
     assert "ee_compliance" not in cands
     for e in cands:
-        assert not set(EFFECTS[e].parameters) & set(EFFECTS["ee_compliance"].parameters)
+        assert not set(EFFECTS[e.partition("@")[0]].parameters) & set(EFFECTS["ee_compliance"].parameters)

@@ -8,10 +8,9 @@ import sympy as sp
 from eigentwist.codegen.generate import GENERATED, render_all, stale
 from eigentwist.codegen.kernel import Output, UndeclaredSymbolError, build_kernel
 from eigentwist.description import sym
-from eigentwist.description.effects import switch_name
 from eigentwist.symbolic import Program
 
-from .conftest import random_poses
+from .conftest import effect_inputs, random_poses
 
 
 def _random_params(robot, rng):
@@ -20,8 +19,10 @@ def _random_params(robot, rng):
     for p in robot.parameters:
         v = p.default * (1 + 0.4 * (rng.random() - 0.5)) if p.default != 0 else 0.02 * (rng.random() - 0.5)
         vals[p.name] = v
-    for e in robot.effects:
-        vals[switch_name(e)] = 1.0
+    # every effect on; each leg its own value of the leg-level parameters (tube radii kept ordered)
+    vals = {k: float(v) for k, v in effect_inputs(robot, vals, robot.effects, lambda: 0.1 * (rng.random() - 0.5)).items()}
+    for k in range(1, len(robot.legs) + 1):
+        vals[f"r_i_l1__{k}"] = min(vals[f"r_i_l1__{k}"], 0.9 * vals[f"r_o_l1__{k}"])
     return vals
 
 

@@ -19,7 +19,7 @@ def eprint(*args) -> None:
 
 def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "paper") -> None:
     """``--robot``, ``--pose``, ``--k-a``, ``--set`` and ``--model`` with units in the help."""
-    p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
     p.add_argument("--pose", nargs=3, type=float, metavar=("X", "Y", "Z"),

@@ -34,7 +34,7 @@ examples:
 def add_data_options(p: argparse.ArgumentParser) -> None:
     """DATA, --robot and --backend (shared with diagnose)."""
     p.add_argument("data", metavar="DATA.csv", help="measurements (see below), or `paper`")
-    p.add_argument("--robot", default="heli4", help="robot description (default: heli4; see eigentwist.robots.NAMES)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
 
@@ -56,10 +56,6 @@ def load_data(args):
 
     from ..diagnose.evaluators import evaluator
     from ..diagnose.measurements import load_measurements, paper_csv, parse_csv
-    from ..robots import NAMES
-
-    if args.robot not in NAMES:
-        raise CliError(f"--robot {args.robot!r}: expected one of {', '.join(NAMES)}")
     ev = evaluator(args.robot, args.backend)
     if args.data == "paper" and not Path(args.data).exists():
         return ev, parse_csv(paper_csv(args.robot), f"{args.robot}_paper.csv", ev)

@@ -29,7 +29,7 @@ def add_parser(sub):
 
 
 def compute(args) -> dict:
-    from ..description.effects import STRUCTURAL, resolve_model
+    from ..description.effects import base_name, resolve_model
     from ..runtime import load
 
     ev = load(args.robot, backend=args.backend)
@@ -37,12 +37,13 @@ def compute(args) -> dict:
     params = parse_sets(args.set)
     if args.k_a is not None:
         params["k_a"] = args.k_a
-    effects = resolve_model(args.model, ev.effects)
+    effects = resolve_model(args.model, ev.robot)
     # the JSON carries both models: the structural effects of the chosen model (or, for a
     # rigid choice, of the robot's "paper" preset) make the flexible one
-    structural = tuple(e for e in resolve_model("paper", ev.effects) if e in STRUCTURAL)
+    is_structural = lambda e: ev.robot.effect(base_name(e)).structural  # noqa: E731
+    structural = tuple(e for e in resolve_model("paper", ev.robot) if is_structural(e))
     flex_model = effects if ev.kind(effects) == "flexible" else tuple(effects) + structural
-    rigid_model = tuple(e for e in effects if e not in STRUCTURAL)
+    rigid_model = tuple(e for e in effects if not is_structural(e))
     mats = ev.matrices(pose, effects, **params)
     q = ev.joint_angles(pose, **params)[0]
     rigid = ev.modes(pose, rigid_model, **params)

@@ -29,7 +29,7 @@ the dask engine pip install "eigentwist[dask]".
 def add_parser(sub):
     p = sub.add_parser("sweep", help=HELP, description=HELP, epilog=EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
     p.add_argument("--model", default="paper",

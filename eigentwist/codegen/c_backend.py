@@ -245,7 +245,9 @@ def _c_string(text: str, width: int = 96) -> list[str]:
 def render_c(robot, kernels: list[Kernel], digest: str) -> str:
     """Render the C source for ``kernels`` of ``robot`` (pure: returns a string)."""
     prefix = "et_" + re.sub(r"\W", "_", robot.name)
-    units = {p.name: p.unit for p in robot.parameters}
+    from ..symbolic.model import EffectSymbols
+
+    units = {p.name: p.unit for p in robot.parameters} | EffectSymbols(robot).units()
     kctx = [_kernel_context(k, prefix, units) for k in kernels]
     by_name = {k["name"]: k for k in kctx}
     fused = _fused_context(by_name)

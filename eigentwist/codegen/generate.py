@@ -9,9 +9,9 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ..description.effects import switch_name
 from ..robots import NAMES, get
 from ..symbolic import POSE, derive
+from ..symbolic.model import EffectSymbols
 from .c_backend import render_c
 from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
@@ -25,15 +25,14 @@ KERNEL_DOCS = {
     "inverse_kinematics": "Joint angles of every leg for end-effector positions (facts file IK).",
     "matrices": "Cartesian inertia M (Eq. 12), rigid-body stiffness K_R (Eq. 14) and flexible-body stiffness K_F (Eq. 13, tau_e = 0) at the EE origin.",
     "jacobians": "Inverse-Jacobian rows of joints 1, 2, 3 and the virtual joint of every leg (Huang's method), and the actuation levers (m).",
-    "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40) and the series actuator stiffness k_act.",
+    "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40), each leg's series actuator stiffness k_act and the static preload wrench W on the platform.",
 }
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
 
 
 def kernels_for(model, progress=None) -> list[Kernel]:
     """CSE'd kernels of a derived model, in a fixed order."""
-    robot = model.robot
-    params = list(robot.parameter_names) + [switch_name(e) for e in robot.effects]
+    params = list(model.inputs)
     kernels = []
     ik_outs = [Output(k, sh, ex) for k, (sh, ex) in model.ik_outputs.items()]
     kernels.append(build_kernel("inverse_kinematics", KERNEL_DOCS["inverse_kinematics"], model.ik,
@@ -46,12 +45,17 @@ def kernels_for(model, progress=None) -> list[Kernel]:
     return kernels
 
 
+def generated_inputs(robot) -> list[str]:
+    """The effect inputs of ``robot``'s generated code: switches and leg copies."""
+    return [s.name for s in EffectSymbols(robot).inputs()]
+
+
 def _template_text(backend: str) -> str:
     return "".join(p.read_text() for p in sorted((TEMPLATES / backend).glob("*.jinja")))
 
 
 def _render_numpy(robot, kernels, digest):
-    return render_numpy(robot, kernels, digest, [switch_name(e) for e in robot.effects])
+    return render_numpy(robot, kernels, digest, EffectSymbols(robot).switches())
 
 
 BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", render_c)}

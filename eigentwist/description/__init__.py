@@ -1,10 +1,11 @@
 """Descriptions of parallel manipulators as data (parameters, legs, bodies, effects)."""
 from .parameters import Parameter, sym
 from .robot import Coupling, Joint, Leg, RobotDescription, EECompliance, RRPIRR_CHAIN
-from .effects import EFFECTS, PRESETS, Effect, resolve_model
+from .effects import EFFECTS, KINDS, PRESETS, Effect, EffectContext, effect_parameters, resolve_model
 from .constraints import Constraint, tube, triangle_inequality
 
 __all__ = [
     "Parameter", "sym", "Coupling", "Joint", "Leg", "RobotDescription", "EECompliance", "RRPIRR_CHAIN",
-    "EFFECTS", "PRESETS", "Effect", "resolve_model", "Constraint", "tube", "triangle_inequality",
+    "EFFECTS", "KINDS", "PRESETS", "Effect", "EffectContext", "effect_parameters", "resolve_model",
+    "Constraint", "tube", "triangle_inequality",
 ]

@@ -1,19 +1,29 @@
 """The catalogue of named physical effects and the model presets.
 
-Every effect is a documented term of the closed-form model. Its terms are multiplied
-by a switch symbol ``on_<effect>`` (0 or 1) in the derivation, so one generated
-evaluator serves every combination of effects: switching an effect costs no
-regeneration. The names below are an interface (CLI, JSON, CSV): keep them stable.
+Every effect is a documented term of the closed-form model, an instance of one of a few
+primitive :data:`KINDS` that the derivation handles generically: the effect carries
+its parameters, the body or frame it acts on and a ``build`` function that returns its
+term (a compliance, an inertia, a stiffness, a load) from an :class:`EffectContext`.
+Its terms are multiplied by a switch symbol ``on_<effect>`` (0 or 1) in the derivation,
+so one generated evaluator serves every combination of effects: switching an effect
+costs no regeneration. A leg-level effect has one switch and one copy of its parameters
+per leg (``on_<effect>__<N>``, ``<param>__<N>``), so that it can act on one leg alone
+(``EFFECT@N``, ``NAME@N``) without regenerating either. The names below are an
+interface (CLI, JSON, CSV): keep them stable.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Callable
+
+import sympy as sp
 
 from .constraints import Constraint, tube
+
 from .parameters import Parameter, sym
 
-__all__ = ["Effect", "EFFECTS", "PRESETS", "STRUCTURAL", "KINDS", "resolve_model", "switch_name",
-           "effect_parameters"]
+__all__ = ["Effect", "EffectContext", "EFFECTS", "PRESETS", "STRUCTURAL", "KINDS", "resolve_model", "switch_name",
+           "effect_parameters", "split_scope", "scoped_name", "base_name", "leg_switch_name", "leg_input_name"]
 
 INF = float("inf")
 
@@ -25,7 +35,8 @@ KINDS = {
                        "the paper's per-leg share of the end-effector assembly)",
     "added_inertia": "inertia added to a body (payload on the platform, rotor inertia on the actuated link)",
     "platform_coupling": "a compliant coupling between two platform bodies (ee_coupling)",
-    "ground_spring": "a spring between the platform and the ground (hoses, cables, a guard)",
+    "ground_spring": "a spring between the tool and the ground (hoses, cables, a guard); no catalogue effect: "
+                     "a user's description adds one (README, 'Effects of your own')",
     "preload": "a static preload whose stiffness enters the first term of Eq. 13 (gravity)",
 }
 
@@ -47,6 +58,22 @@ class Effect:
     leg_level : True when the effect acts on each leg separately, so that it can be
         scoped to one leg (``EFFECT@N``).
     equation : the paper equation or appendix it implements.
+    body : where it acts: a leg frame (``"J1"`` lower link at the actuated joint, ``"E1"``
+        lower link tip, ``"C3"`` parallelogram centre, ``"L2"`` rod tips at a_i) for
+        ``body_compliance`` and ``added_inertia`` of a leg's chain, ``"platform"`` for a
+        term already at the EE origin in EE axes.
+    build : ``build(ctx: EffectContext)`` returns the effect's term in symbols, by kind:
+        ``joint_series``: the compliance (rad/(N m)) in series with the actuated joint;
+        ``body_compliance``: a 6x6 compliance in ``body``'s frame (or None: not on this leg);
+        ``added_inertia``: a 6x6 spatial inertia in ``body``'s frame;
+        ``ground_spring``: ``(K, rotation, origin)``, a 6x6 stiffness (N m/rad, N/m) in a
+        frame of the tool with axes ``rotation`` (3x3, columns in EE axes) at ``origin``
+        (3, m from the EE origin); ``preload``: the acceleration of gravity (3, m/s^2)
+        acting on the platform's inertia. ``platform_coupling`` needs none: the robot's
+        :class:`~eigentwist.description.Coupling` names the effect.
+    component : the part it describes, for the diagnosis' sentences ("actuator").
+    phrase : what one leg's fitted values say, formatted with the fit parameters
+        (``"delivers {eta_a:.2f} of its commanded stiffness"``); "" lists the values.
     constraints : conditions its parameters must meet together (:mod:`.constraints`).
     """
 
@@ -58,6 +85,16 @@ class Effect:
     kind: str = "body_compliance"
     leg_level: bool = False
     equation: str = ""
+    body: str = ""
+    build: Callable[["EffectContext"], Any] | None = None
+    component: str = ""
+    phrase: str = ""
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"effect {self.name!r}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
+        if "@" in self.name or not self.name.isidentifier():
+            raise ValueError(f"effect name {self.name!r}: expected a Python identifier (no '@')")
     constraints: tuple[Constraint, ...] = ()
 
     @property
@@ -70,6 +107,76 @@ class Effect:
             if p.name == name:
                 return p
         raise KeyError(f"effect {self.name!r} has no parameter {name!r}: it has {', '.join(self.parameters)}")
+
+
+@dataclass(frozen=True)
+class EffectContext:
+    """What an effect's ``build`` function gets from the derivation.
+
+    robot : the :class:`~eigentwist.description.RobotDescription`.
+    p : the effect's parameters as SymPy symbols, by name (each leg's own copy for a
+        leg-level effect).
+    index : 0-based leg index, or None for a platform-level term.
+    leg : the :class:`~eigentwist.description.Leg`, or None.
+    screws : the leg's screws, frames and vectors at the current joint angles
+        (:class:`eigentwist.symbolic.leg.LegScrews`), or None.
+    """
+
+    robot: Any
+    p: dict
+    index: int | None = None
+    leg: Any = None
+    screws: Any = None
+
+
+# ------------------------------------------------------------ catalogue terms
+def _actuator_loss(ctx):
+    """1/(eta k_a) = 1/k_a + (1/eta - 1)/k_a: the loss as a compliance in series (Eq. 34)."""
+    return (1 / ctx.p["eta_a"] - 1) / ctx.robot.actuator_stiffness
+
+
+def _transmission(ctx):
+    return 1 / ctx.p["k_t"]
+
+
+def _rod_pair(ctx):
+    from ..symbolic.stiffness import rod_pair_compliance
+
+    rod = ctx.robot.rod
+    d_pi = rod["w_pi"] * ctx.screws.vectors["c3"]
+    return rod_pair_compliance(ctx.robot.l2, rod["r_i"], rod["r_o"], ctx.p["E_rod"], ctx.p["G_rod"], d_pi)
+
+
+def _ee_split(ctx):
+    """The robot's own share of the EE assembly compliance for this leg (App. D), or None."""
+    from ..symbolic.screw import compliance_to_frame
+
+    split = ctx.robot.ee_compliance
+    if split is None or ctx.index not in split.per_leg:
+        return None
+    return compliance_to_frame(split.per_leg[ctx.index], sp.eye(3), sp.Matrix(split.origin))
+
+
+def _lower_link_tube(ctx):
+    from ..symbolic.stiffness import tube_cantilever_compliance
+
+    p = ctx.p
+    return tube_cantilever_compliance(ctx.robot.l1, p["r_i_l1"], p["r_o_l1"], p["E_l1"], p["nu_l1"])
+
+
+def _payload(ctx):
+    from ..symbolic.inertia import point_mass_inertia
+
+    p = ctx.p
+    return point_mass_inertia(p["m_p"], sp.Matrix([p["p_x"], p["p_y"], p["p_z"]]))
+
+
+def _rotor(ctx):
+    return sp.diag(0, ctx.p["I_add"], 0, 0, 0, 0)
+
+
+def _gravity(ctx):
+    return sp.Matrix([0, 0, -ctx.p["g"]])
 
 
 def _p(name, default, unit, doc, effect, plausible, bounds=(0.0, INF), equation=""):
@@ -90,7 +197,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "delivered/commanded actuator stiffness factor eta_a (Eq. 34, App. B: 0.82)",
            (_p("eta_a", 0.82, "-", "delivered/commanded actuator stiffness (App. B); plausible: a servo delivers "
                "30 % to 105 % of its commanded stiffness", "actuator_loss", (0.3, 1.05), (0.05, 1.5), "Eq. 34, App. B"),),
-           ("eta_a",), kind="joint_series", leg_level=True, equation="Eq. 34, App. B"),
+           ("eta_a",), kind="joint_series", leg_level=True, equation="Eq. 34, App. B", build=_actuator_loss,
+           component="actuator", phrase="delivers {eta_a:.2f} of its commanded stiffness"),
     Effect("rod_compliance",
            "bending/axial compliance of the two parallelogram rods as cantilevers (App. C, Eqs. 44, C.10)",
            (_p("E_rod", 170e9, "Pa", "Young's modulus of the parallelogram rods (facts file: fitted to K_F(3,3), carbon "
@@ -98,10 +206,12 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                equation="App. C, Eq. C.10"),
             _p("G_rod", 65e9, "Pa", "shear modulus of the rods (not in the paper; no influence on K_F); plausible "
                "10-90 GPa", "rod_compliance", (10e9, 90e9), equation="App. C")),
-           ("E_rod",), structural=True, kind="body_compliance", leg_level=True, equation="App. C, Eqs. 44, C.10"),
+           ("E_rod",), structural=True, kind="body_compliance", leg_level=True, equation="App. C, Eqs. 44, C.10",
+           body="L2", build=_rod_pair, component="parallelogram rods"),
     Effect("ee_compliance",
            "end-effector assembly compliance k_E_rot about Y and k_E_lin along Y, split over the legs (App. D, Eqs. 45-49)",
-           _K_E, ("k_E_rot", "k_E_lin"), structural=True, kind="body_compliance", equation="App. D, Eqs. 45-49"),
+           _K_E, ("k_E_rot", "k_E_lin"), structural=True, kind="body_compliance", equation="App. D, Eqs. 45-49",
+           body="platform", build=_ee_split),
     Effect("ee_coupling",
            "traveling plates as rigid bodies joined to the tool by compliant couplings (k_E_rot about Y, k_E_lin along Y), "
            "condensed in closed form at any pose (issue 7)",
@@ -115,31 +225,33 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                "steel, or carbon fibre, 40-250 GPa", "lower_link_compliance", (40e9, 250e9)),
             _p("nu_l1", 0.33, "-", "Poisson ratio of the lower link tube (G = E/(2(1+nu)))", "lower_link_compliance",
                (0.2, 0.45), (0.0, 0.5))),
-           ("E_l1",), structural=True, kind="body_compliance", leg_level=True,
+           ("E_l1",), structural=True, kind="body_compliance", leg_level=True, body="E1", build=_lower_link_tube, component="lower link",
            constraints=tube(sym("r_i_l1"), sym("r_o_l1"), "the lower link tube")),
     Effect("transmission_compliance",
            "torsional compliance 1/k_t in series with each actuator",
            (_p("k_t", 20000.0, "N m/rad", "torsional stiffness of each transmission, in series with the actuator; "
                "plausible: belts and small gearboxes to large harmonic drives, 1e3-1e6 N m/rad",
                "transmission_compliance", (1.0e3, 1.0e6)),),
-           ("k_t",), kind="joint_series", leg_level=True),
+           ("k_t",), kind="joint_series", leg_level=True, build=_transmission,
+           component="transmission"),
     Effect("payload_mass",
            "rigid point payload m_p on the end-effector at offset (p_x, p_y, p_z)",
            (_p("m_p", 0.2, "kg", "payload mass on the end-effector; plausible 0-20 kg", "payload_mass", (0.0, 20.0)),
             _p("p_x", 0.0, "m", "payload offset from the EE origin along X", "payload_mass", (-0.3, 0.3), (-1.0, 1.0)),
             _p("p_y", 0.0, "m", "payload offset from the EE origin along Y", "payload_mass", (-0.3, 0.3), (-1.0, 1.0)),
             _p("p_z", 0.0, "m", "payload offset from the EE origin along Z", "payload_mass", (-0.3, 0.3), (-1.0, 1.0))),
-           ("m_p",), kind="added_inertia"),
+           ("m_p",), kind="added_inertia", body="platform", build=_payload),
     Effect("rotor_inertia",
            "additional inertia I_add about each actuated axis (adds to Eq. 22)",
            (_p("I_add", 2e-3, "kg m^2", "additional inertia about each actuated axis; plausible 0-0.05 kg m^2 "
                "(up to ten times a large servo rotor)", "rotor_inertia", (0.0, 0.05), equation="Eq. 22"),),
-           ("I_add",), kind="added_inertia", leg_level=True, equation="Eq. 22"),
+           ("I_add",), kind="added_inertia", leg_level=True, equation="Eq. 22", body="J1", build=_rotor,
+           component="actuated link", phrase="carries {I_add:.3g} kg m^2 of added inertia"),
     Effect("gravity_preload",
            "the tau_e term of Eq. 13 from the static gravity load g on the end-effector and payload",
            (_p("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload; a known constant "
                "(plausible 9.78-9.84 m/s^2 on Earth)", "gravity_preload", (9.78, 9.84), (0.0, 100.0), "Eq. 13"),),
-           ("g",), kind="preload", equation="Eq. 13"),
+           ("g",), kind="preload", equation="Eq. 13", build=_gravity),
 )}
 
 
@@ -153,7 +265,8 @@ def effect_parameters(effects, values: dict | None = None) -> tuple[Parameter, .
     values = dict(values or {})
     out, seen = [], set()
     for name in effects:
-        for p in EFFECTS[name].params:
+        effect = name if isinstance(name, Effect) else EFFECTS[name]
+        for p in effect.params:
             if p.name in seen:
                 continue
             seen.add(p.name)
@@ -162,7 +275,8 @@ def effect_parameters(effects, values: dict | None = None) -> tuple[Parameter, .
                 p = p.with_values(**(change if isinstance(change, dict) else {"default": float(change)}))
             out.append(p)
     if values:
-        raise ValueError(f"values for {', '.join(sorted(values))}: no effect among {', '.join(effects)} has them")
+        names = ", ".join(getattr(e, "name", e) for e in effects)
+        raise ValueError(f"values for {', '.join(sorted(values))}: no effect among {names} has them")
     return tuple(out)
 
 
@@ -176,20 +290,71 @@ PRESETS: dict[str, tuple[str, ...]] = {
 
 
 def switch_name(effect: str) -> str:
-    """Name of the 0/1 switch symbol of ``effect`` in the generated code."""
+    """Name of the 0/1 switch symbol of ``effect`` in the generated code (all legs, or a
+    platform-level effect)."""
     return f"on_{effect}"
 
 
+def leg_switch_name(effect: str, leg: int) -> str:
+    """Name of the 0/1 switch of leg-level ``effect`` on leg ``leg`` (1-based): ``on_E__N``."""
+    return f"on_{effect}__{leg}"
+
+
+def leg_input_name(param: str, leg: int) -> str:
+    """Generated-code input holding leg ``leg``'s (1-based) value of ``param``: ``P__N``."""
+    return f"{param}__{leg}"
+
+
+def scoped_name(name: str, leg: int | None) -> str:
+    """``EFFECT@N`` / ``NAME@N`` (the user-facing spelling), or ``name`` when ``leg`` is None."""
+    return name if leg is None else f"{name}@{leg}"
+
+
+def split_scope(item: str, n_legs: int | None = None, what: str = "effect") -> tuple[str, int | None]:
+    """``"actuator_loss@3"`` -> ``("actuator_loss", 3)``; ``"paper"`` -> ``("paper", None)``.
+
+    Raises ``ValueError`` (one line) when N is not a leg number 1..``n_legs``.
+    """
+    name, at, leg = item.partition("@")
+    if not at:
+        return item, None
+    try:
+        n = int(leg)
+    except ValueError:
+        n = None
+    if n is None or n < 1 or (n_legs is not None and n > n_legs):
+        legs = f"1..{n_legs}" if n_legs is not None else "1, 2, ..."
+        raise ValueError(f"{what} {item!r}: {leg!r} is not a leg number; expected {name}@N with N in {legs} "
+                         "(1-based, in the description's order)")
+    return name, n
+
+
+def _lookup(robot_or_available):
+    """(names available or None, number of legs or None, name -> Effect)."""
+    if robot_or_available is None:
+        return None, None, dict(EFFECTS)
+    if hasattr(robot_or_available, "legs"):
+        robot = robot_or_available
+        return tuple(robot.effects), len(robot.legs), {n: robot.effect(n) for n in robot.effects}
+    names = tuple(robot_or_available)
+    return names, None, {n: EFFECTS[n] for n in names if n in EFFECTS}
+
+
 def resolve_model(spec, available=None) -> tuple[str, ...]:
-    """Turn a model spec into a sorted-by-catalogue tuple of effect names.
+    """Turn a model spec into a tuple of effect names in the catalogue's order.
 
     ``spec`` is a preset name (``"rigid"``, ``"paper"``, ``"coupled"``), a
     comma-separated list of presets and effects (``"rigid,payload_mass"``), or an
-    iterable of names; ``"none"`` is the bare model without any effect. Unknown names
-    raise ``ValueError`` listing the valid ones. A
-    preset keeps only the effects the robot has (``available``); an effect named
-    explicitly that the robot lacks is an error.
+    iterable of names; ``"none"`` is the bare model without any effect. A leg-level
+    effect may be scoped to one leg, ``EFFECT@N`` (N 1-based, in the description's leg
+    order): ``"paper,actuator_loss@3"``; it follows its effect, legs ascending. Unknown
+    names raise ``ValueError`` listing the valid ones. A preset keeps only the effects
+    the robot has (``available``: effect names, or the
+    :class:`~eigentwist.description.RobotDescription`, which also checks N against its
+    legs and knows its own effects); an effect named explicitly that the robot lacks is
+    an error.
     """
+    names_available, n_legs, catalogue = _lookup(available)
     if isinstance(spec, str):
         if spec.strip().lower() in ("", "none"):
             return ()                      # the bare model: no effect at all
@@ -197,17 +362,38 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
     else:
         items = list(spec)
     names: set[str] = set()
+    legs: dict[str, set] = {}
     for item in items:
-        if item in PRESETS:
-            preset = PRESETS[item]
-            names.update(e for e in preset if available is None or e in available)
-        elif item in EFFECTS:
-            names.add(item)
-        else:
-            valid = ", ".join(list(PRESETS) + list(EFFECTS))
+        name, leg = split_scope(item, n_legs)
+        if leg is None and name in PRESETS:
+            preset = PRESETS[name]
+            names.update(e for e in preset if names_available is None or e in names_available)
+            continue
+        if name not in catalogue and name not in EFFECTS:
+            valid = ", ".join(list(PRESETS) + list(catalogue))
             raise ValueError(f"unknown model or effect {item!r}: expected one of {valid}")
-    if available is not None:
-        missing = sorted(names - set(available))
+        if leg is None:
+            names.add(name)
+            continue
+        effect = catalogue.get(name) or EFFECTS[name]
+        if not effect.leg_level:
+            raise ValueError(f"effect {item!r}: {name} acts on the whole platform, not on one leg "
+                             "(only leg-level effects take @N)")
+        legs.setdefault(name, set()).add(leg)
+    if names_available is not None:
+        missing = sorted((names | set(legs)) - set(names_available))
         if missing:
-            raise ValueError(f"effect(s) {', '.join(missing)} not available for this robot (it has: {', '.join(available)})")
-    return tuple(n for n in EFFECTS if n in names)
+            raise ValueError(f"effect(s) {', '.join(missing)} not available for this robot "
+                             f"(it has: {', '.join(names_available)})")
+    order = list(names_available) if names_available is not None else list(EFFECTS)
+    out = []
+    for n in order:
+        if n in names:
+            out.append(n)
+        out.extend(scoped_name(n, k) for k in sorted(legs.get(n, ())))
+    return tuple(out)
+
+
+def base_name(item: str) -> str:
+    """``"actuator_loss@3"`` -> ``"actuator_loss"``."""
+    return item.partition("@")[0]

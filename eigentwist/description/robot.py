@@ -64,9 +64,10 @@ class Leg:
 class EECompliance:
     """End-effector assembly compliance split over the legs (App. D, Eqs. 45-49).
 
-    ``per_leg`` maps a leg index to a 6x6 compliance in a frame at ``origin`` (m from the
-    EE origin, axes parallel to the EE frame), in rad/(N m), m/N. The effect's switch
-    and stiffness symbols appear inside these matrices.
+    ``per_leg`` maps a 0-based leg index to a 6x6 compliance in a frame at ``origin`` (m
+    from the EE origin, axes parallel to the EE frame), in rad/(N m), m/N, in the
+    ``ee_compliance`` effect's stiffness symbols (the derivation multiplies it by the
+    effect's switch). Which leg carries which share is the robot's geometry.
     """
 
     origin: tuple
@@ -104,12 +105,16 @@ class RobotDescription:
     * ``l1``, ``l2``: lower link and parallelogram lengths (m);
     * ``lower_link_inertia``: 6x6 spatial inertia of body 1 (link + rotor) in frame
       J_i1 (origin at the actuated joint, x = r_i1, y = s_i1), Eqs. 21-23;
-    * ``rod``: dict of ``r_i``, ``r_o`` (m), ``rho`` (kg/m^3), ``w_pi`` (m), ``E``, ``G`` (Pa)
-      for the parallelogram tubes (Eqs. 27-29, App. C);
+    * ``rod``: dict of ``r_i``, ``r_o`` (m), ``rho`` (kg/m^3), ``w_pi`` (m) for the
+      parallelogram tubes (Eqs. 27-29, App. C);
     * ``ee_inertia``: 6x6 spatial inertia of the end-effector at its origin (Eq. 31);
-    * ``lower_link_tube``: ``r_o``, ``r_i`` (m), ``E`` (Pa), ``nu`` for the
-      ``lower_link_compliance`` effect;
     * ``ee_compliance``: :class:`EECompliance` or None (the paper's split, Eqs. 45-49);
+    * ``actuator_stiffness``: commanded actuator stiffness k_a (N m/rad, Eq. 34);
+    * ``rigid_compliance``: compliance given to the ideally rigid constrained direction
+      of each leg so that K_F stays finite (rad/(N m), Eq. 42);
+    * ``effects``: the effects this robot offers, by catalogue name
+      (:data:`~eigentwist.description.effects.EFFECTS`) or as :class:`Effect` objects
+      of the user's own (their parameters are added to ``parameters`` when missing);
     * ``couplings``: :class:`Coupling` of each platform body other than the tool body
       (``tool_body``); legs name the body they attach to (``Leg.platform_body``);
     * ``x_ref``: reference pose (m);
@@ -126,14 +131,49 @@ class RobotDescription:
     lower_link_inertia: sp.Matrix
     rod: dict
     ee_inertia: sp.Matrix
-    lower_link_tube: dict
     ee_compliance: EECompliance | None
     x_ref: tuple[float, float, float]
+    actuator_stiffness: sp.Expr
+    rigid_compliance: sp.Expr
     workspace: tuple = ((-0.1, 0.1), (-0.1, 0.1), (-0.70, -0.55))
     couplings: tuple = ()
     tool_body: str = "platform"
     source: str = ""
-    effects: tuple[str, ...] = field(default=())
+    effects: tuple = field(default=())
+    custom_effects: tuple = field(default=())
+
+    def __post_init__(self):
+        from .effects import EFFECTS, Effect
+
+        custom = {e.name: e for e in self.custom_effects}
+        names = []
+        for e in self.effects:
+            if isinstance(e, Effect):
+                if e.name in EFFECTS and EFFECTS[e.name] is not e:
+                    raise ValueError(f"{self.name}: effect {e.name!r} is already in the catalogue; name yours differently")
+                custom[e.name] = e
+                names.append(e.name)
+            elif e in EFFECTS or e in custom:
+                names.append(e)
+            else:
+                raise ValueError(f"{self.name}: unknown effect {e!r}: expected a catalogue name or an Effect")
+        have, extra = {p.name for p in self.parameters}, []
+        for p in (p for e in custom.values() for p in e.params):
+            if p.name not in have:
+                have.add(p.name)
+                extra.append(p)
+        object.__setattr__(self, "effects", tuple(dict.fromkeys(names)))
+        object.__setattr__(self, "custom_effects", tuple(custom.values()))
+        object.__setattr__(self, "parameters", tuple(self.parameters) + tuple(extra))
+
+    def effect(self, name: str):
+        """The :class:`Effect` called ``name`` (the robot's own first, then the catalogue)."""
+        from .effects import EFFECTS
+
+        for e in self.custom_effects:
+            if e.name == name:
+                return e
+        return EFFECTS[name]
     constraints: tuple = ()
 
     def parameter(self, name: str) -> Parameter:

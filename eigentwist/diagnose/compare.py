@@ -96,7 +96,7 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None) -> Compari
     an error naming the line.
     """
     ev = resolve(ev, meas.robot)
-    effects = resolve_model(model, ev.effects)
+    effects = resolve_model(model, ev.robot)
     pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=True, return_modes=True)
     shapes = getattr(meas, "shapes", None)
     mac = None if shapes is None else row_mac(modes, idx, shapes, meas.sensor)

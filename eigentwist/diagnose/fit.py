@@ -221,8 +221,8 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
         comp = Comparison(meas, tuple(effects), *predictor.predict(strict=False), dict(fixed))
         chi2 = comp.chi2
         return FitResult(tuple(effects), (), {}, {}, dict(fixed), comp, chi2, n, 0, aicc(chi2, n, 0))
-    transforms = [Transform.of(ev.parameters[nm]) for nm in names]
-    start = {nm: float((start or {}).get(nm, fixed.get(nm, ev.parameters[nm].default))) for nm in names}
+    transforms = [Transform.of(ev.parameter(nm)) for nm in names]
+    start = {nm: float((start or {}).get(nm, fixed.get(nm, ev.parameter(nm).default))) for nm in names}
     obj = _Objective(predictor, transforms)
     table = _starts(transforms, start, set(names if explore is None else explore))
     best = table[int(np.argmin(obj.chi2_of(table)))]

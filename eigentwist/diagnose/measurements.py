@@ -196,7 +196,7 @@ def _header(cells: list[str], source: str, ev) -> list[str]:
             raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
         if names.index(name) != k:
             raise MeasurementError(source, f"column {name!r} appears twice (columns {names.index(name) + 1} and {k + 1})", 1, name)
-        if name not in allowed:
+        if name not in allowed and not ev.accepts(name):          # eta_a@3: leg 3's own value
             raise MeasurementError(
                 source, f"unknown column (column {k + 1}): not one of {', '.join(REQUIRED + OPTIONAL)} and not a "
                 f"parameter of {ev.robot.name} (parameters: {', '.join(ev.parameters)})", 1, name)
@@ -243,12 +243,12 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4") 
                       for s, f in zip(cols.get("sigma_hz", [None] * n), freq)], dtype=float)
     poses = np.stack([np.array([v if v is not None else x_ref[k] for v in cols.get(a, [None] * n)], dtype=float)
                       for k, a in enumerate("xyz")], axis=1)
-    params = {name: np.array([v if v is not None else ev.parameters[name].default for v in cols[name]], dtype=float)
-              for name in names if name in ev.parameters and name != "k_a"}
+    params = {name: np.array([v if v is not None else ev.parameter(name).default for v in cols[name]], dtype=float)
+              for name in names if ev.accepts(name) and name != "k_a"}
     modal = {name: np.array([np.nan if v is None else v for v in cols[name]], dtype=float)
              for name in MODAL if name in names}
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        np.array(lines), source, ev.robot.name, modal)
+                        np.array(lines), source, ev.spec, modal)
     check_poses(meas, ev)
     return meas
 
@@ -271,7 +271,7 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
         return _number(cell, source, line, name, positive=True)
     if name in ("k_a", "freq_hz", "sigma_hz"):
         return _number(cell, source, line, name, positive=True)
-    p = ev.parameters[name]
+    p = ev.parameter(name)
     value = _number(cell, source, line, name, positive=p.bounds[0] >= 0)
     try:
         p.check(value)

@@ -20,7 +20,7 @@ def format_params(values: dict, std: dict, ev) -> str:
     """``"k_E_rot = 374 ± 38 N m/rad, ..."``."""
     parts = []
     for name, v in values.items():
-        unit = ev.parameters[name].unit if name in ev.parameters else ""
+        unit = ev.parameter(name).unit if ev.accepts(name) else ""
         s = std.get(name, math.nan)
         err = f" ± {s:.2g}" if math.isfinite(s) else " ± (undetermined)"
         parts.append(f"{name} = {v:.4g}{err} {unit}".rstrip())
@@ -130,6 +130,12 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     out.append(f"   final model: {', '.join(f.effects) or '(no effect)'}; RMS {f.rms_pct:.2f} %, max {f.max_pct:.2f} %")
     if f.values:
         out.append(f"   fitted: {format_params(f.values, f.std, ev)}")
+    from .scope import sentence
+
+    for item in f.effects:
+        text = sentence(ev, item, f.values, f.effects)
+        if text:
+            out.append(f"   {text}")
     if f.at_bound:
         out.append(f"   warning: {', '.join(f.at_bound)} ended at the edge of the search range (default/1000 ... "
                    "1000 x default, within physical bounds): the value is not physically meaningful")

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import scope
 from ..description.effects import EFFECTS, resolve_model
 from .compare import Comparison, compare
 from .evaluators import resolve
@@ -49,18 +50,26 @@ class Candidate:
     delta_aicc: float = 0.0
     indistinguishable_from: list = field(default_factory=list)
     signature: str | None = None
+    own: tuple = ()
+    sentence: str | None = None
 
     @property
     def params(self) -> dict:
         """Fitted values of this effect's own parameters (SI)."""
-        return {k: self.fit.values[k] for k in EFFECTS[self.effect].fit if k in self.fit.values}
+        return {k: self.fit.values[k] for k in self.own if k in self.fit.values}
+
+    @property
+    def where(self) -> list[int]:
+        """Leg numbers the effect acts on alone (``[3]`` for ``EFFECT@3``), ``[]`` for all legs."""
+        return scope.where(self.effect)
 
     @property
     def param_std(self) -> dict:
         return {k: self.fit.std[k] for k in self.params}
 
     def to_json(self) -> dict:
-        return {"effect": self.effect, "params": self.params, "param_std": self.param_std,
+        return {"effect": self.effect, "where": self.where, "sentence": self.sentence,
+                "params": self.params, "param_std": self.param_std,
                 "rms_pct": self.fit.rms_pct, "max_pct": self.fit.max_pct, "aicc": self.fit.aicc,
                 "delta_aicc": self.delta_aicc, "p_value": self.p_value,
                 "indistinguishable_from": list(self.indistinguishable_from), "chi2": self.fit.chi2,
@@ -187,24 +196,19 @@ def _clean(obj):
     return obj
 
 
-def _order(effects) -> tuple:
-    names = list(EFFECTS)
-    return tuple(sorted(set(effects), key=names.index))
-
-
-def _parameters(effects) -> set:
-    return {p for e in effects for p in EFFECTS[e].parameters}
-
-
 def candidates_for(ev, effects) -> list[str]:
-    """Catalogue effects the robot has, not in ``effects`` and not an alternative to one of them."""
-    taken = _parameters(effects)
-    return [e for e in ev.effects if e not in effects and not (set(EFFECTS[e].parameters) & taken)]
+    """Effects the robot has, not in ``effects`` and not an alternative to one of them;
+    each leg-level effect also on each leg alone (``EFFECT@N``, :mod:`.scope`)."""
+    return scope.candidates(ev, effects, per_leg=True)
+
+
+def _own(ev, current: FitResult, effect: str) -> tuple:
+    return tuple(p for p in scope.fit_names(ev, effect) if p not in current.names)
 
 
 def _fit_candidate(meas, ev, current: FitResult, effect: str) -> FitResult:
-    effects = _order(current.effects + (effect,))
-    own = tuple(p for p in EFFECTS[effect].fit if p not in current.names)
+    effects = scope.order(ev, current.effects + (effect,))
+    own = _own(ev, current, effect)
     names = current.names + own
     return fit(meas, effects, ev, names, start=current.values, fixed=current.fixed, explore=own)
 
@@ -215,8 +219,9 @@ def rank_candidates(meas, ev, current: FitResult, candidates, progress=None) -> 
     items = progress(candidates, desc="fitting effects", leave=False) if progress else candidates
     for effect in items:
         f = _fit_candidate(meas, ev, current, effect)
-        out.append(Candidate(effect, f, f_test(current.chi2, current.k, f.chi2, f.k, f.n)))
-    order = list(EFFECTS)
+        out.append(Candidate(effect, f, f_test(current.chi2, current.k, f.chi2, f.k, f.n), own=_own(ev, current, effect),
+                             sentence=scope.sentence(ev, effect, f.values, f.effects)))
+    order = list(candidates)
     out.sort(key=lambda c: (c.fit.aicc if math.isfinite(c.fit.aicc) else math.inf, order.index(c.effect)))
     for i in range(len(out) - 1):          # optimiser-noise ties: catalogue order
         for j in range(len(out) - 1 - i):
@@ -237,7 +242,7 @@ def rank_candidates(meas, ev, current: FitResult, candidates, progress=None) -> 
 
 def _signature(meas, ev, current: FitResult, effect: str) -> str | None:
     """Shape (patterns.SHAPES) of what ``effect`` at its default values does to the mode it changes most."""
-    with_effect, _ = Predictor(meas, _order(current.effects + (effect,)), ev, current.fixed).predict(strict=False)
+    with_effect, _ = Predictor(meas, scope.order(ev, current.effects + (effect,)), ev, current.fixed).predict(strict=False)
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.log(with_effect / current.comparison.predicted)
     if not np.all(np.isfinite(rho)):
@@ -276,9 +281,9 @@ def _effect_list(add, ev) -> list[str]:
     items = add.split(",") if isinstance(add, str) else list(add)
     names = [str(x).strip() for x in items if str(x).strip()]
     for name in names:
-        if name not in EFFECTS:
-            raise ValueError(f"add {name!r}: not an effect; expected one of {', '.join(ev.effects)}")
-        resolve_model(name, ev.effects)  # raises if the robot lacks it
+        if name.partition("@")[0] not in ev.effects and name.partition("@")[0] not in EFFECTS:
+            raise ValueError(f"add {name!r}: not an effect; expected one of {', '.join(ev.effects)} (EFFECT@N for one leg)")
+        resolve_model(name, ev.robot)  # raises if the robot lacks it
     return names
 
 
@@ -306,7 +311,7 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     if not hasattr(meas, "freq_hz"):
         meas = load_measurements(meas, robot or "heli4", ev)
     ev = resolve(ev, robot or meas.robot, backend)
-    base_effects = resolve_model(baseline, ev.effects)
+    base_effects = resolve_model(baseline, ev.robot)
     base_cmp = compare(meas, base_effects, ev)                       # strict mode matching
     current = fit(meas, base_effects, ev, ())
     steps = [Step(current)]
@@ -318,7 +323,7 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
         for e in order:
             if e in model:
                 raise ValueError(f"add {e!r}: the effect is already in the model ({', '.join(model)})")
-            shared = set(EFFECTS[e].parameters) & _parameters(model)
+            shared = set(scope.parameter_names(ev, e)) & scope.taken(ev, model)
             if shared:
                 raise ValueError(f"add {e!r}: it describes the same part as an effect already in the model "
                                  f"(shares {', '.join(sorted(shared))}); remove that one from the baseline instead")
@@ -345,7 +350,7 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     first = first or []
     signatures = {c.effect: c.signature for c in first}
     return Diagnosis(
-        robot=ev.robot.name, meas=meas, baseline=base_cmp, ranking=first,
+        robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
         selected=[s.added for s in steps[1:]], steps=steps, final=current,
         explained=explained(current.chi2, current.n, current.k, alpha),
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,

@@ -48,7 +48,7 @@ def parse_truth(spec: str, ev) -> Truth:
         head, _, tail = item.partition(":")
         head = head.strip()
         if head.lower() != "none":
-            if head not in PRESETS and head not in EFFECTS:
+            if head not in PRESETS and head.partition("@")[0] not in set(EFFECTS) | set(ev.effects):
                 raise InputError(f"truth item {item!r}: {head!r} is not a preset or effect "
                                  f"(expected one of {', '.join(list(PRESETS) + list(ev.effects))} or none)")
             names.append(head)
@@ -57,7 +57,7 @@ def parse_truth(spec: str, ev) -> Truth:
             name = name.strip()
             if not sep:
                 raise InputError(f"truth item {item!r}: {assignment!r} is not PARAM=VALUE")
-            if name not in ev.parameters:
+            if not ev.accepts(name):
                 raise InputError(f"truth item {item!r}: unknown parameter {name!r} "
                                  f"(parameters of {ev.robot.name}: {', '.join(ev.parameters)})")
             try:
@@ -65,11 +65,11 @@ def parse_truth(spec: str, ev) -> Truth:
             except ValueError:
                 raise InputError(f"truth item {item!r}: value {text!r} of {name} is not a number") from None
             try:
-                ev.parameters[name].check(values[name])
+                ev.parameter(name).check(values[name])
             except ValueError as exc:
                 raise InputError(f"truth item {item!r}: {exc}") from None
     try:
-        effects = resolve_model(names, ev.effects)
+        effects = resolve_model(names, ev.robot)
     except ValueError as exc:
         raise InputError(f"truth {spec!r}: {exc}") from None
     return Truth(effects, values)

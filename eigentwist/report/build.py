@@ -100,7 +100,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
         else:
             meas = load_measurements(data, robot, ev)
         data_source = str(data)
-    effects = resolve_model(model, ev.effects)
+    effects = resolve_model(model, ev.robot)
     cmp = compare(meas, effects, ev)
     diag = diagnose(meas, baseline=baseline, ev=ev, progress=progress)
     params = [dict(name=p.name, value=p.default, unit=p.unit, effect=p.effect or "", doc=p.doc,

@@ -1,11 +1,15 @@
-"""Robot descriptions shipped with eigentwist. ``get(name)`` returns one."""
+"""Robot descriptions shipped with eigentwist. ``get(name)`` returns one.
+
+The modules ``heli4`` and ``delta`` are public: a description file of the user's own
+starts from one (``heli4.describe()``, ``heli4.EFFECTS``) and adds effects.
+"""
 from __future__ import annotations
 
 from importlib import import_module
 
 from ..description import RobotDescription
 
-__all__ = ["get", "NAMES"]
+__all__ = ["get", "NAMES", "heli4", "delta"]
 
 NAMES = ("heli4", "delta")
 
@@ -15,3 +19,10 @@ def get(name: str) -> RobotDescription:
     if name not in NAMES:
         raise ValueError(f"unknown robot {name!r}: expected one of {', '.join(NAMES)}")
     return import_module(f".{name}", __name__).describe()
+
+
+def __getattr__(name: str):
+    """``from eigentwist.robots import heli4`` without importing every robot up front."""
+    if name in NAMES:
+        return import_module(f".{name}", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

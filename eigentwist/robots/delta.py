@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..description import Leg, Parameter, RobotDescription, sym, triangle_inequality, tube
-from ..description.effects import effect_parameters, switch_name
+from ..description import Leg, Parameter, RobotDescription, triangle_inequality, tube
+from ..description.effects import effect_parameters
 from ..symbolic.screw import spatial_inertia
 
 PARAMETERS = (
@@ -58,9 +58,8 @@ def describe() -> RobotDescription:
         u = (sp.cos(phi), sp.sin(phi), 0)          # outward radial direction
         s = (-sp.sin(phi), sp.cos(phi), 0)         # actuator axis, u x s = e_z
         legs.append(Leg(f"leg {k + 1}", tuple(p["R"] * c for c in u), u, s, tuple(p["r_p"] * c for c in u)))
-    rotor = p["I_rotor"] + sym(switch_name("rotor_inertia")) * p["I_add"]
     upper_arm = spatial_inertia(p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
-                                sp.diag(p["I1_xx"], p["I1_yy"] + rotor, p["I1_zz"]))
+                                sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]))
     platform = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
     return RobotDescription(
         name="delta",
@@ -70,11 +69,12 @@ def describe() -> RobotDescription:
         l1=p["l1"],
         l2=p["l2"],
         lower_link_inertia=upper_arm,
-        rod=dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"], E=p["E_rod"], G=p["G_rod"]),
+        rod=dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"]),
         ee_inertia=platform,
-        lower_link_tube=dict(r_o=p["r_o_l1"], r_i=p["r_i_l1"], E=p["E_l1"], nu=p["nu_l1"]),
         ee_compliance=None,
         x_ref=(0.0, 0.0, -0.75),
+        actuator_stiffness=p["k_a"],
+        rigid_compliance=p["c_rigid"],
         workspace=((-0.2, 0.2), (-0.2, 0.2), (-0.95, -0.60)),
         source="description in eigentwist/robots/delta.py (issue 6); method DOI 10.1016/j.mechmachtheory.2019.103775",
         effects=EFFECTS,

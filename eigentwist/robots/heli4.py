@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..description import (Coupling, EECompliance, Leg, Parameter, RobotDescription, sym, triangle_inequality,
-                           tube)
-from ..description.effects import effect_parameters, switch_name
+from ..description import Coupling, EECompliance, Leg, Parameter, RobotDescription, triangle_inequality, tube
+from ..description.effects import effect_parameters
 from ..symbolic.screw import spatial_inertia
 
 INF = float("inf")
@@ -83,15 +82,13 @@ def describe() -> RobotDescription:
         Coupling("plate_B", (0, 0, d), ((0, 0, 0, 0, 1, 0),), (p["k_E_lin"],),
                  doc="translation along Y (App. D, k_E_lin)"),
     )
-    rotor = p["I_rotor"] + sym(switch_name("rotor_inertia")) * p["I_add"]
     lower_link = spatial_inertia(
         p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
-        sp.diag(p["I1_xx"], p["I1_yy"] + rotor, p["I1_zz"]),
+        sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]),
     )
     ee = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
-    on_ee = sym(switch_name("ee_compliance"))
-    c_rot = sp.diag(0, on_ee / (p["k_E_rot"] / 2), 0, 0, 0, 0)   # Eqs. 45, 46
-    c_lin = sp.diag(0, 0, 0, 0, on_ee / (p["k_E_lin"] / 2), 0)   # Eqs. 47, 48
+    c_rot = sp.diag(0, 1 / (p["k_E_rot"] / 2), 0, 0, 0, 0)   # Eqs. 45, 46
+    c_lin = sp.diag(0, 0, 0, 0, 1 / (p["k_E_lin"] / 2), 0)   # Eqs. 47, 48
     return RobotDescription(
         name="heli4",
         title="Heli4 (4-RR(Pi)RR), Hoevenaars, Krut & Herder 2020",
@@ -100,14 +97,15 @@ def describe() -> RobotDescription:
         l1=p["l1"],
         l2=p["l2"],
         lower_link_inertia=lower_link,
-        rod=dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"], E=p["E_rod"], G=p["G_rod"]),
+        rod=dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"]),
         ee_inertia=ee,
-        lower_link_tube=dict(r_o=p["r_o_l1"], r_i=p["r_i_l1"], E=p["E_l1"], nu=p["nu_l1"]),
         # lower traveling plate centre at EE origin + [0, 0, d] (facts file)
         ee_compliance=EECompliance(origin=(0, 0, d), per_leg={0: c_rot, 1: c_rot, 2: c_lin, 3: c_lin}),
         couplings=couplings,
         tool_body="tool",
         x_ref=(0.0, 0.0, -0.625),
+        actuator_stiffness=p["k_a"],
+        rigid_compliance=p["c_rigid"],
         workspace=((-0.1, 0.1), (-0.1, 0.1), (-0.70, -0.55)),
         source="Hoevenaars, Krut & Herder (2020), DOI 10.1016/j.mechmachtheory.2019.103775",
         effects=EFFECTS,

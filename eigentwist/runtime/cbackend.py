@@ -118,13 +118,14 @@ def compile_and_load(robot: str, source: str | None = None, directory: Path | No
     raise CompileError(f"could not build the C backend of {robot!r} with {cc}:\n" + "\n".join(errors))
 
 
-def load_c_kernels(robot: str, numpy_module=None) -> "CKernels":
+def load_c_kernels(robot: str, numpy_module=None, source: str | None = None) -> "CKernels":
     """The C kernels of ``robot``, with the generated NumPy module's interface.
 
     ``numpy_module`` (optional) is checked for the same outputs, so that a C source that
-    is out of step with the NumPy module is reported instead of silently used.
+    is out of step with the NumPy module is reported instead of silently used. ``source``
+    is the C text (default: the checked-in ``eigentwist/generated/<robot>_c.c``).
     """
-    lib, sig, build = compile_and_load(robot)
+    lib, sig, build = compile_and_load(robot, source)
     kernels = CKernels(lib, sig, build)
     if numpy_module is not None:
         want = {k: {o: tuple(s) for o, s in v.items()} for k, v in getattr(numpy_module, "OUTPUTS", {}).items()}
@@ -243,7 +244,7 @@ class CKernels:
         return self._q_kernel("jacobians", q, p)
 
     def gravity(self, q, p: dict) -> dict:
-        """Gravity-preload terms ``G``, ``Kqe`` and ``k_act`` (see the NumPy module)."""
+        """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""
         return self._q_kernel("gravity", q, p)
 
     # ------------------------------------------------------- fast paths
@@ -341,10 +342,11 @@ class CKernels:
         of largest magnitude is +1 (Eqs. 57, 65). Unreachable or singular poses raise the
         evaluator's errors when ``check``; otherwise they get NaN and ``valid`` False.
         """
-        from ..description.effects import switch_name
+        from ..description.effects import EFFECTS, switch_name
         from .errors import InputError
 
-        if np.any(np.asarray(p.get(switch_name("gravity_preload"), 0.0)) != 0):
+        preloads = [switch_name(n) for n, e in EFFECTS.items() if e.kind == "preload"]
+        if any(np.any(np.asarray(p.get(s, 0.0)) != 0) for s in preloads):
             raise InputError("the fused C path has no gravity preload: switch it off or use Evaluator.frequencies")
         ik_names = [k for k in self.OUTPUTS["inverse_kinematics"] if k != "q"]
         jac_names = ["lever"] if "lever" in self.OUTPUTS["jacobians"] else []

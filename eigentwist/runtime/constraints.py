@@ -26,12 +26,10 @@ class CompiledConstraint:
 
 def compile_constraints(robot) -> list[CompiledConstraint]:
     """The robot's own constraints and those of its effects, compiled."""
-    from ..description.effects import EFFECTS
-
     units = {p.name: p.unit for p in robot.parameters}
     out = [CompiledConstraint(c, None, units) for c in getattr(robot, "constraints", ())]
     for name in robot.effects:
-        out += [CompiledConstraint(c, name, units) for c in getattr(EFFECTS.get(name), "constraints", ())]
+        out += [CompiledConstraint(c, name, units) for c in getattr(robot.effect(name), "constraints", ())]
     return out
 
 

@@ -7,7 +7,8 @@ from types import ModuleType
 import numpy as np
 
 from ..description import RobotDescription
-from ..description.effects import STRUCTURAL, resolve_model, switch_name
+from ..description.effects import (base_name, leg_input_name, leg_switch_name, resolve_model, split_scope,
+                                   switch_name)
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .constraints import check_constraints, compile_constraints
 from .errors import InputError
@@ -65,6 +66,11 @@ class Evaluator:
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
+        #: what :func:`eigentwist.load` was given: a shipped robot's name or a description file's path
+        self.spec = robot.name
+        #: parameter name -> the leg-level effect that owns it (these take ``NAME@N``)
+        self.leg_parameters = {q.name: e for e in robot.effects if robot.effect(e).leg_level
+                               for q in robot.effect(e).params}
         self.constraints = compile_constraints(robot)
 
     def __repr__(self) -> str:
@@ -85,34 +91,98 @@ class Evaluator:
             raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers in m")
         return arr
 
-    def _params(self, n: int, params: dict, model) -> dict:
-        unknown = sorted(set(params) - set(self.parameters))
+    def parameter(self, name: str):
+        """The :class:`Parameter` ``name``; ``NAME@N`` gives leg N's copy (same unit, bounds)."""
+        if name in self.parameters:
+            return self.parameters[name]
+        if not self.accepts(name):
+            self._scoped({name: 0.0})                      # raises the one-line error
+        return self.parameters[name.partition("@")[0]].with_values(name=name)
+
+    def accepts(self, name: str) -> bool:
+        """True when ``name`` is a parameter, or ``NAME@N`` of a leg-level one with N a leg."""
+        if name in self.parameters:
+            return True
+        try:
+            self._scoped({name: 0.0})
+        except InputError:
+            return False
+        return True
+
+    def _scoped(self, params: dict) -> dict:
+        """``{"eta_a@3": v}`` -> ``{("eta_a", 3): v}``; unknown names raise one line."""
+        scoped, unknown = {}, []
+        for key, value in params.items():
+            if key in self.parameters:
+                continue
+            name, at, _ = key.partition("@")
+            if not at or name not in self.parameters:
+                unknown.append(key)
+                continue
+            if name not in self.leg_parameters:
+                raise InputError(f"parameter {key!r}: {name} belongs to no leg-level effect, so it has no per-leg "
+                                 f"value (leg-level parameters: {', '.join(self.leg_parameters) or 'none'})")
+            try:
+                scoped[split_scope(key, self.n_legs, "parameter")] = value
+            except ValueError as exc:
+                raise InputError(str(exc)) from None
         if unknown:
             raise InputError(f"unknown parameter(s) {', '.join(map(repr, unknown))} for {self.robot.name}: "
-                             f"expected names from {', '.join(self.parameters)}")
-        effects = resolve_model(model, self.effects)
+                             f"expected names from {', '.join(self.parameters)} (NAME@N for one leg)")
+        return scoped
+
+    def _array(self, name: str, value, n: int, check: bool) -> np.ndarray:
+        arr = np.asarray(value, dtype=float)
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in (1, n)):
+            raise InputError(f"parameter {name!r} has shape {arr.shape}: expected a scalar or ({n},) for {n} poses")
+        if check:
+            try:
+                self.parameters[name.partition("@")[0]].check(arr)
+            except ValueError as exc:
+                raise InputError(str(exc).replace(f"parameter {name.partition('@')[0]!r}", f"parameter {name!r}")) from None
+        return arr
+
+    def _params(self, n: int, params: dict, model) -> dict:
+        """The generated code's inputs: parameters, effect switches and each leg's copies."""
+        scoped = self._scoped(params)
+        effects = resolve_model(model, self.robot)
+        on = {base_name(e) for e in effects}
         out = {}
         for name, p in self.parameters.items():
-            value = params.get(name, p.default)
-            arr = np.asarray(value, dtype=float)
-            if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in (1, n)):
-                raise InputError(f"parameter {name!r} has shape {arr.shape}: expected a scalar or ({n},) for {n} poses")
-            if name in params or p.effect is None or p.effect in effects:
-                try:
-                    p.check(arr)
-                except ValueError as exc:
-                    raise InputError(str(exc)) from None
-            out[name] = arr
-        check_constraints(self.constraints, out, effects)
+            check = name in params or p.effect is None or p.effect in on
+            out[name] = self._array(name, params.get(name, p.default), n, check)
         for e in self.effects:
-            out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
+            effect = self.robot.effect(e)
+            if not effect.leg_level:
+                out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
+                continue
+            for k in range(1, self.n_legs + 1):
+                out[leg_switch_name(e, k)] = np.asarray(1.0 if e in effects or f"{e}@{k}" in effects else 0.0)
+                for q in effect.params:
+                    own = (q.name, k) in scoped
+                    value = self._array(f"{q.name}@{k}", scoped[(q.name, k)], n, True) if own else out[q.name]
+                    out[leg_input_name(q.name, k)] = value
+        check_constraints(self.constraints, out, on)
+        self._check_leg_constraints(out, effects, scoped)
         return out
 
-    @staticmethod
-    def kind(model) -> str:
+    def _check_leg_constraints(self, out: dict, effects, scoped: dict) -> None:
+        """A leg's own values meet its effect's constraints (``r_i_l1@2 < r_o_l1@2``)."""
+        for c in self.constraints:
+            if c.effect is None or not self.robot.effect(c.effect).leg_level:
+                continue
+            for k in sorted({k for (_, k) in scoped}):
+                if c.effect in effects or f"{c.effect}@{k}" in effects:
+                    values = {n: out.get(leg_input_name(n, k), out.get(n)) for n in c.names}
+                    try:
+                        check_constraints([c], values, {c.effect})
+                    except InputError as exc:
+                        raise InputError(f"leg {k}: {exc}") from None
+
+    def kind(self, model) -> str:
         """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""
-        effects = resolve_model(model)
-        return "flexible" if any(e in STRUCTURAL for e in effects) else "rigid"
+        effects = resolve_model(model, self.robot)
+        return "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid"
 
     # ---------------------------------------------------------------- kernels
     def _chunks(self, n: int):
@@ -223,16 +293,19 @@ class Evaluator:
         flexible models the full 6x6 M and K_F.
         """
         poses_arr = self._poses(poses)
-        effects = resolve_model(model, self.effects)
+        effects = resolve_model(model, self.robot)
         mats = self.matrices(poses_arr, model, **params)
         rigid = self.kind(effects) == "rigid"
         M = mats["M"][:, 3:, 3:] if rigid else mats["M"]
         K = mats["K_R"][:, 3:, 3:] if rigid else mats["K_F"]
-        if "gravity_preload" in effects:
+        if self._preloaded(effects):
             from .gravity import gravity_stiffness
 
             K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid)
         return M, K
+
+    def _preloaded(self, effects) -> bool:
+        return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
@@ -244,9 +317,9 @@ class Evaluator:
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         poses = self._poses(poses)
-        effects = resolve_model(model, self.effects)
+        effects = resolve_model(model, self.robot)
         fused = getattr(self._kernels, "fused_frequencies", None)
-        if fused is not None and "gravity_preload" not in effects:
+        if fused is not None and not self._preloaded(effects):
             return self._fused_modes(fused, poses, effects, params, check=invalid == "raise")
         if invalid == "raise":
             return self._solve(*self.stiffness(poses, effects, **params))

@@ -8,43 +8,28 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["gravity_stiffness", "gravity_wrench"]
-
-
-def gravity_wrench(p: dict, effects) -> np.ndarray:
-    """Wrench [moment; force] (N m; N) of the EE (and payload) weight at the EE origin, (N, 6)."""
-    g = np.asarray(p["g"], dtype=float)
-    m = np.asarray(p["m_e"], dtype=float)
-    force = np.zeros(np.broadcast_shapes(g.shape, m.shape) + (3,))
-    force[..., 2] = -m * g
-    moment = np.zeros_like(force)
-    if "payload_mass" in effects:
-        mp = np.asarray(p["m_p"], dtype=float)
-        fp = np.zeros(np.broadcast_shapes(g.shape, mp.shape) + (3,))
-        fp[..., 2] = -mp * g
-        offset = np.stack(np.broadcast_arrays(p["p_x"], p["p_y"], p["p_z"]), axis=-1)
-        moment = moment + np.cross(offset, fp)
-        force = force + fp
-    return np.concatenate(np.broadcast_arrays(moment, force), axis=-1)
+__all__ = ["gravity_stiffness"]
 
 
 def gravity_stiffness(ev, poses: np.ndarray, effects, params: dict, mats: dict, rigid: bool) -> np.ndarray:
     """Stiffness added by the gravity preload (symmetric part), (N, 6, 6) or (N, 3, 3).
+
+    The static load W (the platform's weight under each preload effect's acceleration)
+    is a generated output, so no effect parameter is named here.
 
     tau_e: each leg's elastic joint torques under the static load W, from the
     displacement delta = K^-1 W and tau_e,i = K_qe,i J_e,i delta (Eq. 40). For the
     rigid model only the actuated joints carry load (3x3 translational subset).
     """
     n = len(poses)
-    p = ev.parameter_values(n, effects, **params)
-    W = np.broadcast_to(gravity_wrench(p, effects), (n, 6))
-    gk = ev.run_kernel("gravity", poses, effects, **params)        # G, Kqe, k_act and J_rows
+    gk = ev.run_kernel("gravity", poses, effects, **params)        # G, Kqe, k_act, W and J_rows
+    W = gk["W"]                                              # (n, 6): the preload's static wrench
     jr = gk["J_rows"]                                        # (n, legs, 4, 6)
     if rigid:
         delta = np.zeros((n, 6))
         delta[:, 3:] = np.linalg.solve(mats["K_R"][:, 3:, 3:], W[:, 3:, None])[..., 0]
         tau = np.zeros(jr.shape[:2] + (2,))
-        tau[..., 0] = gk["k_act"][:, None] * np.einsum("nlj,nj->nl", jr[:, :, 0, :], delta)
+        tau[..., 0] = gk["k_act"] * np.einsum("nlj,nj->nl", jr[:, :, 0, :], delta)
     else:
         delta = np.linalg.solve(mats["K_F"], W[:, :, None])[..., 0]
         je = jr[:, :, [0, 3], :]                                  # (n, legs, 2, 6)

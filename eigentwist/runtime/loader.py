@@ -1,12 +1,22 @@
-"""Load a generated evaluator: ``load("heli4", backend="numpy" | "c" | "auto")``."""
+"""Load a generated evaluator: ``load("heli4", backend="numpy" | "c" | "auto")``.
+
+``robot`` may also be the path of a user's description file (``"my_heli4.py"``, which
+defines ``describe()``) or a :class:`~eigentwist.description.RobotDescription`: its
+evaluators are generated on first use into the cache (:mod:`.userfile`).
+"""
 from __future__ import annotations
 
 import importlib
 import warnings
 
+import sys
+from pathlib import Path
+
+from ..description import RobotDescription
 from ..robots import NAMES, get
 from .errors import InputError
 from .evaluator import Evaluator
+from .userfile import describe_file, description_key, generated_modules, import_numpy_module, is_description_file
 
 __all__ = ["load", "load_module", "evaluator_from_description", "BACKENDS"]
 
@@ -18,19 +28,46 @@ def load_module(robot: str, backend: str = "numpy"):
     return importlib.import_module(f"eigentwist.generated.{robot}_{backend}")
 
 
-def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
-    """An :class:`Evaluator` for ``robot`` (one of ``eigentwist.robots.NAMES``).
+def _stderr(message: str) -> None:
+    print(f"[eigentwist] {message}", file=sys.stderr, flush=True)
+
+
+def load(robot="heli4", backend: str = "auto", progress=_stderr) -> Evaluator:
+    """An :class:`Evaluator` for ``robot``: a name from ``eigentwist.robots.NAMES``, the
+    path of a Python file whose ``describe()`` returns a description, or a
+    :class:`~eigentwist.description.RobotDescription`.
 
     ``backend="numpy"`` uses the generated NumPy module; ``"c"`` the generated C source
     compiled with the system compiler (cached by content hash); ``"auto"`` tries C and
-    falls back to NumPy with one warning when no compiler is available.
+    falls back to NumPy with one warning when no compiler is available. A description
+    that is not shipped is generated on first use into the cache, keyed by its content;
+    ``progress(message)`` reports the steps (default: stderr).
     """
-    if robot not in NAMES:
-        raise InputError(f"unknown robot {robot!r}: expected one of {', '.join(NAMES)}")
     if backend not in BACKENDS:
         raise InputError(f"unknown backend {backend!r}: expected one of {', '.join(BACKENDS)}")
-    description = get(robot)
-    module = load_module(robot, "numpy")
+    if is_description_file(robot) or isinstance(robot, RobotDescription):
+        return _load_user(robot, backend, progress)
+    if robot not in NAMES:
+        raise InputError(f"unknown robot {robot!r}: expected one of {', '.join(NAMES)} or a description file PATH.py")
+    return _with_backend(get(robot), load_module(robot, "numpy"), backend, robot)
+
+
+def _load_user(robot, backend: str, progress) -> Evaluator:
+    if isinstance(robot, RobotDescription):
+        description, extra, spec = robot, b"", robot.name
+    else:
+        description = describe_file(robot)
+        extra, spec = Path(robot).read_bytes(), str(robot)
+    key = description_key(description, extra)
+    directory = generated_modules(description, key, progress)
+    module = import_numpy_module(directory / f"{description.name}_numpy.py")
+    source = (directory / f"{description.name}_c.c").read_text()
+    ev = _with_backend(description, module, backend, description.name, source)
+    ev.spec = spec
+    return ev
+
+
+def _with_backend(description, module, backend: str, robot: str, source: str | None = None) -> Evaluator:
     if backend == "numpy":
         return Evaluator(description, module, "numpy")
     try:
@@ -42,7 +79,7 @@ def load(robot: str = "heli4", backend: str = "auto") -> Evaluator:
             raise InputError("the C backend is not available in this build")
         return Evaluator(description, module, "numpy")
     try:
-        kernels = load_c_kernels(robot, module)
+        kernels = load_c_kernels(robot, module, source)
     except Exception as exc:  # compiler missing or failing: reported, never swallowed silently
         if backend == "c":
             raise

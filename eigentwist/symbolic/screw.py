@@ -14,6 +14,7 @@ from __future__ import annotations
 import sympy as sp
 
 __all__ = [
+    "stiffness_to_frame",
     "cross",
     "skew",
     "unit_twist",
@@ -121,6 +122,15 @@ def inertia_to_frame(inertia_local: sp.Matrix, rotation: sp.Matrix, origin: sp.M
     """
     A = inverse_adjoint(rotation, origin)
     return A.T * inertia_local * A
+
+
+def stiffness_to_frame(stiffness_local: sp.Matrix, rotation: sp.Matrix, origin: sp.Matrix) -> sp.Matrix:
+    """Stiffness (N/m, N m/rad, ...) moved from a local frame to the reference frame.
+
+    A stiffness maps twists to wrenches like an inertia: ``K = Ad^T K_local Ad`` with
+    ``Ad`` the map from a reference twist to the local frame.
+    """
+    return inertia_to_frame(stiffness_local, rotation, origin)
 
 
 def compliance_to_frame(compliance_local: sp.Matrix, rotation: sp.Matrix, origin: sp.Matrix) -> sp.Matrix:

@@ -129,7 +129,7 @@ class SweepSpec:
     @property
     def n_modes(self) -> int:
         """3 for a rigid model (translational subset), 6 for a flexible one."""
-        return 3 if Evaluator.kind(self.model) == "rigid" else 6
+        return 3 if sweep_evaluator(self.robot, self.backend).kind(self.model) == "rigid" else 6
 
     # ------------------------------------------------------------ arithmetic
     def chunk_rows(self, chunk: int) -> range:
@@ -237,7 +237,7 @@ def make_spec(robot: str = "heli4", *, model: str = "paper", backend: str = "num
 
     ev = sweep_evaluator(robot, backend)
     try:
-        resolve_model(model, ev.effects)
+        resolve_model(model, ev.robot)
     except ValueError as exc:
         raise InputError(f"model {model!r}: {exc}") from None
     poses = _pose_set(grid, random, seed, _box(box, ev.robot))
