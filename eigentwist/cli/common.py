@@ -25,7 +25,8 @@ def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "p
     p.add_argument("--pose", nargs=3, type=float, metavar=("X", "Y", "Z"),
                    help="end-effector position in the base frame, m (default: the robot's x_ref)")
     p.add_argument("--k-a", type=float, dest="k_a", metavar="KA",
-                   help="commanded actuator stiffness, N m/rad (default: 2000)")
+                   help="commanded actuator stiffness in the robot's unit: N m/rad (revolute actuator) or N/m "
+                        "(prismatic) (default: the robot's)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override a design parameter in SI units, e.g. --set l2=0.55 (repeatable)")
     if model_default is not None:

@@ -53,6 +53,7 @@ def compute(args) -> dict:
         "model": list(effects),
         "pose": pose.tolist(),
         "k_a": params.get("k_a", ev.defaults["k_a"]),
+        "k_a_unit": ev.parameter("k_a").unit,
         "joint_angles_deg": {leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)},
         "M": mats["M"][0].tolist(),
         "K_R": mats["K_R"][0].tolist(),
@@ -69,7 +70,7 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(out))
         return 0
-    print(f"{out['robot']} at pose {out['pose']} m, k_a = {out['k_a']:g} N m/rad, model: {', '.join(out['model'])}")
+    print(f"{out['robot']} at pose {out['pose']} m, k_a = {out['k_a']:g} {out['k_a_unit']}, model: {', '.join(out['model'])}")
     print("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)
                                              for k, vals in out["joint_angles_deg"].items()))
     axes = ["rx", "ry", "rz", "x", "y", "z"]

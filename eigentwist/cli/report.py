@@ -12,7 +12,7 @@ EPILOG = """examples:
   eigentwist report my_data.csv -o out.html --model paper --baseline rigid
   eigentwist report delta_data.csv --robot delta
 
-DATA.csv: one measured natural frequency per row, columns k_a (N m/rad), mode (1..6 or
+DATA.csv: one measured natural frequency per row, columns k_a (N m/rad, or N/m for a prismatic actuator), mode (1..6 or
 x, y, z, rx, ry, rz), freq_hz (Hz), optional x, y, z (m), sigma_hz (Hz) and parameter columns.
 """
 
