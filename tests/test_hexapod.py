@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.linalg import eigh
 
-from eigentwist.runtime.chain import compile_chain
+from eigentwist.runtime.chain import ChainEvaluator
 from eigentwist.description.effects import leg_input_name, leg_switch_name, switch_name
 from eigentwist.robots import hexapod
 from eigentwist.runtime.poses import exp_twist, rotation_matrix
@@ -27,13 +27,13 @@ def robot():
 
 
 @pytest.fixture(scope="module")
-def model(robot):
-    return derive_chain(robot)
+def ev(robot):
+    return ChainEvaluator(robot)
 
 
 @pytest.fixture(scope="module")
-def evaluate(model):
-    return compile_chain(model)
+def evaluate(ev):
+    return ev.evaluate
 
 
 def values(robot, on=(), **overrides) -> dict:
@@ -188,3 +188,12 @@ def test_units_follow_the_joint_kind(robot):
     assert robot.actuator_unit == "N/m"
     assert robot.parameter("k_a").unit == "N/m"
     assert robot.parameter("k_s").unit == "N/m"
+
+
+def test_evaluator_frequencies_and_inputs(robot, ev, evaluate):
+    on = ("actuator_loss", "payload_mass")
+    assert ev.values(on, k_a=1.0e7) == values(robot, on, k_a=1.0e7)
+    np.testing.assert_allclose(ev.frequencies([HOME, TILTED], on, k_a=1.0e7)[1],
+                               _frequencies(evaluate(TILTED, values(robot, on, k_a=1.0e7))), rtol=1e-10)
+    with pytest.raises(ValueError, match="k_b"):
+        ev.values(k_b=1.0)
