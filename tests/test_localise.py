@@ -81,3 +81,16 @@ def test_per_leg_candidates_count_in_the_correction(ev):
                                                   and "@" in c for c in cands)
     # the 5 effects the model lacks, and the 5 leg-level effects on each of 4 legs alone: five times as many
     assert len(cands) == 5 + 5 * 4
+
+
+@pytest.mark.compiled
+def test_add_takes_one_leg(ev):
+    meas = _data(ev, "paper+lower_link_compliance@4:E_l1@4=5e9", 0)
+    d = diagnose(meas, "paper", ev=ev, add=["lower_link_compliance@4"])
+    assert d.selected == ["lower_link_compliance@4"] and d.steps[-1].added == "lower_link_compliance@4"
+    assert abs(d.final.values["E_l1@4"] - 5e9) < 3 * d.final.std["E_l1@4"]
+    assert "leg 4's lower link: E_l1 = " in d.text()
+    for bad, message in (("ee_compliance@2", "not on one leg"), ("actuator_loss@5", "N in 1..4"),
+                         ("actuator_loss@3", "already in the model")):
+        with pytest.raises(ValueError, match=message):
+            diagnose(meas, "paper,actuator_loss@3", ev=ev, add=[bad])
