@@ -19,8 +19,10 @@ from .parameters import Parameter
 
 __all__ = ["JOINT_FREEDOMS", "ChainJoint", "ChainBody", "ChainLeg", "ChainRobot"]
 
-#: number of unit twists each joint kind contributes
-JOINT_FREEDOMS = {"R": 1, "P": 1, "Pi": 1, "U": 2, "S": 3}
+#: number of unit twists each joint kind contributes; ``"virtual"`` is the twist of
+#: restriction of a leg with fewer than six freedoms (one per constraint wrench, Huang's
+#: method): a rotation about its axis through its location, not a freedom of the leg
+JOINT_FREEDOMS = {"R": 1, "P": 1, "Pi": 1, "U": 2, "S": 3, "virtual": 1}
 
 
 @dataclass(frozen=True)
@@ -92,7 +94,8 @@ class ChainLeg:
 
     @property
     def freedoms(self) -> int:
-        return sum(j.freedoms for j in self.joints)
+        """The leg's degrees of freedom (virtual joints excluded)."""
+        return sum(j.freedoms for j in self.joints if j.kind != "virtual")
 
     @property
     def actuated(self) -> ChainJoint:

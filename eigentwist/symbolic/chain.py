@@ -6,7 +6,9 @@ base axes (U two, S three). Huang's method (paper Eqs. 15-20) gives the row of j
 of the leg's inverse Jacobian as ``w_k^T / (w_k . t_k)``, where the wrench ``w_k`` is
 reciprocal to every other unit twist of the leg: for six unit twists it is their
 generalised cross product (the signed 5x5 minors), built here from named intermediates
-without a branch on the chain. A leg with six freedoms has no constraint wrench.
+without a branch on the chain. A leg with six freedoms has no constraint wrench; a leg
+with fewer lists a ``"virtual"`` joint per constraint, the twist of restriction, whose
+row is the constraint wrench normalised the same way.
 
 ``derive_chain(robot)`` returns the programs and outputs for a
 :class:`~eigentwist.description.chain.ChainRobot`: M (Eq. 12) from every body of every
@@ -106,8 +108,8 @@ def chain_screws(prog: Program, leg: ChainLeg, geometry: dict, origin: sp.Matrix
             twists.append(prog.let_matrix(f"t{len(twists) + 1}_{tag}", t))
             joint_of.append(j)
     if len(twists) != 6:
-        raise ValueError(f"{leg.name}: {len(twists)} freedoms; the chain derivation handles legs with six "
-                         f"freedoms (no constraint wrench) so far")
+        raise ValueError(f"{leg.name}: {len(twists)} unit twists: a leg with fewer than six freedoms lists one "
+                         f"'virtual' joint (its twist of restriction) per constraint, six twists in all")
     T = sp.Matrix.hstack(*twists).T
     memo: dict = {}
     wrenches, rows, levers = [], [], []
