@@ -13,14 +13,20 @@ What it does:
   2. fits every catalogue effect the baseline lacks (bounded weighted least squares on the
      frequencies), with standard errors, RMS/max error, AICc and an F-test p-value; ranks them;
   3. says which effects these data cannot tell apart and where to measure next to separate them;
-  4. adds the best significant effect and repeats (forward selection), then says whether the final
-     model explains the data within the uncertainties (chi-square test) or an effect outside the
-     catalogue is missing.
+  4. adds the best significant, physically plausible effect and repeats (forward selection), naming
+     at each step the effects the data cannot tell from the one added, then says whether the final
+     model explains the data within the uncertainties (chi-square test) and, if not, why: too few
+     rows, the stated uncertainty (Birge ratio), isolated outlying rows (set aside, by CSV line), or
+     an effect outside the catalogue. A fit outside a parameter's plausible range is reported
+     implausible with the value it would need and never selected.
 --add EFFECT replaces step 4 by your own choice (fitted in the order given).
 
 JSON keys: baseline {effects, rms_pct, max_pct, ...}, ranking [{effect, params, param_std, rms_pct,
-max_pct, aicc, p_value, indistinguishable_from, ...}], selected, steps [{effects, rms_pct, max_pct, ...}],
-final {effects, rms_pct, max_pct, explained, ...}, next_measurement, criteria. Units: SI (params), %.
+max_pct, aicc, p_value, indistinguishable_from, plausible, plausible_range, ...}], selected,
+steps [{effects, rms_pct, max_pct, alternatives, ...}], final {effects, rms_pct, max_pct, explained,
+alternatives, message, ...}, outliers [{line, k_a, mode, freq_hz, residual_sigma}], uncertainty
+{verdict: consistent|understated|overstated|too few rows, birge_ratio}, next_measurement, criteria.
+Units: SI (params), %.
 
 examples:
   eigentwist diagnose paper                       # the paper's measurements from the rigid model
@@ -38,7 +44,7 @@ def add_parser(sub):
     p.add_argument("--add", action="append", metavar="EFFECT",
                    help="add this effect by hand (fitted) instead of the automatic selection; repeatable or comma-separated")
     p.add_argument("--alpha", type=float, default=None,
-                   help="significance level of the F test and of the goodness of fit (default: 0.01)")
+                   help="significance level of the F test, the goodness of fit and the outlier test (default: 0.01)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="FILE.png", help="write the baseline/final model plot and the error step by step")
     p.add_argument("--rows", action="store_true", help="also print the per-row tables of the baseline and final model")

@@ -50,7 +50,9 @@ class Effect:
     params : the :class:`Parameter` objects this effect brings, declared once here with
         unit, default, plausible range, doc and paper equation; a robot passes only the
         values that differ (:func:`effect_parameters`).
-    fit : the subset that ``diagnose`` fits to measurements.
+    fit : the subset that ``diagnose`` always fits to measurements (more join when the data
+        identify them, :mod:`eigentwist.diagnose.identifiable`); empty for an effect that is
+        switched on or off with known parameter values (``gravity_preload``: g is known).
     structural : True when it adds compliance in the legs' constrained directions, so
         that the model needs the full-rank flexible stiffness K_F (Eq. 13) instead of
         the 3x3 rigid-body K_R (Eq. 14).
@@ -251,7 +253,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "the tau_e term of Eq. 13 from the static gravity load g on the end-effector and payload",
            (_p("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload; a known constant "
                "(plausible 9.78-9.84 m/s^2 on Earth)", "gravity_preload", (9.78, 9.84), (0.0, 100.0), "Eq. 13"),),
-           ("g",), kind="preload", equation="Eq. 13", build=_gravity),
+           (), kind="preload", equation="Eq. 13", build=_gravity),   # switched, not fitted: g is known (issue 10)
 )}
 
 

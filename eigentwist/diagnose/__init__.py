@@ -10,8 +10,10 @@ Modules, one job each: :mod:`.measurements` (CSV loading/validation, the paper's
 :mod:`.matching` (which model mode a label names), :mod:`.predict` (batched
 predictions), :mod:`.compare` (errors, where a model fails), :mod:`.patterns` (what the
 residual shape suggests), :mod:`.fit` (weighted least squares), :mod:`.stats` (the
-criteria), :mod:`.select` (ranking, forward selection), :mod:`.separate` (the next
-measurement), :mod:`.synth` (synthetic data), :mod:`.report` (text), :mod:`.plots`.
+criteria), :mod:`.identifiable` (which parameters the data can fit), :mod:`.select` (ranking,
+forward selection, ties), :mod:`.misfit` (too few rows, the stated uncertainty, outliers),
+:mod:`.separate` (the next measurement), :mod:`.synth` (synthetic data), :mod:`.report`
+(text), :mod:`.render_json` (JSON), :mod:`.plots`.
 """
 from .compare import Comparison, compare
 from .fit import FitResult, fit

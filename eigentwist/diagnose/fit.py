@@ -172,9 +172,12 @@ class _Objective:
         return np.sum(r * r, axis=1)
 
 
-def _starts(transforms, start: dict, explore) -> np.ndarray:
+def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
     grids = []
     for t in transforms:
+        if given and t.name in given:
+            grids.append([float(np.clip(v, t.lo, t.hi)) for v in given[t.name]])
+            continue
         v0 = start[t.name]
         factors = START_FACTORS if t.name in explore and t.log else (1.0,)
         grids.append([float(np.clip(v0 * f, t.lo, t.hi)) for f in factors])
@@ -196,7 +199,7 @@ def _covariance(jac: np.ndarray, chi2: float, dof: int) -> np.ndarray:
 
 
 def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None = None,
-        explore=None) -> FitResult:
+        explore=None, starts: dict | None = None, max_nfev: int = 200) -> FitResult:
     """Fit parameters ``names`` of the model ``effects`` to the measurements.
 
     Parameters
@@ -208,6 +211,9 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     start : start values (default: ``fixed`` values, else the parameter defaults).
     fixed : other parameter values (SI) held fixed (e.g. from an earlier step).
     explore : names whose start is screened over a grid (default: all).
+    starts : name -> start values screened for it instead (e.g. both signs of an offset,
+        where the Jacobian at 0 is singular).
+    max_nfev : most batched evaluations of the least-squares solver.
 
     Returns
     -------
@@ -224,14 +230,14 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     transforms = [Transform.of(ev.parameter(nm)) for nm in names]
     start = {nm: float((start or {}).get(nm, fixed.get(nm, ev.parameter(nm).default))) for nm in names}
     obj = _Objective(predictor, transforms)
-    table = _starts(transforms, start, set(names if explore is None else explore))
+    table = _starts(transforms, start, set(names if explore is None else explore), starts)
     best = table[int(np.argmin(obj.chi2_of(table)))]
     theta0 = np.array([t.theta(v) for t, v in zip(transforms, best)])
     lo = np.array([t.bounds[0] for t in transforms])
     hi = np.array([t.bounds[1] for t in transforms])
     theta0 = np.clip(theta0, lo + 1e-12, hi - 1e-12)
     res = least_squares(obj.residuals, theta0, jac=obj.jacobian, bounds=(lo, hi), method="trf",
-                        x_scale=1.0, xtol=1e-8, ftol=1e-9, gtol=1e-9, max_nfev=200)
+                        x_scale=1.0, xtol=1e-8, ftol=1e-9, gtol=1e-9, max_nfev=max_nfev)
     theta = res.x
     values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}
     all_values = {**fixed, **values}

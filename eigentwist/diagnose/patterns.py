@@ -20,7 +20,9 @@ import numpy as np
 
 from .stats import ALPHA, f_test
 
-__all__ = ["classify", "hints", "SHAPES"]
+__all__ = ["classify", "hints", "systematic", "log_ratio", "pose_spread", "SHAPES", "POSE_SPREAD"]
+
+POSE_SPREAD = 3.0     # per-pose mean errors this many standard errors apart: the error depends on the pose
 
 SHAPES = {
     "constant": "a constant ratio across k_a: a missing or wrong inertia (mass, rotor inertia) or a stiffness factor",
@@ -58,8 +60,10 @@ def classify(k_a, rho, weight) -> dict:
     return out
 
 
-def hints(comparison, signatures: dict | None = None) -> list[str]:
+def hints(comparison, signatures: dict | None = None, scale: float = 1.0) -> list[str]:
     """Sentences on the residual pattern of ``comparison`` (per mode and over poses).
+
+    ``scale`` divides the pose spread (the Birge ratio, when the scatter exceeds sigma).
 
     ``signatures`` (effect -> shape) name the catalogue effects whose own effect on
     the frequencies has the shape found.
@@ -67,10 +71,7 @@ def hints(comparison, signatures: dict | None = None) -> list[str]:
     meas = comparison.meas
     unit = meas.k_a_unit
     labels = np.asarray(meas.mode)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rho = np.log(meas.freq_hz / comparison.predicted)
-    w = np.where(np.isfinite(rho), (meas.freq_hz / meas.sigma_hz) ** 2, 0.0)   # a zero prediction carries no shape
-    rho = np.where(np.isfinite(rho), rho, 0.0)
+    rho, w = log_ratio(comparison)
     out = []
     for label in dict.fromkeys(meas.mode):
         rows = labels == label
@@ -100,17 +101,46 @@ def hints(comparison, signatures: dict | None = None) -> list[str]:
             if like:
                 text += f"; catalogue effects with this signature: {', '.join(like)}"
         out.append(text)
+    spread, worst = pose_spread(meas, rho, w)
+    if spread / scale > POSE_SPREAD:
+        out.append(f"the mean error differs between poses ({spread / scale:.0f} sigma; largest at "
+                   f"{np.round(worst, 4).tolist()} m): the missing effect depends on the pose")
+    return out
+
+
+def log_ratio(comparison):
+    """(rho, weight): ln(f_meas/f_pred) per row and its weight (f/sigma)^2 (0 where undefined)."""
+    meas = comparison.meas
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = np.log(meas.freq_hz / comparison.predicted)
+    w = np.where(np.isfinite(rho), (meas.freq_hz / meas.sigma_hz) ** 2, 0.0)   # a zero prediction carries no shape
+    return np.where(np.isfinite(rho), rho, 0.0), w
+
+
+def pose_spread(meas, rho, w):
+    """(largest difference of the per-pose mean error in its standard errors, pose where |mean| is largest)."""
     poses = np.unique(np.round(meas.poses, 6), axis=0)
-    if len(poses) > 1:
-        means, errs = [], []
-        for p in poses:
-            rows = np.all(np.isclose(meas.poses, p, atol=1e-6), axis=1)
-            means.append(np.sum(w[rows] * rho[rows]) / np.sum(w[rows]))
-            errs.append(1.0 / np.sqrt(np.sum(w[rows])))
-        means, errs = np.array(means), np.array(errs)
-        spread = (means.max() - means.min()) / np.hypot(errs[np.argmax(means)], errs[np.argmin(means)])
-        if spread > 3:
-            worst = poses[np.argmax(np.abs(means))]
-            out.append(f"the mean error differs between poses ({spread:.0f} sigma; largest at "
-                       f"{np.round(worst, 4).tolist()} m): the missing effect depends on the pose")
+    if len(poses) < 2:
+        return 0.0, None
+    means, errs = [], []
+    for p in poses:
+        rows = np.all(np.isclose(meas.poses, p, atol=1e-6), axis=1)
+        means.append(np.sum(w[rows] * rho[rows]) / np.sum(w[rows]))
+        errs.append(1.0 / np.sqrt(np.sum(w[rows])))
+    means, errs = np.array(means), np.array(errs)
+    spread = (means.max() - means.min()) / np.hypot(errs[np.argmax(means)], errs[np.argmin(means)])
+    return float(spread), poses[np.argmax(np.abs(means))]
+
+
+def systematic(comparison, scale: float = 1.0) -> list[str]:
+    """What is systematic in the residuals: modes with a shape over k_a, ``"pose"`` when the
+    mean error differs between poses by more than ``POSE_SPREAD`` standard errors (these
+    scaled by ``scale``, the Birge ratio, so that understated sigma alone does not count)."""
+    meas = comparison.meas
+    labels = np.asarray(meas.mode)
+    rho, w = log_ratio(comparison)
+    out = [lb for lb in dict.fromkeys(meas.mode)
+           if classify(meas.k_a[labels == lb], rho[labels == lb], w[labels == lb])["shape"] is not None]
+    if pose_spread(meas, rho, w)[0] / scale > POSE_SPREAD:
+        out.append("pose")
     return out

@@ -1,4 +1,8 @@
-"""Plain-text reports of a comparison and of a diagnosis (what the CLI prints)."""
+"""Plain-text reports of a comparison and of a diagnosis (what the CLI prints).
+
+:func:`verdict_text` is the diagnosis's verdict in sentences, the same in the text, the
+JSON (``final.message``) and the HTML report.
+"""
 from __future__ import annotations
 
 import math
@@ -7,9 +11,9 @@ import numpy as np
 
 from ..text import format_table
 from .compare import FAIL_SIGMA
-from .stats import CRITERIA
+from .stats import CRITERIA, gof_p_value
 
-__all__ = ["comparison_table", "comparison_summary", "failing_text", "diagnosis_text", "format_params"]
+__all__ = ["comparison_table", "comparison_summary", "failing_text", "diagnosis_text", "format_params", "verdict_text"]
 
 
 def _pose(p) -> str:
@@ -67,7 +71,9 @@ def _ranking_table(ranking, ev) -> str:
     rows = []
     for k, c in enumerate(ranking):
         note = []
-        if c.fit.at_bound:
+        if not c.plausible:
+            note.append("IMPLAUSIBLE: " + _needs(c, ev))
+        elif c.fit.at_bound:
             note.append(f"at search bound: {', '.join(c.fit.at_bound)}")
         if c.indistinguishable_from:
             note.append(f"~ {', '.join(c.indistinguishable_from)}")
@@ -84,8 +90,162 @@ def _steps_table(steps, ev) -> str:
     for k, s in enumerate(steps):
         rows.append([k, "+" + s.added if s.added else "baseline", ", ".join(s.fit.effects) or "(none)",
                      f"{s.fit.rms_pct:.2f}", f"{s.fit.max_pct:.2f}", f"{s.fit.chi2:.1f}",
-                     "-" if s.p_value is None or not math.isfinite(s.p_value) else f"{s.p_value:.2g}"])
-    return format_table(["step", "change", "effects", "RMS [%]", "max [%]", "chi2", "p-value"], rows)
+                     "-" if s.p_value is None or not math.isfinite(s.p_value) else f"{s.p_value:.2g}",
+                     ", ".join(s.alternatives) or "-"])
+    return format_table(["step", "change", "effects", "RMS [%]", "max [%]", "chi2", "p-value",
+                         "equally good instead"], rows)
+
+
+def _needs(c, ev) -> str:
+    """``"E_l1 = 3.3e+12 Pa (plausible 4e+10 ... 2.5e+11 Pa)"`` for each implausible value of a candidate."""
+    parts = []
+    for name, value in c.implausible.items():
+        unit = ev.parameter(name).unit if ev.accepts(name) else ""
+        lo, hi = c.plausible_range.get(name, (math.nan, math.nan))
+        bound = " (at the search bound)" if name in c.fit.at_bound else ""
+        parts.append(f"needs {name} = {value:.3g} {unit}{bound}, plausible {lo:.3g} ... {hi:.3g} {unit}")
+    return "; ".join(parts)
+
+
+def _head(d) -> str:
+    f = d.final
+    if f.dof <= 0:
+        return (f"cannot judge whether the final model explains the data: it has {f.k} fitted parameters for "
+                f"{f.n} measurements (measure more)")
+    p = gof_p_value(f.chi2, f.n, f.k)
+    stat = f"chi2 = {f.chi2:.1f} for {f.dof} degrees of freedom (reduced {f.reduced_chi2:.2f}, p = {p:.3g})"
+    if d.explained:
+        return f"the final model explains the data within the measurement uncertainty: {stat}"
+    return f"the final model does NOT explain the data within the measurement uncertainty: {stat} <= alpha = {d.alpha:g}"
+
+
+def _why(d) -> str:
+    """Why the final model misfits, in the order of issue 10: rows, uncertainty, effects."""
+    u = d.uncertainty
+    last = d.steps[-1].ranking
+    if d.manual:
+        return ("The effects added by hand are not enough; run without --add to let the catalogue be searched, or "
+                "an effect outside the catalogue is missing (or the stated uncertainties are too small)")
+    if u is not None and u.verdict == "too few rows":
+        return "Too few rows to tell a missing effect from the stated uncertainty: measure more (below)"
+    if any(a.replaced is None for a in d.alternatives):
+        return ("Catalogue effects would explain it, but these rows cannot show it significantly (below), or the stated "
+                "uncertainties are too small")
+    if u is not None and u.verdict == "understated":
+        return (f"The residuals are {u.birge_ratio:.2g} times the stated uncertainty, without a systematic pattern, and "
+                "no catalogue effect is significant: the stated uncertainties are too small (understated), rather than "
+                "an effect missing")
+    if not last:
+        why = "Every catalogue effect this robot has is already in the model: an effect outside the catalogue is missing"
+    else:
+        why = "No catalogue effect improves it significantly any more: an effect outside the catalogue is missing"
+    if u is not None and u.pattern:
+        why += f" (the residuals are systematic: {'; '.join(u.pattern)})"
+    return why + ", or the stated uncertainties are too small"
+
+
+def _too_few(d) -> str:
+    n = len(d.meas)
+    need = max(d.untestable.values()) if d.untestable else d.final.k + 3
+    names = ", ".join(sorted(d.untestable)) or "the final model's goodness of fit"
+    out = (f"Too few rows: with {n} rows, {names} cannot be tested (up to {need} rows needed; AICc is infinite "
+           f"when n <= k + 2). Measure more: at least {need - n} more rows, e.g. more k_a values, another pose or "
+           "the other mode directions")
+    if d.next_measurement:
+        out += f"; the most informative: {d.next_measurement['message']}"
+    return out
+
+
+def _uncertainty_sentence(d) -> str | None:
+    u = d.uncertainty
+    if u is None or u.verdict in ("too few rows",):
+        return None
+    if u.verdict == "overstated":
+        return (f"The stated uncertainties look overstated: the final model fits {1 / max(u.birge_ratio, 1e-12):.2g} "
+                f"times better than they allow (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.2g}, P(chi2 <= "
+                f"{u.chi2:.3g}) = {u.p_low:.2g}); with honest uncertainties smaller effects may become visible")
+    if u.verdict == "understated":
+        return f"The stated uncertainties look understated by a factor of about {u.birge_ratio:.2g} (Birge ratio)"
+    return None                 # possibly understated: said in the reason for the misfit
+
+
+def _outlier_sentence(d, ev) -> str | None:
+    if not d.outliers:
+        return None
+    rows = "; ".join(f"line {o.line} (mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "
+                     f"{o.residual_sigma:+.1f} sigma)" for o in d.outliers)
+    a = d.all_rows
+    with_all = (f"with every row the selection is {', '.join(a.selected) or 'nothing'}"
+                + (f" ({format_params(a.final.values, a.final.std, ev)})" if a and a.final.values else ""))
+    return (f"Isolated outlier(s) set aside: {rows}; the selection and fitted values above are without them "
+            f"({with_all})")
+
+
+def _alternatives_sentence(d) -> str | None:
+    parts = []
+    unproven = [a.by for a in d.alternatives if a.replaced is None]
+    if unproven:
+        text = (f"{' or '.join(unproven)} would explain the data, but not significantly with {len(d.meas)} rows"
+                + (": these data cannot tell them apart" if len(unproven) > 1 else "") + "; measure more")
+        nm = next((a.next_measurement for a in d.alternatives if a.replaced is None and a.next_measurement), None)
+        if nm:
+            text += f" ({nm['message']})"
+        parts.append(text)
+    for a in d.alternatives:
+        if a.replaced is None:
+            continue
+        text = f"{a.replaced} or {a.by}: these data cannot tell them apart"
+        nm = a.next_measurement
+        if nm:
+            pose = ", ".join(f"{v:g}" for v in np.round(nm["pose"], 4))
+            text += (f"; measure mode {nm['mode']} at [{pose}] m with k_a = {nm['k_a']:.4g} {nm.get('k_a_unit', 'N m/rad')}, where they "
+                     f"differ by {nm['separation_sigma']:.1f} sigma")
+        parts.append(text)
+    if not parts and d.ranking and (d.uncertainty is not None and d.uncertainty.verdict == "too few rows"):
+        top = d.ranking[0]
+        ties = [e for e in top.indistinguishable_from if e in {c.effect for c in d.ranking if c.plausible}]
+        if ties:
+            parts.append(f"{' or '.join([top.effect] + ties)}: these data cannot tell them apart")
+    return ". ".join(parts) if parts else None
+
+
+def _implausible_sentence(d, ev) -> str | None:
+    from .select import significant
+
+    last = d.steps[-1].ranking
+    bad = [c for c in last if not c.plausible and significant(c, d.final, len(last), d.alpha, plausible_only=False)]
+    if not bad:
+        return None
+    return "Only implausible fits would explain more: " + "; ".join(f"{c.effect} {_needs(c, ev)}" for c in bad)
+
+
+def component_sentences(d, ev) -> list[str]:
+    """What each per-leg effect of the final model says about its leg's component
+    ("leg 3's actuator delivers 0.45 of its commanded stiffness (the other legs 0.82)")."""
+    from .scope import sentence
+
+    f = d.final
+    return [t for t in (sentence(ev, item, f.values, f.effects) for item in f.effects) if t]
+
+
+def verdict_text(d, ev=None) -> str:
+    """The verdict in sentences: explained or not and why, too few rows, the uncertainty,
+    outliers, alternative final models, implausible fits (issue 10's order)."""
+    if ev is None:
+        from .evaluators import evaluator
+
+        ev = evaluator(d.robot)
+    head = _head(d)
+    if not d.explained and d.final.dof > 0:
+        head += ". " + _why(d)
+    parts = [head] + component_sentences(d, ev)
+    if d.uncertainty is not None and d.uncertainty.verdict == "too few rows":
+        parts.append(_too_few(d))
+    for sentence in (_uncertainty_sentence(d), _outlier_sentence(d, ev), _alternatives_sentence(d),
+                     _implausible_sentence(d, ev)):
+        if sentence:
+            parts.append(sentence)
+    return ". ".join(parts)
 
 
 def diagnosis_text(d, ev, show_rows: bool = False) -> str:
@@ -131,16 +291,18 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     out.append(f"   final model: {', '.join(f.effects) or '(no effect)'}; RMS {f.rms_pct:.2f} %, max {f.max_pct:.2f} %")
     if f.values:
         out.append(f"   fitted: {format_params(f.values, f.std, ev)}")
-    from .scope import sentence
-
-    for item in f.effects:
-        text = sentence(ev, item, f.values, f.effects)
-        if text:
-            out.append(f"   {text}")
+    out += [f"   {text}" for text in component_sentences(d, ev)]
     if f.at_bound:
         out.append(f"   warning: {', '.join(f.at_bound)} ended at the edge of the search range (default/1000 ... "
                    "1000 x default, within physical bounds): the value is not physically meaningful")
-    out.append(f"   {d.message}")
+    out.append(f"   {verdict_text(d, ev)}")
+    u = d.uncertainty
+    if u is not None:
+        out.append(f"   stated uncertainty: {u.verdict} (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.3g})")
+    if d.outliers:
+        out.append("   outliers set aside (CSV line, header = 1):")
+        out += [f"     line {o.line}: mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "
+                f"{o.residual_sigma:+.1f} sigma" for o in d.outliers]
     if not d.explained:
         out.append("   where the final model still fails:")
         out += ["     " + t for t in failing_text(f.comparison)]

@@ -6,14 +6,22 @@ already has it on all legs: ``actuator_loss@3`` fits ``eta_a@3``, leg 3's own va
 """
 from __future__ import annotations
 
-from ..description.effects import base_name, resolve_model, scoped_name, split_scope
+from ..description.effects import EFFECTS, base_name, resolve_model, scoped_name, split_scope
 
-__all__ = ["order", "fit_names", "parameter_names", "taken", "candidates", "where", "sentence"]
+__all__ = ["order", "rank", "fit_names", "parameter_names", "taken", "candidates", "where", "sentence"]
 
 
 def order(ev, effects) -> tuple:
     """``effects`` in the robot's order (each ``EFFECT@N`` after its effect)."""
     return resolve_model(tuple(effects), ev.robot)
+
+
+def rank(item: str) -> tuple:
+    """Tie-break order of ``item``: the catalogue's order (a robot's own effects after it),
+    all legs before leg 1, 2, ..."""
+    name, leg = split_scope(item)
+    names = list(EFFECTS)
+    return (names.index(name) if name in names else len(names), name, leg or 0)
 
 
 def _scoped(names, item: str) -> tuple:

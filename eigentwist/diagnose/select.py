@@ -1,17 +1,31 @@
-"""Which catalogue effect is missing: rank candidates, select forward, say if explained.
+"""Which catalogue effect is missing: rank candidates, select forward, name every tie.
 
-``diagnose(meas, baseline)``:
+``diagnose(meas, baseline)`` returns plain data (:class:`Diagnosis`); the text
+(:mod:`.report`), the JSON (:mod:`.render_json`) and the HTML report render it.
 
-1. compares the baseline (its parameters at their defaults) and describes where and how
-   it fails (:mod:`~eigentwist.diagnose.patterns`);
-2. fits every catalogue effect the robot has and the model lacks (its ``Effect.fit``
-   parameters, jointly with those of effects selected before), ranks them by AICc and
-   gives each an F-test p-value against the current model (:mod:`~.stats`);
-3. marks candidates indistinguishable from the best and proposes the measurement that
-   separates the best two (:mod:`~.separate`);
-4. adds the best effect while it is significant (Bonferroni over the candidates of the
-   step) and repeats; the final model is *explained* when its chi2 is consistent with
-   the stated uncertainties, otherwise an effect outside the catalogue is missing.
+1. **Too few rows** is decided before any ranking: a candidate with k parameters needs
+   n > k + 2 rows (AICc is infinite otherwise); the ones that cannot be tested are named
+   with the rows they need (:mod:`.misfit`).
+2. The baseline (its parameters at their defaults) is compared and its residual pattern
+   described (:mod:`.patterns`).
+3. Every catalogue effect the robot has and the model lacks (:func:`candidates_for`) is
+   fitted on top of the current model: its ``Effect.fit`` parameters, plus those the data
+   identify (:mod:`.identifiable`, e.g. the payload offsets when rotational modes are
+   measured), jointly with those selected before. Each gets an AICc, a p-value (F test; a
+   switched effect without fitted parameters: the chi2_1 test of :func:`~.stats.switch_test`)
+   and a plausibility verdict: a fitted value outside its parameter's ``plausible`` range
+   by more than 3 standard errors, or at a search bound, makes the candidate
+   *implausible*; it is reported with the value it would need and never selected.
+4. Candidates are ranked by ``sorted`` with the explicit key (implausible last, AICc to
+   0.01, catalogue position); every candidate indistinguishable from the one added
+   (:func:`~.stats.indistinguishable`) is listed as that step's ``alternatives``, so no tie
+   is broken silently. The best plausible candidate is added while it is significant
+   (Bonferroni over the step's candidates) and lowers AICc.
+5. The final model's alternatives: the ties along the path, each refitted as a whole
+   model and kept when the data support it equally.
+6. Outliers: isolated rows beyond the alpha/n threshold (:mod:`.misfit`) are set aside
+   and the selection rerun without them; the all-rows result is kept beside.
+7. The stated uncertainty is judged from the final model's Birge ratio (:mod:`.misfit`).
 
 An effect that shares parameters with one already in the model (two descriptions of the
 same physical part, e.g. ``ee_compliance`` and ``ee_coupling``) is an alternative to it,
@@ -19,7 +33,6 @@ not an addition, and is not offered once the other is in.
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 
@@ -27,36 +40,49 @@ import numpy as np
 
 from . import scope
 from ..description.effects import EFFECTS, resolve_model
+from ..runtime import InputError
 from .compare import Comparison, compare
 from .evaluators import resolve
 from .fit import FitResult, fit
-from .predict import Predictor
+from .identifiable import extra_parameters, sign_free, trial_value
+from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
+from .predict import Predictor
 from .separate import next_measurement
-from .stats import ALPHA, CRITERIA, explained, f_test, gof_p_value, indistinguishable
+from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 
-__all__ = ["Candidate", "Step", "Diagnosis", "diagnose", "rank_candidates", "candidates_for"]
+__all__ = ["Candidate", "Step", "Alternative", "Diagnosis", "diagnose", "rank_candidates", "candidates_for",
+           "MAX_OUTLIER_SHARE"]
 
-TIE = 0.01        # AICc differences below this are optimiser noise: ties keep catalogue order
+CANDIDATE_NFEV = 60     # solver budget of a candidate's fit: one the data do not want crawls towards its
+                        # "switched off" limit (stiffness -> inf) without converging; the ones that matter need < 30
+PLAUSIBLE_SIGMA = 3.0   # a fit this many standard errors outside the plausible range is implausible
+AICC_DIGITS = 2          # AICc differences below 0.01 are optimiser noise: the next key decides (and the tie is reported)
+MAX_OUTLIER_SHARE = 0.1  # at most this share of the rows (and at least one) is set aside as outliers
 
 
 @dataclass
 class Candidate:
-    """One effect fitted on top of the current model."""
+    """One effect fitted on top of the current model.
+
+    names : this effect's own fitted parameters (its ``fit`` tuple and those the data
+    identify); plausible_range : name -> (low, high) of every parameter of the fit.
+    """
 
     effect: str
     fit: FitResult
     p_value: float
+    names: tuple = ()
+    plausible_range: dict = field(default_factory=dict)
     delta_aicc: float = 0.0
     indistinguishable_from: list = field(default_factory=list)
     signature: str | None = None
-    own: tuple = ()
     sentence: str | None = None
 
     @property
     def params(self) -> dict:
         """Fitted values of this effect's own parameters (SI)."""
-        return {k: self.fit.values[k] for k in self.own if k in self.fit.values}
+        return {k: self.fit.values[k] for k in self.names if k in self.fit.values}
 
     @property
     def where(self) -> list[int]:
@@ -64,37 +90,63 @@ class Candidate:
         return scope.where(self.effect)
 
     @property
+    def order(self) -> tuple:
+        """Tie-break position: the catalogue's order, all legs before each leg alone."""
+        return scope.rank(self.effect)
+
+    @property
     def param_std(self) -> dict:
         return {k: self.fit.std[k] for k in self.params}
 
-    def to_json(self) -> dict:
-        return {"effect": self.effect, "where": self.where, "sentence": self.sentence,
-                "params": self.params, "param_std": self.param_std,
-                "rms_pct": self.fit.rms_pct, "max_pct": self.fit.max_pct, "aicc": self.fit.aicc,
-                "delta_aicc": self.delta_aicc, "p_value": self.p_value,
-                "indistinguishable_from": list(self.indistinguishable_from), "chi2": self.fit.chi2,
-                "k": self.fit.k, "at_bound": list(self.fit.at_bound), "all_params": self.fit.values,
-                "all_param_std": self.fit.std}
+    @property
+    def implausible(self) -> dict:
+        """Fitted parameters at a search bound, or outside their plausible range by more than
+        ``PLAUSIBLE_SIGMA`` standard errors: name -> the value it would need."""
+        return {n: v for n, v in self.fit.values.items()
+                if not _plausible(v, self.fit.std.get(n, math.inf), self.plausible_range.get(n), n in self.fit.at_bound)}
+
+    @property
+    def plausible(self) -> bool:
+        return not self.implausible
 
 
 @dataclass
 class Step:
-    """The model after one step of the selection (the first step is the baseline)."""
+    """The model after one step of the selection (the first step is the baseline).
+
+    alternatives : effects indistinguishable from ``added`` (plausible ones only).
+    """
 
     fit: FitResult
     added: str | None = None
     p_value: float | None = None
     ranking: list = field(default_factory=list)
+    alternatives: list = field(default_factory=list)
 
-    def to_json(self) -> dict:
-        return {"effects": list(self.fit.effects), "added": self.added, "rms_pct": self.fit.rms_pct,
-                "max_pct": self.fit.max_pct, "chi2": self.fit.chi2, "k": self.fit.k, "aicc": self.fit.aicc,
-                "p_value": self.p_value, "params": self.fit.values, "param_std": self.fit.std}
+
+@dataclass
+class Alternative:
+    """A final model the data support as well as the one selected: ``replaced`` -> ``by``
+    (``replaced`` None: ``by`` added to a final model that misfits, which it would explain
+    though these rows cannot show it significantly)."""
+
+    effects: tuple
+    replaced: str | None
+    by: str
+    fit: FitResult
+    next_measurement: dict | None = None
 
 
 @dataclass
 class Diagnosis:
-    """Result of :func:`diagnose`; ``to_json()`` gives the issue's JSON object."""
+    """Result of :func:`diagnose`: plain data; rendered by :mod:`.report` (text) and
+    :mod:`.render_json` (``to_json()``).
+
+    untestable : effect -> rows needed, for candidates these data have too few rows for.
+    alternatives : :class:`Alternative` final models. outliers : :class:`Outlier` rows
+    set aside (the selection and fits are those without them); all_rows : the diagnosis
+    with every row, when some were set aside. uncertainty : :class:`Uncertainty`.
+    """
 
     robot: str
     meas: object
@@ -108,6 +160,11 @@ class Diagnosis:
     hints: list
     alpha: float = ALPHA
     manual: bool = False
+    alternatives: list = field(default_factory=list)
+    uncertainty: Uncertainty | None = None
+    outliers: list = field(default_factory=list)
+    all_rows: "Diagnosis | None" = None
+    untestable: dict = field(default_factory=dict)
 
     @property
     def final_comparison(self) -> Comparison:
@@ -120,49 +177,21 @@ class Diagnosis:
 
     @property
     def message(self) -> str:
-        f = self.final
-        if f.dof <= 0:
-            return (f"cannot judge whether the final model explains the data: it has {f.k} fitted parameters for "
-                    f"{f.n} measurements (measure more)")
-        p = gof_p_value(f.chi2, f.n, f.k)
-        stat = f"chi2 = {f.chi2:.1f} for {f.dof} degrees of freedom (reduced {f.reduced_chi2:.2f}, p = {p:.3g})"
-        if self.explained:
-            return (f"the final model explains the data within the measurement uncertainty: {stat}")
-        head = f"the final model does NOT explain the data within the measurement uncertainty: {stat} <= alpha = {self.alpha:g}. "
-        last = self.steps[-1].ranking
-        if self.manual:
-            why = ("The effects added by hand are not enough; run without --add to let the catalogue be searched, or "
-                   "an effect outside the catalogue is missing")
-        elif not last:
-            why = "Every catalogue effect this robot has is already in the model: an effect outside the catalogue is missing"
-        elif all(c.p_value is None or not math.isfinite(c.p_value) for c in last):
-            why = (f"With {f.n} measurements no further effect can be tested (too few rows for its parameters); "
-                   "measure more")
-        else:
-            why = "No catalogue effect improves it significantly any more: an effect outside the catalogue is missing"
-        return head + why + " (or the stated uncertainties are too small)"
+        """The verdict in sentences (rendered by :func:`.report.verdict_text`)."""
+        from .report import verdict_text
+
+        return verdict_text(self)
 
     def to_json(self) -> dict:
-        f = self.final
-        return _clean({
-            "robot": self.robot, "n_rows": len(self.meas), "source": self.meas.source,
-            "baseline": {**self.baseline.summary(), "chi2": self.baseline.chi2,
-                         "failing": self.baseline.where_it_fails(), "hints": self.hints},
-            "ranking": [c.to_json() for c in self.ranking],
-            "selected": list(self.selected),
-            "steps": [s.to_json() for s in self.steps],
-            "final": {"effects": list(f.effects), "rms_pct": f.rms_pct, "max_pct": f.max_pct,
-                      "explained": self.explained, "chi2": f.chi2, "dof": f.dof,
-                      "p_value": gof_p_value(f.chi2, f.n, f.k), "params": f.values, "param_std": f.std,
-                      "message": self.message, "failing": f.comparison.where_it_fails(),
-                      "hints": self.final_hints},
-            "next_measurement": self.next_measurement,
-            "manual": self.manual, "alpha": self.alpha, "criteria": CRITERIA,
-            "shapes": _shape_term(self),          # measured mode shapes (issue 14), else None
-        })
+        """The JSON object of ``eigentwist diagnose --json`` (rendered by :mod:`.render_json`)."""
+        from .render_json import diagnosis_json
+
+        return diagnosis_json(self)
 
     def json(self, **kwargs) -> str:
-        return json.dumps(self.to_json(), allow_nan=False, **kwargs)
+        from .render_json import dumps
+
+        return dumps(self.to_json(), **kwargs)
 
     def text(self, show_rows: bool = False) -> str:
         """The diagnosis as the plain-text report the CLI prints."""
@@ -172,62 +201,99 @@ class Diagnosis:
         return diagnosis_text(self, evaluator(self.robot), show_rows)
 
 
-def _shape_term(d: Diagnosis):
-    """Hook: the final model's shape residual term (:func:`.shapes.shape_term`), or None."""
-    from .evaluators import evaluator
-    from .shapes import shape_term
-
-    term = shape_term(d.meas, d.final.effects, evaluator(d.robot), d.final.fixed)
-    return term and {k: v for k, v in term.items() if k != "residuals"}
-
-
-def _clean(obj):
-    """JSON-safe: numpy scalars to float, NaN/inf to None."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
-
-
 def candidates_for(ev, effects) -> list[str]:
     """Effects the robot has, not in ``effects`` and not an alternative to one of them;
-    each leg-level effect also on each leg alone (``EFFECT@N``, :mod:`.scope`)."""
+    each leg-level effect also on each leg alone (``EFFECT@N``, :mod:`.scope`), so the
+    multiple-test correction counts the per-leg candidates."""
     return scope.candidates(ev, effects, per_leg=True)
 
 
-def _own(ev, current: FitResult, effect: str) -> tuple:
-    return tuple(p for p in scope.fit_names(ev, effect) if p not in current.names)
+def _starts(ev, names) -> tuple[dict, dict]:
+    """Start values and screened starts of parameters the data identify: both signs of an offset."""
+    start, starts = {}, {}
+    for name in names:
+        p = ev.parameter(name)
+        start[name] = trial_value(p)
+        if sign_free(p):
+            starts[name] = (-start[name], start[name])
+    return start, starts
 
 
-def _fit_candidate(meas, ev, current: FitResult, effect: str) -> FitResult:
+def _fit_effect(meas, ev, current: FitResult, effect: str) -> tuple[FitResult, tuple]:
+    """``effect`` fitted on top of ``current``: (fit, its own fitted parameter names)."""
     effects = scope.order(ev, current.effects + (effect,))
-    own = _own(ev, current, effect)
-    names = current.names + own
-    return fit(meas, effects, ev, names, start=current.values, fixed=current.fixed, explore=own)
+    own = tuple(p for p in scope.fit_names(ev, effect) if p not in current.names and p not in meas.params)
+    f = fit(meas, effects, ev, current.names + own, start=current.values, fixed=current.fixed, explore=own,
+            max_nfev=CANDIDATE_NFEV)
+    try:
+        extra = extra_parameters(meas, ev, effects, effect, f.values, f.fixed)
+        if not extra:
+            return f, own
+        start, starts = _starts(ev, extra)
+        g = fit(meas, effects, ev, f.names + extra, start={**f.values, **start}, fixed=f.fixed, explore=(),
+                starts=starts, max_nfev=CANDIDATE_NFEV)
+    except InputError:                # the extra parameters left their joint constraints (r_i < r_o): not identifiable
+        return f, own
+    if not _determined(ev, g, f, extra) or (_implausible(ev, g) and not _implausible(ev, f)):
+        return f, own                 # the extra parameters ran away: keep what the data pin down
+    return g, own + extra
+
+
+def _determined(ev, g: FitResult, f: FitResult, extra) -> bool:
+    """Whether the fit with the ``extra`` parameters still determines every parameter: each extra
+    within a quarter of its plausible range, no other standard error inflated tenfold."""
+    for name in extra:
+        lo, hi = ev.parameter(name).plausible_range
+        if not g.std[name] <= 0.25 * (hi - lo):
+            return False
+    return all(g.std[n] <= 10 * f.std[n] for n in f.names if math.isfinite(f.std[n]))
+
+
+def _plausible(value: float, std: float, bounds, at_bound: bool) -> bool:
+    """Inside ``bounds`` (low, high), or within PLAUSIBLE_SIGMA standard errors of it (relative
+    errors for a positive range, where the fit is on the log); never at a search bound."""
+    if at_bound:
+        return False
+    if bounds is None:
+        return True
+    lo, hi = bounds
+    if lo <= value <= hi:
+        return True
+    if not math.isfinite(std):
+        return False
+    edge = lo if value < lo else hi
+    if lo > 0 and value > 0:
+        return abs(math.log(value / edge)) <= PLAUSIBLE_SIGMA * std / value
+    return abs(value - edge) <= PLAUSIBLE_SIGMA * std
+
+
+def _ranges(ev, names) -> dict:
+    return {n: tuple(ev.parameter(n).plausible_range) for n in names}
+
+
+def _implausible(ev, f: FitResult) -> bool:
+    return not all(_plausible(v, f.std.get(n, math.inf), ev.parameter(n).plausible_range, n in f.at_bound)
+                   for n, v in f.values.items())
+
+
+def _candidate(meas, ev, current: FitResult, effect: str) -> Candidate:
+    f, own = _fit_effect(meas, ev, current, effect)
+    if f.k > current.k:
+        p = f_test(current.chi2, current.k, f.chi2, f.k, f.n)
+    else:
+        p = switch_test(current.chi2, f.chi2, f.n, f.k)
+    return Candidate(effect, f, p, own, _ranges(ev, f.names), sentence=scope.sentence(ev, effect, f.values, f.effects))
+
+
+def _rank_key(c: Candidate) -> tuple:
+    aicc = round(c.fit.aicc, AICC_DIGITS) if math.isfinite(c.fit.aicc) else math.inf
+    return (not c.plausible, aicc, c.order)
 
 
 def rank_candidates(meas, ev, current: FitResult, candidates, progress=None) -> list[Candidate]:
-    """Fit each candidate on top of ``current``; best (lowest AICc) first."""
-    out = []
+    """Fit each candidate on top of ``current``; plausible first, then by AICc (ties reported)."""
     items = progress(candidates, desc="fitting effects", leave=False) if progress else candidates
-    for effect in items:
-        f = _fit_candidate(meas, ev, current, effect)
-        out.append(Candidate(effect, f, f_test(current.chi2, current.k, f.chi2, f.k, f.n), own=_own(ev, current, effect),
-                             sentence=scope.sentence(ev, effect, f.values, f.effects)))
-    order = list(candidates)
-    out.sort(key=lambda c: (c.fit.aicc if math.isfinite(c.fit.aicc) else math.inf, order.index(c.effect)))
-    for i in range(len(out) - 1):          # optimiser-noise ties: catalogue order
-        for j in range(len(out) - 1 - i):
-            a, b = out[j], out[j + 1]
-            if abs(a.fit.aicc - b.fit.aicc) < TIE and order.index(b.effect) < order.index(a.effect):
-                out[j], out[j + 1] = b, a
+    out = sorted((_candidate(meas, ev, current, e) for e in items), key=_rank_key)
     if out:
         best = out[0]
         for c in out:
@@ -255,9 +321,10 @@ def _signature(meas, ev, current: FitResult, effect: str) -> str | None:
     return classify(meas.k_a[rows], rho[rows], np.full(int(rows.sum()), 1e12))["shape"]
 
 
-def _significant(best: Candidate, current: FitResult, m: int, alpha: float) -> bool:
-    return (best.p_value is not None and math.isfinite(best.p_value) and best.p_value < alpha / max(m, 1)
-            and best.fit.aicc < current.aicc)
+def significant(c: Candidate, current: FitResult, m: int, alpha: float, plausible_only: bool = True) -> bool:
+    """Whether adding ``c`` (one of ``m`` candidates) is significant and lowers AICc."""
+    return ((c.plausible or not plausible_only) and c.p_value is not None and math.isfinite(c.p_value)
+            and c.p_value < alpha / max(m, 1) and c.fit.aicc < current.aicc)
 
 
 def _separation(ev, meas, ranking) -> dict | None:
@@ -265,9 +332,13 @@ def _separation(ev, meas, ranking) -> dict | None:
         return None
     top = ranking[0]
     rival = next((c for c in ranking[1:] if c.effect in top.indistinguishable_from), ranking[1])
-    out = next_measurement(ev, meas, top.fit, rival.fit)
+    return _between(ev, meas, top.fit, rival.fit, rival.effect in top.indistinguishable_from)
+
+
+def _between(ev, meas, fit_a, fit_b, tied: bool) -> dict | None:
+    out = next_measurement(ev, meas, fit_a, fit_b)
     if out is not None:
-        out["indistinguishable"] = rival.effect in top.indistinguishable_from
+        out["indistinguishable"] = tied
         a, b = out["between"]
         pose = ", ".join(f"{v:g}" for v in np.round(out["pose"], 4))
         out["message"] = (f"to tell {a} from {b}, measure mode {out['mode']} at pose [{pose}] m with k_a = "
@@ -281,10 +352,153 @@ def _effect_list(add, ev) -> list[str]:
     items = add.split(",") if isinstance(add, str) else list(add)
     names = [str(x).strip() for x in items if str(x).strip()]
     for name in names:
-        if name.partition("@")[0] not in ev.effects and name.partition("@")[0] not in EFFECTS:
-            raise ValueError(f"add {name!r}: not an effect; expected one of {', '.join(ev.effects)} (EFFECT@N for one leg)")
-        resolve_model(name, ev.robot)  # raises if the robot lacks it
+        if name.partition("@")[0] not in EFFECTS and name.partition("@")[0] not in ev.effects:
+            raise ValueError(f"add {name!r}: not an effect; expected one of {', '.join(ev.effects)}")
+        resolve_model(name, ev.robot)  # raises if the robot lacks it (or the leg does not exist)
     return names
+
+
+def _check_manual(ev, order, model) -> None:
+    model = list(model)
+    for e in order:
+        if e in model:
+            raise ValueError(f"add {e!r}: the effect is already in the model ({', '.join(model)})")
+        shared = set(scope.parameter_names(ev, e)) & scope.taken(ev, model)
+        if shared:
+            raise ValueError(f"add {e!r}: it describes the same part as an effect already in the model "
+                             f"(shares {', '.join(sorted(shared))}); remove that one from the baseline instead")
+        model.append(e)
+
+
+def _manual_steps(meas, ev, current: FitResult, order) -> list[Step]:
+    steps = [Step(current)]
+    for e in order:
+        c = _candidate(meas, ev, current, e)
+        steps.append(Step(c.fit, e, c.p_value))
+        current = c.fit
+    return steps
+
+
+def _forward(meas, ev, current: FitResult, alpha: float, progress) -> list[Step]:
+    steps = [Step(current)]
+    while True:
+        cands = candidates_for(ev, current.effects)
+        if not cands:
+            break
+        ranking = rank_candidates(meas, ev, current, cands, progress)
+        steps[-1].ranking = ranking
+        best = ranking[0]
+        if not significant(best, current, len(cands), alpha):
+            break
+        alternatives = [c.effect for c in ranking[1:] if c.plausible and c.effect in best.indistinguishable_from]
+        steps.append(Step(best.fit, best.effect, best.p_value, alternatives=alternatives))
+        current = best.fit
+    return steps
+
+
+def _swap(meas, ev, final: FitResult, step: Step, rival: Candidate) -> FitResult | None:
+    """The final model with ``step.added`` replaced by ``rival``, refitted as a whole (None: not a model)."""
+    dropped = set(scope.parameter_names(ev, step.added))
+    effects = [e for e in final.effects if e != step.added]
+    if set(scope.parameter_names(ev, rival.effect)) & scope.taken(ev, effects):
+        return None
+    kept = tuple(n for n in final.names if n not in dropped)
+    names = kept + tuple(n for n in rival.names if n not in kept)
+    fixed = {k: v for k, v in final.fixed.items() if k not in dropped}
+    start = {**fixed, **rival.params}
+    return fit(meas, scope.order(ev, effects + [rival.effect]), ev, names, start=start, fixed=fixed, explore=())
+
+
+def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
+    """Final models the data support equally: each tie along the path, refitted as a whole model."""
+    final = steps[-1].fit
+    out = []
+    for k, step in enumerate(steps[1:], start=1):
+        for name in step.alternatives:
+            rival = next(c for c in steps[k - 1].ranking if c.effect == name)
+            g = _swap(meas, ev, final, step, rival)
+            if g is None or _implausible(ev, g):
+                continue
+            if indistinguishable(final.aicc, g.aicc, final.comparison.predicted, g.comparison.predicted,
+                                 meas.sigma_hz):
+                out.append(Alternative(g.effects, step.added, name, g, _between(ev, meas, final, g, True)))
+    return out
+
+
+def unproven(meas, ev, steps, alpha: float) -> list[Alternative]:
+    """When the final model misfits: plausible candidates of the last step that would explain
+    the data (chi2 test) without being significant (too few rows for the F test), and their
+    equals."""
+    final, last = steps[-1].fit, steps[-1].ranking
+    if explained(final.chi2, final.n, final.k, alpha):
+        return []
+    good = [c for c in last if c.plausible and explained(c.fit.chi2, c.fit.n, c.fit.k, alpha)]
+    names = {c.effect for c in good} | {e for c in good for e in c.indistinguishable_from}
+    chosen = [c for c in last if c.effect in names and c.plausible]
+    out = []
+    for k, c in enumerate(chosen):
+        rival = chosen[1] if k == 0 and len(chosen) > 1 else chosen[0]
+        out.append(Alternative(c.fit.effects, None, c.effect, c.fit,
+                               _between(ev, meas, c.fit, rival.fit, True) if rival is not c else None))
+    return out
+
+
+def _select(meas, ev, base_effects, add, alpha, progress) -> Diagnosis:
+    """Rank, select and judge on these rows (no outlier handling)."""
+    base_cmp = compare(meas, base_effects, ev)                       # strict mode matching
+    current = fit(meas, base_effects, ev, ())
+    manual = add is not None
+    cands = candidates_for(ev, current.effects)
+    if manual:
+        _check_manual(ev, add, current.effects)
+        steps = _manual_steps(meas, ev, current, add)
+        first = rank_candidates(meas, ev, current, cands, progress)
+    else:
+        steps = _forward(meas, ev, current, alpha, progress)
+        first = steps[0].ranking
+    final = steps[-1].fit
+    signatures = {c.effect: c.signature for c in first}
+    return Diagnosis(
+        robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
+        selected=[s.added for s in steps[1:]], steps=steps, final=final,
+        explained=explained(final.chi2, final.n, final.k, alpha),
+        next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
+        manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
+        untestable=_untestable(meas, ev, steps if not manual else steps[:1]))
+
+
+def _untestable(meas, ev, steps) -> dict:
+    """Candidates of each step that these rows are too few to test: effect -> rows needed."""
+    out: dict = {}
+    for s in steps:
+        cands = candidates_for(ev, s.fit.effects)
+        for e, need in untestable(len(meas), s.fit.k, {c: len(scope.fit_names(ev, c)) for c in cands}).items():
+            out.setdefault(e, need)
+    return out
+
+
+def _judge(d: Diagnosis) -> Diagnosis:
+    last = d.steps[-1].ranking
+    effect = (any(significant(c, d.final, len(last), d.alpha, False) for c in last)
+              or any(a.replaced is None for a in d.alternatives))
+    d.uncertainty = judge_uncertainty(d.final, d.untestable, effect, d.alpha)
+    return d
+
+
+def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress) -> Diagnosis:
+    """Set aside isolated outlying rows one at a time (worst first), rerunning the selection."""
+    d, removed = d_all, []
+    limit = max(1, int(MAX_OUTLIER_SHARE * len(meas)))
+    while len(removed) < limit:
+        found = find_outliers(d.final.comparison, d.final.k, alpha)
+        if not found:
+            break
+        removed.append(found[0])
+        keep = ~np.isin(meas.lines, [o.line for o in removed])
+        d = _select(meas.subset(keep), ev, base_effects, None, alpha, progress)
+    if removed:
+        d.outliers, d.all_rows = removed, _judge(d_all)
+    return d
 
 
 def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None, alpha: float = ALPHA,
@@ -297,10 +511,11 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     baseline : preset, comma-separated effects, or ``"none"``; its parameters stay at the
         defaults (or the data's columns).
     robot : robot name (default: the measurements' robot).
-    add : effects to add by hand, in order (fitted, no automatic selection); None: forward
-        selection.
-    alpha : significance level (F test; goodness of fit for ``explained``).
+    add : effects to add by hand, in order (fitted, no automatic selection, no outlier
+        handling); None: forward selection.
+    alpha : significance level (F test; goodness of fit; outliers, Bonferroni over rows).
     progress : optional wrapper of an iterable (e.g. ``eigentwist.cli.common.progress``).
+    backend : evaluator backend when ``ev`` is not given (``"numpy"``, ``"c"``, ``"auto"``).
 
     Returns
     -------
@@ -312,46 +527,8 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
         meas = load_measurements(meas, robot or "heli4", ev)
     ev = resolve(ev, robot or meas.robot, backend)
     base_effects = resolve_model(baseline, ev.robot)
-    base_cmp = compare(meas, base_effects, ev)                       # strict mode matching
-    current = fit(meas, base_effects, ev, ())
-    steps = [Step(current)]
-    first = None
-    manual = add is not None
-    if manual:
-        order = _effect_list(add, ev)
-        model = list(current.effects)
-        for e in order:
-            if e in model:
-                raise ValueError(f"add {e!r}: the effect is already in the model ({', '.join(model)})")
-            shared = set(scope.parameter_names(ev, e)) & scope.taken(ev, model)
-            if shared:
-                raise ValueError(f"add {e!r}: it describes the same part as an effect already in the model "
-                                 f"(shares {', '.join(sorted(shared))}); remove that one from the baseline instead")
-            model.append(e)
-        first = rank_candidates(meas, ev, current, candidates_for(ev, current.effects), progress)
-        for e in order:
-            f = _fit_candidate(meas, ev, current, e)
-            steps.append(Step(f, e, f_test(current.chi2, current.k, f.chi2, f.k, f.n)))
-            current = f
-    else:
-        while True:
-            cands = candidates_for(ev, current.effects)
-            if not cands:
-                break
-            ranking = rank_candidates(meas, ev, current, cands, progress)
-            steps[-1].ranking = ranking
-            if first is None:
-                first = ranking
-            best = ranking[0]
-            if not _significant(best, current, len(cands), alpha):
-                break
-            steps.append(Step(best.fit, best.effect, best.p_value))
-            current = best.fit
-    first = first or []
-    signatures = {c.effect: c.signature for c in first}
-    return Diagnosis(
-        robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
-        selected=[s.added for s in steps[1:]], steps=steps, final=current,
-        explained=explained(current.chi2, current.n, current.k, alpha),
-        next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
-        manual=manual)
+    order = None if add is None else _effect_list(add, ev)
+    d = _select(meas, ev, base_effects, order, alpha, progress)
+    if order is None and not d.untestable and d.final.dof > 2:
+        d = _without_outliers(meas, ev, d, base_effects, alpha, progress)
+    return _judge(d)

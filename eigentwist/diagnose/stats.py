@@ -17,6 +17,10 @@ chi2 = sum(((f_pred,i - f_meas,i) / sigma_i)^2).
     n - k_1). An effect switched off is the limit of its parameter (stiffness -> inf,
     mass -> 0), i.e. the null lies on the boundary; the F/chi2 reference distribution is
     then conservative (the p-value is at most twice too large, Self & Liang 1987).
+  - an effect without fitted parameters (``gravity_preload``: g is known) costs no
+    parameter but is a choice: its p-value is P(chi2_1 >= delta chi2 / s^2) with
+    s^2 = max(1, chi2_1/(n - k)) (the sigma_i at face value, scaled up when the fit is
+    worse than them), never an F test with zero degrees of freedom;
   - forward selection adds the best candidate only if its p-value is below
     ``ALPHA / m`` for m candidates tested at that step (Bonferroni: the best of m is
     picked after looking at all of them).
@@ -28,7 +32,7 @@ import math
 import numpy as np
 from scipy import stats
 
-__all__ = ["ALPHA", "chi2_value", "aicc", "f_test", "gof_p_value", "explained", "indistinguishable",
+__all__ = ["ALPHA", "chi2_value", "aicc", "f_test", "switch_test", "gof_p_value", "explained", "indistinguishable",
            "separation", "DELTA_AICC", "SEPARATION", "CRITERIA"]
 
 ALPHA = 0.01          # significance level of the F test and of the goodness-of-fit test
@@ -38,6 +42,10 @@ SEPARATION = 3.0      # below this chi2 distance between two models' predictions
 CRITERIA = {
     "ranking": "AICc with sigma known up to a common scale factor (n ln(chi2/n) + 2K + 2K(K+1)/(n-K-1), K = k+1)",
     "p_value": "extra-sum-of-squares F test against the model of the previous step",
+    "switched": "an effect without fitted parameters: p = P(chi2_1 >= (chi2_0 - chi2_1)/max(1, chi2_1/(n-k)))",
+    "plausible": "a candidate whose fitted value lies outside its parameter's documented plausible range by more than 3 "
+                 "standard errors, or at a search bound, is reported implausible (with the value it would need) and never "
+                 "selected",
     "selection": "add the best-ranked effect while its p-value < alpha/m (Bonferroni over m candidates) and it lowers AICc",
     "explained": "chi-square goodness of fit with the given sigma: P(chi2_{n-k} >= chi2) > alpha",
     "indistinguishable": "|delta AICc| < 2 (comparable support), or the two fitted models' predictions on the measured rows "
@@ -105,3 +113,15 @@ def indistinguishable(aicc_a: float, aicc_b: float, pred_a, pred_b, sigma) -> bo
     if not (math.isfinite(aicc_a) and math.isfinite(aicc_b)):
         return False
     return bool(abs(aicc_a - aicc_b) < DELTA_AICC)
+
+
+def switch_test(chi2_0: float, chi2_1: float, n: int, k: int) -> float:
+    """p-value of switching on an effect that fits no parameter (see module doc).
+
+    ``chi2_0``/``chi2_1``: without/with the effect; ``k``: parameters fitted in both.
+    """
+    dof = n - k
+    if dof <= 0:
+        return math.nan
+    scale = max(1.0, chi2_1 / dof)
+    return float(stats.chi2.sf(max(chi2_0 - chi2_1, 0.0) / scale, 1))

@@ -142,7 +142,8 @@ def derive(robot: RobotDescription) -> DerivedModel:
     for s_ in joints + [p.symbol for p in robot.parameters] + fx.inputs():
         prog.declare(s_)
     M = _platform_inertia(robot, fx)
-    K_R = _ground_springs(fx)
+    K_ground = _ground_springs(fx)  # in parallel with the legs: in K_R and K_F
+    K_R = K_ground
     K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all, k_acts = [], [], [], [], [], []
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
@@ -165,7 +166,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
         Je_all.append(Je)
         Kqe_all.append(Kqe)
         k_acts.append(k_act)
-    K_F = _platform_stiffness(prog, robot, K_groups, fx) + _ground_springs(fx)
+    K_F = _platform_stiffness(prog, robot, K_groups, fx) + K_ground
     G = _preload_derivatives(prog, robot, q_all, screws, Je_all)
     n = len(robot.legs)
     sym6 = lambda m: [m[i, j] for i in range(6) for j in range(6)]  # noqa: E731
