@@ -6,7 +6,8 @@
 The cases are those of ``tests/test_diagnose_seeds.py`` (``tests/diagnosis_cases.py``).
 Timings: CPU time of the process (``time.process_time``, best of 3, BLAS on one thread), so
 that other work on the machine does not inflate them; the walkthrough's 30-row file from
-the ``rigid`` model (8 candidates: the full catalogue) and from ``paper`` (5).
+the ``rigid`` model (28 candidates: the full catalogue, each leg-level effect also on each
+leg alone) and from ``paper`` (25).
 """
 from __future__ import annotations
 

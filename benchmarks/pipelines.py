@@ -164,16 +164,16 @@ def c_pipeline(kernels, params: dict) -> Pipeline:
 
 
 def extra_pipelines(ev_numpy, ev_c, kernels, params: dict) -> list[Pipeline]:
-    """End-to-end rows through the validated APIs (input checks, reachability, eigentwists)."""
+    """End-to-end rows through the validated APIs (input, reachability and lever checks)."""
 
     def checked(poses):
         x, y, z = (np.ascontiguousarray(poses[:, k]) for k in range(3))
         return kernels.fused_frequencies(x, y, z, params)["freq_hz"]
 
     return [
-        Pipeline("evaluator_numpy", "Evaluator.frequencies, NumPy backend (validated, eigentwists)", None,
+        Pipeline("evaluator_numpy", "Evaluator.frequencies, NumPy backend (validated)", None,
                  lambda poses: ev_numpy.frequencies(poses)),
-        Pipeline("evaluator_c", "Evaluator.frequencies, C backend (validated, eigentwists)", None,
+        Pipeline("evaluator_c", "Evaluator.frequencies, C backend (validated, checks in the C pass, one thread)", None,
                  lambda poses: ev_c.frequencies(poses)),
         Pipeline("c_checked", "C fused_frequencies (reachability and lever checked)", None, checked),
     ]

@@ -4,6 +4,7 @@ one core; peak memory; generation and compile times.
 
     python benchmarks/run.py            # the full run recorded in benchmarks/README.md (~10 min)
     python benchmarks/run.py --quick    # N = 1e3, 1e4 only (a smoke test, ~1.5 min)
+    python benchmarks/run.py --public   # issue 13: public path vs raw kernel, 1 vs all threads, memory
 
 Timings are the best of ``--repeat`` runs (one run for the per-pose loop, whose rate does
 not depend on N; at N = 1e6 it is extrapolated from its N = 1e5 rate and marked so).
@@ -131,6 +132,112 @@ def poses_for(robot, n: int, seed: int = 0) -> np.ndarray:
     return lo + (hi - lo) * rng.random((n, 3))
 
 
+# ------------------------------------------------------------ public path
+RSS_SNIPPET = """
+import numpy as np, eigentwist
+
+def hwm():  # peak RSS of this process in MiB (VmHWM: exec starts it afresh, unlike ru_maxrss)
+    for line in open('/proc/self/status'):
+        if line.startswith('VmHWM:'):
+            return int(line.split()[1]) / 1024
+
+ev = eigentwist.load('heli4', backend='c')
+rng = np.random.default_rng(0)
+lo = np.array([a for a, _ in ev.robot.workspace]); hi = np.array([b for _, b in ev.robot.workspace])
+poses = lo + (hi - lo) * rng.random(({n}, 3))
+base = hwm()
+{body}
+print(base, hwm())
+"""
+MEMORY_CASES = {
+    "matrices": "m = ev.matrices(poses)",
+    "matrices_out": "out = {'K_F': np.empty((len(poses), 6, 6))}\nm = ev.matrices(poses, out=out)",
+    "iter_matrices": "worst = max(float(m['K_F'][:, 5, 5].max()) for _, m in ev.iter_matrices(poses))",
+    "frequencies": "f = ev.frequencies(poses)",
+}
+
+
+def peak_rss(case: str, n: int) -> tuple[float, float]:
+    """(baseline, peak) RSS in MiB of a fresh process running one memory case on n poses."""
+    code = RSS_SNIPPET.format(n=n, body=MEMORY_CASES[case])
+    res = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
+    base, peak = map(float, res.stdout.split()[-2:])
+    return base, peak
+
+
+def public_path(n: int, repeat: int, log) -> dict:
+    """Issue 13: the public path against the raw fused kernel (one thread), 1 vs all threads,
+    against the per-pose loop; memory of Evaluator.matrices, in one run (ratios from it)."""
+    import eigentwist
+    from eigentwist.runtime.threads import available_cores
+
+    evs = {t: eigentwist.load("heli4", backend="c", threads=t) for t in (1, available_cores())}
+    ev1, ck = evs[1], evs[1]._kernels
+    ev_np = eigentwist.load("heli4", backend="numpy")
+    poses = poses_for(ev1.robot, n)
+    x, y, z = (np.ascontiguousarray(poses[:, k]) for k in range(3))
+    params = ev1.parameter_values(n, "paper")
+    rows = {
+        "raw_1": ("raw fused kernel, frequencies only, no checks (`CKernels.fused`), 1 thread",
+                  lambda: ck.fused(x, y, z, params, matrices=(), model="flexible")),
+        "raw_all": (f"raw fused kernel, {available_cores()} threads",
+                    lambda: ck.fused(x, y, z, params, matrices=(), model="flexible", threads=available_cores())),
+        "public_1": ("`Evaluator.frequencies` (validated: inputs, reachability, lever, stability), 1 thread",
+                     lambda: ev1.frequencies(poses)),
+        "public_all": (f"`Evaluator.frequencies`, default threads ({available_cores()})",
+                       lambda: evs[available_cores()].frequencies(poses)),
+        "modes_1": ("`Evaluator.modes` with eigentwists, 1 thread", lambda: ev1.modes(poses)),
+        "modes_all": (f"`Evaluator.modes` with eigentwists, {available_cores()} threads",
+                      lambda: evs[available_cores()].modes(poses)),
+        "matrices_1": ("`Evaluator.matrices` (M, K_R, K_F), 1 thread", lambda: ev1.matrices(poses)),
+        "numpy_public": ("`Evaluator.frequencies`, NumPy backend", lambda: ev_np.frequencies(poses)),
+    }
+    rates: dict = {k: [] for k in rows}
+    cpu: dict = {k: [] for k in rows}
+    load = [os.getloadavg()[0]]
+    for r in range(repeat):                      # interleaved, so slow phases of a shared machine hit all rows
+        for key, (_, fn) in rows.items():
+            if key == "numpy_public" and r > 0:
+                continue
+            t0, c0 = time.perf_counter(), time.process_time()
+            fn()
+            t1, c1 = time.perf_counter(), time.process_time()
+            rates[key].append(n / (t1 - t0))
+            cpu[key].append(n / (c1 - c0))      # poses per CPU-second of this process (all its threads)
+            log(f"[bench] public N={n} {key}: {rates[key][-1]:.3g} poses/s, {cpu[key][-1]:.3g} per CPU-s")
+        load.append(os.getloadavg()[0])
+    ref = pipelines.per_pose(ev1.defaults)
+    m_pp = 2000
+    _, _, t_pp = ref.timed(poses[:m_pp])
+    out = dict(n=n, labels={k: v[0] for k, v in rows.items()}, rates=rates, cpu_rates=cpu, loadavg=load,
+               best={k: max(v) for k, v in rates.items()}, per_pose_per_s=m_pp / t_pp, per_pose_n=m_pp)
+    log("[bench] peak RSS (fresh processes)")
+    out["rss_mb"] = {case: peak_rss(case, n) for case in MEMORY_CASES}
+    tracemalloc.start()
+    for _, m in ev1.iter_matrices(poses):
+        pass
+    out["iter_matrices_traced_mb"] = tracemalloc.get_traced_memory()[1] / 2**20
+    tracemalloc.stop()
+    return out
+
+
+def public_report(out: dict) -> str:
+    b, pp = out["best"], out["per_pose_per_s"]
+    lines = [f"## Public path at N = {out['n']:.0e} (best of {len(out['rates']['raw_1'])}, poses/s)", "",
+             "| pipeline | poses/s | time / raw kernel's (1 thread) | vs per-pose loop |", "|---|---|---|---|"]
+    for key, label in out["labels"].items():
+        lines.append(f"| {label} | {b[key]:.3g} | {b['raw_1'] / b[key]:.2f} | {b[key] / pp:.0f}× |")
+    lines += [f"| per-pose NumPy loop (reference_loop.py, {out['per_pose_n']} poses) | {pp:.3g} | | 1× |", "",
+              f"Threads: raw kernel {b['raw_all'] / b['raw_1']:.2f}×, public path {b['public_all'] / b['public_1']:.2f}× "
+              "the one-thread rate.", "", "| memory case (N poses) | baseline RSS | peak RSS | added |", "|---|---|---|---|"]
+    for case, (base, peak) in out["rss_mb"].items():
+        lines.append(f"| {case} | {base:.0f} MiB | {peak:.0f} MiB | {peak - base:.0f} MiB |")
+    lines.append(f"\n`iter_matrices` (default chunk) traced peak: {out['iter_matrices_traced_mb']:.1f} MiB.")
+    lines.append(f"\nLoad average (1 min) during the run: {', '.join(f'{v:.1f}' for v in out['loadavg'])}.")
+    lines.append("\nAll rates per run: " + json.dumps({k: [round(v) for v in vs] for k, vs in out["rates"].items()}))
+    return "\n".join(lines)
+
+
 # ------------------------------------------------------------------ main
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -138,7 +245,16 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per measurement (best is kept)")
     ap.add_argument("--json", type=Path, help="also write the results here")
     ap.add_argument("--no-pin", action="store_true", help="do not pin the process to one CPU")
+    ap.add_argument("--public", action="store_true",
+                    help="only the public-path rows (issue 13): Evaluator vs raw kernel, 1 vs all threads, memory")
+    ap.add_argument("--n", type=int, default=1_000_000, help="poses for --public")
     args = ap.parse_args(argv)
+    if args.public:                      # every core: the thread rows need them (1-thread rows set threads=1)
+        out = public_path(args.n, args.repeat, lambda *a: print(*a, file=sys.stderr, flush=True))
+        print(public_report(out))
+        if args.json:
+            args.json.write_text(json.dumps(out, indent=1))
+        return 0
     if not args.no_pin and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
@@ -159,8 +275,8 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     ck = load_c_kernels("heli4", ev.module)
     load_s = time.perf_counter() - t0
-    evc = load("heli4", backend="c")
-    params = ev._params(1, {}, "paper")
+    evc = load("heli4", backend="c", threads=1)
+    params = ev.parameter_values(1, "paper")
     log("[bench] lambdify (expand + lambdify with cse=True)")
     lam = pipelines.lambdify_pipeline(derive(ev.robot), params)
     pipes = [pipelines.per_pose(ev.defaults), lam, pipelines.numpy_pipeline(ev.module, params),

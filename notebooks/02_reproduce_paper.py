@@ -119,7 +119,7 @@ k_a = np.linspace(0.0, 4000.0, 161)[1:]                 # N m/rad (k_a = 0 gives
 poses = np.repeat(x_ref, len(k_a), axis=0)
 rigid = ev.modes(poses, "rigid", k_a=k_a)
 flex = ev.modes(poses, "paper", k_a=k_a)
-# omega_1 is the X mode and omega_2 the Y mode at every k_a (largest eigentwist entry)
+# omega_1 is the X mode and omega_2 the Y mode at every k_a (largest share of the energy)
 assert (rigid.direction[:, :2] == [3, 4]).all() and (flex.direction[:, :2] == [3, 4]).all()
 
 ka_meas = np.array(paper.TABLE_KA, dtype=float)

@@ -76,7 +76,7 @@ poses = np.concatenate([xy + [0, 0, z] for z in zs] + [xz, yz])
 modes = timed("slices", lambda: ev.modes(poses, MODEL), len(poses))
 f_slices = modes.freq_hz[:, :2].reshape(5, n, n, 2)
 along_x = np.mean(modes.direction[:, 0] == 3)
-print(f"the lowest mode moves mainly along X at {100 * along_x:.1f} % of these poses (largest eigentwist entry)")
+print(f"the lowest mode moves mainly along X at {100 * along_x:.1f} % of these poses (largest share of its energy)")
 
 
 def panel(ax, X, Y, Z, title, xlabel, ylabel):

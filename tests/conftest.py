@@ -1,6 +1,8 @@
 """Shared fixtures: one canonical model for all tests (style: pydy models.py)."""
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -52,3 +54,19 @@ def effect_inputs(robot, p: dict, on, spread=None) -> dict:
             for q in effect.params:
                 p[leg_input_name(q.name, k)] = np.asarray(p[q.name] * (1 + spread() if spread else 1.0))
     return p
+
+
+# CI (.ci/run) sets EIGENTWIST_REQUIRE_TIERS=1: there a tier that cannot run (no compiler,
+# no Chromium) fails instead of skipping, so a broken install cannot pass CI silently.
+REQUIRE_TIERS_ENV = "EIGENTWIST_REQUIRE_TIERS"
+
+
+def tiers_required() -> bool:
+    return os.environ.get(REQUIRE_TIERS_ENV, "").strip() not in ("", "0")
+
+
+def skip_tier(tier: str, reason: str):
+    """Skip a test of an optional tier (``compiled``, ``browser``), or fail where CI requires it."""
+    if tiers_required():
+        pytest.fail(f"the {tier} tier cannot run here but {REQUIRE_TIERS_ENV}=1 requires it: {reason}", pytrace=False)
+    pytest.skip(f"{tier} tier skipped: {reason}")

@@ -2,7 +2,9 @@
 
 Synthetic Heli4 data (five poses, k_a 500 and 2000 N m/rad, modes x, y, z: 30 rows, 0.5 %
 noise) from the paper's model with one leg's component changed: its actuator weaker
-(0.55 against 0.82), its rods 200 times more compliant, its lower link a soft tube. Each
+(0.55 against 0.82), its rods 200 times more compliant, its lower link a soft tube (42 GPa,
+the soft end of the plausible range: a softer one is reported as an implausible fit, issue
+10). Each
 must be found at the right leg (or with the right leg among equal alternatives), its
 parameter within 3 standard deviations and the data explained; an effect on all legs alike
 must be reported on all legs (no false localisation in at least 9 of 10 seeds).
@@ -18,7 +20,7 @@ POSES = [[0, 0, -0.625], [0.08, 0.02, -0.6], [0.02, 0.08, -0.65], [-0.08, -0.05,
 CASES = {
     "actuator": ("actuator_loss@3", "eta_a@3", 0.55),
     "rods": ("rod_compliance@2", "E_rod@2", 170e9 / 200),
-    "lower link": ("lower_link_compliance@4", "E_l1@4", 5e9),
+    "lower link": ("lower_link_compliance@4", "E_l1@4", 4.2e10),
 }
 
 
@@ -85,12 +87,28 @@ def test_per_leg_candidates_count_in_the_correction(ev):
 
 @pytest.mark.compiled
 def test_add_takes_one_leg(ev):
-    meas = _data(ev, "paper+lower_link_compliance@4:E_l1@4=5e9", 0)
+    meas = _data(ev, "paper+lower_link_compliance@4:E_l1@4=4.2e10", 0)
     d = diagnose(meas, "paper", ev=ev, add=["lower_link_compliance@4"])
     assert d.selected == ["lower_link_compliance@4"] and d.steps[-1].added == "lower_link_compliance@4"
-    assert abs(d.final.values["E_l1@4"] - 5e9) < 3 * d.final.std["E_l1@4"]
+    assert abs(d.final.values["E_l1@4"] - 4.2e10) < 3 * d.final.std["E_l1@4"]
     assert "leg 4's lower link: E_l1 = " in d.text()
     for bad, message in (("ee_compliance@2", "not on one leg"), ("actuator_loss@5", "N in 1..4"),
                          ("actuator_loss@3", "already in the model")):
         with pytest.raises(ValueError, match=message):
             diagnose(meas, "paper,actuator_loss@3", ev=ev, add=[bad])
+
+
+@pytest.mark.compiled
+def test_legs_the_data_cannot_tell_apart_are_alternatives_and_the_next_pose_separates_them(ev):
+    """At the central pose legs 3 and 4 of the Heli4 are mirror images: a weak actuator on
+    either gives the same frequencies; the proposed measurement tells them apart."""
+    meas = synth("paper+actuator_loss@3:eta_a@3=0.55", [250, 500, 1000, 2000, 4000], [[0, 0, -0.625]],
+                 ["x", "y", "z"], 0.005, 0, ev=ev)
+    d = diagnose(meas, "paper", ev=ev)
+    top = d.ranking[0]
+    assert {top.effect} | set(top.indistinguishable_from) >= {"actuator_loss@3", "actuator_loss@4"}
+    nm = d.next_measurement
+    assert set(nm["between"]) == {"actuator_loss@3", "actuator_loss@4"} and nm["separation_sigma"] > 3
+    message = d.to_json()["final"]["message"]
+    assert ("leg 3's actuator delivers 0.55 of its commanded stiffness (the other legs 0.82)" in message
+            or "leg 4's actuator delivers" in message)

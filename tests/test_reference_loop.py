@@ -24,9 +24,14 @@ def ref():
 
 
 def _perturbed(ev, seed):
-    """Defaults perturbed by up to +-10 % (payload offsets set to a few cm)."""
+    """Defaults perturbed by up to +-10 % (payload offsets set to a few cm). A body's
+    principal moments share one factor, so they keep satisfying the triangle inequality
+    (the slender lower link sits close to its edge)."""
     rng = np.random.default_rng(seed)
     p = {k: v * (1 + 0.2 * (rng.random() - 0.5)) for k, v in ev.defaults.items()}
+    for body in ("I1_", "I_e_"):
+        factor = 1 + 0.2 * (rng.random() - 0.5)
+        p.update({k: ev.defaults[k] * factor for k in p if k.startswith(body)})
     p.update(p_x=0.02 * rng.normal(), p_y=0.02 * rng.normal(), p_z=0.02 * rng.normal())
     return p
 

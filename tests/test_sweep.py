@@ -14,6 +14,8 @@ from eigentwist.cli.common import CliError
 from eigentwist.cli.sweep_args import parse_values, parse_vary
 from eigentwist.runtime import sweep as sw
 
+from .conftest import skip_tier
+
 # x in [0, 0.3], y = 0, z in [-0.8, -0.3]: both reachable and unreachable poses (heli4)
 MIXED_BOX = (0.0, 0.3, 0.0, 0.0, -0.8, -0.3)
 
@@ -316,7 +318,7 @@ def test_c_backend_sweep_agrees_with_numpy(request, monkeypatch):
     try:
         cb.find_compiler()
     except cb.CompilerNotFoundError as exc:
-        pytest.skip(f"compiled tier skipped: {exc}")
+        skip_tier("compiled", str(exc))
     monkeypatch.setenv("EIGENTWIST_CACHE", str(request.config.cache.mkdir("eigentwist-c")))
     kwargs = dict(grid=(6, 1, 6), box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.56")], k_a=parse_values("1000,2000"), chunk_size=19)
     for model in ("paper", "rigid"):

@@ -10,7 +10,7 @@ HELP = "compare a model with measured natural frequencies (table, RMS/max error,
 DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Columns:
   k_a       commanded actuator stiffness, N m/rad (revolute) or N/m (prismatic) (required)
   mode      rank 1, 2, ... (1 = the model's lowest mode) or direction x, y, z, rx, ry, rz:
-            the mode whose eigentwist's largest component is along that axis (required)
+            the mode carrying the largest share of its energy along that axis (required)
   freq_hz   measured natural frequency, Hz (required)
   x, y, z   end-effector position in the base frame, m (optional; default the robot's x_ref)
   sigma_hz  standard uncertainty, Hz (optional; default 2 % of freq_hz)

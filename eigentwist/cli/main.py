@@ -5,6 +5,7 @@ import argparse
 import importlib
 import sys
 
+from ..runtime.ccompile import BuildError
 from .common import CliError
 
 # Subcommands are the modules of this package that define ``add_parser``; this order
@@ -47,7 +48,7 @@ def main(argv=None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
-    except (CliError, ValueError, OSError, KeyError) as exc:
+    except (CliError, ValueError, OSError, KeyError, BuildError) as exc:
         if args.debug:
             raise
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

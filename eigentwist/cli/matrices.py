@@ -46,8 +46,9 @@ def compute(args) -> dict:
     rigid_model = tuple(e for e in effects if not is_structural(e))
     mats = ev.matrices(pose, effects, **params)
     q = ev.joint_angles(pose, **params)[0]
-    rigid = ev.modes(pose, rigid_model, **params)
-    flex = ev.modes(pose, flex_model, **params)
+    # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
+    rigid = ev.modes(pose, rigid_model, unstable="raise", **params)
+    flex = ev.modes(pose, flex_model, unstable="raise", **params)
     return {
         "robot": ev.robot.name,
         "model": list(effects),

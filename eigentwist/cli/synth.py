@@ -9,7 +9,9 @@ from .synth_uff import UFF_EPILOG, add_uff_options, run_uff
 HELP = "synthesize measurements from a truth model with a hidden effect and noise (CSV)"
 EPILOG = """The truth is PRESET[+EFFECT[:PARAM=VALUE,...]]...; any item may set parameters (SI units),
 e.g. paper:m_e=0.7; `none` is the bare model. Rows: every pose x k_a x mode; measured value
-f_true (1 + noise N(0,1)) from a seeded generator; sigma_hz = noise x value. Output columns:
+f_true (1 + noise N(0,1)) from a generator seeded by (seed, noise level), so two noise levels
+draw independently; sigma_hz = sigma x value, sigma = noise unless --sigma states it apart
+(e.g. --noise 3% --sigma 1%: uncertainty understated). Output columns:
 k_a, mode, freq_hz, sigma_hz, x, y, z (the input of compare and diagnose).
 
 examples:
@@ -33,6 +35,8 @@ def add_parser(sub):
                    help="one end-effector position, m (repeatable); added to --poses")
     p.add_argument("--modes", default="x,y,z", help="mode labels, comma-separated: ranks or x,y,z,rx,ry,rz (default: x,y,z)")
     p.add_argument("--noise", default="0.5%", help="relative noise (standard deviation), e.g. 0.5%% or 0.005 (default: 0.5%%)")
+    p.add_argument("--sigma", default=None, metavar="P%",
+                   help="relative standard uncertainty written to sigma_hz, e.g. 1%% (default: the --noise value)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     p.add_argument("--extra-stiffness", action="append", default=[], metavar="AXIS=K",
                    help="add a spring to ground at the EE origin, N/m (x,y,z) or N m/rad (rx,ry,rz): "
@@ -85,7 +89,7 @@ def run(args) -> int:
         return run_uff(args, ev, _numbers(args.k_a, "--k-a value"), _poses(args.poses, args.pose))
     meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), _poses(args.poses, args.pose),
                  [m for m in args.modes.split(",") if m.strip()], args.noise, args.seed, ev=ev,
-                 extra_stiffness=_extra(args.extra_stiffness) or None)
+                 extra_stiffness=_extra(args.extra_stiffness) or None, sigma=args.sigma)
     text = meas.to_csv(args.output)
     if args.output:
         print(f"wrote {len(meas)} rows to {args.output} (truth: {args.truth})")

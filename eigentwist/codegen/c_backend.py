@@ -11,7 +11,9 @@ Render only (a string comes back; nothing is written or compiled here: see
   cyclic Jacobi, :mod:`eigentwist.codegen.c_eigen`) for 6x6 and 3x3 pairs;
 * ``et_<robot>_fused``: poses and parameters -> joint angles -> M, K_R, K_F -> natural
   frequencies (and eigentwists) in one pass over each block, nothing but the requested
-  outputs leaving the cache;
+  outputs leaving the cache, with a per-pose status code (reachable, not singular,
+  finite, stable) computed in the same pass; it works on a range of blocks, so callers
+  can run disjoint ranges on several threads with results bit-identical to one call;
 * ``et_<robot>_signature()``: a JSON description of every function's inputs and outputs,
   which the loader reads so that nothing robot-specific is hard-coded in Python.
 """
@@ -30,7 +32,7 @@ from .render import environment, header
 
 __all__ = ["render_c", "CCodePrinter", "c_identifiers", "ABI_VERSION", "BLOCK", "EIGEN_MODELS"]
 
-ABI_VERSION = 1
+ABI_VERSION = 2
 BLOCK = 64                 # poses per block: inputs, outputs and temporaries stay in L1/L2
 # eigenproblems of the fused pipeline: (model, dimension, first index, inertia, stiffness).
 # The flexible model uses the full 6x6 M and K_F (Eq. 13); the rigid one the lower-right
@@ -39,6 +41,10 @@ EIGEN_MODELS = (("flexible", 6, 0, "M", "K_F"), ("rigid", 3, 3, "M", "K_R"))
 EIGEN_DIMS = tuple(n for _, n, _, _, _ in EIGEN_MODELS)
 JACOBI_MAX_SWEEPS = 20
 JACOBI_TOL = 1e-30         # sum of squared off-diagonals relative to the squared diagonal
+# kernels rendered only for the fused pass (not exported, not in the signature's kernels)
+FUSED_ONLY = ("matrices_lever",)
+# per-pose status codes of the fused pass, in order of precedence (0: evaluated and stable)
+STATUS = {"ok": 0, "unreachable": 1, "singular": 2, "not_finite": 3, "unstable": 4}
 
 C_RESERVED = frozenset("""
 auto break case char const continue default do double else enum extern float for goto if
@@ -171,14 +177,19 @@ def _kernel_context(kern: Kernel, prefix: str, units: dict) -> dict:
     return dict(
         name=kern.name, doc=kern.doc, cname=f"{prefix}_{kern.name}", inputs=inputs, entries=entries,
         outputs=[dict(name=o.name, shape=list(o.shape), size=_size(o.shape)) for o in kern.outputs],
-        lines=lines, n_in=len(inputs), n_ent=len(entries),
+        lines=lines, n_in=len(inputs), n_ent=len(entries), export=kern.name not in FUSED_ONLY,
     )
 
 
 # ------------------------------------------------------------------- fused
 def _fused_context(kctx: dict) -> dict:
-    """Wire the IK outputs into the matrices and jacobians kernels; index M, K_R, K_F."""
-    ik, mats, jac = kctx["inverse_kinematics"], kctx["matrices"], kctx["jacobians"]
+    """Wire the IK outputs into the matrices and jacobians kernels; index M, K_R, K_F.
+
+    The matrices stage is ``matrices_lever`` where rendered (M, K_R, K_F and the levers);
+    every IK output but ``q`` is a reachability quantity that must lie in [-1, 1].
+    """
+    ik, jac = kctx["inverse_kinematics"], kctx["jacobians"]
+    mats = kctx.get("matrices_lever", kctx["matrices"])
     inputs: list[dict] = []
     seen: dict[str, int] = {}
 
@@ -203,9 +214,12 @@ def _fused_context(kctx: dict) -> dict:
         ))
     n = max(EIGEN_DIMS)
     work = max(_eigen_work(d) for d in EIGEN_DIMS)
-    blocks = len(inputs) + ik["n_ent"] + mats["n_ent"] + jac["n_ent"] + n + n * n + work
+    blocks = len(inputs) + ik["n_ent"] + mats["n_ent"] + jac["n_ent"] + n + n * n + work + 2
+    reach = [f"et_ikb[{r}]" for r, e in enumerate(ik["entries"]) if e["name"] != "q"]
+    lever = [f"et_mb[{r}]" for r, e in enumerate(mats["entries"]) if e["name"] == "lever"]
     return dict(inputs=inputs, wiring=wiring, eigen=eig, n_in=len(inputs), max_n=n,
-                max_up=len(c_eigen.upper(n)), n_blocks=blocks)
+                max_up=len(c_eigen.upper(n)), n_blocks=blocks, work=work, mats=mats["name"], reach=reach, lever=lever,
+                mat_outputs=[[o["name"], o["shape"]] for o in mats["outputs"]], status=STATUS)
 
 
 def _eigen_work(n: int) -> int:
@@ -229,9 +243,10 @@ def _signature(robot, prefix: str, kernels: list[dict], fused: dict, digest: str
             function=k["cname"],
             inputs=[[i["group"], i["name"], i["joint"]] for i in k["inputs"]],
             outputs=[[o["name"], o["shape"]] for o in k["outputs"]],
-        ) for k in kernels},
+        ) for k in kernels if k["name"] not in FUSED_ONLY},
         fused=dict(function=f"{prefix}_fused", inputs=[[i["group"], i["name"]] for i in fused["inputs"]],
-                   models=[e["model"] for e in fused["eigen"]]),
+                   models=[e["model"] for e in fused["eigen"]], matrices=fused["mat_outputs"],
+                   status=fused["status"], lever_check=bool(fused["lever"])),
         eigh=dict(function=f"{prefix}_eigh", dims=list(EIGEN_DIMS)),
     )
 

@@ -17,7 +17,7 @@ from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
 
-__all__ = ["GENERATED", "kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS"]
+__all__ = ["GENERATED", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS"]
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
@@ -25,6 +25,7 @@ KERNEL_DOCS = {
     "inverse_kinematics": "Joint angles of every leg for end-effector positions (facts file IK).",
     "matrices": "Cartesian inertia M (Eq. 12), rigid-body stiffness K_R (Eq. 14) and flexible-body stiffness K_F (Eq. 13, tau_e = 0) at the EE origin.",
     "jacobians": "Inverse-Jacobian rows of joints 1, 2, 3 and the virtual joint of every leg (Huang's method), and the actuation levers (m).",
+    "matrices_lever": "The matrices kernel with each leg's actuation lever (m) as a further output: the fused C pass checks singularity without the jacobians kernel.",
     "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40), each leg's series actuator stiffness k_act and the static preload wrench W on the platform.",
 }
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
@@ -48,6 +49,18 @@ def kernels_for(model, progress=None) -> list[Kernel]:
 def generated_inputs(robot) -> list[str]:
     """The effect inputs of ``robot``'s generated code: switches and leg copies."""
     return [s.name for s in EffectSymbols(robot).inputs()]
+
+
+def fused_kernels_for(model) -> list[Kernel]:
+    """Kernels only the C backend's fused pass uses: ``matrices_lever`` (M, K_R, K_F and
+    the jacobians kernel's ``lever``, CSE'd together: the levers are intermediates of K_R,
+    so the singularity check costs nothing). Empty when the model has no levers."""
+    if "lever" not in model.outputs["jacobians"]:
+        return []
+    params = list(model.inputs)
+    outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs["matrices"].items()]
+    outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))
+    return [build_kernel("matrices_lever", KERNEL_DOCS["matrices_lever"], model.program, outs, [], model.joints, params)]
 
 
 def _template_text(backend: str) -> str:
@@ -81,8 +94,9 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
     for backend, (pattern, render) in BACKENDS.items():
         if backends is not None and backend not in backends:
             continue
-        digest = source_hash(kernels, _template_text(backend))
-        files[pattern.format(robot=name)] = render(model.robot, kernels, digest)
+        ks = kernels + fused_kernels_for(model) if backend == "c" else kernels
+        digest = source_hash(ks, _template_text(backend))
+        files[pattern.format(robot=name)] = render(model.robot, ks, digest)
     t3 = time.perf_counter()
     timings[name] = {"derive_s": t1 - t0, "cse_s": t2 - t1, "emit_s": t3 - t2}
     return files

@@ -1,20 +1,32 @@
 """Which model mode a measured frequency belongs to.
 
 A measurement's ``mode`` is either a rank (``"1"`` = the model's lowest mode) or a
-direction (``"x"``, ``"y"``, ``"z"``, ``"rx"``, ``"ry"``, ``"rz"``): the mode whose
-eigentwist has its largest component along that axis, the way the paper excites
-omega_1 and omega_2 with steps in X and Y (Sec. 5). Matching by direction follows the
-mode shape, not the order, so it survives modes that swap order when k_a, the pose or a
-parameter changes. Among several modes along the same axis the lowest is taken (a step
-excites the lowest one most).
+direction (``"x"``, ``"y"``, ``"z"``, ``"rx"``, ``"ry"``, ``"rz"``): the mode that carries
+the largest share of its energy along that axis (:mod:`eigentwist.runtime.labels`: a
+unit-free share, not the largest entry of an eigentwist that mixes rad and m), the way
+the paper excites omega_1 and omega_2 with steps in X and Y (Sec. 5). Matching by
+direction follows the mode shape, not the order, so it survives modes that swap order
+when k_a, the pose or a parameter changes. Among several modes along the same axis the
+lowest is taken (a step excites the lowest one most).
+
+Modes closer in frequency than ``DEGENERATE_REL`` (1 %, below the default 2 % uncertainty
+and the resolution of a few-second record) are one measured peak, and their eigentwists
+are any basis of one eigenspace (exactly so for the Delta on its axis): a basis that
+rotates with a 1 mm pose change must not change the answer. Such a group is matched as a
+whole: it points along the m axes with the largest group shares (m its size; the group
+share of an axis is basis-independent), and the frequency of a direction is the mean of
+the group's frequencies weighted by that axis's energy shares (the frequency of the
+group's motion along the axis; exact when the pair is degenerate or aligned with the
+axes). Across the 1 % edge the matched frequency moves by at most half the gap.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..runtime import AXES, InputError
+from ..runtime.labels import DEGENERATE_REL, degenerate_groups, energy_shares, group_shares
 
-__all__ = ["ModeMatchError", "parse_mode", "match_modes", "DIRECTIONS"]
+__all__ = ["ModeMatchError", "parse_mode", "match_modes", "match_frequencies", "DIRECTIONS", "DEGENERATE_REL"]
 
 DIRECTIONS = AXES   # ("rx", "ry", "rz", "x", "y", "z")
 
@@ -50,17 +62,30 @@ def match_modes(modes, labels, strict: bool = True, lines=None) -> np.ndarray:
     labels : N normalised labels (:func:`parse_mode`).
     strict : when True, a direction that no mode of a row points along raises
         :class:`ModeMatchError`. When False (inside fits, where a trial parameter may
-        tilt a mode), the mode with the largest component along the axis is taken.
+        tilt a mode), the mode (group) with the largest share along the axis is taken.
     lines : optional N source line numbers, used in error messages.
 
     Returns
     -------
-    (N,) int array.
+    (N,) int array; within a group of near-equal modes, the member with the largest
+    share along the label's axis.
+    """
+    return match_frequencies(modes, labels, strict, lines)[1]
+
+
+def match_frequencies(modes, labels, strict: bool = True, lines=None):
+    """Frequency (Hz) and mode index of each row's label (see :func:`match_modes`).
+
+    Returns
+    -------
+    freq : (N,) Hz: the matched mode's, or for a group of near-equal modes the
+        share-weighted mean (module doc); index : (N,) int.
     """
     labels = np.asarray(labels, dtype=object)
     n_rows, n_modes = modes.freq_hz.shape
     idx = np.zeros(n_rows, dtype=int)
-    direction = modes.direction
+    freq = np.full(n_rows, np.nan)
+    shares = groups = None
     for label in np.unique(labels):
         rows = np.flatnonzero(labels == label)
         if label.isdigit():
@@ -69,23 +94,40 @@ def match_modes(modes, labels, strict: bool = True, lines=None) -> np.ndarray:
                 raise ModeMatchError(f"{_where(rows[0], lines)}mode rank {rank} does not exist: the {modes.kind} "
                                      f"model has {n_modes} modes (ranks 1..{n_modes})")
             idx[rows] = rank - 1
+            freq[rows] = modes.freq_hz[rows, rank - 1]
             continue
-        axis = DIRECTIONS.index(label)
         if label not in modes.axes:
             raise ModeMatchError(f"{_where(rows[0], lines)}mode {label!r}: the {modes.kind} model has no mode along "
                                  f"{label} (its modes are along {', '.join(modes.axes)}); use a flexible model "
                                  "(a structural compliance effect, e.g. --model paper) or a rank")
-        along = direction[rows] == axis
-        first = np.argmax(along, axis=1)                      # lowest mode along the axis
-        missing = ~along.any(axis=1)
-        if missing.any():
-            if strict:
-                k = rows[np.argmax(missing)]
-                raise ModeMatchError(f"{_where(k, lines)}no mode of the {modes.kind} model points along {label} "
-                                     f"at this row (mode directions: "
-                                     f"{', '.join(DIRECTIONS[d] for d in direction[k])}); use a rank instead")
-            local = modes.axes.index(label)
-            weight = np.abs(modes.eigentwists[rows][:, local, :])   # (rows, modes), largest entry is 1
-            first = np.where(missing, np.argmax(weight, axis=1), first)
-        idx[rows] = first
-    return idx
+        if shares is None:
+            shares = energy_shares(modes.eigentwists)
+            groups = degenerate_groups(modes.freq_hz)
+        idx[rows], freq[rows] = _match_axis(modes, shares[rows], groups[rows], modes.axes.index(label),
+                                            rows, label, strict, lines)
+    return freq, idx
+
+
+def _match_axis(modes, shares, groups, axis: int, rows, label, strict, lines):
+    """(index, frequency) of the lowest mode group along local ``axis`` for these rows."""
+    total = group_shares(shares, groups)                                  # (rows, axes, modes)
+    size = (groups[:, :, None] == groups[:, None, :]).sum(axis=1)         # (rows, modes) group sizes
+    rank = (total > total[:, axis:axis + 1, :]).sum(axis=1)               # axes with a larger group share
+    along = rank < size
+    first = np.argmax(along, axis=1)                                      # lowest mode (group) along the axis
+    missing = ~along.any(axis=1)
+    if missing.any():
+        if strict:
+            k = int(np.argmax(missing))
+            direction = modes.direction[rows[k]]
+            raise ModeMatchError(f"{_where(rows[k], lines)}no mode of the {modes.kind} model points along {label} "
+                                 f"at this row (mode directions: "
+                                 f"{', '.join(DIRECTIONS[d] for d in direction)}); use a rank instead")
+        first = np.where(missing, np.argmax(np.nan_to_num(total[:, axis, :], nan=-np.inf), axis=1), first)
+    r = np.arange(len(rows))
+    member = groups == groups[r, first][:, None]                          # (rows, modes) the chosen group
+    own = np.where(member, np.clip(shares[:, axis, :], 0.0, None), 0.0)
+    weight = np.where(own.sum(axis=1, keepdims=True) > 0, own, member.astype(float))
+    freq = np.sum(weight * np.nan_to_num(modes.freq_hz[rows]), axis=1) / weight.sum(axis=1)
+    index = np.argmax(np.where(member, shares[:, axis, :], -np.inf), axis=1)
+    return index, np.where(np.isfinite(modes.freq_hz[rows, 0]), freq, np.nan)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .matching import match_modes
+from .matching import match_frequencies
 from .shapes import match_by_shape
 
 __all__ = ["evaluate", "Predictor"]
@@ -31,16 +31,20 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
 
     Returns
     -------
-    freq : (N,) Hz; index : (N,) matched mode index into the model's ascending modes.
+    freq : (N,) Hz; index : (N,) matched mode index into the model's ascending modes
+    (by label: :func:`eigentwist.diagnose.matching.match_frequencies`, which gives a group
+    of near-equal modes its share-weighted frequency; rows matched by shape: that mode's).
     """
     modes = ev.modes(poses, tuple(effects), **params)
-    idx = match_modes(modes, labels, strict=strict, lines=lines)
+    freq, idx = match_frequencies(modes, labels, strict=strict, lines=lines)
     if shapes is not None:
         n = len(idx)
         keys = np.column_stack([poses, sensor if sensor is not None else np.zeros((n, 3)),
                                 *(np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in params.values())])
+        by_label = idx
         idx = match_by_shape(modes, shapes, keys, idx, sensor)
-    freq = modes.freq_hz[np.arange(len(idx)), idx]
+        shaped = np.all(np.isfinite(np.asarray(shapes, dtype=float)), axis=1) | (idx != by_label)
+        freq = np.where(shaped, modes.freq_hz[np.arange(n), idx], freq)
     return (freq, idx, modes) if return_modes else (freq, idx)
 
 

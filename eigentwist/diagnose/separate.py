@@ -14,7 +14,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..runtime import EigentwistError
-from .matching import DIRECTIONS, match_modes
+from .matching import DIRECTIONS, match_frequencies
 
 __all__ = ["next_measurement", "workspace_poses"]
 
@@ -58,8 +58,8 @@ def _best(modes_of, labels, rel_sigma):
     for label in labels:
         fs, ok = [], np.ones(n, dtype=bool)
         for m in modes_of:
-            idx = match_modes(m, [label] * n, strict=False)
-            fs.append(m.freq_hz[np.arange(n), idx])
+            f, idx = match_frequencies(m, [label] * n, strict=False)
+            fs.append(f)
             ok &= m.direction[np.arange(n), idx] == DIRECTIONS.index(label)
         sep = np.abs(fs[0] - fs[1]) / (rel_sigma * 0.5 * (fs[0] + fs[1]))
         sep = np.where(ok, sep, -np.inf)

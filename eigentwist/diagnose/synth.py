@@ -4,7 +4,11 @@ A truth is written ``PRESET[+EFFECT[:PARAM=VALUE,...]]...``, e.g.
 ``paper+transmission_compliance:k_t=8000`` or ``rigid+payload_mass:m_p=0.5``; any item
 may carry parameter values (``paper:m_e=0.7``), ``none`` is the bare model. Rows are
 every (pose, k_a, mode) combination; the measured value is
-``f_true (1 + noise * N(0, 1))`` with a seeded generator, and ``sigma_hz = noise * f``.
+``f_true (1 + noise * N(0, 1))`` and ``sigma_hz = sigma * f`` (``sigma`` is the stated
+relative uncertainty, by default equal to ``noise``; state it apart to make data whose
+uncertainty is over- or understated). The normal draws come from a generator seeded by
+(``seed``, noise level) (:func:`noise_generator`), so the same seed at two noise levels
+gives independent draws, not one draw scaled.
 
 ``extra_stiffness`` adds a spring to ground at the end-effector origin (N/m along x, y,
 z; N m/rad about rx, ry, rz) to the truth's stiffness matrix: a physical effect that
@@ -19,12 +23,12 @@ import numpy as np
 
 from ..description.effects import EFFECTS, PRESETS, resolve_model
 from ..runtime import InputError, Modes
-from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .evaluators import resolve
-from .matching import DIRECTIONS, match_modes, parse_mode
+from .matching import DIRECTIONS, match_frequencies, parse_mode
 from .measurements import Measurements
 
-__all__ = ["Truth", "parse_truth", "synth", "parse_noise"]
+__all__ = ["Truth", "parse_truth", "synth", "parse_noise", "noise_generator"]
 
 
 class Truth:
@@ -75,16 +79,25 @@ def parse_truth(spec: str, ev) -> Truth:
     return Truth(effects, values)
 
 
-def parse_noise(text) -> float:
-    """``"0.5%"`` -> 0.005, ``"0.005"`` -> 0.005; must be in [0, 1)."""
+def parse_noise(text, what: str = "noise") -> float:
+    """``"0.5%"`` -> 0.005, ``"0.005"`` -> 0.005; must be in [0, 1). ``what`` names it in errors."""
     s = str(text).strip()
     try:
         value = float(s[:-1]) / 100 if s.endswith("%") else float(s)
     except ValueError:
-        raise InputError(f"noise {text!r} is not a number: expected e.g. 0.5% or 0.005") from None
+        raise InputError(f"{what} {text!r} is not a number: expected e.g. 0.5% or 0.005") from None
     if not 0 <= value < 1:
-        raise InputError(f"noise {text!r}: expected a relative value in [0, 100%)")
+        raise InputError(f"{what} {text!r}: expected a relative value in [0, 100%)")
     return value
+
+
+def noise_generator(seed: int, noise: float) -> np.random.Generator:
+    """The generator of ``synth``'s normal draws: seeded by ``seed`` and the noise level.
+
+    The level enters the seed sequence in parts per billion, so two levels give
+    independent streams and the same (seed, level) the same stream on every platform.
+    """
+    return np.random.default_rng(np.random.SeedSequence([int(seed), int(round(float(noise) * 1e9))]))
 
 
 def _truth_modes(ev, truth: Truth, poses, k_a, extra_stiffness) -> Modes:
@@ -101,11 +114,12 @@ def _truth_modes(ev, truth: Truth, poses, k_a, extra_stiffness) -> Modes:
         j = axes.index(axis)
         K[:, j, j] += k
     lam, V = generalized_eigh(K, M)
-    return Modes(frequencies_hz(lam), normalize_eigentwists(V), axes, "rigid" if len(axes) == 3 else "flexible")
+    return Modes(frequencies_hz(lam), normalize_eigentwists(V), axes, "rigid" if len(axes) == 3 else "flexible",
+                 stable=~unstable_modes(lam).any(axis=-1))
 
 
 def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed: int = 0,
-          robot: str = "heli4", ev=None, extra_stiffness: dict | None = None) -> Measurements:
+          robot: str = "heli4", ev=None, extra_stiffness: dict | None = None, sigma=None) -> Measurements:
     """Measurements of every (pose, k_a, mode) from the truth model, with relative noise.
 
     Parameters
@@ -115,12 +129,15 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
     poses : (P, 3) end-effector positions, m (default: the robot's x_ref).
     modes : mode labels (directions or ranks).
     noise : relative standard deviation (0.005 or ``"0.5%"``).
-    seed : seed of ``numpy.random.default_rng``.
+    seed : seed of the noise generator (:func:`noise_generator`, keyed on the noise level too).
     extra_stiffness : {axis: stiffness} added at the EE origin (outside the catalogue).
+    sigma : relative standard uncertainty written to ``sigma_hz`` (``"1%"``); default:
+        ``noise`` (no column, i.e. the 2 % default, when both are 0).
     """
     ev = resolve(ev, robot)
     t = parse_truth(truth, ev)
     rel = parse_noise(noise)
+    stated = rel if sigma is None else parse_noise(sigma, "sigma")
     poses = np.atleast_2d(np.asarray(ev.robot.x_ref if poses is None else poses, dtype=float))
     k_a = np.atleast_1d(np.asarray(k_a, dtype=float))
     labels = [parse_mode(m) for m in modes]
@@ -131,10 +148,8 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
     row_ka = k_a[[r[1] for r in rows]]
     row_modes = [r[2] for r in rows]
     m = _truth_modes(ev, t, row_poses, row_ka, extra_stiffness)
-    idx = match_modes(m, row_modes, strict=True)
-    f_true = m.freq_hz[np.arange(len(idx)), idx]
-    rng = np.random.default_rng(seed)
-    f = f_true * (1.0 + rel * rng.standard_normal(len(f_true)))
-    sigma = rel * f if rel > 0 else None
-    return Measurements.from_arrays(row_ka, row_modes, f, row_poses, sigma, robot=ev.robot.name,
+    f_true, _ = match_frequencies(m, row_modes, strict=True)
+    f = f_true * (1.0 + rel * noise_generator(seed, rel).standard_normal(len(f_true)))
+    sigma_hz = stated * f if stated > 0 else None
+    return Measurements.from_arrays(row_ka, row_modes, f, row_poses, sigma_hz, robot=ev.robot.name,
                                     source=f"synth({truth})", ev=ev)

@@ -22,17 +22,17 @@ from pathlib import Path
 
 import numpy as np
 
-from .ccompile import CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
-from .eigen import normalize_eigentwists
+from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
+from .validity import STATUS
 
 __all__ = ["load_c_kernels", "CKernels", "CompilerNotFoundError", "CompileError", "find_compiler",
            "cache_dir", "build_library", "flag_sets", "source_path"]
 
-ABI_VERSION = 1
+ABI_VERSION = 2
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
 
-class CompileError(RuntimeError):
+class CompileError(BuildError):
     """The compiler failed on every flag set (the message holds its output)."""
 
 
@@ -55,10 +55,11 @@ def _bind(lib: ctypes.CDLL, sig: dict) -> dict:
         fn.restype = ctypes.c_int
         fns[name] = fn
     fused = getattr(lib, sig["fused"]["function"])
-    fused.argtypes = [ctypes.c_int64, _PTRS, _I64P, ctypes.c_int, _PTRS, _PTRS, _PTRS, _F64P, _F64P]
+    fused.argtypes = [ctypes.c_int64, ctypes.c_int64, _PTRS, _I64P, ctypes.c_int, _PTRS, _PTRS, _PTRS,
+                      ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, _F64P]
     fused.restype = ctypes.c_int
     eigh = getattr(lib, sig["eigh"]["function"])
-    eigh.argtypes = [ctypes.c_int64, ctypes.c_int, _F64P, _F64P, _F64P, _F64P]
+    eigh.argtypes = [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
     eigh.restype = ctypes.c_int
     fns["fused"], fns["eigh"] = fused, eigh
     return fns
@@ -137,8 +138,12 @@ def load_c_kernels(robot: str, numpy_module=None, source: str | None = None) -> 
 
 # ------------------------------------------------------------------ kernels
 def _as_input(value, lead: tuple, keep: list) -> tuple[int, int]:
-    """(address, stride) of one input broadcast to ``lead`` poses (copies only if needed)."""
+    """(address, stride) of one input broadcast to ``lead`` poses (copies only if needed:
+    a strided 1-D view, such as one column of an (N, 3) pose array, is read in place)."""
     arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 1 and arr.shape == lead and arr.size > 1 and arr.strides[0] > 0 and arr.strides[0] % 8 == 0:
+        keep.append(arr)
+        return arr.ctypes.data, arr.strides[0] // 8
     if arr.size == 1:
         arr = np.ascontiguousarray(arr).reshape(1)
         keep.append(arr)
@@ -182,6 +187,11 @@ class CKernels:
         self._spec = signature["kernels"]
         self.OUTPUTS = {k: {o: tuple(s) for o, s in v["outputs"]} for k, v in self._spec.items()}
         self.N_LEGS = self.OUTPUTS["inverse_kinematics"]["q"][0]
+        self.BLOCK = int(signature["block"])
+        self.FUSED_MATRICES = {o: tuple(s) for o, s in signature["fused"]["matrices"]}
+        if signature["fused"]["status"] != STATUS:
+            raise RuntimeError(f"the C library of {self.ROBOT!r} has status codes {signature['fused']['status']}, "
+                               f"expected {STATUS}: run `eigentwist generate`")
 
     def __repr__(self) -> str:
         return f"<eigentwist C kernels {self.ROBOT!r} ({self.build.flags_name}) {self.build.path}>"
@@ -248,13 +258,16 @@ class CKernels:
         return self._q_kernel("gravity", q, p)
 
     # ------------------------------------------------------- fast paths
-    def generalized_eigh(self, K, M, vectors: bool = True):
+    def generalized_eigh(self, K, M, vectors: bool = True, threads: int = 1):
         """``K v = lambda M v`` for (N, n, n) pairs, n = 6 or 3, in C (Cholesky + Jacobi).
 
         Same contract as :func:`eigentwist.runtime.eigen.generalized_eigh`: eigenvalues
         omega^2 in (rad/s)^2 ascending (N, n) and M-orthonormal eigenvectors as columns
         (N, n, n) (None when ``vectors`` is False). Only the upper triangles are read.
+        ``threads`` > 1 splits the batch on block boundaries (bit-identical results).
         """
+        from .threads import run_ranges, threads_for
+
         K = np.ascontiguousarray(K, dtype=np.float64)
         M = np.ascontiguousarray(M, dtype=np.float64)
         if K.shape != M.shape or K.ndim != 3 or K.shape[1] != K.shape[2] or K.shape[1] not in self.signature["eigh"]["dims"]:
@@ -263,9 +276,13 @@ class CKernels:
         n, dim = K.shape[0], K.shape[1]
         lam = np.empty((n, dim))
         V = np.empty((n, dim, dim)) if vectors else None
-        if n:
-            rc = self._fn["eigh"](n, dim, K.ctypes.data_as(_F64P), M.ctypes.data_as(_F64P), lam.ctypes.data_as(_F64P),
-                                  V.ctypes.data_as(_F64P) if vectors else None)
+        fn, mat = self._fn["eigh"], 8 * dim * dim
+
+        def call(a: int, b: int) -> int:
+            return fn(b - a, dim, K.ctypes.data + a * mat, M.ctypes.data + a * mat, lam.ctypes.data + a * 8 * dim,
+                      V.ctypes.data + a * mat if vectors else None)
+
+        for rc in run_ranges(call, n, self.BLOCK, threads_for(n, self.BLOCK, threads)):
             _check_rc(rc, "eigh")
         bad = ~np.isfinite(lam).all(axis=1)
         if bad.any():
@@ -274,15 +291,32 @@ class CKernels:
         return lam, V
 
     def fused(self, x, y, z, p: dict, *, matrices=("M", "K_F"), ik=(), jacobians=(), model=None,
-              vectors: bool = False) -> dict:
-        """Poses (m) and parameters to the requested outputs in one C call.
+              vectors: bool = False, status: bool = False, normalize: bool = False, out: dict | None = None,
+              threads: int = 1) -> dict:
+        """Poses (m) and parameters to the requested outputs in one C pass.
 
         ``matrices``, ``ik`` and ``jacobians`` name the kernel outputs to return (shapes as
-        in :attr:`OUTPUTS`); ``model`` (``"flexible"``: M and K_F, 6x6; ``"rigid"``: the
-        lower-right 3x3 of M and K_R) adds ``freq_hz`` (N, n), ascending, and with
-        ``vectors`` the M-orthonormal eigentwists ``V`` (N, n, n) as columns. No input
-        checks: use :meth:`fused_frequencies` or the evaluator for validated results.
+        in :attr:`OUTPUTS`; ``matrices`` may also name ``lever``); ``model`` (``"flexible"``:
+        M and K_F, 6x6; ``"rigid"``: the lower-right 3x3 of M and K_R) adds ``freq_hz``
+        (N, n), ascending, and with ``vectors`` the eigentwists as columns (N, n, n): ``V``,
+        M-orthonormal, or with ``normalize`` ``eigentwists``, scaled so that each column's
+        entry of largest magnitude is +1 (Eqs. 57, 65). An unstable mode (eigenvalue below
+        ``-ROUNDOFF_EPS * max|lambda|``) has NaN Hz; round-off clips to 0 Hz.
+
+        ``status`` adds ``status`` (N,) int8 from the same pass (:data:`STATUS`): 1 when a
+        pose is unreachable, 2 singular (a lever ``|w_a1.t_a1| / l1 <= LEVER_TOL``), 3 when
+        its eigenvalues are not finite (these three get NaN frequencies and eigentwists),
+        4 when a mode is unstable, else 0. Without ``status`` nothing is checked.
+
+        ``out`` maps output names to preallocated C-contiguous arrays of the result's shape
+        and dtype, written in place (no other copy is made). ``threads`` > 1 runs ranges
+        of whole blocks on that many threads (bounded by :func:`threads_for`); the results
+        are bit-identical to one thread.
         """
+        from .eigen import ROUNDOFF_EPS
+        from .threads import run_ranges, threads_for
+        from .validity import LEVER_SCALE, LEVER_TOL
+
         spec = self.signature["fused"]
         values = {}
         for group, name in spec["inputs"]:
@@ -292,55 +326,73 @@ class CKernels:
         keep: list = []
         addresses, strides = [], []
         for name in values:
-            a, s = _as_input(values[name], lead, keep)
+            a, st = _as_input(values[name], lead, keep)
             addresses.append(a)
-            strides.append(s)
+            strides.append(st)
         result: dict = {}
+        given = dict(out or {})
 
-        def outputs(kernel, names):
+        def alloc(name: str, shape: tuple, dtype=np.float64) -> int:
+            arr = given.pop(name, None)
+            if arr is None:
+                arr = np.empty(lead + shape, dtype=dtype)
+            elif (not isinstance(arr, np.ndarray) or arr.shape != lead + shape or arr.dtype != dtype
+                  or not arr.flags.c_contiguous or not arr.flags.writeable):
+                raise ValueError(f"out[{name!r}]: expected a writeable C-contiguous {np.dtype(dtype).name} array "
+                                 f"of shape {lead + shape}, got {getattr(arr, 'shape', None)} "
+                                 f"{getattr(arr, 'dtype', type(arr).__name__)}")
+            result[name] = arr
+            return arr.ctypes.data
+
+        def outputs(kernel: str, table: dict, names):
             if not names:
                 return None
-            unknown = sorted(set(names) - set(self.OUTPUTS[kernel]))
+            unknown = sorted(set(names) - set(table))
             if unknown:
-                raise KeyError(f"{kernel} has no output(s) {unknown}: expected {list(self.OUTPUTS[kernel])}")
-            ptrs = []
-            for name, shape in self.OUTPUTS[kernel].items():
-                if name in names:
-                    result[name] = np.empty(lead + shape)
-                    ptrs.append(result[name].ctypes.data)
-                else:
-                    ptrs.append(None)
-            return _ptrs(ptrs)
+                raise KeyError(f"{kernel} has no output(s) {unknown}: expected {list(table)}")
+            return _ptrs([alloc(name, shape) if name in names else None for name, shape in table.items()])
 
-        ik_p, mat_p, jac_p = outputs("inverse_kinematics", ik), outputs("matrices", matrices), outputs("jacobians", jacobians)
-        freq = vec = None
+        ik_p = outputs("inverse_kinematics", self.OUTPUTS["inverse_kinematics"], ik)
+        mat_p = outputs("matrices", self.FUSED_MATRICES, matrices)
+        jac_p = outputs("jacobians", self.OUTPUTS["jacobians"], jacobians)
+        freq = vec = st_p = None
         model_id = 0
         if model is not None:
             if model not in spec["models"]:
                 raise ValueError(f"model {model!r}: expected one of {spec['models']}")
             model_id = spec["models"].index(model)
             dim = self.signature["eigh"]["dims"][model_id]
-            result["freq_hz"] = np.empty(lead + (dim,))
-            freq = result["freq_hz"].ctypes.data_as(_F64P)
+            freq = alloc("freq_hz", (dim,))
             if vectors:
-                result["V"] = np.empty(lead + (dim, dim))
-                vec = result["V"].ctypes.data_as(_F64P)
-        if n:
-            rc = self._fn["fused"](n, _ptrs(addresses), _strides(strides), model_id, ik_p, mat_p, jac_p, freq, vec)
+                vec = alloc("eigentwists" if normalize else "V", (dim, dim))
+        if status:
+            st_p = alloc("status", (), np.int8)
+        if given:
+            raise KeyError(f"out has arrays for {sorted(given)}, which this call does not compute")
+        names = [name for _, name in spec["inputs"]]
+        scale = names.index(LEVER_SCALE) if LEVER_SCALE in names else -1
+        opts = (ctypes.c_double * 4)(LEVER_TOL, scale, ROUNDOFF_EPS, 1.0 if normalize else 0.0)
+        ins, ins_stride, fn = _ptrs(addresses), _strides(strides), self._fn["fused"]
+
+        def call(begin: int, end: int) -> int:
+            return fn(begin, end, ins, ins_stride, model_id, ik_p, mat_p, jac_p, freq, vec, st_p, opts)
+
+        for rc in run_ranges(call, n, self.BLOCK, threads_for(n, self.BLOCK, threads)):
             _check_rc(rc, "fused")
         return result
 
     def fused_frequencies(self, x, y, z, p: dict, model: str = "flexible", vectors: bool = False,
-                          check: bool = True) -> dict:
-        """Natural frequencies (Hz) of poses ``x, y, z`` (m) in one C call: the sweep fast path.
+                          check: bool = True, threads: int = 1) -> dict:
+        """Natural frequencies (Hz) of poses ``x, y, z`` (m) in one C pass: the sweep fast path.
 
         ``p`` holds every parameter and effect switch (as the evaluator passes them to the
         kernels); ``model`` is ``"flexible"`` (M and K_F, 6 modes) or ``"rigid"`` (3x3
         translational subsets of M and K_R), Eq. 7. The gravity preload is not included
-        (its switch must be off). Returns ``freq_hz`` (N, n) ascending, ``valid`` (N,) and,
-        with ``vectors``, ``eigentwists`` (N, n, n) normalised so that each column's entry
-        of largest magnitude is +1 (Eqs. 57, 65). Unreachable or singular poses raise the
-        evaluator's errors when ``check``; otherwise they get NaN and ``valid`` False.
+        (its switch must be off). Returns ``freq_hz`` (N, n) ascending, ``valid`` (N,),
+        ``stable`` (N,) and, with ``vectors``, ``eigentwists`` (N, n, n) normalised so that
+        each column's entry of largest magnitude is +1 (Eqs. 57, 65). Unreachable or
+        singular poses raise the evaluator's errors when ``check``; otherwise they get NaN
+        and ``valid`` False. Unstable modes are NaN with ``stable`` False (never raised).
         """
         from ..description.effects import EFFECTS, switch_name
         from .errors import InputError
@@ -348,53 +400,36 @@ class CKernels:
         preloads = [switch_name(n) for n, e in EFFECTS.items() if e.kind == "preload"]
         if any(np.any(np.asarray(p.get(s, 0.0)) != 0) for s in preloads):
             raise InputError("the fused C path has no gravity preload: switch it off or use Evaluator.frequencies")
-        ik_names = [k for k in self.OUTPUTS["inverse_kinematics"] if k != "q"]
-        jac_names = ["lever"] if "lever" in self.OUTPUTS["jacobians"] else []
-        out = self.fused(x, y, z, p, matrices=(), ik=ik_names, jacobians=jac_names, model=model, vectors=vectors)
-        valid = _validity(out, ik_names, p)
+        out = self.fused(x, y, z, p, matrices=(), model=model, vectors=vectors, normalize=True, status=True,
+                         threads=threads)
+        st = out["status"]
+        valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
-            _raise_invalid(self.ROBOT, out, valid, ik_names, p, x, y, z)
-        res = {"freq_hz": out["freq_hz"], "valid": valid}
+            self.raise_invalid(int(np.argmax(~valid.reshape(-1))), x, y, z, p, st.shape)
+        res = {"freq_hz": out["freq_hz"], "valid": valid, "stable": st != STATUS["unstable"]}
         if vectors:
-            res["eigentwists"] = normalize_eigentwists(out["V"])
-        if not valid.all():
-            res["freq_hz"][~valid] = np.nan
-            if vectors:
-                res["eigentwists"][~valid] = np.nan
+            res["eigentwists"] = out["eigentwists"]
         return res
 
+    def raise_invalid(self, k: int, x, y, z, p: dict, lead: tuple) -> None:
+        """Raise the evaluator's error (:mod:`.validity`) for pose ``k`` of a batch of shape
+        ``lead``, recomputing its check quantities (one pose, so it costs nothing)."""
+        from ..robots import get
+        from .errors import UnreachablePoseError
+        from .validity import LEVER_SCALE, raise_singular, raise_unreachable
 
-def _lever_ratio(out: dict, p: dict) -> np.ndarray:
-    """w_a1.t_a1 / l1 per leg, as the evaluator checks it."""
-    return out["lever"] / np.asarray(p["l1"], dtype=float)[..., None]
+        def row(v):
+            return np.broadcast_to(np.asarray(v, dtype=float), lead).reshape(-1)[k:k + 1]
 
-
-def _validity(out: dict, ik_names: list, p: dict) -> np.ndarray:
-    """Reachable, not singular (:mod:`.validity`) and finite; NaN counts as invalid."""
-    from .validity import lever_mask, reachable_mask
-
-    ok = np.isfinite(out["freq_hz"]).all(axis=-1)
-    ik = {name: np.reshape(out[name], ok.shape + (-1,)) for name in ik_names}
-    reach = reachable_mask(ik)
-    if reach is not None:
-        ok &= reach
-    if "lever" in out:
-        ok &= lever_mask(_lever_ratio(out, p))
-    return ok
-
-
-def _raise_invalid(robot: str, out: dict, valid: np.ndarray, ik_names: list, p: dict, x, y, z) -> None:
-    """Raise the evaluator's error (:mod:`.validity`) for the first invalid pose."""
-    from ..robots import get
-    from .errors import UnreachablePoseError
-    from .validity import raise_singular, raise_unreachable
-
-    legs = get(robot).legs
-    shape = valid.shape
-    poses = np.stack([np.broadcast_to(c, shape).reshape(-1) for c in (x, y, z)], axis=-1)
-    ik = {name: np.reshape(out[name], (poses.shape[0], -1)) for name in ik_names}
-    raise_unreachable(legs, poses, ik)
-    if "lever" in out:
-        raise_singular(legs, poses, np.reshape(_lever_ratio(out, p), (poses.shape[0], -1)))
-    k = int(np.argmax(~valid.reshape(-1)))
-    raise UnreachablePoseError(f"pose {poses[k].tolist()} m gives non-finite frequencies")
+        legs = get(self.ROBOT).legs
+        pose = np.stack([row(c) for c in (x, y, z)], axis=-1)
+        pk = {name: row(v) for name, v in p.items()}
+        ik = self.inverse_kinematics(*pose.T, pk)
+        raise_unreachable(legs, pose, {name: v for name, v in ik.items() if name != "q"})
+        if "lever" in self.OUTPUTS["jacobians"]:
+            lever = self.jacobians(ik["q"], pk)["lever"]
+            if LEVER_SCALE in pk:
+                lever = lever / pk[LEVER_SCALE][..., None]
+            raise_singular(legs, pose, lever)
+        raise UnreachablePoseError(f"pose {pose[0].tolist()} m gives non-finite frequencies "
+                                   "(the inertia matrix is not positive definite there)")

@@ -5,6 +5,17 @@ into ``<cache>/<name>_<key>.so``, where ``key`` hashes the source, the flags, th
 compiler's path and its version, so a changed source or compiler rebuilds and an
 unchanged one reuses the library. The cache directory is ``$EIGENTWIST_CACHE``,
 ``$XDG_CACHE_HOME/eigentwist`` or ``~/.cache/eigentwist``; it may be deleted at any time.
+
+Safe under concurrency and damage:
+
+* processes building the same library take an exclusive ``fcntl.flock`` on
+  ``<name>_<key>.lock``, so it is compiled once; the library is written to a temporary
+  file and renamed into place, so nobody loads a half-written one;
+* beside each library, ``<name>_<key>.so.sha256`` holds the SHA-256 of its bytes; a
+  library whose bytes do not match (truncated, corrupted) is rebuilt before use;
+* the cache directory is created private (0700); a directory (or library) that another
+  user owns or that others may write to is refused with :class:`UnsafeCacheError`,
+  since loading a library runs its code.
 """
 from __future__ import annotations
 
@@ -12,16 +23,31 @@ import hashlib
 import os
 import platform
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["CompilerNotFoundError", "find_compiler", "compiler_version", "flag_sets", "cache_dir", "build_library"]
+try:
+    import fcntl
+except ImportError:                     # not POSIX: no locking (the rename still keeps builds whole)
+    fcntl = None
+
+__all__ = ["BuildError", "CompilerNotFoundError", "UnsafeCacheError", "find_compiler", "compiler_version", "flag_sets",
+           "cache_dir", "build_library", "check_private", "library_digest"]
 
 
-class CompilerNotFoundError(RuntimeError):
+class BuildError(RuntimeError):
+    """The C backend cannot be built or loaded here (the command line prints it as one line)."""
+
+
+class CompilerNotFoundError(BuildError):
     """No C compiler: ``$CC`` is not an executable, or neither ``cc`` nor ``gcc`` is on PATH."""
+
+
+class UnsafeCacheError(BuildError):
+    """The compiled-code cache (or a library in it) is writable by others or not ours."""
 
 
 def find_compiler() -> str:
@@ -81,32 +107,113 @@ def cache_dir() -> Path:
     return Path(base) / "eigentwist"
 
 
-def build_library(source: str, name: str, cc: str, flags: list[str], directory: Path | None = None) -> Path:
-    """Compile ``source`` into ``<directory>/<name>_<key>.so``, or reuse it if present.
+def check_private(path: Path) -> None:
+    """Raise :class:`UnsafeCacheError` unless ``path`` is owned by this user and not
+    writable by group or others (a library loaded from there would run their code)."""
+    st = os.stat(path)
+    kind = "directory" if stat.S_ISDIR(st.st_mode) else "library"
+    if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+        raise UnsafeCacheError(f"refusing the compiled-code cache {kind} {path}: it is owned by uid {st.st_uid}, "
+                               f"not by this user (uid {os.geteuid()}); set EIGENTWIST_CACHE to a private directory")
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        raise UnsafeCacheError(f"refusing the compiled-code cache {kind} {path}: it is writable by others "
+                               f"(mode {stat.S_IMODE(st.st_mode):o}); run `chmod go-w {path}` or set EIGENTWIST_CACHE "
+                               "to a private directory")
 
-    ``key`` hashes the source, the flags, the compiler path and its version. The library
-    is written to a temporary file in the same directory and renamed into place, so a
-    concurrent build or an interrupted one never leaves a partial library behind.
-    Raises :class:`subprocess.CalledProcessError` when the compiler fails.
-    """
-    directory = cache_dir() if directory is None else Path(directory)
+
+def library_digest(path: Path) -> str:
+    """SHA-256 (hex) of a file's bytes."""
     h = hashlib.sha256()
-    for part in (source, "\0".join(flags), cc, compiler_version(cc)):
-        h.update(part.encode())
-        h.update(b"\0")
-    target = directory / f"{name}_{h.hexdigest()[:24]}.so"
-    if target.exists():
-        return target
-    directory.mkdir(parents=True, exist_ok=True)
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _intact(target: Path) -> bool:
+    """The library exists and its bytes match the digest stored beside it."""
+    sidecar = target.with_name(target.name + ".sha256")
+    try:
+        want = sidecar.read_text().strip()
+        return bool(want) and library_digest(target) == want
+    except OSError:
+        return False
+
+
+def _cache_directory(directory: Path) -> Path:
+    directory.mkdir(mode=0o700, parents=True, exist_ok=True)
+    check_private(directory)
+    return directory
+
+
+class _Lock:
+    """An exclusive ``flock`` on ``path`` for the ``with`` block (no-op without fcntl)."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.fd = None
+
+    def __enter__(self):
+        if fcntl is not None:
+            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+            fcntl.flock(self.fd, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc):
+        if self.fd is not None:
+            fcntl.flock(self.fd, fcntl.LOCK_UN)
+            os.close(self.fd)
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _compile(source: str, name: str, cc: str, flags: list[str], target: Path) -> None:
+    """Compile into a temporary file, record its digest, rename it into place."""
+    directory = target.parent
     fd, src = tempfile.mkstemp(prefix=f".{name}_", suffix=".c", dir=directory)
     tmp = src[:-2] + ".so.tmp"
     try:
         with os.fdopen(fd, "w") as f:
             f.write(source)
         subprocess.run([cc, *flags, "-o", tmp, src, "-lm"], check=True, capture_output=True, text=True)
+        os.chmod(tmp, 0o700)
+        _write_atomic(target.with_name(target.name + ".sha256"), (library_digest(Path(tmp)) + "\n").encode())
         os.replace(tmp, target)
     finally:
         for path in (src, tmp):
             if os.path.exists(path):
                 os.unlink(path)
+
+
+def build_library(source: str, name: str, cc: str, flags: list[str], directory: Path | None = None) -> Path:
+    """Compile ``source`` into ``<directory>/<name>_<key>.so``, or reuse it if intact.
+
+    ``key`` hashes the source, the flags, the compiler path and its version. Reuse checks
+    the library's SHA-256 against the one recorded when it was built; a missing or
+    damaged library is (re)built under an exclusive file lock, so concurrent processes
+    compile it once, and renamed into place, so none loads a partial file.
+    Raises :class:`subprocess.CalledProcessError` when the compiler fails and
+    :class:`UnsafeCacheError` for a cache directory or library others may write to.
+    """
+    directory = _cache_directory(cache_dir() if directory is None else Path(directory))
+    h = hashlib.sha256()
+    for part in (source, "\0".join(flags), cc, compiler_version(cc)):
+        h.update(part.encode())
+        h.update(b"\0")
+    stem = f"{name}_{h.hexdigest()[:24]}"
+    target = directory / f"{stem}.so"
+    if not _intact(target):
+        with _Lock(directory / f"{stem}.lock"):
+            if not _intact(target):                # another process may have built it meanwhile
+                _compile(source, name, cc, flags, target)
+    check_private(target)
     return target

@@ -10,7 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["generalized_eigh", "generalized_eigvalsh", "frequencies_hz", "normalize_eigentwists"]
+__all__ = ["generalized_eigh", "generalized_eigvalsh", "frequencies_hz", "unstable_modes", "normalize_eigentwists",
+           "ROUNDOFF_EPS"]
+
+# A negative eigenvalue omega^2 with |lambda| <= ROUNDOFF_EPS * max|lambda| (of the same
+# pose) is round-off of a zero mode (a rank-deficient K) and clips to 0 Hz; a more negative
+# one is a genuinely unstable mode (negative stiffness, e.g. a preload) and gives NaN.
+# The bound is 1e6 units in the last place: backward-stable eigen-solvers err by a few ulp
+# of ||A|| and the closed forms of K by cancellation among their terms, far below it.
+ROUNDOFF_EPS = 1e-10
 
 
 def _reduce(K: np.ndarray, M: np.ndarray):
@@ -54,12 +62,26 @@ def generalized_eigvalsh(K: np.ndarray, M: np.ndarray) -> np.ndarray:
     return np.linalg.eigvalsh(A)
 
 
-def frequencies_hz(lam: np.ndarray) -> np.ndarray:
+def unstable_modes(lam: np.ndarray, eps: float = ROUNDOFF_EPS) -> np.ndarray:
+    """(..., n) bool: eigenvalues below ``-eps * max|lambda|`` of their pose (the last axis).
+
+    Those modes are unstable (the stiffness is not positive semi-definite there);
+    negative values closer to zero are round-off and count as 0.
+    """
+    lam = np.asarray(lam, dtype=float)
+    scale = np.abs(lam).max(axis=-1, keepdims=True, initial=0.0) if lam.size else np.zeros(lam.shape[:-1] + (1,))
+    return lam < -eps * scale
+
+
+def frequencies_hz(lam: np.ndarray, eps: float = ROUNDOFF_EPS) -> np.ndarray:
     """Natural frequencies f = omega / (2 pi) in Hz from eigenvalues omega^2 in (rad/s)^2.
 
-    Negative round-off (a rank-deficient K) clips to 0 Hz.
+    Negative round-off (|lambda| <= ``eps`` max|lambda| of the pose, a rank-deficient K)
+    clips to 0 Hz; an unstable mode (:func:`unstable_modes`) is NaN, never 0 Hz.
     """
-    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    lam = np.asarray(lam, dtype=float)
+    f = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    return np.where(unstable_modes(lam, eps), np.nan, f)
 
 
 def normalize_eigentwists(V: np.ndarray) -> np.ndarray:

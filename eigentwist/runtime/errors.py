@@ -1,6 +1,6 @@
 """Errors raised on bad input: each names the value and what was expected."""
 
-__all__ = ["EigentwistError", "UnreachablePoseError", "SingularPoseError", "InputError"]
+__all__ = ["EigentwistError", "UnreachablePoseError", "SingularPoseError", "UnstablePoseError", "InputError"]
 
 
 class EigentwistError(ValueError):
@@ -17,3 +17,7 @@ class UnreachablePoseError(EigentwistError):
 
 class SingularPoseError(EigentwistError):
     """A leg's actuation lever is (nearly) zero: the Jacobian is singular there."""
+
+
+class UnstablePoseError(EigentwistError):
+    """The stiffness is not positive semi-definite at a pose: a mode has omega^2 < 0."""

@@ -9,42 +9,57 @@ import numpy as np
 from ..description import RobotDescription
 from ..description.effects import (base_name, leg_input_name, leg_switch_name, resolve_model, split_scope,
                                    switch_name)
-from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .constraints import check_constraints, compile_constraints
-from .errors import InputError
-from .validity import LEVER_TOL, lever_mask, raise_singular, raise_unreachable, reachable_mask
+from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
+from .errors import InputError, UnstablePoseError
+from .labels import directions
+from .threads import resolve_threads
+from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL"]
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
-CHUNK = 4096
+CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
+MATRIX_CHUNK = 65536         # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
+MATRICES = ("M", "K_R", "K_F")
 
 
 @dataclass
 class Modes:
     """Natural frequencies and eigentwists of a batch of poses.
 
-    freq_hz : (N, n) ascending, Hz.
-    eigentwists : (N, n, n), one column per mode, largest entry +1 (Eqs. 57, 65).
+    freq_hz : (N, n) ascending, Hz. An unstable mode (negative stiffness: an eigenvalue
+        omega^2 below round-off, see :data:`eigentwist.runtime.eigen.ROUNDOFF_EPS`) is NaN,
+        never 0 Hz.
+    eigentwists : (N, n, n), one column per mode, largest entry +1 (Eqs. 57, 65); None
+        from ``modes(..., vectors=False)``.
     axes : names of the n coordinates (``("x", "y", "z")`` for the rigid model,
         ``("rx", "ry", "rz", "x", "y", "z")`` for the flexible one).
     kind : ``"rigid"`` (K_R with the 3x3 translational subsets) or ``"flexible"`` (K_F).
     valid : (N,) bool, which poses were evaluated (reachable, not singular); the others
         hold NaN. Set by ``modes(..., invalid="nan")``; None when every pose is valid.
+    stable : (N,) bool, False where a mode is unstable (its frequency is NaN); all True
+        unless the evaluator found one.
     """
 
     freq_hz: np.ndarray
-    eigentwists: np.ndarray
+    eigentwists: np.ndarray | None
     axes: tuple
     kind: str
     valid: np.ndarray | None = None
+    stable: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.stable is None:
+            self.stable = np.ones(self.freq_hz.shape[:1], dtype=bool)
 
     @property
     def direction(self) -> np.ndarray:
-        """(N, n) axis index (into :data:`AXES`) of each mode's largest eigentwist entry."""
-        local = np.argmax(np.abs(self.eigentwists), axis=-2)
-        offset = 3 if self.kind == "rigid" else 0
-        return local + offset
+        """(N, n) axis index (into :data:`AXES`) carrying the largest share of each mode's
+        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist)."""
+        if self.eigentwists is None:
+            raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
+        return directions(self.eigentwists, offset=3 if self.kind == "rigid" else 0)
 
 
 class Evaluator:
@@ -55,13 +70,18 @@ class Evaluator:
     (N,) arrays, overriding the description's defaults (SI units, see
     ``evaluator.parameters``). ``model`` is a preset (``"rigid"``, ``"paper"``) or a
     comma-separated list of effects.
+
+    ``threads`` (C backend): threads of one C pass; None takes ``EIGENTWIST_THREADS``, else
+    1 inside a Dask worker, else every core (:mod:`eigentwist.runtime.threads`). Results
+    do not depend on it, bit for bit.
     """
 
-    def __init__(self, robot: RobotDescription, module: ModuleType, backend: str, kernels=None):
+    def __init__(self, robot: RobotDescription, module: ModuleType, backend: str, kernels=None, threads=None):
         self.robot = robot
         self.module = module
         self.backend = backend
         self._kernels = kernels or module
+        self.threads = None if threads is None else resolve_threads(threads)
         self.parameters = {p.name: p for p in robot.parameters}
         self.defaults = robot.defaults
         self.effects = robot.effects
@@ -85,9 +105,8 @@ class Evaluator:
             raise InputError(f"poses has shape {np.shape(poses)}: expected (N, 3) end-effector positions in m")
         if arr.shape[0] == 0:
             raise InputError("poses is empty: expected at least one (x, y, z) position in m")
-        bad = ~np.isfinite(arr).all(axis=1)
-        if bad.any():
-            k = int(np.argmax(bad))
+        if not np.isfinite(arr).all():             # one pass over the batch; per row only on failure
+            k = int(np.argmax(~np.isfinite(arr).all(axis=1)))
             raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers in m")
         return arr
 
@@ -213,7 +232,7 @@ class Evaluator:
             sub = p if ok.all() else self._mask(p, ok, n)
             with np.errstate(invalid="ignore", divide="ignore"):
                 jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
-            lever = jac["lever"] / np.asarray(sub["l1"], dtype=float)[..., None]
+            lever = jac["lever"] / np.asarray(sub[LEVER_SCALE], dtype=float)[..., None]
             if strict:
                 raise_singular(legs, poses[ok], lever)
             ok[ok] = lever_mask(lever)
@@ -240,6 +259,31 @@ class Evaluator:
                 results.setdefault(key, []).append(val)
         return {k: np.concatenate(v, axis=0) for k, v in results.items()}
 
+    # ------------------------------------------------------- the C pass
+    @property
+    def _fused(self) -> bool:
+        """Whether the kernels have the C backend's fused pass."""
+        return hasattr(self._kernels, "fused")
+
+    def _nthreads(self) -> int:
+        return resolve_threads(self.threads)
+
+    def _c_pass(self, poses: np.ndarray, p: dict, **kw) -> dict:
+        """One fused C pass over the batch (status included), on the evaluator's threads."""
+        return self._kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, status=True,
+                                   threads=self._nthreads(), **kw)
+
+    def _raise_first(self, poses: np.ndarray, p: dict, bad: np.ndarray) -> None:
+        """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
+        k = int(np.argmax(bad))
+        self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], p, (len(poses),))
+
+    @staticmethod
+    def _rows(params: dict, sl, n: int) -> dict:
+        """The user's parameters for rows ``sl`` of n poses ((n,) arrays sliced, the rest kept)."""
+        return {k: (np.asarray(v)[sl] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
+                for k, v in params.items()}
+
     # ----------------------------------------------------------------- public
     def valid(self, poses, model="paper", **params) -> np.ndarray:
         """(N,) bool: which poses are reachable and not singular for these parameters.
@@ -249,6 +293,9 @@ class Evaluator:
         """
         poses = self._poses(poses)
         p = self._params(len(poses), params, model)
+        if self._fused:
+            st = self._c_pass(poses, p, matrices=())["status"]
+            return (st != STATUS["unreachable"]) & (st != STATUS["singular"])
         return np.concatenate([self._check_rows(poses[sl], self._take(p, sl), strict=False)[2]
                                for sl in self._chunks(len(poses))])
 
@@ -278,13 +325,63 @@ class Evaluator:
         """
         return self._run(kernel, poses, model, params)
 
-    def matrices(self, poses, model="paper", **params) -> dict:
+    def matrices(self, poses, model="paper", *, out: dict | None = None, **params) -> dict:
         """``M``, ``K_R``, ``K_F`` at the EE origin, each (N, 6, 6) (Eqs. 12, 14, 13).
 
         ``model`` switches effects on or off (K_R uses only the actuator-side effects).
+        ``out`` maps any of ``"M"``, ``"K_R"``, ``"K_F"`` to a preallocated C-contiguous
+        float64 (N, 6, 6) array (e.g. a ``numpy.memmap``) that is written in place and
+        returned; nothing else of that size is allocated. For batches too large to hold,
+        :meth:`iter_matrices` yields them chunk by chunk.
         """
-        out = self._run("matrices", poses, model, params)
-        return {k: out[k] for k in ("M", "K_R", "K_F")}
+        poses = self._poses(poses)
+        n = len(poses)
+        p = self._params(n, params, model)
+        out = self._check_out(out, n)
+        if self._fused:
+            res = self._c_pass(poses, p, matrices=MATRICES, out=out)
+            bad = res["status"] != STATUS["ok"]
+            if bad.any():
+                self._raise_first(poses, p, bad)
+            return {k: res[k] for k in MATRICES}
+        mats = {k: out.get(k) if k in out else np.empty((n, 6, 6)) for k in MATRICES}
+        for sl in self._chunks(n):
+            pc = self._take(p, sl)
+            q = self._check_rows(poses[sl], pc, strict=True)[0]
+            chunk = self._kernels.matrices(q, pc)
+            for k in MATRICES:
+                mats[k][sl] = chunk[k]
+        return mats
+
+    @staticmethod
+    def _check_out(out, n: int) -> dict:
+        out = dict(out or {})
+        unknown = sorted(set(out) - set(MATRICES))
+        if unknown:
+            raise InputError(f"out has unknown key(s) {unknown}: expected some of {list(MATRICES)}")
+        for k, arr in out.items():
+            if (not isinstance(arr, np.ndarray) or arr.shape != (n, 6, 6) or arr.dtype != np.float64
+                    or not arr.flags.c_contiguous or not arr.flags.writeable):
+                raise InputError(f"out[{k!r}]: expected a writeable C-contiguous float64 array of shape ({n}, 6, 6), "
+                                 f"got {getattr(arr, 'shape', None)} {getattr(arr, 'dtype', type(arr).__name__)}")
+        return out
+
+    def iter_matrices(self, poses, model="paper", *, chunk: int = MATRIX_CHUNK, **params):
+        """Yield ``(rows, matrices)`` chunk by chunk: ``rows`` a slice of ``poses``,
+        ``matrices`` what :meth:`matrices` returns for those rows.
+
+        Memory stays bounded by the chunk whatever the batch: 3 x 288 B per pose, 57 MB for
+        the default 65536 poses, twice that while the caller still holds the previous chunk. Every input is checked before the first chunk; an
+        unreachable or singular pose raises when its chunk is reached.
+        """
+        poses = self._poses(poses)
+        n = len(poses)
+        if not isinstance(chunk, (int, np.integer)) or chunk < 1:
+            raise InputError(f"chunk = {chunk!r}: expected a whole number of poses >= 1")
+        self._params(n, params, model)
+        for start in range(0, n, int(chunk)):
+            sl = slice(start, min(n, start + int(chunk)))
+            yield sl, self.matrices(poses[sl], model, **self._rows(params, sl, n))
 
     def stiffness(self, poses, model="paper", **params):
         """The (M, K) pair the model's eigenproblem uses, with the gravity preload if on.
@@ -294,7 +391,7 @@ class Evaluator:
         """
         poses_arr = self._poses(poses)
         effects = resolve_model(model, self.robot)
-        mats = self.matrices(poses_arr, model, **params)
+        mats = self.matrices(poses_arr, effects, **params)
         rigid = self.kind(effects) == "rigid"
         M = mats["M"][:, 3:, 3:] if rigid else mats["M"]
         K = mats["K_R"][:, 3:, 3:] if rigid else mats["K_F"]
@@ -307,58 +404,85 @@ class Evaluator:
     def _preloaded(self, effects) -> bool:
         return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
 
-    def modes(self, poses, model="paper", *, invalid: str = "raise", **params) -> Modes:
+    def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
+              unstable: str = "nan", **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
 
         ``invalid="raise"`` (the default) raises on the first unreachable or singular
         pose; ``invalid="nan"`` evaluates the valid poses only, fills the others with NaN
         and reports them in ``Modes.valid`` (for sweeps over a workspace box).
+        ``vectors=False`` skips the eigentwists (``Modes.eigentwists`` is None): faster.
+        An unstable mode (negative stiffness) is NaN and its pose False in ``Modes.stable``
+        (``unstable="nan"``, the default) or raises :class:`UnstablePoseError` naming the
+        pose and the mode (``unstable="raise"``, for single-pose commands).
         """
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
+        if unstable not in ("raise", "nan"):
+            raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
         poses = self._poses(poses)
         effects = resolve_model(model, self.robot)
-        fused = getattr(self._kernels, "fused_frequencies", None)
-        if fused is not None and not self._preloaded(effects):
-            return self._fused_modes(fused, poses, effects, params, check=invalid == "raise")
-        if invalid == "raise":
-            return self._solve(*self.stiffness(poses, effects, **params))
+        if self._fused and not self._preloaded(effects):
+            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors)
+        else:
+            modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors)
+        if unstable == "raise" and not modes.stable.all():
+            self._raise_unstable(poses, modes, effects)
+        return modes
+
+    def _solved_modes(self, poses, effects, params, check: bool, vectors: bool) -> Modes:
+        """Matrices (and the gravity preload), then the batched eigen-solver."""
+        if check:
+            return self._solve(*self.stiffness(poses, effects, **params), vectors)
         ok = self.valid(poses, effects, **params)
         n = len(poses)
-        rows = {k: (np.asarray(v)[ok] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
-                for k, v in params.items()}
         kind = self.kind(effects)
         size = 3 if kind == "rigid" else 6
-        freq, vec = np.full((n, size), np.nan), np.full((n, size, size), np.nan)
+        freq = np.full((n, size), np.nan)
+        vec = np.full((n, size, size), np.nan) if vectors else None
+        stable = np.ones(n, dtype=bool)
         if ok.any():
-            m = self._solve(*self.stiffness(poses[ok], effects, **rows))
-            freq[ok], vec[ok] = m.freq_hz, m.eigentwists
-        return Modes(freq, vec, AXES[3:] if kind == "rigid" else AXES, kind, ok)
+            m = self._solve(*self.stiffness(poses[ok], effects, **self._rows(params, ok, n)), vectors)
+            freq[ok], stable[ok] = m.freq_hz, m.stable
+            if vectors:
+                vec[ok] = m.eigentwists
+        return Modes(freq, vec, AXES[3:] if kind == "rigid" else AXES, kind, ok, stable)
 
-    @staticmethod
-    def _solve(M, K) -> Modes:
-        lam, V = generalized_eigh(K, M)
+    def _solve(self, M, K, vectors: bool = True) -> Modes:
+        if self._fused:                               # the C solver, on the evaluator's threads
+            lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
+        else:
+            # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
+            # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
+            lam, V = generalized_eigh(K, M)
         rigid = M.shape[-1] == 3
-        return Modes(frequencies_hz(lam), normalize_eigentwists(V),
-                     AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible")
+        return Modes(frequencies_hz(lam), normalize_eigentwists(V) if vectors else None,
+                     AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible",
+                     stable=~unstable_modes(lam).any(axis=-1))
 
-    def _fused_modes(self, fused, poses, effects, params, check: bool = True) -> Modes:
-        """The C backend's single pass from poses to frequencies and eigentwists."""
-        n = len(poses)
-        p = self._params(n, params, effects)
+    def _fused_modes(self, poses, effects, params, check: bool, vectors: bool) -> Modes:
+        """The C backend's single pass from poses to checked frequencies (and eigentwists),
+        written straight into the result arrays."""
+        p = self._params(len(poses), params, effects)
         kind = self.kind(effects)
-        freq, vec, ok = [], [], []
-        for start in range(0, n, 16 * CHUNK):
-            sl = slice(start, min(n, start + 16 * CHUNK))
-            pc = self._take(p, sl)
-            out = fused(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc, model=kind, vectors=True, check=check)
-            freq.append(out["freq_hz"])
-            vec.append(out["eigentwists"])
-            ok.append(out["valid"])
-        return Modes(np.concatenate(freq), np.concatenate(vec), AXES[3:] if kind == "rigid" else AXES, kind,
-                     None if check else np.concatenate(ok))
+        out = self._c_pass(poses, p, matrices=(), model=kind, vectors=vectors, normalize=True)
+        st = out["status"]
+        valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
+        if check and not valid.all():
+            self._raise_first(poses, p, ~valid)
+        return Modes(out["freq_hz"], out.get("eigentwists"), AXES[3:] if kind == "rigid" else AXES, kind,
+                     None if check else valid, st != STATUS["unstable"])
+
+    def _raise_unstable(self, poses, modes: Modes, effects) -> None:
+        k = int(np.argmax(~modes.stable))
+        bad = np.flatnonzero(np.isnan(modes.freq_hz[k]))
+        which = ", ".join(str(j + 1) for j in bad)
+        raise UnstablePoseError(
+            f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: mode{'s' if len(bad) > 1 else ''} "
+            f"{which} of {modes.freq_hz.shape[1]} {'have' if len(bad) > 1 else 'has'} a negative stiffness "
+            "(omega^2 < 0, no natural frequency); check negative or extreme parameters and the gravity preload")
 
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
-        ``"paper"``) or (N, 3) for ``"rigid"``, ascending."""
-        return self.modes(poses, model, **params).freq_hz
+        ``"paper"``) or (N, 3) for ``"rigid"``, ascending. Unstable modes are NaN."""
+        return self.modes(poses, model, vectors=False, **params).freq_hz

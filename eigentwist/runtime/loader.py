@@ -16,6 +16,7 @@ from ..description import RobotDescription
 from ..robots import NAMES, get
 from .errors import InputError
 from .evaluator import Evaluator
+from .threads import resolve_threads
 from .userfile import describe_file, description_key, generated_modules, import_numpy_module, is_description_file
 
 __all__ = ["load", "load_module", "evaluator_from_description", "BACKENDS"]
@@ -32,7 +33,7 @@ def _stderr(message: str) -> None:
     print(f"[eigentwist] {message}", file=sys.stderr, flush=True)
 
 
-def load(robot="heli4", backend: str = "auto", progress=_stderr) -> Evaluator:
+def load(robot="heli4", backend: str = "auto", threads: int | None = None, progress=_stderr) -> Evaluator:
     """An :class:`Evaluator` for ``robot``: a name from ``eigentwist.robots.NAMES``, the
     path of a Python file whose ``describe()`` returns a description, or a
     :class:`~eigentwist.description.RobotDescription`.
@@ -42,17 +43,24 @@ def load(robot="heli4", backend: str = "auto", progress=_stderr) -> Evaluator:
     falls back to NumPy with one warning when no compiler is available. A description
     that is not shipped is generated on first use into the cache, keyed by its content;
     ``progress(message)`` reports the steps (default: stderr).
+
+    ``threads`` (C backend): how many threads one batch may use. None: the
+    ``EIGENTWIST_THREADS`` environment variable, else 1 inside a Dask worker, else every
+    core; a batch of fewer than 16 blocks of 64 poses per thread uses fewer threads.
+    Results are bit-identical whatever the count.
     """
     if backend not in BACKENDS:
         raise InputError(f"unknown backend {backend!r}: expected one of {', '.join(BACKENDS)}")
+    if threads is not None:
+        resolve_threads(threads)                # a bad value is an error on every backend
     if is_description_file(robot) or isinstance(robot, RobotDescription):
-        return _load_user(robot, backend, progress)
+        return _load_user(robot, backend, threads, progress)
     if robot not in NAMES:
         raise InputError(f"unknown robot {robot!r}: expected one of {', '.join(NAMES)} or a description file PATH.py")
-    return _with_backend(get(robot), load_module(robot, "numpy"), backend, robot)
+    return _with_backend(get(robot), load_module(robot, "numpy"), backend, robot, threads)
 
 
-def _load_user(robot, backend: str, progress) -> Evaluator:
+def _load_user(robot, backend: str, threads, progress) -> Evaluator:
     if isinstance(robot, RobotDescription):
         description, extra, spec = robot, b"", robot.name
     else:
@@ -62,14 +70,14 @@ def _load_user(robot, backend: str, progress) -> Evaluator:
     directory = generated_modules(description, key, progress)
     module = import_numpy_module(directory / f"{description.name}_numpy.py")
     source = (directory / f"{description.name}_c.c").read_text()
-    ev = _with_backend(description, module, backend, description.name, source)
+    ev = _with_backend(description, module, backend, description.name, threads, source)
     ev.spec = spec
     return ev
 
 
-def _with_backend(description, module, backend: str, robot: str, source: str | None = None) -> Evaluator:
+def _with_backend(description, module, backend: str, robot: str, threads, source: str | None = None) -> Evaluator:
     if backend == "numpy":
-        return Evaluator(description, module, "numpy")
+        return Evaluator(description, module, "numpy", threads=threads)
     try:
         from .cbackend import load_c_kernels
     except ImportError:
@@ -84,8 +92,8 @@ def _with_backend(description, module, backend: str, robot: str, source: str | N
         if backend == "c":
             raise
         warnings.warn(f"eigentwist: C backend unavailable ({exc}); falling back to NumPy", RuntimeWarning, stacklevel=2)
-        return Evaluator(description, module, "numpy")
-    return Evaluator(description, module, "c", kernels=kernels)
+        return Evaluator(description, module, "numpy", threads=threads)
+    return Evaluator(description, module, "c", kernels=kernels, threads=threads)
 
 
 def evaluator_from_description(description, progress=None) -> Evaluator:

@@ -11,9 +11,13 @@ import numpy as np
 
 from .errors import SingularPoseError, UnreachablePoseError
 
-__all__ = ["LEVER_TOL", "IK_CHECKS", "reachable_mask", "lever_mask", "raise_unreachable", "raise_singular"]
+__all__ = ["LEVER_TOL", "LEVER_SCALE", "STATUS", "IK_CHECKS", "reachable_mask", "lever_mask", "raise_unreachable", "raise_singular"]
 
 LEVER_TOL = 1e-3   # |w_a1 . t_a1| / l1 below this is treated as singular
+LEVER_SCALE = "l1"  # the lever is compared relative to this parameter (the lower link length)
+# per-pose status codes of the C backend's fused pass (the generated C prints the same
+# table in its signature; the loader checks they agree)
+STATUS = {"ok": 0, "unreachable": 1, "singular": 2, "not_finite": 3, "unstable": 4}
 IK_CHECKS = {
     "sin_q3": "the parallelogram cannot tilt that far",
     "cos_q2": "the lower link and parallelogram cannot span that distance",

@@ -20,7 +20,7 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
 
     pose (n, 3) m; k_a (n,) N m/rad; design (n, len(vary)) SI units, columns in the
     order of ``spec.vary``; freq_hz (n, n_modes) ascending, Hz; direction (n, n_modes)
-    int8, index into ``AXES`` of each mode's largest eigentwist entry; reachable (n,)
+    int8, index into ``AXES`` of the axis carrying the largest share of each mode's energy; reachable (n,)
     bool; pose_index (n,), case (n,) int64. Unreachable or singular rows have NaN
     frequencies, direction -1 and ``reachable=False``: they never stop the sweep.
     Deterministic: the same spec and chunk give the same bits in any process.

@@ -1,0 +1,217 @@
+"""The evaluator's C paths (issue 13): checks inside the fused pass, threads bit-identical to
+one thread, outputs written in place, the gravity preload through C, unstable modes; each
+against the NumPy backend. The NumPy-only parts (unstable modes, chunked matrices) run
+without a compiler.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import eigentwist
+import eigentwist.runtime.ccompile as ccompile
+from eigentwist.cli.main import main
+from eigentwist.runtime import SingularPoseError, UnreachablePoseError, UnstablePoseError
+from eigentwist.runtime.eigen import ROUNDOFF_EPS, frequencies_hz, generalized_eigh, unstable_modes
+from eigentwist.runtime.validity import STATUS
+
+from .conftest import random_poses, skip_tier
+
+compiled = pytest.mark.compiled
+# a heavy payload at low actuator stiffness: gravity softens the vertical mode below zero
+UNSTABLE = dict(g=50.0, k_a=50.0, m_p=100.0, p_z=0.3)
+UNSTABLE_MODEL = "paper,gravity_preload,payload_mass"
+
+
+@pytest.fixture(scope="module")
+def ev_c(request):
+    try:
+        ccompile.find_compiler()
+    except ccompile.CompilerNotFoundError as exc:      # the only reason to skip
+        skip_tier("compiled", str(exc))
+    mp = pytest.MonkeyPatch()
+    mp.setenv("EIGENTWIST_CACHE", str(request.config.cache.mkdir("eigentwist-c")))
+    yield eigentwist.load("heli4", backend="c", threads=1)
+    mp.undo()
+
+
+def assert_freq_close(got, want, rtol=1e-12):
+    """Equal NaN places, and |got - want| <= rtol * the pose's highest frequency (the two
+    backends' eigen-solvers, Jacobi and LAPACK, differ by round-off of that size)."""
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    finite = np.where(np.isnan(want), 0.0, np.abs(want))
+    scale = np.maximum(finite.max(axis=-1, keepdims=True), 1e-300)
+    err = np.nan_to_num(np.abs(got - want) / scale)
+    assert err.max() <= rtol, f"max deviation {err.max():.2e} of the pose's highest frequency"
+
+
+def _poses(ev, n, seed, bad=()):
+    poses = random_poses(ev.robot, n, seed)
+    for k in bad:
+        poses[k] = (0.0, 0.0, 0.0)                    # too close to the base: unreachable
+    return poses
+
+
+# ------------------------------------------------------------ no compiler needed
+def test_round_off_clips_to_zero_and_negative_stiffness_is_nan():
+    lam = np.array([[-1e-12, 4.0, 1e3], [-5.0, 4.0, 1e3], [0.0, 0.0, 0.0]])
+    assert unstable_modes(lam).tolist() == [[False] * 3, [True, False, False], [False] * 3]
+    f = frequencies_hz(lam)
+    assert f[0, 0] == 0.0 and np.isnan(f[1, 0]) and (f[2] == 0.0).all()
+    np.testing.assert_allclose(f[:2, 1:], np.sqrt([[4.0, 1e3]] * 2) / (2 * np.pi), rtol=1e-15)
+    edge = np.array([[-0.99 * ROUNDOFF_EPS * 1e3, 1e3], [-1.01 * ROUNDOFF_EPS * 1e3, 1e3]])
+    assert unstable_modes(edge)[:, 0].tolist() == [False, True]
+
+
+def test_unstable_model_is_nan_with_a_flag_not_zero_hz(ev):
+    poses = np.array([[0.0, 0.0, -0.625], [0.05, 0.02, -0.6]])
+    m = ev.modes(poses, UNSTABLE_MODEL, **UNSTABLE)
+    assert not m.stable.any()
+    assert np.isnan(m.freq_hz[:, 0]).all() and np.isfinite(m.freq_hz[:, 1:]).all()
+    M, K = ev.stiffness(poses, UNSTABLE_MODEL, **UNSTABLE)
+    assert (np.linalg.eigvalsh(K)[:, 0] < 0).all()                 # K itself is indefinite there
+    ok = ev.modes(poses, UNSTABLE_MODEL, **{**UNSTABLE, "m_p": 0.2})
+    assert ok.stable.all() and np.isfinite(ok.freq_hz).all()
+    with pytest.raises(UnstablePoseError, match=r"pose \[0.0, 0.0, -0.625\] m is unstable .*mode 1 of 6 has a negative"):
+        ev.modes(poses, UNSTABLE_MODEL, unstable="raise", **UNSTABLE)
+
+
+def test_cli_matrices_names_the_unstable_pose_and_mode(capsys):
+    rc = main(["matrices", "--backend", "numpy", "--model", "rigid,gravity_preload,payload_mass",
+               "--set", "g=50", "--set", "m_p=100", "--set", "p_z=0.3", "--k-a", "50"])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert "pose [0.0, 0.0, -0.625] m is unstable" in err and "mode 1 of 3" in err
+
+
+def test_numpy_matrices_into_out_and_in_chunks(ev):
+    poses = random_poses(ev.robot, 300, seed=3)
+    k_a = np.linspace(500.0, 3000.0, 300)
+    want = ev.matrices(poses, "paper", k_a=k_a)
+    out = {"K_F": np.zeros((300, 6, 6))}
+    got = ev.matrices(poses, "paper", out=out, k_a=k_a)
+    assert got["K_F"] is out["K_F"]
+    for key in want:
+        np.testing.assert_array_equal(got[key], want[key])
+    chunks = list(ev.iter_matrices(poses, "paper", chunk=128, k_a=k_a))
+    assert [sl.start for sl, _ in chunks] == [0, 128, 256]
+    for sl, mats in chunks:
+        for key in want:
+            np.testing.assert_array_equal(mats[key], want[key][sl])
+    with pytest.raises(ValueError, match=r"out\['M'\].*\(300, 6, 6\)"):
+        ev.matrices(poses, out={"M": np.zeros((299, 6, 6))})
+    with pytest.raises(ValueError, match="chunk"):
+        next(ev.iter_matrices(poses, chunk=0))
+
+
+def test_modes_without_vectors(ev):
+    poses = random_poses(ev.robot, 50, seed=4)
+    m = ev.modes(poses, "paper", vectors=False)
+    assert m.eigentwists is None
+    np.testing.assert_array_equal(m.freq_hz, ev.modes(poses, "paper").freq_hz)         # bit for bit
+
+
+# ---------------------------------------------------------------- compiled tier
+@compiled
+@pytest.mark.parametrize("model", ["paper", "rigid", "coupled", "paper,lower_link_compliance,payload_mass"])
+def test_public_path_equals_numpy(ev_c, ev, model):
+    poses = _poses(ev, 517, seed=40)
+    k_a = np.random.default_rng(41).uniform(200.0, 5000.0, len(poses))
+    mc, mn = ev_c.modes(poses, model, k_a=k_a), ev.modes(poses, model, k_a=k_a)
+    assert_freq_close(mc.freq_hz, mn.freq_hz)
+    np.testing.assert_allclose(mc.eigentwists, mn.eigentwists, rtol=0, atol=1e-10)
+    np.testing.assert_array_equal(ev_c.frequencies(poses, model, k_a=k_a), mc.freq_hz)  # no vectors: same bits
+    assert mc.stable.all() and mc.valid is None
+
+
+@compiled
+def test_checks_in_the_c_pass_match_numpy(ev_c, ev):
+    poses = _poses(ev, 300, seed=42, bad=(7, 200))
+    mc, mn = ev_c.modes(poses, invalid="nan"), ev.modes(poses, invalid="nan")
+    np.testing.assert_array_equal(mc.valid, mn.valid)
+    assert mc.valid.sum() == 298
+    assert_freq_close(mc.freq_hz, mn.freq_hz)    # NaN in the same places
+    np.testing.assert_array_equal(ev_c.valid(poses), ev.valid(poses))
+    for evaluator in (ev_c, ev):
+        with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, 0.0\] m is unreachable for leg"):
+            evaluator.frequencies(poses)
+        with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, 0.0\] m is unreachable for leg"):
+            evaluator.matrices(poses)
+
+
+@compiled
+def test_singular_pose_is_found_in_the_c_pass(ev_c, monkeypatch):
+    import eigentwist.runtime.validity as validity
+
+    monkeypatch.setattr(validity, "LEVER_TOL", 10.0)     # every lever counts as vanishing
+    with pytest.raises(SingularPoseError, match=r"pose \[0.0, 0.0, -0.625\] m is singular for leg 1"):
+        ev_c.frequencies([[0.0, 0.0, -0.625]])
+    assert not ev_c.valid([[0.0, 0.0, -0.625]])[0]
+
+
+@compiled
+@pytest.mark.parametrize("threads", [2, 3])
+def test_threads_give_bit_identical_results(ev_c, ev, threads):
+    n = 64 * 16 * threads * 2 + 37                       # several ranges, a partial last block
+    poses = _poses(ev, n, seed=43, bad=(5, 1500))
+    k_a = np.random.default_rng(44).uniform(200.0, 5000.0, n)
+    many = eigentwist.load("heli4", backend="c", threads=threads)
+    assert many._kernels is not None and many.threads == threads
+    for model in ("paper", "rigid"):
+        one, par = ev_c.modes(poses, model, invalid="nan", k_a=k_a), many.modes(poses, model, invalid="nan", k_a=k_a)
+        for a, b in ((one.freq_hz, par.freq_hz), (one.eigentwists, par.eigentwists), (one.valid, par.valid)):
+            assert a.tobytes() == b.tobytes()
+    ok = one.valid
+    shifted = np.empty((n, 4))                           # other addresses and strides: the same bits
+    shifted[:, 1:] = poses
+    other = many.modes(shifted[:, 1:], "rigid", invalid="nan", k_a=k_a.copy())
+    assert other.freq_hz.tobytes() == one.freq_hz.tobytes()
+    m1, m2 = ev_c.matrices(poses[ok], k_a=k_a[ok]), many.matrices(poses[ok], k_a=k_a[ok])
+    assert all(m1[k].tobytes() == m2[k].tobytes() for k in m1)
+    g1 = ev_c.modes(poses[ok], "paper,gravity_preload", k_a=k_a[ok])
+    g2 = many.modes(poses[ok], "paper,gravity_preload", k_a=k_a[ok])
+    assert g1.freq_hz.tobytes() == g2.freq_hz.tobytes() and g1.eigentwists.tobytes() == g2.eigentwists.tobytes()
+
+
+@compiled
+def test_c_matrices_into_out_and_in_chunks(ev_c, ev):
+    poses = random_poses(ev.robot, 700, seed=45)
+    want = ev.matrices(poses, "coupled", l2=0.55)
+    out = {k: np.empty((700, 6, 6)) for k in ("M", "K_R", "K_F")}
+    got = ev_c.matrices(poses, "coupled", out=out, l2=0.55)
+    for k in want:
+        assert got[k] is out[k]
+        np.testing.assert_allclose(got[k], want[k], rtol=1e-12, atol=1e-12 * np.abs(want[k]).max())
+    rows = np.concatenate([mats["K_F"] for _, mats in ev_c.iter_matrices(poses, "coupled", chunk=256, l2=0.55)])
+    assert rows.tobytes() == got["K_F"].tobytes()
+
+
+@compiled
+@pytest.mark.parametrize("model", ["paper,gravity_preload,payload_mass", "rigid,gravity_preload"])
+def test_gravity_preload_through_c_equals_numpy(ev_c, ev, model):
+    poses = random_poses(ev.robot, 150, seed=46)
+    kw = dict(k_a=np.linspace(300.0, 4000.0, 150), m_p=2.0, p_x=0.02)
+    mc, mn = ev_c.modes(poses, model, **kw), ev.modes(poses, model, **kw)
+    assert_freq_close(mc.freq_hz, mn.freq_hz)
+    np.testing.assert_allclose(mc.eigentwists, mn.eigentwists, rtol=0, atol=1e-10)
+    Mc, Kc = ev_c.stiffness(poses, model, **kw)
+    Mn, Kn = ev.stiffness(poses, model, **kw)
+    np.testing.assert_allclose(Kc, Kn, rtol=0, atol=1e-12 * np.abs(Kn).max())
+
+
+@compiled
+def test_unstable_model_in_c(ev_c, ev):
+    poses = np.array([[0.0, 0.0, -0.625], [0.05, 0.02, -0.6]])
+    mc, mn = ev_c.modes(poses, UNSTABLE_MODEL, **UNSTABLE), ev.modes(poses, UNSTABLE_MODEL, **UNSTABLE)
+    assert not mc.stable.any()
+    assert_freq_close(mc.freq_hz, mn.freq_hz)      # NaN in the same places
+    # the fused pass (no gravity): a negative actuator stiffness, below any parameter check
+    ck = ev_c._kernels
+    poses = random_poses(ev.robot, 200, seed=47)
+    p = ev.parameter_values(200, "rigid")
+    p["k_a"] = np.where(np.arange(200) % 3 == 0, -1500.0, 1500.0)
+    out = ck.fused(*poses.T, p, matrices=("M", "K_R"), model="rigid", status=True)
+    lam = generalized_eigh(out["K_R"][:, 3:, 3:], out["M"][:, 3:, 3:])[0]
+    assert (out["status"] == np.where(np.arange(200) % 3 == 0, STATUS["unstable"], STATUS["ok"])).all()
+    assert_freq_close(out["freq_hz"], frequencies_hz(lam))
+    assert np.isnan(out["freq_hz"][::3]).all()

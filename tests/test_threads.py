@@ -1,0 +1,59 @@
+"""Thread counts of the C passes (no compiler needed): precedence, small batches, ranges."""
+from __future__ import annotations
+
+import pytest
+
+from eigentwist.runtime import InputError, threads
+
+
+def test_explicit_count_wins_over_environment(monkeypatch):
+    monkeypatch.setenv("EIGENTWIST_THREADS", "3")
+    assert threads.resolve_threads(2) == 2
+    assert threads.resolve_threads() == 3
+
+
+def test_default_is_every_core_but_one_in_a_dask_worker(monkeypatch):
+    monkeypatch.delenv("EIGENTWIST_THREADS", raising=False)
+    assert threads.resolve_threads() == threads.available_cores()
+    monkeypatch.setattr(threads, "_in_dask_worker", lambda: True)
+    assert threads.resolve_threads() == 1
+    assert threads.resolve_threads(4) == 4                          # unless asked
+    monkeypatch.setenv("EIGENTWIST_THREADS", "2")
+    assert threads.resolve_threads() == 2
+
+
+@pytest.mark.parametrize("bad", ["0", "-1", "two", "1.5"])
+def test_bad_environment_value_is_named(monkeypatch, bad):
+    monkeypatch.setenv("EIGENTWIST_THREADS", bad)
+    with pytest.raises(InputError, match="EIGENTWIST_THREADS"):
+        threads.resolve_threads()
+
+
+@pytest.mark.parametrize("bad", [0, -2, 1.5, True, "2"])
+def test_bad_argument_is_named(bad):
+    with pytest.raises(InputError, match="threads"):
+        threads.resolve_threads(bad)
+
+
+def test_small_batches_stay_on_one_thread():
+    per = threads.MIN_BLOCKS_PER_THREAD * 64
+    assert threads.threads_for(30, 64, 8) == 1                      # a diagnosis fit's rows
+    assert threads.threads_for(2 * per - 64, 64, 8) == 1
+    assert threads.threads_for(2 * per, 64, 8) == 2
+    assert threads.threads_for(10**6, 64, 8) == 8
+
+
+@pytest.mark.parametrize("n", [1, 63, 64, 65, 1000, 64 * 37 + 5])
+@pytest.mark.parametrize("parts", [1, 2, 3, 8, 1000])
+def test_ranges_cover_the_batch_on_block_boundaries(n, parts):
+    ranges = threads.block_ranges(n, 64, parts)
+    assert ranges[0][0] == 0 and ranges[-1][1] == n
+    assert all(b == c for (_, b), (c, _) in zip(ranges[:-1], ranges[1:]))
+    assert all(a % 64 == 0 and a < b for a, b in ranges)
+    assert len(ranges) <= parts
+
+
+def test_run_ranges_returns_results_in_order():
+    out = threads.run_ranges(lambda a, b: (a, b), 64 * 100 + 3, 64, 3)
+    assert out[0][0] == 0 and out[-1][1] == 64 * 100 + 3
+    assert [a for a, _ in out] == sorted(a for a, _ in out)
