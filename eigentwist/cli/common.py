@@ -38,7 +38,8 @@ def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "p
     p.add_argument("--pose", nargs=3, type=float, metavar=("X", "Y", "Z"),
                    help="end-effector position in the base frame, m (default: the robot's x_ref)")
     p.add_argument("--k-a", type=float, dest="k_a", metavar="KA",
-                   help="commanded actuator stiffness, N m/rad (default: 2000)")
+                   help="commanded actuator stiffness in the robot's unit: N m/rad (revolute actuator) or N/m "
+                        "(prismatic) (default: the robot's)")
     add_set_option(p)
     if model_default is not None:
         p.add_argument("--model", default=model_default, help=f"{MODEL_SYNTAX} (default: {model_default})")

@@ -8,7 +8,7 @@ from .common import MODEL_SYNTAX, CliError, add_set_option, model_and_values
 
 HELP = "compare a model with measured natural frequencies (table, RMS/max error, Fig. 6 style plot)"
 DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Columns:
-  k_a       commanded actuator stiffness, N m/rad (required)
+  k_a       commanded actuator stiffness, N m/rad (revolute) or N/m (prismatic) (required)
   mode      rank 1, 2, ... (1 = the model's lowest mode) or direction x, y, z, rx, ry, rz:
             the mode carrying the largest share of its energy along that axis (required)
   freq_hz   measured natural frequency, Hz (required)

@@ -9,7 +9,7 @@ HELP = "identify modes and mode shapes from a modal-test campaign (UFF 58 FRFs o
 EPILOG = """MANIFEST.csv: one setting per row, header on line 1. Columns:
   file                        the setting's UFF file, relative to the manifest's folder:
                               dataset 58 FRFs (identified here) or dataset 55 modes (taken as identified)
-  k_a                         commanded actuator stiffness, N m/rad
+  k_a                         commanded actuator stiffness, N m/rad (revolute) or N/m (prismatic)
   x, y, z                     end-effector position, m (default: the robot's x_ref)
   sensor_x, sensor_y, sensor_z  response node's offset from the end-effector origin, m (default 0)
   <param>                     any model parameter (SI units), passed through to the rows

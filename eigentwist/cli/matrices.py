@@ -75,6 +75,7 @@ def compute(args) -> dict:
         "frequencies_from": source,
         "pose": pose.tolist(),
         "k_a": params.get("k_a", ev.defaults["k_a"]),
+        "k_a_unit": ev.parameter("k_a").unit,
         "joint_angles_deg": {leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)},
         "M": mats["M"][0].tolist(),
         "K_R": mats["K_R"][0].tolist(),
@@ -96,7 +97,7 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(out))
         return 0
-    print(f"{out['robot']} at pose {out['pose']} m, k_a = {out['k_a']:g} N m/rad, model: "
+    print(f"{out['robot']} at pose {out['pose']} m, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
           f"{', '.join(out['model']) or '(no effect)'} ({out['kind']})")
     print(changed_text([r for r in out["parameters"] if r["name"] != "k_a"], out["robot"]))
     print("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)

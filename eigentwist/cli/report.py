@@ -13,7 +13,7 @@ EPILOG = """examples:
   eigentwist report delta_data.csv --robot delta
   eigentwist report --set l2=0.60 -o l2_060.html  # a design change: the parameter table shows l2 = 0.6
 
-DATA.csv: one measured natural frequency per row, columns k_a (N m/rad), mode (1..6 or
+DATA.csv: one measured natural frequency per row, columns k_a (N m/rad, or N/m for a prismatic actuator), mode (1..6 or
 x, y, z, rx, ry, rz), freq_hz (Hz), optional x, y, z (m), sigma_hz (Hz) and parameter columns.
 """
 

@@ -13,7 +13,7 @@ EPILOG = """examples:
   eigentwist sweep --grid 5 5 5 --engine dask --scheduler tcp://10.0.0.5:8786 -o out
 
 Rows are the Cartesian product designs x k_a x poses (poses fastest). Units: poses and
-box in m, k_a in N m/rad, design parameters in SI units (see `eigentwist matrices`),
+box in m, k_a in the robot's unit (N m/rad revolute, N/m prismatic actuators), design parameters in SI units (see `eigentwist matrices`),
 frequencies in Hz. Values: a list A,B,C or a range LO:HI:N (N values, ends included).
 Unreachable or singular poses do not stop the sweep: their rows are NaN, reachable=0.
 
@@ -41,7 +41,7 @@ def add_parser(sub):
     p.add_argument("--box", nargs=6, type=float, metavar=("XLO", "XHI", "YLO", "YHI", "ZLO", "ZHI"),
                    help="workspace box of the poses, m (default: the robot's workspace)")
     p.add_argument("--k-a", dest="k_a", metavar="VALUES",
-                   help="commanded actuator stiffness, N m/rad: 500,1000,2000 or 500:4000:8 (default: the robot's)")
+                   help="commanded actuator stiffness (N m/rad revolute, N/m prismatic): 500,1000,2000 or 500:4000:8 (default: the robot's)")
     p.add_argument("--vary", action="extend", nargs="+", default=[], metavar="NAME=VALUES",
                    help="design parameter to vary, SI units: l2=0.45:0.60:16 or l2=0.5,0.55 (repeatable)")
     add_set_option(p, help="fix a design parameter for every row, SI units: NAME=VALUE, e.g. --set m_e=0.6, or one "

@@ -29,7 +29,7 @@ def add_parser(sub):
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--truth", required=True, metavar="SPEC", help="PRESET[+EFFECT:PARAM=VALUE,...] (see below)")
     p.add_argument("--k-a", dest="k_a", nargs="+", required=True, metavar="KA",
-                   help="commanded actuator stiffnesses, N m/rad (space- or comma-separated)")
+                   help="commanded actuator stiffnesses, N m/rad (revolute) or N/m (prismatic) (space- or comma-separated)")
     p.add_argument("--poses", nargs="+", default=[], metavar="'X,Y,Z ...'",
                    help="end-effector positions, m, each X,Y,Z, separated by spaces or ';' inside one quoted "
                         "argument (a value starting with '-' must be quoted with others or given with --pose)")

@@ -82,6 +82,8 @@ class Measurements:
     source : file name used in messages.
     robot : robot the data belong to (``eigentwist.robots.NAMES``).
     modal : optional modal columns (``MODAL``), name -> (N,) array, NaN where blank.
+    k_a_unit : the unit of k_a, the robot's (N m/rad for a revolute actuator, N/m for a
+        prismatic one); :func:`parse_csv` takes it from the robot's ``k_a`` parameter.
     """
 
     k_a: np.ndarray
@@ -94,6 +96,7 @@ class Measurements:
     source: str = "<data>"
     robot: str = "heli4"
     modal: dict = field(default_factory=dict)
+    k_a_unit: str = "N m/rad"
 
     def __post_init__(self):
         n = len(self.freq_hz)
@@ -135,7 +138,8 @@ class Measurements:
         rows = np.arange(len(self))[rows]
         return Measurements(self.k_a[rows], tuple(self.mode[i] for i in rows), self.freq_hz[rows],
                             self.sigma_hz[rows], self.poses[rows], {k: v[rows] for k, v in self.params.items()},
-                            self.lines[rows], self.source, self.robot, {k: v[rows] for k, v in self.modal.items()})
+                            self.lines[rows], self.source, self.robot, {k: v[rows] for k, v in self.modal.items()},
+                            self.k_a_unit)
 
     @classmethod
     def from_arrays(cls, k_a, mode, freq_hz, poses=None, sigma_hz=None, params=None, robot: str = "heli4",
@@ -302,7 +306,7 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
     modal = {name: np.array([np.nan if v is None else v for v in cols[name]], dtype=float)
              for name in MODAL if name in names}
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        np.array(lines), source, ev.spec, modal)
+                        np.array(lines), source, ev.spec, modal, ev.parameter("k_a").unit)
     _check_duplicates(meas)
     check_poses(meas, ev, values)
     return meas

@@ -41,7 +41,7 @@ def _fit_shape(rho, w, basis):
 
 
 def classify(k_a, rho, weight) -> dict:
-    """Shape of rho(k_a) (see module doc): ``{"shape": name or None, "chi2": {...}, "k_s": N m/rad}``."""
+    """Shape of rho(k_a) (see module doc): ``{"shape": name or None, "chi2": {...}, "k_s": in k_a's unit}``."""
     k_a, rho, w = (np.asarray(v, dtype=float) for v in (k_a, rho, weight))
     n = len(rho)
     if not np.sum(w) > 0:
@@ -69,6 +69,7 @@ def hints(comparison, signatures: dict | None = None, scale: float = 1.0) -> lis
     the frequencies has the shape found.
     """
     meas = comparison.meas
+    unit = meas.k_a_unit
     labels = np.asarray(meas.mode)
     rho, w = log_ratio(comparison)
     out = []
@@ -81,9 +82,9 @@ def hints(comparison, signatures: dict | None = None, scale: float = 1.0) -> lis
                 continue
             k_fail, k_all = meas.k_a[rows][fail], meas.k_a[rows]
             if np.all(k_fail == k_all.min()) and k_all.max() > k_all.min():
-                where = f"only at the lowest k_a ({k_all.min():g} N m/rad), without a trend over the others"
+                where = f"only at the lowest k_a ({k_all.min():g} {unit}), without a trend over the others"
             elif np.all(k_fail == k_all.max()) and k_all.max() > k_all.min():
-                where = f"only at the highest k_a ({k_all.max():g} N m/rad), without a trend over the others"
+                where = f"only at the highest k_a ({k_all.max():g} {unit}), without a trend over the others"
             else:
                 where = "without a clear trend over k_a (scatter or a pose dependence)"
             out.append(f"mode {label}: fails {where}")
@@ -92,9 +93,9 @@ def hints(comparison, signatures: dict | None = None, scale: float = 1.0) -> lis
         if res["shape"] == "constant":
             text += f" (measured/predicted = {res['ratio']:.3f})"
         elif res["shape"] == "series":
-            text += f" (as if a stiffness of ~{res['k_s']:.3g} N m/rad were in series with each actuator)"
+            text += f" (as if a stiffness of ~{res['k_s']:.3g} {unit} were in series with each actuator)"
         else:
-            text += f" (as if a stiffness of ~{res['k_s']:.3g} N m/rad acted beside each actuator)"
+            text += f" (as if a stiffness of ~{res['k_s']:.3g} {unit} acted beside each actuator)"
         if signatures:
             like = [e for e, s in signatures.items() if s == res["shape"]]
             if like:

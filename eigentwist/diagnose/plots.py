@@ -89,7 +89,7 @@ def _panel(ax, ev, cmp, rows, pose, k_grid, styles, colors, shade=True, extra=No
         if extra is not None:
             ex = model_curves(ev, meas, extra.effects, extra.values, pose, [label], k_grid)
             ax.plot(k_grid, ex[label], "--", color=c, alpha=0.7, label=f"baseline, mode {label}")
-    ax.set_xlabel("actuator stiffness k_a [N m/rad]")
+    ax.set_xlabel(f"actuator stiffness k_a [{ev.parameter('k_a').unit}]")
     ax.set_ylabel("natural frequency [Hz]")
     ax.set_title(f"pose {np.round(pose, 4).tolist()} m", fontsize=9)
     ax.grid(True, alpha=0.3)

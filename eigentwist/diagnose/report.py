@@ -43,7 +43,7 @@ def comparison_table(cmp) -> str:
                      f"{m.freq_hz[i]:.4g}", f"{m.sigma_hz[i]:.3g}", f"{cmp.predicted[i]:.4g}",
                      f"{cmp.error_pct[i]:+.2f}", f"{cmp.error_sigma[i]:+.2f}", "FAILS" if cmp.failing[i] else ""]
                     + ([] if mac is None else ["-" if np.isnan(mac[i]) else f"{mac[i]:.4f}"]))
-    return format_table(["line", "k_a [N m/rad]", "pose [m]", "mode", "model mode", "measured [Hz]", "sigma [Hz]",
+    return format_table(["line", f"k_a [{m.k_a_unit}]", "pose [m]", "mode", "model mode", "measured [Hz]", "sigma [Hz]",
                          "predicted [Hz]", "error [%]", "error [sigma]", f"|err|>{FAIL_SIGMA:g}sigma"]
                         + ([] if mac is None else ["MAC"]), rows)
 
@@ -59,7 +59,8 @@ def failing_text(cmp) -> list[str]:
     out = []
     for w in cmp.where_it_fails():
         lo, hi = w["k_a_range"]
-        ka = f"k_a = {lo:g} N m/rad" if lo == hi else f"k_a {lo:g}-{hi:g} N m/rad"
+        unit = cmp.meas.k_a_unit
+        ka = f"k_a = {lo:g} {unit}" if lo == hi else f"k_a {lo:g}-{hi:g} {unit}"
         poses = "; ".join(_pose(p) for p in w["poses"][:4]) + (" ..." if len(w["poses"]) > 4 else "")
         out.append(f"mode {w['mode']}: {w['rows']} of {w['of']} rows, {ka}, pose(s) {poses} m, "
                    f"model {w['predicted']} (lines {', '.join(map(str, w['lines'][:12]))}"
@@ -172,7 +173,7 @@ def _uncertainty_sentence(d) -> str | None:
 def _outlier_sentence(d, ev) -> str | None:
     if not d.outliers:
         return None
-    rows = "; ".join(f"line {o.line} (mode {o.mode}, k_a = {o.k_a:g} N m/rad, {o.freq_hz:.4g} Hz, "
+    rows = "; ".join(f"line {o.line} (mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "
                      f"{o.residual_sigma:+.1f} sigma)" for o in d.outliers)
     a = d.all_rows
     with_all = (f"with every row the selection is {', '.join(a.selected) or 'nothing'}"
@@ -198,7 +199,7 @@ def _alternatives_sentence(d) -> str | None:
         nm = a.next_measurement
         if nm:
             pose = ", ".join(f"{v:g}" for v in np.round(nm["pose"], 4))
-            text += (f"; measure mode {nm['mode']} at [{pose}] m with k_a = {nm['k_a']:.4g} N m/rad, where they "
+            text += (f"; measure mode {nm['mode']} at [{pose}] m with k_a = {nm['k_a']:.4g} {nm.get('k_a_unit', 'N m/rad')}, where they "
                      f"differ by {nm['separation_sigma']:.1f} sigma")
         parts.append(text)
     if not parts and d.ranking and (d.uncertainty is not None and d.uncertainty.verdict == "too few rows"):
@@ -279,12 +280,12 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     if nm:
         a, b = nm["between"]
         out.append(f"   measurement that separates {a} and {b} best: pose {_pose(nm['pose'])} m, k_a = {nm['k_a']:.4g} "
-                   f"N m/rad, mode {nm['mode']}: {nm['predicted_hz'][a]:.4g} vs {nm['predicted_hz'][b]:.4g} Hz "
+                   f"{nm.get('k_a_unit', 'N m/rad')}, mode {nm['mode']}: {nm['predicted_hz'][a]:.4g} vs {nm['predicted_hz'][b]:.4g} Hz "
                    f"({nm['separation_sigma']:.1f} sigma apart at sigma = {nm['sigma_hz']:.3g} Hz)")
         alt = nm.get("with_measured_modes")
         if alt and alt["mode"] != nm["mode"]:
             out.append(f"   with a mode you already measure: pose {_pose(alt['pose'])} m, k_a = {alt['k_a']:.4g} "
-                       f"N m/rad, mode {alt['mode']}: {alt['predicted_hz'][a]:.4g} vs {alt['predicted_hz'][b]:.4g} Hz "
+                       f"{alt.get('k_a_unit', nm.get('k_a_unit', 'N m/rad'))}, mode {alt['mode']}: {alt['predicted_hz'][a]:.4g} vs {alt['predicted_hz'][b]:.4g} Hz "
                        f"({alt['separation_sigma']:.1f} sigma)")
     title = "4. Effects added by hand" if d.manual else "4. Forward selection (add the best significant effect, repeat)"
     out += ["", title, _steps_table(d.steps, ev)]
@@ -302,7 +303,7 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
         out.append(f"   stated uncertainty: {u.verdict} (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.3g})")
     if d.outliers:
         out.append("   outliers set aside (CSV line, header = 1):")
-        out += [f"     line {o.line}: mode {o.mode}, k_a = {o.k_a:g} N m/rad, {o.freq_hz:.4g} Hz, "
+        out += [f"     line {o.line}: mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "
                 f"{o.residual_sigma:+.1f} sigma" for o in d.outliers]
     if not d.explained:
         out.append("   where the final model still fails:")

@@ -344,7 +344,7 @@ def _between(ev, meas, fit_a, fit_b, tied: bool) -> dict | None:
         a, b = out["between"]
         pose = ", ".join(f"{v:g}" for v in np.round(out["pose"], 4))
         out["message"] = (f"to tell {a} from {b}, measure mode {out['mode']} at pose [{pose}] m with k_a = "
-                          f"{out['k_a']:.4g} N m/rad: {a} predicts {out['predicted_hz'][a]:.4g} Hz, {b} "
+                          f"{out['k_a']:.4g} {out['k_a_unit']}: {a} predicts {out['predicted_hz'][a]:.4g} Hz, {b} "
                           f"{out['predicted_hz'][b]:.4g} Hz ({out['separation_sigma']:.1f} sigma apart)")
     return out
 

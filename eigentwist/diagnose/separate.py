@@ -93,7 +93,7 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
         if best is None:
             return None
         sep, label, k, fa, fb = best
-        return {"between": [name_a, name_b], "pose": pose_rows[k].tolist(), "k_a": float(ka_rows[k]),
+        return {"k_a_unit": ev.parameter("k_a").unit, "between": [name_a, name_b], "pose": pose_rows[k].tolist(), "k_a": float(ka_rows[k]),
                 "mode": label, "predicted_hz": {name_a: fa, name_b: fb}, "separation_sigma": sep,
                 "sigma_hz": rel_sigma * 0.5 * (fa + fb)}
 

@@ -190,7 +190,7 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
     where = ", ".join(f"{v:g}" for v in np.round(g.pose, 4))
     model_name = model if isinstance(model, str) and "," not in model else " + ".join(
         model.split(",") if isinstance(model, str) else model)
-    text = title or (f"{ev.robot.title} at [{where}] m, k_a = {k_a:g} N m/rad, model {model_name}: "
+    text = title or (f"{ev.robot.title} at [{where}] m, k_a = {k_a:g} {ev.parameter('k_a').unit}, model {model_name}: "
                      "grey at rest, colour the mode shape")
     fig.suptitle(textwrap.fill(text, 30 * n), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.95))

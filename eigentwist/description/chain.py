@@ -1,0 +1,177 @@
+"""Legs as data: any serial chain of R, P, U, S and Pi joints with its bodies (issue 15).
+
+A :class:`ChainLeg` lists its joints from the base to the platform and the bodies they
+carry. Axes and locations are *names* of vectors that the leg's closed-form geometry
+(:attr:`ChainLeg.geometry`) returns at the current pose, or explicit 3-tuples of
+parameter expressions; every location is a point in base-frame coordinates. The
+derivation (:mod:`eigentwist.symbolic.chain`) turns the list into unit twists,
+reciprocal wrenches and inverse-Jacobian rows by Huang's method without knowing which
+chain it is.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import sympy as sp
+
+from .parameters import Parameter
+
+__all__ = ["JOINT_FREEDOMS", "ChainJoint", "ChainBody", "ChainLeg", "ChainRobot"]
+
+#: number of unit twists each joint kind contributes; ``"virtual"`` is the twist of
+#: restriction of a leg with fewer than six freedoms (one per constraint wrench, Huang's
+#: method): a rotation about its axis through its location, not a freedom of the leg
+JOINT_FREEDOMS = {"R": 1, "P": 1, "Pi": 1, "U": 2, "S": 3, "virtual": 1}
+
+
+@dataclass(frozen=True)
+class ChainJoint:
+    """One joint of a leg.
+
+    kind : ``"R"`` revolute, ``"P"`` prismatic, ``"Pi"`` parallelogram (a curvilinear
+        translation), ``"U"`` universal (two revolute axes through one point), ``"S"``
+        spherical (three revolute axes through one point).
+    axes : one axis for R, P and Pi, two for U, three for S (none: the base axes);
+        each a geometry name or a 3-tuple of expressions (unit vectors, base axes).
+    location : a point on the axes (geometry name or 3-tuple, m, base frame); unused
+        for P and Pi.
+    actuated : True for the actuated joint (R or P); its coordinate's unit follows.
+    """
+
+    kind: str
+    axes: tuple = ()
+    location: Any = None
+    actuated: bool = False
+    doc: str = ""
+
+    def __post_init__(self):
+        if self.kind not in JOINT_FREEDOMS:
+            raise ValueError(f"joint kind {self.kind!r}: expected one of {', '.join(JOINT_FREEDOMS)}")
+        if self.actuated and self.kind not in ("R", "P"):
+            raise ValueError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
+        n = JOINT_FREEDOMS[self.kind]
+        if self.axes and len(self.axes) != n:
+            raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
+
+    @property
+    def freedoms(self) -> int:
+        return JOINT_FREEDOMS[self.kind]
+
+
+@dataclass(frozen=True)
+class ChainBody:
+    """A rigid body of a leg, moved by the first ``after`` joints of the chain.
+
+    inertia : 6x6 spatial inertia (kg, kg m, kg m^2) in the body frame, twists ``[omega; v]``.
+    rotation : the body frame's axes (three geometry names or 3-tuples: the columns).
+    origin : the body frame's origin (geometry name or 3-tuple, m, base frame).
+    """
+
+    name: str
+    after: int
+    inertia: sp.Matrix
+    rotation: tuple
+    origin: Any
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class ChainLeg:
+    """One leg: its joints from base to platform, its bodies, and its closed-form geometry.
+
+    geometry : ``geometry(position, rotation, p) -> dict`` of named SymPy vectors and
+        scalars at the pose (``position`` 3x1 m, ``rotation`` 3x3 platform axes,
+        ``p`` parameter symbols by name). It must hold ``"length"`` for a prismatic
+        actuator (its joint coordinate, m) and every name the joints and bodies use.
+    """
+
+    name: str
+    joints: tuple
+    bodies: tuple
+    geometry: Callable
+    platform_body: str = "platform"
+
+    @property
+    def freedoms(self) -> int:
+        """The leg's degrees of freedom (virtual joints excluded)."""
+        return sum(j.freedoms for j in self.joints if j.kind != "virtual")
+
+    @property
+    def actuated(self) -> ChainJoint:
+        return next(j for j in self.joints if j.actuated)
+
+
+@dataclass(frozen=True)
+class ChainRobot:
+    """A parallel manipulator whose legs are :class:`ChainLeg` joint lists.
+
+    pose : names of the pose coordinates (``x, y, z`` m; ``rot_x, rot_y, rot_z`` rad,
+        the rotation vector of the platform frame).
+    platform_inertia : 6x6 spatial inertia of the platform at its origin, platform axes.
+    actuator_stiffness : k_a as an expression; its unit is the actuated joint's
+        (N/m for prismatic, N m/rad for revolute actuators).
+    effects : catalogue names or :class:`~eigentwist.description.effects.Effect` objects.
+    """
+
+    name: str
+    title: str
+    parameters: tuple[Parameter, ...]
+    legs: tuple[ChainLeg, ...]
+    platform_inertia: sp.Matrix
+    actuator_stiffness: sp.Expr
+    x_ref: tuple
+    pose: tuple = ("x", "y", "z", "rot_x", "rot_y", "rot_z")
+    workspace: tuple = ()
+    source: str = ""
+    effects: tuple = field(default=())
+    custom_effects: tuple = field(default=())
+    constraints: tuple = ()
+
+    def __post_init__(self):
+        from .effects import EFFECTS, Effect
+
+        custom, names = {e.name: e for e in self.custom_effects}, []
+        for e in self.effects:
+            if isinstance(e, Effect):
+                custom[e.name] = e
+                names.append(e.name)
+            elif e in EFFECTS or e in custom:
+                names.append(e)
+            else:
+                raise ValueError(f"{self.name}: unknown effect {e!r}: expected a catalogue name or an Effect")
+        have, extra = {p.name for p in self.parameters}, []
+        for p in (p for e in custom.values() for p in e.params):
+            if p.name not in have:
+                have.add(p.name)
+                extra.append(p)
+        object.__setattr__(self, "effects", tuple(dict.fromkeys(names)))
+        object.__setattr__(self, "custom_effects", tuple(custom.values()))
+        object.__setattr__(self, "parameters", tuple(self.parameters) + tuple(extra))
+
+    def effect(self, name: str):
+        from .effects import EFFECTS
+
+        for e in self.custom_effects:
+            if e.name == name:
+                return e
+        return EFFECTS[name]
+
+    def parameter(self, name: str) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def defaults(self) -> dict[str, float]:
+        return {p.name: p.default for p in self.parameters}
+
+    @property
+    def actuator_unit(self) -> str:
+        """Unit of k_a from the actuated joint's kind: N/m (P) or N m/rad (R)."""
+        return "N/m" if self.legs[0].actuated.kind == "P" else "N m/rad"

@@ -1,0 +1,40 @@
+"""6-DoF poses: position (m) and rotation vector (axis x angle, rad) of the platform frame."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["rotation_matrix", "rotation_vector", "exp_twist"]
+
+
+def rotation_matrix(rotvec) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) by Rodrigues' formula,
+    with the series of sin(t)/t and (1 - cos t)/t^2 near t = 0."""
+    r = np.asarray(rotvec, dtype=float)
+    t2 = np.sum(r * r, axis=-1)[..., None, None]
+    t = np.sqrt(t2)
+    small = t2 < 1e-12
+    safe = np.where(small, 1.0, t)
+    a = np.where(small, 1 - t2 / 6, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
+    K = np.zeros(r.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
+    return np.eye(3) + a * K + b * (K @ K)
+
+
+def rotation_vector(R) -> np.ndarray:
+    """Rotation vector (3,) of a rotation matrix (angle below pi)."""
+    R = np.asarray(R, dtype=float)
+    c = np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)
+    angle = np.arccos(c)
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]]) / 2
+    return w if angle < 1e-12 else w * angle / np.sin(angle)
+
+
+def exp_twist(pose, twist, eps: float) -> np.ndarray:
+    """The pose (6,) reached from ``pose`` by moving along the platform twist
+    ``[omega; v]`` (at the platform origin, base axes) for ``eps`` seconds: the origin
+    moves by ``eps v``, the frame rotates by ``exp(eps [omega]x)`` in base axes."""
+    pose, twist = np.asarray(pose, dtype=float), np.asarray(twist, dtype=float)
+    R = rotation_matrix(eps * twist[:3]) @ rotation_matrix(pose[3:])
+    return np.concatenate([pose[:3] + eps * twist[3:], rotation_vector(R)])
