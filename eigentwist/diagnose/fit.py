@@ -42,6 +42,7 @@ SPAN = 1e3          # search range: default / SPAN ... default * SPAN (within th
 STEP = 1e-2         # central-difference step in theta (1 % in p): K_F carries ~1e-7 relative
                     # round-off (the 1e-12 rad/(N m) "rigid" compliances), so smaller steps give noise
 START_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
+ROUNDOFF = 1e-9     # relative frequency change per central-difference pair treated as none
 # Exact Jacobians from the generated sensitivities (issue 16) are available but off by
 # default: on a fresh cache they first generate (NumPy) or compile (C, minutes for the
 # catalogue's fitted parameters) a sensitivity kernel, and measured fits took the same
@@ -171,7 +172,10 @@ class _Objective:
             f = self.pred.predict_sets(self.names, values, strict=False)
             self.nfev += 1
             r = (f - self.meas.freq_hz) / self.meas.sigma_hz
-            jac = ((r[2::2] - r[1::2]) / (2 * STEP)).T
+            # a change below round-off (|df/f| <= ROUNDOFF for a 1 % step) is no influence:
+            # noise there would send the Gauss-Newton step to a search bound
+            flat = np.abs(f[2::2] - f[1::2]) <= ROUNDOFF * np.abs(f[0])
+            jac = np.where(flat, 0.0, (r[2::2] - r[1::2]) / (2 * STEP)).T
             self.cache = {key: (r[0], jac)}
         return self.cache[key]
 

@@ -502,8 +502,12 @@ class Evaluator:
         from .sensitivity import check_model, check_wrt, frequency_derivatives, sensitivity_kernels
 
         poses = self._poses(poses)
-        effects = resolve_model(model, self.effects)
+        effects = resolve_model(model, self.robot)
         check_model(effects)
+        scoped = [e for e in effects if "@" in e] + [k for k in params if "@" in k]
+        if scoped:
+            raise InputError(f"sensitivities with one leg's own values ({', '.join(scoped)}) are not generated yet: "
+                             "expected a model and parameters that act on all legs alike")
         wrt = check_wrt(self, wrt)
         kern = sensitivity_kernels(self, wrt, progress)
         p = self._params(len(poses), params, effects)

@@ -182,7 +182,10 @@ def sensitivity_program(model, wrt, progress=None) -> SensitivityModel:
         if progress:
             progress(f"forward mode {n}/{len(wrt)}: {name}")
         p = declared[name]
-        tangents = {p: sp.Integer(1)}
+        # a leg-level parameter also enters as each leg's own input P__N (issue 11); with
+        # every leg at the shared value, d(P__N)/dP = 1 for each of them
+        copies = [s_ for nm, s_ in declared.items() if nm.startswith(f"{name}__") and nm[len(name) + 2:].isdigit()]
+        tangents = {p: sp.Integer(1), **{c: sp.Integer(1) for c in copies}}
         for sym_, rhs in base:
             t = _tangent(prog, partials, tangents, sym_, rhs, p)
             if t != 0:
