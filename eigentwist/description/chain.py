@@ -16,6 +16,7 @@ from typing import Any, Callable
 import sympy as sp
 
 from .parameters import Parameter
+from .robot import resolve_effects
 
 __all__ = ["JOINT_FREEDOMS", "ChainJoint", "ChainBody", "ChainLeg", "ChainRobot"]
 
@@ -129,25 +130,7 @@ class ChainRobot:
     constraints: tuple = ()
 
     def __post_init__(self):
-        from .effects import EFFECTS, Effect
-
-        custom, names = {e.name: e for e in self.custom_effects}, []
-        for e in self.effects:
-            if isinstance(e, Effect):
-                custom[e.name] = e
-                names.append(e.name)
-            elif e in EFFECTS or e in custom:
-                names.append(e)
-            else:
-                raise ValueError(f"{self.name}: unknown effect {e!r}: expected a catalogue name or an Effect")
-        have, extra = {p.name for p in self.parameters}, []
-        for p in (p for e in custom.values() for p in e.params):
-            if p.name not in have:
-                have.add(p.name)
-                extra.append(p)
-        object.__setattr__(self, "effects", tuple(dict.fromkeys(names)))
-        object.__setattr__(self, "custom_effects", tuple(custom.values()))
-        object.__setattr__(self, "parameters", tuple(self.parameters) + tuple(extra))
+        resolve_effects(self)
 
     def effect(self, name: str):
         from .effects import EFFECTS

@@ -11,7 +11,7 @@ import sympy as sp
 
 from .parameters import Parameter
 
-__all__ = ["Joint", "Leg", "EECompliance", "Coupling", "RobotDescription", "RRPIRR_CHAIN"]
+__all__ = ["resolve_effects", "Joint", "Leg", "EECompliance", "Coupling", "RobotDescription", "RRPIRR_CHAIN"]
 
 
 @dataclass(frozen=True)
@@ -95,6 +95,36 @@ class Coupling:
     doc: str = ""
 
 
+def resolve_effects(description) -> None:
+    """Normalise a frozen description's ``effects`` (catalogue names or :class:`Effect`
+    objects) into names, keep the robot's own effects in ``custom_effects``, and append
+    their parameters to ``parameters`` (each once). Shared by :class:`RobotDescription`
+    and the joint-list descriptions (:mod:`.chain`)."""
+    from .effects import EFFECTS, Effect
+
+    custom = {e.name: e for e in description.custom_effects}
+    names = []
+    for e in description.effects:
+        if isinstance(e, Effect):
+            if e.name in EFFECTS and EFFECTS[e.name] is not e:
+                raise ValueError(f"{description.name}: effect {e.name!r} is already in the catalogue; "
+                                 "name yours differently")
+            custom[e.name] = e
+            names.append(e.name)
+        elif e in EFFECTS or e in custom:
+            names.append(e)
+        else:
+            raise ValueError(f"{description.name}: unknown effect {e!r}: expected a catalogue name or an Effect")
+    have, extra = {p.name for p in description.parameters}, []
+    for p in (p for e in custom.values() for p in e.params):
+        if p.name not in have:
+            have.add(p.name)
+            extra.append(p)
+    object.__setattr__(description, "effects", tuple(dict.fromkeys(names)))
+    object.__setattr__(description, "custom_effects", tuple(custom.values()))
+    object.__setattr__(description, "parameters", tuple(description.parameters) + tuple(extra))
+
+
 @dataclass(frozen=True)
 class RobotDescription:
     """Everything the derivation needs to know about one manipulator.
@@ -143,28 +173,7 @@ class RobotDescription:
     custom_effects: tuple = field(default=())
 
     def __post_init__(self):
-        from .effects import EFFECTS, Effect
-
-        custom = {e.name: e for e in self.custom_effects}
-        names = []
-        for e in self.effects:
-            if isinstance(e, Effect):
-                if e.name in EFFECTS and EFFECTS[e.name] is not e:
-                    raise ValueError(f"{self.name}: effect {e.name!r} is already in the catalogue; name yours differently")
-                custom[e.name] = e
-                names.append(e.name)
-            elif e in EFFECTS or e in custom:
-                names.append(e)
-            else:
-                raise ValueError(f"{self.name}: unknown effect {e!r}: expected a catalogue name or an Effect")
-        have, extra = {p.name for p in self.parameters}, []
-        for p in (p for e in custom.values() for p in e.params):
-            if p.name not in have:
-                have.add(p.name)
-                extra.append(p)
-        object.__setattr__(self, "effects", tuple(dict.fromkeys(names)))
-        object.__setattr__(self, "custom_effects", tuple(custom.values()))
-        object.__setattr__(self, "parameters", tuple(self.parameters) + tuple(extra))
+        resolve_effects(self)
 
     def effect(self, name: str):
         """The :class:`Effect` called ``name`` (the robot's own first, then the catalogue)."""

@@ -14,21 +14,14 @@ import numpy as np
 
 from .predict import evaluate
 
+from ..plotting import pyplot
+
 __all__ = ["plot_comparison", "plot_diagnosis", "model_curves"]
 
 MAX_POSES = 4
 N_CURVE = 120
 
 
-def _pyplot():
-    try:
-        import matplotlib
-    except ImportError:  # pragma: no cover - matplotlib is an optional dependency
-        raise OSError("plotting needs matplotlib: pip install 'eigentwist[plot]'") from None
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _pose_groups(meas):
@@ -103,7 +96,7 @@ def _colors(meas):
 
 def plot_comparison(cmp, path, ev, title: str | None = None):
     """Fig. 6 style figure of a :class:`~eigentwist.diagnose.compare.Comparison`, saved to ``path``."""
-    plt = _pyplot()
+    plt = pyplot()
     groups = _pose_groups(cmp.meas)[:MAX_POSES]
     fig, axes = plt.subplots(1, len(groups), figsize=(max(7.0, 5.2 * len(groups)), 4.6), squeeze=False)
     k_grid = _k_grid(cmp.meas)
@@ -121,7 +114,7 @@ def plot_comparison(cmp, path, ev, title: str | None = None):
 
 def plot_diagnosis(diag, path, ev):
     """Baseline vs final model over the data, and the error falling step by step."""
-    plt = _pyplot()
+    plt = pyplot()
     groups = _pose_groups(diag.meas)[:MAX_POSES]
     fig, axes = plt.subplots(1, len(groups) + 1, figsize=(5.2 * (len(groups) + 1), 4.2), squeeze=False)
     k_grid = _k_grid(diag.meas)

@@ -12,23 +12,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plotting import pyplot
+
 __all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes"]
 
 
-def _pyplot():
-    try:
-        import matplotlib
-    except ImportError:  # pragma: no cover - matplotlib comes with the modal extra
-        raise OSError("plotting needs matplotlib: pip install 'eigentwist[modal]'") from None
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def plot_stabilisation(res, path) -> None:
     """Stabilisation diagram of one setting's :class:`~eigentwist.modal.identify.SettingModes`."""
-    plt = _pyplot()
+    plt = pyplot("modal")
     fig, ax = plt.subplots(figsize=(8, 4.5))
     stab = res.stabilisation
     for order, f, st in zip(stab.orders, stab.freq_hz, stab.stable):
@@ -55,7 +48,7 @@ def plot_stabilisation(res, path) -> None:
 
 def plot_frfs(res, path) -> None:
     """Measured FRF magnitudes and their LSFD re-synthesis on the band."""
-    plt = _pyplot()
+    plt = pyplot("modal")
     frfs = res.frfs
     n_r = frfs.H.shape[2]
     fig, axes = plt.subplots(3, n_r, figsize=(3.2 * n_r, 6.5), sharex=True, squeeze=False)

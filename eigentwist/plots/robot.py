@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from ..plotting import pyplot
+
 __all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "AXIS_WORDS"]
 
 AXIS_WORDS = {"rx": "rotation about X", "ry": "rotation about Y", "rz": "rotation about Z",
@@ -88,15 +90,6 @@ def mode_displacements(geometry: RobotGeometry, twist, axes) -> np.ndarray:
     return v + np.cross(omega, geometry.offsets)
 
 
-def _pyplot():
-    try:
-        import matplotlib
-    except ImportError:  # pragma: no cover - matplotlib is an optional dependency
-        raise OSError("plotting needs matplotlib: pip install 'eigentwist[plot]'") from None
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _outline(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -165,7 +158,7 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
     close up, in the plane of its largest motion. Saved as PNG to ``path`` (a file name or a binary
     file object) when given. Returns the Matplotlib figure.
     """
-    plt = _pyplot()
+    plt = pyplot()
     g = robot_geometry(ev, pose, **params)
     modes = ev.modes(g.pose[None, :], model, k_a=k_a, **params)
     n = min(n_modes, modes.freq_hz.shape[1])
