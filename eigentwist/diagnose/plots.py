@@ -12,9 +12,8 @@ import textwrap
 
 import numpy as np
 
-from .predict import evaluate
-
 from ..plotting import pyplot
+from .predict import evaluate
 
 __all__ = ["plot_comparison", "plot_diagnosis", "model_curves"]
 
