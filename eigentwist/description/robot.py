@@ -184,6 +184,8 @@ class RobotDescription:
                 return e
         return EFFECTS[name]
     constraints: tuple = ()
+    #: names of the pose coordinates (issue 15): ``x, y, z`` (m) for a 3-DoF translational robot
+    pose: tuple = ("x", "y", "z")
 
     def parameter(self, name: str) -> Parameter:
         for p in self.parameters:

@@ -54,6 +54,9 @@ class DerivedModel:
     outputs: dict
     joints: list
     screws: list = field(default_factory=list)
+    #: symbols the IK program takes per pose (``x, y, z`` m for a 3-DoF robot; a 6-DoF
+    #: robot adds its rotation, see :mod:`eigentwist.symbolic.chain`)
+    pose_inputs: tuple = POSE
 
     @property
     def parameters(self) -> tuple[str, ...]:
