@@ -1,9 +1,11 @@
 """The chain derivation reproduces the Heli4's RR(Pi)RR leg (issue 15, step 1 evidence).
 
-One Heli4 leg written as a joint list (R, R, Pi, R, R and the virtual joint of its
-twist of restriction) gives, through the generic cofactor form of Huang's method, the
-same inverse-Jacobian rows and the same body terms of Eq. 12 as the hand-derived
-:func:`eigentwist.symbolic.leg.leg_screws`, at random joint angles (1e-12).
+One Heli4 leg written as a ChainLeg joint list (R, R, Pi, R, R and the virtual joint of
+its twist of restriction) gives, through :func:`eigentwist.symbolic.chain.chain_screws`,
+the same inverse-Jacobian rows and the same body terms of Eq. 12 as the Heli4's own
+derivation (:func:`eigentwist.symbolic.leg.leg_screws`, its description's joint list),
+at random joint angles (1e-12). The numbers of the hand-built leg that preceded both are
+pinned in ``tests/data/chain_pin.npz`` (``tests/test_chain_equivalence.py``).
 """
 from __future__ import annotations
 
@@ -30,7 +32,7 @@ def _both(leg_index: int):
     q = tuple(prog.declare(sym(f"q{k}")) for k in (1, 2, 3))
     for p in robot.parameters:
         prog.declare(p.symbol)
-    ls = leg_screws(prog, robot.legs[leg_index], q, robot.l1, robot.l2, "1")
+    ls = leg_screws(prog, robot.legs[leg_index], q, "1")
     g = {"s": ls.vectors["s"], "s3": ls.vectors["s3"], "s4": ls.vectors["s4"], "a": ls.vectors["a"],
          "base": ls.frames["J1"][1], "elbow": ls.frames["E1"][1], "ch": ls.twists["c"][:3, 0]}
     for f in ("J1", "C3"):
@@ -49,7 +51,7 @@ def test_heli4_leg_as_a_joint_list(leg_index):
     robot, prog, q, ls, leg, cs, inertia = _both(leg_index)
     assert leg.freedoms == 5 and cs.actuated == 0
     pairs = [(ls.rows[k], cs.rows[i]) for i, k in enumerate((1, 2, 3, None, 5, "c")) if k is not None]
-    pairs += [(body_inertia_contribution(prog, ls, n, f, inertia[f], f"h{f}"),
+    pairs += [(body_inertia_contribution(prog, ls, {b.name: b for b in robot.legs[leg_index].bodies}[f], inertia[f], f"h{f}"),
                body_inertia(prog, cs, leg, b, sp.zeros(3, 1), f"c{f}")) for (f, n), b in zip((("J1", 1), ("C3", 3)), leg.bodies)]
     rng = np.random.default_rng(leg_index)
     for _ in range(2):

@@ -1,6 +1,8 @@
 """Descriptions of parallel manipulators as data (parameters, legs, bodies, effects)."""
 from .parameters import Parameter, sym
-from .robot import Coupling, Joint, Leg, RobotDescription, EECompliance, RRPIRR_CHAIN
+from .robot import Coupling, Leg, RobotDescription, EECompliance
+from .chain import ChainJoint as Joint
+from .rrpirr import RRPIRR_CHAIN
 from .effects import EFFECTS, KINDS, PRESETS, Effect, EffectContext, effect_parameters, resolve_model
 from .constraints import Constraint, tube, triangle_inequality
 

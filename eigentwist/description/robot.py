@@ -6,38 +6,18 @@ it; a second robot with the same joint types needs a new description only.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import sympy as sp
 
 from .parameters import Parameter
 
-__all__ = ["resolve_effects", "Joint", "Leg", "EECompliance", "Coupling", "RobotDescription", "RRPIRR_CHAIN"]
-
-
-@dataclass(frozen=True)
-class Joint:
-    """One joint of a leg: ``kind`` is ``"R"`` (revolute), ``"Pi"`` (planar
-    parallelogram, a curvilinear translation) or ``"virtual"`` (the constrained
-    direction of a leg with fewer than six freedoms)."""
-
-    kind: str
-    actuated: bool = False
-    doc: str = ""
-
-
-RRPIRR_CHAIN = (
-    Joint("R", actuated=True, doc="actuated base joint, axis s_i through B_i"),
-    Joint("R", doc="elbow joint, axis s_i"),
-    Joint("Pi", doc="parallelogram, translation along s_i3 (its coordinate is l2*q_i3, m)"),
-    Joint("R", doc="twist of the rods about each other, axis s_i4 through a_i"),
-    Joint("R", doc="joint at the platform, axis s_i through a_i"),
-    Joint("virtual", doc="constrained rotation about c_i1 through a_i (twist of restriction)"),
-)
+__all__ = ["resolve_effects", "Leg", "EECompliance", "Coupling", "RobotDescription"]
 
 
 @dataclass(frozen=True)
 class Leg:
-    """One RR(Pi)RR leg.
+    """One leg of a translational robot, as a joint list with its bodies.
 
     Vectors are 3-tuples of SymPy expressions in design-parameter symbols (m, unitless
     for directions); all are in base-frame axes.
@@ -46,6 +26,19 @@ class Leg:
     radial : outward unit vector u_i in the base plane.
     axis : actuator axis s_i, with ``radial x axis = e_z``.
     attachment : a_i, from the end-effector origin to the leg's connection point (m).
+    joints : the joints from the base to the platform
+        (:class:`~eigentwist.description.chain.ChainJoint`: kind, axes and location as
+        names of the leg's geometry, actuated or not), then one ``virtual`` joint (the
+        twist of restriction) per constraint of a leg with fewer than six freedoms.
+    bodies : the leg's rigid bodies (:class:`~eigentwist.description.chain.ChainBody`:
+        6x6 spatial inertia in the body frame, moved by the first ``after`` joints).
+    frames : ``(name, (x, y, z axes), origin)`` of the frames that the leg's bodies and
+        effects use (geometry names), e.g. ``J1``, ``C3``, ``L2``, ``E1``.
+    kinematics : the leg's closed form: ``inverse_kinematics(prog, leg, pose, tag)`` ->
+        (joint coordinates, reachability checks), ``geometry(prog, leg, q, tag)`` -> the
+        named vectors, ``coordinates`` (joint index, rate of its coordinate per unit of
+        q) and ``checks`` (names); see :mod:`.rrpirr`.
+    platform_body : the platform body the leg attaches to (issue 7).
     """
 
     name: str
@@ -53,7 +46,10 @@ class Leg:
     radial: tuple
     axis: tuple
     attachment: tuple
-    chain: tuple = RRPIRR_CHAIN
+    joints: tuple = ()
+    bodies: tuple = ()
+    frames: tuple = ()
+    kinematics: Any = None
     platform_body: str = "platform"
 
     def vector(self, which: str) -> sp.Matrix:

@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..description import Leg, Parameter, RobotDescription, triangle_inequality, tube
+from ..description import Parameter, RobotDescription, triangle_inequality, tube
 from ..description.effects import effect_parameters
+from ..description.rrpirr import rrpirr_leg
+from ..symbolic.inertia import parallelogram_inertia
 from ..symbolic.screw import spatial_inertia
 
 PARAMETERS = (
@@ -52,14 +54,17 @@ def describe() -> RobotDescription:
     """The Delta description with the issue's values as defaults."""
     parameters = PARAMETERS + effect_parameters(EFFECTS, EFFECT_VALUES)
     p = {q.name: q.symbol for q in parameters}
+    upper_arm = spatial_inertia(p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
+                                sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]))
+    rod = dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"])
+    forearm = parallelogram_inertia(rod["r_i"], rod["r_o"], rod["rho"], p["l2"])
     legs = []
     for k in range(3):
         phi = 2 * sp.pi * k / 3
         u = (sp.cos(phi), sp.sin(phi), 0)          # outward radial direction
         s = (-sp.sin(phi), sp.cos(phi), 0)         # actuator axis, u x s = e_z
-        legs.append(Leg(f"leg {k + 1}", tuple(p["R"] * c for c in u), u, s, tuple(p["r_p"] * c for c in u)))
-    upper_arm = spatial_inertia(p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
-                                sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]))
+        legs.append(rrpirr_leg(f"leg {k + 1}", tuple(p["R"] * c for c in u), u, s, tuple(p["r_p"] * c for c in u),
+                               p["l1"], p["l2"], upper_arm, forearm))
     platform = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
     return RobotDescription(
         name="delta",
@@ -69,7 +74,7 @@ def describe() -> RobotDescription:
         l1=p["l1"],
         l2=p["l2"],
         lower_link_inertia=upper_arm,
-        rod=dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"]),
+        rod=rod,
         ee_inertia=platform,
         ee_compliance=None,
         x_ref=(0.0, 0.0, -0.75),

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..description import Coupling, EECompliance, Leg, Parameter, RobotDescription, triangle_inequality, tube
+from ..description import Coupling, EECompliance, Parameter, RobotDescription, triangle_inequality, tube
 from ..description.effects import effect_parameters
+from ..description.rrpirr import rrpirr_leg
+from ..symbolic.inertia import parallelogram_inertia
 from ..symbolic.screw import spatial_inertia
 
 INF = float("inf")
@@ -68,10 +70,18 @@ def describe() -> RobotDescription:
         ("leg 3", ey, neg(ex), (0, r, d + h)),
         ("leg 4", neg(ey), ex, (0, -r, d + h)),
     )
-    # legs 1, 2 attach to plate A (lower traveling plate), legs 3, 4 to plate B (upper)
+    lower_link = spatial_inertia(
+        p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
+        sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]),
+    )
+    rod = dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"])
+    parallelogram = parallelogram_inertia(rod["r_i"], rod["r_o"], rod["rho"], p["l2"])
+    # legs 1, 2 attach to plate A (lower traveling plate), legs 3, 4 to plate B (upper);
+    # each an RR(Pi)RR joint list with the lower link (J1) and the parallelogram (C3)
     plates = ("plate_A", "plate_A", "plate_B", "plate_B")
     legs = tuple(
-        Leg(name, tuple(R * c for c in u), u, s, a, platform_body=body)
+        rrpirr_leg(name, tuple(R * c for c in u), u, s, a, p["l1"], p["l2"], lower_link, parallelogram,
+                   platform_body=body)
         for (name, u, s, a), body in zip(layout, plates)
     )
     # issue 7: the tool body T couples to plate A through a rotation about Y through the
@@ -81,10 +91,6 @@ def describe() -> RobotDescription:
                  doc="rotation about Y through the lower traveling plate centre (App. D, k_E_rot)"),
         Coupling("plate_B", (0, 0, d), ((0, 0, 0, 0, 1, 0),), (p["k_E_lin"],),
                  doc="translation along Y (App. D, k_E_lin)"),
-    )
-    lower_link = spatial_inertia(
-        p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
-        sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]),
     )
     ee = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
     c_rot = sp.diag(0, 1 / (p["k_E_rot"] / 2), 0, 0, 0, 0)   # Eqs. 45, 46
@@ -97,7 +103,7 @@ def describe() -> RobotDescription:
         l1=p["l1"],
         l2=p["l2"],
         lower_link_inertia=lower_link,
-        rod=dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"]),
+        rod=rod,
         ee_inertia=ee,
         # lower traveling plate centre at EE origin + [0, 0, d] (facts file)
         ee_compliance=EECompliance(origin=(0, 0, d), per_leg={0: c_rot, 1: c_rot, 2: c_lin, 3: c_lin}),

@@ -28,20 +28,21 @@ def point_mass_inertia(mass, offset: sp.Matrix) -> sp.Matrix:
     return spatial_inertia(mass, offset, rot)
 
 
-def body_inertia_contribution(prog: Program, legs: LegScrews, joints: int, frame: str,
-                              inertia_local: sp.Matrix, name: str) -> sp.Matrix:
+def body_inertia_contribution(prog: Program, screws: LegScrews, body, inertia_local: sp.Matrix, name: str) -> sp.Matrix:
     """Term ``J_i^-T J_ij^T M_ij J_ij J_i^-1`` of Eq. 12 for one body of one leg.
 
-    The body is moved by the first ``joints`` unit twists of the leg (J_ij, Eqs. 16-20);
-    its spatial inertia ``inertia_local`` is given in the leg frame ``frame`` (Eqs. 24,
-    30). The body's joint-space inertia ``B^T M_local B`` (B: the joint twists seen in
-    the local frame) is formed first, then mapped with the inverse-Jacobian rows.
+    The body (:class:`~eigentwist.description.chain.ChainBody`) is moved by the unit
+    twists of the first ``body.after`` joints of the leg (J_ij, Eqs. 16-20); its spatial
+    inertia ``inertia_local`` (kg, kg m, kg m^2) is given in the body frame (axes
+    ``body.rotation``, origin ``body.origin``: names of the leg's geometry, Eqs. 24, 30).
+    The body's joint-space inertia ``B^T M_local B`` (B: the joint twists seen in the
+    body frame) is formed first, then mapped with the inverse-Jacobian rows.
     """
-    rotation, origin = legs.frames[frame]
-    A = inverse_adjoint(rotation, origin)
-    local_twists = sp.Matrix.hstack(*[legs.twists[k] for k in range(1, joints + 1)])
-    B = prog.let_matrix(f"B{name}", A * local_twists)
-    Mq = B.T * inertia_local * B
-    Mq = prog.let_matrix(f"Mq{name}", Mq)
-    rows = sp.Matrix.vstack(*[legs.rows[k] for k in range(1, joints + 1)])
+    g = screws.vectors
+    vec = lambda v: sp.Matrix(g[v]) if isinstance(v, str) else sp.Matrix(v)  # noqa: E731
+    A = inverse_adjoint(sp.Matrix.hstack(*[vec(a) for a in body.rotation]), vec(body.origin))
+    keys = screws.twists_of(body.after)
+    B = prog.let_matrix(f"B{name}", A * sp.Matrix.hstack(*[screws.twists[k] for k in keys]))
+    Mq = prog.let_matrix(f"Mq{name}", B.T * inertia_local * B)
+    rows = sp.Matrix.vstack(*[screws.rows[k] for k in keys])
     return rows.T * Mq * rows

@@ -1,39 +1,43 @@
-"""Closed-form inverse kinematics of RR(Pi)RR legs (facts file).
+"""The inverse-kinematics program of a translational robot: pose -> every leg's joint angles.
 
-For a translational pose P = (x, y, z) (m, base frame, end-effector rotation 0):
-
-* the leg's connection point is ``C_i = P + a_i`` and ``D_i = C_i - B_i``;
-* ``sin q3 = D_i . s_i / l2`` (parallelogram angle);
-* in the plane (u_i, -e_z) a two-link solution with lengths ``l1`` and
-  ``l2 cos q3`` on the branch where the lower link points outward (q2 > 0).
-
-Reachability is decided from ``sin_q3`` and ``cos_q2`` (both must lie in [-1, 1]);
-the runtime checks them and names the pose and the leg when they do not.
+Each leg carries its own closed form (``Leg.kinematics``, e.g. the RR(Pi)RR legs of
+:mod:`eigentwist.description.rrpirr`); this module only strings the legs together. For a
+pose P = (x, y, z) (m, base frame, end-effector rotation 0) the program gives each leg's
+joint coordinates ``q`` (rad) and its reachability quantities (``checks``, named by the
+leg's kinematics: ``sin_q3`` and ``cos_q2`` for RR(Pi)RR legs, reachable iff both lie in
+[-1, 1]); the runtime checks them and names the pose and the leg when they fail.
 """
 from __future__ import annotations
 
 import sympy as sp
 
-from ..description import Leg
+from ..description import RobotDescription, sym
 from .program import Program
 
-__all__ = ["leg_inverse_kinematics"]
+__all__ = ["POSE", "inverse_kinematics"]
+
+POSE = (sym("x"), sym("y"), sym("z"))
 
 
-def leg_inverse_kinematics(prog: Program, leg: Leg, pose: sp.Matrix, l1, l2, tag: str):
-    """Append the IK of ``leg`` to ``prog``.
-
-    Returns ``(q, checks)``: the three joint angle symbols (rad) and a dict with
-    ``sin_q3`` and ``cos_q2`` (reachable iff both lie in [-1, 1]).
-    """
-    u, s, a, B = (leg.vector(k) for k in ("radial", "axis", "attachment", "base"))
-    D = prog.let_matrix(f"D_{tag}", pose + a - B)
-    sin_q3 = prog.let(f"sin_q3_{tag}", D.dot(s) / l2)
-    q3 = prog.let(f"q3_{tag}", sp.asin(sin_q3))
-    lp = prog.let(f"lp_{tag}", l2 * sp.cos(q3))
-    rho_u = prog.let(f"rhou_{tag}", D.dot(u))
-    rho_z = prog.let(f"rhoz_{tag}", -D[2])
-    cos_q2 = prog.let(f"cos_q2_{tag}", (rho_u**2 + rho_z**2 - l1**2 - lp**2) / (2 * l1 * lp))
-    q2 = prog.let(f"q2_{tag}", sp.acos(cos_q2))
-    q1 = prog.let(f"q1_{tag}", sp.atan2(rho_z, rho_u) - sp.atan2(lp * sp.sin(q2), l1 + lp * sp.cos(q2)))
-    return (q1, q2, q3), {"sin_q3": sin_q3, "cos_q2": cos_q2}
+def inverse_kinematics(robot: RobotDescription):
+    """``(ik, outputs, q_all)``: the IK program over ``POSE`` and the parameters, its
+    outputs ``{"q": ((legs, n_q), ...), <check>: ((legs,), ...)}`` and each leg's joint
+    coordinate symbols. Raises ``ValueError`` when the legs' closed forms differ in their
+    numbers of coordinates or in their checks."""
+    ik = Program()
+    for s_ in list(POSE) + [p.symbol for p in robot.parameters]:
+        ik.declare(s_)
+    pose = sp.Matrix(POSE)
+    q_all, checks = [], {}
+    for i, leg in enumerate(robot.legs, start=1):
+        q, c = leg.kinematics.inverse_kinematics(ik, leg, pose, str(i))
+        if q_all and (len(q) != len(q_all[0]) or list(c) != list(checks)):
+            raise ValueError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates and checks {list(c)}; "
+                             f"expected {len(q_all[0])} and {list(checks)} like {robot.legs[0].name}")
+        q_all.append(tuple(q))
+        for name, value in c.items():
+            checks.setdefault(name, []).append(value)
+    n = len(robot.legs)
+    outputs = {"q": ((n, len(q_all[0])), [qq for q in q_all for qq in q])}
+    outputs.update({name: ((n,), values) for name, values in checks.items()})
+    return ik, outputs, q_all

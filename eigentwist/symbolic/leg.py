@@ -1,11 +1,16 @@
-"""Unit twists and reciprocal wrenches of one RR(Pi)RR leg (Appendix A, corrected).
+"""Unit twists, reciprocal wrenches and inverse-Jacobian rows of one leg, from its joint list.
 
-All screws are expressed at the end-effector origin with base-frame axes. The joint
-angles ``q1, q2, q3`` are the actuated angle, the elbow angle and the parallelogram
-angle; the two platform joints do not appear in any screw. Corrections from the facts
-file: r_i2 of legs 2 and 3 in their general form, s_i4 normalised (its length is
-cos q3), and the inverse-Jacobian rows built as wrench / reciprocal product (Huang's
-method, Eq. 15 of the facts file), never by inverting a 6x6 matrix.
+The leg (:class:`~eigentwist.description.Leg`) lists its joints (kind, axes and location
+as names of its geometry) and the closed form that places them at the joint angles
+(``leg.kinematics.geometry``). Each joint gives its unit twists ``[omega; v]`` at the
+end-effector origin (:func:`eigentwist.symbolic.chain.joint_twists`); a leg with fewer
+than six freedoms lists one ``virtual`` joint (its twist of restriction) per constraint.
+Huang's method (Eq. 15 of the facts file) gives the row of twist k of the leg's inverse
+Jacobian as ``w_k^T / (w_k . t_k)``, with ``w_k`` reciprocal to the five other unit
+twists: their generalised cross product from 5x5 minors
+(:func:`eigentwist.symbolic.chain.reciprocal_wrench`), never a 6x6 inverse. The wrench
+of a virtual joint is a constraint wrench; the others are actuation wrenches. Nothing
+here depends on which chain the leg is.
 """
 from __future__ import annotations
 
@@ -14,81 +19,86 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..description import Leg
+from .chain import joint_twists, reciprocal_wrench
 from .program import Program
-from .screw import cross, pure_moment, pure_translation, reciprocal_product, unit_twist, wrench_on_line
+from .screw import reciprocal_product
 
 __all__ = ["LegScrews", "leg_screws"]
-
-EZ = sp.Matrix([0, 0, 1])
 
 
 @dataclass
 class LegScrews:
-    """Named screws of one leg (all 6x1 unless stated).
+    """Named screws of one leg at its joint angles (all 6x1 unless stated).
 
-    twists : ``ta1..ta5`` (permission) and ``tc`` (restriction), Appendix A.
-    rows : inverse-Jacobian rows ``w / (w . t)`` (1x6) for joints 1, 2, 3 and the
-        constraint ``c``; row 3 maps to the parallelogram translation l2*q3 (m).
-    frames : (rotation, origin) of the local frames J_i1 (lower link at the actuated
-        joint), C_i3 (parallelogram centre), L_i2 (rod tips at a_i), E_i1 (lower link tip).
+    twists : unit twists keyed by their 1-based position in the chain (U and S give
+        one per axis) and ``"c"`` for the twist of restriction (``"c1"``, ``"c2"``, ...
+        when the leg has several).
+    wrenches : the reciprocal wrench of each twist (any scale: Huang's method needs
+        only its line); those of ``"c..."`` are the constraint wrenches.
+    products : the reciprocal products ``w . t`` of each twist with its wrench.
+    rows : inverse-Jacobian rows ``w / (w . t)`` (1x6) of each twist: its joint rate
+        per unit platform twist (m/s per m/s for a P or Pi joint).
+    keys : the twists' keys in chain order; ``joint_of``: the index of each one's joint.
+    frames : (rotation, origin) of the leg's named frames (``Leg.frames``).
+    vectors : the leg's geometry at the joint angles (named vectors and scalars).
     """
 
     twists: dict
     wrenches: dict
+    products: dict
     rows: dict
+    keys: list
+    joint_of: list
     frames: dict
     vectors: dict
 
+    def twists_of(self, joints: int) -> list:
+        """Keys of the twists of the first ``joints`` joints of the chain."""
+        return [k for k, j in zip(self.keys, self.joint_of) if j < joints]
 
-def leg_screws(prog: Program, leg: Leg, q: tuple, l1, l2, tag: str) -> LegScrews:
-    """Build the screws of ``leg`` at joint angles ``q = (q1, q2, q3)`` (rad) in ``prog``."""
-    u, s, a = leg.vector("radial"), leg.vector("axis"), leg.vector("attachment")
-    q1, q2, q3 = q
-    L = lambda name, e: prog.let(f"{name}_{tag}", e)  # noqa: E731
-    Lv = lambda name, m: prog.let_matrix(f"{name}_{tag}", m)  # noqa: E731
-    c1, s1 = L("c1", sp.cos(q1)), L("s1", sp.sin(q1))
-    c12, s12 = L("c12", sp.cos(q1 + q2)), L("s12", sp.sin(q1 + q2))
-    c3, s3 = L("c3", sp.cos(q3)), L("s3", sp.sin(q3))
-    r1 = Lv("r1", c1 * u - s1 * EZ)                    # lower link direction
-    w = Lv("w", c12 * u - s12 * EZ)                    # parallelogram plane direction
-    r2 = Lv("r2", c3 * w + s3 * s)                     # parallelogram centre line
-    s3v = Lv("sp", c3 * s - s3 * w)                    # Pi translation direction s_i3
-    s4 = Lv("s4", cross(cross(r2, s), s) / c3)         # |(r2 x s) x s| = cos q3 (misprint 3)
-    elbow = Lv("pE", a - l2 * r2)                      # elbow, from the EE origin
-    base = Lv("pB", elbow - l1 * r1)                   # actuated joint, from the EE origin
 
-    ta = {
-        1: unit_twist(s, base),
-        2: unit_twist(s, elbow),
-        3: pure_translation(s3v),
-        4: unit_twist(s4, a),
-        5: unit_twist(s, a),
-    }
-    f2 = Lv("f2", cross(cross(l1 * r1 + l2 * r2, s), s3v))
-    f5 = Lv("f5", cross(cross(r1, s), s3v))
-    cvec = cross(cross(f5, s4), s4)
-    cnorm = L("nc", sp.sqrt(cvec.dot(cvec)))
-    chat = Lv("ch", cvec / cnorm)
-    ta["c"] = unit_twist(chat, a)                      # twist of restriction
-    wa = {
-        1: wrench_on_line(r2, a),
-        2: wrench_on_line(f2, a),
-        3: wrench_on_line(s, a),
-        4: pure_moment(s4),
-        5: wrench_on_line(f5, elbow + l2 * s3 * s),
-        "c": pure_moment(cross(r2, s)),                # wrench of constraint
-    }
-    rows = {}
-    for k in (1, 2, 3, 5, "c"):
-        tw = Lv(f"t{k}", ta[k])
-        wr = Lv(f"w{k}", wa[k])
-        ta[k] = tw
-        recip = L(f"rp{k}", reciprocal_product(wr, tw))
-        rows[k] = Lv(f"j{k}", wr.T / recip)
-    frames = {
-        "J1": (sp.Matrix.hstack(r1, s, cross(r1, s)), base),
-        "C3": (sp.Matrix.hstack(r2, s3v, cross(r2, s3v)), elbow + l2 / 2 * r2),
-        "L2": (sp.Matrix.hstack(r2, s3v, cross(r2, s3v)), a),
-        "E1": (sp.Matrix.hstack(r1, s, cross(r1, s)), elbow),
-    }
-    return LegScrews(ta, wa, rows, frames, dict(r1=r1, r2=r2, s3=s3v, s4=s4, c3=c3, u=u, s=s, a=a))
+def _keys(leg: Leg) -> tuple[list, list]:
+    """Twist keys and joint indices in chain order: 1, 2, ... then c (or c1, c2, ...)."""
+    n_virtual = sum(j.freedoms for j in leg.joints if j.kind == "virtual")
+    keys, joint_of, real, virtual = [], [], 0, 0
+    for j, joint in enumerate(leg.joints):
+        for _ in range(joint.freedoms):
+            if joint.kind == "virtual":
+                virtual += 1
+                keys.append("c" if n_virtual == 1 else f"c{virtual}")
+            else:
+                real += 1
+                keys.append(real)
+            joint_of.append(j)
+    return keys, joint_of
+
+
+def leg_screws(prog: Program, leg: Leg, q: tuple, tag: str) -> LegScrews:
+    """Build the screws of ``leg`` at its joint coordinates ``q`` (the IK's, rad) in ``prog``.
+
+    Raises ``ValueError`` when the joint list does not give six unit twists.
+    """
+    g = leg.kinematics.geometry(prog, leg, q, tag)
+    origin = sp.zeros(3, 1)                         # the geometry is measured from the EE origin
+    keys, joint_of = _keys(leg)
+    if len(keys) != 6:
+        raise ValueError(f"{leg.name}: {len(keys)} unit twists: a leg with fewer than six freedoms lists one "
+                         f"'virtual' joint (its twist of restriction) per constraint, six twists in all")
+    listed = [t for joint in leg.joints for t in joint_twists(joint, g, origin)]
+    twists = {k: prog.let_matrix(f"t{k}_{tag}", t) for k, t in zip(keys, listed)}
+    T = sp.Matrix.hstack(*twists.values()).T
+    memo: dict = {}
+    wrenches, products, rows = {}, {}, {}
+    # the sparsest twists last: the small minors, shared between the wrenches, are then
+    # the sparse ones (fewest minors to name); reordering the five twists only flips the
+    # wrench's sign, which the row divides out
+    order = sorted(range(6), key=lambda m: sum(1 for e in T[m, :] if e == 0))
+    for i, k in enumerate(keys):
+        others = tuple(m for m in order if m != i)
+        w = prog.let_matrix(f"w{k}_{tag}", reciprocal_wrench(prog, T, others, memo, tag))
+        recip = prog.let(f"rp{k}_{tag}", reciprocal_product(w, twists[k]))
+        wrenches[k], products[k] = w, recip
+        rows[k] = prog.let_matrix(f"j{k}_{tag}", w.T / recip)
+    frames = {name: (sp.Matrix.hstack(*[sp.Matrix(g[a]) for a in axes]), sp.Matrix(g[origin_name]))
+              for name, axes, origin_name in leg.frames}
+    return LegScrews(twists, wrenches, products, rows, keys, joint_of, frames, g)

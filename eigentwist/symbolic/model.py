@@ -18,17 +18,14 @@ import sympy as sp
 
 from ..description import RobotDescription, sym
 from ..description.effects import EffectContext, leg_input_name, leg_switch_name, switch_name
-from .inertia import body_inertia_contribution, parallelogram_inertia
-from .kinematics import leg_inverse_kinematics
-from .leg import leg_screws
+from .inertia import body_inertia_contribution
+from .kinematics import POSE, inverse_kinematics
+from .leg import LegScrews, leg_screws
 from .program import Program, derivative
 from .screw import adjoint, compliance_to_frame, stiffness_to_frame
-from .stiffness import condense_coupling, inverse_2x2, rows_outer
+from .stiffness import condense_coupling, inverse_small, rows_outer
 
 __all__ = ["DerivedModel", "derive", "POSE", "EffectSymbols"]
-
-POSE = (sym("x"), sym("y"), sym("z"))
-
 
 @dataclass
 class DerivedModel:
@@ -137,8 +134,15 @@ class EffectSymbols:
 
 
 def derive(robot: RobotDescription) -> DerivedModel:
-    """Derive IK, M, K_R, K_F and the gravity terms of ``robot`` symbolically."""
-    ik, ik_outputs, q_all = _inverse_kinematics(robot)
+    """Derive IK, M, K_R, K_F and the gravity terms of ``robot`` symbolically.
+
+    Every leg is read from its joint list (:class:`~eigentwist.description.Leg`): its
+    unit twists, reciprocal wrenches and inverse-Jacobian rows come from Huang's method
+    (:func:`eigentwist.symbolic.leg.leg_screws`), its bodies' inertia from Eq. 12 per
+    body, and its elastic joints are the actuated joint (k_a in series with the
+    joint-series effects, Eq. 34) and each virtual joint (``rigid_compliance``, Eq. 42).
+    """
+    ik, ik_outputs, q_all = inverse_kinematics(robot)
     fx = EffectSymbols(robot)
     prog = Program()
     joints = [qq for q in q_all for qq in q]
@@ -148,40 +152,44 @@ def derive(robot: RobotDescription) -> DerivedModel:
     K_ground = _ground_springs(fx)  # in parallel with the legs: in K_R and K_F
     K_R = K_ground
     K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
-    screws, J_rows, levers, Je_all, Kqe_all, k_acts = [], [], [], [], [], []
+    screws, J_rows, levers, Je_all, Kqe_all, k_acts, G = [], [], [], [], [], [], []
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
-        ls = leg_screws(prog, leg, q, robot.l1, robot.l2, tag)
+        ls = leg_screws(prog, leg, q, tag)
         screws.append(ls)
-        M += _leg_inertia(prog, robot, fx, ls, i)
+        M += _leg_inertia(prog, fx, leg, ls, i)
+        act, virtual, coords = _joint_keys(leg, ls)
         c_act = prog.let(f"c_act_{tag}", _joint_series(robot, fx, i))
         k_act = prog.let(f"k_act_{tag}", 1 / c_act)
-        K_R += rows_outer(ls.rows[1], sp.Matrix([[k_act]]))                # Eqs. 14, 33, 34
-        Je = sp.Matrix.vstack(ls.rows[1], ls.rows["c"])
+        K_R += rows_outer(ls.rows[act], sp.Matrix([[k_act]]))              # Eqs. 14, 33, 34
+        Je = sp.Matrix.vstack(*[ls.rows[k] for k in [act] + virtual])       # elastic joints
         Cs = prog.let_matrix(f"Cs_{tag}", _body_compliance(fx, ls, i))
-        Cq = Je * Cs * Je.T + sp.diag(c_act, robot.rigid_compliance)       # Eqs. 41-43
+        Cq = Je * Cs * Je.T + sp.diag(c_act, *[robot.rigid_compliance] * len(virtual))   # Eqs. 41-43
         Cq = prog.let_matrix(f"Cq_{tag}", Cq)
-        Kqe = prog.let_matrix(f"Kqe_{tag}", inverse_2x2(Cq))             # Eq. 40 block
+        Kqe = prog.let_matrix(f"Kqe_{tag}", inverse_small(Cq))           # Eq. 40 block
         body = leg.platform_body
         K_groups[body] = K_groups.get(body, sp.zeros(6, 6)) + rows_outer(Je, Kqe)
-        J_rows.append(sp.Matrix.vstack(ls.rows[1], ls.rows[2], ls.rows[3], ls.rows["c"]))
-        levers.append(_lever(prog, tag))
+        J_rows.append(sp.Matrix.vstack(*[ls.rows[k] for k, _ in coords] + [ls.rows[k] for k in virtual]))
+        levers.append(_lever(prog, ls, act, tag))
+        G += _preload_derivatives(prog, q, ls, coords, [act] + virtual, tag)
         Je_all.append(Je)
         Kqe_all.append(Kqe)
         k_acts.append(k_act)
     K_F = _platform_stiffness(prog, robot, K_groups, fx) + K_ground
-    G = _preload_derivatives(prog, robot, q_all, screws, Je_all)
-    n = len(robot.legs)
+    n, n_e = len(robot.legs), Je_all[0].rows
+    if any(r.shape != J_rows[0].shape for r in J_rows) or any(j.rows != n_e for j in Je_all):
+        raise ValueError(f"{robot.name}: legs with different numbers of joint coordinates or constraints "
+                         f"({[r.rows for r in J_rows]} rows): expected alike legs")
     sym6 = lambda m: [m[i, j] for i in range(6) for j in range(6)]  # noqa: E731
     outputs = {
         "matrices": {"M": ((6, 6), sym6(M)), "K_R": ((6, 6), sym6(K_R)), "K_F": ((6, 6), sym6(K_F))},
         "jacobians": {
-            "J_rows": ((n, 4, 6), [e for r in J_rows for e in _flat(r)]),
+            "J_rows": ((n,) + J_rows[0].shape, [e for r in J_rows for e in _flat(r)]),
             "lever": ((n,), levers),
         },
         "gravity": {
-            "G": ((n, 2, 6, 6), [e for g in G for e in _flat(g)]),
-            "Kqe": ((n, 2, 2), [e for k in Kqe_all for e in _flat(k)]),
+            "G": ((n, n_e, 6, 6), [e for g in G for e in _flat(g)]),
+            "Kqe": ((n, n_e, n_e), [e for k in Kqe_all for e in _flat(k)]),
             "k_act": ((n,), k_acts),
             "W": ((6,), list(_preload_wrench(robot, fx))),
         },
@@ -189,21 +197,16 @@ def derive(robot: RobotDescription) -> DerivedModel:
     return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws)
 
 
-def _inverse_kinematics(robot: RobotDescription):
-    """The IK program: pose and parameters -> joint angles and reachability quantities."""
-    ik = Program()
-    for s_ in list(POSE) + [p.symbol for p in robot.parameters]:
-        ik.declare(s_)
-    pose = sp.Matrix(POSE)
-    q_all, sin_q3, cos_q2 = [], [], []
-    for i, leg in enumerate(robot.legs, start=1):
-        q, checks = leg_inverse_kinematics(ik, leg, pose, robot.l1, robot.l2, str(i))
-        q_all.append(q)
-        sin_q3.append(checks["sin_q3"])
-        cos_q2.append(checks["cos_q2"])
-    n = len(robot.legs)
-    outputs = {"q": ((n, 3), [qq for q in q_all for qq in q]), "sin_q3": ((n,), sin_q3), "cos_q2": ((n,), cos_q2)}
-    return ik, outputs, q_all
+def _joint_keys(leg, ls: LegScrews):
+    """Twist keys of the leg's actuated joint, of its virtual joints, and (key, rate)
+    of each IK coordinate's joint (``Leg.kinematics.coordinates``)."""
+    first = {j: k for k, j in reversed(list(zip(ls.keys, ls.joint_of)))}
+    actuated = [j for j, joint in enumerate(leg.joints) if joint.actuated]
+    if len(actuated) != 1:
+        raise ValueError(f"{leg.name}: {len(actuated)} actuated joints: expected exactly one")
+    virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].kind == "virtual"]
+    coords = [(first[j], rate) for j, rate in leg.kinematics.coordinates]
+    return first[actuated[0]], virtual, coords
 
 
 def _platform_inertia(robot: RobotDescription, fx: EffectSymbols) -> sp.Matrix:
@@ -216,20 +219,21 @@ def _platform_inertia(robot: RobotDescription, fx: EffectSymbols) -> sp.Matrix:
     return M
 
 
-def _leg_inertia(prog: Program, robot: RobotDescription, fx: EffectSymbols, ls, i: int) -> sp.Matrix:
-    """Eq. 32 for one leg: body 1 (lower link, rotor and any inertia added to it) and
-    body 3 (the parallelogram, Eqs. 26-29)."""
-    rod, tag = robot.rod, str(i + 1)
-    bodies = {"J1": robot.lower_link_inertia, "C3": parallelogram_inertia(rod["r_i"], rod["r_o"], rod["rho"], robot.l2)}
+def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -> sp.Matrix:
+    """Eq. 32 for one leg: the sum of Eq. 12's term over the leg's bodies (each with any
+    inertia an effect adds to it, e.g. the rotor on the lower link J1)."""
+    inertia = {b.name: b.inertia for b in leg.bodies}
     for e in fx.of_kind("added_inertia"):
         if e.body != "platform":
-            if e.body not in bodies:
+            if e.body not in inertia:
                 raise ValueError(f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
-                                 f"{', '.join(bodies)} or 'platform'")
-            on, inertia = fx.term(e, i, ls)
-            bodies[e.body] = bodies[e.body] + on * inertia
-    return (body_inertia_contribution(prog, ls, 1, "J1", bodies["J1"], f"1_{tag}")
-            + body_inertia_contribution(prog, ls, 3, "C3", bodies["C3"], f"3_{tag}"))
+                                 f"{', '.join(inertia)} or 'platform'")
+            on, added = fx.term(e, i, ls)
+            inertia[e.body] = inertia[e.body] + on * added
+    M = sp.zeros(6, 6)
+    for b in leg.bodies:
+        M += body_inertia_contribution(prog, ls, b, inertia[b.name], f"{b.name}_{i + 1}")
+    return M
 
 
 def _joint_series(robot: RobotDescription, fx: EffectSymbols, i: int):
@@ -267,24 +271,32 @@ def _ground_springs(fx: EffectSymbols) -> sp.Matrix:
     return K
 
 
-def _preload_derivatives(prog: Program, robot: RobotDescription, q_all, screws, Je_all) -> list:
-    """First term of Eq. 13: per leg and elastic joint, d(J_e^-T col k)/d q . J^-1.
+def _preload_derivatives(prog: Program, q, ls: LegScrews, coords, elastic: list, tag: str) -> list:
+    """First term of Eq. 13 for one leg: per elastic joint k, ``d(j_k^T)/dx``, the change
+    of its inverse-Jacobian row (a column of J_e^-T) per unit platform twist:
+    ``sum_j d(j_k^T)/d q_j / rate_j . j_(q_j)`` over the IK coordinates q_j, with
+    ``j_(q_j)`` the row of q_j's joint and ``rate_j`` that joint's coordinate per unit of
+    q_j (the Pi joint's coordinate is l2 q3). The rows are those of ``T^-1`` (T: the six
+    unit twists as columns, Huang's method), so ``dj_k/dq = -sum_m (j_k . dt_m/dq) j_m``:
+    only the twists are differentiated, never the minors.
 
     With tau_e the elastic joint torques of the loaded state (W_ext = J_e^-T tau_e,
     tau_e = K_qe J_e delta), d(J_e^-T tau_e)/dx gives +(d J_e^-T / d q . tau_e) J^-1:
     the paper's minus sign belongs to the opposite sign convention for tau_e. Checked: a
     hanging load stiffens the lateral modes (pendulum).
     """
+    dT = {qj: {m: derivative(prog, ls.twists[m], qj) for m in ls.keys} for qj in q}
     G = []
-    for q, ls, Je in zip(q_all, screws, Je_all):
-        joint_rows = (ls.rows[1], ls.rows[2], ls.rows[3])
-        scale = (1, 1, 1 / robot.l2)          # the Pi joint coordinate is l2*q3 (m)
-        for k in range(2):
-            col = Je[k, :].T
-            Gk = sp.zeros(6, 6)
-            for qj, row, sc in zip(q, joint_rows, scale):
-                Gk += derivative(prog, col, qj) * sc * row
-            G.append(Gk)
+    for k in elastic:
+        Gk = sp.zeros(6, 6)
+        for qj, (key, rate) in zip(q, coords):
+            drow = sp.zeros(1, 6)
+            for m in ls.keys:
+                if any(e != 0 for e in dT[qj][m]):
+                    coef = prog.let(f"dj_{k}_{m}_{qj.name}", -(ls.rows[k] * dT[qj][m])[0, 0])
+                    drow += coef * ls.rows[m]
+            Gk += drow.T * (1 / rate) * ls.rows[key]
+        G.append(Gk)
     return G
 
 
@@ -324,6 +336,9 @@ def _platform_stiffness(prog: Program, robot: RobotDescription, K_groups: dict, 
     return K_F
 
 
-def _lever(prog: Program, tag: str):
-    """The reciprocal product w_a1 . t_a1 of leg ``tag`` (m): the actuation lever."""
-    return sym(f"rp1_{tag}")
+def _lever(prog: Program, ls: LegScrews, act, tag: str):
+    """The actuation lever of leg ``tag`` (m): the reciprocal product ``w_a . t_a`` of
+    its actuation wrench scaled to a unit force, taken positive (the wrench oriented to
+    do positive work on the actuated twist); ``l1 s.(r1 x r2)`` for an RR(Pi)RR leg."""
+    force = ls.wrenches[act][3:, 0]
+    return prog.let(f"lever_{tag}", sp.sqrt(ls.products[act] ** 2 / force.dot(force)))
