@@ -7,7 +7,9 @@ values, and every effect on at moved values (each leg its own); see
 ``tests/data/make_chain_pin.py``. The evaluators generated today (from the joint lists
 through Huang's method from 5x5 minors; ``tests/test_generated.py`` checks that they are
 the derivation's) must give the same numbers to 1e-12 relative to each output's largest
-entry, pose by pose (an entry pinned as all zeros at a pose must stay zero there).
+entry, pose by pose (1e-15 absolute where an output is pinned as all zeros at a pose). The
+derivation itself, evaluated in SymPy arithmetic (``Program.evaluate``, 20 digits) without
+any generated code, gives them too, at a few poses.
 """
 from __future__ import annotations
 
@@ -16,6 +18,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sp
+
+from eigentwist.robots import get
+from eigentwist.symbolic import derive
 
 PIN = np.load(Path(__file__).parent / "data" / "chain_pin.npz")
 GROUPS = ("inverse_kinematics", "matrices", "jacobians", "gravity")
@@ -33,6 +39,35 @@ def _outputs(robot: str, case: str) -> dict:
     return out
 
 
+def _close(value, want, n: int) -> np.ndarray:
+    """Per pose: the error relative to the output's largest entry; where the pinned output
+    is all zeros (sin q3 at x_ref, W without gravity) relative to 1e-3, i.e. 1e-15 absolute."""
+    scale = np.abs(want).reshape(n, -1).max(axis=1)
+    err = np.abs(np.broadcast_to(value, want.shape) - want).reshape(n, -1).max(axis=1)
+    return err / np.where(scale > 0, scale, 1e-3)
+
+
+@pytest.mark.parametrize("robot", ["heli4", "delta"])
+def test_the_derivation_gives_the_pinned_outputs(robot):
+    """The joint-list derivation's own programs, evaluated exactly, at two poses."""
+    model = derive(get(robot))
+    for case in ("on", "custom"):
+        p = dict(zip(PIN[f"{robot}/{case}/names"].tolist(), PIN[f"{robot}/{case}/values"]))
+        for k in (0, 7):
+            x = PIN[f"{robot}/poses"][k]
+            ik = {name: np.array(model.ik.evaluate({**p, "x": x[0], "y": x[1], "z": x[2]}, sp.Matrix(ex), 20),
+                                 dtype=float).reshape(shape) for name, (shape, ex) in model.ik_outputs.items()}
+            q = {s_.name: v for s_, v in zip(model.joints, ik["q"].ravel())}
+            got = {"inverse_kinematics": ik}
+            for g, outs in model.outputs.items():
+                got[g] = {name: np.array(model.program.evaluate({**p, **q}, sp.Matrix(ex), 20), dtype=float).reshape(shape)
+                          for name, (shape, ex) in outs.items()}
+            for g in GROUPS:
+                for name, value in got[g].items():
+                    want = PIN[f"{robot}/{case}/{g}/{name}"][k:k + 1]
+                    assert _close(value[None], want, 1)[0] <= 1e-12, f"{robot} {case} pose {k}: {g}/{name}"
+
+
 @pytest.mark.parametrize("robot, case", CASES)
 def test_every_output_equals_the_pinned_one(robot, case):
     got = _outputs(robot, case)
@@ -41,12 +76,8 @@ def test_every_output_equals_the_pinned_one(robot, case):
     for g in GROUPS:
         for name, value in got[g].items():
             want = PIN[f"{robot}/{case}/{g}/{name}"]
-            value = np.broadcast_to(value, want.shape)
-            scale = np.abs(want).reshape(n, -1).max(axis=1)
-            err = np.abs(value - want).reshape(n, -1).max(axis=1)
-            # an output pinned as zeros at a pose (sin q3 at x_ref, W without gravity) stays zero
-            assert np.all(err <= 1e-12 * scale + 1e-300), \
-                f"{robot} {case} {g}/{name}: relative error {np.max(err / scale):.3g} (pose {np.argmax(err / scale)})"
+            rel = _close(value, want, n)
+            assert np.all(rel <= 1e-12), f"{robot} {case} {g}/{name}: relative error {rel.max():.3g} (pose {rel.argmax()})"
             checked += 1
     assert checked == 3 + 3 + 2 + 4                    # q, sin_q3, cos_q2; M, K_R, K_F; J_rows, lever; G, Kqe, k_act, W
 

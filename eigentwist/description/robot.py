@@ -1,6 +1,7 @@
 """A parallel manipulator described as data: legs as joint chains, bodies, compliances.
 
-A description holds no derivation logic. The derivation (``eigentwist.symbolic``) reads
+A description holds no derivation logic (a leg carries only its closed-form kinematics,
+:mod:`.rrpirr`). The derivation (``eigentwist.symbolic``) reads
 it; a second robot with the same joint types needs a new description only.
 """
 from __future__ import annotations
@@ -128,11 +129,16 @@ class RobotDescription:
     Link and body data are expressions in the parameter symbols so that every design
     quantity stays symbolic:
 
-    * ``l1``, ``l2``: lower link and parallelogram lengths (m);
+    * ``legs``: each a joint list with its bodies and closed-form kinematics
+      (:class:`Leg`; :func:`~eigentwist.description.rrpirr.rrpirr_leg` for RR(Pi)RR
+      legs): the derivation reads the legs only;
+    * ``l1``, ``l2``: lower link and parallelogram lengths (m), for the effects (rod
+      and lower-link compliance) and the plots;
     * ``lower_link_inertia``: 6x6 spatial inertia of body 1 (link + rotor) in frame
-      J_i1 (origin at the actuated joint, x = r_i1, y = s_i1), Eqs. 21-23;
+      J_i1 (origin at the actuated joint, x = r_i1, y = s_i1), Eqs. 21-23, as the legs'
+      body ``J1`` carries it;
     * ``rod``: dict of ``r_i``, ``r_o`` (m), ``rho`` (kg/m^3), ``w_pi`` (m) for the
-      parallelogram tubes (Eqs. 27-29, App. C);
+      parallelogram tubes (Eqs. 27-29, App. C), for the rod-compliance effect;
     * ``ee_inertia``: 6x6 spatial inertia of the end-effector at its origin (Eq. 31);
     * ``ee_compliance``: :class:`EECompliance` or None (the paper's split, Eqs. 45-49);
     * ``actuator_stiffness``: commanded actuator stiffness k_a (N m/rad, Eq. 34);

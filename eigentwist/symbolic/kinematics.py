@@ -30,6 +30,9 @@ def inverse_kinematics(robot: RobotDescription):
     pose = sp.Matrix(POSE)
     q_all, checks = [], {}
     for i, leg in enumerate(robot.legs, start=1):
+        if leg.kinematics is None:
+            raise ValueError(f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
+                             "one, e.g. a leg built by eigentwist.description.rrpirr.rrpirr_leg")
         q, c = leg.kinematics.inverse_kinematics(ik, leg, pose, str(i))
         if q_all and (len(q) != len(q_all[0]) or list(c) != list(checks)):
             raise ValueError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates and checks {list(c)}; "

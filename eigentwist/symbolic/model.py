@@ -8,7 +8,10 @@
   K_R (Eq. 14), K_F (Eq. 13 with tau_e = 0), the legs' inverse-Jacobian rows, and the
   gravity-preload terms of Eq. 13.
 
-Every number of the design is a symbol; nothing numeric is baked into the expressions.
+Every leg is read from its joint list (:class:`~eigentwist.description.Leg`: joints,
+bodies, frames and its closed-form kinematics as data); nothing here depends on which
+robot or which chain it is. Every number of the design is a symbol; nothing numeric is
+baked into the expressions.
 """
 from __future__ import annotations
 
@@ -27,6 +30,7 @@ from .stiffness import condense_coupling, inverse_small, rows_outer
 
 __all__ = ["DerivedModel", "derive", "POSE", "EffectSymbols"]
 
+
 @dataclass
 class DerivedModel:
     """The symbolic model of one robot.
@@ -34,11 +38,14 @@ class DerivedModel:
     ``outputs`` maps a group name to ``{output name: (shape, list of expressions)}``:
 
     * ``matrices``: ``M``, ``K_R``, ``K_F`` (6, 6) in kg/kg m/kg m^2 and N/m, N, N m;
-    * ``jacobians``: ``J_rows`` (legs, 4, 6): inverse-Jacobian rows of joints 1, 2, 3 and
-      the virtual joint; ``lever`` (legs,): actuation lever w_a1 . t_a1 (m);
-    * ``gravity``: ``G`` (legs, 2, 6, 6), the matrices multiplying the elastic joint
-      torques tau_e in the first term of Eq. 13 (sum_j d(J_e,i^-T col k)/d theta_j . row j
-      of J_i^-1, theta_3 = l2 q3); ``Kqe`` (legs, 2, 2), each leg's
+    * ``jacobians``: ``J_rows`` (legs, n_q + n_c, 6): inverse-Jacobian rows of the joints
+      of the IK coordinates, then of the virtual joints (RR(Pi)RR: joints 1, 2, 3 and
+      the virtual joint, (legs, 4, 6)); ``lever`` (legs,): actuation lever w_a1 . t_a1
+      with w_a1 a unit force (m);
+    * ``gravity``: ``G`` (legs, n_e, 6, 6), the matrices multiplying the elastic joint
+      torques tau_e (the actuated joint, then the virtual joints; RR(Pi)RR: 2) in the
+      first term of Eq. 13 (sum_j d(J_e,i^-T col k)/d theta_j . row j of J_i^-1,
+      theta_3 = l2 q3 for the Pi joint); ``Kqe`` (legs, n_e, n_e), each leg's
       elastic joint stiffness (Eq. 40); ``k_act`` (legs,), each leg's actuated-joint
       stiffness with its joint-series effects; ``W`` (6,), the static preload wrench on
       the platform at the EE origin (N m; N).
