@@ -60,8 +60,8 @@ def test_the_derivation_gives_the_pinned_outputs(robot):
             q = {s_.name: v for s_, v in zip(model.joints, ik["q"].ravel())}
             got = {"inverse_kinematics": ik}
             for g, outs in model.outputs.items():
-                got[g] = {name: np.array(model.program.evaluate({**p, **q}, sp.Matrix(ex), 20), dtype=float).reshape(shape)
-                          for name, (shape, ex) in outs.items()}
+                got[g] = {name: np.array(model.program.evaluate({**p, **q}, sp.Matrix(ex), 20),
+                                         dtype=float).reshape(shape) for name, (shape, ex) in outs.items()}
             for g in GROUPS:
                 for name, value in got[g].items():
                     want = PIN[f"{robot}/{case}/{g}/{name}"][k:k + 1]
@@ -77,7 +77,8 @@ def test_every_output_equals_the_pinned_one(robot, case):
         for name, value in got[g].items():
             want = PIN[f"{robot}/{case}/{g}/{name}"]
             rel = _close(value, want, n)
-            assert np.all(rel <= 1e-12), f"{robot} {case} {g}/{name}: relative error {rel.max():.3g} (pose {rel.argmax()})"
+            assert np.all(rel <= 1e-12), \
+                f"{robot} {case} {g}/{name}: relative error {rel.max():.3g} (pose {rel.argmax()})"
             checked += 1
     assert checked == 3 + 3 + 2 + 4                    # q, sin_q3, cos_q2; M, K_R, K_F; J_rows, lever; G, Kqe, k_act, W
 

@@ -72,7 +72,8 @@ def pins() -> dict:
                 groups[g] = getattr(mod, g)(ik["q"], p)
             for g, res in groups.items():
                 for k, v in res.items():
-                    out[f"{robot}/{case}/{g}/{k}"] = np.broadcast_to(v, (len(poses),) + np.shape(v)[-len(mod.OUTPUTS[g][k]):])
+                    shape = mod.OUTPUTS[g][k]
+                    out[f"{robot}/{case}/{g}/{k}"] = np.broadcast_to(v, (len(poses),) + tuple(shape))
     return out
 
 
