@@ -178,7 +178,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
         K_groups[body] = K_groups.get(body, sp.zeros(6, 6)) + rows_outer(Je, Kqe)
         J_rows.append(sp.Matrix.vstack(*[ls.rows[k] for k, _ in coords] + [ls.rows[k] for k in virtual]))
         levers.append(_lever(prog, ls, act, tag))
-        G += _preload_derivatives(prog, q, ls, coords, [act] + virtual, tag)
+        G += _preload_derivatives(prog, q, ls, coords, [act] + virtual)
         Je_all.append(Je)
         Kqe_all.append(Kqe)
         k_acts.append(k_act)
@@ -278,7 +278,7 @@ def _ground_springs(fx: EffectSymbols) -> sp.Matrix:
     return K
 
 
-def _preload_derivatives(prog: Program, q, ls: LegScrews, coords, elastic: list, tag: str) -> list:
+def _preload_derivatives(prog: Program, q, ls: LegScrews, coords, elastic: list) -> list:
     """First term of Eq. 13 for one leg: per elastic joint k, ``d(j_k^T)/dx``, the change
     of its inverse-Jacobian row (a column of J_e^-T) per unit platform twist:
     ``sum_j d(j_k^T)/d q_j / rate_j . j_(q_j)`` over the IK coordinates q_j, with
