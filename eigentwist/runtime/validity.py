@@ -21,6 +21,9 @@ STATUS = {"ok": 0, "unreachable": 1, "singular": 2, "not_finite": 3, "unstable":
 IK_CHECKS = {
     "sin_q3": "the parallelogram cannot tilt that far",
     "cos_q2": "the lower link and parallelogram cannot span that distance",
+    # the hexapod (issue 15): the strut along its base U joint's fixed axis locks the joint;
+    # a zero leg length makes the strut direction NaN, which fails here too
+    "cos_u": "the strut lies along its U joint's fixed axis or has zero length",
 }
 
 
