@@ -436,6 +436,6 @@ class CKernels:
             lever = self.jacobians(ik["q"], pk)["lever"]
             if LEVER_SCALE in pk:
                 lever = lever / pk[LEVER_SCALE][..., None]
-            raise_singular(legs, pose, lever)
+            raise_singular(legs, pose, lever, LEVER_SCALE if LEVER_SCALE in pk else None)
         raise UnreachablePoseError(f"pose {pose[0].tolist()} m gives non-finite frequencies "
                                    "(the inertia matrix is not positive definite there)")

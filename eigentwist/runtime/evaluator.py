@@ -121,18 +121,24 @@ class Evaluator:
     def _pose_units(self) -> str:
         return "m" if self.dof == 3 else "m and rad"
 
-    def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
-        """``p`` plus the pose inputs the kernels read from the parameter dict: for a 6-DoF
-        robot the position ``x, y, z`` (m) and the rotation matrix ``R_ij`` of the rotation
-        vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`)."""
+    def kernel_pose_inputs(self, poses) -> dict:
+        """The pose inputs the generated kernels read from their parameter dict, (N,)
+        arrays by name: none for a 3-DoF robot (its kernels take x, y, z as arguments);
+        for a 6-DoF robot the position ``x, y, z`` (m) and the rotation matrix entries
+        ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`)."""
         if self.dof == 3:
-            return p
+            return {}
         from .poses import rotation_matrix
 
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
         R = rotation_matrix(poses[:, 3:6])
-        out = dict(p, x=poses[:, 0], y=poses[:, 1], z=poses[:, 2])
+        out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
         out.update({f"R_{i}{j}": R[:, i, j] for i in range(3) for j in range(3)})
         return out
+
+    def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
+        """``p`` plus :meth:`kernel_pose_inputs` (``p`` itself for a 3-DoF robot)."""
+        return p if self.dof == 3 else {**p, **self.kernel_pose_inputs(poses)}
 
     def rigid_size(self) -> int:
         """Size of the rigid model's eigenproblem: 3 (translations) for a 3-DoF robot, 6 else."""
@@ -268,7 +274,7 @@ class Evaluator:
                 jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
             lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
             if strict:
-                raise_singular(legs, poses[ok], lever)
+                raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None)
             ok[ok] = lever_mask(lever)
         return q, jac, ok
 
