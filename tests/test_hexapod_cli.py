@@ -52,7 +52,7 @@ def test_sweep_over_a_six_dimensional_box(tmp_path, capsys):
 
 def test_sweep_box_needs_twelve_numbers(tmp_path, capsys):
     assert main(["sweep", "--robot", "hexapod", "--box", "0", "1", "0", "1", "0", "1", "-o", str(tmp_path / "o")]) == 2
-    assert "expected 12 finite numbers" in capsys.readouterr().err
+    assert "expected twelve finite numbers" in capsys.readouterr().err
 
 
 def test_synth_writes_rotation_columns_and_compare_reads_them(tmp_path, capsys):

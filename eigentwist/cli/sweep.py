@@ -36,7 +36,7 @@ def add_parser(sub):
     poses = p.add_mutually_exclusive_group()
     poses.add_argument("--grid", nargs="+", type=int, metavar="N",
                        help="regular grid of poses over the box, ends included, one count per pose coordinate: NX NY NZ "
-                            "(a 6-DoF robot: six counts); an axis of 1 point sits mid-box (default: 5 5 5; hexapod 3 per axis)")
+                            "(a 6-DoF robot: six counts, or three for positions with the rotation mid-box); an axis of 1 point sits mid-box (default: 5 5 5; hexapod 3 per axis)")
     poses.add_argument("--random", type=int, metavar="N", help="N uniform random poses in the box")
     p.add_argument("--seed", type=int, default=0, help="seed of --random (default: 0)")
     p.add_argument("--box", nargs="+", type=float, metavar="LO HI",

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from ..description import RobotDescription
 from ..description.names import did_you_mean
 
 __all__ = ["get", "NAMES", "heli4", "delta", "hexapod"]

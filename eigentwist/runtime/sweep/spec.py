@@ -189,7 +189,8 @@ def _box(box, robot) -> tuple:
     if flat.shape != (2 * len(names),) or not np.isfinite(flat).all():
         what = " ".join(f"{a.upper()}LO {a.upper()}HI" for a in names)
         unit = "m" if len(names) == 3 else "m and rad"
-        raise InputError(f"box {np.asarray(box).tolist()}: expected {2 * len(names)} finite numbers {what} in {unit}")
+        count = {6: "six", 12: "twelve"}.get(2 * len(names), str(2 * len(names)))
+        raise InputError(f"box {np.asarray(box).tolist()}: expected {count} finite numbers {what} in {unit}")
     pairs = tuple((float(flat[2 * k]), float(flat[2 * k + 1])) for k in range(len(names)))
     for name, (lo, hi) in zip(names, pairs):
         if lo > hi:
@@ -209,6 +210,8 @@ def _pose_set(grid, random, seed, box) -> PoseSet:
         return PoseSet("random", box, n=int(random), seed=int(seed))
     dim = len(box)
     shape = tuple(grid) if grid is not None else (5, 5, 5) if dim == 3 else (3,) * dim
+    if dim > 3 and len(shape) == 3:
+        shape += (1,) * (dim - 3)      # positions only: the rotation at the middle of its box
     if len(shape) != dim or any(int(s) != s or s < 1 for s in shape):
         raise InputError(f"grid {list(shape)}: expected {'three' if dim == 3 else dim} integers >= 1, one per pose "
                          "coordinate" + (" (NX NY NZ)" if dim == 3 else ""))
@@ -234,7 +237,8 @@ def make_spec(robot: str = "heli4", *, model: str = "paper", backend: str = "num
     """Validate a sweep against the robot's description and return its :class:`SweepSpec`.
 
     grid : (nx, ny, nz) poses per axis (default (5, 5, 5) when ``random`` is None); a
-        6-DoF robot takes six counts (default 3 per axis);
+        6-DoF robot takes six counts (default 3 per axis), or three: positions only, the
+        rotation at the middle of its box;
     random, seed : a uniform sample of ``random`` poses, reproducible from ``seed``;
     box : six numbers XLO XHI YLO YHI ZLO ZHI (m), default the robot's workspace; a
         6-DoF robot takes twelve, its rotation vector's ranges in rad last;
