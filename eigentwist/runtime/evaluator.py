@@ -34,9 +34,11 @@ class Modes:
         never 0 Hz.
     eigentwists : (N, n, n), one column per mode, largest entry +1 (Eqs. 57, 65); None
         from ``modes(..., vectors=False)``.
-    axes : names of the n coordinates (``("x", "y", "z")`` for the rigid model,
-        ``("rx", "ry", "rz", "x", "y", "z")`` for the flexible one).
-    kind : ``"rigid"`` (K_R with the 3x3 translational subsets) or ``"flexible"`` (K_F).
+    axes : names of the n coordinates (``("x", "y", "z")`` for a 3-DoF robot's rigid
+        model, ``("rx", "ry", "rz", "x", "y", "z")`` for the flexible one and for every
+        model of a 6-DoF robot).
+    kind : ``"rigid"`` (K_R: the 3x3 translational subsets for a 3-DoF robot, the full
+        6x6 for a 6-DoF one) or ``"flexible"`` (K_F).
     valid : (N,) bool, which poses were evaluated (reachable, not singular); the others
         hold NaN. Set by ``modes(..., invalid="nan")``; None when every pose is valid.
     stable : (N,) bool, False where a mode is unstable (its frequency is NaN); all True
@@ -566,5 +568,6 @@ class Evaluator:
 
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
-        ``"paper"``) or (N, 3) for ``"rigid"``, ascending. Unstable modes are NaN."""
+        ``"paper"``) or (N, 3) for ``"rigid"`` (a 6-DoF robot: (N, 6) always), ascending.
+        Unstable modes are NaN."""
         return self.modes(poses, model, vectors=False, **params).freq_hz

@@ -10,11 +10,14 @@ without a branch on the chain. A leg with six freedoms has no constraint wrench;
 with fewer lists a ``"virtual"`` joint per constraint, the twist of restriction, whose
 row is the constraint wrench normalised the same way.
 
-``derive_chain(robot)`` returns the programs and outputs for a
-:class:`~eigentwist.description.chain.ChainRobot`: M (Eq. 12) from every body of every
-leg and the platform, K_R (Eq. 14) as ``sum_i j_a,i^T k_act,i j_a,i`` with the joint-series
-effects in series with k_a, the actuation rows and levers, and the actuated joint
-coordinates (leg lengths for a prismatic actuator).
+``derive_chain(robot)`` returns the :class:`~eigentwist.symbolic.model.DerivedModel` of a
+:class:`~eigentwist.description.chain.ChainRobot`, with the Heli4's attribute and output
+names so that the code generator and the runtime need no branch: the IK program (pose
+x, y, z and rotation matrix R_ij -> the actuated joint coordinates, leg lengths for a
+prismatic actuator, and the legs' check quantities), M (Eq. 12) from every body of every
+leg and the platform, K_R (Eq. 14) as ``sum_i j_a,i^T k_act,i j_a,i`` with the
+joint-series effects in series with k_a, K_F (= K_R: six-freedom legs have no constraint
+wrench), the inverse-Jacobian rows and levers, and the gravity-preload terms.
 """
 from __future__ import annotations
 
