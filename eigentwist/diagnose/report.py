@@ -21,6 +21,11 @@ def _pose(p) -> str:
     return "[" + ", ".join(f"{v:g}" for v in np.round(p, 4)) + "]"
 
 
+def _pose_unit(p) -> str:
+    """``m`` for a position, ``m, rad`` for a 6-DoF pose (position and rotation vector)."""
+    return "m" if len(p) == 3 else "m, rad"
+
+
 def format_params(values: dict, std: dict, ev) -> str:
     """``"k_E_rot = 374 ± 38 N m/rad, ..."``."""
     parts = []
@@ -43,7 +48,7 @@ def comparison_table(cmp) -> str:
                      f"{m.freq_hz[i]:.4g}", f"{m.sigma_hz[i]:.3g}", f"{cmp.predicted[i]:.4g}",
                      f"{cmp.error_pct[i]:+.2f}", f"{cmp.error_sigma[i]:+.2f}", "FAILS" if cmp.failing[i] else ""]
                     + ([] if mac is None else ["-" if np.isnan(mac[i]) else f"{mac[i]:.4f}"]))
-    return format_table(["line", f"k_a [{m.k_a_unit}]", "pose [m]", "mode", "model mode", "measured [Hz]", "sigma [Hz]",
+    return format_table(["line", f"k_a [{m.k_a_unit}]", f"pose [{_pose_unit(m.poses[0]) if len(m) else 'm'}]", "mode", "model mode", "measured [Hz]", "sigma [Hz]",
                          "predicted [Hz]", "error [%]", "error [sigma]", f"|err|>{FAIL_SIGMA:g}sigma"]
                         + ([] if mac is None else ["MAC"]), rows)
 
@@ -62,7 +67,7 @@ def failing_text(cmp) -> list[str]:
         unit = cmp.meas.k_a_unit
         ka = f"k_a = {lo:g} {unit}" if lo == hi else f"k_a {lo:g}-{hi:g} {unit}"
         poses = "; ".join(_pose(p) for p in w["poses"][:4]) + (" ..." if len(w["poses"]) > 4 else "")
-        out.append(f"mode {w['mode']}: {w['rows']} of {w['of']} rows, {ka}, pose(s) {poses} m, "
+        out.append(f"mode {w['mode']}: {w['rows']} of {w['of']} rows, {ka}, pose(s) {poses} {_pose_unit(w['poses'][0])}, "
                    f"model {w['predicted']} (lines {', '.join(map(str, w['lines'][:12]))}"
                    f"{' ...' if len(w['lines']) > 12 else ''})")
     return out or ["nowhere: every row is within 2 sigma"]
@@ -199,7 +204,7 @@ def _alternatives_sentence(d) -> str | None:
         nm = a.next_measurement
         if nm:
             pose = ", ".join(f"{v:g}" for v in np.round(nm["pose"], 4))
-            text += (f"; measure mode {nm['mode']} at [{pose}] m with k_a = {nm['k_a']:.4g} {nm.get('k_a_unit', 'N m/rad')}, where they "
+            text += (f"; measure mode {nm['mode']} at [{pose}] {_pose_unit(nm['pose'])} with k_a = {nm['k_a']:.4g} {nm.get('k_a_unit', 'N m/rad')}, where they "
                      f"differ by {nm['separation_sigma']:.1f} sigma")
         parts.append(text)
     if not parts and d.ranking and (d.uncertainty is not None and d.uncertainty.verdict == "too few rows"):
@@ -279,12 +284,12 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     nm = d.next_measurement
     if nm:
         a, b = nm["between"]
-        out.append(f"   measurement that separates {a} and {b} best: pose {_pose(nm['pose'])} m, k_a = {nm['k_a']:.4g} "
+        out.append(f"   measurement that separates {a} and {b} best: pose {_pose(nm['pose'])} {_pose_unit(nm['pose'])}, k_a = {nm['k_a']:.4g} "
                    f"{nm.get('k_a_unit', 'N m/rad')}, mode {nm['mode']}: {nm['predicted_hz'][a]:.4g} vs {nm['predicted_hz'][b]:.4g} Hz "
                    f"({nm['separation_sigma']:.1f} sigma apart at sigma = {nm['sigma_hz']:.3g} Hz)")
         alt = nm.get("with_measured_modes")
         if alt and alt["mode"] != nm["mode"]:
-            out.append(f"   with a mode you already measure: pose {_pose(alt['pose'])} m, k_a = {alt['k_a']:.4g} "
+            out.append(f"   with a mode you already measure: pose {_pose(alt['pose'])} {_pose_unit(alt['pose'])}, k_a = {alt['k_a']:.4g} "
                        f"{alt.get('k_a_unit', nm.get('k_a_unit', 'N m/rad'))}, mode {alt['mode']}: {alt['predicted_hz'][a]:.4g} vs {alt['predicted_hz'][b]:.4g} Hz "
                        f"({alt['separation_sigma']:.1f} sigma)")
     title = "4. Effects added by hand" if d.manual else "4. Forward selection (add the best significant effect, repeat)"

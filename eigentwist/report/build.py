@@ -221,7 +221,7 @@ def next_measurement_text(diagnosis: dict) -> dict:
 def _measurement_rows(nm: dict, a: str, b: str) -> list:
     pred = nm.get("predicted_hz") or {}
     pose = ", ".join(f"{v:g}" for v in np.round(nm.get("pose", []), 4))
-    rows = [("pose", f"[{pose}] m"), ("actuator stiffness k_a", f"{nm.get('k_a', float('nan')):.4g} {nm.get('k_a_unit', 'N m/rad')}"),
+    rows = [("pose", f"[{pose}] {'m' if len(nm.get('pose', [])) in (0, 3) else 'm, rad'}"), ("actuator stiffness k_a", f"{nm.get('k_a', float('nan')):.4g} {nm.get('k_a_unit', 'N m/rad')}"),
             ("mode", str(nm.get("mode")))]
     for name in (a, b):
         if name in pred and pred[name] is not None:
