@@ -27,14 +27,14 @@ def derived():
 def workspace_grid(robot, n=4) -> np.ndarray:
     """A grid of poses (m) over the robot's workspace box."""
     axes = [np.linspace(lo, hi, n) for lo, hi in robot.workspace]
-    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(robot.workspace))
 
 
 def random_poses(robot, n, seed) -> np.ndarray:
     rng = np.random.default_rng(seed)
     lo = np.array([a for a, _ in robot.workspace])
     hi = np.array([b for _, b in robot.workspace])
-    return lo + (hi - lo) * rng.random((n, 3))
+    return lo + (hi - lo) * rng.random((n, len(robot.workspace)))
 
 
 def effect_inputs(robot, p: dict, on, spread=None) -> dict:

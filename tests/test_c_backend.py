@@ -151,7 +151,8 @@ def test_c_equals_numpy(c_kernels, robot, switches):
     poses = random_poses(ev.robot, n, seed=len(switches))
     p = _params(ev.robot, seed=7, switches=switches)
     p["k_a"] = np.linspace(0.5, 2.0, n) * ev.defaults["k_a"]          # a per-pose parameter
-    x, y, z = poses.T
+    p.update(ev.kernel_pose_inputs(poses))                 # a 6-DoF robot's rotation (R_ij) and position
+    x, y, z = poses[:, :3].T
     ik_n = ev.module.inverse_kinematics(x, y, z, p)
     _assert_close(ck.inverse_kinematics(x, y, z, p), ik_n, 1e-12, "inverse_kinematics")
     q = ik_n["q"]

@@ -1,7 +1,8 @@
 """The Gough-Stewart hexapod from joint lists (issue 15): physics identities at 6-DoF poses.
 
-The model comes from :func:`eigentwist.symbolic.chain.derive_chain`; every reference
-here is computed independently in a few lines of NumPy from the leg vectors.
+The model is the shipped generated one, ``eigentwist.load("hexapod")`` (NumPy and C);
+every reference here is computed independently in a few lines of NumPy from the leg
+vectors.
 """
 from __future__ import annotations
 
@@ -11,11 +12,11 @@ import numpy as np
 import pytest
 from scipy.linalg import eigh
 
-from eigentwist.runtime.chain import ChainEvaluator
-from eigentwist.description.effects import leg_input_name, leg_switch_name, switch_name
+import eigentwist
+from eigentwist.codegen.generate import render_robot
 from eigentwist.robots import hexapod
+from eigentwist.runtime.errors import InputError
 from eigentwist.runtime.poses import exp_twist, rotation_matrix
-from eigentwist.symbolic.chain import derive_chain
 
 HOME = np.array([0.0, 0.0, 0.80, 0.0, 0.0, 0.0])
 TILTED = np.array([0.03, -0.02, 0.82, 0.08, -0.05, 0.12])
@@ -26,28 +27,22 @@ def robot():
     return hexapod.describe()
 
 
-@pytest.fixture(scope="module")
-def ev(robot):
-    return ChainEvaluator(robot)
+@pytest.fixture(scope="module", params=["numpy", "c"])
+def ev(request):
+    return eigentwist.load("hexapod", backend=request.param)
 
 
 @pytest.fixture(scope="module")
 def evaluate(ev):
-    return ev.evaluate
-
-
-def values(robot, on=(), **overrides) -> dict:
-    """Every generated input: defaults, ``overrides``, the switches of ``on``, leg copies."""
-    v = {**robot.defaults, **overrides}
-    for name in robot.effects:
-        e = robot.effect(name)
-        if not e.leg_level:
-            v[switch_name(name)] = float(name in on)
-            continue
-        for k in range(1, len(robot.legs) + 1):
-            v[leg_switch_name(name, k)] = float(name in on)
-            v.update({leg_input_name(q.name, k): v[q.name] for q in e.params})
-    return v
+    """``evaluate(pose, on, **params)``: the evaluator's matrices, leg lengths and
+    actuation rows at one pose, with the effects ``on`` switched on."""
+    def run(pose, on=(), **params):
+        model = ",".join(on) or "none"
+        out = dict(ev.matrices(pose, model, **params))
+        out["q_a"] = ev.joint_angles(pose, **params)[..., 0]
+        out["J_a"] = ev.jacobians(pose, **params)["J_rows"][:, :, 0, :]
+        return out
+    return run
 
 
 def random_poses(n, seed) -> np.ndarray:
@@ -98,7 +93,7 @@ def kinetic_energy_fd(robot, pose, twist, eps=1e-6) -> float:
 def test_kinetic_energy_equals_half_tMt(robot, evaluate, seed):
     rng = np.random.default_rng(seed)
     pose = random_poses(1, seed)[0]
-    M = evaluate(pose, values(robot))["M"][0]
+    M = evaluate(pose)["M"][0]
     for _ in range(3):
         t = rng.normal(size=6) * np.array([0.5, 0.5, 0.5, 0.2, 0.2, 0.2])
         assert 0.5 * t @ M @ t == pytest.approx(kinetic_energy_fd(robot, pose, t), rel=1e-6)
@@ -111,7 +106,7 @@ def test_stiffness_equals_JT_Kq_J_from_leg_lengths(robot, evaluate, seed):
         J = np.stack([(lengths(robot, exp_twist(pose, e, eps)) - lengths(robot, exp_twist(pose, e, -eps))) / (2 * eps)
                       for e in np.eye(6)], axis=1)
         K_fd = J.T @ (robot.defaults["k_a"] * J)
-        out = evaluate(pose, values(robot))
+        out = evaluate(pose)
         K = out["K_R"][0]
         assert np.abs(K - K_fd).max() <= 1e-6 * np.abs(K).max()
         np.testing.assert_allclose(out["q_a"][0], lengths(robot, pose), rtol=1e-12)
@@ -122,8 +117,8 @@ def test_joint_series_effects_soften_the_struts(robot, evaluate):
     p = robot.defaults
     k = 1 / (1 / (p["eta_a"] * p["k_a"]) + 1 / p["k_s"] + 2 / p["k_j"])
     on = ("actuator_loss", "strut_compliance", "joint_compliance")
-    K_on = evaluate(TILTED, values(robot, on))["K_R"][0]
-    K_off = evaluate(TILTED, values(robot))["K_R"][0]
+    K_on = evaluate(TILTED, on)["K_R"][0]
+    K_off = evaluate(TILTED)["K_R"][0]
     np.testing.assert_allclose(K_on, K_off * k / p["k_a"], rtol=1e-10, atol=1e-9 * np.abs(K_off).max())
 
 
@@ -132,7 +127,7 @@ def _frequencies(out) -> np.ndarray:
 
 
 def test_home_symmetry_gives_equal_pairs(robot, evaluate):
-    out = evaluate(HOME, values(robot))
+    out = evaluate(HOME)
     f = _frequencies(out)
     pairs = [(i, i + 1) for i in range(5) if abs(f[i + 1] - f[i]) < 1e-9 * f[-1]]
     assert len(pairs) == 2, f
@@ -147,18 +142,18 @@ def test_home_symmetry_gives_equal_pairs(robot, evaluate):
 def test_mirror_symmetry_about_xz(robot, evaluate):
     pose = np.array([0.04, 0.0, 0.78, 0.0, 0.07, 0.0])        # a pose in the mirror plane
     D = np.diag([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0])           # y -> -y on [omega (axial); v]
-    out = evaluate(pose, values(robot))
+    out = evaluate(pose)
     for name in ("M", "K_R"):
         A = out[name][0]
         np.testing.assert_allclose(D @ A @ D, A, atol=1e-9 * np.abs(A).max())
-    np.testing.assert_allclose(_frequencies(evaluate(TILTED * [1, -1, 1, -1, 1, -1], values(robot))),
-                               _frequencies(evaluate(TILTED, values(robot))), rtol=1e-9)
+    np.testing.assert_allclose(_frequencies(evaluate(TILTED * [1, -1, 1, -1, 1, -1])),
+                               _frequencies(evaluate(TILTED)), rtol=1e-9)
 
 
 @pytest.mark.parametrize("pose", [HOME, TILTED])
 def test_massless_struts_match_platform_and_line_coordinates(robot, evaluate, pose):
-    v = values(robot, m_cyl=0.0, m_pis=0.0, I_cyl=0.0, I_pis=0.0)
-    f = _frequencies(evaluate(pose, v))
+    tiny = 1e-15                      # masses must be positive: massless up to 1e-15 kg, kg m^2
+    f = _frequencies(evaluate(pose, m_cyl=tiny, m_pis=tiny, I_cyl=tiny, I_pis=tiny))
     p = robot.defaults
     b, top = joints(robot, pose)
     s = (top - b) / np.linalg.norm(top - b, axis=1)[:, None]
@@ -173,15 +168,17 @@ def test_massless_struts_match_platform_and_line_coordinates(robot, evaluate, po
 
 
 def test_payload_at_the_origin_lowers_all_but_the_twist_about_z(robot, evaluate):
-    f0 = _frequencies(evaluate(HOME, values(robot)))
-    f1 = _frequencies(evaluate(HOME, values(robot, ("payload_mass",))))
+    f0 = _frequencies(evaluate(HOME))
+    f1 = _frequencies(evaluate(HOME, ("payload_mass",)))
     assert (f1 <= f0 * (1 + 1e-12)).all() and (f1 < f0 * (1 - 1e-6)).sum() == 5   # a point mass: no inertia about z
 
 
-def test_derivation_under_a_minute(robot):
+def test_generation_under_a_minute():
+    """Derivation, CSE and rendering of both backends of the hexapod (issue 15: < 60 s)."""
     t0 = time.perf_counter()
-    derive_chain(robot)
+    files = render_robot("hexapod")
     assert time.perf_counter() - t0 < 60
+    assert set(files) == {"hexapod_numpy.py", "hexapod_c.c"}
 
 
 def test_units_follow_the_joint_kind(robot):
@@ -190,10 +187,67 @@ def test_units_follow_the_joint_kind(robot):
     assert robot.parameter("k_s").unit == "N/m"
 
 
-def test_evaluator_frequencies_and_inputs(robot, ev, evaluate):
+def test_frequencies_are_the_rigid_6x6_eigenproblem(ev, evaluate):
+    """The rigid model of a 6-DoF robot is the full 6x6 M and K_R (issue 15)."""
     on = ("actuator_loss", "payload_mass")
-    assert ev.values(on, k_a=1.0e7) == values(robot, on, k_a=1.0e7)
-    np.testing.assert_allclose(ev.frequencies([HOME, TILTED], on, k_a=1.0e7)[1],
-                               _frequencies(evaluate(TILTED, values(robot, on, k_a=1.0e7))), rtol=1e-10)
-    with pytest.raises(ValueError, match="k_b"):
-        ev.values(k_b=1.0)
+    m = ev.modes(np.stack([HOME, TILTED]), "actuator_loss,payload_mass", k_a=1.0e7)
+    assert m.kind == "rigid" and m.axes == ("rx", "ry", "rz", "x", "y", "z") and m.freq_hz.shape == (2, 6)
+    np.testing.assert_allclose(m.freq_hz[1], _frequencies(evaluate(TILTED, on, k_a=1.0e7)), rtol=1e-10)
+    assert ev.frequencies(HOME, "rigid").shape == (1, 6)
+
+
+def test_c_equals_numpy():
+    poses = random_poses(200, 9)
+    a, b = (eigentwist.load("hexapod", backend=k) for k in ("numpy", "c"))
+    for model in ("rigid", "actuator_loss,strut_compliance,joint_compliance,payload_mass"):
+        ma, mb = a.matrices(poses, model), b.matrices(poses, model)
+        for k in ("M", "K_R", "K_F"):
+            scale = np.abs(ma[k]).max(axis=(1, 2))[:, None, None]
+            assert (np.abs(ma[k] - mb[k]) <= 1e-12 * scale).all(), k
+        np.testing.assert_allclose(b.frequencies(poses, model), a.frequencies(poses, model), rtol=1e-10)
+
+
+def test_pose_width_names_the_coordinates(ev):
+    with pytest.raises(InputError, match=r"\(N, 6\) poses of hexapod, columns x, y, z, rot_x, rot_y, rot_z"):
+        ev.frequencies([0.0, 0.0, 0.8])
+    with pytest.raises(InputError, match=r"\(N, 3\)"):
+        eigentwist.load("heli4", backend="numpy").frequencies(HOME)
+
+
+def test_a_zero_length_leg_is_unreachable(ev):
+    """Platform joint 1 placed on base joint 1: leg 1 has no direction (length 0, or a
+    round-off length whose leg twists are degenerate: the lever w_a . t_a vanishes)."""
+    from eigentwist.runtime.errors import SingularPoseError, UnreachablePoseError
+
+    ang = np.radians([-10.0, -50.0])
+    b1, a1 = 0.5 * np.array([np.cos(ang[0]), np.sin(ang[0])]), 0.3 * np.array([np.cos(ang[1]), np.sin(ang[1])])
+    bad = np.array([*(b1 - a1), 0.0, 0.0, 0.0, 0.0])
+    assert ev.valid(np.stack([HOME, bad])).tolist() == [True, False]
+    with pytest.raises((UnreachablePoseError, SingularPoseError), match="leg 1"):
+        ev.frequencies(bad)
+
+
+def _line_rows(robot, pose) -> np.ndarray:
+    """(6, 6) unit wrenches along the struts at the platform origin: [r x s; s]."""
+    b, top = joints(robot, pose)
+    s = (top - b) / np.linalg.norm(top - b, axis=1)[:, None]
+    return np.hstack([np.cross(top - pose[:3], s), s])
+
+
+def test_gravity_preload_is_the_derivative_of_the_strut_wrenches(robot, ev):
+    """K_G = sym(sum_i f_i d(j_i^T)/d twist) with the strut forces f balancing the weight
+    (J^T f = W), every derivative by central differences along the exponential map."""
+    pose, eps, g = TILTED, 1e-6, 9.81
+    p = robot.defaults
+    R = rotation_matrix(pose[3:])
+    c = R @ [0, 0, p["c_pl"]]
+    weight = p["m_pl"] * np.array([0, 0, -g])
+    W = np.concatenate([np.cross(c, weight), weight])
+    f = np.linalg.solve(_line_rows(robot, pose).T, W)
+    KG = np.stack([f @ (_line_rows(robot, exp_twist(pose, e, eps)) - _line_rows(robot, exp_twist(pose, e, -eps)))
+                   / (2 * eps) for e in np.eye(6)], axis=1)
+    KG = 0.5 * (KG + KG.T)
+    _, K0 = ev.stiffness(pose, "none")
+    _, K1 = ev.stiffness(pose, "gravity_preload", g=g)
+    assert np.abs((K1 - K0)[0] - KG).max() <= 1e-6 * np.abs(KG).max()
+    assert np.abs(KG).max() > 1e-6 * np.abs(K0).max()        # the term is not negligible here

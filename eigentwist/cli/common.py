@@ -32,11 +32,13 @@ def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
 
 def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "paper") -> None:
     """``--robot``, ``--pose``, ``--k-a``, ``--set`` and ``--model`` with units in the help."""
-    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
-    p.add_argument("--pose", nargs=3, type=float, metavar=("X", "Y", "Z"),
-                   help="end-effector position in the base frame, m (default: the robot's x_ref)")
+    p.add_argument("--pose", nargs="+", type=float, metavar="X",
+                   help="end-effector position in the base frame, m: X Y Z; for a 6-DoF robot (hexapod) "
+                        "X Y Z ROT_X ROT_Y ROT_Z, the platform origin (m) and its rotation vector (rad) "
+                        "(default: the robot's x_ref)")
     p.add_argument("--k-a", type=float, dest="k_a", metavar="KA",
                    help="commanded actuator stiffness in the robot's unit: N m/rad (revolute actuator) or N/m "
                         "(prismatic) (default: the robot's)")

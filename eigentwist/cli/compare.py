@@ -13,6 +13,7 @@ DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Colum
             the mode carrying the largest share of its energy along that axis (required)
   freq_hz   measured natural frequency, Hz (required)
   x, y, z   end-effector position in the base frame, m (optional; default the robot's x_ref)
+  rot_x, rot_y, rot_z  the hexapod's rotation vector, rad (optional; default the robot's x_ref)
   sigma_hz  standard uncertainty, Hz (optional; default 2 % of freq_hz)
   <param>   any model parameter name (e.g. m_e, l2; per leg eta_a@3), SI units: overrides it
             for that row (and wins over --set); its effect must be in the model
@@ -39,7 +40,7 @@ examples:
 def add_data_options(p: argparse.ArgumentParser) -> None:
     """DATA, --robot and --backend (shared with diagnose)."""
     p.add_argument("data", metavar="DATA.csv", help="measurements (see below), or `paper`")
-    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
     add_set_option(p)

@@ -52,10 +52,10 @@ def compute(args) -> dict:
     from ..diagnose.values import used_parameters
     from ..runtime import load
     from .common import model_and_values
-    from .poses import check_pose
+    from .poses import check_pose, pose_argument
 
     ev = load(args.robot, backend=args.backend)
-    pose = np.array(args.pose if args.pose else ev.robot.x_ref, dtype=float)
+    pose = pose_argument(ev, args.pose)
     effects, params = model_and_values(args.model, args.set, ev)
     if args.k_a is not None:
         params["k_a"] = args.k_a
@@ -64,10 +64,11 @@ def compute(args) -> dict:
     q = ev.joint_angles(pose, **params)[0]
     # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
     model = ev.modes(pose, effects, unstable="raise", **params)
-    f_rigid, v_rigid = _modes_of(mats["M"][:, 3:, 3:], mats["K_R"][:, 3:, 3:])
+    r = 3 if ev.rigid_size() == 3 else 0                 # a 6-DoF robot's rigid model is 6x6
+    f_rigid, v_rigid = _modes_of(mats["M"][:, r:, r:], mats["K_R"][:, r:, r:])
     f_flex, v_flex = _modes_of(mats["M"], mats["K_F"])
     kind = ev.kind(effects)
-    source = FROM[kind] + (" + gravity preload" if "gravity_preload" in effects else "")
+    source = (FROM[kind] if r else "M and K_R, 6x6") + (" + gravity preload" if "gravity_preload" in effects else "")
     return {
         "robot": ev.robot.name,
         "model": list(effects),
@@ -76,7 +77,9 @@ def compute(args) -> dict:
         "pose": pose.tolist(),
         "k_a": params.get("k_a", ev.defaults["k_a"]),
         "k_a_unit": ev.parameter("k_a").unit,
-        "joint_angles_deg": {leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)},
+        "joint_angles_deg": ({leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)}
+                             if q.shape[-1] == 3 else None),
+        "leg_lengths_m": {leg.name: float(q[i, 0]) for i, leg in enumerate(ev.robot.legs)} if q.shape[-1] == 1 else None,
         "M": mats["M"][0].tolist(),
         "K_R": mats["K_R"][0].tolist(),
         "K_F": mats["K_F"][0].tolist(),
@@ -97,11 +100,14 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(out))
         return 0
-    print(f"{out['robot']} at pose {out['pose']} m, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
+    print(f"{out['robot']} at pose {out['pose']} {'m' if len(out['pose']) == 3 else 'm, rad'}, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
           f"{', '.join(out['model']) or '(no effect)'} ({out['kind']})")
     print(changed_text([r for r in out["parameters"] if r["name"] != "k_a"], out["robot"]))
-    print("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)
-                                             for k, vals in out["joint_angles_deg"].items()))
+    if out["joint_angles_deg"] is not None:
+        print("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)
+                                                 for k, vals in out["joint_angles_deg"].items()))
+    else:
+        print("leg lengths (m): " + "; ".join(f"{k}: {v:.6f}" for k, v in out["leg_lengths_m"].items()))
     axes = ["rx", "ry", "rz", "x", "y", "z"]
     for key, fmt in (("M", ".6f"), ("K_R", ".2f"), ("K_F", ".2f")):
         print(f"\n{key} (model: {', '.join(out['model']) or 'no effect'}):")
@@ -110,7 +116,8 @@ def run(args) -> int:
     print(f"\nnatural frequencies of this {out['kind']} model (from {out['frequencies_from']}), Hz: "
           + ", ".join(f"{f:.3f}" for f in out["freq_hz"]))
     other = "flexible" if out["kind"] == "rigid" else "rigid"
-    print(f"(for reference, from the printed {FROM[other]}: "
+    label = FROM[other] if len(out["pose"]) == 3 or other == "flexible" else "M and K_R, 6x6"
+    print(f"(for reference, from the printed {label}: "
           + ", ".join(f"{f:.3f}" for f in out[f"freq_{other}_hz"]) + " Hz; not this model's frequencies)")
     print(f"\neigentwists of this model (columns; {', '.join(axes[6 - n:])}):")
     print(format_table([""] + [f"w{k + 1}" for k in range(n)],

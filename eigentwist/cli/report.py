@@ -23,7 +23,7 @@ def add_parser(sub):
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("data", nargs="?", help="measurement CSV (default: the robot's embedded measurements)")
     p.add_argument("-o", "--output", default="report.html", help="HTML file to write (default: report.html)")
-    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--model", default="paper", help=f"model compared with the data: {MODEL_SYNTAX} (default: paper)")
     p.add_argument("--baseline", default="rigid", help="where the diagnosis starts, same syntax (default: rigid)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"))

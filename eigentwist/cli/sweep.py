@@ -29,17 +29,19 @@ the dask engine pip install "eigentwist[dask]".
 def add_parser(sub):
     p = sub.add_parser("sweep", help=HELP, description=HELP, epilog=EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: numpy)")
     p.add_argument("--model", default="paper", help=f"{MODEL_SYNTAX} (default: paper)")
     poses = p.add_mutually_exclusive_group()
-    poses.add_argument("--grid", nargs=3, type=int, metavar=("NX", "NY", "NZ"),
-                       help="regular grid of poses over the box, ends included; an axis of 1 point sits mid-box (default: 5 5 5)")
+    poses.add_argument("--grid", nargs="+", type=int, metavar="N",
+                       help="regular grid of poses over the box, ends included, one count per pose coordinate: NX NY NZ "
+                            "(a 6-DoF robot: six counts, or three for positions with the rotation mid-box); an axis of 1 point sits mid-box (default: 5 5 5; hexapod 3 per axis)")
     poses.add_argument("--random", type=int, metavar="N", help="N uniform random poses in the box")
     p.add_argument("--seed", type=int, default=0, help="seed of --random (default: 0)")
-    p.add_argument("--box", nargs=6, type=float, metavar=("XLO", "XHI", "YLO", "YHI", "ZLO", "ZHI"),
-                   help="workspace box of the poses, m (default: the robot's workspace)")
+    p.add_argument("--box", nargs="+", type=float, metavar="LO HI",
+                   help="workspace box of the poses: XLO XHI YLO YHI ZLO ZHI in m; a 6-DoF robot (hexapod) adds "
+                        "ROT_XLO ROT_XHI ROT_YLO ROT_YHI ROT_ZLO ROT_ZHI in rad (default: the robot's workspace)")
     p.add_argument("--k-a", dest="k_a", metavar="VALUES",
                    help="commanded actuator stiffness (N m/rad revolute, N/m prismatic): 500,1000,2000 or 500:4000:8 (default: the robot's)")
     p.add_argument("--vary", action="extend", nargs="+", default=[], metavar="NAME=VALUES",
@@ -96,7 +98,8 @@ def lowest_table(low: dict, spec, top: int) -> str:
         label = AXES[low["direction"][c]] if low["direction"][c] >= 0 else "-"
         rows.append([*low["design"][c], low["k_a"][c], low["freq_hz"][c], label, where,
                      f"{low['n_reachable'][c] / spec.n_poses:.1%}"])
-    headers = [*spec.design_names, "k_a", "lowest Hz", "mode 1", "at pose (m)", "reachable"]
+    unit = "m" if low["pose"].shape[1] == 3 else "m, rad"
+    headers = [*spec.design_names, "k_a", "lowest Hz", "mode 1", f"at pose ({unit})", "reachable"]
     return format_table(headers, rows)
 
 

@@ -31,10 +31,11 @@ def add_parser(sub):
     p.add_argument("--k-a", dest="k_a", nargs="+", required=True, metavar="KA",
                    help="commanded actuator stiffnesses, N m/rad (revolute) or N/m (prismatic) (space- or comma-separated)")
     p.add_argument("--poses", nargs="+", default=[], metavar="'X,Y,Z ...'",
-                   help="end-effector positions, m, each X,Y,Z, separated by spaces or ';' inside one quoted "
+                   help="end-effector positions, m, each X,Y,Z (hexapod: X,Y,Z,ROT_X,ROT_Y,ROT_Z, m and rad), separated by spaces or ';' inside one quoted "
                         "argument (a value starting with '-' must be quoted with others or given with --pose)")
-    p.add_argument("--pose", nargs=3, type=float, action="append", default=[], metavar=("X", "Y", "Z"),
-                   help="one end-effector position, m (repeatable); added to --poses")
+    p.add_argument("--pose", nargs="+", type=float, action="append", default=[], metavar="X",
+                   help="one pose (repeatable), added to --poses: X Y Z, m; for a 6-DoF robot (hexapod) "
+                        "X Y Z ROT_X ROT_Y ROT_Z, m and rad (the rotation vector)")
     p.add_argument("--modes", default="x,y,z", help="mode labels, comma-separated: ranks or x,y,z,rx,ry,rz (default: x,y,z)")
     p.add_argument("--noise", default="0.5%", help="relative noise (standard deviation), e.g. 0.5%% or 0.005 (default: 0.5%%)")
     p.add_argument("--sigma", default=None, metavar="P%",
@@ -43,7 +44,7 @@ def add_parser(sub):
     p.add_argument("--extra-stiffness", action="append", default=[], metavar="AXIS=K",
                    help="add a spring to ground at the EE origin, N/m (x,y,z) or N m/rad (rx,ry,rz): "
                         "an effect outside the catalogue (repeatable)")
-    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta) or a description file PATH.py defining describe() (default: heli4)")
+    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
     add_set_option(p)
     p.add_argument("-o", "--output", metavar="DATA.csv", help="write here (default: print to stdout)")
     add_uff_options(p)
@@ -61,15 +62,21 @@ def _numbers(items, what: str) -> list[float]:
     return out
 
 
-def _poses(items, single) -> list[list[float]] | None:
+def _poses(items, single, names=("x", "y", "z")) -> list[list[float]] | None:
     texts = [t for item in items for t in item.replace(";", " ").split()]
     if not texts and not single:
         return None
+    for p in single:
+        if len(p) != len(names):
+            raise CliError(f"--pose {' '.join(f'{v:g}' for v in p)}: expected {len(names)} coordinates "
+                           f"({', '.join(names)})")
     poses = [list(p) for p in single]
     for item in texts:
         vals = _numbers([item], "--poses value")
-        if len(vals) != 3:
-            raise CliError(f"--poses {item!r}: expected X,Y,Z in m, e.g. 0,0,-0.625")
+        if len(vals) != len(names):
+            example = "0,0,-0.625" if len(names) == 3 else "0,0,0.8,0,0,0.1"
+            raise CliError(f"--poses {item!r}: expected {','.join(n.upper() for n in names)} "
+                           f"({'m' if len(names) == 3 else 'm and rad'}), e.g. {example}")
         poses.append(vals)
     return poses
 
@@ -97,7 +104,7 @@ def run(args) -> int:
     for name, value in truth.values.items():
         if values.get(name, value) != value:
             raise CliError(f"--truth sets {name} = {value:g} and --set {name}={values[name]:g}: give it once")
-    poses = _poses(args.poses, args.pose)
+    poses = _poses(args.poses, args.pose, ev.pose_names)
     if poses is not None:
         warn_workspace(ev, poses, "synth")
     if args.uff:

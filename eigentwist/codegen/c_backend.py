@@ -38,6 +38,11 @@ BLOCK = 64                 # poses per block: inputs, outputs and temporaries st
 # The flexible model uses the full 6x6 M and K_F (Eq. 13); the rigid one the lower-right
 # 3x3 translational blocks of M and K_R (Eq. 14), as the paper does (Eqs. 54-56).
 EIGEN_MODELS = (("flexible", 6, 0, "M", "K_F"), ("rigid", 3, 3, "M", "K_R"))
+# a 6-DoF robot (six pose coordinates): the rigid model is the full 6x6 M and K_R (issue 15)
+EIGEN_MODELS_6DOF = (("flexible", 6, 0, "M", "K_F"), ("rigid", 6, 0, "M", "K_R"))
+# what the C comments say of a 6-DoF robot's pose inputs read from the parameter dict
+POSE_DOCS = {**{f"R_{i}{j}": f"platform rotation matrix entry ({i}, {j}) (-)" for i in range(3) for j in range(3)},
+             "x": "platform origin x (m)", "y": "platform origin y (m)", "z": "platform origin z (m)"}
 EIGEN_DIMS = tuple(n for _, n, _, _, _ in EIGEN_MODELS)
 JACOBI_MAX_SWEEPS = 20
 JACOBI_TOL = 1e-30         # sum of squared off-diagonals relative to the squared diagonal
@@ -143,11 +148,15 @@ def _size(shape) -> int:
     return n
 
 
-def _input_doc(name: str, group: str, joint, units: dict) -> str:
+def _input_doc(name: str, group: str, joint, units: dict, per_leg: int = 3) -> str:
+    if group == "q" and per_leg != 3:
+        return f"{name}: actuated coordinate of leg {joint[0] + 1} (m for a prismatic actuator)"
     if group == "q":
         return f"{name}: joint angle of leg {joint[0] + 1}, joint {joint[1] + 1} (rad)"
     if group == "pose":
         return f"{name}: end-effector position (m)"
+    if name in POSE_DOCS:
+        return f"{name}: {POSE_DOCS[name]}"
     if name in units:
         return f"{name}: parameter ({units[name]})"
     return f"{name}: effect switch (0 or 1)"
@@ -170,10 +179,9 @@ def _kernel_context(kern: Kernel, prefix: str, units: dict) -> dict:
         group = next(g for g, ns in kern.inputs if name in ns)
         where = None
         if group == "q":
-            flat = kern.joint_order.index(name)
-            where = [flat // 3, flat % 3]
+            where = list(kern.joint_index(name))
         inputs.append(dict(name=name, cname=names[name], group=group, joint=where,
-                           doc=_input_doc(name, group, where, units)))
+                           doc=_input_doc(name, group, where, units, kern.joints_per_leg)))
     return dict(
         name=kern.name, doc=kern.doc, cname=f"{prefix}_{kern.name}", inputs=inputs, entries=entries,
         outputs=[dict(name=o.name, shape=list(o.shape), size=_size(o.shape)) for o in kern.outputs],
@@ -182,7 +190,13 @@ def _kernel_context(kern: Kernel, prefix: str, units: dict) -> dict:
 
 
 # ------------------------------------------------------------------- fused
-def _fused_context(kctx: dict) -> dict:
+def eigen_models(robot) -> tuple:
+    """The fused pass's eigenproblems for ``robot``: the rigid model is the translational
+    3x3 of a 3-DoF robot, the full 6x6 of a 6-DoF one."""
+    return EIGEN_MODELS_6DOF if len(getattr(robot, "pose", "xyz")) == 6 else EIGEN_MODELS
+
+
+def _fused_context(kctx: dict, models=EIGEN_MODELS) -> dict:
     """Wire the IK outputs into the matrices and jacobians kernels; index M, K_R, K_F.
 
     The matrices stage is ``matrices_lever`` where rendered (M, K_R, K_F and the levers);
@@ -206,7 +220,7 @@ def _fused_context(kctx: dict) -> dict:
     wiring = {k: [source(inp) for inp in kc["inputs"]] for k, kc in (("ik", ik), ("matrices", mats), ("jacobians", jac))}
     row = {(e["name"], tuple(e["idx"])): r for r, e in enumerate(mats["entries"])}
     eig = []
-    for model, n, off, mname, kname in EIGEN_MODELS:
+    for model, n, off, mname, kname in models:
         eig.append(dict(
             n=n, model=model, M=mname, K=kname,
             m_src=[f"et_mb[{row[(mname, (i + off, j + off))]}]" for i, j in c_eigen.upper(n)],
@@ -246,7 +260,9 @@ def _signature(robot, prefix: str, kernels: list[dict], fused: dict, digest: str
         ) for k in kernels if k["name"] not in FUSED_ONLY},
         fused=dict(function=f"{prefix}_fused", inputs=[[i["group"], i["name"]] for i in fused["inputs"]],
                    models=[e["model"] for e in fused["eigen"]], matrices=fused["mat_outputs"],
-                   status=fused["status"], lever_check=bool(fused["lever"])),
+                   status=fused["status"], lever_check=bool(fused["lever"]),
+                   # each model's dimension, where it differs from eigh's dims (a 6-DoF robot)
+                   **({"dims": [e["n"] for e in fused["eigen"]]} if eigen_models(robot) is not EIGEN_MODELS else {})),
         eigh=dict(function=f"{prefix}_eigh", dims=list(EIGEN_DIMS)),
     )
 
@@ -265,7 +281,7 @@ def render_c(robot, kernels: list[Kernel], digest: str) -> str:
     units = {p.name: p.unit for p in robot.parameters} | EffectSymbols(robot).units()
     kctx = [_kernel_context(k, prefix, units) for k in kernels]
     by_name = {k["name"]: k for k in kctx}
-    fused = _fused_context(by_name)
+    fused = _fused_context(by_name, eigen_models(robot))
     sig = _signature(robot, prefix, kctx, fused, digest)
     env = environment()
     tmpl = env.get_template("c/module.c.jinja")

@@ -17,7 +17,7 @@ from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
 
-__all__ = ["GENERATED", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS"]
+__all__ = ["GENERATED", "derive_any", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS"]
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
@@ -31,18 +31,40 @@ KERNEL_DOCS = {
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
 
 
+def _pose_split(model) -> tuple[list, list[str]]:
+    """(position symbols x, y, z, the other pose inputs' names): the backends take the
+    position as the inverse kinematics' arguments and any further pose input (a 6-DoF
+    robot's rotation matrix entries R_ij) through the parameter dict."""
+    pose = list(getattr(model, "pose_inputs", POSE))
+    return pose[:3], [s.name for s in pose[3:]]
+
+
+def joints_per_leg(model) -> int:
+    """Joint coordinates per leg in the IK output ``q`` (3 for the Heli4/Delta, 1 for the hexapod)."""
+    return int(model.ik_outputs["q"][0][-1])
+
+
 def kernels_for(model, progress=None) -> list[Kernel]:
-    """CSE'd kernels of a derived model, in a fixed order."""
+    """CSE'd kernels of a derived model, in a fixed order.
+
+    The kernels after the inverse kinematics take the joint coordinates ``q`` and the
+    parameters; a model whose program also reads the pose (a 6-DoF robot) takes it
+    through the parameter dict (names from ``model.pose_inputs``).
+    """
+    position, rotation = _pose_split(model)
     params = list(model.inputs)
+    nq = joints_per_leg(model)
     kernels = []
     ik_outs = [Output(k, sh, ex) for k, (sh, ex) in model.ik_outputs.items()]
     kernels.append(build_kernel("inverse_kinematics", KERNEL_DOCS["inverse_kinematics"], model.ik,
-                                ik_outs, list(POSE), [], params))
+                                ik_outs, position, [], params + rotation))
+    program_params = params + [s.name for s in position] + rotation
     for group in ("matrices", "jacobians", "gravity"):
         if progress:
             progress(f"CSE {group}")
         outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
-        kernels.append(build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints, params))
+        kernels.append(build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints,
+                                    program_params, nq))
     return kernels
 
 
@@ -57,10 +79,22 @@ def fused_kernels_for(model) -> list[Kernel]:
     so the singularity check costs nothing). Empty when the model has no levers."""
     if "lever" not in model.outputs["jacobians"]:
         return []
-    params = list(model.inputs)
+    position, rotation = _pose_split(model)
+    params = list(model.inputs) + [s.name for s in position] + rotation
     outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs["matrices"].items()]
     outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))
-    return [build_kernel("matrices_lever", KERNEL_DOCS["matrices_lever"], model.program, outs, [], model.joints, params)]
+    return [build_kernel("matrices_lever", KERNEL_DOCS["matrices_lever"], model.program, outs, [], model.joints, params,
+                         joints_per_leg(model))]
+
+
+def derive_any(description):
+    """The :class:`~eigentwist.symbolic.model.DerivedModel` of a description: Heli4-type
+    descriptions by :func:`~eigentwist.symbolic.derive`, joint-list robots (the hexapod)
+    by :func:`~eigentwist.symbolic.chain.derive_chain`."""
+    from ..description.chain import ChainRobot
+    from ..symbolic.chain import derive_chain
+
+    return derive_chain(description) if isinstance(description, ChainRobot) else derive(description)
 
 
 def _template_text(backend: str) -> str:
@@ -86,7 +120,7 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
     t0 = time.perf_counter()
     if progress:
         progress(f"{name}: derive")
-    model = derive(description)
+    model = derive_any(description)
     t1 = time.perf_counter()
     kernels = kernels_for(model, progress=(lambda m: progress(f"{name}: {m}")) if progress else None)
     t2 = time.perf_counter()

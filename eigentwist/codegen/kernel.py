@@ -48,7 +48,9 @@ class Kernel:
     """CSE'd code for one function.
 
     ``inputs`` is a list of ``(group, names)``: ``"pose"`` (x, y, z arrays), ``"q"``
-    (joint angle names in (leg, joint) order), ``"param"`` (parameter and switch names).
+    (joint coordinate names in (leg, joint) order, ``joints_per_leg`` per leg),
+    ``"param"`` (parameter and switch names; a 6-DoF robot's rotation ``R_ij`` and, in
+    the kernels after the inverse kinematics, its position ``x, y, z`` are passed here).
     ``body`` is a list of ``("let", symbol, expr)`` and ``("out", output, index, expr)``.
     """
 
@@ -58,6 +60,11 @@ class Kernel:
     outputs: list
     body: list = field(default_factory=list)
     joint_order: list = field(default_factory=list)
+    joints_per_leg: int = 3
+
+    def joint_index(self, name: str) -> tuple[int, int]:
+        """(leg, joint) of joint coordinate ``name``, 0-based."""
+        return divmod(self.joint_order.index(name), self.joints_per_leg)
 
     @property
     def input_names(self) -> list[str]:
@@ -73,7 +80,7 @@ def _sorted_syms(expr) -> list:
 
 
 def build_kernel(name: str, doc: str, program: Program, outputs: list[Output],
-                 pose: list, joints: list, params: list) -> Kernel:
+                 pose: list, joints: list, params: list, joints_per_leg: int = 3) -> Kernel:
     """Prune ``program`` to what ``outputs`` need, run CSE and order the statements.
 
     Raises :class:`UndeclaredSymbolError` naming the symbol when an expression uses
@@ -141,7 +148,7 @@ def build_kernel(name: str, doc: str, program: Program, outputs: list[Output],
         ("q", [s.name for s in joints if s.name in used_inputs]),
         ("param", [p for p in params if p in used_inputs]),
     ]
-    return Kernel(name, doc, inputs, outputs, body, [s.name for s in joints])
+    return Kernel(name, doc, inputs, outputs, body, [s.name for s in joints], joints_per_leg)
 
 
 def source_hash(kernels: list[Kernel], extra: str = "") -> str:

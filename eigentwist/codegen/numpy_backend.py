@@ -78,9 +78,8 @@ def _kernel_context(kern: Kernel, printer) -> dict:
         args.append("q")
         shape_args.append("shape(q)[:-2]")
     args.append("p")
-    all_joints = kern.joint_order
     for name in joints:
-        leg, j = all_joints.index(name) // 3, all_joints.index(name) % 3
+        leg, j = kern.joint_index(name)
         unpack.append(f"{name} = q[..., {leg}, {j}]")
     for name in params:
         unpack.append(f"{name} = p[{name!r}]")
@@ -88,8 +87,11 @@ def _kernel_context(kern: Kernel, printer) -> dict:
     arg_doc = []
     if pose:
         arg_doc.append("x, y, z: end-effector position in the base frame (m)")
-    if joints:
+    if joints and kern.joints_per_leg == 3:
         arg_doc.append("q: joint angles (rad), shape (N, legs, 3) as (q1, q2, q3) per leg")
+    elif joints:
+        arg_doc.append(f"q: joint coordinates, shape (N, legs, {kern.joints_per_leg}) (leg lengths in m for "
+                       "prismatic actuators)")
     arg_doc.append("p: parameters")
     return dict(
         name=kern.name, doc=kern.doc, outputs=kern.outputs, signature=", ".join(args),

@@ -81,10 +81,15 @@ class ChainBody:
 class ChainLeg:
     """One leg: its joints from base to platform, its bodies, and its closed-form geometry.
 
-    geometry : ``geometry(position, rotation, p) -> dict`` of named SymPy vectors and
-        scalars at the pose (``position`` 3x1 m, ``rotation`` 3x3 platform axes,
+    geometry : ``geometry(position, rotation, p, q=None) -> dict`` of named SymPy vectors
+        and scalars at the pose (``position`` 3x1 m, ``rotation`` 3x3 platform axes,
         ``p`` parameter symbols by name). It must hold ``"length"`` for a prismatic
-        actuator (its joint coordinate, m) and every name the joints and bodies use.
+        actuator (its joint coordinate, m) and every name the joints and bodies use;
+        given ``q`` (a symbol: the actuated coordinate, computed by the inverse
+        kinematics), the geometry uses it instead of recomputing the coordinate.
+    checks : names of geometry scalars that must lie within [-1, 1] for the pose to be
+        reachable (e.g. the cosine between a strut and a U joint's fixed axis; NaN counts
+        as unreachable: a zero leg length gives NaN directions).
     """
 
     name: str
@@ -92,6 +97,7 @@ class ChainLeg:
     bodies: tuple
     geometry: Callable
     platform_body: str = "platform"
+    checks: tuple = ()
 
     @property
     def freedoms(self) -> int:
@@ -131,6 +137,11 @@ class ChainRobot:
 
     def __post_init__(self):
         resolve_effects(self)
+
+    @property
+    def pose_units(self) -> tuple:
+        """Unit of each pose coordinate: ``m`` for positions, ``rad`` for rotations."""
+        return tuple("rad" if c.startswith("rot") else "m" for c in self.pose)
 
     def effect(self, name: str):
         from .effects import EFFECTS

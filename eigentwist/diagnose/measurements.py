@@ -45,12 +45,20 @@ from .evaluators import resolve
 from .matching import parse_mode
 
 __all__ = ["Measurements", "MeasurementError", "load_measurements", "paper_measurements", "paper_csv",
-           "REQUIRED", "OPTIONAL", "MODAL", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
+           "REQUIRED", "OPTIONAL", "MODAL", "ROTATION_COLUMNS", "pose_columns", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
 
 REQUIRED = ("k_a", "mode", "freq_hz")
 # measured modal data (issue 14): NaN where blank; shapes are phi_x..z, sensor_* in m
 MODAL = ("damping_ratio", "phi_x", "phi_y", "phi_z", "sensor_x", "sensor_y", "sensor_z")
 OPTIONAL = ("x", "y", "z", "sigma_hz") + MODAL
+#: the rotation columns of a 6-DoF robot's poses (rotation vector, rad); ``rx, ry, rz`` stay mode labels
+ROTATION_COLUMNS = ("rot_x", "rot_y", "rot_z")
+
+
+def pose_columns(ev) -> tuple:
+    """The CSV pose columns of ``ev``'s robot: ``x, y, z`` (m), a 6-DoF robot adds ``rot_x,
+    rot_y, rot_z`` (rad)."""
+    return tuple(getattr(ev, "pose_names", ("x", "y", "z")))
 SEPARATORS = {",": "','", ";": "';'", "\t": "a tab"}
 DEFAULT_SIGMA_REL = 0.02      # default standard uncertainty: 2 % of the measured value
 
@@ -76,7 +84,8 @@ class Measurements:
     mode : N normalised mode labels (``"x"``, ``"2"``, ...).
     freq_hz : (N,) measured natural frequency, Hz.
     sigma_hz : (N,) standard uncertainty, Hz.
-    poses : (N, 3) end-effector position, m.
+    poses : (N, 3) end-effector position, m; (N, 6) for a 6-DoF robot, the rotation
+        vector (rad) last (CSV columns ``rot_x, rot_y, rot_z``).
     params : per-row parameter overrides, name -> (N,) array in SI units.
     lines : (N,) source line of each row (header = line 1).
     source : file name used in messages.
@@ -157,7 +166,8 @@ class Measurements:
             row = {"k_a": np.broadcast_to(k_a, (n,))[i], "mode": np.broadcast_to(np.asarray(mode, dtype=object), (n,))[i],
                    "freq_hz": freq[i]}
             if poses is not None:
-                row.update(zip("xyz", np.broadcast_to(np.asarray(poses, dtype=float), (n, 3))[i]))
+                names = pose_columns(ev)
+                row.update(zip(names, np.broadcast_to(np.asarray(poses, dtype=float), (n, len(names)))[i]))
             if sigma_hz is not None:
                 row["sigma_hz"] = np.broadcast_to(sigma_hz, (n,))[i]
             for name, val in {**(params or {}), **(modal or {})}.items():
@@ -174,7 +184,8 @@ class Measurements:
 
     def to_csv(self, path=None) -> str:
         """CSV text of these measurements (written to ``path`` when given)."""
-        cols = ["k_a", "mode", "freq_hz", "sigma_hz", "x", "y", "z", *self.modal, *self.params]
+        names = ("x", "y", "z") + (ROTATION_COLUMNS if self.poses.shape[1] == 6 else ())
+        cols = ["k_a", "mode", "freq_hz", "sigma_hz", *names, *self.modal, *self.params]
         out = io.StringIO()
         w = csv.writer(out, lineterminator="\n")
         w.writerow(cols)
@@ -213,7 +224,7 @@ def _parameter(name: str, ev):
 
 def _header(cells: list[str], source: str, ev) -> list[str]:
     names = [c.strip() for c in cells]
-    known = REQUIRED + OPTIONAL
+    known = REQUIRED + OPTIONAL + tuple(c for c in pose_columns(ev) if c not in OPTIONAL)
     for k, name in enumerate(names):
         if not name:
             raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
@@ -296,10 +307,10 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
     sigma = np.array([s if s is not None else DEFAULT_SIGMA_REL * f
                       for s, f in zip(cols.get("sigma_hz", [None] * n), freq)], dtype=float)
     poses = np.stack([np.array([v if v is not None else x_ref[k] for v in cols.get(a, [None] * n)], dtype=float)
-                      for k, a in enumerate("xyz")], axis=1)
+                      for k, a in enumerate(pose_columns(ev))], axis=1)
     params = {}
     for name in names:
-        p = _parameter(name, ev) if name not in REQUIRED + OPTIONAL else None
+        p = _parameter(name, ev) if name not in REQUIRED + OPTIONAL + ROTATION_COLUMNS else None
         if p is not None:
             fill = values.get(name, values.get(p.name, p.default))
             params[name] = np.array([v if v is not None else fill for v in cols[name]], dtype=float)
@@ -320,8 +331,8 @@ def _check_duplicates(meas: Measurements) -> None:
         if key in seen:
             j = seen[key]
             raise MeasurementError(
-                meas.source, f"duplicate of line {int(meas.lines[j])} (same pose {meas.poses[i].tolist()} m, k_a = "
-                f"{meas.k_a[i]:g} N m/rad, mode {meas.mode[i]}): give one row per condition (average repeated "
+                meas.source, f"duplicate of line {int(meas.lines[j])} (same pose {meas.poses[i].tolist()}, k_a = "
+                f"{meas.k_a[i]:g} {meas.k_a_unit}, mode {meas.mode[i]}): give one row per condition (average repeated "
                 "measurements and state their sigma_hz)", int(meas.lines[i]))
         seen[key] = i
 
@@ -348,7 +359,7 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
         if name in REQUIRED:
             raise MeasurementError(source, "empty cell: a value is required", line, name)
         return None
-    if name in ("x", "y", "z") or name in MODAL[1:]:
+    if name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:]:
         return _number(cell, source, line, name, positive=False)
     if name == "damping_ratio":
         return _number(cell, source, line, name, positive=True)

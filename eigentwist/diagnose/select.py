@@ -238,6 +238,8 @@ def _fit_effect(meas, ev, current: FitResult, effect: str) -> tuple[FitResult, t
         return f, own
     if not _determined(ev, g, f, extra) or (_implausible(ev, g) and not _implausible(ev, f)):
         return f, own                 # the extra parameters ran away: keep what the data pin down
+    if g.chi2 > f.chi2:
+        return f, own                 # the larger fit nests f yet ends worse: a local minimum, keep f
     return g, own + extra
 
 

@@ -24,8 +24,11 @@ N_KA = 9          # log-spaced k_a values over the measured range
 
 @lru_cache(maxsize=None)
 def _reachable_grid(ev, n: int) -> np.ndarray:
+    dim = len(ev.robot.workspace)
+    if dim > 3:
+        n = min(n, 2)          # a 6-D box: the corners (64 poses), not 3^6
     axes = [np.linspace(lo, hi, n) for lo, hi in ev.robot.workspace]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
     try:
         ev.jacobians(grid)
         return grid
@@ -38,7 +41,7 @@ def _reachable_grid(ev, n: int) -> np.ndarray:
             keep.append(p)
         except EigentwistError:
             continue
-    return np.array(keep).reshape(-1, 3)
+    return np.array(keep).reshape(-1, dim)
 
 
 def workspace_poses(ev, meas, n: int = GRID) -> np.ndarray:

@@ -43,6 +43,8 @@ class RobotGeometry:
     legs: tuple
     l1: float
     l2: float
+    #: the pose as the evaluator takes it ((3,) position; (6,) with the rotation vector, rad)
+    coordinates: np.ndarray | None = None
 
     @property
     def offsets(self) -> np.ndarray:
@@ -62,6 +64,8 @@ def robot_geometry(ev, pose, **params) -> RobotGeometry:
     ``params`` override the description's defaults (SI units), as in
     :meth:`Evaluator.joint_angles`; an unreachable pose raises its usual error.
     """
+    if not hasattr(ev.robot, "l1"):
+        return _chain_geometry(ev, pose, **params)
     pose = np.asarray(pose, dtype=float).reshape(3)
     values = {**ev.defaults, **params}
     q = ev.joint_angles(pose[None, :], **params)[0]
@@ -74,7 +78,29 @@ def robot_geometry(ev, pose, **params) -> RobotGeometry:
         elbow.append(B + l1 * r1)
         attach.append(pose + a)
     return RobotGeometry(pose, np.array(base), np.array(elbow), np.array(attach),
-                         tuple(leg.name for leg in ev.robot.legs), l1, l2)
+                         tuple(leg.name for leg in ev.robot.legs), l1, l2, pose)
+
+
+def _chain_geometry(ev, pose, **params) -> RobotGeometry:
+    """A joint-list robot (the hexapod): each leg drawn as a straight strut from its first
+    joint's location (base) to its last joint's (platform), at the 6-DoF ``pose`` (m, rad)."""
+    from ..runtime.poses import rotation_matrix
+
+    full = np.asarray(pose, dtype=float).reshape(len(ev.pose_names))
+    ev.joint_angles(full[None, :], **params)                  # an unreachable pose raises its usual error
+    values = {**ev.defaults, **params}
+    p = {q.name: sp.Float(values[q.name]) for q in ev.robot.parameters}
+    position = sp.Matrix(full[:3])
+    rotation = sp.Matrix(rotation_matrix(full[3:6]))
+    base, attach = [], []
+    for leg in ev.robot.legs:
+        g = leg.geometry(position, rotation, p)
+        base.append(np.array(sp.Matrix(g[leg.joints[0].location]).evalf(), dtype=float).ravel())
+        attach.append(np.array(sp.Matrix(g[leg.joints[-1].location]).evalf(), dtype=float).ravel())
+    base, attach = np.array(base), np.array(attach)
+    length = float(np.mean(np.linalg.norm(attach - base, axis=1)))
+    return RobotGeometry(full[:3], base, 0.5 * (base + attach), attach, tuple(leg.name for leg in ev.robot.legs),
+                         0.5 * length, 0.5 * length, full)
 
 
 def mode_displacements(geometry: RobotGeometry, twist, axes) -> np.ndarray:
@@ -160,7 +186,7 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
     """
     plt = pyplot()
     g = robot_geometry(ev, pose, **params)
-    modes = ev.modes(g.pose[None, :], model, k_a=k_a, **params)
+    modes = ev.modes(g.coordinates[None, :], model, k_a=k_a, **params)
     n = min(n_modes, modes.freq_hz.shape[1])
     fig = plt.figure(figsize=(4.2 * n, 8.4))
     for k in range(n):
@@ -180,10 +206,11 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
             setter(f"{name} [m]", fontsize=8)
         ax.tick_params(labelsize=7)
         _zoom(fig.add_subplot(2, n, n + k + 1), g, d, color, k)
-    where = ", ".join(f"{v:g}" for v in np.round(g.pose, 4))
     model_name = model if isinstance(model, str) and "," not in model else " + ".join(
         model.split(",") if isinstance(model, str) else model)
-    text = title or (f"{ev.robot.title} at [{where}] m, k_a = {k_a:g} {ev.parameter('k_a').unit}, model {model_name}: "
+    where = ", ".join(f"{v:g}" for v in np.round(g.coordinates, 4))
+    unit = "m" if len(g.coordinates) == 3 else "m, rad"
+    text = title or (f"{ev.robot.title} at [{where}] {unit}, k_a = {k_a:g} {ev.parameter('k_a').unit}, model {model_name}: "
                      "grey at rest, colour the mode shape")
     fig.suptitle(textwrap.fill(text, 30 * n), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.95))

@@ -7,16 +7,17 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from ..description import RobotDescription
 from ..description.names import did_you_mean
 
-__all__ = ["get", "NAMES", "heli4", "delta"]
+__all__ = ["get", "NAMES", "heli4", "delta", "hexapod"]
 
-NAMES = ("heli4", "delta")
+NAMES = ("heli4", "delta", "hexapod")
 
 
-def get(name: str) -> RobotDescription:
-    """The description of robot ``name`` (one of :data:`NAMES`)."""
+def get(name: str):
+    """The description of robot ``name`` (one of :data:`NAMES`): a
+    :class:`~eigentwist.description.RobotDescription`, or a joint-list
+    :class:`~eigentwist.description.chain.ChainRobot` (the hexapod)."""
     if name not in NAMES:
         raise ValueError(f"unknown robot {name!r}{did_you_mean(name, NAMES)}: expected one of {', '.join(NAMES)}")
     return import_module(f".{name}", __name__).describe()

@@ -73,18 +73,19 @@ def _on_circle(radius, degrees) -> sp.Matrix:
 
 def _geometry(base_deg, platform_deg):
     """The closed-form IK of one leg: joint points, strut direction and length, U axes."""
-    def geometry(position, rotation, p):
+    def geometry(position, rotation, p, q=None):
         b = _on_circle(p["R_b"], base_deg)
         a = _on_circle(p["R_p"], platform_deg)
         top = position + rotation * a
         d = top - b
-        length = sp.sqrt(d.dot(d))
+        length = sp.sqrt(d.dot(d)) if q is None else q
         s = d / length
         angle = sp.pi * base_deg / 180
         u1 = sp.Matrix([-sp.sin(angle), sp.cos(angle), 0])
         n = cross(s, u1)
         u2 = n / sp.sqrt(n.dot(n))
-        return {"b": b, "top": top, "length": length, "s": s, "u1": u1, "u2": u2, "e2": cross(u2, s)}
+        return {"b": b, "top": top, "length": length, "s": s, "u1": u1, "u2": u2, "e2": cross(u2, s),
+                "cos_u": s.dot(u1)}
     return geometry
 
 
@@ -104,7 +105,7 @@ def describe() -> ChainRobot:
               ChainJoint("S", (), "top", doc="platform spherical joint"))
     bodies = (_strut_body("cylinder", p["m_cyl"], p["d_cyl"], p["I_cyl"], 1, "b"),
               _strut_body("piston", p["m_pis"], -p["d_pis"], p["I_pis"], 2, "top"))
-    legs = tuple(ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(b, a))
+    legs = tuple(ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(b, a), checks=("cos_u",))
                  for i, (b, a) in enumerate(zip(BASE_ANGLES, PLATFORM_ANGLES)))
     com = sp.Matrix([0, 0, p["c_pl"]])
     at_com = sp.diag(p["I_pl_xx"], p["I_pl_yy"], p["I_pl_zz"])

@@ -186,7 +186,7 @@ class CKernels:
         self._fn = _bind(lib, signature)
         self._spec = signature["kernels"]
         self.OUTPUTS = {k: {o: tuple(s) for o, s in v["outputs"]} for k, v in self._spec.items()}
-        self.N_LEGS = self.OUTPUTS["inverse_kinematics"]["q"][0]
+        self.N_LEGS, self.JOINTS_PER_LEG = self.OUTPUTS["inverse_kinematics"]["q"]
         self.BLOCK = int(signature["block"])
         self.FUSED_MATRICES = {o: tuple(s) for o, s in signature["fused"]["matrices"]}
         if signature["fused"]["status"] != STATUS:
@@ -206,13 +206,13 @@ class CKernels:
         keep: list = []
         addresses, strides = [], []
         if q is not None:
-            legs = self.N_LEGS
-            qa = np.ascontiguousarray(np.broadcast_to(np.asarray(q, dtype=np.float64), lead + (legs, 3)))
-            qa = qa.reshape(n, legs * 3)
+            legs, nq = self.N_LEGS, self.JOINTS_PER_LEG
+            qa = np.ascontiguousarray(np.broadcast_to(np.asarray(q, dtype=np.float64), lead + (legs, nq)))
+            qa = qa.reshape(n, legs * nq)
             keep.append(qa)
         for group, name, joint in spec["inputs"]:
             if group == "q":
-                addresses.append(qa.ctypes.data + 8 * (joint[0] * 3 + joint[1]))
+                addresses.append(qa.ctypes.data + 8 * (joint[0] * nq + joint[1]))
                 strides.append(qa.shape[1])
             else:
                 a, s = _as_input(values[name], lead, keep)
@@ -231,8 +231,9 @@ class CKernels:
 
     def _q_kernel(self, kernel: str, q, p: dict) -> dict:
         q = np.asarray(q, dtype=np.float64)
-        if q.ndim < 2 or q.shape[-2:] != (self.N_LEGS, 3):
-            raise ValueError(f"q has shape {q.shape}: expected (..., {self.N_LEGS}, 3) joint angles in rad")
+        if q.ndim < 2 or q.shape[-2:] != (self.N_LEGS, self.JOINTS_PER_LEG):
+            raise ValueError(f"q has shape {q.shape}: expected (..., {self.N_LEGS}, {self.JOINTS_PER_LEG}) joint "
+                             "coordinates")
         params = self._params(kernel, p)
         lead = self._lead([q.shape[:-2]] + [np.shape(v) for v in params.values()])
         return self._run(kernel, lead, params, q=q)
@@ -361,7 +362,7 @@ class CKernels:
             if model not in spec["models"]:
                 raise ValueError(f"model {model!r}: expected one of {spec['models']}")
             model_id = spec["models"].index(model)
-            dim = self.signature["eigh"]["dims"][model_id]
+            dim = spec.get("dims", self.signature["eigh"]["dims"])[model_id]
             freq = alloc("freq_hz", (dim,))
             if vectors:
                 vec = alloc("eigentwists" if normalize else "V", (dim, dim))
@@ -422,14 +423,19 @@ class CKernels:
             return np.broadcast_to(np.asarray(v, dtype=float), lead).reshape(-1)[k:k + 1]
 
         legs = get(self.ROBOT).legs
-        pose = np.stack([row(c) for c in (x, y, z)], axis=-1)
         pk = {name: row(v) for name, v in p.items()}
-        ik = self.inverse_kinematics(*pose.T, pk)
+        pose = np.stack([row(c) for c in (x, y, z)], axis=-1)
+        if "R_00" in pk:                              # a 6-DoF robot: name the pose as given
+            from .poses import rotation_vector
+
+            R = np.array([[pk[f"R_{i}{j}"][0] for j in range(3)] for i in range(3)])
+            pose = np.concatenate([pose, rotation_vector(R)[None, :]], axis=-1)
+        ik = self.inverse_kinematics(*pose[:, :3].T, pk)
         raise_unreachable(legs, pose, {name: v for name, v in ik.items() if name != "q"})
         if "lever" in self.OUTPUTS["jacobians"]:
             lever = self.jacobians(ik["q"], pk)["lever"]
             if LEVER_SCALE in pk:
                 lever = lever / pk[LEVER_SCALE][..., None]
-            raise_singular(legs, pose, lever)
+            raise_singular(legs, pose, lever, LEVER_SCALE if LEVER_SCALE in pk else None)
         raise UnreachablePoseError(f"pose {pose[0].tolist()} m gives non-finite frequencies "
                                    "(the inertia matrix is not positive definite there)")

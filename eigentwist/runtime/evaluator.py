@@ -60,14 +60,16 @@ class Modes:
         energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist)."""
         if self.eigentwists is None:
             raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
-        return directions(self.eigentwists, offset=3 if self.kind == "rigid" else 0)
+        return directions(self.eigentwists, offset=len(AXES) - self.eigentwists.shape[-1])
 
 
 class Evaluator:
     """Evaluate a generated model for batches of poses and parameter values.
 
     Obtain one with :func:`eigentwist.load`. Poses are end-effector positions (m) in
-    the base frame, shape (N, 3) or (3,); parameters are keyword arguments, scalars or
+    the base frame, shape (N, 3) or (3,), for a 3-DoF robot; a 6-DoF robot (the hexapod)
+    takes (N, 6) or (6,): the platform origin (m) and the rotation vector of the platform
+    frame (axis x angle, rad; ``robot.pose`` names the coordinates); parameters are keyword arguments, scalars or
     (N,) arrays, overriding the description's defaults (SI units, see
     ``evaluator.parameters``). ``model`` is a preset (``"rigid"``, ``"paper"``) or a
     comma-separated list of effects.
@@ -93,6 +95,9 @@ class Evaluator:
         self.leg_parameters = {q.name: e for e in robot.effects if robot.effect(e).leg_level
                                for q in robot.effect(e).params}
         self.constraints = compile_constraints(robot)
+        #: names of the pose coordinates (``x, y, z``; a 6-DoF robot adds ``rot_x, rot_y, rot_z``)
+        self.pose_names = tuple(getattr(robot, "pose", ("x", "y", "z")))
+        self.dof = len(self.pose_names)
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -102,14 +107,46 @@ class Evaluator:
         arr = np.asarray(poses, dtype=float)
         if arr.ndim == 1:
             arr = arr[None, :]
-        if arr.ndim != 2 or arr.shape[1] != 3:
-            raise InputError(f"poses has shape {np.shape(poses)}: expected (N, 3) end-effector positions in m")
+        if arr.ndim != 2 or arr.shape[1] != self.dof:
+            raise InputError(f"poses has shape {np.shape(poses)}: expected (N, {self.dof}) poses of "
+                             f"{self.robot.name}, columns {', '.join(self.pose_names)} ({self._pose_units()})")
         if arr.shape[0] == 0:
-            raise InputError("poses is empty: expected at least one (x, y, z) position in m")
+            raise InputError(f"poses is empty: expected at least one ({', '.join(self.pose_names)}) pose "
+                             f"({self._pose_units()})")
         if not np.isfinite(arr).all():             # one pass over the batch; per row only on failure
             k = int(np.argmax(~np.isfinite(arr).all(axis=1)))
-            raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers in m")
+            raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers ({self._pose_units()})")
         return arr
+
+    def _pose_units(self) -> str:
+        return "m" if self.dof == 3 else "m and rad"
+
+    def kernel_pose_inputs(self, poses) -> dict:
+        """The pose inputs the generated kernels read from their parameter dict, (N,)
+        arrays by name: none for a 3-DoF robot (its kernels take x, y, z as arguments);
+        for a 6-DoF robot the position ``x, y, z`` (m) and the rotation matrix entries
+        ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`)."""
+        if self.dof == 3:
+            return {}
+        from .poses import rotation_matrix
+
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
+        R = rotation_matrix(poses[:, 3:6])
+        out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        out.update({f"R_{i}{j}": R[:, i, j] for i in range(3) for j in range(3)})
+        return out
+
+    def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
+        """``p`` plus :meth:`kernel_pose_inputs` (``p`` itself for a 3-DoF robot)."""
+        return p if self.dof == 3 else {**p, **self.kernel_pose_inputs(poses)}
+
+    def rigid_size(self) -> int:
+        """Size of the rigid model's eigenproblem: 3 (translations) for a 3-DoF robot, 6 else."""
+        return 3 if self.dof == 3 else 6
+
+    def axes(self, kind: str) -> tuple:
+        """Names of the modes' coordinates for model ``kind`` (``"rigid"``/``"flexible"``)."""
+        return AXES[3:] if kind == "rigid" and self.dof == 3 else AXES
 
     def parameter(self, name: str):
         """The :class:`Parameter` ``name``; ``NAME@N`` gives leg N's copy (same unit, bounds)."""
@@ -224,6 +261,7 @@ class Evaluator:
         """
         n = len(poses)
         legs = self.robot.legs
+        p = self._with_pose(poses, p)
         with np.errstate(invalid="ignore", divide="ignore"):
             out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
         if strict:
@@ -234,9 +272,9 @@ class Evaluator:
             sub = p if ok.all() else self._mask(p, ok, n)
             with np.errstate(invalid="ignore", divide="ignore"):
                 jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
-            lever = jac["lever"] / np.asarray(sub[LEVER_SCALE], dtype=float)[..., None]
+            lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
             if strict:
-                raise_singular(legs, poses[ok], lever)
+                raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None)
             ok[ok] = lever_mask(lever)
         return q, jac, ok
 
@@ -256,7 +294,8 @@ class Evaluator:
             pc = self._take(p, sl)
             q, jac, _ = self._check_rows(poses[sl], pc, strict=True)
             # the checks already evaluated the jacobians kernel: every result carries it
-            out = {"q": q, **jac} if kernel == "jacobians" else {"q": q, **jac, **getattr(self._kernels, kernel)(q, pc)}
+            out = ({"q": q, **jac} if kernel == "jacobians"
+                   else {"q": q, **jac, **getattr(self._kernels, kernel)(q, self._with_pose(poses[sl], pc))})
             for key, val in out.items():
                 results.setdefault(key, []).append(val)
         return {k: np.concatenate(v, axis=0) for k, v in results.items()}
@@ -272,13 +311,13 @@ class Evaluator:
 
     def _c_pass(self, poses: np.ndarray, p: dict, **kw) -> dict:
         """One fused C pass over the batch (status included), on the evaluator's threads."""
-        return self._kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, status=True,
+        return self._kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), status=True,
                                    threads=self._nthreads(), **kw)
 
     def _raise_first(self, poses: np.ndarray, p: dict, bad: np.ndarray) -> None:
         """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
         k = int(np.argmax(bad))
-        self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], p, (len(poses),))
+        self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),))
 
     @staticmethod
     def _rows(params: dict, sl, n: int) -> dict:
@@ -302,13 +341,15 @@ class Evaluator:
                                for sl in self._chunks(len(poses))])
 
     def joint_angles(self, poses, **params) -> np.ndarray:
-        """Joint angles (rad), shape (N, legs, 3): (q1, q2, q3) per leg (closed-form IK)."""
+        """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
+        leg in rad for the Heli4/Delta (k = 3); the leg length in m for the hexapod (k = 1)."""
         poses = self._poses(poses)
         p = self._params(len(poses), params, "paper")
         return np.concatenate([self._ik(poses[sl], self._take(p, sl)) for sl in self._chunks(len(poses))])
 
     def jacobians(self, poses, **params) -> dict:
-        """Inverse-Jacobian rows ``J_rows`` (N, legs, 4, 6) and levers ``lever`` (N, legs), m."""
+        """Inverse-Jacobian rows ``J_rows`` (N, legs, 4, 6), (N, legs, 6, 6) for the hexapod
+        (the actuated joint's row first), and levers ``lever`` (N, legs)."""
         return self._run("jacobians", poses, "paper", params)
 
     def parameter_values(self, n: int, model="paper", **params) -> dict:
@@ -350,7 +391,7 @@ class Evaluator:
         for sl in self._chunks(n):
             pc = self._take(p, sl)
             q = self._check_rows(poses[sl], pc, strict=True)[0]
-            chunk = self._kernels.matrices(q, pc)
+            chunk = self._kernels.matrices(q, self._with_pose(poses[sl], pc))
             for k in MATRICES:
                 mats[k][sl] = chunk[k]
         return mats
@@ -388,15 +429,17 @@ class Evaluator:
     def stiffness(self, poses, model="paper", **params):
         """The (M, K) pair the model's eigenproblem uses, with the gravity preload if on.
 
-        Rigid models use the 3x3 translational subsets of M and K_R (as the paper does);
-        flexible models the full 6x6 M and K_F.
+        Rigid models of a 3-DoF robot use the 3x3 translational subsets of M and K_R (as
+        the paper does); a 6-DoF robot's rigid model the full 6x6 M and K_R; flexible
+        models the full 6x6 M and K_F.
         """
         poses_arr = self._poses(poses)
         effects = resolve_model(model, self.robot)
         mats = self.matrices(poses_arr, effects, **params)
         rigid = self.kind(effects) == "rigid"
-        M = mats["M"][:, 3:, 3:] if rigid else mats["M"]
-        K = mats["K_R"][:, 3:, 3:] if rigid else mats["K_F"]
+        sub = rigid and self.dof == 3
+        M = mats["M"][:, 3:, 3:] if sub else mats["M"]
+        K = mats["K_R"][:, 3:, 3:] if sub else (mats["K_R"] if rigid else mats["K_F"])
         if self._preloaded(effects):
             from .gravity import gravity_stiffness
 
@@ -435,31 +478,32 @@ class Evaluator:
     def _solved_modes(self, poses, effects, params, check: bool, vectors: bool) -> Modes:
         """Matrices (and the gravity preload), then the batched eigen-solver."""
         if check:
-            return self._solve(*self.stiffness(poses, effects, **params), vectors)
+            return self._solve(*self.stiffness(poses, effects, **params), vectors, self.kind(effects))
         ok = self.valid(poses, effects, **params)
         n = len(poses)
         kind = self.kind(effects)
-        size = 3 if kind == "rigid" else 6
+        size = self.rigid_size() if kind == "rigid" else 6
         freq = np.full((n, size), np.nan)
         vec = np.full((n, size, size), np.nan) if vectors else None
         stable = np.ones(n, dtype=bool)
         if ok.any():
-            m = self._solve(*self.stiffness(poses[ok], effects, **self._rows(params, ok, n)), vectors)
+            m = self._solve(*self.stiffness(poses[ok], effects, **self._rows(params, ok, n)), vectors, kind)
             freq[ok], stable[ok] = m.freq_hz, m.stable
             if vectors:
                 vec[ok] = m.eigentwists
-        return Modes(freq, vec, AXES[3:] if kind == "rigid" else AXES, kind, ok, stable)
+        return Modes(freq, vec, self.axes(kind), kind, ok, stable)
 
-    def _solve(self, M, K, vectors: bool = True) -> Modes:
+    def _solve(self, M, K, vectors: bool = True, kind: str | None = None) -> Modes:
         if self._fused:                               # the C solver, on the evaluator's threads
             lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
         else:
             # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
             # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
             lam, V = generalized_eigh(K, M)
-        rigid = M.shape[-1] == 3
+        if kind is None:
+            kind = "rigid" if M.shape[-1] == 3 else "flexible"
         return Modes(frequencies_hz(lam), normalize_eigentwists(V) if vectors else None,
-                     AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible",
+                     self.axes(kind), kind,
                      stable=~unstable_modes(lam).any(axis=-1))
 
     def _fused_modes(self, poses, effects, params, check: bool, vectors: bool) -> Modes:
@@ -472,7 +516,7 @@ class Evaluator:
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
             self._raise_first(poses, p, ~valid)
-        return Modes(out["freq_hz"], out.get("eigentwists"), AXES[3:] if kind == "rigid" else AXES, kind,
+        return Modes(out["freq_hz"], out.get("eigentwists"), self.axes(kind), kind,
                      None if check else valid, st != STATUS["unstable"])
 
     def _raise_unstable(self, poses, modes: Modes, effects) -> None:

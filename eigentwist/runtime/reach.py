@@ -17,9 +17,17 @@ POINTS = 4001     # 1 mm spacing before bisection
 BISECT = 30
 
 
-def box_text(workspace) -> str:
-    """``"x in [-0.1, 0.1], y in [-0.1, 0.1], z in [-0.7, -0.55] m"``."""
-    return ", ".join(f"{a} in [{lo:g}, {hi:g}]" for a, (lo, hi) in zip("xyz", workspace)) + " m"
+def box_text(workspace, names=("x", "y", "z")) -> str:
+    """``"x in [-0.1, 0.1], y in [-0.1, 0.1], z in [-0.7, -0.55] m"``; a 6-DoF box adds
+    ``rot_x in [...]`` ... in rad."""
+    text = ", ".join(f"{a} in [{lo:g}, {hi:g}]" for a, (lo, hi) in zip(names[:3], workspace)) + " m"
+    if len(workspace) > 3:
+        text += ", " + ", ".join(f"{a} in [{lo:g}, {hi:g}]" for a, (lo, hi) in zip(names[3:], workspace[3:])) + " rad"
+    return text
+
+
+def _names(robot) -> tuple:
+    return tuple(getattr(robot, "pose", ("x", "y", "z")))
 
 
 def outside_workspace(robot, poses) -> str | None:
@@ -31,26 +39,35 @@ def outside_workspace(robot, poses) -> str | None:
     if not len(out):
         return None
     first = poses[out[0]].tolist()
-    many = f" ({len(out)} of {len(poses)} poses, first {first} m)" if len(poses) > 1 else f" ({first} m)"
-    return (f"pose outside {robot.name}'s documented workspace box{many}: {box_text(robot.workspace)}; "
+    many = f" ({len(out)} of {len(poses)} poses, first {first})" if len(poses) > 1 else f" ({first})"
+    return (f"pose outside {robot.name}'s documented workspace box{many}: {box_text(robot.workspace, _names(robot))}; "
             "results there are not covered by the tests")
 
 
-def _edge(ev, x, y, z_ok, z_bad, model, params) -> float:
+def _at(rest, z) -> np.ndarray:
+    """Poses (len(z), n): ``rest`` (x, y and any rotation) with its z replaced by ``z``."""
+    out = np.tile(np.asarray(rest, dtype=float), (len(np.atleast_1d(z)), 1))
+    out[:, 2] = z
+    return out
+
+
+def _edge(ev, rest, z_ok, z_bad, model, params) -> float:
     for _ in range(BISECT):
         mid = 0.5 * (z_ok + z_bad)
-        if ev.valid(np.array([[x, y, mid]]), model, **params)[0]:
+        if ev.valid(_at(rest, [mid]), model, **params)[0]:
             z_ok = mid
         else:
             z_bad = mid
     return z_ok
 
 
-def reachable_z(ev, x: float, y: float, model="paper", **params) -> list[tuple[float, float]]:
-    """Intervals [(z_lo, z_hi), ...] (m) where (x, y, z) is reachable and not singular."""
+def reachable_z(ev, x: float, y: float, model="paper", *, rotation=(), **params) -> list[tuple[float, float]]:
+    """Intervals [(z_lo, z_hi), ...] (m) where (x, y, z) is reachable and not singular
+    (a 6-DoF robot: with the platform's ``rotation`` vector, rad, held)."""
     z0 = float(ev.robot.x_ref[2])
     z = np.linspace(z0 - SCAN, z0 + SCAN, POINTS)
-    ok = ev.valid(np.column_stack([np.full_like(z, x), np.full_like(z, y), z]), model, **params)
+    rest = [x, y, z0, *rotation]
+    ok = ev.valid(_at(rest, z), model, **params)
     out = []
     k = 0
     while k < len(z):
@@ -60,8 +77,8 @@ def reachable_z(ev, x: float, y: float, model="paper", **params) -> list[tuple[f
         j = k
         while j + 1 < len(z) and ok[j + 1]:
             j += 1
-        lo = _edge(ev, x, y, z[k], z[k - 1], model, params) if k > 0 else z[k]
-        hi = _edge(ev, x, y, z[j], z[j + 1], model, params) if j + 1 < len(z) else z[j]
+        lo = _edge(ev, rest, z[k], z[k - 1], model, params) if k > 0 else z[k]
+        hi = _edge(ev, rest, z[j], z[j + 1], model, params) if j + 1 < len(z) else z[j]
         out.append((float(lo), float(hi)))
         k = j + 1
     return out
@@ -72,11 +89,12 @@ def reach_hint(ev, pose, model="paper", **params) -> str:
     x, y = float(pose[0]), float(pose[1])
     scalars = {k: v for k, v in params.items() if np.ndim(v) == 0}
     try:
-        spans = reachable_z(ev, x, y, model, **scalars)
+        spans = reachable_z(ev, x, y, model, rotation=[float(r) for r in np.ravel(pose)[3:]], **scalars)
     except ValueError:
         return ""
-    where = f"at x = {x:g}, y = {y:g} m"
+    where = f"at x = {x:g}, y = {y:g} m" + (" and this rotation" if len(np.ravel(pose)) > 3 else "")
     if not spans:
-        return f"{where} no height is reachable (try x, y within {box_text(ev.robot.workspace)})"
+        return (f"{where} no height is reachable (try x, y within "
+                f"{box_text(ev.robot.workspace, _names(ev.robot))})")
     return f"{where} the reachable, non-singular heights are " + " or ".join(
         f"z in [{lo:.4f}, {hi:.4f}]" for lo, hi in spans) + " m"

@@ -21,6 +21,9 @@ STATUS = {"ok": 0, "unreachable": 1, "singular": 2, "not_finite": 3, "unstable":
 IK_CHECKS = {
     "sin_q3": "the parallelogram cannot tilt that far",
     "cos_q2": "the lower link and parallelogram cannot span that distance",
+    # the hexapod (issue 15): the strut along its base U joint's fixed axis locks the joint;
+    # a zero leg length makes the strut direction NaN, which fails here too
+    "cos_u": "the strut lies along its U joint's fixed axis or has zero length",
 }
 
 
@@ -51,17 +54,23 @@ def raise_unreachable(legs, poses, ik: dict) -> None:
         bad = _bad_ik(ik[key])
         if bad.any():
             k, leg = np.argwhere(bad)[0]
+            unit = "m" if len(poses[k]) == 3 else "(m, rad)"
             raise UnreachablePoseError(
-                f"pose {np.asarray(poses[k], dtype=float).tolist()} m is unreachable for {legs[leg].name}: "
+                f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is unreachable for {legs[leg].name}: "
                 f"{what} ({key} = {ik[key][k, leg]:.4g}, expected within [-1, 1])")
 
 
-def raise_singular(legs, poses, lever_ratio) -> None:
-    """Raise :class:`SingularPoseError` for the first row with a vanishing lever (if any)."""
+def raise_singular(legs, poses, lever_ratio, scale: str | None = LEVER_SCALE) -> None:
+    """Raise :class:`SingularPoseError` for the first row with a vanishing lever (if any).
+
+    ``scale``: the parameter the lever was divided by (None: a robot without it, the
+    hexapod, whose lever w_a.t_a is compared as it is)."""
     lever_ratio = np.asarray(lever_ratio)
     bad = ~(np.abs(lever_ratio) > LEVER_TOL)
     if bad.any():
         k, leg = np.argwhere(bad)[0]
+        what = f"w_a1.t_a1/{scale}" if scale else "w_a.t_a (the leg's unit twists are dependent)"
+        unit = "m" if len(poses[k]) == 3 else "(m, rad)"
         raise SingularPoseError(
-            f"pose {np.asarray(poses[k], dtype=float).tolist()} m is singular for {legs[leg].name}: actuation lever "
-            f"w_a1.t_a1/l1 = {lever_ratio[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")
+            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is singular for {legs[leg].name}: actuation "
+            f"lever {what} = {lever_ratio[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")

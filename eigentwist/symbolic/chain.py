@@ -19,16 +19,20 @@ coordinates (leg lengths for a prismatic actuator).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import sympy as sp
 
 from ..description import sym
 from ..description.chain import ChainLeg, ChainRobot
-from .program import Program
-from .screw import inertia_to_frame, pure_translation, reciprocal_product, unit_twist
+from .program import Program, derivative
+if TYPE_CHECKING:
+    from .model import DerivedModel
+from .screw import (inertia_to_frame, pure_translation, reciprocal_product, skew, stiffness_to_frame,
+                     unit_twist)
 
 __all__ = ["POSE6", "ROTATION", "ChainScrews", "joint_twists", "reciprocal_wrench", "chain_screws",
-           "body_twist_map", "ChainModel", "derive_chain"]
+           "body_twist_map", "pose_inputs", "derive_chain"]
 
 #: position inputs (m) of a 6-DoF pose; the rotation enters as the 3x3 matrix ROTATION
 #: (the runtime turns the rotation vector into it by Rodrigues' formula)
@@ -148,39 +152,97 @@ def body_inertia(prog: Program, screws: ChainScrews, leg: ChainLeg, body, origin
     return rows.T * Mq * rows
 
 
-@dataclass
-class ChainModel:
-    """The derived model of a :class:`ChainRobot`: ``ik`` (pose -> leg geometry and
-    actuated joint coordinates) and ``program`` (pose -> M, K_R, actuation rows), both
-    over the pose inputs ``x, y, z, R_ij`` and the parameters and effect inputs."""
-
-    robot: ChainRobot
-    program: Program
-    outputs: dict
-    screws: list
+def pose_inputs() -> tuple:
+    """The per-pose inputs of a 6-DoF robot's programs: ``x, y, z`` (m) and the rotation
+    matrix entries ``R_00 .. R_22`` of the platform frame (base axes)."""
+    return tuple(POSE6) + tuple(ROTATION[i, j] for i in range(3) for j in range(3))
 
 
-def _pose_inputs() -> list:
-    return list(POSE6) + [ROTATION[i, j] for i in range(3) for j in range(3)]
+def _check_effects(robot: ChainRobot, fx) -> None:
+    kinds = {"joint_series", "added_inertia", "preload", "ground_spring"}
+    for e in fx.effects:
+        if e.kind not in kinds:
+            raise ValueError(f"{robot.name}: effect {e.name!r} of kind {e.kind!r}: a chain robot takes effects of "
+                             f"kinds {', '.join(sorted(kinds))}")
+        if e.kind == "added_inertia" and e.body != "platform":
+            raise ValueError(f"{robot.name}: effect {e.name!r} adds inertia to body {e.body!r}: a chain robot "
+                             "takes added inertia on the 'platform' only")
 
 
-def derive_chain(robot: ChainRobot) -> ChainModel:
-    """M (Eq. 12), K_R (Eq. 14), actuation rows, levers and actuated coordinates of ``robot``."""
-    from .model import EffectSymbols
+def _inverse_kinematics(robot: ChainRobot):
+    """IK program: pose and parameters -> each leg's actuated coordinate and its checks."""
+    ik = Program()
+    for s_ in pose_inputs() + tuple(p.symbol for p in robot.parameters):
+        ik.declare(s_)
+    p = {q.name: q.symbol for q in robot.parameters}
+    n = len(robot.legs)
+    coords, checks = [], {}
+    for i, leg in enumerate(robot.legs):
+        tag = str(i + 1)
+        g = leg.geometry(sp.Matrix(POSE6), ROTATION, p)
+        coords.append(ik.let(f"l_{tag}", g["length"]))
+        for name in leg.checks:
+            checks.setdefault(name, []).append(ik.let(f"{name}_{tag}", g[name]))
+    outputs = {"q": ((n, 1), coords)}
+    outputs.update({name: ((n,), v) for name, v in checks.items()})
+    return ik, outputs
+
+
+def _rotation_rate(k: int) -> sp.Matrix:
+    """dR/d(eps) for a unit rotation about base axis ``k``: ``[e_k]x R``."""
+    return skew(sp.Matrix([int(k == 0), int(k == 1), int(k == 2)])) * ROTATION
+
+
+def _along_twists(prog: Program, col: sp.Matrix, joint, row: sp.Matrix) -> sp.Matrix:
+    """6x6 matrix whose column k is d(col)/d(eps) along the platform's unit twist e_k
+    (``[omega; v]`` at the origin, base axes): the origin moves by v, ``dR = [omega]x R``,
+    and the leg's coordinate ``joint`` by ``row . e_k`` (its inverse-Jacobian row)."""
+    d_pos = [derivative(prog, col, s_) for s_ in POSE6]
+    d_rot = {(i, j): derivative(prog, col, ROTATION[i, j]) for i in range(3) for j in range(3)}
+    d_q = derivative(prog, col, joint)
+    G = sp.zeros(6, 6)
+    for k in range(6):
+        if k < 3:
+            dR = _rotation_rate(k)
+            c = sum((d_rot[i, j] * dR[i, j] for i in range(3) for j in range(3) if dR[i, j] != 0), sp.zeros(6, 1))
+        else:
+            c = d_pos[k - 3]
+        G[:, k] = c + d_q * row[k]
+    return G
+
+
+def derive_chain(robot: ChainRobot) -> DerivedModel:
+    """The :class:`~eigentwist.symbolic.model.DerivedModel` of a joint-list robot.
+
+    * ``ik``: pose (x, y, z m; R_ij) -> ``q`` (legs, 1), each leg's actuated coordinate
+      (m for a prismatic actuator: the leg length), and the legs' check quantities;
+    * ``program``: leg coordinates, pose, parameters and switches -> M (Eq. 12: platform,
+      payload and every body of every leg), K_R (Eq. 14: ``sum_i k_act,i j_a,i^T j_a,i``
+      with the joint-series effects in series with k_a, N/m), K_F (= K_R: legs with six
+      freedoms have no constraint wrench), ``J_rows`` (legs, 6, 6: the actuated joint's
+      row first, then the other unit twists in chain order), ``lever`` (w_a . t_a),
+      and the gravity terms ``G`` (legs, 1, 6, 6: d(j_a^T)/d(platform twist)), ``Kqe``
+      (legs, 1, 1), ``k_act`` (legs,), ``W`` (6,) the preload wrench at the origin.
+    """
+    from .model import DerivedModel, EffectSymbols
 
     fx = EffectSymbols(robot)
+    _check_effects(robot, fx)
+    ik, ik_outputs = _inverse_kinematics(robot)
+    joints = [sym(f"l_{i + 1}") for i in range(len(robot.legs))]
     prog = Program()
-    for s_ in _pose_inputs() + [p.symbol for p in robot.parameters] + fx.inputs():
+    for s_ in joints + list(pose_inputs()) + [p.symbol for p in robot.parameters] + fx.inputs():
         prog.declare(s_)
     p = {q.name: q.symbol for q in robot.parameters}
     origin = sp.Matrix(POSE6)
-    M = _platform_inertia(robot, fx)
-    K = sp.zeros(6, 6)
-    screws, rows_a, levers, coords = [], [], [], []
+    S = _platform_inertia(robot, fx)
+    M = S
+    K = _ground_springs(fx)
+    screws, J_rows, levers, G, Kqe, k_acts = [], [], [], [], [], []
     for i, leg in enumerate(robot.legs):
         tag = str(i + 1)
         geometry = {k: (prog.let_matrix(f"{k}_{tag}", v) if isinstance(v, sp.MatrixBase) else prog.let(f"{k}_{tag}", v))
-                    for k, v in leg.geometry(origin, ROTATION, p).items()}
+                    for k, v in leg.geometry(origin, ROTATION, p, joints[i]).items()}
         ls = chain_screws(prog, leg, geometry, origin, tag)
         screws.append(ls)
         for b in leg.bodies:
@@ -192,17 +254,47 @@ def derive_chain(robot: ChainRobot) -> ChainModel:
         k_act = prog.let(f"k_act_{tag}", 1 / prog.let(f"c_act_{tag}", c_act))
         row = ls.rows[ls.actuated]
         K += k_act * row.T * row
-        rows_a.append(row)
+        order = [ls.actuated] + [k for k in range(6) if k != ls.actuated]
+        J_rows.append(sp.Matrix.vstack(*[ls.rows[k] for k in order]))
         levers.append(ls.levers[ls.actuated])
-        coords.append(geometry.get("length", sp.nan))
+        G.append(_along_twists(prog, row.T, joints[i], row))
+        Kqe.append(k_act)
+        k_acts.append(k_act)
     n = len(robot.legs)
-    flat6 = lambda m: [m[i, j] for i in range(6) for j in range(6)]  # noqa: E731
+    flat = lambda m: [m[i, j] for i in range(m.rows) for j in range(m.cols)]  # noqa: E731
     outputs = {
-        "matrices": {"M": ((6, 6), flat6(M)), "K_R": ((6, 6), flat6(K))},
-        "jacobians": {"J_a": ((n, 6), [e for r in rows_a for e in r]), "lever": ((n,), levers),
-                      "q_a": ((n,), coords)},
+        "matrices": {"M": ((6, 6), flat(M)), "K_R": ((6, 6), flat(K)), "K_F": ((6, 6), flat(K))},
+        "jacobians": {"J_rows": ((n, 6, 6), [e for r in J_rows for e in flat(r)]), "lever": ((n,), levers)},
+        "gravity": {
+            "G": ((n, 1, 6, 6), [e for g in G for e in flat(g)]),
+            "Kqe": ((n, 1, 1), Kqe),
+            "k_act": ((n,), k_acts),
+            "W": ((6,), list(_preload_wrench(S, fx))),
+        },
     }
-    return ChainModel(robot, prog, outputs, screws)
+    return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=pose_inputs())
+
+
+def _ground_springs(fx) -> sp.Matrix:
+    """Springs between the platform and the ground at the origin (K = A^T K_local A)."""
+    K = sp.zeros(6, 6)
+    for e in fx.of_kind("ground_spring"):
+        on, (K_local, rotation, origin) = fx.term(e)
+        K += on * stiffness_to_frame(sp.Matrix(K_local), sp.Matrix(rotation), sp.Matrix(origin))
+    return K
+
+
+def _preload_wrench(S: sp.Matrix, fx) -> sp.Matrix:
+    """Static wrench [moment; force] (N m; N) at the platform origin of the platform and
+    payload inertia ``S`` (base axes) under each preload's acceleration (Eq. 13)."""
+    mass = S[3, 3]
+    first_moment = sp.Matrix([S[2, 4], S[0, 5], S[1, 3]])          # m c, from m [c]x
+    W = sp.zeros(6, 1)
+    for e in fx.of_kind("preload"):
+        on, g = fx.term(e)
+        g = sp.Matrix(g)
+        W += on * sp.Matrix.vstack(first_moment.cross(g), mass * g)
+    return W
 
 
 def _platform_inertia(robot: ChainRobot, fx) -> sp.Matrix:

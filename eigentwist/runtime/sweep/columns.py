@@ -21,7 +21,13 @@ def manifest(spec: SweepSpec, complete: bool, backend: str = "", lowest_file: st
     return {"format": FORMAT, "version": 1, "spec": spec.to_dict(), "backend": backend,
             "n_rows": spec.n_rows, "n_chunks": spec.n_chunks, "n_modes": spec.n_modes, "axes": list(AXES),
             "design_names": list(spec.design_names), "complete": complete, "lowest": lowest_file,
-            "units": {"pose": "m", "k_a": sweep_evaluator(spec.robot, spec.backend).parameter("k_a").unit, "freq_hz": "Hz", "direction": "index into axes, -1: unreachable"}}
+            "units": {"pose": "m" if len(pose_columns(spec)) == 3 else "m, rad", "k_a": sweep_evaluator(spec.robot, spec.backend).parameter("k_a").unit, "freq_hz": "Hz", "direction": "index into axes, -1: unreachable"}}
+
+
+def pose_columns(spec: SweepSpec) -> tuple:
+    """Table column names of the pose: ``x, y, z``; a 6-DoF robot adds ``rot_x, rot_y, rot_z``
+    (rad; ``rx, ry, rz`` stay mode labels)."""
+    return tuple(getattr(sweep_evaluator(spec.robot, spec.backend).robot, "pose", ("x", "y", "z")))
 
 
 def chunk_file(index: int) -> str:
@@ -33,7 +39,7 @@ WIDE = {"freq_hz": "f{}_hz", "direction": "dir{}"}   # (n, modes) arrays as one 
 
 def flat_columns(columns: dict, spec: SweepSpec) -> dict:
     """Named 1-D columns for a table: x, y, z, k_a, <varied names>, f1_hz.., dir1.., and the rest."""
-    out = {a: columns["pose"][:, k] for k, a in enumerate("xyz")}
+    out = {a: columns["pose"][:, k] for k, a in enumerate(pose_columns(spec))}
     out["k_a"] = columns["k_a"]
     out.update({name: columns["design"][:, k] for k, name in enumerate(spec.design_names)})
     for key, val in columns.items():
@@ -49,9 +55,10 @@ def flat_columns(columns: dict, spec: SweepSpec) -> dict:
 def unflat_columns(table: dict, spec: SweepSpec) -> dict:
     """The inverse of :func:`flat_columns`."""
     n = len(table["k_a"])
-    out = {"pose": np.column_stack([table[a] for a in "xyz"]), "k_a": np.asarray(table["k_a"]),
+    names = pose_columns(spec)
+    out = {"pose": np.column_stack([table[a] for a in names]), "k_a": np.asarray(table["k_a"]),
            "design": np.column_stack([table[n_] for n_ in spec.design_names]) if spec.vary else np.empty((n, 0))}
-    used = set("xyz") | {"k_a"} | set(spec.design_names)
+    used = set(names) | {"k_a"} | set(spec.design_names)
     for key, pattern in WIDE.items():
         names = [pattern.format(j + 1) for j in range(spec.n_modes)]
         if names[0] in table:

@@ -43,7 +43,7 @@ class LowestTracker:
         pose (m) and pose_index where it occurs, direction (mode 1 there), n_reachable."""
         case = np.arange(self.spec.n_cases, dtype=np.int64)
         k_a, design = self.spec.case_values(case)
-        pose = np.full((len(case), 3), np.nan)
+        pose = np.full((len(case), len(self.spec.poses.box)), np.nan)
         found = self.pose_index >= 0
         pose[found] = self.spec.poses.take(self.pose_index[found])
         return {"case": case, "k_a": k_a, "design": design, "freq_hz": self.freq.copy(), "pose": pose,

@@ -27,10 +27,12 @@ POSE_BLOCK = 65536           # random poses are drawn in seeded blocks of this m
 
 @dataclass(frozen=True)
 class PoseSet:
-    """End-effector positions in a box ``((xlo, xhi), (ylo, yhi), (zlo, zhi))`` (m).
+    """End-effector positions in a box ``((xlo, xhi), (ylo, yhi), (zlo, zhi))`` (m); for a
+    6-DoF robot six ranges, the rotation vector's three in rad (poses (n, 6)).
 
-    ``kind="grid"``: ``shape = (nx, ny, nz)`` points per axis, ends included (an axis
-    with one point sits at the middle of its interval), x slowest, z fastest.
+    ``kind="grid"``: ``shape = (nx, ny, nz)`` points per axis (six counts for a 6-DoF
+    box), ends included (an axis with one point sits at the middle of its interval),
+    the first axis slowest, the last fastest.
     ``kind="random"``: ``n`` uniform samples, reproducible from ``seed`` and
     independent of the chunk size (drawn in blocks of :data:`POSE_BLOCK`).
     """
@@ -51,25 +53,26 @@ class PoseSet:
         return np.array([0.5 * (lo + hi)]) if self.shape[k] == 1 else np.linspace(lo, hi, self.shape[k])
 
     def take(self, index: np.ndarray) -> np.ndarray:
-        """Positions (m), shape (len(index), 3), of the poses numbered ``index``."""
+        """Poses, shape (len(index), len(box)), of the poses numbered ``index``."""
         index = np.asarray(index, dtype=np.int64)
+        dim = len(self.box)
         if self.kind == "grid":
             ijk = np.unravel_index(index, self.shape)
-            return np.column_stack([self.axis(k)[ijk[k]] for k in range(3)])
+            return np.column_stack([self.axis(k)[ijk[k]] for k in range(dim)])
         lo = np.array([b[0] for b in self.box])
         hi = np.array([b[1] for b in self.box])
         block, row = np.divmod(index, POSE_BLOCK)
-        unit = np.empty((len(index), 3))
+        unit = np.empty((len(index), dim))
         for b in np.unique(block):
             here = block == b
-            unit[here] = _random_block(self.seed, int(b))[row[here]]
+            unit[here] = _random_block(self.seed, int(b), dim)[row[here]]
         return lo + (hi - lo) * unit
 
 
 @lru_cache(maxsize=4)
-def _random_block(seed: int, block: int) -> np.ndarray:
-    """Uniform [0, 1) samples, (POSE_BLOCK, 3), of block ``block`` of stream ``seed``."""
-    out = np.random.default_rng([seed, block]).random((POSE_BLOCK, 3))
+def _random_block(seed: int, block: int, dim: int = 3) -> np.ndarray:
+    """Uniform [0, 1) samples, (POSE_BLOCK, dim), of block ``block`` of stream ``seed``."""
+    out = np.random.default_rng([seed, block]).random((POSE_BLOCK, dim))
     out.flags.writeable = False
     return out
 
@@ -128,8 +131,9 @@ class SweepSpec:
 
     @property
     def n_modes(self) -> int:
-        """3 for a rigid model (translational subset), 6 for a flexible one."""
-        return 3 if sweep_evaluator(self.robot, self.backend).kind(self.model) == "rigid" else 6
+        """3 for a 3-DoF robot's rigid model (translational subset), else 6."""
+        ev = sweep_evaluator(self.robot, self.backend)
+        return ev.rigid_size() if ev.kind(self.model) == "rigid" else 6
 
     # ------------------------------------------------------------ arithmetic
     def chunk_rows(self, chunk: int) -> range:
@@ -180,13 +184,18 @@ def sweep_evaluator(robot: str, backend: str) -> Evaluator:
 def _box(box, robot) -> tuple:
     if box is None:
         return tuple(tuple(float(v) for v in b) for b in robot.workspace)
+    names = tuple(getattr(robot, "pose", ("x", "y", "z")))
     flat = np.asarray(box, dtype=float).reshape(-1)
-    if flat.shape != (6,) or not np.isfinite(flat).all():
-        raise InputError(f"box {np.asarray(box).tolist()}: expected six finite numbers XLO XHI YLO YHI ZLO ZHI in m")
-    pairs = tuple((float(flat[2 * k]), float(flat[2 * k + 1])) for k in range(3))
-    for name, (lo, hi) in zip("xyz", pairs):
+    if flat.shape != (2 * len(names),) or not np.isfinite(flat).all():
+        what = " ".join(f"{a.upper()}LO {a.upper()}HI" for a in names)
+        unit = "m" if len(names) == 3 else "m and rad"
+        count = {6: "six", 12: "twelve"}.get(2 * len(names), str(2 * len(names)))
+        raise InputError(f"box {np.asarray(box).tolist()}: expected {count} finite numbers {what} in {unit}")
+    pairs = tuple((float(flat[2 * k]), float(flat[2 * k + 1])) for k in range(len(names)))
+    for name, (lo, hi) in zip(names, pairs):
         if lo > hi:
-            raise InputError(f"box {name} range [{lo:g}, {hi:g}] m: expected LO <= HI")
+            raise InputError(f"box {name} range [{lo:g}, {hi:g}] {'rad' if name.startswith('rot') else 'm'}: "
+                             "expected LO <= HI")
     return pairs
 
 
@@ -199,9 +208,13 @@ def _pose_set(grid, random, seed, box) -> PoseSet:
         if int(seed) != seed or seed < 0:
             raise InputError(f"seed {seed!r}: expected an integer >= 0")
         return PoseSet("random", box, n=int(random), seed=int(seed))
-    shape = tuple(grid) if grid is not None else (5, 5, 5)
-    if len(shape) != 3 or any(int(s) != s or s < 1 for s in shape):
-        raise InputError(f"grid {list(shape)}: expected three integers NX NY NZ >= 1")
+    dim = len(box)
+    shape = tuple(grid) if grid is not None else (5, 5, 5) if dim == 3 else (3,) * dim
+    if dim > 3 and len(shape) == 3:
+        shape += (1,) * (dim - 3)      # positions only: the rotation at the middle of its box
+    if len(shape) != dim or any(int(s) != s or s < 1 for s in shape):
+        raise InputError(f"grid {list(shape)}: expected {'three' if dim == 3 else dim} integers >= 1, one per pose "
+                         "coordinate" + (" (NX NY NZ)" if dim == 3 else ""))
     return PoseSet("grid", box, shape=tuple(int(s) for s in shape))
 
 
@@ -223,9 +236,12 @@ def make_spec(robot: str = "heli4", *, model: str = "paper", backend: str = "num
               chunk_size: int = DEFAULT_CHUNK_SIZE) -> SweepSpec:
     """Validate a sweep against the robot's description and return its :class:`SweepSpec`.
 
-    grid : (nx, ny, nz) poses per axis (default (5, 5, 5) when ``random`` is None);
+    grid : (nx, ny, nz) poses per axis (default (5, 5, 5) when ``random`` is None); a
+        6-DoF robot takes six counts (default 3 per axis), or three: positions only, the
+        rotation at the middle of its box;
     random, seed : a uniform sample of ``random`` poses, reproducible from ``seed``;
-    box : six numbers XLO XHI YLO YHI ZLO ZHI (m), default the robot's workspace;
+    box : six numbers XLO XHI YLO YHI ZLO ZHI (m), default the robot's workspace; a
+        6-DoF robot takes twelve, its rotation vector's ranges in rad last;
     k_a : values in N m/rad (a number or a sequence), default the description's;
     vary : ``{name: values}`` or ``[(name, values)]`` in SI units, first slowest;
     fixed : ``{name: value}`` for every row.
