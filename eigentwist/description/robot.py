@@ -12,6 +12,7 @@ from typing import Any
 import sympy as sp
 
 from .parameters import Parameter
+from .pose import TranslationPose
 
 __all__ = ["resolve_effects", "Leg", "EECompliance", "Coupling", "RobotDescription"]
 
@@ -188,6 +189,13 @@ class RobotDescription:
     constraints: tuple = ()
     #: names of the pose coordinates (issue 15): ``x, y, z`` (m) for a 3-DoF translational robot
     pose: tuple = ("x", "y", "z")
+    #: how the pose enters the derivation (:mod:`.pose`): a translational platform
+    pose_space: Any = field(default_factory=TranslationPose)
+
+    @property
+    def platform_inertia(self) -> sp.Matrix:
+        """The platform's spatial inertia at its origin (the EE's, Eq. 31)."""
+        return self.ee_inertia
 
     def parameter(self, name: str) -> Parameter:
         for p in self.parameters:
