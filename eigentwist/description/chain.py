@@ -4,7 +4,7 @@ A :class:`ChainLeg` lists its joints from the base to the platform and the bodie
 carry. Axes and locations are *names* of vectors that the leg's closed-form geometry
 (:attr:`ChainLeg.geometry`) returns at the current pose, or explicit 3-tuples of
 parameter expressions; every location is a point in base-frame coordinates. The
-derivation (:mod:`eigentwist.symbolic.chain`) turns the list into unit twists,
+derivation (:func:`eigentwist.symbolic.derive`, :mod:`eigentwist.symbolic.leg`) turns the list into unit twists,
 reciprocal wrenches and inverse-Jacobian rows by Huang's method without knowing which
 chain it is.
 """

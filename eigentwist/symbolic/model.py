@@ -2,15 +2,18 @@
 
 ``derive(robot)`` returns two straight-line programs over named SymPy symbols:
 
-* ``ik``: pose (x, y, z in m) and design parameters -> joint angles of every leg
-  (rad) and the reachability quantities;
+* ``ik``: pose (x, y, z in m; a 6-DoF robot's rotation matrix R_ij too) and design
+  parameters -> joint coordinates of every leg (rad; m for a prismatic joint) and the
+  reachability quantities;
 * ``program``: joint angles, design parameters and effect switches -> M (Eq. 12),
   K_R (Eq. 14), K_F (Eq. 13 with tau_e = 0), the legs' inverse-Jacobian rows, and the
   gravity-preload terms of Eq. 13.
 
-Every leg is read from its joint list (:class:`~eigentwist.description.Leg`: joints,
-bodies, frames and its closed-form kinematics as data); nothing here depends on which
-robot or which chain it is. Every number of the design is a symbol; nothing numeric is
+Every robot goes through the one :func:`derive`. Every leg is read from its joint list
+(:class:`~eigentwist.description.Leg`, :class:`~eigentwist.description.chain.ChainLeg`:
+joints, bodies, frames and its closed-form kinematics as data), the pose from the robot's
+pose space (:mod:`eigentwist.description.pose`); nothing here depends on which robot or
+which chain it is (``tests/test_no_branch.py``). Every number of the design is a symbol; nothing numeric is
 baked into the expressions.
 """
 from __future__ import annotations
@@ -38,10 +41,12 @@ class DerivedModel:
     ``outputs`` maps a group name to ``{output name: (shape, list of expressions)}``:
 
     * ``matrices``: ``M``, ``K_R``, ``K_F`` (6, 6) in kg/kg m/kg m^2 and N/m, N, N m;
-    * ``jacobians``: ``J_rows`` (legs, n_q + n_c, 6): inverse-Jacobian rows of the joints
-      of the IK coordinates, then of the virtual joints (RR(Pi)RR: joints 1, 2, 3 and
-      the virtual joint, (legs, 4, 6)); ``lever`` (legs,): actuation lever w_a1 . t_a1
-      with w_a1 a unit force (m);
+    * ``jacobians``: ``J_rows`` (legs, rows, 6): the inverse-Jacobian rows each leg's
+      kinematics reports (``jacobian_rows``; RR(Pi)RR: joints 1, 2, 3 and the virtual
+      joint, (legs, 4, 6); the hexapod: the actuated joint's, then the other five,
+      (legs, 6, 6)); ``lever`` (legs,): the leg kinematics' actuation lever (RR(Pi)RR:
+      w_a1 . t_a1 with w_a1 a unit force, m; a pose-driven leg: the determinant of its
+      six unit twists);
     * ``gravity``: ``G`` (legs, n_e, 6, 6), the matrices multiplying the elastic joint
       torques tau_e (the actuated joint, then the virtual joints; RR(Pi)RR: 2) in the
       first term of Eq. 13 (sum_j d(J_e,i^-T col k)/d theta_j . row j of J_i^-1,
@@ -59,7 +64,8 @@ class DerivedModel:
     joints: list
     screws: list = field(default_factory=list)
     #: symbols the IK program takes per pose (``x, y, z`` m for a 3-DoF robot; a 6-DoF
-    #: robot adds its rotation, see :mod:`eigentwist.symbolic.chain`)
+    #: robot adds its rotation matrix R_ij: ``robot.pose_space.inputs``,
+    #: :mod:`eigentwist.description.pose`)
     pose_inputs: tuple = POSE
 
     @property
