@@ -189,6 +189,12 @@ class ChainRobot:
     actuator_stiffness : k_a as an expression; its unit is the actuated joint's
         (N/m for prismatic, N m/rad for revolute actuators).
     effects : catalogue names or :class:`~eigentwist.description.effects.Effect` objects.
+    pose_space : how the pose enters the derivation (:class:`~.pose.RigidPose`).
+
+    It offers the derivation (:func:`eigentwist.symbolic.derive`) the interface a
+    :class:`~eigentwist.description.RobotDescription` does: legs with joint lists and
+    ``kinematics``, ``platform_inertia``, ``actuator_stiffness``, ``couplings`` (none),
+    ``tool_body``, ``rigid_compliance`` (unused: its legs have six freedoms).
     """
 
     name: str

@@ -150,7 +150,8 @@ class RobotDescription:
       of the user's own (their parameters are added to ``parameters`` when missing);
     * ``couplings``: :class:`Coupling` of each platform body other than the tool body
       (``tool_body``); legs name the body they attach to (``Leg.platform_body``);
-    * ``x_ref``: reference pose (m);
+    * ``x_ref``: reference pose (m); ``pose``: its coordinates' names; ``pose_space``:
+      how the pose enters the derivation (:class:`~.pose.TranslationPose`);
     * ``constraints``: conditions on several parameters together
       (:mod:`.constraints`: tube radii, inertia triangle inequalities).
     """
