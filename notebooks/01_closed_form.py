@@ -123,8 +123,10 @@ show(r"\hat t_{c}", sp.Matrix.vstack(c_hat, leg.vectors["a"].cross(c_hat)))
 
 # %% [markdown]
 # The twist of restriction $\hat t_c$ is a rotation about $\hat c_{11}$ through $a_1$. The reciprocal
-# wrenches $\hat w_{a1}\ldots\hat w_{a5}$ and the wrench of constraint $\hat w_c$ (Appendix A), written with
-# the leg's named vectors ($\hat r_{12}$: parallelogram centre line, $\hat s_{14}$, $f_{12}$, $f_{15}$):
+# wrenches $\hat w_{a1}\ldots\hat w_{a5}$ and the wrench of constraint $\hat w_c$ (Appendix A) are not
+# written by hand: each is the generalised cross product of the other five unit twists, from their 5x5
+# minors (named intermediates `mn_...`; Huang's method for any joint list), so the leg's named vectors
+# ($\hat r_{12}$: parallelogram centre line, $\hat s_{14}$, ...) enter through the twists only:
 
 # %%
 W = sp.Matrix.hstack(*[leg.wrenches[k] for k in (1, 2, 3, 4, 5, "c")])

@@ -1,69 +1,93 @@
-"""The chain derivation reproduces the Heli4's RR(Pi)RR leg (issue 15, step 1 evidence).
+"""Huang's method on joint lists (issue 15): the rows are those of the inverse twist matrix.
 
-One Heli4 leg written as a ChainLeg joint list (R, R, Pi, R, R and the virtual joint of
-its twist of restriction) gives, through :func:`eigentwist.symbolic.chain.chain_screws`,
-the same inverse-Jacobian rows and the same body terms of Eq. 12 as the Heli4's own
-derivation (:func:`eigentwist.symbolic.leg.leg_screws`, its description's joint list),
-at random joint angles (1e-12). The numbers of the hand-built leg that preceded both are
-pinned in ``tests/data/chain_pin.npz`` (``tests/test_chain_equivalence.py``).
+:func:`eigentwist.symbolic.leg.leg_screws` builds each leg's unit twists from its joint
+list (a table from the joint kind to its twists) and the inverse-Jacobian rows from
+5x5 minors, never a 6x6 inverse. Checked here against independent computations at
+random configurations:
+
+* a Heli4 leg (R, R, Pi, R, R and its twist of restriction): the six rows stacked are
+  the inverse of the matrix of the six unit twists (``numpy.linalg.inv``), 1e-12;
+* a hexapod leg (U, P, S): the actuated row is the strut's line in Pluecker coordinates,
+  ``[(r x s)^T, s^T]`` (r: the platform joint from the platform origin, s: the strut
+  direction; the length rate of a rigid motion ``[omega; v]`` is ``s . (v + omega x r)``),
+  and the leg's ``determinant`` is that of its six unit twists (``numpy.linalg.det``);
+* a leg whose joints give fewer than six twists is refused, naming the virtual joint.
 """
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
 import sympy as sp
 
 from eigentwist.description import sym
-from eigentwist.description.chain import ChainBody, ChainJoint, ChainLeg
 from eigentwist.robots import get
-from eigentwist.symbolic.chain import body_inertia, chain_screws
-from eigentwist.symbolic.inertia import body_inertia_contribution, parallelogram_inertia
 from eigentwist.symbolic.leg import leg_screws
 from eigentwist.symbolic.program import Program
 
-JOINTS = (ChainJoint("R", ("s",), "base", actuated=True), ChainJoint("R", ("s",), "elbow"),
-          ChainJoint("Pi", ("s3",)), ChainJoint("R", ("s4",), "a"), ChainJoint("R", ("s",), "a"),
-          ChainJoint("virtual", ("ch",), "a"))
 
-
-def _both(leg_index: int):
-    robot = get("heli4")
+def _program(robot, joints):
     prog = Program()
-    q = tuple(prog.declare(sym(f"q{k}")) for k in (1, 2, 3))
-    for p in robot.parameters:
-        prog.declare(p.symbol)
-    ls = leg_screws(prog, robot.legs[leg_index], q, "1")
-    g = {"s": ls.vectors["s"], "s3": ls.vectors["s3"], "s4": ls.vectors["s4"], "a": ls.vectors["a"],
-         "base": ls.frames["J1"][1], "elbow": ls.frames["E1"][1], "ch": ls.twists["c"][:3, 0]}
-    for f in ("J1", "C3"):
-        g.update({f"{f}{k}": ls.frames[f][0][:, k] for k in range(3)})
-        g[f"{f}o"] = ls.frames[f][1]
-    rod = robot.rod
-    inertia = {"J1": robot.lower_link_inertia, "C3": parallelogram_inertia(rod["r_i"], rod["r_o"], rod["rho"], robot.l2)}
-    bodies = tuple(ChainBody(f, n, inertia[f], (f"{f}0", f"{f}1", f"{f}2"), f"{f}o") for f, n in (("J1", 1), ("C3", 3)))
-    leg = ChainLeg("leg", JOINTS, bodies, geometry=None)
-    cs = chain_screws(prog, leg, g, sp.zeros(3, 1), "c")
-    return robot, prog, q, ls, leg, cs, inertia
+    for s_ in list(joints) + list(robot.pose_space.program_inputs) + [p.symbol for p in robot.parameters]:
+        prog.declare(s_)
+    return prog
+
+
+def _num(prog, values, expr) -> np.ndarray:
+    return np.array(prog.evaluate(values, sp.Matrix(expr)), dtype=float)
 
 
 @pytest.mark.parametrize("leg_index", [0, 2])
-def test_heli4_leg_as_a_joint_list(leg_index):
-    robot, prog, q, ls, leg, cs, inertia = _both(leg_index)
-    assert leg.freedoms == 5 and cs.actuated == 0
-    pairs = [(ls.rows[k], cs.rows[i]) for i, k in enumerate((1, 2, 3, None, 5, "c")) if k is not None]
-    pairs += [(body_inertia_contribution(prog, ls, {b.name: b for b in robot.legs[leg_index].bodies}[f], inertia[f], f"h{f}"),
-               body_inertia(prog, cs, leg, b, sp.zeros(3, 1), f"c{f}")) for (f, n), b in zip((("J1", 1), ("C3", 3)), leg.bodies)]
+def test_heli4_rows_invert_the_twist_matrix(leg_index):
+    robot = get("heli4")
+    q = tuple(sym(f"q{k}") for k in (1, 2, 3))
+    prog = _program(robot, q)
+    ls = leg_screws(prog, robot.legs[leg_index], q, robot.pose_space, "1")
+    assert ls.keys == [1, 2, 3, 4, 5, "c"]
     rng = np.random.default_rng(leg_index)
     for _ in range(2):
-        values = {**robot.defaults, **dict(zip(q, rng.uniform([-0.6, 0.8, -0.3], [0.2, 1.8, 0.3])))}
-        for ref, got in pairs:
-            a = np.array(prog.evaluate(values, ref), dtype=float)
-            b = np.array(prog.evaluate(values, got), dtype=float)
-            assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max()
+        values = {**robot.defaults, **{s_.name: v for s_, v in zip(q, rng.uniform([-0.6, 0.8, -0.3], [0.2, 1.8, 0.3]))}}
+        T = np.hstack([_num(prog, values, ls.twists[k]) for k in ls.keys])
+        rows = np.vstack([_num(prog, values, ls.rows[k]) for k in ls.keys])
+        want = np.linalg.inv(T)
+        assert np.abs(rows - want).max() <= 1e-12 * np.abs(want).max()
+
+
+def test_hexapod_actuated_row_is_the_strut_line():
+    robot = get("hexapod")
+    leg = robot.legs[3]
+    pose = robot.pose_space
+    length = sym("l_4")
+    prog = _program(robot, (length,))
+    ls = leg_screws(prog, leg, (length,), pose, "4")
+    rng = np.random.default_rng(4)
+    for _ in range(2):
+        x = np.array([0, 0, 0.8]) + rng.uniform(-0.05, 0.05, 3)
+        angle, axis = rng.uniform(0.05, 0.15), rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        R = np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+        d = {**robot.defaults}
+        b_deg, a_deg = (130, 170)                          # leg 4's joints (issue 15)
+        b = d["R_b"] * np.array([np.cos(np.radians(b_deg)), np.sin(np.radians(b_deg)), 0])
+        top = x + R @ (d["R_p"] * np.array([np.cos(np.radians(a_deg)), np.sin(np.radians(a_deg)), 0]))
+        strut = top - b
+        s = strut / np.linalg.norm(strut)
+        values = {**d, "l_4": np.linalg.norm(strut), "x": x[0], "y": x[1], "z": x[2],
+                  **{f"R_{i}{j}": R[i, j] for i in range(3) for j in range(3)}}
+        act = ls.keys[leg.kinematics.jacobian_rows[0]]
+        want = np.concatenate([np.cross(top - x, s), s])
+        assert np.abs(_num(prog, values, ls.rows[act]).ravel() - want).max() <= 1e-12
+        T = np.hstack([_num(prog, values, ls.twists[k]) for k in ls.keys])
+        det = float(prog.evaluate(values, ls.determinant))
+        assert abs(det - np.linalg.det(T.T)) <= 1e-12 * abs(det)
 
 
 def test_a_leg_needs_six_twists():
-    robot, prog, q, ls, leg, cs, inertia = _both(0)
-    short = ChainLeg("short", JOINTS[:5], (), geometry=None)
+    robot = get("heli4")
+    q = tuple(sym(f"q{k}") for k in (1, 2, 3))
+    prog = _program(robot, q)
+    short = replace(robot.legs[0], joints=robot.legs[0].joints[:5])
     with pytest.raises(ValueError, match="virtual"):
-        chain_screws(prog, short, cs.geometry, sp.zeros(3, 1), "d")
+        leg_screws(prog, short, q, robot.pose_space, "1")

@@ -88,13 +88,9 @@ def fused_kernels_for(model) -> list[Kernel]:
 
 
 def derive_any(description):
-    """The :class:`~eigentwist.symbolic.model.DerivedModel` of a description: Heli4-type
-    descriptions by :func:`~eigentwist.symbolic.derive`, joint-list robots (the hexapod)
-    by :func:`~eigentwist.symbolic.chain.derive_chain`."""
-    from ..description.chain import ChainRobot
-    from ..symbolic.chain import derive_chain
-
-    return derive_chain(description) if isinstance(description, ChainRobot) else derive(description)
+    """The :class:`~eigentwist.symbolic.model.DerivedModel` of any description, by the one
+    derivation :func:`~eigentwist.symbolic.derive` (kept as a name for its callers)."""
+    return derive(description)
 
 
 def _template_text(backend: str) -> str:

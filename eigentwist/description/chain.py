@@ -4,7 +4,7 @@ A :class:`ChainLeg` lists its joints from the base to the platform and the bodie
 carry. Axes and locations are *names* of vectors that the leg's closed-form geometry
 (:attr:`ChainLeg.geometry`) returns at the current pose, or explicit 3-tuples of
 parameter expressions; every location is a point in base-frame coordinates. The
-derivation (:mod:`eigentwist.symbolic.chain`) turns the list into unit twists,
+derivation (:func:`eigentwist.symbolic.derive`, :mod:`eigentwist.symbolic.leg`) turns the list into unit twists,
 reciprocal wrenches and inverse-Jacobian rows by Huang's method without knowing which
 chain it is.
 """
@@ -15,10 +15,11 @@ from typing import Any, Callable
 
 import sympy as sp
 
-from .parameters import Parameter
+from .parameters import Parameter, sym
+from .pose import RigidPose
 from .robot import resolve_effects
 
-__all__ = ["JOINT_FREEDOMS", "ChainJoint", "ChainBody", "ChainLeg", "ChainRobot"]
+__all__ = ["JOINT_FREEDOMS", "ChainJoint", "ChainBody", "PoseKinematics", "ChainLeg", "ChainRobot"]
 
 #: number of unit twists each joint kind contributes; ``"virtual"`` is the twist of
 #: restriction of a leg with fewer than six freedoms (one per constraint wrench, Huang's
@@ -59,6 +60,11 @@ class ChainJoint:
     def freedoms(self) -> int:
         return JOINT_FREEDOMS[self.kind]
 
+    @property
+    def virtual(self) -> bool:
+        """True for a twist of restriction (a constraint of the leg, not a freedom)."""
+        return self.kind == "virtual"
+
 
 @dataclass(frozen=True)
 class ChainBody:
@@ -75,6 +81,64 @@ class ChainBody:
     rotation: tuple
     origin: Any
     doc: str = ""
+
+
+class _ParameterSymbols(dict):
+    """``{name: symbol}`` of any parameter name, made on demand (``sym(name)``)."""
+
+    def __missing__(self, name: str):
+        return sym(name)
+
+
+@dataclass(frozen=True)
+class PoseKinematics:
+    """Closed form of a leg whose geometry follows from the platform pose, with one IK
+    coordinate: the actuated joint's (e.g. a UPS strut's length, m).
+
+    ``leg`` is the :class:`ChainLeg` whose ``geometry(position, rotation, p, q=None)``
+    gives the named vectors; ``coordinate`` names the geometry entry that is the actuated
+    joint's coordinate (``"length"``); ``symbol`` prefixes its IK output (``l_1``, ...).
+    """
+
+    leg: "ChainLeg"
+    coordinate: str = "length"
+    symbol: str = "l"
+
+    @property
+    def checks(self) -> tuple:
+        return self.leg.checks
+
+    @property
+    def coordinates(self) -> tuple:
+        """(index of the actuated joint, rate 1): the IK's one coordinate per leg."""
+        return ((next(j for j, joint in enumerate(self.leg.joints) if joint.actuated), sp.Integer(1)),)
+
+    @property
+    def jacobian_rows(self) -> tuple:
+        """Indices of the unit twists whose inverse-Jacobian rows ``J_rows`` reports: the
+        actuated joint's first, then every other in chain order."""
+        of = [j for j, joint in enumerate(self.leg.joints) for _ in range(joint.freedoms)]
+        act = [k for k, j in enumerate(of) if self.leg.joints[j].actuated]
+        return tuple(act + [k for k in range(len(of)) if k not in act])
+
+    def inverse_kinematics(self, prog, leg, pose, tag: str):
+        """Append the leg's coordinate (``l_<tag>``) and its checks at ``pose`` (a pose
+        space, :mod:`.pose`) to ``prog``; returns ``((coordinate,), {check: value})``."""
+        g = self.leg.geometry(pose.position, pose.rotation, _ParameterSymbols())
+        q = prog.let(f"{self.symbol}_{tag}", g[self.coordinate])
+        return (q,), {name: prog.let(f"{name}_{tag}", g[name]) for name in self.checks}
+
+    def geometry(self, prog, leg, q: tuple, pose, tag: str) -> dict:
+        """The leg's named vectors at ``pose`` with its coordinate ``q`` (from the IK),
+        each appended to ``prog`` as ``<name>_<tag>``."""
+        g = self.leg.geometry(pose.position, pose.rotation, _ParameterSymbols(), q[0])
+        return {k: (prog.let_matrix(f"{k}_{tag}", v) if isinstance(v, sp.MatrixBase) else prog.let(f"{k}_{tag}", v))
+                for k, v in g.items()}
+
+    def lever(self, screws, key):
+        """The actuation lever the runtime's singularity check reads: the determinant of
+        the leg's six unit twists (chain order), zero where they are dependent."""
+        return screws.determinant
 
 
 @dataclass(frozen=True)
@@ -98,6 +162,12 @@ class ChainLeg:
     geometry: Callable
     platform_body: str = "platform"
     checks: tuple = ()
+    frames: tuple = ()
+
+    @property
+    def kinematics(self) -> PoseKinematics:
+        """The leg's closed form as the derivation reads it (:class:`PoseKinematics`)."""
+        return PoseKinematics(self)
 
     @property
     def freedoms(self) -> int:
@@ -119,6 +189,12 @@ class ChainRobot:
     actuator_stiffness : k_a as an expression; its unit is the actuated joint's
         (N/m for prismatic, N m/rad for revolute actuators).
     effects : catalogue names or :class:`~eigentwist.description.effects.Effect` objects.
+    pose_space : how the pose enters the derivation (:class:`~.pose.RigidPose`).
+
+    It offers the derivation (:func:`eigentwist.symbolic.derive`) the interface a
+    :class:`~eigentwist.description.RobotDescription` does: legs with joint lists and
+    ``kinematics``, ``platform_inertia``, ``actuator_stiffness``, ``couplings`` (none),
+    ``tool_body``, ``rigid_compliance`` (unused: its legs have six freedoms).
     """
 
     name: str
@@ -134,6 +210,13 @@ class ChainRobot:
     effects: tuple = field(default=())
     custom_effects: tuple = field(default=())
     constraints: tuple = ()
+    #: how the pose enters the derivation (:mod:`.pose`): a platform free in 6 DoF
+    pose_space: Any = field(default_factory=RigidPose)
+    #: compliant couplings between platform bodies (none: every leg on the tool body)
+    couplings: tuple = ()
+    tool_body: str = "platform"
+    #: compliance of each virtual joint (Eq. 42); unused by legs with six freedoms
+    rigid_compliance: Any = sp.Integer(0)
 
     def __post_init__(self):
         resolve_effects(self)

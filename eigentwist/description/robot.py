@@ -12,6 +12,7 @@ from typing import Any
 import sympy as sp
 
 from .parameters import Parameter
+from .pose import TranslationPose
 
 __all__ = ["resolve_effects", "Leg", "EECompliance", "Coupling", "RobotDescription"]
 
@@ -149,7 +150,8 @@ class RobotDescription:
       of the user's own (their parameters are added to ``parameters`` when missing);
     * ``couplings``: :class:`Coupling` of each platform body other than the tool body
       (``tool_body``); legs name the body they attach to (``Leg.platform_body``);
-    * ``x_ref``: reference pose (m);
+    * ``x_ref``: reference pose (m); ``pose``: its coordinates' names; ``pose_space``:
+      how the pose enters the derivation (:class:`~.pose.TranslationPose`);
     * ``constraints``: conditions on several parameters together
       (:mod:`.constraints`: tube radii, inertia triangle inequalities).
     """
@@ -188,6 +190,13 @@ class RobotDescription:
     constraints: tuple = ()
     #: names of the pose coordinates (issue 15): ``x, y, z`` (m) for a 3-DoF translational robot
     pose: tuple = ("x", "y", "z")
+    #: how the pose enters the derivation (:mod:`.pose`): a translational platform
+    pose_space: Any = field(default_factory=TranslationPose)
+
+    @property
+    def platform_inertia(self) -> sp.Matrix:
+        """The platform's spatial inertia at its origin (the EE's, Eq. 31)."""
+        return self.ee_inertia
 
     def parameter(self, name: str) -> Parameter:
         for p in self.parameters:

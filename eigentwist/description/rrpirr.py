@@ -74,8 +74,19 @@ class RRPiRRKinematics:
     def coordinates(self) -> tuple:
         return ((0, sp.Integer(1)), (1, sp.Integer(1)), (2, self.l2))
 
-    def inverse_kinematics(self, prog, leg: Leg, pose: sp.Matrix, tag: str):
-        """Append the IK of ``leg`` at EE position ``pose`` (m) to ``prog`` (facts file).
+    #: unit twists (chain order) whose inverse-Jacobian rows ``J_rows`` reports: those of
+    #: joints 1, 2, 3 (the IK coordinates) and the virtual joint
+    jacobian_rows = (0, 1, 2, 5)
+
+    def lever(self, screws, key):
+        """The actuation lever (m): the reciprocal product ``w_a1 . t_a1`` of the actuation
+        wrench scaled to a unit force, taken positive; ``l1 s.(r1 x r2)``."""
+        force = screws.wrenches[key][3:, 0]
+        return sp.sqrt(screws.products[key] ** 2 / force.dot(force))
+
+    def inverse_kinematics(self, prog, leg: Leg, pose, tag: str):
+        """Append the IK of ``leg`` at EE position ``pose.position`` (m; ``pose``: the
+        robot's pose space, :mod:`.pose`) to ``prog`` (facts file).
 
         ``C_i = P + a_i``, ``D_i = C_i - B_i``; ``sin q3 = D_i . s_i / l2``; in the plane
         (u_i, -e_z) the two-link solution with lengths l1 and l2 cos q3 on the branch where
@@ -84,7 +95,7 @@ class RRPiRRKinematics:
         """
         l1, l2 = self.l1, self.l2
         u, s, a, B = (leg.vector(k) for k in ("radial", "axis", "attachment", "base"))
-        D = prog.let_matrix(f"D_{tag}", pose + a - B)
+        D = prog.let_matrix(f"D_{tag}", pose.position + a - B)
         sin_q3 = prog.let(f"sin_q3_{tag}", D.dot(s) / l2)
         q3 = prog.let(f"q3_{tag}", sp.asin(sin_q3))
         lp = prog.let(f"lp_{tag}", l2 * sp.cos(q3))
@@ -95,8 +106,9 @@ class RRPiRRKinematics:
         q1 = prog.let(f"q1_{tag}", sp.atan2(rho_z, rho_u) - sp.atan2(lp * sp.sin(q2), l1 + lp * sp.cos(q2)))
         return (q1, q2, q3), {"sin_q3": sin_q3, "cos_q2": cos_q2}
 
-    def geometry(self, prog, leg: Leg, q: tuple, tag: str) -> dict:
-        """The leg's named vectors at joint angles ``q = (q1, q2, q3)`` (rad), appended to
+    def geometry(self, prog, leg: Leg, q: tuple, pose, tag: str) -> dict:
+        """The leg's named vectors at joint angles ``q = (q1, q2, q3)`` (rad; the pose
+        enters through them only), appended to
         ``prog``: directions ``u, s, r1`` (lower link), ``w`` (parallelogram plane),
         ``r2`` (parallelogram centre line), ``s3`` (Pi translation), ``s4``, ``ch``
         (twist of restriction), ``n1 = r1 x s``, ``n2 = r2 x s3``; points (m from the EE

@@ -1,33 +1,34 @@
-"""The inverse-kinematics program of a translational robot: pose -> every leg's joint angles.
+"""The inverse-kinematics program of any robot: pose -> every leg's joint coordinates.
 
-Each leg carries its own closed form (``Leg.kinematics``, e.g. the RR(Pi)RR legs of
-:mod:`eigentwist.description.rrpirr`); this module only strings the legs together. For a
-pose P = (x, y, z) (m, base frame, end-effector rotation 0) the program gives each leg's
-joint coordinates ``q`` (rad) and its reachability quantities (``checks``, named by the
-leg's kinematics: ``sin_q3`` and ``cos_q2`` for RR(Pi)RR legs, reachable iff both lie in
-[-1, 1]); the runtime checks them and names the pose and the leg when they fail.
+Each leg carries its own closed form (``Leg.kinematics``: the RR(Pi)RR legs of
+:mod:`eigentwist.description.rrpirr`, the pose-driven legs of
+:class:`eigentwist.description.chain.PoseKinematics`); this module only strings the legs
+together. For a pose (the robot's ``pose_space.inputs``: x, y, z in m, and for a 6-DoF
+robot the rotation matrix R_ij) the program gives each leg's joint coordinates ``q`` (rad,
+or m for a prismatic joint) and its reachability quantities (``checks``, named by the
+leg's kinematics: ``sin_q3`` and ``cos_q2`` for RR(Pi)RR legs, ``cos_u`` for the
+hexapod's, reachable iff they lie in [-1, 1]); the runtime checks them and names the pose
+and the leg when they fail.
 """
 from __future__ import annotations
 
-import sympy as sp
-
-from ..description import RobotDescription, sym
+from ..description import RobotDescription
+from ..description.pose import POSE
 from .program import Program
 
 __all__ = ["POSE", "inverse_kinematics"]
 
-POSE = (sym("x"), sym("y"), sym("z"))
 
 
 def inverse_kinematics(robot: RobotDescription):
-    """``(ik, outputs, q_all)``: the IK program over ``POSE`` and the parameters, its
+    """``(ik, outputs, q_all)``: the IK program over the pose inputs and the parameters, its
     outputs ``{"q": ((legs, n_q), ...), <check>: ((legs,), ...)}`` and each leg's joint
     coordinate symbols. Raises ``ValueError`` when the legs' closed forms differ in their
     numbers of coordinates or in their checks."""
     ik = Program()
-    for s_ in list(POSE) + [p.symbol for p in robot.parameters]:
+    pose = robot.pose_space
+    for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
         ik.declare(s_)
-    pose = sp.Matrix(POSE)
     q_all, checks = [], {}
     for i, leg in enumerate(robot.legs, start=1):
         if leg.kinematics is None:

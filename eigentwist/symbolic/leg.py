@@ -3,12 +3,12 @@
 The leg (:class:`~eigentwist.description.Leg`) lists its joints (kind, axes and location
 as names of its geometry) and the closed form that places them at the joint angles
 (``leg.kinematics.geometry``). Each joint gives its unit twists ``[omega; v]`` at the
-end-effector origin (:func:`eigentwist.symbolic.chain.joint_twists`); a leg with fewer
+platform origin (:func:`joint_twists`: a table from the joint kind to its twists); a leg with fewer
 than six freedoms lists one ``virtual`` joint (its twist of restriction) per constraint.
 Huang's method (Eq. 15 of the facts file) gives the row of twist k of the leg's inverse
 Jacobian as ``w_k^T / (w_k . t_k)``, with ``w_k`` reciprocal to the five other unit
 twists: their generalised cross product from 5x5 minors
-(:func:`eigentwist.symbolic.chain.reciprocal_wrench`), never a 6x6 inverse. The wrench
+(:func:`reciprocal_wrench`), never a 6x6 inverse. The wrench
 of a virtual joint is a constraint wrench; the others are actuation wrenches. Nothing
 here depends on which chain the leg is.
 """
@@ -19,11 +19,79 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..description import Leg
-from .chain import joint_twists, reciprocal_wrench
 from .program import Program
-from .screw import reciprocal_product
+from .screw import pure_translation, reciprocal_product, unit_twist
 
-__all__ = ["LegScrews", "leg_screws"]
+__all__ = ["LegScrews", "leg_screws", "joint_twists", "reciprocal_wrench", "TWISTS"]
+
+BASE_AXES = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+
+
+def _vector(geometry: dict, item) -> sp.Matrix:
+    return sp.Matrix(geometry[item]) if isinstance(item, str) else sp.Matrix(item)
+
+
+def _rotations(axes, location, geometry: dict, origin: sp.Matrix) -> list:
+    point = _vector(geometry, location) - origin
+    return [unit_twist(_vector(geometry, a), point) for a in axes]
+
+
+def _translation(axes, location, geometry: dict, origin: sp.Matrix) -> list:
+    return [pure_translation(_vector(geometry, axes[0]))]
+
+
+#: the unit twists of each joint kind: rotations about its axes through its location (R,
+#: U, S and the virtual joint's twist of restriction), or a translation along its axis
+#: (P, and Pi: a curvilinear translation)
+TWISTS = {"R": _rotations, "U": _rotations, "S": _rotations, "virtual": _rotations,
+          "P": _translation, "Pi": _translation}
+
+
+def joint_twists(joint, geometry: dict, origin: sp.Matrix) -> list[sp.Matrix]:
+    """The unit twists ``[omega; v]`` of one joint at the platform origin ``origin`` (m,
+    the frame of the geometry's points), base axes (none given: the base axes)."""
+    return TWISTS[joint.kind](joint.axes or BASE_AXES, joint.location, geometry, origin)
+
+
+def _minor(prog: Program, T: sp.Matrix, rows: tuple, cols: tuple, memo: dict, tag: str):
+    """Determinant of ``T[rows, cols]`` by Laplace expansion along its first row,
+    sub-minors named once (``mn_<tag>_<rows>_<cols>``) and zero entries skipped."""
+    key = (rows, cols)
+    if key in memo:
+        return memo[key]
+    if len(rows) == 1:
+        return T[rows[0], cols[0]]
+    total = sp.Integer(0)
+    for k, c in enumerate(cols):
+        entry = T[rows[0], c]
+        if entry == 0:
+            continue
+        sub = _minor(prog, T, rows[1:], cols[:k] + cols[k + 1:], memo, tag)
+        if sub != 0:
+            total += (-1) ** k * entry * sub
+    name = f"mn_{tag}_{''.join(map(str, rows))}_{''.join(map(str, cols))}"
+    memo[key] = prog.let(name, total) if len(rows) > 1 else total
+    return memo[key]
+
+
+def reciprocal_wrench(prog: Program, T: sp.Matrix, others: tuple, memo: dict, tag: str) -> sp.Matrix:
+    """Wrench reciprocal to the five unit twists ``T[others, :]`` (rows of T): their
+    generalised cross product, ``w_j = (-1)^j det(T[others, all but j])``."""
+    cols = tuple(range(6))
+    return sp.Matrix([(-1) ** j * _minor(prog, T, others, cols[:j] + cols[j + 1:], memo, tag) for j in range(6)])
+
+
+def _parity(order: list) -> int:
+    """Sign (+1 or -1) of the permutation ``order`` of ``range(len(order))``."""
+    sign, seen = 1, set()
+    for start in range(len(order)):
+        k, length = start, 0
+        while k not in seen:
+            seen.add(k)
+            k, length = order[k], length + 1
+        if length and length % 2 == 0:
+            sign = -sign
+    return sign
 
 
 @dataclass
@@ -39,8 +107,13 @@ class LegScrews:
     rows : inverse-Jacobian rows ``w / (w . t)`` (1x6) of each twist: its joint rate
         per unit platform twist (m/s per m/s for a P or Pi joint).
     keys : the twists' keys in chain order; ``joint_of``: the index of each one's joint.
-    frames : (rotation, origin) of the leg's named frames (``Leg.frames``).
+    frames : (rotation, origin) of the leg's named frames (``Leg.frames``), origins
+        from the platform origin.
     vectors : the leg's geometry at the joint angles (named vectors and scalars).
+    origin : the platform origin in the geometry's coordinates (m; zero when the
+        geometry's points are measured from it).
+    determinant : det of the six unit twists as rows in chain order (the reciprocal
+        product of any twist with its wrench, up to the sign of the twists' order).
     """
 
     twists: dict
@@ -51,6 +124,8 @@ class LegScrews:
     joint_of: list
     frames: dict
     vectors: dict
+    origin: sp.Matrix
+    determinant: sp.Expr
 
     def twists_of(self, joints: int) -> list:
         """Keys of the twists of the first ``joints`` joints of the chain."""
@@ -59,11 +134,11 @@ class LegScrews:
 
 def _keys(leg: Leg) -> tuple[list, list]:
     """Twist keys and joint indices in chain order: 1, 2, ... then c (or c1, c2, ...)."""
-    n_virtual = sum(j.freedoms for j in leg.joints if j.kind == "virtual")
+    n_virtual = sum(j.freedoms for j in leg.joints if j.virtual)
     keys, joint_of, real, virtual = [], [], 0, 0
     for j, joint in enumerate(leg.joints):
         for _ in range(joint.freedoms):
-            if joint.kind == "virtual":
+            if joint.virtual:
                 virtual += 1
                 keys.append("c" if n_virtual == 1 else f"c{virtual}")
             else:
@@ -73,13 +148,15 @@ def _keys(leg: Leg) -> tuple[list, list]:
     return keys, joint_of
 
 
-def leg_screws(prog: Program, leg: Leg, q: tuple, tag: str) -> LegScrews:
-    """Build the screws of ``leg`` at its joint coordinates ``q`` (the IK's, rad) in ``prog``.
+def leg_screws(prog: Program, leg: Leg, q: tuple, pose, tag: str) -> LegScrews:
+    """Build the screws of ``leg`` at its joint coordinates ``q`` (the IK's: rad, or m for
+    a P joint) and the pose space ``pose`` (:mod:`eigentwist.description.pose`: the twists
+    are taken at ``pose.origin``) in ``prog``.
 
     Raises ``ValueError`` when the joint list does not give six unit twists.
     """
-    g = leg.kinematics.geometry(prog, leg, q, tag)
-    origin = sp.zeros(3, 1)                         # the geometry is measured from the EE origin
+    g = leg.kinematics.geometry(prog, leg, q, pose, tag)
+    origin = pose.origin
     keys, joint_of = _keys(leg)
     if len(keys) != 6:
         raise ValueError(f"{leg.name}: {len(keys)} unit twists: a leg with fewer than six freedoms lists one "
@@ -99,6 +176,8 @@ def leg_screws(prog: Program, leg: Leg, q: tuple, tag: str) -> LegScrews:
         recip = prog.let(f"rp{k}_{tag}", reciprocal_product(w, twists[k]))
         wrenches[k], products[k] = w, recip
         rows[k] = prog.let_matrix(f"j{k}_{tag}", w.T / recip)
-    frames = {name: (sp.Matrix.hstack(*[sp.Matrix(g[a]) for a in axes]), sp.Matrix(g[origin_name]))
+    frames = {name: (sp.Matrix.hstack(*[sp.Matrix(g[a]) for a in axes]), sp.Matrix(g[origin_name]) - origin)
               for name, axes, origin_name in leg.frames}
-    return LegScrews(twists, wrenches, products, rows, keys, joint_of, frames, g)
+    first = [0] + [m for m in order if m != 0]
+    determinant = _parity(first) * products[keys[0]]
+    return LegScrews(twists, wrenches, products, rows, keys, joint_of, frames, g, origin, determinant)

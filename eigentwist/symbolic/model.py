@@ -2,15 +2,18 @@
 
 ``derive(robot)`` returns two straight-line programs over named SymPy symbols:
 
-* ``ik``: pose (x, y, z in m) and design parameters -> joint angles of every leg
-  (rad) and the reachability quantities;
+* ``ik``: pose (x, y, z in m; a 6-DoF robot's rotation matrix R_ij too) and design
+  parameters -> joint coordinates of every leg (rad; m for a prismatic joint) and the
+  reachability quantities;
 * ``program``: joint angles, design parameters and effect switches -> M (Eq. 12),
   K_R (Eq. 14), K_F (Eq. 13 with tau_e = 0), the legs' inverse-Jacobian rows, and the
   gravity-preload terms of Eq. 13.
 
-Every leg is read from its joint list (:class:`~eigentwist.description.Leg`: joints,
-bodies, frames and its closed-form kinematics as data); nothing here depends on which
-robot or which chain it is. Every number of the design is a symbol; nothing numeric is
+Every robot goes through the one :func:`derive`. Every leg is read from its joint list
+(:class:`~eigentwist.description.Leg`, :class:`~eigentwist.description.chain.ChainLeg`:
+joints, bodies, frames and its closed-form kinematics as data), the pose from the robot's
+pose space (:mod:`eigentwist.description.pose`); nothing here depends on which robot or
+which chain it is (``tests/test_no_branch.py``). Every number of the design is a symbol; nothing numeric is
 baked into the expressions.
 """
 from __future__ import annotations
@@ -38,10 +41,12 @@ class DerivedModel:
     ``outputs`` maps a group name to ``{output name: (shape, list of expressions)}``:
 
     * ``matrices``: ``M``, ``K_R``, ``K_F`` (6, 6) in kg/kg m/kg m^2 and N/m, N, N m;
-    * ``jacobians``: ``J_rows`` (legs, n_q + n_c, 6): inverse-Jacobian rows of the joints
-      of the IK coordinates, then of the virtual joints (RR(Pi)RR: joints 1, 2, 3 and
-      the virtual joint, (legs, 4, 6)); ``lever`` (legs,): actuation lever w_a1 . t_a1
-      with w_a1 a unit force (m);
+    * ``jacobians``: ``J_rows`` (legs, rows, 6): the inverse-Jacobian rows each leg's
+      kinematics reports (``jacobian_rows``; RR(Pi)RR: joints 1, 2, 3 and the virtual
+      joint, (legs, 4, 6); the hexapod: the actuated joint's, then the other five,
+      (legs, 6, 6)); ``lever`` (legs,): the leg kinematics' actuation lever (RR(Pi)RR:
+      w_a1 . t_a1 with w_a1 a unit force, m; a pose-driven leg: the determinant of its
+      six unit twists);
     * ``gravity``: ``G`` (legs, n_e, 6, 6), the matrices multiplying the elastic joint
       torques tau_e (the actuated joint, then the virtual joints; RR(Pi)RR: 2) in the
       first term of Eq. 13 (sum_j d(J_e,i^-T col k)/d theta_j . row j of J_i^-1,
@@ -59,7 +64,8 @@ class DerivedModel:
     joints: list
     screws: list = field(default_factory=list)
     #: symbols the IK program takes per pose (``x, y, z`` m for a 3-DoF robot; a 6-DoF
-    #: robot adds its rotation, see :mod:`eigentwist.symbolic.chain`)
+    #: robot adds its rotation matrix R_ij: ``robot.pose_space.inputs``,
+    #: :mod:`eigentwist.description.pose`)
     pose_inputs: tuple = POSE
 
     @property
@@ -141,28 +147,34 @@ class EffectSymbols:
 
 
 def derive(robot: RobotDescription) -> DerivedModel:
-    """Derive IK, M, K_R, K_F and the gravity terms of ``robot`` symbolically.
+    """Derive IK, M, K_R, K_F and the gravity terms of any ``robot`` symbolically.
 
-    Every leg is read from its joint list (:class:`~eigentwist.description.Leg`): its
-    unit twists, reciprocal wrenches and inverse-Jacobian rows come from Huang's method
-    (:func:`eigentwist.symbolic.leg.leg_screws`), its bodies' inertia from Eq. 12 per
-    body, and its elastic joints are the actuated joint (k_a in series with the
-    joint-series effects, Eq. 34) and each virtual joint (``rigid_compliance``, Eq. 42).
+    Every leg is read from its joint list (:class:`~eigentwist.description.Leg` or
+    :class:`~eigentwist.description.chain.ChainLeg`) and its closed form
+    (``leg.kinematics``); the pose from the robot's ``pose_space``
+    (:mod:`eigentwist.description.pose`). The legs' unit twists, reciprocal wrenches and
+    inverse-Jacobian rows come from Huang's method
+    (:func:`eigentwist.symbolic.leg.leg_screws`), their bodies' inertia from Eq. 12 per
+    body, and their elastic joints are the actuated joint (k_a in series with the
+    joint-series effects, Eq. 34) and each virtual joint (``rigid_compliance``, Eq. 42;
+    a leg with six freedoms has none). Nothing here depends on which robot or chain it is.
     """
     ik, ik_outputs, q_all = inverse_kinematics(robot)
+    pose = robot.pose_space
     fx = EffectSymbols(robot)
     prog = Program()
     joints = [qq for q in q_all for qq in q]
-    for s_ in joints + [p.symbol for p in robot.parameters] + fx.inputs():
+    for s_ in joints + list(pose.program_inputs) + [p.symbol for p in robot.parameters] + fx.inputs():
         prog.declare(s_)
-    M = _platform_inertia(robot, fx)
+    S = _platform_inertia(robot, fx)
+    M = S
     K_ground = _ground_springs(fx)  # in parallel with the legs: in K_R and K_F
     K_R = K_ground
     K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all, k_acts, G = [], [], [], [], [], [], []
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
-        ls = leg_screws(prog, leg, q, tag)
+        ls = leg_screws(prog, leg, q, pose, tag)
         screws.append(ls)
         M += _leg_inertia(prog, fx, leg, ls, i)
         act, virtual, coords = _joint_keys(leg, ls)
@@ -176,9 +188,10 @@ def derive(robot: RobotDescription) -> DerivedModel:
         Kqe = prog.let_matrix(f"Kqe_{tag}", inverse_small(Cq))           # Eq. 40 block
         body = leg.platform_body
         K_groups[body] = K_groups.get(body, sp.zeros(6, 6)) + rows_outer(Je, Kqe)
-        J_rows.append(sp.Matrix.vstack(*[ls.rows[k] for k, _ in coords] + [ls.rows[k] for k in virtual]))
-        levers.append(_lever(prog, ls, act, tag))
-        G += _preload_derivatives(prog, q, ls, coords, [act] + virtual)
+        J_rows.append(sp.Matrix.vstack(*[ls.rows[ls.keys[k]] for k in leg.kinematics.jacobian_rows]))
+        levers.append(prog.let(f"lever_{tag}", leg.kinematics.lever(ls, act)))
+        motion = [(qj, ls.rows[key] / rate) for qj, (key, rate) in zip(q, coords)] + pose.motion()
+        G += _preload_derivatives(prog, motion, ls, [act] + virtual, tag)
         Je_all.append(Je)
         Kqe_all.append(Kqe)
         k_acts.append(k_act)
@@ -198,10 +211,10 @@ def derive(robot: RobotDescription) -> DerivedModel:
             "G": ((n, n_e, 6, 6), [e for g in G for e in _flat(g)]),
             "Kqe": ((n, n_e, n_e), [e for k in Kqe_all for e in _flat(k)]),
             "k_act": ((n,), k_acts),
-            "W": ((6,), list(_preload_wrench(robot, fx))),
+            "W": ((6,), list(_preload_wrench(S, fx))),
         },
     }
-    return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws)
+    return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=tuple(pose.inputs))
 
 
 def _joint_keys(leg, ls: LegScrews):
@@ -211,19 +224,20 @@ def _joint_keys(leg, ls: LegScrews):
     actuated = [j for j, joint in enumerate(leg.joints) if joint.actuated]
     if len(actuated) != 1:
         raise ValueError(f"{leg.name}: {len(actuated)} actuated joints: expected exactly one")
-    virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].kind == "virtual"]
+    virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].virtual]
     coords = [(first[j], rate) for j, rate in leg.kinematics.coordinates]
     return first[actuated[0]], virtual, coords
 
 
 def _platform_inertia(robot: RobotDescription, fx: EffectSymbols) -> sp.Matrix:
-    """Inertia of the platform at the EE origin (Eq. 31) plus added inertia on it (payload)."""
-    M = robot.ee_inertia
+    """Inertia of the platform at its origin (Eq. 31) plus added inertia on it (payload),
+    given in platform axes, in base axes (``pose_space.inertia_in_base``)."""
+    M = robot.platform_inertia
     for e in fx.of_kind("added_inertia"):
         if e.body == "platform":
             on, inertia = fx.term(e)
             M = M + on * inertia
-    return M
+    return robot.pose_space.inertia_in_base(M)
 
 
 def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -> sp.Matrix:
@@ -278,39 +292,40 @@ def _ground_springs(fx: EffectSymbols) -> sp.Matrix:
     return K
 
 
-def _preload_derivatives(prog: Program, q, ls: LegScrews, coords, elastic: list) -> list:
+def _preload_derivatives(prog: Program, motion: list, ls: LegScrews, elastic: list, tag: str) -> list:
     """First term of Eq. 13 for one leg: per elastic joint k, ``d(j_k^T)/dx``, the change
     of its inverse-Jacobian row (a column of J_e^-T) per unit platform twist:
-    ``sum_j d(j_k^T)/d q_j / rate_j . j_(q_j)`` over the IK coordinates q_j, with
-    ``j_(q_j)`` the row of q_j's joint and ``rate_j`` that joint's coordinate per unit of
-    q_j (the Pi joint's coordinate is l2 q3). The rows are those of ``T^-1`` (T: the six
-    unit twists as columns, Huang's method), so ``dj_k/dq = -sum_m (j_k . dt_m/dq) j_m``:
-    only the twists are differentiated, never the minors.
+    ``sum_s d(j_k^T)/ds . rate_s`` over the symbols ``s`` the leg's screws depend on,
+    each with its rate along the six platform unit twists (``motion``: each IK coordinate
+    q_j with ``j_(q_j) / rate_j``, the row of q_j's joint over that joint's coordinate per
+    unit of q_j (the Pi joint's is l2 q3); the pose inputs of a 6-DoF robot with theirs,
+    ``pose_space.motion``). The rows are those of ``T^-1`` (T: the six unit twists as
+    columns, Huang's method), so ``dj_k/ds = -sum_m (j_k . dt_m/ds) j_m``: only the twists
+    are differentiated, never the minors.
 
     With tau_e the elastic joint torques of the loaded state (W_ext = J_e^-T tau_e,
     tau_e = K_qe J_e delta), d(J_e^-T tau_e)/dx gives +(d J_e^-T / d q . tau_e) J^-1:
     the paper's minus sign belongs to the opposite sign convention for tau_e. Checked: a
     hanging load stiffens the lateral modes (pendulum).
     """
-    dT = {qj: {m: derivative(prog, ls.twists[m], qj) for m in ls.keys} for qj in q}
+    dT = {s_: {m: derivative(prog, ls.twists[m], s_) for m in ls.keys} for s_, _ in motion}
     G = []
     for k in elastic:
         Gk = sp.zeros(6, 6)
-        for qj, (key, rate) in zip(q, coords):
+        for s_, rate in motion:
             drow = sp.zeros(1, 6)
             for m in ls.keys:
-                if any(e != 0 for e in dT[qj][m]):
-                    coef = prog.let(f"dj_{k}_{m}_{qj.name}", -(ls.rows[k] * dT[qj][m])[0, 0])
+                if any(e != 0 for e in dT[s_][m]):
+                    coef = prog.let(f"dj_{k}_{m}_{s_.name}_{tag}", -(ls.rows[k] * dT[s_][m])[0, 0])
                     drow += coef * ls.rows[m]
-            Gk += drow.T * (1 / rate) * ls.rows[key]
+            Gk += drow.T * rate
         G.append(Gk)
     return G
 
 
-def _preload_wrench(robot: RobotDescription, fx: EffectSymbols) -> sp.Matrix:
-    """Static wrench [moment; force] (N m; N) at the EE origin of the platform's inertia
-    (EE and added inertia on it) under each preload's acceleration."""
-    S = _platform_inertia(robot, fx)
+def _preload_wrench(S: sp.Matrix, fx: EffectSymbols) -> sp.Matrix:
+    """Static wrench [moment; force] (N m; N) at the platform origin of the platform's
+    inertia ``S`` (with added inertia on it; base axes) under each preload's acceleration."""
     mass = S[3, 3]
     first_moment = sp.Matrix([S[2, 4], S[0, 5], S[1, 3]])          # m c, from m [c]x
     W = sp.zeros(6, 1)
@@ -341,11 +356,3 @@ def _platform_stiffness(prog: Program, robot: RobotDescription, K_groups: dict, 
         Kc = sp.diag(*c.stiffness)
         K_F += condense_coupling(prog, Kp, G, Kc, fx.switch(robot.effect(c.effect)), body)
     return K_F
-
-
-def _lever(prog: Program, ls: LegScrews, act, tag: str):
-    """The actuation lever of leg ``tag`` (m): the reciprocal product ``w_a . t_a`` of
-    its actuation wrench scaled to a unit force, taken positive (the wrench oriented to
-    do positive work on the actuated twist); ``l1 s.(r1 x r2)`` for an RR(Pi)RR leg."""
-    force = ls.wrenches[act][3:, 0]
-    return prog.let(f"lever_{tag}", sp.sqrt(ls.products[act] ** 2 / force.dot(force)))
