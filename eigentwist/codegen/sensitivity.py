@@ -77,7 +77,7 @@ def render_numpy_sensitivity(robot, kernel: Kernel, wrt) -> str:
     return text + f"WRT = {tuple(wrt)!r}\n"
 
 
-def split_parts(kernel: Kernel, kctx: dict, chunk: int = CHUNK) -> list[dict]:
+def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None) -> list[dict]:
     """Cut the kernel's statements into parts of at most ``chunk`` statements.
 
     Each part: ``first``/``last`` statement, ``inputs`` (indices of the inputs it reads),
@@ -88,6 +88,7 @@ def split_parts(kernel: Kernel, kctx: dict, chunk: int = CHUNK) -> list[dict]:
     """
     from .c_backend import c_identifiers
 
+    chunk = chunk or CHUNK
     body = kernel.body
     names = c_identifiers(kernel.input_names + [item[1].name for item in body if item[0] == "let"])
     index = {name: i for i, name in enumerate(kernel.input_names)}
