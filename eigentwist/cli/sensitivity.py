@@ -10,14 +10,19 @@ from .common import add_model_options, eprint, format_table, parse_sets
 
 HELP = "rank design parameters by their effect on the lowest natural frequency (exact derivatives)"
 EPILOG = """examples:
-  eigentwist sensitivity                                   # Heli4 at x_ref, paper model, every parameter
+  eigentwist sensitivity                                   # Heli4 at x_ref, paper model, the default list
   eigentwist sensitivity --wrt l2,E_rod,k_a --pose 0.05 0 -0.6
+  eigentwist sensitivity --wrt all                         # every parameter of the description
+  eigentwist sensitivity --wrt E_rod@2,eta_a@3 --model paper,lower_link_compliance@3
   eigentwist sensitivity --robot delta --model rigid --set l2=0.5 --json
 
 The table ranks parameters by |d ln f1 / d ln p| (the relative sensitivity: the % change of
-the lowest frequency per % change of p) and gives d f1 / d p in Hz per SI unit of p. The
-derivative code is generated on first use for each --wrt list (seconds to a minute, shown
-on stderr) and cached by content hash in $EIGENTWIST_CACHE (default ~/.cache/eigentwist).
+the lowest frequency per % change of p) and gives d f1 / d p in Hz per SI unit of p.
+Default --wrt: k_a and the model's parameters in m, kg and Pa (geometry, masses, moduli;
+15 for the Heli4's paper model). NAME@N is leg N's own value of a leg-level parameter.
+The derivative code is generated on first use for each --wrt list and cached by content
+hash in $EIGENTWIST_CACHE (default ~/.cache/eigentwist), progress on stderr; on one core
+{timing}
 A model with gravity_preload has no generated sensitivities (its stiffness is a run-time solve).
 
 JSON keys: robot, model, pose, freq_hz (every mode), parameters: a list sorted by rank with

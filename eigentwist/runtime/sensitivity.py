@@ -35,6 +35,7 @@ __all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTE
 
 CLUSTER_RTOL = 1e-6        # frequencies closer than this (relative) form one cluster
 _MEMORY: dict = {}
+_ROBOTS: dict = {}
 
 
 def cache_key(ev, wrt) -> str:
@@ -167,6 +168,15 @@ def _select(kern, columns):
     return run
 
 
+def _base(ev) -> tuple:
+    """What identifies an evaluator's kernels in memory (its robot's repr, once per robot object)."""
+    robot = ev.robot
+    held = _ROBOTS.get(id(robot))
+    if held is None or held[0] is not robot:
+        held = _ROBOTS[id(robot)] = (robot, repr(robot))     # repr of a description: ~20 ms
+    return robot.name, getattr(ev.module, "SOURCE_HASH", ""), held[1], ev.backend
+
+
 def sensitivity_kernels(ev, wrt, progress=None):
     """The sensitivity kernel of evaluator ``ev`` for parameters ``wrt`` (its backend).
 
@@ -175,7 +185,7 @@ def sensitivity_kernels(ev, wrt, progress=None):
     already loaded for a superset of ``wrt`` is reused (its rows selected).
     """
     wrt = tuple(wrt)
-    base = (ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), repr(ev.robot), ev.backend)
+    base = _base(ev)
     if (base, wrt) in _MEMORY:
         return _MEMORY[base, wrt]
     for (b, w), kern in list(_MEMORY.items()):
