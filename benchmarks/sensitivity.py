@@ -12,8 +12,9 @@ every parameter of the description, then, best of 3 on ``--n`` random workspace 
 - ``Evaluator.sensitivities`` (checks, kernel, eigen-solve and cluster-aware dω/dp),
 
 as poses/s and as the ratio to the baseline of the same run. One thread (BLAS and OpenMP
-on one thread; the C code is single-threaded). Times: wall clock (``time.perf_counter``)
-and, for generation and compile, CPU time of the process and of the compiler (children).
+on one thread; the C code is single-threaded), so CPU time (``time.process_time``) is the
+core's time even on a shared machine; generation and compile: wall clock and CPU time of
+the process and of the compiler (children).
 """
 from __future__ import annotations
 
@@ -39,11 +40,12 @@ def _children_cpu() -> float:
 
 
 def _best(fn, repeat: int = 3) -> float:
+    """Best CPU time of ``repeat`` calls (one thread: CPU time is the time a core spent)."""
     best = float("inf")
     for _ in range(repeat):
-        t = time.perf_counter()
+        t = time.process_time()
         fn()
-        best = min(best, time.perf_counter() - t)
+        best = min(best, time.process_time() - t)
     return best
 
 
