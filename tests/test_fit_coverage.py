@@ -249,9 +249,14 @@ def test_difference_points_stay_inside_the_search_range(ev_fast):
     assert middle == pytest.approx([0.0, -step, step, 0.0, 0.0, 0.0, 0.0])
 
 
-def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth):
+def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth, monkeypatch):
     meas = _draw(truth, 0.01, 0.01, np.random.default_rng(12))
+    import importlib
+
     from eigentwist.diagnose.fit import STEP, _Objective
+
+    # the central-difference fallback (the package re-exports fit(), hence import_module)
+    monkeypatch.setattr(importlib.import_module("eigentwist.diagnose.fit"), "EXACT_JACOBIAN", False)
 
     predictor = Predictor(meas, TWO, ev_fast)
     tr = [Transform.of(ev_fast.parameters[n]) for n in ("m_p", "k_t")]

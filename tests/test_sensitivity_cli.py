@@ -53,3 +53,18 @@ def test_optimize_prints_design_map_and_active_constraints(ev, capsys):
     assert "worst-case f1" in text and "active constraints" in text
     assert main(["optimize", "--vary", "l1=0.3:0.2"]) == 2
     assert "--vary" in capsys.readouterr().err
+
+
+def test_default_wrt_is_the_models_geometry_masses_moduli_and_k_a():
+    """Without --wrt: k_a and the parameters in m, kg, Pa that act in the model (issue 16)."""
+    from eigentwist.cli.sensitivity import default_wrt
+    from eigentwist.description.effects import resolve_model
+
+    ev = eigentwist.load("heli4", backend="numpy")
+    paper = default_wrt(ev, resolve_model("paper", ev.robot))
+    assert {"l1", "l2", "r_o", "m_e", "k_a", "E_rod"} <= set(paper)
+    # inertias, a ratio, a switched-off effect's modulus and gravity are left to --wrt all
+    assert not {"I1_xx", "eta_a", "E_l1", "k_t", "g"} & set(paper)
+    assert all(ev.parameters[n].unit in ("m", "kg", "Pa") or n == "k_a" for n in paper)
+    rigid = default_wrt(ev, resolve_model("rigid", ev.robot))
+    assert "E_rod" not in rigid and "E_l1" in default_wrt(ev, resolve_model("paper,lower_link_compliance", ev.robot))

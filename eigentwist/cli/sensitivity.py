@@ -10,14 +10,21 @@ from .common import add_model_options, eprint, format_table, parse_sets
 
 HELP = "rank design parameters by their effect on the lowest natural frequency (exact derivatives)"
 EPILOG = """examples:
-  eigentwist sensitivity                                   # Heli4 at x_ref, paper model, every parameter
+  eigentwist sensitivity                                   # Heli4 at x_ref, paper model, the default list
   eigentwist sensitivity --wrt l2,E_rod,k_a --pose 0.05 0 -0.6
+  eigentwist sensitivity --wrt all                         # every parameter of the description
+  eigentwist sensitivity --wrt E_rod@2,eta_a@3 --model paper,lower_link_compliance@3
   eigentwist sensitivity --robot delta --model rigid --set l2=0.5 --json
 
 The table ranks parameters by |d ln f1 / d ln p| (the relative sensitivity: the % change of
-the lowest frequency per % change of p) and gives d f1 / d p in Hz per SI unit of p. The
-derivative code is generated on first use for each --wrt list (seconds to a minute, shown
-on stderr) and cached by content hash in $EIGENTWIST_CACHE (default ~/.cache/eigentwist).
+the lowest frequency per % change of p) and gives d f1 / d p in Hz per SI unit of p.
+Default --wrt: k_a and the model's parameters in m, kg and Pa (geometry, masses, moduli;
+15 for the Heli4's paper model). NAME@N is leg N's own value of a leg-level parameter.
+The derivative code is generated on first use for each --wrt list and cached by content
+hash in $EIGENTWIST_CACHE (default ~/.cache/eigentwist), progress on stderr. Measured on
+one core (Heli4): the default list takes ~35 s of generation once (NumPy backend), then
+~1 s per call; --wrt all ~30-40 s once, plus ~95 s of gcc with --backend c (then 1.5e4
+poses/s). The geometry parameters carry most of that cost: k_a or moduli alone take seconds.
 A model with gravity_preload has no generated sensitivities (its stiffness is a run-time solve).
 
 JSON keys: robot, model, pose, freq_hz (every mode), parameters: a list sorted by rank with
@@ -30,9 +37,27 @@ def add_parser(sub):
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     add_model_options(p)
     p.add_argument("--wrt", default=None, metavar="NAMES",
-                   help="comma-separated parameter names (default: every parameter of the robot)")
+                   help="comma-separated parameter names, NAME@N for leg N's own value, or 'all' (default: k_a "
+                        "and the model's parameters in m, kg and Pa: geometry, masses, moduli)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
+
+
+#: units of the default --wrt: the designer's geometry (m), masses (kg), moduli (Pa) and k_a
+DEFAULT_UNITS = ("m", "kg", "Pa")
+
+
+def default_wrt(ev, effects) -> tuple:
+    """The default ``--wrt``: k_a and the parameters in m, kg or Pa that act in the model.
+
+    Parameters of effects outside the model have zero sensitivity; inertias, densities,
+    ratios and the stiffnesses of the tuning effects are left to ``--wrt all``.
+    """
+    from ..description.effects import base_name
+
+    on = {base_name(e) for e in effects}
+    return tuple(n for n, p in ev.parameters.items()
+                 if (p.effect is None or p.effect in on) and (p.unit in DEFAULT_UNITS or n == "k_a"))
 
 
 def compute(args, progress=None) -> dict:
@@ -46,13 +71,19 @@ def compute(args, progress=None) -> dict:
     if args.k_a is not None:
         params["k_a"] = args.k_a
     effects = resolve_model(args.model, ev.robot)
-    modes, dfdp = frequency_sensitivities(ev, pose, args.wrt, effects, params, progress=progress)
-    wrt = [w.strip() for w in args.wrt.split(",")] if args.wrt else list(ev.parameters)
+    if args.wrt == "all":
+        wrt = list(ev.parameters)
+    elif args.wrt:
+        wrt = [w.strip() for w in args.wrt.split(",") if w.strip()]
+    else:
+        wrt = list(default_wrt(ev, effects))
+    modes, dfdp = frequency_sensitivities(ev, pose, wrt, effects, params, progress=progress)
     f = modes.freq_hz[0]
     rows = []
     for j, name in enumerate(wrt):
-        value = float(params.get(name, ev.defaults[name]))
-        rows.append(dict(name=name, unit=ev.parameters[name].unit, value=value,
+        base = name.partition("@")[0]
+        value = float(params.get(name, params.get(base, ev.defaults[base])))
+        rows.append(dict(name=name, unit=ev.parameter(name).unit, value=value,
                          dfdp_hz_per_unit=dfdp[0, :, j].tolist(),
                          dlnf1_dlnp=float(dfdp[0, 0, j] * value / f[0]) if f[0] > 0 else float("nan")))
     rows.sort(key=lambda r: -abs(r["dlnf1_dlnp"]) if np.isfinite(r["dlnf1_dlnp"]) else 0.0)

@@ -21,15 +21,23 @@ from .numpy_backend import render_numpy
 from .render import TEMPLATES, environment, header
 
 __all__ = ["KERNEL", "sensitivity_kernel", "render_numpy_sensitivity", "render_c_sensitivity", "code_version",
-           "HEADER_COMMAND"]
+           "HEADER_COMMAND", "CHUNK", "split_parts"]
 
 KERNEL = "sensitivities"
 HEADER_COMMAND = "eigentwist.runtime.sensitivity (on demand)"
+#: statements per C function of the sensitivity kernel: gcc's optimiser is superlinear in
+#: a function's size (one 60 000-statement function for Heli4's 38 parameters did not
+#: compile in 5 CPU-minutes), linear in the number of bounded functions. Smaller parts
+#: compile faster but pass more values through memory: on Heli4's first 4 parameters
+#: (10 800 statements, -O2, one core) 2000 gave 5.1e4 poses/s for 31 s of gcc, 5000 gave
+#: 6.7e4 for 38 s, one function 2.6e5 for 420 s.
+CHUNK = 5000
 DOC = ("Cartesian inertia M (Eq. 12), stiffnesses K_R (Eq. 14) and K_F (Eq. 13, tau_e = 0) at the EE origin, and "
        "their derivatives dM, dK_R, dK_F with respect to the design parameters {wrt} (per SI unit of each), "
        "chained through the inverse kinematics (forward mode on the straight-line program).")
 _SOURCES = (Path(__file__), Path(__file__).parent.parent / "symbolic" / "sensitivity.py",
             TEMPLATES / "sensitivity" / "sensitivity.c.jinja", TEMPLATES / "c" / "kernel.c.jinja",
+            TEMPLATES / "c" / "blocks.c.jinja",
             TEMPLATES / "numpy" / "module.py.jinja")
 
 
@@ -72,8 +80,62 @@ def render_numpy_sensitivity(robot, kernel: Kernel, wrt) -> str:
     return text + f"WRT = {tuple(wrt)!r}\n"
 
 
+def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None) -> list[dict]:
+    """Cut the kernel's statements into parts of at most ``chunk`` statements.
+
+    Each part: ``first``/``last`` statement, ``inputs`` (indices of the inputs it reads),
+    ``rows`` (output rows it writes), ``loads`` (``(C name, slot)`` of values defined by
+    an earlier part) and ``lines`` (its statements, each definition that a later part
+    reads followed by its store into row ``slot`` of ``et_s``). Returns the parts and the
+    number of slots in ``kctx["n_spill"]``.
+    """
+    from .c_backend import c_identifiers
+
+    chunk = chunk or CHUNK
+    body = kernel.body
+    names = c_identifiers(kernel.input_names + [item[1].name for item in body if item[0] == "let"])
+    index = {name: i for i, name in enumerate(kernel.input_names)}
+    defined_in: dict = {}
+    uses = []
+    for i, item in enumerate(body):
+        expr = item[2] if item[0] == "let" else item[3]
+        uses.append({s_.name for s_ in expr.free_symbols})
+        if item[0] == "let":
+            defined_in[item[1].name] = i // chunk
+    slots: dict = {}
+    for i, used in enumerate(uses):
+        for name in sorted(used):
+            if name in defined_in and defined_in[name] != i // chunk and name not in slots:
+                slots[name] = len(slots)
+    row = re.compile(r"^et_o(\d+)\[")
+    parts = []
+    for first in range(0, len(body), chunk):
+        last = min(first + chunk, len(body))
+        part_uses = set().union(*uses[first:last])
+        lines, rows = [], []
+        for i in range(first, last):
+            lines.append(kctx["lines"][i])
+            item = body[i]
+            if item[0] == "let" and item[1].name in slots:
+                lines.append(f"et_s[{slots[item[1].name]} * ET_SPILL_STRIDE + et_i] = {names[item[1].name]};")
+            m = row.match(kctx["lines"][i])
+            if m:
+                rows.append(int(m.group(1)))
+        loads = sorted((names[n], slots[n]) for n in part_uses if n in slots and defined_in[n] != first // chunk)
+        parts.append(dict(first=first, last=last, lines=lines, rows=sorted(set(rows)), loads=loads,
+                          inputs=sorted(index[n] for n in part_uses if n in index)))
+    kctx["n_spill"] = max(len(slots), 1)
+    kctx["n_lines"] = len(body)
+    return parts
+
+
 def render_c_sensitivity(robot, kernel: Kernel, wrt) -> str:
-    """The C source of the sensitivity kernel: ``et_<robot>_sens_<kernel>`` and a signature."""
+    """The C source of the sensitivity kernel: ``et_<robot>_sens_<kernel>`` and a signature.
+
+    The statements are split into functions of at most :data:`CHUNK` statements
+    (:func:`split_parts`), so that the compile time stays bounded for any number of
+    parameters.
+    """
     import json
 
     from .c_backend import BLOCK, c_string_literals, kernel_context
@@ -82,9 +144,11 @@ def render_c_sensitivity(robot, kernel: Kernel, wrt) -> str:
     prefix = "et_" + re.sub(r"\W", "_", robot.name) + "_sens"
     units = {p.name: p.unit for p in robot.parameters}
     kctx = kernel_context(kernel, prefix, units)
+    parts = split_parts(kernel, kctx)
     sig = dict(robot=robot.name, prefix=prefix, block=BLOCK, source_hash=digest, wrt=list(wrt),
                function=kctx["cname"], inputs=[[i["group"], i["name"], i["joint"]] for i in kctx["inputs"]],
                outputs=[[o["name"], o["shape"]] for o in kctx["outputs"]])
     return environment().get_template("sensitivity/sensitivity.c.jinja").render(
         header=_header(robot.name, wrt, digest, "//"), robot=robot, prefix=prefix, block=BLOCK, k=kctx,
+        parts=parts, chunk=CHUNK,
         signature=c_string_literals(json.dumps(sig, sort_keys=True, separators=(",", ":"))))

@@ -7,12 +7,13 @@ of the catalogue's fitted parameters: stiffnesses, moduli, masses, inertias, g, 
 theta = (p - p_default)/scale otherwise. The search range is the parameter's physical
 bounds intersected with [p_default/1000, 1000 p_default] (``SPAN``).
 
-The Jacobian is a central difference in theta computed in the same evaluator call as
-the residuals (B = 1 + 2P parameter sets). With ``EXACT_JACOBIAN = True`` it is exact
-instead: the generated design sensitivities of the matched modes
+The Jacobian is exact (``EXACT_JACOBIAN = True``, the default): the generated design
+sensitivities of the matched modes
 (``Predictor.predict_with_jacobian``, one kernel call with the residuals; issue 16),
-falling back to differences where no sensitivity is generated (gravity preload, one
-leg's own values, shape-matched rows). A coarse grid of starts (the new
+falling back, with the reason in ``FitResult.jacobian``, to a central difference in theta
+computed in the same evaluator call as the residuals (B = 1 + 2P parameter sets) where no
+sensitivity is generated (gravity preload) or a row has no single mode (shape-matched rows,
+groups of near-equal modes). A coarse grid of starts (the new
 parameters at 1/10 ... 10 times their start value) is screened in one batch first, so
 a fit does not hinge on the default being close.
 
@@ -43,11 +44,13 @@ STEP = 1e-2         # central-difference step in theta (1 % in p): K_F carries ~
                     # round-off (the 1e-12 rad/(N m) "rigid" compliances), so smaller steps give noise
 START_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
 ROUNDOFF = 1e-9     # relative frequency change per central-difference pair treated as none
-# Exact Jacobians from the generated sensitivities (issue 16) are available but off by
-# default: on a fresh cache they first generate (NumPy) or compile (C, minutes for the
-# catalogue's fitted parameters) a sensitivity kernel, and measured fits took the same
-# number of iterations and time as with central differences. Set True to use them.
-EXACT_JACOBIAN = False
+# Exact Jacobians from the generated sensitivities (issue 16): one kernel for every fitted
+# parameter of the catalogue and each leg's own copy, with the effect switches as inputs,
+# so every candidate model reuses it (generated and compiled once per cache). False: central
+# differences everywhere. Measured (benchmarks/diagnosis_jacobian.py, C, warm): the same
+# selections and values, 0.73-0.93x the speed of differences (1-3 parameters per fit); the
+# first diagnosis on a fresh cache generates and compiles the kernel (~27 s CPU).
+EXACT_JACOBIAN = True
 
 
 @dataclass(frozen=True)
@@ -95,6 +98,7 @@ class FitResult:
     effects : the model; names : fitted parameters; values, std : fitted values and
     standard errors (SI; std inf where the data do not determine a parameter);
     fixed : every parameter value used that differs from the default (fitted included).
+    jacobian : ``"exact"`` (generated sensitivities) or ``"central differences: <why>"``.
     comparison : predictions and errors at the optimum; chi2, n, k, dof, aicc.
     at_bound : names that ended at an edge of their search range.
     """
@@ -114,6 +118,7 @@ class FitResult:
     nfev: int = 0
     at_bound: tuple = ()
     cov_theta: np.ndarray = field(default=None, repr=False)
+    jacobian: str = "exact"
 
     @property
     def dof(self) -> int:
@@ -147,6 +152,7 @@ class _Objective:
         self.cache: dict = {}
         self.nfev = 0
         self.exact = EXACT_JACOBIAN
+        self.fallback = "" if EXACT_JACOBIAN else "EXACT_JACOBIAN is False"
 
     def _sets(self, theta: np.ndarray) -> np.ndarray:
         """theta, then for each j the points theta -/+ STEP e_j (shifted inside the bounds)."""
@@ -164,8 +170,9 @@ class _Objective:
         if key not in self.cache and self.exact:
             try:
                 self.cache = {key: self._exact(theta)}
-            except InputError:            # no generated sensitivities (gravity preload): differences
+            except InputError as exc:     # no generated sensitivities (gravity preload): differences
                 self.exact = False
+                self.fallback = str(exc)
         if key not in self.cache:
             thetas = self._sets(theta)
             values = np.column_stack([t.value(thetas[:, j]) for j, t in enumerate(self.tr)])
@@ -281,4 +288,5 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     at_bound = tuple(t.name for j, t in enumerate(transforms)
                      if min(theta[j] - lo[j], hi[j] - theta[j]) < 1e-6 * max(1.0, abs(theta[j])))
     return FitResult(tuple(effects), names, values, std, all_values, comp, chi2, n, k, aicc(chi2, n, k),
-                     bool(res.success), str(res.message), obj.nfev, at_bound, cov)
+                     bool(res.success), str(res.message), obj.nfev, at_bound, cov,
+                     "exact" if obj.exact else f"central differences: {obj.fallback}")

@@ -131,25 +131,27 @@ class Predictor:
         ``values`` (P,) of ``names``; returns ``(freq_hz (N,), dfdp (N, P))`` in Hz and Hz
         per SI unit of each parameter, from the generated sensitivity kernel (one call:
         :meth:`~eigentwist.runtime.Evaluator.modes_and_sensitivities`). The kernel is
-        generated once for every fitted parameter of the robot's catalogue (plus
-        ``names``), so each effect's fit reuses it. Raises ``InputError`` for models
-        without generated sensitivities (gravity preload).
+        generated once for every fitted parameter of the robot's catalogue and each leg's own
+        value of the leg-level ones (plus ``names``), so each candidate's fit reuses it.
+        Raises ``InputError`` for models without generated sensitivities (gravity preload).
         """
         from ..description.effects import EFFECTS
         from ..runtime.errors import InputError
+        from ..runtime.sensitivity import check_model, sensitivity_kernels
 
         fitted = {n for e in self.ev.effects if e in EFFECTS for n in EFFECTS[e].fit} | set(names)
         wrt = tuple(n for n in self.ev.parameters if n in fitted)
-        missing = [name for name in names if name not in wrt]
-        if missing:                       # one leg's own value (eta_a@3): no generated sensitivity yet
-            raise InputError(f"no generated sensitivity for {', '.join(missing)}")
+        # each leg's own value of the leg-level ones (eta_a@3), so per-leg candidates share the kernel
+        wrt += tuple(f"{n}@{k}" for n in wrt if n in self.ev.leg_parameters for k in range(1, self.ev.n_legs + 1))
+        wrt += tuple(n for n in names if n not in wrt)
         params = self._params({name: float(v) for name, v in zip(names, values)})
-        modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, wrt, self.effects, **params)
+        check_model(self.effects)
+        sensitivity_kernels(self.ev, wrt)      # loaded (or generated) once; ``names`` select its rows
+        modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, tuple(names), self.effects, **params)
         freq, idx = match_frequencies(modes, self.meas.mode, strict=strict, lines=self.meas.lines)
         rows = np.arange(len(idx))
         single = modes.freq_hz[rows, idx]
         if self._shapes() or not np.allclose(freq, single, rtol=1e-13, atol=0.0, equal_nan=True):
             # shape-matched rows or share-weighted groups of near-equal modes: no per-mode derivative
             raise InputError("exact Jacobian only for rows matched to one mode by label")
-        cols = [wrt.index(name) for name in names]
-        return single, dfdp[rows, idx][:, cols]
+        return single, dfdp[rows, idx]

@@ -534,7 +534,10 @@ class Evaluator:
                       **params) -> np.ndarray:
         """d f / d p of the model's natural frequencies, (N, n_modes, len(wrt)), Hz per SI unit.
 
-        ``wrt``: parameter names (default: every parameter of the description). Modes in
+        ``wrt``: parameter names (default: every parameter of the description); ``P@N`` is
+        leg N's own value of a leg-level parameter (a model may scope effects, ``EFFECT@N``,
+        and ``params`` may give legs their own values: then d/dP moves only the legs that
+        follow the shared P). Modes in
         ascending order; frequencies within ``rtol`` (relative) of each other form a cluster
         whose individual derivatives are returned (sorted ascending, never the mean). The
         code is generated on first use for each ``wrt`` and cached (see
@@ -545,17 +548,16 @@ class Evaluator:
     def modes_and_sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
                                 **params):
         """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call."""
-        from .sensitivity import check_model, check_wrt, frequency_derivatives, sensitivity_kernels
+        from .sensitivity import (check_model, check_wrt, frequency_derivatives, kernel_wrt, own_legs,
+                                  sensitivity_kernels, shared_columns)
 
         poses = self._poses(poses)
         effects = resolve_model(model, self.robot)
         check_model(effects)
-        scoped = [e for e in effects if "@" in e] + [k for k in params if "@" in k]
-        if scoped:
-            raise InputError(f"sensitivities with one leg's own values ({', '.join(scoped)}) are not generated yet: "
-                             "expected a model and parameters that act on all legs alike")
         wrt = check_wrt(self, wrt)
-        kern = sensitivity_kernels(self, wrt, progress)
+        own = own_legs(wrt, params)                  # legs whose own P@N does not follow a shared P
+        full = kernel_wrt(wrt, own)
+        kern = sensitivity_kernels(self, full, progress)
         p = self._params(len(poses), params, effects)
         rigid = self.kind(effects) == "rigid"
         parts = []
@@ -564,6 +566,8 @@ class Evaluator:
             self._check_rows(poses[sl], pc, strict=True)
             parts.append(frequency_derivatives(kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc), rigid, rtol))
         freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
+        if own:
+            dfdp = shared_columns(dfdp, wrt, full, own)
         return Modes(freq, vec, AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible"), dfdp
 
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:

@@ -30,10 +30,12 @@ import numpy as np
 from .ccompile import cache_dir
 
 __all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "clusters", "check_wrt",
+           "own_legs", "kernel_wrt", "shared_columns",
            "check_model", "frequency_derivatives", "frequency_sensitivities"]
 
 CLUSTER_RTOL = 1e-6        # frequencies closer than this (relative) form one cluster
 _MEMORY: dict = {}
+_ROBOTS: dict = {}
 
 
 def cache_key(ev, wrt) -> str:
@@ -145,6 +147,9 @@ def _c_kernel(text: str, robot: str):
     prefix = "et_" + re.sub(r"\W", "_", robot) + "_sens"
     errors = []
     for name, flags in flag_sets():
+        # -O2: the kernel's split parts (codegen.sensitivity.CHUNK statements each) compile in
+        # time linear in their number; -O3 adds time, not speed, on this straight-line code
+        flags = ["-O2" if f == "-O3" else f for f in flags]
         try:
             path = build_library(text, f"{robot}_sens", cc, flags)
             return _CKernel(path).bind(prefix)
@@ -163,6 +168,15 @@ def _select(kern, columns):
     return run
 
 
+def _base(ev) -> tuple:
+    """What identifies an evaluator's kernels in memory (its robot's repr, once per robot object)."""
+    robot = ev.robot
+    held = _ROBOTS.get(id(robot))
+    if held is None or held[0] is not robot:
+        held = _ROBOTS[id(robot)] = (robot, repr(robot))     # repr of a description: ~20 ms
+    return robot.name, getattr(ev.module, "SOURCE_HASH", ""), held[1], ev.backend
+
+
 def sensitivity_kernels(ev, wrt, progress=None):
     """The sensitivity kernel of evaluator ``ev`` for parameters ``wrt`` (its backend).
 
@@ -171,7 +185,7 @@ def sensitivity_kernels(ev, wrt, progress=None):
     already loaded for a superset of ``wrt`` is reused (its rows selected).
     """
     wrt = tuple(wrt)
-    base = (ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), repr(ev.robot), ev.backend)
+    base = _base(ev)
     if (base, wrt) in _MEMORY:
         return _MEMORY[base, wrt]
     for (b, w), kern in list(_MEMORY.items()):
@@ -243,12 +257,45 @@ def check_wrt(ev, wrt) -> tuple:
     if isinstance(wrt, str):
         wrt = tuple(w.strip() for w in wrt.split(",") if w.strip())
     wrt = tuple(wrt)
-    unknown = [w for w in wrt if w not in ev.parameters]
+    unknown = [w for w in wrt if w not in ev.parameters and not ev.accepts(w)]
     if unknown or not wrt or len(set(wrt)) != len(wrt):
         what = f"unknown parameter(s) {', '.join(map(repr, unknown))}" if unknown else \
             "an empty list" if not wrt else f"repeated names in {list(wrt)}"
-        raise InputError(f"wrt: {what} for {ev.robot.name}: expected distinct names from {', '.join(ev.parameters)}")
+        legs = f" (NAME@N, N in 1..{ev.n_legs}, for one leg's own value of {', '.join(ev.leg_parameters)})" \
+            if ev.leg_parameters else ""
+        raise InputError(f"wrt: {what} for {ev.robot.name}: expected distinct names from "
+                         f"{', '.join(ev.parameters)}{legs}")
     return wrt
+
+
+def own_legs(wrt, params: dict) -> dict:
+    """``{P: [P@N, ...]}``: shared parameters in ``wrt`` that some legs override in ``params``.
+
+    The kernel's derivative with respect to a shared P moves every leg's copy with P; a leg
+    given its own value (``P@N`` in ``params``) does not follow P, so its column
+    d/dP@N is subtracted (:func:`shared_columns`).
+    """
+    out: dict = {}
+    for key in params:
+        name, at, _ = key.partition("@")
+        if at and name in wrt:
+            out.setdefault(name, []).append(key)
+    return {k: sorted(v) for k, v in out.items()}
+
+
+def kernel_wrt(wrt, own: dict) -> tuple:
+    """``wrt`` and the one-leg names that :func:`shared_columns` needs, without repeats."""
+    extra = [n for name in wrt for n in own.get(name, ()) if n not in wrt]
+    return tuple(wrt) + tuple(dict.fromkeys(extra))
+
+
+def shared_columns(dfdp: np.ndarray, wrt, full, own: dict) -> np.ndarray:
+    """Columns ``wrt`` of ``dfdp`` (computed for ``full``): d/dP less d/dP@N of legs with their own P."""
+    out = dfdp[..., [full.index(n) for n in wrt]].copy()
+    for j, name in enumerate(wrt):
+        for leg_name in own.get(name, ()):
+            out[..., j] -= dfdp[..., full.index(leg_name)]
+    return out
 
 
 def check_model(effects) -> None:

@@ -158,18 +158,36 @@ def _partial(prog: Program, partials: dict, sym_, rhs, dep):
     return partials[key]
 
 
+def _seeds_of(name: str, declared: dict):
+    """The program inputs whose tangent is 1 for a derivative with respect to ``name``.
+
+    ``P``: P itself and, for a leg-level parameter, each leg's own input ``P__N``
+    (issue 11): with every leg at the shared value, d(P__N)/dP = 1 for each of them.
+    ``P@N`` (one leg's own value): ``P__N`` alone. None when ``name`` is no input.
+    """
+    base, at, leg = name.partition("@")
+    if at:
+        own = f"{base}__{leg}"
+        return [declared[own]] if leg.isdigit() and own in declared else None
+    if name not in declared:
+        return None
+    copies = [s_ for nm, s_ in declared.items() if nm.startswith(f"{name}__") and nm[len(name) + 2:].isdigit()]
+    return [declared[name], *copies]
+
+
 def sensitivity_program(model, wrt, progress=None) -> SensitivityModel:
     """Forward-mode derivatives of M, K_R and K_F with respect to the parameters ``wrt``.
 
     Parameters
     ----------
     model : :class:`~eigentwist.symbolic.DerivedModel`.
-    wrt : parameter names (inputs of the model's programs), in the order of the outputs.
+    wrt : parameter names (inputs of the model's programs), in the order of the outputs;
+        ``P@N`` is leg N's own value of a leg-level parameter P (the input ``P__N``).
     progress : optional callable taking a message string.
     """
     prog = combined_program(model)
     declared = {s_.name: s_ for s_ in prog.inputs}
-    unknown = [w for w in wrt if w not in declared]
+    unknown = [w for w in wrt if _seeds_of(w, declared) is None]
     if unknown:
         raise ValueError(f"cannot differentiate with respect to {unknown}: not inputs of the model "
                          f"(expected names from {', '.join(model.parameters)})")
@@ -181,13 +199,11 @@ def sensitivity_program(model, wrt, progress=None) -> SensitivityModel:
     for n, name in enumerate(wrt, start=1):
         if progress:
             progress(f"forward mode {n}/{len(wrt)}: {name}")
-        p = declared[name]
-        # a leg-level parameter also enters as each leg's own input P__N (issue 11); with
-        # every leg at the shared value, d(P__N)/dP = 1 for each of them
-        copies = [s_ for nm, s_ in declared.items() if nm.startswith(f"{name}__") and nm[len(name) + 2:].isdigit()]
-        tangents = {p: sp.Integer(1), **{c: sp.Integer(1) for c in copies}}
+        seeds = _seeds_of(name, declared)
+        tag = sp.Symbol(name.replace("@", "_at_"))
+        tangents = {c: sp.Integer(1) for c in seeds}
         for sym_, rhs in base:
-            t = _tangent(prog, partials, tangents, sym_, rhs, p)
+            t = _tangent(prog, partials, tangents, sym_, rhs, tag)
             if t != 0:
                 tangents[sym_] = t
         for k in OUTPUTS:

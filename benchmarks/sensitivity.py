@@ -1,0 +1,107 @@
+"""Figures of issue 16: sensitivity throughput (all parameters, C, one thread) and compile time.
+
+    PYTHONPATH=. python benchmarks/sensitivity.py                  # Heli4 and Delta, warm cache
+    PYTHONPATH=. python benchmarks/sensitivity.py --cold --n 2000  # fresh cache: generation + compile
+
+For each robot: the time to generate (SymPy forward mode, CSE, render) and compile (gcc,
+the kernel split into functions of ``CHUNK`` statements) the C sensitivity kernel for
+every parameter of the description, then, best of 3 on ``--n`` random workspace poses:
+
+- ``Evaluator.frequencies`` (the baseline: IK, M, K_F, eigen-solve, C backend),
+- the raw sensitivity kernel (M, K and dM/dp, dK/dp for every parameter),
+- ``Evaluator.sensitivities`` (checks, kernel, eigen-solve and cluster-aware dω/dp),
+
+as poses/s and as the ratio to the baseline of the same run. One thread (BLAS and OpenMP
+on one thread; the C code is single-threaded), so CPU time (``time.process_time``) is the
+core's time even on a shared machine; generation and compile: wall clock and CPU time of
+the process and of the compiler (children).
+"""
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _best(fn, repeat: int = 3) -> float:
+    """Best CPU time of ``repeat`` calls (one thread: CPU time is the time a core spent)."""
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.process_time()
+        fn()
+        best = min(best, time.process_time() - t)
+    return best
+
+
+def run(robot: str, n: int, wrt_kind: str) -> dict:
+    import numpy as np
+
+    import eigentwist
+    from eigentwist.cli.sensitivity import default_wrt
+    from eigentwist.codegen.sensitivity import CHUNK
+    from eigentwist.description.effects import resolve_model
+    from eigentwist.runtime.sensitivity import sensitivity_kernels
+
+    ev = eigentwist.load(robot, backend="c")
+    wrt = tuple(ev.parameters) if wrt_kind == "all" else default_wrt(ev, resolve_model("paper", ev.robot))
+    rng = np.random.default_rng(16)
+    lo = np.array([a for a, _ in ev.robot.workspace])
+    hi = np.array([b for _, b in ev.robot.workspace])
+    poses = lo + (hi - lo) * rng.random((n, 3))
+    ok = ev.valid(poses)
+    poses = poses[ok]
+
+    t, c, k = time.perf_counter(), time.process_time(), _children_cpu()
+    kern = sensitivity_kernels(ev, wrt, progress=lambda m: print("   ", m, file=sys.stderr, flush=True))
+    gen = dict(wall_s=time.perf_counter() - t, python_cpu_s=time.process_time() - c, compiler_cpu_s=_children_cpu() - k)
+
+    p = ev._params(len(poses), {}, "paper")
+    t_freq = _best(lambda: ev.frequencies(poses))
+    t_kern = _best(lambda: kern(poses[:, 0], poses[:, 1], poses[:, 2], p))
+    t_sens = _best(lambda: ev.sensitivities(poses, wrt))
+    m = len(poses)
+    return dict(robot=robot, wrt=len(wrt), chunk=CHUNK, poses=m, generate_and_compile=gen,
+                frequencies=m / t_freq, kernel=m / t_kern, sensitivities=m / t_sens)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--robots", default="heli4,delta")
+    ap.add_argument("--n", type=int, default=2000, help="random workspace poses (unreachable ones dropped)")
+    ap.add_argument("--wrt", choices=("all", "default"), default="all",
+                    help="every parameter, or the CLI's default list (eigentwist sensitivity without --wrt)")
+    ap.add_argument("--cold", action="store_true", help="a fresh cache directory: time generation and compile")
+    args = ap.parse_args()
+    if args.cold:
+        os.environ["EIGENTWIST_CACHE"] = tempfile.mkdtemp(prefix="eigentwist-bench-")
+    for robot in args.robots.split(","):
+        r = run(robot, args.n, args.wrt)
+        g = r["generate_and_compile"]
+        print(f"{robot}: {r['wrt']} parameters, {r['poses']} poses, C backend, one thread")
+        print(f"  kernel {'generated and compiled' if args.cold else 'loaded'} in {g['wall_s']:.1f} s wall "
+              f"({g['python_cpu_s']:.1f} s Python CPU, {g['compiler_cpu_s']:.1f} s compiler CPU; "
+              f"{r['chunk']} statements per C function)")
+        print(f"  frequencies (baseline)      {r['frequencies']:10.4g} poses/s")
+        print(f"  raw sensitivity kernel      {r['kernel']:10.4g} poses/s  ({r['kernel'] / r['frequencies']:.3f}x)")
+        print(f"  Evaluator.sensitivities     {r['sensitivities']:10.4g} poses/s  "
+              f"({r['sensitivities'] / r['frequencies']:.3f}x)")
+
+
+if __name__ == "__main__":
+    main()
