@@ -99,7 +99,7 @@ def moving_mass(ev, wrt, params: dict, model="paper"):
     kern = sensitivity_kernels(ev, tuple(wrt))
     x = np.asarray(ev.robot.x_ref, dtype=float)[None, :]
     p = ev.parameter_values(1, resolve_model(model, ev.robot), **params)
-    out = kern(x[:, 0], x[:, 1], x[:, 2], p)
+    out = kern(x[:, 0], x[:, 1], x[:, 2], {**p, **ev.kernel_pose_inputs(x)})
     tt = np.arange(3, 6)
     return float(out["M"][0, tt, tt].mean()), out["dM"][0][:, tt, tt].mean(axis=-1)
 

@@ -564,11 +564,13 @@ class Evaluator:
         for sl in self._chunks(len(poses)):
             pc = self._take(p, sl)
             self._check_rows(poses[sl], pc, strict=True)
-            parts.append(frequency_derivatives(kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc), rigid, rtol))
+            out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self._with_pose(poses[sl], pc))
+            parts.append(frequency_derivatives(out, rigid, rtol, translational=self.rigid_size() == 3))
         freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
         if own:
             dfdp = shared_columns(dfdp, wrt, full, own)
-        return Modes(freq, vec, AXES[3:] if rigid else AXES, "rigid" if rigid else "flexible"), dfdp
+        kind = "rigid" if rigid else "flexible"
+        return Modes(freq, vec, self.axes(kind), kind), dfdp
 
     def frequencies(self, poses, model="paper", **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,

@@ -100,6 +100,7 @@ def combined_program(model) -> Program:
     other input of the model's program (parameters, effect switches) is declared.
     """
     prog = Program()
+    rename: dict = {}
     joints = set(model.joints)
     for s_ in model.ik.inputs:
         prog.declare(s_)
@@ -108,14 +109,20 @@ def combined_program(model) -> Program:
         if s_ not in joints and s_.name not in declared:
             prog.declare(s_)
             declared.add(s_.name)
-    clash = {s_.name for s_, _ in model.ik.assignments} & {s_.name for s_, _ in model.program.assignments}
-    if clash:
-        raise ValueError(f"IK and model programs both assign {sorted(clash)[:5]}: rename one")
-    for s_, rhs in list(model.ik.assignments) + list(model.program.assignments):
+    ik_names = {s_.name for s_, _ in model.ik.assignments}
+    for s_, rhs in model.ik.assignments:
         prog.let(s_.name, rhs)
+    for s_, rhs in model.program.assignments:
+        # a name both programs assign (a 6-DoF leg's geometry, computed from the pose in
+        # the IK and again in the model's program) gets a program-side copy
+        name = f"{s_.name}_m" if s_.name in ik_names else s_.name
+        new = prog.let(name, rhs.xreplace(rename) if rename else rhs)
+        if name != s_.name:
+            rename[s_] = new
     missing = joints - {s_ for s_, _ in prog.assignments}
     if missing:
         raise ValueError(f"the IK program does not assign joint angles {sorted(s.name for s in missing)}")
+    prog.renamed = rename
     return prog
 
 
@@ -192,7 +199,8 @@ def sensitivity_program(model, wrt, progress=None) -> SensitivityModel:
         raise ValueError(f"cannot differentiate with respect to {unknown}: not inputs of the model "
                          f"(expected names from {', '.join(model.parameters)})")
     base = list(prog.assignments)
-    mats = model.outputs["matrices"]
+    mats = {k: (shape, [sp.sympify(e).xreplace(prog.renamed) for e in exprs])
+            for k, (shape, exprs) in model.outputs["matrices"].items()}
     out_grad: dict = {}
     partials: dict = {}
     d_out = {k: [] for k in OUTPUTS}
