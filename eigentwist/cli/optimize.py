@@ -33,9 +33,11 @@ def add_parser(sub):
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
     p.add_argument("--backend", default="auto", choices=("numpy", "c", "auto"),
                    help="generated evaluator to use (default: auto, C when a compiler exists)")
-    p.add_argument("--pose", nargs=3, type=float, action="append", metavar=("X", "Y", "Z"),
-                   help="a workspace pose, m (repeatable); default: --grid")
-    p.add_argument("--k-a", type=float, dest="k_a", metavar="KA", help="commanded actuator stiffness, N m/rad")
+    p.add_argument("--pose", nargs="+", type=float, action="append", metavar="X",
+                   help="a workspace pose (repeatable): X Y Z (m) for a 3-DoF robot, X Y Z ROT_X ROT_Y ROT_Z "
+                        "(m, rad: rotation vector) for a 6-DoF robot (hexapod); default: --grid")
+    p.add_argument("--k-a", type=float, dest="k_a", metavar="KA",
+                   help="commanded actuator stiffness in the robot's unit: N m/rad (revolute) or N/m (prismatic)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="fix a design parameter in SI units, e.g. --set m_p=0.3 (repeatable)")
     p.add_argument("--model", default="paper", help="preset (rigid, paper) or comma-separated effects (default: paper)")
@@ -86,15 +88,20 @@ def parse_constraints(items):
 
 
 def _poses(args, robot) -> np.ndarray:
+    names = tuple(robot.pose)
     if args.pose:
         if args.grid:
             raise CliError("give either --pose or --grid, not both")
+        for values in args.pose:
+            if len(values) != len(names):
+                raise CliError(f"--pose {' '.join(f'{v:g}' for v in values)}: {robot.name} takes {len(names)} "
+                               f"coordinates ({', '.join(names)}), got {len(values)}")
         return np.array(args.pose, dtype=float)
     n = args.grid or 3
     if n < 1:
         raise CliError(f"--grid {n}: expected a positive number of poses per axis")
     axes = [np.linspace(lo, hi, n) if n > 1 else np.array([(lo + hi) / 2]) for lo, hi in robot.workspace]
-    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(names))
 
 
 def compute(args, progress=None):
@@ -139,8 +146,9 @@ def run(args) -> int:
     for name, value in res.constraints.items():
         print(f"{name}: {value:.6g} kg")
     print("\nf1 per pose at the best design (Hz):")
-    print(format_table(["x (m)", "y (m)", "z (m)", "f1 (Hz)"],
-                       [[f"{x:.4g}", f"{y:.4g}", f"{z:.4g}", f"{f:.6g}"] for (x, y, z), f in zip(res.poses, res.f1_hz)]))
+    pose_units = ["m"] * 3 + ["rad"] * (res.poses.shape[1] - 3)
+    print(format_table([f"{n} ({u})" for n, u in zip(ev.robot.pose, pose_units)] + ["f1 (Hz)"],
+                       [[f"{c:.4g}" for c in pose] + [f"{f:.6g}"] for pose, f in zip(res.poses, res.f1_hz)]))
     print("\nactive constraints:")
     for a in res.active:
         print(f"  {a}")

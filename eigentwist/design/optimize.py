@@ -69,7 +69,7 @@ class OptimizationResult:
     """The best design found.
 
     values : varied parameter -> value (SI); worst_hz : min over poses of f1 (Hz);
-    f1_hz : (J,) lowest frequency per pose; poses : (J, 3) m; start : the starting design
+    f1_hz : (J,) lowest frequency per pose; poses : (J, 3) m, or (J, 6) m and rad for a 6-DoF robot; start : the starting design
     and its worst_hz; active : the active bounds and constraints (strings);
     constraints : quantity -> value at the optimum; evaluations : sensitivity-kernel
     calls; nit : solver iterations; history : worst f1 per evaluation.
@@ -198,7 +198,7 @@ def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints
 
     Parameters
     ----------
-    ev : evaluator; vary : list of :class:`Vary`; poses : (J, 3) m (poses that are not
+    ev : evaluator; vary : list of :class:`Vary`; poses : (J, 3) m, or (J, 6) m and rad for a 6-DoF robot (poses that are not
     valid at the start and every corner of the box are dropped and counted);
     model : preset or effects; params : fixed parameter overrides (SI);
     constraints : list of :class:`Constraint`; method : ``"SLSQP"`` or ``"trust-constr"``;
