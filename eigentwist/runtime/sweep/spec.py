@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..evaluator import Evaluator
+from .box import workspace_box
 
 __all__ = ["PoseSet", "SweepSpec", "make_spec", "sweep_evaluator", "DEFAULT_CHUNK_SIZE", "POSE_BLOCK"]
 
@@ -181,24 +182,6 @@ def sweep_evaluator(robot: str, backend: str) -> Evaluator:
     return load(robot, backend=backend)
 
 
-def _box(box, robot) -> tuple:
-    if box is None:
-        return tuple(tuple(float(v) for v in b) for b in robot.workspace)
-    names = tuple(getattr(robot, "pose", ("x", "y", "z")))
-    flat = np.asarray(box, dtype=float).reshape(-1)
-    if flat.shape != (2 * len(names),) or not np.isfinite(flat).all():
-        what = " ".join(f"{a.upper()}LO {a.upper()}HI" for a in names)
-        unit = "m" if len(names) == 3 else "m and rad"
-        count = {6: "six", 12: "twelve"}.get(2 * len(names), str(2 * len(names)))
-        raise InputError(f"box {np.asarray(box).tolist()}: expected {count} finite numbers {what} in {unit}")
-    pairs = tuple((float(flat[2 * k]), float(flat[2 * k + 1])) for k in range(len(names)))
-    for name, (lo, hi) in zip(names, pairs):
-        if lo > hi:
-            raise InputError(f"box {name} range [{lo:g}, {hi:g}] {'rad' if name.startswith('rot') else 'm'}: "
-                             "expected LO <= HI")
-    return pairs
-
-
 def _pose_set(grid, random, seed, box) -> PoseSet:
     if grid is not None and random is not None:
         raise InputError("poses: give a grid or a random sample, not both")
@@ -256,7 +239,7 @@ def make_spec(robot: str = "heli4", *, model: str = "paper", backend: str = "num
         resolve_model(model, ev.robot)
     except ValueError as exc:
         raise InputError(f"model {model!r}: {exc}") from None
-    poses = _pose_set(grid, random, seed, _box(box, ev.robot))
+    poses = _pose_set(grid, random, seed, workspace_box(box, ev.robot))
     if "k_a" not in ev.parameters:
         raise InputError(f"robot {robot!r} has no parameter 'k_a': a sweep needs the actuator stiffness")
     k_a = (ev.defaults["k_a"],) if k_a is None else _numbers(k_a, "k_a")
