@@ -24,7 +24,7 @@ run: $(VENV)/.installed
 
 ## test: the whole suite
 test: $(VENV)/.installed-test
-	$(BIN)/python -m pytest -n auto
+	$(BIN)/python -m pytest -n auto --dist loadgroup
 
 ## generate: regenerate eigentwist/generated (checked in)
 generate: $(VENV)/.installed

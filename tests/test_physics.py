@@ -111,9 +111,8 @@ def test_screws_are_reciprocal(derived):
         keys = (1, 2, 3, 5, "c")
         T = sp.Matrix.hstack(*[ls.twists[k] for k in keys])
         R = sp.Matrix.vstack(*[ls.rows[k] for k in keys])
-        P = np.array(derived.program.evaluate(vals, R * T), dtype=float)
-        np.testing.assert_allclose(P, np.eye(5), atol=1e-12)
+        num = lambda m: np.array(derived.program.evaluate(vals, m), dtype=float)  # noqa: E731
+        T, R, t4 = num(T), num(R), num(ls.twists[4])     # numbers first: the products in NumPy
+        np.testing.assert_allclose(R @ T, np.eye(5), atol=1e-12)
         # the actuation and constraint wrenches are also reciprocal to t_a4
-        t4 = ls.twists[4]
-        W = np.array(derived.program.evaluate(vals, sp.Matrix.vstack(ls.rows[1], ls.rows[2], ls.rows[3], ls.rows["c"]) * t4), dtype=float)
-        np.testing.assert_allclose(W, 0, atol=1e-12)
+        np.testing.assert_allclose(R[[0, 1, 2, 4]] @ t4, 0, atol=1e-12)

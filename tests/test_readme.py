@@ -40,7 +40,9 @@ FIGURE = re.compile(rf"({NUM}(?:\s*(?:,|\+-|±)\s*{NUM})*)\s*{UNIT}")
 OUTPUT_NUMBER = re.compile(r"-?\d+(?:\.(\d+))?(?:[eE]([-+]?\d+))?")
 TIMEOUT = 300
 
-pytestmark = pytest.mark.slow
+# every block runs once, in the module fixture ``results``: keep the module on one xdist worker
+# (``--dist loadgroup``), or each worker would run the whole README again
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("readme")]
 
 
 @dataclass

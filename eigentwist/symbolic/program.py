@@ -77,8 +77,10 @@ class Program:
         SymPy's own arithmetic (``evalf``), not the code generator.
         """
         env = {sp.Symbol(k, real=True) if isinstance(k, str) else k: sp.Float(v, precision) for k, v in values.items()}
+        needed = _ancestors(self, sp.sympify(exprs).free_symbols)   # only what ``exprs`` depend on
         for sym, rhs in self.assignments:
-            env[sym] = rhs.xreplace(env).evalf(precision)
+            if sym in needed:
+                env[sym] = rhs.xreplace(env).evalf(precision)
         if isinstance(exprs, sp.MatrixBase):
             return exprs.applyfunc(lambda e: sp.sympify(e).xreplace(env).evalf(precision))
         return sp.sympify(exprs).xreplace(env).evalf(precision)
