@@ -87,21 +87,19 @@ def parse_constraints(items):
     return out
 
 
-def _poses(args, robot) -> np.ndarray:
-    names = tuple(robot.pose)
+def _poses(args, ev) -> np.ndarray:
+    from .poses import pose_argument
+
+    robot = ev.robot
     if args.pose:
         if args.grid:
             raise CliError("give either --pose or --grid, not both")
-        for values in args.pose:
-            if len(values) != len(names):
-                raise CliError(f"--pose {' '.join(f'{v:g}' for v in values)}: {robot.name} takes {len(names)} "
-                               f"coordinates ({', '.join(names)}), got {len(values)}")
-        return np.array(args.pose, dtype=float)
+        return np.array([pose_argument(ev, values) for values in args.pose])
     n = args.grid or 3
     if n < 1:
         raise CliError(f"--grid {n}: expected a positive number of poses per axis")
     axes = [np.linspace(lo, hi, n) if n > 1 else np.array([(lo + hi) / 2]) for lo, hi in robot.workspace]
-    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(names))
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(robot.pose))
 
 
 def compute(args, progress=None):
@@ -116,7 +114,7 @@ def compute(args, progress=None):
     vary = parse_vary(args.vary)
     constraints = parse_constraints(args.constraint)
     effects = resolve_model(args.model, ev.robot)
-    poses = _poses(args, ev.robot)
+    poses = _poses(args, ev)
     res = optimize_worst_case(ev, vary, poses, effects, params, constraints, method=args.method,
                               n_track=args.track, maxiter=args.maxiter, progress=progress)
     return ev, effects, res
