@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from eigentwist.symbolic.screw import adjoint, compliance_to_frame, inertia_to_frame, spatial_inertia
+from eigentwist.description.screw import adjoint, compliance_to_frame, inertia_to_frame, spatial_inertia
 from eigentwist.symbolic.stiffness import rod_pair_compliance, tube_cantilever_compliance
 
 
@@ -65,7 +65,7 @@ def test_compliance_transport_preserves_elastic_energy():
 
 
 def test_adjoint_of_homogeneous_composes_and_inverts():
-    from eigentwist.symbolic.screw import adjoint_of_homogeneous, homogeneous
+    from eigentwist.description.screw import adjoint_of_homogeneous, homogeneous
 
     rng = np.random.default_rng(8)
     Hs = [homogeneous(sp.Matrix(np.linalg.qr(rng.normal(size=(3, 3)))[0]), sp.Matrix(rng.normal(size=3)))

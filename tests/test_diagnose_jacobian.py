@@ -48,7 +48,7 @@ def _richardson_jacobian(obj, theta, h=1e-3):
 @pytest.mark.parametrize("names", [("m_p",), ("m_p", "eta_a@3")])
 def test_exact_jacobian_equals_central_differences_of_the_residuals(ev, meas, names):
     effects = ("actuator_loss@3", "payload_mass") if "eta_a@3" in names else ("payload_mass",)
-    obj = _Objective(Predictor(meas, effects, ev), [Transform.of(ev.parameter(n)) for n in names])
+    obj = _Objective(Predictor(meas, effects, ev), [Transform.of(ev.parameter(n)) for n in names], "exact")
     theta = np.array([math.log(0.3), math.log(0.8)][:len(names)])
     jac = obj.jacobian(theta)
     assert obj.exact and obj.nfev == 1                         # one kernel call: residuals and Jacobian
@@ -61,9 +61,9 @@ def test_exact_jacobian_equals_central_differences_of_the_residuals(ev, meas, na
 
 
 def test_gravity_preload_falls_back_to_differences_and_says_why(ev, meas):
-    res = fit(meas, ("payload_mass", "gravity_preload"), ev, ("m_p",))
+    res = fit(meas, ("payload_mass", "gravity_preload"), ev, ("m_p",), jacobian="exact")
     assert res.jacobian.startswith("central differences") and "gravity_preload" in res.jacobian
-    exact = fit(meas, ("payload_mass", "actuator_loss@3"), ev, ("m_p",), fixed={"eta_a@3": 0.7})
+    exact = fit(meas, ("payload_mass", "actuator_loss@3"), ev, ("m_p",), fixed={"eta_a@3": 0.7}, jacobian="exact")
     assert exact.jacobian == "exact"
     assert exact.values["m_p"] == pytest.approx(res.values["m_p"], rel=0.5)       # same data, a nearby model
 
@@ -71,10 +71,17 @@ def test_gravity_preload_falls_back_to_differences_and_says_why(ev, meas):
 def test_exact_and_difference_fits_agree_within_their_uncertainty(ev, meas, monkeypatch):
     names = ("m_p", "eta_a@3")
     effects = ("payload_mass", "actuator_loss@3")
-    exact = fit(meas, effects, ev, names)
-    monkeypatch.setattr(fit_module, "EXACT_JACOBIAN", False)
-    fd = fit(meas, effects, ev, names)
+    exact = fit(meas, effects, ev, names, jacobian="exact")
+    fd = fit(meas, effects, ev, names)                       # the default: central differences
     assert exact.jacobian == "exact" and fd.jacobian.startswith("central differences")
     for n in names:
         assert abs(exact.values[n] - fd.values[n]) <= 1e-3 * exact.std[n]
         assert exact.std[n] == pytest.approx(fd.std[n], rel=1e-2)
+
+
+def test_default_is_central_differences_and_the_kind_can_be_set_for_a_block(ev, meas):
+    assert fit(meas, ("payload_mass",), ev, ("m_p",)).jacobian == "central differences"
+    with fit_module.using_jacobian("exact"):
+        assert fit(meas, ("payload_mass",), ev, ("m_p",)).jacobian == "exact"
+    with pytest.raises(eigentwist.runtime.errors.InputError, match="jacobian 'fast'"):
+        fit(meas, ("payload_mass",), ev, ("m_p",), jacobian="fast")

@@ -93,3 +93,110 @@ def test_the_checker_catches_what_issue_12_names(source, module, is_package):
 ])
 def test_the_checker_allows_own_names(source, module):
     assert not violations(source, module)
+
+
+# ------------------------------------------------------------ import circles (issue 20)
+MODULES = {module_name(p): p for p in SOURCES}
+
+
+def _type_checking_lines(tree: ast.AST) -> set[int]:
+    """Line numbers of the statements under ``if TYPE_CHECKING:`` (not run: no edge)."""
+    lines = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            for stmt in node.body:
+                lines.update(range(stmt.lineno, (stmt.end_lineno or stmt.lineno) + 1))
+    return lines
+
+
+def _resolve(target: str, modules) -> str | None:
+    """The module of ``modules`` that importing ``target`` runs (the longest known prefix)."""
+    parts = target.split(".")
+    for n in range(len(parts), 0, -1):
+        name = ".".join(parts[:n])
+        if name in modules:
+            return name
+    return None
+
+
+def imports_of(source: str, module: str, is_package: bool, modules) -> set[str]:
+    """Modules of ``modules`` that ``module`` imports, at module level or inside functions,
+    with the packages whose ``__init__`` such an import runs (not the root package, whose
+    ``__init__`` imports nothing at module level); ``if TYPE_CHECKING:`` imports excluded."""
+    tree = ast.parse(source)
+    skip = _type_checking_lines(tree)
+    out = set()
+    for node in ast.walk(tree):
+        if getattr(node, "lineno", None) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = _absolute(node, module, is_package)
+            targets = [f"{base}.{a.name}" for a in node.names]
+        else:
+            continue
+        for t in targets:
+            hit = _resolve(t, modules)
+            while hit and hit.count("."):
+                out.add(hit)
+                hit = hit.rpartition(".")[0]
+    out.discard(module)
+    package = module if is_package else module.rpartition(".")[0]
+    # a module's own package runs first whoever imports it: importing it back is no new edge
+    while package.count("."):
+        out.discard(package)
+        package = package.rpartition(".")[0]
+    return out
+
+
+def import_circles(graph: dict) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan), each sorted."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def _graph() -> dict:
+    return {m: imports_of(p.read_text(encoding="utf-8"), m, p.name == "__init__.py", MODULES)
+            for m, p in MODULES.items()}
+
+
+def test_no_import_circles():
+    circles = import_circles(_graph())
+    assert not circles, "import circles between modules:\n  " + "\n  ".join(" <-> ".join(c) for c in circles)
+
+
+def test_the_circle_checker_finds_a_function_level_circle():
+    modules = {"eigentwist.a", "eigentwist.b", "eigentwist.c"}
+    graph = {"eigentwist.a": imports_of("from .b import f\n", "eigentwist.a", False, modules),
+             "eigentwist.b": imports_of("def g():\n    from .c import h\n", "eigentwist.b", False, modules),
+             "eigentwist.c": imports_of("import eigentwist.a\n", "eigentwist.c", False, modules)}
+    assert import_circles(graph) == [["eigentwist.a", "eigentwist.b", "eigentwist.c"]]
+    graph["eigentwist.c"] = imports_of("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import eigentwist.a\n",
+                                       "eigentwist.c", False, modules)
+    assert import_circles(graph) == []

@@ -52,10 +52,15 @@ def add_parser(sub):
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="FILE.png", help="write the baseline/final model plot and the error step by step")
     p.add_argument("--rows", action="store_true", help="also print the per-row tables of the baseline and final model")
+    p.add_argument("--jacobian", choices=("differences", "exact"), default="differences",
+                   help="the fits' Jacobian: central differences in the residuals' evaluator call (default: measured "
+                        "faster, benchmarks/README.md) or exact, from generated design sensitivities (derived and "
+                        "compiled once per cache)")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    from ..diagnose.fit import using_jacobian
     from ..diagnose.report import diagnosis_text
     from ..diagnose.select import diagnose
     from ..diagnose.stats import ALPHA
@@ -67,7 +72,8 @@ def run(args) -> int:
     effects, values = model_and_values(args.baseline, args.set, evaluator_of(args), "--baseline")
     ev, meas = load_data(args, values)
     add = None if not args.add else [e for item in args.add for e in item.split(",") if e.strip()]
-    d = diagnose(meas, effects, ev=ev, add=add, alpha=alpha, progress=progress, values=values)
+    with using_jacobian(args.jacobian):
+        d = diagnose(meas, effects, ev=ev, add=add, alpha=alpha, progress=progress, values=values)
     if args.plot:
         from ..diagnose.plots import plot_diagnosis
 

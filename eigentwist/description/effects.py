@@ -142,7 +142,7 @@ def _transmission(ctx):
 
 
 def _rod_pair(ctx):
-    from ..symbolic.stiffness import rod_pair_compliance
+    from .formulas import rod_pair_compliance
 
     rod = ctx.robot.rod
     d_pi = rod["w_pi"] * ctx.screws.vectors["c3"]
@@ -151,7 +151,7 @@ def _rod_pair(ctx):
 
 def _ee_split(ctx):
     """The robot's own share of the EE assembly compliance for this leg (App. D), or None."""
-    from ..symbolic.screw import compliance_to_frame
+    from .screw import compliance_to_frame
 
     split = ctx.robot.ee_compliance
     if split is None or ctx.index not in split.per_leg:
@@ -160,14 +160,14 @@ def _ee_split(ctx):
 
 
 def _lower_link_tube(ctx):
-    from ..symbolic.stiffness import tube_cantilever_compliance
+    from .formulas import tube_cantilever_compliance
 
     p = ctx.p
     return tube_cantilever_compliance(ctx.robot.l1, p["r_i_l1"], p["r_o_l1"], p["E_l1"], p["nu_l1"])
 
 
 def _payload(ctx):
-    from ..symbolic.inertia import point_mass_inertia
+    from .formulas import point_mass_inertia
 
     p = ctx.p
     return point_mass_inertia(p["m_p"], sp.Matrix([p["p_x"], p["p_y"], p["p_z"]]))

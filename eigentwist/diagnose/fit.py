@@ -7,13 +7,15 @@ of the catalogue's fitted parameters: stiffnesses, moduli, masses, inertias, g, 
 theta = (p - p_default)/scale otherwise. The search range is the parameter's physical
 bounds intersected with [p_default/1000, 1000 p_default] (``SPAN``).
 
-The Jacobian is exact (``EXACT_JACOBIAN = True``, the default): the generated design
-sensitivities of the matched modes
-(``Predictor.predict_with_jacobian``, one kernel call with the residuals; issue 16),
-falling back, with the reason in ``FitResult.jacobian``, to a central difference in theta
-computed in the same evaluator call as the residuals (B = 1 + 2P parameter sets) where no
-sensitivity is generated (gravity preload) or a row has no single mode (shape-matched rows,
-groups of near-equal modes). A coarse grid of starts (the new
+The Jacobian is, by default, a central difference in theta computed in the same evaluator
+call as the residuals (B = 1 + 2P parameter sets): measured faster than the exact one on every
+diagnosis case of ``benchmarks/diagnosis_jacobian.py`` and needing no generated sensitivity
+kernel (issue 20). ``jacobian="exact"`` (``eigentwist diagnose --jacobian exact``, or
+:func:`using_jacobian`) uses the generated design sensitivities of the matched modes
+(``Predictor.predict_with_jacobian``, one kernel call with the residuals; issue 16), falling
+back to differences, with the reason in ``FitResult.jacobian``, where no sensitivity is
+generated (gravity preload) or a row has no single mode (shape-matched rows, groups of
+near-equal modes). A coarse grid of starts (the new
 parameters at 1/10 ... 10 times their start value) is screened in one batch first, so
 a fit does not hinge on the default being close.
 
@@ -25,6 +27,8 @@ worse than the stated uncertainty), propagated to p by the delta method
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -37,20 +41,43 @@ from .compare import Comparison
 from .predict import Predictor
 from .stats import aicc, chi2_value, gof_p_value
 
-__all__ = ["FitResult", "fit", "Transform", "SPAN"]
+__all__ = ["FitResult", "fit", "Transform", "SPAN", "JACOBIANS", "using_jacobian"]
 
 SPAN = 1e3          # search range: default / SPAN ... default * SPAN (within the physical bounds)
 STEP = 1e-2         # central-difference step in theta (1 % in p): K_F carries ~1e-7 relative
                     # round-off (the 1e-12 rad/(N m) "rigid" compliances), so smaller steps give noise
 START_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
 ROUNDOFF = 1e-9     # relative frequency change per central-difference pair treated as none
-# Exact Jacobians from the generated sensitivities (issue 16): one kernel for every fitted
-# parameter of the catalogue and each leg's own copy, with the effect switches as inputs,
-# so every candidate model reuses it (generated and compiled once per cache). False: central
-# differences everywhere. Measured (benchmarks/diagnosis_jacobian.py, C, warm): the same
-# selections and values, 0.73-0.93x the speed of differences (1-3 parameters per fit); the
-# first diagnosis on a fresh cache generates and compiles the kernel (~27 s CPU).
-EXACT_JACOBIAN = True
+# The Jacobian kinds: "differences" (central, in the residuals' evaluator call) and "exact"
+# (the generated sensitivities, issue 16: one kernel for every fitted parameter of the
+# catalogue and each leg's own copy, generated and compiled once per cache). Measured
+# (benchmarks/diagnosis_jacobian.py, CPU, cold and warm; benchmarks/README.md): the same
+# selections and values, differences faster on every case (1-3 parameters per fit), and the
+# exact kind's first run derives and compiles a kernel. Differences are the default.
+JACOBIANS = ("differences", "exact")
+EXACT_JACOBIAN = False          # the default kind when none is given (True: "exact")
+_KIND: contextvars.ContextVar = contextvars.ContextVar("eigentwist_jacobian", default=None)
+
+
+@contextlib.contextmanager
+def using_jacobian(kind: str | None):
+    """Fits inside this block use the Jacobian ``kind`` (:data:`JACOBIANS`; None: the default)."""
+    if kind is not None and kind not in JACOBIANS:
+        raise InputError(f"jacobian {kind!r}: expected one of {', '.join(JACOBIANS)}")
+    token = _KIND.set(kind)
+    try:
+        yield
+    finally:
+        _KIND.reset(token)
+
+
+def _exact_wanted(kind: str | None) -> bool:
+    kind = kind if kind is not None else _KIND.get()
+    if kind is None:
+        return EXACT_JACOBIAN
+    if kind not in JACOBIANS:
+        raise InputError(f"jacobian {kind!r}: expected one of {', '.join(JACOBIANS)}")
+    return kind == "exact"
 
 
 @dataclass(frozen=True)
@@ -98,7 +125,8 @@ class FitResult:
     effects : the model; names : fitted parameters; values, std : fitted values and
     standard errors (SI; std inf where the data do not determine a parameter);
     fixed : every parameter value used that differs from the default (fitted included).
-    jacobian : ``"exact"`` (generated sensitivities) or ``"central differences: <why>"``.
+    jacobian : ``"exact"`` (generated sensitivities) or ``"central differences"`` (the default),
+        ``"central differences: <why>"`` where an exact Jacobian was asked for but not available.
     comparison : predictions and errors at the optimum; chi2, n, k, dof, aicc.
     at_bound : names that ended at an edge of their search range.
     """
@@ -144,15 +172,15 @@ class FitResult:
 class _Objective:
     """Residuals and their Jacobian from one batched evaluation per point."""
 
-    def __init__(self, predictor: Predictor, transforms: list[Transform]):
+    def __init__(self, predictor: Predictor, transforms: list[Transform], jacobian: str | None = None):
         self.pred = predictor
         self.tr = transforms
         self.names = [t.name for t in transforms]
         self.meas = predictor.meas
         self.cache: dict = {}
         self.nfev = 0
-        self.exact = EXACT_JACOBIAN
-        self.fallback = "" if EXACT_JACOBIAN else "EXACT_JACOBIAN is False"
+        self.exact = _exact_wanted(jacobian)
+        self.fallback = ""
 
     def _sets(self, theta: np.ndarray) -> np.ndarray:
         """theta, then for each j the points theta -/+ STEP e_j (shifted inside the bounds)."""
@@ -234,7 +262,7 @@ def _covariance(jac: np.ndarray, chi2: float, dof: int) -> np.ndarray:
 
 
 def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None = None,
-        explore=None, starts: dict | None = None, max_nfev: int = 200) -> FitResult:
+        explore=None, starts: dict | None = None, max_nfev: int = 200, jacobian: str | None = None) -> FitResult:
     """Fit parameters ``names`` of the model ``effects`` to the measurements.
 
     Parameters
@@ -251,6 +279,8 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     starts : name -> start values screened for it instead (e.g. both signs of an offset,
         where the Jacobian at 0 is singular).
     max_nfev : most batched evaluations of the least-squares solver.
+    jacobian : ``"differences"`` or ``"exact"`` (:data:`JACOBIANS`); None: the kind set by
+        :func:`using_jacobian`, else the default (differences).
 
     Returns
     -------
@@ -267,7 +297,7 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
         return FitResult(tuple(effects), (), {}, {}, dict(fixed), comp, chi2, n, 0, aicc(chi2, n, 0))
     transforms = [Transform.of(ev.parameter(nm)) for nm in names]
     start = {nm: float((start or {}).get(nm, given.get(nm, ev.parameter(nm).default))) for nm in names}
-    obj = _Objective(predictor, transforms)
+    obj = _Objective(predictor, transforms, jacobian)
     table = _starts(transforms, start, set(names if explore is None else explore), starts)
     best = table[int(np.argmin(obj.chi2_of(table)))]
     theta0 = np.array([t.theta(v) for t, v in zip(transforms, best)])
@@ -289,4 +319,4 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
                      if min(theta[j] - lo[j], hi[j] - theta[j]) < 1e-6 * max(1.0, abs(theta[j])))
     return FitResult(tuple(effects), names, values, std, all_values, comp, chi2, n, k, aicc(chi2, n, k),
                      bool(res.success), str(res.message), obj.nfev, at_bound, cov,
-                     "exact" if obj.exact else f"central differences: {obj.fallback}")
+                     "exact" if obj.exact else "central differences" + (f": {obj.fallback}" if obj.fallback else ""))

@@ -57,9 +57,9 @@ def _uncertainty(u) -> dict:
 
 
 def shape_json(d):
-    """The final model's mode-shape residual term (:func:`.shapes.shape_term`), or None."""
+    """The final model's mode-shape residual term (:func:`.shape_term.shape_term`), or None."""
     from .evaluators import evaluator
-    from .shapes import shape_term
+    from .shape_term import shape_term
 
     term = shape_term(d.meas, d.final.effects, evaluator(d.robot), d.final.fixed)
     return term and {k: v for k, v in term.items() if k != "residuals"}

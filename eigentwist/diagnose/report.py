@@ -216,7 +216,7 @@ def _alternatives_sentence(d) -> str | None:
 
 
 def _implausible_sentence(d, ev) -> str | None:
-    from .select import significant
+    from .significance import significant
 
     last = d.steps[-1].ranking
     bad = [c for c in last if not c.plausible and significant(c, d.final, len(last), d.alpha, plausible_only=False)]

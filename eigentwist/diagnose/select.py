@@ -49,6 +49,7 @@ from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
 from .predict import Predictor
 from .separate import next_measurement
+from .significance import significant
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 from .values import used_parameters
 
@@ -323,12 +324,6 @@ def _signature(meas, ev, current: FitResult, effect: str) -> str | None:
     if not np.any(np.abs(rho[rows]) > 1e-7):
         return None
     return classify(meas.k_a[rows], rho[rows], np.full(int(rows.sum()), 1e12))["shape"]
-
-
-def significant(c: Candidate, current: FitResult, m: int, alpha: float, plausible_only: bool = True) -> bool:
-    """Whether adding ``c`` (one of ``m`` candidates) is significant and lowers AICc."""
-    return ((c.plausible or not plausible_only) and c.p_value is not None and math.isfinite(c.p_value)
-            and c.p_value < alpha / max(m, 1) and c.fit.aicc < current.aicc)
 
 
 def _separation(ev, meas, ranking) -> dict | None:

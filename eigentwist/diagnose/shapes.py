@@ -30,7 +30,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 __all__ = ["transport_matrix", "sensor_shapes", "mac", "match_by_shape",
-           "shape_residuals", "row_mac", "shape_term", "SIGMA_SHAPE_RAD", "SHAPE_CRITERION", "SHAPE_COLUMNS"]
+           "shape_residuals", "row_mac", "SIGMA_SHAPE_RAD", "SHAPE_CRITERION", "SHAPE_COLUMNS"]
 
 SHAPE_COLUMNS = ("phi_x", "phi_y", "phi_z")
 SIGMA_SHAPE_RAD = 0.05          # standard uncertainty of a measured shape's direction, rad (about 3 degrees)
@@ -135,28 +135,3 @@ def row_mac(modes, idx, meas_shapes, sensor=None) -> np.ndarray:
     U = sensor_shapes(modes.eigentwists, sensor)
     u = np.take_along_axis(U, np.asarray(idx)[:, None, None], axis=2)[..., 0]
     return np.where(np.all(np.isfinite(shapes), axis=1), mac(u, np.nan_to_num(shapes)), np.nan)
-
-
-def shape_term(meas, effects, ev, values: dict | None = None) -> dict | None:
-    """The shape residual term of a model on measurements with shapes (None without).
-
-    Returns ``{"chi2", "n", "p_value", "mac_min", "mac_mean", "residuals", "criterion"}``:
-    chi2 = sum of squared :func:`shape_residuals` over the rows with a shape, n those
-    rows, p_value = P(chi2_n >= chi2) (the shapes' goodness of fit, nothing fitted to
-    them). A fit may append ``residuals`` (finite entries) to its frequency residuals.
-    """
-    from scipy import stats
-
-    from .predict import Predictor
-
-    shapes = getattr(meas, "shapes", None)
-    if shapes is None or not np.isfinite(shapes).all(axis=1).any():
-        return None
-    _, idx, modes = Predictor(meas, effects, ev, values).predict(strict=False, return_modes=True)
-    res = shape_residuals(shapes, modes, idx, meas.sensor)
-    macs = row_mac(modes, idx, shapes, meas.sensor)
-    ok = np.isfinite(res)
-    chi2 = float(np.sum(res[ok] ** 2))
-    return {"chi2": chi2, "n": int(ok.sum()), "p_value": float(stats.chi2.sf(chi2, int(ok.sum()))),
-            "mac_min": float(np.nanmin(macs)), "mac_mean": float(np.nanmean(macs)),
-            "residuals": res.tolist(), "criterion": SHAPE_CRITERION}

@@ -11,8 +11,8 @@ import sympy as sp
 from ..description import Coupling, EECompliance, Parameter, RobotDescription, triangle_inequality, tube
 from ..description.effects import effect_parameters
 from ..description.rrpirr import rrpirr_leg
-from ..symbolic.inertia import parallelogram_inertia
-from ..symbolic.screw import spatial_inertia
+from ..description.formulas import parallelogram_inertia
+from ..description.screw import spatial_inertia
 
 INF = float("inf")
 

@@ -17,7 +17,7 @@ import sympy as sp
 from ..description import Parameter
 from ..description.chain import ChainBody, ChainJoint, ChainLeg, ChainRobot
 from ..description.effects import Effect, effect_parameters
-from ..symbolic.screw import cross, spatial_inertia
+from ..description.screw import cross, spatial_inertia
 
 BASE_ANGLES = (-10, 10, 110, 130, 230, 250)
 PLATFORM_ANGLES = (-50, 50, 70, 170, 190, 290)

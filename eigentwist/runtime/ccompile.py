@@ -29,6 +29,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from ..hashing import content_hash
+
 try:
     import fcntl
 except ImportError:                     # not POSIX: no locking (the rename still keeps builds whole)
@@ -206,11 +208,7 @@ def build_library(source: str, name: str, cc: str, flags: list[str], directory: 
     :class:`UnsafeCacheError` for a cache directory or library others may write to.
     """
     directory = _cache_directory(cache_dir() if directory is None else Path(directory))
-    h = hashlib.sha256()
-    for part in (source, "\0".join(flags), cc, compiler_version(cc)):
-        h.update(part.encode())
-        h.update(b"\0")
-    stem = f"{name}_{h.hexdigest()[:24]}"
+    stem = f"{name}_{content_hash(source, tuple(flags), cc, compiler_version(cc))}"
     target = directory / f"{stem}.so"
     if not _intact(target):
         with _Lock(directory / f"{stem}.lock"):

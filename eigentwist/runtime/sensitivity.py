@@ -18,7 +18,6 @@ for an increasing p), never their mean.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import json
 import os
 import tempfile
@@ -27,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..hashing import canonical, content_hash, package_digest
 from .ccompile import cache_dir
 
 __all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "clusters", "check_wrt",
@@ -39,14 +39,11 @@ _ROBOTS: dict = {}
 
 
 def cache_key(ev, wrt) -> str:
-    """Content hash of what the kernel is made from: the evaluator's source, ``wrt``, the generator."""
-    from ..codegen.sensitivity import code_version
-
-    h = hashlib.sha256()
-    for part in (ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), repr(ev.robot), ",".join(wrt), code_version()):
-        h.update(str(part).encode())
-        h.update(b"\0")
-    return h.hexdigest()[:24]
+    """Content hash of what the kernel is made from (:func:`eigentwist.hashing.content_hash`): the
+    evaluator's source hash, the robot's description (its functions by their code), ``wrt`` and the
+    code that derives and renders the kernel (read from its files: no SymPy is imported)."""
+    return content_hash(ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot),
+                        tuple(wrt), package_digest())
 
 
 def _write_atomic(path: Path, text: str) -> None:
@@ -168,13 +165,17 @@ def _select(kern, columns):
     return run
 
 
-def _base(ev) -> tuple:
-    """What identifies an evaluator's kernels in memory (its robot's repr, once per robot object)."""
-    robot = ev.robot
+def _description_text(robot) -> str:
+    """The canonical text of a description (:func:`eigentwist.hashing.canonical`), once per robot object."""
     held = _ROBOTS.get(id(robot))
     if held is None or held[0] is not robot:
-        held = _ROBOTS[id(robot)] = (robot, repr(robot))     # repr of a description: ~20 ms
-    return robot.name, getattr(ev.module, "SOURCE_HASH", ""), held[1], ev.backend
+        held = _ROBOTS[id(robot)] = (robot, canonical(robot))     # tens of ms for a description
+    return held[1]
+
+
+def _base(ev) -> tuple:
+    """What identifies an evaluator's kernels in memory."""
+    return ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot), ev.backend
 
 
 def sensitivity_kernels(ev, wrt, progress=None):

@@ -4,32 +4,26 @@
 :class:`~eigentwist.description.RobotDescription`; ``generated_modules(description)``
 renders its evaluators (NumPy module and C source) on first use into
 ``<cache>/descriptions/<name>_<key>/``, where ``key`` hashes the description's content
-(its data, the source of its effects' ``build`` functions, the file) and eigentwist's
+(its data, its effects' ``build`` functions by their code: :mod:`eigentwist.hashing`) and eigentwist's
 derivation and code generation, so an unchanged description is never derived twice
 and a changed one (or a new eigentwist) regenerates. The cache is the C library's
 (``$EIGENTWIST_CACHE``, see :mod:`eigentwist.runtime.ccompile`) and may be deleted.
 """
 from __future__ import annotations
 
-import hashlib
 import importlib.util
-import inspect
 import os
-import re
 import sys
 import tempfile
 import time
 import types
-from functools import lru_cache
 from pathlib import Path
 
+from ..hashing import canonical, content_hash, package_digest
 from .ccompile import cache_dir
 from .errors import InputError
 
 __all__ = ["describe_file", "is_description_file", "description_key", "generated_modules", "import_numpy_module"]
-
-PACKAGE = Path(__file__).resolve().parent.parent
-
 
 def is_description_file(robot) -> bool:
     """True when ``robot`` names a Python file (``*.py``) rather than a shipped robot."""
@@ -43,7 +37,7 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     path = Path(path)
     if not path.is_file():
         raise InputError(f"robot description file {str(path)!r} does not exist")
-    name = "eigentwist_user_" + hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
+    name = "eigentwist_user_" + content_hash(str(path.resolve()), length=12)
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     try:
@@ -63,39 +57,10 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     return desc
 
 
-@lru_cache(maxsize=1)
-def _package_digest() -> str:
-    """Hash of the code that turns a description into generated code."""
-    h = hashlib.sha256()
-    for sub in ("description", "symbolic", "codegen"):
-        for f in sorted((PACKAGE / sub).rglob("*")):
-            if f.is_file() and f.suffix in (".py", ".jinja"):
-                h.update(f.relative_to(PACKAGE).as_posix().encode())
-                h.update(f.read_bytes())
-    return h.hexdigest()
-
-
-def _content(obj) -> str:
-    """A deterministic text of ``obj``: its repr without memory addresses, plus the
-    source of every function its effects build with."""
-    text = re.sub(r" at 0x[0-9a-fA-F]+", "", repr(obj))
-    sources = []
-    for e in getattr(obj, "custom_effects", ()):
-        if e.build is not None:
-            try:
-                sources.append(inspect.getsource(e.build))
-            except (OSError, TypeError):
-                sources.append(getattr(e.build, "__qualname__", repr(e.build)))
-    return text + "\0".join(sources)
-
-
 def description_key(description, extra: bytes = b"") -> str:
-    """Content hash of ``description`` (and eigentwist's code generation), 24 hex digits."""
-    h = hashlib.sha256()
-    for part in (_content(description).encode(), extra, _package_digest().encode()):
-        h.update(part)
-        h.update(b"\0")
-    return h.hexdigest()[:24]
+    """Content hash of ``description`` (its functions by their code) and of eigentwist's
+    derivation and code generation, 24 hex digits (:func:`eigentwist.hashing.content_hash`)."""
+    return content_hash(canonical(description), extra, package_digest())
 
 
 def generated_modules(description, key: str, progress=None) -> Path:

@@ -3,29 +3,12 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..description.formulas import parallelogram_inertia, point_mass_inertia
+from ..description.screw import inverse_adjoint, spatial_inertia
 from .leg import LegScrews
 from .program import Program
-from .screw import inverse_adjoint, spatial_inertia
 
 __all__ = ["parallelogram_inertia", "body_inertia_contribution", "point_mass_inertia"]
-
-
-def parallelogram_inertia(r_i, r_o, rho, l2) -> sp.Matrix:
-    """Spatial inertia of the fictitious rod replacing the parallelogram (Eqs. 26-29).
-
-    A single tube of double density, in frame C_i3 at its centre, x along the rod.
-    Returns diag(I_x, I_y, I_z, m, m, m) in kg m^2 and kg.
-    """
-    m = 2 * l2 * rho * sp.pi * (r_o**2 - r_i**2)
-    i_x = m / 2 * (r_i**2 + r_o**2)
-    i_yz = m / 12 * (3 * (r_i**2 + r_o**2) + l2**2)
-    return sp.diag(i_x, i_yz, i_yz, m, m, m)
-
-
-def point_mass_inertia(mass, offset: sp.Matrix) -> sp.Matrix:
-    """Spatial inertia at the EE origin of a point mass (kg) at ``offset`` (m)."""
-    rot = (offset.dot(offset) * sp.eye(3) - offset * offset.T) * mass
-    return spatial_inertia(mass, offset, rot)
 
 
 def body_inertia_contribution(prog: Program, screws: LegScrews, body, inertia_local: sp.Matrix, name: str) -> sp.Matrix:

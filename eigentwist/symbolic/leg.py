@@ -20,7 +20,7 @@ import sympy as sp
 
 from ..description import Leg
 from .program import Program
-from .screw import pure_translation, reciprocal_product, unit_twist
+from ..description.screw import pure_translation, reciprocal_product, unit_twist
 
 __all__ = ["LegScrews", "leg_screws", "joint_twists", "reciprocal_wrench", "TWISTS"]
 

@@ -28,7 +28,7 @@ from .inertia import body_inertia_contribution
 from .kinematics import POSE, inverse_kinematics
 from .leg import LegScrews, leg_screws
 from .program import Program, derivative
-from .screw import adjoint, compliance_to_frame, stiffness_to_frame
+from ..description.screw import adjoint, compliance_to_frame, stiffness_to_frame
 from .stiffness import condense_coupling, inverse_small, rows_outer
 
 __all__ = ["DerivedModel", "derive", "POSE", "EffectSymbols"]
