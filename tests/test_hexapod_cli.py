@@ -97,3 +97,17 @@ def test_csv_rotation_columns_round_trip(tmp_path):
     meas.to_csv(path)
     again = load_measurements(path, ev=ev)
     np.testing.assert_array_equal(again.poses, [TILTED])
+
+
+def test_default_model_is_the_bare_strut_stiffness_and_is_named(capsys):
+    """The Heli4's measured eta_a = 0.82 is not the hexapod's default (issue 20): its
+    ``paper`` model is k_a alone, and the actuator loss scales every frequency by sqrt(eta_a)
+    (omega ~ sqrt(k) when the stiffness is k_a J^T J alone)."""
+    assert main(["matrices", "--robot", "hexapod", "--pose", *map(str, TILTED), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["model_name"] == "paper" and out["model"] == []
+    ev = eigentwist.load("hexapod", backend="numpy")
+    lossy = ev.frequencies(TILTED, "actuator_loss", eta_a=0.82)[0]
+    np.testing.assert_allclose(lossy, np.sqrt(0.82) * np.array(out["freq_hz"]), rtol=1e-10)
+    assert main(["matrices", "--robot", "hexapod", "--pose", *map(str, TILTED)]) == 0
+    assert "model: paper = (no effect: bare actuator stiffness k_a)" in capsys.readouterr().out

@@ -72,6 +72,7 @@ def compute(args) -> dict:
     return {
         "robot": ev.robot.name,
         "model": list(effects),
+        "model_name": args.model,
         "kind": kind,
         "frequencies_from": source,
         "pose": pose.tolist(),
@@ -101,7 +102,7 @@ def run(args) -> int:
         print(json.dumps(out))
         return 0
     print(f"{out['robot']} at pose {out['pose']} {'m' if len(out['pose']) == 3 else 'm, rad'}, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
-          f"{', '.join(out['model']) or '(no effect)'} ({out['kind']})")
+          f"{out['model_name']} = {', '.join(out['model']) or '(no effect: bare actuator stiffness k_a)'} ({out['kind']})")
     print(changed_text([r for r in out["parameters"] if r["name"] != "k_a"], out["robot"]))
     if out["joint_angles_deg"] is not None:
         print("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)

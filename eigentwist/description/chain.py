@@ -217,6 +217,10 @@ class ChainRobot:
     tool_body: str = "platform"
     #: compliance of each virtual joint (Eq. 42); unused by legs with six freedoms
     rigid_compliance: Any = sp.Integer(0)
+    #: the robot's own presets (name -> effects), in place of the catalogue's of that name
+    #: (:func:`~eigentwist.description.effects.presets_of`): values measured on one robot
+    #: (the Heli4's eta_a) are not another's default
+    presets: dict = field(default_factory=dict)
 
     def __post_init__(self):
         resolve_effects(self)

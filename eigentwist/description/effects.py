@@ -331,6 +331,12 @@ def split_scope(item: str, n_legs: int | None = None, what: str = "effect") -> t
     return name, n
 
 
+def presets_of(robot_or_available) -> dict:
+    """The presets a robot offers: the catalogue's :data:`PRESETS` with its description's own
+    (``presets``, e.g. the hexapod's bare strut stiffness as ``paper``) in their place."""
+    return {**PRESETS, **dict(getattr(robot_or_available, "presets", None) or {})}
+
+
 def _lookup(robot_or_available):
     """(names available or None, number of legs or None, name -> Effect)."""
     if robot_or_available is None:
@@ -345,7 +351,8 @@ def _lookup(robot_or_available):
 def resolve_model(spec, available=None) -> tuple[str, ...]:
     """Turn a model spec into a tuple of effect names in the catalogue's order.
 
-    ``spec`` is a preset name (``"rigid"``, ``"paper"``, ``"coupled"``), a
+    ``spec`` is a preset name (``"rigid"``, ``"paper"``, ``"coupled"``: :data:`PRESETS`, or the
+    robot's own where its description declares ``presets``, :func:`presets_of`), a
     comma-separated list of presets and effects (``"rigid,payload_mass"``), or an
     iterable of names; ``"none"`` is the bare model without any effect. A leg-level
     effect may be scoped to one leg, ``EFFECT@N`` (N 1-based, in the description's leg
@@ -357,6 +364,7 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
     an error.
     """
     names_available, n_legs, catalogue = _lookup(available)
+    presets = presets_of(available)
     if isinstance(spec, str):
         if spec.strip().lower() in ("", "none"):
             return ()                      # the bare model: no effect at all
@@ -367,12 +375,12 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
     legs: dict[str, set] = {}
     for item in items:
         name, leg = split_scope(item, n_legs)
-        if leg is None and name in PRESETS:
-            preset = PRESETS[name]
+        if leg is None and name in presets:
+            preset = presets[name]
             names.update(e for e in preset if names_available is None or e in names_available)
             continue
         if name not in catalogue and name not in EFFECTS:
-            valid = list(PRESETS) + list(catalogue)
+            valid = list(presets) + list(catalogue)
             raise ValueError(f"unknown model or effect {item!r}{did_you_mean(name, valid)}: "
                              f"expected one of {', '.join(valid)}")
         if leg is None:

@@ -192,6 +192,8 @@ class RobotDescription:
     pose: tuple = ("x", "y", "z")
     #: how the pose enters the derivation (:mod:`.pose`): a translational platform
     pose_space: Any = field(default_factory=TranslationPose)
+    #: the robot's own presets (name -> effects) in place of the catalogue's of that name
+    presets: dict = field(default_factory=dict)
 
     @property
     def platform_inertia(self) -> sp.Matrix:
