@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test generate check-generated bench clean
+.PHONY: run test test-fast generate check-generated bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -22,9 +22,13 @@ run: $(VENV)/.installed
 	$(BIN)/eigentwist reproduce
 	$(BIN)/eigentwist report -o report.html
 
-## test: the whole suite
+## test: the whole suite, then the 15 slowest tests
 test: $(VENV)/.installed-test
-	$(BIN)/python -m pytest -n auto --dist loadgroup
+	$(BIN)/python -m pytest -n auto --dist loadgroup --durations=15
+
+## test-fast: the inner loop (under 2 minutes): no compiler, no browser, no slow tests (seeds, README)
+test-fast: $(VENV)/.installed-test
+	EIGENTWIST_TEST_BACKEND=numpy $(BIN)/python -m pytest -n auto --dist loadgroup -m "not compiled and not browser and not slow" --durations=15
 
 ## generate: regenerate eigentwist/generated (checked in)
 generate: $(VENV)/.installed

@@ -70,3 +70,31 @@ def skip_tier(tier: str, reason: str):
     if tiers_required():
         pytest.fail(f"the {tier} tier cannot run here but {REQUIRE_TIERS_ENV}=1 requires it: {reason}", pytrace=False)
     pytest.skip(f"{tier} tier skipped: {reason}")
+
+
+# ------------------------------------------------------------ tiers (issue 20: make test-fast)
+#: ``EIGENTWIST_TEST_BACKEND=numpy`` (``make test-fast``): evaluators asked for ``backend="auto"``
+#: use the generated NumPy module, so the fast tier never starts the compiler
+TEST_BACKEND_ENV = "EIGENTWIST_TEST_BACKEND"
+
+
+def pytest_configure(config):
+    if os.environ.get(TEST_BACKEND_ENV, "").strip() != "numpy":
+        return
+    import eigentwist.runtime as runtime
+    from eigentwist.runtime import loader
+
+    original = loader.load
+
+    def load_numpy(robot="heli4", backend="auto", *args, **kwargs):
+        return original(robot, "numpy" if backend == "auto" else backend, *args, **kwargs)
+
+    loader.load = runtime.load = load_numpy
+
+
+def pytest_collection_modifyitems(config, items):
+    """A test parametrized on the C backend (``backend`` = ``"c"``) is a compiled test."""
+    for item in items:
+        params = getattr(getattr(item, "callspec", None), "params", {})
+        if any(k in ("backend", "ev") and v == "c" for k, v in params.items()):
+            item.add_marker(pytest.mark.compiled)
