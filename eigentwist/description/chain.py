@@ -154,6 +154,10 @@ class ChainLeg:
     checks : names of geometry scalars that must lie within [-1, 1] for the pose to be
         reachable (e.g. the cosine between a strut and a U joint's fixed axis; NaN counts
         as unreachable: a zero leg length gives NaN directions).
+    closures : names of geometry scalars (m) that vanish where the platform can be: the
+        leg's constraint on the pose, which a lower-mobility pose space
+        (:class:`~.pose.LowerMobilityPose`) solves for its followers (e.g. a 3-PRS leg's
+        spherical joint stays in the plane of its revolute joint: its distance from it).
     """
 
     name: str
@@ -163,11 +167,14 @@ class ChainLeg:
     platform_body: str = "platform"
     checks: tuple = ()
     frames: tuple = ()
+    closures: tuple = ()
+    #: the geometry entry that is the actuated joint's coordinate (m or rad)
+    coordinate: str = "length"
 
     @property
     def kinematics(self) -> PoseKinematics:
         """The leg's closed form as the derivation reads it (:class:`PoseKinematics`)."""
-        return PoseKinematics(self)
+        return PoseKinematics(self, self.coordinate)
 
     @property
     def freedoms(self) -> int:
@@ -219,6 +226,10 @@ class ChainRobot:
     rigid_compliance: Any = sp.Integer(0)
 
     def __post_init__(self):
+        coordinates = tuple(getattr(self.pose_space, "coordinates", self.pose))
+        if tuple(self.pose) != coordinates:
+            raise ValueError(f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
+                             f"{coordinates!r}: expected the same names")
         resolve_effects(self)
 
     @property

@@ -13,10 +13,12 @@ and the leg when they fail.
 from __future__ import annotations
 
 from ..description import RobotDescription
+import sympy as sp
+
 from ..description.pose import POSE
 from .program import Program
 
-__all__ = ["POSE", "inverse_kinematics"]
+__all__ = ["POSE", "inverse_kinematics", "closures"]
 
 
 
@@ -45,3 +47,47 @@ def inverse_kinematics(robot: RobotDescription):
     outputs = {"q": ((n, len(q_all[0])), [qq for q in q_all for qq in q])}
     outputs.update({name: ((n,), values) for name, values in checks.items()})
     return ik, outputs, q_all
+
+
+class _Symbols(dict):
+    """``{name: symbol}`` of any parameter name, made on demand."""
+
+    def __missing__(self, name: str):
+        from ..description import sym
+
+        return sym(name)
+
+
+def closures(robot):
+    """``(program, outputs)`` of the legs' closure equations (issue 21), or None when the
+    robot's pose space has no followers (:class:`~eigentwist.description.pose.LowerMobilityPose`).
+
+    Over the pose inputs (x, y, z m and the rotation matrix R_ij) and the parameters:
+    ``closure`` (legs, n_c), each leg's ``closures`` (geometry scalars, m, zero where the
+    platform can be), and ``closure_rate`` (legs, n_c, 6), their exact derivatives along
+    the platform's six unit twists ``[omega; v]`` at its origin (``pose_space.motion``:
+    ``dr/dt_k = sum_s dr/ds . ds/dt_k``), for the runtime's Newton steps.
+    """
+    pose = robot.pose_space
+    if not getattr(pose, "followers", ()):
+        return None
+    names = robot.legs[0].closures
+    if not names or any(leg.closures != names for leg in robot.legs):
+        raise ValueError(f"{robot.name}: pose space {pose!r} needs every leg to name the same closures "
+                         f"(ChainLeg.closures, scalars of its geometry that vanish), got "
+                         f"{[leg.closures for leg in robot.legs]}")
+    prog = Program()
+    for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
+        prog.declare(s_)
+    motion = pose.motion()
+    values, rates = [], []
+    for i, leg in enumerate(robot.legs, start=1):
+        g = leg.geometry(pose.position, pose.rotation, _Symbols())
+        for name in names:
+            r = sp.sympify(g[name])
+            values.append(prog.let(f"{name}_{i}", r))
+            d = {s_: sp.diff(r, s_) for s_, _ in motion}
+            rate = sum((d[s_] * row for s_, row in motion if d[s_] != 0), sp.zeros(1, 6))
+            rates += [prog.let(f"d{name}_{i}_{k}", rate[0, k]) for k in range(6)]
+    n = len(robot.legs)
+    return prog, {"closure": ((n, len(names)), values), "closure_rate": ((n, len(names), 6), rates)}

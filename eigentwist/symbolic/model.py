@@ -25,7 +25,7 @@ import sympy as sp
 from ..description import RobotDescription, sym
 from ..description.effects import EffectContext, leg_input_name, leg_switch_name, switch_name
 from .inertia import body_inertia_contribution
-from .kinematics import POSE, inverse_kinematics
+from .kinematics import POSE, closures, inverse_kinematics
 from .leg import LegScrews, leg_screws
 from .program import Program, derivative
 from .screw import adjoint, compliance_to_frame, stiffness_to_frame
@@ -67,6 +67,9 @@ class DerivedModel:
     #: robot adds its rotation matrix R_ij: ``robot.pose_space.inputs``,
     #: :mod:`eigentwist.description.pose`)
     pose_inputs: tuple = POSE
+    #: ``(program, outputs)`` of the legs' closure equations of a lower-mobility pose
+    #: space (:func:`~eigentwist.symbolic.kinematics.closures`), else None
+    closure: tuple | None = None
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -214,7 +217,8 @@ def derive(robot: RobotDescription) -> DerivedModel:
             "W": ((6,), list(_preload_wrench(S, fx))),
         },
     }
-    return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=tuple(pose.inputs))
+    return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=tuple(pose.inputs),
+                        closure=closures(robot))
 
 
 def _joint_keys(leg, ls: LegScrews):
