@@ -30,7 +30,7 @@ import sympy as sp
 
 from .parameters import sym
 
-__all__ = ["TranslationPose", "RigidPose", "PlanarPose", "LowerMobilityPose", "POSE", "ROTATION", "FULL", "TWIST_AXIS"]
+__all__ = ["TranslationPose", "RigidPose", "PlanarPose", "LowerMobilityPose", "POSE", "ROTATION", "FULL", "TWIST_AXIS", "twist_order"]
 
 #: position inputs x, y, z (m) of the platform origin
 POSE = (sym("x"), sym("y"), sym("z"))
@@ -43,9 +43,15 @@ FULL = ("x", "y", "z", "rot_x", "rot_y", "rot_z")
 TWIST_AXIS = {"rot_x": 0, "rot_y": 1, "rot_z": 2, "x": 3, "y": 4, "z": 5}
 
 
+def twist_order(names) -> tuple:
+    """The coordinates ``names`` in the order of their unit twists in ``[omega; v]``: the
+    order of the rigid model's allowed twists (``("rot_z", "x", "y")`` for a planar robot)."""
+    return tuple(sorted(names, key=TWIST_AXIS.__getitem__))
+
+
 def _unit_columns(names) -> tuple:
-    """The 6 x n basis (rows of 0/1) of the unit twists of coordinates ``names``."""
-    return tuple(tuple(int(TWIST_AXIS[c] == k) for c in names) for k in range(6))
+    """The 6 x n basis (rows of 0/1) of the unit twists of coordinates ``names`` (twist order)."""
+    return tuple(tuple(int(TWIST_AXIS[c] == k) for c in twist_order(names)) for k in range(6))
 
 
 def _skew(v: sp.Matrix) -> sp.Matrix:

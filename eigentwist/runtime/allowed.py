@@ -6,7 +6,7 @@ its virtual joint's inverse-Jacobian row ``j_c`` (Huang's method, ``J_rows``): a
 form on twists ``[omega; v]`` that an allowed twist ``t`` annihilates, ``j_c . t = 0``.
 
 The basis ``B`` (6 x n, orthonormal in the Euclidean metric of ``[omega; v]``) is the
-Gram-Schmidt orthonormalisation, in the order of the pose coordinates, of the orthogonal
+Gram-Schmidt orthonormalisation, in twist order (rot_x ... z), of the orthogonal
 projections of the coordinates' unit twists (``rot_z`` -> omega_z, ``x`` -> v_x) onto
 that null space: well defined, it turns with the pose (a 3-PRS's), and it is exactly the
 coordinates' unit twists where they are allowed (a Delta's or Heli4's translations,

@@ -15,7 +15,7 @@ from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unst
 from .errors import InputError, UnstablePoseError
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .labels import directions
-from ..description.pose import FULL, TWIST_AXIS
+from ..description.pose import FULL, TWIST_AXIS, twist_order
 from .threads import resolve_threads
 from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
@@ -169,8 +169,12 @@ class Evaluator:
         return out
 
     def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
-        """``p`` plus :meth:`kernel_pose_inputs` (``p`` itself for a 3-DoF robot)."""
-        return {**p, **self.kernel_pose_inputs(poses)} if self._six else p
+        """``p`` plus :meth:`kernel_pose_inputs` (a translational robot's: x, y, z)."""
+        if self._six:
+            return {**p, **self.kernel_pose_inputs(poses)}
+        # a translational robot's legs may read the position beyond the IK (a joint-list
+        # leg's closed form, issue 21): its kernels take it by name, the others ignore it
+        return {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
 
     def rigid_size(self) -> int:
         """Size of the rigid model's eigenproblem: the number of the platform's allowed
@@ -184,7 +188,7 @@ class Evaluator:
         coordinates they start from (``rot_z`` -> ``rz``)."""
         if kind != "rigid":
             return AXES
-        return tuple(AXES[TWIST_AXIS[c]] for c in self.pose_names)
+        return tuple(AXES[TWIST_AXIS[c]] for c in twist_order(self.pose_names))
 
     def parameter(self, name: str):
         """The :class:`Parameter` ``name``; ``NAME@N`` gives leg N's copy (same unit, bounds)."""
@@ -515,7 +519,7 @@ class Evaluator:
         rows = self.jacobians(poses, **params)["J_rows"]
         picks = [(i, r) for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
         A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(poses), 0, 6))
-        return allowed_twists(A, coordinate_twists(self.pose_names))
+        return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
 
     def _preloaded(self, effects) -> bool:
         return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
