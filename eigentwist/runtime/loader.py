@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from ..description import RobotDescription
+from ..description.chain import ChainRobot
 from ..robots import NAMES, get
 from .errors import InputError
 from .evaluator import Evaluator
@@ -54,7 +55,7 @@ def load(robot="heli4", backend: str = "auto", threads: int | None = None, progr
         raise InputError(f"unknown backend {backend!r}: expected one of {', '.join(BACKENDS)}")
     if threads is not None:
         resolve_threads(threads)                # a bad value is an error on every backend
-    if is_description_file(robot) or isinstance(robot, RobotDescription):
+    if is_description_file(robot) or isinstance(robot, (RobotDescription, ChainRobot)):
         return _load_user(robot, backend, threads, progress)
     if robot not in NAMES:
         raise InputError(f"unknown robot {robot!r}{did_you_mean(str(robot), NAMES)}: expected one of {', '.join(NAMES)} "
@@ -63,7 +64,7 @@ def load(robot="heli4", backend: str = "auto", threads: int | None = None, progr
 
 
 def _load_user(robot, backend: str, threads, progress) -> Evaluator:
-    if isinstance(robot, RobotDescription):
+    if isinstance(robot, (RobotDescription, ChainRobot)):
         description, extra, spec = robot, b"", robot.name
     else:
         description = describe_file(robot)

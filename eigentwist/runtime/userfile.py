@@ -39,6 +39,7 @@ def is_description_file(robot) -> bool:
 def describe_file(path) -> "RobotDescription":  # noqa: F821
     """Import ``path`` and return what its ``describe()`` returns; one-line errors."""
     from ..description import RobotDescription
+    from ..description.chain import ChainRobot
 
     path = Path(path)
     if not path.is_file():
@@ -58,8 +59,9 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
         desc = describe()
     except Exception as exc:
         raise InputError(f"describe() in {str(path)!r} raised {type(exc).__name__}: {exc}") from None
-    if not isinstance(desc, RobotDescription):
-        raise InputError(f"describe() in {str(path)!r} returned {type(desc).__name__}: expected a RobotDescription")
+    if not isinstance(desc, (RobotDescription, ChainRobot)):
+        raise InputError(f"describe() in {str(path)!r} returned {type(desc).__name__}: expected a RobotDescription "
+                         "or a ChainRobot")
     return desc
 
 
