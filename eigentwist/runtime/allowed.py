@@ -38,25 +38,41 @@ def coordinate_twists(names) -> np.ndarray:
     return E
 
 
-def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rcond: float = 1e-10) -> np.ndarray:
+def _orthonormal_rows(A: np.ndarray, rtol: float) -> list:
+    """An orthonormal basis (list of (N, 6)) of the span of the rows ``A`` (N, c, 6):
+    Gram-Schmidt twice per row, a row within ``rtol`` of the span so far dropped (its
+    vector 0): dependent constraints (a planar leg's three, four Heli4 legs' couples)."""
+    Q: list = []
+    for k in range(A.shape[1]):
+        a = A[:, k, :]
+        v = a.copy()
+        for _ in range(2):
+            for q in Q:
+                v -= np.einsum("ni,ni->n", q, v)[:, None] * q
+        norm = np.linalg.norm(v, axis=1)
+        keep = norm > rtol * np.linalg.norm(a, axis=1)
+        Q.append(np.where(keep[:, None], v / np.where(keep, norm, 1.0)[:, None], 0.0))
+    return Q
+
+
+def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
     """(N, 6, n) orthonormal bases of the allowed twists.
 
     rows : (N, c, 6) constraint rows ``j_c`` (any scale); c may be 0.
     candidates : (6, n) or (N, 6, n) twists to project (the coordinates' unit twists).
 
-    ``P e = e - A^T (A A^T)^+ (A e)`` (A: the rows; the pseudo-inverse drops dependent
-    constraints below ``rcond`` of the largest), then modified Gram-Schmidt. A candidate
-    whose projection vanishes (the coordinate cannot move there) gives a NaN column.
+    ``P e = e - sum_q q (q . e)`` over an orthonormal basis q of the rows' span (a
+    dependent row, within ``rtol`` of the others', is dropped), then modified
+    Gram-Schmidt of the projections in order. A candidate whose projection vanishes (the
+    coordinate cannot move there) gives a NaN column. A candidate the rows already
+    annihilate exactly is kept exactly (``q . e = 0``).
     """
     A = np.asarray(rows, dtype=float)
     n = A.shape[0]
     E = np.broadcast_to(np.asarray(candidates, dtype=float), (n,) + np.shape(candidates)[-2:])
-    if A.shape[1]:
-        Ae = A @ E                                                  # (N, c, n)
-        G = np.linalg.pinv(A @ np.swapaxes(A, 1, 2), rcond=rcond, hermitian=True)
-        P = E - np.swapaxes(A, 1, 2) @ (G @ Ae)
-    else:
-        P = np.array(E)
+    P = np.array(E)
+    for q in _orthonormal_rows(A, rtol):
+        P -= q[:, :, None] * np.einsum("ni,nik->nk", q, E)[:, None, :]
     B = np.empty_like(P)
     scale = np.linalg.norm(E, axis=1)                                # (N, n)
     for k in range(P.shape[2]):
