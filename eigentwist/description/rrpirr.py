@@ -36,7 +36,8 @@ EZ = sp.Matrix([0, 0, 1])
 RRPIRR_CHAIN = (
     ChainJoint("R", ("s",), "pB", actuated=True, doc="actuated base joint, axis s_i through B_i"),
     ChainJoint("R", ("s",), "pE", doc="elbow joint, axis s_i"),
-    ChainJoint("Pi", ("s3",), doc="parallelogram, translation along s_i3 (its coordinate is l2*q_i3, m)"),
+    ChainJoint("Pi", ("s3",), "pE", doc="parallelogram, translation along s_i3 (its coordinate is l2*q_i3, m); "
+               "its rods swing by q_i3 about n_i2 (pivots on the elbow bar and at a_i)", swing=("n2", "l2")),
     ChainJoint("R", ("s4",), "a", doc="twist of the rods about each other, axis s_i4 through a_i"),
     ChainJoint("R", ("s",), "a", doc="joint at the platform, axis s_i through a_i"),
     ChainJoint("virtual", ("ch",), "a", doc="constrained rotation about c_i1 through a_i (twist of restriction)"),
@@ -133,7 +134,7 @@ class RRPiRRKinematics:
         cvec = _cross(_cross(f5, s4), s4)
         chat = Lv("ch", cvec / L("nc", sp.sqrt(cvec.dot(cvec))))   # axis c_i1 of the twist of restriction
         return dict(u=u, s=s, a=a, r1=r1, w=w, r2=r2, s3=s3v, s4=s4, c3=c3, pE=elbow, pB=base, ch=chat,
-                    pC=Lv("pC", elbow + l2 / 2 * r2), n1=_cross(r1, s), n2=_cross(r2, s3v))
+                    pC=Lv("pC", elbow + l2 / 2 * r2), n1=_cross(r1, s), n2=_cross(r2, s3v), l2=l2)
 
 
 def rrpirr_leg(name: str, base: tuple, radial: tuple, axis: tuple, attachment: tuple, l1, l2,
