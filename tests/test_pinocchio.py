@@ -50,6 +50,14 @@ def _rod_law(params):
     return law
 
 
+def _tube_inertia(p) -> np.ndarray:
+    """One parallelogram rod: a tube of length l2 (kg, kg m^2 at its centre, x along it)."""
+    m = p["l2"] * p["rho"] * np.pi * (p["r_o"] ** 2 - p["r_i"] ** 2)
+    ix = m / 2 * (p["r_i"] ** 2 + p["r_o"] ** 2)
+    iyz = m / 12 * (3 * (p["r_i"] ** 2 + p["r_o"] ** 2) + p["l2"] ** 2)
+    return np.diag([ix, iyz, iyz, m, m, m])
+
+
 def build(ev, model: str):
     """(PinocchioRobot, freedoms E, matrices keyword arguments) for eigentwist's ``model``."""
     robot, p = ev.robot, dict(ev.defaults)
@@ -61,6 +69,16 @@ def build(ev, model: str):
     frames = (("L2", 2, "pE"), ("E1", 1, None)) if rrpirr else ()
     spec = from_description(robot, p, q_ref, x_ref, frames=frames)
     effects = resolve_model(model, robot)
+    if "swinging_rods" in effects:
+        # the rods as bodies on the swinging joint: each a tube of length l2 at its own
+        # centre, x along the rod (Eqs. 27-29 for one rod); the fictitious rod goes
+        rod = _tube_inertia(p)
+        for leg in spec.legs:
+            for b in leg.bodies:
+                if b.riding:
+                    b.inertia = np.zeros((6, 6))
+                elif b.pivot is not None:
+                    b.inertia = rod
     eta = p["eta_a"] if "actuator_loss" in effects else 1.0
     kw = {"c_act": 1 / (eta * p["k_a"])}
     structural = any(robot.effect(e).structural for e in effects)
@@ -86,7 +104,8 @@ def build(ev, model: str):
 
 
 CASES = [("hexapod", "none"), ("hexapod", "rigid"), ("heli4", "none"), ("heli4", "paper"),
-         ("delta", "none"), ("delta", "paper")]
+         ("heli4", "swinging_rods"), ("heli4", "paper,swinging_rods"),
+         ("delta", "none"), ("delta", "paper"), ("delta", "swinging_rods"), ("delta", "paper,swinging_rods")]
 
 
 @pytest.mark.parametrize("name,model", CASES)
