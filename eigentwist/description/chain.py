@@ -39,6 +39,12 @@ class ChainJoint:
     location : a point on the axes (geometry name or 3-tuple, m, base frame); unused
         for P and Pi.
     actuated : True for the actuated joint (R or P); its coordinate's unit follows.
+    swing : Pi only, optional ``(axis, length)``: the rods' pivot axis (unit, geometry
+        name or 3-tuple) and their length (m, geometry name or expression). A Pi joint is
+        R(q)·R(-q) about two parallel axes ``length`` apart: its coordinate is ``length * q``
+        (m) and its moving parts (the rods) swing by q about ``axis``; ``location`` is then
+        the near pivot of the rods' centre line. Bodies hang on the rods with
+        :attr:`ChainBody.pivot`.
     """
 
     kind: str
@@ -46,6 +52,7 @@ class ChainJoint:
     location: Any = None
     actuated: bool = False
     doc: str = ""
+    swing: tuple = ()
 
     def __post_init__(self):
         if self.kind not in JOINT_FREEDOMS:
@@ -55,6 +62,8 @@ class ChainJoint:
         n = JOINT_FREEDOMS[self.kind]
         if self.axes and len(self.axes) != n:
             raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
+        if self.swing and (self.kind != "Pi" or len(self.swing) != 2):
+            raise ValueError(f"joint {self.kind!r}: swing is (axis, length) of a Pi joint's rods, got {self.swing!r}")
 
     @property
     def freedoms(self) -> int:
@@ -73,6 +82,10 @@ class ChainBody:
     inertia : 6x6 spatial inertia (kg, kg m, kg m^2) in the body frame, twists ``[omega; v]``.
     rotation : the body frame's axes (three geometry names or 3-tuples: the columns).
     origin : the body frame's origin (geometry name or 3-tuple, m, base frame).
+    pivot : for a body on the moving part of a Pi joint (a rod that swings with its
+        angle), the point (geometry name or 3-tuple, m) its swing axis passes through;
+        ``after`` then counts the Pi joint, which moves the body by a rotation about its
+        ``swing`` axis through ``pivot`` instead of its translation.
     """
 
     name: str
@@ -81,6 +94,7 @@ class ChainBody:
     rotation: tuple
     origin: Any
     doc: str = ""
+    pivot: Any = None
 
 
 class _ParameterSymbols(dict):

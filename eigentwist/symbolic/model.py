@@ -254,10 +254,15 @@ def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -
                 raise ValueError(f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
                                  f"{', '.join(inertia)} or 'platform'")
             on, added = fx.term(e, i, ls)
-            inertia[e.body] = inertia[e.body] + on * added
+            # one body's inertia, or {body: inertia} for an effect that moves mass between bodies
+            for body, term in (added.items() if isinstance(added, dict) else ((e.body, added),)):
+                if body not in inertia:
+                    raise ValueError(f"effect {e.name!r}: added inertia on body {body!r}: expected one of "
+                                     f"{', '.join(inertia)}")
+                inertia[body] = inertia[body] + on * term
     M = sp.zeros(6, 6)
     for b in leg.bodies:
-        M += body_inertia_contribution(prog, ls, b, inertia[b.name], f"{b.name}_{i + 1}")
+        M += body_inertia_contribution(prog, ls, b, inertia[b.name], f"{b.name}_{i + 1}", leg.joints)
     return M
 
 
