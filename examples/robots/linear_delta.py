@@ -57,7 +57,8 @@ def describe() -> ChainRobot:
     p = {q.name: q.symbol for q in PARAMETERS}
     joints = (ChainJoint("P", ("ez",), actuated=True, doc="slider on its column"),
               ChainJoint("R", ("s",), "c", doc="swing of the parallelogram about its near bar"),
-              ChainJoint("Pi", ("s3",), doc="parallelogram: curvilinear translation of the far bar"),
+              ChainJoint("Pi", ("s3",), "c", swing=("n2", p["L"]), doc="parallelogram: the far bar's curvilinear "
+                         "translation, its rods swinging about n2 (near pivots at the slider)"),
               ChainJoint("R", ("w",), "a", doc="twist of the rods about each other"),
               ChainJoint("R", ("s",), "a", doc="far bar on the platform"),
               ChainJoint("virtual", ("n",), "a", doc="rotation of the far bar out of its plane: constrained"))
