@@ -26,6 +26,7 @@ KERNEL_DOCS = {
     "matrices": "Cartesian inertia M (Eq. 12), rigid-body stiffness K_R (Eq. 14) and flexible-body stiffness K_F (Eq. 13, tau_e = 0) at the EE origin.",
     "jacobians": "Inverse-Jacobian rows of joints 1, 2, 3 and the virtual joint of every leg (Huang's method), and the actuation levers (m).",
     "matrices_lever": "The matrices kernel with each leg's actuation lever (m) as a further output: the fused C pass checks singularity without the jacobians kernel.",
+    "loop_closure": "Loop-closure residual of every leg at its joint coordinates and the pose (orientation error, rad, then position, m) and its exact Jacobian with respect to the leg's coordinates, for the damped Newton inverse kinematics.",
     "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40), each leg's series actuator stiffness k_act and the static preload wrench W on the platform.",
 }
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
@@ -57,8 +58,12 @@ def kernels_for(model, progress=None) -> list[Kernel]:
     kernels = []
     ik_outs = [Output(k, sh, ex) for k, (sh, ex) in model.ik_outputs.items()]
     kernels.append(build_kernel("inverse_kinematics", KERNEL_DOCS["inverse_kinematics"], model.ik,
-                                ik_outs, position, [], params + rotation))
+                                ik_outs, position, [], params + rotation + list(model.ik_joint_inputs)))
     program_params = params + [s.name for s in position] + rotation
+    if model.closure is not None:
+        outs = [Output(k, sh, ex) for k, (sh, ex) in model.closure_outputs.items()]
+        kernels.append(build_kernel("loop_closure", KERNEL_DOCS["loop_closure"], model.closure, outs, [],
+                                    model.joints, program_params, nq))
     for group in ("matrices", "jacobians", "gravity"):
         if progress:
             progress(f"CSE {group}")

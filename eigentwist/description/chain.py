@@ -200,7 +200,7 @@ class ChainRobot:
     name: str
     title: str
     parameters: tuple[Parameter, ...]
-    legs: tuple[ChainLeg, ...]
+    legs: tuple[ChainLeg, ...]          # or SerialLeg (URDF form, numeric IK: :mod:`.serial`)
     platform_inertia: sp.Matrix
     actuator_stiffness: sp.Expr
     x_ref: tuple
@@ -219,6 +219,9 @@ class ChainRobot:
     rigid_compliance: Any = sp.Integer(0)
 
     def __post_init__(self):
+        # a leg in URDF form (:class:`~.serial.SerialLeg`) becomes the joint list it stands for
+        object.__setattr__(self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg
+                                               for leg in self.legs))
         resolve_effects(self)
 
     @property

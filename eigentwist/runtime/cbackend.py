@@ -254,6 +254,13 @@ class CKernels:
         """Inverse-Jacobian rows ``J_rows`` (..., legs, 4, 6) and levers ``lever`` (..., legs), m."""
         return self._q_kernel("jacobians", q, p)
 
+    def loop_closure(self, q, p: dict) -> dict:
+        """Loop-closure ``residual`` (..., legs, rows) and its Jacobian ``dresidual`` of legs
+        solved numerically (:mod:`eigentwist.runtime.newton`); absent for closed-form IK."""
+        if "loop_closure" not in self._spec:
+            raise AttributeError("loop_closure")
+        return self._q_kernel("loop_closure", q, p)
+
     def gravity(self, q, p: dict) -> dict:
         """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""
         return self._q_kernel("gravity", q, p)

@@ -139,8 +139,50 @@ class Evaluator:
         return out
 
     def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
-        """``p`` plus :meth:`kernel_pose_inputs` (``p`` itself for a 3-DoF robot)."""
-        return p if self.dof == 3 else {**p, **self.kernel_pose_inputs(poses)}
+        """``p`` plus :meth:`kernel_pose_inputs` (``p`` itself for a 3-DoF robot), and for
+        legs solved numerically their joint coordinates by name (:meth:`numeric_joints`)."""
+        p = p if self.dof == 3 else {**p, **self.kernel_pose_inputs(poses)}
+        return {**p, **self.numeric_joints(poses, p)} if self.numeric_ik else p
+
+    @property
+    def numeric_ik(self) -> bool:
+        """True when the legs' IK is solved by Newton's method (legs in URDF form,
+        :mod:`eigentwist.description.serial`), not in closed form."""
+        return hasattr(self.module, "loop_closure")
+
+    def numeric_joints(self, poses, p: dict) -> dict:
+        """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.newton`: damped
+        Newton from the description's reference configuration, warm-started from the
+        previous pose), as the IK kernel's inputs ``q<m>_<leg>`` ((N,) arrays, NaN where it
+        does not converge: the IK's closure check then reports the pose unreachable)."""
+        q = self.solve_joints(poses, p)
+        return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
+
+    def solve_joints(self, poses, p: dict) -> np.ndarray:
+        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.newton.solve`)."""
+        from .newton import solve
+
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
+        key = (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
+                                      if not k.startswith("q")))
+        memo = self.__dict__.setdefault("_newton_memo", {})
+        if key in memo:
+            return memo[key]
+        n = len(poses)
+        kp = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        if self.dof == 6:
+            kp.update(self.kernel_pose_inputs(poses))
+        reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+
+        def branch(q):
+            with np.errstate(invalid="ignore", divide="ignore"):
+                return self._kernels.jacobians(q, kp)["lever"]
+
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            q = solve(self._kernels.loop_closure, reference, kp, n, branch=branch)
+        memo.clear()
+        memo[key] = q
+        return q
 
     def rigid_size(self) -> int:
         """Size of the rigid model's eigenproblem: 3 (translations) for a 3-DoF robot, 6 else."""

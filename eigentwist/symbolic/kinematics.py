@@ -12,11 +12,13 @@ and the leg when they fail.
 """
 from __future__ import annotations
 
+import sympy as sp
+
 from ..description import RobotDescription
 from ..description.pose import POSE
-from .program import Program
+from .program import Program, derivative
 
-__all__ = ["POSE", "inverse_kinematics"]
+__all__ = ["POSE", "inverse_kinematics", "loop_closure"]
 
 
 
@@ -45,3 +47,37 @@ def inverse_kinematics(robot: RobotDescription):
     outputs = {"q": ((n, len(q_all[0])), [qq for q in q_all for qq in q])}
     outputs.update({name: ((n,), values) for name, values in checks.items()})
     return ik, outputs, q_all
+
+
+def loop_closure(robot, q_all: list):
+    """``(program, outputs)`` of the legs' loop-closure equations for a robot whose legs'
+    kinematics are solved numerically (each ``leg.kinematics`` with a ``residual``), else
+    ``(None, {})``.
+
+    The program reads the pose inputs, the parameters and every leg's coordinates ``q_all``
+    (the IK program's inputs); its outputs are ``residual`` (legs, rows): the chain end
+    minus the platform attachment (m; with the orientation error first, rad, when the
+    chain does not end in a spherical joint), and ``dresidual`` (legs, rows, n_q): its
+    exact Jacobian with respect to the leg's coordinates (forward mode through the
+    program, :func:`~eigentwist.symbolic.program.derivative`), for the runtime's damped
+    Newton method (:mod:`eigentwist.runtime.newton`).
+    """
+    if not all(hasattr(leg.kinematics, "residual") for leg in robot.legs):
+        return None, {}
+    prog = Program()
+    pose = robot.pose_space
+    for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters] + [qq for q in q_all for qq in q]:
+        prog.declare(s_)
+    res, jac = [], []
+    for i, (leg, q) in enumerate(zip(robot.legs, q_all), start=1):
+        r = leg.kinematics.residual(prog, pose, q, str(i))
+        r = prog.let_matrix(f"r_{i}", r)
+        if res and r.rows != res[0].rows:
+            raise ValueError(f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
+                             f"{robot.legs[0].name} with {res[0].rows}: expected alike legs")
+        res.append(r)
+        jac.append(sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]))
+    n, rows, nq = len(robot.legs), res[0].rows, len(q_all[0])
+    outputs = {"residual": ((n, rows), [e for r in res for e in r]),
+               "dresidual": ((n, rows, nq), [e for J in jac for e in J])}
+    return prog, outputs
