@@ -412,15 +412,23 @@ class Evaluator:
         """
         return self._run(kernel, poses, model, params)
 
-    def matrices(self, poses, model="paper", *, out: dict | None = None, **params) -> dict:
+    def matrices(self, poses, model="paper", *, out: dict | None = None, joints=None, **params) -> dict:
         """``M``, ``K_R``, ``K_F`` at the EE origin, each (N, 6, 6) (Eqs. 12, 14, 13).
 
         ``model`` switches effects on or off (K_R uses only the actuator-side effects).
+        ``joints``: measured joint coordinates (N, legs, coordinates), e.g. encoder
+        readings, used instead of the inverse kinematics (:meth:`joint_matrices`).
         ``out`` maps any of ``"M"``, ``"K_R"``, ``"K_F"`` to a preallocated C-contiguous
         float64 (N, 6, 6) array (e.g. a ``numpy.memmap``) that is written in place and
         returned; nothing else of that size is allocated. For batches too large to hold,
         :meth:`iter_matrices` yields them chunk by chunk.
         """
+        if joints is not None:
+            mats = self.joint_matrices(poses, joints, model, **params)
+            for k, arr in self._check_out(out, len(mats["M"])).items():
+                arr[...] = mats[k]
+                mats[k] = arr
+            return mats
         poses = self._poses(poses)
         n = len(poses)
         p = self._params(n, params, model)
@@ -452,6 +460,49 @@ class Evaluator:
                 raise InputError(f"out[{k!r}]: expected a writeable C-contiguous float64 array of shape ({n}, 6, 6), "
                                  f"got {getattr(arr, 'shape', None)} {getattr(arr, 'dtype', type(arr).__name__)}")
         return out
+
+    def joint_coordinates(self, joints, poses=None) -> tuple:
+        """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.
+
+        ``joints`` has the shape :meth:`joint_angles` returns (rad; m for a prismatic
+        joint). ``poses`` may be None when the model reads the joint coordinates only
+        (a translational platform); a 6-DoF robot's model reads the pose too."""
+        q = np.asarray(joints, dtype=float)
+        if q.ndim == 2:
+            q = q[None]
+        nq = len(self.robot.legs[0].kinematics.coordinates)
+        if q.ndim != 3 or q.shape[1:] != (self.n_legs, nq):
+            raise InputError(f"joints has shape {np.shape(joints)}: expected (N, {self.n_legs}, {nq}) joint "
+                             f"coordinates of {self.robot.name} (legs x coordinates, as joint_angles returns)")
+        if not np.isfinite(q).all():
+            k = int(np.argmax(~np.isfinite(q).reshape(len(q), -1).all(axis=1)))
+            raise InputError(f"joints[{k}] is not finite: expected numbers (rad; m for a prismatic joint)")
+        if poses is None:
+            if self.dof != 3:
+                raise InputError(f"joints without poses: the model of {self.robot.name} reads the pose too "
+                                 f"({', '.join(self.pose_names)}): give both")
+            poses = np.zeros((len(q), 3))
+        poses = self._poses(poses)
+        if len(poses) != len(q):
+            raise InputError(f"joints has {len(q)} rows and poses {len(poses)}: expected one pose per row of joints")
+        return q, poses
+
+    def joint_matrices(self, poses, joints, model="paper", **params) -> dict:
+        """``M``, ``K_R``, ``K_F`` (N, 6, 6) at measured joint coordinates ``joints``
+        (N, legs, coordinates: rad, m for a prismatic joint; :meth:`joint_angles`'s
+        layout), instead of the inverse kinematics of ``poses``. The model is a function
+        of the joint coordinates and the design parameters (and, for a 6-DoF robot, of the
+        pose); where both exist, the joints of a pose give what the pose gives. A
+        singular configuration raises as for a pose."""
+        q, poses = self.joint_coordinates(joints, poses)
+        p = self._params(len(q), params, model)
+        pk = {**p, **self.kernel_pose_inputs(poses)} if self.dof != 3 else p
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lever = self._kernels.jacobians(q, pk)["lever"]
+        lever = lever / np.asarray(pk.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
+        raise_singular(self.robot.legs, poses, lever, LEVER_SCALE if LEVER_SCALE in pk else None)
+        out = self._kernels.matrices(q, pk)
+        return {k: out[k] for k in MATRICES}
 
     def iter_matrices(self, poses, model="paper", *, chunk: int = MATRIX_CHUNK, **params):
         """Yield ``(rows, matrices)`` chunk by chunk: ``rows`` a slice of ``poses``,
@@ -494,7 +545,7 @@ class Evaluator:
         return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
-              unstable: str = "nan", **params) -> Modes:
+              unstable: str = "nan", joints=None, **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
 
         ``invalid="raise"`` (the default) raises on the first unreachable or singular
@@ -504,17 +555,40 @@ class Evaluator:
         An unstable mode (negative stiffness) is NaN and its pose False in ``Modes.stable``
         (``unstable="nan"``, the default) or raises :class:`UnstablePoseError` naming the
         pose and the mode (``unstable="raise"``, for single-pose commands).
+        ``joints``: measured joint coordinates (N, legs, coordinates) used instead of the
+        inverse kinematics (:meth:`joint_matrices`; ``poses`` may be None for a
+        translational robot).
         """
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
+        if joints is not None:
+            return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses)
         effects = resolve_model(model, self.robot)
         if self._fused and not self._preloaded(effects):
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors)
         else:
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors)
+        if unstable == "raise" and not modes.stable.all():
+            self._raise_unstable(poses, modes, effects)
+        return modes
+
+    def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
+        """:meth:`modes` at measured joint coordinates (no gravity preload: its static
+        deflection needs the pose's inverse kinematics)."""
+        effects = resolve_model(model, self.robot)
+        if self._preloaded(effects):
+            raise InputError("joints= with a gravity preload: not supported (the preload's derivative needs the "
+                             "inverse kinematics); drop gravity_preload from the model or give poses only")
+        q, poses = self.joint_coordinates(joints, poses)
+        mats = self.joint_matrices(poses, q, effects, **params)
+        kind = self.kind(effects)
+        sub = kind == "rigid" and self.dof == 3
+        M = mats["M"][:, 3:, 3:] if sub else mats["M"]
+        K = mats["K_R"][:, 3:, 3:] if sub else (mats["K_R"] if kind == "rigid" else mats["K_F"])
+        modes = self._solve(M, K, vectors, kind)
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
@@ -614,8 +688,9 @@ class Evaluator:
         kind = "rigid" if rigid else "flexible"
         return Modes(freq, vec, self.axes(kind), kind), dfdp
 
-    def frequencies(self, poses, model="paper", **params) -> np.ndarray:
+    def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
         ``"paper"``) or (N, 3) for ``"rigid"`` (a 6-DoF robot: (N, 6) always), ascending.
-        Unstable modes are NaN."""
-        return self.modes(poses, model, vectors=False, **params).freq_hz
+        Unstable modes are NaN. ``joints``: measured joint coordinates (N, legs,
+        coordinates) instead of the inverse kinematics (see :meth:`modes`)."""
+        return self.modes(poses, model, vectors=False, joints=joints, **params).freq_hz
