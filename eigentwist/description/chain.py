@@ -221,7 +221,7 @@ class ChainRobot:
     name: str
     title: str
     parameters: tuple[Parameter, ...]
-    legs: tuple[ChainLeg, ...]
+    legs: tuple[ChainLeg, ...]          # or SerialLeg (URDF form, numeric IK: :mod:`.serial`)
     platform_inertia: sp.Matrix
     actuator_stiffness: sp.Expr
     x_ref: tuple
@@ -244,6 +244,9 @@ class ChainRobot:
         if tuple(self.pose) != coordinates:
             raise ValueError(f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
                              f"{coordinates!r}: expected the same names")
+        # a leg in URDF form (:class:`~.serial.SerialLeg`) becomes the joint list it stands for
+        object.__setattr__(self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg
+                                               for leg in self.legs))
         resolve_effects(self)
 
     @property

@@ -132,7 +132,7 @@ class Evaluator:
         from .platform import full_poses
 
         p = self._params(len(arr), params or {}, "rigid") if self.space.followers else None
-        closure = getattr(self.module, "closure", None)
+        closure = getattr(self.module, "followers", None)
         return full_poses(self.space, arr, closure, p).view(_Full)
 
     def _given(self, poses) -> np.ndarray:
@@ -169,12 +169,55 @@ class Evaluator:
         return out
 
     def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
-        """``p`` plus :meth:`kernel_pose_inputs` (a translational robot's: x, y, z)."""
+        """``p`` plus :meth:`kernel_pose_inputs` (a translational robot's: x, y, z), and for
+        legs solved numerically their joint coordinates by name (:meth:`numeric_joints`)."""
         if self._six:
-            return {**p, **self.kernel_pose_inputs(poses)}
-        # a translational robot's legs may read the position beyond the IK (a joint-list
-        # leg's closed form, issue 21): its kernels take it by name, the others ignore it
-        return {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+            p = {**p, **self.kernel_pose_inputs(poses)}
+        else:
+            # a translational robot's legs may read the position beyond the IK (a joint-list
+            # leg's closed form, issue 21): its kernels take it by name, the others ignore it
+            p = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        return {**p, **self.numeric_joints(poses, p)} if self.numeric_ik else p
+
+    @property
+    def numeric_ik(self) -> bool:
+        """True when the legs' IK is solved by Newton's method (legs in URDF form,
+        :mod:`eigentwist.description.serial`), not in closed form."""
+        return hasattr(self.module, "loop_closure")
+
+    def numeric_joints(self, poses, p: dict) -> dict:
+        """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.newton`: damped
+        Newton from the description's reference configuration, warm-started from the
+        previous pose), as the IK kernel's inputs ``q<m>_<leg>`` ((N,) arrays, NaN where it
+        does not converge: the IK's closure check then reports the pose unreachable)."""
+        q = self.solve_joints(poses, p)
+        return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
+
+    def solve_joints(self, poses, p: dict) -> np.ndarray:
+        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.newton.solve`)."""
+        from .newton import solve
+
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
+        key = (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
+                                      if not k.startswith("q")))
+        memo = self.__dict__.setdefault("_newton_memo", {})
+        if key in memo:
+            return memo[key]
+        n = len(poses)
+        kp = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        if self._six:
+            kp.update(self.kernel_pose_inputs(poses))
+        reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+
+        def branch(q):
+            with np.errstate(invalid="ignore", divide="ignore"):
+                return self._kernels.jacobians(q, kp)["lever"]
+
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            q = solve(self._kernels.loop_closure, reference, kp, n, branch=branch)
+        memo.clear()
+        memo[key] = q
+        return q
 
     def rigid_size(self) -> int:
         """Size of the rigid model's eigenproblem: the number of the platform's allowed
@@ -428,15 +471,23 @@ class Evaluator:
         """
         return self._run(kernel, poses, model, params)
 
-    def matrices(self, poses, model="paper", *, out: dict | None = None, **params) -> dict:
+    def matrices(self, poses, model="paper", *, out: dict | None = None, joints=None, **params) -> dict:
         """``M``, ``K_R``, ``K_F`` at the EE origin, each (N, 6, 6) (Eqs. 12, 14, 13).
 
         ``model`` switches effects on or off (K_R uses only the actuator-side effects).
+        ``joints``: measured joint coordinates (N, legs, coordinates), e.g. encoder
+        readings, used instead of the inverse kinematics (:meth:`joint_matrices`).
         ``out`` maps any of ``"M"``, ``"K_R"``, ``"K_F"`` to a preallocated C-contiguous
         float64 (N, 6, 6) array (e.g. a ``numpy.memmap``) that is written in place and
         returned; nothing else of that size is allocated. For batches too large to hold,
         :meth:`iter_matrices` yields them chunk by chunk.
         """
+        if joints is not None:
+            mats = self.joint_matrices(poses, joints, model, **params)
+            for k, arr in self._check_out(out, len(mats["M"])).items():
+                arr[...] = mats[k]
+                mats[k] = arr
+            return mats
         poses = self._poses(poses, params)
         n = len(poses)
         p = self._params(n, params, model)
@@ -468,6 +519,50 @@ class Evaluator:
                 raise InputError(f"out[{k!r}]: expected a writeable C-contiguous float64 array of shape ({n}, 6, 6), "
                                  f"got {getattr(arr, 'shape', None)} {getattr(arr, 'dtype', type(arr).__name__)}")
         return out
+
+    def joint_coordinates(self, joints, poses=None) -> tuple:
+        """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.
+
+        ``joints`` has the shape :meth:`joint_angles` returns (rad; m for a prismatic
+        joint). ``poses`` may be None when the model reads the joint coordinates only
+        (a translational platform); a 6-DoF robot's model reads the pose too."""
+        q = np.asarray(joints, dtype=float)
+        if q.ndim == 2:
+            q = q[None]
+        nq = len(self.robot.legs[0].kinematics.coordinates)
+        if q.ndim != 3 or q.shape[1:] != (self.n_legs, nq):
+            raise InputError(f"joints has shape {np.shape(joints)}: expected (N, {self.n_legs}, {nq}) joint "
+                             f"coordinates of {self.robot.name} (legs x coordinates, as joint_angles returns)")
+        if not np.isfinite(q).all():
+            k = int(np.argmax(~np.isfinite(q).reshape(len(q), -1).all(axis=1)))
+            raise InputError(f"joints[{k}] is not finite: expected numbers (rad; m for a prismatic joint)")
+        if poses is None:
+            if self._six:
+                raise InputError(f"joints without poses: the model of {self.robot.name} reads the pose too "
+                                 f"({', '.join(self.pose_names)}): give both")
+            poses = np.zeros((len(q), 3))
+        poses = self._poses(poses)
+        if len(poses) != len(q):
+            raise InputError(f"joints has {len(q)} rows and poses {len(poses)}: expected one pose per row of joints")
+        return q, poses
+
+    def joint_matrices(self, poses, joints, model="paper", **params) -> dict:
+        """``M``, ``K_R``, ``K_F`` (N, 6, 6) at measured joint coordinates ``joints``
+        (N, legs, coordinates: rad, m for a prismatic joint; :meth:`joint_angles`'s
+        layout), instead of the inverse kinematics of ``poses``. The model is a function
+        of the joint coordinates and the design parameters (and, for a 6-DoF robot, of the
+        pose); where both exist, the joints of a pose give what the pose gives. A
+        singular configuration raises as for a pose."""
+        q, poses = self.joint_coordinates(joints, poses)
+        p = self._params(len(q), params, model)
+        pk = {**p, **(self.kernel_pose_inputs(poses) if self._six else
+                       {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]})}
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lever = self._kernels.jacobians(q, pk)["lever"]
+        lever = lever / np.asarray(pk.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
+        raise_singular(self.robot.legs, poses, lever, LEVER_SCALE if LEVER_SCALE in pk else None)
+        out = self._kernels.matrices(q, pk)
+        return {k: out[k] for k in MATRICES}
 
     def iter_matrices(self, poses, model="paper", *, chunk: int = MATRIX_CHUNK, **params):
         """Yield ``(rows, matrices)`` chunk by chunk: ``rows`` a slice of ``poses``,
@@ -525,7 +620,7 @@ class Evaluator:
         return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
-              unstable: str = "nan", **params) -> Modes:
+              unstable: str = "nan", joints=None, **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
 
         ``invalid="raise"`` (the default) raises on the first unreachable or singular
@@ -535,11 +630,16 @@ class Evaluator:
         An unstable mode (negative stiffness) is NaN and its pose False in ``Modes.stable``
         (``unstable="nan"``, the default) or raises :class:`UnstablePoseError` naming the
         pose and the mode (``unstable="raise"``, for single-pose commands).
+        ``joints``: measured joint coordinates (N, legs, coordinates) used instead of the
+        inverse kinematics (:meth:`joint_matrices`; ``poses`` may be None for a
+        translational robot).
         """
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
+        if joints is not None:
+            return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
         fixed = getattr(self.space, "basis", None) is not None or self.kind(effects) == "flexible"
@@ -547,6 +647,29 @@ class Evaluator:
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors)
         else:
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors)
+        if unstable == "raise" and not modes.stable.all():
+            self._raise_unstable(poses, modes, effects)
+        return modes
+
+    def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
+        """:meth:`modes` at measured joint coordinates (no gravity preload: its static
+        deflection needs the pose's inverse kinematics)."""
+        effects = resolve_model(model, self.robot)
+        if self._preloaded(effects):
+            raise InputError("joints= with a gravity preload: not supported (the preload's derivative needs the "
+                             "inverse kinematics); drop gravity_preload from the model or give poses only")
+        q, poses = self.joint_coordinates(joints, poses)
+        mats = self.joint_matrices(poses, q, effects, **params)
+        kind = self.kind(effects)
+        if kind == "rigid":
+            if getattr(self.space, "basis", None) is None:
+                raise InputError(f"joints= with {self.robot.name}'s rigid model (allowed twists that turn with the "
+                                 "pose): not supported; give poses")
+            B = self.allowed_twists(poses)
+            M, K = reduce(mats["M"], B), reduce(mats["K_R"], B)
+        else:
+            M, K = mats["M"], mats["K_F"]
+        modes = self._solve(M, K, vectors, kind)
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
@@ -649,8 +772,9 @@ class Evaluator:
         kind = "rigid" if rigid else "flexible"
         return Modes(freq, vec, self.axes(kind), kind), dfdp
 
-    def frequencies(self, poses, model="paper", **params) -> np.ndarray:
+    def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
         ``"paper"``) or (N, 3) for ``"rigid"`` (a 6-DoF robot: (N, 6) always), ascending.
-        Unstable modes are NaN."""
-        return self.modes(poses, model, vectors=False, **params).freq_hz
+        Unstable modes are NaN. ``joints``: measured joint coordinates (N, legs,
+        coordinates) instead of the inverse kinematics (see :meth:`modes`)."""
+        return self.modes(poses, model, vectors=False, joints=joints, **params).freq_hz

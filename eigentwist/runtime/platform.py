@@ -5,7 +5,7 @@ A pose space (:mod:`eigentwist.description.pose`) names the coordinates a user g
 rotation vector rot_x, rot_y, rot_z in rad). Any coordinate that is neither given nor a
 follower is 0 (a planar platform's z, rot_x, rot_y). The followers of a lower-mobility
 space (a 3-PRS platform's x, y, rot_z) are solved per pose from the legs' closure
-equations (the generated ``closure`` kernel) by a damped Newton method: batched over the
+equations (the generated ``followers`` kernel) by a damped Newton method: batched over the
 poses from the reference (followers 0), then each pose that did not converge again,
 warm-started from the nearest earlier pose of the batch that did. A pose that still does
 not converge has NaN followers: the evaluator reports it unreachable.
@@ -93,7 +93,7 @@ def follow(closure, full: np.ndarray, followers: list, p: dict) -> np.ndarray:
     commanded coordinates set, the followers' starting values 0) so that every leg's
     closure vanishes; returns the completed (N, 6) poses, NaN followers where Newton did not
     converge (batched from the reference, then warm-started from the nearest earlier
-    converged pose). ``closure(x, y, z, p)`` is the generated kernel; ``p`` holds the
+    converged pose). ``closure(x, y, z, p)`` is the generated ``followers`` kernel; ``p`` holds the
     parameters as the kernels take them."""
     full = np.array(full, dtype=float)
     n = len(full)

@@ -26,7 +26,7 @@ from pathlib import Path
 from .ccompile import cache_dir
 from .errors import InputError
 
-__all__ = ["describe_file", "is_description_file", "description_key", "generated_modules", "import_numpy_module"]
+__all__ = ["describe_file", "is_description_file", "is_description", "description_kinds", "description_key", "generated_modules", "import_numpy_module"]
 
 PACKAGE = Path(__file__).resolve().parent.parent
 
@@ -36,10 +36,24 @@ def is_description_file(robot) -> bool:
     return isinstance(robot, (str, os.PathLike)) and str(robot).endswith(".py")
 
 
-def describe_file(path) -> "RobotDescription":  # noqa: F821
-    """Import ``path`` and return what its ``describe()`` returns; one-line errors."""
+def description_kinds() -> tuple:
+    """The description classes a robot may be built from: RR(Pi)RR legs
+    (:class:`~eigentwist.description.RobotDescription`) and joint lists
+    (:class:`~eigentwist.description.chain.ChainRobot`, as ``robots/hexapod.py``)."""
     from ..description import RobotDescription
     from ..description.chain import ChainRobot
+
+    return (RobotDescription, ChainRobot)
+
+
+def is_description(obj) -> bool:
+    """True when ``obj`` is a robot description of any kind (:func:`description_kinds`)."""
+    return isinstance(obj, description_kinds())
+
+
+def describe_file(path) -> "RobotDescription":  # noqa: F821
+    """Import ``path`` and return what its ``describe()`` returns (any description kind a
+    shipped robot is built from: :data:`DESCRIPTION_KINDS`); one-line errors."""
 
     path = Path(path)
     if not path.is_file():
@@ -54,14 +68,14 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     describe = getattr(module, "describe", None)
     if not callable(describe):
         raise InputError(f"robot description file {str(path)!r} does not define describe() "
-                         "(it must return an eigentwist.description.RobotDescription)")
+                         "(it must return an eigentwist.description.RobotDescription or a joint-list ChainRobot)")
     try:
         desc = describe()
     except Exception as exc:
         raise InputError(f"describe() in {str(path)!r} raised {type(exc).__name__}: {exc}") from None
-    if not isinstance(desc, (RobotDescription, ChainRobot)):
-        raise InputError(f"describe() in {str(path)!r} returned {type(desc).__name__}: expected a RobotDescription "
-                         "or a ChainRobot")
+    if not is_description(desc):
+        raise InputError(f"describe() in {str(path)!r} returned {type(desc).__name__}: expected one of "
+                         f"{', '.join(k.__name__ for k in description_kinds())}")
     return desc
 
 
@@ -81,13 +95,17 @@ def _content(obj) -> str:
     """A deterministic text of ``obj``: its repr without memory addresses, plus the
     source of every function its effects build with."""
     text = re.sub(r" at 0x[0-9a-fA-F]+", "", repr(obj))
+    functions = [e.build for e in getattr(obj, "custom_effects", ()) if e.build is not None]
+    # joint-list legs (ChainLeg) carry their closed-form geometry as a function
+    functions += [leg.geometry for leg in getattr(obj, "legs", ()) if callable(getattr(leg, "geometry", None))]
     sources = []
-    for e in getattr(obj, "custom_effects", ()):
-        if e.build is not None:
-            try:
-                sources.append(inspect.getsource(e.build))
-            except (OSError, TypeError):
-                sources.append(getattr(e.build, "__qualname__", repr(e.build)))
+    for fn in functions:
+        try:
+            sources.append(inspect.getsource(fn))
+        except (OSError, TypeError):
+            sources.append(getattr(fn, "__qualname__", repr(fn)))
+        cells = getattr(fn, "__closure__", None) or ()
+        sources.append(re.sub(r" at 0x[0-9a-fA-F]+", "", repr([c.cell_contents for c in cells])))
     return text + "\0".join(sources)
 
 

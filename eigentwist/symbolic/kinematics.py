@@ -12,13 +12,15 @@ and the leg when they fail.
 """
 from __future__ import annotations
 
+import sympy as sp
+
 from ..description import RobotDescription
 import sympy as sp
 
 from ..description.pose import POSE
-from .program import Program
+from .program import Program, derivative
 
-__all__ = ["POSE", "inverse_kinematics", "closures"]
+__all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures"]
 
 
 
@@ -91,3 +93,37 @@ def closures(robot):
             rates += [prog.let(f"d{name}_{i}_{k}", rate[0, k]) for k in range(6)]
     n = len(robot.legs)
     return prog, {"closure": ((n, len(names)), values), "closure_rate": ((n, len(names), 6), rates)}
+
+
+def loop_closure(robot, q_all: list):
+    """``(program, outputs)`` of the legs' loop-closure equations for a robot whose legs'
+    kinematics are solved numerically (each ``leg.kinematics`` with a ``residual``), else
+    ``(None, {})``.
+
+    The program reads the pose inputs, the parameters and every leg's coordinates ``q_all``
+    (the IK program's inputs); its outputs are ``residual`` (legs, rows): the chain end
+    minus the platform attachment (m; with the orientation error first, rad, when the
+    chain does not end in a spherical joint), and ``dresidual`` (legs, rows, n_q): its
+    exact Jacobian with respect to the leg's coordinates (forward mode through the
+    program, :func:`~eigentwist.symbolic.program.derivative`), for the runtime's damped
+    Newton method (:mod:`eigentwist.runtime.newton`).
+    """
+    if not all(hasattr(leg.kinematics, "residual") for leg in robot.legs):
+        return None, {}
+    prog = Program()
+    pose = robot.pose_space
+    for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters] + [qq for q in q_all for qq in q]:
+        prog.declare(s_)
+    res, jac = [], []
+    for i, (leg, q) in enumerate(zip(robot.legs, q_all), start=1):
+        r = leg.kinematics.residual(prog, pose, q, str(i))
+        r = prog.let_matrix(f"r_{i}", r)
+        if res and r.rows != res[0].rows:
+            raise ValueError(f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
+                             f"{robot.legs[0].name} with {res[0].rows}: expected alike legs")
+        res.append(r)
+        jac.append(sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]))
+    n, rows, nq = len(robot.legs), res[0].rows, len(q_all[0])
+    outputs = {"residual": ((n, rows), [e for r in res for e in r]),
+               "dresidual": ((n, rows, nq), [e for J in jac for e in J])}
+    return prog, outputs

@@ -25,7 +25,7 @@ import sympy as sp
 from ..description import RobotDescription, sym
 from ..description.effects import EffectContext, leg_input_name, leg_switch_name, switch_name
 from .inertia import body_inertia_contribution
-from .kinematics import POSE, closures, inverse_kinematics
+from .kinematics import POSE, closures, inverse_kinematics, loop_closure
 from .leg import LegScrews, leg_screws
 from .program import Program, derivative
 from .screw import adjoint, compliance_to_frame, stiffness_to_frame
@@ -67,9 +67,20 @@ class DerivedModel:
     #: robot adds its rotation matrix R_ij: ``robot.pose_space.inputs``,
     #: :mod:`eigentwist.description.pose`)
     pose_inputs: tuple = POSE
-    #: ``(program, outputs)`` of the legs' closure equations of a lower-mobility pose
-    #: space (:func:`~eigentwist.symbolic.kinematics.closures`), else None
-    closure: tuple | None = None
+    #: legs solved numerically (:mod:`eigentwist.description.serial`): the loop-closure
+    #: program (residual and its Jacobian) and its outputs; None for closed-form IK
+    closure: Program | None = None
+    closure_outputs: dict = field(default_factory=dict)
+
+    @property
+    def ik_joint_inputs(self) -> tuple[str, ...]:
+        """Joint coordinates the IK program reads instead of computing (numeric IK: solved
+        by the runtime and passed in by name; none for closed-form IK)."""
+        declared = {s.name for s in self.ik.inputs}
+        return tuple(s.name for s in self.joints if s.name in declared)
+    #: ``(program, outputs)`` of the pose space's closure equations, whose followers the
+    #: runtime solves (:func:`~eigentwist.symbolic.kinematics.closures`), else None
+    followers: tuple | None = None
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -217,8 +228,9 @@ def derive(robot: RobotDescription) -> DerivedModel:
             "W": ((6,), list(_preload_wrench(S, fx))),
         },
     }
+    closure, closure_outputs = loop_closure(robot, q_all)
     return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=tuple(pose.inputs),
-                        closure=closures(robot))
+                        closure=closure, closure_outputs=closure_outputs, followers=closures(robot))
 
 
 def _joint_keys(leg, ls: LegScrews):
@@ -229,7 +241,9 @@ def _joint_keys(leg, ls: LegScrews):
     if len(actuated) != 1:
         raise ValueError(f"{leg.name}: {len(actuated)} actuated joints: expected exactly one")
     virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].virtual]
-    coords = [(first[j], rate) for j, rate in leg.kinematics.coordinates]
+    # (joint, rate[, freedom within the joint]): a U or S joint's coordinates address its twists
+    coords = [(ls.keys[ls.joint_of.index(c[0]) + (c[2] if len(c) > 2 else 0)], c[1])
+              for c in leg.kinematics.coordinates]
     return first[actuated[0]], virtual, coords
 
 
