@@ -26,6 +26,8 @@ KERNEL_DOCS = {
     "matrices": "Cartesian inertia M (Eq. 12), rigid-body stiffness K_R (Eq. 14) and flexible-body stiffness K_F (Eq. 13, tau_e = 0) at the EE origin.",
     "jacobians": "Inverse-Jacobian rows of joints 1, 2, 3 and the virtual joint of every leg (Huang's method), and the actuation levers (m).",
     "matrices_lever": "The matrices kernel with each leg's actuation lever (m) as a further output: the fused C pass checks singularity without the jacobians kernel.",
+    "followers": "Each leg's closure equations (m, zero where the platform can be) and their rates along the platform's six unit twists, for the followers of a lower-mobility pose space (issue 21).",
+    "loop_closure": "Loop-closure residual of every leg at its joint coordinates and the pose (orientation error, rad, then position, m) and its exact Jacobian with respect to the leg's coordinates, for the damped Newton inverse kinematics.",
     "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40), each leg's series actuator stiffness k_act and the static preload wrench W on the platform.",
 }
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
@@ -57,14 +59,23 @@ def kernels_for(model, progress=None) -> list[Kernel]:
     kernels = []
     ik_outs = [Output(k, sh, ex) for k, (sh, ex) in model.ik_outputs.items()]
     kernels.append(build_kernel("inverse_kinematics", KERNEL_DOCS["inverse_kinematics"], model.ik,
-                                ik_outs, position, [], params + rotation))
+                                ik_outs, position, [], params + rotation + list(model.ik_joint_inputs)))
     program_params = params + [s.name for s in position] + rotation
+    if model.closure is not None:
+        outs = [Output(k, sh, ex) for k, (sh, ex) in model.closure_outputs.items()]
+        kernels.append(build_kernel("loop_closure", KERNEL_DOCS["loop_closure"], model.closure, outs, [],
+                                    model.joints, program_params, nq))
     for group in ("matrices", "jacobians", "gravity"):
         if progress:
             progress(f"CSE {group}")
         outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
         kernels.append(build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints,
                                     program_params, nq))
+    if getattr(model, "followers", None) is not None:      # NumPy only: the runtime's Newton steps
+        prog, closure = model.followers
+        kernels.append(build_kernel("followers", KERNEL_DOCS["followers"], prog,
+                                    [Output(k, sh, ex) for k, (sh, ex) in closure.items()], position, [],
+                                    params + rotation))
     return kernels
 
 
@@ -124,7 +135,7 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
     for backend, (pattern, render) in BACKENDS.items():
         if backends is not None and backend not in backends:
             continue
-        ks = kernels + fused_kernels_for(model) if backend == "c" else kernels
+        ks = [k for k in kernels if k.name != "followers"] + fused_kernels_for(model) if backend == "c" else kernels
         digest = source_hash(ks, _template_text(backend))
         files[pattern.format(robot=name)] = render(model.robot, ks, digest)
     t3 = time.perf_counter()

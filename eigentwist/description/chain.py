@@ -39,6 +39,12 @@ class ChainJoint:
     location : a point on the axes (geometry name or 3-tuple, m, base frame); unused
         for P and Pi.
     actuated : True for the actuated joint (R or P); its coordinate's unit follows.
+    swing : Pi only, optional ``(axis, length)``: the rods' pivot axis (unit, geometry
+        name or 3-tuple) and their length (m, geometry name or expression). A Pi joint is
+        R(q)·R(-q) about two parallel axes ``length`` apart: its coordinate is ``length * q``
+        (m) and its moving parts (the rods) swing by q about ``axis``; ``location`` is then
+        the near pivot of the rods' centre line. Bodies hang on the rods with
+        :attr:`ChainBody.pivot`.
     """
 
     kind: str
@@ -46,6 +52,7 @@ class ChainJoint:
     location: Any = None
     actuated: bool = False
     doc: str = ""
+    swing: tuple = ()
 
     def __post_init__(self):
         if self.kind not in JOINT_FREEDOMS:
@@ -55,6 +62,8 @@ class ChainJoint:
         n = JOINT_FREEDOMS[self.kind]
         if self.axes and len(self.axes) != n:
             raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
+        if self.swing and (self.kind != "Pi" or len(self.swing) != 2):
+            raise ValueError(f"joint {self.kind!r}: swing is (axis, length) of a Pi joint's rods, got {self.swing!r}")
 
     @property
     def freedoms(self) -> int:
@@ -73,6 +82,10 @@ class ChainBody:
     inertia : 6x6 spatial inertia (kg, kg m, kg m^2) in the body frame, twists ``[omega; v]``.
     rotation : the body frame's axes (three geometry names or 3-tuples: the columns).
     origin : the body frame's origin (geometry name or 3-tuple, m, base frame).
+    pivot : for a body on the moving part of a Pi joint (a rod that swings with its
+        angle), the point (geometry name or 3-tuple, m) its swing axis passes through;
+        ``after`` then counts the Pi joint, which moves the body by a rotation about its
+        ``swing`` axis through ``pivot`` instead of its translation.
     """
 
     name: str
@@ -81,6 +94,7 @@ class ChainBody:
     rotation: tuple
     origin: Any
     doc: str = ""
+    pivot: Any = None
 
 
 class _ParameterSymbols(dict):
@@ -154,6 +168,10 @@ class ChainLeg:
     checks : names of geometry scalars that must lie within [-1, 1] for the pose to be
         reachable (e.g. the cosine between a strut and a U joint's fixed axis; NaN counts
         as unreachable: a zero leg length gives NaN directions).
+    closures : names of geometry scalars (m) that vanish where the platform can be: the
+        leg's constraint on the pose, which a lower-mobility pose space
+        (:class:`~.pose.LowerMobilityPose`) solves for its followers (e.g. a 3-PRS leg's
+        spherical joint stays in the plane of its revolute joint: its distance from it).
     """
 
     name: str
@@ -163,11 +181,14 @@ class ChainLeg:
     platform_body: str = "platform"
     checks: tuple = ()
     frames: tuple = ()
+    closures: tuple = ()
+    #: the geometry entry that is the actuated joint's coordinate (m or rad)
+    coordinate: str = "length"
 
     @property
     def kinematics(self) -> PoseKinematics:
         """The leg's closed form as the derivation reads it (:class:`PoseKinematics`)."""
-        return PoseKinematics(self)
+        return PoseKinematics(self, self.coordinate)
 
     @property
     def freedoms(self) -> int:
@@ -200,7 +221,7 @@ class ChainRobot:
     name: str
     title: str
     parameters: tuple[Parameter, ...]
-    legs: tuple[ChainLeg, ...]
+    legs: tuple[ChainLeg, ...]          # or SerialLeg (URDF form, numeric IK: :mod:`.serial`)
     platform_inertia: sp.Matrix
     actuator_stiffness: sp.Expr
     x_ref: tuple
@@ -223,6 +244,13 @@ class ChainRobot:
     presets: dict = field(default_factory=dict)
 
     def __post_init__(self):
+        coordinates = tuple(getattr(self.pose_space, "coordinates", self.pose))
+        if tuple(self.pose) != coordinates:
+            raise ValueError(f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
+                             f"{coordinates!r}: expected the same names")
+        # a leg in URDF form (:class:`~.serial.SerialLeg`) becomes the joint list it stands for
+        object.__setattr__(self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg
+                                               for leg in self.legs))
         resolve_effects(self)
 
     @property

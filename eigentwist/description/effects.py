@@ -67,7 +67,8 @@ class Effect:
     build : ``build(ctx: EffectContext)`` returns the effect's term in symbols, by kind:
         ``joint_series``: the compliance (rad/(N m)) in series with the actuated joint;
         ``body_compliance``: a 6x6 compliance in ``body``'s frame (or None: not on this leg);
-        ``added_inertia``: a 6x6 spatial inertia in ``body``'s frame;
+        ``added_inertia``: a 6x6 spatial inertia in ``body``'s frame (or ``{body: 6x6}``
+        for an effect that moves mass between bodies of a leg: ``swinging_rods``);
         ``ground_spring``: ``(K, rotation, origin)``, a 6x6 stiffness (N m/rad, N/m) in a
         frame of the tool with axes ``rotation`` (3x3, columns in EE axes) at ``origin``
         (3, m from the EE origin); ``preload``: the acceleration of gravity (3, m/s^2)
@@ -177,6 +178,19 @@ def _rotor(ctx):
     return sp.diag(0, ctx.p["I_add"], 0, 0, 0, 0)
 
 
+def _swinging_rods(ctx):
+    """The parallelogram's two rods as they move (issue 21): the fictitious rod of double
+    density riding on the far bar (body C3, Eqs. 26-29) taken off, half of its inertia (one
+    rod, at its own centre, x along the rod) put on each real rod ``rod_a``, ``rod_b``,
+    which swing with q3 about their pivots (``ChainBody.pivot``)."""
+    bodies = {b.name: b for b in ctx.leg.bodies}
+    if not {"C3", "rod_a", "rod_b"} <= set(bodies):
+        raise ValueError(f"effect 'swinging_rods': {ctx.leg.name} has bodies {', '.join(bodies)}; expected C3, rod_a "
+                         "and rod_b (an RR(Pi)RR leg built by rrpirr_leg(..., w_pi=...))")
+    rod = bodies["C3"].inertia
+    return {"C3": -rod, "rod_a": rod / 2, "rod_b": rod / 2}
+
+
 def _gravity(ctx):
     return sp.Matrix([0, 0, -ctx.p["g"]])
 
@@ -249,6 +263,11 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
                "(up to ten times a large servo rotor)", "rotor_inertia", (0.0, 0.05), equation="Eq. 22"),),
            ("I_add",), kind="added_inertia", leg_level=True, equation="Eq. 22", body="J1", build=_rotor,
            component="actuated link", phrase="carries {I_add:.3g} kg m^2 of added inertia"),
+    Effect("swinging_rods",
+           "the parallelogram's two rods as they move, swinging with q3 about their pivots (centres at the mean of "
+           "their ends' velocities), instead of the paper's fictitious rod riding on the far bar (Eqs. 26-29)",
+           (), (), kind="added_inertia", equation="replaces Eqs. 26-29 (issue 21)", body="C3", build=_swinging_rods,
+           component="parallelogram rods"),   # switched, not fitted: the rods' mass is the paper's
     Effect("gravity_preload",
            "the tau_e term of Eq. 13 from the static gravity load g on the end-effector and payload",
            (_p("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload; a known constant "

@@ -13,7 +13,16 @@ space (``pose_space``), which tells the one derivation (:func:`eigentwist.symbol
 * ``motion``: each of those with its rate along the platform's six unit twists (1x6), for
   the derivatives of the first term of Eq. 13;
 * ``inertia_in_base``: the platform's spatial inertia (at its origin, platform axes) in
-  base axes.
+  base axes;
+* ``coordinates``: the names of the pose coordinates a user gives (issue 21), each one of
+  :data:`FULL` (``x, y, z`` m; ``rot_x, rot_y, rot_z`` rad, the rotation vector);
+  ``followers``: the coordinates of :data:`FULL` the legs' constraints fix (solved per
+  pose, :mod:`eigentwist.runtime.platform`); every other one is 0;
+* ``basis``: the platform's allowed twists when the pose space fixes them (a 6 x n tuple
+  of 0/1 rows: the translations of a translational platform, all six twists of a free
+  one), None when they turn with the pose. Either way they are the rule's result
+  (:func:`eigentwist.runtime.allowed.allowed_twists`: the null space of the legs'
+  constraint wrenches), which the fixed ones only spare the runtime from computing.
 """
 from __future__ import annotations
 
@@ -21,13 +30,28 @@ import sympy as sp
 
 from .parameters import sym
 
-__all__ = ["TranslationPose", "RigidPose", "POSE", "ROTATION"]
+__all__ = ["TranslationPose", "RigidPose", "PlanarPose", "LowerMobilityPose", "POSE", "ROTATION", "FULL", "TWIST_AXIS", "twist_order"]
 
 #: position inputs x, y, z (m) of the platform origin
 POSE = (sym("x"), sym("y"), sym("z"))
 #: entries R_ij of the platform's rotation matrix (the runtime turns the rotation vector
 #: into it by Rodrigues' formula)
 ROTATION = sp.Matrix(3, 3, lambda i, j: sym(f"R_{i}{j}"))
+#: the six pose coordinates of a rigid platform, in the order of a full pose
+FULL = ("x", "y", "z", "rot_x", "rot_y", "rot_z")
+#: index of each coordinate's unit twist in ``[omega; v]`` (``rot_x`` -> omega_x, ``x`` -> v_x)
+TWIST_AXIS = {"rot_x": 0, "rot_y": 1, "rot_z": 2, "x": 3, "y": 4, "z": 5}
+
+
+def twist_order(names) -> tuple:
+    """The coordinates ``names`` in the order of their unit twists in ``[omega; v]``: the
+    order of the rigid model's allowed twists (``("rot_z", "x", "y")`` for a planar robot)."""
+    return tuple(sorted(names, key=TWIST_AXIS.__getitem__))
+
+
+def _unit_columns(names) -> tuple:
+    """The 6 x n basis (rows of 0/1) of the unit twists of coordinates ``names`` (twist order)."""
+    return tuple(tuple(int(TWIST_AXIS[c] == k) for c in twist_order(names)) for k in range(6))
 
 
 def _skew(v: sp.Matrix) -> sp.Matrix:
@@ -44,6 +68,10 @@ class TranslationPose:
     rotation = sp.eye(3)
     origin = sp.zeros(3, 1)
     program_inputs: tuple = ()
+    coordinates = ("x", "y", "z")
+    followers: tuple = ()
+    #: the legs' constraint wrenches span the rotations: the allowed twists are the translations
+    basis = _unit_columns(("x", "y", "z"))
 
     def motion(self) -> list:
         """``[(symbol, rate 1x6)]`` of the program's pose inputs: none."""
@@ -64,6 +92,10 @@ class RigidPose:
     rotation = ROTATION
     origin = sp.Matrix(POSE)
     program_inputs = inputs
+    coordinates = FULL
+    followers: tuple = ()
+    #: no constraint wrench: every twist is allowed
+    basis = _unit_columns(FULL)
 
     def motion(self) -> list:
         """``[(symbol, rate 1x6)]``: along the unit twist ``e_k = [omega; v]`` at the
@@ -80,3 +112,40 @@ class RigidPose:
         ``A = diag(R^T, R^T)`` (the origin stays)."""
         A = sp.diag(ROTATION.T, ROTATION.T)
         return A.T * inertia * A
+
+
+class PlanarPose(RigidPose):
+    """A planar platform (3-DoF: x, y in m and rot_z in rad, in the base's z = 0 plane):
+    derived as a rigid platform (the legs' joint lists in 3-D, their constraint wrenches
+    holding it in the plane) at the pose (x, y, 0, 0, 0, rot_z). Its allowed twists (the
+    null space of the constraint wrenches, :mod:`eigentwist.runtime.allowed`) are
+    omega_z, v_x, v_y wherever the legs' axes stay parallel to z."""
+
+    coordinates = ("x", "y", "rot_z")
+    basis = None
+
+    def __repr__(self) -> str:
+        return "PlanarPose()"
+
+
+class LowerMobilityPose(RigidPose):
+    """A platform with fewer than six freedoms whose description names the commanded
+    coordinates (e.g. a 3-PRS: ``("z", "rot_x", "rot_y")``); the remaining ones of
+    :data:`FULL` (its parasitic motions: x, y, rot_z) follow from the legs' constraints,
+    the ``closures`` of each leg (:class:`~.chain.ChainLeg`: scalars of its geometry that
+    vanish where the platform can be), solved per pose by a damped Newton method
+    (:func:`eigentwist.runtime.platform.follow`). Derived as a rigid platform at the
+    completed pose; its allowed twists turn with the pose (``basis`` None)."""
+
+    basis = None
+
+    def __init__(self, commanded):
+        commanded = tuple(commanded)
+        unknown = [c for c in commanded if c not in FULL]
+        if unknown or not commanded or len(set(commanded)) != len(commanded):
+            raise ValueError(f"commanded coordinates {commanded!r}: expected distinct names from {', '.join(FULL)}")
+        self.coordinates = commanded
+        self.followers = tuple(c for c in FULL if c not in commanded)
+
+    def __repr__(self) -> str:
+        return f"LowerMobilityPose({self.coordinates!r})"

@@ -36,7 +36,8 @@ EZ = sp.Matrix([0, 0, 1])
 RRPIRR_CHAIN = (
     ChainJoint("R", ("s",), "pB", actuated=True, doc="actuated base joint, axis s_i through B_i"),
     ChainJoint("R", ("s",), "pE", doc="elbow joint, axis s_i"),
-    ChainJoint("Pi", ("s3",), doc="parallelogram, translation along s_i3 (its coordinate is l2*q_i3, m)"),
+    ChainJoint("Pi", ("s3",), "pE", doc="parallelogram, translation along s_i3 (its coordinate is l2*q_i3, m); "
+               "its rods swing by q_i3 about n_i2 (pivots on the elbow bar and at a_i)", swing=("n2", "l2")),
     ChainJoint("R", ("s4",), "a", doc="twist of the rods about each other, axis s_i4 through a_i"),
     ChainJoint("R", ("s",), "a", doc="joint at the platform, axis s_i through a_i"),
     ChainJoint("virtual", ("ch",), "a", doc="constrained rotation about c_i1 through a_i (twist of restriction)"),
@@ -69,6 +70,9 @@ class RRPiRRKinematics:
     l1: Any
     l2: Any
     checks: tuple = ("sin_q3", "cos_q2")
+    #: parallelogram width (m, the rods' spacing along s_i on the bars); with it the
+    #: geometry also places the two rods (``pRa``, ``pRb`` pivots, ``cRa``, ``cRb`` centres)
+    w_pi: Any = None
 
     @property
     def coordinates(self) -> tuple:
@@ -132,12 +136,19 @@ class RRPiRRKinematics:
         f5 = Lv("f5", _cross(_cross(r1, s), s3v))          # the force of wrench w_a5 (App. A)
         cvec = _cross(_cross(f5, s4), s4)
         chat = Lv("ch", cvec / L("nc", sp.sqrt(cvec.dot(cvec))))   # axis c_i1 of the twist of restriction
-        return dict(u=u, s=s, a=a, r1=r1, w=w, r2=r2, s3=s3v, s4=s4, c3=c3, pE=elbow, pB=base, ch=chat,
-                    pC=Lv("pC", elbow + l2 / 2 * r2), n1=_cross(r1, s), n2=_cross(r2, s3v))
+        g = dict(u=u, s=s, a=a, r1=r1, w=w, r2=r2, s3=s3v, s4=s4, c3=c3, pE=elbow, pB=base, ch=chat,
+                 pC=Lv("pC", elbow + l2 / 2 * r2), n1=_cross(r1, s), n2=_cross(r2, s3v), l2=l2)
+        if self.w_pi is not None:
+            # the two rods, w_pi apart along s_i: pivots on the elbow bar, centres l2/2 along r2
+            for side, sign in (("a", 1), ("b", -1)):
+                g[f"pR{side}"] = elbow + sign * self.w_pi / 2 * s
+                g[f"cR{side}"] = g["pC"] + sign * self.w_pi / 2 * s
+        return g
 
 
 def rrpirr_leg(name: str, base: tuple, radial: tuple, axis: tuple, attachment: tuple, l1, l2,
-               lower_link: sp.Matrix, parallelogram: sp.Matrix, platform_body: str = "platform") -> Leg:
+               lower_link: sp.Matrix, parallelogram: sp.Matrix, platform_body: str = "platform",
+               w_pi=None) -> Leg:
     """An RR(Pi)RR leg as a joint list.
 
     base : actuated joint centre B_i (m, base frame); radial : outward unit vector u_i;
@@ -145,12 +156,22 @@ def rrpirr_leg(name: str, base: tuple, radial: tuple, axis: tuple, attachment: t
     to the leg's connection point (m); l1, l2 : lower link and parallelogram lengths (m);
     lower_link : 6x6 spatial inertia of the lower link with its rotor in frame J_i1
     (Eqs. 21-23); parallelogram : 6x6 spatial inertia of the fictitious rod in frame C_i3
-    (Eqs. 26-29); platform_body : the platform body the leg attaches to (issue 7).
+    (Eqs. 26-29); platform_body : the platform body the leg attaches to (issue 7);
+    w_pi : the parallelogram width (m); with it the leg also lists the two real rods
+    ``rod_a``, ``rod_b`` (at +-w_pi/2 along s_i), hanging on the Pi joint's swing about their
+    own pivots, with zero inertia: the fictitious rod C3 carries their mass unless the
+    ``swinging_rods`` effect moves it onto them.
     """
     frames = dict((f, (axes, origin)) for f, axes, origin in RRPIRR_FRAMES)
     bodies = (
         ChainBody("J1", 1, lower_link, *frames["J1"], doc="lower link with the actuator rotor (Eqs. 21-23)"),
         ChainBody("C3", 3, parallelogram, *frames["C3"], doc="fictitious rod replacing the parallelogram (Eqs. 26-29)"),
     )
+    if w_pi is not None:
+        bodies += tuple(
+            ChainBody(f"rod_{side}", 3, sp.zeros(6, 6), ("r2", "s3", "n2"), f"cR{side}", pivot=f"pR{side}",
+                      doc=f"parallelogram rod {side}, swinging with q_i3 about its pivot on the elbow bar "
+                          "(no inertia unless the swinging_rods effect is on)")
+            for side in ("a", "b"))
     return Leg(name, base, radial, axis, attachment, joints=RRPIRR_CHAIN, bodies=bodies, frames=RRPIRR_FRAMES,
-               kinematics=RRPiRRKinematics(l1, l2), platform_body=platform_body)
+               kinematics=RRPiRRKinematics(l1, l2, w_pi=w_pi), platform_body=platform_body)

@@ -41,7 +41,7 @@ PARAMETERS = (
 
 
 EFFECTS = ("actuator_loss", "rod_compliance", "lower_link_compliance", "transmission_compliance",
-           "payload_mass", "rotor_inertia", "gravity_preload")
+           "payload_mass", "rotor_inertia", "swinging_rods", "gravity_preload")
 
 # only the values that differ from the catalogue's (eigentwist/description/effects.py)
 EFFECT_VALUES = {
@@ -64,7 +64,7 @@ def describe() -> RobotDescription:
         u = (sp.cos(phi), sp.sin(phi), 0)          # outward radial direction
         s = (-sp.sin(phi), sp.cos(phi), 0)         # actuator axis, u x s = e_z
         legs.append(rrpirr_leg(f"leg {k + 1}", tuple(p["R"] * c for c in u), u, s, tuple(p["r_p"] * c for c in u),
-                               p["l1"], p["l2"], upper_arm, forearm))
+                               p["l1"], p["l2"], upper_arm, forearm, w_pi=p["w_pi"]))
     platform = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
     return RobotDescription(
         name="delta",

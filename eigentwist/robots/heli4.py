@@ -48,7 +48,7 @@ PARAMETERS = (
 
 
 EFFECTS = ("actuator_loss", "rod_compliance", "ee_compliance", "ee_coupling", "lower_link_compliance",
-           "transmission_compliance", "payload_mass", "rotor_inertia", "gravity_preload")
+           "transmission_compliance", "payload_mass", "rotor_inertia", "swinging_rods", "gravity_preload")
 
 # The effects declare their parameters (eigentwist/description/effects.py); the Heli4's
 # values are the catalogue's defaults (App. B, C, D and the facts file: E_rod = 170 GPa,
@@ -81,7 +81,7 @@ def describe() -> RobotDescription:
     plates = ("plate_A", "plate_A", "plate_B", "plate_B")
     legs = tuple(
         rrpirr_leg(name, tuple(R * c for c in u), u, s, a, p["l1"], p["l2"], lower_link, parallelogram,
-                   platform_body=body)
+                   platform_body=body, w_pi=p["w_pi"])
         for (name, u, s, a), body in zip(layout, plates)
     )
     # issue 7: the tool body T couples to plate A through a rotation about Y through the

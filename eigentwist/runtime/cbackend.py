@@ -129,7 +129,9 @@ def load_c_kernels(robot: str, numpy_module=None, source: str | None = None) -> 
     lib, sig, build = compile_and_load(robot, source)
     kernels = CKernels(lib, sig, build)
     if numpy_module is not None:
-        want = {k: {o: tuple(s) for o, s in v.items()} for k, v in getattr(numpy_module, "OUTPUTS", {}).items()}
+        # the followers kernel of a lower-mobility pose space is NumPy's alone (issue 21)
+        want = {k: {o: tuple(s) for o, s in v.items()} for k, v in getattr(numpy_module, "OUTPUTS", {}).items()
+                if k != "followers"}
         if want and want != kernels.OUTPUTS:
             raise RuntimeError(f"the C library of {robot!r} and the NumPy module disagree on their outputs: "
                                "run `eigentwist generate`")
@@ -253,6 +255,13 @@ class CKernels:
     def jacobians(self, q, p: dict) -> dict:
         """Inverse-Jacobian rows ``J_rows`` (..., legs, 4, 6) and levers ``lever`` (..., legs), m."""
         return self._q_kernel("jacobians", q, p)
+
+    def loop_closure(self, q, p: dict) -> dict:
+        """Loop-closure ``residual`` (..., legs, rows) and its Jacobian ``dresidual`` of legs
+        solved numerically (:mod:`eigentwist.runtime.newton`); absent for closed-form IK."""
+        if "loop_closure" not in self._spec:
+            raise AttributeError("loop_closure")
+        return self._q_kernel("loop_closure", q, p)
 
     def gravity(self, q, p: dict) -> dict:
         """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""

@@ -13,7 +13,9 @@ from ..description.names import did_you_mean
 from .constraints import check_constraints, compile_constraints
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
+from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .labels import directions
+from ..description.pose import FULL, TWIST_AXIS, twist_order
 from .threads import resolve_threads
 from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular, raise_unreachable, reachable_mask
 
@@ -23,6 +25,16 @@ AXES = ("rx", "ry", "rz", "x", "y", "z")
 CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
 MATRIX_CHUNK = 65536         # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
+
+
+class _Full(np.ndarray):
+    """Poses completed to the kernels' coordinates (:mod:`.platform`): what the public
+    methods pass on to each other, so that a pose is completed once. Slices stay
+    completed; arithmetic on them gives plain arrays."""
+
+    def __array_wrap__(self, arr, context=None, return_scalar=False):
+        arr = arr.view(np.ndarray)
+        return arr[()] if return_scalar else arr
 
 
 @dataclass
@@ -100,12 +112,30 @@ class Evaluator:
         #: names of the pose coordinates (``x, y, z``; a 6-DoF robot adds ``rot_x, rot_y, rot_z``)
         self.pose_names = tuple(getattr(robot, "pose", ("x", "y", "z")))
         self.dof = len(self.pose_names)
+        #: how the pose enters the kernels (:mod:`eigentwist.description.pose`)
+        self.space = getattr(robot, "pose_space", None)
+        #: True when the kernels take a rigid platform's six coordinates (rotation included)
+        self._six = self.space is not None and len(self.space.inputs) > 3
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
 
     # ----------------------------------------------------------------- inputs
-    def _poses(self, poses) -> np.ndarray:
+    def _poses(self, poses, params: dict | None = None) -> np.ndarray:
+        """The user's poses validated and completed to the kernels' coordinates (a planar
+        or lower-mobility robot's six, followers solved with ``params``: :mod:`.platform`)."""
+        if isinstance(poses, _Full):
+            return poses
+        arr = self._given(poses)
+        if not self._six or self.pose_names == FULL:
+            return arr.view(_Full)
+        from .platform import full_poses
+
+        p = self._params(len(arr), params or {}, "rigid") if self.space.followers else None
+        closure = getattr(self.module, "followers", None)
+        return full_poses(self.space, arr, closure, p).view(_Full)
+
+    def _given(self, poses) -> np.ndarray:
         arr = np.asarray(poses, dtype=float)
         if arr.ndim == 1:
             arr = arr[None, :]
@@ -121,14 +151,14 @@ class Evaluator:
         return arr
 
     def _pose_units(self) -> str:
-        return "m" if self.dof == 3 else "m and rad"
+        return "m" if not any(c.startswith("rot") for c in self.pose_names) else "m and rad"
 
     def kernel_pose_inputs(self, poses) -> dict:
         """The pose inputs the generated kernels read from their parameter dict, (N,)
         arrays by name: none for a 3-DoF robot (its kernels take x, y, z as arguments);
         for a 6-DoF robot the position ``x, y, z`` (m) and the rotation matrix entries
         ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`)."""
-        if self.dof == 3:
+        if not self._six:
             return {}
         from .poses import rotation_matrix
 
@@ -139,16 +169,69 @@ class Evaluator:
         return out
 
     def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
-        """``p`` plus :meth:`kernel_pose_inputs` (``p`` itself for a 3-DoF robot)."""
-        return p if self.dof == 3 else {**p, **self.kernel_pose_inputs(poses)}
+        """``p`` plus :meth:`kernel_pose_inputs` (a translational robot's: x, y, z), and for
+        legs solved numerically their joint coordinates by name (:meth:`numeric_joints`)."""
+        if self._six:
+            p = {**p, **self.kernel_pose_inputs(poses)}
+        else:
+            # a translational robot's legs may read the position beyond the IK (a joint-list
+            # leg's closed form, issue 21): its kernels take it by name, the others ignore it
+            p = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        return {**p, **self.numeric_joints(poses, p)} if self.numeric_ik else p
+
+    @property
+    def numeric_ik(self) -> bool:
+        """True when the legs' IK is solved by Newton's method (legs in URDF form,
+        :mod:`eigentwist.description.serial`), not in closed form."""
+        return hasattr(self.module, "loop_closure")
+
+    def numeric_joints(self, poses, p: dict) -> dict:
+        """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.newton`: damped
+        Newton from the description's reference configuration, warm-started from the
+        previous pose), as the IK kernel's inputs ``q<m>_<leg>`` ((N,) arrays, NaN where it
+        does not converge: the IK's closure check then reports the pose unreachable)."""
+        q = self.solve_joints(poses, p)
+        return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
+
+    def solve_joints(self, poses, p: dict) -> np.ndarray:
+        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.newton.solve`)."""
+        from .newton import solve
+
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
+        key = (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
+                                      if not k.startswith("q")))
+        memo = self.__dict__.setdefault("_newton_memo", {})
+        if key in memo:
+            return memo[key]
+        n = len(poses)
+        kp = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        if self._six:
+            kp.update(self.kernel_pose_inputs(poses))
+        reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+
+        def branch(q):
+            with np.errstate(invalid="ignore", divide="ignore"):
+                return self._kernels.jacobians(q, kp)["lever"]
+
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            q = solve(self._kernels.loop_closure, reference, kp, n, branch=branch)
+        memo.clear()
+        memo[key] = q
+        return q
 
     def rigid_size(self) -> int:
-        """Size of the rigid model's eigenproblem: 3 (translations) for a 3-DoF robot, 6 else."""
-        return 3 if self.dof == 3 else 6
+        """Size of the rigid model's eigenproblem: the number of the platform's allowed
+        twists, one per pose coordinate (3 for a Delta, a 3-PRS, a planar robot; 6 for
+        the hexapod)."""
+        return self.dof
 
     def axes(self, kind: str) -> tuple:
-        """Names of the modes' coordinates for model ``kind`` (``"rigid"``/``"flexible"``)."""
-        return AXES[3:] if kind == "rigid" and self.dof == 3 else AXES
+        """Names of the modes' coordinates for model ``kind`` (``"rigid"``/``"flexible"``):
+        the rigid model's are the allowed twists (:mod:`.allowed`), named by the pose
+        coordinates they start from (``rot_z`` -> ``rz``)."""
+        if kind != "rigid":
+            return AXES
+        return tuple(AXES[TWIST_AXIS[c]] for c in twist_order(self.pose_names))
 
     def parameter(self, name: str):
         """The :class:`Parameter` ``name``; ``NAME@N`` gives leg N's copy (same unit, bounds)."""
@@ -263,6 +346,8 @@ class Evaluator:
         """
         n = len(poses)
         legs = self.robot.legs
+        if strict:
+            self._raise_unfollowed(poses)
         p = self._with_pose(poses, p)
         with np.errstate(invalid="ignore", divide="ignore"):
             out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
@@ -280,6 +365,21 @@ class Evaluator:
             ok[ok] = lever_mask(lever)
         return q, jac, ok
 
+    def _raise_unfollowed(self, poses: np.ndarray) -> None:
+        """Raise :class:`UnreachablePoseError` for the first pose whose followers did not
+        converge (NaN, :mod:`.platform`), naming its commanded coordinates."""
+        bad = np.isnan(poses).any(axis=1)
+        if bad.any():
+            from .errors import UnreachablePoseError
+            from .platform import MAX_STEPS
+
+            k = int(np.argmax(bad))
+            given = ", ".join(f"{c} = {poses[k, FULL.index(c)]:.6g}" for c in self.pose_names)
+            raise UnreachablePoseError(
+                f"pose {given} ({self._pose_units()}) is unreachable for {self.robot.name}: its "
+                f"{', '.join(self.space.followers)} did not converge (damped Newton on the legs' closures, "
+                f"{MAX_STEPS} steps from the reference and from the previous pose)")
+
     @staticmethod
     def _mask(p: dict, mask: np.ndarray, n: int) -> dict:
         return {k: (v[mask] if v.ndim == 1 and v.shape[0] == n and n > 1 else v) for k, v in p.items()}
@@ -288,7 +388,7 @@ class Evaluator:
         return self._check_rows(poses, p, strict=True)[0]
 
     def _run(self, kernel: str, poses, model, params: dict) -> dict:
-        poses = self._poses(poses)
+        poses = self._poses(poses, params)
         n = len(poses)
         p = self._params(n, params, model)
         results: dict = {}
@@ -318,6 +418,7 @@ class Evaluator:
 
     def _raise_first(self, poses: np.ndarray, p: dict, bad: np.ndarray) -> None:
         """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
+        self._raise_unfollowed(poses)
         k = int(np.argmax(bad))
         self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),))
 
@@ -334,7 +435,7 @@ class Evaluator:
         The per-row form of the checks that make :meth:`modes` raise; use it to filter
         a batch (e.g. a sweep over a workspace box) instead of catching errors.
         """
-        poses = self._poses(poses)
+        poses = self._poses(poses, params)
         p = self._params(len(poses), params, model)
         if self._fused:
             st = self._c_pass(poses, p, matrices=())["status"]
@@ -345,7 +446,7 @@ class Evaluator:
     def joint_angles(self, poses, **params) -> np.ndarray:
         """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
         leg in rad for the Heli4/Delta (k = 3); the leg length in m for the hexapod (k = 1)."""
-        poses = self._poses(poses)
+        poses = self._poses(poses, params)
         p = self._params(len(poses), params, "paper")
         return np.concatenate([self._ik(poses[sl], self._take(p, sl)) for sl in self._chunks(len(poses))])
 
@@ -370,16 +471,24 @@ class Evaluator:
         """
         return self._run(kernel, poses, model, params)
 
-    def matrices(self, poses, model="paper", *, out: dict | None = None, **params) -> dict:
+    def matrices(self, poses, model="paper", *, out: dict | None = None, joints=None, **params) -> dict:
         """``M``, ``K_R``, ``K_F`` at the EE origin, each (N, 6, 6) (Eqs. 12, 14, 13).
 
         ``model`` switches effects on or off (K_R uses only the actuator-side effects).
+        ``joints``: measured joint coordinates (N, legs, coordinates), e.g. encoder
+        readings, used instead of the inverse kinematics (:meth:`joint_matrices`).
         ``out`` maps any of ``"M"``, ``"K_R"``, ``"K_F"`` to a preallocated C-contiguous
         float64 (N, 6, 6) array (e.g. a ``numpy.memmap``) that is written in place and
         returned; nothing else of that size is allocated. For batches too large to hold,
         :meth:`iter_matrices` yields them chunk by chunk.
         """
-        poses = self._poses(poses)
+        if joints is not None:
+            mats = self.joint_matrices(poses, joints, model, **params)
+            for k, arr in self._check_out(out, len(mats["M"])).items():
+                arr[...] = mats[k]
+                mats[k] = arr
+            return mats
+        poses = self._poses(poses, params)
         n = len(poses)
         p = self._params(n, params, model)
         out = self._check_out(out, n)
@@ -411,6 +520,50 @@ class Evaluator:
                                  f"got {getattr(arr, 'shape', None)} {getattr(arr, 'dtype', type(arr).__name__)}")
         return out
 
+    def joint_coordinates(self, joints, poses=None) -> tuple:
+        """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.
+
+        ``joints`` has the shape :meth:`joint_angles` returns (rad; m for a prismatic
+        joint). ``poses`` may be None when the model reads the joint coordinates only
+        (a translational platform); a 6-DoF robot's model reads the pose too."""
+        q = np.asarray(joints, dtype=float)
+        if q.ndim == 2:
+            q = q[None]
+        nq = len(self.robot.legs[0].kinematics.coordinates)
+        if q.ndim != 3 or q.shape[1:] != (self.n_legs, nq):
+            raise InputError(f"joints has shape {np.shape(joints)}: expected (N, {self.n_legs}, {nq}) joint "
+                             f"coordinates of {self.robot.name} (legs x coordinates, as joint_angles returns)")
+        if not np.isfinite(q).all():
+            k = int(np.argmax(~np.isfinite(q).reshape(len(q), -1).all(axis=1)))
+            raise InputError(f"joints[{k}] is not finite: expected numbers (rad; m for a prismatic joint)")
+        if poses is None:
+            if self._six:
+                raise InputError(f"joints without poses: the model of {self.robot.name} reads the pose too "
+                                 f"({', '.join(self.pose_names)}): give both")
+            poses = np.zeros((len(q), 3))
+        poses = self._poses(poses)
+        if len(poses) != len(q):
+            raise InputError(f"joints has {len(q)} rows and poses {len(poses)}: expected one pose per row of joints")
+        return q, poses
+
+    def joint_matrices(self, poses, joints, model="paper", **params) -> dict:
+        """``M``, ``K_R``, ``K_F`` (N, 6, 6) at measured joint coordinates ``joints``
+        (N, legs, coordinates: rad, m for a prismatic joint; :meth:`joint_angles`'s
+        layout), instead of the inverse kinematics of ``poses``. The model is a function
+        of the joint coordinates and the design parameters (and, for a 6-DoF robot, of the
+        pose); where both exist, the joints of a pose give what the pose gives. A
+        singular configuration raises as for a pose."""
+        q, poses = self.joint_coordinates(joints, poses)
+        p = self._params(len(q), params, model)
+        pk = {**p, **(self.kernel_pose_inputs(poses) if self._six else
+                       {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]})}
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lever = self._kernels.jacobians(q, pk)["lever"]
+        lever = lever / np.asarray(pk.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
+        raise_singular(self.robot.legs, poses, lever, LEVER_SCALE if LEVER_SCALE in pk else None)
+        out = self._kernels.matrices(q, pk)
+        return {k: out[k] for k in MATRICES}
+
     def iter_matrices(self, poses, model="paper", *, chunk: int = MATRIX_CHUNK, **params):
         """Yield ``(rows, matrices)`` chunk by chunk: ``rows`` a slice of ``poses``,
         ``matrices`` what :meth:`matrices` returns for those rows.
@@ -419,7 +572,7 @@ class Evaluator:
         the default 65536 poses, twice that while the caller still holds the previous chunk. Every input is checked before the first chunk; an
         unreachable or singular pose raises when its chunk is reached.
         """
-        poses = self._poses(poses)
+        poses = self._poses(poses, params)
         n = len(poses)
         if not isinstance(chunk, (int, np.integer)) or chunk < 1:
             raise InputError(f"chunk = {chunk!r}: expected a whole number of poses >= 1")
@@ -435,24 +588,39 @@ class Evaluator:
         the paper does); a 6-DoF robot's rigid model the full 6x6 M and K_R; flexible
         models the full 6x6 M and K_F.
         """
-        poses_arr = self._poses(poses)
+        poses_arr = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
         mats = self.matrices(poses_arr, effects, **params)
         rigid = self.kind(effects) == "rigid"
-        sub = rigid and self.dof == 3
-        M = mats["M"][:, 3:, 3:] if sub else mats["M"]
-        K = mats["K_R"][:, 3:, 3:] if sub else (mats["K_R"] if rigid else mats["K_F"])
+        B = self.allowed_twists(poses_arr, **params) if rigid else None
+        M = reduce(mats["M"], B) if rigid else mats["M"]
+        K = reduce(mats["K_R"], B) if rigid else mats["K_F"]
         if self._preloaded(effects):
             from .gravity import gravity_stiffness
 
-            K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid)
+            K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid, B)
         return M, K
+
+    def allowed_twists(self, poses, **params) -> np.ndarray:
+        """(N, 6, n) orthonormal bases of the platform's allowed twists ``[omega; v]`` at
+        ``poses`` (:mod:`.allowed`): the null space of the legs' constraint wrenches, from
+        the pose coordinates' unit twists. A pose space that fixes them (a translational
+        platform: the translations; a free one: all six) gives them without computing
+        (``tests/test_pose_spaces.py`` checks they are the rule's)."""
+        poses = self._poses(poses, params)
+        fixed = getattr(self.space, "basis", None)
+        if fixed is not None:
+            return np.broadcast_to(np.asarray(fixed, dtype=float), (len(poses), 6, len(fixed[0])))
+        rows = self.jacobians(poses, **params)["J_rows"]
+        picks = [(i, r) for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
+        A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(poses), 0, 6))
+        return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
 
     def _preloaded(self, effects) -> bool:
         return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
-              unstable: str = "nan", **params) -> Modes:
+              unstable: str = "nan", joints=None, **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
 
         ``invalid="raise"`` (the default) raises on the first unreachable or singular
@@ -462,17 +630,46 @@ class Evaluator:
         An unstable mode (negative stiffness) is NaN and its pose False in ``Modes.stable``
         (``unstable="nan"``, the default) or raises :class:`UnstablePoseError` naming the
         pose and the mode (``unstable="raise"``, for single-pose commands).
+        ``joints``: measured joint coordinates (N, legs, coordinates) used instead of the
+        inverse kinematics (:meth:`joint_matrices`; ``poses`` may be None for a
+        translational robot).
         """
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
-        poses = self._poses(poses)
+        if joints is not None:
+            return self._joint_modes(poses, joints, model, vectors, unstable, params)
+        poses = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
-        if self._fused and not self._preloaded(effects):
+        fixed = getattr(self.space, "basis", None) is not None or self.kind(effects) == "flexible"
+        if self._fused and fixed and not self._preloaded(effects):
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors)
         else:
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors)
+        if unstable == "raise" and not modes.stable.all():
+            self._raise_unstable(poses, modes, effects)
+        return modes
+
+    def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
+        """:meth:`modes` at measured joint coordinates (no gravity preload: its static
+        deflection needs the pose's inverse kinematics)."""
+        effects = resolve_model(model, self.robot)
+        if self._preloaded(effects):
+            raise InputError("joints= with a gravity preload: not supported (the preload's derivative needs the "
+                             "inverse kinematics); drop gravity_preload from the model or give poses only")
+        q, poses = self.joint_coordinates(joints, poses)
+        mats = self.joint_matrices(poses, q, effects, **params)
+        kind = self.kind(effects)
+        if kind == "rigid":
+            if getattr(self.space, "basis", None) is None:
+                raise InputError(f"joints= with {self.robot.name}'s rigid model (allowed twists that turn with the "
+                                 "pose): not supported; give poses")
+            B = self.allowed_twists(poses)
+            M, K = reduce(mats["M"], B), reduce(mats["K_R"], B)
+        else:
+            M, K = mats["M"], mats["K_F"]
+        modes = self._solve(M, K, vectors, kind)
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
@@ -551,7 +748,7 @@ class Evaluator:
         from .sensitivity import (check_model, check_wrt, frequency_derivatives, kernel_wrt, own_legs,
                                   sensitivity_kernels, shared_columns)
 
-        poses = self._poses(poses)
+        poses = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
         check_model(effects)
         wrt = check_wrt(self, wrt)
@@ -560,20 +757,24 @@ class Evaluator:
         kern = sensitivity_kernels(self, full, progress)
         p = self._params(len(poses), params, effects)
         rigid = self.kind(effects) == "rigid"
+        if rigid and getattr(self.space, "basis", 0) is None:
+            raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
+                             "pose) are not available: use a flexible model")
         parts = []
         for sl in self._chunks(len(poses)):
             pc = self._take(p, sl)
             self._check_rows(poses[sl], pc, strict=True)
             out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self._with_pose(poses[sl], pc))
-            parts.append(frequency_derivatives(out, rigid, rtol, translational=self.rigid_size() == 3))
+            parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six))
         freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
         if own:
             dfdp = shared_columns(dfdp, wrt, full, own)
         kind = "rigid" if rigid else "flexible"
         return Modes(freq, vec, self.axes(kind), kind), dfdp
 
-    def frequencies(self, poses, model="paper", **params) -> np.ndarray:
+    def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
         ``"paper"``) or (N, 3) for ``"rigid"`` (a 6-DoF robot: (N, 6) always), ascending.
-        Unstable modes are NaN."""
-        return self.modes(poses, model, vectors=False, **params).freq_hz
+        Unstable modes are NaN. ``joints``: measured joint coordinates (N, legs,
+        coordinates) instead of the inverse kinematics (see :meth:`modes`)."""
+        return self.modes(poses, model, vectors=False, joints=joints, **params).freq_hz

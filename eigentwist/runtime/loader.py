@@ -13,12 +13,12 @@ from ..description.names import did_you_mean
 import sys
 from pathlib import Path
 
-from ..description import RobotDescription
 from ..robots import NAMES, get
 from .errors import InputError
 from .evaluator import Evaluator
 from .threads import resolve_threads
-from .userfile import describe_file, description_key, generated_modules, import_numpy_module, is_description_file
+from .userfile import (describe_file, description_key, generated_modules, import_numpy_module, is_description,
+                       is_description_file)
 
 __all__ = ["load", "load_module", "evaluator_from_description", "BACKENDS"]
 
@@ -36,8 +36,9 @@ def _stderr(message: str) -> None:
 
 def load(robot="heli4", backend: str = "auto", threads: int | None = None, progress=_stderr) -> Evaluator:
     """An :class:`Evaluator` for ``robot``: a name from ``eigentwist.robots.NAMES``, the
-    path of a Python file whose ``describe()`` returns a description, or a
-    :class:`~eigentwist.description.RobotDescription`.
+    path of a Python file whose ``describe()`` returns a description, or a description
+    (:class:`~eigentwist.description.RobotDescription`, or a joint-list
+    :class:`~eigentwist.description.chain.ChainRobot`).
 
     ``backend="numpy"`` uses the generated NumPy module; ``"c"`` the generated C source
     compiled with the system compiler (cached by content hash); ``"auto"`` tries C and
@@ -54,7 +55,7 @@ def load(robot="heli4", backend: str = "auto", threads: int | None = None, progr
         raise InputError(f"unknown backend {backend!r}: expected one of {', '.join(BACKENDS)}")
     if threads is not None:
         resolve_threads(threads)                # a bad value is an error on every backend
-    if is_description_file(robot) or isinstance(robot, RobotDescription):
+    if is_description_file(robot) or is_description(robot):
         return _load_user(robot, backend, threads, progress)
     if robot not in NAMES:
         raise InputError(f"unknown robot {robot!r}{did_you_mean(str(robot), NAMES)}: expected one of {', '.join(NAMES)} "
@@ -63,7 +64,7 @@ def load(robot="heli4", backend: str = "auto", threads: int | None = None, progr
 
 
 def _load_user(robot, backend: str, threads, progress) -> Evaluator:
-    if isinstance(robot, RobotDescription):
+    if is_description(robot):
         description, extra, spec = robot, b"", robot.name
     else:
         description = describe_file(robot)

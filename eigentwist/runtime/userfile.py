@@ -23,16 +23,31 @@ from ..hashing import canonical, content_hash, package_digest
 from .ccompile import cache_dir
 from .errors import InputError
 
-__all__ = ["describe_file", "is_description_file", "description_key", "generated_modules", "import_numpy_module"]
+__all__ = ["describe_file", "is_description_file", "is_description", "description_kinds", "description_key", "generated_modules", "import_numpy_module"]
 
 def is_description_file(robot) -> bool:
     """True when ``robot`` names a Python file (``*.py``) rather than a shipped robot."""
     return isinstance(robot, (str, os.PathLike)) and str(robot).endswith(".py")
 
 
-def describe_file(path) -> "RobotDescription":  # noqa: F821
-    """Import ``path`` and return what its ``describe()`` returns; one-line errors."""
+def description_kinds() -> tuple:
+    """The description classes a robot may be built from: RR(Pi)RR legs
+    (:class:`~eigentwist.description.RobotDescription`) and joint lists
+    (:class:`~eigentwist.description.chain.ChainRobot`, as ``robots/hexapod.py``)."""
     from ..description import RobotDescription
+    from ..description.chain import ChainRobot
+
+    return (RobotDescription, ChainRobot)
+
+
+def is_description(obj) -> bool:
+    """True when ``obj`` is a robot description of any kind (:func:`description_kinds`)."""
+    return isinstance(obj, description_kinds())
+
+
+def describe_file(path) -> "RobotDescription":  # noqa: F821
+    """Import ``path`` and return what its ``describe()`` returns (any description kind a
+    shipped robot is built from: :data:`DESCRIPTION_KINDS`); one-line errors."""
 
     path = Path(path)
     if not path.is_file():
@@ -47,13 +62,14 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     describe = getattr(module, "describe", None)
     if not callable(describe):
         raise InputError(f"robot description file {str(path)!r} does not define describe() "
-                         "(it must return an eigentwist.description.RobotDescription)")
+                         "(it must return an eigentwist.description.RobotDescription or a joint-list ChainRobot)")
     try:
         desc = describe()
     except Exception as exc:
         raise InputError(f"describe() in {str(path)!r} raised {type(exc).__name__}: {exc}") from None
-    if not isinstance(desc, RobotDescription):
-        raise InputError(f"describe() in {str(path)!r} returned {type(desc).__name__}: expected a RobotDescription")
+    if not is_description(desc):
+        raise InputError(f"describe() in {str(path)!r} returned {type(desc).__name__}: expected one of "
+                         f"{', '.join(k.__name__ for k in description_kinds())}")
     return desc
 
 

@@ -12,11 +12,15 @@ and the leg when they fail.
 """
 from __future__ import annotations
 
-from ..description import RobotDescription
-from ..description.pose import POSE
-from .program import Program
+import sympy as sp
 
-__all__ = ["POSE", "inverse_kinematics"]
+from ..description import RobotDescription
+import sympy as sp
+
+from ..description.pose import POSE
+from .program import Program, derivative
+
+__all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures"]
 
 
 
@@ -45,3 +49,81 @@ def inverse_kinematics(robot: RobotDescription):
     outputs = {"q": ((n, len(q_all[0])), [qq for q in q_all for qq in q])}
     outputs.update({name: ((n,), values) for name, values in checks.items()})
     return ik, outputs, q_all
+
+
+class _Symbols(dict):
+    """``{name: symbol}`` of any parameter name, made on demand."""
+
+    def __missing__(self, name: str):
+        from ..description import sym
+
+        return sym(name)
+
+
+def closures(robot):
+    """``(program, outputs)`` of the legs' closure equations (issue 21), or None when the
+    robot's pose space has no followers (:class:`~eigentwist.description.pose.LowerMobilityPose`).
+
+    Over the pose inputs (x, y, z m and the rotation matrix R_ij) and the parameters:
+    ``closure`` (legs, n_c), each leg's ``closures`` (geometry scalars, m, zero where the
+    platform can be), and ``closure_rate`` (legs, n_c, 6), their exact derivatives along
+    the platform's six unit twists ``[omega; v]`` at its origin (``pose_space.motion``:
+    ``dr/dt_k = sum_s dr/ds . ds/dt_k``), for the runtime's Newton steps.
+    """
+    pose = robot.pose_space
+    if not getattr(pose, "followers", ()):
+        return None
+    names = robot.legs[0].closures
+    if not names or any(leg.closures != names for leg in robot.legs):
+        raise ValueError(f"{robot.name}: pose space {pose!r} needs every leg to name the same closures "
+                         f"(ChainLeg.closures, scalars of its geometry that vanish), got "
+                         f"{[leg.closures for leg in robot.legs]}")
+    prog = Program()
+    for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
+        prog.declare(s_)
+    motion = pose.motion()
+    values, rates = [], []
+    for i, leg in enumerate(robot.legs, start=1):
+        g = leg.geometry(pose.position, pose.rotation, _Symbols())
+        for name in names:
+            r = sp.sympify(g[name])
+            values.append(prog.let(f"{name}_{i}", r))
+            d = {s_: sp.diff(r, s_) for s_, _ in motion}
+            rate = sum((d[s_] * row for s_, row in motion if d[s_] != 0), sp.zeros(1, 6))
+            rates += [prog.let(f"d{name}_{i}_{k}", rate[0, k]) for k in range(6)]
+    n = len(robot.legs)
+    return prog, {"closure": ((n, len(names)), values), "closure_rate": ((n, len(names), 6), rates)}
+
+
+def loop_closure(robot, q_all: list):
+    """``(program, outputs)`` of the legs' loop-closure equations for a robot whose legs'
+    kinematics are solved numerically (each ``leg.kinematics`` with a ``residual``), else
+    ``(None, {})``.
+
+    The program reads the pose inputs, the parameters and every leg's coordinates ``q_all``
+    (the IK program's inputs); its outputs are ``residual`` (legs, rows): the chain end
+    minus the platform attachment (m; with the orientation error first, rad, when the
+    chain does not end in a spherical joint), and ``dresidual`` (legs, rows, n_q): its
+    exact Jacobian with respect to the leg's coordinates (forward mode through the
+    program, :func:`~eigentwist.symbolic.program.derivative`), for the runtime's damped
+    Newton method (:mod:`eigentwist.runtime.newton`).
+    """
+    if not all(hasattr(leg.kinematics, "residual") for leg in robot.legs):
+        return None, {}
+    prog = Program()
+    pose = robot.pose_space
+    for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters] + [qq for q in q_all for qq in q]:
+        prog.declare(s_)
+    res, jac = [], []
+    for i, (leg, q) in enumerate(zip(robot.legs, q_all), start=1):
+        r = leg.kinematics.residual(prog, pose, q, str(i))
+        r = prog.let_matrix(f"r_{i}", r)
+        if res and r.rows != res[0].rows:
+            raise ValueError(f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
+                             f"{robot.legs[0].name} with {res[0].rows}: expected alike legs")
+        res.append(r)
+        jac.append(sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]))
+    n, rows, nq = len(robot.legs), res[0].rows, len(q_all[0])
+    outputs = {"residual": ((n, rows), [e for r in res for e in r]),
+               "dresidual": ((n, rows, nq), [e for J in jac for e in J])}
+    return prog, outputs

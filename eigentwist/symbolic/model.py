@@ -25,7 +25,7 @@ import sympy as sp
 from ..description import RobotDescription, sym
 from ..description.effects import EffectContext, leg_input_name, leg_switch_name, switch_name
 from .inertia import body_inertia_contribution
-from .kinematics import POSE, inverse_kinematics
+from .kinematics import POSE, closures, inverse_kinematics, loop_closure
 from .leg import LegScrews, leg_screws
 from .program import Program, derivative
 from ..description.screw import adjoint, compliance_to_frame, stiffness_to_frame
@@ -67,6 +67,20 @@ class DerivedModel:
     #: robot adds its rotation matrix R_ij: ``robot.pose_space.inputs``,
     #: :mod:`eigentwist.description.pose`)
     pose_inputs: tuple = POSE
+    #: legs solved numerically (:mod:`eigentwist.description.serial`): the loop-closure
+    #: program (residual and its Jacobian) and its outputs; None for closed-form IK
+    closure: Program | None = None
+    closure_outputs: dict = field(default_factory=dict)
+
+    @property
+    def ik_joint_inputs(self) -> tuple[str, ...]:
+        """Joint coordinates the IK program reads instead of computing (numeric IK: solved
+        by the runtime and passed in by name; none for closed-form IK)."""
+        declared = {s.name for s in self.ik.inputs}
+        return tuple(s.name for s in self.joints if s.name in declared)
+    #: ``(program, outputs)`` of the pose space's closure equations, whose followers the
+    #: runtime solves (:func:`~eigentwist.symbolic.kinematics.closures`), else None
+    followers: tuple | None = None
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -214,7 +228,9 @@ def derive(robot: RobotDescription) -> DerivedModel:
             "W": ((6,), list(_preload_wrench(S, fx))),
         },
     }
-    return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=tuple(pose.inputs))
+    closure, closure_outputs = loop_closure(robot, q_all)
+    return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=tuple(pose.inputs),
+                        closure=closure, closure_outputs=closure_outputs, followers=closures(robot))
 
 
 def _joint_keys(leg, ls: LegScrews):
@@ -225,7 +241,9 @@ def _joint_keys(leg, ls: LegScrews):
     if len(actuated) != 1:
         raise ValueError(f"{leg.name}: {len(actuated)} actuated joints: expected exactly one")
     virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].virtual]
-    coords = [(first[j], rate) for j, rate in leg.kinematics.coordinates]
+    # (joint, rate[, freedom within the joint]): a U or S joint's coordinates address its twists
+    coords = [(ls.keys[ls.joint_of.index(c[0]) + (c[2] if len(c) > 2 else 0)], c[1])
+              for c in leg.kinematics.coordinates]
     return first[actuated[0]], virtual, coords
 
 
@@ -250,10 +268,15 @@ def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -
                 raise ValueError(f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
                                  f"{', '.join(inertia)} or 'platform'")
             on, added = fx.term(e, i, ls)
-            inertia[e.body] = inertia[e.body] + on * added
+            # one body's inertia, or {body: inertia} for an effect that moves mass between bodies
+            for body, term in (added.items() if isinstance(added, dict) else ((e.body, added),)):
+                if body not in inertia:
+                    raise ValueError(f"effect {e.name!r}: added inertia on body {body!r}: expected one of "
+                                     f"{', '.join(inertia)}")
+                inertia[body] = inertia[body] + on * term
     M = sp.zeros(6, 6)
     for b in leg.bodies:
-        M += body_inertia_contribution(prog, ls, b, inertia[b.name], f"{b.name}_{i + 1}")
+        M += body_inertia_contribution(prog, ls, b, inertia[b.name], f"{b.name}_{i + 1}", leg.joints)
     return M
 
 

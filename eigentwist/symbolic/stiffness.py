@@ -27,7 +27,11 @@ def rows_outer(rows: sp.Matrix, K: sp.Matrix) -> sp.Matrix:
 
 
 def inverse_small(S: sp.Matrix) -> sp.Matrix:
-    """Closed-form inverse of a 1x1, 2x2 or 3x3 matrix (adjugate / determinant)."""
+    """Closed-form inverse of a 1x1, 2x2 or 3x3 matrix (adjugate / determinant), or of a
+    diagonal one of any size (a leg with several constraint wrenches and no body
+    compliance: a planar leg's actuated joint and three virtual joints)."""
+    if S.shape[0] > 3 and all(S[i, j] == 0 for i in range(S.rows) for j in range(S.cols) if i != j):
+        return sp.diag(*[1 / S[i, i] for i in range(S.rows)])
     if S.shape == (1, 1):
         return sp.Matrix([[1 / S[0, 0]]])
     if S.shape == (2, 2):

@@ -1,0 +1,198 @@
+"""The gallery (examples/robots/) and the pose spaces of issue 21: physics identities.
+
+Expectations come from physics (symmetry and definiteness of M and K, f ~ sqrt(k_a), the
+robots' threefold symmetry, the allowed twists annihilated by the constraint wrenches) and
+from an independent computation: the kinetic energy of the bodies from finite differences
+of their points (the description's closed-form geometry, evaluated numerically), against
+1/2 t^T M t of the derived M.
+"""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import eigentwist
+from eigentwist.description.pose import POSE, ROTATION, twist_order
+from eigentwist.runtime.allowed import allowed_twists, constraint_positions, coordinate_twists
+from eigentwist.runtime.errors import UnreachablePoseError
+from eigentwist.runtime.loader import evaluator_from_description
+from eigentwist.runtime.poses import rotation_matrix
+
+GALLERY = Path(__file__).resolve().parent.parent / "examples" / "robots"
+NAMES = ("prs3", "rrr3", "linear_delta")
+
+
+def _module(name):
+    spec = importlib.util.spec_from_file_location(f"gallery_{name}", GALLERY / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="session")
+def gallery():
+    return {name: evaluator_from_description(_module(name).describe()) for name in NAMES}
+
+
+def _poses(ev, n, seed=1):
+    box = np.array(ev.robot.workspace)
+    poses = box[:, 0] + (box[:, 1] - box[:, 0]) * np.random.default_rng(seed).random((n, len(box)))
+    return poses[ev.valid(poses, "rigid")]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_inertia_definite_stiffness_semidefinite(gallery, name):
+    ev = gallery[name]
+    x = _poses(ev, 30)
+    assert len(x) >= 20
+    mats = ev.matrices(x, "rigid")
+    for k in ("M", "K_R", "K_F"):
+        np.testing.assert_allclose(mats[k], np.swapaxes(mats[k], 1, 2), rtol=0, atol=1e-9 * np.abs(mats[k]).max())
+    assert (np.linalg.eigvalsh(mats["M"]) > 0).all()
+    lam = np.linalg.eigvalsh(mats["K_R"])
+    assert (lam > -1e-9 * lam.max(axis=1, keepdims=True)).all()
+    M, K = ev.stiffness(x, "rigid")
+    assert M.shape == K.shape == (len(x), 3, 3) and (np.linalg.eigvalsh(M) > 0).all() and (np.linalg.eigvalsh(K) > 0).all()
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_rigid_frequencies_scale_with_root_of_actuator_stiffness(gallery, name):
+    ev = gallery[name]
+    x = _poses(ev, 10)
+    k = ev.robot.parameter("k_a").default
+    np.testing.assert_allclose(ev.frequencies(x, "rigid", k_a=4 * k), 2 * ev.frequencies(x, "rigid", k_a=k), rtol=1e-10)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_threefold_symmetry_at_home_gives_a_double_frequency(gallery, name):
+    """Three legs 120 deg apart: the two horizontal translations (Delta, 3-RRR) or the two
+    tilts (3-PRS) are alike at home, the third mode differs."""
+    f = gallery[name].frequencies(np.array([gallery[name].robot.x_ref]), "rigid")[0]
+    pair = [(0, 1), (1, 2)][int(abs(f[1] - f[2]) < abs(f[0] - f[1]))]
+    np.testing.assert_allclose(f[pair[0]], f[pair[1]], rtol=1e-9)
+    assert abs(f[0] - f[2]) > 1e-3 * f[2]
+
+
+def _constraint_rows(ev, x):
+    rows = ev.jacobians(x)["J_rows"]
+    return np.stack([rows[:, i, r] for i, leg in enumerate(ev.robot.legs) for r in constraint_positions(leg)], axis=1)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_allowed_twists_are_annihilated_by_the_constraint_wrenches(gallery, name):
+    ev = gallery[name]
+    x = _poses(ev, 20)
+    B = ev.allowed_twists(x)
+    A = _constraint_rows(ev, x)
+    assert np.abs(A @ B).max() < 1e-12 * np.abs(A).max()
+    np.testing.assert_allclose(np.swapaxes(B, 1, 2) @ B, np.broadcast_to(np.eye(3), (len(x), 3, 3)), atol=1e-12)
+    assert np.linalg.matrix_rank(A[0], tol=1e-9) == 3             # three independent constraints
+
+
+@pytest.mark.parametrize("name", ("heli4", "delta", "hexapod", "linear_delta"))
+def test_fixed_subsets_are_the_rule(gallery, name):
+    """The Heli4's and Delta's 3x3 translational subsets (and the hexapod's full 6x6) are
+    the rule's special case: the null space of their constraint wrenches (exactly at home,
+    where the constraint rows' zeros are exact; to round-off elsewhere)."""
+    ev = gallery[name] if name in gallery else eigentwist.load(name, backend="numpy")
+    x = np.array(ev.robot.x_ref) + 0.01 * np.random.default_rng(2).standard_normal((8, len(ev.robot.x_ref)))
+    rows = _constraint_rows(ev, x) if any(constraint_positions(leg) for leg in ev.robot.legs) else np.zeros((8, 0, 6))
+    B = allowed_twists(rows, coordinate_twists(twist_order(ev.robot.pose)))
+    np.testing.assert_allclose(B, ev.allowed_twists(x), rtol=0, atol=1e-14)
+    home = np.array([ev.robot.x_ref])
+    rows = _constraint_rows(ev, home) if rows.shape[1] else np.zeros((1, 0, 6))
+    np.testing.assert_array_equal(allowed_twists(rows, coordinate_twists(twist_order(ev.robot.pose))),
+                                  ev.allowed_twists(home))
+
+
+def test_followers_meet_the_closures_and_turn_the_basis():
+    """3-PRS: the completed pose keeps every spherical joint in its leg's plane (a few lines
+    of NumPy), x, y, rot_z move with the tilt, and the allowed twists turn with the pose."""
+    ev = evaluator_from_description(_module("prs3").describe())
+    x = np.array([[0.60, 0.0, 0.0], [0.58, 0.1, -0.05], [0.62, -0.12, 0.12]])
+    full = np.asarray(ev._poses(x))
+    R = rotation_matrix(full[:, 3:])
+    for deg in (90, 210, 330):
+        a = np.radians(deg)
+        top = full[:, :3] + R @ (0.15 * np.array([np.cos(a), np.sin(a), 0.0]))
+        assert np.abs(top @ np.array([-np.sin(a), np.cos(a), 0.0])).max() < 1e-12
+    np.testing.assert_array_equal(full[:, [2, 3, 4]], x)
+    assert np.abs(full[1:, :2]).max() > 1e-4 and np.abs(full[0, [0, 1, 5]]).max() < 1e-15
+    B = ev.allowed_twists(x)
+    assert np.abs(B[1] - B[0]).max() > 1e-3
+
+
+def test_unreachable_commanded_pose_is_one_line(monkeypatch):
+    ev = evaluator_from_description(_module("prs3").describe())
+    with pytest.raises(UnreachablePoseError, match="unreachable for leg 1: the leg cannot span") as err:
+        ev.frequencies(np.array([[0.60, 2.5, 0.0]]), "rigid")
+    assert "\n" not in str(err.value)
+    m = ev.modes(np.array([[0.60, 0.0, 0.0], [0.60, 2.5, 0.0]]), "rigid", invalid="nan")
+    assert m.valid.tolist() == [True, False] and np.isnan(m.freq_hz[1]).all()
+    from eigentwist.runtime import platform
+
+    monkeypatch.setattr(platform, "MAX_STEPS", 1)                  # Newton cannot converge in one step
+    with pytest.raises(UnreachablePoseError) as err:
+        ev.frequencies(np.array([[0.60, 0.1, -0.1]]), "rigid")
+    assert "\n" not in str(err.value) and "rot_x = 0.1" in str(err.value) and "did not converge" in str(err.value)
+    m = ev.modes(np.array([[0.60, 0.0, 0.0], [0.60, 0.1, -0.1]]), "rigid", invalid="nan")
+    assert m.valid.tolist() == [True, False]
+
+
+# -------------------------------------------------- kinetic energy, independently
+def _points(ev, bodies):
+    """A NumPy function of (full pose, parameters) -> each leg's body points, from the
+    description's geometry (its input data), evaluated numerically."""
+    p = {q.name: q.symbol for q in ev.robot.parameters}
+    R = ROTATION
+    names = sorted({k for _, ends in bodies for k in ends})
+    exprs = [[leg.geometry(sp.Matrix(POSE), R, p)[k] for k in names] for leg in ev.robot.legs]
+    f = sp.lambdify(list(POSE) + list(R) + list(p.values()), exprs, "numpy")
+    values = list(ev.robot.defaults.values())
+
+    def at(full):
+        Rn = rotation_matrix(full[3:])
+        out = f(*full[:3], *Rn.reshape(-1), *values)
+        return [{k: np.asarray(v, dtype=float).reshape(-1) for k, v in zip(names, leg)} for leg in out]
+    return at
+
+
+def _energy(ev, full, dfull, bodies, platform):
+    """Kinetic energy (J) along d(full)/dt from central differences of the points: point
+    masses and slender uniform rods (m/6 (v1^2 + v1.v2 + v2^2)), plus the platform's."""
+    at, h = _points(ev, bodies), 1e-6
+    plus, minus = at(full + h * dfull), at(full - h * dfull)
+    d = ev.robot.defaults
+    T = 0.0
+    for leg_p, leg_m in zip(plus, minus):
+        for mass, ends in bodies:
+            v = [(leg_p[k] - leg_m[k]) / (2 * h) for k in ends]
+            T += d[mass] / 2 * v[0] @ v[0] if len(v) == 1 else d[mass] / 6 * (v[0] @ v[0] + v[0] @ v[1] + v[1] @ v[1])
+    Rp, Rm = rotation_matrix(full[3:] + h * dfull[3:]), rotation_matrix(full[3:] - h * dfull[3:])
+    W = (Rp - Rm) / (2 * h) @ rotation_matrix(full[3:]).T
+    omega, v = np.array([W[2, 1], W[0, 2], W[1, 0]]), dfull[:3]
+    return T + platform(d, omega, v), np.concatenate([omega, v])
+
+
+@pytest.mark.parametrize("name, bodies, platform", [
+    ("prs3", [("m_s", ("c",)), ("m_r", ("c", "top"))],
+     lambda d, w, v: d["m_pl"] / 2 * v @ v + 0.5 * (d["I_pl_xx"] * (w[0] ** 2 + w[1] ** 2) + d["I_pl_zz"] * w[2] ** 2)),
+    ("rrr3", [("m1", ("A", "C")), ("m2", ("C", "top"))],
+     lambda d, w, v: d["m_pl"] / 2 * v @ v + 0.5 * (d["I_pl_xx"] * (w[0] ** 2 + w[1] ** 2) + d["I_pl_zz"] * w[2] ** 2)),
+])
+def test_kinetic_energy_matches_finite_differences(gallery, name, bodies, platform):
+    ev = gallery[name]
+    x = _poses(ev, 6, seed=5)[:4]
+    full = np.asarray(ev._poses(x))
+    M = ev.matrices(x, "none")["M"]
+    rng = np.random.default_rng(7)
+    for k in range(len(x)):
+        dx = rng.standard_normal(3) * np.array([0.1 if c[0] != "r" else 1.0 for c in ev.pose_names])
+        h = 1e-6                                                    # followers move too: the full pose's rate
+        dfull = (np.asarray(ev._poses(x[k] + h * dx)) - np.asarray(ev._poses(x[k] - h * dx)))[0] / (2 * h)
+        T, twist = _energy(ev, full[k], dfull, bodies, platform)
+        np.testing.assert_allclose(0.5 * twist @ M[k] @ twist, T, rtol=1e-6)

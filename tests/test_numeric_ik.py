@@ -1,0 +1,185 @@
+"""Inverse kinematics without algebra (issue 21): legs in URDF form solved by damped Newton.
+
+Expectations come from the closed forms the shipped robots carry (an independent
+derivation of the same joint coordinates), not from the Newton code:
+
+* numeric IK equals the closed-form IK on the Heli4, the Delta and the hexapod to 1e-10
+  (rad; m for the hexapod's leg lengths), over random poses of each workspace box;
+* Newton converges from the reference configuration over the whole box (a grid);
+* an unreachable pose is reported (status, one-line message), never a wrong configuration;
+* joint coordinates given as input (``joints=``) give what the pose gives;
+* the hexapod in URDF form has the shipped hexapod's model (frequencies to 1e-9);
+* the README's joint-list file loads through ``eigentwist.load(PATH)`` and ``--robot PATH``;
+* compiled tier: the C loop-closure kernel equals the NumPy one, and so do the solutions.
+"""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import eigentwist
+from eigentwist.runtime.errors import InputError, UnreachablePoseError
+
+from .conftest import random_poses, skip_tier, workspace_grid
+from .descriptions import hexapod_urdf, rrpirr_urdf
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def numeric():
+    """NumPy evaluators of the shipped robots with their legs in URDF form (generated once
+    into the cache) and of the shipped robots themselves."""
+    robots = {"heli4": rrpirr_urdf.heli4(), "delta": rrpirr_urdf.delta(), "hexapod": hexapod_urdf.describe()}
+    return {name: (eigentwist.load(robot, backend="numpy", progress=lambda m: None),
+                   eigentwist.load(name, backend="numpy")) for name, robot in robots.items()}
+
+
+def _closed_coordinates(name: str, q_numeric: np.ndarray) -> np.ndarray:
+    """The numeric solution's coordinates that the closed form reports: q1, q2, q3 of an
+    RR(Pi)RR leg (R, R, Pi come first), the strut length (the P joint after the U's two)."""
+    return q_numeric[:, :, 2:3] if name == "hexapod" else q_numeric[:, :, :3]
+
+
+@pytest.mark.parametrize("name", ["heli4", "delta", "hexapod"])
+def test_numeric_ik_equals_closed_form(numeric, name):
+    ev, shipped = numeric[name]
+    poses = random_poses(shipped.robot, 60, seed=21)
+    q = ev.joint_angles(poses)
+    assert np.isfinite(q).all()
+    assert np.abs(_closed_coordinates(name, q) - shipped.joint_angles(poses)).max() < 1e-10
+
+
+@pytest.mark.parametrize("name", ["heli4", "delta", "hexapod"])
+def test_newton_converges_over_the_workspace_box(numeric, name):
+    """From the reference configuration alone: one pose per call, no warm start."""
+    ev, shipped = numeric[name]
+    grid = workspace_grid(shipped.robot, 3 if name == "hexapod" else 5)
+    assert shipped.valid(grid).all()
+    q = ev.joint_angles(grid)
+    assert np.isfinite(q).all()
+    assert np.abs(_closed_coordinates(name, q) - shipped.joint_angles(grid)).max() < 1e-10
+    corners = grid[[0, -1]]
+    for pose in corners:                               # alone in its batch: from the reference
+        assert np.abs(_closed_coordinates(name, ev.joint_angles(pose)) - shipped.joint_angles(pose)).max() < 1e-10
+
+
+def test_unreachable_pose_is_reported(numeric):
+    ev, shipped = numeric["heli4"]
+    far = np.array([[0.0, 0.0, -1.2], [0.0, 0.0, -0.625], [0.6, 0.0, -0.6]])
+    assert not shipped.valid(far[[0, 2]]).any()          # beyond the legs' reach
+    assert ev.valid(far).tolist() == [False, True, False]
+    q = ev.joint_angles(far[1:2])
+    assert np.isfinite(q).all()
+    with pytest.raises(UnreachablePoseError) as info:
+        ev.frequencies(far[:1])
+    message = str(info.value)
+    assert "\n" not in message and "unreachable" in message and "closure" in message
+    modes = ev.modes(far, "rigid", invalid="nan")
+    assert modes.valid.tolist() == [False, True, False]
+    assert np.isnan(modes.freq_hz[[0, 2]]).all() and np.isfinite(modes.freq_hz[1]).all()
+
+
+def test_unreachable_rows_do_not_spoil_their_neighbours(numeric):
+    """A batch mixing reachable and unreachable poses: the reachable ones solve as alone."""
+    ev, shipped = numeric["delta"]
+    poses = np.array([[0.0, 0.0, -0.75], [0.0, 0.0, -2.0], [0.1, -0.1, -0.8], [0.15, 0.1, -0.65]])
+    q = ev.joint_angles(poses[[0, 2, 3]])
+    assert np.abs(q[:, :, :3] - shipped.joint_angles(poses[[0, 2, 3]])).max() < 1e-10
+    assert ev.valid(poses).tolist() == [True, False, True, True]
+
+
+def test_hexapod_in_urdf_form_has_the_shipped_model(numeric):
+    ev, shipped = numeric["hexapod"]
+    poses = random_poses(shipped.robot, 20, seed=5)
+    for model in ("none", "paper"):
+        a, b = ev.frequencies(poses, model), shipped.frequencies(poses, model)
+        assert np.abs(a - b).max() / b.max() < 1e-9
+    ma, mb = ev.matrices(poses), shipped.matrices(poses)
+    for k in ("M", "K_R", "K_F"):
+        assert np.abs(ma[k] - mb[k]).max() <= 1e-9 * np.abs(mb[k]).max()
+
+
+@pytest.mark.parametrize("name", ["heli4", "hexapod", "hexapod_urdf"])
+def test_joint_coordinates_in_equal_pose_in(numeric, name):
+    ev = numeric["hexapod"][0] if name == "hexapod_urdf" else numeric[name][1]
+    poses = random_poses(numeric["hexapod" if "hexapod" in name else name][1].robot, 8, seed=3)
+    q = ev.joint_angles(poses)
+    by_pose = ev.frequencies(poses)
+    at_joints = ev.frequencies(poses, joints=q)
+    assert np.abs(at_joints - by_pose).max() <= 1e-12 * by_pose.max()
+    ma, mj = ev.matrices(poses, "rigid"), ev.matrices(poses, "rigid", joints=q)
+    for k in ma:
+        assert np.abs(ma[k] - mj[k]).max() <= 1e-12 * np.abs(ma[k]).max()
+    modes = ev.modes(poses, joints=q)
+    assert np.abs(modes.freq_hz - by_pose).max() <= 1e-12 * by_pose.max()
+    if ev.dof == 3:                                      # a translational model reads the joints only
+        assert np.array_equal(ev.frequencies(None, joints=q), at_joints)
+
+
+def test_joint_coordinates_bad_input(numeric):
+    ev = numeric["hexapod"][1]
+    with pytest.raises(InputError, match=r"joints has shape \(2, 6, 3\): expected \(N, 6, 1\)"):
+        ev.frequencies(np.zeros((2, 6)), joints=np.zeros((2, 6, 3)))
+    with pytest.raises(InputError, match="reads the pose too"):
+        ev.frequencies(None, joints=np.full((1, 6, 1), 0.8))
+    with pytest.raises(InputError, match="not finite"):
+        ev.frequencies([0, 0, 0.8, 0, 0, 0], joints=np.full((1, 6, 1), np.nan))
+
+
+# ----------------------------------------------------- the README's joint-list file
+def _readme_file(name: str) -> str:
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    m = re.search(rf"<!-- description file: {re.escape(name)} -->\s*```python\n(.*?)```", text, re.S)
+    assert m, f"README.md has no description file block {name}"
+    return m.group(1)
+
+
+@pytest.fixture(scope="session")
+def readme_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("readme") / "my_hexapod.py"
+    path.write_text(_readme_file("my_hexapod.py"))
+    return path
+
+
+def test_readme_joint_list_file_loads(readme_file, numeric):
+    ev = eigentwist.load(str(readme_file), backend="numpy", progress=lambda m: None)
+    shipped = numeric["hexapod"][1]
+    poses = random_poses(shipped.robot, 5, seed=8)
+    a, b = ev.frequencies(poses, "none"), shipped.frequencies(poses, "none")
+    assert np.abs(a - b).max() / b.max() < 1e-9
+    # the same file through the command line's --robot door
+    cmd = [sys.executable, "-m", "eigentwist", "matrices", "--robot", str(readme_file), "--pose", "0", "0", "0.8",
+           "0", "0", "0", "--model", "none"]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "62.27" in run.stdout or "62.3" in run.stdout
+
+
+# ---------------------------------------------------------------- compiled tier
+@pytest.mark.compiled
+def test_c_loop_closure_equals_numpy(numeric):
+    from eigentwist.runtime import ccompile
+
+    try:
+        ccompile.find_compiler()
+    except ccompile.CompilerNotFoundError as exc:
+        skip_tier("compiled", str(exc))
+    ev, _ = numeric["hexapod"]
+    evc = eigentwist.load(hexapod_urdf.describe(), backend="c", progress=lambda m: None)
+    poses = random_poses(ev.robot, 30, seed=2)
+    rng = np.random.default_rng(0)
+    q = ev.joint_angles(poses) + 0.05 * rng.standard_normal((30, 6, 3))
+    p = {**ev.parameter_values(30), **ev.kernel_pose_inputs(poses)}
+    a = ev.module.loop_closure(q, p)
+    b = evc._kernels.loop_closure(q, p)            # the compiled kernel itself
+    for k in ("residual", "dresidual"):
+        assert np.allclose(a[k], b[k], rtol=1e-12, atol=1e-14)
+    assert np.abs(evc.joint_angles(poses) - ev.joint_angles(poses)).max() < 1e-12
+    fa, fc = ev.frequencies(poses), evc.frequencies(poses)
+    assert np.abs(fa - fc).max() / fa.max() < 1e-12
