@@ -34,7 +34,7 @@ def step_json(s) -> dict:
     f = s.fit
     return {"effects": list(f.effects), "added": s.added, "rms_pct": f.rms_pct, "max_pct": f.max_pct,
             "chi2": f.chi2, "k": f.k, "aicc": f.aicc, "p_value": s.p_value, "params": f.values,
-            "param_std": f.std, "alternatives": list(s.alternatives)}
+            "param_std": f.std, "alternatives": list(s.alternatives), "removed": s.removed}
 
 
 def _final(d) -> dict:
@@ -77,6 +77,7 @@ def diagnosis_json(d) -> dict:
         "final": _final(d),
         "next_measurement": d.next_measurement,
         "outliers": [asdict(o) for o in d.outliers],
+        "removed": [r.to_json() for r in d.removed],   # backward elimination (issue 23)
         "uncertainty": _uncertainty(d.uncertainty) if d.uncertainty else None,
         "untestable": dict(d.untestable),
         "manual": d.manual, "alpha": d.alpha, "criteria": CRITERIA,

@@ -94,7 +94,7 @@ def _ranking_table(ranking, ev) -> str:
 def _steps_table(steps, ev) -> str:
     rows = []
     for k, s in enumerate(steps):
-        rows.append([k, "+" + s.added if s.added else "baseline", ", ".join(s.fit.effects) or "(none)",
+        rows.append([k, s.change, ", ".join(s.fit.effects) or "(none)",
                      f"{s.fit.rms_pct:.2f}", f"{s.fit.max_pct:.2f}", f"{s.fit.chi2:.1f}",
                      "-" if s.p_value is None or not math.isfinite(s.p_value) else f"{s.p_value:.2g}",
                      ", ".join(s.alternatives) or "-"])
@@ -294,6 +294,7 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
                        f"({alt['separation_sigma']:.1f} sigma)")
     title = "4. Effects added by hand" if d.manual else "4. Forward selection (add the best significant effect, repeat)"
     out += ["", title, _steps_table(d.steps, ev)]
+    out += [f"   {r.reason} (p = {r.p_value:.2g} against the model without it)" for r in d.removed]
     f = d.final
     out.append(f"   final model: {', '.join(f.effects) or '(no effect)'}; RMS {f.rms_pct:.2f} %, max {f.max_pct:.2f} %")
     if f.values:

@@ -21,6 +21,10 @@
    (:func:`~.stats.indistinguishable`) is listed as that step's ``alternatives``, so no tie
    is broken silently. The best plausible candidate is added while it is significant
    (Bonferroni over the step's candidates) and lowers AICc.
+   Then backward elimination (:mod:`.backward`): each selected effect is tested against
+   the final model without it by the same rule, the least needed one that fails is
+   removed (a step of the path, ``Step.removed``, with the reason in ``Diagnosis.removed``)
+   and forward selection resumes on the smaller model, until stable.
 5. The final model's alternatives: the ties along the path, each refitted as a whole
    model and kept when the data support it equally.
 6. Outliers: isolated rows beyond the alpha/n threshold (:mod:`.misfit`) are set aside
@@ -44,6 +48,7 @@ from ..runtime import InputError
 from .compare import Comparison, compare
 from .evaluators import resolve
 from .fit import FitResult, fit
+from .backward import eliminate
 from .identifiable import extra_parameters, sign_free, trial_value
 from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
@@ -116,6 +121,8 @@ class Step:
     """The model after one step of the selection (the first step is the baseline).
 
     alternatives : effects indistinguishable from ``added`` (plausible ones only).
+    removed : the effect this step took out (backward elimination, :mod:`.backward`;
+    ``p_value`` is then its test against the model without it).
     """
 
     fit: FitResult
@@ -123,6 +130,12 @@ class Step:
     p_value: float | None = None
     ranking: list = field(default_factory=list)
     alternatives: list = field(default_factory=list)
+    removed: str | None = None
+
+    @property
+    def change(self) -> str:
+        """``"+EFFECT"``, ``"-EFFECT"`` (removed) or ``"baseline"``."""
+        return f"+{self.added}" if self.added else f"-{self.removed}" if self.removed else "baseline"
 
 
 @dataclass
@@ -144,6 +157,7 @@ class Diagnosis:
     :mod:`.render_json` (``to_json()``).
 
     untestable : effect -> rows needed, for candidates these data have too few rows for.
+    removed : :class:`~.backward.Removal` of each effect taken back by backward elimination.
     alternatives : :class:`Alternative` final models. outliers : :class:`Outlier` rows
     set aside (the selection and fits are those without them); all_rows : the diagnosis
     with every row, when some were set aside. uncertainty : :class:`Uncertainty`.
@@ -167,6 +181,7 @@ class Diagnosis:
     outliers: list = field(default_factory=list)
     all_rows: "Diagnosis | None" = None
     untestable: dict = field(default_factory=dict)
+    removed: list = field(default_factory=list)
 
     @property
     def final_comparison(self) -> Comparison:
@@ -383,8 +398,10 @@ def _manual_steps(meas, ev, current: FitResult, order) -> list[Step]:
     return steps
 
 
-def _forward(meas, ev, current: FitResult, alpha: float, progress) -> list[Step]:
-    steps = [Step(current)]
+def _forward(meas, ev, steps: list[Step], alpha: float, progress, removed=()) -> list[Step]:
+    """Add the best significant candidate to ``steps[-1]``'s model while there is one; an
+    effect taken back earlier (``removed``) is not added again (the path stays finite)."""
+    current = steps[-1].fit
     while True:
         cands = candidates_for(ev, current.effects)
         if not cands:
@@ -392,12 +409,32 @@ def _forward(meas, ev, current: FitResult, alpha: float, progress) -> list[Step]
         ranking = rank_candidates(meas, ev, current, cands, progress)
         steps[-1].ranking = ranking
         best = ranking[0]
-        if not significant(best, current, len(cands), alpha):
+        if best.effect in removed or not significant(best, current, len(cands), alpha):
             break
         alternatives = [c.effect for c in ranking[1:] if c.plausible and c.effect in best.indistinguishable_from]
         steps.append(Step(best.fit, best.effect, best.p_value, alternatives=alternatives))
         current = best.fit
     return steps
+
+
+MAX_ROUNDS = 5          # forward-backward rounds at most (each removal is followed by a forward pass)
+
+
+def _stepwise(meas, ev, current: FitResult, alpha: float, progress) -> tuple[list[Step], list]:
+    """Forward selection, then backward elimination (:mod:`.backward`), repeated until stable:
+    (steps, removals). A removal is a step of the path (``Step.removed``)."""
+    steps = _forward(meas, ev, [Step(current)], alpha, progress)
+    removals: list = []
+    for _ in range(MAX_ROUNDS):
+        added = [(s.added, len(steps[k - 1].ranking)) for k, s in enumerate(steps) if s.added]
+        found = eliminate(meas, ev, steps[-1].fit, added, alpha)
+        if not found:
+            break
+        for r in found:
+            steps.append(Step(r.fit, None, r.p_value, removed=r.effect))
+        removals += found
+        steps = _forward(meas, ev, steps, alpha, progress, {r.effect for r in removals})
+    return steps, removals
 
 
 def _swap(meas, ev, final: FitResult, step: Step, rival: Candidate) -> FitResult | None:
@@ -418,6 +455,8 @@ def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
     final = steps[-1].fit
     out = []
     for k, step in enumerate(steps[1:], start=1):
+        if step.added not in final.effects:
+            continue                  # taken back by backward elimination
         for name in step.alternatives:
             rival = next(c for c in steps[k - 1].ranking if c.effect == name)
             g = _swap(meas, ev, final, step, rival)
@@ -453,18 +492,19 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     current = fit(meas, base_effects, ev, (), fixed=values)
     manual = add is not None
     cands = candidates_for(ev, current.effects)
+    removed: list = []
     if manual:
         _check_manual(ev, add, current.effects)
         steps = _manual_steps(meas, ev, current, add)
         first = rank_candidates(meas, ev, current, cands, progress)
     else:
-        steps = _forward(meas, ev, current, alpha, progress)
+        steps, removed = _stepwise(meas, ev, current, alpha, progress)
         first = steps[0].ranking
     final = steps[-1].fit
     signatures = {c.effect: c.signature for c in first}
     return Diagnosis(
         robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
-        selected=[s.added for s in steps[1:]], steps=steps, final=final,
+        selected=[s.added for s in steps[1:] if s.added in final.effects], steps=steps, final=final, removed=removed,
         explained=explained(final.chi2, final.n, final.k, alpha),
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
         manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),

@@ -449,7 +449,7 @@ class Evaluator:
         return M, K
 
     def _preloaded(self, effects) -> bool:
-        return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
+        return any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
               unstable: str = "nan", **params) -> Modes:

@@ -80,7 +80,7 @@ def _content(obj) -> str:
     source of every function its effects build with."""
     text = re.sub(r" at 0x[0-9a-fA-F]+", "", repr(obj))
     sources = []
-    for e in getattr(obj, "custom_effects", ()):
+    for e in (t for effect in getattr(obj, "custom_effects", ()) for t in effect.parts()):
         if e.build is not None:
             try:
                 sources.append(inspect.getsource(e.build))
