@@ -48,7 +48,10 @@ def _final(d) -> dict:
             "alternatives": [list(a.effects) for a in d.alternatives],
             "alternatives_detail": [{"effects": list(a.effects), "replaces": a.replaced, "by": a.by,
                                      "params": a.fit.values, "param_std": a.fit.std, "aicc": a.fit.aicc,
-                                     "next_measurement": a.next_measurement} for a in d.alternatives]}
+                                     "next_measurement": a.next_measurement, "equivalent": a.equivalent}
+                                    for a in d.alternatives],
+            # issue 23: alternatives that are the final model under another name (same frequencies everywhere)
+            "equivalent": [[a.replaced, a.by] for a in d.alternatives if a.equivalent and a.replaced]}
 
 
 def _uncertainty(u) -> dict:

@@ -201,6 +201,8 @@ def _alternatives_sentence(d) -> str | None:
         if a.replaced is None:
             continue
         text = f"{a.replaced} or {a.by}: these data cannot tell them apart"
+        if a.equivalent:
+            text = f"{a.replaced} and {a.by} are one model under two names (the same frequencies at every pose and k_a)"
         nm = a.next_measurement
         if nm:
             pose = ", ".join(f"{v:g}" for v in np.round(nm["pose"], 4))

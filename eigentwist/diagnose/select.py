@@ -53,7 +53,7 @@ from .identifiable import extra_parameters, sign_free, trial_value
 from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
 from .predict import Predictor
-from .separate import next_measurement
+from .separate import equivalent, next_measurement
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 from .values import used_parameters
 
@@ -142,13 +142,16 @@ class Step:
 class Alternative:
     """A final model the data support as well as the one selected: ``replaced`` -> ``by``
     (``replaced`` None: ``by`` added to a final model that misfits, which it would explain
-    though these rows cannot show it significantly)."""
+    though these rows cannot show it significantly). ``equivalent``: the evidence that the
+    two are one model under two names (:func:`~.separate.equivalent`; then no
+    ``next_measurement``), else None."""
 
     effects: tuple
     replaced: str | None
     by: str
     fit: FitResult
     next_measurement: dict | None = None
+    equivalent: dict | None = None
 
 
 @dataclass
@@ -347,14 +350,26 @@ def significant(c: Candidate, current: FitResult, m: int, alpha: float, plausibl
 
 
 def _separation(ev, meas, ranking) -> dict | None:
+    """The measurement telling the top candidate from its closest rival that is a different model
+    (ties first; a rival equivalent to it everywhere is one model, never to be separated)."""
     if len(ranking) < 2:
         return None
     top = ranking[0]
-    rival = next((c for c in ranking[1:] if c.effect in top.indistinguishable_from), ranking[1])
-    return _between(ev, meas, top.fit, rival.fit, rival.effect in top.indistinguishable_from)
+    rivals = sorted(ranking[1:], key=lambda c: c.effect not in top.indistinguishable_from)
+    for rival in rivals[:MAX_RIVALS]:
+        out = _between(ev, meas, top.fit, rival.fit, rival.effect in top.indistinguishable_from)
+        if out is not None:
+            return out
+    return None
+
+
+MAX_RIVALS = 4          # rivals tried for the next measurement (equivalent ones are skipped)
 
 
 def _between(ev, meas, fit_a, fit_b, tied: bool) -> dict | None:
+    """The next measurement between two fitted models; None when they are one model (or share no mode)."""
+    if equivalent(ev, meas, fit_a, fit_b):
+        return None
     out = next_measurement(ev, meas, fit_a, fit_b)
     if out is not None:
         out["indistinguishable"] = tied
@@ -464,7 +479,9 @@ def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
                 continue
             if indistinguishable(final.aicc, g.aicc, final.comparison.predicted, g.comparison.predicted,
                                  meas.sigma_hz):
-                out.append(Alternative(g.effects, step.added, name, g, _between(ev, meas, final, g, True)))
+                same = equivalent(ev, meas, final, g)
+                out.append(Alternative(g.effects, step.added, name, g,
+                                       None if same else _between(ev, meas, final, g, True), same))
     return out
 
 
@@ -481,8 +498,10 @@ def unproven(meas, ev, steps, alpha: float) -> list[Alternative]:
     out = []
     for k, c in enumerate(chosen):
         rival = chosen[1] if k == 0 and len(chosen) > 1 else chosen[0]
+        same = equivalent(ev, meas, c.fit, rival.fit) if rival is not c else None
         out.append(Alternative(c.fit.effects, None, c.effect, c.fit,
-                               _between(ev, meas, c.fit, rival.fit, True) if rival is not c else None))
+                               _between(ev, meas, c.fit, rival.fit, True) if rival is not c and not same else None,
+                               same))
     return out
 
 
