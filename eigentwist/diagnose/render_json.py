@@ -81,6 +81,7 @@ def diagnosis_json(d) -> dict:
         "next_measurement": d.next_measurement,
         "outliers": [asdict(o) for o in d.outliers],
         "removed": [r.to_json() for r in d.removed],   # backward elimination (issue 23)
+        "setting_anomalies": [a.to_json() for a in d.setting_anomalies],   # whole settings set aside (issue 22)
         "uncertainty": _uncertainty(d.uncertainty) if d.uncertainty else None,
         "untestable": dict(d.untestable),
         "manual": d.manual, "alpha": d.alpha, "criteria": CRITERIA,

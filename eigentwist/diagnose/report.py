@@ -309,6 +309,9 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     u = d.uncertainty
     if u is not None:
         out.append(f"   stated uncertainty: {u.verdict} (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.3g})")
+    for a in d.setting_anomalies:
+        best = f"k_a = {a.best_k_a:.4g}" if a.what == "k_a" else f"pose [{', '.join(f'{v:g}' for v in a.best_pose)}]"
+        out.append(f"   setting set aside: lines {', '.join(map(str, a.lines))} (k_a = {a.k_a:g}) fit {best} far better")
     if d.outliers:
         out.append("   outliers set aside (CSV line, header = 1):")
         out += [f"     line {o.line}: mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "

@@ -28,7 +28,9 @@
 5. The final model's alternatives: the ties along the path, each refitted as a whole
    model and kept when the data support it equally.
 6. Outliers: isolated rows beyond the alpha/n threshold (:mod:`.misfit`) are set aside
-   and the selection rerun without them; the all-rows result is kept beside.
+   and the selection rerun without them; the all-rows result is kept beside. Then whole
+   settings (pose x k_a) that fit the model at another k_a or pose far better than at
+   their own (:mod:`.settings`, issue 22) are set aside the same way.
 7. The stated uncertainty is judged from the final model's Birge ratio (:mod:`.misfit`).
 
 An effect that shares parameters with one already in the model (two descriptions of the
@@ -54,6 +56,7 @@ from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
 from .predict import Predictor
 from .separate import equivalent, next_measurement
+from .settings import find_setting_anomalies
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 from .values import used_parameters
 
@@ -161,6 +164,7 @@ class Diagnosis:
 
     untestable : effect -> rows needed, for candidates these data have too few rows for.
     removed : :class:`~.backward.Removal` of each effect taken back by backward elimination.
+    setting_anomalies : :class:`~.settings.SettingAnomaly` of each whole setting set aside.
     alternatives : :class:`Alternative` final models. outliers : :class:`Outlier` rows
     set aside (the selection and fits are those without them); all_rows : the diagnosis
     with every row, when some were set aside. uncertainty : :class:`Uncertainty`.
@@ -185,6 +189,7 @@ class Diagnosis:
     all_rows: "Diagnosis | None" = None
     untestable: dict = field(default_factory=dict)
     removed: list = field(default_factory=list)
+    setting_anomalies: list = field(default_factory=list)
 
     @property
     def final_comparison(self) -> Comparison:
@@ -565,6 +570,29 @@ def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress,
     return d
 
 
+MAX_SETTING_SHARE = 0.25   # at most this share of the rows is set aside as whole settings
+
+
+def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, values=None) -> Diagnosis:
+    """Set aside whole settings that fit another k_a (or pose) far better (:mod:`.settings`), worst
+    first, one at a time, rerunning the selection; the all-rows result is kept beside."""
+    d_all, found = d.all_rows or d, []
+    outliers = list(d.outliers)
+    while True:
+        anomalies = find_setting_anomalies(d.meas, ev, d.final, alpha)
+        gone = sum(a.n_rows for a in found)
+        if not anomalies or gone + anomalies[0].n_rows > MAX_SETTING_SHARE * len(meas):
+            break
+        found.append(anomalies[0])
+        keep = ~np.isin(d.meas.lines, anomalies[0].lines)
+        d = _select(d.meas.subset(keep), ev, base_effects, None, alpha, progress, values)
+    if found:
+        d.setting_anomalies, d.outliers, d.all_rows = found, outliers, d_all if d_all.all_rows is None else d_all
+        if d.all_rows is not None and d.all_rows.uncertainty is None:
+            _judge(d.all_rows)
+    return d
+
+
 def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None, alpha: float = ALPHA,
              progress=None, backend: str = "numpy", values: dict | None = None) -> Diagnosis:
     """Diagnose what ``baseline`` misses on the measurements ``meas``.
@@ -602,4 +630,5 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     d = _select(meas, ev, base_effects, order, alpha, progress, values)
     if order is None and not d.untestable and d.final.dof > 2:
         d = _without_outliers(meas, ev, d, base_effects, alpha, progress, values)
+        d = _without_settings(meas, ev, d, base_effects, alpha, progress, values)
     return _judge(d)
