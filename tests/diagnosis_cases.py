@@ -53,6 +53,8 @@ def _added(d):
     """(step, candidate) of every effect the selection added."""
     out = []
     for k, s in enumerate(d.steps[1:], start=1):
+        if not s.added:
+            continue                     # a removal (backward elimination)
         out.append((s, next(c for c in d.steps[k - 1].ranking if c.effect == s.added)))
     return out
 

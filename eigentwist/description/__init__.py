@@ -3,11 +3,11 @@ from .parameters import Parameter, sym
 from .robot import Coupling, Leg, RobotDescription, EECompliance
 from .chain import ChainJoint as Joint
 from .rrpirr import RRPIRR_CHAIN
-from .effects import EFFECTS, KINDS, PRESETS, Effect, EffectContext, effect_parameters, resolve_model
+from .effects import EFFECTS, KINDS, PRESETS, Effect, EffectContext, Term, effect_parameters, resolve_model
 from .constraints import Constraint, tube, triangle_inequality
 
 __all__ = [
     "Parameter", "sym", "Coupling", "Joint", "Leg", "RobotDescription", "EECompliance", "RRPIRR_CHAIN",
-    "EFFECTS", "KINDS", "PRESETS", "Effect", "EffectContext", "effect_parameters", "resolve_model",
+    "EFFECTS", "KINDS", "PRESETS", "Effect", "EffectContext", "Term", "effect_parameters", "resolve_model",
     "Constraint", "tube", "triangle_inequality",
 ]

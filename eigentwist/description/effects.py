@@ -22,7 +22,7 @@ from .constraints import Constraint, tube
 from .names import did_you_mean
 from .parameters import Parameter, sym
 
-__all__ = ["Effect", "EffectContext", "EFFECTS", "PRESETS", "STRUCTURAL", "KINDS", "resolve_model", "switch_name",
+__all__ = ["Effect", "Term", "EffectContext", "EFFECTS", "PRESETS", "STRUCTURAL", "KINDS", "resolve_model", "switch_name",
            "effect_parameters", "split_scope", "scoped_name", "base_name", "leg_switch_name", "leg_input_name"]
 
 INF = float("inf")
@@ -39,6 +39,22 @@ KINDS = {
                      "a user's description adds one (README, 'Effects of your own')",
     "preload": "a static preload whose stiffness enters the first term of Eq. 13 (gravity)",
 }
+
+
+@dataclass(frozen=True)
+class Term:
+    """One part of an effect of several parts (issue 23): a term of one of :data:`KINDS`,
+    the body or frame it acts on and its ``build`` function (as :class:`Effect`'s
+    ``kind``, ``body`` and ``build``). A cable chain is a mass on the tool
+    (``added_inertia``) and a spring to ground (``ground_spring``) under one switch."""
+
+    kind: str
+    build: Callable[["EffectContext"], Any] | None = None
+    body: str = ""
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"term kind {self.kind!r} is not one of {', '.join(KINDS)}")
 
 
 @dataclass(frozen=True)
@@ -78,6 +94,10 @@ class Effect:
     phrase : what one leg's fitted values say, formatted with the fit parameters
         (``"delivers {eta_a:.2f} of its commanded stiffness"``); "" lists the values.
     constraints : conditions its parameters must meet together (:mod:`.constraints`).
+    terms : an effect of several parts (issue 23): its :class:`Term` objects, each with
+        its own kind, body and build, all under the effect's one switch (``on_<effect>``)
+        and fitted jointly (``fit``); ``kind``, ``body`` and ``build`` are then taken from
+        the first term. Empty: the effect is the one term ``kind``/``body``/``build``.
     """
 
     name: str
@@ -94,11 +114,33 @@ class Effect:
     phrase: str = ""
 
     def __post_init__(self):
+        if self.terms:
+            if not all(isinstance(t, Term) for t in self.terms):
+                raise ValueError(f"effect {self.name!r}: terms must be Term objects (kind, build, body)")
+            first = self.terms[0]
+            object.__setattr__(self, "kind", first.kind)
+            object.__setattr__(self, "body", first.body)
+            object.__setattr__(self, "build", first.build)
         if self.kind not in KINDS:
             raise ValueError(f"effect {self.name!r}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
         if "@" in self.name or not self.name.isidentifier():
             raise ValueError(f"effect name {self.name!r}: expected a Python identifier (no '@')")
     constraints: tuple[Constraint, ...] = ()
+    terms: tuple[Term, ...] = ()
+
+    def parts(self) -> tuple["Effect", ...]:
+        """The effect's terms, each as an :class:`Effect` of one kind with this effect's name,
+        parameters and switch (the derivation handles each by its kind)."""
+        if not self.terms:
+            return (self,)
+        from dataclasses import replace
+
+        return tuple(replace(self, kind=t.kind, body=t.body, build=t.build, terms=()) for t in self.terms)
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The kinds of its terms (one for a single-term effect)."""
+        return tuple(t.kind for t in self.terms) or (self.kind,)
 
     @property
     def parameters(self) -> tuple[str, ...]:

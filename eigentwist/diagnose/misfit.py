@@ -12,9 +12,11 @@ Decided in this order (issue 10):
    systematic pattern (:func:`~.patterns.systematic`: a shape over k_a, the pose spread
    scaled by B; :func:`clusters`: neighbouring rows deviating together) *and*
    no catalogue effect is significant any more (implausible ones included) or would
-   explain the data without being significant (too few rows for the F test); otherwise
-   ``"consistent"``, with ``possibly_understated`` set when the fit is far worse than
-   sigma but a pattern or a significant effect points at a missing effect too.
+   explain the data without being significant (too few rows for the F test);
+   ``"cannot be judged"`` when the fit is far worse than sigma but a pattern or a
+   significant effect points at a missing effect (a systematic misfit: the Birge ratio
+   then measures the missing effect, not the noise; ``possibly_understated`` set); otherwise
+   ``"consistent"`` (never beside a Birge ratio the chi-square test rejects).
 3. **Outliers** (:func:`find_outliers`): each row's residual in units of sigma_i times the
    Birge ratio of the other rows (the externally studentized residual) is compared with
    the two-sided Student-t quantile at alpha/n (Bonferroni over the rows), nu - 1 degrees
@@ -36,7 +38,7 @@ from .patterns import systematic
 
 __all__ = ["Uncertainty", "Outlier", "untestable", "judge_uncertainty", "find_outliers", "VERDICTS"]
 
-VERDICTS = ("consistent", "understated", "overstated", "too few rows")
+VERDICTS = ("consistent", "understated", "overstated", "too few rows", "cannot be judged")
 CLUSTER_SIGMA = 2.5     # neighbours both beyond this (studentized, same sign) are a pattern (~0.4 % by chance for 30 rows)
 
 
@@ -86,7 +88,7 @@ def judge_uncertainty(final, untestable_effects: dict, effect_significant: bool,
         out.pattern = [f"mode {p} over k_a" if p != "pose" else "over poses"
                        for p in systematic(final.comparison, max(birge, 1.0))] + clusters(final.comparison, final.k)
         if out.pattern or effect_significant:
-            out.possibly_understated = True
+            out.verdict, out.possibly_understated = "cannot be judged", True
         else:
             out.verdict = "understated"
     return out

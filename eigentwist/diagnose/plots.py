@@ -129,7 +129,7 @@ def plot_diagnosis(diag, path, ev):
     ax.bar(x + 0.2, mx, 0.4, label="max error")
     noise = 100 * float(np.sqrt(np.mean(diag.meas.relative_sigma ** 2)))
     ax.axhline(noise, color="k", ls=":", lw=1, label=f"RMS sigma ({noise:.2g} %)")
-    ax.set_xticks(x, ["baseline"] + ["+" + s.added for s in diag.steps[1:]], rotation=20, fontsize=8)
+    ax.set_xticks(x, [s.change for s in diag.steps], rotation=20, fontsize=8)
     ax.set_ylabel("error [%]")
     ax.set_title("error step by step", fontsize=9)
     ax.legend(fontsize=7)

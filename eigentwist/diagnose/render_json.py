@@ -34,7 +34,7 @@ def step_json(s) -> dict:
     f = s.fit
     return {"effects": list(f.effects), "added": s.added, "rms_pct": f.rms_pct, "max_pct": f.max_pct,
             "chi2": f.chi2, "k": f.k, "aicc": f.aicc, "p_value": s.p_value, "params": f.values,
-            "param_std": f.std, "alternatives": list(s.alternatives)}
+            "param_std": f.std, "alternatives": list(s.alternatives), "removed": s.removed}
 
 
 def _final(d) -> dict:
@@ -48,7 +48,10 @@ def _final(d) -> dict:
             "alternatives": [list(a.effects) for a in d.alternatives],
             "alternatives_detail": [{"effects": list(a.effects), "replaces": a.replaced, "by": a.by,
                                      "params": a.fit.values, "param_std": a.fit.std, "aicc": a.fit.aicc,
-                                     "next_measurement": a.next_measurement} for a in d.alternatives]}
+                                     "next_measurement": a.next_measurement, "equivalent": a.equivalent}
+                                    for a in d.alternatives],
+            # issue 23: alternatives that are the final model under another name (same frequencies everywhere)
+            "equivalent": [[a.replaced, a.by] for a in d.alternatives if a.equivalent and a.replaced]}
 
 
 def _uncertainty(u) -> dict:
@@ -77,6 +80,8 @@ def diagnosis_json(d) -> dict:
         "final": _final(d),
         "next_measurement": d.next_measurement,
         "outliers": [asdict(o) for o in d.outliers],
+        "removed": [r.to_json() for r in d.removed],   # backward elimination (issue 23)
+        "setting_anomalies": [a.to_json() for a in d.setting_anomalies],   # whole settings set aside (issue 22)
         "uncertainty": _uncertainty(d.uncertainty) if d.uncertainty else None,
         "untestable": dict(d.untestable),
         "manual": d.manual, "alpha": d.alpha, "criteria": CRITERIA,

@@ -94,7 +94,7 @@ def _ranking_table(ranking, ev) -> str:
 def _steps_table(steps, ev) -> str:
     rows = []
     for k, s in enumerate(steps):
-        rows.append([k, "+" + s.added if s.added else "baseline", ", ".join(s.fit.effects) or "(none)",
+        rows.append([k, s.change, ", ".join(s.fit.effects) or "(none)",
                      f"{s.fit.rms_pct:.2f}", f"{s.fit.max_pct:.2f}", f"{s.fit.chi2:.1f}",
                      "-" if s.p_value is None or not math.isfinite(s.p_value) else f"{s.p_value:.2g}",
                      ", ".join(s.alternatives) or "-"])
@@ -201,6 +201,8 @@ def _alternatives_sentence(d) -> str | None:
         if a.replaced is None:
             continue
         text = f"{a.replaced} or {a.by}: these data cannot tell them apart"
+        if a.equivalent:
+            text = f"{a.replaced} and {a.by} are one model under two names (the same frequencies at every pose and k_a)"
         nm = a.next_measurement
         if nm:
             pose = ", ".join(f"{v:g}" for v in np.round(nm["pose"], 4))
@@ -294,6 +296,7 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
                        f"({alt['separation_sigma']:.1f} sigma)")
     title = "4. Effects added by hand" if d.manual else "4. Forward selection (add the best significant effect, repeat)"
     out += ["", title, _steps_table(d.steps, ev)]
+    out += [f"   {r.reason} (p = {r.p_value:.2g} against the model without it)" for r in d.removed]
     f = d.final
     out.append(f"   final model: {', '.join(f.effects) or '(no effect)'}; RMS {f.rms_pct:.2f} %, max {f.max_pct:.2f} %")
     if f.values:
@@ -306,6 +309,9 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     u = d.uncertainty
     if u is not None:
         out.append(f"   stated uncertainty: {u.verdict} (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.3g})")
+    for a in d.setting_anomalies:
+        best = f"k_a = {a.best_k_a:.4g}" if a.what == "k_a" else f"pose [{', '.join(f'{v:g}' for v in a.best_pose)}]"
+        out.append(f"   setting set aside: lines {', '.join(map(str, a.lines))} (k_a = {a.k_a:g}) fit {best} far better")
     if d.outliers:
         out.append("   outliers set aside (CSV line, header = 1):")
         out += [f"     line {o.line}: mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "

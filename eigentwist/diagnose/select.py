@@ -21,10 +21,16 @@
    (:func:`~.stats.indistinguishable`) is listed as that step's ``alternatives``, so no tie
    is broken silently. The best plausible candidate is added while it is significant
    (Bonferroni over the step's candidates) and lowers AICc.
+   Then backward elimination (:mod:`.backward`): each selected effect is tested against
+   the final model without it by the same rule, the least needed one that fails is
+   removed (a step of the path, ``Step.removed``, with the reason in ``Diagnosis.removed``)
+   and forward selection resumes on the smaller model, until stable.
 5. The final model's alternatives: the ties along the path, each refitted as a whole
    model and kept when the data support it equally.
 6. Outliers: isolated rows beyond the alpha/n threshold (:mod:`.misfit`) are set aside
-   and the selection rerun without them; the all-rows result is kept beside.
+   and the selection rerun without them; the all-rows result is kept beside. Then whole
+   settings (pose x k_a) that fit the model at another k_a or pose far better than at
+   their own (:mod:`.settings`, issue 22) are set aside the same way.
 7. The stated uncertainty is judged from the final model's Birge ratio (:mod:`.misfit`).
 
 An effect that shares parameters with one already in the model (two descriptions of the
@@ -44,11 +50,13 @@ from ..runtime import InputError
 from .compare import Comparison, compare
 from .evaluators import resolve
 from .fit import FitResult, fit
+from .backward import eliminate
 from .identifiable import extra_parameters, sign_free, trial_value
 from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
 from .predict import Predictor
-from .separate import next_measurement
+from .separate import equivalent, next_measurement
+from .settings import find_setting_anomalies
 from .significance import significant
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 from .values import used_parameters
@@ -117,6 +125,8 @@ class Step:
     """The model after one step of the selection (the first step is the baseline).
 
     alternatives : effects indistinguishable from ``added`` (plausible ones only).
+    removed : the effect this step took out (backward elimination, :mod:`.backward`;
+    ``p_value`` is then its test against the model without it).
     """
 
     fit: FitResult
@@ -124,19 +134,28 @@ class Step:
     p_value: float | None = None
     ranking: list = field(default_factory=list)
     alternatives: list = field(default_factory=list)
+    removed: str | None = None
+
+    @property
+    def change(self) -> str:
+        """``"+EFFECT"``, ``"-EFFECT"`` (removed) or ``"baseline"``."""
+        return f"+{self.added}" if self.added else f"-{self.removed}" if self.removed else "baseline"
 
 
 @dataclass
 class Alternative:
     """A final model the data support as well as the one selected: ``replaced`` -> ``by``
     (``replaced`` None: ``by`` added to a final model that misfits, which it would explain
-    though these rows cannot show it significantly)."""
+    though these rows cannot show it significantly). ``equivalent``: the evidence that the
+    two are one model under two names (:func:`~.separate.equivalent`; then no
+    ``next_measurement``), else None."""
 
     effects: tuple
     replaced: str | None
     by: str
     fit: FitResult
     next_measurement: dict | None = None
+    equivalent: dict | None = None
 
 
 @dataclass
@@ -145,6 +164,8 @@ class Diagnosis:
     :mod:`.render_json` (``to_json()``).
 
     untestable : effect -> rows needed, for candidates these data have too few rows for.
+    removed : :class:`~.backward.Removal` of each effect taken back by backward elimination.
+    setting_anomalies : :class:`~.settings.SettingAnomaly` of each whole setting set aside.
     alternatives : :class:`Alternative` final models. outliers : :class:`Outlier` rows
     set aside (the selection and fits are those without them); all_rows : the diagnosis
     with every row, when some were set aside. uncertainty : :class:`Uncertainty`.
@@ -168,6 +189,8 @@ class Diagnosis:
     outliers: list = field(default_factory=list)
     all_rows: "Diagnosis | None" = None
     untestable: dict = field(default_factory=dict)
+    removed: list = field(default_factory=list)
+    setting_anomalies: list = field(default_factory=list)
 
     @property
     def final_comparison(self) -> Comparison:
@@ -327,14 +350,26 @@ def _signature(meas, ev, current: FitResult, effect: str) -> str | None:
 
 
 def _separation(ev, meas, ranking) -> dict | None:
+    """The measurement telling the top candidate from its closest rival that is a different model
+    (ties first; a rival equivalent to it everywhere is one model, never to be separated)."""
     if len(ranking) < 2:
         return None
     top = ranking[0]
-    rival = next((c for c in ranking[1:] if c.effect in top.indistinguishable_from), ranking[1])
-    return _between(ev, meas, top.fit, rival.fit, rival.effect in top.indistinguishable_from)
+    rivals = sorted(ranking[1:], key=lambda c: c.effect not in top.indistinguishable_from)
+    for rival in rivals[:MAX_RIVALS]:
+        out = _between(ev, meas, top.fit, rival.fit, rival.effect in top.indistinguishable_from)
+        if out is not None:
+            return out
+    return None
+
+
+MAX_RIVALS = 4          # rivals tried for the next measurement (equivalent ones are skipped)
 
 
 def _between(ev, meas, fit_a, fit_b, tied: bool) -> dict | None:
+    """The next measurement between two fitted models; None when they are one model (or share no mode)."""
+    if equivalent(ev, meas, fit_a, fit_b):
+        return None
     out = next_measurement(ev, meas, fit_a, fit_b)
     if out is not None:
         out["indistinguishable"] = tied
@@ -378,8 +413,10 @@ def _manual_steps(meas, ev, current: FitResult, order) -> list[Step]:
     return steps
 
 
-def _forward(meas, ev, current: FitResult, alpha: float, progress) -> list[Step]:
-    steps = [Step(current)]
+def _forward(meas, ev, steps: list[Step], alpha: float, progress, removed=()) -> list[Step]:
+    """Add the best significant candidate to ``steps[-1]``'s model while there is one; an
+    effect taken back earlier (``removed``) is not added again (the path stays finite)."""
+    current = steps[-1].fit
     while True:
         cands = candidates_for(ev, current.effects)
         if not cands:
@@ -387,12 +424,32 @@ def _forward(meas, ev, current: FitResult, alpha: float, progress) -> list[Step]
         ranking = rank_candidates(meas, ev, current, cands, progress)
         steps[-1].ranking = ranking
         best = ranking[0]
-        if not significant(best, current, len(cands), alpha):
+        if best.effect in removed or not significant(best, current, len(cands), alpha):
             break
         alternatives = [c.effect for c in ranking[1:] if c.plausible and c.effect in best.indistinguishable_from]
         steps.append(Step(best.fit, best.effect, best.p_value, alternatives=alternatives))
         current = best.fit
     return steps
+
+
+MAX_ROUNDS = 5          # forward-backward rounds at most (each removal is followed by a forward pass)
+
+
+def _stepwise(meas, ev, current: FitResult, alpha: float, progress) -> tuple[list[Step], list]:
+    """Forward selection, then backward elimination (:mod:`.backward`), repeated until stable:
+    (steps, removals). A removal is a step of the path (``Step.removed``)."""
+    steps = _forward(meas, ev, [Step(current)], alpha, progress)
+    removals: list = []
+    for _ in range(MAX_ROUNDS):
+        added = [(s.added, len(steps[k - 1].ranking)) for k, s in enumerate(steps) if s.added]
+        found = eliminate(meas, ev, steps[-1].fit, added, alpha)
+        if not found:
+            break
+        for r in found:
+            steps.append(Step(r.fit, None, r.p_value, removed=r.effect))
+        removals += found
+        steps = _forward(meas, ev, steps, alpha, progress, {r.effect for r in removals})
+    return steps, removals
 
 
 def _swap(meas, ev, final: FitResult, step: Step, rival: Candidate) -> FitResult | None:
@@ -413,6 +470,8 @@ def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
     final = steps[-1].fit
     out = []
     for k, step in enumerate(steps[1:], start=1):
+        if step.added not in final.effects:
+            continue                  # taken back by backward elimination
         for name in step.alternatives:
             rival = next(c for c in steps[k - 1].ranking if c.effect == name)
             g = _swap(meas, ev, final, step, rival)
@@ -420,7 +479,9 @@ def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
                 continue
             if indistinguishable(final.aicc, g.aicc, final.comparison.predicted, g.comparison.predicted,
                                  meas.sigma_hz):
-                out.append(Alternative(g.effects, step.added, name, g, _between(ev, meas, final, g, True)))
+                same = equivalent(ev, meas, final, g)
+                out.append(Alternative(g.effects, step.added, name, g,
+                                       None if same else _between(ev, meas, final, g, True), same))
     return out
 
 
@@ -437,8 +498,10 @@ def unproven(meas, ev, steps, alpha: float) -> list[Alternative]:
     out = []
     for k, c in enumerate(chosen):
         rival = chosen[1] if k == 0 and len(chosen) > 1 else chosen[0]
+        same = equivalent(ev, meas, c.fit, rival.fit) if rival is not c else None
         out.append(Alternative(c.fit.effects, None, c.effect, c.fit,
-                               _between(ev, meas, c.fit, rival.fit, True) if rival is not c else None))
+                               _between(ev, meas, c.fit, rival.fit, True) if rival is not c and not same else None,
+                               same))
     return out
 
 
@@ -448,18 +511,19 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     current = fit(meas, base_effects, ev, (), fixed=values)
     manual = add is not None
     cands = candidates_for(ev, current.effects)
+    removed: list = []
     if manual:
         _check_manual(ev, add, current.effects)
         steps = _manual_steps(meas, ev, current, add)
         first = rank_candidates(meas, ev, current, cands, progress)
     else:
-        steps = _forward(meas, ev, current, alpha, progress)
+        steps, removed = _stepwise(meas, ev, current, alpha, progress)
         first = steps[0].ranking
     final = steps[-1].fit
     signatures = {c.effect: c.signature for c in first}
     return Diagnosis(
         robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
-        selected=[s.added for s in steps[1:]], steps=steps, final=final,
+        selected=[s.added for s in steps[1:] if s.added in final.effects], steps=steps, final=final, removed=removed,
         explained=explained(final.chi2, final.n, final.k, alpha),
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
         manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
@@ -501,6 +565,29 @@ def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress,
     return d
 
 
+MAX_SETTING_SHARE = 0.25   # at most this share of the rows is set aside as whole settings
+
+
+def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, values=None) -> Diagnosis:
+    """Set aside whole settings that fit another k_a (or pose) far better (:mod:`.settings`), worst
+    first, one at a time, rerunning the selection; the all-rows result is kept beside."""
+    d_all, found = d.all_rows or d, []
+    outliers = list(d.outliers)
+    while True:
+        anomalies = find_setting_anomalies(d.meas, ev, d.final, alpha)
+        gone = sum(a.n_rows for a in found)
+        if not anomalies or gone + anomalies[0].n_rows > MAX_SETTING_SHARE * len(meas):
+            break
+        found.append(anomalies[0])
+        keep = ~np.isin(d.meas.lines, anomalies[0].lines)
+        d = _select(d.meas.subset(keep), ev, base_effects, None, alpha, progress, values)
+    if found:
+        d.setting_anomalies, d.outliers, d.all_rows = found, outliers, d_all if d_all.all_rows is None else d_all
+        if d.all_rows is not None and d.all_rows.uncertainty is None:
+            _judge(d.all_rows)
+    return d
+
+
 def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None, alpha: float = ALPHA,
              progress=None, backend: str = "numpy", values: dict | None = None) -> Diagnosis:
     """Diagnose what ``baseline`` misses on the measurements ``meas``.
@@ -538,4 +625,5 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     d = _select(meas, ev, base_effects, order, alpha, progress, values)
     if order is None and not d.untestable and d.final.dof > 2:
         d = _without_outliers(meas, ev, d, base_effects, alpha, progress, values)
+        d = _without_settings(meas, ev, d, base_effects, alpha, progress, values)
     return _judge(d)

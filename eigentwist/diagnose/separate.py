@@ -16,10 +16,13 @@ import numpy as np
 from ..runtime import EigentwistError
 from .matching import DIRECTIONS, match_frequencies
 
-__all__ = ["next_measurement", "workspace_poses"]
+__all__ = ["next_measurement", "workspace_poses", "equivalent", "EQUIVALENT_SIGMA"]
 
 GRID = 3          # poses per axis of the workspace box
 N_KA = 9          # log-spaced k_a values over the measured range
+EQUIVALENT_SIGMA = 0.05   # two fitted models never further apart than this (in sigma) are one model
+N_RANDOM = 40             # random workspace poses of the equivalence check (plus the grid and the measured ones)
+KA_SPAN = 4.0             # k_a of the equivalence check: measured range widened by this factor each way
 
 
 @lru_cache(maxsize=None)
@@ -105,6 +108,54 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
         measured = [lb for lb in labels if lb in set(meas.mode)]
         out["with_measured_modes"] = describe(_best(modes_of, measured, rel_sigma)) if measured else None
     return out
+
+
+def _random_poses(ev, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` random poses of the workspace box (fixed seed: the check is reproducible), reachable ones only."""
+    rng = np.random.default_rng(seed)
+    box = np.array(ev.robot.workspace, dtype=float)
+    poses = box[:, 0] + (box[:, 1] - box[:, 0]) * rng.random((n, len(box)))
+    keep = []
+    for p in poses:
+        try:
+            ev.jacobians(p)
+            keep.append(p)
+        except EigentwistError:
+            continue
+    return np.array(keep).reshape(-1, len(box))
+
+
+def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | None:
+    """Whether two fitted models are one model under two names: the same frequencies (within
+    ``tol`` sigma, sigma as in :func:`next_measurement`) for every mode both have, at the
+    grid and ``N_RANDOM`` random poses of the workspace and the measured ones, times k_a
+    log-spaced over the measured range widened ``KA_SPAN`` times each way (not only the
+    measured rows). Returns the evidence (``max_separation_sigma``, ``poses``, ``k_a``)
+    when they are, else None."""
+    lo, hi = float(meas.k_a.min()) / KA_SPAN, float(meas.k_a.max()) * KA_SPAN
+    k_a = np.unique(np.round(np.concatenate([np.geomspace(lo, hi, N_KA), meas.k_a]), 9))
+    poses = np.unique(np.round(np.concatenate([workspace_poses(ev, meas), _random_poses(ev, N_RANDOM)]), 9), axis=0)
+    pose_rows = np.repeat(poses, len(k_a), axis=0)
+    ka_rows = np.tile(k_a, len(poses))
+    base = _constant_columns(meas)
+    try:
+        modes_of = [ev.modes(pose_rows, f.effects, k_a=ka_rows, invalid="nan", **{**base, **f.fixed})
+                    for f in (fit_a, fit_b)]
+    except EigentwistError:
+        return None
+    fa, fb = (np.asarray(m.freq_hz, dtype=float) for m in modes_of)
+    if fa.shape != fb.shape:
+        return None
+    rel_sigma = float(np.median(meas.relative_sigma))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sep = np.abs(fa - fb) / (rel_sigma * 0.5 * (fa + fb))
+    if np.isnan(fa).any() != np.isnan(fb).any() or not np.any(np.isfinite(sep)):
+        return None
+    worst = float(np.nanmax(sep))
+    if worst >= tol:
+        return None
+    return {"max_separation_sigma": worst, "poses": int(len(poses)), "k_a": k_a.tolist(),
+            "k_a_unit": ev.parameter("k_a").unit}
 
 
 def _label(f, other) -> str:

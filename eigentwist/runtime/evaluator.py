@@ -617,7 +617,7 @@ class Evaluator:
         return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
 
     def _preloaded(self, effects) -> bool:
-        return any(self.robot.effect(base_name(e)).kind == "preload" for e in effects)
+        return any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
               unstable: str = "nan", joints=None, **params) -> Modes:

@@ -121,7 +121,8 @@ class EffectSymbols:
         self.effects = [robot.effect(e) for e in robot.effects]
 
     def of_kind(self, kind: str) -> list:
-        return [e for e in self.effects if e.kind == kind]
+        """The terms of ``kind`` (an effect of several parts gives one per term, each under its switch)."""
+        return [t for e in self.effects for t in e.parts() if t.kind == kind]
 
     def switch(self, effect, leg: int | None = None) -> sp.Symbol:
         if effect.leg_level:

@@ -1,0 +1,126 @@
+"""Whole settings that do not belong (issue 22): a setting (pose x k_a) written wrong.
+
+A lab's commonest error is a setting written with the wrong k_a (or pose): all its modes
+then deviate together, so the isolated-row check (:mod:`.misfit`) rightly calls it a
+pattern, and the selection would add an effect to absorb it. After the isolated-row
+check, each setting with two or more rows is checked as a unit against the final model:
+
+* its chi-square, scaled by the Birge ratio of the *other* rows (never below 1), is
+  beyond the chi2_{n_s} quantile at alpha/S (Bonferroni over the S settings), and
+* the same model at another k_a (a log grid over the measured range widened ``KA_SPAN``
+  times each way, plus the measured levels) or at another measured pose (at its written
+  k_a) fits its rows within the noise (chi-square test at alpha, one degree of freedom
+  spent on the search) and ``FAR`` times better than at its own.
+
+Such a setting is reported (:class:`SettingAnomaly`: its CSV lines, the written and the
+best-fitting k_a or pose, the evidence), set aside like an outlier, and the selection
+rerun without it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from .measurements import Measurements
+from .predict import Predictor
+
+__all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of"]
+
+FAR = 10.0          # the best other k_a (or pose) fits this many times better in chi-square
+KA_SPAN = 4.0       # k_a searched from min/KA_SPAN to max*KA_SPAN of the measured values
+N_KA = 121          # log-spaced k_a values searched
+
+
+@dataclass
+class SettingAnomaly:
+    """A setting whose rows all fit the model at another k_a (or pose) far better than at its own."""
+
+    lines: list
+    pose: list
+    k_a: float
+    best_k_a: float
+    best_pose: list
+    chi2_own: float
+    chi2_best: float
+    n_rows: int
+    p_own: float
+    scale: float
+
+    @property
+    def what(self) -> str:
+        """``"k_a"`` or ``"pose"``: which label the best fit changes."""
+        return "pose" if self.best_pose != self.pose else "k_a"
+
+    def to_json(self) -> dict:
+        return {"lines": list(self.lines), "pose": list(self.pose), "k_a": self.k_a, "best_k_a": self.best_k_a,
+                "best_pose": list(self.best_pose), "mislabelled": self.what,
+                "evidence": {"chi2_written": self.chi2_own, "chi2_best": self.chi2_best, "rows": self.n_rows,
+                             "p_written": self.p_own, "birge_ratio_of_other_rows": self.scale ** 0.5}}
+
+
+def settings_of(meas) -> list[np.ndarray]:
+    """Row indices of each setting (same pose to 1e-6, same k_a to 1e-9 relative), in row order."""
+    key = [tuple(np.round(p, 6)) + (float(f"{k:.9g}"),) for p, k in zip(meas.poses, meas.k_a)]
+    groups: dict = {}
+    for i, k in enumerate(key):
+        groups.setdefault(k, []).append(i)
+    return [np.array(g) for g in groups.values()]
+
+
+def _relabelled(sub: Measurements, k_a: np.ndarray, poses: np.ndarray) -> Measurements:
+    """``sub``'s rows repeated once per (k_a, pose) pair given."""
+    n, b = len(sub), len(k_a)
+    rows = np.tile(np.arange(n), b)
+    return Measurements(np.repeat(k_a, n), tuple(sub.mode[i] for i in rows), sub.freq_hz[rows], sub.sigma_hz[rows],
+                        np.repeat(poses, n, axis=0), {k: v[rows] for k, v in sub.params.items()}, sub.lines[rows],
+                        sub.source, sub.robot, {}, sub.k_a_unit)
+
+
+def _chi2_table(sub: Measurements, ev, final, k_a: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """chi2 of ``sub``'s rows under the final model relabelled with each (k_a, pose) pair."""
+    tiled = _relabelled(sub, k_a, poses)
+    pred = np.asarray(Predictor(tiled, final.effects, ev, final.fixed).predict(strict=False)[0], dtype=float)
+    r = ((pred - tiled.freq_hz) / tiled.sigma_hz).reshape(len(k_a), len(sub))
+    chi2 = np.sum(r * r, axis=1)
+    return np.where(np.isfinite(chi2), chi2, np.inf)
+
+
+def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly]:
+    """Settings that do not belong (see module doc), worst first."""
+    groups = [g for g in settings_of(meas) if len(g) >= 2]
+    if len(groups) < 3:
+        return []
+    r = final.comparison.error_sigma
+    total, n = float(r @ r), len(r)
+    levels = np.unique(meas.k_a)
+    grid = np.unique(np.concatenate([np.geomspace(levels.min() / KA_SPAN, levels.max() * KA_SPAN, N_KA), levels]))
+    poses = np.unique(np.round(meas.poses, 9), axis=0)
+    out = []
+    for g in groups:
+        own = float(r[g] @ r[g])
+        dof_other = n - len(g) - final.k
+        scale = max(1.0, (total - own) / dof_other) if dof_other > 0 else 1.0
+        p_own = float(stats.chi2.sf(own / scale, len(g)))
+        if p_own >= alpha / len(groups):
+            continue
+        sub = meas.subset(g)
+        pose0, ka0 = sub.poses[0], float(sub.k_a[0])
+        others = [p for p in poses if not np.allclose(p, pose0, atol=1e-6)]
+        k_try = np.concatenate([grid, np.full(len(others), ka0)])
+        p_try = np.concatenate([np.repeat(pose0[None, :], len(grid), axis=0), np.reshape(others, (-1, poses.shape[1]))])
+        chi2 = _chi2_table(sub, ev, final, k_try, p_try)
+        best = int(np.argmin(chi2))
+        if best < len(grid):               # refine the k_a between the grid's neighbours
+            fine = np.geomspace(grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)], 41)
+            chi2_fine = _chi2_table(sub, ev, final, fine, np.repeat(pose0[None, :], len(fine), axis=0))
+            j = int(np.argmin(chi2_fine))
+            if chi2_fine[j] < chi2[best]:
+                k_try, chi2 = k_try.copy(), chi2.copy()
+                k_try[best], chi2[best] = fine[j], chi2_fine[j]
+        fits = stats.chi2.sf(chi2[best] / scale, max(len(g) - 1, 1)) > alpha
+        if fits and chi2[best] * FAR < own:
+            out.append(SettingAnomaly([int(x) for x in sub.lines], pose0.tolist(), ka0, float(k_try[best]),
+                                      p_try[best].tolist(), own, float(chi2[best]), len(g), p_own, scale))
+    return sorted(out, key=lambda a: -a.chi2_own)
