@@ -10,7 +10,7 @@ import textwrap
 
 import numpy as np
 
-__all__ = ["format_table", "json_safe", "format_estimate", "WIDTH"]
+__all__ = ["format_table", "json_safe", "format_estimate", "wrap", "WIDTH"]
 
 
 WIDTH = 100     # characters per line of a command's default output (issue 22)
@@ -64,6 +64,20 @@ def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g", wi
     for text, n in notes.items():
         out += textwrap.wrap(f"[{n}] {text}", width=width, subsequent_indent="    ", break_long_words=False,
                              break_on_hyphens=False)
+    return "\n".join(out)
+
+
+def wrap(text: str, width: int = WIDTH) -> str:
+    """Every line of ``text`` longer than ``width`` wrapped at spaces, continued under its own
+    indentation plus two spaces (tables of :func:`format_table` already fit and stay as they are)."""
+    out = []
+    for line in str(text).split("\n"):
+        if len(line) <= width:
+            out.append(line)
+            continue
+        indent = " " * (len(line) - len(line.lstrip()))
+        out += textwrap.wrap(line, width=width, initial_indent=indent, subsequent_indent=indent + "  ",
+                             break_long_words=False, break_on_hyphens=False) or [line]
     return "\n".join(out)
 
 

@@ -32,6 +32,7 @@ def add_parser(sub):
 
 
 def run(args) -> int:
+    from .common import say
     from ..diagnose.values import changed_text
     from ..report import build_report, write_report
 
@@ -52,13 +53,13 @@ def run(args) -> int:
              rep.comparison["summary"]["max_pct"]]]
     for k, s in enumerate(d["steps"]):
         rows.append([f"diagnosis step {k}", " + ".join(s["effects"]) or "(no effect)", s["rms_pct"], s["max_pct"]])
-    print(format_table(["", "effects", "RMS error [%]", "max error [%]"], rows, ".3g"))
-    print(changed_text(rep.parameters, rep.robot))
+    say(format_table(["", "effects", "RMS error [%]", "max error [%]"], rows, ".3g"))
+    say(changed_text(rep.parameters, rep.robot))
     if rep.reproduction:
-        print(f"paper reproduction: {rep.reproduction['summary']}")
+        say(f"paper reproduction: {rep.reproduction['summary']}")
     verdict = "explained within the measurement uncertainty" if d["final"]["explained"] else \
         ("NOT explained within the stated uncertainty (sigma_hz, default 2 % of each value): an effect outside "
          "the catalogue is missing, or the uncertainty is larger than stated")
-    print(f"final model: {' + '.join(d['final']['effects'])}: {verdict}")
-    print(f"report written to {Path(path).resolve()}")
+    say(f"final model: {' + '.join(d['final']['effects'])}: {verdict}")
+    say(f"report written to {Path(path).resolve()}")
     return 0

@@ -68,6 +68,16 @@ def _why(d, short: bool = False) -> str:
     return f"Why: an effect outside the catalogue is missing (none in it helps further{pattern})."
 
 
+def _ranges(ev, names) -> dict:
+    return {n: tuple(ev.parameter(n).plausible_range) for n in names if ev.accepts(n)}
+
+
+def _plausible(value, std, bounds, at_bound) -> bool:
+    from .select import _plausible as plausible
+
+    return plausible(value, std, bounds, at_bound)
+
+
 def _owner(ev, effects, name: str) -> str | None:
     for e in effects:
         if name in scope.parameter_names(ev, e):
@@ -85,8 +95,14 @@ def added_effects(d, ev) -> list[dict]:
         params = []
         for n in names:
             unit = ev.parameter(n).unit if ev.accepts(n) else ""
-            params.append({"name": n, "value": d.final.values.get(n), "std": d.final.std.get(n), "unit": unit,
-                           "text": f"{n} = {format_estimate(d.final.values.get(n), d.final.std.get(n, math.inf), unit)}"})
+            value, std = d.final.values.get(n), d.final.std.get(n, math.inf)
+            text = f"{n} = {format_estimate(value, std, unit)}"
+            bounds = _ranges(ev, (n,)).get(n)
+            plausible = _plausible(value, std, bounds, n in d.final.at_bound)
+            if not plausible and bounds:
+                text += f" (IMPLAUSIBLE: plausible {bounds[0]:.2g} ... {bounds[1]:.2g} {unit})".replace(" )", ")")
+            params.append({"name": n, "value": value, "std": std, "unit": unit, "plausible": plausible,
+                           "plausible_range": list(bounds) if bounds else None, "text": text})
         leg_level = bool(getattr(ev.robot.effect(split_scope(e)[0]), "leg_level", False))
         out.append({"effect": e, "legs": scope.where(e), "leg_level": leg_level, "params": params})
     return out

@@ -6,11 +6,10 @@ JSON (``final.message``) and the HTML report.
 from __future__ import annotations
 
 import math
-import textwrap
 
 import numpy as np
 
-from ..text import WIDTH, format_table
+from ..text import format_table, wrap
 from .compare import FAIL_SIGMA
 from .stats import CRITERIA, gof_p_value
 from .values import changed_text
@@ -329,14 +328,4 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     if show_rows:
         out += ["", comparison_table(f.comparison)]
     out += ["", "criteria:"] + [f"   {k}: {v}" for k, v in CRITERIA.items()]
-    return "\n".join(_wrap(line) for line in out)
-
-
-def _wrap(line: str, width: int = WIDTH) -> str:
-    """A prose line wrapped at ``width``, continued under its own indentation plus two;
-    a table (several lines) as it is."""
-    if "\n" in line or len(line) <= width:
-        return line
-    indent = " " * (len(line) - len(line.lstrip()))
-    return "\n".join(textwrap.wrap(line, width=width, subsequent_indent=indent + "  ", break_long_words=False,
-                                   break_on_hyphens=False))
+    return wrap("\n".join(out))
