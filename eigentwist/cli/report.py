@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 from pathlib import Path
 
 from .common import MODEL_SYNTAX, add_set_option, format_table, progress
@@ -46,7 +47,8 @@ def run(args) -> int:
         if values.get(name, value) != value:
             raise CliError(f"--model and --baseline set {name} to {values[name]:g} and {value:g}: give it once")
     rep = build_report(args.data, robot=args.robot, model=effects, baseline=baseline, backend=args.backend,
-                       progress=progress, values={**values, **base_values})
+                       progress=progress, values={**values, **base_values},
+                       command=" ".join(["eigentwist", *map(shlex.quote, getattr(args, "argv", None) or ["report"])]))
     path = write_report(args.output, rep)
     d = rep.diagnosis
     rows = [["compared model", " + ".join(rep.model), rep.comparison["summary"]["rms_pct"],
@@ -57,9 +59,6 @@ def run(args) -> int:
     say(changed_text(rep.parameters, rep.robot))
     if rep.reproduction:
         say(f"paper reproduction: {rep.reproduction['summary']}")
-    verdict = "explained within the measurement uncertainty" if d["final"]["explained"] else \
-        ("NOT explained within the stated uncertainty (sigma_hz, default 2 % of each value): an effect outside "
-         "the catalogue is missing, or the uncertainty is larger than stated")
-    say(f"final model: {' + '.join(d['final']['effects'])}: {verdict}")
+    say("\n".join(rep.answer.get("lines", [])))
     say(f"report written to {Path(path).resolve()}")
     return 0
