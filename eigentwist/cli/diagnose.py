@@ -65,10 +65,11 @@ def add_parser(sub):
 
 def run(args) -> int:
     from ..diagnose.answer import answer_text
+    from ..diagnose.values import changed_text
     from ..diagnose.report import diagnosis_text
     from ..diagnose.select import diagnose
     from ..diagnose.stats import ALPHA
-    from .common import CliError, model_and_values, progress
+    from .common import CliError, model_and_values, progress, say
 
     alpha = ALPHA if args.alpha is None else args.alpha
     if not 0 < alpha < 1:
@@ -85,6 +86,9 @@ def run(args) -> int:
         print(d.json())
         return 0
     print(answer_text(d, ev))
+    given = [r for r in d.parameters if r["source"] != "fitted"]
+    if any(r["differs"] for r in given) and not (args.details or args.rows):
+        say(changed_text(given, d.robot))               # the values used, when not the robot's defaults
     if args.details or args.rows:
         print("\n" + diagnosis_text(d, ev, show_rows=args.rows))
     else:

@@ -73,9 +73,9 @@ def _ranges(ev, names) -> dict:
 
 
 def _plausible(value, std, bounds, at_bound) -> bool:
-    from .select import _plausible as plausible
+    from .select import is_plausible
 
-    return plausible(value, std, bounds, at_bound)
+    return is_plausible(value, std, bounds, at_bound)
 
 
 def _owner(ev, effects, name: str) -> str | None:

@@ -16,7 +16,8 @@ import html
 
 import numpy as np
 
-from .robot import AXIS_WORDS, _outline, mode_displacements, robot_geometry
+from .robot import AXIS_WORDS, mode_displacements, robot_geometry
+from .robot import platform_outline as _outline
 
 __all__ = ["mode_frames", "modes_svg", "modes_gif", "PERIOD_S"]
 
