@@ -207,3 +207,32 @@ def test_readme_block(block, results):
         output = proc.stdout + proc.stderr
         missing = [f for f in figures(comment) if not shows(output, f)]
         assert not missing, f"README line {block.line}: `{cmd}` states {missing} ({comment!r}); output:\n{output[-3000:]}"
+
+
+WIDTH = 100     # characters per line of a command's default output (issue 22)
+
+
+def _default_output(cmd: str) -> bool:
+    """A command whose stdout is for people: not JSON, not --details, not redirected or piped."""
+    return not re.search(r"--json|--details|--help|[>|]", cmd)
+
+
+def test_width_checker():
+    assert _default_output("eigentwist diagnose paper") and not _default_output("eigentwist diagnose x --json")
+    assert not _default_output("eigentwist sweep --random 3 > out.txt")
+
+
+def test_no_default_output_line_is_wider_than_100_characters(results):
+    """Every README command's default output (the runs of ``results``, not repeated) fits in
+    100 columns: long lists wrap or become footnotes."""
+    wide = []
+    for block in BLOCKS:
+        if block.skip or block.lang != "sh":
+            continue
+        for cmd, _, proc in results[block.id]:
+            if not _default_output(cmd):
+                continue
+            for line in proc.stdout.splitlines():
+                if len(line) > WIDTH:
+                    wide.append(f"README line {block.line}: `{cmd[:60]}`: {len(line)} characters: {line[:80]}...")
+    assert not wide, "\n".join(wide)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import base64
 import io
+import re
 import shutil
 import subprocess
 import tempfile
@@ -86,7 +87,15 @@ def test_every_image_is_embedded_and_decodes(parsed):
     import matplotlib.image as mpimg
 
     assert len(parsed.images) >= 3                     # comparison, diagnosis, robot with its mode shapes
+    svgs = [src for src in parsed.images if src.startswith("data:image/svg+xml;base64,")]
+    assert len(svgs) == 1                              # the animated mode shapes (issue 22)
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(base64.b64decode(svgs[0].split(",", 1)[1]))
+    assert root.tag.endswith("svg") and len([e for e in root.iter() if e.tag.endswith("animate")]) >= 3
     for src in parsed.images:
+        if src in svgs:
+            continue
         assert src.startswith("data:image/png;base64,"), src[:40]
         img = mpimg.imread(io.BytesIO(base64.b64decode(src.split(",", 1)[1])), format="png")
         assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
@@ -235,7 +244,9 @@ def test_keys_the_diagnosis_gains_are_rendered_as_text(report_data):
     text = parsed.section_text("diagnosis")
     assert "equally good alternatives" in text and "ee_coupling" in text
     assert "effects: actuator_loss, ee_coupling; delta_aicc: 0" in text
-    assert "line: 2; mode: x; error_sigma: 4.2" in text and "sigma_pct: 2; source: default" in text
+    assert "line: 2; mode: x; error_sigma: 4.2" in text
+    assert "sigma_pct" not in text                # the uncertainty is a sentence, not a key dump (issue 23)
+    assert rep.uncertainty_text in text
     assert "{" not in text
 
 
@@ -316,3 +327,176 @@ def test_delta_report_draws_its_robot(tmp_path):
     assert len(parsed.images) >= 3
     assert "The robot at the most measured pose, [0, 0, -0.75] m" in parsed.section_text("model")
     assert "fits m_p = 0.2047 ± 0.0032 kg" in parsed.section_text("diagnosis")
+
+
+# --------------------------------------------------------------- issues 22 and 23: the answer first, shown
+def test_the_report_leads_with_the_answer(parsed, report_data):
+    """The first section is the diagnosis's answer block, the same sentences as the CLI's."""
+    assert "answer" in parsed.ids
+    text = parsed.section_text("answer")
+    for part in ("verdict", "added", "next"):
+        assert " ".join(report_data.answer[part].split()) in text
+    assert text.index("NOT explained") < text.index("Added: ee_compliance") < text.index("Next: measure mode z")
+
+
+def test_provenance_criteria_uncertainty_and_implausible_marks(report_path, parsed):
+    import hashlib
+
+    from eigentwist import __version__
+
+    text = parsed.section_text("provenance")
+    assert __version__ in text and "eigentwist report -o" in text and re.search(r"\d{4}-\d\d-\d\d \d\d:\d\d", text)
+    diag = parsed.section_text("diagnosis")
+    assert "How the diagnosis decides" in diag and "extra-sum-of-squares F test" in diag
+    assert "The stated uncertainty cannot be judged: the misfit is systematic (Birge ratio 1.74)." in diag
+    assert "IMPLAUSIBLE: needs E_rod = 1.15" in diag              # rod_compliance alone (README)
+    assert hashlib.sha256(b"x").hexdigest() == sha256_file_of(b"x")
+
+
+def sha256_file_of(data: bytes) -> str:
+    import tempfile as tf
+
+    from eigentwist.report.provenance import sha256_file
+
+    with tf.NamedTemporaryFile(delete=False) as fh:
+        fh.write(data)
+    return sha256_file(fh.name)
+
+
+def test_provenance_hashes_every_input_file(hidden_payload_report):
+    import hashlib
+
+    rep, _ = hidden_payload_report
+    files = rep.provenance["files"]
+    assert len(files) == 1 and files[0]["path"].endswith("hidden.csv")
+    assert files[0]["sha256"] == hashlib.sha256(Path(files[0]["path"]).read_bytes()).hexdigest()
+
+
+def test_the_report_needs_no_network(report_path):
+    """Every resource is embedded: no http(s) URL in a src, a stylesheet, a script or CSS url()."""
+    html = Path(report_path).read_text(encoding="utf-8")
+    assert not re.search(r"""<(?:img|script|link|iframe|source|video|audio)\b[^>]*\b(?:src|href)\s*=\s*["']?https?:""",
+                         html, re.I)
+    assert not re.search(r"url\(\s*['\"]?https?:", html, re.I) and "@import" not in html
+    svg = _svg_of(html)
+    assert "http://" not in svg.replace('xmlns="http://www.w3.org/2000/svg"', "") and "https://" not in svg
+    assert "<script" not in svg
+
+
+def _svg_of(html: str) -> str:
+    m = re.search(r'src="data:image/svg\+xml;base64,([^"]+)"', html)
+    return base64.b64decode(m.group(1)).decode("utf-8")
+
+
+def test_lowest_frequency_map_matches_the_evaluator(report_data):
+    """The map's values are the final model's f1 at those poses (the evaluator, called directly)."""
+    import eigentwist
+    from eigentwist.report.figures import lowest_frequency_map
+
+    ev = eigentwist.load("heli4", backend="numpy")
+    view = report_data.lowest_map
+    values = {"k_E_rot": 373.5, "k_E_lin": 1.641e5}
+    m = lowest_frequency_map(ev, "actuator_loss,ee_compliance", view["pose"], view["k_a"], values, grid=5)
+    f = ev.frequencies([[m["x"][1], m["y"][3], view["pose"][2]]], "actuator_loss,ee_compliance", k_a=view["k_a"],
+                       **values)[0, 0]
+    assert m["f1"][3, 1] == pytest.approx(f, rel=1e-12)
+    assert np.all(np.isfinite(m["f1"])) and np.ptp(m["f1"]) > 0
+
+
+def _shapes_csv(ev, path):
+    """Measurements with mode shapes (phi_x..z) of the paper model at two settings: frequencies
+    and shapes of its three lowest modes, the shape the translation of the eigentwist."""
+    rows = ["k_a,mode,freq_hz,x,y,z,phi_x,phi_y,phi_z"]
+    for k_a in (1000.0, 2000.0):
+        m = ev.modes([[0, 0, -0.625]], "paper", k_a=k_a)
+        for j, label in enumerate(["x", "y", "z"]):
+            v = m.eigentwists[0][3:, j]
+            v = v / np.linalg.norm(v)
+            rows.append(f"{k_a:g},{label},{m.freq_hz[0, j]:.6f},0,0,-0.625,{v[0]:.6f},{v[1]:.6f},{v[2]:.6f}")
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_mac_matrix_of_measured_vs_model_shapes(tmp_path):
+    import eigentwist
+    from eigentwist.diagnose.measurements import load_measurements
+    from eigentwist.report.figures import mac_matrix
+
+    ev = eigentwist.load("heli4", backend="numpy")
+    meas = load_measurements(_shapes_csv(ev, tmp_path / "s.csv"), "heli4", ev)
+    mac = np.array(mac_matrix(meas, ev, "paper", {})["mac"])
+    # the same model: each measured shape is its own mode (MAC 1) and, for orthogonal translations,
+    # nothing else; independently: |a.b|^2 of unit vectors
+    assert mac.shape[0] == 3 and np.allclose(np.diag(mac[:, :3]), 1.0, atol=1e-9)
+    m = ev.modes([[0, 0, -0.625]], "paper", k_a=1000.0)
+    a = m.eigentwists[0][3:, 0] / np.linalg.norm(m.eigentwists[0][3:, 0])
+    b = m.eigentwists[0][3:, 1]
+    assert mac[0, 1] == pytest.approx(float(a @ b) ** 2 / float(b @ b), abs=1e-9)
+
+
+def _chrome(exe, url, png, profile, size="1200,900", budget=None):
+    args = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync",
+            "--proxy-server=127.0.0.1:9", "--proxy-bypass-list=<-loopback>",    # any network request fails
+            f"--user-data-dir={profile}", f"--window-size={size}", f"--screenshot={png}"]
+    if budget is not None:
+        args.append(f"--virtual-time-budget={budget}")
+    subprocess.run(args + [url], check=True, capture_output=True, timeout=120)
+    import matplotlib.image as mpimg
+
+    return mpimg.imread(str(png))
+
+
+def _only(html: str, element_id: str) -> str:
+    """The report with everything but one element hidden (a screenshot of that element)."""
+    style = (f"<style>body * {{ visibility: hidden; }} #{element_id}, #{element_id} * {{ visibility: visible; }}"
+             f" #{element_id} {{ position: absolute; left: 0; top: 0; }}</style>")
+    return html.replace("</head>", style + "</head>", 1)
+
+
+@pytest.mark.browser
+def test_the_animation_runs_offline_in_chromium(report_path, tmp_path):
+    exe = _chromium()
+    if exe is None:
+        skip_tier("browser", "Chromium is not installed (CI installs it in .ci/run; apt-get install chromium)")
+    page = tmp_path / "modes.html"
+    page.write_text(_only(Path(report_path).read_text(encoding="utf-8"), "modes-animation"), encoding="utf-8")
+    frames = []
+    with tempfile.TemporaryDirectory() as profile:
+        for k, budget in enumerate((300, 700)):            # virtual ms: two phases of the 1.6 s cycle
+            frames.append(_chrome(exe, page.resolve().as_uri(), tmp_path / f"f{k}.png", profile, "1000,420", budget))
+    a, b = (f[..., :3] for f in frames)
+    assert a.std() > 0.02                                  # something is drawn
+    changed = np.abs(a - b).sum(axis=-1) > 0.1
+    assert changed.sum() > 500, changed.sum()              # the platforms moved between the two frames
+
+
+@pytest.mark.browser
+def test_screenshots_of_the_answer_and_the_mac_matrix(report_path, report_data, tmp_path):
+    exe = _chromium()
+    if exe is None:
+        skip_tier("browser", "Chromium is not installed (CI installs it in .ci/run; apt-get install chromium)")
+    import copy
+
+    import eigentwist
+    from eigentwist.diagnose.measurements import load_measurements
+    from eigentwist.report import render_html
+    from eigentwist.report.figures import mac_matrix
+
+    ev = eigentwist.load("heli4", backend="numpy")
+    rep = copy.copy(report_data)
+    rep.mac = mac_matrix(load_measurements(_shapes_csv(ev, tmp_path / "s.csv"), "heli4", ev), ev, "paper", {})
+    html = render_html(rep)
+    shots = {}
+    with tempfile.TemporaryDirectory() as profile:
+        for element in ("answer", "mac-table"):
+            page = tmp_path / f"{element}.html"
+            page.write_text(_only(html, element), encoding="utf-8")
+            shots[element] = _chrome(exe, page.resolve().as_uri(), tmp_path / f"{element}.png", profile, "1100,500")
+    for element, img in shots.items():
+        grey = img[..., :3].mean(axis=-1)
+        assert (grey < 0.6).sum() > 2000, element          # text (the answer) or dark cells (the MAC) drawn
+    # the MAC's diagonal cells are dark blue: count strongly blue pixels
+    img = shots["mac-table"][..., :3]
+    blue = (img[..., 2] - img[..., 0] > 0.3)
+    assert blue.sum() > 1000

@@ -14,6 +14,14 @@ class CliError(Exception):
     """An error reported to the user as one line (exit status 2)."""
 
 
+def say(*args, **kwargs) -> None:
+    """``print`` for a command's default (human) output: lines wrapped at 100 characters
+    (:func:`eigentwist.text.wrap`; never for JSON or CSV output)."""
+    from ..text import wrap
+
+    print(*(wrap(str(a)) for a in args), **kwargs)
+
+
 def eprint(*args) -> None:
     print(*args, file=sys.stderr)
 

@@ -102,6 +102,7 @@ def to_json(cmp, parameters: list) -> dict:
 
 
 def run(args) -> int:
+    from .common import say
     from ..diagnose.compare import compare
     from ..diagnose.report import comparison_summary, comparison_table, failing_text
 
@@ -118,12 +119,12 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(to_json(cmp, parameters), allow_nan=False))
         return 0
-    print(f"{meas.robot}: {len(meas)} measured frequencies from {meas.source}; model: "
+    say(f"{meas.robot}: {len(meas)} measured frequencies from {meas.source}; model: "
           f"{', '.join(cmp.effects) or '(no effect)'} ({ev.kind(cmp.effects)})")
-    print(changed_text(parameters, meas.robot) + "\n")
-    print(comparison_table(cmp))
-    print("\n" + comparison_summary(cmp))
-    print("where it fails:\n" + "\n".join("  " + t for t in failing_text(cmp)))
+    say(changed_text(parameters, meas.robot) + "\n")
+    say(comparison_table(cmp))
+    say("\n" + comparison_summary(cmp))
+    say("where it fails:\n" + "\n".join("  " + t for t in failing_text(cmp)))
     if args.plot:
-        print(f"plot: {args.plot}")
+        say(f"plot: {args.plot}")
     return 0

@@ -9,7 +9,11 @@ from .compare import DATA_HELP, add_data_options, evaluator_of, load_data
 HELP = "find the physical effect a model is missing from measured frequencies, add it, watch the error fall"
 EPILOG = DATA_HELP + """
 
-What it does:
+The output opens with the answer (at most 8 lines): the verdict, what was added where with its
+fitted values, what the data cannot tell apart (mirror images at the measured poses as one),
+outliers and the stated uncertainty, and the one next measurement. --details adds:
+
+
   1. compares the baseline and says where it fails and what the residual pattern suggests;
   2. fits every catalogue effect the baseline lacks (bounded weighted least squares on the
      frequencies), with standard errors, RMS/max error, AICc and an F-test p-value; ranks them;
@@ -24,7 +28,8 @@ What it does:
 --set NAME=VALUE (or --baseline paper:NAME=VALUE) gives the model's values; a parameter the
 diagnosis fits starts from it. A CSV column wins over --set, which wins over the default.
 
-JSON keys: baseline {effects, rms_pct, max_pct, ...}, ranking [{effect, params, param_std, rms_pct,
+JSON keys: answer {lines, verdict, added, apart, rows, next, effects, cannot_tell_apart,
+mirror_images}, baseline {effects, rms_pct, max_pct, ...}, ranking [{effect, params, param_std, rms_pct,
 max_pct, aicc, p_value, indistinguishable_from, plausible, plausible_range, ...}], selected,
 steps [{effects, rms_pct, max_pct, alternatives, ...}], final {effects, rms_pct, max_pct, explained,
 alternatives, message, ...}, outliers [{line, k_a, mode, freq_hz, residual_sigma}], uncertainty
@@ -51,7 +56,10 @@ def add_parser(sub):
                    help="significance level of the F test, the goodness of fit and the outlier test (default: 0.01)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="FILE.png", help="write the baseline/final model plot and the error step by step")
-    p.add_argument("--rows", action="store_true", help="also print the per-row tables of the baseline and final model")
+    p.add_argument("--details", action="store_true",
+                   help="after the answer, print the full diagnosis: ranking, residual patterns, selection steps, criteria")
+    p.add_argument("--rows", action="store_true", help="also print the per-row tables of the baseline and final model "
+                   "(implies --details)")
     p.add_argument("--jacobian", choices=("differences", "exact"), default="differences",
                    help="the fits' Jacobian: central differences in the residuals' evaluator call (default: measured "
                         "faster, benchmarks/README.md) or exact, from generated design sensitivities (derived and "
@@ -61,10 +69,12 @@ def add_parser(sub):
 
 def run(args) -> int:
     from ..diagnose.fit import using_jacobian
+    from ..diagnose.answer import answer_text
+    from ..diagnose.values import changed_text
     from ..diagnose.report import diagnosis_text
     from ..diagnose.select import diagnose
     from ..diagnose.stats import ALPHA
-    from .common import CliError, model_and_values, progress
+    from .common import CliError, model_and_values, progress, say
 
     alpha = ALPHA if args.alpha is None else args.alpha
     if not 0 < alpha < 1:
@@ -81,7 +91,14 @@ def run(args) -> int:
     if args.json:
         print(d.json())
         return 0
-    print(diagnosis_text(d, ev, show_rows=args.rows))
+    print(answer_text(d, ev))
+    given = [r for r in d.parameters if r["source"] != "fitted"]
+    if any(r["differs"] for r in given) and not (args.details or args.rows):
+        say(changed_text(given, d.robot))               # the values used, when not the robot's defaults
+    if args.details or args.rows:
+        print("\n" + diagnosis_text(d, ev, show_rows=args.rows))
+    else:
+        print("\n(--details: the ranking of every candidate, residual patterns, criteria; --json: all of it)")
     if args.plot:
         print(f"\nplot: {args.plot}")
     return 0

@@ -63,6 +63,7 @@ def parse_band(text):
 
 
 def run(args) -> int:
+    from .common import say
     from ..diagnose.evaluators import evaluator
     from ..diagnose.synth import parse_noise
     from ..modal.campaign import identify_campaign, measurement_csv
@@ -86,10 +87,10 @@ def run(args) -> int:
     rows = [[s.file.name, f"{s.k_a:g}", m.label, f"{m.freq_hz:.4f}", f"{m.sigma_hz:.3g}", f"{100 * m.damping_ratio:.2f}",
              " ".join(f"{v:+.3f}" for v in m.shape), f"{m.complexity:.3f}", m.orders or "-"]
             for s, r in zip(res.campaign.settings, res.results) for m in sorted(r.modes, key=lambda m: m.freq_hz)]
-    print(format_table(["file", "k_a", "mode", "freq [Hz]", "sigma [Hz]", "zeta [%]", "shape x y z",
+    say(format_table(["file", "k_a", "mode", "freq [Hz]", "sigma [Hz]", "zeta [%]", "shape x y z",
                         "complexity (MCF)", "stable orders"], rows))
     secs = [r.seconds for r in res.results if r.seconds]
     timing = f"; {sum(secs) / len(secs):.3f} s per setting" if secs else ""
-    print(f"wrote {len(res.measurements)} modes of {len(res.results)} settings to {args.output}{timing}"
+    say(f"wrote {len(res.measurements)} modes of {len(res.results)} settings to {args.output}{timing}"
           + (f"; plots in {args.plot}" if args.plot else ""))
     return 0

@@ -95,32 +95,33 @@ def compute(args) -> dict:
 
 
 def run(args) -> int:
+    from .common import say
     from ..diagnose.values import changed_text
 
     out = compute(args)
     if args.json:
         print(json.dumps(out))
         return 0
-    print(f"{out['robot']} at pose {out['pose']} {'m' if len(out['pose']) == 3 else 'm, rad'}, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
-          f"{out['model_name']} = {', '.join(out['model']) or '(no effect: bare actuator stiffness k_a)'} ({out['kind']})")
-    print(changed_text([r for r in out["parameters"] if r["name"] != "k_a"], out["robot"]))
+    say(f"{out['robot']} at pose {out['pose']} {'m' if len(out['pose']) == 3 else 'm, rad'}, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
+        f"{out['model_name']} = {', '.join(out['model']) or '(no effect: bare actuator stiffness k_a)'} ({out['kind']})")
+    say(changed_text([r for r in out["parameters"] if r["name"] != "k_a"], out["robot"]))
     if out["joint_angles_deg"] is not None:
-        print("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)
+        say("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)
                                                  for k, vals in out["joint_angles_deg"].items()))
     else:
-        print("leg lengths (m): " + "; ".join(f"{k}: {v:.6f}" for k, v in out["leg_lengths_m"].items()))
+        say("leg lengths (m): " + "; ".join(f"{k}: {v:.6f}" for k, v in out["leg_lengths_m"].items()))
     axes = ["rx", "ry", "rz", "x", "y", "z"]
     for key, fmt in (("M", ".6f"), ("K_R", ".2f"), ("K_F", ".2f")):
-        print(f"\n{key} (model: {', '.join(out['model']) or 'no effect'}):")
-        print(format_table([""] + axes, [[a] + row for a, row in zip(axes, out[key])], fmt))
+        say(f"\n{key} (model: {', '.join(out['model']) or 'no effect'}):")
+        say(format_table([""] + axes, [[a] + row for a, row in zip(axes, out[key])], fmt))
     n = len(out["freq_hz"])
-    print(f"\nnatural frequencies of this {out['kind']} model (from {out['frequencies_from']}), Hz: "
+    say(f"\nnatural frequencies of this {out['kind']} model (from {out['frequencies_from']}), Hz: "
           + ", ".join(f"{f:.3f}" for f in out["freq_hz"]))
     other = "flexible" if out["kind"] == "rigid" else "rigid"
     label = FROM[other] if len(out["pose"]) == 3 or other == "flexible" else "M and K_R, 6x6"
-    print(f"(for reference, from the printed {label}: "
+    say(f"(for reference, from the printed {label}: "
           + ", ".join(f"{f:.3f}" for f in out[f"freq_{other}_hz"]) + " Hz; not this model's frequencies)")
-    print(f"\neigentwists of this model (columns; {', '.join(axes[6 - n:])}):")
-    print(format_table([""] + [f"w{k + 1}" for k in range(n)],
+    say(f"\neigentwists of this model (columns; {', '.join(axes[6 - n:])}):")
+    say(format_table([""] + [f"w{k + 1}" for k in range(n)],
                        [[a] + row for a, row in zip(axes[6 - n:], out["eigentwists"])], ".3f"))
     return 0

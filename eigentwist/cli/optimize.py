@@ -121,6 +121,7 @@ def compute(args, progress=None):
 
 
 def run(args) -> int:
+    from .common import say
     import time
 
     t0 = time.perf_counter()
@@ -134,20 +135,20 @@ def run(args) -> int:
             active=res.active, constraints=res.constraints, success=res.success, message=res.message,
             nit=res.nit, evaluations=res.evaluations, dropped_poses=res.dropped_poses, seconds=elapsed)))
         return 0
-    print(f"{ev.robot.name}, model {', '.join(effects)}: maximise the worst-case f1 over {len(res.poses)} poses"
+    say(f"{ev.robot.name}, model {', '.join(effects)}: maximise the worst-case f1 over {len(res.poses)} poses"
           + (f" ({res.dropped_poses} dropped: unreachable in the box)" if res.dropped_poses else ""))
-    print(f"solver: {args.method}, {res.nit} iterations, {res.evaluations} kernel evaluations, {elapsed:.1f} s; "
+    say(f"solver: {args.method}, {res.nit} iterations, {res.evaluations} kernel evaluations, {elapsed:.1f} s; "
           f"{'converged' if res.success else 'NOT converged'}: {res.message}\n")
     rows = [[name, f"{res.start[name]:.6g}", f"{value:.6g}", units[name]] for name, value in res.values.items()]
-    print(format_table(["parameter", "start", "best", "unit"], rows))
-    print(f"\nworst-case f1: {res.start_worst_hz:.6g} Hz at the start -> {res.worst_hz:.6g} Hz")
+    say(format_table(["parameter", "start", "best", "unit"], rows))
+    say(f"\nworst-case f1: {res.start_worst_hz:.6g} Hz at the start -> {res.worst_hz:.6g} Hz")
     for name, value in res.constraints.items():
-        print(f"{name}: {value:.6g} kg")
-    print("\nf1 per pose at the best design (Hz):")
+        say(f"{name}: {value:.6g} kg")
+    say("\nf1 per pose at the best design (Hz):")
     pose_units = ["m"] * 3 + ["rad"] * (res.poses.shape[1] - 3)
-    print(format_table([f"{n} ({u})" for n, u in zip(ev.robot.pose, pose_units)] + ["f1 (Hz)"],
+    say(format_table([f"{n} ({u})" for n, u in zip(ev.robot.pose, pose_units)] + ["f1 (Hz)"],
                        [[f"{c:.4g}" for c in pose] + [f"{f:.6g}"] for pose, f in zip(res.poses, res.f1_hz)]))
-    print("\nactive constraints:")
+    say("\nactive constraints:")
     for a in res.active:
-        print(f"  {a}")
+        say(f"  {a}")
     return 0

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 from pathlib import Path
 
 from .common import MODEL_SYNTAX, add_set_option, format_table, progress
@@ -32,6 +33,7 @@ def add_parser(sub):
 
 
 def run(args) -> int:
+    from .common import say
     from ..diagnose.values import changed_text
     from ..report import build_report, write_report
 
@@ -45,20 +47,18 @@ def run(args) -> int:
         if values.get(name, value) != value:
             raise CliError(f"--model and --baseline set {name} to {values[name]:g} and {value:g}: give it once")
     rep = build_report(args.data, robot=args.robot, model=effects, baseline=baseline, backend=args.backend,
-                       progress=progress, values={**values, **base_values})
+                       progress=progress, values={**values, **base_values},
+                       command=" ".join(["eigentwist", *map(shlex.quote, getattr(args, "argv", None) or ["report"])]))
     path = write_report(args.output, rep)
     d = rep.diagnosis
     rows = [["compared model", " + ".join(rep.model), rep.comparison["summary"]["rms_pct"],
              rep.comparison["summary"]["max_pct"]]]
     for k, s in enumerate(d["steps"]):
         rows.append([f"diagnosis step {k}", " + ".join(s["effects"]) or "(no effect)", s["rms_pct"], s["max_pct"]])
-    print(format_table(["", "effects", "RMS error [%]", "max error [%]"], rows, ".3g"))
-    print(changed_text(rep.parameters, rep.robot))
+    say(format_table(["", "effects", "RMS error [%]", "max error [%]"], rows, ".3g"))
+    say(changed_text(rep.parameters, rep.robot))
     if rep.reproduction:
-        print(f"paper reproduction: {rep.reproduction['summary']}")
-    verdict = "explained within the measurement uncertainty" if d["final"]["explained"] else \
-        ("NOT explained within the stated uncertainty (sigma_hz, default 2 % of each value): an effect outside "
-         "the catalogue is missing, or the uncertainty is larger than stated")
-    print(f"final model: {' + '.join(d['final']['effects'])}: {verdict}")
-    print(f"report written to {Path(path).resolve()}")
+        say(f"paper reproduction: {rep.reproduction['summary']}")
+    say("\n".join(rep.answer.get("lines", [])))
+    say(f"report written to {Path(path).resolve()}")
     return 0

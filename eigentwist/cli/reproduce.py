@@ -38,13 +38,14 @@ def table(res, show_all=False) -> str:
 
 
 def run(args) -> int:
+    from .common import say
     from ..paper import reproduce, summary
     from ..runtime import load
 
     res = reproduce(load("heli4", backend=args.backend))
-    print("Heli4 at x_ref = [0, 0, -0.625] m, k_a = 2000 N m/rad (Tables E.1/E.2: k_a as listed)")
-    print("paper: Hoevenaars, Krut & Herder (2020), DOI 10.1016/j.mechmachtheory.2019.103775\n")
-    print(table(res, args.all))
-    print(f"\n{summary(res)}")
-    print(f"Matrix zeros included: {res['within_rounding']} of {res['printed']} within print rounding.")
+    say("Heli4 at x_ref = [0, 0, -0.625] m, k_a = 2000 N m/rad (Tables E.1/E.2: k_a as listed)")
+    say("paper: Hoevenaars, Krut & Herder (2020), DOI 10.1016/j.mechmachtheory.2019.103775\n")
+    say(table(res, args.all))
+    say(f"\n{summary(res)}")
+    say(f"Matrix zeros included: {res['within_rounding']} of {res['printed']} within print rounding.")
     return 0 if res["required_ok"] == res["required"] and not res["failing"] else 1

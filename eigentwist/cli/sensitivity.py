@@ -91,15 +91,16 @@ def compute(args, progress=None) -> dict:
 
 
 def run(args) -> int:
+    from .common import say
     out = compute(args, progress=eprint)
     if args.json:
         print(json.dumps(out))
         return 0
     f1 = out["freq_hz"][0]
-    print(f"{out['robot']} at pose {out['pose']} m, model: {', '.join(out['model'])}; "
+    say(f"{out['robot']} at pose {out['pose']} m, model: {', '.join(out['model'])}; "
           f"lowest natural frequency f1 = {f1:.4g} Hz")
-    print("ranked by the relative sensitivity d ln f1 / d ln p (% change of f1 per % change of p):\n")
+    say("ranked by the relative sensitivity d ln f1 / d ln p (% change of f1 per % change of p):\n")
     table = [[k + 1, r["name"], f"{r['value']:.6g}", r["unit"], f"{r['dlnf1_dlnp']:+.4f}",
               f"{r['dfdp_hz_per_unit'][0]:+.4g}", f"Hz/({r['unit']})"] for k, r in enumerate(out["parameters"])]
-    print(format_table(["rank", "parameter", "value", "unit", "dlnf1/dlnp", "df1/dp", "per"], table))
+    say(format_table(["rank", "parameter", "value", "unit", "dlnf1/dlnp", "df1/dp", "per"], table))
     return 0

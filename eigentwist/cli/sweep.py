@@ -115,6 +115,7 @@ def fixed_text(spec) -> str:
 
 
 def run(args) -> int:
+    from .common import say
     from ..runtime.sweep import OutputExistsError, open_writer, run_sweep
 
     spec = spec_from_args(args)
@@ -131,7 +132,7 @@ def run(args) -> int:
     eprint(fixed_text(spec))
     if args.lowest:
         shown = min(args.top, spec.n_cases)
-        print(f"worst-case lowest natural frequency over {spec.n_poses} poses, per design "
+        say(f"worst-case lowest natural frequency over {spec.n_poses} poses, per design "
               f"({shown} of {spec.n_cases}, highest first; all in {args.output}):")
-        print(lowest_table(summary.lowest, spec, args.top))
+        say(lowest_table(summary.lowest, spec, args.top))
     return 0

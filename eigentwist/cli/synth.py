@@ -92,6 +92,7 @@ def _extra(items) -> dict:
 
 
 def run(args) -> int:
+    from .common import say
     from ..diagnose.synth import parse_truth, synth
     from ..diagnose.values import changed_text, used_parameters
     from .common import check_values, parse_sets
@@ -116,8 +117,8 @@ def run(args) -> int:
                  extra_stiffness=_extra(args.extra_stiffness) or None, sigma=args.sigma, values=values)
     text = meas.to_csv(args.output)
     if args.output:
-        print(f"wrote {len(meas)} rows to {args.output} (truth: {args.truth})")
-        print(changed_text(used_parameters(ev, truth.effects, {**values, **truth.values}), ev.robot.name))
+        say(f"wrote {len(meas)} rows to {args.output} (truth: {args.truth})")
+        say(changed_text(used_parameters(ev, truth.effects, {**values, **truth.values}), ev.robot.name))
     else:
         print(text, end="")
     return 0

@@ -70,7 +70,11 @@ def shape_json(d):
 
 def diagnosis_json(d) -> dict:
     """The diagnosis as one JSON-safe dict (see module doc)."""
+    from .answer import answer
+    from .evaluators import evaluator
+
     out = {
+        "answer": answer(d, evaluator(d.robot)),   # the answer first (issue 22): lines and their parts
         "robot": d.robot, "n_rows": len(d.meas), "source": d.meas.source,
         "baseline": {**d.baseline.summary(), "chi2": d.baseline.chi2,
                      "failing": d.baseline.where_it_fails(), "hints": d.hints},

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ..text import format_table
+from ..text import format_table, wrap
 from .compare import FAIL_SIGMA
 from .stats import CRITERIA, gof_p_value
 from .values import changed_text
@@ -74,21 +74,32 @@ def failing_text(cmp) -> list[str]:
 
 
 def _ranking_table(ranking, ev) -> str:
+    """One row per candidate, mirror images at the measured poses as one row
+    (``transmission_compliance@1 or @2``, :mod:`.mirror`); long notes become footnotes."""
+    from .mirror import collapse, group_label, mirror_groups
+
+    groups = mirror_groups(ranking, ranking[0].fit.comparison.meas.sigma_hz) if ranking else []
+    rank = {c.effect: k for k, c in enumerate(ranking)}
     rows = []
-    for k, c in enumerate(ranking):
+    for g in sorted(groups, key=lambda g: rank[g[0].effect]):
+        c = g[0]
         note = []
+        if len(g) > 1:
+            note.append("mirror images (the same fit)")
         if not c.plausible:
             note.append("IMPLAUSIBLE: " + _needs(c, ev))
         elif c.fit.at_bound:
             note.append(f"at search bound: {', '.join(c.fit.at_bound)}")
-        if c.indistinguishable_from:
-            note.append(f"~ {', '.join(c.indistinguishable_from)}")
-        rows.append([k + 1, c.effect, format_params(c.params, c.param_std, ev), f"{c.fit.rms_pct:.2f}",
-                     f"{c.fit.max_pct:.2f}", f"{c.fit.aicc:.1f}", f"{0.0 if abs(c.delta_aicc) < 0.05 else c.delta_aicc:.1f}",
+        ties = [e for e in c.indistinguishable_from if e not in {m.effect for m in g}]
+        if ties:
+            note.append(f"~ {', '.join(collapse(ties, groups))}")
+        rows.append([rank[c.effect] + 1, group_label([m.effect for m in g]), format_params(c.params, c.param_std, ev),
+                     f"{c.fit.rms_pct:.2f}", f"{c.fit.max_pct:.2f}", f"{c.fit.aicc:.1f}",
+                     f"{0.0 if abs(c.delta_aicc) < 0.05 else c.delta_aicc:.1f}",
                      "-" if c.p_value is None or not math.isfinite(c.p_value) else f"{c.p_value:.2g}",
                      "; ".join(note)])
     return format_table(["rank", "effect", "fitted (± std)", "RMS [%]", "max [%]", "AICc", "dAICc", "p-value",
-                         "notes (~ indistinguishable from)"], rows)
+                         "notes (~: tied)"], rows, footnote=(8,))
 
 
 def _steps_table(steps, ev) -> str:
@@ -323,4 +334,4 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     if show_rows:
         out += ["", comparison_table(f.comparison)]
     out += ["", "criteria:"] + [f"   {k}: {v}" for k, v in CRITERIA.items()]
-    return "\n".join(out)
+    return wrap("\n".join(out))

@@ -295,6 +295,12 @@ def _plausible(value: float, std: float, bounds, at_bound: bool) -> bool:
     return abs(value - edge) <= PLAUSIBLE_SIGMA * std
 
 
+def is_plausible(value: float, std: float, bounds, at_bound: bool = False) -> bool:
+    """The plausibility rule of point 3 (module doc) for one fitted value (SI) with its standard
+    error and its parameter's plausible range (low, high): what the answer marks IMPLAUSIBLE."""
+    return _plausible(value, std, bounds, at_bound)
+
+
 def _ranges(ev, names) -> dict:
     return {n: tuple(ev.parameter(n).plausible_range) for n in names}
 

@@ -18,7 +18,7 @@ import sympy as sp
 
 from ..plotting import pyplot
 
-__all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "AXIS_WORDS"]
+__all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS"]
 
 AXIS_WORDS = {"rx": "rotation about X", "ry": "rotation about Y", "rz": "rotation about Z",
               "x": "translation along X", "y": "translation along Y", "z": "translation along Z"}
@@ -118,11 +118,14 @@ def mode_displacements(geometry: RobotGeometry, twist, axes) -> np.ndarray:
 
 
 
-def _outline(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Closed polygon through ``points``, ordered by angle about ``centre`` in the XY plane."""
+def platform_outline(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Closed polygon through ``points`` (k, 3), m, ordered by angle about ``centre`` in the XY plane."""
     d = points - centre
     order = np.argsort(np.arctan2(d[:, 1], d[:, 0]))
     return np.vstack([points[order], points[order[:1]]])
+
+
+_outline = platform_outline
 
 
 def _draw_robot(ax, g: RobotGeometry, color="0.45"):

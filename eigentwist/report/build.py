@@ -22,7 +22,9 @@ from pathlib import Path
 import jinja2
 import numpy as np
 
+from ..diagnose.answer import uncertainty_sentence
 from ..text import format_estimate
+from .provenance import provenance
 
 __all__ = ["ReportData", "build_report", "render_html", "write_report", "SECTIONS"]
 
@@ -51,6 +53,12 @@ class ReportData:
     modes: dict = field(default_factory=dict)
     units: dict = field(default_factory=dict)
     campaign_html: str = ""          # section of a modal-test campaign (eigentwist.modal.report)
+    answer: dict = field(default_factory=dict)       # the answer first (diagnosis JSON ``answer``)
+    provenance: dict = field(default_factory=dict)   # version, date, command line, SHA-256 of the inputs
+    animation_svg: str = ""          # the final model's three lowest modes, animated (SMIL)
+    mac: dict | None = None          # MAC matrix of measured vs model shapes (campaigns)
+    lowest_map: dict = field(default_factory=dict)   # where the workspace map of f1 is drawn
+    uncertainty_text: str = ""       # the verdict on the stated uncertainty, a sentence
 
 
 def _png(plot, *args) -> bytes:
@@ -71,7 +79,7 @@ def _comparison_rows(cmp) -> list[dict]:
 
 
 def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid", backend: str = "numpy",
-                 progress=None, values: dict | None = None) -> ReportData:
+                 progress=None, values: dict | None = None, command: str = "eigentwist report") -> ReportData:
     """Compute every section of the report.
 
     data : path of a measurement CSV (see the README), or None for the robot's embedded
@@ -81,6 +89,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     values : parameter values of the run (SI, e.g. ``--set``) instead of the robot's
         defaults, for the comparison and the diagnosis; the parameter table shows the
         values used (a data column wins over these).
+    command : the command line, for the provenance (with the SHA-256 of every input file).
     """
     from ..description.effects import resolve_model
     from ..diagnose import compare, diagnose, load_measurements
@@ -117,6 +126,8 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
         "modes": _modes_png(ev, modes),
     }
     diag_json = diag.to_json()
+    shown = _shown(ev, diag, meas, values)
+    figures["lowest_map"] = shown.pop("png")
     return ReportData(
         robot=robot, title=ev.robot.title, source=ev.robot.source, data_source=data_source,
         model=effects, baseline=tuple(diag.baseline.effects), parameters=params, reproduction=repro,
@@ -124,7 +135,28 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
         diagnosis=diag_json, figures=figures, final=final_parameters(diag_json, ev),
         next_measurement=next_measurement_text(diag_json), modes=modes,
         units={p.name: p.unit for p in ev.robot.parameters}, campaign_html=campaign_html,
+        answer=diag_json.get("answer") or {}, command=command,
+        provenance=provenance(command, data, robot if str(robot).endswith(".py") else None),
+        uncertainty_text=uncertainty_sentence(diag_json.get("uncertainty"), bool(diag_json["final"]["explained"])),
+        **shown,
     )
+
+
+def _shown(ev, diag, meas, values) -> dict:
+    """What the report shows of the final model: its three lowest modes animated at the most
+    measured pose, the MAC matrix (data with shapes), the map of f1 over the workspace."""
+    from ..plots.animate import modes_svg
+    from .figures import final_values, lowest_frequency_png, mac_matrix
+
+    view = _modes_view(meas, diag.final.effects)
+    used = final_values(diag, values)
+    unit = ev.parameter("k_a").unit
+    model = " + ".join(diag.final.effects) or "(no effect)"
+    svg = modes_svg(ev, view["pose"], ",".join(diag.final.effects), **{**used, "k_a": view["k_a"]})
+    png = lowest_frequency_png(ev, ",".join(diag.final.effects), view["pose"], view["k_a"], used, meas.poses,
+                               f"final model {model}, k_a = {view['k_a']:g} {unit}")
+    return dict(animation_svg=svg, mac=mac_matrix(meas, ev, ",".join(diag.final.effects), used),
+                lowest_map={**view, "model": model, "k_a_unit": unit}, png=png)
 
 
 def _reproduction(ev) -> dict:
@@ -166,6 +198,7 @@ def final_parameters(diagnosis: dict, ev) -> dict:
     """
     final = diagnosis.get("final", {})
     std = final.get("param_std") or {}
+    marks = {q["name"]: q for e in (diagnosis.get("answer") or {}).get("effects", []) for q in e.get("params", [])}
     rows = []
     for name, value in (final.get("params") or {}).items():
         p = ev.parameters.get(name)
@@ -176,7 +209,9 @@ def final_parameters(diagnosis: dict, ev) -> dict:
                          text=f"{name} = {format_estimate(value, s if s is not None else math.inf, unit)}",
                          default=None if default is None else format_estimate(default, None, unit),
                          effect=(p.effect or "") if p is not None else "", doc=p.doc if p is not None else "",
-                         relative=(None if s is None or not value else abs(s / value))))
+                         relative=(None if s is None or not value else abs(s / value)),
+                         plausible=marks.get(name, {}).get("plausible"),
+                         plausible_range=marks.get(name, {}).get("plausible_range")))
     return dict(effects=list(final.get("effects", [])), rows=rows,
                 sentence=_and([r["text"] for r in rows]))
 

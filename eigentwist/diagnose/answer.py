@@ -1,0 +1,286 @@
+"""The answer first: what a diagnosis found, in at most :data:`MAX_LINES` lines (issue 22).
+
+In this order, each a short sentence wrapped at :data:`WIDTH` characters:
+
+1. the verdict: explained or not, chi2/nu, p, the RMS error before and after;
+2. what was added, where (all legs, leg N) and its fitted values ± standard errors with units;
+3. what these data cannot tell apart (mirror images at the measured poses grouped,
+   :mod:`.mirror`);
+4. outliers, settings set aside and the verdict on the stated uncertainty, as a sentence;
+5. the one next measurement.
+
+:func:`answer` returns the lines and their parts as plain data (JSON key ``answer``); the
+CLI prints ``lines``, the HTML report shows the parts. The full ranking, the residual
+patterns and the criteria are in ``eigentwist diagnose --details`` and the JSON.
+"""
+from __future__ import annotations
+
+import math
+import textwrap
+
+import numpy as np
+
+from ..description.effects import split_scope
+from ..text import format_estimate
+from . import scope
+from .mirror import collapse, group_label, mirror_groups
+from .stats import gof_p_value
+
+__all__ = ["answer", "answer_text", "uncertainty_sentence", "WIDTH", "MAX_LINES"]
+
+WIDTH = 100       # characters per line of the default output
+MAX_LINES = 8     # lines of the answer block
+
+
+def _num(v: float, fmt: str = ".3g") -> str:
+    return format(float(v), fmt)
+
+
+def _pose(p) -> str:
+    unit = "m" if len(p) == 3 else "m, rad"
+    return "[" + ", ".join(f"{v:g}" for v in np.round(p, 4)) + f"] {unit}"
+
+
+def _verdict(d) -> str:
+    f = d.final
+    rms = f"RMS {d.baseline.rms_pct:.3g} % -> {f.rms_pct:.3g} %"
+    if f.dof <= 0:
+        return (f"Cannot judge: the final model has {f.k} fitted parameters for {f.n} rows; {rms}.")
+    p = gof_p_value(f.chi2, f.n, f.k)
+    stat = f"chi2/nu = {f.chi2:.3g}/{f.dof} = {f.chi2 / f.dof:.3g}"
+    if d.explained:
+        return f"Explained within the stated sigma ({stat}, p = {p:.2g}); {rms}."
+    return f"NOT explained within the stated sigma ({stat}, p = {p:.2g}); {rms}."
+
+
+def _why(d, short: bool = False) -> str:
+    """Why the final model misfits, in one sentence (the long form: :func:`.report.verdict_text`)."""
+    u = d.uncertainty
+    if d.manual:
+        return "Why: the effects added by hand are not enough (run without --add to search the catalogue)."
+    if u is not None and u.verdict == "too few rows":
+        return "Why: too few rows to tell a missing effect from the stated uncertainty."
+    if any(a.replaced is None for a in d.alternatives):
+        return "Why: catalogue effects would explain it, but not significantly with these rows."
+    if u is not None and u.verdict == "understated":
+        return "Why: the residuals look like noise: the stated uncertainty is too small."
+    pattern = f"; systematic: {'; '.join(u.pattern)}" if u is not None and u.pattern and not short else ""
+    return f"Why: an effect outside the catalogue is missing (none in it helps further{pattern})."
+
+
+def _ranges(ev, names) -> dict:
+    return {n: tuple(ev.parameter(n).plausible_range) for n in names if ev.accepts(n)}
+
+
+def _plausible(value, std, bounds, at_bound) -> bool:
+    from .select import is_plausible
+
+    return is_plausible(value, std, bounds, at_bound)
+
+
+def _owner(ev, effects, name: str) -> str | None:
+    for e in effects:
+        if name in scope.parameter_names(ev, e):
+            return e
+    return None
+
+
+def added_effects(d, ev) -> list[dict]:
+    """Each effect the final model has beyond the baseline: name, legs, fitted values."""
+    base = set(d.baseline.effects)
+    effects = [e for e in d.final.effects if e not in base]
+    out = []
+    for e in effects:
+        names = [n for n in d.final.names if _owner(ev, [e], n) == e]
+        params = []
+        for n in names:
+            unit = ev.parameter(n).unit if ev.accepts(n) else ""
+            value, std = d.final.values.get(n), d.final.std.get(n, math.inf)
+            text = f"{n} = {format_estimate(value, std, unit)}"
+            bounds = _ranges(ev, (n,)).get(n)
+            plausible = _plausible(value, std, bounds, n in d.final.at_bound)
+            if not plausible and bounds:
+                text += f" (IMPLAUSIBLE: plausible {bounds[0]:.2g} ... {bounds[1]:.2g} {unit})".replace(" )", ")")
+            params.append({"name": n, "value": value, "std": std, "unit": unit, "plausible": plausible,
+                           "plausible_range": list(bounds) if bounds else None, "text": text})
+        leg_level = bool(getattr(ev.robot.effect(split_scope(e)[0]), "leg_level", False))
+        out.append({"effect": e, "legs": scope.where(e), "leg_level": leg_level, "params": params})
+    return out
+
+
+def _where(legs) -> str:
+    return "all legs" if not legs else ("leg " + " or ".join(str(k) for k in legs))
+
+
+def _added(d, ev, items: list[dict], groups) -> str:
+    if not items:
+        if d.manual:
+            return "Added: nothing by hand."
+        return "Added: nothing (no catalogue effect improves the baseline significantly)."
+    parts = []
+    for it in items:
+        legs = list(it["legs"])
+        label = it["effect"]
+        g = next((g for g in groups if any(c.effect == label for c in g)), None)
+        if g is not None and len(g) > 1 and legs:
+            label = group_label([c.effect for c in g])
+            legs = [split_scope(c.effect)[1] for c in g]
+        values = ", ".join(p["text"] for p in it["params"]) or "switched on, nothing fitted"
+        where = f" ({_where(legs)})" if it["leg_level"] else ""
+        parts.append(f"{label}{where}: {values}")
+    return ("Added by hand: " if d.manual else "Added: ") + "; ".join(parts) + "."
+
+
+def _groups_at(d, k: int) -> list:
+    """Mirror groups among the candidates of step ``k``'s ranking (the choice of step k + 1)."""
+    ranking = d.steps[k].ranking if k < len(d.steps) and d.steps[k].ranking else (d.ranking if k == 0 else [])
+    return mirror_groups(ranking, d.meas.sigma_hz) if ranking else []
+
+
+def _added_groups(d) -> list:
+    """The mirror groups of each effect the selection added, from the ranking it was chosen in."""
+    out = []
+    for k, s in enumerate(d.steps[1:]):
+        out += [g for g in _groups_at(d, k) if any(c.effect == s.added for c in g)]
+    return out
+
+
+def _apart(d) -> list[str]:
+    """Sets of effects these data cannot tell apart, mirror images as one."""
+    sets = []
+    for k, s in enumerate(d.steps[1:]):
+        if s.added and s.alternatives:
+            sets.append(([s.added] + list(s.alternatives), _groups_at(d, k)))
+    first = _groups_at(d, 0)
+    for a in d.alternatives:
+        if a.replaced is None:
+            continue
+        pair = [a.replaced, a.by]
+        if not any(set(pair) <= set(x) for x, _ in sets):
+            sets.append((pair, first))
+    unproven = [a.by for a in d.alternatives if a.replaced is None]
+    if len(unproven) > 1:
+        sets.append((unproven, _groups_at(d, len(d.steps) - 1)))
+    out = []
+    for x, groups in sets:
+        names = collapse(x, groups)
+        if len(names) > 1:
+            out.append(" or ".join(names))
+        elif len(x) > 1:                      # only mirror images: one effect, which leg is open
+            out.append(f"{names[0]} (mirror images at the measured poses)")
+    return out
+
+
+def uncertainty_sentence(u: dict | None, explained: bool) -> str:
+    """The verdict on the stated uncertainty as a sentence (``u``: JSON ``uncertainty``)."""
+    if not u:
+        return "The stated uncertainty was not judged."
+    b = u.get("birge_ratio")
+    birge = "" if b is None or not math.isfinite(b) else f" (Birge ratio {b:.3g})"
+    v = u.get("verdict")
+    if v == "too few rows":
+        return "Too few rows to judge the stated uncertainty."
+    if v == "overstated":
+        return f"The stated uncertainty looks overstated: the fit is better than it allows{birge}."
+    if v == "understated":
+        return f"The stated uncertainty looks understated{birge}; no effect is missing."
+    if v == "consistent" and (u.get("possibly_understated") or not explained):
+        return f"The stated uncertainty cannot be judged: the misfit is systematic{birge}."
+    if v == "consistent":
+        return f"The stated uncertainty is consistent with the fit{birge}."
+    return f"Stated uncertainty: {v}{birge}."
+
+
+def _rows_sentence(d) -> str:
+    parts = []
+    if d.outliers:
+        lines = ", ".join(str(o.line) for o in d.outliers)
+        parts.append(f"Outlier(s) set aside: CSV line {lines}.")
+    else:
+        parts.append("No outliers.")
+    anomalies = getattr(d, "setting_anomalies", None) or []
+    for a in anomalies:
+        a = a if isinstance(a, dict) else vars(a)
+        lines = ", ".join(str(x) for x in a.get("lines", []))
+        written, best = a.get("k_a_written", a.get("written")), a.get("k_a_best", a.get("best"))
+        what = f" (k_a written {written:g}, fits {best:g})" if isinstance(written, (int, float)) and \
+            isinstance(best, (int, float)) else ""
+        parts.append(f"Setting set aside: lines {lines}{what}.")
+    return " ".join(parts)
+
+
+def _next(d, ev) -> str:
+    nm = d.next_measurement
+    tied = nm is not None and nm.get("indistinguishable", True)
+    if not tied:
+        nm = next((a.next_measurement for a in d.alternatives if a.next_measurement), None)
+    if nm:
+        a, b = nm["between"]
+        pred = nm["predicted_hz"]
+        return (f"Next: measure mode {nm['mode']} at {_pose(nm['pose'])}, k_a = {nm['k_a']:.4g} "
+                f"{nm.get('k_a_unit', ev.parameter('k_a').unit)}: {a} {pred[a]:.4g} Hz, {b} "
+                f"{pred[b]:.4g} Hz ({nm['separation_sigma']:.1f} sigma apart).")
+    u = d.uncertainty
+    if u is not None and u.verdict == "too few rows":
+        need = max(d.untestable.values()) if d.untestable else d.final.k + 3
+        return (f"Next: measure more rows (at least {max(need - len(d.meas), 1)}): more k_a values, "
+                "another pose or other mode directions.")
+    if not d.explained:
+        fails = d.final.comparison.where_it_fails()
+        if fails:
+            w = fails[0]
+            lo, hi = w["k_a_range"]
+            unit = d.meas.k_a_unit
+            ka = f"k_a = {lo:g} {unit}" if lo == hi else f"k_a {lo:g}-{hi:g} {unit}"
+            return (f"Next: measure more where the final model still fails (mode {w['mode']}, {ka}, "
+                    f"{_pose(w['poses'][0])}): other poses at the same k_a.")
+    if len(d.ranking) >= 2 and d.selected:
+        top, second = d.ranking[0], d.ranking[1]
+        return (f"Next: none needed: the data already tell {top.effect} from the runner-up {second.effect} "
+                f"(dAICc = {second.delta_aicc:.3g}).")
+    return "Next: no measurement needed to choose between the candidates."
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    return textwrap.wrap(text, width=width, subsequent_indent="  ", break_on_hyphens=False,
+                         break_long_words=False) or [""]
+
+
+def _lines(parts: dict, width: int) -> list[str]:
+    out = []
+    for key in ("verdict", "why", "added", "apart", "rows", "next"):
+        if parts[key]:
+            out += _wrap(parts[key], width)
+    return out
+
+
+def answer(d, ev, width: int = WIDTH) -> dict:
+    """The answer block of diagnosis ``d`` (see module doc): ``lines`` (at most
+    :data:`MAX_LINES`, each at most ``width`` characters) and its parts."""
+    groups = _added_groups(d)
+    items = added_effects(d, ev)
+    u = None if d.uncertainty is None else {k: getattr(d.uncertainty, k) for k in
+                                            ("verdict", "birge_ratio", "possibly_understated")}
+    parts = {"verdict": _verdict(d), "why": "" if d.explained or d.final.dof <= 0 else _why(d),
+             "added": _added(d, ev, items, groups)}
+    apart = _apart(d)
+    parts["apart"] = ("Cannot tell apart: " + "; ".join(apart) + ".") if apart else ""
+    parts["rows"] = _rows_sentence(d) + " " + uncertainty_sentence(u, d.explained)
+    parts["next"] = _next(d, ev)
+    lines = _lines(parts, width)
+    if len(lines) > MAX_LINES and parts["why"]:
+        parts["why"] = _why(d, short=True)
+        lines = _lines(parts, width)
+    if len(lines) > MAX_LINES:
+        lines = lines[:MAX_LINES - 1] + ["  ... (the rest: --details)"]
+    mirrors = [[c.effect for c in g] for g in _groups_at(d, 0) if len(g) > 1]
+    unique = []
+    for g in mirrors:
+        if g not in unique:
+            unique.append(g)
+    return {"lines": lines, **parts, "effects": items, "cannot_tell_apart": apart, "mirror_images": unique}
+
+
+def answer_text(d, ev, width: int = WIDTH) -> str:
+    """The answer block as the CLI prints it."""
+    return "\n".join(answer(d, ev, width)["lines"])
