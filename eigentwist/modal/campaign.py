@@ -40,7 +40,7 @@ import numpy as np
 
 from ..diagnose.measurements import MeasurementError, Measurements, parse_csv
 from .identify import SIGMA_FLOOR_REL, SettingModes, identify_frfs, modes_from_set
-from .layout import shape_note, triaxial_node
+from .layout import note_line, shape_note, triaxial_node
 from .uff_io import FrfSet, read_uff
 
 __all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_manifest", "identify_campaign",
@@ -191,7 +191,7 @@ def identify_setting(setting: Setting, band=None, node: int = 1, sigma_floor_rel
         res.coords = node_positions(setting, data, node)
         why = shape_note(res.modes[0].dofs, res.coords) if res.modes else None
         if why:
-            res.notes.append(f"{why}: frequencies and damping only")
+            res.notes.append(why)
         return res
     res = modes_from_set(data, band, sigma_floor_rel)
     res.coords = {node: np.zeros(3) if setting.sensor is None else setting.sensor}
@@ -202,7 +202,8 @@ def identify_campaign(manifest, ev, band=None, node: int = 1, sigma_floor_rel: f
                       progress=None) -> CampaignResult:
     """Identify every setting of a campaign; the measurements are validated as a CSV would be.
 
-    ``notes``: each distinct setting note once, with the files it applies to.
+    ``notes``: each distinct setting note once (:func:`.layout.note_line`), naming its file or
+    how many settings it applies to.
     """
     camp = read_manifest(manifest, ev)
     items = progress(camp.settings, desc="identifying", leave=False) if progress else camp.settings
@@ -212,7 +213,7 @@ def identify_campaign(manifest, ev, band=None, node: int = 1, sigma_floor_rel: f
     for s, r in zip(camp.settings, results):
         for n in r.notes:
             notes.setdefault(n, []).append(s.file.name)
-    lines = [f"{files[0] if len(files) == 1 else f'{len(files)} settings'}: {n}" for n, files in notes.items()]
+    lines = [note_line(files[0] if len(files) == 1 else f"{len(files)} settings", n) for n, files in notes.items()]
     return CampaignResult(camp, results, parse_csv(text, f"{camp.source} (identified)", ev), lines)
 
 

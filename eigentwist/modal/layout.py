@@ -22,7 +22,7 @@ import numpy as np
 from ..diagnose.shapes import transport_matrix
 from .uff_io import parse_dof
 
-__all__ = ["projection", "model_shapes", "shape_note", "triaxial_node"]
+__all__ = ["projection", "model_shapes", "shape_note", "note_line", "triaxial_node"]
 
 
 def projection(dofs, coords: dict) -> np.ndarray:
@@ -44,16 +44,21 @@ def model_shapes(eigentwists, P) -> np.ndarray:
 
 
 def shape_note(dofs, coords: dict) -> str | None:
-    """None when the DOFs give a shape to compare with the model, else why not (one phrase)."""
+    """None when the DOFs give a shape to compare with the model, else why not (a short phrase)."""
     if len(dofs) < 2:
-        return f"one DOF ({', '.join(dofs)}) gives no mode shape"
+        return f"one DOF, {', '.join(dofs)}"
     missing = sorted({parse_dof(d)[0] for d in dofs} - set(coords))
     if missing:
-        return (f"no position for node{'s' if len(missing) > 1 else ''} {', '.join(map(str, missing))} "
-                "(manifest nodeN_x/y/z columns or UFF dataset 15/2411), so no shape to compare with the model")
+        listed = ", ".join(map(str, missing[:4])) + (", ..." if len(missing) > 4 else "")
+        return f"no position of node{'s' if len(missing) > 1 else ''} {listed}"
     if np.linalg.matrix_rank(projection(dofs, coords), tol=1e-9) < 2:
-        return f"the DOFs {', '.join(dofs)} see one motion only, so no shape to compare with the model"
+        return "the DOFs see one motion"
     return None
+
+
+def note_line(who: str, why: str) -> str:
+    """The one line saying a layout gives no shape: ``WHO: no shape (WHY); frequencies and damping go on``."""
+    return f"{who}: no shape ({why}); frequencies and damping go on"
 
 
 def triaxial_node(dofs) -> int | None:
