@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from eigentwist.cli.main import main
-from eigentwist.diagnose import diagnose
+from eigentwist.diagnose import compare, diagnose
 from eigentwist.diagnose.matching import match_modes
 from eigentwist.modal import FrfSet, identify_campaign, identify_frfs, synth_campaign
 from eigentwist.modal.frf import frf_from_modes
@@ -191,8 +191,11 @@ def test_uniaxial_roving_hammer_and_shaker_campaigns(layout_campaign, ev):
             assert mac >= 0.99, (layout, s.file, m.label, mac)
     labels = sorted(m.label for m in res.results[0].modes)
     assert labels == ["1", "2", "3"]                          # no triaxial node: modes by rank
-    assert {"phi_x", "phi_y", "phi_z"} <= set(res.measurements.modal)
-    assert np.all(np.isnan(res.measurements.shapes))          # nothing for the diagnosis to mis-compare
+    meas = res.measurements                                   # per-DOF shape columns phi_N_a + node positions
+    names = [f"phi_{d[0]}_{d[-1].lower()}" for d in dofs]
+    assert all(n in meas.modal for n in names) and np.allclose(meas.modal["node2_x"], r1[0] + 0.08)
+    cmp = compare(meas, "paper,payload_mass", ev=ev, values={"m_p": 0.35})    # the diagnosis side: MAC per row
+    assert np.all(cmp.mac >= 0.99), cmp.mac
 
 
 def test_a_layout_without_a_shape_says_so_once(tmp_path, ev):
@@ -240,3 +243,31 @@ def test_one_hertz_lines_three_percent_damping_and_impulsive_noise():
     assert len(found) == 3, found
     assert np.all(np.abs(found / f_k - 1) < 0.005), found
     assert all(abs(m.damping_ratio - 0.03) < 0.006 for m in res.modes)
+
+
+def test_per_dof_shape_columns_give_the_mac_over_the_measured_dofs(ev):
+    """A CSV row with phi_N_a columns: its MAC is the one over those DOFs of e . (v + omega x r), computed
+    here from the model's eigentwists; a shape column without its node's position is one line."""
+    from eigentwist.diagnose.measurements import MeasurementError, parse_csv
+
+    pose = [0.06, -0.04, -0.6]
+    modes = ev.modes(np.array([pose]), "paper", k_a=1000.0)
+    k = int(np.argmin(np.abs(modes.direction[0] - 3)))                          # the mode along x
+    t = modes.eigentwists[0][:, k]
+    nodes = {1: np.array([0.02, 0.0, 0.0]), 2: np.array([0.0, 0.1, -0.03])}
+    u = {"1_x": (t[3:] + np.cross(t[:3], nodes[1]))[0], "2_y": (t[3:] + np.cross(t[:3], nodes[2]))[1],
+         "2_z": (t[3:] + np.cross(t[:3], nodes[2]))[2]}
+    measured = {"1_x": u["1_x"], "2_y": u["2_y"] + 0.3 * abs(u["1_x"]), "2_z": u["2_z"]}     # a perturbed shape
+    a, b = np.array(list(u.values())), np.array(list(measured.values()))
+    expected = (a @ b) ** 2 / ((a @ a) * (b @ b))
+    head = "k_a,mode,freq_hz,x,y,z," + ",".join(f"phi_{c}" for c in measured)
+    head += "," + ",".join(f"node{n}_{a}" for n in nodes for a in "xyz")
+    row = f"1000,{modes.freq_hz[0, k]:.6f},{modes.freq_hz[0, k]:.6f},{pose[0]},{pose[1]},{pose[2]},"
+    row = row.replace(f"1000,{modes.freq_hz[0, k]:.6f},", "1000,x,", 1)
+    row += ",".join(f"{v:.12g}" for v in measured.values()) + "," + ",".join(
+        f"{c:g}" for n in nodes for c in nodes[n])
+    meas = parse_csv(f"{head}\n{row}\n", "dofs.csv", ev)
+    cmp = compare(meas, "paper", ev=ev)
+    assert cmp.mac[0] == pytest.approx(expected, abs=1e-9) and expected < 0.99
+    with pytest.raises(MeasurementError, match="phi_3_y needs node 3's position"):
+        parse_csv("k_a,mode,freq_hz,phi_3_y,phi_1_x\n1000,x,20,0.5,0.5\n", "bad.csv", ev)

@@ -24,9 +24,11 @@ frequencies and damping ratios go on.
 ``sensor_x, sensor_y, sensor_z`` when a shape point is off the origin or the manifest
 gives positions, then the parameter columns) and the per-setting results (for plots and
 the report). ``phi_x, phi_y, phi_z`` are the shape at a node measured along X, Y and Z
-(unit norm there; ``sensor_*`` its position); other layouts leave them blank and label
-the modes by rank (their shapes over the measured DOFs are in the per-setting results,
-compared with a model by :func:`.layout.model_shapes`).
+(unit norm there; ``sensor_*`` its position); other layouts label the modes by rank and,
+where they give a shape, write it per DOF: ``phi_N_x`` ... (node N along +X) with the
+node positions ``nodeN_x, nodeN_y, nodeN_z`` (m), which the diagnosis compares with the
+model's ``e . (v + omega x r)`` by the MAC over those DOFs
+(:mod:`eigentwist.diagnose.shapes`).
 """
 from __future__ import annotations
 
@@ -44,7 +46,7 @@ from .layout import note_line, shape_note, triaxial_node
 from .uff_io import FrfSet, read_uff
 
 __all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_manifest", "identify_campaign",
-           "identify_setting", "node_positions", "shape_point", "measurement_csv", "SENSOR", "OUTPUT_COLUMNS"]
+           "identify_setting", "node_positions", "shape_point", "dof_columns", "measurement_csv", "SENSOR", "OUTPUT_COLUMNS"]
 
 SENSOR = ("sensor_x", "sensor_y", "sensor_z")
 NODE_COLUMN = re.compile(r"node(\d+)_([xyz])$")
@@ -227,22 +229,38 @@ def shape_point(mode, coords: dict):
     return (phi / norm if norm > 0 else None), np.asarray(coords[node], dtype=float)
 
 
+def dof_columns(mode, coords: dict) -> dict:
+    """Per-DOF shape columns ``phi_N_a`` and node positions ``nodeN_a`` of a mode measured at
+    DOFs that give a shape but no triaxial node ({} otherwise)."""
+    if triaxial_node(mode.dofs) is not None or shape_note(mode.dofs, coords):
+        return {}
+    out = {f"phi_{d.split('+')[0]}_{d[-1].lower()}": v for d, v in zip(mode.dofs, mode.shape)}
+    for n in dict.fromkeys(int(d.split("+")[0]) for d in mode.dofs):
+        out.update({f"node{n}_{a}": float(c) for a, c in zip("xyz", coords[n])})
+    return out
+
+
 def measurement_csv(camp: Campaign, results: list) -> str:
-    """The identified modes as measurement-CSV text (columns in ``OUTPUT_COLUMNS`` order)."""
+    """The identified modes as measurement-CSV text (columns in ``OUTPUT_COLUMNS`` order, then the
+    sensor columns, the per-DOF shape and node columns (:func:`dof_columns`), the parameters)."""
     rows = []
     for s, res in zip(camp.settings, results):
+        coords = getattr(res, "coords", {}) or {}
         for m in sorted(res.modes, key=lambda m: m.freq_hz):
-            phi, r = shape_point(m, getattr(res, "coords", {}) or {})
-            rows.append((s, m, phi, r))
-    has_sensor = camp.has_sensor or any(r is not None and np.any(r != 0) for *_, r in rows)
-    cols = list(OUTPUT_COLUMNS) + (list(SENSOR) if has_sensor else []) + list(camp.param_names)
+            phi, r = shape_point(m, coords)
+            rows.append((s, m, phi, r, dof_columns(m, coords)))
+    has_sensor = camp.has_sensor or any(r is not None and np.any(r != 0) for *_, r, _ in rows)
+    extra = list(dict.fromkeys(k for *_, d in rows for k in d if k.startswith("phi_")))
+    extra += list(dict.fromkeys(k for *_, d in rows for k in d if k.startswith("node")))
+    cols = list(OUTPUT_COLUMNS) + (list(SENSOR) if has_sensor else []) + extra + list(camp.param_names)
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     w.writerow(cols)
-    for s, m, phi, r in rows:
+    for s, m, phi, r, dofs in rows:
         z = m.damping_ratio if np.isfinite(m.damping_ratio) else None
         row = [s.k_a, m.label, m.freq_hz, m.sigma_hz, *s.pose, z, *(phi if phi is not None else [None] * 3)]
         row += (list(r) if r is not None else [None] * 3) if has_sensor else []
+        row += [dofs.get(k) for k in extra]
         row += [s.params.get(n) for n in camp.param_names]
         w.writerow([v if isinstance(v, str) else "" if v is None else format(float(v), ".8g") for v in row])
     return out.getvalue()
