@@ -37,8 +37,10 @@ of the frequency.
 
 Output columns: k_a, mode, freq_hz, sigma_hz, x, y, z, damping_ratio, phi_x, phi_y, phi_z
 (+ sensor_x, sensor_y, sensor_z when a shape point is off the origin or the manifest gives
-positions, + its parameter columns). mode: x, y, z (the largest translation) and phi at a
-node measured along X, Y and Z; a rank 1, 2, ... and phi blank for other layouts.
+positions, + phi_N_x ... and nodeN_x ... for shapes over other DOFs, + its parameter
+columns). mode: x, y, z (the largest translation) and phi at a node measured along X, Y and
+Z; other layouts: a rank 1, 2, ... and, where they give a shape, phi_N_a = its component at
+node N along +a with node N's position nodeN_x, nodeN_y, nodeN_z (MAC over those DOFs).
 
 examples:
   eigentwist synth --truth paper+payload_mass:m_p=0.35 --k-a 250,500,1000,4000 \\
