@@ -81,6 +81,9 @@ def parse_band(text):
     return band
 
 
+SHOWN = 5          # shape components shown per row (all of them are in the CSV)
+
+
 def _mode_rows(named_results) -> tuple[list, list]:
     """Table rows (file, mode, f, sigma, zeta, shape, MCF, orders) and the distinct DOF lists."""
     rows, dofs = [], []
@@ -88,8 +91,9 @@ def _mode_rows(named_results) -> tuple[list, list]:
         for m in sorted(r.modes, key=lambda m: m.freq_hz):
             if m.dofs not in dofs:
                 dofs.append(m.dofs)
+            shape = " ".join(f"{v:+.2f}" for v in m.shape[:SHOWN]) + (" ..." if len(m.shape) > SHOWN else "")
             rows.append([*name, m.label, f"{m.freq_hz:.4f}", f"{m.sigma_hz:.3g}", f"{100 * m.damping_ratio:.3f}",
-                         " ".join(f"{v:+.2f}" for v in m.shape), f"{m.complexity:.2f}", m.orders or "-"])
+                         shape, f"{m.complexity:.2f}", m.orders or "-"])
     return rows, dofs
 
 

@@ -23,9 +23,9 @@ frequencies and damping ratios go on.
 ``k_a, mode, freq_hz, sigma_hz, x, y, z, damping_ratio, phi_x, phi_y, phi_z``, then
 ``sensor_x, sensor_y, sensor_z`` when a shape point is off the origin or the manifest
 gives positions, then the parameter columns) and the per-setting results (for plots and
-the report). ``phi_x, phi_y, phi_z`` are the shape at a node measured along X, Y and Z
-(unit norm there; ``sensor_*`` its position); other layouts label the modes by rank and,
-where they give a shape, write it per DOF: ``phi_N_x`` ... (node N along +X) with the
+the report). ``phi_x, phi_y, phi_z`` are the shape of a layout that is one node measured
+along X, Y and Z (``sensor_*`` its position); other layouts (several nodes, uniaxial
+accelerometers, a roving hammer) write it per DOF: ``phi_N_x`` ... (node N along +X) with the
 node positions ``nodeN_x, nodeN_y, nodeN_z`` (m), which the diagnosis compares with the
 model's ``e . (v + omega x r)`` by the MAC over those DOFs
 (:mod:`eigentwist.diagnose.shapes`).
@@ -220,9 +220,9 @@ def identify_campaign(manifest, ev, band=None, node: int = 1, sigma_floor_rel: f
 
 
 def shape_point(mode, coords: dict):
-    """(phi (3,) unit, position (3,) m) at the mode's triaxial node, or (None, None)."""
+    """(phi (3,) unit, position (3,) m) when the mode's DOFs are one node along X, Y, Z, or (None, None)."""
     node = triaxial_node(mode.dofs)
-    if node is None or node not in coords:
+    if node is None or node not in coords or len(mode.dofs) != 3:
         return None, None
     phi = np.array([mode.shape[mode.dofs.index(f"{node}+{a}")] for a in "XYZ"])
     norm = np.linalg.norm(phi)
@@ -231,8 +231,8 @@ def shape_point(mode, coords: dict):
 
 def dof_columns(mode, coords: dict) -> dict:
     """Per-DOF shape columns ``phi_N_a`` and node positions ``nodeN_a`` of a mode measured at
-    DOFs that give a shape but no triaxial node ({} otherwise)."""
-    if triaxial_node(mode.dofs) is not None or shape_note(mode.dofs, coords):
+    DOFs that give a shape, other than one node along X, Y, Z ({} otherwise)."""
+    if shape_point(mode, coords)[0] is not None or shape_note(mode.dofs, coords):
         return {}
     out = {f"phi_{d.split('+')[0]}_{d[-1].lower()}": v for d, v in zip(mode.dofs, mode.shape)}
     for n in dict.fromkeys(int(d.split("+")[0]) for d in mode.dofs):
