@@ -8,7 +8,7 @@ import pyuff
 import pytest
 
 from eigentwist.modal.frf import form_factor, modal_frf
-from eigentwist.modal.uff_io import ModeSet, UffError, read_uff, write_frf_uff, write_modes_uff
+from eigentwist.modal.uff_io import FrfSet, ModeSet, UffError, read_uff, write_frf_uff, write_modes_uff
 
 FREQ = np.round(np.arange(401) * 0.05, 10)        # 0 ... 20 Hz, a step UFF's 6-digit abscissa holds
 
@@ -21,11 +21,34 @@ def _frfs(seed=0):
 @pytest.mark.parametrize("form", ["accelerance", "mobility", "receptance"])
 def test_frfs_written_then_read_give_back_the_same_arrays(tmp_path, form):
     H = _frfs()
-    write_frf_uff(tmp_path / "s.uff", FREQ, H, node=7, form=form)
+    write_frf_uff(tmp_path / "s.uff", FrfSet.from_grid(FREQ, H, ["7+X", "7+Y", "7+Z"], ["7+X", "7+Y", "7+Z"], form))
     back = read_uff(tmp_path / "s.uff", node=7)
-    assert back.form == form and back.references == ["7+X", "7+Y", "7+Z"]
+    assert back.form == form and back.references == ["7+X", "7+Y", "7+Z"] and back.responses == back.references
     assert np.allclose(back.freq_hz, FREQ, rtol=1e-12, atol=1e-12)
-    assert np.allclose(back.H, H, rtol=1e-11, atol=1e-11 * np.abs(H).max())
+    grid = np.zeros_like(H)
+    for p, (o, r) in enumerate(back.pairs):
+        grid[:, o, r] = back.H[:, p]
+    assert len(back.pairs) == 9 and np.allclose(grid, H, rtol=1e-11, atol=1e-11 * np.abs(H).max())
+
+
+def test_any_layout_mixed_forms_and_node_coordinates(tmp_path):
+    """One uniaxial sensor, hammer at three nodes (one pair along -Y), receptance and accelerance mixed,
+    node coordinates in dataset 15: read as accelerance (-w^2 x receptance), -Y as +Y with the sign flipped."""
+    rng = np.random.default_rng(1)
+    data = rng.standard_normal((3, len(FREQ))) + 1j * rng.standard_normal((3, len(FREQ)))
+    sets = [pyuff.prepare_15(node_nums=[1, 2, 3], def_cs=[0] * 3, disp_cs=[0] * 3, color=[1] * 3,
+                             x=[0.0, 0.1, 0.2], y=[0.0, 0.0, 0.05], z=[0.0, -0.01, 0.0])]
+    for k, (ref_node, ref_dir, ordinate) in enumerate([(1, 1, 12), (2, -2, 8), (3, 3, 12)]):
+        s = _set58(1, ref_dir=ref_dir, ordinate=ordinate, data=data[k])
+        s["ref_node"] = ref_node
+        sets.append(s)
+    _write58(tmp_path / "rh.uff", sets)
+    back = read_uff(tmp_path / "rh.uff")
+    assert back.responses == ["1+X"] and back.references == ["1+X", "2+Y", "3+Z"] and back.form == "accelerance"
+    w = 2 * np.pi * FREQ
+    assert np.allclose(back.H[:, 0], data[0]) and np.allclose(back.H[:, 2], data[2])
+    assert np.allclose(back.H[:, 1], -1.0 * -(w ** 2) * data[1])            # -Y reference, receptance
+    assert np.allclose(back.coords[2], [0.1, 0.0, -0.01]) and np.allclose(back.coords[3], [0.2, 0.05, 0.0])
 
 
 def test_modes_written_then_read(tmp_path):
@@ -49,10 +72,11 @@ def _write58(path, sets):
     pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
 
 
-def _set58(rsp_dir, ref_dir=1, x=FREQ, node=1):
+def _set58(rsp_dir, ref_dir=1, x=FREQ, node=1, ordinate=12, data=None, abscissa=18):
+    data = np.ones(len(x), dtype=complex) if data is None else data
     return pyuff.prepare_58(binary=0, func_type=4, rsp_node=node, rsp_dir=rsp_dir, ref_node=1, ref_dir=ref_dir,
-                            abscissa_spacing=1, abscissa_spec_data_type=18, ordinate_spec_data_type=12,
-                            orddenom_spec_data_type=13, data=np.ones(len(x), dtype=complex), x=x.copy(),
+                            abscissa_spacing=1, abscissa_spec_data_type=abscissa, ordinate_spec_data_type=ordinate,
+                            orddenom_spec_data_type=13, data=data, x=x.copy(),
                             id1="t", rsp_ent_name="EE", ref_ent_name="EE")
 
 
@@ -62,11 +86,15 @@ def test_bad_uff_input_is_one_line_naming_file_and_dataset(tmp_path):
                                                        x=[0.0], y=[0.0], z=[0.0])], mode="overwrite")
     cases = {
         nodes: "no dataset 58 (FRF) or 55 (modes)",
-        tmp_path / "xy.uff": "no response at node 1 along +Z",
+        tmp_path / "twice.uff": "FRF 1+X / 1+X given twice (first in dataset 1)",
+        tmp_path / "time.uff": "abscissa specific data type 17: expected frequency in Hz (18)",
+        tmp_path / "force.uff": "ordinate specific data type 13 is not displacement (8)",
         tmp_path / "axes.uff": "inconsistent frequency axes",
         tmp_path / "missing.uff": "no such file",
     }
-    _write58(tmp_path / "xy.uff", [_set58(1), _set58(2)])
+    _write58(tmp_path / "twice.uff", [_set58(1), _set58(-1)])
+    _write58(tmp_path / "time.uff", [_set58(1, abscissa=17)])
+    _write58(tmp_path / "force.uff", [_set58(1, ordinate=13)])
     _write58(tmp_path / "axes.uff", [_set58(1), _set58(2, x=FREQ * 2), _set58(3)])
     for path, words in cases.items():
         with pytest.raises(UffError, match=re.escape(words)) as exc:
@@ -74,5 +102,3 @@ def test_bad_uff_input_is_one_line_naming_file_and_dataset(tmp_path):
         assert str(path) in str(exc.value) and "\n" not in str(exc.value)
     with pytest.raises(UffError, match=r"axes.uff, dataset 2 \(type 58\)"):
         read_uff(tmp_path / "axes.uff")
-    with pytest.raises(UffError, match="dataset 58.*at node 2"):
-        read_uff(tmp_path / "xy.uff", node=2)

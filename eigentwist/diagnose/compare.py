@@ -104,5 +104,5 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
         check_columns(meas, effects, ev)
     pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=True, return_modes=True)
     shapes = getattr(meas, "shapes", None)
-    mac = None if shapes is None else row_mac(modes, idx, shapes, meas.sensor)
+    mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
     return Comparison(meas, effects, pred, idx, dict(values or {}), mac)

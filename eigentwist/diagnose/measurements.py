@@ -14,9 +14,13 @@ blank lines are skipped):
 * optional modal columns (from ``eigentwist identify``, see :mod:`eigentwist.modal`):
   ``damping_ratio`` (-), ``phi_x``, ``phi_y``, ``phi_z`` (the measured mode shape: a real
   unit translation of the sensor point, base-frame axes) and ``sensor_x``, ``sensor_y``,
-  ``sensor_z`` (the sensor's offset from the end-effector origin, m; default 0). When the
-  shape columns are present, ``compare`` reports the MAC per row and matches rows to
-  model modes by shape (:mod:`eigentwist.diagnose.shapes`).
+  ``sensor_z`` (the sensor's offset from the end-effector origin, m; default 0). A shape
+  measured at other DOFs (uniaxial accelerometers, a roving hammer: issue 22) is given
+  per DOF: ``phi_N_x``, ``phi_N_y``, ``phi_N_z`` (the shape's component at node N along
+  +X, +Y, +Z; any subset) with ``nodeN_x``, ``nodeN_y``, ``nodeN_z`` (node N's offset
+  from the end-effector origin, m, platform axes; required with them). When shape
+  columns are present, ``compare`` reports the MAC per row (over the row's measured
+  DOFs) and matches rows to model modes by shape (:mod:`eigentwist.diagnose.shapes`).
 
 Files as spreadsheets export them are accepted: the separator is ``,``, ``;`` or a tab
 (whichever splits the header into the most columns); with ``;`` or a tab a decimal
@@ -33,6 +37,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -51,6 +56,8 @@ REQUIRED = ("k_a", "mode", "freq_hz")
 # measured modal data (issue 14): NaN where blank; shapes are phi_x..z, sensor_* in m
 MODAL = ("damping_ratio", "phi_x", "phi_y", "phi_z", "sensor_x", "sensor_y", "sensor_z")
 OPTIONAL = ("x", "y", "z", "sigma_hz") + MODAL
+#: per-DOF shape columns ``phi_N_x`` and the node positions ``nodeN_x`` they need (issue 22)
+DOF_COLUMN = re.compile(r"(phi_|node)(\d+)_([xyz])$")
 #: the rotation columns of a 6-DoF robot's poses (rotation vector, rad); ``rx, ry, rz`` stay mode labels
 ROTATION_COLUMNS = ("rot_x", "rot_y", "rot_z")
 
@@ -127,10 +134,33 @@ class Measurements:
 
     @property
     def shapes(self):
-        """(N, 3) measured mode shapes (NaN rows: none), or None without shape columns."""
-        if not all(c in self.modal for c in ("phi_x", "phi_y", "phi_z")):
+        """(N, D) measured mode shapes over the :attr:`shape_columns` (NaN where not measured),
+        or None without shape columns."""
+        cols = self.shape_columns
+        if not cols or (not any(c.count("_") == 2 for c in cols) and len(cols) < 3):
             return None
-        return np.column_stack([self.modal[c] for c in ("phi_x", "phi_y", "phi_z")])
+        return np.column_stack([self.modal[c] for c in cols])
+
+    @property
+    def shape_columns(self) -> list:
+        """Names of the shape columns present (``phi_x, phi_y, phi_z``, ``phi_N_a``), in header order."""
+        return [c for c in self.modal if c in ("phi_x", "phi_y", "phi_z") or c.startswith("phi_")]
+
+    @property
+    def shape_projection(self) -> np.ndarray:
+        """(N, D, 6) rows ``e^T T(r)`` of the :attr:`shapes` columns: the model's shape component
+        there is ``P @ t`` for an eigentwist ``t = [omega; v]`` (:mod:`.shapes`)."""
+        from .shapes import transport_matrix
+
+        rows = []
+        for c in self.shape_columns:
+            if c in ("phi_x", "phi_y", "phi_z"):
+                rows.append(transport_matrix(self.sensor)[:, "xyz".index(c[-1])])
+            else:
+                node, axis = c.split("_")[1:]
+                r = np.column_stack([self.modal[f"node{node}_{a}"] for a in "xyz"])
+                rows.append(transport_matrix(np.nan_to_num(r))[:, "xyz".index(axis)])
+        return np.stack(rows, axis=1) if rows else np.zeros((len(self), 0, 6))
 
     @property
     def sensor(self) -> np.ndarray:
@@ -230,7 +260,7 @@ def _header(cells: list[str], source: str, ev) -> list[str]:
             raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
         if names.index(name) != k:
             raise MeasurementError(source, f"column {name!r} appears twice (columns {names.index(name) + 1} and {k + 1})", 1, name)
-        if name not in known and not ev.accepts(name):          # eta_a@3: leg 3's own value
+        if name not in known and not ev.accepts(name) and not DOF_COLUMN.match(name):   # eta_a@3: leg 3's own
             hint = did_you_mean(name, list(known) + list(ev.parameters))
             raise MeasurementError(
                 source, f"unknown column (column {k + 1}){hint}: not one of {', '.join(known)} and not a "
@@ -239,6 +269,11 @@ def _header(cells: list[str], source: str, ev) -> list[str]:
         if name not in names:
             raise MeasurementError(source, f"missing required column {name!r} (header: {', '.join(names)}); "
                                    f"required: {', '.join(REQUIRED)}", 1, name)
+    for name in names:
+        m = DOF_COLUMN.match(name)
+        if m and m.group(1) == "phi_" and not all(f"node{m.group(2)}_{a}" in names for a in "xyz"):
+            raise MeasurementError(source, f"shape column {name} needs node {m.group(2)}'s position: columns "
+                                   f"node{m.group(2)}_x, node{m.group(2)}_y, node{m.group(2)}_z (m)", 1, name)
     return names
 
 
@@ -315,7 +350,7 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
             fill = values.get(name, values.get(p.name, p.default))
             params[name] = np.array([v if v is not None else fill for v in cols[name]], dtype=float)
     modal = {name: np.array([np.nan if v is None else v for v in cols[name]], dtype=float)
-             for name in MODAL if name in names}
+             for name in names if name in MODAL or DOF_COLUMN.match(name)}
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
                         np.array(lines), source, ev.spec, modal, ev.parameter("k_a").unit)
     _check_duplicates(meas)
@@ -359,7 +394,7 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
         if name in REQUIRED:
             raise MeasurementError(source, "empty cell: a value is required", line, name)
         return None
-    if name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:]:
+    if name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:] or DOF_COLUMN.match(name):
         return _number(cell, source, line, name, positive=False)
     if name == "damping_ratio":
         return _number(cell, source, line, name, positive=True)

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..runtime import InputError
 from .matching import match_frequencies
-from .shapes import match_by_shape
+from .shapes import has_shape, match_by_shape
 
 __all__ = ["evaluate", "Predictor"]
 
@@ -26,8 +26,9 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     poses : (N, 3) m; labels : N normalised mode labels.
     params : parameter name -> scalar or (N,) array (SI units).
     strict, lines : see :func:`eigentwist.diagnose.matching.match_modes`.
-    shapes, sensor : optional (N, 3) measured mode shapes (NaN rows: none) and sensor
-        offsets (m): rows with a shape are matched by MAC (:mod:`.shapes`).
+    shapes, sensor : optional (N, D) measured mode shapes (NaN: not measured) and sensor
+        offsets (N, 3) m or the shapes' projection (N, D, 6): rows with a shape are matched
+        by MAC (:mod:`.shapes`).
     return_modes : also return the model's :class:`~eigentwist.runtime.Modes`.
 
     Returns
@@ -44,11 +45,11 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     freq, idx = match_frequencies(modes, labels, strict=strict, lines=lines)
     if shapes is not None:
         n = len(idx)
-        keys = np.column_stack([poses, sensor if sensor is not None else np.zeros((n, 3)),
+        keys = np.column_stack([poses, np.reshape(sensor, (n, -1)) if sensor is not None else np.zeros((n, 3)),
                                 *(np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in params.values())])
         by_label = idx
         idx = match_by_shape(modes, shapes, keys, idx, sensor)
-        shaped = np.all(np.isfinite(np.asarray(shapes, dtype=float)), axis=1) | (idx != by_label)
+        shaped = has_shape(shapes) | (idx != by_label)
         freq = np.where(shaped, modes.freq_hz[np.arange(n), idx], freq)
     if strict and not np.all(np.isfinite(freq)):
         raise InputError(_numerical_failure(ev, effects, poses, params, lines, "non-finite frequency",
@@ -104,7 +105,7 @@ class Predictor:
         shapes = getattr(self.meas, "shapes", None)
         if shapes is None:
             return {}
-        return {"shapes": np.tile(shapes, (repeat, 1)), "sensor": np.tile(self.meas.sensor, (repeat, 1))}
+        return {"shapes": np.tile(shapes, (repeat, 1)), "sensor": np.tile(self.meas.shape_projection, (repeat, 1, 1))}
 
     def predict(self, values: dict | None = None, strict: bool = True, return_modes: bool = False):
         """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar);

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .predict import Predictor
-from .shapes import SHAPE_CRITERION, row_mac, shape_residuals
+from .shapes import SHAPE_CRITERION, has_shape, row_mac, shape_residuals
 
 __all__ = ["shape_term"]
 
@@ -24,11 +24,11 @@ def shape_term(meas, effects, ev, values: dict | None = None) -> dict | None:
     from scipy import stats
 
     shapes = getattr(meas, "shapes", None)
-    if shapes is None or not np.isfinite(shapes).all(axis=1).any():
+    if shapes is None or not has_shape(shapes).any():
         return None
     _, idx, modes = Predictor(meas, effects, ev, values).predict(strict=False, return_modes=True)
-    res = shape_residuals(shapes, modes, idx, meas.sensor)
-    macs = row_mac(modes, idx, shapes, meas.sensor)
+    res = shape_residuals(shapes, modes, idx, meas.shape_projection)
+    macs = row_mac(modes, idx, shapes, meas.shape_projection)
     ok = np.isfinite(res)
     chi2 = float(np.sum(res[ok] ** 2))
     return {"chi2": chi2, "n": int(ok.sum()), "p_value": float(stats.chi2.sf(chi2, int(ok.sum()))),

@@ -10,6 +10,12 @@ translation of the end-effector origin, m) transported to the sensor at offset `
     u = v + omega x r = T(r) t,   T(r) = [-[r]x, I3]   (3 x 6).
 
 A rigid model (3x3, translations only) has no rotation: ``u = v`` whatever ``r``.
+A shape measured over other DOFs (issue 22: uniaxial accelerometers at several nodes, a
+roving hammer) is compared through its projection ``P`` (D, 6), rows ``e_d^T T(r_d)``
+(direction e_d at node r_d; :attr:`.measurements.Measurements.shape_projection`): the
+model's shape there is ``P t``. Every function below taking ``sensor`` offsets (..., 3)
+also takes such a projection (N, D, 6); a row's DOFs left blank (NaN) are left out of
+its MAC, and a row has a shape when at least two of its DOFs are measured.
 
 * :func:`mac` compares shapes: ``MAC(a, b) = |a^H b|^2 / ((a^H a)(b^H b))`` in [0, 1]:
   1 for parallel shapes (any scale, sign or phase), 0 for orthogonal ones.
@@ -29,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["transport_matrix", "sensor_shapes", "mac", "match_by_shape",
+__all__ = ["transport_matrix", "sensor_shapes", "mac", "match_by_shape", "has_shape",
            "shape_residuals", "row_mac", "SIGMA_SHAPE_RAD", "SHAPE_CRITERION", "SHAPE_COLUMNS"]
 
 SHAPE_COLUMNS = ("phi_x", "phi_y", "phi_z")
@@ -60,9 +66,13 @@ def sensor_shapes(eigentwists, sensor=None) -> np.ndarray:
     """Translations at the sensor of every mode: (N, 3, n) from eigentwists (N, n, n).
 
     ``sensor`` (N, 3) or (3,) offsets in m (None: the end-effector origin). Rigid
-    models (n = 3) are translations already.
+    models (n = 3) are translations already. With a projection ``sensor`` (N, D, 6)
+    (module doc): the (N, D, n) shapes over its DOFs.
     """
     V = np.asarray(eigentwists)
+    if sensor is not None and np.ndim(sensor) == 3 and np.shape(sensor)[-1] == 6:
+        P = np.asarray(sensor, dtype=float)
+        return (P[..., 3:] if V.shape[-2] == 3 else P) @ V
     if V.shape[-2] == 3:
         return V
     r = np.zeros(3) if sensor is None else np.asarray(sensor, dtype=float)
@@ -101,12 +111,12 @@ def match_by_shape(modes, shapes, keys, fallback, sensor=None) -> np.ndarray:
     (N,) int model mode index per row.
     """
     shapes = np.asarray(shapes, dtype=float)
-    has = np.all(np.isfinite(shapes), axis=1)
+    has = has_shape(shapes)
     idx = np.array(fallback, dtype=int, copy=True)
     if not has.any():
         return idx
-    U = sensor_shapes(modes.eigentwists, sensor)                     # (N, 3, n)
-    score = mac(np.swapaxes(U, -1, -2), shapes[:, None, :])           # (N, n)
+    U = sensor_shapes(modes.eigentwists, sensor) * np.isfinite(shapes)[:, :, None]   # (N, D, n)
+    score = mac(np.swapaxes(U, -1, -2), np.nan_to_num(shapes)[:, None, :])           # (N, n)
     seen = modes.direction >= 3                                       # x, y, z (AXES index)
     score = np.where(seen, score, score - 2.0)                        # rotations only if nothing else fits
     rows = np.flatnonzero(has)
@@ -132,6 +142,11 @@ def shape_residuals(meas_shapes, modes, idx, sensor=None, sigma: float = SIGMA_S
 def row_mac(modes, idx, meas_shapes, sensor=None) -> np.ndarray:
     """(N,) MAC between each row's measured shape and its matched model mode (NaN: no shape)."""
     shapes = np.asarray(meas_shapes, dtype=float)
-    U = sensor_shapes(modes.eigentwists, sensor)
+    U = sensor_shapes(modes.eigentwists, sensor) * np.isfinite(shapes)[:, :, None]
     u = np.take_along_axis(U, np.asarray(idx)[:, None, None], axis=2)[..., 0]
-    return np.where(np.all(np.isfinite(shapes), axis=1), mac(u, np.nan_to_num(shapes)), np.nan)
+    return np.where(has_shape(shapes), mac(u, np.nan_to_num(shapes)), np.nan)
+
+
+def has_shape(shapes) -> np.ndarray:
+    """(N,) rows of ``shapes`` (N, D) with a measured shape: at least two finite components."""
+    return np.sum(np.isfinite(np.asarray(shapes, dtype=float)), axis=1) >= 2

@@ -35,16 +35,18 @@ def form_factor(freq_hz, form: str) -> np.ndarray:
     raise ValueError(f"FRF form {form!r}: expected one of {', '.join(FORMS)}")
 
 
-def frf_from_modes(freq_hz, omega_k, shapes, zeta, form: str = "accelerance") -> np.ndarray:
-    """(F, 3, 3) FRF from natural angular frequencies ``omega_k`` (n,) rad/s and sensor shapes.
+def frf_from_modes(freq_hz, omega_k, shapes, zeta, form: str = "accelerance", ref_shapes=None) -> np.ndarray:
+    """(F, O, R) FRF from natural angular frequencies ``omega_k`` (n,) rad/s and mode shapes.
 
-    ``shapes`` (3, n) are the mass-normalised mode shapes at the sensor (1/sqrt(kg));
-    ``zeta`` a scalar or (n,) damping ratio.
+    ``shapes`` (O, n) are the mass-normalised mode shapes (1/sqrt(kg)) at the response
+    DOFs, ``ref_shapes`` (R, n) at the reference DOFs (default: ``shapes``, a force at each
+    response DOF); ``zeta`` a scalar or (n,) damping ratio:
+    ``H_or = c(w) sum_k U_ok U_rk / (w_k^2 - w^2 + 2 i zeta w_k w)``.
     """
     w = 2 * np.pi * np.asarray(freq_hz, dtype=float)[:, None]
     zeta = np.broadcast_to(np.asarray(zeta, dtype=float), omega_k.shape)
     denom = omega_k ** 2 - w ** 2 + 2j * zeta * omega_k * w                   # (F, n)
-    H = np.einsum("ik,fk,jk->fij", shapes, 1.0 / denom, shapes)
+    H = np.einsum("ik,fk,jk->fij", shapes, 1.0 / denom, shapes if ref_shapes is None else ref_shapes)
     return H * form_factor(freq_hz, form)[:, None, None]
 
 

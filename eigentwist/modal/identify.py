@@ -21,14 +21,20 @@
    deviation over the stable orders, the fit's standard error, and
    ``SIGMA_FLOOR_REL`` times the frequency.
 4. **Shapes** by sdypy-EMA's least-squares frequency-domain estimator (LSFD, with
-   lower and upper residuals) on the band: the (3 responses x R references) residue
-   matrix of each mode, its first left singular vector the complex shape. It is made
+   lower and upper residuals) on the band: the residue of each mode on every measured
+   pair (response DOF o, reference DOF r) is ``phi_o phi_r`` times a constant; its
+   rank-one factors are found by alternating least squares over the measured pairs
+   (the SVD of the residue matrix when every pair is measured). The shape is the factor
+   over the side with more DOFs: the responses (accelerometers; a shaker or a fixed
+   hammer), or the references when one response DOF sees a roving hammer. It is made
    real by rotating it to its dominant phase (the phase that maximises the norm of its
    real part), scaled to unit norm with its largest component positive; the modal
-   complexity factor (MCF, 0 real ... 1 fully complex) is reported. The direction label
-   is the axis of the largest component. A mode whose residues contribute less than
-   ``MIN_CONTRIBUTION`` of the strongest mode's peak response is dropped (a pole fitted
-   to noise).
+   complexity factor (MCF, 0 real ... 1 fully complex) is reported. A layout with a
+   node measured along X, Y and Z labels each mode by the axis of its largest
+   translation there (``x``, ``y``, ``z``); any other layout labels the modes by rank
+   (``1`` the lowest identified, ...). A mode whose residues contribute less than
+   ``MIN_CONTRIBUTION`` of the strongest mode's peak response (in the FRFs' own form:
+   receptance residue / (zeta w) times w^0, w^1, w^2) is dropped (a pole fitted to noise).
 
 Modes from a dataset 55 file (already identified) go through the same shape
 normalisation; their ``sigma_hz`` is the floor.
@@ -43,9 +49,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..runtime import InputError
-from .uff_io import FrfSet, ModeSet
+from .layout import triaxial_node
+from .uff_io import FORM_RANK, FrfSet, ModeSet
 
 __all__ = ["IdentifiedMode", "Stabilisation", "SettingModes", "identify_frfs", "modes_from_set", "real_shape",
+           "rank_one", "shape_side",
            "MAX_ORDER", "SIGMA_FLOOR_REL", "TOL_F", "TOL_ZETA", "TOL_CLUSTER", "MIN_ORDERS", "ZETA_MAX"]
 
 MAX_ORDER = 30           # LSCF orders 2, 4, ..., 2 * MAX_ORDER
@@ -61,9 +69,10 @@ AXES = ("x", "y", "z")
 
 @dataclass
 class IdentifiedMode:
-    """One mode: freq_hz, sigma_hz (Hz), damping_ratio (-), real unit shape (3,) along
-    +X, +Y, +Z, complexity (MCF, -), label (``x``, ``y`` or ``z``), orders (how many
-    stable orders support it; 0 for dataset 55 modes)."""
+    """One mode: freq_hz, sigma_hz (Hz), damping_ratio (-), real unit shape (D,) over the
+    DOFs ``dofs`` (labels ``"NODE+AXIS"``), complexity (MCF, -), label (``x``, ``y``, ``z``
+    or a rank ``1``, ``2``, ...), orders (how many stable orders support it; 0 for
+    dataset 55 modes)."""
 
     freq_hz: float
     sigma_hz: float
@@ -72,6 +81,7 @@ class IdentifiedMode:
     complexity: float
     label: str
     orders: int = 0
+    dofs: tuple = ()
 
 
 @dataclass
@@ -93,14 +103,15 @@ class SettingModes:
     band: tuple
     stabilisation: Stabilisation | None = None
     frfs: FrfSet | None = None
-    resynthesised: np.ndarray | None = None     # (F_band, 3, R) LSFD reconstruction on the band
+    resynthesised: np.ndarray | None = None     # (F_band, P) LSFD reconstruction on the band
     band_index: slice | None = None
     seconds: float = 0.0
     notes: list = field(default_factory=list)
+    coords: dict = field(default_factory=dict)                # node -> (3,) position, m (campaign)
 
 
 def real_shape(u) -> tuple[np.ndarray, float]:
-    """(real unit shape, MCF) of a complex shape ``u`` (3,).
+    """(real unit shape, MCF) of a complex shape ``u`` (D,).
 
     Rotated by the phase theta = arg(sum u_i^2) / 2, which maximises |Re(u e^-i theta)|;
     sign so that the largest component is positive.
@@ -264,11 +275,10 @@ def identify_frfs(frfs: FrfSet, band=None, max_order: int = MAX_ORDER,
 
 def _identify(frfs: FrfSet, band, max_order: int, sigma_floor_rel: float) -> SettingModes:
     t0 = time.perf_counter()
-    freq, H = frfs.freq_hz, frfs.H
+    freq = frfs.freq_hz
     _check_axis(freq, frfs.source)
     lo, hi = _band(freq, band, frfs.source)
-    n_f, n_o, n_r = H.shape
-    frf = H.reshape(n_f, n_o * n_r).T                                  # rows: response-major
+    frf = np.ascontiguousarray(frfs.H.T)                                # rows: measured pairs
     stab = _stabilisation(_poles(frf, freq, (lo, hi), frfs.form, max_order), (lo, hi))
     cols = _columns(stab)
     if not cols:
@@ -281,19 +291,60 @@ def _identify(frfs: FrfSet, band, max_order: int, sigma_floor_rel: float) -> Set
     poles, std_hz = _refine(frf, freq, poles, band_index, frfs.form)
     A, H_rec = _lsfd(frf, freq, poles, band_index, frfs.form)
     w, zeta = np.abs(poles), -poles.real / np.abs(poles)
-    strength = np.linalg.norm(A, axis=0) / (zeta * w)                  # peak receptance of each mode
+    strength = np.linalg.norm(A, axis=0) / (zeta * w) * w ** FORM_RANK[frfs.form]   # peak in the FRFs' form
+    side, dofs = shape_side(frfs)
     modes = []
     for k, c in enumerate(cols):
         if strength[k] < MIN_CONTRIBUTION * strength.max():
             continue
-        U, s, _ = np.linalg.svd(A[:, k].reshape(n_o, n_r))
-        shape, mcf = real_shape(U[:, 0])
+        shape, mcf = real_shape(rank_one(A[:, k], frfs.pairs, len(frfs.responses), len(frfs.references))[side])
         f_k = w[k] / (2 * np.pi)
         sigma = float(np.nanmax([c["spread_hz"], std_hz[k], sigma_floor_rel * f_k]))
-        modes.append(IdentifiedMode(f_k, sigma, zeta[k], shape, mcf, AXES[int(np.argmax(np.abs(shape)))],
-                                    c["orders"]))
-    H_band = np.asarray(H_rec).T.reshape(n_f, n_o, n_r)[band_index]        # LSFD returns (rows, F)
+        modes.append(IdentifiedMode(f_k, sigma, zeta[k], shape, mcf, "", c["orders"], dofs))
+    _label(modes)
+    H_band = np.asarray(H_rec).T[band_index]                            # LSFD returns (rows, F)
     return SettingModes(modes, frfs.source, (lo, hi), stab, frfs, H_band, band_index, time.perf_counter() - t0)
+
+
+def shape_side(frfs: FrfSet) -> tuple[int, tuple]:
+    """(0: responses or 1: references, their DOF labels): the side with more DOFs (module doc)."""
+    if len(frfs.references) > len(frfs.responses):
+        return 1, tuple(frfs.references)
+    return 0, tuple(frfs.responses)
+
+
+def rank_one(a, pairs, n_o: int, n_r: int, iterations: int = 50) -> tuple[np.ndarray, np.ndarray]:
+    """Complex factors (x (n_o,), y (n_r,)) with ``a[p] ~ x[o_p] y[r_p]`` over the measured pairs.
+
+    Alternating least squares from the SVD of the zero-filled residue matrix (exact, the
+    SVD itself, when every pair is measured). ``x`` has unit norm.
+    """
+    o, r = np.array(pairs).T
+    grid = np.zeros((n_o, n_r), dtype=complex)
+    grid[o, r] = a
+    U, s, Vh = np.linalg.svd(grid)
+    x, y = U[:, 0], s[0] * Vh[0]
+    if len(pairs) < n_o * n_r:
+        for _ in range(iterations):
+            x = np.array([np.vdot(y[r[o == i]], a[o == i]) / max(np.vdot(y[r[o == i]], y[r[o == i]]).real, 1e-300)
+                          for i in range(n_o)])
+            y = np.array([np.vdot(x[o[r == j]], a[r == j]) / max(np.vdot(x[o[r == j]], x[o[r == j]]).real, 1e-300)
+                          for j in range(n_r)])
+        scale = np.linalg.norm(x)
+        x, y = x / scale, y * scale
+    return x, y
+
+
+def _label(modes: list) -> None:
+    """Axis labels from a triaxial node, else ranks (module doc, step 4)."""
+    node = triaxial_node(modes[0].dofs) if modes else None
+    if node is None:
+        for rank, m in enumerate(sorted(modes, key=lambda m: m.freq_hz)):
+            m.label = str(rank + 1)
+        return
+    index = [m_dofs.index(f"{node}+{a}") for m_dofs in [modes[0].dofs] for a in "XYZ"]
+    for m in modes:
+        m.label = AXES[int(np.argmax(np.abs(m.shape[index])))]
 
 
 def _check_axis(freq: np.ndarray, source: str) -> None:
@@ -312,7 +363,7 @@ def modes_from_set(modes: ModeSet, band=None, sigma_floor_rel: float = SIGMA_FLO
             continue
         shape, mcf = real_shape(u)
         out.append(IdentifiedMode(float(f), sigma_floor_rel * float(f), float(z), shape, mcf,
-                                  AXES[int(np.argmax(np.abs(shape)))]))
+                                  AXES[int(np.argmax(np.abs(shape)))], 0, tuple(f"{modes.node}+{a}" for a in "XYZ")))
     if not out:
         raise InputError(f"{modes.source}, dataset 55: no mode in the band {lo:g}..{hi:g} Hz "
                          f"(modes at {', '.join(f'{f:.4g}' for f in modes.freq_hz)} Hz)")

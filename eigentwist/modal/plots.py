@@ -3,8 +3,8 @@
 ``plot_stabilisation``: the stabilisation diagram (model order over frequency: every
 physical pole as a small dot, stable ones as a filled marker), the identified modes as
 vertical lines, over the sum of the FRF magnitudes (right axis, log). ``plot_frfs``: the
-measured FRF magnitudes (3 responses x R references) with the LSFD re-synthesis on the
-band (dashed). ``plot_campaign`` writes both for every setting of a campaign.
+measured FRF magnitudes (one panel per measured response / reference pair, up to
+``MAX_PANELS``) with the LSFD re-synthesis on the band (dashed). ``plot_campaign`` writes both for every setting of a campaign.
 """
 from __future__ import annotations
 
@@ -14,7 +14,9 @@ import numpy as np
 
 from ..plotting import pyplot
 
-__all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes"]
+__all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes", "MAX_PANELS"]
+
+MAX_PANELS = 12
 
 
 
@@ -38,7 +40,7 @@ def plot_stabilisation(res, path) -> None:
     if res.frfs is not None:
         band = res.band_index
         ax2 = ax.twinx()
-        ax2.semilogy(res.frfs.freq_hz[band], np.sum(np.abs(res.frfs.H[band]), axis=(1, 2)), color="0.3", lw=0.8)
+        ax2.semilogy(res.frfs.freq_hz[band], np.sum(np.abs(res.frfs.H[band]), axis=1), color="0.3", lw=0.8)
         ax2.set_ylabel(f"sum |{res.frfs.form}|")
     ax.set_title(f"{Path(res.source).name}: stabilisation (grey: physical pole, blue: stable)", fontsize=9)
     fig.tight_layout()
@@ -47,26 +49,29 @@ def plot_stabilisation(res, path) -> None:
 
 
 def plot_frfs(res, path) -> None:
-    """Measured FRF magnitudes and their LSFD re-synthesis on the band."""
+    """Measured FRF magnitudes and their LSFD re-synthesis on the band, one panel per pair."""
     plt = pyplot("modal")
     frfs = res.frfs
-    n_r = frfs.H.shape[2]
-    fig, axes = plt.subplots(3, n_r, figsize=(3.2 * n_r, 6.5), sharex=True, squeeze=False)
+    n_p = min(frfs.H.shape[1], MAX_PANELS)
+    n_c = min(n_p, 3)
+    n_r = -(-n_p // n_c)
+    fig, axes = plt.subplots(n_r, n_c, figsize=(3.2 * n_c, 2.2 * n_r + 0.6), sharex=True, squeeze=False)
     band = res.band_index
     f = frfs.freq_hz
-    for i, rsp in enumerate("XYZ"):
-        for r in range(n_r):
-            ax = axes[i, r]
-            ax.semilogy(f[band], np.abs(frfs.H[band, i, r]), color="tab:blue", lw=0.9, label="measured")
-            ax.semilogy(f[band], np.abs(res.resynthesised[:, i, r]), "--", color="tab:red", lw=0.9,
-                        label="re-synthesised")
-            ax.set_title(f"{frfs.node}+{rsp} / {frfs.references[r]}", fontsize=8)
-            ax.tick_params(labelsize=7)
+    for p, ax in enumerate(axes.flat):
+        if p >= n_p:
+            ax.axis("off")
+            continue
+        ax.semilogy(f[band], np.abs(frfs.H[band, p]), color="tab:blue", lw=0.9, label="measured")
+        ax.semilogy(f[band], np.abs(res.resynthesised[:, p]), "--", color="tab:red", lw=0.9, label="re-synthesised")
+        ax.set_title(frfs.pair_label(p), fontsize=8)
+        ax.tick_params(labelsize=7)
     axes[0, 0].legend(fontsize=7)
     for ax in axes[-1]:
         ax.set_xlabel("frequency [Hz]")
-    fig.suptitle(f"{Path(res.source).name}: {frfs.form} (LSFD with residuals on {res.band[0]:.3g}..{res.band[1]:.3g} Hz)",
-                 fontsize=9)
+    more = f" (first {n_p} of {frfs.H.shape[1]} FRFs)" if frfs.H.shape[1] > n_p else ""
+    fig.suptitle(f"{Path(res.source).name}: {frfs.form} (LSFD with residuals on {res.band[0]:.3g}..{res.band[1]:.3g} Hz)"
+                 + more, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

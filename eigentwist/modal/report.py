@@ -2,8 +2,9 @@
 
 :func:`is_manifest` tells a campaign manifest (a ``file`` column) from a measurement
 CSV; :func:`campaign_section` identifies the campaign and returns the measurements and
-an HTML fragment (identified modes per setting with damping, shape, complexity and
-stable orders, the time per setting, and each setting's stabilisation diagram), which
+an HTML fragment (identified modes per setting with damping, shape (over the DOFs
+listed below the table), complexity and stable orders, the campaign's notes, the time
+per setting, and each setting's stabilisation diagram), which
 the report inserts after its comparison section.
 """
 from __future__ import annotations
@@ -22,13 +23,19 @@ TEMPLATE = """<section id="campaign">
 stable poles selected automatically (see <code>eigentwist identify --help</code>); {{ seconds }} per setting.</p>
 <table>
 <tr><th class="l">file</th><th>k_a [N m/rad]</th><th>pose [m]</th><th class="l">mode</th><th>f [Hz]</th><th>&sigma; [Hz]</th>
-<th>&zeta; [%]</th><th>shape x, y, z</th><th>complexity</th><th>stable orders</th></tr>
+<th>&zeta; [%]</th><th>shape</th><th>complexity</th><th>stable orders</th></tr>
 {% for row in rows %}
 <tr><td class="l">{{ row.file }}</td><td>{{ row.k_a }}</td><td>{{ row.pose }}</td><td class="l">{{ row.mode }}</td>
 <td>{{ row.f }}</td><td>{{ row.sigma }}</td><td>{{ row.zeta }}</td><td>{{ row.shape }}</td><td>{{ row.mcf }}</td>
 <td>{{ row.orders }}</td></tr>
 {% endfor %}
 </table>
+{% for dofs in dof_lists %}
+<p>shape over {{ dofs }}</p>
+{% endfor %}
+{% for note in notes %}
+<p>note: {{ note }}</p>
+{% endfor %}
 {% for name, png in figures %}
 <details><summary>{{ name }}: stabilisation diagram</summary>
 <img alt="stabilisation diagram of {{ name }}" src="data:image/png;base64,{{ png }}"></details>
@@ -65,9 +72,11 @@ def render_section(result, figures: bool = True) -> str:
         pngs = [(s.file.name, base64.b64encode(figure_bytes(plot_stabilisation, r)).decode("ascii"))
                 for s, r in zip(result.campaign.settings, result.results) if r.stabilisation is not None]
     secs = [r.seconds for r in result.results if r.seconds]
+    dof_lists = list(dict.fromkeys(", ".join(m.dofs) for r in result.results for m in r.modes if m.dofs))
     env = jinja2.Environment(undefined=jinja2.StrictUndefined, autoescape=True, trim_blocks=True, lstrip_blocks=True)
     return env.from_string(TEMPLATE).render(
         n=len(result.results), source=Path(result.campaign.source).name, rows=rows, figures=pngs,
+        dof_lists=dof_lists, notes=result.notes,
         seconds=f"{sum(secs) / len(secs):.2f} s" if secs else "no FRF identification")
 
 

@@ -1,12 +1,19 @@
 """Universal File Format (UFF) in and out, through ``pyuff`` (no parser of our own).
 
-* Dataset 58 (function at nodal DOF), function type 4 (FRF): responses at one node
-  along +X, +Y, +Z of the base frame (a -X response is read with its sign flipped);
-  references (hammer or shaker) at any node along X, Y, Z. The FRF form comes from the
-  ordinate's specific data type: 8 displacement -> receptance, 11 velocity -> mobility,
-  12 acceleration -> accelerance (denominator 13, excitation force, or 0). Rotational
-  responses and references (directions 4-6) are skipped. Every FRF of a file must
-  share one frequency axis.
+* Dataset 58 (function at nodal DOF), function type 4 (FRF): any layout. Every FRF is
+  one (response DOF, reference DOF) pair, a DOF being a node and a translation axis of
+  the base frame (``"3+X"``): uniaxial or triaxial accelerometers at any nodes, a roving
+  hammer, a shaker; a pair need not be measured for every combination. A ``-X``
+  response or reference is read as ``+X`` with the FRF's sign flipped. Rotational DOFs
+  (directions 4-6) are skipped. The form comes from each dataset's ordinate specific
+  data type: 8 displacement -> receptance, 11 velocity -> mobility, 12 acceleration ->
+  accelerance (denominator 13, excitation force, or 0); a file mixing forms is brought
+  to the highest one present (receptance x i w = mobility, x (i w)^2 = accelerance, a
+  product, so the 0 Hz line stays finite). The abscissa must be frequency in Hz
+  (abscissa specific data type 18, or 0 unknown) and shared by every FRF of the file.
+* Dataset 15 or 2411 (nodes): node coordinates, read as the node's offset from the
+  end-effector origin in platform axes, m (a campaign manifest's node columns override
+  them; see :mod:`.campaign`).
 * Dataset 55 (data at nodes), normal modes (analysis type 2) or complex modes (3, 7):
   already identified modes; the shape is the translation (r1, r2, r3) at the node.
 
@@ -14,19 +21,31 @@ Every error is one line ``FILE, dataset K (type T): what is wrong`` (K counts fr
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..runtime import InputError
 
-__all__ = ["FrfSet", "ModeSet", "UffError", "read_uff", "write_frf_uff", "write_modes_uff",
-           "FORM_OF_ORDINATE", "ORDINATE_OF_FORM"]
+__all__ = ["FrfSet", "ModeSet", "UffError", "read_uff", "write_frf_uff", "write_modes_uff", "dof_label", "node_coordinates",
+           "parse_dof", "FORM_OF_ORDINATE", "ORDINATE_OF_FORM"]
 
 FORM_OF_ORDINATE = {8: "receptance", 11: "mobility", 12: "accelerance"}
 ORDINATE_OF_FORM = {v: k for k, v in FORM_OF_ORDINATE.items()}
 AXIS = {1: "X", 2: "Y", 3: "Z"}
+FORM_RANK = {"receptance": 0, "mobility": 1, "accelerance": 2}      # powers of i w
+
+
+def dof_label(node: int, axis: int) -> str:
+    """``"NODE+AXIS"`` of a translation DOF (``axis`` 1, 2, 3 for X, Y, Z), e.g. ``"3+Y"``."""
+    return f"{int(node)}+{AXIS[abs(int(axis))]}"
+
+
+def parse_dof(label: str) -> tuple[int, int]:
+    """(node, axis 1..3) of a DOF label ``"NODE+AXIS"``."""
+    node, _, axis = label.partition("+")
+    return int(node), "XYZ".index(axis) + 1
 
 
 class UffError(InputError):
@@ -41,21 +60,38 @@ class UffError(InputError):
 
 @dataclass
 class FrfSet:
-    """FRFs of one setting.
+    """FRFs of one setting, any layout.
 
     freq_hz : (F,) frequency axis, Hz.
-    H : (F, 3, R) complex: responses +X, +Y, +Z at ``node``, one column per reference.
-    references : R names, ``"NODE+AXIS"`` (e.g. ``"1+X"``).
-    form : ``"accelerance"``, ``"mobility"`` or ``"receptance"``.
-    node : the response node; source : file name for messages.
+    H : (F, P) complex, one column per measured pair ``pairs[p] = (o, r)``: response
+        ``responses[o]`` over reference ``references[r]``.
+    responses, references : DOF labels ``"NODE+AXIS"`` (e.g. ``"1+X"``).
+    form : ``"accelerance"``, ``"mobility"`` or ``"receptance"`` (every column).
+    coords : node -> (3,) position from the file's dataset 15/2411, m (may be empty).
+    node : the node a dataset 55 file or ``sensor_*`` columns refer to; source : file name.
     """
 
     freq_hz: np.ndarray
     H: np.ndarray
+    responses: list
     references: list
+    pairs: list
     form: str
+    coords: dict = field(default_factory=dict)
     node: int = 1
     source: str = "<uff>"
+
+    @classmethod
+    def from_grid(cls, freq_hz, H, responses, references, form, **kw) -> "FrfSet":
+        """From a full grid ``H`` (F, O, R) (every response over every reference)."""
+        H = np.asarray(H, dtype=complex)
+        pairs = [(o, r) for o in range(H.shape[1]) for r in range(H.shape[2])]
+        return cls(np.asarray(freq_hz, dtype=float), np.stack([H[:, o, r] for o, r in pairs], axis=1),
+                   list(responses), list(references), pairs, form, **kw)
+
+    def pair_label(self, p: int) -> str:
+        o, r = self.pairs[p]
+        return f"{self.responses[o]} / {self.references[r]}"
 
 
 @dataclass
@@ -88,7 +124,7 @@ def _sets(path: Path) -> list[dict]:
 
 
 def read_uff(path, node: int = 1):
-    """Read the FRFs (dataset 58) or modes (dataset 55) at ``node`` of one setting's file.
+    """Read the FRFs (dataset 58) or modes (dataset 55 at ``node``) of one setting's file.
 
     Returns :class:`FrfSet` when the file holds dataset 58 FRFs, else :class:`ModeSet`.
     """
@@ -111,22 +147,32 @@ def _form(path, k: int, s: dict) -> str:
                        "acceleration (12): cannot tell receptance, mobility or accelerance", k, 58)
     if denom not in (0, 13):
         raise UffError(path, f"ordinate denominator type {denom}: expected excitation force (13)", k, 58)
+    abscissa = int(s.get("abscissa_spec_data_type", 0) or 0)
+    if abscissa not in (0, 18):
+        raise UffError(path, f"abscissa specific data type {abscissa}: expected frequency in Hz (18)", k, 58)
     return FORM_OF_ORDINATE[ordinate]
 
 
+def node_coordinates(sets: list[dict]) -> dict:
+    """node -> (3,) coordinates from datasets 15 and 2411 (later datasets win)."""
+    coords = {}
+    for s in sets:
+        if s.get("type") in (15, 2411):
+            for n, x, y, z in zip(s["node_nums"], s["x"], s["y"], s["z"]):
+                coords[int(n)] = np.array([x, y, z], dtype=float)
+    return coords
+
+
 def _frfs(path: Path, sets: list[dict], node: int) -> FrfSet:
-    cols: dict[str, dict[int, np.ndarray]] = {}
-    form = axis = None
+    columns: dict[tuple, tuple] = {}                       # (response, reference) -> (form, data, dataset)
+    axis = None
     for k, s in enumerate(sets):
         if s.get("type") != 58 or int(s.get("func_type", 0)) != 4:
             continue
         rdir, fdir = int(s["rsp_dir"]), int(s["ref_dir"])
-        if int(s["rsp_node"]) != node or abs(rdir) not in AXIS or abs(fdir) not in AXIS:
+        if abs(rdir) not in AXIS or abs(fdir) not in AXIS:
             continue
-        this_form = _form(path, k, s)
-        if form is not None and this_form != form[0]:
-            raise UffError(path, f"FRF form {this_form} differs from {form[0]} of dataset {form[1] + 1}", k, 58)
-        form = form or (this_form, k)
+        form = _form(path, k, s)
         x = np.asarray(s["x"], dtype=float)
         if axis is None:
             axis = (x, k)
@@ -134,20 +180,28 @@ def _frfs(path: Path, sets: list[dict], node: int) -> FrfSet:
             raise UffError(path, f"inconsistent frequency axes: {len(x)} points {x[0]:g}..{x[-1]:g} Hz where "
                            f"dataset {axis[1] + 1} has {len(axis[0])} points {axis[0][0]:g}..{axis[0][-1]:g} Hz",
                            k, 58)
-        ref = f"{int(s['ref_node'])}+{AXIS[abs(fdir)]}"
-        sign = np.sign(rdir) * np.sign(fdir)
-        cols.setdefault(ref, {})[abs(rdir)] = sign * np.asarray(s["data"], dtype=complex)
-    if not cols:
-        raise UffError(path, f"no FRF (dataset 58, function type 4) with a translational response at node {node} "
-                       f"(--node selects another)")
-    for ref, by_dir in cols.items():
-        for d, name in AXIS.items():
-            if d not in by_dir:
-                raise UffError(path, f"no response at node {node} along +{name} for reference {ref} "
-                               "(dataset 58 FRFs need responses along X, Y and Z)")
-    refs = list(cols)
-    H = np.stack([np.stack([cols[r][d] for d in AXIS], axis=1) for r in refs], axis=2)
-    return FrfSet(axis[0], H, refs, form[0], node, str(path))
+        pair = (dof_label(s["rsp_node"], rdir), dof_label(s["ref_node"], fdir))
+        if pair in columns:
+            raise UffError(path, f"FRF {pair[0]} / {pair[1]} given twice (first in dataset {columns[pair][2] + 1})",
+                           k, 58)
+        data = np.sign(rdir) * np.sign(fdir) * np.asarray(s["data"], dtype=complex)
+        if not np.all(np.isfinite(data[1:])):
+            raise UffError(path, f"FRF {pair[0]} / {pair[1]} has non-finite values above 0 Hz", k, 58)
+        columns[pair] = (form, data, k)
+    if not columns:
+        raise UffError(path, "no FRF (dataset 58, function type 4) with a translational response and reference "
+                       "(directions X, Y, Z)")
+    freq = axis[0]
+    target = max((c[0] for c in columns.values()), key=FORM_RANK.get)
+    iw = 2j * np.pi * freq
+    responses = list(dict.fromkeys(p[0] for p in columns))
+    references = list(dict.fromkeys(p[1] for p in columns))
+    pairs, H = [], []
+    for (o, r), (form, data, _) in columns.items():
+        pairs.append((responses.index(o), references.index(r)))
+        H.append(np.nan_to_num(data * iw ** (FORM_RANK[target] - FORM_RANK[form])))
+    return FrfSet(freq, np.stack(H, axis=1), responses, references, pairs, target, node_coordinates(sets), node,
+                  str(path))
 
 
 def _modes(path: Path, sets: list[dict], node: int) -> ModeSet:
@@ -175,28 +229,31 @@ def _modes(path: Path, sets: list[dict], node: int) -> ModeSet:
     return ModeSet(np.array(freq), np.array(zeta), np.array(shapes), node, str(path))
 
 
-def write_frf_uff(path, freq_hz, H, node: int = 1, form: str = "accelerance", references=None) -> Path:
-    """Write (F, 3, R) FRFs as dataset 58 (ASCII, double precision), one per (response, reference).
+def write_frf_uff(path, frfs: FrfSet) -> Path:
+    """Write an :class:`FrfSet` as dataset 58 (ASCII, double precision), one per measured pair,
+    after a dataset 15 with its node coordinates (when it has any).
 
-    ``references`` are R ``(node, direction)`` pairs (default: forces at ``node`` along
-    +X, +Y, +Z). The abscissa is stored with 6 significant digits (E13.5, the format's
-    own): use a frequency step that it holds exactly.
+    The abscissa is stored with 6 significant digits (E13.5, the format's own): use a
+    frequency step that it holds exactly.
     """
     import pyuff
 
     path = Path(path)
-    H = np.asarray(H, dtype=complex)
-    refs = references or [(node, d) for d in (1, 2, 3)][:H.shape[2]]
     sets = []
-    for r, (ref_node, ref_dir) in enumerate(refs):
-        for i in range(3):
-            sets.append(pyuff.prepare_58(
-                binary=0, id1="eigentwist synthetic FRF", id2=f"response {node}+{AXIS[i + 1]}",
-                id3="NONE", id4="NONE", id5="NONE", func_type=4, ver_num=0, load_case_id=0,
-                rsp_ent_name="EE", rsp_node=node, rsp_dir=i + 1, ref_ent_name="EE", ref_node=ref_node,
-                ref_dir=ref_dir, abscissa_spacing=1, abscissa_spec_data_type=18,
-                ordinate_spec_data_type=ORDINATE_OF_FORM[form], orddenom_spec_data_type=13,
-                data=H[:, i, r].copy(), x=np.asarray(freq_hz, dtype=float).copy()))
+    if frfs.coords:
+        nodes = sorted(frfs.coords)
+        xyz = np.array([frfs.coords[n] for n in nodes], dtype=float).reshape(-1, 3)
+        sets.append(pyuff.prepare_15(node_nums=nodes, def_cs=[0] * len(nodes), disp_cs=[0] * len(nodes),
+                                     color=[1] * len(nodes), x=xyz[:, 0], y=xyz[:, 1], z=xyz[:, 2]))
+    for p, (o, r) in enumerate(frfs.pairs):
+        (rsp_node, rsp_dir), (ref_node, ref_dir) = parse_dof(frfs.responses[o]), parse_dof(frfs.references[r])
+        sets.append(pyuff.prepare_58(
+            binary=0, id1="eigentwist synthetic FRF", id2=frfs.pair_label(p),
+            id3="NONE", id4="NONE", id5="NONE", func_type=4, ver_num=0, load_case_id=0,
+            rsp_ent_name="EE", rsp_node=rsp_node, rsp_dir=rsp_dir, ref_ent_name="EE", ref_node=ref_node,
+            ref_dir=ref_dir, abscissa_spacing=1, abscissa_spec_data_type=18,
+            ordinate_spec_data_type=ORDINATE_OF_FORM[frfs.form], orddenom_spec_data_type=13,
+            data=np.asarray(frfs.H[:, p], dtype=complex).copy(), x=np.asarray(frfs.freq_hz, dtype=float).copy()))
     if path.exists():
         path.unlink()
     pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
