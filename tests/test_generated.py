@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from eigentwist.codegen.generate import GENERATED, render_all, stale
+from eigentwist.codegen.generate import GENERATED, PROGRESS_STEPS, render_all, stale
+from eigentwist.robots import NAMES
 from eigentwist.codegen.kernel import Output, UndeclaredSymbolError, build_kernel
 from eigentwist.description import sym
 from eigentwist.symbolic import Program
@@ -51,9 +52,16 @@ def test_numpy_equals_sympy(ev, derived, seed):
 
 
 def test_checked_in_code_is_fresh():
-    files = render_all()
+    messages: list[str] = []
+    files = render_all(progress=messages.append)
     bad = stale(files)
     assert not bad, f"stale generated files {bad}: run `eigentwist generate` (make generate)"
+    # every step says what it does before it starts (issue 23: 36 s of CSE and emitting were
+    # silent on the first use of a description file)
+    for robot in NAMES:
+        steps = [m for m in messages if m.startswith(f"{robot}: ")]
+        assert len(steps) == PROGRESS_STEPS, steps
+        assert {f"{robot}: CSE matrices_lever", f"{robot}: emit {robot}_c.c", f"{robot}: emit {robot}_c.h"} <= set(steps)
 
 
 def test_regeneration_is_deterministic():

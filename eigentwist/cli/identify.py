@@ -71,7 +71,7 @@ def run(args) -> int:
     if args.robot not in NAMES:
         raise CliError(f"--robot {args.robot!r}: expected one of {', '.join(NAMES)}")
     ev = evaluator(args.robot)
-    res = identify_campaign(args.manifest, ev, parse_band(args.band), args.node, parse_noise(args.sigma_floor),
+    res = identify_campaign(args.manifest, ev, parse_band(args.band), args.node, parse_noise(args.sigma_floor, "--sigma-floor"),
                             progress=progress)
     text = measurement_csv(res.campaign, res.results)
     if args.plot:

@@ -18,7 +18,8 @@ from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
 
-__all__ = ["GENERATED", "derive_any", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS"]
+__all__ = ["GENERATED", "derive_any", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS",
+           "PROGRESS_STEPS"]
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
@@ -106,6 +107,9 @@ def _render_numpy(robot, kernels, digest):
 BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", render_c),
             "c_header": ("{robot}_c.h", render_c_header)}
 TEMPLATE_DIR = {"c_header": "c"}
+# progress messages of render_robot per robot (every backend): derive, CSE of the matrices,
+# jacobians and gravity kernels, CSE of the fused pass's matrices_lever, one per file emitted
+PROGRESS_STEPS = 5 + len(BACKENDS)
 
 
 def render_robot(robot, progress=None, timings: dict | None = None, backends=None) -> dict[str, str]:
@@ -130,8 +134,12 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
         if backends is not None and backend not in backends:
             continue
         if backend in ("c", "c_header") and fused is None:
+            if progress:
+                progress(f"{name}: CSE matrices_lever")
             fused = fused_kernels_for(model)
         ks = kernels + fused if backend in ("c", "c_header") else kernels
+        if progress:
+            progress(f"{name}: emit {pattern.format(robot=name)}")
         digest = source_hash(ks, _template_text(TEMPLATE_DIR.get(backend, backend)))
         files[pattern.format(robot=name)] = render(model.robot, ks, digest)
     t3 = time.perf_counter()
