@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from eigentwist.codegen.generate import GENERATED, render_all, render_robot, stale
+from eigentwist.codegen.generate import GENERATED, PROGRESS_STEPS, render_all, render_robot, stale
+from eigentwist.robots import NAMES
 from eigentwist.codegen.kernel import Output, UndeclaredSymbolError, build_kernel
 from eigentwist.description import sym
 from eigentwist.symbolic import Program
@@ -51,14 +52,27 @@ def test_numpy_equals_sympy(ev, derived, seed):
 
 
 @pytest.fixture(scope="module")
-def rendered():
-    """Every robot's generated files, rendered once for this module (minutes of SymPy)."""
-    return render_all()
+def rendered_with_progress():
+    """Every robot's generated files and the progress messages, rendered once for this module."""
+    messages: list[str] = []
+    return render_all(progress=messages.append), messages
 
 
-def test_checked_in_code_is_fresh(rendered):
-    bad = stale(rendered)
+@pytest.fixture(scope="module")
+def rendered(rendered_with_progress):
+    return rendered_with_progress[0]
+
+
+def test_checked_in_code_is_fresh(rendered_with_progress):
+    files, messages = rendered_with_progress
+    bad = stale(files)
     assert not bad, f"stale generated files {bad}: run `eigentwist generate` (make generate)"
+    # every step says what it does before it starts (issue 23: 36 s of CSE and emitting were
+    # silent on the first use of a description file)
+    for robot in NAMES:
+        steps = [m for m in messages if m.startswith(f"{robot}: ")]
+        assert len(steps) == PROGRESS_STEPS, steps
+        assert {f"{robot}: CSE matrices_lever", f"{robot}: emit {robot}_c.c", f"{robot}: emit {robot}_c.h"} <= set(steps)
 
 
 def test_regeneration_is_deterministic(rendered):

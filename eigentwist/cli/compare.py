@@ -17,7 +17,10 @@ DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Colum
   sigma_hz  standard uncertainty, Hz (optional; default 2 % of freq_hz)
   <param>   any model parameter name (e.g. m_e, l2; per leg eta_a@3), SI units: overrides it
             for that row (and wins over --set); its effect must be in the model
-  damping_ratio, phi_x, phi_y, phi_z   modal-test results (optional; accepted, not used yet)
+  phi_x, phi_y, phi_z  measured mode shape at the sensor (optional, e.g. from `eigentwist identify`):
+            rows are matched to model modes by shape (largest MAC), the table adds the MAC
+  sensor_x, sensor_y, sensor_z  the sensor's offset from the end-effector origin, m (optional)
+  damping_ratio  identified modal damping (optional; carried along, not modelled)
 Separator ',', ';' or tab (with ';' or tab a decimal comma is accepted); UTF-8 (BOM
 allowed) or UTF-16 with BOM. Two rows with the same pose, k_a and mode are an error.
 Use `paper` as DATA to load the paper's measurements shipped with eigentwist

@@ -26,7 +26,7 @@ def add_parser(sub):
 
 
 def run(args) -> int:
-    from ..codegen.generate import GENERATED, render_all, stale, write
+    from ..codegen.generate import GENERATED, PROGRESS_STEPS, render_all, stale, write
     from ..robots import NAMES
 
     from ..runtime.userfile import is_description_file
@@ -42,8 +42,8 @@ def run(args) -> int:
             raise CliError(f"--robot {r!r}: expected one of {', '.join(NAMES)} or a description file PATH.py")
     timings: dict = {}
     t0 = time.perf_counter()
-    # derive + CSE of 4 kernels per robot; the bar is silent when stderr is not a terminal
-    with progress(total=5 * len(robots), desc="generate", unit="step") as bar:
+    # derive, CSE and emit per robot; the bar is silent when stderr is not a terminal
+    with progress(total=PROGRESS_STEPS * len(robots), desc="generate", unit="step") as bar:
         def step(message):
             bar.set_description(message)
             bar.update(1)

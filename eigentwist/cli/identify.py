@@ -141,7 +141,7 @@ def run(args) -> int:
     if args.robot not in NAMES:
         raise CliError(f"--robot {args.robot!r}: expected one of {', '.join(NAMES)}")
     ev = evaluator(args.robot)
-    res = identify_campaign(args.manifest, ev, parse_band(args.band), args.node, parse_noise(args.sigma_floor),
+    res = identify_campaign(args.manifest, ev, parse_band(args.band), args.node, parse_noise(args.sigma_floor, "--sigma-floor"),
                             progress=progress)
     for note in res.notes:
         eprint(f"note: {note}")

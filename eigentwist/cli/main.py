@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 
 import numpy as np
@@ -30,21 +31,65 @@ DESCRIPTION = """eigentwist: closed-form natural-frequency models of parallel ma
 Units are SI throughout: m, rad, kg, N, N m/rad, Pa, Hz."""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(robot: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; ``robot`` (a shipped robot) rewrites the subcommands'
+    examples in its terms (:mod:`.examples`)."""
     parser = argparse.ArgumentParser(prog="eigentwist", description=DESCRIPTION,
                                      epilog="example: eigentwist matrices --pose 0 0 -0.625 --k-a 2000 --json",
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
+    from .. import __version__
+
+    parser.add_argument("--version", action="version", version=f"eigentwist {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in subcommands():
         module = importlib.import_module(f".{name}", __package__)
         if hasattr(module, "add_parser"):
             module.add_parser(sub)
+    if robot:
+        from .examples import adapt_epilog
+
+        for name, p in sub.choices.items():
+            p.epilog = adapt_epilog(p.epilog, name, robot)
     return parser
 
 
+# a negative percentage after an option (``--noise -2%``) is its value, not an option: argparse
+# takes only plain negative numbers as values, so the pair is joined (``--noise=-2%``) and the
+# option's own check names the value
+_NEGATIVE_PERCENT = re.compile(r"^-\d*\.?\d+(e[-+]?\d+)?%$", re.I)
+# optional dependencies -> the extra that installs them (pyproject.toml)
+EXTRA_OF = {"pyuff": "modal", "sdypy": "modal", "threadpoolctl": "modal", "matplotlib": "plot",
+            "dask": "dask", "distributed": "dask", "pyarrow": "parquet"}
+
+
+def join_negative_percentages(argv: list[str]) -> list[str]:
+    """``["--noise", "-2%"]`` -> ``["--noise=-2%"]`` (only after a ``--option``)."""
+    out: list[str] = []
+    for tok in argv:
+        if out and _NEGATIVE_PERCENT.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out
+
+
+def missing_extra(exc: ImportError, args) -> str | None:
+    """One line naming the extra that installs a missing optional module, or None."""
+    root = (getattr(exc, "name", None) or "").split(".")[0]
+    extra = EXTRA_OF.get(root)
+    if extra is None:
+        return None
+    if args.command == "identify" or getattr(args, "uff", None):
+        extra = "modal"                        # modal-test campaigns need the whole modal extra
+    return (f"the optional module {root!r} is not installed (needed here): pip install 'eigentwist[{extra}]'")
+
+
 def main(argv=None) -> int:
-    parser = build_parser()
+    from .examples import requested_robot
+
+    argv = join_negative_percentages(list(sys.argv[1:] if argv is None else argv))
+    parser = build_parser(requested_robot(argv))
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)     # the command line, for provenance
     if not getattr(args, "func", None):
@@ -64,6 +109,12 @@ def main(argv=None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except ImportError as exc:
+        msg = missing_extra(exc, args)
+        if msg is None or args.debug:
+            raise
+        print(f"eigentwist {args.command}: error: {msg}", file=sys.stderr)
+        return 2
     except (CliError, ValueError, OSError, KeyError, BuildError) as exc:
         if args.debug:
             raise

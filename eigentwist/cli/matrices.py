@@ -41,6 +41,16 @@ def add_parser(sub):
 FROM = {"rigid": "M and K_R, 3x3 translational subsets", "flexible": "M and K_F, 6x6"}
 
 
+def reference_line(other: str, label: str, freq_other, freq) -> str:
+    """The line on the other model's frequencies from the printed matrices: the same numbers
+    as this model's (a 6-DoF robot's legs without constraint wrench: K_F = K_R) are said to be."""
+    values = ", ".join(f"{f:.3f}" for f in freq_other)
+    if len(freq_other) == len(freq) and np.allclose(freq_other, freq, rtol=1e-9, atol=0, equal_nan=True):
+        return (f"(the {other} model, from the printed {label}, has the same frequencies here: {values} Hz; "
+                "K_F = K_R when no leg has a constraint wrench)")
+    return f"(for reference, the {other} model from the printed {label}: {values} Hz)"
+
+
 def _modes_of(M, K):
     from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 
@@ -119,8 +129,7 @@ def run(args) -> int:
           + ", ".join(f"{f:.3f}" for f in out["freq_hz"]))
     other = "flexible" if out["kind"] == "rigid" else "rigid"
     label = FROM[other] if len(out["pose"]) == 3 or other == "flexible" else "M and K_R, 6x6"
-    say(f"(for reference, from the printed {label}: "
-          + ", ".join(f"{f:.3f}" for f in out[f"freq_{other}_hz"]) + " Hz; not this model's frequencies)")
+    say(reference_line(other, label, out[f"freq_{other}_hz"], out["freq_hz"]))
     say(f"\neigentwists of this model (columns; {', '.join(axes[6 - n:])}):")
     say(format_table([""] + [f"w{k + 1}" for k in range(n)],
                        [[a] + row for a, row in zip(axes[6 - n:], out["eigentwists"])], ".3f"))

@@ -16,6 +16,10 @@ EPILOG = """examples:
 
 DATA.csv: one measured natural frequency per row, columns k_a (N m/rad, or N/m for a prismatic actuator), mode (1..6 or
 x, y, z, rx, ry, rz), freq_hz (Hz), optional x, y, z (m), sigma_hz (Hz) and parameter columns.
+DATA may also be a modal-test campaign's MANIFEST.csv (UFF files, see `eigentwist identify --help`;
+needs the modal extra): its modes are identified first, as `eigentwist identify` does, and the
+report adds a campaign section (stabilisation diagrams, FRF fits, MAC):
+  eigentwist report campaign/manifest.csv -o campaign.html --baseline paper
 """
 
 

@@ -93,7 +93,7 @@ def _extra(items) -> dict:
 
 def run(args) -> int:
     from .common import say
-    from ..diagnose.synth import parse_truth, synth
+    from ..diagnose.synth import parse_noise, parse_truth, synth
     from ..diagnose.values import changed_text, used_parameters
     from .common import check_values, parse_sets
     from .compare import evaluator_of
@@ -112,6 +112,9 @@ def run(args) -> int:
         if values:
             raise CliError(f"--set {', '.join(values)} with --uff: give the values in --truth (PRESET:NAME=VALUE)")
         return run_uff(args, ev, _numbers(args.k_a, "--k-a value"), poses)
+    if args.sigma is None and parse_noise(args.noise, "--noise") == 0:
+        raise CliError(f"--noise {args.noise}: noise-free frequencies have no uncertainty to write as sigma_hz; "
+                       "state one with --sigma, e.g. --sigma 0.5% (a silent 2 % default would weigh the fit)")
     meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), poses,
                  [m for m in args.modes.split(",") if m.strip()], args.noise, args.seed, ev=ev,
                  extra_stiffness=_extra(args.extra_stiffness) or None, sigma=args.sigma, values=values)

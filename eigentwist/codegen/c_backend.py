@@ -15,7 +15,9 @@ Render only (a string comes back; nothing is written or compiled here: see
   finite, stable) computed in the same pass; it works on a range of blocks, so callers
   can run disjoint ranges on several threads with results bit-identical to one call;
 * ``et_<robot>_signature()``: a JSON description of every function's inputs and outputs,
-  which the loader reads so that nothing robot-specific is hard-coded in Python.
+  which the loader reads so that nothing robot-specific is hard-coded in Python;
+* the library entry points of ``<robot>_c.h`` (:mod:`eigentwist.codegen.c_library`):
+  the model inputs' names, units and defaults and ``et_<robot>_frequencies``.
 """
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE
 
 from . import c_eigen
+from .c_library import fused_input_names, library_context
 from .kernel import Kernel, UndeclaredSymbolError
 from .render import environment, header
 
@@ -283,13 +286,16 @@ def render_c(robot, kernels: list[Kernel], digest: str) -> str:
     by_name = {k["name"]: k for k in kctx}
     fused = _fused_context(by_name, eigen_models(robot))
     sig = _signature(robot, prefix, kctx, fused, digest)
+    lib = library_context(robot, kernels, prefix)
+    if fused_input_names(kernels) != [i["name"] for i in fused["inputs"]]:
+        raise RuntimeError(f"{robot.name}: the library's input order differs from the fused pass's")
     env = environment()
     tmpl = env.get_template("c/module.c.jinja")
     return tmpl.render(
         header=header(robot.name, digest, comment="//"), robot=robot, prefix=prefix, hash=digest,
         abi=ABI_VERSION, block=BLOCK, kernels=kctx, k=by_name, fused=fused,
         eigen=[_eigen_context(n) for n in EIGEN_DIMS], max_sweeps=JACOBI_MAX_SWEEPS, tol=repr(JACOBI_TOL),
-        signature=_c_string(json.dumps(sig, sort_keys=True, separators=(",", ":"))),
+        signature=_c_string(json.dumps(sig, sort_keys=True, separators=(",", ":"))), lib=lib,
     )
 
 

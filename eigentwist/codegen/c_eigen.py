@@ -53,10 +53,10 @@ def reduce_lines(n: int) -> tuple[list[str], list[str]]:
     positive definite gives NaN (square root of a negative number).
     """
     _check(n)
-    pointers = [f"const double *restrict mp{k} = et_mp[{k}];" for k in range(len(upper(n)))]
-    pointers += [f"const double *restrict kp{k} = et_kp[{k}];" for k in range(len(upper(n)))]
-    pointers += [f"double *restrict lp{k} = et_lp[{k}];" for k in range(len(lower(n)))]
-    pointers += [f"double *restrict ap{k} = et_ap[{k}];" for k in range(len(upper(n)))]
+    pointers = [f"const double *ET_RESTRICT mp{k} = et_mp[{k}];" for k in range(len(upper(n)))]
+    pointers += [f"const double *ET_RESTRICT kp{k} = et_kp[{k}];" for k in range(len(upper(n)))]
+    pointers += [f"double *ET_RESTRICT lp{k} = et_lp[{k}];" for k in range(len(lower(n)))]
+    pointers += [f"double *ET_RESTRICT ap{k} = et_ap[{k}];" for k in range(len(upper(n)))]
     lines = []
     for k, (i, j) in enumerate(upper(n)):
         lines.append(f"const double m{i}{j} = mp{k}[et_i];")
@@ -124,10 +124,10 @@ def sweep_lines(n: int, vectors: bool) -> tuple[list[str], list[str]]:
     the diagonal: ``sum a_pq^2 > ET_JACOBI_TOL * sum a_pp^2``.
     """
     _check(n)
-    pointers = [f"double *restrict ap{k} = et_ap[{k}];" for k in range(len(upper(n)))]
+    pointers = [f"double *ET_RESTRICT ap{k} = et_ap[{k}];" for k in range(len(upper(n)))]
     lines = [f"double a{i}{j} = ap{k}[et_i];" for k, (i, j) in enumerate(upper(n))]
     if vectors:
-        pointers += [f"double *restrict wp{k} = et_wp[{k}];" for k in range(n * n)]
+        pointers += [f"double *ET_RESTRICT wp{k} = et_wp[{k}];" for k in range(n * n)]
         lines += [f"double w{r}{c} = wp{r * n + c}[et_i];" for r in range(n) for c in range(n)]
     for p in range(n):
         for q in range(p + 1, n):
@@ -155,13 +155,13 @@ def finish_lines(n: int, vectors: bool) -> tuple[list[str], list[str]]:
     """
     _check(n)
     diag = [k for k, (i, j) in enumerate(upper(n)) if i == j]
-    pointers = [f"const double *restrict ap{k} = et_ap[{k}];" for k in diag]
-    pointers += [f"double *restrict lo{j} = et_lam[{j}];" for j in range(n)]
+    pointers = [f"const double *ET_RESTRICT ap{k} = et_ap[{k}];" for k in diag]
+    pointers += [f"double *ET_RESTRICT lo{j} = et_lam[{j}];" for j in range(n)]
     lines = [f"double lam{j} = ap{k}[et_i];" for j, k in enumerate(diag)]
     if vectors:
-        pointers += [f"const double *restrict wp{k} = et_wp[{k}];" for k in range(n * n)]
-        pointers += [f"const double *restrict lp{k} = et_lp[{k}];" for k in range(len(lower(n)))]
-        pointers += [f"double *restrict vo{k} = et_vp[{k}];" for k in range(n * n)]
+        pointers += [f"const double *ET_RESTRICT wp{k} = et_wp[{k}];" for k in range(n * n)]
+        pointers += [f"const double *ET_RESTRICT lp{k} = et_lp[{k}];" for k in range(len(lower(n)))]
+        pointers += [f"double *ET_RESTRICT vo{k} = et_vp[{k}];" for k in range(n * n)]
         lines += [f"double w{r}{c} = wp{r * n + c}[et_i];" for r in range(n) for c in range(n)]
     for j, k in sort_pairs(n):
         lines.append("{")

@@ -13,11 +13,13 @@ from ..robots import NAMES, get
 from ..symbolic import POSE, derive
 from ..symbolic.model import EffectSymbols
 from .c_backend import render_c
+from .c_library import render_c_header
 from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
 
-__all__ = ["GENERATED", "derive_any", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS"]
+__all__ = ["GENERATED", "derive_any", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS",
+           "PROGRESS_STEPS"]
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
@@ -112,7 +114,13 @@ def _render_numpy(robot, kernels, digest):
     return render_numpy(robot, kernels, digest, EffectSymbols(robot).switches())
 
 
-BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", render_c)}
+# the C header shares the C source's templates and hash (one library, two files)
+BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", render_c),
+            "c_header": ("{robot}_c.h", render_c_header)}
+TEMPLATE_DIR = {"c_header": "c"}
+# progress messages of render_robot per robot (every backend): derive, CSE of the matrices,
+# jacobians and gravity kernels, CSE of the fused pass's matrices_lever, one per file emitted
+PROGRESS_STEPS = 5 + len(BACKENDS)
 
 
 def render_robot(robot, progress=None, timings: dict | None = None, backends=None) -> dict[str, str]:
@@ -132,11 +140,18 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
     kernels = kernels_for(model, progress=(lambda m: progress(f"{name}: {m}")) if progress else None)
     t2 = time.perf_counter()
     files = {}
+    fused = None
     for backend, (pattern, render) in BACKENDS.items():
         if backends is not None and backend not in backends:
             continue
-        ks = [k for k in kernels if k.name != "followers"] + fused_kernels_for(model) if backend == "c" else kernels
-        digest = source_hash(ks, _template_text(backend))
+        if backend in ("c", "c_header") and fused is None:
+            if progress:
+                progress(f"{name}: CSE matrices_lever")
+            fused = fused_kernels_for(model)
+        ks = [k for k in kernels if k.name != "followers"] + fused if backend in ("c", "c_header") else kernels
+        if progress:
+            progress(f"{name}: emit {pattern.format(robot=name)}")
+        digest = source_hash(ks, _template_text(TEMPLATE_DIR.get(backend, backend)))
         files[pattern.format(robot=name)] = render(model.robot, ks, digest)
     t3 = time.perf_counter()
     timings[name] = {"derive_s": t1 - t0, "cse_s": t2 - t1, "emit_s": t3 - t2}

@@ -281,6 +281,10 @@ def _separator(text: str, source: str) -> str:
     """The separator that splits the header line into the most columns (``,`` on a tie)."""
     header = next((ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
     best = max(SEPARATORS, key=lambda sep: (header.count(sep), sep == ","))
+    if header.strip() == "-1":          # the delimiter line of a universal file (UFF/UNV)
+        raise MeasurementError(source, "a UFF file (universal file format), not a measurement CSV: identify its "
+                               "modes first, `eigentwist identify MANIFEST.csv -o modes.csv` on the campaign's "
+                               "manifest, and compare modes.csv", 1)
     if header.count(best) == 0 and header.strip():
         raise MeasurementError(source, f"header {header.strip()[:60]!r} has a single column: expected the columns "
                                f"{', '.join(REQUIRED)}, ... separated by ',', ';' or a tab", 1)

@@ -46,6 +46,7 @@ import numpy as np
 
 from . import scope
 from ..description.effects import EFFECTS, resolve_model
+from ..description.names import did_you_mean
 from ..runtime import InputError
 from .compare import Comparison, compare
 from .evaluators import resolve
@@ -393,7 +394,8 @@ def _effect_list(add, ev) -> list[str]:
     names = [str(x).strip() for x in items if str(x).strip()]
     for name in names:
         if name.partition("@")[0] not in EFFECTS and name.partition("@")[0] not in ev.effects:
-            raise ValueError(f"add {name!r}: not an effect; expected one of {', '.join(ev.effects)}")
+            raise ValueError(f"add {name!r}: not an effect{did_you_mean(name.partition('@')[0], ev.effects)}; "
+                             f"expected one of {', '.join(ev.effects)}")
         resolve_model(name, ev.robot)  # raises if the robot lacks it (or the leg does not exist)
     return names
 

@@ -148,6 +148,9 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
     t.values = {**dict(values or {}), **t.values}
     rel = parse_noise(noise)
     stated = rel if sigma is None else parse_noise(sigma, "sigma")
+    if sigma is not None and stated == 0:
+        raise InputError(f"sigma {sigma!r}: a stated standard uncertainty must be > 0, e.g. 0.5% "
+                         "(leave it out to state the noise level)")
     poses = np.atleast_2d(np.asarray(ev.robot.x_ref if poses is None else poses, dtype=float))
     k_a = np.atleast_1d(np.asarray(k_a, dtype=float))
     labels = [parse_mode(m) for m in modes]

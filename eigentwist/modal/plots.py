@@ -42,7 +42,7 @@ def plot_stabilisation(res, path) -> None:
         ax2 = ax.twinx()
         ax2.semilogy(res.frfs.freq_hz[band], np.sum(np.abs(res.frfs.H[band]), axis=1), color="0.3", lw=0.8)
         ax2.set_ylabel(f"sum |{res.frfs.form}|")
-    ax.set_title(f"{Path(res.source).name}: stabilisation (grey: physical pole, blue: stable)", fontsize=9)
+    ax.set_title(f"{Path(res.source).name}: stabilisation (grey: pole not yet stable, blue: stable pole, red: identified mode)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

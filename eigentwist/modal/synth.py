@@ -113,7 +113,7 @@ def synth_campaign(truth: str, k_a, poses, out_dir, ev, damping=0.015, noise=0.0
     layout : where the FRFs are measured (:data:`LAYOUTS`; dataset 58 only).
     """
     t = parse_truth(truth, ev)
-    zeta, rel = parse_noise(damping), parse_noise(noise)
+    zeta, rel = parse_noise(damping, "damping"), parse_noise(noise)
     if not zeta > 0:
         raise ValueError(f"damping {damping!r}: expected a ratio > 0, e.g. 1.5%")
     if dataset not in (55, 58):
