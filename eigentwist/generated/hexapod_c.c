@@ -12962,17 +12962,17 @@ static const double et_hexapod_default_inputs[ET_N_INPUTS] = {
     0.0,  /* p_y */
     0.0,  /* p_z */
     0.82,  /* eta_a__1 */
-    1.0,  /* on_actuator_loss__1 */
+    0.0,  /* on_actuator_loss__1 */
     0.82,  /* eta_a__2 */
-    1.0,  /* on_actuator_loss__2 */
+    0.0,  /* on_actuator_loss__2 */
     0.82,  /* eta_a__3 */
-    1.0,  /* on_actuator_loss__3 */
+    0.0,  /* on_actuator_loss__3 */
     0.82,  /* eta_a__4 */
-    1.0,  /* on_actuator_loss__4 */
+    0.0,  /* on_actuator_loss__4 */
     0.82,  /* eta_a__5 */
-    1.0,  /* on_actuator_loss__5 */
+    0.0,  /* on_actuator_loss__5 */
     0.82,  /* eta_a__6 */
-    1.0,  /* on_actuator_loss__6 */
+    0.0,  /* on_actuator_loss__6 */
     100000000.0,  /* k_s__1 */
     0.0,  /* on_strut_compliance__1 */
     100000000.0,  /* k_s__2 */

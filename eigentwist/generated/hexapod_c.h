@@ -57,7 +57,7 @@ extern "C" {
 #define ET_HEXAPOD_ERR_PRELOAD (-3)   /* a gravity-preload switch is on: not in this library */
 
 /*
- * Model inputs: index macro, name, unit, default (the "paper" model: actuator_loss on).
+ * Model inputs: index macro, name, unit, default (the "paper" model: none on).
  * Switches are 0 (off) or 1 (on); a leg-level effect has one switch and its own copy of
  * each parameter per leg (P__N: leg N, 1-based), so that one leg can differ.
  */
@@ -80,17 +80,17 @@ extern "C" {
 #define ET_HEXAPOD_IN_p_y 16  /* p_y (m) = 0.0: payload offset from the EE origin along Y */
 #define ET_HEXAPOD_IN_p_z 17  /* p_z (m) = 0.0: payload offset from the EE origin along Z */
 #define ET_HEXAPOD_IN_eta_a__1 18  /* eta_a__1 (-) = 0.82: leg 1's own eta_a (actuator_loss) */
-#define ET_HEXAPOD_IN_on_actuator_loss__1 19  /* on_actuator_loss__1 (-) = 1.0: switch of effect actuator_loss on leg 1 (0 or 1) */
+#define ET_HEXAPOD_IN_on_actuator_loss__1 19  /* on_actuator_loss__1 (-) = 0.0: switch of effect actuator_loss on leg 1 (0 or 1) */
 #define ET_HEXAPOD_IN_eta_a__2 20  /* eta_a__2 (-) = 0.82: leg 2's own eta_a (actuator_loss) */
-#define ET_HEXAPOD_IN_on_actuator_loss__2 21  /* on_actuator_loss__2 (-) = 1.0: switch of effect actuator_loss on leg 2 (0 or 1) */
+#define ET_HEXAPOD_IN_on_actuator_loss__2 21  /* on_actuator_loss__2 (-) = 0.0: switch of effect actuator_loss on leg 2 (0 or 1) */
 #define ET_HEXAPOD_IN_eta_a__3 22  /* eta_a__3 (-) = 0.82: leg 3's own eta_a (actuator_loss) */
-#define ET_HEXAPOD_IN_on_actuator_loss__3 23  /* on_actuator_loss__3 (-) = 1.0: switch of effect actuator_loss on leg 3 (0 or 1) */
+#define ET_HEXAPOD_IN_on_actuator_loss__3 23  /* on_actuator_loss__3 (-) = 0.0: switch of effect actuator_loss on leg 3 (0 or 1) */
 #define ET_HEXAPOD_IN_eta_a__4 24  /* eta_a__4 (-) = 0.82: leg 4's own eta_a (actuator_loss) */
-#define ET_HEXAPOD_IN_on_actuator_loss__4 25  /* on_actuator_loss__4 (-) = 1.0: switch of effect actuator_loss on leg 4 (0 or 1) */
+#define ET_HEXAPOD_IN_on_actuator_loss__4 25  /* on_actuator_loss__4 (-) = 0.0: switch of effect actuator_loss on leg 4 (0 or 1) */
 #define ET_HEXAPOD_IN_eta_a__5 26  /* eta_a__5 (-) = 0.82: leg 5's own eta_a (actuator_loss) */
-#define ET_HEXAPOD_IN_on_actuator_loss__5 27  /* on_actuator_loss__5 (-) = 1.0: switch of effect actuator_loss on leg 5 (0 or 1) */
+#define ET_HEXAPOD_IN_on_actuator_loss__5 27  /* on_actuator_loss__5 (-) = 0.0: switch of effect actuator_loss on leg 5 (0 or 1) */
 #define ET_HEXAPOD_IN_eta_a__6 28  /* eta_a__6 (-) = 0.82: leg 6's own eta_a (actuator_loss) */
-#define ET_HEXAPOD_IN_on_actuator_loss__6 29  /* on_actuator_loss__6 (-) = 1.0: switch of effect actuator_loss on leg 6 (0 or 1) */
+#define ET_HEXAPOD_IN_on_actuator_loss__6 29  /* on_actuator_loss__6 (-) = 0.0: switch of effect actuator_loss on leg 6 (0 or 1) */
 #define ET_HEXAPOD_IN_k_s__1 30  /* k_s__1 (N/m) = 100000000.0: leg 1's own k_s (strut_compliance) */
 #define ET_HEXAPOD_IN_on_strut_compliance__1 31  /* on_strut_compliance__1 (-) = 0.0: switch of effect strut_compliance on leg 1 (0 or 1) */
 #define ET_HEXAPOD_IN_k_s__2 32  /* k_s__2 (N/m) = 100000000.0: leg 2's own k_s (strut_compliance) */
