@@ -183,3 +183,33 @@ def test_c_loop_closure_equals_numpy(numeric):
     assert np.abs(evc.joint_angles(poses) - ev.joint_angles(poses)).max() < 1e-12
     fa, fc = ev.frequencies(poses), evc.frequencies(poses)
     assert np.abs(fa - fc).max() / fa.max() < 1e-12
+
+
+# ------------------------------------------------- joint coordinates in the measurement CSV
+def test_measurement_csv_joint_columns(numeric):
+    from eigentwist.diagnose.measurements import MeasurementError, joint_columns, parse_csv
+    from eigentwist.diagnose.predict import Predictor
+
+    ev = numeric["heli4"][1]
+    poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6]])
+    q = ev.joint_angles(poses)
+    cols = joint_columns(ev)
+    assert cols[:4] == ("q1@1", "q2@1", "q3@1", "q1@2") and len(cols) == 12
+    rows = ["k_a,mode,freq_hz,x,y,z," + ",".join(cols)]
+    for pose, qq in zip(poses, q):
+        for mode in ("x", "y"):
+            rows.append(f"2000,{mode},20.0," + ",".join(repr(float(v)) for v in (*pose, *qq.ravel())))
+    with_joints = parse_csv("\n".join(rows) + "\n", "enc.csv", ev)
+    assert with_joints.joints.shape == (4, 4, 3)
+    assert np.array_equal(with_joints.joints[2], q[1])
+    without = parse_csv("\n".join(r.rsplit(",", 12)[0] for r in rows) + "\n", "pose.csv", ev)
+    assert without.joints is None
+    a = Predictor(with_joints, ("actuator_loss",), ev).predict()[0]
+    b = Predictor(without, ("actuator_loss",), ev).predict()[0]
+    assert np.abs(a - b).max() <= 1e-12 * b.max()
+    # shifted encoder readings move the prediction: the columns are used, not ignored
+    shifted = parse_csv("\n".join(rows).replace(repr(float(q[0, 0, 0])), repr(float(q[0, 0, 0]) + 0.01)) + "\n",
+                        "shift.csv", ev)
+    assert np.abs(Predictor(shifted, ("actuator_loss",), ev).predict()[0][:2] - b[:2]).max() > 1e-3
+    with pytest.raises(MeasurementError, match="'q3@4' is missing"):
+        parse_csv("\n".join(r.rsplit(",", 1)[0] for r in rows) + "\n", "cut.csv", ev)
