@@ -213,3 +213,36 @@ def test_measurement_csv_joint_columns(numeric):
     assert np.abs(Predictor(shifted, ("actuator_loss",), ev).predict()[0][:2] - b[:2]).max() > 1e-3
     with pytest.raises(MeasurementError, match="'q3@4' is missing"):
         parse_csv("\n".join(r.rsplit(",", 1)[0] for r in rows) + "\n", "cut.csv", ev)
+
+
+# ------------------------------------------------------------ the solver on its own
+def _two_link(poses, l1=1.0, l2=0.8):
+    """Loop closure of a planar two-link arm reaching (x, y): an independent NumPy model."""
+    def closure(q, p):
+        a, b = q[..., 0], q[..., 1]
+        r = np.stack([l1 * np.cos(a) + l2 * np.cos(a + b) - p["x"][:, None],
+                      l1 * np.sin(a) + l2 * np.sin(a + b) - p["y"][:, None]], -1)
+        A = np.stack([np.stack([-l1 * np.sin(a) - l2 * np.sin(a + b), -l2 * np.sin(a + b)], -1),
+                      np.stack([l1 * np.cos(a) + l2 * np.cos(a + b), l2 * np.cos(a + b)], -1)], -2)
+        return {"residual": r, "dresidual": A}
+    return closure, {"x": poses[:, 0], "y": poses[:, 1]}
+
+
+@pytest.mark.parametrize("elbow", [1.0, -1.0])
+def test_newton_keeps_the_descriptions_branch(elbow):
+    """The elbow sign of the reference configuration is the solution's (law of cosines),
+    and an unreachable target gives NaN, never a nearby configuration."""
+    from eigentwist.runtime.newton import solve
+
+    rng = np.random.default_rng(4)
+    radius = rng.uniform(0.3, 1.7, 200)
+    angle = rng.uniform(-0.6, 1.2, 200)                # the arm's workspace: a sector about the reference
+    poses = np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
+    poses = np.vstack([poses, [[2.5, 0.0]], [[0.05, 0.0]]])       # out of reach: too far, too close
+    closure, p = _two_link(poses)
+    q = solve(closure, np.array([[0.3, 1.2 * elbow]]), p, len(poses), branch=lambda q: np.sin(q[..., 1]))
+    cos_b = (radius**2 - 1.0 - 0.64) / (2 * 0.8)
+    assert np.all(np.isfinite(q[:200]))
+    b = q[:200, 0, 1]
+    assert np.abs(np.cos(b) - cos_b).max() < 1e-10 and (np.sign(np.sin(b)) == elbow).all()
+    assert np.isnan(q[200:]).all()

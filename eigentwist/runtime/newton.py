@@ -10,7 +10,7 @@ Levenberg-Marquardt steps
     (A^T A + lambda diag(A^T A)) dq = -A^T r,
 
 accepting a step when ``|r|`` decreases (lambda / 4) and otherwise retrying with a
-larger damping (lambda x 4), started from the description's reference configuration (its
+larger damping (lambda x 4), each coordinate moving at most ``MAX_STEP`` per iteration, started from the description's reference configuration (its
 assembly branch); poses that do not converge from there are retried from the solution of
 the previous pose of the batch (a sweep moves in small steps). A pose converges when
 ``|r| < tol``; one that does not has NaN coordinates, which the IK program's closure check
@@ -25,9 +25,10 @@ import numpy as np
 
 __all__ = ["solve", "MAX_ITERATIONS", "TOL"]
 
-MAX_ITERATIONS = 60
+MAX_ITERATIONS = 80
 TOL = 1e-12            # |r| (m and rad) of a converged configuration
 LAMBDA0 = 1e-3
+MAX_STEP = 0.25        # largest change of one coordinate per iteration (rad; m for P)
 
 
 def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
@@ -52,6 +53,11 @@ def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
                 step = -np.linalg.solve(H, Atr[..., None])[..., 0]
             except np.linalg.LinAlgError:               # a singular H (a zero row): least squares
                 step = -(np.linalg.pinv(H) @ Atr[..., None])[..., 0]
+        # a bounded step (MAX_STEP rad or m per coordinate) keeps Newton near the branch it
+        # starts on: an undamped first step from far away may jump past a singularity
+        big = np.abs(step).max(-1, keepdims=True)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            step = np.where(big > MAX_STEP, step * (MAX_STEP / big), step)
         step = np.where(active[..., None], step, 0.0)
         trial = q + step
         new = closure(trial, p)
