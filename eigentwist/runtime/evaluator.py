@@ -464,6 +464,13 @@ class Evaluator:
                                  f"got {getattr(arr, 'shape', None)} {getattr(arr, 'dtype', type(arr).__name__)}")
         return out
 
+    @property
+    def joint_units(self) -> tuple:
+        """Unit of each joint coordinate per leg (the last axis of :meth:`joint_angles`):
+        ``"m"`` for a prismatic joint's, ``"rad"`` for the others' (a Pi joint's angle too)."""
+        leg = self.robot.legs[0]
+        return tuple("m" if leg.joints[c[0]].kind == "P" else "rad" for c in leg.kinematics.coordinates)
+
     def joint_coordinates(self, joints, poses=None) -> tuple:
         """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.
 
