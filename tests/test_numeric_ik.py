@@ -247,3 +247,20 @@ def test_newton_keeps_the_descriptions_branch(elbow):
     b = q[:200, 0, 1]
     assert np.abs(np.cos(b) - cos_b).max() < 1e-10 and (np.sign(np.sin(b)) == elbow).all()
     assert np.isnan(q[200:]).all()
+
+
+def test_content_hash_sees_the_urdf_data():
+    """Two URDF-form robots that differ only in a joint origin are cached apart."""
+    import dataclasses
+
+    from eigentwist.description.serial import SerialLeg
+    from eigentwist.runtime.userfile import description_key
+
+    a = rrpirr_urdf.delta()
+    leg = a.legs[0].kinematics.leg
+    joints = list(leg.joints)
+    joints[1] = dataclasses.replace(joints[1], origin=(0.3, 0, 0))
+    moved = SerialLeg(leg.name, tuple(joints), leg.bodies, leg.attachment, leg.reference, leg.attachment_rotation)
+    b = dataclasses.replace(a, legs=(moved,) + a.legs[1:])
+    assert description_key(a) != description_key(b)
+    assert description_key(a) == description_key(rrpirr_urdf.delta())
