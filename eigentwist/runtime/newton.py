@@ -126,5 +126,6 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
         ok = norm < tol
     if branch is not None and ok.any():
         ref_sign = np.sign(branch(np.broadcast_to(reference, q.shape)))
-        ok &= np.sign(branch(np.where(ok[..., None], q, q0))) == ref_sign
+        # a singular reference (sign 0) names no branch: nothing to compare with
+        ok &= (np.sign(branch(np.where(ok[..., None], q, q0))) == ref_sign) | (ref_sign == 0)
     return np.where(ok[..., None], q, np.nan)
