@@ -79,6 +79,12 @@ def _model_inputs(robot) -> dict:
                 p = params[q.name]
                 out[leg_input_name(q.name, k)] = (p.unit, float(p.default), f"leg {k}'s own {q.name} ({name})")
             out[leg_switch_name(name, k)] = ("-", flag, f"switch of effect {name} on leg {k} (0 or 1)")
+    for k, leg in enumerate(robot.legs, start=1):
+        # legs in URDF form (numeric IK): the kernels read the joint coordinates solved by
+        # Newton's method in the runtime; a C caller passes them (default: the reference)
+        for m, value in enumerate(getattr(getattr(leg, "kinematics", None), "reference", ()) or (), start=1):
+            out[f"q{m}_{k}"] = ("rad or m", float(value), f"leg {k}'s joint coordinate {m} (numeric IK: the caller "
+                                "solves it; default: the reference configuration)")
     return out
 
 

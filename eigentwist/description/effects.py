@@ -393,9 +393,19 @@ def split_scope(item: str, n_legs: int | None = None, what: str = "effect") -> t
 
 
 def presets_of(robot_or_available) -> dict:
-    """The presets a robot offers: the catalogue's :data:`PRESETS` with its description's own
-    (``presets``, e.g. the hexapod's bare strut stiffness as ``paper``) in their place."""
-    return {**PRESETS, **dict(getattr(robot_or_available, "presets", None) or {})}
+    """The presets a robot offers (issue 20: a preset and its values belong to the robot that
+    measured them).
+
+    A robot description offers its own ``presets`` (the Heli4 and the Delta declare the
+    catalogue's :data:`PRESETS`, whose ``actuator_loss`` is the Heli4's measured eta_a = 0.82);
+    a robot that declares none (the hexapod, a user's or a gallery robot) gets every preset
+    name as the bare model k_a, never another robot's measured values. Given only effect
+    names (no description), the catalogue's :data:`PRESETS`.
+    """
+    if not hasattr(robot_or_available, "legs"):
+        return dict(PRESETS)
+    own = dict(getattr(robot_or_available, "presets", None) or {})
+    return {**{name: () for name in PRESETS}, **own}
 
 
 def _lookup(robot_or_available):

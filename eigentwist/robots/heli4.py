@@ -9,7 +9,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ..description import Coupling, EECompliance, Parameter, RobotDescription, triangle_inequality, tube
-from ..description.effects import effect_parameters
+from ..description.effects import PRESETS, effect_parameters
 from ..description.rrpirr import rrpirr_leg
 from ..description.formulas import parallelogram_inertia
 from ..description.screw import spatial_inertia
@@ -115,6 +115,8 @@ def describe() -> RobotDescription:
         workspace=((-0.1, 0.1), (-0.1, 0.1), (-0.70, -0.55)),
         source="Hoevenaars, Krut & Herder (2020), DOI 10.1016/j.mechmachtheory.2019.103775",
         effects=EFFECTS,
+        # the catalogue's presets: actuator_loss carries the Heli4's measured eta_a = 0.82
+        presets=dict(PRESETS),
         constraints=(tube(p["r_i"], p["r_o"], "the parallelogram rods")
                      + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
                      + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")),
