@@ -59,10 +59,13 @@ def test_zero_sigma_is_refused(capsys):
     assert code == 2 and "sigma '0%'" in one_error_line(err)
 
 
-def test_zero_noise_needs_a_stated_sigma(capsys):
-    code, _, err = run(capsys, "synth", "--truth", "paper", "--k-a", "1000", "--noise", "0%")
+def test_zero_noise_says_which_sigma_it_writes(capsys):
+    code, out, err = run(capsys, "synth", "--truth", "paper", "--k-a", "1000", "--noise", "0%", "--modes", "x")
     line = one_error_line(err)
-    assert code == 2 and "--noise 0%" in line and "--sigma" in line
+    assert code == 0 and "--noise 0%" in line and "2 %" in line and "--sigma" in line
+    header, row = out.strip().splitlines()
+    cells = dict(zip(header.split(","), row.split(",")))
+    assert float(cells["sigma_hz"]) == pytest.approx(0.02 * float(cells["freq_hz"]), rel=1e-9)
     code, out, _ = run(capsys, "synth", "--truth", "paper", "--k-a", "1000", "--noise", "0%", "--sigma", "1%",
                        "--modes", "x")
     assert code == 0

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import CliError, add_set_option
+from .common import CliError, add_set_option, eprint
 from .synth_uff import UFF_EPILOG, add_uff_options, run_uff
 
 HELP = "synthesize measurements from a truth model with a hidden effect and noise (CSV)"
@@ -113,8 +113,8 @@ def run(args) -> int:
             raise CliError(f"--set {', '.join(values)} with --uff: give the values in --truth (PRESET:NAME=VALUE)")
         return run_uff(args, ev, _numbers(args.k_a, "--k-a value"), poses)
     if args.sigma is None and parse_noise(args.noise, "--noise") == 0:
-        raise CliError(f"--noise {args.noise}: noise-free frequencies have no uncertainty to write as sigma_hz; "
-                       "state one with --sigma, e.g. --sigma 0.5% (a silent 2 % default would weigh the fit)")
+        eprint(f"eigentwist synth: note: --noise {args.noise} gives noise-free frequencies; sigma_hz is written as "
+               "the 2 % default uncertainty (state another with --sigma, e.g. --sigma 0.5%)")
     meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), poses,
                  [m for m in args.modes.split(",") if m.strip()], args.noise, args.seed, ev=ev,
                  extra_stiffness=_extra(args.extra_stiffness) or None, sigma=args.sigma, values=values)
