@@ -3,7 +3,7 @@
 A lab's commonest error is a setting written with the wrong k_a (or pose): all its modes
 then deviate together, so the isolated-row check (:mod:`.misfit`) rightly calls it a
 pattern, and the selection would add an effect to absorb it. After the isolated-row
-check, each setting with two or more rows is checked as a unit against the final model:
+check, each setting with ``MIN_ROWS`` or more rows is checked as a unit against the final model:
 
 * its chi-square, scaled by the Birge ratio of the *other* rows (never below 1), is
   beyond the chi2_{n_s} quantile at alpha/S (Bonferroni over the S settings), and
@@ -31,6 +31,8 @@ __all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of"]
 FAR = 10.0          # the best other k_a (or pose) fits this many times better in chi-square
 KA_SPAN = 4.0       # k_a searched from min/KA_SPAN to max*KA_SPAN of the measured values
 N_KA = 121          # log-spaced k_a values searched
+MIN_ROWS = 3        # rows a setting needs: the search spends one degree of freedom, the check of the
+                    # relabelled fit needs two more (the paper's two-row k_a = 125 setting stays a pattern)
 
 
 @dataclass
@@ -89,7 +91,7 @@ def _chi2_table(sub: Measurements, ev, final, k_a: np.ndarray, poses: np.ndarray
 
 def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly]:
     """Settings that do not belong (see module doc), worst first."""
-    groups = [g for g in settings_of(meas) if len(g) >= 2]
+    groups = [g for g in settings_of(meas) if len(g) >= MIN_ROWS]
     if len(groups) < 3:
         return []
     r = final.comparison.error_sigma
