@@ -89,7 +89,7 @@ def run(args) -> int:
     if any(r["differs"] for r in given) and not (args.details or args.rows):
         say(changed_text(given, d.robot))               # the values used, when not the robot's defaults
     if args.details or args.rows:
-        print("\n" + diagnosis_text(d, ev, show_rows=args.rows))
+        say("\n" + diagnosis_text(d, ev, show_rows=args.rows))
     else:
         print("\n(--details: the ranking of every candidate, residual patterns, criteria; --json: all of it)")
     if args.plot:
