@@ -11,9 +11,7 @@ EPILOG = DATA_HELP + """
 
 The output opens with the answer (at most 8 lines): the verdict, what was added where with its
 fitted values, what the data cannot tell apart (mirror images at the measured poses as one),
-outliers and the stated uncertainty, and the one next measurement. --details adds:
-
-
+outliers and the stated uncertainty, and the one next measurement. --details adds what it did:
   1. compares the baseline and says where it fails and what the residual pattern suggests;
   2. fits every catalogue effect the baseline lacks (bounded weighted least squares on the
      frequencies), with standard errors, RMS/max error, AICc and an F-test p-value; ranks them;
@@ -28,9 +26,9 @@ outliers and the stated uncertainty, and the one next measurement. --details add
 --set NAME=VALUE (or --baseline paper:NAME=VALUE) gives the model's values; a parameter the
 diagnosis fits starts from it. A CSV column wins over --set, which wins over the default.
 
-JSON keys: answer {lines, verdict, added, apart, rows, next, effects, cannot_tell_apart,
-mirror_images}, baseline {effects, rms_pct, max_pct, ...}, ranking [{effect, params, param_std, rms_pct,
-max_pct, aicc, p_value, indistinguishable_from, plausible, plausible_range, ...}], selected,
+JSON keys: answer {lines, verdict, why, added, apart, rows, next, effects, cannot_tell_apart,
+mirror_images}, baseline {effects, rms_pct, max_pct, ...}, ranking [{effect, params, param_std,
+rms_pct, max_pct, aicc, p_value, indistinguishable_from, plausible, plausible_range, ...}], selected,
 steps [{effects, rms_pct, max_pct, alternatives, ...}], final {effects, rms_pct, max_pct, explained,
 alternatives, message, ...}, outliers [{line, k_a, mode, freq_hz, residual_sigma}], uncertainty
 {verdict: consistent|understated|overstated|too few rows, birge_ratio}, next_measurement, criteria,
@@ -39,6 +37,7 @@ Units: SI (params), %.
 
 examples:
   eigentwist diagnose paper                       # the paper's measurements from the rigid model
+  eigentwist diagnose paper --details             # the answer, then the ranking, steps and criteria
   eigentwist diagnose data.csv --baseline paper --json
   eigentwist diagnose data.csv --add ee_compliance --plot steps.png
 """
@@ -96,7 +95,7 @@ def run(args) -> int:
     if any(r["differs"] for r in given) and not (args.details or args.rows):
         say(changed_text(given, d.robot))               # the values used, when not the robot's defaults
     if args.details or args.rows:
-        print("\n" + diagnosis_text(d, ev, show_rows=args.rows))
+        say("\n" + diagnosis_text(d, ev, show_rows=args.rows))
     else:
         print("\n(--details: the ranking of every candidate, residual patterns, criteria; --json: all of it)")
     if args.plot:

@@ -128,7 +128,17 @@ def _added(d, ev, items: list[dict], groups) -> str:
         values = ", ".join(p["text"] for p in it["params"]) or "switched on, nothing fitted"
         where = f" ({_where(legs)})" if it["leg_level"] else ""
         parts.append(f"{label}{where}: {values}")
-    return ("Added by hand: " if d.manual else "Added: ") + "; ".join(parts) + "."
+    return ("Added by hand: " if d.manual else "Added: ") + "; ".join(parts) + "." + _removed(d)
+
+
+def _removed(d) -> str:
+    """Effects a backward elimination dropped again (when the diagnosis records them as
+    ``removed``: names, or dicts with ``effect`` and ``message``)."""
+    items = getattr(d, "removed", None) or []
+    names = [i if isinstance(i, str) else (i.get("effect") if isinstance(i, dict) else getattr(i, "effect", None))
+             for i in items]
+    names = [n for n in names if n]
+    return f" Removed again: {', '.join(names)} (not needed in the final model)." if names else ""
 
 
 def _groups_at(d, k: int) -> list:

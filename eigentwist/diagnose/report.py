@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ..text import format_table, wrap
+from ..text import format_table
 from .compare import FAIL_SIGMA
 from .stats import CRITERIA, gof_p_value
 from .values import changed_text
@@ -334,4 +334,4 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     if show_rows:
         out += ["", comparison_table(f.comparison)]
     out += ["", "criteria:"] + [f"   {k}: {v}" for k, v in CRITERIA.items()]
-    return wrap("\n".join(out))
+    return "\n".join(out)

@@ -45,6 +45,12 @@ def mode_frames(ev, pose, model="paper", k_a: float = 2000.0, n_modes: int = 3, 
     return g, out
 
 
+def _anchor(ev, g) -> np.ndarray:
+    """Where the moving link of each leg starts: the elbow of a leg with a lower link (the
+    Heli4, the Delta), the base joint of a strut (a joint-list robot: the hexapod)."""
+    return g.elbow if hasattr(ev.robot, "l1") else g.base
+
+
 def _view(points, azim_deg: float = -60.0, elev_deg: float = 18.0) -> np.ndarray:
     """(N, 2) screen coordinates (right, up) of base-frame points seen from azimuth/elevation
     (Matplotlib's convention)."""
@@ -65,6 +71,7 @@ def modes_svg(ev, pose, model="paper", k_a: float = 2000.0, n_modes: int = 3, am
     """An animated SVG (a string): one panel per mode, the grey robot at rest, the coloured
     platform and links oscillating along the mode shape (period :data:`PERIOD_S`)."""
     g, modes = mode_frames(ev, pose, model, k_a, n_modes, amplitude, **params)
+    anchor = _anchor(ev, g)
     rest = np.vstack([g.base, g.elbow, g.attachment])
     moving = [np.vstack([g.attachment + s * m["displacement"] for s in (-1.0, 1.0)]) for m in modes]
     allxy = _view(np.vstack([rest] + moving))
@@ -105,8 +112,8 @@ def modes_svg(ev, pose, model="paper", k_a: float = 2000.0, n_modes: int = 3, am
                    f'fill="{color}" fill-opacity="0.25" stroke="{color}" stroke-width="2.5">'
                    f'<animate attributeName="points" values="{keys}" {anim}/></polyline>')
         for i in range(len(g.legs)):                     # the links to the platform follow it
-            keys = ";".join(_pts(screen(np.vstack([g.elbow[i], f[i]]), k)) for f in frames)
-            out.append(f'<polyline points="{_pts(screen(np.vstack([g.elbow[i], frames[0][i]]), k))}" fill="none" '
+            keys = ";".join(_pts(screen(np.vstack([anchor[i], f[i]]), k)) for f in frames)
+            out.append(f'<polyline points="{_pts(screen(np.vstack([anchor[i], frames[0][i]]), k))}" fill="none" '
                        f'stroke="{color}" stroke-width="1.5"><animate attributeName="points" values="{keys}" '
                        f'{anim}/></polyline>')
         out.append("</g>")
@@ -124,6 +131,7 @@ def modes_gif(ev, pose, path, model="paper", k_a: float = 2000.0, n_modes: int =
 
     plt = pyplot()
     g, modes = mode_frames(ev, pose, model, k_a, n_modes, amplitude, **params)
+    anchor = _anchor(ev, g)
     n = len(modes)
     fig = plt.figure(figsize=(3.6 * n, 3.8))
     pts = np.vstack([g.base, g.elbow, g.attachment] + [g.attachment + s * m["displacement"]
@@ -138,7 +146,7 @@ def modes_gif(ev, pose, path, model="paper", k_a: float = 2000.0, n_modes: int =
         ax.plot(*_outline(g.attachment, g.pose).T, "-", color="0.75", lw=1.5)
         color = COLORS[k % len(COLORS)]
         (plat,) = ax.plot(*_outline(g.attachment, g.pose).T, "-", color=color, lw=2.5)
-        links = [ax.plot(*np.vstack([g.elbow[i], g.attachment[i]]).T, "-", color=color, lw=1.5)[0]
+        links = [ax.plot(*np.vstack([anchor[i], g.attachment[i]]).T, "-", color=color, lw=1.5)[0]
                  for i in range(len(g.legs))]
         artists.append((plat, links, m["displacement"]))
         for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), range(3)):
@@ -158,7 +166,7 @@ def modes_gif(ev, pose, path, model="paper", k_a: float = 2000.0, n_modes: int =
             out = _outline(moved, g.pose)
             plat.set_data_3d(out[:, 0], out[:, 1], out[:, 2])
             for i, line in enumerate(links):
-                seg = np.vstack([g.elbow[i], moved[i]])
+                seg = np.vstack([anchor[i], moved[i]])
                 line.set_data_3d(seg[:, 0], seg[:, 1], seg[:, 2])
             changed += [plat, *links]
         return changed

@@ -1,7 +1,10 @@
 """Build the report: compute (``build_report``), render (``render_html``), write.
 
-The HTML is one file with every figure embedded as a base64 PNG, so a colleague can
-open it anywhere. Sections: the model and its parameters with the robot and its lowest
+The HTML is one file with every figure embedded as a base64 PNG (the animated mode
+shapes as a base64 SVG animated by SMIL, :mod:`eigentwist.plots.animate`), so a colleague
+can open it anywhere, offline. It opens with the diagnosis's answer (JSON ``answer``,
+:mod:`eigentwist.diagnose.answer`) and ends with the provenance (:mod:`.provenance`).
+Sections: the model and its parameters with the robot and its lowest
 mode shapes at the measured pose, the paper reproduction (Heli4), the comparison with
 the measurements (Fig. 6 style), the diagnosis (ranking, the error falling step by step,
 the final model's fitted values) and the suggested next measurement.
