@@ -50,6 +50,7 @@ def test_generate_check_passes_on_fresh_tree():
     assert r.returncode == 0, r.stdout + r.stderr
 
 
+@pytest.mark.derives
 def test_generate_check_names_stale_files(tmp_path, monkeypatch, capsys):
     import eigentwist.codegen.generate as gen
 
