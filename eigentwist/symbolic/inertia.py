@@ -4,7 +4,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ..description.formulas import parallelogram_inertia, point_mass_inertia
-from ..description.screw import inverse_adjoint, spatial_inertia
+from ..description.screw import inverse_adjoint
 from .leg import LegScrews
 from .program import Program
 
