@@ -87,7 +87,9 @@ def pytest_configure(config):
     original = loader.load
 
     def load_numpy(robot="heli4", backend="auto", *args, **kwargs):
-        return original(robot, "numpy" if backend == "auto" else backend, *args, **kwargs)
+        # a test that points CC somewhere tests the compiler lookup itself: leave it alone
+        use = "numpy" if backend == "auto" and "CC" not in os.environ else backend
+        return original(robot, use, *args, **kwargs)
 
     loader.load = runtime.load = load_numpy
 
