@@ -42,7 +42,8 @@ _SOURCES = (Path(__file__), Path(__file__).parent.parent / "symbolic" / "sensiti
 
 
 def code_version() -> str:
-    """SHA-256 of the code that derives and renders the kernel (in the kernel's header: :func:`eigentwist.hashing.files_digest`)."""
+    """SHA-256 of the code that derives and renders the kernel, for the kernel's header
+    (:func:`eigentwist.hashing.files_digest`)."""
     return files_digest(_SOURCES)
 
 
