@@ -26,9 +26,11 @@ run: $(VENV)/.installed
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -n auto --dist loadgroup --durations=15
 
-## test-fast: the inner loop (under 2 minutes): no compiler, no browser, no slow tests (seeds, README)
+## test-fast: the inner loop (under 2 minutes): no compiler, no browser, no slow tests (seeds, README),
+## no SymPy derivation (the checked-in evaluators only)
 test-fast: $(VENV)/.installed-test
-	EIGENTWIST_TEST_BACKEND=numpy $(BIN)/python -m pytest -n auto --dist loadgroup -m "not compiled and not browser and not slow" --durations=15
+	EIGENTWIST_TEST_BACKEND=numpy $(BIN)/python -m pytest -n auto --dist loadgroup \
+		-m "not compiled and not browser and not slow and not derives" --durations=15
 
 ## generate: regenerate eigentwist/generated (checked in)
 generate: $(VENV)/.installed

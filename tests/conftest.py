@@ -87,14 +87,28 @@ def pytest_configure(config):
     original = loader.load
 
     def load_numpy(robot="heli4", backend="auto", *args, **kwargs):
-        return original(robot, "numpy" if backend == "auto" else backend, *args, **kwargs)
+        # a test that points CC somewhere tests the compiler lookup itself: leave it alone
+        use = "numpy" if backend == "auto" and "CC" not in os.environ else backend
+        return original(robot, use, *args, **kwargs)
 
     loader.load = runtime.load = load_numpy
 
 
+#: modules whose tests generate sensitivity kernels with SymPy (their session fixtures)
+DERIVING_MODULES = {"test_diagnose_jacobian", "test_hexapod_sensitivity", "test_optimize", "test_sensitivity",
+                    "test_sensitivity_cli", "test_sensitivity_legs", "test_sensitivity_split"}
+#: fixtures that derive (``derived``: the symbolic Heli4) or render every robot (``rendered``)
+DERIVING_FIXTURES = {"derived", "rendered"}
+
+
 def pytest_collection_modifyitems(config, items):
-    """A test parametrized on the C backend (``backend`` = ``"c"``) is a compiled test."""
+    """A test parametrized on the C backend (``backend`` = ``"c"``) is a compiled test; a test
+    that derives (module, fixture above) is marked ``derives`` (``make test-fast`` leaves both out)."""
     for item in items:
+        module = getattr(item, "module", None)
+        if (module is not None and module.__name__.rpartition(".")[2] in DERIVING_MODULES) or \
+                DERIVING_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.derives)
         params = getattr(getattr(item, "callspec", None), "params", {})
         if any(k in ("backend", "ev") and v == "c" for k, v in params.items()):
             item.add_marker(pytest.mark.compiled)

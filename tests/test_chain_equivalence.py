@@ -73,6 +73,7 @@ def _close(value, want, n: int) -> np.ndarray:
     return err / np.where(scale > 0, scale, 1e-3)
 
 
+@pytest.mark.derives
 @pytest.mark.parametrize("robot", ["heli4", "delta", "hexapod"])
 def test_the_derivation_gives_the_pinned_outputs(robot):
     """The one derivation's own programs, evaluated exactly, at two poses (the hexapod:

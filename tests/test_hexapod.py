@@ -173,6 +173,7 @@ def test_payload_at_the_origin_lowers_all_but_the_twist_about_z(robot, evaluate)
     assert (f1 <= f0 * (1 + 1e-12)).all() and (f1 < f0 * (1 - 1e-6)).sum() == 5   # a point mass: no inertia about z
 
 
+@pytest.mark.derives
 def test_generation_under_a_minute():
     """Derivation, CSE and rendering of both backends of the hexapod (issue 15: < 60 s)."""
     t0 = time.perf_counter()

@@ -138,6 +138,11 @@ def test_subset_of_a_loaded_kernel_needs_no_generation(evs):
     assert np.array_equal(sub[..., 1], full[..., WRT["heli4"].index("l2")])
 
 
+# the C comparison on three of them (a length, a modulus, k_a or an offset): gcc's time grows
+# with the kernel's size, and the NumPy side selects them from its kernel of WRT
+WRT_C = {"heli4": ("l2", "E_rod", "k_a"), "delta": ("l1", "E_rod", "p_x")}
+
+
 @compiled
 @pytest.mark.parametrize("robot", sorted(WRT))
 def test_c_equals_numpy(evs, robot):
@@ -145,11 +150,12 @@ def test_c_equals_numpy(evs, robot):
     ev_c = eigentwist.load(robot, backend="c")
     poses = random_poses(ev_np.robot, 50, seed=5)
     p = ev_np._params(len(poses), {}, "paper")
-    a = sensitivity_kernels(ev_np, WRT[robot])(poses[:, 0], poses[:, 1], poses[:, 2], p)
-    b = sensitivity_kernels(ev_c, WRT[robot])(poses[:, 0], poses[:, 1], poses[:, 2], p)
+    wrt = WRT_C[robot]
+    a = sensitivity_kernels(ev_np, wrt)(poses[:, 0], poses[:, 1], poses[:, 2], p)
+    b = sensitivity_kernels(ev_c, wrt)(poses[:, 0], poses[:, 1], poses[:, 2], p)
     for k in a:
         scale = np.abs(a[k]).max()
         assert np.allclose(b[k], a[k], rtol=1e-12, atol=1e-12 * scale), k
-    s_np = ev_np.sensitivities(poses, WRT[robot])
-    s_c = ev_c.sensitivities(poses, WRT[robot])
+    s_np = ev_np.sensitivities(poses, wrt)
+    s_c = ev_c.sensitivities(poses, wrt)
     assert np.allclose(s_c, s_np, rtol=1e-9, atol=1e-12 * np.abs(s_np).max())

@@ -9,11 +9,11 @@ rendered by the same machinery as the checked-in evaluators (:func:`build_kernel
 """
 from __future__ import annotations
 
-import hashlib
 import re
 from pathlib import Path
 
 from ..description.effects import switch_name
+from ..hashing import files_digest
 from ..symbolic import POSE
 from ..symbolic.sensitivity import OUTPUTS, sensitivity_program
 from .kernel import Kernel, Output, build_kernel, source_hash
@@ -42,11 +42,9 @@ _SOURCES = (Path(__file__), Path(__file__).parent.parent / "symbolic" / "sensiti
 
 
 def code_version() -> str:
-    """SHA-256 of the code that derives and renders the kernel (part of the cache key)."""
-    h = hashlib.sha256()
-    for path in _SOURCES:
-        h.update(path.read_bytes())
-    return h.hexdigest()
+    """SHA-256 of the code that derives and renders the kernel, for the kernel's header
+    (:func:`eigentwist.hashing.files_digest`)."""
+    return files_digest(_SOURCES)
 
 
 def sensitivity_kernel(model, wrt, progress=None) -> Kernel:
