@@ -71,10 +71,12 @@ class Modes:
     @property
     def direction(self) -> np.ndarray:
         """(N, n) axis index (into :data:`AXES`) carrying the largest share of each mode's
-        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist)."""
+        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist);
+        a rigid model's coordinates are its allowed twists, named by :attr:`axes`."""
         if self.eigentwists is None:
             raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
-        return directions(self.eigentwists, offset=len(AXES) - self.eigentwists.shape[-1])
+        local = directions(self.eigentwists)
+        return np.asarray([AXES.index(a) for a in self.axes])[local]     # the allowed twists' axes
 
 
 class Evaluator:
