@@ -148,7 +148,7 @@ def test_unreachable_commanded_pose_is_one_line(gallery, monkeypatch):
 
 
 # -------------------------------------------------- kinetic energy, independently
-def _points(ev, bodies):
+def _points(ev, bodies, values):
     """A NumPy function of (full pose, parameters) -> each leg's body points, from the
     description's geometry (its input data), evaluated numerically."""
     p = {q.name: q.symbol for q in ev.robot.parameters}
@@ -156,7 +156,7 @@ def _points(ev, bodies):
     names = sorted({k for _, ends in bodies for k in ends})
     exprs = [[leg.geometry(sp.Matrix(POSE), R, p)[k] for k in names] for leg in ev.robot.legs]
     f = sp.lambdify(list(POSE) + list(R) + list(p.values()), exprs, "numpy")
-    values = list(ev.robot.defaults.values())
+    values = [values[q.name] for q in ev.robot.parameters]
 
     def at(full):
         Rn = rotation_matrix(full[3:])
@@ -165,12 +165,11 @@ def _points(ev, bodies):
     return at
 
 
-def _energy(ev, full, dfull, bodies, platform):
+def _energy(ev, full, dfull, bodies, platform, d):
     """Kinetic energy (J) along d(full)/dt from central differences of the points: point
     masses and slender uniform rods (m/6 (v1^2 + v1.v2 + v2^2)), plus the platform's."""
-    at, h = _points(ev, bodies), 1e-6
+    at, h = _points(ev, bodies, d), 1e-6
     plus, minus = at(full + h * dfull), at(full - h * dfull)
-    d = ev.robot.defaults
     T = 0.0
     for leg_p, leg_m in zip(plus, minus):
         for mass, ends in bodies:
@@ -182,23 +181,33 @@ def _energy(ev, full, dfull, bodies, platform):
     return T + platform(d, omega, v), np.concatenate([omega, v])
 
 
-@pytest.mark.parametrize("name, bodies, platform", [
-    ("prs3", [("m_s", ("c",)), ("m_r", ("c", "top"))],
-     lambda d, w, v: d["m_pl"] / 2 * v @ v + 0.5 * (d["I_pl_xx"] * (w[0] ** 2 + w[1] ** 2) + d["I_pl_zz"] * w[2] ** 2)),
-    ("rrr3", [("m1", ("A", "C")), ("m2", ("C", "top"))],
-     lambda d, w, v: d["m_pl"] / 2 * v @ v + 0.5 * (d["I_pl_xx"] * (w[0] ** 2 + w[1] ** 2) + d["I_pl_zz"] * w[2] ** 2)),
+PLATE = lambda d, w, v: d["m_pl"] / 2 * v @ v + 0.5 * (d["I_pl_xx"] * (w[0] ** 2 + w[1] ** 2) + d["I_pl_zz"] * w[2] ** 2)  # noqa: E731, E501
+
+
+@pytest.mark.parametrize("name, bodies, platform, values", [
+    ("prs3", [("m_s", ("c",)), ("m_r", ("c", "top"))], PLATE, {}),
+    ("rrr3", [("m1", ("A", "C")), ("m2", ("C", "top"))], PLATE, {}),
+    # the linear Delta's parallelogram is the paper's fictitious rod (no physical rods'
+    # energy to compare with): its mass made negligible (1e-12 kg), the sliders and platform remain
+    ("linear_delta", [("m_s", ("c",))], lambda d, w, v: d["m_pl"] / 2 * v @ v, {"m_r": 1e-12}),
 ])
-def test_kinetic_energy_matches_finite_differences(gallery, name, bodies, platform):
+def test_kinetic_energy_matches_finite_differences(gallery, name, bodies, platform, values):
+    """1/2 t^T M t of the derived M equals the bodies' kinetic energy from central
+    differences of their points along a random motion of the commanded coordinates (the
+    followers' rates from differences of the completed poses): point masses, slender
+    uniform rods m/6 (v1^2 + v1.v2 + v2^2), the platform's 1/2 m v^2 + 1/2 w^T I w."""
     ev = gallery[name]
+    d = {**ev.robot.defaults, **values}
     x = _poses(ev, 6, seed=5)[:4]
-    full = np.asarray(ev._poses(x))
-    M = ev.matrices(x, "none")["M"]
+    six = lambda f: np.pad(np.asarray(f), ((0, 0), (0, 6 - np.shape(f)[1])))  # noqa: E731  (rotation 0)
+    full = six(ev._poses(x))
+    M = ev.matrices(x, "none", **values)["M"]
     rng = np.random.default_rng(7)
     for k in range(len(x)):
         dx = rng.standard_normal(3) * np.array([0.1 if c[0] != "r" else 1.0 for c in ev.pose_names])
         h = 1e-6                                                    # followers move too: the full pose's rate
-        dfull = (np.asarray(ev._poses(x[k] + h * dx)) - np.asarray(ev._poses(x[k] - h * dx)))[0] / (2 * h)
-        T, twist = _energy(ev, full[k], dfull, bodies, platform)
+        dfull = (six(ev._poses(x[k] + h * dx)) - six(ev._poses(x[k] - h * dx)))[0] / (2 * h)
+        T, twist = _energy(ev, full[k], dfull, bodies, platform, d)
         np.testing.assert_allclose(0.5 * twist @ M[k] @ twist, T, rtol=1e-6)
 
 
