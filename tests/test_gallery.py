@@ -227,3 +227,12 @@ def test_numpy_equals_c(gallery, name):
     f6 = evc.modes(x, "rigid").freq_hz
     assert np.isfinite(f6).all() and f6.shape == (len(x), len(ev.pose_names))
     assert np.isfinite(mats["K_F"]).all()
+
+
+@pytest.mark.compiled
+def test_c_backend_names_the_unreachable_leg():
+    """A described robot's C pass names its own leg (not a shipped robot's) in one line."""
+    ev = eigentwist.load(str(GALLERY / "rrr3.py"), backend="c", threads=1, progress=None)
+    with pytest.raises(UnreachablePoseError, match="unreachable for leg 2: the leg cannot span") as err:
+        ev.frequencies(np.array([[0.3, 0.0, 0.0]]), "none")
+    assert "\n" not in str(err.value)

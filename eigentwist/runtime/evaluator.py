@@ -422,7 +422,8 @@ class Evaluator:
         """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
         self._raise_unfollowed(poses)
         k = int(np.argmax(bad))
-        self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),))
+        self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),),
+                                    legs=self.robot.legs)
 
     @staticmethod
     def _rows(params: dict, sl, n: int) -> dict:
