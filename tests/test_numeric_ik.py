@@ -57,16 +57,17 @@ def test_numeric_ik_equals_closed_form(numeric, name):
 
 @pytest.mark.parametrize("name", ["heli4", "delta", "hexapod"])
 def test_newton_converges_over_the_workspace_box(numeric, name):
-    """From the reference configuration alone: one pose per call, no warm start."""
+    """Over a grid of the box, in one batch and pose by pose (no warm start)."""
     ev, shipped = numeric[name]
     grid = workspace_grid(shipped.robot, 3 if name == "hexapod" else 5)
     assert shipped.valid(grid).all()
     q = ev.joint_angles(grid)
     assert np.isfinite(q).all()
     assert np.abs(_closed_coordinates(name, q) - shipped.joint_angles(grid)).max() < 1e-10
-    corners = grid[[0, -1]]
-    for pose in corners:                               # alone in its batch: from the reference
-        assert np.abs(_closed_coordinates(name, ev.joint_angles(pose)) - shipped.joint_angles(pose)).max() < 1e-10
+    # each pose alone in its batch (no warm start): from the reference configuration only
+    alone = grid if len(grid) <= 125 else grid[np.random.default_rng(0).choice(len(grid), 80, replace=False)]
+    q_alone = np.concatenate([ev.joint_angles(pose) for pose in alone])
+    assert np.abs(_closed_coordinates(name, q_alone) - shipped.joint_angles(alone)).max() < 1e-10
 
 
 def test_unreachable_pose_is_reported(numeric):
@@ -183,3 +184,83 @@ def test_c_loop_closure_equals_numpy(numeric):
     assert np.abs(evc.joint_angles(poses) - ev.joint_angles(poses)).max() < 1e-12
     fa, fc = ev.frequencies(poses), evc.frequencies(poses)
     assert np.abs(fa - fc).max() / fa.max() < 1e-12
+
+
+# ------------------------------------------------- joint coordinates in the measurement CSV
+def test_measurement_csv_joint_columns(numeric):
+    from eigentwist.diagnose.measurements import MeasurementError, joint_columns, parse_csv
+    from eigentwist.diagnose.predict import Predictor
+
+    ev = numeric["heli4"][1]
+    poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6]])
+    q = ev.joint_angles(poses)
+    cols = joint_columns(ev)
+    assert cols[:4] == ("q1@1", "q2@1", "q3@1", "q1@2") and len(cols) == 12
+    rows = ["k_a,mode,freq_hz,x,y,z," + ",".join(cols)]
+    for pose, qq in zip(poses, q):
+        for mode in ("x", "y"):
+            rows.append(f"2000,{mode},20.0," + ",".join(repr(float(v)) for v in (*pose, *qq.ravel())))
+    with_joints = parse_csv("\n".join(rows) + "\n", "enc.csv", ev)
+    assert with_joints.joints.shape == (4, 4, 3)
+    assert np.array_equal(with_joints.joints[2], q[1])
+    without = parse_csv("\n".join(r.rsplit(",", 12)[0] for r in rows) + "\n", "pose.csv", ev)
+    assert without.joints is None
+    a = Predictor(with_joints, ("actuator_loss",), ev).predict()[0]
+    b = Predictor(without, ("actuator_loss",), ev).predict()[0]
+    assert np.abs(a - b).max() <= 1e-12 * b.max()
+    # shifted encoder readings move the prediction: the columns are used, not ignored
+    shifted = parse_csv("\n".join(rows).replace(repr(float(q[0, 0, 0])), repr(float(q[0, 0, 0]) + 0.01)) + "\n",
+                        "shift.csv", ev)
+    assert np.abs(Predictor(shifted, ("actuator_loss",), ev).predict()[0][:2] - b[:2]).max() > 1e-3
+    with pytest.raises(MeasurementError, match="'q3@4' is missing"):
+        parse_csv("\n".join(r.rsplit(",", 1)[0] for r in rows) + "\n", "cut.csv", ev)
+
+
+# ------------------------------------------------------------ the solver on its own
+def _two_link(poses, l1=1.0, l2=0.8):
+    """Loop closure of a planar two-link arm reaching (x, y): an independent NumPy model."""
+    def closure(q, p):
+        a, b = q[..., 0], q[..., 1]
+        r = np.stack([l1 * np.cos(a) + l2 * np.cos(a + b) - p["x"][:, None],
+                      l1 * np.sin(a) + l2 * np.sin(a + b) - p["y"][:, None]], -1)
+        A = np.stack([np.stack([-l1 * np.sin(a) - l2 * np.sin(a + b), -l2 * np.sin(a + b)], -1),
+                      np.stack([l1 * np.cos(a) + l2 * np.cos(a + b), l2 * np.cos(a + b)], -1)], -2)
+        return {"residual": r, "dresidual": A}
+    return closure, {"x": poses[:, 0], "y": poses[:, 1]}
+
+
+@pytest.mark.parametrize("elbow", [1.0, -1.0])
+def test_newton_keeps_the_descriptions_branch(elbow):
+    """The elbow sign of the reference configuration is the solution's (law of cosines),
+    and an unreachable target gives NaN, never a nearby configuration."""
+    from eigentwist.runtime.newton import solve
+
+    rng = np.random.default_rng(4)
+    radius = rng.uniform(0.3, 1.7, 200)
+    angle = rng.uniform(-0.6, 1.2, 200)                # the arm's workspace: a sector about the reference
+    poses = np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
+    poses = np.vstack([poses, [[2.5, 0.0]], [[0.05, 0.0]]])       # out of reach: too far, too close
+    closure, p = _two_link(poses)
+    q = solve(closure, np.array([[0.3, 1.2 * elbow]]), p, len(poses), branch=lambda q: np.sin(q[..., 1]))
+    cos_b = (radius**2 - 1.0 - 0.64) / (2 * 0.8)
+    assert np.all(np.isfinite(q[:200]))
+    b = q[:200, 0, 1]
+    assert np.abs(np.cos(b) - cos_b).max() < 1e-10 and (np.sign(np.sin(b)) == elbow).all()
+    assert np.isnan(q[200:]).all()
+
+
+def test_content_hash_sees_the_urdf_data():
+    """Two URDF-form robots that differ only in a joint origin are cached apart."""
+    import dataclasses
+
+    from eigentwist.description.serial import SerialLeg
+    from eigentwist.runtime.userfile import description_key
+
+    a = rrpirr_urdf.delta()
+    leg = a.legs[0].kinematics.leg
+    joints = list(leg.joints)
+    joints[1] = dataclasses.replace(joints[1], origin=(0.3, 0, 0))
+    moved = SerialLeg(leg.name, tuple(joints), leg.bodies, leg.attachment, leg.reference, leg.attachment_rotation)
+    b = dataclasses.replace(a, legs=(moved,) + a.legs[1:])
+    assert description_key(a) != description_key(b)
+    assert description_key(a) == description_key(rrpirr_urdf.delta())

@@ -92,7 +92,7 @@ def test_diagnose_finds_the_users_hose(user_robot):
     (None, "does not exist"),
     ("X = 1\n", r"does not define describe\(\)"),
     ("def describe():\n    raise RuntimeError('no robot today')\n", r"describe\(\) in .* raised RuntimeError: no robot today"),
-    ("def describe():\n    return 42\n", "returned int: expected a RobotDescription"),
+    ("def describe():\n    return 42\n", "returned int: expected one of RobotDescription, ChainRobot"),
     ("import not_a_module_anywhere\n", "failed to import: ModuleNotFoundError"),
 ])
 def test_bad_description_files_fail_with_one_line(tmp_path, capsys, text, message):

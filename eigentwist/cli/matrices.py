@@ -62,6 +62,7 @@ def compute(args) -> dict:
     check_pose(ev, pose, effects, params)
     mats = ev.matrices(pose, effects, **params)
     q = ev.joint_angles(pose, **params)[0]
+    units = ev.joint_units
     # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
     model = ev.modes(pose, effects, unstable="raise", **params)
     r = 3 if ev.rigid_size() == 3 else 0                 # a 6-DoF robot's rigid model is 6x6
@@ -82,8 +83,11 @@ def compute(args) -> dict:
         "k_a": params.get("k_a", ev.defaults["k_a"]),
         "k_a_unit": ev.parameter("k_a").unit,
         "joint_angles_deg": ({leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)}
-                             if q.shape[-1] == 3 else None),
-        "leg_lengths_m": {leg.name: float(q[i, 0]) for i, leg in enumerate(ev.robot.legs)} if q.shape[-1] == 1 else None,
+                             if units == ("rad",) * 3 else None),
+        "leg_lengths_m": {leg.name: float(q[i, 0]) for i, leg in enumerate(ev.robot.legs)} if units == ("m",) else None,
+        # every leg's joint coordinates in SI (rad; m for a prismatic joint), any robot
+        "joint_coordinates": {leg.name: q[i].tolist() for i, leg in enumerate(ev.robot.legs)},
+        "joint_units": list(units),
         "M": mats["M"][0].tolist(),
         "K_R": mats["K_R"][0].tolist(),
         "K_F": mats["K_F"][0].tolist(),
@@ -112,8 +116,11 @@ def run(args) -> int:
     if out["joint_angles_deg"] is not None:
         print("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)
                                                  for k, vals in out["joint_angles_deg"].items()))
-    else:
+    elif out["leg_lengths_m"] is not None:
         print("leg lengths (m): " + "; ".join(f"{k}: {v:.6f}" for k, v in out["leg_lengths_m"].items()))
+    else:
+        print(f"joint coordinates ({', '.join(out['joint_units'])}): " + "; ".join(
+            f"{k}: " + ", ".join(f"{v:.6f}" for v in vals) for k, vals in out["joint_coordinates"].items()))
     axes = ["rx", "ry", "rz", "x", "y", "z"]
     for key, fmt in (("M", ".6f"), ("K_R", ".2f"), ("K_F", ".2f")):
         print(f"\n{key} (model: {', '.join(out['model']) or 'no effect'}):")

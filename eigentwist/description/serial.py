@@ -224,6 +224,10 @@ class NumericKinematics:
     def __init__(self, leg: SerialLeg):
         self.leg = leg
 
+    def __repr__(self) -> str:
+        # the leg's data in full: a description's content hash (runtime.userfile) reads reprs
+        return f"NumericKinematics({self.leg!r})"
+
     @property
     def reference(self) -> tuple:
         """The reference configuration (rad; m for P): where Newton starts."""

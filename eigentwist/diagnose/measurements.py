@@ -16,7 +16,13 @@ blank lines are skipped):
   unit translation of the sensor point, base-frame axes) and ``sensor_x``, ``sensor_y``,
   ``sensor_z`` (the sensor's offset from the end-effector origin, m; default 0). When the
   shape columns are present, ``compare`` reports the MAC per row and matches rows to
-  model modes by shape (:mod:`eigentwist.diagnose.shapes`).
+  model modes by shape (:mod:`eigentwist.diagnose.shapes`);
+* optional measured joint coordinates (issue 21), e.g. encoder readings at the measured
+  pose: ``q<m>@<leg>`` is coordinate m of leg ``leg`` (both 1-based; ``q1@1, q2@1, q3@1,
+  q1@2, ...``) in the layout of ``Evaluator.joint_angles`` (rad; m for a prismatic
+  joint). Either every coordinate of every leg has a column, or none; no blank cells. The
+  model is then evaluated at these joint coordinates instead of the pose's inverse
+  kinematics (``Evaluator.modes(..., joints=)``; :func:`joint_columns`).
 
 Files as spreadsheets export them are accepted: the separator is ``,``, ``;`` or a tab
 (whichever splits the header into the most columns); with ``;`` or a tab a decimal
@@ -45,7 +51,7 @@ from .evaluators import resolve
 from .matching import parse_mode
 
 __all__ = ["Measurements", "MeasurementError", "load_measurements", "paper_measurements", "paper_csv",
-           "REQUIRED", "OPTIONAL", "MODAL", "ROTATION_COLUMNS", "pose_columns", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
+           "REQUIRED", "OPTIONAL", "MODAL", "ROTATION_COLUMNS", "pose_columns", "joint_columns", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
 
 REQUIRED = ("k_a", "mode", "freq_hz")
 # measured modal data (issue 14): NaN where blank; shapes are phi_x..z, sensor_* in m
@@ -53,6 +59,13 @@ MODAL = ("damping_ratio", "phi_x", "phi_y", "phi_z", "sensor_x", "sensor_y", "se
 OPTIONAL = ("x", "y", "z", "sigma_hz") + MODAL
 #: the rotation columns of a 6-DoF robot's poses (rotation vector, rad); ``rx, ry, rz`` stay mode labels
 ROTATION_COLUMNS = ("rot_x", "rot_y", "rot_z")
+
+
+def joint_columns(ev) -> tuple:
+    """The measured-joint-coordinate columns of ``ev``'s robot: ``q<m>@<leg>``, leg-major
+    (``q1@1, q2@1, ..., q1@2, ...``), as many coordinates per leg as ``joint_angles`` gives."""
+    nq = len(ev.robot.legs[0].kinematics.coordinates)
+    return tuple(f"q{m}@{leg}" for leg in range(1, len(ev.robot.legs) + 1) for m in range(1, nq + 1))
 
 
 def pose_columns(ev) -> tuple:
@@ -106,6 +119,8 @@ class Measurements:
     robot: str = "heli4"
     modal: dict = field(default_factory=dict)
     k_a_unit: str = "N m/rad"
+    #: measured joint coordinates (N, legs, coordinates), columns ``q<m>@<leg>``; None: none
+    joints: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.freq_hz)
@@ -148,7 +163,7 @@ class Measurements:
         return Measurements(self.k_a[rows], tuple(self.mode[i] for i in rows), self.freq_hz[rows],
                             self.sigma_hz[rows], self.poses[rows], {k: v[rows] for k, v in self.params.items()},
                             self.lines[rows], self.source, self.robot, {k: v[rows] for k, v in self.modal.items()},
-                            self.k_a_unit)
+                            self.k_a_unit, None if self.joints is None else self.joints[rows])
 
     @classmethod
     def from_arrays(cls, k_a, mode, freq_hz, poses=None, sigma_hz=None, params=None, robot: str = "heli4",
@@ -224,7 +239,7 @@ def _parameter(name: str, ev):
 
 def _header(cells: list[str], source: str, ev) -> list[str]:
     names = [c.strip() for c in cells]
-    known = REQUIRED + OPTIONAL + tuple(c for c in pose_columns(ev) if c not in OPTIONAL)
+    known = REQUIRED + OPTIONAL + tuple(c for c in pose_columns(ev) if c not in OPTIONAL) + joint_columns(ev)
     for k, name in enumerate(names):
         if not name:
             raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
@@ -239,6 +254,11 @@ def _header(cells: list[str], source: str, ev) -> list[str]:
         if name not in names:
             raise MeasurementError(source, f"missing required column {name!r} (header: {', '.join(names)}); "
                                    f"required: {', '.join(REQUIRED)}", 1, name)
+    joints = joint_columns(ev)
+    missing = [c for c in joints if c not in names]
+    if len(missing) < len(joints) and missing:
+        raise MeasurementError(source, f"joint-coordinate column {missing[0]!r} is missing: give every coordinate "
+                               f"of every leg ({', '.join(joints)}) or none", 1, missing[0])
     return names
 
 
@@ -316,8 +336,16 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
             params[name] = np.array([v if v is not None else fill for v in cols[name]], dtype=float)
     modal = {name: np.array([np.nan if v is None else v for v in cols[name]], dtype=float)
              for name in MODAL if name in names}
+    joints = None
+    if joint_columns(ev)[0] in names:
+        for name in joint_columns(ev):
+            if None in cols[name]:
+                raise MeasurementError(source, "empty cell: a joint coordinate is required on every row when the "
+                                       "file has joint-coordinate columns", lines[cols[name].index(None)], name)
+        nq = len(joint_columns(ev)) // len(ev.robot.legs)
+        joints = np.array([cols[c] for c in joint_columns(ev)], dtype=float).T.reshape(n, len(ev.robot.legs), nq)
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        np.array(lines), source, ev.spec, modal, ev.parameter("k_a").unit)
+                        np.array(lines), source, ev.spec, modal, ev.parameter("k_a").unit, joints)
     _check_duplicates(meas)
     check_poses(meas, ev, values)
     return meas
@@ -359,7 +387,7 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
         if name in REQUIRED:
             raise MeasurementError(source, "empty cell: a value is required", line, name)
         return None
-    if name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:]:
+    if name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:] or name in joint_columns(ev):
         return _number(cell, source, line, name, positive=False)
     if name == "damping_ratio":
         return _number(cell, source, line, name, positive=True)

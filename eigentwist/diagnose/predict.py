@@ -17,7 +17,7 @@ __all__ = ["evaluate", "Predictor"]
 
 
 def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, lines=None, shapes=None,
-             sensor=None, return_modes: bool = False):
+             sensor=None, return_modes: bool = False, joints=None):
     """Frequency (Hz) of the mode each row's label names.
 
     Parameters
@@ -29,6 +29,8 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     shapes, sensor : optional (N, 3) measured mode shapes (NaN rows: none) and sensor
         offsets (m): rows with a shape are matched by MAC (:mod:`.shapes`).
     return_modes : also return the model's :class:`~eigentwist.runtime.Modes`.
+    joints : optional (N, legs, coordinates) measured joint coordinates, used instead of
+        the poses' inverse kinematics (``Evaluator.modes(..., joints=)``).
 
     Returns
     -------
@@ -38,7 +40,8 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     """
     try:
         with np.errstate(all="ignore"):          # overflow is detected below and named
-            modes = ev.modes(poses, tuple(effects), **params)
+            modes = (ev.modes(poses, tuple(effects), **params) if joints is None
+                     else ev.modes(poses, tuple(effects), joints=joints, **params))
     except np.linalg.LinAlgError as exc:
         raise InputError(_numerical_failure(ev, effects, poses, params, lines, exc)) from None
     freq, idx = match_frequencies(modes, labels, strict=strict, lines=lines)
@@ -100,6 +103,11 @@ class Predictor:
             out[k] = np.repeat(arr, n) if arr.ndim == 1 else arr
         return out
 
+    def _joints(self, repeat: int = 1):
+        """The measured joint coordinates (CSV columns ``q<m>@<leg>``), tiled; None: none."""
+        joints = getattr(self.meas, "joints", None)
+        return None if joints is None else np.tile(joints, (repeat, 1, 1))
+
     def _shapes(self, repeat: int = 1):
         shapes = getattr(self.meas, "shapes", None)
         if shapes is None:
@@ -110,7 +118,7 @@ class Predictor:
         """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar);
         with ``return_modes`` also the model's modes."""
         return evaluate(self.ev, self.effects, self.meas.poses, self.meas.mode, self._params(values or {}),
-                        strict, self.meas.lines, return_modes=return_modes, **self._shapes())
+                        strict, self.meas.lines, return_modes=return_modes, joints=self._joints(), **self._shapes())
 
     def predict_sets(self, names, table: np.ndarray, strict: bool = False) -> np.ndarray:
         """Predictions for B parameter sets in one call: ``table`` is (B, P) values of
@@ -122,7 +130,7 @@ class Predictor:
         poses = np.tile(self.meas.poses, (b, 1))
         labels = self.meas.mode * b
         freq, _ = evaluate(self.ev, self.effects, poses, labels, params, strict, np.tile(self.meas.lines, b),
-                           **self._shapes(b))
+                           joints=self._joints(b), **self._shapes(b))
         return freq.reshape(b, len(self.meas))
 
     def predict_with_jacobian(self, names, values, strict: bool = False):

@@ -206,17 +206,20 @@ class Evaluator:
         if key in memo:
             return memo[key]
         n = len(poses)
-        kp = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
-        if self._six:
-            kp.update(self.kernel_pose_inputs(poses))
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+        parts = []
+        for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
+            kp = {**(self._take(p, sl) if n > 1 else p), "x": poses[sl, 0], "y": poses[sl, 1], "z": poses[sl, 2]}
+            if self._six:
+                kp.update(self.kernel_pose_inputs(poses[sl]))
 
-        def branch(q):
-            with np.errstate(invalid="ignore", divide="ignore"):
-                return self._kernels.jacobians(q, kp)["lever"]
+            def branch(q, kp=kp):
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    return self._kernels.jacobians(q, kp)["lever"]
 
-        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            q = solve(self._kernels.loop_closure, reference, kp, n, branch=branch)
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                parts.append(solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch))
+        q = np.concatenate(parts)
         memo.clear()
         memo[key] = q
         return q
@@ -523,6 +526,13 @@ class Evaluator:
                                  f"got {getattr(arr, 'shape', None)} {getattr(arr, 'dtype', type(arr).__name__)}")
         return out
 
+    @property
+    def joint_units(self) -> tuple:
+        """Unit of each joint coordinate per leg (the last axis of :meth:`joint_angles`):
+        ``"m"`` for a prismatic joint's, ``"rad"`` for the others' (a Pi joint's angle too)."""
+        leg = self.robot.legs[0]
+        return tuple("m" if leg.joints[c[0]].kind == "P" else "rad" for c in leg.kinematics.coordinates)
+
     def joint_coordinates(self, joints, poses=None) -> tuple:
         """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.
 
@@ -751,6 +761,10 @@ class Evaluator:
         from .sensitivity import (check_model, check_wrt, frequency_derivatives, kernel_wrt, own_legs,
                                   sensitivity_kernels, shared_columns)
 
+        if self.numeric_ik:
+            raise InputError(f"sensitivities of {self.robot.name}: its legs are solved numerically (Newton), and the "
+                             "derivative of their joint coordinates with respect to the parameters is not derived yet; "
+                             "use central differences of frequencies()")
         poses = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
         check_model(effects)

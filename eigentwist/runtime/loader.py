@@ -30,8 +30,31 @@ def load_module(robot: str, backend: str = "numpy"):
     return importlib.import_module(f"eigentwist.generated.{robot}_{backend}")
 
 
-def _stderr(message: str) -> None:
-    print(f"[eigentwist] {message}", file=sys.stderr, flush=True)
+class _GenerationProgress:
+    """The default ``progress`` of :func:`load`: while a description is generated, a tqdm
+    bar on stderr whose label is the current step (derive, CSE of each kernel); one line
+    per step when stderr is not a terminal (logs, pipes)."""
+
+    def __init__(self):
+        self.bar = None
+
+    def __call__(self, message: str) -> None:
+        if not sys.stderr.isatty():
+            print(f"[eigentwist] {message}", file=sys.stderr, flush=True)
+            return
+        from tqdm.auto import tqdm
+
+        if self.bar is None:
+            self.bar = tqdm(file=sys.stderr, unit="step", desc="[eigentwist] generating", leave=False)
+        self.bar.set_description(f"[eigentwist] {message.strip()[:70]}")
+        self.bar.update(1)
+        if message.startswith("generated "):
+            self.bar.close()
+            self.bar = None
+            print(f"[eigentwist] {message}", file=sys.stderr, flush=True)
+
+
+_stderr = _GenerationProgress()
 
 
 def load(robot="heli4", backend: str = "auto", threads: int | None = None, progress=_stderr) -> Evaluator:

@@ -10,7 +10,7 @@ Levenberg-Marquardt steps
     (A^T A + lambda diag(A^T A)) dq = -A^T r,
 
 accepting a step when ``|r|`` decreases (lambda / 4) and otherwise retrying with a
-larger damping (lambda x 4), started from the description's reference configuration (its
+larger damping (lambda x 4), each coordinate moving at most ``MAX_STEP`` per iteration, started from the description's reference configuration (its
 assembly branch); poses that do not converge from there are retried from the solution of
 the previous pose of the batch (a sweep moves in small steps). A pose converges when
 ``|r| < tol``; one that does not has NaN coordinates, which the IK program's closure check
@@ -25,55 +25,78 @@ import numpy as np
 
 __all__ = ["solve", "MAX_ITERATIONS", "TOL"]
 
-MAX_ITERATIONS = 60
+MAX_ITERATIONS = 80
 TOL = 1e-12            # |r| (m and rad) of a converged configuration
 LAMBDA0 = 1e-3
+MAX_STEP = 0.25        # largest change of one coordinate per iteration (rad; m for P)
+
+
+def _take(p: dict, rows: np.ndarray, n: int) -> dict:
+    """The kernel inputs of poses ``rows`` ((n,) arrays indexed, scalars kept)."""
+    return {k: (v[rows] if np.ndim(v) >= 1 and np.shape(v)[0] == n and n > 1 else v) for k, v in p.items()}
+
+
+def _normal(A: np.ndarray, r: np.ndarray):
+    """``(A^T A, A^T r)`` of stacked (..., rows, n_q) Jacobians and (..., rows) residuals."""
+    At = A.swapaxes(-1, -2)
+    return At @ A, (At @ r[..., None])[..., 0]
 
 
 def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
-    """Damped Newton steps on every (pose, leg) at once; returns (q, |r|)."""
+    """Damped Newton steps on every (pose, leg) at once, each iteration on the poses that
+    still have a leg to converge; returns (q, |r|)."""
+    n = len(q)
     out = closure(q, p)
-    r, A = out["residual"], out["dresidual"]
+    r, A = out["residual"].copy(), out["dresidual"].copy()
     norm = np.sqrt((r * r).sum(-1))
     lam = np.full(norm.shape, LAMBDA0)
-    nq = q.shape[-1]
-    eye = np.eye(nq)
+    q = q.copy()
+    eye = np.eye(q.shape[-1])
     for _ in range(iterations):
         active = ~(norm < tol) & np.isfinite(norm)
-        if not active.any():
+        rows = np.flatnonzero(active.any(-1))
+        if rows.size == 0:
             break
-        AtA = np.einsum("...ki,...kj->...ij", A, A)
-        Atr = np.einsum("...ki,...k->...i", A, r)
+        act, A_, r_, lam_, q_ = active[rows], A[rows], r[rows], lam[rows], q[rows]
+        AtA, Atr = _normal(A_, r_)
         diag = np.einsum("...ii->...i", AtA)
-        H = AtA + lam[..., None, None] * (diag[..., None, :] * eye + 1e-12 * eye)
-        H = np.where(np.isfinite(H), H, 0.0) + np.where(np.isfinite(H).all((-1, -2)), 0.0, 1.0)[..., None, None] * eye
+        H = AtA + lam_[..., None, None] * (diag[..., None, :] * eye + 1e-12 * eye)
+        finite = np.isfinite(H).all((-1, -2))
+        H = np.where(finite[..., None, None], H, eye)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             try:
                 step = -np.linalg.solve(H, Atr[..., None])[..., 0]
             except np.linalg.LinAlgError:               # a singular H (a zero row): least squares
                 step = -(np.linalg.pinv(H) @ Atr[..., None])[..., 0]
-        step = np.where(active[..., None], step, 0.0)
-        trial = q + step
-        new = closure(trial, p)
+            # a bounded step (MAX_STEP rad or m per coordinate) keeps Newton near the branch
+            # it starts on: an undamped first step from far away may jump past a singularity
+            big = np.abs(step).max(-1, keepdims=True)
+            step = np.where(big > MAX_STEP, step * (MAX_STEP / big), step)
+        trial = q_ + np.where(act[..., None], step, 0.0)
+        new = closure(trial, _take(p, rows, n))
         new_norm = np.sqrt((new["residual"] ** 2).sum(-1))
-        better = active & (new_norm < norm)
-        q = np.where(better[..., None], trial, q)
-        r = np.where(better[..., None], new["residual"], r)
-        A = np.where(better[..., None, None], new["dresidual"], A)
-        norm = np.where(better, new_norm, norm)
-        lam = np.where(better, np.maximum(lam / 4, 1e-12), np.minimum(lam * 4, 1e12))
+        better = act & (new_norm < norm[rows])
+        q[rows] = np.where(better[..., None], trial, q_)
+        r[rows] = np.where(better[..., None], new["residual"], r_)
+        A[rows] = np.where(better[..., None, None], new["dresidual"], A_)
+        norm[rows] = np.where(better, new_norm, norm[rows])
+        lam[rows] = np.where(better, np.maximum(lam_ / 4, 1e-12), np.where(act, np.minimum(lam_ * 4, 1e12), lam_))
     # one undamped Gauss-Newton step polishes a converged configuration to round-off
     # (quadratic convergence), kept where it does not raise the residual
-    AtA = np.einsum("...ki,...kj->...ij", A, A) + 1e-300 * eye
-    Atr = np.einsum("...ki,...k->...i", A, r)
+    rows = np.flatnonzero((norm < tol).any(-1))
+    if rows.size == 0:
+        return q, norm
+    AtA, Atr = _normal(A[rows], r[rows])
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         try:
-            trial = q - np.linalg.solve(AtA, Atr[..., None])[..., 0]
+            trial = q[rows] - np.linalg.solve(AtA + 1e-300 * eye, Atr[..., None])[..., 0]
         except np.linalg.LinAlgError:
             return q, norm
-        new_norm = np.sqrt((closure(trial, p)["residual"] ** 2).sum(-1))
-    keep = (norm < tol) & (new_norm <= norm)
-    return np.where(keep[..., None], trial, q), np.where(keep, new_norm, norm)
+        new_norm = np.sqrt((closure(trial, _take(p, rows, n))["residual"] ** 2).sum(-1))
+    keep = (norm[rows] < tol) & (new_norm <= norm[rows])
+    q[rows] = np.where(keep[..., None], trial, q[rows])
+    norm[rows] = np.where(keep, new_norm, norm[rows])
+    return q, norm
 
 
 def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
@@ -98,11 +121,11 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
         prev = prev[ok[prev - 1].all(-1)] if prev.size else prev
         if prev.size == 0:
             break
-        sub = {k: (v[prev] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v) for k, v in p.items()}
-        qs, ns = _iterate(closure, q[prev - 1].copy(), sub, iterations, tol)
+        qs, ns = _iterate(closure, q[prev - 1].copy(), _take(p, prev, n), iterations, tol)
         q[prev], norm[prev] = qs, ns
         ok = norm < tol
     if branch is not None and ok.any():
         ref_sign = np.sign(branch(np.broadcast_to(reference, q.shape)))
-        ok &= np.sign(branch(np.where(ok[..., None], q, q0))) == ref_sign
+        # a singular reference (sign 0) names no branch: nothing to compare with
+        ok &= (np.sign(branch(np.where(ok[..., None], q, q0))) == ref_sign) | (ref_sign == 0)
     return np.where(ok[..., None], q, np.nan)

@@ -108,8 +108,12 @@ def loop_closure(robot, q_all: list):
     program, :func:`~eigentwist.symbolic.program.derivative`), for the runtime's damped
     Newton method (:mod:`eigentwist.runtime.newton`).
     """
-    if not all(hasattr(leg.kinematics, "residual") for leg in robot.legs):
+    numeric = [hasattr(leg.kinematics, "residual") for leg in robot.legs]
+    if not any(numeric):
         return None, {}
+    if not all(numeric):
+        raise ValueError(f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
+                         f"{robot.legs[numeric.index(True)].name} is solved numerically: expected alike legs")
     prog = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters] + [qq for q in q_all for qq in q]:
