@@ -41,8 +41,9 @@ def _rod_tube(p):
 
 
 def _state(ev, poses):
-    """Per pose, leg and rod side: near end, far end (m, base frame), the rod frame, and
-    the far bar's state; arrays over the poses."""
+    """Per leg: each rod's (near end, far end (m, base frame), frame: x along the rod, y
+    normal to the parallelogram's plane), the angle q1 + q2 of the bars (rad), the centre
+    line's ends (elbow, a_i) and s_i; arrays over the poses."""
     p, legs = ev.defaults, _legs(ev)
     q = ev.joint_angles(poses)                              # (N, legs, 3)
     out = []
@@ -60,10 +61,7 @@ def _state(ev, poses):
             n /= np.linalg.norm(n, axis=1)[:, None]
             R = np.stack([r2, n, np.cross(r2, n)], axis=2)          # (N, 3, 3), columns
             rods.append((near_end, far_end, R))
-        q12 = q[:, k, 0] + q[:, k, 1]
-        w_dir = np.cos(q12)[:, None] * leg["u"] - np.sin(q12)[:, None] * EZ     # the bars' plane direction
-        rods_centre_line = (elbow, far)
-        out.append((rods, q12, w_dir, rods_centre_line, leg["s"]))
+        out.append((rods, q[:, k, 0] + q[:, k, 1], (elbow, far), leg["s"]))
     return out
 
 
@@ -96,7 +94,7 @@ def _energies(ev, poses, v):
                                                                        + i_tr * (np.einsum("ni,ni->n", omega, omega) - w_ax**2))
         # the fictitious rod: mass 2m at the centre line's midpoint, moving with the far bar
         # (angular velocity (dq1 + dq2) s, no rotation with q3), inertia axes along the rods
-        rods, q12, w_dir, (elbow, far), s = st[k]
+        _, _, (elbow, far), s = st[k]
         dq12 = _rates(lambda P: field(P)[k][1], poses, v)
         omega = dq12[:, None] * s
         centre = (elbow + far) / 2

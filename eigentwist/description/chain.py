@@ -37,7 +37,7 @@ class ChainJoint:
     axes : one axis for R, P and Pi, two for U, three for S (none: the base axes);
         each a geometry name or a 3-tuple of expressions (unit vectors, base axes).
     location : a point on the axes (geometry name or 3-tuple, m, base frame); unused
-        for P and Pi.
+        for P, and for a Pi joint without ``swing``.
     actuated : True for the actuated joint (R or P); its coordinate's unit follows.
     swing : Pi only, optional ``(axis, length)``: the rods' pivot axis (unit, geometry
         name or 3-tuple) and their length (m, geometry name or expression). A Pi joint is
