@@ -49,7 +49,7 @@ def _virtual_angles(pr, qs) -> list:
     return out
 
 
-@pytest.mark.parametrize("name", ("prs3", "rrr3", "linear_delta"))
+@pytest.mark.parametrize("name", ("prs3", "rrr3", "linear_delta", "upu3", "rus6"))
 def test_gallery_equals_pinocchio(name):
     ev = eigentwist.load(str(GALLERY / f"{name}.py"), backend="numpy", progress=None)
     p = dict(ev.defaults)
@@ -66,14 +66,14 @@ def test_gallery_equals_pinocchio(name):
     for k, pose in enumerate(full):
         R = rotation_vector_matrix(pose[3:6]) if six else None
         rigid = pr.matrices(pose[:3], R, c_act=1 / p["k_a"], stiffness="actuated")
-        rows = np.vstack([st["G"][leg.virtual] for leg, st in zip(pr.legs, rigid["states"])])
-        E = null_space(rows)
-        assert E.shape[1] == 3
+        rows = np.vstack([st["G"][leg.virtual] for leg, st in zip(pr.legs, rigid["states"])] + [np.zeros((0, 6))])
+        E = null_space(rows) if len(rows) else np.eye(6)
+        assert E.shape[1] == len(ev.pose_names)
         M, K = E.T @ rigid["M"] @ E, E.T @ rigid["K"] @ E
         f = eigen_frequencies(M, K)
         worst["M"] = max(worst["M"], _rel(M, E.T @ mats["M"][k] @ E))
         worst["K_R"] = max(worst["K_R"], _rel(K, E.T @ mats["K_R"][k] @ E))
         worst["f"] = max(worst["f"], float(np.max(np.abs(f - f_et[k]) / f_et[k])))
-        worst["virtual_angle"] = max(worst["virtual_angle"], max(_virtual_angles(pr, rigid["q"])))
+        worst["virtual_angle"] = max(worst["virtual_angle"], max(_virtual_angles(pr, rigid["q"]), default=0.0))
     print(f"{name}: max relative deviation from Pinocchio {worst}")
     assert max(worst.values()) < RTOL, f"{name}: relative deviations {worst}"

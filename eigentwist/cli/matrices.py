@@ -76,10 +76,14 @@ def compute(args) -> dict:
     # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
     model = ev.modes(pose, effects, unstable="raise", **params)
     r = 3 if ev.rigid_size() == 3 else 0                 # a 6-DoF robot's rigid model is 6x6
-    f_rigid, v_rigid = _modes_of(mats["M"][:, r:, r:], mats["K_R"][:, r:, r:])
+    B = ev.allowed_twists(pose, **params)                # the rigid model's allowed twists (the 3x3 subsets'
+    f_rigid, v_rigid = _modes_of(B.swapaxes(1, 2) @ mats["M"] @ B,     # rule; a 3-PRS's turn with the pose)
+                                 B.swapaxes(1, 2) @ mats["K_R"] @ B)
     f_flex, v_flex = _modes_of(mats["M"], mats["K_F"])
     kind = ev.kind(effects)
-    source = (FROM[kind] if r else "M and K_R, 6x6") + (" + gravity preload" if "gravity_preload" in effects else "")
+    fixed = getattr(ev.space, "basis", None) is not None
+    rigid_from = (FROM["rigid"] if r else "M and K_R, 6x6") if fixed else "M and K_R on the allowed twists, 3x3"
+    source = (rigid_from if kind == "rigid" else FROM[kind]) + (" + gravity preload" if "gravity_preload" in effects else "")
     return {
         "robot": ev.robot.name,
         "model": list(effects),
@@ -99,6 +103,8 @@ def compute(args) -> dict:
         "K_R": mats["K_R"][0].tolist(),
         "K_F": mats["K_F"][0].tolist(),
         "freq_hz": model.freq_hz[0].tolist(),
+        "axes": list(model.axes),
+        "frequencies_rigid_from": rigid_from,
         "eigentwists": model.eigentwists[0].tolist(),
         "freq_rigid_hz": f_rigid.tolist(),
         "freq_flexible_hz": f_flex.tolist(),
@@ -135,9 +141,9 @@ def run(args) -> int:
     say(f"\nnatural frequencies of this {out['kind']} model (from {out['frequencies_from']}), Hz: "
           + ", ".join(f"{f:.3f}" for f in out["freq_hz"]))
     other = "flexible" if out["kind"] == "rigid" else "rigid"
-    label = FROM[other] if len(out["pose"]) == 3 or other == "flexible" else "M and K_R, 6x6"
+    label = out["frequencies_rigid_from"] if other == "rigid" else FROM[other]
     say(reference_line(other, label, out[f"freq_{other}_hz"], out["freq_hz"]))
-    say(f"\neigentwists of this model (columns; {', '.join(axes[6 - n:])}):")
+    say(f"\neigentwists of this model (columns; {', '.join(out['axes'])}):")
     say(format_table([""] + [f"w{k + 1}" for k in range(n)],
-                       [[a] + row for a, row in zip(axes[6 - n:], out["eigentwists"])], ".3f"))
+                     [[a] + row for a, row in zip(out["axes"], out["eigentwists"])], ".3f"))
     return 0

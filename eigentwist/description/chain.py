@@ -210,7 +210,9 @@ class ChainRobot:
     actuator_stiffness : k_a as an expression; its unit is the actuated joint's
         (N/m for prismatic, N m/rad for revolute actuators).
     effects : catalogue names or :class:`~eigentwist.description.effects.Effect` objects.
-    pose_space : how the pose enters the derivation (:class:`~.pose.RigidPose`).
+    pose_space : how the pose enters the derivation (:mod:`.pose`: ``RigidPose()``, the
+        default; ``TranslationPose()``, ``PlanarPose()``, ``LowerMobilityPose(commanded)``);
+        ``pose`` names its coordinates.
 
     It offers the derivation (:func:`eigentwist.symbolic.derive`) the interface a
     :class:`~eigentwist.description.RobotDescription` does: legs with joint lists and

@@ -421,9 +421,10 @@ class CKernels:
             res["eigentwists"] = out["eigentwists"]
         return res
 
-    def raise_invalid(self, k: int, x, y, z, p: dict, lead: tuple) -> None:
+    def raise_invalid(self, k: int, x, y, z, p: dict, lead: tuple, legs=None) -> None:
         """Raise the evaluator's error (:mod:`.validity`) for pose ``k`` of a batch of shape
-        ``lead``, recomputing its check quantities (one pose, so it costs nothing)."""
+        ``lead``, recomputing its check quantities (one pose, so it costs nothing).
+        ``legs``: the description's legs, named in the error (None: a shipped robot's)."""
         from ..robots import get
         from .errors import UnreachablePoseError
         from .validity import LEVER_SCALE, raise_singular, raise_unreachable
@@ -431,7 +432,7 @@ class CKernels:
         def row(v):
             return np.broadcast_to(np.asarray(v, dtype=float), lead).reshape(-1)[k:k + 1]
 
-        legs = get(self.ROBOT).legs
+        legs = get(self.ROBOT).legs if legs is None else legs
         pk = {name: row(v) for name, v in p.items()}
         pose = np.stack([row(c) for c in (x, y, z)], axis=-1)
         if "R_00" in pk:                              # a 6-DoF robot: name the pose as given

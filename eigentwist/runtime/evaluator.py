@@ -71,10 +71,12 @@ class Modes:
     @property
     def direction(self) -> np.ndarray:
         """(N, n) axis index (into :data:`AXES`) carrying the largest share of each mode's
-        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist)."""
+        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist);
+        a rigid model's coordinates are its allowed twists, named by :attr:`axes`."""
         if self.eigentwists is None:
             raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
-        return directions(self.eigentwists, offset=len(AXES) - self.eigentwists.shape[-1])
+        local = directions(self.eigentwists)
+        return np.asarray([AXES.index(a) for a in self.axes])[local]     # the allowed twists' axes
 
 
 class Evaluator:
@@ -208,7 +210,7 @@ class Evaluator:
         parts = []
         for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
             kp = {**(self._take(p, sl) if n > 1 else p), "x": poses[sl, 0], "y": poses[sl, 1], "z": poses[sl, 2]}
-            if self.dof == 6:
+            if self._six:
                 kp.update(self.kernel_pose_inputs(poses[sl]))
 
             def branch(q, kp=kp):
@@ -441,7 +443,8 @@ class Evaluator:
         """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
         self._raise_unfollowed(poses)
         k = int(np.argmax(bad))
-        self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),))
+        self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),),
+                                    legs=self.robot.legs)
 
     @staticmethod
     def _rows(params: dict, sl, n: int) -> dict:
