@@ -23,6 +23,7 @@ import numpy as np
 from ..description.effects import split_scope
 from ..text import format_estimate
 from . import scope
+from .plausible import is_plausible
 from .mirror import collapse, group_label, mirror_groups
 from .stats import gof_p_value
 
@@ -73,8 +74,6 @@ def _ranges(ev, names) -> dict:
 
 
 def _plausible(value, std, bounds, at_bound) -> bool:
-    from .select import is_plausible
-
     return is_plausible(value, std, bounds, at_bound)
 
 

@@ -55,6 +55,8 @@ from .backward import eliminate
 from .identifiable import extra_parameters, sign_free, trial_value
 from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
+from .plausible import PLAUSIBLE_SIGMA  # noqa: F401 (re-exported: the rule's threshold)
+from .plausible import is_plausible as _plausible
 from .predict import Predictor
 from .separate import equivalent, next_measurement
 from .settings import find_setting_anomalies
@@ -67,7 +69,6 @@ __all__ = ["Candidate", "Step", "Alternative", "Diagnosis", "diagnose", "rank_ca
 
 CANDIDATE_NFEV = 60     # solver budget of a candidate's fit: one the data do not want crawls towards its
                         # "switched off" limit (stiffness -> inf) without converging; the ones that matter need < 30
-PLAUSIBLE_SIGMA = 3.0   # a fit this many standard errors outside the plausible range is implausible
 AICC_DIGITS = 2          # AICc differences below 0.01 are optimiser noise: the next key decides (and the tie is reported)
 MAX_OUTLIER_SHARE = 0.1  # at most this share of the rows (and at least one) is set aside as outliers
 
@@ -276,30 +277,6 @@ def _determined(ev, g: FitResult, f: FitResult, extra) -> bool:
         if not g.std[name] <= 0.25 * (hi - lo):
             return False
     return all(g.std[n] <= 10 * f.std[n] for n in f.names if math.isfinite(f.std[n]))
-
-
-def _plausible(value: float, std: float, bounds, at_bound: bool) -> bool:
-    """Inside ``bounds`` (low, high), or within PLAUSIBLE_SIGMA standard errors of it (relative
-    errors for a positive range, where the fit is on the log); never at a search bound."""
-    if at_bound:
-        return False
-    if bounds is None:
-        return True
-    lo, hi = bounds
-    if lo <= value <= hi:
-        return True
-    if not math.isfinite(std):
-        return False
-    edge = lo if value < lo else hi
-    if lo > 0 and value > 0:
-        return abs(math.log(value / edge)) <= PLAUSIBLE_SIGMA * std / value
-    return abs(value - edge) <= PLAUSIBLE_SIGMA * std
-
-
-def is_plausible(value: float, std: float, bounds, at_bound: bool = False) -> bool:
-    """The plausibility rule of point 3 (module doc) for one fitted value (SI) with its standard
-    error and its parameter's plausible range (low, high): what the answer marks IMPLAUSIBLE."""
-    return _plausible(value, std, bounds, at_bound)
 
 
 def _ranges(ev, names) -> dict:
