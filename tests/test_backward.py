@@ -62,6 +62,7 @@ def test_needed_effects_stay(ev_cd):
     assert all(s.removed is None for s in d.steps) and d.to_json()["removed"] == []
 
 
+@pytest.mark.slow
 def test_removal_is_a_step_of_the_path_in_json(ev_cd):
     # the catalogue cannot describe a spring to ground: the path takes back what the final model does not need
     shipped = ev_cd

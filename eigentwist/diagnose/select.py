@@ -59,7 +59,7 @@ from .plausible import PLAUSIBLE_SIGMA  # noqa: F401 (re-exported: the rule's th
 from .plausible import is_plausible as _plausible
 from .predict import Predictor
 from .separate import equivalent, next_measurement
-from .settings import find_setting_anomalies
+from .settings import find_setting_anomalies, rescored
 from .significance import significant
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 from .values import used_parameters
@@ -567,6 +567,7 @@ def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, val
         keep = ~np.isin(d.meas.lines, anomalies[0].lines)
         d = _select(d.meas.subset(keep), ev, base_effects, None, alpha, progress, values)
     if found:
+        found = [rescored(a, meas, ev, d.final) for a in found]
         d.setting_anomalies, d.outliers, d.all_rows = found, outliers, d_all if d_all.all_rows is None else d_all
         if d.all_rows is not None and d.all_rows.uncertainty is None:
             _judge(d.all_rows)

@@ -14,7 +14,7 @@ check, each setting with ``MIN_ROWS`` or more rows is checked as a unit against 
 
 Such a setting is reported (:class:`SettingAnomaly`: its CSV lines, the written and the
 best-fitting k_a or pose, the evidence), set aside like an outlier, and the selection
-rerun without it.
+rerun without it; its best k_a (or pose) is then given under the model refitted without it.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from scipy import stats
 from .measurements import Measurements
 from .predict import Predictor
 
-__all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of"]
+__all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of", "best_label", "rescored"]
 
 FAR = 10.0          # the best other k_a (or pose) fits this many times better in chi-square
 KA_SPAN = 4.0       # k_a searched from min/KA_SPAN to max*KA_SPAN of the measured values
@@ -89,6 +89,37 @@ def _chi2_table(sub: Measurements, ev, final, k_a: np.ndarray, poses: np.ndarray
     return np.where(np.isfinite(chi2), chi2, np.inf)
 
 
+def best_label(sub: Measurements, ev, final, meas) -> tuple[float, np.ndarray, float]:
+    """(k_a, pose, chi2) under which ``final`` fits the setting ``sub`` best: its pose at k_a on a
+    log grid over ``meas``' range widened ``KA_SPAN`` times (refined between the grid's
+    neighbours), or another measured pose of ``meas`` at its written k_a."""
+    levels = np.unique(meas.k_a)
+    grid = np.unique(np.concatenate([np.geomspace(levels.min() / KA_SPAN, levels.max() * KA_SPAN, N_KA), levels]))
+    poses = np.unique(np.round(meas.poses, 9), axis=0)
+    pose0, ka0 = sub.poses[0], float(sub.k_a[0])
+    others = np.reshape([p for p in poses if not np.allclose(p, pose0, atol=1e-6)], (-1, poses.shape[1]))
+    k_try = np.concatenate([grid, np.full(len(others), ka0)])
+    p_try = np.concatenate([np.repeat(pose0[None, :], len(grid), axis=0), others])
+    chi2 = _chi2_table(sub, ev, final, k_try, p_try)
+    best = int(np.argmin(chi2))
+    if best < len(grid):               # refine the k_a between the grid's neighbours
+        fine = np.geomspace(grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)], 41)
+        chi2_fine = _chi2_table(sub, ev, final, fine, np.repeat(pose0[None, :], len(fine), axis=0))
+        j = int(np.argmin(chi2_fine))
+        if chi2_fine[j] < chi2[best]:
+            return float(fine[j]), pose0, float(chi2_fine[j])
+    return float(k_try[best]), p_try[best], float(chi2[best])
+
+
+def rescored(anomaly: SettingAnomaly, meas, ev, final) -> SettingAnomaly:
+    """``anomaly``'s best k_a (or pose) and its chi-square under ``final``, e.g. the model refitted
+    without it (the model that flagged it was biased by its rows)."""
+    sub = meas.subset(np.isin(meas.lines, anomaly.lines))
+    k, pose, chi2 = best_label(sub, ev, final, meas)
+    return SettingAnomaly(anomaly.lines, anomaly.pose, anomaly.k_a, k, np.asarray(pose).tolist(), anomaly.chi2_own,
+                          chi2, anomaly.n_rows, anomaly.p_own, anomaly.scale)
+
+
 def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly]:
     """Settings that do not belong (see module doc), worst first."""
     groups = [g for g in settings_of(meas) if len(g) >= MIN_ROWS]
@@ -96,9 +127,6 @@ def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly
         return []
     r = final.comparison.error_sigma
     total, n = float(r @ r), len(r)
-    levels = np.unique(meas.k_a)
-    grid = np.unique(np.concatenate([np.geomspace(levels.min() / KA_SPAN, levels.max() * KA_SPAN, N_KA), levels]))
-    poses = np.unique(np.round(meas.poses, 9), axis=0)
     out = []
     for g in groups:
         own = float(r[g] @ r[g])
@@ -108,21 +136,9 @@ def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly
         if p_own >= alpha / len(groups):
             continue
         sub = meas.subset(g)
-        pose0, ka0 = sub.poses[0], float(sub.k_a[0])
-        others = [p for p in poses if not np.allclose(p, pose0, atol=1e-6)]
-        k_try = np.concatenate([grid, np.full(len(others), ka0)])
-        p_try = np.concatenate([np.repeat(pose0[None, :], len(grid), axis=0), np.reshape(others, (-1, poses.shape[1]))])
-        chi2 = _chi2_table(sub, ev, final, k_try, p_try)
-        best = int(np.argmin(chi2))
-        if best < len(grid):               # refine the k_a between the grid's neighbours
-            fine = np.geomspace(grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)], 41)
-            chi2_fine = _chi2_table(sub, ev, final, fine, np.repeat(pose0[None, :], len(fine), axis=0))
-            j = int(np.argmin(chi2_fine))
-            if chi2_fine[j] < chi2[best]:
-                k_try, chi2 = k_try.copy(), chi2.copy()
-                k_try[best], chi2[best] = fine[j], chi2_fine[j]
-        fits = stats.chi2.sf(chi2[best] / scale, max(len(g) - 1, 1)) > alpha
-        if fits and chi2[best] * FAR < own:
-            out.append(SettingAnomaly([int(x) for x in sub.lines], pose0.tolist(), ka0, float(k_try[best]),
-                                      p_try[best].tolist(), own, float(chi2[best]), len(g), p_own, scale))
+        k, pose, chi2 = best_label(sub, ev, final, meas)
+        fits = stats.chi2.sf(chi2 / scale, max(len(g) - 1, 1)) > alpha
+        if fits and chi2 * FAR < own:
+            out.append(SettingAnomaly([int(x) for x in sub.lines], sub.poses[0].tolist(), float(sub.k_a[0]), k,
+                                      np.asarray(pose).tolist(), own, chi2, len(g), p_own, scale))
     return sorted(out, key=lambda a: -a.chi2_own)
