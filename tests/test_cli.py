@@ -92,7 +92,7 @@ def test_matrices_rigid_prints_the_frequencies_of_its_printed_matrices():
     K_F = np.array(out["K_F"])
     flex = frequencies_hz(generalized_eigh(K_F[None], M[None])[0])[0]
     assert np.allclose(out["freq_flexible_hz"], flex, rtol=1e-9)       # of the printed K_F, not the paper model's
-    text = run_cli("matrices", "--model", "rigid").stdout
+    text = run_cli("matrices", "--model", "rigid").stdout.replace("\n  ", " ")   # lines wrap at 100 columns
     line = next(ln for ln in text.splitlines() if ln.startswith("natural frequencies of this"))
     assert "rigid model (from M and K_R, 3x3 translational subsets)" in line
     assert ", ".join(f"{f:.3f}" for f in expected) in line
