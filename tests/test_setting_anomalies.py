@@ -16,6 +16,7 @@ import pytest
 import eigentwist
 from eigentwist.description import resolve_model
 from eigentwist.diagnose import diagnose, synth
+from eigentwist.diagnose.answer import answer_text
 from eigentwist.diagnose.fit import fit
 from eigentwist.diagnose.settings import find_setting_anomalies
 from eigentwist.diagnose.stats import ALPHA
@@ -76,3 +77,6 @@ def test_mislabelled_setting_is_flagged_and_the_payload_recovered(ev_cd, what):
         j = d.to_json()["setting_anomalies"][0]
         assert j["lines"] == a.lines and j["best_k_a"] == a.best_k_a and j["evidence"]["chi2_best"] < j["evidence"]["chi2_written"]
         assert len(d.meas) == len(meas) - len(rows) and d.all_rows is not None
+        # the answer block names the setting by its lines and the label that fits
+        text = answer_text(d, ev_cd)
+        assert f"Setting set aside: lines {', '.join(str(x) for x in a.lines)} ({what} written" in text, text

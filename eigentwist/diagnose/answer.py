@@ -131,13 +131,10 @@ def _added(d, ev, items: list[dict], groups) -> str:
 
 
 def _removed(d) -> str:
-    """Effects a backward elimination dropped again (when the diagnosis records them as
-    ``removed``: names, or dicts with ``effect`` and ``message``)."""
-    items = getattr(d, "removed", None) or []
-    names = [i if isinstance(i, str) else (i.get("effect") if isinstance(i, dict) else getattr(i, "effect", None))
-             for i in items]
-    names = [n for n in names if n]
-    return f" Removed again: {', '.join(names)} (not needed in the final model)." if names else ""
+    """Effects backward elimination took back (:class:`~.backward.Removal`), with its reason
+    ("actuator_loss@2 removed: not needed once chain_spring was added")."""
+    reasons = [r.reason for r in (getattr(d, "removed", None) or [])]
+    return (" " + "; ".join(reasons) + ".") if reasons else ""
 
 
 def _groups_at(d, k: int) -> list:
@@ -207,14 +204,13 @@ def _rows_sentence(d) -> str:
         parts.append(f"Outlier(s) set aside: CSV line {lines}.")
     else:
         parts.append("No outliers.")
-    anomalies = getattr(d, "setting_anomalies", None) or []
-    for a in anomalies:
-        a = a if isinstance(a, dict) else vars(a)
-        lines = ", ".join(str(x) for x in a.get("lines", []))
-        written, best = a.get("k_a_written", a.get("written")), a.get("k_a_best", a.get("best"))
-        what = f" (k_a written {written:g}, fits {best:g})" if isinstance(written, (int, float)) and \
-            isinstance(best, (int, float)) else ""
-        parts.append(f"Setting set aside: lines {lines}{what}.")
+    for a in getattr(d, "setting_anomalies", None) or []:       # :class:`~.settings.SettingAnomaly`
+        lines = ", ".join(str(x) for x in a.lines)
+        if a.what == "k_a":
+            what = f"k_a written {a.k_a:g}, its modes fit k_a = {a.best_k_a:.4g}"
+        else:
+            what = f"pose written {_pose(a.pose)}, its modes fit {_pose(a.best_pose)}"
+        parts.append(f"Setting set aside: lines {lines} ({what}).")
     return " ".join(parts)
 
 
