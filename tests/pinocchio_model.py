@@ -28,7 +28,7 @@ The robot enters as numbers (:class:`PinRobot`: joints' axes and locations, bodi
 inertias and frames, all in the world frame at a reference configuration), so a robot
 written any way can be checked; :func:`from_description` reads an eigentwist description
 (``RobotDescription`` or ``ChainRobot``) at its reference pose. Entry point and how to
-add a robot: ``PIN_API.md`` at the repository root of the issue-21 work (see
+add a robot: ``tests/PINOCCHIO.md`` (see
 :func:`compare`).
 """
 from __future__ import annotations
