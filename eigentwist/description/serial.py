@@ -91,7 +91,7 @@ class Joint:
 class Body:
     """A rigid body on the child frame of joint ``after`` (1-based; U and S count once):
     ``inertia`` its 6x6 spatial inertia in that frame (kg, kg m, kg m^2; twists [omega; v],
-    :func:`eigentwist.symbolic.screw.spatial_inertia`)."""
+    :func:`eigentwist.description.screw.spatial_inertia`)."""
 
     name: str
     after: int

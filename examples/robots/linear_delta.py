@@ -18,7 +18,7 @@ from eigentwist.description import Parameter
 from eigentwist.description.chain import ChainBody, ChainJoint, ChainLeg, ChainRobot
 from eigentwist.description.effects import effect_parameters
 from eigentwist.description.pose import TranslationPose
-from eigentwist.symbolic.screw import cross, spatial_inertia
+from eigentwist.description.screw import cross, spatial_inertia
 
 ANGLES = (90, 210, 330)
 PARAMETERS = (

@@ -16,7 +16,7 @@ from eigentwist.description import Parameter
 from eigentwist.description.chain import ChainBody, ChainJoint, ChainLeg, ChainRobot
 from eigentwist.description.effects import effect_parameters
 from eigentwist.description.pose import PlanarPose
-from eigentwist.symbolic.screw import spatial_inertia
+from eigentwist.description.screw import spatial_inertia
 
 ANGLES = (90, 210, 330)
 ELBOW = 1                     # +1 or -1: which of the two elbow positions each leg takes

@@ -18,7 +18,7 @@ from eigentwist.description import Parameter
 from eigentwist.description.chain import ChainRobot
 from eigentwist.description.effects import effect_parameters
 from eigentwist.description.serial import Body, Joint, SerialLeg
-from eigentwist.symbolic.screw import spatial_inertia
+from eigentwist.description.screw import spatial_inertia
 
 BASE = (75, 105, 195, 225, 315, 345)
 PLATFORM = (40, 140, 160, 260, 280, 20)

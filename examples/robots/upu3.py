@@ -20,7 +20,7 @@ from eigentwist.description.chain import ChainRobot
 from eigentwist.description.effects import effect_parameters
 from eigentwist.description.pose import TranslationPose
 from eigentwist.description.serial import Body, Joint, SerialLeg
-from eigentwist.symbolic.screw import spatial_inertia
+from eigentwist.description.screw import spatial_inertia
 
 ANGLES = (90, 210, 330)
 HOME = 0.30                   # m: platform height at home

@@ -9,7 +9,7 @@ import sympy as sp
 from eigentwist.description.chain import ChainRobot
 from eigentwist.description.serial import Body, Joint, SerialLeg
 from eigentwist.robots import hexapod
-from eigentwist.symbolic.screw import spatial_inertia
+from eigentwist.description.screw import spatial_inertia
 
 
 def _strut(mass, distance, inertia):
