@@ -93,7 +93,9 @@ def test_matrices_rigid_prints_the_frequencies_of_its_printed_matrices():
     flex = frequencies_hz(generalized_eigh(K_F[None], M[None])[0])[0]
     assert np.allclose(out["freq_flexible_hz"], flex, rtol=1e-9)       # of the printed K_F, not the paper model's
     text = run_cli("matrices", "--model", "rigid").stdout.replace("\n  ", " ")   # lines wrap at 100 columns
-    line = next(ln for ln in text.splitlines() if ln.startswith("natural frequencies of this"))
+    lines = text.splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("natural frequencies of this"))
+    line = " ".join([lines[k]] + [ln.strip() for ln in lines[k + 1:k + 3] if ln.startswith("  ")])  # wrapped
     assert "rigid model (from M and K_R, 3x3 translational subsets)" in line
     assert ", ".join(f"{f:.3f}" for f in expected) in line
 

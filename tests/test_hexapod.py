@@ -6,7 +6,6 @@ vectors.
 """
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -174,12 +173,11 @@ def test_payload_at_the_origin_lowers_all_but_the_twist_about_z(robot, evaluate)
 
 
 @pytest.mark.derives
-def test_generation_under_a_minute():
-    """Derivation, CSE and rendering of both backends of the hexapod (issue 15: < 60 s)."""
-    t0 = time.perf_counter()
+def test_generation_renders_every_backend():
+    """Derivation, CSE and rendering of every backend of the hexapod (its time, < 60 s by
+    issue 15, is measured in benchmarks/hexapod.py: speed is never asserted in tests)."""
     files = render_robot("hexapod")
-    assert time.perf_counter() - t0 < 60
-    assert set(files) == {"hexapod_numpy.py", "hexapod_c.c"}
+    assert set(files) == {"hexapod_numpy.py", "hexapod_c.c", "hexapod_c.h"}
 
 
 def test_units_follow_the_joint_kind(robot):

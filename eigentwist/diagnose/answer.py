@@ -190,7 +190,7 @@ def uncertainty_sentence(u: dict | None, explained: bool) -> str:
         return f"The stated uncertainty looks overstated: the fit is better than it allows{birge}."
     if v == "understated":
         return f"The stated uncertainty looks understated{birge}; no effect is missing."
-    if v == "consistent" and (u.get("possibly_understated") or not explained):
+    if v == "cannot be judged" or (v == "consistent" and (u.get("possibly_understated") or not explained)):
         return f"The stated uncertainty cannot be judged: the misfit is systematic{birge}."
     if v == "consistent":
         return f"The stated uncertainty is consistent with the fit{birge}."
