@@ -19,7 +19,11 @@ from ..description.effects import split_scope
 
 __all__ = ["MIRROR_SIGMA", "mirror_groups", "group_label", "same_fit"]
 
-MIRROR_SIGMA = 0.02     # largest |prediction difference| / sigma on any measured row of two mirror images
+# largest |prediction difference| / sigma on any measured row of two mirror images: the fits'
+# own convergence tolerance (central-difference Jacobians) leaves up to ~0.06 sigma between two
+# mirror images (the paper data's rod_compliance@1 and @2, NumPy backend); a real difference
+# between two legs shows in at least one row far beyond it
+MIRROR_SIGMA = 0.1
 
 
 def same_fit(a, b, sigma) -> bool:
