@@ -40,8 +40,10 @@ FIGURE = re.compile(rf"({NUM}(?:\s*(?:,|\+-|±)\s*{NUM})*)\s*{UNIT}")
 OUTPUT_NUMBER = re.compile(r"-?\d+(?:\.(\d+))?(?:[eE]([-+]?\d+))?")
 TIMEOUT = 300
 
-# every block runs once, in the module fixture ``results``: keep the module on one xdist worker
-# (``--dist loadgroup``), or each worker would run the whole README again
+# every block runs once, in the session fixture ``results``: keep the module on one xdist worker
+# (``--dist loadgroup``), or each worker would run the whole README again; session scope, since
+# a module fixture is built again whenever the worker's tests of this module are interleaved
+# with another module's (measured: the README ran twice, 2 x ~300 s)
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("readme")]
 
 
@@ -146,7 +148,7 @@ def shows(output: str, figure: str) -> bool:
 BLOCKS = parse_blocks(README.read_text(encoding="utf-8"))
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def workdir(tmp_path_factory):
     """A temporary directory, and an environment with the ``eigentwist`` shim first on PATH."""
     work = tmp_path_factory.mktemp("readme")
@@ -161,7 +163,7 @@ def workdir(tmp_path_factory):
     return work, env
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def results(workdir):
     """Run every block in README order once; block id -> list of (command, comment, process)."""
     work, env = workdir
