@@ -1,0 +1,101 @@
+"""Rigid constraints condensed exactly (issue 20, runtime/condense.py).
+
+Expectations: the rigid model on the allowed twists (the 3x3 subsets of M and K_R, issue
+21), independent of the condensation's own null-space basis; the limit of a structure
+whose compliance goes to zero; a hand-made two-spring example; the penalty model of the
+paper (c_rigid = 1e-12) within its penalty error.
+"""
+import numpy as np
+import pytest
+
+import eigentwist
+from eigentwist.runtime.condense import (compliance_eigh, condensed_compliance, finite_modes, leg_joints,
+                                         platform_compliance)
+from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh
+
+
+@pytest.fixture(scope="module", params=["heli4", "delta"])
+def case(request):
+    ev = eigentwist.load(request.param, backend="numpy")
+    ref = np.array(ev.robot.x_ref, dtype=float)
+    poses = np.array([ref, ref + [0.05, -0.03, 0.02], ref + [-0.04, 0.06, -0.03]])
+    return ev, poses
+
+
+def test_rigid_six_by_six_equals_allowed_twist_subsets(case):
+    ev, poses = case
+    C, M = platform_compliance(ev, poses, "rigid")
+    f, V = compliance_eigh(C, M)
+    assert np.isinf(f[:, 3:]).all()                      # the constrained directions: infinite frequency
+    np.testing.assert_allclose(finite_modes(f), ev.frequencies(poses, "rigid"), rtol=1e-10, atol=0)
+    # eigentwists are M-orthonormal; the finite ones lie in the allowed twists (three translations)
+    np.testing.assert_allclose(np.swapaxes(V, 1, 2) @ M @ V, np.broadcast_to(np.eye(6), (3, 6, 6)), atol=1e-9)
+    assert np.abs(V[:, :3, :3]).max() < 1e-12 * np.abs(V[:, 3:, :3]).max()
+
+
+def test_vanishing_structure_tends_to_the_rigid_model(case):
+    """A structural compliance scaled by s -> 0 (infinite structural stiffness) gives the
+    rigid model's frequencies, with an error proportional to s."""
+    ev, poses = case
+    Je, Cq, _, _ = leg_joints(ev, poses, "paper")
+    Je_r, Cq_r, Kp, M = leg_joints(ev, poses, "actuator_loss")        # rigid: the actuators only
+    np.testing.assert_array_equal(Je, Je_r)
+    rigid = ev.frequencies(poses, "actuator_loss")
+    errs = []
+    for s in (1e-3, 1e-4, 0.0):
+        C, _ = condensed_compliance(Je, Cq_r + s * (Cq - Cq_r), Kp)
+        f = finite_modes(compliance_eigh(C, M)[0])[:, :3]
+        errs.append(np.abs(f / rigid - 1).max())
+    assert errs[-1] < 1e-10
+    assert 5 < errs[0] / errs[1] < 20                     # first order in the structural compliance
+
+
+def test_two_springs_and_a_rigid_link_by_hand():
+    """A unit mass on two orthogonal springs k1, k2 (x, y) and a rigid link in z."""
+    k1, k2 = 4.0e4, 9.0e4
+    Je = np.zeros((1, 3, 1, 6))
+    Je[0, 0, 0, 3], Je[0, 1, 0, 4], Je[0, 2, 0, 5] = 1.0, 1.0, 1.0
+    Cq = np.array([1 / k1, 1 / k2, 0.0]).reshape(1, 3, 1, 1)
+    Kp = np.zeros((1, 6, 6))
+    Kp[0, :3, :3] = np.diag([1.0e3, 2.0e3, 3.0e3])        # rotational springs in parallel
+    M = np.eye(6)[None]
+    C, B = condensed_compliance(Je, Cq, Kp)
+    f, _ = compliance_eigh(C, M)
+    expected = np.sqrt([1.0e3, 2.0e3, 3.0e3, k1, k2]) / (2 * np.pi)
+    np.testing.assert_allclose(f[0, :5], expected, rtol=1e-13)
+    assert f[0, 5] == np.inf and B.shape == (1, 6, 5)
+
+
+def test_penalty_model_within_its_penalty(case):
+    """The generated K_F (c_rigid = 1e-12 rad/(N m)) agrees with the exact model to its
+    penalty error (~1e-5 relative at most), on every finite mode."""
+    ev, poses = case
+    for model in ("rigid", "paper"):
+        C, M = platform_compliance(ev, poses, model)
+        f = compliance_eigh(C, M)[0]
+        K = ev.matrices(poses, model)["K_F"]
+        fp = frequencies_hz(generalized_eigh(K, M)[0])
+        n = int(np.isfinite(f[0]).sum())
+        np.testing.assert_allclose(fp[:, :n], f[:, :n], rtol=1e-5)
+        assert (fp[:, n:] > 1e5).all()                    # the penalty's stiff directions: ~1e6 Hz
+
+
+def test_exact_model_is_well_conditioned():
+    """The solved matrix's condition number is the squared ratio of the finite modes'
+    frequencies (the physics), not the penalty's ~1e8 (Heli4 at x_ref)."""
+    ev = eigentwist.load("heli4", backend="numpy")
+    x = np.array([ev.robot.x_ref], dtype=float)
+    for model in ("rigid", "actuator_loss,ee_compliance"):
+        C, M = platform_compliance(ev, x, model)
+        f = finite_modes(compliance_eigh(C, M)[0])
+        L = np.linalg.cholesky(M)
+        mu = np.linalg.eigvalsh(np.swapaxes(L, 1, 2) @ C @ L)[0, 6 - f.shape[1]:]
+        np.testing.assert_allclose(mu.max() / mu.min(), (f.max() / f.min()) ** 2, rtol=1e-9)
+        assert mu.max() / mu.min() < 10
+        assert np.linalg.cond(ev.matrices(x, model)["K_F"][0]) > 1e7   # the penalty route's
+
+
+def test_coupled_platforms_refused():
+    ev = eigentwist.load("heli4", backend="numpy")
+    with pytest.raises(ValueError, match="ee_coupling"):
+        platform_compliance(ev, np.array([ev.robot.x_ref]), "ee_coupling")
