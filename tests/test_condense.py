@@ -99,3 +99,22 @@ def test_coupled_platforms_refused():
     ev = eigentwist.load("heli4", backend="numpy")
     with pytest.raises(ValueError, match="ee_coupling"):
         platform_compliance(ev, np.array([ev.robot.x_ref]), "ee_coupling")
+
+
+@pytest.mark.parametrize("robot", ["heli4", "delta"])
+def test_matrices_json_exact_route(robot, capsys):
+    """``matrices --model rigid --json``: the 6x6 route (C_F, M) gives the rigid model's
+    frequencies (3x3 allowed-twist subsets) to 1e-10, the constrained directions null."""
+    import json
+
+    from eigentwist.cli.main import main
+
+    assert main(["matrices", "--robot", robot, "--model", "rigid", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["freq_exact_hz"][3:] == [None] * 3
+    np.testing.assert_allclose(d["freq_exact_hz"][:3], d["freq_hz"], rtol=1e-10, atol=0)
+    C, M = np.array(d["C_F"]), np.array(d["M"])
+    np.testing.assert_allclose(finite_modes(compliance_eigh(C[None], M[None])[0])[0], d["freq_rigid_hz"], rtol=1e-10)
+    assert main(["matrices", "--robot", robot, "--model", "paper", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(d["freq_exact_hz"], d["freq_hz"], rtol=1e-6)   # K_F's penalty: ~1e-8 here

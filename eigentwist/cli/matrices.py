@@ -24,7 +24,11 @@ JSON keys: robot, model, kind (rigid or flexible), frequencies_from, pose, k_a,
 joint_angles_deg (per leg), M, K_R, K_F (6x6), freq_hz and eigentwists (the model's: 3 or 6
 modes), freq_rigid_hz (3, from the printed M and K_R, 3x3 translational subsets),
 freq_flexible_hz (6, from the printed M and K_F), eigentwists_rigid (3x3),
-eigentwists_flexible (6x6), parameters [{name, value, unit, default, differs, source}];
+eigentwists_flexible (6x6), C_F (6x6 exact platform compliance: the legs' rigid constraint
+directions with zero compliance instead of K_F's c_rigid penalty; null for a model that
+couples platform bodies), freq_exact_hz (6, from C_F and M in compliance form: the finite
+modes ascending, then null for each rigid-constraint direction, an infinite frequency),
+parameters [{name, value, unit, default, differs, source}];
 eigentwists are columns, one per mode, scaled so the largest entry is +1. Units: kg, kg m,
 kg m^2; N/m, N, N m/rad; Hz.
 """
@@ -80,6 +84,7 @@ def compute(args) -> dict:
     f_rigid, v_rigid = _modes_of(B.swapaxes(1, 2) @ mats["M"] @ B,     # rule; a 3-PRS's turn with the pose)
                                  B.swapaxes(1, 2) @ mats["K_R"] @ B)
     f_flex, v_flex = _modes_of(mats["M"], mats["K_F"])
+    C_F, f_exact = _exact(ev, pose, effects, params)
     kind = ev.kind(effects)
     fixed = getattr(ev.space, "basis", None) is not None
     rigid_from = (FROM["rigid"] if r else "M and K_R, 6x6") if fixed else "M and K_R on the allowed twists, 3x3"
@@ -110,8 +115,23 @@ def compute(args) -> dict:
         "freq_flexible_hz": f_flex.tolist(),
         "eigentwists_rigid": v_rigid.tolist(),
         "eigentwists_flexible": v_flex.tolist(),
+        "C_F": C_F,
+        "freq_exact_hz": f_exact,
         "parameters": used_parameters(ev, effects, params),
     }
+
+
+def _exact(ev, pose, effects, params):
+    """(C_F, frequencies) of the exact condensation (runtime/condense.py) as JSON lists:
+    an infinite frequency (a rigid constraint) is null; (None, None) for coupled platforms."""
+    from ..runtime.condense import compliance_eigh, platform_compliance
+
+    try:
+        C, M = platform_compliance(ev, pose, effects, **params)
+    except ValueError:
+        return None, None
+    f = compliance_eigh(C, M)[0][0]
+    return C[0].tolist(), [float(v) if np.isfinite(v) else None for v in f]
 
 
 def run(args) -> int:
