@@ -471,7 +471,9 @@ def test_the_animation_runs_offline_in_chromium(report_path, tmp_path):
     a, b = (f[..., :3] for f in frames)
     assert a.std() > 0.02                                  # something is drawn
     changed = np.abs(a - b).sum(axis=-1) > 0.1
-    assert changed.sum() > 500, changed.sum()              # the platforms moved between the two frames
+    # the platforms moved between the two frames (a still page changes no pixel; the lines of a
+    # small-amplitude mode move a few hundred: 336 seen on a fresh clone, more elsewhere)
+    assert changed.sum() > 100, changed.sum()
 
 
 @pytest.mark.browser
