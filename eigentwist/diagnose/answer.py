@@ -73,10 +73,6 @@ def _ranges(ev, names) -> dict:
     return {n: tuple(ev.parameter(n).plausible_range) for n in names if ev.accepts(n)}
 
 
-def _plausible(value, std, bounds, at_bound) -> bool:
-    return is_plausible(value, std, bounds, at_bound)
-
-
 def _owner(ev, effects, name: str) -> str | None:
     for e in effects:
         if name in scope.parameter_names(ev, e):
@@ -97,7 +93,7 @@ def added_effects(d, ev) -> list[dict]:
             value, std = d.final.values.get(n), d.final.std.get(n, math.inf)
             text = f"{n} = {format_estimate(value, std, unit)}"
             bounds = _ranges(ev, (n,)).get(n)
-            plausible = _plausible(value, std, bounds, n in d.final.at_bound)
+            plausible = is_plausible(value, std, bounds, n in d.final.at_bound)
             if not plausible and bounds:
                 text += f" (IMPLAUSIBLE: plausible {bounds[0]:.2g} ... {bounds[1]:.2g} {unit})".replace(" )", ")")
             params.append({"name": n, "value": value, "std": std, "unit": unit, "plausible": plausible,

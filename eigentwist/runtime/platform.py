@@ -5,9 +5,9 @@ A pose space (:mod:`eigentwist.description.pose`) names the coordinates a user g
 rotation vector rot_x, rot_y, rot_z in rad). Any coordinate that is neither given nor a
 follower is 0 (a planar platform's z, rot_x, rot_y). The followers of a lower-mobility
 space (a 3-PRS platform's x, y, rot_z) are solved per pose from the legs' closure
-equations (the generated ``followers`` kernel) by a damped Newton method: batched over the
-poses from the reference (followers 0), then each pose that did not converge again,
-warm-started from the nearest earlier pose of the batch that did. A pose that still does
+equations (the generated ``followers`` kernel) by the damped Newton method of the legs'
+numeric IK (:func:`eigentwist.runtime.newton.solve`): batched over the poses from the
+reference (followers 0), then warm-started from the previous pose. A pose that still does
 not converge has NaN followers: the evaluator reports it unreachable.
 """
 from __future__ import annotations
@@ -21,7 +21,6 @@ __all__ = ["full_poses", "follow", "left_jacobian", "TOL_M", "MAX_STEPS"]
 
 TOL_M = 1e-12          # a closure below this (m) counts as met
 MAX_STEPS = 40         # Newton steps per attempt
-MAX_STEP = 0.2         # largest follower step per iteration (m or rad): the damping
 
 
 def left_jacobian(rotvec: np.ndarray) -> np.ndarray:
@@ -48,24 +47,20 @@ def _kernel_inputs(full: np.ndarray, p: dict) -> dict:
     return out
 
 
-def _rows(p: dict, rows: np.ndarray, n: int) -> dict:
-    return {k: (np.asarray(v)[rows] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
-            for k, v in p.items()}
-
-
-def _newton(closure, full: np.ndarray, followers: list, p: dict):
-    """Damped Newton steps on the followers of ``full`` (N, 6), in place; returns the
-    (N,) mask of poses whose closures fell below :data:`TOL_M`."""
-    n = len(full)
-    done = np.zeros(n, dtype=bool)
-    for _ in range(MAX_STEPS):
+def _follower_closure(closure, followers: list):
+    """The ``followers`` kernel as :func:`eigentwist.runtime.newton.solve` takes a closure:
+    unknowns (n, 1, followers), the commanded full poses in ``p["_full"]`` (n, 6); residual
+    (n, 1, closures) and its Jacobian (n, 1, closures, followers) by the rates along the twist
+    of each follower (a position follower: a translation; a rotation-vector follower: the
+    left Jacobian's column)."""
+    def evaluate(q, p):
+        full = np.array(p["_full"], dtype=float)
+        full[:, followers] = q[:, 0, :]
+        n = len(full)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             out = closure(full[:, 0], full[:, 1], full[:, 2], _kernel_inputs(full, p))
         r = out["closure"].reshape(n, -1)
         rate = out["closure_rate"].reshape(n, -1, 6)
-        done = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1, initial=0.0) < TOL_M)
-        if done.all():
-            break
         T = np.zeros((n, 6, len(followers)))            # twist [omega; v] per unit follower rate
         Jl = left_jacobian(full[:, 3:6])
         for c, k in enumerate(followers):
@@ -73,40 +68,23 @@ def _newton(closure, full: np.ndarray, followers: list, p: dict):
                 T[:, 3 + k, c] = 1.0
             else:
                 T[:, :3, c] = Jl[:, :, k - 3]
-        J = rate @ T                                      # (N, closures, followers)
-        JtJ = np.swapaxes(J, 1, 2) @ J
-        mu = 1e-12 * np.trace(JtJ, axis1=1, axis2=2)[:, None, None] + 1e-300
-        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            try:
-                step = -np.linalg.solve(JtJ + mu * np.eye(len(followers)), (np.swapaxes(J, 1, 2) @ r[..., None]))[..., 0]
-            except np.linalg.LinAlgError:
-                step = np.full((n, len(followers)), np.nan)
-        size = np.abs(step).max(axis=1, keepdims=True)
-        step = np.where(size > MAX_STEP, step * (MAX_STEP / np.where(size > 0, size, 1.0)), step)
-        step[done] = 0.0
-        full[:, followers] += np.where(np.isfinite(step), step, 0.0)
-    return done
+        return {"residual": r[:, None, :], "dresidual": (rate @ T)[:, None]}
+    return evaluate
 
 
 def follow(closure, full: np.ndarray, followers: list, p: dict) -> np.ndarray:
     """Solve the followers (indices into ``FULL``) of the poses ``full`` (N, 6; the
     commanded coordinates set, the followers' starting values 0) so that every leg's
     closure vanishes; returns the completed (N, 6) poses, NaN followers where Newton did not
-    converge (batched from the reference, then warm-started from the nearest earlier
-    converged pose). ``closure(x, y, z, p)`` is the generated ``followers`` kernel; ``p`` holds the
-    parameters as the kernels take them."""
+    converge (:func:`eigentwist.runtime.newton.solve`: batched from the reference, then
+    warm-started from the previous pose). ``closure(x, y, z, p)`` is the generated
+    ``followers`` kernel; ``p`` holds the parameters as the kernels take them."""
+    from .newton import solve
+
     full = np.array(full, dtype=float)
-    n = len(full)
-    done = _newton(closure, full, followers, p)
-    for k in np.flatnonzero(~done):
-        earlier = np.flatnonzero(done[:k])
-        if not len(earlier):
-            continue
-        row = full[k:k + 1].copy()
-        row[0, followers] = full[earlier[-1], followers]
-        if _newton(closure, row, followers, _rows(p, np.array([k]), n))[0]:
-            full[k], done[k] = row[0], True
-    full[np.ix_(~done, followers)] = np.nan
+    q = solve(_follower_closure(closure, followers), np.zeros((1, len(followers))), {**p, "_full": full},
+              len(full), iterations=MAX_STEPS, tol=TOL_M)
+    full[:, followers] = q[:, 0, :]
     return full
 
 
