@@ -95,10 +95,43 @@ def test_exact_model_is_well_conditioned():
         assert np.linalg.cond(ev.matrices(x, model)["K_F"][0]) > 1e7   # the penalty route's
 
 
-def test_coupled_platforms_refused():
+def test_coupled_platform_bodies_condensed_exactly():
+    """Legs on plates coupled to the tool (``ee_coupling``, issue 7): the exact route's
+    finite modes equal the penalty K_F's (which condenses the coupling in closed form) to
+    its penalty error, and a coupling 1e6 times stiffer gives the uncoupled model."""
     ev = eigentwist.load("heli4", backend="numpy")
-    with pytest.raises(ValueError, match="ee_coupling"):
-        platform_compliance(ev, np.array([ev.robot.x_ref]), "ee_coupling")
+    x = np.array([ev.robot.x_ref, np.add(ev.robot.x_ref, [0.04, -0.03, 0.02])])
+    C, M = platform_compliance(ev, x, "ee_coupling")
+    f = finite_modes(compliance_eigh(C, M)[0])
+    assert f.shape == (2, 3)                               # the legs' rotations stay rigid
+    mats = ev.matrices(x, "ee_coupling")
+    penalty = frequencies_hz(generalized_eigh(mats["K_F"], mats["M"])[0])[:, :3]
+    np.testing.assert_allclose(f, penalty, rtol=1e-5)
+    stiff = {k: 1e6 * next(q.default for q in ev.robot.parameters if q.name == k) for k in ("k_E_rot", "k_E_lin")}
+    C, M = platform_compliance(ev, x, "ee_coupling", **stiff)
+    bare = ev.frequencies(x, "rigid", eta_a=1.0)            # the actuators alone (rigid: eta_a 0.82)
+    np.testing.assert_allclose(finite_modes(compliance_eigh(C, M)[0]), bare, rtol=1e-5)
+    np.testing.assert_allclose(ev.frequencies(x, "ee_coupling")[:, :3], f, rtol=1e-12)   # the default route
+
+
+def test_default_route_is_exact():
+    """``frequencies`` of a flexible model with rigid constraint directions: the finite modes
+    are the exact condensation's (no c_rigid), so the rigid limit is reached to round-off:
+    the end-effector compliance alone, 1e9 times stiffer, gives the rigid model to 1e-8
+    (the penalty route: 1e-7 at best, its c_rigid error), and a c_rigid of the user's is
+    a finite constraint compliance (K_F as given)."""
+    ev = eigentwist.load("heli4", backend="numpy")
+    x = np.array([ev.robot.x_ref, np.add(ev.robot.x_ref, [0.04, -0.03, 0.02])])
+    stiff = {k: 1e9 * next(q.default for q in ev.robot.parameters if q.name == k) for k in ("k_E_rot", "k_E_lin")}
+    f = ev.frequencies(x, "actuator_loss,ee_compliance", **stiff)
+    np.testing.assert_allclose(f[:, :3], ev.frequencies(x, "actuator_loss"), rtol=1e-8)
+    assert (f[:, 3:] > 1e5).all()                          # the rigid directions' stand-ins
+    mats = ev.matrices(x, "actuator_loss,ee_compliance", **stiff)
+    penalty = frequencies_hz(generalized_eigh(mats["K_F"], mats["M"])[0])[:, :3]
+    assert np.abs(penalty / ev.frequencies(x, "actuator_loss") - 1).max() > 1e-7
+    given = ev.frequencies(x, "actuator_loss,ee_compliance", c_rigid=1e-9, **stiff)
+    mats = ev.matrices(x, "actuator_loss,ee_compliance", c_rigid=1e-9, **stiff)
+    np.testing.assert_allclose(given, frequencies_hz(generalized_eigh(mats["K_F"], mats["M"])[0]), rtol=1e-12)
 
 
 @pytest.mark.parametrize("robot", ["heli4", "delta"])

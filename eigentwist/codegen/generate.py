@@ -30,6 +30,7 @@ KERNEL_DOCS = {
     "matrices_lever": "The matrices kernel with each leg's actuation lever (m) as a further output: the fused C pass checks singularity without the jacobians kernel.",
     "followers": "Each leg's closure equations (m, zero where the platform can be) and their rates along the platform's six unit twists, for the followers of a lower-mobility pose space (issue 21).",
     "loop_closure": "Loop-closure residual of every leg at its joint coordinates and the pose (orientation error, rad, then position, m) and its exact Jacobian with respect to the leg's coordinates, for the damped Newton inverse kinematics.",
+    "legs": "Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints (issue 20).",
     "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40), each leg's series actuator stiffness k_act and the static preload wrench W on the platform.",
 }
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
@@ -67,7 +68,7 @@ def kernels_for(model, progress=None) -> list[Kernel]:
         outs = [Output(k, sh, ex) for k, (sh, ex) in model.closure_outputs.items()]
         kernels.append(build_kernel("loop_closure", KERNEL_DOCS["loop_closure"], model.closure, outs, [],
                                     model.joints, program_params, nq))
-    for group in ("matrices", "jacobians", "gravity"):
+    for group in ("matrices", "jacobians", "gravity", "legs"):
         if progress:
             progress(f"CSE {group}")
         outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
@@ -119,8 +120,8 @@ BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", r
             "c_header": ("{robot}_c.h", render_c_header)}
 TEMPLATE_DIR = {"c_header": "c"}
 # progress messages of render_robot per robot (every backend): derive, CSE of the matrices,
-# jacobians and gravity kernels, CSE of the fused pass's matrices_lever, one per file emitted
-PROGRESS_STEPS = 5 + len(BACKENDS)
+# jacobians, gravity and legs kernels, CSE of the fused pass's matrices_lever, one per file emitted
+PROGRESS_STEPS = 6 + len(BACKENDS)
 
 
 def render_robot(robot, progress=None, timings: dict | None = None, backends=None) -> dict[str, str]:

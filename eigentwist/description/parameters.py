@@ -80,5 +80,6 @@ class Parameter:
         bad = ~np.isfinite(arr) | (arr <= lo) | (arr >= hi) if lo == 0.0 else ~np.isfinite(arr) | (arr < lo) | (arr > hi)
         if np.any(bad):
             first = arr.reshape(-1)[np.argmax(bad.reshape(-1))]
-            rng = f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else f"a finite value in [{lo:g}, {hi:g}]"
+            rng = (f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
+                   f"a finite value in ({lo:g}, {hi:g})" if lo == 0.0 else f"a finite value in [{lo:g}, {hi:g}]")
             raise ValueError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")

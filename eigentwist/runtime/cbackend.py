@@ -267,6 +267,11 @@ class CKernels:
         """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""
         return self._q_kernel("gravity", q, p)
 
+    def legs(self, q, p: dict) -> dict:
+        """Each leg's elastic-joint rows ``Je``, their compliance ``Cq`` without the rigid
+        penalty, ``K_ground`` and the couplings' ``G_c``, ``K_c`` (see the NumPy module)."""
+        return self._q_kernel("legs", q, p)
+
     # ------------------------------------------------------- fast paths
     def generalized_eigh(self, K, M, vectors: bool = True, threads: int = 1):
         """``K v = lambda M v`` for (N, n, n) pairs, n = 6 or 3, in C (Cholesky + Jacobi).

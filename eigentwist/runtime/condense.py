@@ -27,19 +27,17 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["leg_condensation", "condensed_compliance", "compliance_eigh", "finite_modes", "leg_joints",
-           "platform_compliance",
-           "RIGID_RTOL", "PROBE_C_RIGID"]
+           "platform_compliance", "applies", "route", "exact_modes", "RIGID_RTOL", "EXACT"]
 
 # A joint-compliance eigenvalue below RIGID_RTOL times the leg's largest (or a singular
 # value of the stacked rigid rows below RIGID_RTOL times the largest) is a rigid direction
 # (a dependent constraint): the compliances of a model are either exact zeros (rigid) or
 # physical values many orders above round-off.
 RIGID_RTOL = 1e-10
-# The generated ``gravity`` kernel's joint stiffness ``Kqe = Cq^-1`` includes the
-# description's ``c_rigid`` on each virtual joint; :func:`platform_compliance` evaluates it
-# with this value (rad/(N m), within the parameter's bounds: Kqe well conditioned) and
-# subtracts it again, which recovers ``Cq`` with exact-zero rigid directions to round-off.
-PROBE_C_RIGID = 1e-7
+#: ``c_rigid`` as :func:`route` passes it when no direction of the model is rigid: zero
+#: (K_F exact), the one value the parameter's bounds refuse from a user (the evaluator
+#: knows this object and does not check it)
+EXACT = np.float64(0.0)
 
 
 def leg_condensation(Je: np.ndarray, Cq: np.ndarray, rtol: float = RIGID_RTOL):
@@ -64,55 +62,108 @@ def leg_condensation(Je: np.ndarray, Cq: np.ndarray, rtol: float = RIGID_RTOL):
 
 
 def condensed_compliance(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray | None = None,
-                         rtol: float = RIGID_RTOL):
+                         rtol: float = RIGID_RTOL, *, bodies=None, G_c: np.ndarray | None = None,
+                         K_c: np.ndarray | None = None):
     """Exact platform compliance of legs in parallel with rigid constraints.
 
     Je : (N, legs, e, 6) and Cq : (N, legs, e, e) as in :func:`leg_condensation`;
-    K_parallel : optional (N, 6, 6) stiffness in parallel (ground springs).
+    K_parallel : optional (N, 6, 6) stiffness in parallel (ground springs, a preload).
+    Legs on a platform body coupled to the tool (issue 7): ``bodies`` (legs,) gives each
+    leg's coupling index (-1: the tool body), ``G_c`` (N, couplings, 6, m) the couplings'
+    unit twists at the EE origin and ``K_c`` (N, couplings, m) their stiffnesses; the body
+    moves with ``t - G_c theta`` (``theta``: the coupling's m coordinates, condensed
+    statically like :func:`eigentwist.symbolic.stiffness.condense_coupling` does).
 
-    Returns ``(C_F, B)``: C_F (N, 6, 6) = ``B (B^T K_s B)^-1 B^T`` in rad/(N m), m/N
-    (K_s: the legs' finite springs plus ``K_parallel``), and B (N, 6, n) an orthonormal
-    basis of the admissible twists (the null space of the rigid rows; n = 6 without
-    rigid constraints). Raises ``numpy.linalg.LinAlgError`` when ``B^T K_s B`` is
-    singular (a mechanism: an admissible twist without stiffness).
+    With x = [t; theta] the assembled stiffness K_x (legs' finite springs on their body's
+    twist, couplings on theta, K_parallel on t) and B an orthonormal basis of the x that
+    violate no rigid row, the tool compliance is the t-block of ``B (B^T K_x B)^-1 B^T``:
+    every solve is on the admissible motions, so its conditioning is that of the physics.
+
+    Returns ``(C_F, B)``: C_F (N, 6, 6) in rad/(N m), m/N and B (N, d, n) (d = 6 without
+    couplings; n = 6 without rigid constraints). A pose where ``B^T K_x B`` is singular (a
+    mechanism) gets NaN; poses may differ in the rank of their constraints (each rank is
+    solved on its own).
     """
     Je = np.asarray(Je, dtype=float)
-    N = Je.shape[0]
-    K_s = np.zeros((N, 6, 6)) if K_parallel is None else np.array(K_parallel, dtype=float)
+    N, n_legs = Je.shape[:2]
+    nc = 0 if G_c is None or bodies is None else np.shape(G_c)[1]
+    m = 0 if nc == 0 else np.shape(G_c)[3]
+    d = 6 + nc * m
+    K_x = np.zeros((N, d, d))
+    if K_parallel is not None:
+        K_x[:, :6, :6] = K_parallel
+    T = {-1: np.broadcast_to(np.eye(6, d), (N, 6, d))}                   # x -> a body's twist
+    for k in range(nc):
+        Tk = np.zeros((N, 6, d))
+        Tk[:, :, :6] = np.eye(6)
+        Tk[:, :, 6 + k * m:6 + (k + 1) * m] = -np.asarray(G_c, dtype=float)[:, k]
+        T[k] = Tk
+        idx = np.arange(6 + k * m, 6 + (k + 1) * m)
+        K_x[:, idx, idx] = np.asarray(K_c, dtype=float)[:, k]
     rows = []
-    for i in range(Je.shape[1]):
+    for i in range(n_legs):
         K, R = leg_condensation(Je[:, i], np.asarray(Cq)[:, i], rtol)
-        K_s += K
-        rows.append(R)
-    A = np.concatenate(rows, axis=1)                                  # (N, legs*e, 6)
+        Ti = T[-1 if bodies is None or nc == 0 else int(bodies[i])]
+        K_x += np.swapaxes(Ti, -1, -2) @ K @ Ti
+        rows.append(R @ Ti)
+    A = np.concatenate(rows, axis=1)                                  # (N, legs*e, d)
     _, sv, Vt = np.linalg.svd(A, full_matrices=True)
     rank = (sv > rtol * sv.max(axis=-1, keepdims=True, initial=0.0)).sum(axis=-1)
-    if np.any(rank != rank[0]):
-        raise ValueError(f"rigid constraints of rank {sorted(set(rank.tolist()))} across the poses: "
-                         "expected one rank (a constraint singularity)")
-    B = np.swapaxes(Vt[:, int(rank[0]):, :], -1, -2)                 # (N, 6, n)
-    Kr = np.swapaxes(B, -1, -2) @ K_s @ B
-    C = B @ np.linalg.solve(0.5 * (Kr + np.swapaxes(Kr, -1, -2)), np.swapaxes(B, -1, -2))
-    return 0.5 * (C + np.swapaxes(C, -1, -2)), B
+    C = np.full((N, 6, 6), np.nan)
+    B_out = None
+    for r in np.unique(rank):
+        at = rank == r
+        B = np.swapaxes(Vt[at][:, int(r):, :], -1, -2)                 # (n_at, d, d - r)
+        Kr = np.swapaxes(B, -1, -2) @ K_x[at] @ B
+        Kr = 0.5 * (Kr + np.swapaxes(Kr, -1, -2))
+        Bt = np.swapaxes(B[:, :6, :], -1, -2)
+        C[at] = _solve_each(B[:, :6, :], Kr, Bt)
+        if at.all():
+            B_out = B
+    return C, B_out
+
+
+def _solve_each(B6: np.ndarray, Kr: np.ndarray, Bt: np.ndarray) -> np.ndarray:
+    """``B6 Kr^-1 Bt`` per pose (symmetrised); NaN where Kr is singular (a mechanism)."""
+    try:
+        Ct = B6 @ np.linalg.solve(Kr, Bt)
+    except np.linalg.LinAlgError:
+        Ct = np.full(B6.shape[:1] + (6, 6), np.nan)
+        for k in range(len(Kr)):
+            try:
+                Ct[k] = B6[k] @ np.linalg.solve(Kr[k], Bt[k])
+            except np.linalg.LinAlgError:
+                pass
+    return 0.5 * (Ct + np.swapaxes(Ct, -1, -2))
 
 
 def compliance_eigh(C: np.ndarray, M: np.ndarray, rtol: float = RIGID_RTOL):
     """Solve ``C M v = (1/omega^2) v`` (Eq. 6 in compliance form) for a batch.
 
-    C : (N, n, n) symmetric PSD compliance; M : (N, n, n) SPD inertia.
+    C : (N, n, n) symmetric compliance; M : (N, n, n) SPD inertia.
 
-    Returns ``(freq_hz, V)``: freq_hz (N, n) ascending, ``+inf`` for each direction of
-    zero compliance (an eigenvalue 1/omega^2 below ``rtol`` times the pose's largest);
-    V (N, n, n) the eigentwists (columns), M-orthonormal. With ``M = L L^T`` the solved
-    matrix is the symmetric PSD ``L^T C L`` (eigenvalues 1/omega^2 in (s/rad)^2).
+    Returns ``(freq_hz, V)``: freq_hz (N, n) in the order of omega^2 ascending, like
+    :func:`eigentwist.runtime.eigen.generalized_eigh`: an unstable mode (negative
+    compliance, omega^2 < 0) first as NaN, then the finite modes ascending, then ``+inf``
+    for each direction of zero compliance (an eigenvalue 1/omega^2 within ``rtol`` of zero
+    relative to the pose's largest); V (N, n, n) the eigentwists (columns), M-orthonormal.
+    With ``M = L L^T`` the solved matrix is the symmetric ``L^T C L`` (eigenvalues
+    1/omega^2 in (s/rad)^2). A pose with a NaN compliance gets NaN throughout.
     """
+    C = np.asarray(C, dtype=float)
     L = np.linalg.cholesky(np.asarray(M, dtype=float))
-    A = np.swapaxes(L, -1, -2) @ np.asarray(C, dtype=float) @ L
+    A = np.swapaxes(L, -1, -2) @ np.nan_to_num(C) @ L
     mu, W = np.linalg.eigh(0.5 * (A + np.swapaxes(A, -1, -2)))
-    mu, W = mu[..., ::-1], W[..., ::-1]                               # largest 1/omega^2 first
-    zero = mu <= rtol * np.abs(mu).max(axis=-1, keepdims=True)
-    freq = np.where(zero, np.inf, 1.0 / np.sqrt(np.where(zero, 1.0, mu)) / (2 * np.pi))
+    zero = np.abs(mu) <= rtol * np.abs(mu).max(axis=-1, keepdims=True)
+    lam = np.where(zero, np.inf, 1.0 / np.where(zero, 1.0, mu))             # omega^2, (rad/s)^2
+    order = np.argsort(lam, axis=-1, kind="stable")
+    lam = np.take_along_axis(lam, order, axis=-1)
+    W = np.take_along_axis(W, order[..., None, :], axis=-1)
+    with np.errstate(invalid="ignore"):
+        freq = np.where(lam < 0, np.nan, np.sqrt(np.abs(lam)) / (2 * np.pi))
     V = np.swapaxes(np.linalg.inv(L), -1, -2) @ W
+    bad = np.isnan(C).any(axis=(-1, -2))
+    freq[bad], V[bad] = np.nan, np.nan
     return freq, V
 
 
@@ -126,48 +177,153 @@ def finite_modes(freq_hz: np.ndarray) -> np.ndarray:
     return freq_hz[..., : int(n.flat[0])]
 
 
+def applies(ev, effects) -> bool:
+    """Whether ``effects`` of ``ev``'s robot is a flexible model whose legs have elastic
+    constraint directions (virtual joints) and whose generated code has the ``legs``
+    kernel (every robot generated since issue 20)."""
+    outputs = getattr(ev._kernels, "OUTPUTS", {})
+    return (ev.kind(effects) == "flexible" and "legs" in outputs
+            and outputs["legs"]["Je"][1] > 1)
+
+
+def route(ev, effects, params: dict) -> tuple[dict, bool]:
+    """How :meth:`Evaluator.modes` solves a model exactly: ``(params, condense)``.
+
+    * not :func:`applies`, or ``c_rigid`` given with a value other than the description's
+      default (the user's finite constraint compliance): ``(params, False)``, K_F as is;
+    * no leg has a rigid direction in this model (e.g. every rod compliant; probed once per
+      model and evaluator at the reference pose ``x_ref``, a property of which effects
+      are on): ``c_rigid = 0``
+      makes K_F exact, ``({**params, "c_rigid": EXACT}, False)``;
+    * else ``(params, True)``: the finite modes come from :func:`exact_modes`.
+    """
+    if not applies(ev, effects):
+        return params, False
+    default = next((q.default for q in ev.robot.parameters if q.name == "c_rigid"), None)
+    if "c_rigid" in params and default is not None and np.any(np.asarray(params["c_rigid"]) != default):
+        return params, False
+    memo = ev.__dict__.setdefault("_rigid_models", {})      # a model's rigid directions: from its effects
+    key = tuple(effects)
+    if key not in memo:
+        memo[key] = _has_rigid_direction(ev, effects, params)
+    if memo[key] or default is None:
+        return params, memo[key]
+    return {**params, "c_rigid": EXACT}, False
+
+
+def _has_rigid_direction(ev, effects, params: dict) -> bool:
+    """Whether a leg's joint compliance (``legs`` kernel) has a zero eigenvalue at the
+    reference pose with the first pose's parameters (True when x_ref is not reachable)."""
+    first = {k: (np.asarray(v).reshape(-1)[:1] if np.ndim(v) == 1 else v) for k, v in params.items()
+             if np.ndim(v) <= 1}
+    x = np.array([ev.robot.x_ref], dtype=float)
+    try:
+        p = ev._params(1, first, effects)
+        q = ev._ik(x, p)
+        Cq = np.asarray(ev._kernels.legs(q, ev._with_pose(x, p))["Cq"], dtype=float)
+    except Exception:                          # an unreachable reference: solve exactly at every pose
+        return True
+    s = np.linalg.eigvalsh(0.5 * (Cq + np.swapaxes(Cq, -1, -2)))
+    return bool((s <= RIGID_RTOL * np.abs(s).max(axis=-1, keepdims=True)).any())
+
+
 def leg_joints(ev, poses, model="paper", **params):
-    """Each leg's elastic joints of ``model`` at ``poses`` from an evaluator ``ev``.
+    """Each leg's elastic joints of ``model`` at ``poses`` from an evaluator ``ev`` (the
+    generated ``legs`` kernel; the poses are checked as in :meth:`Evaluator.matrices`).
 
     Returns ``(Je, Cq, K_parallel, M)``: Je (N, legs, e, 6) the actuated then virtual
-    joints' inverse-Jacobian rows (``J_rows``); Cq (N, legs, e, e) their compliance
-    (Eqs. 41-43) **without** ``c_rigid``: ``Kqe^-1 - c diag(0, 1, ..., 1)`` from the
-    generated ``gravity`` kernel evaluated with ``c_rigid = c =`` :data:`PROBE_C_RIGID`;
-    K_parallel (N, 6, 6) the springs in parallel with the legs (ground springs: ``K_R``
-    minus the actuators' ``k_act j_a^T j_a``, Eq. 14); M (N, 6, 6) the inertia (Eq. 12).
-    Robots whose model couples platform bodies (legs on traveling plates,
-    ``ee_coupling``) are not covered: ValueError.
+    joints' inverse-Jacobian rows; Cq (N, legs, e, e) their compliance (Eqs. 41-43)
+    without ``c_rigid`` (rigid directions exact zeros); K_parallel (N, 6, 6) the springs
+    in parallel with the legs (ground springs); M (N, 6, 6) the inertia (Eq. 12).
     """
-    from .allowed import constraint_positions
-
-    robot = ev.robot
-    coupled = sorted(c.effect for c in robot.couplings if c.effect in _names(ev, model))
-    if coupled:
-        raise ValueError(f"model {model!r} of {robot.name} couples platform bodies ({', '.join(coupled)}): "
-                         "expected legs on the tool body for the exact condensation")
-    extra = {"c_rigid": PROBE_C_RIGID} if ev.accepts("c_rigid") else {}
-    out = ev.run_kernel("gravity", poses, model, **params, **extra)
-    mats = ev.matrices(poses, model, **params, **extra)
-    pick = [[0] + constraint_positions(leg) for leg in robot.legs]
-    Je = np.stack([out["J_rows"][:, i, r, :] for i, r in enumerate(pick)], axis=1)
-    Cq = np.linalg.inv(np.asarray(out["Kqe"], dtype=float))
-    if extra:
-        Cq = Cq - PROBE_C_RIGID * np.diag([0.0] + [1.0] * (Cq.shape[-1] - 1))
-    ja = Je[:, :, 0, :]
-    K_act = np.einsum("nl,nli,nlj->nij", np.asarray(out["k_act"], dtype=float), ja, ja)
-    return Je, Cq, mats["K_R"] - K_act, mats["M"]
+    out = ev.run_kernel("legs", poses, model, **params)
+    M = ev.matrices(poses, model, **params)["M"]
+    return out["Je"], out["Cq"], out["K_ground"], M
 
 
 def platform_compliance(ev, poses, model="paper", **params):
-    """Exact ``(C_F, M)`` of ``model`` at ``poses`` (:func:`leg_joints`, then
-    :func:`condensed_compliance`): the 6 x 6 route without a rigid-constraint penalty,
-    to solve with :func:`compliance_eigh`. The gravity preload is not included."""
-    Je, Cq, K_parallel, M = leg_joints(ev, poses, model, **params)
-    C, _ = condensed_compliance(Je, Cq, K_parallel)
-    return C, M
+    """Exact ``(C_F, M)`` of ``model`` at ``poses``: the legs' rigid constraints without a
+    penalty, couplings of platform bodies (``ee_coupling``) and the gravity preload
+    included; solve it with :func:`compliance_eigh`."""
+    from ..description.effects import resolve_model
+
+    effects = resolve_model(model, ev.robot)
+    poses = ev._poses(poses, params)
+    out = ev.run_kernel("legs", poses, effects, **params)
+    M = ev.matrices(poses, effects, **params)["M"]
+    return _compliance(ev, poses, effects, params, out, None), M
 
 
-def _names(ev, model) -> tuple:
-    from ..description.effects import base_name, resolve_model
+def _compliance(ev, poses, effects, params: dict, out: dict, K_G) -> np.ndarray:
+    """C_F from the ``legs`` kernel's outputs ``out`` (and a preload stiffness K_G)."""
+    robot = ev.robot
+    K_par = np.asarray(out["K_ground"], dtype=float)
+    if ev._preloaded(effects):
+        from .gravity import gravity_stiffness
 
-    return tuple(base_name(e) for e in resolve_model(model, ev.robot))
+        K_G = gravity_stiffness(ev, poses, effects, params, ev.matrices(poses, effects, **params), False)
+    if K_G is not None:
+        K_par = K_par + K_G
+    names = set(effects)
+    couplings = sorted(robot.couplings, key=lambda c: c.body)
+    active = [k for k, c in enumerate(couplings) if c.effect in names]
+    if active and "G_c" not in out:
+        raise ValueError(f"{robot.name}: couplings with different numbers of compliant directions: "
+                         "expected one number for the exact condensation")
+    bodies = None
+    G_c = K_c = None
+    if active:
+        index = {couplings[k].body: j for j, k in enumerate(active)}
+        bodies = [index.get(leg.platform_body, -1) for leg in robot.legs]
+        G_c, K_c = out["G_c"][:, active], out["K_c"][:, active]
+    N = len(out["Je"])
+    bc = lambda a, shape: np.broadcast_to(np.asarray(a, dtype=float), (N,) + shape)  # noqa: E731
+    C, _ = condensed_compliance(out["Je"], out["Cq"], bc(K_par, (6, 6)), bodies=bodies,
+                                G_c=None if G_c is None else bc(G_c, np.shape(G_c)[1:]),
+                                K_c=None if K_c is None else bc(K_c, np.shape(K_c)[1:]))
+    return C
+
+
+def exact_modes(ev, poses, effects, params: dict, modes, vectors: bool, q=None, M=None, p=None):
+    """``modes`` (the penalty route's :class:`Modes`, 6 columns) with the finite modes of
+    the exact condensation on its valid rows: frequencies, eigentwists (M-orthonormal,
+    normalised like the rest) and stability. A rigid constraint's mode has an infinite
+    frequency; its column keeps the penalty route's stand-in (~1e6 Hz with ``c_rigid`` =
+    1e-12 rad/(N m)) so that every flexible model keeps six columns."""
+    from .eigen import normalize_eigentwists
+
+    rows = np.ones(len(modes.freq_hz), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+    if not rows.any():
+        return modes
+    poses = np.asarray(poses, dtype=float)
+    n = len(poses)
+    sub = {k: (np.asarray(v)[rows] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
+           for k, v in params.items()}
+    pr = poses if rows.all() else poses[rows]
+    p = ev._params(len(pr), sub, effects) if p is None else (p if rows.all() else ev._mask(p, rows, n))
+    q = ev._ik(pr, p) if q is None else (q if rows.all() else q[rows])
+    pp = ev._with_pose(pr, p)
+    out = ev._kernels.legs(q, pp)
+    if M is None:
+        M = ev._kernels.matrices(q, pp)["M"]
+    M = np.broadcast_to(M if rows.all() or len(M) != n else M[rows], (len(pr), 6, 6))
+    C = _compliance(ev, pr, effects, sub, out, None)
+    f, V = compliance_eigh(C, M)
+    freq = np.array(modes.freq_hz, dtype=float)
+    fr = freq[rows]
+    finite = np.isfinite(f) | np.isnan(f)
+    fr[finite] = f[finite]
+    freq[rows] = fr
+    modes.freq_hz = freq
+    if modes.stable is not None:
+        stable = np.array(modes.stable, dtype=bool)
+        stable[rows] = ~np.isnan(f).any(axis=-1)
+        modes.stable = stable
+    if vectors and modes.eigentwists is not None:        # a rigid direction keeps the penalty's eigentwist
+        vec = np.array(modes.eigentwists, dtype=float)
+        vr = vec[rows]
+        vr[np.broadcast_to(finite[:, None, :], vr.shape)] = normalize_eigentwists(V)[
+            np.broadcast_to(finite[:, None, :], vr.shape)]
+        vec[rows] = vr
+        modes.eigentwists = vec
+    return modes

@@ -10,6 +10,7 @@ from ..description import RobotDescription
 from ..description.effects import (base_name, leg_input_name, leg_switch_name, resolve_model,
                                    split_scope, switch_name)
 from ..description.names import did_you_mean
+from . import condense
 from .constraints import check_constraints, compile_constraints
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
@@ -297,7 +298,7 @@ class Evaluator:
         on = {base_name(e) for e in effects}
         out = {}
         for name, p in self.parameters.items():
-            check = name in params or p.effect is None or p.effect in on
+            check = (name in params or p.effect is None or p.effect in on) and params.get(name) is not condense.EXACT
             out[name] = self._array(name, params.get(name, p.default), n, check)
         for e in self.effects:
             effect = self.robot.effect(e)
@@ -522,14 +523,23 @@ class Evaluator:
             if bad.any():
                 self._raise_first(poses, p, bad)
             return {k: res[k] for k in MATRICES}
+        return self._matrices_q(poses, p, out)[0]
+
+    def _matrices_q(self, poses: np.ndarray, p: dict, out: dict | None = None):
+        """``(matrices, q)`` of the NumPy path: the joint coordinates come along (for
+        :func:`.condense.exact_modes`)."""
+        n = len(poses)
+        out = out or {}
         mats = {k: out.get(k) if k in out else np.empty((n, 6, 6)) for k in MATRICES}
+        qs = []
         for sl in self._chunks(n):
             pc = self._take(p, sl)
             q = self._check_rows(poses[sl], pc, strict=True)[0]
+            qs.append(q)
             chunk = self._kernels.matrices(q, self._with_pose(poses[sl], pc))
             for k in MATRICES:
                 mats[k][sl] = chunk[k]
-        return mats
+        return mats, np.concatenate(qs) if qs else None
 
     @staticmethod
     def _check_out(out, n: int) -> dict:
@@ -619,9 +629,18 @@ class Evaluator:
         the paper does); a 6-DoF robot's rigid model the full 6x6 M and K_R; flexible
         models the full 6x6 M and K_F.
         """
+        return self._stiffness(poses, model, params)
+
+    def _stiffness(self, poses, model, params: dict, stash: dict | None = None):
+        """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and
+        ``M`` of the NumPy path (for :func:`.condense.exact_modes`)."""
         poses_arr = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
-        mats = self.matrices(poses_arr, effects, **params)
+        if stash is not None and not self._fused:
+            mats, stash["q"] = self._matrices_q(poses_arr, self._params(len(poses_arr), params, effects))
+            stash["M"] = mats["M"]
+        else:
+            mats = self.matrices(poses_arr, effects, **params)
         rigid = self.kind(effects) == "rigid"
         B = self.allowed_twists(poses_arr, **params) if rigid else None
         M = reduce(mats["M"], B) if rigid else mats["M"]
@@ -664,6 +683,10 @@ class Evaluator:
         ``joints``: measured joint coordinates (N, legs, coordinates) used instead of the
         inverse kinematics (:meth:`joint_matrices`; ``poses`` may be None for a
         translational robot).
+        A flexible model's finite modes condense the legs' rigid constraint directions
+        exactly (:mod:`.condense`: compliance form on the admissible twists, no ``c_rigid``
+        penalty, couplings and the gravity preload included); a rigid constraint's own
+        mode (infinite frequency) keeps K_F's stand-in value (~1e6 Hz) in its column.
         """
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
@@ -673,14 +696,19 @@ class Evaluator:
             return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
+        params, exact = condense.route(self, effects, params)
         fixed = getattr(self.space, "basis", None) is not None or self.kind(effects) == "flexible"
         if self._fused and fixed and not self._preloaded(effects):
-            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors)
+            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact)
         else:
-            modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors)
+            stash = {} if exact else None
+            modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
+            if exact:
+                modes = condense.exact_modes(self, poses, effects, params, modes, vectors, **stash)
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
+
 
     def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
         """:meth:`modes` at measured joint coordinates (no gravity preload: its static
@@ -705,10 +733,11 @@ class Evaluator:
             self._raise_unstable(poses, modes, effects)
         return modes
 
-    def _solved_modes(self, poses, effects, params, check: bool, vectors: bool) -> Modes:
-        """Matrices (and the gravity preload), then the batched eigen-solver."""
+    def _solved_modes(self, poses, effects, params, check: bool, vectors: bool, stash: dict | None = None) -> Modes:
+        """Matrices (and the gravity preload), then the batched eigen-solver; ``stash``
+        receives ``q`` and ``M`` of every row (NaN where invalid) on the NumPy path."""
         if check:
-            return self._solve(*self.stiffness(poses, effects, **params), vectors, self.kind(effects))
+            return self._solve(*self._stiffness(poses, effects, params, stash), vectors, self.kind(effects))
         ok = self.valid(poses, effects, **params)
         n = len(poses)
         kind = self.kind(effects)
@@ -717,10 +746,14 @@ class Evaluator:
         vec = np.full((n, size, size), np.nan) if vectors else None
         stable = np.ones(n, dtype=bool)
         if ok.any():
-            m = self._solve(*self.stiffness(poses[ok], effects, **self._rows(params, ok, n)), vectors, kind)
+            part = {} if stash is not None else None
+            m = self._solve(*self._stiffness(poses[ok], effects, self._rows(params, ok, n), part), vectors, kind)
             freq[ok], stable[ok] = m.freq_hz, m.stable
             if vectors:
                 vec[ok] = m.eigentwists
+            for key, val in (part or {}).items():
+                stash[key] = np.full((n,) + val.shape[1:], np.nan)
+                stash[key][ok] = val
         return Modes(freq, vec, self.axes(kind), kind, ok, stable)
 
     def _solve(self, M, K, vectors: bool = True, kind: str | None = None) -> Modes:
@@ -736,18 +769,23 @@ class Evaluator:
                      self.axes(kind), kind,
                      stable=~unstable_modes(lam).any(axis=-1))
 
-    def _fused_modes(self, poses, effects, params, check: bool, vectors: bool) -> Modes:
+    def _fused_modes(self, poses, effects, params, check: bool, vectors: bool, exact: bool = False) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
-        written straight into the result arrays."""
+        written straight into the result arrays; with ``exact`` the pass also returns the
+        joint coordinates and M for :func:`.condense.exact_modes`."""
         p = self._params(len(poses), params, effects)
         kind = self.kind(effects)
-        out = self._c_pass(poses, p, matrices=(), model=kind, vectors=vectors, normalize=True)
+        out = self._c_pass(poses, p, matrices=("M",) if exact else (), ik=("q",) if exact else (), model=kind,
+                           vectors=vectors, normalize=True)
         st = out["status"]
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
             self._raise_first(poses, p, ~valid)
-        return Modes(out["freq_hz"], out.get("eigentwists"), self.axes(kind), kind,
-                     None if check else valid, st != STATUS["unstable"])
+        modes = Modes(out["freq_hz"], out.get("eigentwists"), self.axes(kind), kind,
+                      None if check else valid, st != STATUS["unstable"])
+        if exact:
+            modes = condense.exact_modes(self, poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
+        return modes
 
     def _raise_unstable(self, poses, modes: Modes, effects) -> None:
         k = int(np.argmax(~modes.stable))
@@ -790,6 +828,7 @@ class Evaluator:
         own = own_legs(wrt, params)                  # legs whose own P@N does not follow a shared P
         full = kernel_wrt(wrt, own)
         kern = sensitivity_kernels(self, full, progress)
+        params, exact = condense.route(self, effects, params)
         p = self._params(len(poses), params, effects)
         rigid = self.kind(effects) == "rigid"
         if rigid and getattr(self.space, "basis", 0) is None:
@@ -805,7 +844,10 @@ class Evaluator:
         if own:
             dfdp = shared_columns(dfdp, wrt, full, own)
         kind = "rigid" if rigid else "flexible"
-        return Modes(freq, vec, self.axes(kind), kind), dfdp
+        modes = Modes(freq, vec, self.axes(kind), kind)
+        if exact:                                  # K_F's penalty: the finite modes exact
+            modes = condense.exact_modes(self, poses, effects, params, modes, True)
+        return modes, dfdp
 
     def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,

@@ -187,6 +187,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
     K_R = K_ground
     K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all, k_acts, G = [], [], [], [], [], [], []
+    Cq_phys = []                  # each leg's joint compliance without rigid_compliance (issue 20)
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
         ls = leg_screws(prog, leg, q, pose, tag)
@@ -199,6 +200,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
         Je = sp.Matrix.vstack(*[ls.rows[k] for k in [act] + virtual])       # elastic joints
         Cs = prog.let_matrix(f"Cs_{tag}", _body_compliance(fx, ls, i))
         Cq = Je * Cs * Je.T + sp.diag(c_act, *[robot.rigid_compliance] * len(virtual))   # Eqs. 41-43
+        Cq_phys.append(Je * Cs * Je.T + sp.diag(c_act, *[0] * len(virtual)))
         Cq = prog.let_matrix(f"Cq_{tag}", Cq)
         Kqe = prog.let_matrix(f"Kqe_{tag}", inverse_small(Cq))           # Eq. 40 block
         body = leg.platform_body
@@ -228,10 +230,41 @@ def derive(robot: RobotDescription) -> DerivedModel:
             "k_act": ((n,), k_acts),
             "W": ((6,), list(_preload_wrench(S, fx))),
         },
+        "legs": _legs_outputs(robot, Je_all, Cq_phys, K_ground),
     }
     closure, closure_outputs = loop_closure(robot, q_all)
     return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=tuple(pose.inputs),
                         closure=closure, closure_outputs=closure_outputs, followers=closures(robot))
+
+
+def _legs_outputs(robot: RobotDescription, Je_all: list, Cq_phys: list, K_ground: sp.Matrix) -> dict:
+    """Outputs of the ``legs`` kernel: what the exact condensation of rigid constraints
+    (:mod:`eigentwist.runtime.condense`, issue 20) needs instead of K_F's penalty.
+
+    ``Je`` (legs, e, 6): each leg's elastic-joint rows (the actuated joint, then the
+    virtual joints; twists ``[omega; v]``); ``Cq`` (legs, e, e): their compliance
+    (Eqs. 41-43) **without** ``rigid_compliance``, so an ideally rigid direction is an
+    exact zero; ``K_ground`` (6, 6): springs in parallel with the legs; and per coupling
+    (sorted by body, as K_F condenses them) ``G_c`` (couplings, 6, m) its unit twists at
+    the EE origin and ``K_c`` (couplings, m) its stiffnesses.
+    """
+    n, n_e = len(Je_all), Je_all[0].rows
+    flat = lambda m: [m[i, j] for i in range(m.rows) for j in range(m.cols)]  # noqa: E731
+    out = {
+        "Je": ((n, n_e, 6), [e for j in Je_all for e in flat(j)]),
+        "Cq": ((n, n_e, n_e), [e for c in Cq_phys for e in flat(c)]),
+        "K_ground": ((6, 6), flat(K_ground)),
+    }
+    couplings = sorted(robot.couplings, key=lambda c: c.body)
+    if couplings and len({len(c.twists) for c in couplings}) == 1:
+        G, Kc = [], []
+        for c in couplings:
+            G += flat(adjoint(sp.Matrix(c.rotation).T, sp.Matrix(c.origin)) * sp.Matrix([list(t) for t in c.twists]).T)
+            Kc += list(c.stiffness)
+        m = len(couplings[0].twists)
+        out["G_c"] = ((len(couplings), 6, m), G)
+        out["K_c"] = ((len(couplings), m), Kc)
+    return out
 
 
 def _joint_keys(leg, ls: LegScrews):
