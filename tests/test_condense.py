@@ -151,3 +151,22 @@ def test_matrices_json_exact_route(robot, capsys):
     assert main(["matrices", "--robot", robot, "--model", "paper", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     np.testing.assert_allclose(d["freq_exact_hz"], d["freq_hz"], rtol=1e-6)   # K_F's penalty: ~1e-8 here
+
+
+@pytest.mark.derives
+def test_paper_fit_does_not_depend_on_the_jacobian_kind():
+    """The paper data's final model (actuator_loss, ee_compliance) fitted with central
+    differences and with the generated sensitivities: the same k_E_rot, k_E_lin to 1e-5
+    (with K_F's penalty they differed by 5e-4 and 1.5e-3: round-off of a 1e12..1e4 matrix)."""
+    import importlib
+
+    from eigentwist.diagnose import paper_measurements
+
+    fit = importlib.import_module("eigentwist.diagnose.fit").fit
+    ev = eigentwist.load("heli4")
+    meas = paper_measurements()
+    got = {kind: fit(meas, ("actuator_loss", "ee_compliance"), ev, ("k_E_rot", "k_E_lin"), jacobian=kind)
+           for kind in ("differences", "exact")}
+    assert got["exact"].jacobian == "exact"
+    for name in ("k_E_rot", "k_E_lin"):
+        assert got["differences"].values[name] == pytest.approx(got["exact"].values[name], rel=1e-5)
