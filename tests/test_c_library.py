@@ -179,11 +179,10 @@ def _library_frequencies(ev, poses, model, values):
     model of legs with rigid constraints solves K_F with its c_rigid penalty there, where
     the evaluator condenses the constraints exactly (issue 20): those agree to 1e-5."""
     from eigentwist.description.effects import resolve_model
-    from eigentwist.runtime import condense
     from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh
 
     want = ev.frequencies(poses, model, **values)
-    if not condense.applies(ev, resolve_model(model, ev.robot)):
+    if ev.kind(resolve_model(model, ev.robot)) != "flexible":
         return want
     mats = ev.matrices(poses, model, **values)
     penalty = frequencies_hz(generalized_eigh(mats["K_F"], mats["M"])[0])

@@ -25,9 +25,10 @@ joint_angles_deg (per leg), M, K_R, K_F (6x6), freq_hz and eigentwists (the mode
 modes), freq_rigid_hz (3, from the printed M and K_R, 3x3 translational subsets),
 freq_flexible_hz (6, from the printed M and K_F), eigentwists_rigid (3x3),
 eigentwists_flexible (6x6), C_F (6x6 exact platform compliance: the legs' rigid constraint
-directions with zero compliance instead of K_F's c_rigid penalty; null for a model that
-couples platform bodies), freq_exact_hz (6, from C_F and M in compliance form: the finite
-modes ascending, then null for each rigid-constraint direction, an infinite frequency),
+directions with zero compliance instead of K_F's c_rigid penalty; couplings and the preload
+included), freq_exact_hz (6, from C_F and M in compliance form: the finite modes ascending,
+then null for each rigid-constraint direction, an infinite frequency; freq_hz takes its
+finite modes from the same exact condensation),
 parameters [{name, value, unit, default, differs, source}];
 eigentwists are columns, one per mode, scaled so the largest entry is +1. Units: kg, kg m,
 kg m^2; N/m, N, N m/rad; Hz.
@@ -42,7 +43,8 @@ def add_parser(sub):
     p.set_defaults(func=run)
 
 
-FROM = {"rigid": "M and K_R, 3x3 translational subsets", "flexible": "M and K_F, 6x6"}
+FROM = {"rigid": "M and K_R, 3x3 translational subsets", "flexible": "M and K_F, 6x6",
+        "condensed": "M and C_F, rigid constraints exact; K_F's c_rigid only for the infinite ones"}
 
 
 def reference_line(other: str, label: str, freq_other, freq) -> str:
@@ -74,7 +76,8 @@ def compute(args) -> dict:
     if args.k_a is not None:
         params["k_a"] = args.k_a
     check_pose(ev, pose, effects, params)
-    mats = ev.matrices(pose, effects, **params)
+    solved, condensed = ev.constraint_route(effects, **params)   # c_rigid = 0 where no leg direction is rigid
+    mats = ev.matrices(pose, effects, **solved)
     q = ev.joint_angles(pose, **params)[0]
     units = ev.joint_units
     # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
@@ -88,7 +91,8 @@ def compute(args) -> dict:
     kind = ev.kind(effects)
     fixed = getattr(ev.space, "basis", None) is not None
     rigid_from = (FROM["rigid"] if r else "M and K_R, 6x6") if fixed else "M and K_R on the allowed twists, 3x3"
-    source = (rigid_from if kind == "rigid" else FROM[kind]) + (" + gravity preload" if "gravity_preload" in effects else "")
+    source = (rigid_from if kind == "rigid" else FROM["condensed"] if condensed else FROM[kind]) + (
+        " + gravity preload" if "gravity_preload" in effects else "")
     return {
         "robot": ev.robot.name,
         "model": list(effects),
@@ -123,12 +127,13 @@ def compute(args) -> dict:
 
 def _exact(ev, pose, effects, params):
     """(C_F, frequencies) of the exact condensation (runtime/condense.py) as JSON lists:
-    an infinite frequency (a rigid constraint) is null; (None, None) for coupled platforms."""
+    an infinite frequency (a rigid constraint) is null; (None, None) for a description
+    generated without the ``legs`` kernel."""
     from ..runtime.condense import compliance_eigh, platform_compliance
 
     try:
         C, M = platform_compliance(ev, pose, effects, **params)
-    except ValueError:
+    except (ValueError, KeyError, AttributeError):
         return None, None
     f = compliance_eigh(C, M)[0][0]
     return C[0].tolist(), [float(v) if np.isfinite(v) else None for v in f]

@@ -79,7 +79,7 @@ extern "C" {
 #define ET_DELTA_IN_I_e_yy 16  /* I_e_yy (kg m^2) = 0.0001875: platform inertia about Y (disc, m r_p^2/4) */
 #define ET_DELTA_IN_I_e_zz 17  /* I_e_zz (kg m^2) = 0.000375: platform inertia about Z (disc, m r_p^2/2) */
 #define ET_DELTA_IN_k_a 18  /* k_a (N m/rad) = 2000.0: commanded actuator stiffness */
-#define ET_DELTA_IN_c_rigid 19  /* c_rigid (rad/(N m)) = 1e-12: compliance given to ideally rigid constrained directions */
+#define ET_DELTA_IN_c_rigid 19  /* c_rigid (rad/(N m)) = 1e-12: compliance of ideally rigid constrained directions in K_F (modes: exact unless set) */
 #define ET_DELTA_IN_m_p 20  /* m_p (kg) = 0.2: payload mass on the end-effector; plausible 0-20 kg */
 #define ET_DELTA_IN_p_x 21  /* p_x (m) = 0.0: payload offset from the EE origin along X */
 #define ET_DELTA_IN_p_y 22  /* p_y (m) = 0.0: payload offset from the EE origin along Y */

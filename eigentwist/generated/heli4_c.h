@@ -77,7 +77,7 @@ extern "C" {
 #define ET_HELI4_IN_I_e_yy 14  /* I_e_yy (kg m^2) = 0.009: EE inertia about Y (Eq. 31) */
 #define ET_HELI4_IN_I_e_zz 15  /* I_e_zz (kg m^2) = 0.001: EE inertia about Z (Eq. 31, printed to one digit) */
 #define ET_HELI4_IN_k_a 16  /* k_a (N m/rad) = 2000.0: commanded actuator stiffness (Table 2) */
-#define ET_HELI4_IN_c_rigid 17  /* c_rigid (rad/(N m)) = 1e-12: compliance given to ideally rigid constrained directions so K_F stays finite */
+#define ET_HELI4_IN_c_rigid 17  /* c_rigid (rad/(N m)) = 1e-12: compliance of ideally rigid constrained directions in K_F (modes: exact unless set) */
 #define ET_HELI4_IN_k_E_rot 18  /* k_E_rot (N m/rad) = 500.0: EE assembly rotational stiffness about Y (Eq. D.1; facts file: 500 reproduces Eq. 58) */
 #define ET_HELI4_IN_k_E_lin 19  /* k_E_lin (N/m) = 129870.12987012988: EE assembly linear stiffness along Y (Eq. D.2) */
 #define ET_HELI4_IN_m_p 20  /* m_p (kg) = 0.2: payload mass on the end-effector; plausible 0-20 kg */

@@ -36,7 +36,7 @@ PARAMETERS = (
     Parameter("I_e_yy", 1.875e-4, "kg m^2", "platform inertia about Y (disc, m r_p^2/4)"),
     Parameter("I_e_zz", 3.75e-4, "kg m^2", "platform inertia about Z (disc, m r_p^2/2)"),
     Parameter("k_a", 2000.0, "N m/rad", "commanded actuator stiffness"),
-    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance given to ideally rigid constrained directions", (0.0, 1e-6)),
+    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance of ideally rigid constrained directions in K_F (modes: exact unless set)", (0.0, 1e-6)),
 )
 
 

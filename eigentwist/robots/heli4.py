@@ -43,7 +43,7 @@ PARAMETERS = (
     Parameter("I_e_zz", 0.001, "kg m^2", "EE inertia about Z (Eq. 31, printed to one digit)"),
     # actuators (Eqs. 34, 42)
     Parameter("k_a", 2000.0, "N m/rad", "commanded actuator stiffness (Table 2)"),
-    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance given to ideally rigid constrained directions so K_F stays finite", (0.0, 1e-6)),
+    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance of ideally rigid constrained directions in K_F (modes: exact unless set)", (0.0, 1e-6)),
 )
 
 

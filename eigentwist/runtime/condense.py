@@ -27,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["leg_condensation", "condensed_compliance", "compliance_eigh", "finite_modes", "leg_joints",
-           "platform_compliance", "applies", "route", "exact_modes", "RIGID_RTOL", "EXACT"]
+           "platform_compliance", "has_rigid_direction", "compliance_from_legs", "merge_modes", "RIGID_RTOL",
+           "EXACT"]
 
 # A joint-compliance eigenvalue below RIGID_RTOL times the leg's largest (or a singular
 # value of the stacked rigid rows below RIGID_RTOL times the largest) is a rigid direction
@@ -177,54 +178,65 @@ def finite_modes(freq_hz: np.ndarray) -> np.ndarray:
     return freq_hz[..., : int(n.flat[0])]
 
 
-def applies(ev, effects) -> bool:
-    """Whether ``effects`` of ``ev``'s robot is a flexible model whose legs have elastic
-    constraint directions (virtual joints) and whose generated code has the ``legs``
-    kernel (every robot generated since issue 20)."""
-    outputs = getattr(ev._kernels, "OUTPUTS", {})
-    return (ev.kind(effects) == "flexible" and "legs" in outputs
-            and outputs["legs"]["Je"][1] > 1)
-
-
-def route(ev, effects, params: dict) -> tuple[dict, bool]:
-    """How :meth:`Evaluator.modes` solves a model exactly: ``(params, condense)``.
-
-    * not :func:`applies`, or ``c_rigid`` given with a value other than the description's
-      default (the user's finite constraint compliance): ``(params, False)``, K_F as is;
-    * no leg has a rigid direction in this model (e.g. every rod compliant; probed once per
-      model and evaluator at the reference pose ``x_ref``, a property of which effects
-      are on): ``c_rigid = 0``
-      makes K_F exact, ``({**params, "c_rigid": EXACT}, False)``;
-    * else ``(params, True)``: the finite modes come from :func:`exact_modes`.
-    """
-    if not applies(ev, effects):
-        return params, False
-    default = next((q.default for q in ev.robot.parameters if q.name == "c_rigid"), None)
-    if "c_rigid" in params and default is not None and np.any(np.asarray(params["c_rigid"]) != default):
-        return params, False
-    memo = ev.__dict__.setdefault("_rigid_models", {})      # a model's rigid directions: from its effects
-    key = tuple(effects)
-    if key not in memo:
-        memo[key] = _has_rigid_direction(ev, effects, params)
-    if memo[key] or default is None:
-        return params, memo[key]
-    return {**params, "c_rigid": EXACT}, False
-
-
-def _has_rigid_direction(ev, effects, params: dict) -> bool:
-    """Whether a leg's joint compliance (``legs`` kernel) has a zero eigenvalue at the
-    reference pose with the first pose's parameters (True when x_ref is not reachable)."""
-    first = {k: (np.asarray(v).reshape(-1)[:1] if np.ndim(v) == 1 else v) for k, v in params.items()
-             if np.ndim(v) <= 1}
-    x = np.array([ev.robot.x_ref], dtype=float)
-    try:
-        p = ev._params(1, first, effects)
-        q = ev._ik(x, p)
-        Cq = np.asarray(ev._kernels.legs(q, ev._with_pose(x, p))["Cq"], dtype=float)
-    except Exception:                          # an unreachable reference: solve exactly at every pose
-        return True
+def has_rigid_direction(Cq: np.ndarray, rtol: float = RIGID_RTOL) -> bool:
+    """Whether any leg's joint compliance Cq (..., legs, e, e) has a zero eigenvalue (a
+    rigid constraint direction), relative to the leg's largest."""
+    Cq = np.asarray(Cq, dtype=float)
     s = np.linalg.eigvalsh(0.5 * (Cq + np.swapaxes(Cq, -1, -2)))
-    return bool((s <= RIGID_RTOL * np.abs(s).max(axis=-1, keepdims=True)).any())
+    return bool((s <= rtol * np.abs(s).max(axis=-1, keepdims=True)).any())
+
+
+def compliance_from_legs(robot, effects, out: dict, K_extra=None) -> np.ndarray:
+    """Exact C_F (N, 6, 6) from the generated ``legs`` kernel's outputs ``out`` (``Je``,
+    ``Cq``, ``K_ground``, and ``G_c``, ``K_c`` of the couplings) for ``effects``: the
+    couplings whose effect is on condense their bodies' legs (:func:`condensed_compliance`),
+    ``K_extra`` (N, 6, 6; e.g. the gravity preload's stiffness) is in parallel."""
+    K_par = np.asarray(out["K_ground"], dtype=float)
+    if K_extra is not None:
+        K_par = K_par + K_extra
+    names = set(effects)
+    couplings = sorted(robot.couplings, key=lambda c: c.body)
+    active = [k for k, c in enumerate(couplings) if c.effect in names]
+    if active and "G_c" not in out:
+        raise ValueError(f"{robot.name}: couplings with different numbers of compliant directions: "
+                         "expected one number for the exact condensation")
+    bodies = G_c = K_c = None
+    if active:
+        index = {couplings[k].body: j for j, k in enumerate(active)}
+        bodies = [index.get(leg.platform_body, -1) for leg in robot.legs]
+        G_c, K_c = out["G_c"][:, active], out["K_c"][:, active]
+    N = len(out["Je"])
+    bc = lambda a: np.broadcast_to(np.asarray(a, dtype=float), (N,) + np.shape(a)[-(np.ndim(a) - 1):])  # noqa: E731
+    C, _ = condensed_compliance(out["Je"], out["Cq"], np.broadcast_to(K_par, (N, 6, 6)), bodies=bodies,
+                                G_c=None if G_c is None else bc(G_c), K_c=None if K_c is None else bc(K_c))
+    return C
+
+
+def merge_modes(modes, rows: np.ndarray, freq_hz: np.ndarray, V: np.ndarray, vectors: bool):
+    """``modes`` (6 columns, K_F's) with the finite modes of :func:`compliance_eigh`
+    (``freq_hz``, ``V`` of the rows ``rows``): frequencies, eigentwists (normalised like
+    the rest) and stability replaced; a rigid direction's column (``inf``) keeps K_F's
+    stand-in frequency and eigentwist."""
+    from .eigen import normalize_eigentwists
+
+    freq = np.array(modes.freq_hz, dtype=float)
+    fr = freq[rows]
+    finite = ~np.isinf(freq_hz)
+    fr[finite] = freq_hz[finite]
+    freq[rows] = fr
+    modes.freq_hz = freq
+    if modes.stable is not None:
+        stable = np.array(modes.stable, dtype=bool)
+        stable[rows] = ~np.isnan(freq_hz).any(axis=-1)
+        modes.stable = stable
+    if vectors and modes.eigentwists is not None:
+        vec = np.array(modes.eigentwists, dtype=float)
+        vr = vec[rows]
+        mask = np.broadcast_to(finite[:, None, :], vr.shape)
+        vr[mask] = normalize_eigentwists(V)[mask]
+        vec[rows] = vr
+        modes.eigentwists = vec
+    return modes
 
 
 def leg_joints(ev, poses, model="paper", **params):
@@ -242,88 +254,18 @@ def leg_joints(ev, poses, model="paper", **params):
 
 
 def platform_compliance(ev, poses, model="paper", **params):
-    """Exact ``(C_F, M)`` of ``model`` at ``poses``: the legs' rigid constraints without a
-    penalty, couplings of platform bodies (``ee_coupling``) and the gravity preload
-    included; solve it with :func:`compliance_eigh`."""
-    from ..description.effects import resolve_model
+    """Exact ``(C_F, M)`` of ``model`` at ``poses`` from an evaluator ``ev``: the legs'
+    rigid constraints without a penalty, couplings of platform bodies (``ee_coupling``)
+    and the gravity preload included; solve it with :func:`compliance_eigh`."""
+    from ..description.effects import base_name, resolve_model
 
     effects = resolve_model(model, ev.robot)
-    poses = ev._poses(poses, params)
+    poses = np.atleast_2d(np.asarray(poses, dtype=float))
     out = ev.run_kernel("legs", poses, effects, **params)
-    M = ev.matrices(poses, effects, **params)["M"]
-    return _compliance(ev, poses, effects, params, out, None), M
-
-
-def _compliance(ev, poses, effects, params: dict, out: dict, K_G) -> np.ndarray:
-    """C_F from the ``legs`` kernel's outputs ``out`` (and a preload stiffness K_G)."""
-    robot = ev.robot
-    K_par = np.asarray(out["K_ground"], dtype=float)
-    if ev._preloaded(effects):
+    mats = ev.matrices(poses, effects, **params)
+    K_G = None
+    if any("preload" in ev.robot.effect(base_name(e)).kinds for e in effects):
         from .gravity import gravity_stiffness
 
-        K_G = gravity_stiffness(ev, poses, effects, params, ev.matrices(poses, effects, **params), False)
-    if K_G is not None:
-        K_par = K_par + K_G
-    names = set(effects)
-    couplings = sorted(robot.couplings, key=lambda c: c.body)
-    active = [k for k, c in enumerate(couplings) if c.effect in names]
-    if active and "G_c" not in out:
-        raise ValueError(f"{robot.name}: couplings with different numbers of compliant directions: "
-                         "expected one number for the exact condensation")
-    bodies = None
-    G_c = K_c = None
-    if active:
-        index = {couplings[k].body: j for j, k in enumerate(active)}
-        bodies = [index.get(leg.platform_body, -1) for leg in robot.legs]
-        G_c, K_c = out["G_c"][:, active], out["K_c"][:, active]
-    N = len(out["Je"])
-    bc = lambda a, shape: np.broadcast_to(np.asarray(a, dtype=float), (N,) + shape)  # noqa: E731
-    C, _ = condensed_compliance(out["Je"], out["Cq"], bc(K_par, (6, 6)), bodies=bodies,
-                                G_c=None if G_c is None else bc(G_c, np.shape(G_c)[1:]),
-                                K_c=None if K_c is None else bc(K_c, np.shape(K_c)[1:]))
-    return C
-
-
-def exact_modes(ev, poses, effects, params: dict, modes, vectors: bool, q=None, M=None, p=None):
-    """``modes`` (the penalty route's :class:`Modes`, 6 columns) with the finite modes of
-    the exact condensation on its valid rows: frequencies, eigentwists (M-orthonormal,
-    normalised like the rest) and stability. A rigid constraint's mode has an infinite
-    frequency; its column keeps the penalty route's stand-in (~1e6 Hz with ``c_rigid`` =
-    1e-12 rad/(N m)) so that every flexible model keeps six columns."""
-    from .eigen import normalize_eigentwists
-
-    rows = np.ones(len(modes.freq_hz), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
-    if not rows.any():
-        return modes
-    poses = np.asarray(poses, dtype=float)
-    n = len(poses)
-    sub = {k: (np.asarray(v)[rows] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
-           for k, v in params.items()}
-    pr = poses if rows.all() else poses[rows]
-    p = ev._params(len(pr), sub, effects) if p is None else (p if rows.all() else ev._mask(p, rows, n))
-    q = ev._ik(pr, p) if q is None else (q if rows.all() else q[rows])
-    pp = ev._with_pose(pr, p)
-    out = ev._kernels.legs(q, pp)
-    if M is None:
-        M = ev._kernels.matrices(q, pp)["M"]
-    M = np.broadcast_to(M if rows.all() or len(M) != n else M[rows], (len(pr), 6, 6))
-    C = _compliance(ev, pr, effects, sub, out, None)
-    f, V = compliance_eigh(C, M)
-    freq = np.array(modes.freq_hz, dtype=float)
-    fr = freq[rows]
-    finite = np.isfinite(f) | np.isnan(f)
-    fr[finite] = f[finite]
-    freq[rows] = fr
-    modes.freq_hz = freq
-    if modes.stable is not None:
-        stable = np.array(modes.stable, dtype=bool)
-        stable[rows] = ~np.isnan(f).any(axis=-1)
-        modes.stable = stable
-    if vectors and modes.eigentwists is not None:        # a rigid direction keeps the penalty's eigentwist
-        vec = np.array(modes.eigentwists, dtype=float)
-        vr = vec[rows]
-        vr[np.broadcast_to(finite[:, None, :], vr.shape)] = normalize_eigentwists(V)[
-            np.broadcast_to(finite[:, None, :], vr.shape)]
-        vec[rows] = vr
-        modes.eigentwists = vec
-    return modes
+        K_G = gravity_stiffness(ev, poses, effects, params, mats, False)
+    return compliance_from_legs(ev.robot, effects, out, K_G), mats["M"]

@@ -119,6 +119,7 @@ class Evaluator:
         self.space = getattr(robot, "pose_space", None)
         #: True when the kernels take a rigid platform's six coordinates (rotation included)
         self._six = self.space is not None and len(self.space.inputs) > 3
+        self._rigid_models: dict = {}          # model -> whether a leg has a rigid direction (_route)
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -696,7 +697,7 @@ class Evaluator:
             return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
-        params, exact = condense.route(self, effects, params)
+        params, exact = self._route(effects, params)
         fixed = getattr(self.space, "basis", None) is not None or self.kind(effects) == "flexible"
         if self._fused and fixed and not self._preloaded(effects):
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact)
@@ -704,11 +705,83 @@ class Evaluator:
             stash = {} if exact else None
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
-                modes = condense.exact_modes(self, poses, effects, params, modes, vectors, **stash)
+                modes = self._exact_modes(poses, effects, params, modes, vectors, **stash)
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
 
+
+    # ------------------------------------------- rigid constraints exact (issue 20)
+    def _route(self, effects, params: dict) -> tuple[dict, bool]:
+        """How :meth:`modes` solves ``effects`` exactly: ``(params, condense)``.
+
+        * not a flexible model of legs with virtual joints (or no generated ``legs``
+          kernel), or ``c_rigid`` given with a value other than the description's default
+          (the user's finite constraint compliance): ``(params, False)``, K_F as is;
+        * no leg has a rigid direction in this model (e.g. every rod compliant; probed
+          once per model at the reference pose ``x_ref``: which effects are on decides):
+          ``({**params, "c_rigid": condense.EXACT}, False)``, K_F exact with c_rigid = 0;
+        * else ``(params, True)``: the finite modes come from :meth:`_exact_modes`.
+        """
+        outputs = getattr(self._kernels, "OUTPUTS", {})
+        if self.kind(effects) != "flexible" or "legs" not in outputs or outputs["legs"]["Je"][1] < 2:
+            return params, False
+        default = self.parameters["c_rigid"].default if "c_rigid" in self.parameters else None
+        if "c_rigid" in params and default is not None and np.any(np.asarray(params["c_rigid"]) != default):
+            return params, False
+        key = tuple(effects)
+        if key not in self._rigid_models:
+            self._rigid_models[key] = self._probe_rigid(effects, params)
+        if self._rigid_models[key] or default is None:
+            return params, self._rigid_models[key]
+        return {**params, "c_rigid": condense.EXACT}, False
+
+    def constraint_route(self, model="paper", **params) -> tuple[dict, bool]:
+        """``(params, condensed)``: the parameters :meth:`modes` solves ``model`` with
+        (``c_rigid`` = 0 where no leg of the model has a rigid constraint direction: then
+        :meth:`matrices` with them gives the K_F of the frequencies), and whether its
+        finite modes come from the exact condensation instead (rigid directions; K_F then
+        keeps the ``c_rigid`` penalty). Issue 20; :mod:`.condense`."""
+        return self._route(resolve_model(model, self.robot), params)
+
+    def _probe_rigid(self, effects, params: dict) -> bool:
+        """Whether a leg of ``effects`` has a rigid direction: its joint compliance at the
+        reference pose with the first pose's parameters (True when x_ref is unreachable)."""
+        first = {k: (np.asarray(v).reshape(-1)[:1] if np.ndim(v) == 1 else v) for k, v in params.items()
+                 if np.ndim(v) <= 1}
+        x = np.array([self.robot.x_ref], dtype=float)
+        try:
+            p = self._params(1, first, effects)
+            Cq = self._kernels.legs(self._ik(x, p), self._with_pose(x, p))["Cq"]
+        except Exception:                      # an unreachable reference: solve exactly at every pose
+            return True
+        return condense.has_rigid_direction(Cq)
+
+    def _exact_modes(self, poses, effects, params: dict, modes: Modes, vectors: bool, q=None, M=None,
+                     p=None) -> Modes:
+        """``modes`` (K_F's) with the exact condensation's finite modes on its valid rows
+        (:func:`.condense.compliance_from_legs`, :func:`.condense.compliance_eigh`,
+        :func:`.condense.merge_modes`). ``q``, ``M`` and the validated inputs ``p`` of every
+        row, when the caller has them (the fused C pass), are not recomputed."""
+        rows = np.ones(len(modes.freq_hz), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+        if not rows.any():
+            return modes
+        poses = np.asarray(poses, dtype=float)
+        n = len(poses)
+        sub = self._rows(params, rows, n)
+        pr = poses[rows]
+        p = self._params(len(pr), sub, effects) if p is None else (p if rows.all() else self._mask(p, rows, n))
+        q = self._ik(pr, p) if q is None else q[rows]
+        pk = self._with_pose(pr, p)
+        out = self._kernels.legs(q, pk)
+        M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
+        K_G = None
+        if self._preloaded(effects):
+            from .gravity import gravity_stiffness
+
+            K_G = gravity_stiffness(self, pr, effects, sub, self.matrices(pr, effects, **sub), False)
+        f, V = condense.compliance_eigh(condense.compliance_from_legs(self.robot, effects, out, K_G), M)
+        return condense.merge_modes(modes, rows, f, V, vectors)
 
     def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
         """:meth:`modes` at measured joint coordinates (no gravity preload: its static
@@ -718,6 +791,7 @@ class Evaluator:
             raise InputError("joints= with a gravity preload: not supported (the preload's derivative needs the "
                              "inverse kinematics); drop gravity_preload from the model or give poses only")
         q, poses = self.joint_coordinates(joints, poses)
+        params, exact = self._route(effects, params)
         mats = self.joint_matrices(poses, q, effects, **params)
         kind = self.kind(effects)
         if kind == "rigid":
@@ -729,6 +803,8 @@ class Evaluator:
         else:
             M, K = mats["M"], mats["K_F"]
         modes = self._solve(M, K, vectors, kind)
+        if exact:
+            modes = self._exact_modes(poses, effects, params, modes, vectors, q=q, M=M)
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
@@ -784,7 +860,7 @@ class Evaluator:
         modes = Modes(out["freq_hz"], out.get("eigentwists"), self.axes(kind), kind,
                       None if check else valid, st != STATUS["unstable"])
         if exact:
-            modes = condense.exact_modes(self, poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
+            modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
         return modes
 
     def _raise_unstable(self, poses, modes: Modes, effects) -> None:
@@ -828,7 +904,7 @@ class Evaluator:
         own = own_legs(wrt, params)                  # legs whose own P@N does not follow a shared P
         full = kernel_wrt(wrt, own)
         kern = sensitivity_kernels(self, full, progress)
-        params, exact = condense.route(self, effects, params)
+        params, exact = self._route(effects, params)
         p = self._params(len(poses), params, effects)
         rigid = self.kind(effects) == "rigid"
         if rigid and getattr(self.space, "basis", 0) is None:
@@ -846,7 +922,7 @@ class Evaluator:
         kind = "rigid" if rigid else "flexible"
         modes = Modes(freq, vec, self.axes(kind), kind)
         if exact:                                  # K_F's penalty: the finite modes exact
-            modes = condense.exact_modes(self, poses, effects, params, modes, True)
+            modes = self._exact_modes(poses, effects, params, modes, True)
         return modes, dfdp
 
     def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:

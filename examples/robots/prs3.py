@@ -29,7 +29,7 @@ PARAMETERS = (
     Parameter("m_s", 2.5, "kg", "mass of each slider (a point mass on the revolute joint)"),
     Parameter("m_r", 1.2, "kg", "mass of each rod (slender, uniform)"),
     Parameter("k_a", 5.0e7, "N/m", "axial stiffness of each ball-screw actuator"),
-    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance of the ideally rigid constrained direction", (0.0, 1e-6)),
+    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance of ideally rigid constrained directions in K_F (modes: exact unless set)", (0.0, 1e-6)),
 ) + effect_parameters(("actuator_loss", "payload_mass"), {"m_p": 1.0})
 
 

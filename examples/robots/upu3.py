@@ -36,7 +36,7 @@ PARAMETERS = (
     Parameter("m_rod", 0.3, "kg", "mass of each strut's rod (on the platform U joint, slender)"),
     Parameter("l_rod", 0.20, "m", "length of each rod, from the platform U joint"),
     Parameter("k_a", 3.0e6, "N/m", "axial stiffness of each prismatic actuator"),
-    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance of the ideally rigid constrained direction", (0.0, 1e-6)),
+    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance of ideally rigid constrained directions in K_F (modes: exact unless set)", (0.0, 1e-6)),
 ) + effect_parameters(("actuator_loss", "payload_mass"), {"m_p": 0.2})
 
 
