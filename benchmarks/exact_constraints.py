@@ -1,7 +1,7 @@
 """Cost of the exact rigid-constraint condensation on the default route (issue 20).
 
 CPU time per ``ev.frequencies`` call, Heli4, same poses, same run: the default (exact)
-route against the old penalty route (``condense.route`` disabled: K_F with c_rigid =
+route against the old penalty route (the evaluator's ``_route`` disabled: K_F with c_rigid =
 1e-12 rad/(N m)), for a model whose legs have no rigid direction (``paper``: the exact
 route is K_F with c_rigid = 0, no extra work) and one with rigid directions
 (``actuator_loss,ee_compliance``: the compliance form on the admissible motions), on both
@@ -16,7 +16,6 @@ import time
 import numpy as np
 
 import eigentwist
-from eigentwist.runtime import condense
 
 
 def _cpu(fn, repeat: int) -> float:
@@ -39,13 +38,12 @@ def main() -> None:
                 repeat = 50 if n == 30 else 5
                 f = ev.frequencies(P, model)
                 exact = _cpu(lambda: ev.frequencies(P, model), repeat)
-                route = condense.route
-                condense.route = lambda ev_, effects, params: (params, False)
+                ev._route = lambda effects, params: (params, False)        # the penalty route of before
                 try:
                     g = ev.frequencies(P, model)
                     penalty = _cpu(lambda: ev.frequencies(P, model), repeat)
                 finally:
-                    condense.route = route
+                    del ev._route
                 finite = f < 1e5
                 print(f"{backend:5s} N={n:5d} {model:28s} exact {exact * 1e3:7.2f} ms  penalty {penalty * 1e3:7.2f} ms"
                       f"  ({exact / penalty:4.1f}x)  max |df/f| {np.abs(f[finite] / g[finite] - 1).max():.1e}")

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["leg_condensation", "condensed_compliance", "compliance_eigh", "finite_modes", "leg_joints",
-           "platform_compliance", "has_rigid_direction", "compliance_from_legs", "merge_modes", "RIGID_RTOL",
+           "platform_compliance", "has_rigid_direction", "condensed_modes", "compliance_from_legs", "merge_modes", "RIGID_RTOL",
            "EXACT"]
 
 # A joint-compliance eigenvalue below RIGID_RTOL times the leg's largest (or a singular
@@ -53,13 +53,81 @@ def leg_condensation(Je: np.ndarray, Cq: np.ndarray, rtol: float = RIGID_RTOL):
     """
     Je = np.asarray(Je, dtype=float)
     Cq = np.asarray(Cq, dtype=float)
-    s, U = np.linalg.eigh(0.5 * (Cq + np.swapaxes(Cq, -1, -2)))
+    s, U = _eigh_small(0.5 * (Cq + np.swapaxes(Cq, -1, -2)))
     rigid = s <= rtol * np.abs(s).max(axis=-1, keepdims=True)
     inv = np.where(rigid, 0.0, 1.0 / np.where(rigid, 1.0, s))
     UJ = np.swapaxes(U, -1, -2) @ Je                                  # (N, e, 6): combinations' rows
     K = np.swapaxes(UJ, -1, -2) @ (inv[..., None] * UJ)
     R = np.where(rigid[..., None], UJ, 0.0)
     return 0.5 * (K + np.swapaxes(K, -1, -2)), R
+
+
+def _eigh_small(S: np.ndarray):
+    """``numpy.linalg.eigh`` of a batch of symmetric e x e matrices, in closed form for
+    e <= 2 (a leg's actuated and one virtual joint: no LAPACK call per matrix)."""
+    if S.shape[-1] == 1:
+        return S[..., 0], np.ones_like(S)
+    if S.shape[-1] != 2:
+        return np.linalg.eigh(S)
+    a, b, c = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
+    h = 0.5 * (a - c)
+    r = np.hypot(h, b)
+    m = 0.5 * (a + c)
+    s = np.stack([m - r, m + r], axis=-1)
+    # the larger eigenvalue's vector (h + r, b) or (b, r - h), whichever is the longer
+    big = h >= 0
+    x = np.where(big, h + r, b)
+    y = np.where(big, b, r - h)
+    norm = np.hypot(x, y)
+    zero = norm == 0
+    x = np.where(zero, 1.0, x / np.where(zero, 1.0, norm))
+    y = np.where(zero, 0.0, y / np.where(zero, 1.0, norm))
+    U = np.stack([np.stack([-y, x], axis=-1), np.stack([x, y], axis=-1)], axis=-1)   # columns: small, large
+    return s, U
+
+
+def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: np.ndarray, eigh=None,
+                    rtol: float = RIGID_RTOL):
+    """The exact modes of legs on the tool body (no couplings) in stiffness form on the
+    admissible twists: ``(B^T K B) y = omega^2 (B^T M B) y``, ``v = B y``.
+
+    Je, Cq : as in :func:`condensed_compliance`; K_parallel, M : (N, 6, 6). ``eigh`` solves
+    ``K v = lambda M v`` for (N, n, n) batches (default
+    :func:`eigentwist.runtime.eigen.generalized_eigh`; the C backend's Jacobi solver for
+    the sizes it has). Returns ``(freq_hz, V)`` as :func:`compliance_eigh` does: NaN for an
+    unstable mode, the finite modes ascending, ``inf`` for each rigid direction (its
+    column of V is NaN).
+    """
+    from .eigen import frequencies_hz, generalized_eigh
+
+    eigh = eigh or generalized_eigh
+    Je = np.asarray(Je, dtype=float)
+    N = Je.shape[0]
+    K_x = np.array(np.broadcast_to(K_parallel, (N, 6, 6)), dtype=float)
+    rows = []
+    for i in range(Je.shape[1]):
+        K, R = leg_condensation(Je[:, i], np.asarray(Cq)[:, i], rtol)
+        K_x += K
+        rows.append(R)
+    A = np.concatenate(rows, axis=1)
+    G = np.swapaxes(A, -1, -2) @ A                                   # (N, 6, 6): null space = admissible twists
+    g, Q = eigh(G, np.broadcast_to(np.eye(6), G.shape))
+    null = g <= (rtol * 1e-2) * np.abs(g).max(axis=-1, keepdims=True, initial=0.0)
+    freq = np.full((N, 6), np.inf)
+    V = np.full((N, 6, 6), np.nan)
+    for n in np.unique(null.sum(axis=-1)):
+        at = null.sum(axis=-1) == n
+        if n == 0:
+            continue
+        B = Q[at][:, :, :n]                                          # ascending: the null vectors first
+        Bt = np.swapaxes(B, -1, -2)
+        Kr, Mr = Bt @ K_x[at] @ B, Bt @ np.asarray(M, dtype=float)[at] @ B
+        lam, Y = eigh(0.5 * (Kr + np.swapaxes(Kr, -1, -2)), 0.5 * (Mr + np.swapaxes(Mr, -1, -2)))
+        fa, Va = freq[at], V[at]
+        fa[:, :n] = frequencies_hz(lam)
+        Va[:, :, :n] = B @ Y
+        freq[at], V[at] = fa, Va
+    return freq, V
 
 
 def condensed_compliance(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray | None = None,

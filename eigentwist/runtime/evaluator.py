@@ -775,6 +775,10 @@ class Evaluator:
         pk = self._with_pose(pr, p)
         out = self._kernels.legs(q, pk)
         M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
+        coupled = any(c.effect in set(effects) for c in self.robot.couplings)
+        if not coupled and not self._preloaded(effects):   # legs on the tool: stiffness form, admissible twists
+            f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh)
+            return condense.merge_modes(modes, rows, f, V, vectors)
         K_G = None
         if self._preloaded(effects):
             from .gravity import gravity_stiffness
@@ -782,6 +786,13 @@ class Evaluator:
             K_G = gravity_stiffness(self, pr, effects, sub, self.matrices(pr, effects, **sub), False)
         f, V = condense.compliance_eigh(condense.compliance_from_legs(self.robot, effects, out, K_G), M)
         return condense.merge_modes(modes, rows, f, V, vectors)
+
+    def _eigh(self, K: np.ndarray, M: np.ndarray):
+        """``K v = lambda M v`` for a batch: the C Jacobi solver where it has the size, else
+        :func:`.eigen.generalized_eigh`."""
+        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"] and len(K):
+            return self._kernels.generalized_eigh(K, M, threads=self._nthreads())
+        return generalized_eigh(K, M)
 
     def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
         """:meth:`modes` at measured joint coordinates (no gravity preload: its static
