@@ -159,3 +159,25 @@ def test_c_equals_numpy(evs, robot):
     s_np = ev_np.sensitivities(poses, wrt)
     s_c = ev_c.sensitivities(poses, wrt)
     assert np.allclose(s_c, s_np, rtol=1e-9, atol=1e-12 * np.abs(s_np).max())
+
+
+@pytest.mark.parametrize("robot", list(WRT))
+def test_difference_method_equals_the_generated_kernel(evs, robot):
+    """``method="differences"`` (central differences of the checked-in matrices, nothing
+    derived) gives the generated kernel's derivatives, clusters included (the Heli4 with
+    h -> 0 at x_ref: the rigid x and y modes coincide), to 1e-7 of each column's largest."""
+    ev = evs[robot]
+    poses = random_poses(ev.robot, 4, seed=11)
+    for model in MODELS[robot]:
+        m1, exact = ev.modes_and_sensitivities(poses, WRT[robot], model)
+        m2, diff = ev.modes_and_sensitivities(poses, WRT[robot], model, method="differences")
+        np.testing.assert_allclose(m1.freq_hz, m2.freq_hz, rtol=1e-12)     # the same model (two programs)
+        scale = np.abs(exact).max(axis=(0, 1), keepdims=True)
+        assert np.all(np.abs(diff - exact) <= 1e-7 * scale), np.max(np.abs(diff - exact) / scale)
+    if robot == "heli4":
+        x = np.array([ev.robot.x_ref])
+        exact = ev.sensitivities(x, WRT[robot], "rigid", h=1e-9)
+        diff = ev.sensitivities(x, WRT[robot], "rigid", h=1e-9, method="differences")
+        j = WRT[robot].index("h")
+        assert abs(exact[0, 1, j] - exact[0, 0, j]) > 10.0             # split, not averaged
+        np.testing.assert_allclose(diff[0, :, j], exact[0, :, j], rtol=1e-6, atol=1e-8 * np.abs(exact[0, :, j]).max())

@@ -117,5 +117,10 @@ def test_shipped_robots_run_every_command_without_derivation(tmp_path):
          hexapod_poses, "--modes", "1,2,3", "--noise", "0.2%", "-o", hexapod_csv],
         ["diagnose", hexapod_csv, "--robot", "hexapod", "--baseline", "paper", "--add", "payload_mass"],
         ["sweep", "--grid", "2", "2", "2", "--model", "paper,actuator_loss@2", "-o", str(tmp_path / "s.npz")],
+        ["sensitivity", "--model", "paper,rod_compliance@2", "--json"],
+        ["sensitivity", "--robot", "delta", "--wrt", "l2,k_a,E_rod@2", "--json"],
+        ["sensitivity", "--robot", "hexapod", "--wrt", "k_a,m_p", "--model", "paper,payload_mass", "--json"],
+        ["optimize", "--vary", "l2=0.5:0.6", "--grid", "2", "--maxiter", "3", "--constraint", "moving-mass<=1.2",
+         "--backend", "numpy", "--json"],
     ], tmp_path / "cache")
-    assert out.count('"freq_hz"') == 3 and "actuator_loss@3" in out
+    assert out.count('"freq_hz"') == 6 and "actuator_loss@3" in out and '"dlnf1_dlnp"' in out

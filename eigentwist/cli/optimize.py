@@ -17,9 +17,10 @@ EPILOG = """examples:
 
 Epigraph formulation: maximise t subject to f_k(p, x_j) >= t for every pose x_j and the
 lowest --track modes k (one constraint per mode of a cluster), over the --vary box, with
-SciPy's SLSQP (default) or trust-constr. Gradients are the exact design sensitivities of
-the generated code (one kernel call per design point; the code is generated on first use
-for the varied parameters and cached). Poses: --pose (repeatable) or a --grid N per axis of
+SciPy's SLSQP (default) or trust-constr. Gradients are design sensitivities from central
+differences of the generated matrices (eigenvalue perturbation, clusters of repeated
+frequencies included; nothing derived at run time), or with --jacobian exact the generated
+sensitivity kernel (derived on first use for the varied parameters and cached). Poses: --pose (repeatable) or a --grid N per axis of
 the robot's workspace box (default 3); poses unreachable anywhere in the box are dropped.
 
 moving-mass (kg): the translational apparent mass at the reference pose x_ref, the mean of
@@ -52,6 +53,9 @@ def add_parser(sub):
     p.add_argument("--method", default="SLSQP", choices=("SLSQP", "trust-constr"), help="SciPy solver")
     p.add_argument("--track", type=int, default=2, help="lowest modes per pose in the epigraph (default 2)")
     p.add_argument("--maxiter", type=int, default=100, help="solver iterations (default 100)")
+    p.add_argument("--jacobian", choices=("differences", "exact"), default="differences",
+                   help="gradients: central differences of the matrices (default: nothing derived) or the "
+                        "generated sensitivity kernel (derived and cached on first use)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
@@ -115,7 +119,7 @@ def compute(args, progress=None):
     constraints = parse_constraints(args.constraint)
     effects = resolve_model(args.model, ev.robot)
     poses = _poses(args, ev)
-    res = optimize_worst_case(ev, vary, poses, effects, params, constraints, method=args.method,
+    res = optimize_worst_case(ev, vary, poses, effects, params, constraints, method=args.method, jacobian=args.jacobian,
                               n_track=args.track, maxiter=args.maxiter, progress=progress)
     return ev, effects, res
 

@@ -20,12 +20,14 @@ The table ranks parameters by |d ln f1 / d ln p| (the relative sensitivity: the 
 the lowest frequency per % change of p) and gives d f1 / d p in Hz per SI unit of p.
 Default --wrt: k_a and the model's parameters in m, kg and Pa (geometry, masses, moduli;
 15 for the Heli4's paper model). NAME@N is leg N's own value of a leg-level parameter.
-The derivative code is generated on first use for each --wrt list and cached by content
-hash in $EIGENTWIST_CACHE (default ~/.cache/eigentwist), progress on stderr. Measured on
-one core (Heli4): the default list takes ~35 s of generation once (NumPy backend), then
-~1 s per call; --wrt all ~30-40 s once, plus ~95 s of gcc with --backend c (then 1.5e4
-poses/s). The geometry parameters carry most of that cost: k_a or moduli alone take seconds.
-A model with gravity_preload has no generated sensitivities (its stiffness is a run-time solve).
+By default the derivatives come from central differences of the generated matrices M,
+K_R, K_F (relative step 1e-5) and the eigenvalue perturbation of Eq. 6 (clusters of repeated
+frequencies included): nothing is derived, ~0.01 s for the default list, within ~1e-9 of
+the exact derivatives. --jacobian exact uses derivative code generated on first use for
+each --wrt list and cached by content hash in $EIGENTWIST_CACHE (default
+~/.cache/eigentwist), progress on stderr: ~35 s of generation once for the Heli4's default
+list (NumPy backend), then ~1 s per call. A model with gravity_preload has no sensitivities
+here (its stiffness is a run-time solve).
 
 JSON keys: robot, model, pose, freq_hz (every mode), parameters: a list sorted by rank with
 name, unit, value, dfdp_hz_per_unit (every mode), dlnf1_dlnp.
@@ -39,6 +41,9 @@ def add_parser(sub):
     p.add_argument("--wrt", default=None, metavar="NAMES",
                    help="comma-separated parameter names, NAME@N for leg N's own value, or 'all' (default: k_a "
                         "and the model's parameters in m, kg and Pa: geometry, masses, moduli)")
+    p.add_argument("--jacobian", choices=("differences", "exact"), default="differences",
+                   help="derivatives: central differences of the matrices (default: nothing derived) or the "
+                        "generated sensitivity kernel (derived and cached on first use per --wrt)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
@@ -77,7 +82,8 @@ def compute(args, progress=None) -> dict:
         wrt = [w.strip() for w in args.wrt.split(",") if w.strip()]
     else:
         wrt = list(default_wrt(ev, effects))
-    modes, dfdp = frequency_sensitivities(ev, pose, wrt, effects, params, progress=progress)
+    modes, dfdp = frequency_sensitivities(ev, pose, wrt, effects, params, progress=progress,
+                                          method=getattr(args, "jacobian", "differences"))
     f = modes.freq_hz[0]
     rows = []
     for j, name in enumerate(wrt):

@@ -91,24 +91,35 @@ class OptimizationResult:
     history: list = field(default_factory=list)
 
 
-def moving_mass(ev, wrt, params: dict, model="paper"):
-    """``(mass, gradient)``: the translational apparent mass at x_ref (kg) and d/dp (kg per SI unit)."""
+def moving_mass(ev, wrt, params: dict, model="paper", method: str = "exact"):
+    """``(mass, gradient)``: the translational apparent mass at x_ref (kg) and d/dp (kg per SI
+    unit): from the generated sensitivity kernel (``method="exact"``) or central differences
+    of M (``"differences"``, nothing derived)."""
     from ..description.effects import resolve_model
-    from ..runtime.sensitivity import sensitivity_kernels
+    from ..runtime.sensitivity import DIFFERENCE_STEP, sensitivity_kernels
 
-    kern = sensitivity_kernels(ev, tuple(wrt))
     x = np.asarray(ev.robot.x_ref, dtype=float)[None, :]
+    tt = np.arange(3, 6)
+    if method == "differences":
+        mass = lambda values: float(ev.matrices(x, model, **values)["M"][0, tt, tt].mean())  # noqa: E731
+        grad = []
+        for name in wrt:
+            value = float(params.get(name, ev.defaults[name.partition("@")[0]]))
+            h = DIFFERENCE_STEP * (max(abs(value), abs(ev.defaults[name.partition("@")[0]])) or 1.0)
+            grad.append((mass({**params, name: value + h}) - mass({**params, name: value - h})) / (2 * h))
+        return mass(params), np.array(grad)
+    kern = sensitivity_kernels(ev, tuple(wrt))
     p = ev.parameter_values(1, resolve_model(model, ev.robot), **params)
     out = kern(x[:, 0], x[:, 1], x[:, 2], {**p, **ev.kernel_pose_inputs(x)})
-    tt = np.arange(3, 6)
     return float(out["M"][0, tt, tt].mean()), out["dM"][0][:, tt, tt].mean(axis=-1)
 
 
 class _Problem:
     """Values and exact gradients of the epigraph problem, one kernel call per design point."""
 
-    def __init__(self, ev, vary, poses, model, params, constraints, n_track, progress):
+    def __init__(self, ev, vary, poses, model, params, constraints, n_track, progress, jacobian="differences"):
         self.ev, self.vary, self.poses, self.model = ev, list(vary), poses, model
+        self.jacobian = jacobian
         self.params = dict(params or {})
         self.constraints = list(constraints)
         self.n_track = n_track
@@ -131,14 +142,15 @@ class _Problem:
         key = np.asarray(u, dtype=float).tobytes()
         if key not in self.cache:
             values = {**self.params, **self.design(u)}
-            modes, dfdp = frequency_sensitivities(self.ev, self.poses, self.wrt, self.model, values)
+            modes, dfdp = frequency_sensitivities(self.ev, self.poses, self.wrt, self.model, values,
+                                                  method=self.jacobian)
             self.evaluations += 1
             f = modes.freq_hz[:, :self.n_track]
             dfdu = dfdp[:, :self.n_track, :] * self.span
             quantities = {}
             for c in self.constraints:
                 if c.quantity == "moving-mass" and c.quantity not in quantities:
-                    m, g = moving_mass(self.ev, self.wrt, values, self.model)
+                    m, g = moving_mass(self.ev, self.wrt, values, self.model, self.jacobian)
                     quantities[c.quantity] = (m, g * self.span)
             self.cache = {key: (f, dfdu, quantities)}
             worst = float(f[:, 0].min())
@@ -193,7 +205,8 @@ def _usable_poses(ev, vary, poses, model, params) -> np.ndarray:
 
 
 def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints=(), *, method="SLSQP",
-                        n_track: int = 2, start=None, maxiter: int = 100, progress=None) -> OptimizationResult:
+                        n_track: int = 2, start=None, maxiter: int = 100, progress=None,
+                        jacobian: str = "differences") -> OptimizationResult:
     """Maximise min over ``poses`` of the lowest natural frequency over the ``vary`` box.
 
     Parameters
@@ -204,7 +217,9 @@ def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints
     constraints : list of :class:`Constraint`; method : ``"SLSQP"`` or ``"trust-constr"``;
     n_track : modes per pose in the epigraph (>= 1); start : starting values (default: the
     parameter's current value when inside its range, else the middle);
-    progress : callable taking a message per evaluation.
+    progress : callable taking a message per evaluation; jacobian : ``"differences"`` (central
+    differences of the matrices: nothing derived, the default) or ``"exact"`` (the generated
+    sensitivity kernel, derived and cached on first use).
     """
     from scipy.optimize import NonlinearConstraint, minimize
 
@@ -223,7 +238,9 @@ def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints
     ok = _usable_poses(ev, vary, poses, model, params)
     if not ok.any():
         raise InputError("no pose is reachable and non-singular over the whole --vary box")
-    prob = _Problem(ev, vary, poses[ok], model, params, constraints, max(1, n_track), progress)
+    if jacobian not in ("differences", "exact"):
+        raise InputError(f"jacobian {jacobian!r}: expected differences or exact")
+    prob = _Problem(ev, vary, poses[ok], model, params, constraints, max(1, n_track), progress, jacobian)
     defaults = {**ev.defaults, **(params or {}), **(start or {})}
     u0 = np.array([(defaults[v.name] - v.lo) / (v.hi - v.lo) if v.lo <= defaults[v.name] <= v.hi else 0.5
                    for v in vary])

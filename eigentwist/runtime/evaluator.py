@@ -884,7 +884,7 @@ class Evaluator:
             "(omega^2 < 0, no natural frequency); check negative or extreme parameters and the gravity preload")
 
     def sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
-                      **params) -> np.ndarray:
+                      method: str = "exact", **params) -> np.ndarray:
         """d f / d p of the model's natural frequencies, (N, n_modes, len(wrt)), Hz per SI unit.
 
         ``wrt``: parameter names (default: every parameter of the description); ``P@N`` is
@@ -894,16 +894,29 @@ class Evaluator:
         ascending order; frequencies within ``rtol`` (relative) of each other form a cluster
         whose individual derivatives are returned (sorted ascending, never the mean). The
         code is generated on first use for each ``wrt`` and cached (see
-        :mod:`eigentwist.runtime.sensitivity`); models with ``gravity_preload`` raise.
+        :mod:`eigentwist.runtime.sensitivity`); ``method="differences"`` derives nothing
+        (central differences of the matrices, see :meth:`modes_and_sensitivities`); models
+        with ``gravity_preload`` raise.
         """
-        return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, **params)[1]
+        return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method,
+                                            **params)[1]
 
     def modes_and_sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
-                                **params):
-        """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call."""
+                                method: str = "exact", **params):
+        """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call.
+
+        ``method="exact"`` (the default) uses the generated sensitivity kernel (derived and
+        cached on first use per ``wrt``); ``"differences"`` derives nothing: dM/dp and
+        dK/dp by central differences of :meth:`matrices` (relative step 1e-5; the matrices
+        are smooth in the parameters even where frequencies cross), then the same
+        eigenvalue perturbation (clusters included), ~1e-9 relative from the exact one."""
         from .sensitivity import (check_model, check_wrt, frequency_derivatives, kernel_wrt, own_legs,
                                   sensitivity_kernels, shared_columns)
 
+        if method not in ("exact", "differences"):
+            raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
+        if method == "differences":
+            return self._difference_sensitivities(poses, wrt, model, rtol, params)
         if self.numeric_ik:
             raise InputError(f"sensitivities of {self.robot.name}: its legs are solved numerically (Newton), and the "
                              "derivative of their joint coordinates with respect to the parameters is not derived yet; "
@@ -930,6 +943,45 @@ class Evaluator:
         freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
         if own:
             dfdp = shared_columns(dfdp, wrt, full, own)
+        kind = "rigid" if rigid else "flexible"
+        modes = Modes(freq, vec, self.axes(kind), kind)
+        if exact:                                  # K_F's penalty: the finite modes exact
+            modes = self._exact_modes(poses, effects, params, modes, True)
+        return modes, dfdp
+
+    def _difference_sensitivities(self, poses, wrt, model, rtol: float, params: dict):
+        """:meth:`modes_and_sensitivities` with ``method="differences"``."""
+        from .sensitivity import DIFFERENCE_STEP, check_model, check_wrt, frequency_derivatives
+
+        poses = self._poses(poses, params)
+        effects = resolve_model(model, self.robot)
+        check_model(effects)
+        wrt = check_wrt(self, wrt)
+        rigid = self.kind(effects) == "rigid"
+        if rigid and getattr(self.space, "basis", 0) is None:
+            raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
+                             "pose) are not available: use a flexible model")
+        solved, exact = self._route(effects, params)
+        out = dict(self.matrices(poses, effects, **solved))
+        d = {k: np.empty((len(poses), len(wrt), 6, 6)) for k in ("dM", "dK_R", "dK_F")}
+        for j, name in enumerate(wrt):
+            base = name.partition("@")[0]
+            value = np.asarray(solved.get(name, solved.get(base, self.defaults[base])), dtype=float)
+            scale = np.maximum(np.abs(value), abs(self.defaults[base]))
+            h = DIFFERENCE_STEP * np.where(scale > 0, scale, 1.0)
+            low = self.parameters[base].bounds[0]
+            shape = (-1, 1, 1) if np.ndim(h) else ()
+            hi = self.matrices(poses, effects, **{**solved, name: value + h})
+            if np.all(value - h > low):                     # central differences
+                lo = self.matrices(poses, effects, **{**solved, name: value - h})
+                for k in ("M", "K_R", "K_F"):
+                    d["d" + k][:, j] = (hi[k] - lo[k]) / np.reshape(2 * h, shape)
+            else:                                           # at a bound: one-sided, second order
+                hi2 = self.matrices(poses, effects, **{**solved, name: value + 2 * h})
+                for k in ("M", "K_R", "K_F"):
+                    d["d" + k][:, j] = (4 * hi[k] - 3 * out[k] - hi2[k]) / np.reshape(2 * h, shape)
+        out.update(d)
+        freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six)
         kind = "rigid" if rigid else "flexible"
         modes = Modes(freq, vec, self.axes(kind), kind)
         if exact:                                  # K_F's penalty: the finite modes exact

@@ -29,11 +29,14 @@ import numpy as np
 from ..hashing import canonical, content_hash, package_digest
 from .ccompile import cache_dir
 
-__all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "clusters", "check_wrt",
+__all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "DIFFERENCE_STEP", "clusters", "check_wrt",
            "own_legs", "kernel_wrt", "shared_columns",
            "check_model", "frequency_derivatives", "frequency_sensitivities"]
 
 CLUSTER_RTOL = 1e-6        # frequencies closer than this (relative) form one cluster
+#: relative step of ``method="differences"`` (central differences of M, K_R, K_F): truncation
+#: ~1e-10 and round-off ~1e-11 of the matrices' derivatives
+DIFFERENCE_STEP = 1e-5
 _MEMORY: dict = {}
 _ROBOTS: dict = {}
 
@@ -332,6 +335,7 @@ def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL, tr
 
 
 def frequency_sensitivities(ev, poses, wrt=None, model="paper", params=None, *, rtol: float = CLUSTER_RTOL,
-                            progress=None):
+                            progress=None, method: str = "exact"):
     """``(Modes, dfdp)`` of evaluator ``ev``: see :meth:`Evaluator.modes_and_sensitivities`."""
-    return ev.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, **(params or {}))
+    return ev.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method,
+                                      **(params or {}))
