@@ -112,3 +112,70 @@ def pytest_collection_modifyitems(config, items):
         params = getattr(getattr(item, "callspec", None), "params", {})
         if any(k in ("backend", "ev") and v == "c" for k, v in params.items()):
             item.add_marker(pytest.mark.compiled)
+
+
+# ------------------------------------------------------------ xdist scheduling (issue 20)
+# pytest-xdist 3.8's ``--dist loadgroup`` appends ``@group`` to ``item._nodeid``, which
+# pytest 9 no longer reads (``Node.nodeid`` is ``str(item._id)``): ``xdist_group`` marks are
+# ignored and a module's tests spread over every worker, each computing the module's
+# fixtures again. ``make test`` therefore uses the scheduler below: a *unit* (the tests one
+# worker runs together) is a whole test module, or a group of modules named in GROUPS
+# (modules sharing a session fixture or a generated-code cache entry), except the modules in
+# SPLIT, whose tests are independent units (cheap fixtures, expensive tests). Units are
+# handed out most expensive first (COST, measured seconds on 2 workers) so the last ones
+# are short and both workers finish together.
+
+#: group name -> modules run on one worker, one after the other
+GROUPS = {
+    # the symbolic Heli4 (``derived``) and every robot's rendered code: derived once
+    "derive": ("test_generated.py", "test_c_backend.py", "test_coupling.py", "test_gallery.py", "test_physics.py"),
+}
+#: modules whose tests are scheduled one by one
+SPLIT = {"test_diagnose_seeds.py", "test_notebooks.py", "test_diagnose.py"}
+#: estimated seconds (2 busy cores) per unit: a group's name, a module (whole, or per test if
+#: split) or a test's node id; unlisted modules count 1 s
+COST = {
+    "test_readme.py": 210,
+}
+
+
+def _module(nodeid: str) -> str:
+    return nodeid.split("::", 1)[0].rpartition("/")[2]
+
+
+_GROUP_OF = {module: name for name, modules in GROUPS.items() for module in modules}
+
+
+def unit_of(nodeid: str) -> str:
+    """The unit a test belongs to: its group's name, its module's path, or (SPLIT) itself."""
+    nodeid = nodeid.rsplit("@", 1)[0] if nodeid.rfind("@") > nodeid.rfind("]") else nodeid
+    module = _module(nodeid)
+    if module in _GROUP_OF:
+        return _GROUP_OF[module]
+    return nodeid if module in SPLIT else nodeid.split("::", 1)[0]
+
+
+def unit_cost(unit: str) -> float:
+    if unit in COST:
+        return COST[unit]
+    return COST.get(_module(unit), 1.0)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class UnitScheduling(LoadScopeScheduling):
+        """LoadScopeScheduling with ``unit_of`` as the scope, most expensive unit first."""
+
+        def _split_scope(self, nodeid):
+            return unit_of(nodeid)
+
+        def _assign_work_unit(self, node):
+            heaviest = max(self.workqueue, key=unit_cost)    # the first of equals: collection order
+            self.workqueue.move_to_end(heaviest, last=False)
+            super()._assign_work_unit(node)
+
+    return UnitScheduling(config, log)
