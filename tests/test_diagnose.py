@@ -124,8 +124,8 @@ def test_changed_end_effector_mass_is_found_as_a_payload(ev):
 
 
 @pytest.fixture(scope="module")
-def paper_diagnosis(ev):
-    return diagnose(paper_measurements(ev), "rigid", ev=ev)
+def paper_diagnosis(paper_rigid_diagnosis):
+    return paper_rigid_diagnosis          # diagnose(paper_measurements(ev), "rigid", ev=ev): conftest
 
 
 def test_paper_measurements_from_the_rigid_model(paper_diagnosis):
