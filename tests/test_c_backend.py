@@ -18,7 +18,7 @@ import sympy as sp
 import eigentwist.runtime.cbackend as cb
 import eigentwist.runtime.ccompile as ccompile
 from eigentwist.codegen.c_backend import CCodePrinter, c_identifiers
-from eigentwist.codegen.generate import GENERATED, render_robot
+from eigentwist.codegen.generate import GENERATED
 from eigentwist.robots import NAMES
 from eigentwist.runtime import InputError, UnreachablePoseError, load
 from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
@@ -30,8 +30,8 @@ compiled = pytest.mark.compiled
 
 
 # ------------------------------------------------------------ no compiler needed
-def test_checked_in_c_source_is_fresh():
-    text = render_robot("heli4", backends=("c",))["heli4_c.c"]
+def test_checked_in_c_source_is_fresh(rendered):
+    text = rendered["heli4_c.c"]                     # render_all(): conftest, the derive group's render
     path = GENERATED / "heli4_c.c"
     old = path.read_text() if path.exists() else ""
     if old != text:
