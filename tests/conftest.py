@@ -122,8 +122,9 @@ def pytest_configure(config):
 #: modules whose tests generate sensitivity kernels with SymPy (their session fixtures)
 DERIVING_MODULES = {"test_diagnose_jacobian", "test_hexapod_sensitivity", "test_optimize", "test_sensitivity",
                     "test_sensitivity_cli", "test_sensitivity_legs", "test_sensitivity_split"}
-#: fixtures that derive (``derived``: the symbolic Heli4) or render every robot (``rendered``)
-DERIVING_FIXTURES = {"derived", "rendered"}
+#: fixtures that derive (``derived``: the symbolic Heli4) or render every robot (``rendered``,
+#: ``rendered_with_progress``)
+DERIVING_FIXTURES = {"derived", "rendered", "rendered_with_progress"}
 
 
 def pytest_collection_modifyitems(config, items):
@@ -166,7 +167,7 @@ SPLIT = {"test_diagnose_seeds.py", "test_notebooks.py"}
 #: module, or each test of a SPLIT one) or a test's node id; unlisted modules count 1 s. Only
 #: the order matters: the most expensive units first, so the last ones are short.
 COST = {
-    "test_readme.py": 210, "derive": 120, "paper_diagnosis": 110, "sensitivity": 100,
+    "test_readme.py": 210, "derive": 135, "paper_diagnosis": 110, "sensitivity": 100,
     "test_diagnose_seeds.py::test_right_in_nine_of_ten_seeds[payload_offset]": 56,
     "test_diagnose_seeds.py::test_right_in_nine_of_ten_seeds[bad_row]": 21,
     "test_diagnose_seeds.py::test_right_in_nine_of_ten_seeds[two_effects]": 16,
@@ -175,8 +176,8 @@ COST = {
     "test_notebooks.py::test_notebook_runs[03_find_the_missing_effect.ipynb]": 16,
     "test_notebooks.py::test_notebook_runs[04_design_space.ipynb]": 11,
     "test_notebooks.py::test_notebook_runs[02_reproduce_paper.ipynb]": 5,
-    "test_user_terms.py": 39, "test_cli.py": 38, "test_report.py": 34, "test_user_effects.py": 31,
-    "test_localise.py": 28, "test_warm.py": 24, "test_numeric_ik.py": 23, "test_backward.py": 23,
+    "test_user_terms.py": 39, "test_cli.py": 38, "test_report.py": 45, "test_user_effects.py": 31,
+    "test_localise.py": 28, "test_warm.py": 24, "test_numeric_ik.py": 33, "test_backward.py": 23,
     "test_chain_equivalence.py": 21, "test_setting_anomalies.py": 19, "test_diagnose_cli.py": 17,
     "test_sets.py": 16, "test_sensitivity_split.py": 16, "test_delta.py": 15, "test_diagnose_jacobian.py": 14,
     "test_hexapod_sensitivity.py": 14, "test_identify.py": 10, "test_sensitivity_legs.py": 10,
