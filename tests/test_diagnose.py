@@ -63,6 +63,7 @@ def _found(d, effect) -> bool:
     return effect in d.selected or any(effect in s.alternatives for s in d.steps)
 
 
+@pytest.mark.slow          # a seeded study (three diagnoses per effect): make test, not make test-fast
 @pytest.mark.parametrize("effect", HELI4_EFFECTS)
 def test_hidden_effect_is_selected_in_several_seeds(ev_fast, effect):
     truth, baseline, _, k_a = SCENARIOS[effect]

@@ -195,6 +195,7 @@ def test_frequencies_are_the_rigid_6x6_eigenproblem(ev, evaluate):
     assert ev.frequencies(HOME, "rigid").shape == (1, 6)
 
 
+@pytest.mark.compiled      # compiles the hexapod's C (make test, not make test-fast)
 def test_c_equals_numpy():
     poses = random_poses(200, 9)
     a, b = (eigentwist.load("hexapod", backend=k) for k in ("numpy", "c"))
