@@ -21,7 +21,6 @@ from eigentwist.cli.main import main
 from eigentwist.description.effects import split_scope
 from eigentwist.diagnose import diagnose, synth
 from eigentwist.diagnose.answer import MAX_LINES, WIDTH, answer
-from eigentwist.diagnose.measurements import paper_csv, parse_csv
 from eigentwist.diagnose.mirror import mirror_groups
 from eigentwist.plots import robot_geometry
 
@@ -34,7 +33,7 @@ def heli4():
 
 
 @pytest.fixture(scope="module")
-def cases(heli4):
+def cases(heli4, paper_rigid_diagnosis):
     """name -> (diagnosis, evaluator, the effect that must be named, its parameter, true value or None)."""
     out = {}
     # the README walkthrough: 30 rows, a hidden 0.35 kg payload, 0.5 % noise (seed 3)
@@ -42,8 +41,8 @@ def cases(heli4):
                  "0.5%", seed=3, ev=heli4)
     out["walkthrough"] = (diagnose(meas, "paper", ev=heli4), heli4, "payload_mass", "m_p", 0.35)
     # the paper's measurements from the rigid model: ee_compliance (the paper's static test: 500 N m/rad)
-    meas = parse_csv(paper_csv("heli4"), "heli4_paper.csv", heli4)
-    out["paper"] = (diagnose(meas, "rigid", ev=heli4), heli4, "ee_compliance", "k_E_rot", None)
+    # (conftest's paper_rigid_diagnosis: diagnose(parse_csv(paper_csv("heli4"), ...), "rigid") on NumPy)
+    out["paper"] = (paper_rigid_diagnosis, heli4, "ee_compliance", "k_E_rot", None)
     # one weak actuator, leg 3, measured at the central pose only: legs 3 and 4 are mirror images
     meas = synth("paper+actuator_loss@3:eta_a@3=0.55", KA, [[0, 0, -0.625]], ["x", "y", "z"], 0.005, 0, ev=heli4)
     out["per-leg"] = (diagnose(meas, "paper", ev=heli4), heli4, "actuator_loss@3", "eta_a@3", 0.55)

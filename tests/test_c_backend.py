@@ -18,20 +18,20 @@ import sympy as sp
 import eigentwist.runtime.cbackend as cb
 import eigentwist.runtime.ccompile as ccompile
 from eigentwist.codegen.c_backend import CCodePrinter, c_identifiers
-from eigentwist.codegen.generate import GENERATED, render_robot
+from eigentwist.codegen.generate import GENERATED
 from eigentwist.robots import NAMES
 from eigentwist.runtime import InputError, UnreachablePoseError, load
 from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 
-from .conftest import effect_inputs, random_poses, skip_tier
+from .conftest import c_cache_dir, effect_inputs, random_poses, skip_tier
 from .test_eigen import assert_matches_scipy, random_spd_pairs
 
 compiled = pytest.mark.compiled
 
 
 # ------------------------------------------------------------ no compiler needed
-def test_checked_in_c_source_is_fresh():
-    text = render_robot("heli4", backends=("c",))["heli4_c.c"]
+def test_checked_in_c_source_is_fresh(rendered):
+    text = rendered["heli4_c.c"]                     # render_all(): conftest, the derive group's render
     path = GENERATED / "heli4_c.c"
     old = path.read_text() if path.exists() else ""
     if old != text:
@@ -86,16 +86,13 @@ def test_missing_compiler_c_backend_raises_clear_error(monkeypatch):
 
 # ---------------------------------------------------------------- compiled tier
 @pytest.fixture(scope="session")
-def c_cache(request, tmp_path_factory):
-    """A compiler and a persistent cache directory (pytest's), also used by ``load``."""
+def c_cache():
+    """A compiler and the run's persistent cache directory (``c_cache_dir``), also used by ``load``."""
     try:
         ccompile.find_compiler()
     except ccompile.CompilerNotFoundError as exc:      # the only reason to skip: any other failure fails
         skip_tier("compiled", str(exc))
-    try:
-        directory = request.config.cache.mkdir("eigentwist-c")
-    except AttributeError:                      # cache provider disabled
-        directory = tmp_path_factory.mktemp("eigentwist-c")
+    directory = c_cache_dir()
     mp = pytest.MonkeyPatch()
     mp.setenv("EIGENTWIST_CACHE", str(directory))
     yield directory

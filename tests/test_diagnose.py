@@ -63,6 +63,7 @@ def _found(d, effect) -> bool:
     return effect in d.selected or any(effect in s.alternatives for s in d.steps)
 
 
+@pytest.mark.slow          # a seeded study (three diagnoses per effect): make test, not make test-fast
 @pytest.mark.parametrize("effect", HELI4_EFFECTS)
 def test_hidden_effect_is_selected_in_several_seeds(ev_fast, effect):
     truth, baseline, _, k_a = SCENARIOS[effect]
@@ -124,8 +125,8 @@ def test_changed_end_effector_mass_is_found_as_a_payload(ev):
 
 
 @pytest.fixture(scope="module")
-def paper_diagnosis(ev):
-    return diagnose(paper_measurements(ev), "rigid", ev=ev)
+def paper_diagnosis(paper_rigid_diagnosis):
+    return paper_rigid_diagnosis          # diagnose(paper_measurements(ev), "rigid", ev=ev): conftest
 
 
 def test_paper_measurements_from_the_rigid_model(paper_diagnosis):

@@ -15,7 +15,7 @@ from eigentwist.runtime import SingularPoseError, UnreachablePoseError, Unstable
 from eigentwist.runtime.eigen import ROUNDOFF_EPS, frequencies_hz, generalized_eigh, unstable_modes
 from eigentwist.runtime.validity import STATUS
 
-from .conftest import random_poses, skip_tier
+from .conftest import c_cache_dir, random_poses, skip_tier
 
 compiled = pytest.mark.compiled
 # a heavy payload at low actuator stiffness: gravity softens the vertical mode below zero
@@ -24,13 +24,13 @@ UNSTABLE_MODEL = "paper,gravity_preload,payload_mass"
 
 
 @pytest.fixture(scope="module")
-def ev_c(request):
+def ev_c():
     try:
         ccompile.find_compiler()
     except ccompile.CompilerNotFoundError as exc:      # the only reason to skip
         skip_tier("compiled", str(exc))
     mp = pytest.MonkeyPatch()
-    mp.setenv("EIGENTWIST_CACHE", str(request.config.cache.mkdir("eigentwist-c")))
+    mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
     yield eigentwist.load("heli4", backend="c", threads=1)
     mp.undo()
 

@@ -49,6 +49,7 @@ def _virtual_angles(pr, qs) -> list:
     return out
 
 
+@pytest.mark.derives      # the gallery's files are generated with SymPy on first use (make test, not test-fast)
 @pytest.mark.parametrize("name", ("prs3", "rrr3", "linear_delta", "upu3", "rus6"))
 def test_gallery_equals_pinocchio(name):
     ev = eigentwist.load(str(GALLERY / f"{name}.py"), backend="numpy", progress=None)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from eigentwist.codegen.generate import GENERATED, PROGRESS_STEPS, render_all, render_robot, stale
+from eigentwist.codegen.generate import GENERATED, PROGRESS_STEPS, render_robot, stale
 from eigentwist.robots import NAMES
 from eigentwist.codegen.kernel import Output, UndeclaredSymbolError, build_kernel
 from eigentwist.description import sym
@@ -49,18 +49,6 @@ def test_numpy_equals_sympy(ev, derived, seed):
             scale = max(np.abs(want).max(), 1e-300)
             err = np.abs(got[name][0] - want).max() / scale
             assert err < 1e-10, f"{group}.{name}: relative error {err:.2e}"
-
-
-@pytest.fixture(scope="module")
-def rendered_with_progress():
-    """Every robot's generated files and the progress messages, rendered once for this module."""
-    messages: list[str] = []
-    return render_all(progress=messages.append), messages
-
-
-@pytest.fixture(scope="module")
-def rendered(rendered_with_progress):
-    return rendered_with_progress[0]
 
 
 def test_checked_in_code_is_fresh(rendered_with_progress):

@@ -40,9 +40,9 @@ FIGURE = re.compile(rf"({NUM}(?:\s*(?:,|\+-|±)\s*{NUM})*)\s*{UNIT}")
 OUTPUT_NUMBER = re.compile(r"-?\d+(?:\.(\d+))?(?:[eE]([-+]?\d+))?")
 TIMEOUT = 300
 
-# every block runs once per test run, in the session fixture ``results`` (shared between xdist
-# workers through a file lock); the group mark keeps the module together where loadgroup works
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("readme")]
+# every block runs once per test run, in the session fixture ``results``; the module is one
+# unit of work for one xdist worker (tests/conftest.py: the scheduler)
+pytestmark = pytest.mark.slow
 
 
 @dataclass
@@ -162,26 +162,11 @@ def workdir(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def results(workdir, tmp_path_factory, worker_id):
+def results(workdir):
     """Run every block in README order once per test run; block id -> list of (command,
-    comment, process). Under xdist the first worker runs the README and the others read its
-    pickled results (a file lock in the run's shared temporary directory): pytest-xdist's
-    loadgroup does not keep this module on one worker under pytest 9 (measured: the README
-    ran on both workers, 2 x ~230 s)."""
-    if worker_id == "master":
-        return _run_blocks(*workdir)
-    import fcntl
-    import pickle
-
-    shared = tmp_path_factory.getbasetemp().parent
-    with open(shared / "readme.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        done = shared / "readme-results.pickle"
-        if done.exists():
-            return pickle.loads(done.read_bytes())
-        out = _run_blocks(*workdir)
-        done.write_bytes(pickle.dumps(out))
-        return out
+    comment, process). Under xdist the module is one unit of ``tests/conftest.py``'s
+    scheduler, so one worker runs the README."""
+    return _run_blocks(*workdir)
 
 
 def _run_blocks(work, env) -> dict:

@@ -14,7 +14,7 @@ from eigentwist.cli.common import CliError
 from eigentwist.cli.sweep_args import parse_values, parse_vary
 from eigentwist.runtime import sweep as sw
 
-from .conftest import skip_tier
+from .conftest import c_cache_dir, skip_tier
 
 # x in [0, 0.3], y = 0, z in [-0.8, -0.3]: both reachable and unreachable poses (heli4)
 MIXED_BOX = (0.0, 0.3, 0.0, 0.0, -0.8, -0.3)
@@ -313,13 +313,13 @@ def test_every_shipped_robot_sweeps_its_workspace(robot):
 
 
 @pytest.mark.compiled
-def test_c_backend_sweep_agrees_with_numpy(request, monkeypatch):
+def test_c_backend_sweep_agrees_with_numpy(monkeypatch):
     cb = pytest.importorskip("eigentwist.runtime.cbackend", reason="this build has no C backend")
     try:
         cb.find_compiler()
     except cb.CompilerNotFoundError as exc:
         skip_tier("compiled", str(exc))
-    monkeypatch.setenv("EIGENTWIST_CACHE", str(request.config.cache.mkdir("eigentwist-c")))
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
     kwargs = dict(grid=(6, 1, 6), box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.56")], k_a=parse_values("1000,2000"), chunk_size=19)
     for model in ("paper", "rigid"):
         a = concat(sw.make_spec(backend="numpy", model=model, **kwargs))
