@@ -120,6 +120,7 @@ class Evaluator:
         #: True when the kernels take a rigid platform's six coordinates (rotation included)
         self._six = self.space is not None and len(self.space.inputs) > 3
         self._rigid_models: dict = {}          # model -> whether a leg has a rigid direction (_route)
+        self._checked_defaults: set = set()    # parameters whose default _params has checked
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -299,8 +300,13 @@ class Evaluator:
         on = {base_name(e) for e in effects}
         out = {}
         for name, p in self.parameters.items():
-            check = (name in params or p.effect is None or p.effect in on) and params.get(name) is not condense.EXACT
+            if name in params:
+                check = params[name] is not condense.EXACT
+            else:                              # a default is checked once (where it is first used)
+                check = (p.effect is None or p.effect in on) and name not in self._checked_defaults
             out[name] = self._array(name, params.get(name, p.default), n, check)
+            if check and name not in params:
+                self._checked_defaults.add(name)
         for e in self.effects:
             effect = self.robot.effect(e)
             if not effect.leg_level:
