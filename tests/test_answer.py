@@ -24,6 +24,9 @@ from eigentwist.diagnose.answer import MAX_LINES, WIDTH, answer
 from eigentwist.diagnose.mirror import mirror_groups
 from eigentwist.plots import robot_geometry
 
+# their fixtures are diagnoses of 7-11 s: make test, not make test-fast
+pytestmark = pytest.mark.slow
+
 KA = (250, 500, 1000, 2000, 4000)
 
 

@@ -77,6 +77,7 @@ def test_removal_is_a_step_of_the_path_in_json(ev_cd):
     assert j["selected"] == [e for e in j["selected"] if e in j["final"]["effects"]]
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_sigma_verdict_never_consistent_when_chi2_rejects_it(ev_cd):
     d = diagnose(paper_measurements(ev_cd), "rigid", ev=ev_cd)
     u = d.uncertainty

@@ -105,6 +105,7 @@ def test_matrices_flexible_prints_its_own_frequencies():
     assert out["kind"] == "flexible" and out["freq_hz"] == pytest.approx(out["freq_flexible_hz"], rel=1e-9)
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_piping_into_head_is_no_error():
     """``eigentwist diagnose paper | head -1``: the reader has gone when the output comes."""
     import os

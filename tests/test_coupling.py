@@ -54,6 +54,7 @@ def test_coupling_needs_no_per_leg_split(ev):
     assert not np.allclose(fs[:2], fc[:2], rtol=1e-6)
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_paper_data_cannot_tell_split_from_coupled_and_the_next_measurement_can(ev):
     """Modes x and y at x_ref only: ee_compliance and ee_coupling are indistinguishable;
     the proposed measurement is where their predictions differ most relative to sigma."""

@@ -63,6 +63,7 @@ def test_diagnosis_finds_hidden_payload_on_delta(delta):
     assert d.final.rms_pct < 1.0
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_every_command_takes_robot_delta(tmp_path, capsys):
     import json
 

@@ -101,6 +101,7 @@ def test_hidden_effect_is_found_measured_and_explains_the_data(ev, effect):
         assert d.final.rms_pct <= step.fit.rms_pct + 1e-9
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_effect_outside_the_catalogue_is_reported_missing(ev):
     # A cable carrier pulling the end-effector along X (a 300 N/m spring to ground on X
     # only) is not in the catalogue: no effect adds stiffness on one translation alone
@@ -129,6 +130,7 @@ def paper_diagnosis(paper_rigid_diagnosis):
     return paper_rigid_diagnosis          # diagnose(paper_measurements(ev), "rigid", ev=ev): conftest
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_paper_measurements_from_the_rigid_model(paper_diagnosis):
     d = paper_diagnosis
     assert round(d.baseline.rms_pct, 1) == 13.6 and round(d.baseline.max_pct, 1) == 32.9
@@ -150,6 +152,7 @@ def test_paper_measurements_from_the_rigid_model(paper_diagnosis):
     assert nm["between"][0] == "ee_compliance" and nm["separation_sigma"] > 0
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_next_measurement_is_where_the_two_models_differ_most(ev, paper_diagnosis):
     d = paper_diagnosis
     nm = d.next_measurement
@@ -167,6 +170,7 @@ def test_next_measurement_is_where_the_two_models_differ_most(ev, paper_diagnosi
     assert nm["separation_sigma"] > 3 and "measure mode" in nm["message"]
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_effect_signatures_match_their_physics(paper_diagnosis):
     # what each effect does to the frequencies over k_a, from its own closed form: compliances
     # in series saturate, masses and inertias scale all k_a alike, the gravity preload adds

@@ -16,6 +16,7 @@ def run_main(capsys, *args):
     return code, out.out, out.err
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_diagnose_json_keys(capsys):
     code, out, _ = run_main(capsys, "diagnose", "paper", "--json")
     assert code == 0

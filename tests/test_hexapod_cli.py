@@ -32,6 +32,7 @@ def test_a_three_coordinate_pose_is_refused(capsys):
     assert "hexapod takes 6 coordinates (x, y, z, rot_x, rot_y, rot_z), got 3" in capsys.readouterr().err
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_sweep_over_a_six_dimensional_box(tmp_path, capsys):
     out = tmp_path / "s.parquet"
     pytest.importorskip("pyarrow")

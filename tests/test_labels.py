@@ -126,6 +126,7 @@ def test_a_pair_that_splits_beyond_the_tolerance_is_matched_mode_by_mode(delta):
     assert idx.tolist() == [1, 0] and f == pytest.approx([m.freq_hz[0, 1], m.freq_hz[0, 0]], rel=1e-12)
 
 
+@pytest.mark.slow                # > ~8 s: make test, not make test-fast
 def test_delta_diagnosis_is_the_same_1mm_off_axis(delta):
     x_ref = np.array(delta.robot.x_ref)
     meas = synth("paper+payload_mass:m_p=0.25", k_a=[250, 1000, 4000], poses=[x_ref], modes=("x", "y", "z"),

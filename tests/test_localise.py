@@ -16,6 +16,9 @@ import pytest
 import eigentwist
 from eigentwist.diagnose import diagnose, synth
 
+# their fixtures are diagnoses of 7-11 s: make test, not make test-fast
+pytestmark = pytest.mark.slow
+
 POSES = [[0, 0, -0.625], [0.08, 0.02, -0.6], [0.02, 0.08, -0.65], [-0.08, -0.05, -0.68], [0.05, -0.08, -0.58]]
 CASES = {
     "actuator": ("actuator_loss@3", "eta_a@3", 0.55),

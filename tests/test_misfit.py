@@ -13,6 +13,9 @@ from eigentwist.diagnose import diagnose, paper_measurements, synth
 from eigentwist.diagnose.misfit import find_outliers, untestable
 from eigentwist.diagnose.stats import switch_test
 
+# their fixtures are diagnoses of 7-11 s: make test, not make test-fast
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def ev_fast():

@@ -18,6 +18,9 @@ from eigentwist.report.build import SECTIONS
 
 from .conftest import skip_tier
 
+# their fixtures are diagnoses of 7-11 s: make test, not make test-fast
+pytestmark = pytest.mark.slow
+
 
 class _Collector(HTMLParser):
     """Ids, images, text (also per section), table rows per section and every tag seen."""

@@ -11,6 +11,9 @@ import pytest
 from eigentwist.cli.common import CliError, parse_sets
 from eigentwist.cli.main import main
 
+# their fixtures are diagnoses of 7-11 s: make test, not make test-fast
+pytestmark = pytest.mark.slow
+
 
 def run_json(capsys, *argv) -> dict:
     assert main([*argv, "--json"]) == 0
