@@ -170,3 +170,26 @@ def test_paper_fit_does_not_depend_on_the_jacobian_kind():
     assert got["exact"].jacobian == "exact"
     for name in ("k_E_rot", "k_E_lin"):
         assert got["differences"].values[name] == pytest.approx(got["exact"].values[name], rel=1e-5)
+
+
+def test_rigid_constraint_modes_are_marked_and_never_proposed():
+    """A rigid direction's column (an infinite frequency; K_F's stand-in value) is marked in
+    ``Modes.constrained``; models without one have None. The separating measurement between
+    two fitted models never names such a mode (it cannot be measured)."""
+    import importlib
+
+    from eigentwist.diagnose import paper_measurements
+    from eigentwist.diagnose.separate import next_measurement
+
+    fit = importlib.import_module("eigentwist.diagnose.fit").fit
+    ev = eigentwist.load("heli4", backend="numpy")
+    x = np.array([ev.robot.x_ref, np.add(ev.robot.x_ref, [0.04, -0.03, 0.02])])
+    m = ev.modes(x, "actuator_loss,ee_compliance")
+    assert m.constrained is not None and m.constrained.sum(axis=1).tolist() == [3, 3]
+    assert (m.freq_hz[m.constrained] > 1e5).all() and (m.freq_hz[~m.constrained] < 1e3).all()
+    assert ev.modes(x, "paper").constrained is None
+    meas = paper_measurements(ev)
+    fits = [fit(meas, ("actuator_loss", extra), ev, ("k_E_rot", "k_E_lin"))
+            for extra in ("ee_compliance", "ee_coupling")]
+    out = next_measurement(ev, meas, *fits)
+    assert out is not None and max(out["predicted_hz"].values()) < 1e4

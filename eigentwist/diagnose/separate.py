@@ -67,6 +67,8 @@ def _best(modes_of, labels, rel_sigma):
             f, idx = match_frequencies(m, [label] * n, strict=False)
             fs.append(f)
             ok &= m.direction[np.arange(n), idx] == DIRECTIONS.index(label)
+            if m.constrained is not None:          # a rigid constraint's mode: not measurable
+                ok &= ~m.constrained[np.arange(n), idx]
         sep = np.abs(fs[0] - fs[1]) / (rel_sigma * 0.5 * (fs[0] + fs[1]))
         sep = np.where(ok, sep, -np.inf)
         k = int(np.argmax(sep))
@@ -146,6 +148,12 @@ def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | 
     fa, fb = (np.asarray(m.freq_hz, dtype=float) for m in modes_of)
     if fa.shape != fb.shape:
         return None
+    # a rigid constraint's mode (infinite frequency, a stand-in value): equal where both models
+    # have it, a difference no noise can hide where only one has it
+    ca, cb = (np.zeros(fa.shape, dtype=bool) if m.constrained is None else m.constrained for m in modes_of)
+    if np.any(ca != cb):
+        return None
+    fa, fb = np.where(ca, np.nan, fa), np.where(cb, np.nan, fb)
     rel_sigma = float(np.median(meas.relative_sigma))
     with np.errstate(invalid="ignore", divide="ignore"):
         sep = np.abs(fa - fb) / (rel_sigma * 0.5 * (fa + fb))

@@ -284,7 +284,7 @@ def merge_modes(modes, rows: np.ndarray, freq_hz: np.ndarray, V: np.ndarray, vec
     """``modes`` (6 columns, K_F's) with the finite modes of :func:`compliance_eigh`
     (``freq_hz``, ``V`` of the rows ``rows``): frequencies, eigentwists (normalised like
     the rest) and stability replaced; a rigid direction's column (``inf``) keeps K_F's
-    stand-in frequency and eigentwist."""
+    stand-in frequency and eigentwist and is marked in ``modes.constrained``."""
     from .eigen import normalize_eigentwists
 
     freq = np.array(modes.freq_hz, dtype=float)
@@ -293,6 +293,10 @@ def merge_modes(modes, rows: np.ndarray, freq_hz: np.ndarray, V: np.ndarray, vec
     fr[finite] = freq_hz[finite]
     freq[rows] = fr
     modes.freq_hz = freq
+    if not finite.all():
+        constrained = np.zeros(freq.shape, dtype=bool)
+        constrained[rows] = ~finite
+        modes.constrained = constrained
     if modes.stable is not None:
         stable = np.array(modes.stable, dtype=bool)
         stable[rows] = ~np.isnan(freq_hz).any(axis=-1)

@@ -56,6 +56,9 @@ class Modes:
         hold NaN. Set by ``modes(..., invalid="nan")``; None when every pose is valid.
     stable : (N,) bool, False where a mode is unstable (its frequency is NaN); all True
         unless the evaluator found one.
+    constrained : (N, n) bool, True where a column is a rigid constraint's mode (infinite
+        frequency: the value there is K_F's stand-in, ~1e6 Hz, not a measurable mode); None
+        when no column is (issue 20, :mod:`.condense`).
     """
 
     freq_hz: np.ndarray
@@ -64,6 +67,7 @@ class Modes:
     kind: str
     valid: np.ndarray | None = None
     stable: np.ndarray | None = None
+    constrained: np.ndarray | None = None
 
     def __post_init__(self):
         if self.stable is None:
