@@ -538,7 +538,7 @@ class Evaluator:
 
     def _matrices_q(self, poses: np.ndarray, p: dict, out: dict | None = None):
         """``(matrices, q)`` of the NumPy path: the joint coordinates come along (for
-        :func:`.condense.exact_modes`)."""
+        :meth:`_exact_modes`)."""
         n = len(poses)
         out = out or {}
         mats = {k: out.get(k) if k in out else np.empty((n, 6, 6)) for k in MATRICES}
@@ -644,7 +644,7 @@ class Evaluator:
 
     def _stiffness(self, poses, model, params: dict, stash: dict | None = None):
         """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and
-        ``M`` of the NumPy path (for :func:`.condense.exact_modes`)."""
+        ``M`` of the NumPy path (for :meth:`_exact_modes`)."""
         poses_arr = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
         if stash is not None and not self._fused:
@@ -695,9 +695,10 @@ class Evaluator:
         inverse kinematics (:meth:`joint_matrices`; ``poses`` may be None for a
         translational robot).
         A flexible model's finite modes condense the legs' rigid constraint directions
-        exactly (:mod:`.condense`: compliance form on the admissible twists, no ``c_rigid``
+        exactly (:mod:`.condense`: solved on the admissible motions, no ``c_rigid``
         penalty, couplings and the gravity preload included); a rigid constraint's own
-        mode (infinite frequency) keeps K_F's stand-in value (~1e6 Hz) in its column.
+        mode (infinite frequency) keeps K_F's stand-in value (~1e6 Hz) in its column,
+        marked in ``Modes.constrained``.
         """
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
@@ -869,7 +870,7 @@ class Evaluator:
     def _fused_modes(self, poses, effects, params, check: bool, vectors: bool, exact: bool = False) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
         written straight into the result arrays; with ``exact`` the pass also returns the
-        joint coordinates and M for :func:`.condense.exact_modes`."""
+        joint coordinates and M for :meth:`_exact_modes`."""
         p = self._params(len(poses), params, effects)
         kind = self.kind(effects)
         out = self._c_pass(poses, p, matrices=("M",) if exact else (), ik=("q",) if exact else (), model=kind,
