@@ -83,7 +83,7 @@ def compute(args, progress=None) -> dict:
     else:
         wrt = list(default_wrt(ev, effects))
     modes, dfdp = frequency_sensitivities(ev, pose, wrt, effects, params, progress=progress,
-                                          method=getattr(args, "jacobian", "differences"))
+                                          method=args.jacobian)
     f = modes.freq_hz[0]
     rows = []
     for j, name in enumerate(wrt):

@@ -96,21 +96,15 @@ def moving_mass(ev, wrt, params: dict, model="paper", method: str = "exact"):
     unit): from the generated sensitivity kernel (``method="exact"``) or central differences
     of M (``"differences"``, nothing derived)."""
     from ..description.effects import resolve_model
-    from ..runtime.sensitivity import DIFFERENCE_STEP, sensitivity_kernels
+    from ..runtime.sensitivity import sensitivity_kernels
 
     x = np.asarray(ev.robot.x_ref, dtype=float)[None, :]
     tt = np.arange(3, 6)
     if method == "differences":
-        mass = lambda values: float(ev.matrices(x, model, **values)["M"][0, tt, tt].mean())  # noqa: E731
-        grad = []
-        for name in wrt:
-            value = float(params.get(name, ev.defaults[name.partition("@")[0]]))
-            h = DIFFERENCE_STEP * (max(abs(value), abs(ev.defaults[name.partition("@")[0]])) or 1.0)
-            grad.append((mass({**params, name: value + h}) - mass({**params, name: value - h})) / (2 * h))
-        return mass(params), np.array(grad)
-    kern = sensitivity_kernels(ev, tuple(wrt))
-    p = ev.parameter_values(1, resolve_model(model, ev.robot), **params)
-    out = kern(x[:, 0], x[:, 1], x[:, 2], {**p, **ev.kernel_pose_inputs(x)})
+        out = ev.matrix_derivatives(x, tuple(wrt), model, **params)
+    else:
+        p = ev.parameter_values(1, resolve_model(model, ev.robot), **params)
+        out = sensitivity_kernels(ev, tuple(wrt))(x[:, 0], x[:, 1], x[:, 2], {**p, **ev.kernel_pose_inputs(x)})
     return float(out["M"][0, tt, tt].mean()), out["dM"][0][:, tt, tt].mean(axis=-1)
 
 

@@ -26,16 +26,16 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["leg_condensation", "condensed_compliance", "compliance_eigh", "finite_modes", "leg_joints",
-           "platform_compliance", "has_rigid_direction", "condensed_modes", "compliance_from_legs", "merge_modes", "RIGID_RTOL",
-           "EXACT"]
+__all__ = ["leg_condensation", "condensed_compliance", "condensed_modes", "compliance_eigh", "finite_modes",
+           "leg_joints", "platform_compliance", "has_rigid_direction", "compliance_from_legs", "merge_modes",
+           "RIGID_RTOL", "EXACT"]
 
 # A joint-compliance eigenvalue below RIGID_RTOL times the leg's largest (or a singular
 # value of the stacked rigid rows below RIGID_RTOL times the largest) is a rigid direction
 # (a dependent constraint): the compliances of a model are either exact zeros (rigid) or
 # physical values many orders above round-off.
 RIGID_RTOL = 1e-10
-#: ``c_rigid`` as :func:`route` passes it when no direction of the model is rigid: zero
+#: ``c_rigid`` as ``Evaluator._route`` passes it when no leg direction of the model is rigid: zero
 #: (K_F exact), the one value the parameter's bounds refuse from a user (the evaluator
 #: knows this object and does not check it)
 EXACT = np.float64(0.0)
@@ -104,12 +104,7 @@ def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: n
     Je = np.asarray(Je, dtype=float)
     N = Je.shape[0]
     K_x = np.array(np.broadcast_to(K_parallel, (N, 6, 6)), dtype=float)
-    rows = []
-    for i in range(Je.shape[1]):
-        K, R = leg_condensation(Je[:, i], np.asarray(Cq)[:, i], rtol)
-        K_x += K
-        rows.append(R)
-    A = np.concatenate(rows, axis=1)
+    A = _assemble(Je, Cq, K_x, [None] * Je.shape[1], rtol)
     G = np.swapaxes(A, -1, -2) @ A                                   # (N, 6, 6): null space = admissible twists
     g, Q = eigh(G, np.broadcast_to(np.eye(6), G.shape))
     null = g <= (rtol * 1e-2) * np.abs(g).max(axis=-1, keepdims=True, initial=0.0)
@@ -128,6 +123,18 @@ def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: n
         Va[:, :, :n] = B @ Y
         freq[at], V[at] = fa, Va
     return freq, V
+
+
+def _assemble(Je: np.ndarray, Cq, K_x: np.ndarray, T: list, rtol: float) -> np.ndarray:
+    """Add each leg's finite springs (:func:`leg_condensation`) to ``K_x`` (N, d, d, in
+    place), moved by its map ``T[i]`` (N, 6, d) from the coordinates x to its body's twist
+    (None: x is the twist), and return the legs' rigid rows in x, stacked (N, legs*e, d)."""
+    rows = []
+    for i, Ti in enumerate(T):
+        K, R = leg_condensation(Je[:, i], np.asarray(Cq)[:, i], rtol)
+        K_x += K if Ti is None else np.swapaxes(Ti, -1, -2) @ K @ Ti
+        rows.append(R if Ti is None else R @ Ti)
+    return np.concatenate(rows, axis=1)
 
 
 def condensed_compliance(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray | None = None,
@@ -169,13 +176,8 @@ def condensed_compliance(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray 
         T[k] = Tk
         idx = np.arange(6 + k * m, 6 + (k + 1) * m)
         K_x[:, idx, idx] = np.asarray(K_c, dtype=float)[:, k]
-    rows = []
-    for i in range(n_legs):
-        K, R = leg_condensation(Je[:, i], np.asarray(Cq)[:, i], rtol)
-        Ti = T[-1 if bodies is None or nc == 0 else int(bodies[i])]
-        K_x += np.swapaxes(Ti, -1, -2) @ K @ Ti
-        rows.append(R @ Ti)
-    A = np.concatenate(rows, axis=1)                                  # (N, legs*e, d)
+    A = _assemble(Je, Cq, K_x, [T[-1 if bodies is None or nc == 0 else int(bodies[i])] for i in range(n_legs)],
+                  rtol)                                               # (N, legs*e, d)
     _, sv, Vt = np.linalg.svd(A, full_matrices=True)
     rank = (sv > rtol * sv.max(axis=-1, keepdims=True, initial=0.0)).sum(axis=-1)
     C = np.full((N, 6, 6), np.nan)

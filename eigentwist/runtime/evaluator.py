@@ -962,7 +962,7 @@ class Evaluator:
 
     def _difference_sensitivities(self, poses, wrt, model, rtol: float, params: dict):
         """:meth:`modes_and_sensitivities` with ``method="differences"``."""
-        from .sensitivity import DIFFERENCE_STEP, check_model, check_wrt, frequency_derivatives
+        from .sensitivity import check_model, check_wrt, frequency_derivatives
 
         poses = self._poses(poses, params)
         effects = resolve_model(model, self.robot)
@@ -973,31 +973,43 @@ class Evaluator:
             raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
                              "pose) are not available: use a flexible model")
         solved, exact = self._route(effects, params)
-        out = dict(self.matrices(poses, effects, **solved))
-        d = {k: np.empty((len(poses), len(wrt), 6, 6)) for k in ("dM", "dK_R", "dK_F")}
-        for j, name in enumerate(wrt):
-            base = name.partition("@")[0]
-            value = np.asarray(solved.get(name, solved.get(base, self.defaults[base])), dtype=float)
-            scale = np.maximum(np.abs(value), abs(self.defaults[base]))
-            h = DIFFERENCE_STEP * np.where(scale > 0, scale, 1.0)
-            low = self.parameters[base].bounds[0]
-            shape = (-1, 1, 1) if np.ndim(h) else ()
-            hi = self.matrices(poses, effects, **{**solved, name: value + h})
-            if np.all(value - h > low):                     # central differences
-                lo = self.matrices(poses, effects, **{**solved, name: value - h})
-                for k in ("M", "K_R", "K_F"):
-                    d["d" + k][:, j] = (hi[k] - lo[k]) / np.reshape(2 * h, shape)
-            else:                                           # at a bound: one-sided, second order
-                hi2 = self.matrices(poses, effects, **{**solved, name: value + 2 * h})
-                for k in ("M", "K_R", "K_F"):
-                    d["d" + k][:, j] = (4 * hi[k] - 3 * out[k] - hi2[k]) / np.reshape(2 * h, shape)
-        out.update(d)
+        out = self.matrix_derivatives(poses, wrt, effects, **solved)
         freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six)
         kind = "rigid" if rigid else "flexible"
         modes = Modes(freq, vec, self.axes(kind), kind)
         if exact:                                  # K_F's penalty: the finite modes exact
             modes = self._exact_modes(poses, effects, params, modes, True)
         return modes, dfdp
+
+    def matrix_derivatives(self, poses, wrt, model="paper", **params) -> dict:
+        """``M``, ``K_R``, ``K_F`` (N, 6, 6) and their derivatives ``dM``, ``dK_R``, ``dK_F``
+        (N, len(wrt), 6, 6; per SI unit of each parameter) by central differences of
+        :meth:`matrices` (relative step :data:`.sensitivity.DIFFERENCE_STEP`; second-order
+        one-sided where the step would cross the parameter's lower bound): the output of the
+        generated sensitivity kernel without deriving anything. ``wrt`` names parameters,
+        ``P@N`` a leg's own value."""
+        from .sensitivity import DIFFERENCE_STEP
+
+        poses = self._poses(poses, params)
+        out = dict(self.matrices(poses, model, **params))
+        d = {k: np.empty((len(poses), len(wrt), 6, 6)) for k in ("dM", "dK_R", "dK_F")}
+        for j, name in enumerate(wrt):
+            base = name.partition("@")[0]
+            value = np.asarray(params.get(name, params.get(base, self.defaults[base])), dtype=float)
+            scale = np.maximum(np.abs(value), abs(self.defaults[base]))
+            h = DIFFERENCE_STEP * np.where(scale > 0, scale, 1.0)
+            step = np.reshape(2 * h, (-1, 1, 1) if np.ndim(h) else ())
+            hi = self.matrices(poses, model, **{**params, name: value + h})
+            if np.all(value - h > self.parameters[base].bounds[0]):      # central differences
+                lo = self.matrices(poses, model, **{**params, name: value - h})
+                for k in MATRICES:
+                    d["d" + k][:, j] = (hi[k] - lo[k]) / step
+            else:                                                      # at a bound: one-sided, second order
+                hi2 = self.matrices(poses, model, **{**params, name: value + 2 * h})
+                for k in MATRICES:
+                    d["d" + k][:, j] = (4 * hi[k] - 3 * out[k] - hi2[k]) / step
+        out.update(d)
+        return out
 
     def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
