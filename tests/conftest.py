@@ -11,8 +11,10 @@ import eigentwist
 
 @pytest.fixture(scope="session")
 def ev():
-    """The Heli4 evaluator on the generated NumPy backend."""
-    return eigentwist.load("heli4", backend="numpy")
+    """The Heli4 evaluator, ``backend="auto"``: the C library where a compiler exists (CI),
+    the NumPy module under ``make test-fast`` (below). The backends agree to 1e-12
+    (tests/test_c_backend.py); tests of one backend load it by name."""
+    return eigentwist.load("heli4", backend="auto")
 
 
 @pytest.fixture(scope="session")
@@ -106,6 +108,8 @@ TEST_BACKEND_ENV = "EIGENTWIST_TEST_BACKEND"
 def pytest_configure(config):
     if os.environ.get(TEST_BACKEND_ENV, "").strip() != "numpy":
         return
+    # the CLI's --backend default in the commands the tests start (subprocesses inherit it)
+    os.environ["EIGENTWIST_BACKEND"] = "numpy"
     import eigentwist.runtime as runtime
     from eigentwist.runtime import loader
 

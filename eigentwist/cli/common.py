@@ -6,7 +6,7 @@ import sys
 
 from ..text import format_table  # re-exported: the CLI's tables
 
-__all__ = ["CliError", "add_model_options", "add_set_option", "parse_sets", "check_values", "model_and_values",
+__all__ = ["CliError", "add_model_options", "add_set_option", "add_backend_option", "BACKEND_ENV", "parse_sets", "check_values", "model_and_values",
            "progress", "format_table", "eprint", "SET_HELP", "MODEL_SYNTAX"]
 
 
@@ -33,6 +33,33 @@ MODEL_SYNTAX = ("PRESET or EFFECT items joined by ',' or '+', each optionally wi
                 "(the syntax of synth --truth), e.g. paper:l2=0.60 or rigid,payload_mass:m_p=0.5; none is the bare model")
 
 
+#: environment variable holding the default of every command's ``--backend`` (default: auto)
+BACKEND_ENV = "EIGENTWIST_BACKEND"
+BACKENDS = ("auto", "c", "numpy")
+
+
+def _backend(value: str) -> str:
+    text = str(value).strip().lower()
+    if text not in BACKENDS:
+        import os
+
+        source = f" (from {BACKEND_ENV})" if os.environ.get(BACKEND_ENV, "").strip() == str(value).strip() else ""
+        raise argparse.ArgumentTypeError(f"unknown backend {value!r}{source}: expected one of {', '.join(BACKENDS)}")
+    return text
+
+
+def add_backend_option(p: argparse.ArgumentParser) -> None:
+    """The shared ``--backend auto|c|numpy`` option; its default is ``auto`` (as
+    ``eigentwist.load``), or the value of the ``EIGENTWIST_BACKEND`` environment variable."""
+    import os
+
+    default = os.environ.get(BACKEND_ENV, "").strip() or "auto"
+    p.add_argument("--backend", default=default, type=_backend, metavar="{auto,c,numpy}",
+                   help="generated evaluator: auto = the C library where a C compiler exists (compiled on first "
+                        "use, cached), else the NumPy module; c or numpy to choose (same numbers to 1e-12). "
+                        f"Default: {BACKEND_ENV} if set, else auto (now: {default})")
+
+
 def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
     """The shared ``--set NAME=VALUE`` / ``--set NAME@N=VALUE`` option (repeatable)."""
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="set", help=help)
@@ -41,8 +68,7 @@ def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
 def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "paper") -> None:
     """``--robot``, ``--pose``, ``--k-a``, ``--set`` and ``--model`` with units in the help."""
     p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
-    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
-                   help="generated evaluator to use (default: numpy)")
+    add_backend_option(p)
     p.add_argument("--pose", nargs="+", type=float, metavar="X",
                    help="end-effector position in the base frame, m: X Y Z; for a 6-DoF robot (hexapod) "
                         "X Y Z ROT_X ROT_Y ROT_Z, the platform origin (m) and its rotation vector (rad) "

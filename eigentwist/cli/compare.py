@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from .common import MODEL_SYNTAX, CliError, add_set_option, model_and_values
+from .common import MODEL_SYNTAX, CliError, add_backend_option, add_set_option, model_and_values
 
 HELP = "compare a model with measured natural frequencies (table, RMS/max error, Fig. 6 style plot)"
 DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Columns:
@@ -44,8 +44,7 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
     """DATA, --robot and --backend (shared with diagnose)."""
     p.add_argument("data", metavar="DATA.csv", help="measurements (see below), or `paper`")
     p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
-    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
-                   help="generated evaluator to use (default: numpy)")
+    add_backend_option(p)
     add_set_option(p)
 
 

@@ -6,6 +6,7 @@ import importlib
 import os
 import re
 import sys
+import warnings
 
 import numpy as np
 
@@ -85,6 +86,11 @@ def missing_extra(exc: ImportError, args) -> str | None:
     return (f"the optional module {root!r} is not installed (needed here): pip install 'eigentwist[{extra}]'")
 
 
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    text = str(message).strip()
+    return (text if text.startswith("eigentwist") else f"eigentwist: {category.__name__}: {text}") + "\n"
+
+
 def main(argv=None) -> int:
     from .examples import requested_robot
 
@@ -95,6 +101,10 @@ def main(argv=None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    if not args.debug:
+        # a warning is one line on stderr, like an error: its text, not the source line
+        # that raised it (e.g. the C backend unavailable: the NumPy module is used)
+        warnings.formatwarning = _one_line_warning
     try:
         # floating-point overflow on absurd inputs is detected and named by the checks
         # (unreachable pose, non-finite frequency); NumPy's own warnings would only add lines

@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 
-from .common import CliError, eprint, format_table, parse_sets
+from .common import CliError, add_backend_option, eprint, format_table, parse_sets
 
 HELP = "maximise the worst-case lowest natural frequency over the workspace (exact gradients)"
 EPILOG = """examples:
@@ -32,8 +32,7 @@ def add_parser(sub):
     p = sub.add_parser("optimize", help=HELP, description=HELP, epilog=EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
-    p.add_argument("--backend", default="auto", choices=("numpy", "c", "auto"),
-                   help="generated evaluator to use (default: auto, C when a compiler exists)")
+    add_backend_option(p)
     p.add_argument("--pose", nargs="+", type=float, action="append", metavar="X",
                    help="a workspace pose (repeatable): X Y Z (m) for a 3-DoF robot, X Y Z ROT_X ROT_Y ROT_Z "
                         "(m, rad: rotation vector) for a 6-DoF robot (hexapod); default: --grid")

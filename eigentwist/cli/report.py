@@ -5,7 +5,7 @@ import argparse
 import shlex
 from pathlib import Path
 
-from .common import MODEL_SYNTAX, add_set_option, format_table, progress
+from .common import MODEL_SYNTAX, add_backend_option, add_set_option, format_table, progress
 
 HELP = "write a self-contained HTML report: model, paper reproduction, comparison, diagnosis"
 EPILOG = """examples:
@@ -31,7 +31,7 @@ def add_parser(sub):
     p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
     p.add_argument("--model", default="paper", help=f"model compared with the data: {MODEL_SYNTAX} (default: paper)")
     p.add_argument("--baseline", default="rigid", help="where the diagnosis starts, same syntax (default: rigid)")
-    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"))
+    add_backend_option(p)
     add_set_option(p)
     p.set_defaults(func=run)
 

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 
+from .common import add_backend_option
+
 HELP = ("reproduce the paper's printed model numbers (Eqs. 52-65 at x_ref = [0, 0, -0.625] m and k_a = 2000 N m/rad, "
         "Tables E.1/E.2 over k_a in N m/rad; frequencies in Hz)")
 EPILOG = """status of each printed number:
@@ -22,7 +24,7 @@ def add_parser(sub):
     p = sub.add_parser("reproduce", help=HELP, description=HELP, epilog=EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--all", action="store_true", help="list every entry, zeros included")
-    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"))
+    add_backend_option(p)
     p.set_defaults(func=run)
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import MODEL_SYNTAX, CliError, add_set_option, eprint, format_table, model_and_values, progress
+from .common import MODEL_SYNTAX, CliError, add_backend_option, add_set_option, eprint, format_table, model_and_values, progress
 
 HELP = "sweep designs, k_a and workspace poses in chunks of bounded memory (.npz or Parquet)"
 EPILOG = """examples:
@@ -30,8 +30,7 @@ def add_parser(sub):
     p = sub.add_parser("sweep", help=HELP, description=HELP, epilog=EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
-    p.add_argument("--backend", default="numpy", choices=("numpy", "c", "auto"),
-                   help="generated evaluator to use (default: numpy)")
+    add_backend_option(p)
     p.add_argument("--model", default="paper", help=f"{MODEL_SYNTAX} (default: paper)")
     poses = p.add_mutually_exclusive_group()
     poses.add_argument("--grid", nargs="+", type=int, metavar="N",

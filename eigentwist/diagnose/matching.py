@@ -82,53 +82,61 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
     freq : (N,) Hz: the matched mode's, or for a group of near-equal modes the
         share-weighted mean (module doc); index : (N,) int.
     """
-    labels = np.asarray(labels, dtype=object)
+    labels = [str(label) for label in labels]
     n_rows, n_modes = modes.freq_hz.shape
     idx = np.zeros(n_rows, dtype=int)
     freq = np.full(n_rows, np.nan)
-    shares = groups = None
-    for label in np.unique(labels):
-        rows = np.flatnonzero(labels == label)
+    code = {}                      # label -> rank - 1 (>= 0), or -1 - local axis (< 0)
+    for label in sorted(set(labels)):  # errors in label order, as the labels sort
+        first = labels.index(label)
         if label.isdigit():
             rank = int(label)
             if rank > n_modes:
-                raise ModeMatchError(f"{_where(rows[0], lines)}mode rank {rank} does not exist: the {modes.kind} "
+                raise ModeMatchError(f"{_where(first, lines)}mode rank {rank} does not exist: the {modes.kind} "
                                      f"model has {n_modes} modes (ranks 1..{n_modes})")
-            idx[rows] = rank - 1
-            freq[rows] = modes.freq_hz[rows, rank - 1]
+            code[label] = rank - 1
             continue
         if label not in modes.axes:
-            raise ModeMatchError(f"{_where(rows[0], lines)}mode {label!r}: the {modes.kind} model has no mode along "
+            raise ModeMatchError(f"{_where(first, lines)}mode {label!r}: the {modes.kind} model has no mode along "
                                  f"{label} (its modes are along {', '.join(modes.axes)}); use a flexible model "
                                  "(a structural compliance effect, e.g. --model paper) or a rank")
-        if shares is None:
-            shares = energy_shares(modes.eigentwists)
-            groups = degenerate_groups(modes.freq_hz)
-        idx[rows], freq[rows] = _match_axis(modes, shares[rows], groups[rows], modes.axes.index(label),
-                                            rows, label, strict, lines)
+        code[label] = -1 - modes.axes.index(label)
+    codes = np.array([code[label] for label in labels], dtype=int)
+    ranked = codes >= 0
+    if ranked.any():
+        rows = np.flatnonzero(ranked)
+        idx[rows] = codes[rows]
+        freq[rows] = modes.freq_hz[rows, codes[rows]]
+    if not ranked.all():
+        rows = np.flatnonzero(~ranked)
+        axis = -1 - codes[rows]
+        shares = energy_shares(modes.eigentwists[rows])
+        groups = degenerate_groups(modes.freq_hz[rows])
+        idx[rows], freq[rows] = _match_axes(modes, shares, groups, axis, rows, labels, strict, lines)
     return freq, idx
 
 
-def _match_axis(modes, shares, groups, axis: int, rows, label, strict, lines):
-    """(index, frequency) of the lowest mode group along local ``axis`` for these rows."""
+def _match_axes(modes, shares, groups, axis, rows, labels, strict, lines):
+    """(index, frequency) of the lowest mode group along each row's local ``axis``."""
+    r = np.arange(len(rows))
     total = group_shares(shares, groups)                                  # (rows, axes, modes)
     size = (groups[:, :, None] == groups[:, None, :]).sum(axis=1)         # (rows, modes) group sizes
-    rank = (total > total[:, axis:axis + 1, :]).sum(axis=1)               # axes with a larger group share
+    rank = (total > total[r, axis][:, None, :]).sum(axis=1)               # axes with a larger group share
     along = rank < size
     first = np.argmax(along, axis=1)                                      # lowest mode (group) along the axis
     missing = ~along.any(axis=1)
+    own_share = shares[r, axis]                                           # (rows, modes) the axis's shares
     if missing.any():
         if strict:
-            k = int(np.argmax(missing))
+            k = min(np.flatnonzero(missing), key=lambda i: (labels[rows[i]], i))   # as the labels sort
             direction = modes.direction[rows[k]]
-            raise ModeMatchError(f"{_where(rows[k], lines)}no mode of the {modes.kind} model points along {label} "
-                                 f"at this row (mode directions: "
+            raise ModeMatchError(f"{_where(rows[k], lines)}no mode of the {modes.kind} model points along "
+                                 f"{labels[rows[k]]} at this row (mode directions: "
                                  f"{', '.join(DIRECTIONS[d] for d in direction)}); use a rank instead")
-        first = np.where(missing, np.argmax(np.nan_to_num(total[:, axis, :], nan=-np.inf), axis=1), first)
-    r = np.arange(len(rows))
+        first = np.where(missing, np.argmax(np.nan_to_num(total[r, axis], nan=-np.inf), axis=1), first)
     member = groups == groups[r, first][:, None]                          # (rows, modes) the chosen group
-    own = np.where(member, np.clip(shares[:, axis, :], 0.0, None), 0.0)
+    own = np.where(member, np.clip(own_share, 0.0, None), 0.0)
     weight = np.where(own.sum(axis=1, keepdims=True) > 0, own, member.astype(float))
     freq = np.sum(weight * np.nan_to_num(modes.freq_hz[rows]), axis=1) / weight.sum(axis=1)
-    index = np.argmax(np.where(member, shares[:, axis, :], -np.inf), axis=1)
+    index = np.argmax(np.where(member, own_share, -np.inf), axis=1)
     return index, np.where(np.isfinite(modes.freq_hz[rows, 0]), freq, np.nan)
