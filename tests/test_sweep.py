@@ -105,7 +105,7 @@ def test_spec_round_trips_through_json():
 # --------------------------------------------------------------------- chunking
 def test_chunks_reassemble_to_the_unchunked_evaluation(ev):
     spec = sw.make_spec(grid=(3, 2, 3), k_a=parse_values("1000,2000"), vary=[parse_vary("l2=0.48:0.58:3"), parse_vary("l1=0.19,0.21")],
-                        fixed={"m_e": 0.65}, chunk_size=25)       # 25 does not divide 216 rows
+                        fixed={"m_e": 0.65}, chunk_size=25, backend=ev.backend)   # 25 does not divide 216 rows
     cols = concat(spec)
     pose, k_a, params = full_product(spec)
     assert spec.n_rows == len(pose) == 216
@@ -118,7 +118,7 @@ def test_chunks_reassemble_to_the_unchunked_evaluation(ev):
     assert cols["reachable"].all()
     # another chunking gives the same bits
     other = concat(sw.make_spec(grid=(3, 2, 3), k_a=parse_values("1000,2000"), vary=[parse_vary("l2=0.48:0.58:3"), parse_vary("l1=0.19,0.21")],
-                                fixed={"m_e": 0.65}, chunk_size=1000))
+                                fixed={"m_e": 0.65}, chunk_size=1000, backend=ev.backend))
     for key in cols:
         np.testing.assert_array_equal(cols[key], other[key])
 

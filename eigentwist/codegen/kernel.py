@@ -61,6 +61,20 @@ class Kernel:
     body: list = field(default_factory=list)
     joint_order: list = field(default_factory=list)
     joints_per_leg: int = 3
+    _canonical: bytes | None = field(default=None, init=False, repr=False, compare=False)
+
+    def canonical_text(self) -> bytes:
+        """The kernel as canonical text (name, inputs, every statement and output as
+        ``srepr``), computed once: :func:`source_hash` hashes it for each backend."""
+        if self._canonical is None:
+            lines = [f"kernel {self.name} {self.input_names}\n"]
+            for item in self.body:
+                if item[0] == "let":
+                    lines.append(f"{item[1].name}={sp.srepr(item[2])}\n")
+                else:
+                    lines.append(f"{item[1].name}{item[2]}={sp.srepr(item[3])}\n")
+            self._canonical = "".join(lines).encode()
+        return self._canonical
 
     def joint_index(self, name: str) -> tuple[int, int]:
         """(leg, joint) of joint coordinate ``name``, 0-based."""
@@ -155,11 +169,6 @@ def source_hash(kernels: list[Kernel], extra: str = "") -> str:
     """SHA-256 over a canonical text of the kernels (statements, outputs) and ``extra``."""
     h = hashlib.sha256()
     for kern in kernels:
-        h.update(f"kernel {kern.name} {kern.input_names}\n".encode())
-        for item in kern.body:
-            if item[0] == "let":
-                h.update(f"{item[1].name}={sp.srepr(item[2])}\n".encode())
-            else:
-                h.update(f"{item[1].name}{item[2]}={sp.srepr(item[3])}\n".encode())
+        h.update(kern.canonical_text())
     h.update(extra.encode())
     return h.hexdigest()

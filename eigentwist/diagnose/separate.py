@@ -113,18 +113,12 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
 
 
 def _random_poses(ev, n: int, seed: int = 0) -> np.ndarray:
-    """``n`` random poses of the workspace box (fixed seed: the check is reproducible), reachable ones only."""
+    """``n`` random poses of the workspace box (fixed seed: the check is reproducible), the
+    valid ones only (reachable, not singular: ``Evaluator.valid``, one batch)."""
     rng = np.random.default_rng(seed)
     box = np.array(ev.robot.workspace, dtype=float)
     poses = box[:, 0] + (box[:, 1] - box[:, 0]) * rng.random((n, len(box)))
-    keep = []
-    for p in poses:
-        try:
-            ev.jacobians(p)
-            keep.append(p)
-        except EigentwistError:
-            continue
-    return np.array(keep).reshape(-1, len(box))
+    return poses[ev.valid(poses)]
 
 
 def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | None:

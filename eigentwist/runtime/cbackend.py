@@ -155,6 +155,28 @@ def _as_input(value, lead: tuple, keep: list) -> tuple[int, int]:
     return flat.ctypes.data, 1
 
 
+def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
+    """(addresses, strides) of every input of ``values`` (an iterable), as :func:`_as_input`
+    gives them; the scalars (most parameters and switches) share one array, read with
+    stride 0."""
+    items = list(values)
+    scalar = [isinstance(v, (float, int)) or (isinstance(v, np.ndarray) and v.size == 1) for v in items]
+    packed = np.array([float(np.asarray(v).reshape(-1)[0]) if sc else 0.0 for v, sc in zip(items, scalar)],
+                      dtype=np.float64)
+    keep.append(packed)
+    base = packed.ctypes.data
+    addresses, strides = [], []
+    for k, (v, sc) in enumerate(zip(items, scalar)):
+        if sc:
+            addresses.append(base + 8 * k)
+            strides.append(0)
+        else:
+            a, st = _as_input(v, lead, keep)
+            addresses.append(a)
+            strides.append(st)
+    return addresses, strides
+
+
 def _check_rc(rc: int, what: str) -> None:
     if rc == -2:
         raise MemoryError(f"C {what}: out of memory for its block buffers")
@@ -339,11 +361,7 @@ class CKernels:
         lead = self._lead([np.shape(v) for v in values.values()])
         n = int(np.prod(lead, dtype=np.int64))
         keep: list = []
-        addresses, strides = [], []
-        for name in values:
-            a, st = _as_input(values[name], lead, keep)
-            addresses.append(a)
-            strides.append(st)
+        addresses, strides = _inputs(values.values(), lead, keep)
         result: dict = {}
         given = dict(out or {})
 

@@ -125,6 +125,20 @@ class Evaluator:
         self._six = self.space is not None and len(self.space.inputs) > 3
         self._rigid_models: dict = {}          # model -> whether a leg has a rigid direction (_route)
         self._checked_defaults: set = set()    # parameters whose default _params has checked
+        self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
+        self._effect = {e: robot.effect(e) for e in robot.effects}
+
+    def _resolve(self, model) -> tuple:
+        """``resolve_model(model, self.robot)``, remembered per (hashable) model spec."""
+        try:
+            return self._resolved[model]
+        except (KeyError, TypeError):
+            effects = resolve_model(model, self.robot)
+        try:
+            self._resolved[model] = effects
+        except TypeError:                      # an unhashable spec (a list of names)
+            pass
+        return effects
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -300,7 +314,7 @@ class Evaluator:
     def _params(self, n: int, params: dict, model) -> dict:
         """The generated code's inputs: parameters, effect switches and each leg's copies."""
         scoped = self._scoped(params)
-        effects = resolve_model(model, self.robot)
+        effects = self._resolve(model)
         on = {base_name(e) for e in effects}
         out = {}
         for name, p in self.parameters.items():
@@ -312,7 +326,7 @@ class Evaluator:
             if check and name not in params:
                 self._checked_defaults.add(name)
         for e in self.effects:
-            effect = self.robot.effect(e)
+            effect = self._effect[e]
             if not effect.leg_level:
                 out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
                 continue
@@ -359,7 +373,7 @@ class Evaluator:
 
     def kind(self, model) -> str:
         """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""
-        effects = resolve_model(model, self.robot)
+        effects = self._resolve(model)
         return "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid"
 
     # ---------------------------------------------------------------- kernels
@@ -646,7 +660,7 @@ class Evaluator:
         """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and
         ``M`` of the NumPy path (for :meth:`_exact_modes`)."""
         poses_arr = self._poses(poses, params)
-        effects = resolve_model(model, self.robot)
+        effects = self._resolve(model)
         if stash is not None and not self._fused:
             mats, stash["q"] = self._matrices_q(poses_arr, self._params(len(poses_arr), params, effects))
             stash["M"] = mats["M"]
@@ -707,7 +721,7 @@ class Evaluator:
         if joints is not None:
             return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses, params)
-        effects = resolve_model(model, self.robot)
+        effects = self._resolve(model)
         params, exact = self._route(effects, params)
         fixed = getattr(self.space, "basis", None) is not None or self.kind(effects) == "flexible"
         if self._fused and fixed and not self._preloaded(effects):
@@ -753,7 +767,7 @@ class Evaluator:
         :meth:`matrices` with them gives the K_F of the frequencies), and whether its
         finite modes come from the exact condensation instead (rigid directions; K_F then
         keeps the ``c_rigid`` penalty). Issue 20; :mod:`.condense`."""
-        return self._route(resolve_model(model, self.robot), params)
+        return self._route(self._resolve(model), params)
 
     def _probe_rigid(self, effects, params: dict) -> bool:
         """Whether a leg of ``effects`` has a rigid direction: its joint compliance at the
@@ -808,7 +822,7 @@ class Evaluator:
     def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
         """:meth:`modes` at measured joint coordinates (no gravity preload: its static
         deflection needs the pose's inverse kinematics)."""
-        effects = resolve_model(model, self.robot)
+        effects = self._resolve(model)
         if self._preloaded(effects):
             raise InputError("joints= with a gravity preload: not supported (the preload's derivative needs the "
                              "inverse kinematics); drop gravity_preload from the model or give poses only")
@@ -933,7 +947,7 @@ class Evaluator:
                              "derivative of their joint coordinates with respect to the parameters is not derived yet; "
                              "use central differences of frequencies()")
         poses = self._poses(poses, params)
-        effects = resolve_model(model, self.robot)
+        effects = self._resolve(model)
         check_model(effects)
         wrt = check_wrt(self, wrt)
         own = own_legs(wrt, params)                  # legs whose own P@N does not follow a shared P
@@ -965,7 +979,7 @@ class Evaluator:
         from .sensitivity import check_model, check_wrt, frequency_derivatives
 
         poses = self._poses(poses, params)
-        effects = resolve_model(model, self.robot)
+        effects = self._resolve(model)
         check_model(effects)
         wrt = check_wrt(self, wrt)
         rigid = self.kind(effects) == "rigid"

@@ -67,4 +67,4 @@ def degenerate_groups(freq_hz: np.ndarray, rel: float = DEGENERATE_REL) -> np.nd
 def group_shares(shares: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """(N, n, n): for each coordinate i and mode k, the share of i summed over k's group."""
     same = groups[..., :, None] == groups[..., None, :]           # (N, n, n) mode k' in k's group
-    return np.einsum("rij,rjk->rik", np.nan_to_num(shares), same.astype(float))
+    return np.nan_to_num(shares) @ same.astype(float)
