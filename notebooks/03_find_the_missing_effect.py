@@ -39,7 +39,7 @@ import eigentwist
 from eigentwist.diagnose import compare, diagnose, paper_measurements, synth
 from eigentwist.plots import plot_comparison, plot_diagnosis
 
-ev = eigentwist.load("heli4", backend="numpy")
+ev = eigentwist.load("heli4")                 # backend="auto": C where a compiler exists, else NumPy
 
 
 def show(plot, *args):

@@ -24,15 +24,16 @@ def ev_fast():
 
 @pytest.mark.parametrize("case", list(CASES))
 def test_right_in_nine_of_ten_seeds(ev_fast, case):
-    results = run(CASES[case], ev_fast, SEEDS)
+    # the seeds stop once the verdict is decided (e.g. after 9 right ones: the tenth cannot fail it)
+    results = run(CASES[case], ev_fast, SEEDS, allowed_wrong=1)
     wrong = [(seed, why) for seed, ok, why in results if not ok]
-    assert len(wrong) <= 1, f"{case}: wrong in {len(wrong)}/10 seeds: {wrong}"
+    assert len(wrong) <= 1, f"{case}: wrong in {len(wrong)} of the first {len(results)} of 10 seeds: {wrong}"
 
 
 @pytest.mark.parametrize("noise", [0.005, 0.02])
 def test_nothing_added_when_the_truth_is_the_baseline(ev_fast, noise):
     # independent noise draws per level: the seeds of the two levels differ
     offset = {0.005: 0, 0.02: 1000}[noise]
-    results = [baseline_truth(ev_fast, offset + seed, noise) for seed in range(20)]
+    results = run(lambda ev, seed: baseline_truth(ev, offset + seed, noise), ev_fast, range(20), allowed_wrong=1)
     wrong = [why for _, ok, why in results if not ok]
     assert len(wrong) <= 1, wrong
