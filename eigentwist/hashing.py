@@ -3,7 +3,8 @@
 :func:`canonical` turns a value into a text that depends on its content only — never on a
 memory address, ``PYTHONHASHSEED`` or the order a set or dict was filled in:
 
-* numbers, strings, bytes: their ``repr``; SymPy objects: ``srepr`` (canonical arguments);
+* numbers, strings, bytes: their ``repr``; SymPy expressions: their tree in SymPy's canonical
+  argument order, atoms by ``srepr``;
   NumPy arrays: dtype, shape and bytes;
 * dataclasses and plain objects: their class's qualified name and their fields;
   dicts and sets sorted by the canonical text of their keys or items;
@@ -70,6 +71,31 @@ def package_digest(subpackages: tuple = ("description", "symbolic", "codegen")) 
     return files_digest(files)
 
 
+@functools.lru_cache(maxsize=65536)
+def _symbol_text(symbol) -> str:
+    import sympy
+
+    if type(symbol) is not sympy.Symbol:                  # Dummy, Wild: srepr names their identity
+        return sympy.srepr(symbol)
+    return f"Symbol({symbol.name!r},{sorted(symbol.assumptions0.items())})"
+
+
+def _sympy_text(obj) -> str:
+    """A SymPy object as unambiguous text: ``Class(arg,...)`` over an expression tree in
+    SymPy's own argument order (canonical: set when the expression is built, the same in
+    every process), symbols by name and assumptions, other atoms and non-expressions by ``srepr``. Like
+    ``srepr`` without its printer's sorting of terms (most of its time on large programs)."""
+    import sympy
+
+    if not isinstance(obj, sympy.Basic):
+        return sympy.srepr(obj)
+    if obj.is_Symbol:
+        return _symbol_text(obj)
+    if not obj.args:
+        return sympy.srepr(obj)
+    return f"{type(obj).__name__}({','.join(_sympy_text(a) for a in obj.args)})"
+
+
 class _Canon:
     """One canonicalisation: remembers the functions and objects on the current path (cycles)."""
 
@@ -96,9 +122,7 @@ class _Canon:
     def _compound(self, obj) -> str:
         module = type(obj).__module__ or ""
         if module.startswith("sympy"):
-            import sympy
-
-            return "sympy:" + sympy.srepr(obj)
+            return "sympy:" + _sympy_text(obj)
         if hasattr(obj, "dtype") and hasattr(obj, "tobytes") and hasattr(obj, "shape"):
             return f"array({obj.dtype.str},{tuple(obj.shape)},{obj.tobytes().hex()})"
         if isinstance(obj, dict):

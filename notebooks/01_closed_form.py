@@ -214,17 +214,27 @@ paper_switches = {S(sw): (1 if sw in ("on_actuator_loss", "on_rod_compliance", "
 q_ref = {s: sp.Float(v) for s, v in zip(model.joints, ev.joint_angles(x_ref)[0].reshape(-1))}
 
 
+_env_at_x_ref = {}
+
+
 def at_x_ref(expr, keep):
-    """``expr`` at x_ref with every parameter except ``keep`` at its default (paper model)."""
-    values = {S(n): sp.Float(v) for n, v in ev.defaults.items() if n not in keep}
-    return expr.xreplace(shared).xreplace({**q_ref, **paper_switches, **values})
+    """``expr`` (in the program's symbols) at x_ref with every parameter except ``keep`` at its
+    default (paper model): the numbers go into the program statement by statement, so only the
+    ``keep`` symbols are left and nothing else is expanded."""
+    if keep not in _env_at_x_ref:
+        env = {**q_ref, **paper_switches, **{S(n): sp.Float(v) for n, v in ev.defaults.items() if n not in keep},
+               S("c_rigid"): sp.Integer(0)}   # the paper model has no rigid direction: exact, no penalty (README)
+        env |= {copy: env.get(name, name) for copy, name in shared.items()}     # each leg's copy
+        for sym, rhs in prog.assignments:
+            env[sym] = rhs.xreplace(env)
+        _env_at_x_ref[keep] = env
+    return sp.sympify(expr).xreplace(_env_at_x_ref[keep])
 
 
 M = sp.Matrix(6, 6, model.outputs["matrices"]["M"][1])
 inertial = ("m_e", "I_e_xx", "I_e_yy", "I_e_zz", "I1_yy", "I_rotor", "rho")
-M_diag = prog.expand(sp.Matrix([M[k, k] for k in range(6)]))
 for k, axis in enumerate(("R_x", "R_y", "R_z", "X", "Y", "Z")):
-    show(rf"M({axis},{axis})\big|_{{x_\mathrm{{ref}}}}", sp.expand(at_x_ref(M_diag[k], inertial)).n(4))
+    show(rf"M({axis},{axis})\big|_{{x_\mathrm{{ref}}}}", sp.expand(at_x_ref(M[k, k], inertial)).n(4))
 
 # %% [markdown]
 # The translational inertia is the EE mass $m_e$ plus the actuator-side rotary inertia $I_{1,yy} +
@@ -240,12 +250,18 @@ for k, axis in enumerate(("R_x", "R_y", "R_z", "X", "Y", "Z")):
 # %%
 K_F = sp.Matrix(6, 6, model.outputs["matrices"]["K_F"][1])
 keep = ("k_a", "k_E_rot", "E_rod")
-kf_xx = sp.cancel(sp.together(at_x_ref(prog.expand(K_F[3, 3]), keep)))
-compliance = sp.expand(1 / kf_xx)
+kf_xx = at_x_ref(K_F[3, 3], keep)
+# springs in series: 1/K_F(X,X) is a/k_a + b/k_E,rot + c/E, so the coefficient of 1/k is -k^2 d(1/K)/dk
+# (floating-point coefficients keep SymPy's cancel from finding that form by itself)
+d = ev.defaults
+at_defaults = {S(n): d[n] for n in keep}
+coefficient = {n: float((-S(n) ** 2 * sp.diff(1 / kf_xx, S(n))).xreplace(at_defaults)) for n in keep}
+compliance = sum(sp.Float(c) / S(n) for n, c in coefficient.items())
+elsewhere = {S(n): 3.7 * d[n] for n in keep}             # the same three terms at other stiffnesses
+assert abs(float(compliance.xreplace(elsewhere) * kf_xx.xreplace(elsewhere)) - 1) < 1e-9
 show(r"\frac{1}{K_F(X,X)}\Big|_{x_\mathrm{ref}}", compliance.n(4))
 
-d = ev.defaults
-terms = {str(t.free_symbols.pop()): float(t.xreplace({S(n): d[n] for n in keep})) for t in compliance.args}
+terms = {n: c / d[n] for n, c in coefficient.items()}
 for name, c in terms.items():
     print(f"  {name:8s} {c:.3e} m/N  ({100 * c / sum(terms.values()):.1f} % of the X compliance)")
 print(f"K_F(X,X) = {1 / sum(terms.values()):.2f} N/m; generated evaluator: "

@@ -70,6 +70,15 @@ def test_a_function_is_hashed_by_its_code_not_its_address():
     assert "0x" not in canonical(make(2))
 
 
+def test_sympy_expressions_hash_by_their_tree():
+    import sympy as sp
+
+    x, y = sp.Symbol("x", real=True), sp.Symbol("y", real=True)
+    assert content_hash(x * y + sp.sin(x)) == content_hash(sp.sin(x) + y * x)       # built in another order
+    assert content_hash(x) != content_hash(sp.Symbol("x"))                           # assumptions count
+    assert content_hash(x / y) != content_hash(y / x) and content_hash(sp.Float(0.5) * x) != content_hash(x / 2)
+
+
 def test_containers_hash_by_content_not_order():
     assert content_hash({"b": 1, "a": {2, 1}}) == content_hash({"a": {1, 2}, "b": 1})
     assert content_hash((1, 2)) != content_hash((2, 1)) and content_hash(1.0) != content_hash(1)

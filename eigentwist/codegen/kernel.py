@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from ..hashing import canonical
+
 from ..symbolic.program import Program
 
 __all__ = ["Output", "Kernel", "build_kernel", "UndeclaredSymbolError", "source_hash"]
@@ -65,7 +67,8 @@ class Kernel:
 
     def canonical_text(self) -> bytes:
         """The kernel as canonical text (name, inputs, every statement and output as
-        :func:`canonical`), computed once: :func:`source_hash` hashes it for each backend."""
+        :func:`eigentwist.hashing.canonical`), computed once: :func:`source_hash` hashes it
+        for each backend."""
         if self._canonical is None:
             lines = [f"kernel {self.name} {self.input_names}\n"]
             for item in self.body:
@@ -163,18 +166,6 @@ def build_kernel(name: str, doc: str, program: Program, outputs: list[Output],
         ("param", [p for p in params if p in used_inputs]),
     ]
     return Kernel(name, doc, inputs, outputs, body, [s.name for s in joints], joints_per_leg)
-
-
-def canonical(expr) -> str:
-    """A SymPy expression as unambiguous text, for hashing: ``Class(arg,...)`` over the
-    expression tree in SymPy's argument order (canonical, set when the expression is built,
-    the same in every process), symbols by name, other atoms by ``srepr``. Like ``srepr``
-    without its printer's term sorting (most of ``srepr``'s time on CSE'd kernels)."""
-    if expr.is_Symbol:
-        return expr.name
-    if not expr.args:
-        return sp.srepr(expr)
-    return f"{type(expr).__name__}({','.join(canonical(a) for a in expr.args)})"
 
 
 def source_hash(kernels: list[Kernel], extra: str = "") -> str:
