@@ -264,8 +264,10 @@ show(r"\frac{1}{K_F(X,X)}\Big|_{x_\mathrm{ref}}", compliance.n(4))
 terms = {n: c / d[n] for n, c in coefficient.items()}
 for name, c in terms.items():
     print(f"  {name:8s} {c:.3e} m/N  ({100 * c / sum(terms.values()):.1f} % of the X compliance)")
-print(f"K_F(X,X) = {1 / sum(terms.values()):.2f} N/m; generated evaluator: "
-      f"{ev.matrices(x_ref, 'paper')['K_F'][0, 3, 3]:.2f} N/m (paper, Eq. 58: 16170)")
+kf_generated = ev.matrices(x_ref, "paper")["K_F"][0, 3, 3]
+print(f"K_F(X,X) = {1 / sum(terms.values()):.2f} N/m; generated evaluator: {kf_generated:.2f} N/m "
+      "(paper, Eq. 58: 16170)")
+assert abs(1 / sum(terms.values()) / kf_generated - 1) < 1e-9     # the closed form is the evaluator's
 
 
 # %% [markdown]
