@@ -49,6 +49,19 @@ def test_energy_shares_are_the_kinetic_energy_shares(heli4):
         assert s.sum(axis=2) == pytest.approx(np.ones(s.shape[:2]), abs=1e-9)      # per coordinate
 
 
+def test_shares_kept_with_the_modes_are_the_shares_of_their_eigentwists(heli4, delta):
+    """Where the evaluator keeps the shares (a flexible model: from M), they are the
+    eigentwists' shares from V and V^-1, to round-off, and name the same axes."""
+    for ev in (heli4, delta):
+        poses = random_poses(ev.robot, 200, seed=8)
+        m = ev.modes(poses, "paper", k_a=1500.0)
+        if m.shares is None:
+            assert ev.backend == "numpy"          # make test-fast: computed on demand
+            continue
+        assert m.shares == pytest.approx(energy_shares(m.eigentwists), abs=1e-12)
+        np.testing.assert_array_equal(directions(m.eigentwists, shares=m.shares), directions(m.eigentwists))
+
+
 def test_energy_shares_do_not_depend_on_units_or_eigentwist_scale(heli4):
     m = heli4.modes(random_poses(heli4.robot, 10, seed=4), "paper", k_a=800.0)
     rng = np.random.default_rng(1)

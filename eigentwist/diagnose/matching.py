@@ -110,7 +110,7 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
     if not ranked.all():
         rows = np.flatnonzero(~ranked)
         axis = -1 - codes[rows]
-        shares = energy_shares(modes.eigentwists[rows])
+        shares = energy_shares(modes.eigentwists[rows]) if modes.shares is None else modes.shares[rows]
         groups = degenerate_groups(modes.freq_hz[rows])
         idx[rows], freq[rows] = _match_axes(modes, shares, groups, axis, rows, labels, strict, lines)
     return freq, idx

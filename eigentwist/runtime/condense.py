@@ -289,6 +289,7 @@ def merge_modes(modes, rows: np.ndarray, freq_hz: np.ndarray, V: np.ndarray, vec
     stand-in frequency and eigentwist and is marked in ``modes.constrained``."""
     from .eigen import normalize_eigentwists
 
+    modes.shares = None                        # the eigentwists change: the shares with them
     freq = np.array(modes.freq_hz, dtype=float)
     fr = freq[rows]
     finite = ~np.isinf(freq_hz)

@@ -15,7 +15,7 @@ from .constraints import check_constraints, compile_constraints
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
-from .labels import directions
+from .labels import directions, energy_shares
 from ..description.pose import FULL, TWIST_AXIS, twist_order
 from .threads import resolve_threads
 from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular, raise_unreachable, reachable_mask
@@ -59,6 +59,9 @@ class Modes:
     constrained : (N, n) bool, True where a column is a rigid constraint's mode (infinite
         frequency: the value there is K_F's stand-in, ~1e6 Hz, not a measurable mode); None
         when no column is (issue 20, :mod:`.condense`).
+    shares : (N, n, n) each coordinate's share of each mode's energy
+        (:func:`eigentwist.runtime.labels.energy_shares`) where the evaluator had M at hand
+        (the C pass of a flexible model); None: computed from the eigentwists when needed.
     """
 
     freq_hz: np.ndarray
@@ -68,6 +71,7 @@ class Modes:
     valid: np.ndarray | None = None
     stable: np.ndarray | None = None
     constrained: np.ndarray | None = None
+    shares: np.ndarray | None = None
 
     def __post_init__(self):
         if self.stable is None:
@@ -80,7 +84,7 @@ class Modes:
         a rigid model's coordinates are its allowed twists, named by :attr:`axes`."""
         if self.eigentwists is None:
             raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
-        local = directions(self.eigentwists)
+        local = directions(self.eigentwists, shares=self.shares)
         return np.asarray([AXES.index(a) for a in self.axes])[local]     # the allowed twists' axes
 
 
@@ -887,14 +891,19 @@ class Evaluator:
         joint coordinates and M for :meth:`_exact_modes`."""
         p = self._params(len(poses), params, effects)
         kind = self.kind(effects)
-        out = self._c_pass(poses, p, matrices=("M",) if exact else (), ik=("q",) if exact else (), model=kind,
-                           vectors=vectors, normalize=True)
+        # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
+        shares = vectors and not exact and kind == "flexible"
+        out = self._c_pass(poses, p, matrices=("M",) if exact or shares else (), ik=("q",) if exact else (),
+                           model=kind, vectors=vectors, normalize=True)
         st = out["status"]
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
             self._raise_first(poses, p, ~valid)
         modes = Modes(out["freq_hz"], out.get("eigentwists"), self.axes(kind), kind,
                       None if check else valid, st != STATUS["unstable"])
+        if shares and out["eigentwists"].shape[-1] == 6:
+            with np.errstate(invalid="ignore", divide="ignore"):    # invalid poses: NaN rows
+                modes.shares = energy_shares(out["eigentwists"], out["M"])
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
         return modes

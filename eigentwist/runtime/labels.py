@@ -30,13 +30,19 @@ __all__ = ["energy_shares", "directions", "DEGENERATE_REL", "degenerate_groups",
 DEGENERATE_REL = 0.01   # modes closer than 1 % in frequency are one measured peak (module doc of matching)
 
 
-def energy_shares(eigentwists: np.ndarray) -> np.ndarray:
+def energy_shares(eigentwists: np.ndarray, M: np.ndarray | None = None) -> np.ndarray:
     """(N, n, n) shares s[r, i, k] of coordinate i in mode k's energy (module doc).
 
     ``eigentwists`` is (N, n, n), one column per mode, any scaling per column; rows with
-    non-finite entries (invalid poses) give NaN.
+    non-finite entries (invalid poses) give NaN. With the inertia matrix ``M`` (N, n, n)
+    that the eigentwists are M-orthogonal in, the shares come from the definition,
+    t_ik (M t_k)_i / (t_k^T M t_k) (one batched product instead of an inverse; the same
+    values to round-off); without it, from V and V^-1.
     """
     v = np.asarray(eigentwists, dtype=float)
+    if M is not None:
+        num = v * (np.asarray(M, dtype=float) @ v)
+        return num / num.sum(axis=-2, keepdims=True)
     ok = np.isfinite(v).all(axis=(-2, -1))
     if ok.all():
         return v * np.swapaxes(np.linalg.inv(v), -1, -2)
@@ -47,10 +53,11 @@ def energy_shares(eigentwists: np.ndarray) -> np.ndarray:
     return out
 
 
-def directions(eigentwists: np.ndarray, offset: int = 0) -> np.ndarray:
+def directions(eigentwists: np.ndarray, offset: int = 0, shares: np.ndarray | None = None) -> np.ndarray:
     """(N, n) index of the coordinate with the largest energy share of each mode, plus
-    ``offset`` (3 maps the rigid model's x, y, z onto ``AXES``)."""
-    s = energy_shares(eigentwists)
+    ``offset`` (3 maps the rigid model's x, y, z onto ``AXES``); ``shares``: the
+    :func:`energy_shares` when they are known."""
+    s = energy_shares(eigentwists) if shares is None else shares
     if np.isnan(s).any():
         s = np.nan_to_num(s, nan=-np.inf)
     return np.argmax(s, axis=-2) + offset
