@@ -6,8 +6,7 @@ parameters ``wrt``. The code is generated on demand (forward mode through the
 straight-line program, :mod:`eigentwist.symbolic.sensitivity`) and cached by content
 hash in :func:`~eigentwist.runtime.ccompile.cache_dir`: the key hashes the robot's
 generated evaluator (its source hash), the parameter list and the code that derives and
-renders the kernel, so a cache hit needs no SymPy at all. Only the evaluator's backend is
-rendered (NumPy ``.py`` or C ``.c``; the other on its first use); the C backend compiles its
+renders the kernel, so a cache hit needs no SymPy at all. The C backend compiles the same
 kernel with :func:`~eigentwist.runtime.ccompile.build_library`.
 
 :func:`eigenvalue_derivatives` turns them into dλ/dp for ``K v = λ M v``:
@@ -58,15 +57,13 @@ def _write_atomic(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def _source(ev, wrt, progress) -> str:
-    """The kernel's source for ``ev``'s backend (``.py`` for NumPy, ``.c`` for C) from the
-    cache, or generated and cached (the other backend's file only when it is asked for)."""
+def _sources(ev, wrt, progress) -> dict:
+    """``{"numpy": text, "c": text}`` from the cache, or generated and cached."""
     key = cache_key(ev, wrt)
     directory = cache_dir() / "sensitivities"
-    backend = "c" if ev.backend == "c" else "numpy"
-    path = directory / f"{ev.robot.name}_sens_{key}.{'c' if backend == 'c' else 'py'}"
-    if path.exists():
-        return path.read_text()
+    paths = {"numpy": directory / f"{ev.robot.name}_sens_{key}.py", "c": directory / f"{ev.robot.name}_sens_{key}.c"}
+    if all(p.exists() for p in paths.values()):
+        return {b: p.read_text() for b, p in paths.items()}
     from ..codegen.sensitivity import render_c_sensitivity, render_numpy_sensitivity, sensitivity_kernel
     from ..symbolic import derive
 
@@ -76,10 +73,10 @@ def _source(ev, wrt, progress) -> str:
     model = derive(ev.robot)
     kernel = sensitivity_kernel(model, wrt, progress=lambda m: say(f"{ev.robot.name}: {m}"))
     say(f"{ev.robot.name}: render")
-    render = render_c_sensitivity if backend == "c" else render_numpy_sensitivity
-    text = render(ev.robot, kernel, wrt)
-    _write_atomic(path, text)
-    return text
+    texts = {"numpy": render_numpy_sensitivity(ev.robot, kernel, wrt), "c": render_c_sensitivity(ev.robot, kernel, wrt)}
+    for b, p in paths.items():
+        _write_atomic(p, texts[b])
+    return texts
 
 
 def _numpy_kernel(text: str, name: str):
@@ -200,13 +197,13 @@ def sensitivity_kernels(ev, wrt, progress=None):
             _MEMORY[base, wrt] = _select(kern, [w.index(name) for name in wrt])
             return _MEMORY[base, wrt]
     key = cache_key(ev, wrt)
-    text = _source(ev, wrt, progress)
+    texts = _sources(ev, wrt, progress)
     if ev.backend == "c":
         if progress:
             progress(f"{ev.robot.name}: compile (cached by content hash)")
-        kern = _c_kernel(text, ev.robot.name)
+        kern = _c_kernel(texts["c"], ev.robot.name)
     else:
-        kern = _numpy_kernel(text, f"eigentwist_sens_{ev.robot.name}_{key}")
+        kern = _numpy_kernel(texts["numpy"], f"eigentwist_sens_{ev.robot.name}_{key}")
     _MEMORY[base, wrt] = kern
     return kern
 
