@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from ..text import format_table  # re-exported: the CLI's tables
 
-__all__ = ["CliError", "add_model_options", "add_set_option", "add_backend_option", "BACKEND_ENV", "parse_sets", "check_values", "model_and_values",
+__all__ = ["CliError", "add_model_options", "add_set_option", "add_backend_option", "add_jacobian_option", "BACKEND_ENV", "parse_sets", "check_values", "model_and_values",
            "progress", "format_table", "eprint", "SET_HELP", "MODEL_SYNTAX"]
 
 
@@ -35,29 +36,33 @@ MODEL_SYNTAX = ("PRESET or EFFECT items joined by ',' or '+', each optionally wi
 
 #: environment variable holding the default of every command's ``--backend`` (default: auto)
 BACKEND_ENV = "EIGENTWIST_BACKEND"
-BACKENDS = ("auto", "c", "numpy")
 
 
 def _backend(value: str) -> str:
+    from ..runtime.loader import BACKENDS
+
     text = str(value).strip().lower()
     if text not in BACKENDS:
-        import os
-
         source = f" (from {BACKEND_ENV})" if os.environ.get(BACKEND_ENV, "").strip() == str(value).strip() else ""
-        raise argparse.ArgumentTypeError(f"unknown backend {value!r}{source}: expected one of {', '.join(BACKENDS)}")
+        raise argparse.ArgumentTypeError(f"unknown backend {value!r}{source}: expected one of "
+                                         f"{', '.join(sorted(BACKENDS))}")
     return text
 
 
 def add_backend_option(p: argparse.ArgumentParser) -> None:
     """The shared ``--backend auto|c|numpy`` option; its default is ``auto`` (as
     ``eigentwist.load``), or the value of the ``EIGENTWIST_BACKEND`` environment variable."""
-    import os
-
     default = os.environ.get(BACKEND_ENV, "").strip() or "auto"
     p.add_argument("--backend", default=default, type=_backend, metavar="{auto,c,numpy}",
                    help="generated evaluator: auto = the C library where a C compiler exists (compiled on first "
                         "use, cached), else the NumPy module; c or numpy to choose (same numbers to 1e-12). "
                         f"Default: {BACKEND_ENV} if set, else auto (now: {default})")
+
+
+def add_jacobian_option(p: argparse.ArgumentParser, help: str) -> None:
+    """The shared ``--jacobian differences|exact`` option (default: differences, nothing
+    derived at run time); ``help`` says what the derivatives are for."""
+    p.add_argument("--jacobian", choices=("differences", "exact"), default="differences", help=help)
 
 
 def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import MODEL_SYNTAX
+from .common import MODEL_SYNTAX, add_jacobian_option
 from .compare import DATA_HELP, add_data_options, evaluator_of, load_data
 
 HELP = "find the physical effect a model is missing from measured frequencies, add it, watch the error fall"
@@ -59,8 +59,7 @@ def add_parser(sub):
                    help="after the answer, print the full diagnosis: ranking, residual patterns, selection steps, criteria")
     p.add_argument("--rows", action="store_true", help="also print the per-row tables of the baseline and final model "
                    "(implies --details)")
-    p.add_argument("--jacobian", choices=("differences", "exact"), default="differences",
-                   help="the fits' Jacobian: central differences in the residuals' evaluator call (default: measured "
+    add_jacobian_option(p, "the fits' Jacobian: central differences in the residuals' evaluator call (default: measured "
                         "faster, benchmarks/README.md) or exact, from generated design sensitivities (derived and "
                         "compiled once per cache)")
     p.set_defaults(func=run)

@@ -101,10 +101,19 @@ def main(argv=None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    # a warning is one line on stderr, like an error: its text, not the source line that
+    # raised it (e.g. the C backend unavailable: the NumPy module is used); restored on return
+    formatwarning = warnings.formatwarning
     if not args.debug:
-        # a warning is one line on stderr, like an error: its text, not the source line
-        # that raised it (e.g. the C backend unavailable: the NumPy module is used)
         warnings.formatwarning = _one_line_warning
+    try:
+        return _run(args)
+    finally:
+        warnings.formatwarning = formatwarning
+
+
+def _run(args) -> int:
+    """``args.func(args)`` under the one-line error contract (exit status 2)."""
     try:
         # floating-point overflow on absurd inputs is detected and named by the checks
         # (unreachable pose, non-finite frequency); NumPy's own warnings would only add lines

@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 
-from .common import CliError, add_backend_option, eprint, format_table, parse_sets
+from .common import CliError, add_backend_option, add_jacobian_option, eprint, format_table, parse_sets
 
 HELP = "maximise the worst-case lowest natural frequency over the workspace (exact gradients)"
 EPILOG = """examples:
@@ -52,8 +52,7 @@ def add_parser(sub):
     p.add_argument("--method", default="SLSQP", choices=("SLSQP", "trust-constr"), help="SciPy solver")
     p.add_argument("--track", type=int, default=2, help="lowest modes per pose in the epigraph (default 2)")
     p.add_argument("--maxiter", type=int, default=100, help="solver iterations (default 100)")
-    p.add_argument("--jacobian", choices=("differences", "exact"), default="differences",
-                   help="gradients: central differences of the matrices (default: nothing derived) or the "
+    add_jacobian_option(p, "gradients: central differences of the matrices (default: nothing derived) or the "
                         "generated sensitivity kernel (derived and cached on first use)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)

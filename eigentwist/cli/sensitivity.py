@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from .common import add_model_options, eprint, format_table, parse_sets
+from .common import add_jacobian_option, add_model_options, eprint, format_table, parse_sets
 
 HELP = "rank design parameters by their effect on the lowest natural frequency (exact derivatives)"
 EPILOG = """examples:
@@ -41,8 +41,7 @@ def add_parser(sub):
     p.add_argument("--wrt", default=None, metavar="NAMES",
                    help="comma-separated parameter names, NAME@N for leg N's own value, or 'all' (default: k_a "
                         "and the model's parameters in m, kg and Pa: geometry, masses, moduli)")
-    p.add_argument("--jacobian", choices=("differences", "exact"), default="differences",
-                   help="derivatives: central differences of the matrices (default: nothing derived) or the "
+    add_jacobian_option(p, "derivatives: central differences of the matrices (default: nothing derived) or the "
                         "generated sensitivity kernel (derived and cached on first use per --wrt)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)

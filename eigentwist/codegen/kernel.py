@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..hashing import canonical
-
 from ..symbolic.program import Program
 
 __all__ = ["Output", "Kernel", "build_kernel", "UndeclaredSymbolError", "source_hash"]

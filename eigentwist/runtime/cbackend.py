@@ -139,41 +139,29 @@ def load_c_kernels(robot: str, numpy_module=None, source: str | None = None) -> 
 
 
 # ------------------------------------------------------------------ kernels
-def _as_input(value, lead: tuple, keep: list) -> tuple[int, int]:
-    """(address, stride) of one input broadcast to ``lead`` poses (copies only if needed:
-    a strided 1-D view, such as one column of an (N, 3) pose array, is read in place)."""
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.ndim == 1 and arr.shape == lead and arr.size > 1 and arr.strides[0] > 0 and arr.strides[0] % 8 == 0:
-        keep.append(arr)
-        return arr.ctypes.data, arr.strides[0] // 8
-    if arr.size == 1:
-        arr = np.ascontiguousarray(arr).reshape(1)
-        keep.append(arr)
-        return arr.ctypes.data, 0
-    flat = np.ascontiguousarray(np.broadcast_to(arr, lead)).reshape(-1)
-    keep.append(flat)
-    return flat.ctypes.data, 1
-
-
 def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
-    """(addresses, strides) of every input of ``values`` (an iterable), as :func:`_as_input`
-    gives them; the scalars (most parameters and switches) share one array, read with
-    stride 0."""
-    items = list(values)
-    scalar = [isinstance(v, (float, int)) or (isinstance(v, np.ndarray) and v.size == 1) for v in items]
-    packed = np.array([float(np.asarray(v).reshape(-1)[0]) if sc else 0.0 for v, sc in zip(items, scalar)],
-                      dtype=np.float64)
+    """(addresses, strides) of the inputs ``values`` (an iterable), each broadcast to ``lead``
+    poses: the scalars (most parameters and switches) share one array, read with stride 0;
+    a strided 1-D view, such as one column of an (N, 3) pose array, is read in place; other
+    arrays are copied only if needed."""
+    arrays = [np.asarray(v, dtype=np.float64) for v in values]
+    scalar = [a.size == 1 for a in arrays]
+    packed = np.array([a.reshape(-1)[0] if sc else 0.0 for a, sc in zip(arrays, scalar)], dtype=np.float64)
     keep.append(packed)
-    base = packed.ctypes.data
     addresses, strides = [], []
-    for k, (v, sc) in enumerate(zip(items, scalar)):
+    for k, (arr, sc) in enumerate(zip(arrays, scalar)):
         if sc:
-            addresses.append(base + 8 * k)
+            addresses.append(packed.ctypes.data + 8 * k)
             strides.append(0)
+        elif arr.ndim == 1 and arr.shape == lead and arr.strides[0] > 0 and arr.strides[0] % 8 == 0:
+            keep.append(arr)
+            addresses.append(arr.ctypes.data)
+            strides.append(arr.strides[0] // 8)
         else:
-            a, st = _as_input(v, lead, keep)
-            addresses.append(a)
-            strides.append(st)
+            flat = np.ascontiguousarray(np.broadcast_to(arr, lead)).reshape(-1)
+            keep.append(flat)
+            addresses.append(flat.ctypes.data)
+            strides.append(1)
     return addresses, strides
 
 
@@ -228,20 +216,18 @@ class CKernels:
         if n == 0:
             return outs
         keep: list = []
-        addresses, strides = [], []
+        params = [name for group, name, _ in spec["inputs"] if group != "q"]
+        found = iter(zip(*_inputs((values[name] for name in params), lead, keep))) if params else iter(())
         if q is not None:
             legs, nq = self.N_LEGS, self.JOINTS_PER_LEG
             qa = np.ascontiguousarray(np.broadcast_to(np.asarray(q, dtype=np.float64), lead + (legs, nq)))
             qa = qa.reshape(n, legs * nq)
             keep.append(qa)
+        addresses, strides = [], []
         for group, name, joint in spec["inputs"]:
-            if group == "q":
-                addresses.append(qa.ctypes.data + 8 * (joint[0] * nq + joint[1]))
-                strides.append(qa.shape[1])
-            else:
-                a, s = _as_input(values[name], lead, keep)
-                addresses.append(a)
-                strides.append(s)
+            a, st = (qa.ctypes.data + 8 * (joint[0] * nq + joint[1]), qa.shape[1]) if group == "q" else next(found)
+            addresses.append(a)
+            strides.append(st)
         out_ptrs = _ptrs([o.ctypes.data for o in outs.values()])
         _check_rc(self._fn[kernel](n, _ptrs(addresses), _strides(strides), out_ptrs), kernel)
         return outs

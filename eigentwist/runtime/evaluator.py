@@ -949,44 +949,10 @@ class Evaluator:
 
         if method not in ("exact", "differences"):
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
-        if method == "differences":
-            return self._difference_sensitivities(poses, wrt, model, rtol, params)
-        if self.numeric_ik:
+        if method == "exact" and self.numeric_ik:
             raise InputError(f"sensitivities of {self.robot.name}: its legs are solved numerically (Newton), and the "
                              "derivative of their joint coordinates with respect to the parameters is not derived yet; "
                              "use central differences of frequencies()")
-        poses = self._poses(poses, params)
-        effects = self._resolve(model)
-        check_model(effects)
-        wrt = check_wrt(self, wrt)
-        own = own_legs(wrt, params)                  # legs whose own P@N does not follow a shared P
-        full = kernel_wrt(wrt, own)
-        kern = sensitivity_kernels(self, full, progress)
-        params, exact = self._route(effects, params)
-        p = self._params(len(poses), params, effects)
-        rigid = self.kind(effects) == "rigid"
-        if rigid and getattr(self.space, "basis", 0) is None:
-            raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
-                             "pose) are not available: use a flexible model")
-        parts = []
-        for sl in self._chunks(len(poses)):
-            pc = self._take(p, sl)
-            self._check_rows(poses[sl], pc, strict=True)
-            out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self._with_pose(poses[sl], pc))
-            parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six))
-        freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
-        if own:
-            dfdp = shared_columns(dfdp, wrt, full, own)
-        kind = "rigid" if rigid else "flexible"
-        modes = Modes(freq, vec, self.axes(kind), kind)
-        if exact:                                  # K_F's penalty: the finite modes exact
-            modes = self._exact_modes(poses, effects, params, modes, True)
-        return modes, dfdp
-
-    def _difference_sensitivities(self, poses, wrt, model, rtol: float, params: dict):
-        """:meth:`modes_and_sensitivities` with ``method="differences"``."""
-        from .sensitivity import check_model, check_wrt, frequency_derivatives
-
         poses = self._poses(poses, params)
         effects = self._resolve(model)
         check_model(effects)
@@ -996,8 +962,23 @@ class Evaluator:
             raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
                              "pose) are not available: use a flexible model")
         solved, exact = self._route(effects, params)
-        out = self.matrix_derivatives(poses, wrt, effects, **solved)
-        freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six)
+        if method == "differences":
+            out = self.matrix_derivatives(poses, wrt, effects, **solved)
+            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six)
+        else:
+            own = own_legs(wrt, params)              # legs whose own P@N does not follow a shared P
+            full = kernel_wrt(wrt, own)
+            kern = sensitivity_kernels(self, full, progress)
+            p = self._params(len(poses), solved, effects)
+            parts = []
+            for sl in self._chunks(len(poses)):
+                pc = self._take(p, sl)
+                self._check_rows(poses[sl], pc, strict=True)
+                out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self._with_pose(poses[sl], pc))
+                parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six))
+            freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
+            if own:
+                dfdp = shared_columns(dfdp, wrt, full, own)
         kind = "rigid" if rigid else "flexible"
         modes = Modes(freq, vec, self.axes(kind), kind)
         if exact:                                  # K_F's penalty: the finite modes exact
