@@ -190,3 +190,28 @@ def test_first_c_compile_says_so(tmp_path):
     assert first.stderr.count("\n") == 1 or all("compiling" in ln for ln in first.stderr.splitlines())
     again = subprocess.run(cmd, capture_output=True, text=True, env=env)
     assert again.returncode == 0 and "compiling" not in again.stderr
+
+
+def test_every_command_defaults_to_the_backend_of_load(monkeypatch, capsys):
+    """--backend defaults to auto (as eigentwist.load), or to EIGENTWIST_BACKEND; a bad value
+    is one error line naming it and the variable."""
+    import argparse
+
+    from eigentwist.cli.main import build_parser
+
+    def defaults():
+        sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+        return {name: next((a.default for a in parser._actions if "--backend" in a.option_strings), None)
+                for name, parser in sub.choices.items()}
+
+    monkeypatch.delenv("EIGENTWIST_BACKEND", raising=False)
+    found = {name: d for name, d in defaults().items() if d is not None}
+    assert {"diagnose", "compare", "matrices", "report", "reproduce", "sweep", "optimize"} <= set(found)
+    assert set(found.values()) == {"auto"}, found
+    monkeypatch.setenv("EIGENTWIST_BACKEND", "numpy")
+    assert set(d for d in defaults().values() if d is not None) == {"numpy"}
+    assert build_parser().parse_args(["reproduce"]).backend == "numpy"
+    monkeypatch.setenv("EIGENTWIST_BACKEND", "cuda")
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["reproduce"])
+    assert "unknown backend 'cuda' (from EIGENTWIST_BACKEND)" in capsys.readouterr().err
