@@ -1,4 +1,4 @@
-"""One content hash for every cache (issue 20): deterministic across processes and machines.
+"""One content hash for every cache: deterministic across processes and machines.
 
 :func:`canonical` turns a value into a text that depends on its content only — never on a
 memory address, ``PYTHONHASHSEED`` or the order a set or dict was filled in:

@@ -13,7 +13,7 @@ import numpy as np
 __all__ = ["format_table", "json_safe", "format_estimate", "wrap", "WIDTH"]
 
 
-WIDTH = 100     # characters per line of a command's default output (issue 22)
+WIDTH = 100     # characters per line of a command's default output
 
 
 def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g", width: int | None = WIDTH,

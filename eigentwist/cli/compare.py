@@ -95,7 +95,7 @@ def to_json(cmp, parameters: list) -> dict:
              "model_mode": int(cmp.mode_index[i]) + 1, "measured_hz": m.freq_hz[i], "sigma_hz": m.sigma_hz[i],
              "predicted_hz": cmp.predicted[i], "error_pct": cmp.error_pct[i], "error_sigma": cmp.error_sigma[i],
              "fails": bool(cmp.failing[i])} for i in range(len(m))]
-    if getattr(cmp, "mac", None) is not None:             # measured mode shapes (issue 14)
+    if getattr(cmp, "mac", None) is not None:             # measured mode shapes
         for row, value in zip(rows, cmp.mac):
             row["mac"] = value
     return json_safe({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,

@@ -41,7 +41,7 @@ BLOCK = 64                 # poses per block: inputs, outputs and temporaries st
 # The flexible model uses the full 6x6 M and K_F (Eq. 13); the rigid one the lower-right
 # 3x3 translational blocks of M and K_R (Eq. 14), as the paper does (Eqs. 54-56).
 EIGEN_MODELS = (("flexible", 6, 0, "M", "K_F"), ("rigid", 3, 3, "M", "K_R"))
-# a 6-DoF robot (six pose coordinates): the rigid model is the full 6x6 M and K_R (issue 15)
+# a 6-DoF robot (six pose coordinates): the rigid model is the full 6x6 M and K_R
 EIGEN_MODELS_6DOF = (("flexible", 6, 0, "M", "K_F"), ("rigid", 6, 0, "M", "K_R"))
 # what the C comments say of a 6-DoF robot's pose inputs read from the parameter dict
 POSE_DOCS = {**{f"R_{i}{j}": f"platform rotation matrix entry ({i}, {j}) (-)" for i in range(3) for j in range(3)},

@@ -28,9 +28,9 @@ KERNEL_DOCS = {
     "matrices": "Cartesian inertia M (Eq. 12), rigid-body stiffness K_R (Eq. 14) and flexible-body stiffness K_F (Eq. 13, tau_e = 0) at the EE origin.",
     "jacobians": "Inverse-Jacobian rows of joints 1, 2, 3 and the virtual joint of every leg (Huang's method), and the actuation levers (m).",
     "matrices_lever": "The matrices kernel with each leg's actuation lever (m) as a further output: the fused C pass checks singularity without the jacobians kernel.",
-    "followers": "Each leg's closure equations (m, zero where the platform can be) and their rates along the platform's six unit twists, for the followers of a lower-mobility pose space (issue 21).",
+    "followers": "Each leg's closure equations (m, zero where the platform can be) and their rates along the platform's six unit twists, for the followers of a lower-mobility pose space.",
     "loop_closure": "Loop-closure residual of every leg at its joint coordinates and the pose (orientation error, rad, then position, m) and its exact Jacobian with respect to the leg's coordinates, for the damped Newton inverse kinematics.",
-    "legs": "Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints (issue 20).",
+    "legs": "Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints.",
     "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40), each leg's series actuator stiffness k_act and the static preload wrench W on the platform.",
 }
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}

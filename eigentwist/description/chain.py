@@ -1,4 +1,4 @@
-"""Legs as data: any serial chain of R, P, U, S and Pi joints with its bodies (issue 15).
+"""Legs as data: any serial chain of R, P, U, S and Pi joints with its bodies.
 
 A :class:`ChainLeg` lists its joints from the base to the platform and the bodies they
 carry. Axes and locations are *names* of vectors that the leg's closed-form geometry

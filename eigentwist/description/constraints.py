@@ -1,4 +1,4 @@
-"""Conditions that several parameters must meet together (issue 13).
+"""Conditions that several parameters must meet together.
 
 One parameter at a time, ``Parameter.bounds`` rejects a negative radius; only together can
 one say that a tube's inner radius must stay below its outer radius (otherwise its area

@@ -27,7 +27,7 @@ __all__ = ["Effect", "Term", "EffectContext", "EFFECTS", "PRESETS", "STRUCTURAL"
 
 INF = float("inf")
 
-#: The primitive kinds every effect is an instance of (issue 11): the derivation handles
+#: The primitive kinds every effect is an instance of: the derivation handles
 #: each kind generically.
 KINDS = {
     "joint_series": "a compliance in series with a leg's actuated joint (actuator loss, transmission)",
@@ -43,7 +43,7 @@ KINDS = {
 
 @dataclass(frozen=True)
 class Term:
-    """One part of an effect of several parts (issue 23): a term of one of :data:`KINDS`,
+    """One part of an effect of several parts: a term of one of :data:`KINDS`,
     the body or frame it acts on and its ``build`` function (as :class:`Effect`'s
     ``kind``, ``body`` and ``build``). A cable chain is a mass on the tool
     (``added_inertia``) and a spring to ground (``ground_spring``) under one switch."""
@@ -94,7 +94,7 @@ class Effect:
     phrase : what one leg's fitted values say, formatted with the fit parameters
         (``"delivers {eta_a:.2f} of its commanded stiffness"``); "" lists the values.
     constraints : conditions its parameters must meet together (:mod:`.constraints`).
-    terms : an effect of several parts (issue 23): its :class:`Term` objects, each with
+    terms : an effect of several parts: its :class:`Term` objects, each with
         its own kind, body and build, all under the effect's one switch (``on_<effect>``)
         and fitted jointly (``fit``); ``kind``, ``body`` and ``build`` are then taken from
         the first term. Empty: the effect is the one term ``kind``/``body``/``build``.
@@ -221,7 +221,7 @@ def _rotor(ctx):
 
 
 def _swinging_rods(ctx):
-    """The parallelogram's two rods as they move (issue 21): the fictitious rod of double
+    """The parallelogram's two rods as they move: the fictitious rod of double
     density riding on the far bar (body C3, Eqs. 26-29) taken off, half of its inertia (one
     rod, at its own centre, x along the rod) put on each real rod ``rod_a``, ``rod_b``,
     which swing with q3 about their pivots (``ChainBody.pivot``)."""
@@ -272,8 +272,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            body="platform", build=_ee_split),
     Effect("ee_coupling",
            "traveling plates as rigid bodies joined to the tool by compliant couplings (k_E_rot about Y, k_E_lin along Y), "
-           "condensed in closed form at any pose (issue 7)",
-           _K_E, ("k_E_rot", "k_E_lin"), structural=True, kind="platform_coupling", equation="App. D (issue 7)"),
+           "condensed in closed form at any pose",
+           _K_E, ("k_E_rot", "k_E_lin"), structural=True, kind="platform_coupling", equation="App. D"),
     Effect("lower_link_compliance",
            "bending and torsion of the lower links l1 as hollow tubes clamped at the actuated joint",
            (_p("r_o_l1", 0.012, "m", "outer radius of the lower link tube", "lower_link_compliance", (0.002, 0.1)),
@@ -308,13 +308,13 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
     Effect("swinging_rods",
            "the parallelogram's two rods as they move, swinging with q3 about their pivots (centres at the mean of "
            "their ends' velocities), instead of the paper's fictitious rod riding on the far bar (Eqs. 26-29)",
-           (), (), kind="added_inertia", equation="replaces Eqs. 26-29 (issue 21)", body="C3", build=_swinging_rods,
+           (), (), kind="added_inertia", equation="replaces Eqs. 26-29", body="C3", build=_swinging_rods,
            component="parallelogram rods"),   # switched, not fitted: the rods' mass is the paper's
     Effect("gravity_preload",
            "the tau_e term of Eq. 13 from the static gravity load g on the end-effector and payload",
            (_p("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload; a known constant "
                "(plausible 9.78-9.84 m/s^2 on Earth)", "gravity_preload", (9.78, 9.84), (0.0, 100.0), "Eq. 13"),),
-           (), kind="preload", equation="Eq. 13", build=_gravity),   # switched, not fitted: g is known (issue 10)
+           (), kind="preload", equation="Eq. 13", build=_gravity),   # switched, not fitted: g is known
 )}
 
 
@@ -393,7 +393,7 @@ def split_scope(item: str, n_legs: int | None = None, what: str = "effect") -> t
 
 
 def presets_of(robot_or_available) -> dict:
-    """The presets a robot offers (issue 20: a preset and its values belong to the robot that
+    """The presets a robot offers (a preset and its values belong to the robot that
     measured them).
 
     A robot description offers its own ``presets`` (the Heli4 and the Delta declare the

@@ -1,4 +1,4 @@
-"""How a robot's platform pose enters its derivation (issue 15): data, not a branch.
+"""How a robot's platform pose enters its derivation: data, not a branch.
 
 A robot declares its pose coordinates (``RobotDescription.pose``, names) and a pose
 space (``pose_space``), which tells the one derivation (:func:`eigentwist.symbolic.derive`):
@@ -14,7 +14,7 @@ space (``pose_space``), which tells the one derivation (:func:`eigentwist.symbol
   the derivatives of the first term of Eq. 13;
 * ``inertia_in_base``: the platform's spatial inertia (at its origin, platform axes) in
   base axes;
-* ``coordinates``: the names of the pose coordinates a user gives (issue 21), each one of
+* ``coordinates``: the names of the pose coordinates a user gives, each one of
   :data:`FULL` (``x, y, z`` m; ``rot_x, rot_y, rot_z`` rad, the rotation vector);
   ``followers``: the coordinates of :data:`FULL` the legs' constraints fix (solved per
   pose, :mod:`eigentwist.runtime.platform`); every other one is 0;

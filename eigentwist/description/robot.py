@@ -40,7 +40,7 @@ class Leg:
         (joint coordinates, reachability checks), ``geometry(prog, leg, q, tag)`` -> the
         named vectors, ``coordinates`` (joint index, rate of its coordinate per unit of
         q) and ``checks`` (names); see :mod:`.rrpirr`.
-    platform_body : the platform body the leg attaches to (issue 7).
+    platform_body : the platform body the leg attaches to.
     """
 
     name: str
@@ -75,7 +75,7 @@ class EECompliance:
 @dataclass(frozen=True)
 class Coupling:
     """A compliant coupling between the tool body (which carries the EE frame) and
-    another rigid body of the platform, to which some legs attach (issue 7).
+    another rigid body of the platform, to which some legs attach.
 
     ``twists`` are the m unit twists ``[omega; v]`` of the compliant directions in a
     local frame at ``origin`` (m from the EE origin) with axes ``rotation`` (columns, in
@@ -188,7 +188,7 @@ class RobotDescription:
                 return e
         return EFFECTS[name]
     constraints: tuple = ()
-    #: names of the pose coordinates (issue 15): ``x, y, z`` (m) for a 3-DoF translational robot
+    #: names of the pose coordinates: ``x, y, z`` (m) for a 3-DoF translational robot
     pose: tuple = ("x", "y", "z")
     #: how the pose enters the derivation (:mod:`.pose`): a translational platform
     pose_space: Any = field(default_factory=TranslationPose)

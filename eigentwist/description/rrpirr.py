@@ -156,7 +156,7 @@ def rrpirr_leg(name: str, base: tuple, radial: tuple, axis: tuple, attachment: t
     to the leg's connection point (m); l1, l2 : lower link and parallelogram lengths (m);
     lower_link : 6x6 spatial inertia of the lower link with its rotor in frame J_i1
     (Eqs. 21-23); parallelogram : 6x6 spatial inertia of the fictitious rod in frame C_i3
-    (Eqs. 26-29); platform_body : the platform body the leg attaches to (issue 7);
+    (Eqs. 26-29); platform_body : the platform body the leg attaches to;
     w_pi : the parallelogram width (m); with it the leg also lists the two real rods
     ``rod_a``, ``rod_b`` (at +-w_pi/2 along s_i), hanging on the Pi joint's swing about their
     own pivots, with zero inertia: the fictitious rod C3 carries their mass unless the

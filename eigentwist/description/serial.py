@@ -1,4 +1,4 @@
-"""Legs in the usual robotics form, with no closed-form inverse kinematics (issue 21).
+"""Legs in the usual robotics form, with no closed-form inverse kinematics.
 
 A :class:`SerialLeg` lists its joints from the base mounting to the platform attachment
 as URDF or Pinocchio do: each :class:`Joint`'s origin (m) and axes in its parent body's

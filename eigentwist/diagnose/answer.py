@@ -1,4 +1,4 @@
-"""The answer first: what a diagnosis found, in at most :data:`MAX_LINES` lines (issue 22).
+"""The answer first: what a diagnosis found, in at most :data:`MAX_LINES` lines.
 
 In this order, each a short sentence wrapped at :data:`WIDTH` characters:
 

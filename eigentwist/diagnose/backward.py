@@ -1,4 +1,4 @@
-"""Backward elimination after forward selection (issue 23): take back a step no longer needed.
+"""Backward elimination after forward selection: take back a step no longer needed.
 
 Forward selection adds one effect at a time; an effect added early can become unnecessary
 once a later one explains the same deviation better (a per-leg ``actuator_loss@2``

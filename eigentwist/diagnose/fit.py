@@ -10,9 +10,9 @@ bounds intersected with [p_default/1000, 1000 p_default] (``SPAN``).
 The Jacobian is, by default, a central difference in theta computed in the same evaluator
 call as the residuals (B = 1 + 2P parameter sets): measured faster than the exact one on every
 diagnosis case of ``benchmarks/diagnosis_jacobian.py`` and needing no generated sensitivity
-kernel (issue 20). ``jacobian="exact"`` (``eigentwist diagnose --jacobian exact``, or
+kernel. ``jacobian="exact"`` (``eigentwist diagnose --jacobian exact``, or
 :func:`using_jacobian`) uses the generated design sensitivities of the matched modes
-(``Predictor.predict_with_jacobian``, one kernel call with the residuals; issue 16), falling
+(``Predictor.predict_with_jacobian``, one kernel call with the residuals), falling
 back to differences, with the reason in ``FitResult.jacobian``, where no sensitivity is
 generated (gravity preload) or a row has no single mode (shape-matched rows, groups of
 near-equal modes). A coarse grid of starts (the new
@@ -49,7 +49,7 @@ STEP = 1e-2         # central-difference step in theta (1 % in p): K_F carries ~
 START_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
 ROUNDOFF = 1e-9     # relative frequency change per central-difference pair treated as none
 # The Jacobian kinds: "differences" (central, in the residuals' evaluator call) and "exact"
-# (the generated sensitivities, issue 16: one kernel for every fitted parameter of the
+# (the generated sensitivities: one kernel for every fitted parameter of the
 # catalogue and each leg's own copy, generated and compiled once per cache). Measured
 # (benchmarks/diagnosis_jacobian.py, CPU, cold and warm; benchmarks/README.md): the same
 # selections and values, differences faster on every case (1-3 parameters per fit), and the
@@ -215,7 +215,7 @@ class _Objective:
         return self.cache[key]
 
     def _exact(self, theta: np.ndarray):
-        """Residuals and the exact Jacobian in theta (generated sensitivities, issue 16)."""
+        """Residuals and the exact Jacobian in theta (generated sensitivities)."""
         values = np.array([t.value(theta[j]) for j, t in enumerate(self.tr)])
         f, dfdp = self.pred.predict_with_jacobian(self.names, values, strict=False)
         self.nfev += 1

@@ -15,13 +15,13 @@ blank lines are skipped):
   ``damping_ratio`` (-), ``phi_x``, ``phi_y``, ``phi_z`` (the measured mode shape: a real
   unit translation of the sensor point, base-frame axes) and ``sensor_x``, ``sensor_y``,
   ``sensor_z`` (the sensor's offset from the end-effector origin, m; default 0). A shape
-  measured at other DOFs (uniaxial accelerometers, a roving hammer: issue 22) is given
+  measured at other DOFs (uniaxial accelerometers, a roving hammer) is given
   per DOF: ``phi_N_x``, ``phi_N_y``, ``phi_N_z`` (the shape's component at node N along
   +X, +Y, +Z; any subset) with ``nodeN_x``, ``nodeN_y``, ``nodeN_z`` (node N's offset
   from the end-effector origin, m, platform axes; required with them). When shape
   columns are present, ``compare`` reports the MAC per row (over the row's measured
   DOFs) and matches rows to model modes by shape (:mod:`eigentwist.diagnose.shapes`);
-* optional measured joint coordinates (issue 21), e.g. encoder readings at the measured
+* optional measured joint coordinates, e.g. encoder readings at the measured
   pose: ``q<m>@<leg>`` is coordinate m of leg ``leg`` (both 1-based; ``q1@1, q2@1, q3@1,
   q1@2, ...``) in the layout of ``Evaluator.joint_angles`` (rad; m for a prismatic
   joint). Either every coordinate of every leg has a column, or none; no blank cells. The
@@ -59,10 +59,10 @@ __all__ = ["Measurements", "MeasurementError", "load_measurements", "paper_measu
            "REQUIRED", "OPTIONAL", "MODAL", "ROTATION_COLUMNS", "pose_columns", "joint_columns", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
 
 REQUIRED = ("k_a", "mode", "freq_hz")
-# measured modal data (issue 14): NaN where blank; shapes are phi_x..z, sensor_* in m
+# measured modal data: NaN where blank; shapes are phi_x..z, sensor_* in m
 MODAL = ("damping_ratio", "phi_x", "phi_y", "phi_z", "sensor_x", "sensor_y", "sensor_z")
 OPTIONAL = ("x", "y", "z", "sigma_hz") + MODAL
-#: per-DOF shape columns ``phi_N_x`` and the node positions ``nodeN_x`` they need (issue 22)
+#: per-DOF shape columns ``phi_N_x`` and the node positions ``nodeN_x`` they need
 DOF_COLUMN = re.compile(r"(phi_|node)(\d+)_([xyz])$")
 #: the rotation columns of a 6-DoF robot's poses (rotation vector, rad); ``rx, ry, rz`` stay mode labels
 ROTATION_COLUMNS = ("rot_x", "rot_y", "rot_z")

@@ -1,4 +1,4 @@
-"""Candidates that are mirror images at the measured poses: one row, not two (issue 22).
+"""Candidates that are mirror images at the measured poses: one row, not two.
 
 At a symmetric pose two legs of a symmetric robot are each other's image (the Heli4's legs
 1 and 2 at x = y = 0), so ``transmission_compliance@1`` and ``transmission_compliance@2``

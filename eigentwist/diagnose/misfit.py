@@ -1,6 +1,6 @@
 """The cause of a misfit other than a missing effect: too few rows, the stated uncertainty, outliers.
 
-Decided in this order (issue 10):
+Decided in this order:
 
 1. **Too few rows**: a candidate with k fitted parameters (the current model's and its
    own) needs n > k + 2 rows, otherwise its AICc is infinite and no test has a degree of

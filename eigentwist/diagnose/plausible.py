@@ -1,4 +1,4 @@
-"""The plausibility rule of a fitted value (issue 9 point 3; used by the selection and the answer).
+"""The plausibility rule of a fitted value (used by the selection and the answer).
 
 A fitted value is plausible inside its parameter's plausible range (low, high), or within
 :data:`PLAUSIBLE_SIGMA` standard errors of it (relative errors for a positive range, where the

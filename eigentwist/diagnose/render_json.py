@@ -1,6 +1,6 @@
 """The JSON object of ``eigentwist diagnose --json``, rendered from a :class:`~.select.Diagnosis`.
 
-Every key of the earlier interface is kept; issue 10 adds ``steps[k].alternatives``,
+Beside the baseline, ranking, steps and final model it holds ``steps[k].alternatives``,
 ``final.alternatives`` (lists of effect names), ``outliers``, ``uncertainty`` and, per
 ranking entry, ``plausible`` and ``plausible_range``.
 """
@@ -50,7 +50,7 @@ def _final(d) -> dict:
                                      "params": a.fit.values, "param_std": a.fit.std, "aicc": a.fit.aicc,
                                      "next_measurement": a.next_measurement, "equivalent": a.equivalent}
                                     for a in d.alternatives],
-            # issue 23: alternatives that are the final model under another name (same frequencies everywhere)
+            # alternatives that are the final model under another name (same frequencies everywhere)
             "equivalent": [[a.replaced, a.by] for a in d.alternatives if a.equivalent and a.replaced]}
 
 
@@ -74,7 +74,7 @@ def diagnosis_json(d) -> dict:
     from .evaluators import evaluator
 
     out = {
-        "answer": answer(d, evaluator(d.robot)),   # the answer first (issue 22): lines and their parts
+        "answer": answer(d, evaluator(d.robot)),   # the answer first: lines and their parts
         "robot": d.robot, "n_rows": len(d.meas), "source": d.meas.source,
         "baseline": {**d.baseline.summary(), "chi2": d.baseline.chi2,
                      "failing": d.baseline.where_it_fails(), "hints": d.hints},
@@ -84,12 +84,12 @@ def diagnosis_json(d) -> dict:
         "final": _final(d),
         "next_measurement": d.next_measurement,
         "outliers": [asdict(o) for o in d.outliers],
-        "removed": [r.to_json() for r in d.removed],   # backward elimination (issue 23)
-        "setting_anomalies": [a.to_json() for a in d.setting_anomalies],   # whole settings set aside (issue 22)
+        "removed": [r.to_json() for r in d.removed],   # backward elimination
+        "setting_anomalies": [a.to_json() for a in d.setting_anomalies],   # whole settings set aside
         "uncertainty": _uncertainty(d.uncertainty) if d.uncertainty else None,
         "untestable": dict(d.untestable),
         "manual": d.manual, "alpha": d.alpha, "criteria": CRITERIA,
-        "shapes": shape_json(d),          # measured mode shapes (issue 14), else None
+        "shapes": shape_json(d),          # measured mode shapes, else None
         "parameters": d.parameters,       # the values used: default, given (--set), data column, fitted
     }
     if d.all_rows is not None:

@@ -137,7 +137,7 @@ def _head(d) -> str:
 
 
 def _why(d) -> str:
-    """Why the final model misfits, in the order of issue 10: rows, uncertainty, effects."""
+    """Why the final model misfits, in this order: rows, uncertainty, effects."""
     u = d.uncertainty
     last = d.steps[-1].ranking
     if d.manual:
@@ -249,7 +249,7 @@ def component_sentences(d, ev) -> list[str]:
 
 def verdict_text(d, ev=None) -> str:
     """The verdict in sentences: explained or not and why, too few rows, the uncertainty,
-    outliers, alternative final models, implausible fits (issue 10's order)."""
+    outliers, alternative final models, implausible fits, in this order."""
     if ev is None:
         from .evaluators import evaluator
 

@@ -1,5 +1,5 @@
 """Effects in a diagnosis: all legs or one leg (``EFFECT@N``), their fitted parameters,
-and the per-leg candidates (issue 11, point 4).
+and the per-leg candidates.
 
 A leg-level effect is offered for all legs and for each leg alone, even when the model
 already has it on all legs: ``actuator_loss@3`` fits ``eta_a@3``, leg 3's own value.

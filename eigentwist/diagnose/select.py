@@ -30,7 +30,7 @@
 6. Outliers: isolated rows beyond the alpha/n threshold (:mod:`.misfit`) are set aside
    and the selection rerun without them; the all-rows result is kept beside. Then whole
    settings (pose x k_a) that fit the model at another k_a or pose far better than at
-   their own (:mod:`.settings`, issue 22) are set aside the same way.
+   their own (:mod:`.settings`) are set aside the same way.
 7. The stated uncertainty is judged from the final model's Birge ratio (:mod:`.misfit`).
 
 An effect that shares parameters with one already in the model (two descriptions of the

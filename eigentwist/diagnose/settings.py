@@ -1,4 +1,4 @@
-"""Whole settings that do not belong (issue 22): a setting (pose x k_a) written wrong.
+"""Whole settings that do not belong: a setting (pose x k_a) written wrong.
 
 A lab's commonest error is a setting written with the wrong k_a (or pose): all its modes
 then deviate together, so the isolated-row check (:mod:`.misfit`) rightly calls it a

@@ -10,7 +10,7 @@ translation of the end-effector origin, m) transported to the sensor at offset `
     u = v + omega x r = T(r) t,   T(r) = [-[r]x, I3]   (3 x 6).
 
 A rigid model (3x3, translations only) has no rotation: ``u = v`` whatever ``r``.
-A shape measured over other DOFs (issue 22: uniaxial accelerometers at several nodes, a
+A shape measured over other DOFs (uniaxial accelerometers at several nodes, a
 roving hammer) is compared through its projection ``P`` (D, 6), rows ``e_d^T T(r_d)``
 (direction e_d at node r_d; :attr:`.measurements.Measurements.shape_projection`): the
 model's shape there is ``P t``. Every function below taking ``sensor`` offsets (..., 3)

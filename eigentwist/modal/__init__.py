@@ -1,7 +1,7 @@
-"""Modal-test data: UFF files in, identified modes and mode shapes out (issue 14).
+"""Modal-test data: UFF files in, identified modes and mode shapes out.
 
 Modules, one job each: :mod:`.uff_io` (UFF datasets 58, 55, 15/2411 through pyuff),
-:mod:`.layout` (measured DOFs on the platform and the model's shape there, issue 22),
+:mod:`.layout` (measured DOFs on the platform and the model's shape there),
 :mod:`.frf` (a model's FRFs from M, K and modal damping), :mod:`.identify` (LSCF poles,
 automatic stabilisation, LSFD shapes for one setting), :mod:`.campaign` (the manifest and
 the identification of a campaign into a measurement CSV), :mod:`.synth` (synthetic

@@ -1,4 +1,4 @@
-"""The lowest mode shapes as animations: an SVG for the HTML report, a GIF for slides (issue 22).
+"""The lowest mode shapes as animations: an SVG for the HTML report, a GIF for slides.
 
 The robot is drawn as in :func:`~.robot.plot_modes` (from its description's legs and the
 generated inverse kinematics, :func:`~.robot.robot_geometry`); the platform and the links

@@ -112,7 +112,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     else:
         from ..modal.report import campaign_section, is_manifest
 
-        if is_manifest(data):       # a modal-test campaign: identify it first (issue 14)
+        if is_manifest(data):       # a modal-test campaign: identify it first
             meas, campaign_html = campaign_section(data, ev)
         else:
             meas = load_measurements(data, robot, ev, values)

@@ -1,4 +1,4 @@
-"""Figures of the report that show rather than tell (issue 22): the lowest frequency over the
+"""Figures of the report that show rather than tell: the lowest frequency over the
 workspace, the MAC matrix of measured vs model mode shapes, the animated mode shapes.
 
 Pure computations returning plain data (and PNG bytes); :mod:`.build` puts them in the

@@ -1,4 +1,4 @@
-"""Where a report comes from (issue 23): eigentwist version, date, command line, and the
+"""Where a report comes from: eigentwist version, date, command line, and the
 SHA-256 of every input file, so that a reader can check that the report belongs to the data.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A Delta robot (3-RR(Pi)RR): three legs at 0, 120 and 240 degrees (issue 6).
+"""A Delta robot (3-RR(Pi)RR): three legs at 0, 120 and 240 degrees.
 
 The same joint types as the Heli4, so this description is all the Delta needs: the
 derivation, code generation, runtime and diagnosis are shared. Actuated revolute joints
@@ -81,7 +81,7 @@ def describe() -> RobotDescription:
         actuator_stiffness=p["k_a"],
         rigid_compliance=p["c_rigid"],
         workspace=((-0.2, 0.2), (-0.2, 0.2), (-0.95, -0.60)),
-        source="description in eigentwist/robots/delta.py (issue 6); method DOI 10.1016/j.mechmachtheory.2019.103775",
+        source="description in eigentwist/robots/delta.py; method DOI 10.1016/j.mechmachtheory.2019.103775",
         effects=EFFECTS,
         # the catalogue's presets: actuator_loss carries the Heli4's measured eta_a = 0.82
         presets=dict(PRESETS),

@@ -84,7 +84,7 @@ def describe() -> RobotDescription:
                    platform_body=body, w_pi=p["w_pi"])
         for (name, u, s, a), body in zip(layout, plates)
     )
-    # issue 7: the tool body T couples to plate A through a rotation about Y through the
+    # the tool body T couples to plate A through a rotation about Y through the
     # lower plate centre (k_E_rot) and to plate B through a translation along Y (k_E_lin)
     couplings = (
         Coupling("plate_A", (0, 0, d), ((0, 1, 0, 0, 0, 0),), (p["k_E_rot"],),

@@ -1,4 +1,4 @@
-"""The Gough-Stewart hexapod (6-UPS) as joint lists (issue 15).
+"""The Gough-Stewart hexapod (6-UPS) as joint lists.
 
 Six legs, each a universal joint on the base, a prismatic actuator and a spherical
 joint on the platform. Base U joints on a circle of radius R_b at -10, 10, 110, 130,
@@ -119,9 +119,9 @@ def describe() -> ChainRobot:
         actuator_stiffness=p["k_a"],
         x_ref=(0.0, 0.0, 0.80, 0.0, 0.0, 0.0),
         workspace=((-0.1, 0.1), (-0.1, 0.1), (0.70, 0.90), (-0.1, 0.1), (-0.1, 0.1), (-0.2, 0.2)),
-        source="description in eigentwist/robots/hexapod.py (issue 15); method DOI 10.1016/j.mechmachtheory.2019.103775",
+        source="description in eigentwist/robots/hexapod.py; method DOI 10.1016/j.mechmachtheory.2019.103775",
         effects=EFFECTS,
         # the bare strut stiffness k_a: the catalogue's "paper" and "rigid" carry the Heli4's
-        # measured actuator loss (eta_a = 0.82), not this robot's (issue 20); add it by name
+        # measured actuator loss (eta_a = 0.82), not this robot's; add it by name
         presets={"rigid": (), "paper": (), "coupled": ()},
     )

@@ -1,4 +1,4 @@
-"""The platform's allowed twists and the rigid model on them (issue 21).
+"""The platform's allowed twists and the rigid model on them.
 
 The rigid model (Eq. 14) acts on the twists the legs allow the platform: the null space
 of their constraint wrenches at the pose. Each constraint wrench reaches the runtime as

@@ -129,7 +129,7 @@ def load_c_kernels(robot: str, numpy_module=None, source: str | None = None) -> 
     lib, sig, build = compile_and_load(robot, source)
     kernels = CKernels(lib, sig, build)
     if numpy_module is not None:
-        # the followers kernel of a lower-mobility pose space is NumPy's alone (issue 21)
+        # the followers kernel of a lower-mobility pose space is NumPy's alone
         want = {k: {o: tuple(s) for o, s in v.items()} for k, v in getattr(numpy_module, "OUTPUTS", {}).items()
                 if k != "followers"}
         if want and want != kernels.OUTPUTS:

@@ -1,4 +1,4 @@
-"""Rigid constraints condensed exactly, and the eigenproblem in compliance form (issue 20).
+"""Rigid constraints condensed exactly, and the eigenproblem in compliance form.
 
 The paper gives a leg's ideally rigid constrained directions a small compliance so that
 K_F (Eq. 13) is full rank (Sec. 2.2); with 1e-12 rad/(N m) K_F spans 1e12 to 1e4 and
@@ -144,7 +144,7 @@ def condensed_compliance(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray 
 
     Je : (N, legs, e, 6) and Cq : (N, legs, e, e) as in :func:`leg_condensation`;
     K_parallel : optional (N, 6, 6) stiffness in parallel (ground springs, a preload).
-    Legs on a platform body coupled to the tool (issue 7): ``bodies`` (legs,) gives each
+    Legs on a platform body coupled to the tool: ``bodies`` (legs,) gives each
     leg's coupling index (-1: the tool body), ``G_c`` (N, couplings, 6, m) the couplings'
     unit twists at the EE origin and ``K_c`` (N, couplings, m) their stiffnesses; the body
     moves with ``t - G_c theta`` (``theta``: the coupling's m coordinates, condensed

@@ -58,7 +58,7 @@ class Modes:
         unless the evaluator found one.
     constrained : (N, n) bool, True where a column is a rigid constraint's mode (infinite
         frequency: the value there is K_F's stand-in, ~1e6 Hz, not a measurable mode); None
-        when no column is (issue 20, :mod:`.condense`).
+        when no column is (:mod:`.condense`).
     shares : (N, n, n) each coordinate's share of each mode's energy
         (:func:`eigentwist.runtime.labels.energy_shares`) where the evaluator had M at hand
         (the C pass of a flexible model); None: computed from the eigentwists when needed.
@@ -202,7 +202,7 @@ class Evaluator:
             p = {**p, **self.kernel_pose_inputs(poses)}
         else:
             # a translational robot's legs may read the position beyond the IK (a joint-list
-            # leg's closed form, issue 21): its kernels take it by name, the others ignore it
+            # leg's closed form): its kernels take it by name, the others ignore it
             p = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
         return {**p, **self.numeric_joints(poses, p)} if self.numeric_ik else p
 
@@ -740,7 +740,7 @@ class Evaluator:
         return modes
 
 
-    # ------------------------------------------- rigid constraints exact (issue 20)
+    # ------------------------------------------- rigid constraints exact
     def _route(self, effects, params: dict) -> tuple[dict, bool]:
         """How :meth:`modes` solves ``effects`` exactly: ``(params, condense)``.
 
@@ -770,7 +770,7 @@ class Evaluator:
         (``c_rigid`` = 0 where no leg of the model has a rigid constraint direction: then
         :meth:`matrices` with them gives the K_F of the frequencies), and whether its
         finite modes come from the exact condensation instead (rigid directions; K_F then
-        keeps the ``c_rigid`` penalty). Issue 20; :mod:`.condense`."""
+        keeps the ``c_rigid`` penalty); :mod:`.condense`."""
         return self._route(self._resolve(model), params)
 
     def _probe_rigid(self, effects, params: dict) -> bool:

@@ -1,4 +1,4 @@
-"""Inverse kinematics without algebra: a damped Newton method on the loop closure (issue 21).
+"""Inverse kinematics without algebra: a damped Newton method on the loop closure.
 
 A leg written in URDF form (:mod:`eigentwist.description.serial`) has no closed-form IK.
 Its generated ``loop_closure`` kernel (NumPy or C) gives, at joint coordinates ``q`` and a

@@ -1,4 +1,4 @@
-"""From the user's pose coordinates to the full platform pose the kernels read (issue 21).
+"""From the user's pose coordinates to the full platform pose the kernels read.
 
 A pose space (:mod:`eigentwist.description.pose`) names the coordinates a user gives
 (``coordinates``) among the six of a rigid platform (``FULL``: x, y, z in m, then the

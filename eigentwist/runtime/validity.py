@@ -21,13 +21,13 @@ STATUS = {"ok": 0, "unreachable": 1, "singular": 2, "not_finite": 3, "unstable":
 IK_CHECKS = {
     "sin_q3": "the parallelogram cannot tilt that far",
     "cos_q2": "the lower link and parallelogram cannot span that distance",
-    # the hexapod (issue 15): the strut along its base U joint's fixed axis locks the joint;
+    # the hexapod: the strut along its base U joint's fixed axis locks the joint;
     # a zero leg length makes the strut direction NaN, which fails here too
     "cos_u": "the strut lies along its U joint's fixed axis or has zero length",
-    # a leg of a described robot (issue 21, examples/robots/): a cosine or sine of its
+    # a leg of a described robot (examples/robots/): a cosine or sine of its
     # closed-form IK, out of [-1, 1] where the leg cannot span the distance
     "reach": "the leg cannot span that distance",
-    # a leg solved numerically (issue 21): Newton's method did not close its loop from the
+    # a leg solved numerically: Newton's method did not close its loop from the
     # reference configuration, or converged on another assembly branch
     "closure": "Newton's method found no configuration of the leg that closes its loop on the description's "
                "assembly branch (out of reach, or past a singularity)",

@@ -61,7 +61,7 @@ class _Symbols(dict):
 
 
 def closures(robot):
-    """``(program, outputs)`` of the legs' closure equations (issue 21), or None when the
+    """``(program, outputs)`` of the legs' closure equations, or None when the
     robot's pose space has no followers (:class:`~eigentwist.description.pose.LowerMobilityPose`).
 
     Over the pose inputs (x, y, z m and the rotation matrix R_ij) and the parameters:

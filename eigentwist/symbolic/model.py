@@ -187,7 +187,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
     K_R = K_ground
     K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all, k_acts, G = [], [], [], [], [], [], []
-    Cq_phys = []                  # each leg's joint compliance without rigid_compliance (issue 20)
+    Cq_phys = []                  # each leg's joint compliance without rigid_compliance
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
         ls = leg_screws(prog, leg, q, pose, tag)
@@ -239,7 +239,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
 
 def _legs_outputs(robot: RobotDescription, Je_all: list, Cq_phys: list, K_ground: sp.Matrix) -> dict:
     """Outputs of the ``legs`` kernel: what the exact condensation of rigid constraints
-    (:mod:`eigentwist.runtime.condense`, issue 20) needs instead of K_F's penalty.
+    (:mod:`eigentwist.runtime.condense`) needs instead of K_F's penalty.
 
     ``Je`` (legs, e, 6): each leg's elastic-joint rows (the actuated joint, then the
     virtual joints; twists ``[omega; v]``); ``Cq`` (legs, e, e): their compliance
@@ -394,7 +394,7 @@ def _preload_wrench(S: sp.Matrix, fx: EffectSymbols) -> sp.Matrix:
 
 
 def _platform_stiffness(prog: Program, robot: RobotDescription, K_groups: dict, fx: EffectSymbols) -> sp.Matrix:
-    """K_F as the sum over platform bodies (issue 7): legs on the tool body add directly,
+    """K_F as the sum over platform bodies: legs on the tool body add directly,
     legs on a body coupled to the tool add through the condensed coupling."""
     couplings = {c.body: c for c in robot.couplings}
     unknown = sorted(set(K_groups) - set(couplings) - {robot.tool_body})

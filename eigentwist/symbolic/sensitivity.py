@@ -169,7 +169,7 @@ def _seeds_of(name: str, declared: dict):
     """The program inputs whose tangent is 1 for a derivative with respect to ``name``.
 
     ``P``: P itself and, for a leg-level parameter, each leg's own input ``P__N``
-    (issue 11): with every leg at the shared value, d(P__N)/dP = 1 for each of them.
+    (a copy of P per leg): with every leg at the shared value, d(P__N)/dP = 1 for each of them.
     ``P@N`` (one leg's own value): ``P__N`` alone. None when ``name`` is no input.
     """
     base, at, leg = name.partition("@")

@@ -46,7 +46,7 @@ def condense_coupling(prog, Kp: sp.Matrix, G: sp.Matrix, Kc: sp.Matrix, switch, 
 
     ``Kp`` (6x6) is the legs' Cartesian stiffness at the EE origin, ``G`` (6xm) the
     coupling's unit twists at the EE origin, ``Kc`` (mxm) its stiffness. Condensing the
-    coupling coordinates in closed form gives (issue 7)::
+    coupling coordinates in closed form gives::
 
         Kp - Kp G (G^T Kp G + Kc)^-1 G^T Kp
 

@@ -73,5 +73,5 @@ def describe() -> ChainRobot:
         platform_inertia=spatial_inertia(p["m_pl"], sp.zeros(3, 1), sp.diag(4e-4, 4e-4, 6e-4) * p["m_pl"] / 0.6),
         actuator_stiffness=p["k_a"], x_ref=(0.0, 0.0, 0.0), pose=("x", "y", "z"),
         workspace=((-0.05, 0.05), (-0.05, 0.05), (-0.05, 0.05)), pose_space=TranslationPose(),
-        source="examples/robots/linear_delta.py (eigentwist gallery, issue 21); illustrative values",
+        source="examples/robots/linear_delta.py (eigentwist gallery); illustrative values",
         effects=("actuator_loss", "payload_mass"), rigid_compliance=p["c_rigid"])

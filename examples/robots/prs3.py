@@ -67,5 +67,5 @@ def describe() -> ChainRobot:
         platform_inertia=spatial_inertia(p["m_pl"], sp.zeros(3, 1), sp.diag(p["I_pl_xx"], p["I_pl_xx"], p["I_pl_zz"])),
         actuator_stiffness=p["k_a"], x_ref=(0.60, 0.0, 0.0), pose=("z", "rot_x", "rot_y"),
         workspace=((0.55, 0.65), (-0.15, 0.15), (-0.15, 0.15)), pose_space=LowerMobilityPose(("z", "rot_x", "rot_y")),
-        source="examples/robots/prs3.py (eigentwist gallery, issue 21); illustrative values",
+        source="examples/robots/prs3.py (eigentwist gallery); illustrative values",
         effects=("actuator_loss", "payload_mass"), rigid_compliance=p["c_rigid"])

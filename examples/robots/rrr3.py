@@ -78,5 +78,5 @@ def describe() -> ChainRobot:
         platform_inertia=spatial_inertia(p["m_pl"], sp.zeros(3, 1), sp.diag(p["I_pl_xx"], p["I_pl_xx"], p["I_pl_zz"])),
         actuator_stiffness=p["k_a"], x_ref=(0.0, 0.0, 0.0), pose=("x", "y", "rot_z"),
         workspace=((-0.05, 0.05), (-0.05, 0.05), (-0.3, 0.3)), pose_space=PlanarPose(),
-        source="examples/robots/rrr3.py (eigentwist gallery, issue 21); illustrative values",
+        source="examples/robots/rrr3.py (eigentwist gallery); illustrative values",
         effects=("actuator_loss", "payload_mass"), rigid_compliance=p["c_rigid"])

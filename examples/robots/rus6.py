@@ -68,5 +68,5 @@ def describe() -> ChainRobot:
                                                                                                 p["I_pl_zz"])),
         actuator_stiffness=p["k_a"], x_ref=(0.0, 0.0, 0.22, 0.0, 0.0, 0.0),
         workspace=((-0.03, 0.03), (-0.03, 0.03), (0.20, 0.24), (-0.1, 0.1), (-0.1, 0.1), (-0.15, 0.15)),
-        source="examples/robots/rus6.py (eigentwist gallery, issue 21); illustrative values",
+        source="examples/robots/rus6.py (eigentwist gallery); illustrative values",
         effects=("actuator_loss", "payload_mass"))

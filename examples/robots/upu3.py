@@ -71,5 +71,5 @@ def describe() -> ChainRobot:
                                                                                                 p["I_pl_zz"])),
         actuator_stiffness=p["k_a"], x_ref=(0.0, 0.0, HOME), pose=("x", "y", "z"),
         workspace=((-0.05, 0.05), (-0.05, 0.05), (0.25, 0.35)), pose_space=TranslationPose(),
-        source="examples/robots/upu3.py (eigentwist gallery, issue 21); illustrative values",
+        source="examples/robots/upu3.py (eigentwist gallery); illustrative values",
         effects=("actuator_loss", "payload_mass"), rigid_compliance=p["c_rigid"])
