@@ -181,7 +181,6 @@ def test_generation_renders_every_backend(rendered):
 
 
 def test_units_follow_the_joint_kind(robot):
-    assert robot.actuator_unit == "N/m"
     assert robot.parameter("k_a").unit == "N/m"
     assert robot.parameter("k_s").unit == "N/m"
 

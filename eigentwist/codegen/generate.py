@@ -18,7 +18,7 @@ from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
 
-__all__ = ["GENERATED", "derive_any", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS",
+__all__ = ["GENERATED", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS",
            "PROGRESS_STEPS"]
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
@@ -82,11 +82,6 @@ def kernels_for(model, progress=None) -> list[Kernel]:
     return kernels
 
 
-def generated_inputs(robot) -> list[str]:
-    """The effect inputs of ``robot``'s generated code: switches and leg copies."""
-    return [s.name for s in EffectSymbols(robot).inputs()]
-
-
 def fused_kernels_for(model) -> list[Kernel]:
     """Kernels only the C backend's fused pass uses: ``matrices_lever`` (M, K_R, K_F and
     the jacobians kernel's ``lever``, CSE'd together: the levers are intermediates of K_R,
@@ -99,12 +94,6 @@ def fused_kernels_for(model) -> list[Kernel]:
     outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))
     return [build_kernel("matrices_lever", KERNEL_DOCS["matrices_lever"], model.program, outs, [], model.joints, params,
                          joints_per_leg(model))]
-
-
-def derive_any(description):
-    """The :class:`~eigentwist.symbolic.model.DerivedModel` of any description, by the one
-    derivation :func:`~eigentwist.symbolic.derive` (kept as a name for its callers)."""
-    return derive(description)
 
 
 def _template_text(backend: str) -> str:
@@ -136,7 +125,7 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
     t0 = time.perf_counter()
     if progress:
         progress(f"{name}: derive")
-    model = derive_any(description)
+    model = derive(description)
     t1 = time.perf_counter()
     kernels = kernels_for(model, progress=(lambda m: progress(f"{name}: {m}")) if progress else None)
     t2 = time.perf_counter()

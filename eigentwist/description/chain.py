@@ -281,8 +281,3 @@ class ChainRobot:
     @property
     def defaults(self) -> dict[str, float]:
         return {p.name: p.default for p in self.parameters}
-
-    @property
-    def actuator_unit(self) -> str:
-        """Unit of k_a from the actuated joint's kind: N/m (P) or N m/rad (R)."""
-        return "N/m" if self.legs[0].actuated.kind == "P" else "N m/rad"
