@@ -3,7 +3,7 @@
 // Source hash: sha256:8f48fd4a765e90c15d83641d38764c039d5acd31586c786b457ef85953e31e0f
 /*
  * Closed-form natural-frequency model of the Delta robot (3-RR(Pi)RR): generated C evaluator.
- * Method: description in eigentwist/robots/delta.py (issue 6); method DOI 10.1016/j.mechmachtheory.2019.103775.
+ * Method: description in eigentwist/robots/delta.py; method DOI 10.1016/j.mechmachtheory.2019.103775.
  *
  * Every exported function works on a batch of n poses in blocks of ET_BLOCK, one pose
  * per SIMD lane (structure-of-arrays inside a block):
@@ -6170,7 +6170,7 @@ int et_delta_gravity(int64_t et_n, const double *const *et_in, const int64_t *et
 }
 
 /*
- * legs: Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints (issue 20). *
+ * legs: Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints. *
  * in[k] (stride[k]), in this order:
  *   0: q1_1: joint angle of leg 1, joint 1 (rad)
  *   1: q2_1: joint angle of leg 1, joint 2 (rad)

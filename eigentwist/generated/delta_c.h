@@ -3,7 +3,7 @@
 // Source hash: sha256:8f48fd4a765e90c15d83641d38764c039d5acd31586c786b457ef85953e31e0f
 /*
  * et_delta: the Delta robot (3-RR(Pi)RR)'s closed-form natural-frequency model as a C library.
- * Method: description in eigentwist/robots/delta.py (issue 6); method DOI 10.1016/j.mechmachtheory.2019.103775.
+ * Method: description in eigentwist/robots/delta.py; method DOI 10.1016/j.mechmachtheory.2019.103775.
  *
  * Build with the generated source beside this header (C99; the header also includes
  * cleanly from C++, whose callers link against the C object):

@@ -7,7 +7,7 @@ Generated NumPy evaluator: every function takes arrays that broadcast against ea
 other (one entry per pose) and returns a dict of float64 arrays.
 
 Units: lengths m, angles rad, masses kg, inertias kg m^2, stiffnesses N/m, N m/rad,
-Young's moduli Pa. Source of the method: description in eigentwist/robots/delta.py (issue 6); method DOI 10.1016/j.mechmachtheory.2019.103775.
+Young's moduli Pa. Source of the method: description in eigentwist/robots/delta.py; method DOI 10.1016/j.mechmachtheory.2019.103775.
 """
 from numpy import arccos, arcsin, arctan2, broadcast_shapes, cos, empty, pi, shape, sin, sqrt  # noqa: F401
 
@@ -7514,7 +7514,7 @@ def gravity(q, p):
 
 
 def legs(q, p):
-    """Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints (issue 20).
+    """Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints.
 
     Arguments (in order): q: joint angles (rad), shape (N, legs, 3) as (q1, q2, q3) per leg; p: parameters.
     ``p`` maps each parameter name used here to a scalar or an array that broadcasts

@@ -6735,7 +6735,7 @@ int et_heli4_gravity(int64_t et_n, const double *const *et_in, const int64_t *et
 }
 
 /*
- * legs: Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints (issue 20). *
+ * legs: Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints. *
  * in[k] (stride[k]), in this order:
  *   0: q1_1: joint angle of leg 1, joint 1 (rad)
  *   1: q2_1: joint angle of leg 1, joint 2 (rad)

@@ -8070,7 +8070,7 @@ def gravity(q, p):
 
 
 def legs(q, p):
-    """Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints (issue 20).
+    """Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints.
 
     Arguments (in order): q: joint angles (rad), shape (N, legs, 3) as (q1, q2, q3) per leg; p: parameters.
     ``p`` maps each parameter name used here to a scalar or an array that broadcasts

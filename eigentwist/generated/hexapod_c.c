@@ -3,7 +3,7 @@
 // Source hash: sha256:48dcc46e9c37cc05aadbf1e6c8f0b8a491416f7e713e4e3716d9bd9d2f1c4462
 /*
  * Closed-form natural-frequency model of the Gough-Stewart hexapod (6-UPS): generated C evaluator.
- * Method: description in eigentwist/robots/hexapod.py (issue 15); method DOI 10.1016/j.mechmachtheory.2019.103775.
+ * Method: description in eigentwist/robots/hexapod.py; method DOI 10.1016/j.mechmachtheory.2019.103775.
  *
  * Every exported function works on a batch of n poses in blocks of ET_BLOCK, one pose
  * per SIMD lane (structure-of-arrays inside a block):
@@ -8041,7 +8041,7 @@ int et_hexapod_gravity(int64_t et_n, const double *const *et_in, const int64_t *
 }
 
 /*
- * legs: Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints (issue 20). *
+ * legs: Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints. *
  * in[k] (stride[k]), in this order:
  *   0: l_1: actuated coordinate of leg 1 (m for a prismatic actuator)
  *   1: l_2: actuated coordinate of leg 2 (m for a prismatic actuator)

@@ -3,7 +3,7 @@
 // Source hash: sha256:48dcc46e9c37cc05aadbf1e6c8f0b8a491416f7e713e4e3716d9bd9d2f1c4462
 /*
  * et_hexapod: the Gough-Stewart hexapod (6-UPS)'s closed-form natural-frequency model as a C library.
- * Method: description in eigentwist/robots/hexapod.py (issue 15); method DOI 10.1016/j.mechmachtheory.2019.103775.
+ * Method: description in eigentwist/robots/hexapod.py; method DOI 10.1016/j.mechmachtheory.2019.103775.
  *
  * Build with the generated source beside this header (C99; the header also includes
  * cleanly from C++, whose callers link against the C object):
