@@ -99,7 +99,7 @@ def skip_tier(tier: str, reason: str):
     pytest.skip(f"{tier} tier skipped: {reason}")
 
 
-# ------------------------------------------------------------ tiers (issue 20: make test-fast)
+# ------------------------------------------------------------ tiers (make test-fast)
 #: ``EIGENTWIST_TEST_BACKEND=numpy`` (``make test-fast``): evaluators asked for ``backend="auto"``
 #: use the generated NumPy module, so the fast tier never starts the compiler
 TEST_BACKEND_ENV = "EIGENTWIST_TEST_BACKEND"
@@ -145,7 +145,7 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.compiled)
 
 
-# ------------------------------------------------------------ xdist scheduling (issue 20)
+# ------------------------------------------------------------ xdist scheduling
 # pytest-xdist 3.8's ``--dist loadgroup`` appends ``@group`` to ``item._nodeid``, which
 # pytest 9 no longer reads (``Node.nodeid`` is ``str(item._id)``): ``xdist_group`` marks are
 # ignored and a module's tests spread over every worker, each computing the module's

@@ -1,4 +1,4 @@
-"""The cases of issue 10 as data: synthetic measurements per seed and what a right diagnosis says.
+"""The diagnosis cases as data: synthetic measurements per seed and what a right diagnosis says.
 
 Shared by ``tests/test_diagnose_seeds.py`` and ``benchmarks/diagnosis_seeds.py`` (the
 figures of the closing note). Every case draws its truth's nuisance parameters (eta_a

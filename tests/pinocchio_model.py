@@ -1,4 +1,4 @@
-"""Pinocchio as an independent engine for the tests (issue 21); never imported by the package.
+"""Pinocchio as an independent engine for the tests; never imported by the package.
 
 Each leg of a parallel robot becomes its own kinematic tree in Pinocchio (a
 ``pin.Model``: revolute, prismatic, universal = two revolute, spherical, and the

@@ -1,4 +1,4 @@
-"""The answer first (issue 22): a diagnosis opens with at most 8 lines of at most 100
+"""The answer first: a diagnosis opens with at most 8 lines of at most 100
 characters holding the verdict, the effect added with its value, and the next measurement;
 candidates that are mirror images at the measured poses are one row.
 

@@ -1,4 +1,4 @@
-"""Backward elimination (issue 23) and a sigma verdict that cannot contradict itself.
+"""Backward elimination and a sigma verdict that cannot contradict itself.
 
 An effect added early that the final model no longer needs is removed, with the reason;
 needed effects stay. Truth and data from synth (the catalogue's payload), so what is

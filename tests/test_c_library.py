@@ -1,4 +1,4 @@
-"""The generated C as a library (issue 23): ``<robot>_c.h`` and the entry points behind it.
+"""The generated C as a library: ``<robot>_c.h`` and the entry points behind it.
 
 Rendering checks need no compiler; the compiled tier builds a C program (C99) and a C++
 program against the header and the checked-in generated source, as a user would, and
@@ -178,7 +178,7 @@ def _scoped_values(desc) -> tuple[str, dict]:
 def _library_frequencies(ev, poses, model, values):
     """What the standalone library computes: ``ev.frequencies``, except that a flexible
     model of legs with rigid constraints solves K_F with its c_rigid penalty there, where
-    the evaluator condenses the constraints exactly (issue 20): those agree to 1e-5."""
+    the evaluator condenses the constraints exactly: those agree to 1e-5."""
     from eigentwist.description.effects import resolve_model
     from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh
 

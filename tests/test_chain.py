@@ -1,4 +1,4 @@
-"""Huang's method on joint lists (issue 15): the rows are those of the inverse twist matrix.
+"""Huang's method on joint lists: the rows are those of the inverse twist matrix.
 
 :func:`eigentwist.symbolic.leg.leg_screws` builds each leg's unit twists from its joint
 list (a table from the joint kind to its twists) and the inverse-Jacobian rows from
@@ -69,7 +69,7 @@ def test_hexapod_actuated_row_is_the_strut_line():
         K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
         R = np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
         d = {**robot.defaults}
-        b_deg, a_deg = (130, 170)                          # leg 4's joints (issue 15)
+        b_deg, a_deg = (130, 170)                          # leg 4's joints
         b = d["R_b"] * np.array([np.cos(np.radians(b_deg)), np.sin(np.radians(b_deg)), 0])
         top = x + R @ (d["R_p"] * np.array([np.cos(np.radians(a_deg)), np.sin(np.radians(a_deg)), 0]))
         strut = top - b

@@ -1,7 +1,7 @@
-"""The Heli4, Delta and hexapod give every output they gave before (issue 15).
+"""The Heli4, Delta and hexapod give every output of their pinned hand-built derivations.
 
 ``tests/data/chain_pin.npz`` holds every output of the evaluators generated from the
-hand-built RR(Pi)RR leg (wrenches written out in ``symbolic/leg.py``, before issue 15),
+hand-built RR(Pi)RR leg (wrenches written out in ``symbolic/leg.py``, commit 0f7cd9b),
 at 20 reachable poses per robot, with every effect off, every effect on at the default
 values, and every effect on at moved values (each leg its own); see
 ``tests/data/make_chain_pin.py``. The evaluators generated today (from the joint lists
@@ -45,7 +45,7 @@ def _pose_inputs(robot: str) -> dict:
 
 
 def _pinned_inputs(robot: str, case: str) -> dict:
-    """The pinned parameter inputs; the switch of an effect added after the pin (issue 21:
+    """The pinned parameter inputs; the switch of an effect added after the pin (here:
     ``swinging_rods``) is off, so the pinned outputs still apply."""
     p = dict(zip(PIN[f"{robot}/{case}/names"].tolist(), PIN[f"{robot}/{case}/values"]))
     for name in EffectSymbols(get(robot)).switches():

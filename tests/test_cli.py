@@ -81,7 +81,7 @@ def test_reproduce_main_job(capsys):
     assert "Eq. 58 K_F" in out and "Table E.2" in out and "within print rounding" in out
 
 
-# ------------------------------------------------------------ issue 12.2 and 12.6
+# ------------------------------------------ what the commands print: frequencies, pipes, errors, warnings
 def test_matrices_rigid_prints_the_frequencies_of_its_printed_matrices():
     """The rigid model's frequencies are those of the printed M, K_R (3x3 translational
     subsets), and the output says so; no flexible frequencies of another model."""

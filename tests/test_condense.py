@@ -1,4 +1,4 @@
-"""Rigid constraints condensed exactly (issue 20, runtime/condense.py).
+"""Rigid constraints condensed exactly (runtime/condense.py).
 
 Expectations: the rigid model on the allowed twists (the 3x3 subsets of M and K_R, issue
 21), independent of the condensation's own null-space basis; the limit of a structure
@@ -96,7 +96,7 @@ def test_exact_model_is_well_conditioned():
 
 
 def test_coupled_platform_bodies_condensed_exactly():
-    """Legs on plates coupled to the tool (``ee_coupling``, issue 7): the exact route's
+    """Legs on plates coupled to the tool (``ee_coupling``): the exact route's
     finite modes equal the penalty K_F's (which condenses the coupling in closed form) to
     its penalty error, and a coupling 1e6 times stiffer gives the uncoupled model."""
     ev = eigentwist.load("heli4", backend="numpy")

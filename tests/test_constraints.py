@@ -1,4 +1,4 @@
-"""Parameters are checked together, not only one by one (issue 13)."""
+"""Parameters are checked together, not only one by one."""
 from __future__ import annotations
 
 import subprocess

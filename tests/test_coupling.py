@@ -1,4 +1,4 @@
-"""End-effector assembly as bodies joined by compliant couplings (issue 7)."""
+"""End-effector assembly as bodies joined by compliant couplings."""
 from __future__ import annotations
 
 import numpy as np

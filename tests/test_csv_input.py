@@ -1,4 +1,4 @@
-"""Measurement files as people export them (issue 12.5) and their faults (issue 13):
+"""Measurement files as people export them and their faults:
 separators, decimal commas, encodings, duplicated rows, columns the model cannot use,
 and a property test that malformed text is always one error line, never a traceback."""
 from __future__ import annotations

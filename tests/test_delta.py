@@ -1,4 +1,4 @@
-"""The Delta robot from a description alone (issue 6): symmetry and full rank."""
+"""The Delta robot from a description alone: symmetry and full rank."""
 from __future__ import annotations
 
 import numpy as np

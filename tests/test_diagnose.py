@@ -42,7 +42,7 @@ SCENARIOS = {
     "payload_mass": ("paper+payload_mass:m_p=0.5", "paper", {"m_p": 0.5}, KA),
     # a gearbox adding 3e-3 kg m^2 per actuated axis
     "rotor_inertia": ("paper+rotor_inertia:I_add=3e-3", "paper", {"I_add": 3e-3}, KA),
-    # the parallelogram's rods as they move (issue 21): switched, no parameter to fit
+    # the parallelogram's rods as they move: switched, no parameter to fit
     "swinging_rods": ("paper+swinging_rods", "paper", {}, KA),
     # Earth's gravity on the end-effector: switched with the known g (9.81 m/s^2), not fitted
     "gravity_preload": ("paper+gravity_preload", "paper", {}, KA_LOW),

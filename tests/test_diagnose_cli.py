@@ -36,7 +36,7 @@ def test_diagnose_json_keys(capsys):
     assert d["ranking"][0]["effect"] == "ee_compliance" and d["selected"][0] == "ee_compliance"
     assert d["steps"][0]["effects"] == ["actuator_loss"] and d["final"]["rms_pct"] < 5
     assert {"pose", "k_a", "mode", "between"} <= set(d["next_measurement"])
-    # issue 10: ties at every step and at the end, plausibility, outliers, the stated uncertainty
+    # ties at every step and at the end, plausibility, outliers, the stated uncertainty
     for c in d["ranking"]:
         assert isinstance(c["plausible"], bool) and set(c["plausible_range"]) == set(c["params"])
         assert all(len(r) == 2 and r[0] <= r[1] for r in c["plausible_range"].values())

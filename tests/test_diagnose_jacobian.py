@@ -1,4 +1,4 @@
-"""Exact Jacobians of the diagnosis' fits (issue 16): generated sensitivities of the matched modes.
+"""Exact Jacobians of the diagnosis' fits: generated sensitivities of the matched modes.
 
 The fit's Jacobian in theta (ln p for positive parameters) must equal a Richardson-extrapolated
 central difference of its own residuals, come from one kernel call per point (no extra

@@ -1,4 +1,4 @@
-"""Issue 10's cases over seeds: the diagnosis says the right thing in >= 9 of 10 seeds.
+"""The diagnosis cases over seeds: the diagnosis says the right thing in >= 9 of 10 seeds.
 
 Each case (``tests/diagnosis_cases.py``) draws its noise and the truth's nuisance
 parameters (eta_a and l2 +-1 %, in the truth only) from the seed. In-process calls on the

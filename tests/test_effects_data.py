@@ -1,4 +1,4 @@
-"""Effects own their parameters (issue 11, point 1): declared once, with a plausible range."""
+"""Effects own their parameters: declared once, with a plausible range."""
 from __future__ import annotations
 
 import math

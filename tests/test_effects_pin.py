@@ -1,5 +1,5 @@
 """Every preset and single-effect output equals the one pinned before the effects-as-data
-redesign (issue 11), to 1e-12 relative to each matrix's largest entry.
+redesign, to 1e-12 relative to each matrix's largest entry.
 
 Frequencies are compared to 1e-12 of the largest one, or to what a change of the
 matrices at the level of round-off (1e-14 of K's largest entry) may move them, whichever
@@ -8,9 +8,9 @@ is larger (Weyl: a symmetric change dK moves each eigenvalue of (K, M) by at mos
 the legs' constrained directions rigid (c_rigid = 1e-12 rad/(N m), no rod compliance,
 ``ee_compliance`` or ``ee_coupling`` alone) K_F spans 1e12 N m/rad to 1e4 N/m and one
 unit in the last place of its largest entry moves a 20 Hz frequency by ~1e-6 Hz; the
-generic joint-list derivation (issue 15) rounds differently from the hand-built one.
+generic joint-list derivation rounds differently from the hand-built one.
 A flexible model's frequencies from the evaluator come from the exact condensation of
-the constraints (issue 20, runtime/condense.py): they equal the pinned ones to the
+the constraints (runtime/condense.py): they equal the pinned ones to the
 penalty's error, and the pinned ones are those of the pinned matrices.
 """
 from __future__ import annotations
@@ -42,7 +42,7 @@ def test_outputs_equal_the_pinned_ones(evaluators, case):
     mats = ev.matrices(poses, model, **PARAMS)
     freq = ev.frequencies(poses, model, **PARAMS)
     if ev.kind(resolve_model(model, ev.robot)) == "flexible":
-        # the evaluator's finite modes are the exact condensation's (issue 20), the pins K_F's
+        # the evaluator's finite modes are the exact condensation's, the pins K_F's
         # (c_rigid = 1e-12 rad/(N m)): they differ by the penalty, < 1e-5 relative; the
         # pinned frequencies are those of the pinned matrices (strictly, below)
         np.testing.assert_allclose(freq, PIN[f"{case}/freq_hz"], rtol=1e-5, err_msg=case)

@@ -1,4 +1,4 @@
-"""Per-leg scope (issue 11, point 3): EFFECT@N and NAME@N, with no regeneration."""
+"""Per-leg scope: EFFECT@N and NAME@N, with no regeneration."""
 from __future__ import annotations
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""The evaluator's C paths (issue 13): checks inside the fused pass, threads bit-identical to
+"""The evaluator's C paths: checks inside the fused pass, threads bit-identical to
 one thread, outputs written in place, the gravity preload through C, unstable modes; each
 against the NumPy backend. The NumPy-only parts (unstable modes, chunked matrices) run
 without a compiler.

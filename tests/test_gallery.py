@@ -1,4 +1,4 @@
-"""The gallery (examples/robots/) and the pose spaces of issue 21: physics identities.
+"""The gallery (examples/robots/) and the planar and lower-mobility pose spaces: physics identities.
 
 Expectations come from physics (symmetry and definiteness of M and K, f ~ sqrt(k_a), the
 robots' threefold symmetry, the allowed twists annihilated by the constraint wrenches) and

@@ -1,4 +1,4 @@
-"""The gallery (examples/robots/) against Pinocchio as an independent engine (issue 21).
+"""The gallery (examples/robots/) against Pinocchio as an independent engine.
 
 Each gallery robot through the harness of ``tests/pinocchio_model.py`` (legs as Pinocchio
 trees, their loop closures solved by Pinocchio's own Newton on its forward kinematics, the

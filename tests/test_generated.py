@@ -55,7 +55,7 @@ def test_checked_in_code_is_fresh(rendered_with_progress):
     files, messages = rendered_with_progress
     bad = stale(files)
     assert not bad, f"stale generated files {bad}: run `eigentwist generate` (make generate)"
-    # every step says what it does before it starts (issue 23: 36 s of CSE and emitting were
+    # every step says what it does before it starts (else 36 s of CSE and emitting would be
     # silent on the first use of a description file)
     for robot in NAMES:
         steps = [m for m in messages if m.startswith(f"{robot}: ")]

@@ -1,4 +1,4 @@
-"""The Gough-Stewart hexapod from joint lists (issue 15): physics identities at 6-DoF poses.
+"""The Gough-Stewart hexapod from joint lists: physics identities at 6-DoF poses.
 
 The model is the shipped generated one, ``eigentwist.load("hexapod")`` (NumPy and C);
 every reference here is computed independently in a few lines of NumPy from the leg
@@ -173,8 +173,8 @@ def test_payload_at_the_origin_lowers_all_but_the_twist_about_z(robot, evaluate)
 
 @pytest.mark.derives
 def test_generation_renders_every_backend(rendered):
-    """Derivation, CSE and rendering of every backend of the hexapod (its time, < 60 s by
-    issue 15, is measured in benchmarks/hexapod.py: speed is never asserted in tests);
+    """Derivation, CSE and rendering of every backend of the hexapod (its time, goal < 60 s,
+    is measured in benchmarks/hexapod.py: speed is never asserted in tests);
     ``rendered`` is conftest's ``render_all()``, whose hexapod files are ``render_robot("hexapod")``'s."""
     files = {k: v for k, v in rendered.items() if k.startswith("hexapod_")}
     assert set(files) == {"hexapod_numpy.py", "hexapod_c.c", "hexapod_c.h"}
@@ -186,7 +186,7 @@ def test_units_follow_the_joint_kind(robot):
 
 
 def test_frequencies_are_the_rigid_6x6_eigenproblem(ev, evaluate):
-    """The rigid model of a 6-DoF robot is the full 6x6 M and K_R (issue 15)."""
+    """The rigid model of a 6-DoF robot is the full 6x6 M and K_R."""
     on = ("actuator_loss", "payload_mass")
     m = ev.modes(np.stack([HOME, TILTED]), "actuator_loss,payload_mass", k_a=1.0e7)
     assert m.kind == "rigid" and m.axes == ("rx", "ry", "rz", "x", "y", "z") and m.freq_hz.shape == (2, 6)

@@ -1,4 +1,4 @@
-"""Every command with ``--robot hexapod`` (issue 15): 6-DoF poses on the command line and
+"""Every command with ``--robot hexapod``: 6-DoF poses on the command line and
 in CSV files (columns ``rot_x, rot_y, rot_z``), a hidden payload found by diagnose."""
 from __future__ import annotations
 
@@ -101,7 +101,7 @@ def test_csv_rotation_columns_round_trip(tmp_path):
 
 
 def test_default_model_is_the_bare_strut_stiffness_and_is_named(capsys):
-    """The Heli4's measured eta_a = 0.82 is not the hexapod's default (issue 20): its
+    """The Heli4's measured eta_a = 0.82 is not the hexapod's default: its
     ``paper`` model is k_a alone, and the actuator loss scales every frequency by sqrt(eta_a)
     (omega ~ sqrt(k) when the stiffness is k_a J^T J alone)."""
     assert main(["matrices", "--robot", "hexapod", "--pose", *map(str, TILTED), "--json"]) == 0

@@ -1,4 +1,4 @@
-"""Sensitivities of a 6-DoF robot (issues 15 and 16): the hexapod's generated dM/dp and
+"""Sensitivities of a 6-DoF robot: the hexapod's generated dM/dp and
 dK/dp give frequency derivatives equal to central differences of its evaluator, with the
 rigid model's full 6x6 eigenproblem and the pose's rotation passed to the kernel."""
 from __future__ import annotations

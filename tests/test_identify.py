@@ -113,7 +113,7 @@ def test_plots_and_report_section(campaign, tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------
-# Any sensor layout (issue 22)
+# Any sensor layout
 
 BEAM = Path(__file__).resolve().parent / "data" / "measured_beam" / "beam_accelerance.uff"
 #: free-free Euler-Bernoulli beam: roots of cos(bL) cosh(bL) = 1 (f_n proportional to (b_n L)^2)

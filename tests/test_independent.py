@@ -1,4 +1,4 @@
-"""Independent checks of M and K_R for every robot (issue 6): kinetic energy and
+"""Independent checks of M and K_R for every robot: kinetic energy and
 stiffness from finite differences of the inverse kinematics, with the body twists and
 inertia transport written here in plain NumPy (not from the symbolic derivation)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Direction labels from energy shares; degenerate pairs matched as one eigenspace (issue 10)."""
+"""Direction labels from energy shares; degenerate pairs matched as one eigenspace."""
 from __future__ import annotations
 
 import warnings

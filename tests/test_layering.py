@@ -1,4 +1,4 @@
-"""The data flows one way and modules talk through public names (issue 12, point 9).
+"""The data flows one way and modules talk through public names.
 
 * No module under ``eigentwist/`` imports :mod:`eigentwist.cli`, except the command line
   itself (``eigentwist/cli/``) and ``eigentwist/__main__.py`` (``python -m eigentwist``,
@@ -95,7 +95,7 @@ def test_the_checker_allows_own_names(source, module):
     assert not violations(source, module)
 
 
-# ------------------------------------------------------------ import circles (issue 20)
+# ------------------------------------------------------------ import circles
 MODULES = {module_name(p): p for p in SOURCES}
 
 

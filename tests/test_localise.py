@@ -1,4 +1,4 @@
-"""The diagnosis localises a fault in one leg (issue 11, point 4).
+"""The diagnosis localises a fault in one leg.
 
 Synthetic Heli4 data (five poses, k_a 500 and 2000 N m/rad, modes x, y, z: 30 rows, 0.5 %
 noise) from the paper's model with one leg's component changed: its actuator weaker

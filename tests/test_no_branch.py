@@ -1,4 +1,4 @@
-"""``symbolic/`` has no branch on a robot or a chain type (issue 15).
+"""``symbolic/`` has no branch on a robot or a chain type.
 
 One derivation serves every robot: what differs between the Heli4, the Delta and the
 hexapod comes from their descriptions' data and the objects they provide (the pose

@@ -1,5 +1,5 @@
 """The notebooks run top to bottom, are checked in without outputs, stay paired with their
-jupytext scripts and use only the public API (issue 12, point 8).
+jupytext scripts and use only the public API.
 
 Every ``notebooks/*.ipynb`` is picked up (so a new notebook is tested without editing
 this file). Execution uses nbclient with the ``python3`` kernel (the interpreter running
@@ -22,7 +22,7 @@ NOTEBOOK_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 SCRIPTS = sorted(NOTEBOOK_DIR.glob("*.py"))
 CELL_TIMEOUT_S = 300      # per cell; each notebook is meant to finish within two minutes in all
-BUDGET_S = 120            # issue 5: "runs top to bottom on a fresh install in under two minutes"
+BUDGET_S = 120            # the goal: "runs top to bottom on a fresh install in under two minutes"
 
 
 def _id(path: Path) -> str:
@@ -154,9 +154,9 @@ def test_notebook_uses_the_public_api_only(path, api):
 
 
 @pytest.mark.parametrize("code", [
-    "from eigentwist.runtime.loader import evaluator_from_description",       # 01 before issue 12
+    "from eigentwist.runtime.loader import evaluator_from_description",       # a private module
     "from eigentwist.codegen.generate import kernels_for",
-    "from eigentwist.diagnose.plots import plot_comparison",                  # 03 before issue 12
+    "from eigentwist.diagnose.plots import plot_comparison",                  # a private module
     "from eigentwist import paper\npaper.EQ58_KF",                            # 02: an unexported table
     "import eigentwist\neigentwist.runtime.loader.load_module('heli4')",
     "import eigentwist.runtime.loader",

@@ -1,4 +1,4 @@
-"""Inverse kinematics without algebra (issue 21): legs in URDF form solved by damped Newton.
+"""Inverse kinematics without algebra: legs in URDF form solved by damped Newton.
 
 Expectations come from the closed forms the shipped robots carry (an independent
 derivation of the same joint coordinates), not from the Newton code:

@@ -1,4 +1,4 @@
-"""Worst-case frequency optimisation (issue 16): known optimum, bounds, constraints, no FD."""
+"""Worst-case frequency optimisation: known optimum, bounds, constraints, no FD."""
 from __future__ import annotations
 
 import numpy as np

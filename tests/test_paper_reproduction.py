@@ -58,7 +58,7 @@ def test_tables_e1_e2_all_48_model_values(values):
     _assert_within_rounding(vals)
 
 
-# ---------------------------------------------------------------- honesty (issue 12, point 7)
+# ---------------------------------------------------------------- honesty
 import re
 import subprocess
 import sys

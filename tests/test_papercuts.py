@@ -1,4 +1,4 @@
-"""Papercuts a new user met (issue 23): each one line and to the point, none silent."""
+"""Papercuts a new user met: each one line and to the point, none silent."""
 from __future__ import annotations
 
 import inspect

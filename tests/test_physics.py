@@ -58,7 +58,7 @@ def test_stiffness_scaling_scales_frequencies_by_sqrt_c(ev, grid):
     f0 = ev.frequencies(grid[:6], PAPER)
     f1 = ev.frequencies(grid[:6], PAPER, k_a=c * d["k_a"], k_E_rot=c * d["k_E_rot"], k_E_lin=c * d["k_E_lin"],
                         E_rod=c * d["E_rod"], G_rod=c * d["G_rod"])
-    # the legs' rigid constraint directions are exact (issue 20): no c_rigid to scale
+    # the legs' rigid constraint directions are exact: no c_rigid to scale
     np.testing.assert_allclose(f1, np.sqrt(c) * f0, rtol=1e-12)
 
 

@@ -1,4 +1,4 @@
-"""Pinocchio as an independent engine (issue 21): each leg a kinematic tree, the platform
+"""Pinocchio as an independent engine: each leg a kinematic tree, the platform
 its own free body, the tree's mass matrix (``crba``) and the actuated/elastic joints'
 rows reduced through the loop-closure velocity map to the platform's freedoms
 (``tests/pinocchio_model.py``); frequencies, M and K equal eigentwist's at 20 random

@@ -1,4 +1,4 @@
-"""``eigentwist plot modes``: the lowest mode shapes as a GIF for slides, an animated SVG (issue 22)."""
+"""``eigentwist plot modes``: the lowest mode shapes as a GIF for slides, an animated SVG."""
 from __future__ import annotations
 
 import re

@@ -1,4 +1,4 @@
-"""6-DoF poses: rotation vectors, Rodrigues' formula and the exponential map (issue 15)."""
+"""6-DoF poses: rotation vectors, Rodrigues' formula and the exponential map."""
 from __future__ import annotations
 
 import numpy as np

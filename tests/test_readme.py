@@ -1,4 +1,4 @@
-"""The README's commands run as written and print the figures it states (issue 12).
+"""The README's commands run as written and print the figures it states.
 
 Every ```sh and ```python block of README.md runs, block after block, in one temporary
 directory (later blocks may use files earlier ones wrote) with an ``eigentwist`` shim on
@@ -214,7 +214,7 @@ def test_readme_block(block, results):
         assert not missing, f"README line {block.line}: `{cmd}` states {missing} ({comment!r}); output:\n{output[-3000:]}"
 
 
-WIDTH = 100     # characters per line of a command's default output (issue 22)
+WIDTH = 100     # characters per line of a command's default output
 
 
 def _default_output(cmd: str) -> bool:

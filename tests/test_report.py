@@ -93,7 +93,7 @@ def test_every_image_is_embedded_and_decodes(parsed):
 
     assert len(parsed.images) >= 3                     # comparison, diagnosis, robot with its mode shapes
     svgs = [src for src in parsed.images if src.startswith("data:image/svg+xml;base64,")]
-    assert len(svgs) == 1                              # the animated mode shapes (issue 22)
+    assert len(svgs) == 1                              # the animated mode shapes
     import xml.etree.ElementTree as ET
 
     root = ET.fromstring(base64.b64decode(svgs[0].split(",", 1)[1]))
@@ -147,7 +147,7 @@ def test_report_renders_in_headless_chromium(report_path, tmp_path):
     assert len(np.unique(grey)) > 50
 
 
-# ------------------------------------------------------------ issue 12, points 3 and 4
+# ------------------------------------------------------------ fitted values, units, next measurement, robot picture
 def test_final_model_fitted_values_with_errors_and_units(parsed):
     """The final model's fitted values, in a sentence and a table (README: 374 +- 38, (1.64 +- 0.31)e5)."""
     import re
@@ -251,12 +251,12 @@ def test_keys_the_diagnosis_gains_are_rendered_as_text(report_data):
     assert "equally good alternatives" in text and "ee_coupling" in text
     assert "effects: actuator_loss, ee_coupling; delta_aicc: 0" in text
     assert "line: 2; mode: x; error_sigma: 4.2" in text
-    assert "sigma_pct" not in text                # the uncertainty is a sentence, not a key dump (issue 23)
+    assert "sigma_pct" not in text                # the uncertainty is a sentence, not a key dump
     assert rep.uncertainty_text in text
     assert "{" not in text.partition("How the diagnosis decides")[0]     # the criteria's formulas have braces
 
 
-# --------------------------------------------------------------- issue 13: escaping
+# --------------------------------------------------------------- escaping
 SCRIPT = "<script>alert(1)</script>"
 
 
@@ -335,7 +335,7 @@ def test_delta_report_draws_its_robot(tmp_path):
     assert "fits m_p = 0.2047 ± 0.0032 kg" in parsed.section_text("diagnosis")
 
 
-# --------------------------------------------------------------- issues 22 and 23: the answer first, shown
+# --------------------------------------------------------------- the answer first, shown
 def test_the_report_leads_with_the_answer(parsed, report_data):
     """The first section is the diagnosis's answer block, the same sentences as the CLI's."""
     assert "answer" in parsed.ids

@@ -1,4 +1,4 @@
-"""The robot picture (issue 12, point 4): legs from the description and the generated IK, any robot."""
+"""The robot picture: legs from the description and the generated IK, any robot."""
 from __future__ import annotations
 
 import io

@@ -1,4 +1,4 @@
-"""Design sensitivities (issue 16): generated dM/dp, dK/dp and frequency derivatives.
+"""Design sensitivities: generated dM/dp, dK/dp and frequency derivatives.
 
 The derivative code is generated on first use (forward mode on the straight-line program,
 seconds to a minute per parameter list) and cached by content hash; the fixtures below ask

@@ -1,4 +1,4 @@
-"""``eigentwist sensitivity`` and ``eigentwist optimize`` (issue 16)."""
+"""``eigentwist sensitivity`` and ``eigentwist optimize``."""
 from __future__ import annotations
 
 import json
@@ -56,7 +56,7 @@ def test_optimize_prints_design_map_and_active_constraints(ev, capsys):
 
 
 def test_default_wrt_is_the_models_geometry_masses_moduli_and_k_a():
-    """Without --wrt: k_a and the parameters in m, kg, Pa that act in the model (issue 16)."""
+    """Without --wrt: k_a and the parameters in m, kg, Pa that act in the model."""
     from eigentwist.cli.sensitivity import default_wrt
     from eigentwist.description.effects import resolve_model
 

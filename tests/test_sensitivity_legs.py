@@ -1,4 +1,4 @@
-"""Sensitivities with respect to one leg's own value (``P@N``) and of per-leg models (issue 16).
+"""Sensitivities with respect to one leg's own value (``P@N``) and of per-leg models.
 
 The derivative with respect to ``E_rod@2`` seeds only leg 2's input ``E_rod__2``; a model
 may switch an effect on one leg (``lower_link_compliance@3``); a shared ``E_rod`` with leg 2

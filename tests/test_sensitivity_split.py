@@ -1,4 +1,4 @@
-"""The C sensitivity kernel split into bounded functions (issue 16).
+"""The C sensitivity kernel split into bounded functions.
 
 gcc's time on one straight-line function grows faster than its length, so the generated
 code is cut into parts of at most ``CHUNK`` statements, values crossing a cut passing

@@ -1,4 +1,4 @@
-"""Issue 12.1: one ``--set NAME=VALUE`` (and ``NAME@N=VALUE``) for every command that
+"""One ``--set NAME=VALUE`` (and ``NAME@N=VALUE``) for every command that
 evaluates the model; ``--model PRESET:NAME=VALUE``; the values used shown in every output;
 precedence CSV column > --set > the robot's default."""
 from __future__ import annotations

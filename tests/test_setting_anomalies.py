@@ -1,4 +1,4 @@
-"""Whole settings that do not belong (issue 22): one setting (pose x k_a) written with the
+"""Whole settings that do not belong: one setting (pose x k_a) written with the
 wrong k_a, or the wrong pose, is flagged by its CSV lines, set aside, and the true payload
 recovered within 3 sigma; clean campaigns flag nothing.
 

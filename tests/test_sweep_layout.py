@@ -1,5 +1,5 @@
 """The sweep package has one job per module and its errors speak the library's language
-(issue 13): no runtime error quotes a command-line flag."""
+(not the command line's): no runtime error quotes a command-line flag."""
 from __future__ import annotations
 
 import ast

@@ -1,4 +1,4 @@
-"""The parallelogram's rods as they move (issue 21, ``swinging_rods``).
+"""The parallelogram's rods as they move (``swinging_rods``).
 
 Independent check: the kinetic energy of the two real rods of every leg, each a tube
 swinging about its pivots, from its ends' positions only: the ends (pivots on the elbow

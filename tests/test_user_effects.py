@@ -1,4 +1,4 @@
-"""Effects the user adds without editing eigentwist (issue 11, point 5).
+"""Effects the user adds without editing eigentwist.
 
 The README's description file, copied verbatim into a temporary directory, is generated
 on first use into a fresh cache, found there on the second use, and its hose is what

@@ -1,4 +1,4 @@
-"""An effect of several parts (issue 23): the README's cable chain, a mass on the tool and a
+"""An effect of several parts: the README's cable chain, a mass on the tool and a
 spring to ground under one switch, fitted jointly; and the same chain written as two
 effects, whose mass half is the catalogue's payload under another name.
 

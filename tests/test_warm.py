@@ -1,4 +1,4 @@
-"""Warm caches and no derivation at run time (issue 20).
+"""Warm caches and no derivation at run time.
 
 * One content hash (:mod:`eigentwist.hashing`): the same in every process and under every
   ``PYTHONHASHSEED``, a function hashed by its code (two lambdas with one body hash alike,

@@ -1,6 +1,6 @@
 """Write ``chain_pin.npz``: every output group of the Heli4 and Delta evaluators.
 
-Issue 15 turns the RR(Pi)RR legs of the Heli4 and the Delta into joint lists derived by
+A later change turns the RR(Pi)RR legs of the Heli4 and the Delta into joint lists derived by
 the generic chain code (Huang's method from 5x5 minors); every output must stay what it
 was. This script was run once on the code before that change (the hand-built
 ``symbolic/leg.py`` wrenches, commit 0f7cd9b) and its output is checked in;

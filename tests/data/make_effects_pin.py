@@ -1,6 +1,6 @@
 """Write ``effects_pin.npz``: every preset and single-effect output of the shipped robots.
 
-The effects-as-data redesign (issue 11) must give every number it gave before. This
+The effects-as-data redesign must give every number it gave before. This
 script was run once on the code before that redesign (commit eea3e30) and its output is
 checked in; ``tests/test_effects_pin.py`` compares today's evaluators with it to 1e-12
 relative to each matrix's largest entry. Run it again only to pin a deliberate change:

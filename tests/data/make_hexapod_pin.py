@@ -1,6 +1,6 @@
-"""Write ``hexapod_pin.npz``: every output group of the hexapod's evaluator (issue 15).
+"""Write ``hexapod_pin.npz``: every output group of the hexapod's evaluator.
 
-The hexapod was first derived by its own function (``derive_chain``); issue 15 folds it
+The hexapod was first derived by its own function (``derive_chain``); a later change folds it
 into the one derivation every robot goes through. This script was run once on the code
 before that change (commit b2ceb15) and its output is checked in;
 ``tests/test_chain_equivalence.py`` compares today's evaluator with it to 1e-12 relative

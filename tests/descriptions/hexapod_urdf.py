@@ -1,4 +1,4 @@
-"""The shipped hexapod (6-UPS) with its legs in URDF form: no closed-form IK (issue 21).
+"""The shipped hexapod (6-UPS) with its legs in URDF form: no closed-form IK.
 
 Each leg: a U joint at the base point b (joint frame: x up, y along the base circle's
 tangent, the strut along x), a prismatic actuator along the strut, and a spherical joint
