@@ -1,7 +1,7 @@
 """Rigid constraints condensed exactly (runtime/condense.py).
 
-Expectations: the rigid model on the allowed twists (the 3x3 subsets of M and K_R, issue
-21), independent of the condensation's own null-space basis; the limit of a structure
+Expectations: the rigid model on the allowed twists (the 3x3 subsets of M and K_R),
+independent of the condensation's own null-space basis; the limit of a structure
 whose compliance goes to zero; a hand-made two-spring example; the penalty model of the
 paper (c_rigid = 1e-12) within its penalty error.
 """

@@ -1,6 +1,6 @@
 """Identification of modal-test campaigns: accuracy, labels, close modes, the diagnosis on top.
 
-The synthetic campaign is the issue's: 2 poses x 4 k_a, 3x3 accelerance FRFs, modal
+The synthetic campaign: 2 poses x 4 k_a, 3x3 accelerance FRFs, modal
 damping 1.5 %, 1 % complex noise, from a truth with a hidden 0.35 kg payload.
 """
 from __future__ import annotations

@@ -80,7 +80,7 @@ def test_module_respects_the_layers(path):
     ("def f(ev):\n    return ev._params(1, {}, 'paper')\n", "eigentwist.runtime.gravity", False),
     ("from . import _helpers", "eigentwist.diagnose.fit", False),
 ])
-def test_the_checker_catches_what_issue_12_names(source, module, is_package):
+def test_the_checker_catches_cli_imports_and_private_names(source, module, is_package):
     assert violations(source, module, is_package)
 
 

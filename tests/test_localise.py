@@ -3,8 +3,8 @@
 Synthetic Heli4 data (five poses, k_a 500 and 2000 N m/rad, modes x, y, z: 30 rows, 0.5 %
 noise) from the paper's model with one leg's component changed: its actuator weaker
 (0.55 against 0.82), its rods 200 times more compliant, its lower link a soft tube (42 GPa,
-the soft end of the plausible range: a softer one is reported as an implausible fit, issue
-10). Each
+the soft end of the plausible range: a softer one is reported as an implausible fit).
+Each
 must be found at the right leg (or with the right leg among equal alternatives), its
 parameter within 3 standard deviations and the data explained; an effect on all legs alike
 must be reported on all legs (no false localisation in at least 9 of 10 seeds).

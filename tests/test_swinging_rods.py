@@ -119,7 +119,7 @@ def test_swinging_rods_equal_the_rods_kinetic_energy(ev):
         assert np.max(np.abs(got - want)) < 1e-8 * scale, (ev.robot.name, v, got, want)
 
 
-# the issue's figures (an independent Pinocchio model with swinging rods): lateral modes
+# the reference figures (an independent Pinocchio model with swinging rods): lateral modes
 # 6-7 % higher for the Heli4, 10-12.5 % for the Delta, vertical modes within 0.1 %, at the
 # reference pose (over the workspace box the lateral rise spans 5.8-6.7 % for the Heli4
 # and 8.3-13.5 % for the Delta: the README's table)
@@ -129,7 +129,7 @@ FIGURES = {"heli4": (0.06, 0.07), "delta": (0.10, 0.125)}
 @pytest.mark.parametrize("model", ["none", "paper"])
 def test_swinging_rods_raise_the_lateral_modes(ev, model):
     """At the reference pose: the mode whose eigentwist is mostly vertical (z) does not
-    move by more than 0.1 %, the two lateral ones rise by the issue's figures (the bare k_a
+    move by more than 0.1 %, the two lateral ones rise by the reference figures (the bare k_a
     model, 3x3, and the paper's, whose three lowest modes are the platform's)."""
     lo, hi = FIGURES[ev.robot.name]
     x_ref = np.asarray(ev.robot.x_ref, float)[None]

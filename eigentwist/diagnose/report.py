@@ -268,7 +268,7 @@ def verdict_text(d, ev=None) -> str:
 
 
 def diagnosis_text(d, ev, show_rows: bool = False) -> str:
-    """The full diagnosis as text (sections 1-4 of the issue)."""
+    """The full diagnosis as text (sections 1-4: baseline, candidates, whether the data tell them apart, selection)."""
     m = d.meas
     out = [f"{d.robot}: {len(m)} measured frequencies from {m.source}; baseline: "
            f"{', '.join(d.baseline.effects) or '(no effect)'}"]

@@ -51,7 +51,7 @@ EFFECT_VALUES = {
 
 
 def describe() -> RobotDescription:
-    """The Delta description with the issue's values as defaults."""
+    """The Delta description with its specified values as defaults."""
     parameters = PARAMETERS + effect_parameters(EFFECTS, EFFECT_VALUES)
     p = {q.name: q.symbol for q in parameters}
     upper_arm = spatial_inertia(p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),

@@ -97,7 +97,7 @@ def _strut_body(name, mass, distance, inertia, after, origin):
 
 
 def describe() -> ChainRobot:
-    """The hexapod with the issue's values as defaults."""
+    """The hexapod with its specified values as defaults."""
     parameters = PARAMETERS + effect_parameters(("actuator_loss", "payload_mass", "gravity_preload"), EFFECT_VALUES)
     p = {q.name: q.symbol for q in parameters}
     joints = (ChainJoint("U", ("u1", "u2"), "b", doc="base universal joint"),
