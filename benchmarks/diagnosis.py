@@ -1,4 +1,4 @@
-"""Figures of issue 10: each case right in n of 10 seeds; the time of a 30-row diagnosis.
+"""Figures of the diagnosis cases: each case right in n of 10 seeds; the time of a 30-row diagnosis.
 
     python benchmarks/diagnosis.py              # every case, 10 seeds, and the timings
     python benchmarks/diagnosis.py --cases bad_row,four_rows --seeds 20

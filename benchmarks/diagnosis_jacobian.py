@@ -1,4 +1,4 @@
-"""Figures of issue 16: the diagnosis with exact Jacobians against central differences.
+"""The diagnosis with exact Jacobians against central differences.
 
     PYTHONPATH=. python benchmarks/diagnosis_jacobian.py                 # C and NumPy backends
     PYTHONPATH=. python benchmarks/diagnosis_jacobian.py --backends c --repeat 1

@@ -1,4 +1,4 @@
-"""Issue 20: the diagnosis' Jacobian kinds side by side, cold and warm, as a user runs them.
+"""The diagnosis' Jacobian kinds side by side, cold and warm, as a user runs them.
 
     PYTHONPATH=. python benchmarks/diagnosis_kinds.py            # every case, both kinds
     PYTHONPATH=. python benchmarks/diagnosis_kinds.py --cases paper,walkthrough

@@ -1,7 +1,7 @@
-"""Cost of the exact rigid-constraint condensation on the default route (issue 20).
+"""Cost of the exact rigid-constraint condensation on the default route.
 
 CPU time per ``ev.frequencies`` call, Heli4, same poses, same run: the default (exact)
-route against the old penalty route (the evaluator's ``_route`` disabled: K_F with c_rigid =
+route against the penalty route (the evaluator's ``_route`` disabled: K_F with c_rigid =
 1e-12 rad/(N m)), for a model whose legs have no rigid direction (``paper``: the exact
 route is K_F with c_rigid = 0, no extra work) and one with rigid directions
 (``actuator_loss,ee_compliance``: the compliance form on the admissible motions), on both

@@ -1,4 +1,4 @@
-"""Figures of issue 21: each gallery robot's frequencies at home, generation time and C
+"""Figures of the gallery: each gallery robot's frequencies at home, generation time and C
 throughput (one core).
 
     PYTHONPATH=. python benchmarks/gallery.py [N]

@@ -1,4 +1,4 @@
-"""Figures of issue 15: the hexapod's frequencies, generation time, C throughput (one core).
+"""Figures of the hexapod: the hexapod's frequencies, generation time, C throughput (one core).
 
     PYTHONPATH=. python benchmarks/hexapod.py [N]
 

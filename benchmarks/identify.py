@@ -1,4 +1,4 @@
-"""Time of ``eigentwist identify`` on measured and synthetic FRFs (issue 22).
+"""Time of ``eigentwist identify`` on measured and synthetic FRFs.
 
     .venv/bin/python benchmarks/identify.py
 

@@ -1,4 +1,4 @@
-"""Figures of issue 21: C throughput with numeric (damped Newton) vs closed-form IK, and
+"""C throughput with numeric (damped Newton) vs closed-form IK, and
 the generation time of a robot whose legs are in URDF form.
 
     EIGENTWIST_CACHE=/tmp/c python benchmarks/numeric_ik.py [--n 20000] [--generate]

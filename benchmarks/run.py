@@ -4,7 +4,7 @@ one core; peak memory; generation and compile times.
 
     python benchmarks/run.py            # the full run recorded in benchmarks/README.md (~10 min)
     python benchmarks/run.py --quick    # N = 1e3, 1e4 only (a smoke test, ~1.5 min)
-    python benchmarks/run.py --public   # issue 13: public path vs raw kernel, 1 vs all threads, memory
+    python benchmarks/run.py --public   # public path vs raw kernel, 1 vs all threads, memory
 
 Timings are the best of ``--repeat`` runs (one run for the per-pose loop, whose rate does
 not depend on N; at N = 1e6 it is extrapolated from its N = 1e5 rate and marked so).
@@ -166,7 +166,7 @@ def peak_rss(case: str, n: int) -> tuple[float, float]:
 
 
 def public_path(n: int, repeat: int, log) -> dict:
-    """Issue 13: the public path against the raw fused kernel (one thread), 1 vs all threads,
+    """The public path against the raw fused kernel (one thread), 1 vs all threads,
     against the per-pose loop; memory of Evaluator.matrices, in one run (ratios from it)."""
     import eigentwist
     from eigentwist.runtime.threads import available_cores
@@ -246,7 +246,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", type=Path, help="also write the results here")
     ap.add_argument("--no-pin", action="store_true", help="do not pin the process to one CPU")
     ap.add_argument("--public", action="store_true",
-                    help="only the public-path rows (issue 13): Evaluator vs raw kernel, 1 vs all threads, memory")
+                    help="only the public-path rows: Evaluator vs raw kernel, 1 vs all threads, memory")
     ap.add_argument("--n", type=int, default=1_000_000, help="poses for --public")
     args = ap.parse_args(argv)
     if args.public:                      # every core: the thread rows need them (1-thread rows set threads=1)

@@ -1,4 +1,4 @@
-"""Figures of issue 16: sensitivity throughput (all parameters, C, one thread) and compile time.
+"""Sensitivity throughput (all parameters, C, one thread) and compile time.
 
     PYTHONPATH=. python benchmarks/sensitivity.py                  # Heli4 and Delta, warm cache
     PYTHONPATH=. python benchmarks/sensitivity.py --cold --n 2000  # fresh cache: generation + compile

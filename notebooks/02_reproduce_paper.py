@@ -22,7 +22,7 @@
 # predictions with measured natural frequencies over $k_a$ (Fig. 6, Tables E.1/E.2) and ablate the two
 # structural compliances (Appendix E). This notebook puts eigentwist's generated model beside every number
 # they print, redraws Fig. 6 and the ablation, and then shows what the **coupled end-effector model**
-# (issue 7) predicts that the paper's split of the end-effector compliance (Eqs. 45–49) does not.
+# (preset `coupled`) predicts that the paper's split of the end-effector compliance (Eqs. 45–49) does not.
 #
 # Units: frequencies in Hz, stiffness in N/m, N and N m/rad, inertia in kg, kg m and kg m²; coordinates
 # ordered $(R_x, R_y, R_z, X, Y, Z)$. Facts the paper does not print (base geometry, $E$ = 170 GPa for the
@@ -219,7 +219,7 @@ for s in SCENARIOS:
 # removing the rod compliance changes nothing visible — the paper's conclusion that the end-effector
 # assembly is the dominant structural compliance.
 #
-# ## 4 · Coupled end-effector model (issue 7)
+# ## 4 · Coupled end-effector model
 #
 # The paper's Sec. 6 leaves open how to include end-effector compliance at *any* pose. Eqs. 45–49 split
 # the two measured compliances of Appendix D over the legs — $2/k_{E,\mathrm{rot}}$ about $Y$ to each of legs
@@ -298,7 +298,7 @@ for c, name in enumerate(("k_E_lin", "k_E_rot")):
     for r, idx in enumerate((5, 4 if name == "k_E_lin" else 3)):
         ax = axes[r, c]
         ax.semilogx(sweep, K["paper"][:, idx, idx], "--", label="split (Eqs. 45–49)")
-        ax.semilogx(sweep, K["coupled"][:, idx, idx], "-", label="coupled (issue 7)")
+        ax.semilogx(sweep, K["coupled"][:, idx, idx], "-", label="coupled")
         ax.axvline(1, color="grey", ls=":", label="Heli4 (App. D)")
         ax.set_ylabel(f"K_F({AX[idx]},{AX[idx]}) [N/m]")
         ax.grid(alpha=0.3)

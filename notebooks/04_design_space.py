@@ -23,7 +23,7 @@
 # pose-and-design rows in total, on the NumPy backend (`backend="c"` is faster where a C compiler exists).
 #
 # Model: the Heli4 with the **coupled** end-effector model (preset `coupled`: actuator loss, rod compliance
-# and the traveling plates joined to the tool by compliant couplings, issue 7), because it holds at every
+# and the traveling plates joined to the tool by compliant couplings), because it holds at every
 # pose; the paper's split of the end-effector compliance (Eqs. 45–49) is derived for $x_\mathrm{ref}$ only
 # (notebook 02 compares the two: their $\omega_1$ differ by at most 0.1 Hz at $k_a$ = 2000 N m/rad).
 # Frequencies in Hz, lengths in m, actuator stiffness $k_a$ in N m/rad.
