@@ -10,7 +10,7 @@ the derivation's) must give the same numbers to 1e-12 relative to each output's 
 entry, pose by pose (1e-15 absolute where an output is pinned as all zeros at a pose).
 ``tests/data/hexapod_pin.npz`` holds the hexapod's outputs the same way (20 reachable
 6-DoF poses, three cases; ``tests/data/make_hexapod_pin.py``), pinned before the hexapod
-went through the one derivation every robot now shares. The
+went through the one derivation every robot shares (pinned at commit b2ceb15). The
 derivation itself, evaluated in SymPy arithmetic (``Program.evaluate``, 20 digits) without
 any generated code, gives them too, at a few poses.
 """
