@@ -18,9 +18,15 @@ from .allowed import allowed_twists, constraint_positions, coordinate_twists, re
 from .labels import directions, energy_shares
 from ..description.pose import FULL, TWIST_AXIS, twist_order
 from .threads import resolve_threads
-from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular, raise_unreachable, reachable_mask
+from .validity import (CONDITIONING_TOL, LEVER_SCALE, LEVER_TOL, POSE_STATUS, STATUS, conditioning, lever_mask,
+                       parallel_mask, platform_rows, raise_parallel, raise_singular, raise_unreachable, reachable_mask)
 
-__all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL"]
+__all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_STATUS"]
+
+#: the C pass checks a pose for a parallel singularity when its lowest frequency lies
+#: below this fraction of its highest (or is NaN): at a conditioning of CONDITIONING_TOL
+#: the lowest frequency is about that conditioning times the others, 1e4 times lower
+PARALLEL_SCREEN = 0.1
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
@@ -413,10 +419,34 @@ class Evaluator:
             with np.errstate(invalid="ignore", divide="ignore"):
                 jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
             lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
+            rows = platform_rows(jac["J_rows"], legs)
             if strict:
                 raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None)
-            ok[ok] = lever_mask(lever)
+                raise_parallel(poses[ok], rows)
+            ok[ok] = lever_mask(lever) & parallel_mask(rows)
         return q, jac, ok
+
+    def _platform_rows(self, poses: np.ndarray, p: dict) -> np.ndarray:
+        """(n, r, 6) the platform's actuation and constraint rows at reachable poses
+        (:func:`~.validity.platform_rows`; the IK and jacobians kernels of either backend)."""
+        pp = self._with_pose(poses, p)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            q = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], pp)["q"]
+            return platform_rows(self._kernels.jacobians(q, pp)["J_rows"], self.robot.legs)
+
+    def _parallel_ok(self, poses: np.ndarray, p: dict, rows: np.ndarray, strict: bool) -> np.ndarray:
+        """(len(rows),) bool: the poses ``rows`` (indices) are not parallel singular; with
+        ``strict`` the first that is raises :class:`SingularPoseError`."""
+        if not len(rows):
+            return np.ones(0, dtype=bool)
+        n = len(poses)
+        mask = np.zeros(n, dtype=bool)
+        mask[rows] = True
+        sub = p if mask.all() else self._mask(p, mask, n)
+        W = self._platform_rows(poses[mask], sub)
+        if strict:
+            raise_parallel(poses[mask], W)
+        return parallel_mask(W)
 
     def _raise_unfollowed(self, poses: np.ndarray) -> None:
         """Raise :class:`UnreachablePoseError` for the first pose whose followers did not
@@ -493,9 +523,52 @@ class Evaluator:
         p = self._params(len(poses), params, model)
         if self._fused:
             st = self._c_pass(poses, p, matrices=())["status"]
-            return (st != STATUS["unreachable"]) & (st != STATUS["singular"])
+            ok = (st != STATUS["unreachable"]) & (st != STATUS["singular"])
+            ok[ok] = self._parallel_ok(poses, p, np.flatnonzero(ok), strict=False)
+            return ok
         return np.concatenate([self._check_rows(poses[sl], self._take(p, sl), strict=False)[2]
                                for sl in self._chunks(len(poses))])
+
+    def pose_status(self, poses, model="paper", **params) -> dict:
+        """Each pose's status and conditioning, never an error.
+
+        Returns ``{"status": (N,) str, "code": (N,) int8, "conditioning": (N,),
+        "lever": (N,)}``. ``status`` is one of :data:`~.validity.POSE_STATUS`
+        (``code`` its position): ``"reachable"``; ``"unreachable"`` (a leg's check left
+        [-1, 1], its joint coordinates are not finite, or the followers did not converge);
+        ``"serial singular"`` (a leg's unit twists are dependent: its smallest
+        ``|lever|``, relative to ``l1`` where the robot has it, at or below ``LEVER_TOL``);
+        ``"parallel singular"`` (the legs' actuation and constraint wrenches leave a
+        platform twist free: ``conditioning``, the inverse condition number 0..1 of
+        their unit rows, at or below :data:`~.validity.CONDITIONING_TOL`). ``conditioning``
+        and ``lever`` are NaN where the pose is unreachable. :meth:`modes` raises
+        :class:`SingularPoseError` at either singularity and :meth:`valid` is False there.
+        """
+        poses = self._poses(poses, params)
+        n = len(poses)
+        p = self._params(n, params, model)
+        code = np.full(n, POSE_STATUS.index("unreachable"), dtype=np.int8)
+        cond, lever_min = np.full(n, np.nan), np.full(n, np.nan)
+        for sl in self._chunks(n):
+            pc = self._with_pose(poses[sl], self._take(p, sl))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ik = self._kernels.inverse_kinematics(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc)
+            reach = reachable_mask(ik) & np.isfinite(poses[sl]).all(axis=1)
+            if not reach.any():
+                continue
+            sub = self._mask(pc, reach, len(reach)) if not reach.all() else pc
+            with np.errstate(invalid="ignore", divide="ignore"):
+                jac = self._kernels.jacobians(ik["q"][reach], sub)
+            lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
+            rows = platform_rows(jac["J_rows"], self.robot.legs)
+            idx = np.arange(sl.start, sl.stop)[reach]
+            cond[idx] = conditioning(rows)
+            lever_min[idx] = np.abs(lever).min(axis=-1)
+            code[idx] = np.where(~lever_mask(lever), POSE_STATUS.index("serial singular"),
+                                 np.where(~parallel_mask(rows), POSE_STATUS.index("parallel singular"),
+                                          POSE_STATUS.index("reachable")))
+        return {"status": np.array(POSE_STATUS, dtype=object)[code], "code": code, "conditioning": cond,
+                "lever": lever_min}
 
     def joint_angles(self, poses, **params) -> np.ndarray:
         """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
@@ -551,6 +624,7 @@ class Evaluator:
             bad = res["status"] != STATUS["ok"]
             if bad.any():
                 self._raise_first(poses, p, bad)
+            self._parallel_ok(poses, p, np.arange(n), strict=True)
             return {k: res[k] for k in MATRICES}
         return self._matrices_q(poses, p, out)[0]
 
@@ -899,6 +973,19 @@ class Evaluator:
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
             self._raise_first(poses, p, ~valid)
+        # a parallel singularity drives the lowest frequency to 0: the poses whose lowest
+        # mode lies below PARALLEL_SCREEN times their highest (or is NaN) get the check
+        with np.errstate(invalid="ignore"):
+            freq = out["freq_hz"]
+            low = valid & ~(np.nanmin(np.where(np.isnan(freq), -1.0, freq), axis=1)
+                            > PARALLEL_SCREEN * np.nanmax(freq, axis=1))
+        suspect = np.flatnonzero(low)
+        singular = suspect[~self._parallel_ok(poses, p, suspect, strict=check)]
+        if singular.size:
+            valid[singular] = False
+            out["freq_hz"][singular] = np.nan
+            if out.get("eigentwists") is not None:
+                out["eigentwists"][singular] = np.nan
         modes = Modes(out["freq_hz"], out.get("eigentwists"), self.axes(kind), kind,
                       None if check else valid, st != STATUS["unstable"])
         if shares and out["eigentwists"].shape[-1] == 6:
