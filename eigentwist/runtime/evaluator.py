@@ -27,6 +27,9 @@ __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_
 #: below this fraction of its highest (or is NaN): at a conditioning of CONDITIONING_TOL
 #: the lowest frequency is about that conditioning times the others, 1e4 times lower
 PARALLEL_SCREEN = 0.1
+#: two closed configurations of a leg are one when no coordinate differs by more (rad; m):
+#: both close to 1e-12 and a leg's Jacobian is far better conditioned than 1e-6 off a singularity
+BRANCH_GAP = 1e-6
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
@@ -137,6 +140,8 @@ class Evaluator:
         self._checked_defaults: set = set()    # parameters whose default _params has checked
         self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
         self._effect = {e: robot.effect(e) for e in robot.effects}
+        if self.numeric_ik:
+            self.assembly()                    # a reference on no branch is refused at load
 
     def _resolve(self, model) -> tuple:
         """``resolve_model(model, self.robot)``, remembered per (hashable) model spec."""
@@ -226,19 +231,93 @@ class Evaluator:
         q = self.solve_joints(poses, p)
         return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
 
+    def _closure_inputs(self, poses: np.ndarray, p: dict) -> dict:
+        kp = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        if self._six:
+            kp.update(self.kernel_pose_inputs(poses))
+        return kp
+
+    def assembly(self) -> dict:
+        """Each leg's assembly branch, recorded at ``x_ref`` with the default parameters
+        (legs solved numerically, :mod:`eigentwist.description.serial`).
+
+        Returns ``{"q": (legs, n_q) the closed configuration connected to the reference
+        (:func:`~.newton.continuation`), "sign": (legs,) the sign of each leg's determinant
+        there (the branch every solution must keep), "residual": (legs,) |r| of the
+        reference itself (m and rad)}``. Raises :class:`AssemblyError` naming the leg and
+        the residual when a reference closes on no branch (a singularity between) or
+        Newton's method from it closes on another branch than the one it is connected to.
+        """
+        if "_assembly" in self.__dict__:
+            return self.__dict__["_assembly"]
+        from .errors import AssemblyError
+        from .newton import continuation, solve
+
+        reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+        x = self._poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
+        kp = self._closure_inputs(x, self._params(1, {}, "none"))
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            r0 = self._kernels.loop_closure(reference[None], kp)["residual"][0]
+            q_path, _ = continuation(self._kernels.loop_closure, reference, kp)
+            q_direct = solve(self._kernels.loop_closure, reference, kp, 1)[0]
+            lever = self._kernels.jacobians(q_path[None], kp)["lever"][0]
+        residual = np.sqrt((r0 * r0).sum(-1))
+        angular = np.array([u == "rad" for u in self.joint_units])
+        gap = q_direct - q_path
+        gap = np.where(angular, np.angle(np.exp(1j * gap)), gap)
+        for i, leg in enumerate(self.robot.legs):
+            ref = ", ".join(f"{v:.6g}" for v in reference[i])
+            where = (f"{self.robot.name}: {leg.name}'s reference ({ref}) (rad; m for P) does not close its loop at "
+                     f"x_ref {list(self.robot.x_ref)}: residual {residual[i]:.3g} (m, rad)")
+            if not np.isfinite(q_path[i]).all():
+                raise AssemblyError(f"{where}, and no path of closed configurations leads from it there (a "
+                                    "singularity between): expected the leg's joint coordinates at x_ref")
+            if not (np.abs(gap[i]) <= BRANCH_GAP).all():
+                found = "does not converge" if not np.isfinite(q_direct[i]).all() else (
+                    "closes on another assembly branch (" + ", ".join(f"{v:.4g}" for v in q_direct[i]) + ")")
+                raise AssemblyError(f"{where}; Newton's method from it {found}: expected a reference on its own "
+                                    f"branch, e.g. ({', '.join(f'{v:.6g}' for v in q_path[i])})")
+        record = {"q": q_path, "sign": np.sign(lever), "residual": residual}
+        self.__dict__["_assembly"] = record
+        return record
+
+    def _newton_key(self, poses: np.ndarray, p: dict) -> tuple:
+        return (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
+                                       if not k.startswith("q")))
+
+    def _raise_off_branch(self, poses: np.ndarray, p: dict) -> None:
+        """Raise :class:`UnreachablePoseError` for the first pose of the batch last solved
+        whose Newton solution lies on another assembly branch than the one recorded at
+        x_ref (:meth:`assembly`), naming the pose and the leg."""
+        if not self.numeric_ik:
+            return
+        hit = self.__dict__.get("_newton_memo", {}).get(self._newton_key(np.atleast_2d(poses), p))
+        if hit is None or not hit[1].any():
+            return
+        from .errors import UnreachablePoseError
+
+        k, leg = np.argwhere(hit[1])[0]
+        sign = self.assembly()["sign"][leg]
+        raise UnreachablePoseError(
+            f"pose {np.asarray(poses[k], dtype=float).tolist()} ({self._pose_units()}) is unreachable for "
+            f"{self.robot.legs[leg].name} on its assembly branch: Newton's method closes the loop there only on "
+            f"another branch (leg determinant of sign {-int(sign):+d}; {int(sign):+d} at x_ref, where the "
+            "description's reference puts the robot)")
+
     def solve_joints(self, poses, p: dict) -> np.ndarray:
-        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.newton.solve`)."""
+        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.newton.solve`),
+        on each leg's assembly branch recorded at x_ref (:meth:`assembly`)."""
         from .newton import solve
 
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
-        key = (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
-                                      if not k.startswith("q")))
+        key = self._newton_key(poses, p)
         memo = self.__dict__.setdefault("_newton_memo", {})
         if key in memo:
-            return memo[key]
+            return memo[key][0]
         n = len(poses)
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
-        parts = []
+        signs = self.assembly()["sign"]
+        parts, offs = [], []
         for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
             kp = {**(self._take(p, sl) if n > 1 else p), "x": poses[sl, 0], "y": poses[sl, 1], "z": poses[sl, 2]}
             if self._six:
@@ -249,10 +328,13 @@ class Evaluator:
                     return self._kernels.jacobians(q, kp)["lever"]
 
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-                parts.append(solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch))
+                q, off = solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch, signs=signs,
+                               report=True)
+            parts.append(q)
+            offs.append(off)
         q = np.concatenate(parts)
         memo.clear()
-        memo[key] = q
+        memo[key] = (q, np.concatenate(offs))
         return q
 
     def rigid_size(self) -> int:
@@ -411,6 +493,7 @@ class Evaluator:
         with np.errstate(invalid="ignore", divide="ignore"):
             out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
         if strict:
+            self._raise_off_branch(poses, p)
             raise_unreachable(legs, poses, out)
         ok = reachable_mask(out)
         q, jac = out["q"], None
@@ -502,6 +585,8 @@ class Evaluator:
     def _raise_first(self, poses: np.ndarray, p: dict, bad: np.ndarray) -> None:
         """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
         self._raise_unfollowed(poses)
+        if self.numeric_ik:
+            self._raise_off_branch(poses, self._with_pose(poses, p))
         k = int(np.argmax(bad))
         self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),),
                                     legs=self.robot.legs)
