@@ -119,29 +119,42 @@ CONDITIONING_TOL = 100.0 * float(np.sqrt(np.finfo(float).eps))
 CONDITIONING_LENGTH = 1.0
 
 
+def _unit(W: np.ndarray) -> np.ndarray:
+    norm = np.linalg.norm(W, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(norm > 0, W / np.where(norm > 0, norm, 1.0), 0.0)
+
+
 def platform_rows(J_rows, legs) -> np.ndarray:
-    """(n, r, 6) the platform's actuation and constraint rows: each leg's actuated
-    inverse-Jacobian row (the first of its ``J_rows``) and its virtual joints' rows (its
-    constraint wrenches), legs in order. Together they fix the platform's six twists
-    ``[omega; v]`` unless the pose is parallel singular."""
-    J = np.asarray(J_rows, dtype=float)
-    return np.concatenate([J[:, i, [0] + constraint_positions(leg), :] for i, leg in enumerate(legs)], axis=1)
+    """(n, r, 6) the platform's unit actuation and constraint rows, legs in order: each
+    leg's actuated inverse-Jacobian row (the first of its ``J_rows``) scaled to unit
+    length, then an orthonormal basis of its virtual joints' rows (the span of its
+    constraint wrenches: the basis Huang's method happens to give does not matter), each
+    acting on ``[L omega; v]`` (L = :data:`CONDITIONING_LENGTH`). Together they fix the
+    platform's six twists unless the pose is parallel singular."""
+    J = np.asarray(J_rows, dtype=float) * np.array([1 / CONDITIONING_LENGTH] * 3 + [1.0] * 3)
+    parts = []
+    for i, leg in enumerate(legs):
+        parts.append(_unit(J[:, i, :1, :]))
+        c = constraint_positions(leg)
+        if c:
+            C = J[:, i, c, :]
+            finite = np.isfinite(C).all(axis=(1, 2))
+            Q = np.full(C.shape, np.nan)
+            if finite.any():
+                Q[finite] = np.swapaxes(np.linalg.qr(np.swapaxes(C[finite], 1, 2))[0], 1, 2)
+            parts.append(Q)
+    return np.concatenate(parts, axis=1)
 
 
 def _gram(rows: np.ndarray) -> np.ndarray:
-    W = rows * np.array([1 / CONDITIONING_LENGTH] * 3 + [1.0] * 3)
-    norm = np.linalg.norm(W, axis=-1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        W = np.where(norm > 0, W / np.where(norm > 0, norm, 1.0), 0.0)
-    return np.einsum("nri,nrj->nij", W, W)
+    return np.einsum("nri,nrj->nij", rows, rows)
 
 
 def conditioning(rows: np.ndarray) -> np.ndarray:
     """(n,) inverse condition number sigma_min / sigma_max (0 to 1) of the platform's
-    unit wrench rows (:func:`platform_rows`; each row scaled to unit length after the
-    rotational part is multiplied by :data:`CONDITIONING_LENGTH`): 1 where the rows fix
-    every twist alike, 0 where a twist escapes them (a parallel singularity); NaN where
-    a row is not finite."""
+    unit wrench rows (:func:`platform_rows`): 1 where the rows fix every twist alike, 0
+    where a twist escapes them (a parallel singularity); NaN where a row is not finite."""
     rows = np.asarray(rows, dtype=float)
     out = np.full(len(rows), np.nan)
     finite = np.isfinite(rows).all(axis=(1, 2))
