@@ -249,6 +249,23 @@ def test_newton_keeps_the_descriptions_branch(elbow):
     assert np.isnan(q[200:]).all()
 
 
+def test_homotopy_keeps_the_references_elbow_where_newton_jumps():
+    """From a reference far from closing, plain Newton closes the two-link arm on the other
+    elbow; the homotopy from the reference (the branch recorded at x_ref) keeps its elbow
+    (law of cosines for the angle, the sign of sin b for the elbow)."""
+    from eigentwist.runtime.newton import continuation, solve
+
+    target = np.array([[-0.59, -0.14]])
+    reference = np.array([[-1.02, 1.73]])                     # elbow +: sin(1.73) > 0
+    closure, p = _two_link(target)
+    jumped = solve(closure, reference, p, 1)[0, 0]
+    kept, residual = continuation(closure, reference, p)
+    cos_b = (np.sum(target**2) - 1.0 - 0.64) / (2 * 0.8)
+    for q in (jumped, kept[0]):
+        assert abs(np.cos(q[1]) - cos_b) < 1e-10
+    assert np.sin(jumped[1]) < 0 < np.sin(kept[0, 1]) and residual[0] < 1e-12
+
+
 def test_content_hash_sees_the_urdf_data():
     """Two URDF-form robots that differ only in a joint origin are cached apart."""
     import dataclasses
