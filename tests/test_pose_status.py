@@ -4,8 +4,8 @@
   (a strut's stroke: unreachable past it, the strut length from the geometry in the test);
 * a ``SerialLeg`` with a virtual joint after its final spherical joint builds its six unit
   twists (the virtual one checked against the rotation it stands for);
-* the old import ``eigentwist.symbolic.screw`` works and warns; ``"none"`` is named among
-  the models;
+* the old imports ``eigentwist.symbolic.screw`` and ``eigentwist.runtime.chain.ChainEvaluator``
+  work and warn; ``"none"`` is named among the models;
 * parallel singularities: the 3-RPS with every leg in the base plane (z = 0) and a 3-RPR with
   radial struts at home are refused (``SingularPoseError``), said by ``pose_status``, NaN
   and invalid in batches, and mapped by a sweep's status column; the conditioning equals an
@@ -101,6 +101,15 @@ def test_the_old_screw_import_warns_and_works():
     with pytest.warns(DeprecationWarning, match="eigentwist.description.screw"):
         old = importlib.import_module("eigentwist.symbolic.screw")
     assert old.spatial_inertia is screw.spatial_inertia and old.cross is screw.cross
+
+
+def test_the_old_chain_evaluator_warns_and_loads():
+    from eigentwist.runtime.chain import ChainEvaluator
+
+    with pytest.warns(DeprecationWarning, match=r"eigentwist.load\(robot\)"):
+        ev = ChainEvaluator("delta", backend="numpy")
+    np.testing.assert_array_equal(ev.frequencies(ev.robot.x_ref),
+                                  eigentwist.load("delta", backend="numpy").frequencies(ev.robot.x_ref))
 
 
 def test_the_models_error_names_none():
