@@ -120,9 +120,22 @@ CONDITIONING_LENGTH = 1.0
 
 
 def _unit(W: np.ndarray) -> np.ndarray:
-    norm = np.linalg.norm(W, axis=-1, keepdims=True)
+    norm = np.sqrt(np.einsum("...i,...i->...", W, W))[..., None]
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(norm > 0, W / np.where(norm > 0, norm, 1.0), 0.0)
+        return W / np.where(norm > 0, norm, 1.0)
+
+
+def _layout(legs) -> tuple:
+    """(leg indices, row indices) of every leg's actuated row and constraint rows in
+    ``J_rows``, and the (start, stop) of each leg's constraint block of two or more rows."""
+    legs_idx, rows_idx, blocks = [], [], []
+    for i, leg in enumerate(legs):
+        c = constraint_positions(leg)
+        legs_idx += [i] * (1 + len(c))
+        rows_idx += [0] + c
+        if len(c) > 1:
+            blocks.append((len(rows_idx) - len(c), len(rows_idx)))
+    return legs_idx, rows_idx, blocks
 
 
 def platform_rows(J_rows, legs) -> np.ndarray:
@@ -132,23 +145,23 @@ def platform_rows(J_rows, legs) -> np.ndarray:
     constraint wrenches: the basis Huang's method happens to give does not matter), each
     acting on ``[L omega; v]`` (L = :data:`CONDITIONING_LENGTH`). Together they fix the
     platform's six twists unless the pose is parallel singular."""
-    J = np.asarray(J_rows, dtype=float) * np.array([1 / CONDITIONING_LENGTH] * 3 + [1.0] * 3)
-    parts = []
-    for i, leg in enumerate(legs):
-        parts.append(_unit(J[:, i, :1, :]))
-        c = constraint_positions(leg)
-        if c:
-            C = J[:, i, c, :]
-            finite = np.isfinite(C).all(axis=(1, 2))
-            Q = np.full(C.shape, np.nan)
-            if finite.any():
-                Q[finite] = np.swapaxes(np.linalg.qr(np.swapaxes(C[finite], 1, 2))[0], 1, 2)
-            parts.append(Q)
-    return np.concatenate(parts, axis=1)
+    legs_idx, rows_idx, blocks = _layout(legs)
+    W = np.asarray(J_rows, dtype=float)[:, legs_idx, rows_idx, :]
+    if CONDITIONING_LENGTH != 1.0:
+        W[..., :3] /= CONDITIONING_LENGTH
+    W = _unit(W)
+    for start, stop in blocks:                  # Gram-Schmidt, twice, within the leg's block
+        for k in range(start + 1, stop):
+            v = W[:, k, :].copy()
+            for _ in range(2):
+                for m in range(start, k):
+                    v -= np.einsum("ni,ni->n", W[:, m, :], v)[:, None] * W[:, m, :]
+            W[:, k, :] = _unit(v)
+    return W
 
 
 def _gram(rows: np.ndarray) -> np.ndarray:
-    return np.einsum("nri,nrj->nij", rows, rows)
+    return np.swapaxes(rows, 1, 2) @ rows
 
 
 def conditioning(rows: np.ndarray) -> np.ndarray:
@@ -175,9 +188,10 @@ def parallel_mask(rows: np.ndarray) -> np.ndarray:
     rows = np.asarray(rows, dtype=float)
     if rows.shape[1] < 6:
         return np.zeros(len(rows), dtype=bool)
-    finite = np.isfinite(rows).all(axis=(1, 2))
+    with np.errstate(invalid="ignore", over="ignore"):
+        finite = np.isfinite(rows.reshape(len(rows), -1).sum(axis=1))
     ok = np.zeros(len(rows), dtype=bool)
-    G = _gram(rows[finite])
+    G = _gram(rows if finite.all() else rows[finite])
     tr = np.einsum("nii->n", G)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         sure = np.linalg.det(G) / tr**6 > CONDITIONING_TOL**2
