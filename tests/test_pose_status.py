@@ -173,6 +173,26 @@ def test_the_parallel_threshold_follows_the_conditioning(rpr):
         rpr.frequencies(below, "none")
 
 
+@pytest.mark.compiled
+@pytest.mark.parametrize("model", ["paper", "rigid"])
+def test_the_fused_c_pass_refuses_the_parallel_singularity(model):
+    """The Delta with l2 = 0.4 m: at x = y = 0 its three forearms lie horizontal where the
+    elbows' radius R + l1 cos q1 reaches r_p + l2, at z = -sqrt(l1^2 - (l2 - R + r_p)^2)
+    (the elbows' height): no actuator resists a vertical motion. The fused C pass (flexible
+    and rigid models) refuses it as the NumPy path does; its neighbours keep their modes."""
+    d = eigentwist.load("delta", backend="numpy").defaults
+    z = -np.sqrt(d["l1"] ** 2 - (0.4 - d["R"] + d["r_p"]) ** 2)
+    x = np.array([[0.0, 0.0, -0.25], [0.0, 0.0, z], [0.0, 0.0, -0.1]])
+    evs = (eigentwist.load("delta", backend="numpy"), eigentwist.load("delta", backend="c", threads=1))
+    for ev in evs:
+        with pytest.raises(SingularPoseError, match="parallel singular"):
+            ev.frequencies(x[1], model, l2=0.4)
+        modes = ev.modes(x, model, invalid="nan", l2=0.4)
+        assert modes.valid.tolist() == [True, False, True] and np.isnan(modes.freq_hz[1]).all()
+    f = [ev.modes(x[[0, 2]], model, l2=0.4).freq_hz for ev in evs]
+    np.testing.assert_allclose(f[1], f[0], rtol=1e-9)
+
+
 def test_sweep_maps_the_singular_region(rps):
     from eigentwist.runtime.sweep import evaluate_chunk, make_spec
     from eigentwist.runtime.validity import POSE_STATUS

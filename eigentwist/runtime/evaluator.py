@@ -23,10 +23,13 @@ from .validity import (CONDITIONING_TOL, LEVER_SCALE, LEVER_TOL, POSE_STATUS, ST
 
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_STATUS"]
 
-#: the C pass checks a pose for a parallel singularity when its lowest frequency lies
-#: below this fraction of its highest (or is NaN): at a conditioning of CONDITIONING_TOL
-#: the lowest frequency is about that conditioning times the others, 1e4 times lower
-PARALLEL_SCREEN = 0.1
+#: the fused C pass checks a pose for a parallel singularity when its lowest frequency is
+#: 0, NaN or below this fraction of its highest: a twist escaping the legs' wrenches with a
+#: conditioning c has omega about c times the others' (the stiffness along it scales with
+#: c^2), so at CONDITIONING_TOL (1.5e-6) it lies ~700 times below this screen. A loss of every
+#: allowed twist at once keeps the ratio and is caught where the frequencies reach 0 or
+#: NaN; the other paths (NumPy, matrices, valid, pose_status) check every pose exactly.
+PARALLEL_SCREEN = 1e-3
 #: two closed configurations of a leg are one when no coordinate differs by more (rad; m):
 #: both close to 1e-12 and a leg's Jacobian is far better conditioned than 1e-6 off a singularity
 BRANCH_GAP = 1e-6
@@ -527,9 +530,10 @@ class Evaluator:
         mask[rows] = True
         sub = p if mask.all() else self._mask(p, mask, n)
         W = self._platform_rows(poses[mask], sub)
-        if strict:
+        ok = parallel_mask(W)
+        if strict and not ok.all():
             raise_parallel(poses[mask], W)
-        return parallel_mask(W)
+        return ok
 
     def _raise_unfollowed(self, poses: np.ndarray) -> None:
         """Raise :class:`UnreachablePoseError` for the first pose whose followers did not
@@ -1059,11 +1063,10 @@ class Evaluator:
         if check and not valid.all():
             self._raise_first(poses, p, ~valid)
         # a parallel singularity drives the lowest frequency to 0: the poses whose lowest
-        # mode lies below PARALLEL_SCREEN times their highest (or is NaN) get the check
+        # mode is 0, NaN or below PARALLEL_SCREEN times their highest get the exact check
+        freq = out["freq_hz"]
         with np.errstate(invalid="ignore"):
-            freq = out["freq_hz"]
-            low = valid & ~(np.nanmin(np.where(np.isnan(freq), -1.0, freq), axis=1)
-                            > PARALLEL_SCREEN * np.nanmax(freq, axis=1))
+            low = valid & ~(freq.min(axis=1) > PARALLEL_SCREEN * freq.max(axis=1))
         suspect = np.flatnonzero(low)
         singular = suspect[~self._parallel_ok(poses, p, suspect, strict=check)]
         if singular.size:
