@@ -27,21 +27,19 @@ import eigentwist
 from eigentwist.runtime.errors import SingularPoseError, UnreachablePoseError
 from eigentwist.runtime.validity import CONDITIONING_TOL
 
-from .descriptions import rpr3, rps3
-
 DESCRIPTIONS = Path(__file__).resolve().parent / "descriptions"
 
 
 @pytest.fixture(scope="module")
 def rpr():
     """The planar 3-RPR (legs without checks), NumPy backend, generated once into the cache."""
-    return eigentwist.load(rpr3.describe(), backend="numpy", progress=None)
+    return eigentwist.load(str(DESCRIPTIONS / "rpr3.py"), backend="numpy", progress=None)
 
 
 @pytest.fixture(scope="module")
 def rps():
     """The 3-RPS (a check named ``stroke``), NumPy backend."""
-    return eigentwist.load(rps3.describe(), backend="numpy", progress=None)
+    return eigentwist.load(str(DESCRIPTIONS / "rps3.py"), backend="numpy", progress=None)
 
 
 # ---------------------------------------------------------------- the user file's traps
@@ -191,6 +189,37 @@ def test_the_fused_c_pass_refuses_the_parallel_singularity(model):
         assert modes.valid.tolist() == [True, False, True] and np.isnan(modes.freq_hz[1]).all()
     f = [ev.modes(x[[0, 2]], model, l2=0.4).freq_hz for ev in evs]
     np.testing.assert_allclose(f[1], f[0], rtol=1e-9)
+
+
+@pytest.mark.compiled
+def test_the_fused_pass_checks_exactly_the_poses_below_its_screen(monkeypatch):
+    """Near the Delta's singularity (l2 = 0.4 m) the lowest frequency falls with the
+    distance: of two poses whose f1 / f_max lie either side of PARALLEL_SCREEN (within 10 %
+    of each other), the one below gets the exact check and the one above does not (both are
+    regular: the check finds them so)."""
+    from eigentwist.runtime import evaluator
+
+    numpy_ev = eigentwist.load("delta", backend="numpy")
+    d = numpy_ev.defaults
+    z0 = -np.sqrt(d["l1"] ** 2 - (0.4 - d["R"] + d["r_p"]) ** 2)
+
+    dz = np.geomspace(1e-5, 0.05, 200)                      # consecutive distances 4.4 % apart
+    f = numpy_ev.frequencies(np.column_stack([0 * dz, 0 * dz, z0 - dz]), "paper", l2=0.4)
+    ratio = f.min(axis=1) / f.max(axis=1)
+    k = int(np.argmax(ratio > evaluator.PARALLEL_SCREEN))
+    assert ratio[k - 1] < evaluator.PARALLEL_SCREEN < ratio[k] < 1.1 * ratio[k - 1]
+    checked = []
+    original = evaluator.Evaluator._parallel_ok
+
+    def spy(self, poses, p, rows, strict):
+        checked.extend(poses[rows, 2].tolist())
+        return original(self, poses, p, rows, strict)
+
+    monkeypatch.setattr(evaluator.Evaluator, "_parallel_ok", spy)
+    ev = eigentwist.load("delta", backend="c", threads=1)
+    x = np.array([[0.0, 0.0, z0 - dz[k - 1]], [0.0, 0.0, z0 - dz[k]]])
+    assert np.isfinite(ev.frequencies(x, "paper", l2=0.4)).all()
+    assert checked == [x[0, 2]]
 
 
 def test_sweep_maps_the_singular_region(rps):
