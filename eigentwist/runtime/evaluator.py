@@ -603,7 +603,8 @@ class Evaluator:
 
     # ----------------------------------------------------------------- public
     def valid(self, poses, model="paper", **params) -> np.ndarray:
-        """(N,) bool: which poses are reachable and not singular for these parameters.
+        """(N,) bool: which poses are reachable and neither serial nor parallel singular
+        for these parameters (:meth:`pose_status` says which).
 
         The per-row form of the checks that make :meth:`modes` raise; use it to filter
         a batch (e.g. a sweep over a workspace box) instead of catching errors.
