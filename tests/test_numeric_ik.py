@@ -266,6 +266,20 @@ def test_homotopy_keeps_the_references_elbow_where_newton_jumps():
     assert np.sin(jumped[1]) < 0 < np.sin(kept[0, 1]) and residual[0] < 1e-12
 
 
+def test_two_configurations_are_one_within_the_branch_gap():
+    from eigentwist.runtime.newton import BRANCH_GAP, same_configuration
+
+    a = np.array([0.3, -2.0, 0.8])                           # rad, rad, m
+    angular = np.array([True, True, False])
+    for k in range(3):
+        step = np.eye(3)[k]
+        assert same_configuration(a + 0.9 * BRANCH_GAP * step, a, angular)
+        assert not same_configuration(a + 1.1 * BRANCH_GAP * step, a, angular)
+    assert same_configuration(a + [2 * np.pi, -2 * np.pi, 0], a, angular)       # a turn is the same joint
+    assert not same_configuration(a + [0, 0, 2 * np.pi], a, angular)            # a length is not an angle
+    assert not same_configuration(a + [np.nan, 0, 0], a, angular)
+
+
 def test_content_hash_sees_the_urdf_data():
     """Two URDF-form robots that differ only in a joint origin are cached apart."""
     import dataclasses

@@ -30,9 +30,6 @@ __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_
 #: allowed twist at once keeps the ratio and is caught where the frequencies reach 0 or
 #: NaN; the other paths (NumPy, matrices, valid, pose_status) check every pose exactly.
 PARALLEL_SCREEN = 1e-3
-#: two closed configurations of a leg are one when no coordinate differs by more (rad; m):
-#: both close to 1e-12 and a leg's Jacobian is far better conditioned than 1e-6 off a singularity
-BRANCH_GAP = 1e-6
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
@@ -254,7 +251,7 @@ class Evaluator:
         if "_assembly" in self.__dict__:
             return self.__dict__["_assembly"]
         from .errors import AssemblyError
-        from .newton import continuation, solve
+        from .newton import continuation, same_configuration, solve
 
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
         x = self._poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
@@ -265,9 +262,7 @@ class Evaluator:
             q_direct = solve(self._kernels.loop_closure, reference, kp, 1)[0]
             lever = self._kernels.jacobians(q_path[None], kp)["lever"][0]
         residual = np.sqrt((r0 * r0).sum(-1))
-        angular = np.array([u == "rad" for u in self.joint_units])
-        gap = q_direct - q_path
-        gap = np.where(angular, np.angle(np.exp(1j * gap)), gap)
+        same = same_configuration(q_direct, q_path, np.array([u == "rad" for u in self.joint_units]))
         for i, leg in enumerate(self.robot.legs):
             ref = ", ".join(f"{v:.6g}" for v in reference[i])
             where = (f"{self.robot.name}: {leg.name}'s reference ({ref}) (rad; m for P) does not close its loop at "
@@ -275,7 +270,7 @@ class Evaluator:
             if not np.isfinite(q_path[i]).all():
                 raise AssemblyError(f"{where}, and no path of closed configurations leads from it there (a "
                                     "singularity between): expected the leg's joint coordinates at x_ref")
-            if not (np.abs(gap[i]) <= BRANCH_GAP).all():
+            if not same[i]:
                 found = "does not converge" if not np.isfinite(q_direct[i]).all() else (
                     "closes on another assembly branch (" + ", ".join(f"{v:.4g}" for v in q_direct[i]) + ")")
                 raise AssemblyError(f"{where}; Newton's method from it {found}: expected a reference on its own "

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["solve", "continuation", "MAX_ITERATIONS", "TOL", "HOMOTOPY_STEPS"]
+__all__ = ["solve", "continuation", "same_configuration", "MAX_ITERATIONS", "TOL", "HOMOTOPY_STEPS", "BRANCH_GAP"]
 
 MAX_ITERATIONS = 80
 TOL = 1e-12            # |r| (m and rad) of a converged configuration
@@ -32,6 +32,17 @@ MAX_STEP = 0.25        # largest change of one coordinate per iteration (rad; m 
 HOMOTOPY_STEPS = 64    # steps of the Newton homotopy from the reference configuration
 HOMOTOPY_ITERATIONS = 12
 PATH_TOL = 1e-9        # |r - (1 - t) r_ref| (m and rad) of a point on the homotopy path
+#: two closed configurations of a leg are one when no coordinate differs by more (rad; m):
+#: both close to 1e-12 and a leg's Jacobian is far better conditioned than 1e-6 off a singularity
+BRANCH_GAP = 1e-6
+
+
+def same_configuration(a, b, angular) -> np.ndarray:
+    """(..., ) bool: configurations ``a`` and ``b`` (..., n_q) are one, every coordinate
+    within :data:`BRANCH_GAP` (angles, ``angular`` True, compared modulo 2 pi); NaN never."""
+    gap = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    gap = np.where(angular, np.angle(np.exp(1j * gap)), gap)
+    return (np.abs(gap) <= BRANCH_GAP).all(axis=-1)
 
 
 def _take(p: dict, rows: np.ndarray, n: int) -> dict:
