@@ -101,7 +101,7 @@ def raise_singular(legs, poses, lever_ratio, scale: str | None = LEVER_SCALE) ->
         what = f"w_a1.t_a1/{scale}" if scale else "w_a.t_a (the leg's unit twists are dependent)"
         unit = "m" if len(poses[k]) == 3 else "(m, rad)"
         raise SingularPoseError(
-            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is singular for {legs[leg].name}: actuation "
+            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is serial singular for {legs[leg].name}: actuation "
             f"lever {what} = {lever_ratio[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")
 
 
