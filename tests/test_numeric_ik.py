@@ -266,6 +266,25 @@ def test_homotopy_keeps_the_references_elbow_where_newton_jumps():
     assert np.sin(jumped[1]) < 0 < np.sin(kept[0, 1]) and residual[0] < 1e-12
 
 
+@pytest.mark.parametrize("factor, follows", [(0.9, True), (1.1, False)])
+def test_homotopy_follows_its_path_within_path_tol(factor, follows):
+    """Two residuals of one coordinate that disagree by 2f, r = [q - a, q - a - 2f]: the
+    homotopy's target (1 - t) r(q_ref) is met to f t sqrt(2) at best (least squares), so the
+    path ends at f sqrt(2): followed just below PATH_TOL, lost (NaN) just above it."""
+    from eigentwist.runtime.newton import PATH_TOL, continuation
+
+    a, f = 0.4, factor * PATH_TOL / np.sqrt(2)
+
+    def closure(q, p):
+        r = np.concatenate([q - a, q - a - 2 * f], axis=-1)
+        return {"residual": r, "dresidual": np.ones(q.shape[:-1] + (2, 1))}
+
+    q, _ = continuation(closure, np.array([[1.3]]), {})
+    assert np.isfinite(q).all() == follows
+    if follows:
+        assert abs(q[0, 0] - (a + f)) < 1e-12
+
+
 def test_two_configurations_are_one_within_the_branch_gap():
     from eigentwist.runtime.newton import BRANCH_GAP, same_configuration
 

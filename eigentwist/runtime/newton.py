@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["solve", "continuation", "same_configuration", "MAX_ITERATIONS", "TOL", "HOMOTOPY_STEPS", "BRANCH_GAP"]
+__all__ = ["solve", "continuation", "same_configuration", "MAX_ITERATIONS", "TOL", "HOMOTOPY_STEPS", "PATH_TOL",
+           "BRANCH_GAP"]
 
 MAX_ITERATIONS = 80
 TOL = 1e-12            # |r| (m and rad) of a converged configuration
