@@ -190,7 +190,7 @@ COST = {
     "test_hexapod_sensitivity.py": 14, "test_identify.py": 10, "test_sensitivity_legs.py": 10,
     "test_csv_input.py": 10, "test_labels.py": 10, "test_hexapod.py": 9, "test_misfit.py": 7,
     "test_ccompile.py": 7, "test_hexapod_cli.py": 7, "test_layering.py": 7, "test_sweep.py": 7,
-    "test_c_library.py": 5,
+    "test_c_library.py": 5, "test_pose_status.py": 12, "test_urdf_leg.py": 3,
 }
 
 

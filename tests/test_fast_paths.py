@@ -144,7 +144,7 @@ def test_singular_pose_is_found_in_the_c_pass(ev_c, monkeypatch):
     import eigentwist.runtime.validity as validity
 
     monkeypatch.setattr(validity, "LEVER_TOL", 10.0)     # every lever counts as vanishing
-    with pytest.raises(SingularPoseError, match=r"pose \[0.0, 0.0, -0.625\] m is singular for leg 1"):
+    with pytest.raises(SingularPoseError, match=r"pose \[0.0, 0.0, -0.625\] m is serial singular for leg 1"):
         ev_c.frequencies([[0.0, 0.0, -0.625]])
     assert not ev_c.valid([[0.0, 0.0, -0.625]])[0]
 

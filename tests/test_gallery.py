@@ -236,3 +236,27 @@ def test_c_backend_names_the_unreachable_leg():
     with pytest.raises(UnreachablePoseError, match="unreachable for leg 2: the leg cannot span") as err:
         ev.frequencies(np.array([[0.3, 0.0, 0.0]]), "none")
     assert "\n" not in str(err.value)
+
+
+def test_a_reference_on_another_branch_is_refused(gallery):
+    """The 3-UPU's first leg given a reference that does not close at x_ref and from which
+    Newton closes on the other assembly branch (the strut's length negative): refused at
+    load, naming the leg and the residual; a pose solved off the recorded branch is
+    unreachable, naming the leg."""
+    import dataclasses
+
+    from eigentwist.runtime.errors import AssemblyError, UnreachablePoseError
+    from eigentwist.runtime.evaluator import Evaluator
+
+    ev = gallery["upu3"]
+    legs = [leg.kinematics.leg for leg in ev.robot.legs]
+    tilt, length = legs[0].reference[0], legs[0].reference[2]
+    assert np.abs(ev.assembly()["residual"]).max() < 1e-12       # the shipped reference closes
+    bad = dataclasses.replace(legs[0], reference=(tilt + 3.0, 0.0, length, 0.0, -tilt - 3.0))
+    with pytest.raises(AssemblyError, match=r"leg 1's reference .* residual 0\.6\d+ \(m, rad\).*another assembly branch"):
+        Evaluator(dataclasses.replace(ev.robot, legs=(bad, *legs[1:])), ev.module, "numpy")
+    flipped = Evaluator(ev.robot, ev.module, "numpy")
+    flipped.assembly()["sign"][1] *= -1                            # as if leg 2 had been assembled the other way
+    with pytest.raises(UnreachablePoseError, match="unreachable for leg 2 on its assembly branch"):
+        flipped.frequencies(ev.robot.x_ref)
+    assert not flipped.valid(ev.robot.x_ref).any()

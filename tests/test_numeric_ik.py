@@ -249,6 +249,56 @@ def test_newton_keeps_the_descriptions_branch(elbow):
     assert np.isnan(q[200:]).all()
 
 
+def test_homotopy_keeps_the_references_elbow_where_newton_jumps():
+    """From a reference far from closing, plain Newton closes the two-link arm on the other
+    elbow; the homotopy from the reference (the branch recorded at x_ref) keeps its elbow
+    (law of cosines for the angle, the sign of sin b for the elbow)."""
+    from eigentwist.runtime.newton import continuation, solve
+
+    target = np.array([[-0.59, -0.14]])
+    reference = np.array([[-1.02, 1.73]])                     # elbow +: sin(1.73) > 0
+    closure, p = _two_link(target)
+    jumped = solve(closure, reference, p, 1)[0, 0]
+    kept, residual = continuation(closure, reference, p)
+    cos_b = (np.sum(target**2) - 1.0 - 0.64) / (2 * 0.8)
+    for q in (jumped, kept[0]):
+        assert abs(np.cos(q[1]) - cos_b) < 1e-10
+    assert np.sin(jumped[1]) < 0 < np.sin(kept[0, 1]) and residual[0] < 1e-12
+
+
+@pytest.mark.parametrize("factor, follows", [(0.9, True), (1.1, False)])
+def test_homotopy_follows_its_path_within_path_tol(factor, follows):
+    """Two residuals of one coordinate that disagree by 2f, r = [q - a, q - a - 2f]: the
+    homotopy's target (1 - t) r(q_ref) is met to f t sqrt(2) at best (least squares), so the
+    path ends at f sqrt(2): followed just below PATH_TOL, lost (NaN) just above it."""
+    from eigentwist.runtime.newton import PATH_TOL, continuation
+
+    a, f = 0.4, factor * PATH_TOL / np.sqrt(2)
+
+    def closure(q, p):
+        r = np.concatenate([q - a, q - a - 2 * f], axis=-1)
+        return {"residual": r, "dresidual": np.ones(q.shape[:-1] + (2, 1))}
+
+    q, _ = continuation(closure, np.array([[1.3]]), {})
+    assert np.isfinite(q).all() == follows
+    if follows:
+        assert abs(q[0, 0] - (a + f)) < 1e-12
+
+
+def test_two_configurations_are_one_within_the_branch_gap():
+    from eigentwist.runtime.newton import BRANCH_GAP, same_configuration
+
+    a = np.array([0.3, -2.0, 0.8])                           # rad, rad, m
+    angular = np.array([True, True, False])
+    for k in range(3):
+        step = np.eye(3)[k]
+        assert same_configuration(a + 0.9 * BRANCH_GAP * step, a, angular)
+        assert not same_configuration(a + 1.1 * BRANCH_GAP * step, a, angular)
+    assert same_configuration(a + [2 * np.pi, -2 * np.pi, 0], a, angular)       # a turn is the same joint
+    assert not same_configuration(a + [0, 0, 2 * np.pi], a, angular)            # a length is not an angle
+    assert not same_configuration(a + [np.nan, 0, 0], a, angular)
+
+
 def test_content_hash_sees_the_urdf_data():
     """Two URDF-form robots that differ only in a joint origin are cached apart."""
     import dataclasses

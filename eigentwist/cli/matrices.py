@@ -29,7 +29,9 @@ directions with zero compliance instead of K_F's c_rigid penalty; couplings and 
 included), freq_exact_hz (6, from C_F and M in compliance form: the finite modes ascending,
 then null for each rigid-constraint direction, an infinite frequency; freq_hz takes its
 finite modes from the same exact condensation),
-parameters [{name, value, unit, default, differs, source}];
+parameters [{name, value, unit, default, differs, source}]; status (reachable here) and
+conditioning (0..1, the inverse condition number of the legs' unit actuation and constraint
+wrench rows; a pose at or below 1.49e-06 is parallel singular and refused);
 eigentwists are columns, one per mode, scaled so the largest entry is +1. Units: kg, kg m,
 kg m^2; N/m, N, N m/rad; Hz.
 """
@@ -122,7 +124,14 @@ def compute(args) -> dict:
         "C_F": C_F,
         "freq_exact_hz": f_exact,
         "parameters": used_parameters(ev, effects, params),
+        **_status(ev, pose, effects, params),
     }
+
+
+def _status(ev, pose, effects, params) -> dict:
+    """The pose's ``status`` and ``conditioning`` (:meth:`Evaluator.pose_status`)."""
+    st = ev.pose_status(pose, effects, **params)
+    return {"status": str(st["status"][0]), "conditioning": float(st["conditioning"][0])}
 
 
 def _exact(ev, pose, effects, params):

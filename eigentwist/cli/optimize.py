@@ -23,6 +23,10 @@ frequencies included; nothing derived at run time), or with --jacobian exact the
 sensitivity kernel (derived on first use for the varied parameters and cached). Poses: --pose (repeatable) or a --grid N per axis of
 the robot's workspace box (default 3); poses unreachable anywhere in the box are dropped.
 
+The masses and inertias (kg, kg m, kg m^2) that are parameters of their own stay at their
+values while the lengths move (a Delta's upper arm: l1 moves, m_1 and I1_* do not); a line
+after the table names them (JSON: held_fixed). Vary them too to move them.
+
 moving-mass (kg): the translational apparent mass at the reference pose x_ref, the mean of
 the diagonal of M's translational 3x3 block (Eq. 12), with its exact gradient.
 """
@@ -126,6 +130,8 @@ def run(args) -> int:
     from .common import say
     import time
 
+    from ..design.fixed import held_fixed, held_fixed_line
+
     t0 = time.perf_counter()
     ev, effects, res = compute(args, progress=eprint)
     elapsed = time.perf_counter() - t0
@@ -135,7 +141,8 @@ def run(args) -> int:
             robot=ev.robot.name, model=list(effects), values=res.values, units=units, worst_hz=res.worst_hz,
             start=res.start, start_worst_hz=res.start_worst_hz, poses=res.poses.tolist(), f1_hz=res.f1_hz.tolist(),
             active=res.active, constraints=res.constraints, success=res.success, message=res.message,
-            nit=res.nit, evaluations=res.evaluations, dropped_poses=res.dropped_poses, seconds=elapsed)))
+            nit=res.nit, evaluations=res.evaluations, dropped_poses=res.dropped_poses, seconds=elapsed,
+            held_fixed=held_fixed(ev, list(res.values), effects))))
         return 0
     say(f"{ev.robot.name}, model {', '.join(effects)}: maximise the worst-case f1 over {len(res.poses)} poses"
           + (f" ({res.dropped_poses} dropped: unreachable in the box)" if res.dropped_poses else ""))
@@ -143,6 +150,9 @@ def run(args) -> int:
           f"{'converged' if res.success else 'NOT converged'}: {res.message}\n")
     rows = [[name, f"{res.start[name]:.6g}", f"{value:.6g}", units[name]] for name, value in res.values.items()]
     say(format_table(["parameter", "start", "best", "unit"], rows))
+    line = held_fixed_line(ev, list(res.values), effects, parse_sets(args.set))
+    if line:
+        say(f"note: {line}")
     say(f"\nworst-case f1: {res.start_worst_hz:.6g} Hz at the start -> {res.worst_hz:.6g} Hz")
     for name, value in res.constraints.items():
         say(f"{name}: {value:.6g} kg")

@@ -30,7 +30,10 @@ list (NumPy backend), then ~1 s per call. A model with gravity_preload has no se
 here (its stiffness is a run-time solve).
 
 JSON keys: robot, model, pose, freq_hz (every mode), parameters: a list sorted by rank with
-name, unit, value, dfdp_hz_per_unit (every mode), dlnf1_dlnp.
+name, unit, value, dfdp_hz_per_unit (every mode), dlnf1_dlnp; held_fixed (the masses and
+inertias, kg, kg m, kg m^2, that stay at their values while a length in --wrt moves: each
+derivative holds every other parameter), notes (the lines printed after the table: those
+held fixed, and each mass ranked +0 because its body's inertia is a separate parameter).
 """
 
 
@@ -92,7 +95,13 @@ def compute(args, progress=None) -> dict:
                          dfdp_hz_per_unit=dfdp[0, :, j].tolist(),
                          dlnf1_dlnp=float(dfdp[0, 0, j] * value / f[0]) if f[0] > 0 else float("nan")))
     rows.sort(key=lambda r: -abs(r["dlnf1_dlnp"]) if np.isfinite(r["dlnf1_dlnp"]) else 0.0)
-    return dict(robot=ev.robot.name, model=list(effects), pose=pose.tolist(), freq_hz=f.tolist(), parameters=rows)
+    from ..design.fixed import held_fixed, held_fixed_line, zero_mass_lines
+
+    # each derivative holds every other parameter: the masses in --wrt too, while a length moves
+    lengths = [w for w in wrt if ev.parameter(w).unit == "m"]
+    notes = [line for line in [held_fixed_line(ev, lengths, effects, params)] if line] + zero_mass_lines(ev, rows)
+    return dict(robot=ev.robot.name, model=list(effects), pose=pose.tolist(), freq_hz=f.tolist(), parameters=rows,
+                held_fixed=held_fixed(ev, lengths, effects), notes=notes)
 
 
 def run(args) -> int:
@@ -108,4 +117,6 @@ def run(args) -> int:
     table = [[k + 1, r["name"], f"{r['value']:.6g}", r["unit"], f"{r['dlnf1_dlnp']:+.4f}",
               f"{r['dfdp_hz_per_unit'][0]:+.4g}", f"Hz/({r['unit']})"] for k, r in enumerate(out["parameters"])]
     say(format_table(["rank", "parameter", "value", "unit", "dlnf1/dlnp", "df1/dp", "per"], table))
+    for line in out["notes"]:
+        say(f"note: {line}")
     return 0

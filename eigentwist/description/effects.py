@@ -451,7 +451,7 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
             names.update(e for e in preset if names_available is None or e in names_available)
             continue
         if name not in catalogue and name not in EFFECTS:
-            valid = list(presets) + list(catalogue)
+            valid = ["none"] + list(presets) + list(catalogue)
             raise ValueError(f"unknown model or effect {item!r}{did_you_mean(name, valid)}: "
                              f"expected one of {', '.join(valid)}")
         if leg is None:

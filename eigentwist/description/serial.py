@@ -287,8 +287,8 @@ class NumericKinematics:
                 g[axis_name(k, 0)] = L(axis_name(k, 0), Rj * sp.Matrix(j.axes[0]))
                 continue
             if k == last and j.kind == "S":
-                R, o = Rj, oj
-                break
+                R, o = Rj, oj                  # virtual joints after it sit in its frame
+                continue
             child = oj
             for m, axis in enumerate(j.axes):
                 a_local = sp.Matrix(axis)

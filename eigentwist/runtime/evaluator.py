@@ -18,9 +18,18 @@ from .allowed import allowed_twists, constraint_positions, coordinate_twists, re
 from .labels import directions, energy_shares
 from ..description.pose import FULL, TWIST_AXIS, twist_order
 from .threads import resolve_threads
-from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular, raise_unreachable, reachable_mask
+from .validity import (CONDITIONING_TOL, LEVER_SCALE, LEVER_TOL, POSE_STATUS, STATUS, conditioning, lever_mask,
+                       parallel_mask, platform_rows, raise_parallel, raise_singular, raise_unreachable, reachable_mask)
 
-__all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL"]
+__all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_STATUS"]
+
+#: the fused C pass checks a pose for a parallel singularity when its lowest frequency is
+#: 0, NaN or below this fraction of its highest: a twist escaping the legs' wrenches with a
+#: conditioning c has omega about c times the others' (the stiffness along it scales with
+#: c^2), so at CONDITIONING_TOL (1.5e-6) it lies ~700 times below this screen. A loss of every
+#: allowed twist at once keeps the ratio and is caught where the frequencies reach 0 or
+#: NaN; the other paths (NumPy, matrices, valid, pose_status) check every pose exactly.
+PARALLEL_SCREEN = 1e-3
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
@@ -131,6 +140,8 @@ class Evaluator:
         self._checked_defaults: set = set()    # parameters whose default _params has checked
         self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
         self._effect = {e: robot.effect(e) for e in robot.effects}
+        if self.numeric_ik:
+            self.assembly()                    # a reference on no branch is refused at load
 
     def _resolve(self, model) -> tuple:
         """``resolve_model(model, self.robot)``, remembered per (hashable) model spec."""
@@ -220,19 +231,91 @@ class Evaluator:
         q = self.solve_joints(poses, p)
         return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
 
+    def _closure_inputs(self, poses: np.ndarray, p: dict) -> dict:
+        kp = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        if self._six:
+            kp.update(self.kernel_pose_inputs(poses))
+        return kp
+
+    def assembly(self) -> dict:
+        """Each leg's assembly branch, recorded at ``x_ref`` with the default parameters
+        (legs solved numerically, :mod:`eigentwist.description.serial`).
+
+        Returns ``{"q": (legs, n_q) the closed configuration connected to the reference
+        (:func:`~.newton.continuation`), "sign": (legs,) the sign of each leg's determinant
+        there (the branch every solution must keep), "residual": (legs,) |r| of the
+        reference itself (m and rad)}``. Raises :class:`AssemblyError` naming the leg and
+        the residual when a reference closes on no branch (a singularity between) or
+        Newton's method from it closes on another branch than the one it is connected to.
+        """
+        if "_assembly" in self.__dict__:
+            return self.__dict__["_assembly"]
+        from .errors import AssemblyError
+        from .newton import continuation, same_configuration, solve
+
+        reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+        x = self._poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
+        kp = self._closure_inputs(x, self._params(1, {}, "none"))
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            r0 = self._kernels.loop_closure(reference[None], kp)["residual"][0]
+            q_path, _ = continuation(self._kernels.loop_closure, reference, kp)
+            q_direct = solve(self._kernels.loop_closure, reference, kp, 1)[0]
+            lever = self._kernels.jacobians(q_path[None], kp)["lever"][0]
+        residual = np.sqrt((r0 * r0).sum(-1))
+        same = same_configuration(q_direct, q_path, np.array([u == "rad" for u in self.joint_units]))
+        for i, leg in enumerate(self.robot.legs):
+            ref = ", ".join(f"{v:.6g}" for v in reference[i])
+            where = (f"{self.robot.name}: {leg.name}'s reference ({ref}) (rad; m for P) does not close its loop at "
+                     f"x_ref {list(self.robot.x_ref)}: residual {residual[i]:.3g} (m, rad)")
+            if not np.isfinite(q_path[i]).all():
+                raise AssemblyError(f"{where}, and no path of closed configurations leads from it there (a "
+                                    "singularity between): expected the leg's joint coordinates at x_ref")
+            if not same[i]:
+                found = "does not converge" if not np.isfinite(q_direct[i]).all() else (
+                    "closes on another assembly branch (" + ", ".join(f"{v:.4g}" for v in q_direct[i]) + ")")
+                raise AssemblyError(f"{where}; Newton's method from it {found}: expected a reference on its own "
+                                    f"branch, e.g. ({', '.join(f'{v:.6g}' for v in q_path[i])})")
+        record = {"q": q_path, "sign": np.sign(lever), "residual": residual}
+        self.__dict__["_assembly"] = record
+        return record
+
+    def _newton_key(self, poses: np.ndarray, p: dict) -> tuple:
+        return (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
+                                       if not k.startswith("q")))
+
+    def _raise_off_branch(self, poses: np.ndarray, p: dict) -> None:
+        """Raise :class:`UnreachablePoseError` for the first pose of the batch last solved
+        whose Newton solution lies on another assembly branch than the one recorded at
+        x_ref (:meth:`assembly`), naming the pose and the leg."""
+        if not self.numeric_ik:
+            return
+        hit = self.__dict__.get("_newton_memo", {}).get(self._newton_key(np.atleast_2d(poses), p))
+        if hit is None or not hit[1].any():
+            return
+        from .errors import UnreachablePoseError
+
+        k, leg = np.argwhere(hit[1])[0]
+        sign = self.assembly()["sign"][leg]
+        raise UnreachablePoseError(
+            f"pose {np.asarray(poses[k], dtype=float).tolist()} ({self._pose_units()}) is unreachable for "
+            f"{self.robot.legs[leg].name} on its assembly branch: Newton's method closes the loop there only on "
+            f"another branch (leg determinant of sign {-int(sign):+d}; {int(sign):+d} at x_ref, where the "
+            "description's reference puts the robot)")
+
     def solve_joints(self, poses, p: dict) -> np.ndarray:
-        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.newton.solve`)."""
+        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.newton.solve`),
+        on each leg's assembly branch recorded at x_ref (:meth:`assembly`)."""
         from .newton import solve
 
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
-        key = (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
-                                      if not k.startswith("q")))
+        key = self._newton_key(poses, p)
         memo = self.__dict__.setdefault("_newton_memo", {})
         if key in memo:
-            return memo[key]
+            return memo[key][0]
         n = len(poses)
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
-        parts = []
+        signs = self.assembly()["sign"]
+        parts, offs = [], []
         for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
             kp = {**(self._take(p, sl) if n > 1 else p), "x": poses[sl, 0], "y": poses[sl, 1], "z": poses[sl, 2]}
             if self._six:
@@ -243,10 +326,13 @@ class Evaluator:
                     return self._kernels.jacobians(q, kp)["lever"]
 
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-                parts.append(solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch))
+                q, off = solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch, signs=signs,
+                               report=True)
+            parts.append(q)
+            offs.append(off)
         q = np.concatenate(parts)
         memo.clear()
-        memo[key] = q
+        memo[key] = (q, np.concatenate(offs))
         return q
 
     def rigid_size(self) -> int:
@@ -405,6 +491,7 @@ class Evaluator:
         with np.errstate(invalid="ignore", divide="ignore"):
             out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
         if strict:
+            self._raise_off_branch(poses, p)
             raise_unreachable(legs, poses, out)
         ok = reachable_mask(out)
         q, jac = out["q"], None
@@ -413,10 +500,35 @@ class Evaluator:
             with np.errstate(invalid="ignore", divide="ignore"):
                 jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
             lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
+            rows = platform_rows(jac["J_rows"], legs)
             if strict:
                 raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None)
-            ok[ok] = lever_mask(lever)
+                raise_parallel(poses[ok], rows)
+            ok[ok] = lever_mask(lever) & parallel_mask(rows)
         return q, jac, ok
+
+    def _platform_rows(self, poses: np.ndarray, p: dict) -> np.ndarray:
+        """(n, r, 6) the platform's actuation and constraint rows at reachable poses
+        (:func:`~.validity.platform_rows`; the IK and jacobians kernels of either backend)."""
+        pp = self._with_pose(poses, p)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            q = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], pp)["q"]
+            return platform_rows(self._kernels.jacobians(q, pp)["J_rows"], self.robot.legs)
+
+    def _parallel_ok(self, poses: np.ndarray, p: dict, rows: np.ndarray, strict: bool) -> np.ndarray:
+        """(len(rows),) bool: the poses ``rows`` (indices) are not parallel singular; with
+        ``strict`` the first that is raises :class:`SingularPoseError`."""
+        if not len(rows):
+            return np.ones(0, dtype=bool)
+        n = len(poses)
+        mask = np.zeros(n, dtype=bool)
+        mask[rows] = True
+        sub = p if mask.all() else self._mask(p, mask, n)
+        W = self._platform_rows(poses[mask], sub)
+        ok = parallel_mask(W)
+        if strict and not ok.all():
+            raise_parallel(poses[mask], W)
+        return ok
 
     def _raise_unfollowed(self, poses: np.ndarray) -> None:
         """Raise :class:`UnreachablePoseError` for the first pose whose followers did not
@@ -472,6 +584,8 @@ class Evaluator:
     def _raise_first(self, poses: np.ndarray, p: dict, bad: np.ndarray) -> None:
         """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
         self._raise_unfollowed(poses)
+        if self.numeric_ik:
+            self._raise_off_branch(poses, self._with_pose(poses, p))
         k = int(np.argmax(bad))
         self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),),
                                     legs=self.robot.legs)
@@ -484,7 +598,8 @@ class Evaluator:
 
     # ----------------------------------------------------------------- public
     def valid(self, poses, model="paper", **params) -> np.ndarray:
-        """(N,) bool: which poses are reachable and not singular for these parameters.
+        """(N,) bool: which poses are reachable and neither serial nor parallel singular
+        for these parameters (:meth:`pose_status` says which).
 
         The per-row form of the checks that make :meth:`modes` raise; use it to filter
         a batch (e.g. a sweep over a workspace box) instead of catching errors.
@@ -493,9 +608,52 @@ class Evaluator:
         p = self._params(len(poses), params, model)
         if self._fused:
             st = self._c_pass(poses, p, matrices=())["status"]
-            return (st != STATUS["unreachable"]) & (st != STATUS["singular"])
+            ok = (st != STATUS["unreachable"]) & (st != STATUS["singular"])
+            ok[ok] = self._parallel_ok(poses, p, np.flatnonzero(ok), strict=False)
+            return ok
         return np.concatenate([self._check_rows(poses[sl], self._take(p, sl), strict=False)[2]
                                for sl in self._chunks(len(poses))])
+
+    def pose_status(self, poses, model="paper", **params) -> dict:
+        """Each pose's status and conditioning, never an error.
+
+        Returns ``{"status": (N,) str, "code": (N,) int8, "conditioning": (N,),
+        "lever": (N,)}``. ``status`` is one of :data:`~.validity.POSE_STATUS`
+        (``code`` its position): ``"reachable"``; ``"unreachable"`` (a leg's check left
+        [-1, 1], its joint coordinates are not finite, or the followers did not converge);
+        ``"serial singular"`` (a leg's unit twists are dependent: its smallest
+        ``|lever|``, relative to ``l1`` where the robot has it, at or below ``LEVER_TOL``);
+        ``"parallel singular"`` (the legs' actuation and constraint wrenches leave a
+        platform twist free: ``conditioning``, the inverse condition number 0..1 of
+        their unit rows, at or below :data:`~.validity.CONDITIONING_TOL`). ``conditioning``
+        and ``lever`` are NaN where the pose is unreachable. :meth:`modes` raises
+        :class:`SingularPoseError` at either singularity and :meth:`valid` is False there.
+        """
+        poses = self._poses(poses, params)
+        n = len(poses)
+        p = self._params(n, params, model)
+        code = np.full(n, POSE_STATUS.index("unreachable"), dtype=np.int8)
+        cond, lever_min = np.full(n, np.nan), np.full(n, np.nan)
+        for sl in self._chunks(n):
+            pc = self._with_pose(poses[sl], self._take(p, sl))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ik = self._kernels.inverse_kinematics(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc)
+            reach = reachable_mask(ik) & np.isfinite(poses[sl]).all(axis=1)
+            if not reach.any():
+                continue
+            sub = self._mask(pc, reach, len(reach)) if not reach.all() else pc
+            with np.errstate(invalid="ignore", divide="ignore"):
+                jac = self._kernels.jacobians(ik["q"][reach], sub)
+            lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
+            rows = platform_rows(jac["J_rows"], self.robot.legs)
+            idx = np.arange(sl.start, sl.stop)[reach]
+            cond[idx] = conditioning(rows)
+            lever_min[idx] = np.abs(lever).min(axis=-1)
+            code[idx] = np.where(~lever_mask(lever), POSE_STATUS.index("serial singular"),
+                                 np.where(~parallel_mask(rows), POSE_STATUS.index("parallel singular"),
+                                          POSE_STATUS.index("reachable")))
+        return {"status": np.array(POSE_STATUS, dtype=object)[code], "code": code, "conditioning": cond,
+                "lever": lever_min}
 
     def joint_angles(self, poses, **params) -> np.ndarray:
         """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
@@ -551,6 +709,7 @@ class Evaluator:
             bad = res["status"] != STATUS["ok"]
             if bad.any():
                 self._raise_first(poses, p, bad)
+            self._parallel_ok(poses, p, np.arange(n), strict=True)
             return {k: res[k] for k in MATRICES}
         return self._matrices_q(poses, p, out)[0]
 
@@ -899,6 +1058,18 @@ class Evaluator:
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
             self._raise_first(poses, p, ~valid)
+        # a parallel singularity drives the lowest frequency to 0: the poses whose lowest
+        # mode is 0, NaN or below PARALLEL_SCREEN times their highest get the exact check
+        freq = out["freq_hz"]
+        with np.errstate(invalid="ignore"):
+            low = valid & ~(freq.min(axis=1) > PARALLEL_SCREEN * freq.max(axis=1))
+        suspect = np.flatnonzero(low)
+        singular = suspect[~self._parallel_ok(poses, p, suspect, strict=check)]
+        if singular.size:
+            valid[singular] = False
+            out["freq_hz"][singular] = np.nan
+            if out.get("eigentwists") is not None:
+                out["eigentwists"][singular] = np.nan
         modes = Modes(out["freq_hz"], out.get("eigentwists"), self.axes(kind), kind,
                       None if check else valid, st != STATUS["unstable"])
         if shares and out["eigentwists"].shape[-1] == 6:

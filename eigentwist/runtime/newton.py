@@ -23,12 +23,27 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["solve", "MAX_ITERATIONS", "TOL"]
+__all__ = ["solve", "continuation", "same_configuration", "MAX_ITERATIONS", "TOL", "HOMOTOPY_STEPS", "PATH_TOL",
+           "BRANCH_GAP"]
 
 MAX_ITERATIONS = 80
 TOL = 1e-12            # |r| (m and rad) of a converged configuration
 LAMBDA0 = 1e-3
 MAX_STEP = 0.25        # largest change of one coordinate per iteration (rad; m for P)
+HOMOTOPY_STEPS = 64    # steps of the Newton homotopy from the reference configuration
+HOMOTOPY_ITERATIONS = 12
+PATH_TOL = 1e-9        # |r - (1 - t) r_ref| (m and rad) of a point on the homotopy path
+#: two closed configurations of a leg are one when no coordinate differs by more (rad; m):
+#: both close to 1e-12 and a leg's Jacobian is far better conditioned than 1e-6 off a singularity
+BRANCH_GAP = 1e-6
+
+
+def same_configuration(a, b, angular) -> np.ndarray:
+    """(..., ) bool: configurations ``a`` and ``b`` (..., n_q) are one, every coordinate
+    within :data:`BRANCH_GAP` (angles, ``angular`` True, compared modulo 2 pi); NaN never."""
+    gap = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    gap = np.where(angular, np.angle(np.exp(1j * gap)), gap)
+    return (np.abs(gap) <= BRANCH_GAP).all(axis=-1)
 
 
 def _take(p: dict, rows: np.ndarray, n: int) -> dict:
@@ -99,8 +114,46 @@ def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
     return q, norm
 
 
+def continuation(closure, reference: np.ndarray, p: dict, steps: int = HOMOTOPY_STEPS,
+                 tol: float = TOL) -> tuple[np.ndarray, np.ndarray]:
+    """The configuration the reference is connected to at one pose: the Newton homotopy
+    ``r(q) = (1 - t) r(q_ref)`` followed from t = 0 (where the reference solves it) to
+    t = 1 (the loop closed) in ``steps`` steps, Gauss-Newton at each. Where the reference
+    already closes, the result is the reference polished; where it does not, the path
+    stays on the sheet of solutions through the reference, whichever assembly branch a
+    plain Newton solve from it would jump to.
+
+    closure : the generated kernel; reference : (legs, n_q); p : inputs of one pose.
+    Returns ``(q (legs, n_q), |r(q)| (legs,))``: NaN coordinates for a leg whose path met
+    a singularity (a step that does not converge).
+    """
+    q = np.array(reference, dtype=float)[None]
+    r0 = closure(q, p)["residual"].copy()
+    alive = np.isfinite(r0).all(-1)
+    for k in range(1, steps + 1):
+        target = (1.0 - k / steps) * r0
+        for _ in range(HOMOTOPY_ITERATIONS):
+            out = closure(q, p)
+            r, A = out["residual"] - target, out["dresidual"]
+            AtA, Atr = _normal(A, r)
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                try:
+                    step = -np.linalg.solve(AtA + 1e-300 * np.eye(q.shape[-1]), Atr[..., None])[..., 0]
+                except np.linalg.LinAlgError:
+                    step = np.full_like(q, np.nan)
+            q = q + np.where(alive[..., None], step, 0.0)
+            if (np.sqrt((r * r).sum(-1)) < tol).all():
+                break
+        with np.errstate(invalid="ignore"):
+            res = closure(q, p)["residual"] - target
+            alive &= np.sqrt((res * res).sum(-1)) < PATH_TOL
+    q = np.where(alive[..., None], q, np.nan)
+    r = closure(q, p)["residual"]
+    return q[0], np.sqrt((r * r).sum(-1))[0]
+
+
 def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
-          iterations: int = MAX_ITERATIONS, tol: float = TOL) -> np.ndarray:
+          iterations: int = MAX_ITERATIONS, tol: float = TOL, signs=None, report: bool = False):
     """Joint coordinates (n, legs, n_q) closing every leg's loop at n poses; NaN where
     Newton does not converge (or lands on another assembly branch).
 
@@ -108,7 +161,10 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
     reference : (legs, n_q) the description's reference configuration (rad; m for P).
     p : the kernel's inputs (parameters and the pose, (n,) arrays or scalars).
     branch : optional ``branch(q) -> (n, legs)`` signs of each leg's determinant; a
-        solution whose sign differs from the reference configuration's is rejected.
+        solution whose sign differs from the branch's is rejected.
+    signs : (legs,) the branch's signs, recorded where the reference closes the loop
+        (:func:`continuation`); None: the reference configuration's own.
+    report : also return the (n, legs) mask of solutions rejected for their branch.
     """
     q0 = np.broadcast_to(reference, (n,) + reference.shape).copy()
     q, norm = _iterate(closure, q0, p, iterations, tol)
@@ -124,8 +180,12 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
         qs, ns = _iterate(closure, q[prev - 1].copy(), _take(p, prev, n), iterations, tol)
         q[prev], norm[prev] = qs, ns
         ok = norm < tol
+    off = np.zeros(ok.shape, dtype=bool)
     if branch is not None and ok.any():
-        ref_sign = np.sign(branch(np.broadcast_to(reference, q.shape)))
+        ref_sign = (np.sign(branch(np.broadcast_to(reference, q.shape))) if signs is None
+                    else np.broadcast_to(np.asarray(signs, dtype=float), ok.shape))
         # a singular reference (sign 0) names no branch: nothing to compare with
-        ok &= (np.sign(branch(np.where(ok[..., None], q, q0))) == ref_sign) | (ref_sign == 0)
-    return np.where(ok[..., None], q, np.nan)
+        off = ok & ~((np.sign(branch(np.where(ok[..., None], q, q0))) == ref_sign) | (ref_sign == 0))
+        ok &= ~off
+    q = np.where(ok[..., None], q, np.nan)
+    return (q, off) if report else q

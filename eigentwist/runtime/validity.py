@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .allowed import constraint_positions
 from .errors import SingularPoseError, UnreachablePoseError
 
-__all__ = ["LEVER_TOL", "LEVER_SCALE", "STATUS", "IK_CHECKS", "reachable_mask", "lever_mask", "raise_unreachable", "raise_singular"]
+__all__ = ["CONDITIONING_TOL", "POSE_STATUS", "platform_rows", "conditioning", "parallel_mask", "raise_parallel",
+           "LEVER_TOL", "LEVER_SCALE", "STATUS", "IK_CHECKS", "check_names", "reachable_mask", "lever_mask", "raise_unreachable", "raise_singular"]
 
 LEVER_TOL = 1e-3   # |w_a1 . t_a1| / l1 below this is treated as singular
 LEVER_SCALE = "l1"  # the lever is compared relative to this parameter (the lower link length)
@@ -38,13 +40,25 @@ def _bad_ik(arg) -> np.ndarray:
     return ~(np.abs(np.asarray(arg)) <= 1.0)          # NaN counts as bad
 
 
+def check_names(ik: dict) -> list:
+    """The check quantities of an IK kernel's outputs: every output but the joint
+    coordinates ``q``, whatever its name (a description's ``checks``), the known ones first."""
+    known = [k for k in IK_CHECKS if k in ik]
+    return known + [k for k in ik if k != "q" and k not in IK_CHECKS]
+
+
+def check_meaning(name: str) -> str:
+    """What a failed check says: the runtime's words for its known names, else the name."""
+    return IK_CHECKS.get(name, f"the leg's check {name!r} left [-1, 1]")
+
+
 def reachable_mask(ik: dict) -> np.ndarray:
-    """(n,) bool: every IK check quantity of every leg within [-1, 1]."""
-    ok = None
-    for key in IK_CHECKS:
-        if key in ik:
-            bad = _bad_ik(ik[key]).any(axis=-1)
-            ok = ~bad if ok is None else ok & ~bad
+    """(n,) bool: every IK check quantity of every leg within [-1, 1] and every joint
+    coordinate finite (a robot whose legs name no check: the coordinates only)."""
+    q = np.asarray(ik["q"])
+    ok = np.isfinite(q.reshape(len(q), -1)).all(axis=1)
+    for key in check_names(ik):
+        ok &= ~_bad_ik(ik[key]).any(axis=-1)
     return ok
 
 
@@ -55,9 +69,8 @@ def lever_mask(lever_ratio) -> np.ndarray:
 
 def raise_unreachable(legs, poses, ik: dict) -> None:
     """Raise :class:`UnreachablePoseError` for the first row whose IK check fails (if any)."""
-    for key, what in IK_CHECKS.items():
-        if key not in ik:
-            continue
+    for key in check_names(ik):
+        what = check_meaning(key)
         bad = _bad_ik(ik[key])
         if bad.any():
             k, leg = np.argwhere(bad)[0]
@@ -65,6 +78,15 @@ def raise_unreachable(legs, poses, ik: dict) -> None:
             raise UnreachablePoseError(
                 f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is unreachable for {legs[leg].name}: "
                 f"{what} ({key} = {ik[key][k, leg]:.4g}, expected within [-1, 1])")
+    if "q" in ik:
+        q = np.asarray(ik["q"])
+        bad = ~np.isfinite(q.reshape(q.shape[0], q.shape[1], -1)).all(axis=-1)
+        if bad.any():
+            k, leg = np.argwhere(bad)[0]
+            unit = "m" if len(poses[k]) == 3 else "(m, rad)"
+            raise UnreachablePoseError(
+                f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is unreachable for {legs[leg].name}: its "
+                "inverse kinematics gives no finite joint coordinates (expected a pose the leg can span)")
 
 
 def raise_singular(legs, poses, lever_ratio, scale: str | None = LEVER_SCALE) -> None:
@@ -79,5 +101,117 @@ def raise_singular(legs, poses, lever_ratio, scale: str | None = LEVER_SCALE) ->
         what = f"w_a1.t_a1/{scale}" if scale else "w_a.t_a (the leg's unit twists are dependent)"
         unit = "m" if len(poses[k]) == 3 else "(m, rad)"
         raise SingularPoseError(
-            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is singular for {legs[leg].name}: actuation "
+            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is serial singular for {legs[leg].name}: actuation "
             f"lever {what} = {lever_ratio[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")
+
+
+#: per-pose status names of :meth:`eigentwist.runtime.Evaluator.pose_status` and the
+#: sweep's ``status`` column (its codes: the position in this tuple)
+POSE_STATUS = ("reachable", "unreachable", "serial singular", "parallel singular")
+
+#: below this inverse condition number of the platform's unit wrench rows the pose is
+#: parallel singular. The lowest omega^2 scales with its square and is computed with an
+#: error of about eps times the largest (float64), so above it omega^2 keeps a relative
+#: error below eps / tol^2 = 1e-4; below it the lowest frequency has no significant digit.
+CONDITIONING_TOL = 100.0 * float(np.sqrt(np.finfo(float).eps))
+#: metres per radian between the rotational and translational parts of a twist in the
+#: conditioning (the rows act on ``[L omega; v]``)
+CONDITIONING_LENGTH = 1.0
+
+
+def _unit(W: np.ndarray) -> np.ndarray:
+    norm = np.sqrt(np.einsum("...i,...i->...", W, W))[..., None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return W / np.where(norm > 0, norm, 1.0)
+
+
+def _layout(legs) -> tuple:
+    """(leg indices, row indices) of every leg's actuated row and constraint rows in
+    ``J_rows``, and the (start, stop) of each leg's constraint block of two or more rows."""
+    legs_idx, rows_idx, blocks = [], [], []
+    for i, leg in enumerate(legs):
+        c = constraint_positions(leg)
+        legs_idx += [i] * (1 + len(c))
+        rows_idx += [0] + c
+        if len(c) > 1:
+            blocks.append((len(rows_idx) - len(c), len(rows_idx)))
+    return legs_idx, rows_idx, blocks
+
+
+def platform_rows(J_rows, legs) -> np.ndarray:
+    """(n, r, 6) the platform's unit actuation and constraint rows, legs in order: each
+    leg's actuated inverse-Jacobian row (the first of its ``J_rows``) scaled to unit
+    length, then an orthonormal basis of its virtual joints' rows (the span of its
+    constraint wrenches: the basis Huang's method happens to give does not matter), each
+    acting on ``[L omega; v]`` (L = :data:`CONDITIONING_LENGTH`). Together they fix the
+    platform's six twists unless the pose is parallel singular."""
+    legs_idx, rows_idx, blocks = _layout(legs)
+    W = np.asarray(J_rows, dtype=float)[:, legs_idx, rows_idx, :]
+    if CONDITIONING_LENGTH != 1.0:
+        W[..., :3] /= CONDITIONING_LENGTH
+    W = _unit(W)
+    for start, stop in blocks:                  # Gram-Schmidt, twice, within the leg's block
+        for k in range(start + 1, stop):
+            v = W[:, k, :].copy()
+            for _ in range(2):
+                for m in range(start, k):
+                    v -= np.einsum("ni,ni->n", W[:, m, :], v)[:, None] * W[:, m, :]
+            W[:, k, :] = _unit(v)
+    return W
+
+
+def _gram(rows: np.ndarray) -> np.ndarray:
+    return np.swapaxes(rows, 1, 2) @ rows
+
+
+def conditioning(rows: np.ndarray) -> np.ndarray:
+    """(n,) inverse condition number sigma_min / sigma_max (0 to 1) of the platform's
+    unit wrench rows (:func:`platform_rows`): 1 where the rows fix every twist alike, 0
+    where a twist escapes them (a parallel singularity); NaN where a row is not finite."""
+    rows = np.asarray(rows, dtype=float)
+    out = np.full(len(rows), np.nan)
+    finite = np.isfinite(rows).all(axis=(1, 2))
+    if rows.shape[1] < 6:
+        out[finite] = 0.0
+        return out
+    if finite.any():
+        lam = np.linalg.eigvalsh(_gram(rows[finite]))
+        out[finite] = np.sqrt(np.clip(lam[:, 0], 0.0, None) / lam[:, -1])
+    return out
+
+
+def parallel_mask(rows: np.ndarray) -> np.ndarray:
+    """(n,) bool: the conditioning of the rows is above :data:`CONDITIONING_TOL` (not
+    parallel singular). ``det(G) / tr(G)^6`` of the Gram matrix G bounds the squared
+    conditioning from below (det G <= lam_min lam_max^5, lam_max <= tr G): the exact value
+    is computed only where that bound does not settle it."""
+    rows = np.asarray(rows, dtype=float)
+    if rows.shape[1] < 6:
+        return np.zeros(len(rows), dtype=bool)
+    with np.errstate(invalid="ignore", over="ignore"):
+        finite = np.isfinite(rows.reshape(len(rows), -1).sum(axis=1))
+    ok = np.zeros(len(rows), dtype=bool)
+    G = _gram(rows if finite.all() else rows[finite])
+    tr = np.einsum("nii->n", G)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        sure = np.linalg.det(G) / tr**6 > CONDITIONING_TOL**2
+    good = sure.copy()
+    if (~sure).any():
+        lam = np.linalg.eigvalsh(G[~sure])
+        good[~sure] = np.sqrt(np.clip(lam[:, 0], 0.0, None) / lam[:, -1]) > CONDITIONING_TOL
+    ok[finite] = good
+    return ok
+
+
+def raise_parallel(poses, rows) -> None:
+    """Raise :class:`SingularPoseError` for the first pose whose platform rows are parallel
+    singular (if any), naming the pose and its conditioning."""
+    bad = ~parallel_mask(rows)
+    if bad.any():
+        k = int(np.argmax(bad))
+        unit = "m" if len(poses[k]) == 3 else "(m, rad)"
+        cond = conditioning(np.asarray(rows)[k:k + 1])[0]
+        raise SingularPoseError(
+            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is parallel singular: the legs' actuation "
+            f"and constraint wrenches leave a twist of the platform free (conditioning {cond:.3g}, expected above "
+            f"{CONDITIONING_TOL:.3g})")

@@ -8,7 +8,7 @@ from .spec import SweepSpec, sweep_evaluator
 
 __all__ = ["reachable_rows", "evaluate_chunk", "COLUMNS"]
 
-COLUMNS = ("pose", "k_a", "design", "freq_hz", "direction", "reachable", "pose_index", "case")
+COLUMNS = ("pose", "k_a", "design", "freq_hz", "direction", "reachable", "status", "pose_index", "case")
 
 def reachable_rows(ev: Evaluator, poses: np.ndarray, params: dict, model) -> np.ndarray:
     """(N,) bool: the poses that :meth:`Evaluator.modes` accepts (reachable, not singular)."""
@@ -21,7 +21,9 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
     pose (n, 3) m; k_a (n,) N m/rad; design (n, len(vary)) SI units, columns in the
     order of ``spec.vary``; freq_hz (n, n_modes) ascending, Hz; direction (n, n_modes)
     int8, index into ``AXES`` of the axis carrying the largest share of each mode's energy; reachable (n,)
-    bool; pose_index (n,), case (n,) int64. Unreachable or singular rows have NaN
+    bool; status (n,) int8, the position in :data:`~eigentwist.runtime.validity.POSE_STATUS`
+    (0 reachable, 1 unreachable, 2 serial singular, 3 parallel singular: the singular
+    region mapped); pose_index (n,), case (n,) int64. Unreachable or singular rows have NaN
     frequencies, direction -1 and ``reachable=False``: they never stop the sweep.
     Deterministic: the same spec and chunk give the same bits in any process.
     """
@@ -39,6 +41,12 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
     direction = modes.direction.astype(np.int8)
     freq[~reachable] = np.nan
     direction[~reachable] = -1
+    status = np.zeros(len(rows), dtype=np.int8)
+    bad = ~reachable
+    if bad.any():                       # why each refused row was refused (its rows only)
+        n = len(rows)
+        sub = {k: (np.asarray(v)[bad] if np.ndim(v) == 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
+        status[bad] = ev.pose_status(poses[bad], spec.model, **sub)["code"]
     return {"pose": poses, "k_a": k_a, "design": design, "freq_hz": freq, "direction": direction,
-            "reachable": reachable, "pose_index": pose_index, "case": case}
+            "reachable": reachable, "status": status, "pose_index": pose_index, "case": case}
 
