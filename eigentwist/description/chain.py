@@ -124,8 +124,13 @@ class PoseKinematics:
 
     @property
     def coordinates(self) -> tuple:
-        """(index of the actuated joint, rate 1): the IK's one coordinate per leg."""
-        return ((next(j for j, joint in enumerate(self.leg.joints) if joint.actuated), sp.Integer(1)),)
+        """(index of the joint, rate 1) of the IK's one coordinate per leg: the actuated
+        joint's, or a passive leg's first one-freedom joint (R or P)."""
+        joints = self.leg.joints
+        k = next((j for j, joint in enumerate(joints) if joint.actuated), None)
+        if k is None:
+            k = next(j for j, joint in enumerate(joints) if joint.kind in ("R", "P"))
+        return ((k, sp.Integer(1)),)
 
     @property
     def jacobian_rows(self) -> tuple:
@@ -165,6 +170,10 @@ class ChainLeg:
         actuator (its joint coordinate, m) and every name the joints and bodies use;
         given ``q`` (a symbol: the actuated coordinate, computed by the inverse
         kinematics), the geometry uses it instead of recomputing the coordinate.
+    stiffness : the actuated joint's own stiffness (an expression: N/m for a P joint, N m/rad
+        for an R joint); None: the robot's ``actuator_stiffness``. A leg without an
+        actuated joint is passive: a constraint only (e.g. a Tricept's central leg), its
+        IK coordinate its first R or P joint's (``coordinate`` names it in the geometry).
     checks : names of geometry scalars that must lie within [-1, 1] for the pose to be
         reachable (e.g. the cosine between a strut and a U joint's fixed axis; NaN counts
         as unreachable: a zero leg length gives NaN directions).
@@ -184,6 +193,8 @@ class ChainLeg:
     closures: tuple = ()
     #: the geometry entry that is the actuated joint's coordinate (m or rad)
     coordinate: str = "length"
+    #: the actuated joint's own stiffness (None: the robot's actuator_stiffness)
+    stiffness: Any = None
 
     @property
     def kinematics(self) -> PoseKinematics:
@@ -196,8 +207,15 @@ class ChainLeg:
         return sum(j.freedoms for j in self.joints if j.kind != "virtual")
 
     @property
-    def actuated(self) -> ChainJoint:
-        return next(j for j in self.joints if j.actuated)
+    def actuated(self) -> ChainJoint | None:
+        """The actuated joint, None for a passive leg."""
+        return next((j for j in self.joints if j.actuated), None)
+
+    @property
+    def actuator_unit(self) -> str:
+        """Unit of the actuated joint's stiffness: N/m (P), N m/rad (R); "" for a passive leg."""
+        joint = self.actuated
+        return "" if joint is None else "N/m" if joint.kind == "P" else "N m/rad"
 
 
 @dataclass(frozen=True)
@@ -284,5 +302,8 @@ class ChainRobot:
 
     @property
     def actuator_unit(self) -> str:
-        """Unit of k_a from the actuated joint's kind: N/m (P) or N m/rad (R)."""
-        return "N/m" if self.legs[0].actuated.kind == "P" else "N m/rad"
+        """Unit of k_a from the kind of the first actuated joint that takes it (no
+        ``stiffness`` of its own): N/m (P) or N m/rad (R)."""
+        legs = [leg for leg in self.legs if leg.actuated is not None]
+        shared = [leg for leg in legs if getattr(leg, "stiffness", None) is None] or legs
+        return shared[0].actuator_unit
