@@ -695,6 +695,18 @@ class Evaluator:
         A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(poses), 0, 6))
         return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
 
+    @property
+    def _c_rigid(self) -> bool:
+        """Whether the rigid model's allowed twists are what the C pass reduces to: the
+        three translations of a translational robot's 3x3 blocks or a free platform's six
+        twists (a pose space's fixed basis of either). Any other pose space's rigid model
+        (a point in a plane, a planar or lower-mobility platform) is reduced here."""
+        basis = getattr(self.space, "basis", None)
+        if basis is None:
+            return False
+        names = twist_order(self.pose_names)
+        return names in (("x", "y", "z"), FULL) and len(basis[0]) == len(names)
+
     def _preloaded(self, effects) -> bool:
         return any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
 
@@ -727,7 +739,7 @@ class Evaluator:
         poses = self._poses(poses, params)
         effects = self._resolve(model)
         params, exact = self._route(effects, params)
-        fixed = getattr(self.space, "basis", None) is not None or self.kind(effects) == "flexible"
+        fixed = self._c_rigid or self.kind(effects) == "flexible"
         if self._fused and fixed and not self._preloaded(effects):
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact)
         else:
@@ -962,9 +974,10 @@ class Evaluator:
             raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
                              "pose) are not available: use a flexible model")
         solved, exact = self._route(effects, params)
+        basis = None if self._c_rigid else getattr(self.space, "basis", None)     # a point's translations
         if method == "differences":
             out = self.matrix_derivatives(poses, wrt, effects, **solved)
-            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six)
+            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
         else:
             own = own_legs(wrt, params)              # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)
@@ -975,7 +988,7 @@ class Evaluator:
                 pc = self._take(p, sl)
                 self._check_rows(poses[sl], pc, strict=True)
                 out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self._with_pose(poses[sl], pc))
-                parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six))
+                parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis))
             freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
             if own:
                 dfdp = shared_columns(dfdp, wrt, full, own)
