@@ -65,34 +65,37 @@ def closures(robot):
     robot's pose space has no followers (:class:`~eigentwist.description.pose.LowerMobilityPose`).
 
     Over the pose inputs (x, y, z m and the rotation matrix R_ij) and the parameters:
-    ``closure`` (legs, n_c), each leg's ``closures`` (geometry scalars, m, zero where the
-    platform can be), and ``closure_rate`` (legs, n_c, 6), their exact derivatives along
+    ``closure`` (n_c,), every leg's ``closures`` in leg order (geometry scalars, zero where
+    the platform can be; legs may name different ones, or none, one per follower in all),
+    and ``closure_rate`` (n_c, 6), their exact derivatives along
     the platform's six unit twists ``[omega; v]`` at its origin (``pose_space.motion``:
     ``dr/dt_k = sum_s dr/ds . ds/dt_k``), for the runtime's Newton steps.
     """
     pose = robot.pose_space
     if not getattr(pose, "followers", ()):
         return None
-    names = robot.legs[0].closures
-    if not names or any(leg.closures != names for leg in robot.legs):
-        raise ValueError(f"{robot.name}: pose space {pose!r} needs every leg to name the same closures "
-                         f"(ChainLeg.closures, scalars of its geometry that vanish), got "
-                         f"{[leg.closures for leg in robot.legs]}")
+    count = sum(len(leg.closures) for leg in robot.legs)
+    if count != len(pose.followers):
+        raise ValueError(f"{robot.name}: pose space {pose!r} has {len(pose.followers)} followers "
+                         f"({', '.join(pose.followers)}) and the legs name {count} closures "
+                         f"({[leg.closures for leg in robot.legs]}, ChainLeg.closures: scalars of a leg's geometry "
+                         "that vanish where the platform can be): expected one closure per follower")
     prog = Program()
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
         prog.declare(s_)
     motion = pose.motion()
     values, rates = [], []
     for i, leg in enumerate(robot.legs, start=1):
+        if not leg.closures:
+            continue
         g = leg.geometry(pose.position, pose.rotation, _Symbols())
-        for name in names:
+        for name in leg.closures:
             r = sp.sympify(g[name])
             values.append(prog.let(f"{name}_{i}", r))
             d = {s_: sp.diff(r, s_) for s_, _ in motion}
             rate = sum((d[s_] * row for s_, row in motion if d[s_] != 0), sp.zeros(1, 6))
             rates += [prog.let(f"d{name}_{i}_{k}", rate[0, k]) for k in range(6)]
-    n = len(robot.legs)
-    return prog, {"closure": ((n, len(names)), values), "closure_rate": ((n, len(names), 6), rates)}
+    return prog, {"closure": ((count,), values), "closure_rate": ((count, 6), rates)}
 
 
 def loop_closure(robot, q_all: list):
