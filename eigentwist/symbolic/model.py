@@ -50,7 +50,8 @@ class DerivedModel:
     * ``gravity``: ``G`` (legs, n_e, 6, 6), the matrices multiplying the elastic joint
       torques tau_e (the actuated joint, then the virtual joints; RR(Pi)RR: 2) in the
       first term of Eq. 13 (sum_j d(J_e,i^-T col k)/d theta_j . row j of J_i^-1,
-      theta_3 = l2 q3 for the Pi joint); ``Kqe`` (legs, n_e, n_e), each leg's
+      theta_3 = l2 q3 for the Pi joint; zeros for a robot that offers no preload effect,
+      where tau_e = 0); ``Kqe`` (legs, n_e, n_e), each leg's
       elastic joint stiffness (Eq. 40); ``k_act`` (legs,), each leg's actuated-joint
       stiffness with its joint-series effects; ``W`` (6,), the static preload wrench on
       the platform at the EE origin (N m; N).
@@ -188,6 +189,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
     K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all, k_acts, G = [], [], [], [], [], [], []
     Cq_phys = []                  # each leg's joint compliance without rigid_compliance (issue 20)
+    preloaded = bool(fx.of_kind("preload"))
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
         ls = leg_screws(prog, leg, q, pose, tag)
@@ -218,7 +220,10 @@ def derive(robot: RobotDescription) -> DerivedModel:
         J_rows.append(sp.Matrix.vstack(*[ls.rows[ls.keys[k]] for k in leg.kinematics.jacobian_rows]))
         levers.append(prog.let(f"lever_{tag}", leg.kinematics.lever(ls, act)))
         motion = [(qj, ls.rows[key] / rate) for qj, (key, rate) in zip(q, coords)] + pose.motion()
-        G.append(_preload_derivatives(prog, motion, ls, actuated + virtual, tag))
+        if preloaded:
+            G.append(_preload_derivatives(prog, motion, ls, actuated + virtual, tag))
+        else:                     # no preload effect: Eq. 13's first term vanishes (tau_e = 0)
+            G.append([sp.zeros(6, 6)] * len(actuated + virtual))
         Je_all.append(Je)
         Kqe_all.append(Kqe)
         k_acts.append(k_act)
