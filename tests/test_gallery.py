@@ -236,3 +236,92 @@ def test_c_backend_names_the_unreachable_leg():
     with pytest.raises(UnreachablePoseError, match="unreachable for leg 2: the leg cannot span") as err:
         ev.frequencies(np.array([[0.3, 0.0, 0.0]]), "none")
     assert "\n" not in str(err.value)
+
+
+# -------------------------------------------------- mechanisms: legs that differ, point and passive platforms
+#: home pose and frequencies (Hz, model "none") of shared/mechanisms-spec.md, computed there independently
+SPEC = {
+    "five_bar": ((0.0, 0.30), (36.209003312, 44.559195698)),
+    "rrr_rrr_prr": ((0.0, 0.0, 0.0), (33.777014861, 54.983333791, 149.057795176)),
+    "tricept": ((0.0, 0.0, 0.70), (160.688366317, 160.815893637, 410.315200634)),
+    "five_bar_tube": ((0.0, 0.30), (37.129901478, 46.310150609)),
+}
+
+
+@pytest.fixture(scope="session")
+def mechanisms():
+    """The four mechanisms' evaluators (generated once into the session's cache, NumPy backend)."""
+    return {name: eigentwist.load(str(GALLERY / f"{name}.py"), backend="numpy", progress=None) for name in SPEC}
+
+
+@pytest.mark.parametrize("name", SPEC)
+def test_mechanism_home_frequencies_are_the_specification(mechanisms, name):
+    """Exactly as many finite modes as degrees of freedom (2, 3, 3), ascending, equal to the
+    specification's to its printed digits; and none vanishes anywhere in the workspace box
+    (a point platform's rotation is no mode)."""
+    ev = mechanisms[name]
+    home, expected = SPEC[name]
+    names = {"five_bar": ("x", "y"), "five_bar_tube": ("x", "y"), "rrr_rrr_prr": ("x", "y", "rot_z")}
+    assert ev.robot.x_ref == home and ev.pose_names == names.get(name, ("x", "y", "z"))
+    f = ev.frequencies([home], "none")[0]
+    np.testing.assert_allclose(f, expected, rtol=2e-11)
+    f = ev.frequencies(_poses(ev, 12), "none")
+    assert f.shape[1] == len(home) and (f > 20.0).all() and (np.diff(f, axis=1) >= 0).all()
+
+
+def test_point_platform_has_no_rotation_mode(mechanisms):
+    """The five-bar's pose space is the point's translations: two modes whatever the model,
+    its allowed twists v_x, v_y exactly, which its legs' constraint wrenches annihilate."""
+    ev = mechanisms["five_bar"]
+    x = _poses(ev, 6)
+    B = ev.allowed_twists(x)
+    np.testing.assert_array_equal(B, np.broadcast_to(np.eye(6)[:, 3:5], (len(x), 6, 2)))
+    A = _constraint_rows(ev, x)
+    assert np.abs(A @ B).max() < 1e-12 * np.abs(A).max()
+    assert ev.modes(x, "none").axes == ("x", "y")
+
+
+def test_legs_differ_in_chain_actuator_and_stiffness(mechanisms):
+    """The PRR leg's own axial stiffness k_p drives its share of K_R alone, the RRR legs' k_r
+    theirs: K_R is linear in each (the sum of the two parts reproduces it), and the Tricept's
+    passive central leg adds no stiffness (K_R's rank is the three actuators')."""
+    ev = mechanisms["rrr_rrr_prr"]
+    x = _poses(ev, 4)
+    K = ev.matrices(x, "none")["K_R"]
+    K_r = ev.matrices(x, "none", k_p=1e-9)["K_R"]
+    K_p = ev.matrices(x, "none", k_r=1e-9)["K_R"]
+    np.testing.assert_allclose(K_r + K_p, K, rtol=0, atol=1e-9 * np.abs(K).max())
+    assert np.linalg.matrix_rank(K_r[0], tol=1e-6 * np.abs(K_r[0]).max()) == 2
+    assert np.linalg.matrix_rank(K_p[0], tol=1e-6 * np.abs(K_p[0]).max()) == 1
+    tri = mechanisms["tricept"]
+    K = tri.matrices(_poses(tri, 3), "none")["K_R"]
+    assert all(np.linalg.matrix_rank(k, tol=1e-9 * np.abs(k).max()) == 3 for k in K)
+
+
+def test_tricept_orientation_follows_its_central_leg(mechanisms):
+    """The followers put the platform's z axis along p (the central leg) and its y axis
+    normal to base x (the U joint fixes the spin): R = Rx(alpha) Ry(beta) with
+    beta = asin(e_x), alpha = atan2(-e_y, e_z), e = p/|p| (a few lines of NumPy)."""
+    ev = mechanisms["tricept"]
+    x = np.array([[0.0, 0.0, 0.70], [0.08, -0.05, 0.62], [-0.1, 0.1, 0.8]])
+    R = rotation_matrix(np.asarray(ev._poses(x))[:, 3:])
+    for pose, Rk in zip(x, R):
+        e = pose / np.linalg.norm(pose)
+        b, a = np.arcsin(e[0]), np.arctan2(-e[1], e[2])
+        Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+        Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+        np.testing.assert_allclose(Rk, Rx @ Ry, rtol=0, atol=1e-12)
+
+
+def test_tube_sensitivity_moves_mass_and_inertia_with_length(mechanisms):
+    """d f1/d l1 of the tube five-bar (the IK, m1 and I1 all move with l1) against central
+    differences of the frequencies with Richardson extrapolation (1e-6), and the
+    specification's -372.43817 Hz/m (1e-5)."""
+    ev = mechanisms["five_bar_tube"]
+    home = [[0.0, 0.30]]
+    exact = ev.sensitivities(home, wrt=("l1",), model="none")[0, 0, 0]
+    f = lambda l1: ev.frequencies(home, "none", l1=l1)[0, 0]  # noqa: E731
+    d = lambda h: (f(0.18 + h) - f(0.18 - h)) / (2 * h)  # noqa: E731
+    richardson = (4 * d(5e-5) - d(1e-4)) / 3
+    assert abs(exact - richardson) <= 1e-6 * abs(richardson)
+    assert abs(exact - (-372.43817)) <= 1e-5 * 372.43817
