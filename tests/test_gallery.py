@@ -325,3 +325,16 @@ def test_tube_sensitivity_moves_mass_and_inertia_with_length(mechanisms):
     richardson = (4 * d(5e-5) - d(1e-4)) / 3
     assert abs(exact - richardson) <= 1e-6 * abs(richardson)
     assert abs(exact - (-372.43817)) <= 1e-5 * 372.43817
+
+
+@pytest.mark.compiled
+def test_point_platform_numpy_equals_c(mechanisms):
+    """The five-bar's C backend (C matrices, its 2 x 2 rigid model solved in NumPy: the C
+    eigen-solver has the 3 x 3 and 6 x 6 sizes) equals NumPy."""
+    ev = mechanisms["five_bar"]
+    evc = eigentwist.load(str(GALLERY / "five_bar.py"), backend="c", threads=1, progress=None)
+    x = _poses(ev, 10, seed=3)
+    a, b = ev.matrices(x, "none"), evc.matrices(x, "none")
+    for k in ("M", "K_R", "K_F"):
+        np.testing.assert_allclose(b[k], a[k], rtol=1e-11, atol=1e-11 * np.abs(a[k]).max())
+    np.testing.assert_allclose(evc.frequencies(x, "none"), ev.frequencies(x, "none"), rtol=1e-9)

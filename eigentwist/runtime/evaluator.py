@@ -885,7 +885,7 @@ class Evaluator:
         return Modes(freq, vec, self.axes(kind), kind, ok, stable)
 
     def _solve(self, M, K, vectors: bool = True, kind: str | None = None) -> Modes:
-        if self._fused:                               # the C solver, on the evaluator's threads
+        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:   # the C solver's sizes
             lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
         else:
             # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps

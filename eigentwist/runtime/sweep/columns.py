@@ -21,7 +21,7 @@ def manifest(spec: SweepSpec, complete: bool, backend: str = "", lowest_file: st
     return {"format": FORMAT, "version": 1, "spec": spec.to_dict(), "backend": backend,
             "n_rows": spec.n_rows, "n_chunks": spec.n_chunks, "n_modes": spec.n_modes, "axes": list(AXES),
             "design_names": list(spec.design_names), "complete": complete, "lowest": lowest_file,
-            "units": {"pose": "m" if len(pose_columns(spec)) == 3 else "m, rad", "k_a": sweep_evaluator(spec.robot, spec.backend).parameter("k_a").unit, "freq_hz": "Hz", "direction": "index into axes, -1: unreachable"}}
+            "units": {"pose": "m, rad" if any(c.startswith("rot") for c in pose_columns(spec)) else "m", "k_a": sweep_evaluator(spec.robot, spec.backend).parameter("k_a").unit, "freq_hz": "Hz", "direction": "index into axes, -1: unreachable"}}
 
 
 def pose_columns(spec: SweepSpec) -> tuple:
