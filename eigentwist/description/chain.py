@@ -15,16 +15,13 @@ from typing import Any, Callable
 
 import sympy as sp
 
+from .joints import JOINT_FREEDOMS, joint_kind
 from .parameters import Parameter, sym
 from .pose import RigidPose
 from .robot import resolve_effects
 
 __all__ = ["JOINT_FREEDOMS", "ChainJoint", "ChainBody", "PoseKinematics", "ChainLeg", "ChainRobot"]
 
-#: number of unit twists each joint kind contributes; ``"virtual"`` is the twist of
-#: restriction of a leg with fewer than six freedoms (one per constraint wrench, Huang's
-#: method): a rotation about its axis through its location, not a freedom of the leg
-JOINT_FREEDOMS = {"R": 1, "P": 1, "Pi": 1, "U": 2, "S": 3, "virtual": 1}
 
 
 @dataclass(frozen=True)
@@ -55,11 +52,10 @@ class ChainJoint:
     swing: tuple = ()
 
     def __post_init__(self):
-        if self.kind not in JOINT_FREEDOMS:
-            raise ValueError(f"joint kind {self.kind!r}: expected one of {', '.join(JOINT_FREEDOMS)}")
-        if self.actuated and self.kind not in ("R", "P"):
+        kind = joint_kind(self.kind)                   # the record of its kind (:mod:`.joints`)
+        if self.actuated and not kind.actuatable:
             raise ValueError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
-        n = JOINT_FREEDOMS[self.kind]
+        n = kind.freedoms
         if self.axes and len(self.axes) != n:
             raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
         if self.swing and (self.kind != "Pi" or len(self.swing) != 2):
@@ -67,12 +63,12 @@ class ChainJoint:
 
     @property
     def freedoms(self) -> int:
-        return JOINT_FREEDOMS[self.kind]
+        return joint_kind(self.kind).freedoms
 
     @property
     def virtual(self) -> bool:
         """True for a twist of restriction (a constraint of the leg, not a freedom)."""
-        return self.kind == "virtual"
+        return joint_kind(self.kind).restriction
 
 
 @dataclass(frozen=True)
@@ -129,7 +125,7 @@ class PoseKinematics:
         joints = self.leg.joints
         k = next((j for j, joint in enumerate(joints) if joint.actuated), None)
         if k is None:
-            k = next(j for j, joint in enumerate(joints) if joint.kind in ("R", "P"))
+            k = next(j for j, joint in enumerate(joints) if joint_kind(joint.kind).actuatable)
         return ((k, sp.Integer(1)),)
 
     @property
@@ -204,7 +200,7 @@ class ChainLeg:
     @property
     def freedoms(self) -> int:
         """The leg's degrees of freedom (virtual joints excluded)."""
-        return sum(j.freedoms for j in self.joints if j.kind != "virtual")
+        return sum(j.freedoms for j in self.joints if not j.virtual)
 
     @property
     def actuated(self) -> ChainJoint | None:
@@ -215,7 +211,7 @@ class ChainLeg:
     def actuator_unit(self) -> str:
         """Unit of the actuated joint's stiffness: N/m (P), N m/rad (R); "" for a passive leg."""
         joint = self.actuated
-        return "" if joint is None else "N/m" if joint.kind == "P" else "N m/rad"
+        return "" if joint is None else joint_kind(joint.kind).stiffness_unit
 
 
 @dataclass(frozen=True)

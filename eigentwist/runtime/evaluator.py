@@ -9,6 +9,7 @@ import numpy as np
 from ..description import RobotDescription
 from ..description.effects import (base_name, leg_input_name, leg_switch_name, resolve_model,
                                    split_scope, switch_name)
+from ..description.joints import joint_kind
 from ..description.names import did_you_mean
 from . import condense
 from .constraints import check_constraints, compile_constraints
@@ -588,7 +589,7 @@ class Evaluator:
         """Unit of each joint coordinate per leg (the last axis of :meth:`joint_angles`):
         ``"m"`` for a prismatic joint's, ``"rad"`` for the others' (a Pi joint's angle too)."""
         leg = self.robot.legs[0]
-        return tuple("m" if leg.joints[c[0]].kind == "P" else "rad" for c in leg.kinematics.coordinates)
+        return tuple(joint_kind(leg.joints[c[0]].kind).unit for c in leg.kinematics.coordinates)
 
     def joint_coordinates(self, joints, poses=None) -> tuple:
         """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.

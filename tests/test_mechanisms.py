@@ -1,6 +1,6 @@
-"""Bodies from shapes (eigentwist.description.shapes) and the descriptions' checks on the
-mechanisms of any mobility: expectations from the specification's numbers and from
-numerical integration over the shapes' volume (a few lines of NumPy)."""
+"""Bodies from shapes (eigentwist.description.shapes), joint kinds as data and the
+descriptions' checks on mechanisms of any mobility: expectations from the specification's
+numbers and from numerical integration over the shapes' volume (a few lines of NumPy)."""
 from __future__ import annotations
 
 import dataclasses
@@ -11,7 +11,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from eigentwist.description.chain import ChainJoint
+from eigentwist.description.joints import JOINT_KINDS, joint_kind
 from eigentwist.description.pose import PointPose
+from eigentwist.description.serial import Joint
+from eigentwist.symbolic.leg import joint_twists
 from eigentwist.description.shapes import box, cylinder, point_mass, slender_rod, sphere, tube
 from eigentwist.symbolic.kinematics import closures
 
@@ -94,3 +98,20 @@ def test_closures_one_per_follower():
     legs = robot.legs[:3] + (dataclasses.replace(robot.legs[3], closures=("spin", "axis_x")),)
     with pytest.raises(ValueError, match="has 3 followers .* and the legs name 2 closures"):
         closures(dataclasses.replace(robot, legs=legs))
+
+
+def test_joint_kinds_are_one_record_each():
+    """Each kind's unit twists follow its record: a rotation about the axis through the
+    location ([a; p x a]) or a translation along it ([0; a]), one per freedom."""
+    g = {"a": sp.Matrix([0, 0, 1]), "p": sp.Matrix([1, 2, 0])}
+    for name, kind in JOINT_KINDS.items():
+        axes = ("a",) * kind.freedoms
+        twists = joint_twists(ChainJoint(name, axes, "p"), g, sp.zeros(3, 1))
+        expected = sp.Matrix([0, 0, 1, 2, -1, 0]) if kind.motion == "rotation" else sp.Matrix([0, 0, 0, 0, 0, 1])
+        assert len(twists) == kind.freedoms and all(t == expected for t in twists)
+    assert Joint("S").axes == ((1, 0, 0), (0, 1, 0), (0, 0, 1)) == JOINT_KINDS["S"].default_axes
+    with pytest.raises(ValueError, match="joint kind 'Q': expected one of R, P, Pi, U, S, virtual"):
+        joint_kind("Q")
+    for make in (ChainJoint, Joint):
+        with pytest.raises(ValueError, match="an actuated joint is revolute or prismatic, not 'U'"):
+            make("U", axes=((1, 0, 0), (0, 1, 0)), actuated=True)
