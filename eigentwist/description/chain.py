@@ -1,5 +1,9 @@
 """Legs as data: any serial chain of R, P, U, S and Pi joints with its bodies (issue 15).
 
+The legs of one robot may differ: each has its own joints, bodies, closed form, checks and
+closures, its own actuator (R or P, its own ``stiffness``) or none (a passive leg: a
+constraint only). The joint kinds are records (:mod:`.joints`).
+
 A :class:`ChainLeg` lists its joints from the base to the platform and the bodies they
 carry. Axes and locations are *names* of vectors that the leg's closed-form geometry
 (:attr:`ChainLeg.geometry`) returns at the current pose, or explicit 3-tuples of
@@ -222,7 +226,8 @@ class ChainRobot:
         the rotation vector of the platform frame).
     platform_inertia : 6x6 spatial inertia of the platform at its origin, platform axes.
     actuator_stiffness : k_a as an expression; its unit is the actuated joint's
-        (N/m for prismatic, N m/rad for revolute actuators).
+        (N/m for prismatic, N m/rad for revolute actuators); a leg with its own
+        ``stiffness`` (legs that differ: R and P actuators) uses that instead.
     effects : catalogue names or :class:`~eigentwist.description.effects.Effect` objects.
     pose_space : how the pose enters the derivation (:mod:`.pose`: ``RigidPose()``, the
         default; ``TranslationPose()``, ``PlanarPose()``, ``LowerMobilityPose(commanded)``);
