@@ -115,3 +115,19 @@ def test_joint_kinds_are_one_record_each():
     for make in (ChainJoint, Joint):
         with pytest.raises(ValueError, match="an actuated joint is revolute or prismatic, not 'U'"):
             make("U", axes=((1, 0, 0), (0, 1, 0)), actuated=True)
+
+
+def test_actuator_loss_uses_the_legs_own_stiffness():
+    """A leg with its own actuator stiffness (the PRR leg's k_p) loses in series with that,
+    the others with the robot's k_a: 1/(eta k) - 1/k."""
+    from types import SimpleNamespace
+
+    from eigentwist.description.effects import EFFECTS, EffectContext
+
+    eta, k_a, k_p = sp.symbols("eta k_a k_p", positive=True)
+    robot = SimpleNamespace(actuator_stiffness=k_a)
+    build = EFFECTS["actuator_loss"].build
+    own = build(EffectContext(robot, {"eta_a": eta}, 2, SimpleNamespace(stiffness=k_p)))
+    shared = build(EffectContext(robot, {"eta_a": eta}, 0, SimpleNamespace(stiffness=None)))
+    assert sp.simplify(own - (1 / (eta * k_p) - 1 / k_p)) == 0
+    assert sp.simplify(shared - (1 / (eta * k_a) - 1 / k_a)) == 0
