@@ -338,3 +338,22 @@ def test_point_platform_numpy_equals_c(mechanisms):
     for k in ("M", "K_R", "K_F"):
         np.testing.assert_allclose(b[k], a[k], rtol=1e-11, atol=1e-11 * np.abs(a[k]).max())
     np.testing.assert_allclose(evc.frequencies(x, "none"), ev.frequencies(x, "none"), rtol=1e-9)
+
+
+def test_matrices_command_on_a_point_and_legs_that_differ(mechanisms, capsys):
+    """`eigentwist matrices` on the five-bar: its rigid model on the point's two translations
+    (the specification's home frequencies), the 6x6 flexible reference NaN (the point's
+    rotations carry no inertia) instead of an error; on the RRR-RRR-PRR its shared k_r."""
+    import json
+
+    from eigentwist.cli.main import main
+
+    assert main(["matrices", "--robot", str(GALLERY / "five_bar.py"), "--backend", "numpy", "--pose", "0", "0.3",
+                 "--model", "none", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(out["freq_hz"], SPEC["five_bar"][1], rtol=2e-11)
+    assert out["frequencies_from"] == "M and K_R on the allowed twists, 2x2" and np.isnan(out["freq_flexible_hz"]).all()
+    assert main(["matrices", "--robot", str(GALLERY / "rrr_rrr_prr.py"), "--backend", "numpy", "--pose", "0", "0", "0",
+                 "--model", "none", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["k_a"] == 1.0e4 and out["k_a_unit"] == "N m/rad"
