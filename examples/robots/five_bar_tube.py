@@ -4,7 +4,8 @@ The five-bar of ``five_bar.py`` (same names, pose, branch, home and workspace), 
 each proximal link is a hollow circular tube of outer and inner radii r_o, r_i and density
 rho (:func:`eigentwist.description.shapes.tube`): its mass rho pi (r_o^2 - r_i^2) l1 and
 its inertia m1 (l1^2/12 + (r_o^2 + r_i^2)/4) about its centre of mass follow l1, so that
-the sensitivities and ``optimize`` move them with the link's length. Distal links slender.
+the sensitivities and ``optimize`` move them with the link's length. Distal links slender
+and uniform.
 
 The five-bar (2 DOF), its end-effector a point:
 
@@ -14,8 +15,8 @@ proximal link of length l1 to the elbow C_i, a distal link of length l2 to the
 end-effector P, where the two distal links meet in one passive revolute joint; every axis
 is parallel to z. The end-effector is a point mass (no rotation of its own): the pose
 is P's (x, y) (:class:`~eigentwist.description.pose.PointPose`), two modes. Working mode
-"elbows out": C1 to the left of A1 -> P, C2 to the right of A2 -> P. Links slender and
-uniform. Units: m, kg, N m/rad. Values illustrative. Home (0, 0.30) m.
+"elbows out": C1 to the left of A1 -> P, C2 to the right of A2 -> P. Units: m, kg,
+kg/m^3, N m/rad. Values illustrative. Home (0, 0.30) m.
 Load: ``eigentwist.load("examples/robots/five_bar_tube.py")``.
 """
 import sympy as sp
