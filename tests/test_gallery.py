@@ -357,3 +357,19 @@ def test_matrices_command_on_a_point_and_legs_that_differ(mechanisms, capsys):
                  "--model", "none", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["k_a"] == 1.0e4 and out["k_a_unit"] == "N m/rad"
+
+
+@pytest.mark.parametrize("name", ("tricept", "rrr_rrr_prr"))
+def test_exact_condensation_of_legs_that_differ_is_the_rigid_model(mechanisms, name):
+    """The legs kernel's elastic rows (the Tricept's UPS legs: one, padded to its passive
+    central leg's three rigid constraint rows) condensed exactly give the rigid model's
+    frequencies: the actuators as springs, every constraint rigid, padding inert."""
+    from eigentwist.runtime import condense
+
+    ev = mechanisms[name]
+    x = _poses(ev, 4, seed=5)
+    out = ev.run_kernel("legs", x, "none")
+    f, _ = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], ev.matrices(x, "none")["M"])
+    n = len(ev.pose_names)
+    assert np.isinf(f[:, n:]).all()
+    np.testing.assert_allclose(f[:, :n], ev.frequencies(x, "none"), rtol=1e-9)

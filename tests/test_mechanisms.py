@@ -131,3 +131,15 @@ def test_actuator_loss_uses_the_legs_own_stiffness():
     shared = build(EffectContext(robot, {"eta_a": eta}, 0, SimpleNamespace(stiffness=None)))
     assert sp.simplify(own - (1 / (eta * k_p) - 1 / k_p)) == 0
     assert sp.simplify(shared - (1 / (eta * k_a) - 1 / k_a)) == 0
+
+
+def test_point_platform_refuses_structural_effects():
+    """A point's rotations carry neither inertia nor stiffness: the five-bar takes a
+    non-structural effect (payload_mass) and refuses a structural one (rod_compliance)."""
+    spec = importlib.util.spec_from_file_location("gallery_five_bar_shapes", GALLERY / "five_bar.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    robot = module.describe()
+    assert dataclasses.replace(robot, effects=("payload_mass",)).effects == ("payload_mass",)
+    with pytest.raises(ValueError, match=r"five_bar: effect\(s\) rod_compliance on a point platform"):
+        dataclasses.replace(robot, effects=("rod_compliance",))

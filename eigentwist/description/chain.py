@@ -273,6 +273,11 @@ class ChainRobot:
         object.__setattr__(self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg
                                                for leg in self.legs))
         resolve_effects(self)
+        structural = [e for e in self.effects if self.effect(e).structural]
+        if getattr(self.pose_space, "point", False) and structural:
+            raise ValueError(f"{self.name}: effect(s) {', '.join(structural)} on a point platform "
+                             f"({self.pose_space!r}): expected effects without structural compliance (a point's "
+                             "rotations carry neither inertia nor stiffness: only its rigid model is defined)")
 
     @property
     def pose_units(self) -> tuple:

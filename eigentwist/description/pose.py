@@ -139,6 +139,9 @@ class PointPose(RigidPose):
     model has one mode per coordinate and none for the rotations the legs leave free."""
 
     followers: tuple = ()
+    #: a point: its rotations carry neither inertia nor stiffness, so only the rigid model
+    #: (on its translations) is defined; a structural effect's 6x6 flexible model is not
+    point = True
 
     def __init__(self, coordinates=("x", "y", "z")):
         coordinates = tuple(coordinates)
