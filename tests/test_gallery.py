@@ -373,3 +373,24 @@ def test_exact_condensation_of_legs_that_differ_is_the_rigid_model(mechanisms, n
     n = len(ev.pose_names)
     assert np.isinf(f[:, n:]).all()
     np.testing.assert_allclose(f[:, :n], ev.frequencies(x, "none"), rtol=1e-9)
+
+
+def test_robot_geometry_of_mechanisms(mechanisms):
+    """The robot drawing's points: the Tricept's pose completed (its orientation followed),
+    its UPS legs ending on the platform circle r = R_p around p and its central leg at p;
+    the RRR-RRR-PRR's platform joints at r_p, the PRR leg starting at its slider on the
+    rail; the stiffness argument only where the robot shares k_a."""
+    from eigentwist.plots.robot import robot_geometry, stiffness_argument
+
+    tri = mechanisms["tricept"]
+    p = np.array([0.05, -0.03, 0.68])
+    g = robot_geometry(tri, p)
+    np.testing.assert_allclose(g.attachment[3], p, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(g.attachment[:3] - p, axis=1), 0.15, rtol=1e-12)
+    R = rotation_matrix(np.asarray(tri._poses(p[None]))[0, 3:])
+    np.testing.assert_allclose(R[:, 2], p / np.linalg.norm(p), atol=1e-12)
+    ev = mechanisms["rrr_rrr_prr"]
+    g = robot_geometry(ev, [0.0, 0.0, 0.0])                  # the specification's S ~ (-0.3354, 0.20) at home
+    np.testing.assert_allclose(np.linalg.norm(g.attachment[:, :2], axis=1), 0.10, rtol=1e-12)
+    assert abs(g.base[2, 1] - 0.20) < 1e-12 and abs(g.base[2, 0] - (-0.3354)) < 5e-5
+    assert stiffness_argument(ev, 2000.0) == {} and stiffness_argument(tri, 2000.0) == {"k_a": 2000.0}
