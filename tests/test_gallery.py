@@ -394,3 +394,20 @@ def test_robot_geometry_of_mechanisms(mechanisms):
     np.testing.assert_allclose(np.linalg.norm(g.attachment[:, :2], axis=1), 0.10, rtol=1e-12)
     assert abs(g.base[2, 1] - 0.20) < 1e-12 and abs(g.base[2, 0] - (-0.3354)) < 5e-5
     assert stiffness_argument(ev, 2000.0) == {} and stiffness_argument(tri, 2000.0) == {"k_a": 2000.0}
+
+
+def test_sweep_of_legs_that_differ_sets_their_shared_stiffness(mechanisms):
+    """A sweep's k_a column sets the RRR-RRR-PRR's shared k_r (its PRR leg keeps k_p): the
+    worst-case lowest frequency over the poses equals the evaluator's at each k_r."""
+    from eigentwist.runtime import sweep as sw
+    from eigentwist.runtime.sweep.spec import stiffness_parameter
+
+    path = str(GALLERY / "rrr_rrr_prr.py")
+    ev = mechanisms["rrr_rrr_prr"]
+    spec = sw.make_spec(path, model="none", random=16, seed=2, k_a=(1.0e4, 4.0e4), fixed={"k_p": 2.0e6})
+    low = sw.run_sweep(spec).lowest
+    f = ev.frequencies(np.asarray(spec.poses.take(np.arange(16))), "none")[:, 0]
+    np.testing.assert_allclose(low["freq_hz"][0], f.min(), rtol=1e-12)
+    f4 = ev.frequencies(np.asarray(spec.poses.take(np.arange(16))), "none", k_r=4.0e4)[:, 0]
+    np.testing.assert_allclose(low["freq_hz"][1], f4.min(), rtol=1e-12)
+    assert stiffness_parameter(ev) == "k_r" and stiffness_parameter(mechanisms["tricept"]) == "k_a"
