@@ -174,6 +174,11 @@ def derive(robot: RobotDescription) -> DerivedModel:
     body, and their elastic joints are the actuated joint (k_a in series with the
     joint-series effects, Eq. 34) and each virtual joint (``rigid_compliance``, Eq. 42;
     a leg with six freedoms has none). Nothing here depends on which robot or chain it is.
+
+    Legs may differ: in their chains, their actuator (R or P, the leg's own ``stiffness``)
+    or none (a passive leg: its virtual joints' constraints only, no term in K_R). The
+    per-leg outputs are padded to the largest leg's: a padded elastic joint is a zero row
+    with unit compliance and no stiffness, a padded inverse-Jacobian row zero.
     """
     ik, ik_outputs, q_all = inverse_kinematics(robot)
     pose = robot.pose_space
