@@ -143,3 +143,17 @@ def test_point_platform_refuses_structural_effects():
     assert dataclasses.replace(robot, effects=("payload_mass",)).effects == ("payload_mass",)
     with pytest.raises(ValueError, match=r"five_bar: effect\(s\) rod_compliance on a point platform"):
         dataclasses.replace(robot, effects=("rod_compliance",))
+
+
+def test_a_leg_has_one_actuator_or_none():
+    """A leg with one actuated joint, or none (passive: a constraint only); two are refused,
+    and so is a stiffness on a passive leg."""
+    from eigentwist.description.chain import ChainLeg
+
+    R = lambda actuated=False: ChainJoint("R", ("a",), "p", actuated=actuated)  # noqa: E731
+    assert ChainLeg("one", (R(True), R()), (), None).actuated.actuated
+    assert ChainLeg("passive", (R(), R()), (), None).actuated is None
+    with pytest.raises(ValueError, match="two: 2 actuated joints: expected one, or none for a passive leg"):
+        ChainLeg("two", (R(True), R(True)), (), None)
+    with pytest.raises(ValueError, match="a stiffness on a passive leg"):
+        ChainLeg("passive", (R(), R()), (), None, stiffness=sp.Symbol("k"))

@@ -196,6 +196,13 @@ class ChainLeg:
     #: the actuated joint's own stiffness (None: the robot's actuator_stiffness)
     stiffness: Any = None
 
+    def __post_init__(self):
+        n = sum(1 for j in self.joints if j.actuated)
+        if n > 1:
+            raise ValueError(f"{self.name}: {n} actuated joints: expected one, or none for a passive leg")
+        if self.stiffness is not None and n == 0:
+            raise ValueError(f"{self.name}: a stiffness on a passive leg (no actuated joint): expected none")
+
     @property
     def kinematics(self) -> PoseKinematics:
         """The leg's closed form as the derivation reads it (:class:`PoseKinematics`)."""
