@@ -157,3 +157,18 @@ def test_a_leg_has_one_actuator_or_none():
         ChainLeg("two", (R(True), R(True)), (), None)
     with pytest.raises(ValueError, match="a stiffness on a passive leg"):
         ChainLeg("passive", (R(), R()), (), None, stiffness=sp.Symbol("k"))
+
+
+def test_legs_may_name_different_checks():
+    """The Tricept's central leg without its check: the IK's ``reach`` output holds the UPS
+    legs' and a 0 (within [-1, 1]) for the central leg."""
+    from eigentwist.symbolic.kinematics import inverse_kinematics
+
+    spec = importlib.util.spec_from_file_location("gallery_tricept_checks", GALLERY / "tricept.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    robot = module.describe()
+    legs = robot.legs[:3] + (dataclasses.replace(robot.legs[3], checks=()),)
+    _, outputs, q_all = inverse_kinematics(dataclasses.replace(robot, legs=legs))
+    shape, values = outputs["reach"]
+    assert shape == (4,) and values[3] == 0 and all(v != 0 for v in values[:3]) and len(q_all) == 4

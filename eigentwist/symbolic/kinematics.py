@@ -27,24 +27,26 @@ __all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures"]
 def inverse_kinematics(robot: RobotDescription):
     """``(ik, outputs, q_all)``: the IK program over the pose inputs and the parameters, its
     outputs ``{"q": ((legs, n_q), ...), <check>: ((legs,), ...)}`` and each leg's joint
-    coordinate symbols. Raises ``ValueError`` when the legs' closed forms differ in their
-    numbers of coordinates or in their checks."""
+    coordinate symbols. Legs may name different checks (legs that differ): a check a leg
+    does not name is 0 there (within [-1, 1]: it says nothing). Raises ``ValueError`` when
+    the legs' closed forms differ in their numbers of coordinates."""
     ik = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
         ik.declare(s_)
-    q_all, checks = [], {}
+    q_all, per_leg = [], []
     for i, leg in enumerate(robot.legs, start=1):
         if leg.kinematics is None:
             raise ValueError(f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
                              "one, e.g. a leg built by eigentwist.description.rrpirr.rrpirr_leg")
         q, c = leg.kinematics.inverse_kinematics(ik, leg, pose, str(i))
-        if q_all and (len(q) != len(q_all[0]) or list(c) != list(checks)):
-            raise ValueError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates and checks {list(c)}; "
-                             f"expected {len(q_all[0])} and {list(checks)} like {robot.legs[0].name}")
+        if q_all and len(q) != len(q_all[0]):
+            raise ValueError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates; "
+                             f"expected {len(q_all[0])} like {robot.legs[0].name}")
         q_all.append(tuple(q))
-        for name, value in c.items():
-            checks.setdefault(name, []).append(value)
+        per_leg.append(dict(c))
+    names = list(dict.fromkeys(name for c in per_leg for name in c))
+    checks = {name: [c.get(name, sp.Integer(0)) for c in per_leg] for name in names}
     n = len(robot.legs)
     outputs = {"q": ((n, len(q_all[0])), [qq for q in q_all for qq in q])}
     outputs.update({name: ((n,), values) for name, values in checks.items()})
