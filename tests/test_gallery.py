@@ -287,7 +287,11 @@ def test_legs_differ_in_chain_actuator_and_stiffness(mechanisms):
     passive central leg adds no stiffness (K_R's rank is the three actuators')."""
     ev = mechanisms["rrr_rrr_prr"]
     x = _poses(ev, 4)
-    K = ev.matrices(x, "none")["K_R"]
+    mats = ev.matrices(x, "none")
+    K = mats["K_R"]
+    # no c_rigid (rigid_compliance 0): the constraints are exact, K_F has no penalty spring and
+    # without a structural compliance it is the actuators' K_R
+    np.testing.assert_allclose(mats["K_F"], K, rtol=0, atol=1e-12 * np.abs(K).max())
     K_r = ev.matrices(x, "none", k_p=1e-9)["K_R"]
     K_p = ev.matrices(x, "none", k_r=1e-9)["K_R"]
     np.testing.assert_allclose(K_r + K_p, K, rtol=0, atol=1e-9 * np.abs(K).max())
