@@ -260,3 +260,182 @@ def test_a_reference_on_another_branch_is_refused(gallery):
     with pytest.raises(UnreachablePoseError, match="unreachable for leg 2 on its assembly branch"):
         flipped.frequencies(ev.robot.x_ref)
     assert not flipped.valid(ev.robot.x_ref).any()
+
+
+# -------------------------------------------------- mechanisms: legs that differ, point and passive platforms
+#: home pose and frequencies (Hz, model "none") of shared/mechanisms-spec.md, computed there independently
+SPEC = {
+    "five_bar": ((0.0, 0.30), (36.209003312, 44.559195698)),
+    "rrr_rrr_prr": ((0.0, 0.0, 0.0), (33.777014861, 54.983333791, 149.057795176)),
+    "tricept": ((0.0, 0.0, 0.70), (160.688366317, 160.815893637, 410.315200634)),
+    "five_bar_tube": ((0.0, 0.30), (37.129901478, 46.310150609)),
+}
+
+
+@pytest.fixture(scope="session")
+def mechanisms():
+    """The four mechanisms' evaluators (generated once into the session's cache, NumPy backend)."""
+    return {name: eigentwist.load(str(GALLERY / f"{name}.py"), backend="numpy", progress=None) for name in SPEC}
+
+
+@pytest.mark.parametrize("name", SPEC)
+def test_mechanism_home_frequencies_are_the_specification(mechanisms, name):
+    """Exactly as many finite modes as degrees of freedom (2, 3, 3), ascending, equal to the
+    specification's to its printed digits; and none vanishes anywhere in the workspace box
+    (a point platform's rotation is no mode)."""
+    ev = mechanisms[name]
+    home, expected = SPEC[name]
+    names = {"five_bar": ("x", "y"), "five_bar_tube": ("x", "y"), "rrr_rrr_prr": ("x", "y", "rot_z")}
+    assert ev.robot.x_ref == home and ev.pose_names == names.get(name, ("x", "y", "z"))
+    f = ev.frequencies([home], "none")[0]
+    np.testing.assert_allclose(f, expected, rtol=2e-11)
+    f = ev.frequencies(_poses(ev, 12), "none")
+    assert f.shape[1] == len(home) and (f > 20.0).all() and (np.diff(f, axis=1) >= 0).all()
+
+
+def test_point_platform_has_no_rotation_mode(mechanisms):
+    """The five-bar's pose space is the point's translations: two modes whatever the model,
+    its allowed twists v_x, v_y exactly, which its legs' constraint wrenches annihilate."""
+    ev = mechanisms["five_bar"]
+    x = _poses(ev, 6)
+    B = ev.allowed_twists(x)
+    np.testing.assert_array_equal(B, np.broadcast_to(np.eye(6)[:, 3:5], (len(x), 6, 2)))
+    A = _constraint_rows(ev, x)
+    assert np.abs(A @ B).max() < 1e-12 * np.abs(A).max()
+    assert ev.modes(x, "none").axes == ("x", "y")
+
+
+def test_legs_differ_in_chain_actuator_and_stiffness(mechanisms):
+    """The PRR leg's own axial stiffness k_p drives its share of K_R alone, the RRR legs' k_r
+    theirs: K_R is linear in each (the sum of the two parts reproduces it), and the Tricept's
+    passive central leg adds no stiffness (K_R's rank is the three actuators')."""
+    ev = mechanisms["rrr_rrr_prr"]
+    x = _poses(ev, 4)
+    mats = ev.matrices(x, "none")
+    K = mats["K_R"]
+    # no c_rigid (rigid_compliance 0): the constraints are exact, K_F has no penalty spring and
+    # without a structural compliance it is the actuators' K_R
+    np.testing.assert_allclose(mats["K_F"], K, rtol=0, atol=1e-12 * np.abs(K).max())
+    K_r = ev.matrices(x, "none", k_p=1e-9)["K_R"]
+    K_p = ev.matrices(x, "none", k_r=1e-9)["K_R"]
+    np.testing.assert_allclose(K_r + K_p, K, rtol=0, atol=1e-9 * np.abs(K).max())
+    assert np.linalg.matrix_rank(K_r[0], tol=1e-6 * np.abs(K_r[0]).max()) == 2
+    assert np.linalg.matrix_rank(K_p[0], tol=1e-6 * np.abs(K_p[0]).max()) == 1
+    tri = mechanisms["tricept"]
+    K = tri.matrices(_poses(tri, 3), "none")["K_R"]
+    assert all(np.linalg.matrix_rank(k, tol=1e-9 * np.abs(k).max()) == 3 for k in K)
+
+
+def test_tricept_orientation_follows_its_central_leg(mechanisms):
+    """The followers put the platform's z axis along p (the central leg) and its y axis
+    normal to base x (the U joint fixes the spin): R = Rx(alpha) Ry(beta) with
+    beta = asin(e_x), alpha = atan2(-e_y, e_z), e = p/|p| (a few lines of NumPy)."""
+    ev = mechanisms["tricept"]
+    x = np.array([[0.0, 0.0, 0.70], [0.08, -0.05, 0.62], [-0.1, 0.1, 0.8]])
+    R = rotation_matrix(np.asarray(ev._poses(x))[:, 3:])
+    for pose, Rk in zip(x, R):
+        e = pose / np.linalg.norm(pose)
+        b, a = np.arcsin(e[0]), np.arctan2(-e[1], e[2])
+        Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+        Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+        np.testing.assert_allclose(Rk, Rx @ Ry, rtol=0, atol=1e-12)
+
+
+def test_tube_sensitivity_moves_mass_and_inertia_with_length(mechanisms):
+    """d f1/d l1 of the tube five-bar (the IK, m1 and I1 all move with l1) against central
+    differences of the frequencies with Richardson extrapolation (1e-6), and the
+    specification's -372.43817 Hz/m (1e-5)."""
+    ev = mechanisms["five_bar_tube"]
+    home = [[0.0, 0.30]]
+    exact = ev.sensitivities(home, wrt=("l1",), model="none")[0, 0, 0]
+    f = lambda l1: ev.frequencies(home, "none", l1=l1)[0, 0]  # noqa: E731
+    d = lambda h: (f(0.18 + h) - f(0.18 - h)) / (2 * h)  # noqa: E731
+    richardson = (4 * d(5e-5) - d(1e-4)) / 3
+    assert abs(exact - richardson) <= 1e-6 * abs(richardson)
+    assert abs(exact - (-372.43817)) <= 1e-5 * 372.43817
+
+
+@pytest.mark.compiled
+def test_point_platform_numpy_equals_c(mechanisms):
+    """The five-bar's C backend (C matrices, its 2 x 2 rigid model solved in NumPy: the C
+    eigen-solver has the 3 x 3 and 6 x 6 sizes) equals NumPy."""
+    ev = mechanisms["five_bar"]
+    evc = eigentwist.load(str(GALLERY / "five_bar.py"), backend="c", threads=1, progress=None)
+    x = _poses(ev, 10, seed=3)
+    a, b = ev.matrices(x, "none"), evc.matrices(x, "none")
+    for k in ("M", "K_R", "K_F"):
+        np.testing.assert_allclose(b[k], a[k], rtol=1e-11, atol=1e-11 * np.abs(a[k]).max())
+    np.testing.assert_allclose(evc.frequencies(x, "none"), ev.frequencies(x, "none"), rtol=1e-9)
+
+
+def test_matrices_command_on_a_point_and_legs_that_differ(mechanisms, capsys):
+    """`eigentwist matrices` on the five-bar: its rigid model on the point's two translations
+    (the specification's home frequencies), the 6x6 flexible reference NaN (the point's
+    rotations carry no inertia) instead of an error; on the RRR-RRR-PRR its shared k_r."""
+    import json
+
+    from eigentwist.cli.main import main
+
+    assert main(["matrices", "--robot", str(GALLERY / "five_bar.py"), "--backend", "numpy", "--pose", "0", "0.3",
+                 "--model", "none", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(out["freq_hz"], SPEC["five_bar"][1], rtol=2e-11)
+    assert out["frequencies_from"] == "M and K_R on the allowed twists, 2x2" and np.isnan(out["freq_flexible_hz"]).all()
+    assert main(["matrices", "--robot", str(GALLERY / "rrr_rrr_prr.py"), "--backend", "numpy", "--pose", "0", "0", "0",
+                 "--model", "none", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["k_a"] == 1.0e4 and out["k_a_unit"] == "N m/rad"
+
+
+@pytest.mark.parametrize("name", ("tricept", "rrr_rrr_prr"))
+def test_exact_condensation_of_legs_that_differ_is_the_rigid_model(mechanisms, name):
+    """The legs kernel's elastic rows (the Tricept's UPS legs: one, padded to its passive
+    central leg's three rigid constraint rows) condensed exactly give the rigid model's
+    frequencies: the actuators as springs, every constraint rigid, padding inert."""
+    from eigentwist.runtime import condense
+
+    ev = mechanisms[name]
+    x = _poses(ev, 4, seed=5)
+    out = ev.run_kernel("legs", x, "none")
+    f, _ = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], ev.matrices(x, "none")["M"])
+    n = len(ev.pose_names)
+    assert np.isinf(f[:, n:]).all()
+    np.testing.assert_allclose(f[:, :n], ev.frequencies(x, "none"), rtol=1e-9)
+
+
+def test_robot_geometry_of_mechanisms(mechanisms):
+    """The robot drawing's points: the Tricept's pose completed (its orientation followed),
+    its UPS legs ending on the platform circle r = R_p around p and its central leg at p;
+    the RRR-RRR-PRR's platform joints at r_p, the PRR leg starting at its slider on the
+    rail; the stiffness argument only where the robot shares k_a."""
+    from eigentwist.plots.robot import robot_geometry, stiffness_argument
+
+    tri = mechanisms["tricept"]
+    p = np.array([0.05, -0.03, 0.68])
+    g = robot_geometry(tri, p)
+    np.testing.assert_allclose(g.attachment[3], p, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(g.attachment[:3] - p, axis=1), 0.15, rtol=1e-12)
+    R = rotation_matrix(np.asarray(tri._poses(p[None]))[0, 3:])
+    np.testing.assert_allclose(R[:, 2], p / np.linalg.norm(p), atol=1e-12)
+    ev = mechanisms["rrr_rrr_prr"]
+    g = robot_geometry(ev, [0.0, 0.0, 0.0])                  # the specification's S ~ (-0.3354, 0.20) at home
+    np.testing.assert_allclose(np.linalg.norm(g.attachment[:, :2], axis=1), 0.10, rtol=1e-12)
+    assert abs(g.base[2, 1] - 0.20) < 1e-12 and abs(g.base[2, 0] - (-0.3354)) < 5e-5
+    assert stiffness_argument(ev, 2000.0) == {} and stiffness_argument(tri, 2000.0) == {"k_a": 2000.0}
+
+
+def test_sweep_of_legs_that_differ_sets_their_shared_stiffness(mechanisms):
+    """A sweep's k_a column sets the RRR-RRR-PRR's shared k_r (its PRR leg keeps k_p): the
+    worst-case lowest frequency over the poses equals the evaluator's at each k_r."""
+    from eigentwist.runtime import sweep as sw
+    from eigentwist.runtime.sweep.spec import stiffness_parameter
+
+    path = str(GALLERY / "rrr_rrr_prr.py")
+    ev = mechanisms["rrr_rrr_prr"]
+    spec = sw.make_spec(path, model="none", random=16, seed=2, k_a=(1.0e4, 4.0e4), fixed={"k_p": 2.0e6})
+    low = sw.run_sweep(spec).lowest
+    f = ev.frequencies(np.asarray(spec.poses.take(np.arange(16))), "none")[:, 0]
+    np.testing.assert_allclose(low["freq_hz"][0], f.min(), rtol=1e-12)
+    f4 = ev.frequencies(np.asarray(spec.poses.take(np.arange(16))), "none", k_r=4.0e4)[:, 0]
+    np.testing.assert_allclose(low["freq_hz"][1], f4.min(), rtol=1e-12)
+    assert stiffness_parameter(ev) == "k_r" and stiffness_parameter(mechanisms["tricept"]) == "k_a"

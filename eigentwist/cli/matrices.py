@@ -60,9 +60,15 @@ def reference_line(other: str, label: str, freq_other, freq) -> str:
 
 
 def _modes_of(M, K):
+    """Frequencies (Hz) and eigentwists of one pose's ``K v = w^2 M v``; NaN where M is not
+    positive definite (a point platform's 6x6: its rotations carry no inertia)."""
     from ..runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 
-    lam, V = generalized_eigh(K, M)
+    try:
+        lam, V = generalized_eigh(K, M)
+    except np.linalg.LinAlgError:
+        n = M.shape[-1]
+        return np.full(n, np.nan), np.full((n, n), np.nan)
     return frequencies_hz(lam)[0], normalize_eigentwists(V)[0]
 
 
@@ -84,15 +90,18 @@ def compute(args) -> dict:
     units = ev.joint_units
     # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
     model = ev.modes(pose, effects, unstable="raise", **params)
-    r = 3 if ev.rigid_size() == 3 else 0                 # a 6-DoF robot's rigid model is 6x6
     B = ev.allowed_twists(pose, **params)                # the rigid model's allowed twists (the 3x3 subsets'
     f_rigid, v_rigid = _modes_of(B.swapaxes(1, 2) @ mats["M"] @ B,     # rule; a 3-PRS's turn with the pose)
                                  B.swapaxes(1, 2) @ mats["K_R"] @ B)
     f_flex, v_flex = _modes_of(mats["M"], mats["K_F"])
     C_F, f_exact = _exact(ev, pose, effects, params)
     kind = ev.kind(effects)
+    # the actuator stiffness's parameter (k_a; a robot of legs that differ names its shared one)
+    k_a = "k_a" if "k_a" in ev.defaults else str(ev.robot.actuator_stiffness)
     fixed = getattr(ev.space, "basis", None) is not None
-    rigid_from = (FROM["rigid"] if r else "M and K_R, 6x6") if fixed else "M and K_R on the allowed twists, 3x3"
+    n = ev.rigid_size()
+    rigid_from = ("M and K_R, 6x6" if fixed and n == 6 else FROM["rigid"] if fixed and ev.pose_names == ("x", "y", "z")
+                  else f"M and K_R on the allowed twists, {n}x{n}")
     source = (rigid_from if kind == "rigid" else FROM["condensed"] if condensed else FROM[kind]) + (
         " + gravity preload" if "gravity_preload" in effects else "")
     return {
@@ -102,8 +111,8 @@ def compute(args) -> dict:
         "kind": kind,
         "frequencies_from": source,
         "pose": pose.tolist(),
-        "k_a": params.get("k_a", ev.defaults["k_a"]),
-        "k_a_unit": ev.parameter("k_a").unit,
+        "k_a": params.get(k_a, ev.defaults[k_a]),
+        "k_a_unit": ev.parameter(k_a).unit,
         "joint_angles_deg": ({leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)}
                              if units == ("rad",) * 3 else None),
         "leg_lengths_m": {leg.name: float(q[i, 0]) for i, leg in enumerate(ev.robot.legs)} if units == ("m",) else None,
@@ -144,7 +153,10 @@ def _exact(ev, pose, effects, params):
         C, M = platform_compliance(ev, pose, effects, **params)
     except (ValueError, KeyError, AttributeError):
         return None, None
-    f = compliance_eigh(C, M)[0][0]
+    try:
+        f = compliance_eigh(C, M)[0][0]
+    except np.linalg.LinAlgError:          # M not positive definite (a point platform's rotations)
+        return C[0].tolist(), None
     return C[0].tolist(), [float(v) if np.isfinite(v) else None for v in f]
 
 
@@ -156,7 +168,7 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(out))
         return 0
-    say(f"{out['robot']} at pose {out['pose']} {'m' if len(out['pose']) == 3 else 'm, rad'}, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
+    say(f"{out['robot']} at pose {out['pose']} {'m, rad' if len(out['pose']) == 6 else 'm'}, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
         f"{out['model_name']} = {', '.join(out['model']) or '(no effect: bare actuator stiffness k_a)'} ({out['kind']})")
     say(changed_text([r for r in out["parameters"] if r["name"] != "k_a"], out["robot"]))
     if out["joint_angles_deg"] is not None:

@@ -39,6 +39,7 @@ def run(args) -> int:
     from ..runtime import load
     from .common import CliError, model_and_values, say
     from .poses import check_pose, pose_argument
+    from ..plots.robot import stiffness_argument, stiffness_text
 
     if args.modes < 1:
         raise CliError(f"--modes {args.modes}: expected a number of modes >= 1")
@@ -47,9 +48,9 @@ def run(args) -> int:
     ev = load(args.robot, backend=args.backend)
     pose = pose_argument(ev, args.pose)
     effects, params = model_and_values(args.model, args.set, ev)
-    k_a = args.k_a if args.k_a is not None else params.pop("k_a", ev.defaults.get("k_a", 2000.0))
+    k_a = args.k_a if args.k_a is not None else params.pop("k_a", ev.defaults.get("k_a"))
     params.pop("k_a", None)
-    check_pose(ev, pose, effects, {**params, "k_a": k_a}, "plot")
+    check_pose(ev, pose, effects, {**params, **stiffness_argument(ev, k_a)}, "plot")
     model = ",".join(effects)
     out = args.output or ("modes.gif" if args.gif else "modes.svg" if args.svg else "modes.png")
     if args.gif:
@@ -66,5 +67,5 @@ def run(args) -> int:
 
         plot_modes(ev, pose, out, model=model, k_a=k_a, n_modes=args.modes, amplitude=args.amplitude, **params)
     say(f"wrote {out}: {ev.robot.title} at {[round(float(v), 6) for v in pose]}, model {' + '.join(effects) or '(none)'}, "
-        f"k_a = {k_a:g} {ev.parameter('k_a').unit}, {args.modes} lowest modes")
+        f"{stiffness_text(ev, k_a)}{args.modes} lowest modes")
     return 0

@@ -89,6 +89,7 @@ def lowest_table(low: dict, spec, top: int) -> str:
     import numpy as np
 
     from ..runtime.evaluator import AXES
+    from ..runtime.sweep.columns import pose_columns
 
     order = np.argsort(-np.nan_to_num(low["freq_hz"], nan=-np.inf), kind="stable")[:max(top, 0)]
     rows = []
@@ -97,7 +98,7 @@ def lowest_table(low: dict, spec, top: int) -> str:
         label = AXES[low["direction"][c]] if low["direction"][c] >= 0 else "-"
         rows.append([*low["design"][c], low["k_a"][c], low["freq_hz"][c], label, where,
                      f"{low['n_reachable'][c] / spec.n_poses:.1%}"])
-    unit = "m" if low["pose"].shape[1] == 3 else "m, rad"
+    unit = "m, rad" if any(c.startswith("rot") for c in pose_columns(spec)) else "m"
     headers = [*spec.design_names, "k_a", "lowest Hz", "mode 1", f"at pose ({unit})", "reachable"]
     return format_table(headers, rows)
 

@@ -74,7 +74,7 @@ def _kernel_context(kern: Kernel, printer) -> dict:
     if pose:
         args += ["x", "y", "z"]
         shape_args += ["shape(x)", "shape(y)", "shape(z)"]
-    if joints:
+    if joints or kern.joint_order:         # the runtime passes q to every kernel after the IK
         args.append("q")
         shape_args.append("shape(q)[:-2]")
     args.append("p")

@@ -1,5 +1,9 @@
 """Legs as data: any serial chain of R, P, U, S and Pi joints with its bodies.
 
+The legs of one robot may differ: each has its own joints, bodies, closed form, checks and
+closures, its own actuator (R or P, its own ``stiffness``) or none (a passive leg: a
+constraint only). The joint kinds are records (:mod:`.joints`).
+
 A :class:`ChainLeg` lists its joints from the base to the platform and the bodies they
 carry. Axes and locations are *names* of vectors that the leg's closed-form geometry
 (:attr:`ChainLeg.geometry`) returns at the current pose, or explicit 3-tuples of
@@ -15,16 +19,13 @@ from typing import Any, Callable
 
 import sympy as sp
 
+from .joints import JOINT_FREEDOMS, joint_kind
 from .parameters import Parameter, sym
 from .pose import RigidPose
 from .robot import resolve_effects
 
 __all__ = ["JOINT_FREEDOMS", "ChainJoint", "ChainBody", "PoseKinematics", "ChainLeg", "ChainRobot"]
 
-#: number of unit twists each joint kind contributes; ``"virtual"`` is the twist of
-#: restriction of a leg with fewer than six freedoms (one per constraint wrench, Huang's
-#: method): a rotation about its axis through its location, not a freedom of the leg
-JOINT_FREEDOMS = {"R": 1, "P": 1, "Pi": 1, "U": 2, "S": 3, "virtual": 1}
 
 
 @dataclass(frozen=True)
@@ -55,11 +56,10 @@ class ChainJoint:
     swing: tuple = ()
 
     def __post_init__(self):
-        if self.kind not in JOINT_FREEDOMS:
-            raise ValueError(f"joint kind {self.kind!r}: expected one of {', '.join(JOINT_FREEDOMS)}")
-        if self.actuated and self.kind not in ("R", "P"):
+        kind = joint_kind(self.kind)                   # the record of its kind (:mod:`.joints`)
+        if self.actuated and not kind.actuatable:
             raise ValueError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
-        n = JOINT_FREEDOMS[self.kind]
+        n = kind.freedoms
         if self.axes and len(self.axes) != n:
             raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
         if self.swing and (self.kind != "Pi" or len(self.swing) != 2):
@@ -67,12 +67,12 @@ class ChainJoint:
 
     @property
     def freedoms(self) -> int:
-        return JOINT_FREEDOMS[self.kind]
+        return joint_kind(self.kind).freedoms
 
     @property
     def virtual(self) -> bool:
         """True for a twist of restriction (a constraint of the leg, not a freedom)."""
-        return self.kind == "virtual"
+        return joint_kind(self.kind).restriction
 
 
 @dataclass(frozen=True)
@@ -124,8 +124,13 @@ class PoseKinematics:
 
     @property
     def coordinates(self) -> tuple:
-        """(index of the actuated joint, rate 1): the IK's one coordinate per leg."""
-        return ((next(j for j, joint in enumerate(self.leg.joints) if joint.actuated), sp.Integer(1)),)
+        """(index of the joint, rate 1) of the IK's one coordinate per leg: the actuated
+        joint's, or a passive leg's first one-freedom joint (R or P)."""
+        joints = self.leg.joints
+        k = next((j for j, joint in enumerate(joints) if joint.actuated), None)
+        if k is None:
+            k = next(j for j, joint in enumerate(joints) if joint_kind(joint.kind).actuatable)
+        return ((k, sp.Integer(1)),)
 
     @property
     def jacobian_rows(self) -> tuple:
@@ -165,6 +170,10 @@ class ChainLeg:
         actuator (its joint coordinate, m) and every name the joints and bodies use;
         given ``q`` (a symbol: the actuated coordinate, computed by the inverse
         kinematics), the geometry uses it instead of recomputing the coordinate.
+    stiffness : the actuated joint's own stiffness (an expression: N/m for a P joint, N m/rad
+        for an R joint); None: the robot's ``actuator_stiffness``. A leg without an
+        actuated joint is passive: a constraint only (e.g. a Tricept's central leg), its
+        IK coordinate its first R or P joint's (``coordinate`` names it in the geometry).
     checks : names of geometry scalars that must lie within [-1, 1] for the pose to be
         reachable (e.g. the cosine between a strut and a U joint's fixed axis; NaN counts
         as unreachable: a zero leg length gives NaN directions).
@@ -184,6 +193,15 @@ class ChainLeg:
     closures: tuple = ()
     #: the geometry entry that is the actuated joint's coordinate (m or rad)
     coordinate: str = "length"
+    #: the actuated joint's own stiffness (None: the robot's actuator_stiffness)
+    stiffness: Any = None
+
+    def __post_init__(self):
+        n = sum(1 for j in self.joints if j.actuated)
+        if n > 1:
+            raise ValueError(f"{self.name}: {n} actuated joints: expected one, or none for a passive leg")
+        if self.stiffness is not None and n == 0:
+            raise ValueError(f"{self.name}: a stiffness on a passive leg (no actuated joint): expected none")
 
     @property
     def kinematics(self) -> PoseKinematics:
@@ -193,11 +211,12 @@ class ChainLeg:
     @property
     def freedoms(self) -> int:
         """The leg's degrees of freedom (virtual joints excluded)."""
-        return sum(j.freedoms for j in self.joints if j.kind != "virtual")
+        return sum(j.freedoms for j in self.joints if not j.virtual)
 
     @property
-    def actuated(self) -> ChainJoint:
-        return next(j for j in self.joints if j.actuated)
+    def actuated(self) -> ChainJoint | None:
+        """The actuated joint, None for a passive leg."""
+        return next((j for j in self.joints if j.actuated), None)
 
 
 @dataclass(frozen=True)
@@ -208,7 +227,8 @@ class ChainRobot:
         the rotation vector of the platform frame).
     platform_inertia : 6x6 spatial inertia of the platform at its origin, platform axes.
     actuator_stiffness : k_a as an expression; its unit is the actuated joint's
-        (N/m for prismatic, N m/rad for revolute actuators).
+        (N/m for prismatic, N m/rad for revolute actuators); a leg with its own
+        ``stiffness`` (legs that differ: R and P actuators) uses that instead.
     effects : catalogue names or :class:`~eigentwist.description.effects.Effect` objects.
     pose_space : how the pose enters the derivation (:mod:`.pose`: ``RigidPose()``, the
         default; ``TranslationPose()``, ``PlanarPose()``, ``LowerMobilityPose(commanded)``);
@@ -254,6 +274,11 @@ class ChainRobot:
         object.__setattr__(self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg
                                                for leg in self.legs))
         resolve_effects(self)
+        structural = [e for e in self.effects if self.effect(e).structural]
+        if getattr(self.pose_space, "point", False) and structural:
+            raise ValueError(f"{self.name}: effect(s) {', '.join(structural)} on a point platform "
+                             f"({self.pose_space!r}): expected effects without structural compliance (a point's "
+                             "rotations carry neither inertia nor stiffness: only its rigid model is defined)")
 
     @property
     def pose_units(self) -> tuple:

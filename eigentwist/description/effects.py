@@ -176,8 +176,10 @@ class EffectContext:
 
 # ------------------------------------------------------------ catalogue terms
 def _actuator_loss(ctx):
-    """1/(eta k_a) = 1/k_a + (1/eta - 1)/k_a: the loss as a compliance in series (Eq. 34)."""
-    return (1 / ctx.p["eta_a"] - 1) / ctx.robot.actuator_stiffness
+    """1/(eta k_a) = 1/k_a + (1/eta - 1)/k_a: the loss as a compliance in series (Eq. 34);
+    k_a the leg's own actuator stiffness where it has one (legs that differ)."""
+    own = getattr(ctx.leg, "stiffness", None)
+    return (1 / ctx.p["eta_a"] - 1) / (ctx.robot.actuator_stiffness if own is None else own)
 
 
 def _transmission(ctx):

@@ -30,7 +30,7 @@ import sympy as sp
 
 from .parameters import sym
 
-__all__ = ["TranslationPose", "RigidPose", "PlanarPose", "LowerMobilityPose", "POSE", "ROTATION", "FULL", "TWIST_AXIS", "twist_order"]
+__all__ = ["TranslationPose", "RigidPose", "PlanarPose", "PointPose", "LowerMobilityPose", "POSE", "ROTATION", "FULL", "TWIST_AXIS", "twist_order"]
 
 #: position inputs x, y, z (m) of the platform origin
 POSE = (sym("x"), sym("y"), sym("z"))
@@ -126,6 +126,34 @@ class PlanarPose(RigidPose):
 
     def __repr__(self) -> str:
         return "PlanarPose()"
+
+
+class PointPose(RigidPose):
+    """A platform that is a point: it translates along its coordinates (a subset of
+    ``x, y, z`` in m, e.g. a planar five-bar's end-effector ``("x", "y")``) and has no
+    rotation of its own. Derived as a rigid platform at the pose (x, y, z, 0, 0, 0): its
+    inertia is a point mass at its origin (no rotational inertia), and the legs end at it
+    in passive revolute or spherical joints, whose rotations are the legs' own. Its
+    allowed twists are the translations it is given, exactly: a point's coordinates are
+    independent (no followers), and its rotation is no freedom of the mechanism, so the
+    model has one mode per coordinate and none for the rotations the legs leave free."""
+
+    followers: tuple = ()
+    #: a point: its rotations carry neither inertia nor stiffness, so only the rigid model
+    #: (on its translations) is defined; a structural effect's 6x6 flexible model is not
+    point = True
+
+    def __init__(self, coordinates=("x", "y", "z")):
+        coordinates = tuple(coordinates)
+        if (not coordinates or len(set(coordinates)) != len(coordinates)
+                or any(c not in ("x", "y", "z") for c in coordinates)):
+            raise ValueError(f"point coordinates {coordinates!r}: expected distinct names from x, y, z "
+                             "(a point has no rotation)")
+        self.coordinates = coordinates
+        self.basis = _unit_columns(coordinates)
+
+    def __repr__(self) -> str:
+        return f"PointPose({self.coordinates!r})"
 
 
 class LowerMobilityPose(RigidPose):

@@ -40,15 +40,14 @@ from typing import Any
 
 import sympy as sp
 
-from .chain import JOINT_FREEDOMS, ChainBody, ChainJoint, ChainLeg
+from .chain import ChainBody, ChainJoint, ChainLeg
+from .joints import JOINT_FREEDOMS, joint_kind
 
 __all__ = ["Joint", "Body", "SerialLeg", "NumericKinematics", "NumericChainLeg", "coordinate_count", "CLOSURE_TOL"]
 
 #: a solved configuration closes the loop when the residual (m and rad) is below this
 CLOSURE_TOL = 1e-9
 
-_ROT = {"R": 1, "U": 2, "S": 3}
-_DEFAULT_AXES = {"S": ((1, 0, 0), (0, 1, 0), (0, 0, 1))}
 
 
 @dataclass(frozen=True)
@@ -74,12 +73,11 @@ class Joint:
     name: str = ""
 
     def __post_init__(self):
-        if self.kind not in JOINT_FREEDOMS:
-            raise ValueError(f"joint kind {self.kind!r}: expected one of {', '.join(JOINT_FREEDOMS)}")
-        if self.actuated and self.kind not in ("R", "P"):
+        kind = joint_kind(self.kind)                   # the record of its kind (:mod:`.joints`)
+        if self.actuated and not kind.actuatable:
             raise ValueError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
-        n = JOINT_FREEDOMS[self.kind]
-        axes = self.axes or _DEFAULT_AXES.get(self.kind, ())
+        n = kind.freedoms
+        axes = self.axes or kind.default_axes
         if len(axes) != n:
             raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(axes)}")
         if self.kind == "Pi" and self.bar is None:
@@ -295,7 +293,7 @@ class NumericKinematics:
                 a = L(axis_name(k, m), Rj * a_local)
                 g[axis_name(k, m)] = a
                 qk = next(coords)
-                if j.kind in ("R", "U", "S"):
+                if joint_kind(j.kind).motion == "rotation":
                     c, s = prog.let(f"c{k}_{m}_{tag}", sp.cos(qk)), prog.let(f"s{k}_{m}_{tag}", sp.sin(qk))
                     K = _skew(a_local)
                     Rj = L(f"Rj{k}_{m}", Rj * (sp.eye(3) + s * K + (1 - c) * K * K))

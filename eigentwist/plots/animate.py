@@ -16,7 +16,7 @@ import html
 
 import numpy as np
 
-from .robot import AXIS_WORDS, mode_displacements, robot_geometry
+from .robot import AXIS_WORDS, mode_displacements, robot_geometry, stiffness_argument
 from .robot import platform_outline as _outline
 
 __all__ = ["mode_frames", "modes_svg", "modes_gif", "PERIOD_S"]
@@ -34,7 +34,7 @@ def mode_frames(ev, pose, model="paper", k_a: float = 2000.0, n_modes: int = 3, 
     (legs, 3) of the attachments, m, already scaled for display.
     """
     g = robot_geometry(ev, pose, **params)
-    modes = ev.modes(g.coordinates[None, :], model, k_a=k_a, **params)
+    modes = ev.modes(g.coordinates[None, :], model, **stiffness_argument(ev, k_a), **params)
     out = []
     for k in range(min(n_modes, modes.freq_hz.shape[1])):
         d = mode_displacements(g, modes.eigentwists[0][:, k], modes.axes)

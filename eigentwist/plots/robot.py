@@ -18,7 +18,8 @@ import sympy as sp
 
 from ..plotting import pyplot
 
-__all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS"]
+__all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS",
+           "stiffness_argument", "stiffness_text"]
 
 AXIS_WORDS = {"rx": "rotation about X", "ry": "rotation about Y", "rz": "rotation about Z",
               "x": "translation along X", "y": "translation along Y", "z": "translation along Z"}
@@ -82,12 +83,20 @@ def robot_geometry(ev, pose, **params) -> RobotGeometry:
 
 
 def _chain_geometry(ev, pose, **params) -> RobotGeometry:
-    """A joint-list robot (the hexapod): each leg drawn as a straight strut from its first
-    joint's location (base) to its last joint's (platform), at the 6-DoF ``pose`` (m, rad)."""
+    """A joint-list robot (the hexapod, a planar, point or lower-mobility platform): each leg
+    drawn as a straight strut from its first joint's location (base) to its last joint's
+    (platform), at ``pose`` (the robot's coordinates, m and rad) completed to the six of a
+    rigid platform (followers solved, :func:`eigentwist.runtime.platform.full_poses`)."""
+    from ..runtime.platform import full_poses
     from ..runtime.poses import rotation_matrix
 
-    full = np.asarray(pose, dtype=float).reshape(len(ev.pose_names))
-    ev.joint_angles(full[None, :], **params)                  # an unreachable pose raises its usual error
+    given = np.asarray(pose, dtype=float).reshape(len(ev.pose_names))
+    ev.joint_angles(given[None, :], **params)                 # an unreachable pose raises its usual error
+    if len(ev.space.inputs) > 3:
+        full = full_poses(ev.space, given[None, :], getattr(ev.module, "followers", None),
+                          ev.inputs("rigid", params))[0]
+    else:
+        full = np.concatenate([given, np.zeros(3)])
     values = {**ev.defaults, **params}
     p = {q.name: sp.Float(values[q.name]) for q in ev.robot.parameters}
     position = sp.Matrix(full[:3])
@@ -95,12 +104,27 @@ def _chain_geometry(ev, pose, **params) -> RobotGeometry:
     base, attach = [], []
     for leg in ev.robot.legs:
         g = leg.geometry(position, rotation, p)
-        base.append(np.array(sp.Matrix(g[leg.joints[0].location]).evalf(), dtype=float).ravel())
-        attach.append(np.array(sp.Matrix(g[leg.joints[-1].location]).evalf(), dtype=float).ravel())
+        located = [j.location for j in leg.joints if j.location is not None]   # a prismatic joint has none
+        point = lambda loc: np.array(sp.Matrix(g[loc] if isinstance(loc, str) else loc).evalf(),  # noqa: E731
+                                     dtype=float).ravel()
+        real = [j.location for j in leg.joints if j.location is not None and not j.virtual]
+        base.append(point(located[0]))
+        attach.append(point(real[-1] if len(real) > 1 else located[-1]))   # a U-P leg: its virtual joints' point
     base, attach = np.array(base), np.array(attach)
     length = float(np.mean(np.linalg.norm(attach - base, axis=1)))
     return RobotGeometry(full[:3], base, 0.5 * (base + attach), attach, tuple(leg.name for leg in ev.robot.legs),
-                         0.5 * length, 0.5 * length, full)
+                         0.5 * length, 0.5 * length, given)
+
+
+def stiffness_argument(ev, k_a) -> dict:
+    """``{"k_a": k_a}`` for a robot whose actuators share the parameter ``k_a``, else ``{}``
+    (legs that differ name their own stiffnesses, given with the other parameters)."""
+    return {"k_a": k_a} if k_a is not None and "k_a" in ev.defaults else {}
+
+
+def stiffness_text(ev, k_a) -> str:
+    """``"k_a = 2000 N m/rad, "`` for the titles, "" for a robot without ``k_a``."""
+    return f"k_a = {k_a:g} {ev.parameter('k_a').unit}, " if stiffness_argument(ev, k_a) else ""
 
 
 def mode_displacements(geometry: RobotGeometry, twist, axes) -> np.ndarray:
@@ -189,7 +213,7 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
     """
     plt = pyplot()
     g = robot_geometry(ev, pose, **params)
-    modes = ev.modes(g.coordinates[None, :], model, k_a=k_a, **params)
+    modes = ev.modes(g.coordinates[None, :], model, **stiffness_argument(ev, k_a), **params)
     n = min(n_modes, modes.freq_hz.shape[1])
     fig = plt.figure(figsize=(4.2 * n, 8.4))
     for k in range(n):
@@ -212,8 +236,8 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
     model_name = model if isinstance(model, str) and "," not in model else " + ".join(
         model.split(",") if isinstance(model, str) else model)
     where = ", ".join(f"{v:g}" for v in np.round(g.coordinates, 4))
-    unit = "m" if len(g.coordinates) == 3 else "m, rad"
-    text = title or (f"{ev.robot.title} at [{where}] {unit}, k_a = {k_a:g} {ev.parameter('k_a').unit}, model {model_name}: "
+    unit = "m, rad" if any(c.startswith("rot") for c in ev.pose_names) else "m"
+    text = title or (f"{ev.robot.title} at [{where}] {unit}, {stiffness_text(ev, k_a)}model {model_name}: "
                      "grey at rest, colour the mode shape")
     fig.suptitle(textwrap.fill(text, 30 * n), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.95))

@@ -9,6 +9,7 @@ import numpy as np
 from ..description import RobotDescription
 from ..description.effects import (base_name, leg_input_name, leg_switch_name, resolve_model,
                                    split_scope, switch_name)
+from ..description.joints import joint_kind
 from ..description.names import did_you_mean
 from . import condense
 from .constraints import check_constraints, compile_constraints
@@ -747,7 +748,7 @@ class Evaluator:
         """Unit of each joint coordinate per leg (the last axis of :meth:`joint_angles`):
         ``"m"`` for a prismatic joint's, ``"rad"`` for the others' (a Pi joint's angle too)."""
         leg = self.robot.legs[0]
-        return tuple("m" if leg.joints[c[0]].kind == "P" else "rad" for c in leg.kinematics.coordinates)
+        return tuple(joint_kind(leg.joints[c[0]].kind).unit for c in leg.kinematics.coordinates)
 
     def joint_coordinates(self, joints, poses=None) -> tuple:
         """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.
@@ -854,6 +855,18 @@ class Evaluator:
         A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(poses), 0, 6))
         return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
 
+    @property
+    def _c_rigid(self) -> bool:
+        """Whether the rigid model's allowed twists are what the C pass reduces to: the
+        three translations of a translational robot's 3x3 blocks or a free platform's six
+        twists (a pose space's fixed basis of either). Any other pose space's rigid model
+        (a point in a plane, a planar or lower-mobility platform) is reduced here."""
+        basis = getattr(self.space, "basis", None)
+        if basis is None:
+            return False
+        names = twist_order(self.pose_names)
+        return names in (("x", "y", "z"), FULL) and len(basis[0]) == len(names)
+
     def _preloaded(self, effects) -> bool:
         return any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
 
@@ -886,7 +899,7 @@ class Evaluator:
         poses = self._poses(poses, params)
         effects = self._resolve(model)
         params, exact = self._route(effects, params)
-        fixed = getattr(self.space, "basis", None) is not None or self.kind(effects) == "flexible"
+        fixed = self._c_rigid or self.kind(effects) == "flexible"
         if self._fused and fixed and not self._preloaded(effects):
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact)
         else:
@@ -1032,7 +1045,7 @@ class Evaluator:
         return Modes(freq, vec, self.axes(kind), kind, ok, stable)
 
     def _solve(self, M, K, vectors: bool = True, kind: str | None = None) -> Modes:
-        if self._fused:                               # the C solver, on the evaluator's threads
+        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:   # the C solver's sizes
             lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
         else:
             # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
@@ -1133,9 +1146,10 @@ class Evaluator:
             raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
                              "pose) are not available: use a flexible model")
         solved, exact = self._route(effects, params)
+        basis = None if self._c_rigid else getattr(self.space, "basis", None)     # a point's translations
         if method == "differences":
             out = self.matrix_derivatives(poses, wrt, effects, **solved)
-            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six)
+            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
         else:
             own = own_legs(wrt, params)              # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)
@@ -1146,7 +1160,7 @@ class Evaluator:
                 pc = self._take(p, sl)
                 self._check_rows(poses[sl], pc, strict=True)
                 out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self._with_pose(poses[sl], pc))
-                parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six))
+                parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis))
             freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
             if own:
                 dfdp = shared_columns(dfdp, wrt, full, own)

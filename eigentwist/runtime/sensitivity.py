@@ -311,21 +311,29 @@ def check_model(effects) -> None:
                          "at run time (a static solve), not generated; drop gravity_preload from the model")
 
 
-def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL, translational: bool = True):
+def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL, translational: bool = True,
+                          basis=None):
     """``(freq_hz, eigentwists, dfdp)`` from one sensitivity-kernel output.
 
     df/dp = (1/2π) dω/dp with dω/dp = φᵀ(dK − ω² dM)φ / (2ω φᵀMφ) (Hz per SI unit,
     (N, n_modes, P)); clusters of repeated frequencies (relative ``rtol``) get individual
     derivatives (:func:`eigenvalue_derivatives`). Rigid models use the 3x3 translational
     subsets of M and K_R (the full 6x6 for a 6-DoF robot: ``translational=False``),
-    flexible ones M and K_F.
+    flexible ones M and K_F. ``basis`` (6 x n, constant: a pose space's fixed allowed
+    twists, e.g. a point platform's translations in the plane) reduces a rigid model to
+    ``B^T M B`` and ``B^T K_R B`` instead (and their derivatives alike).
     """
     from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 
-    sub = slice(3, 6) if rigid and translational else slice(0, 6)
     kname = "K_R" if rigid else "K_F"
-    M, K = out["M"][:, sub, sub], out[kname][:, sub, sub]
-    dM, dK = out["dM"][:, :, sub, sub], out["d" + kname][:, :, sub, sub]
+    if rigid and basis is not None:
+        B = np.asarray(basis, dtype=float)
+        M, K = B.T @ out["M"] @ B, B.T @ out[kname] @ B
+        dM, dK = B.T @ out["dM"] @ B, B.T @ out["d" + kname] @ B
+    else:
+        sub = slice(3, 6) if rigid and translational else slice(0, 6)
+        M, K = out["M"][:, sub, sub], out[kname][:, sub, sub]
+        dM, dK = out["dM"][:, :, sub, sub], out["d" + kname][:, :, sub, sub]
     lam, V = generalized_eigh(K, M)
     dlam = eigenvalue_derivatives(lam, V, dK, dM, rtol)
     omega = np.sqrt(np.clip(lam, 0.0, None))

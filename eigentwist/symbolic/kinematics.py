@@ -27,24 +27,26 @@ __all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures"]
 def inverse_kinematics(robot: RobotDescription):
     """``(ik, outputs, q_all)``: the IK program over the pose inputs and the parameters, its
     outputs ``{"q": ((legs, n_q), ...), <check>: ((legs,), ...)}`` and each leg's joint
-    coordinate symbols. Raises ``ValueError`` when the legs' closed forms differ in their
-    numbers of coordinates or in their checks."""
+    coordinate symbols. Legs may name different checks (legs that differ): a check a leg
+    does not name is 0 there (within [-1, 1]: it says nothing). Raises ``ValueError`` when
+    the legs' closed forms differ in their numbers of coordinates."""
     ik = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
         ik.declare(s_)
-    q_all, checks = [], {}
+    q_all, per_leg = [], []
     for i, leg in enumerate(robot.legs, start=1):
         if leg.kinematics is None:
             raise ValueError(f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
                              "one, e.g. a leg built by eigentwist.description.rrpirr.rrpirr_leg")
         q, c = leg.kinematics.inverse_kinematics(ik, leg, pose, str(i))
-        if q_all and (len(q) != len(q_all[0]) or list(c) != list(checks)):
-            raise ValueError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates and checks {list(c)}; "
-                             f"expected {len(q_all[0])} and {list(checks)} like {robot.legs[0].name}")
+        if q_all and len(q) != len(q_all[0]):
+            raise ValueError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates; "
+                             f"expected {len(q_all[0])} like {robot.legs[0].name}")
         q_all.append(tuple(q))
-        for name, value in c.items():
-            checks.setdefault(name, []).append(value)
+        per_leg.append(dict(c))
+    names = list(dict.fromkeys(name for c in per_leg for name in c))
+    checks = {name: [c.get(name, sp.Integer(0)) for c in per_leg] for name in names}
     n = len(robot.legs)
     outputs = {"q": ((n, len(q_all[0])), [qq for q in q_all for qq in q])}
     outputs.update({name: ((n,), values) for name, values in checks.items()})
@@ -65,34 +67,37 @@ def closures(robot):
     robot's pose space has no followers (:class:`~eigentwist.description.pose.LowerMobilityPose`).
 
     Over the pose inputs (x, y, z m and the rotation matrix R_ij) and the parameters:
-    ``closure`` (legs, n_c), each leg's ``closures`` (geometry scalars, m, zero where the
-    platform can be), and ``closure_rate`` (legs, n_c, 6), their exact derivatives along
+    ``closure`` (n_c,), every leg's ``closures`` in leg order (geometry scalars, zero where
+    the platform can be; legs may name different ones, or none, one per follower in all),
+    and ``closure_rate`` (n_c, 6), their exact derivatives along
     the platform's six unit twists ``[omega; v]`` at its origin (``pose_space.motion``:
     ``dr/dt_k = sum_s dr/ds . ds/dt_k``), for the runtime's Newton steps.
     """
     pose = robot.pose_space
     if not getattr(pose, "followers", ()):
         return None
-    names = robot.legs[0].closures
-    if not names or any(leg.closures != names for leg in robot.legs):
-        raise ValueError(f"{robot.name}: pose space {pose!r} needs every leg to name the same closures "
-                         f"(ChainLeg.closures, scalars of its geometry that vanish), got "
-                         f"{[leg.closures for leg in robot.legs]}")
+    count = sum(len(leg.closures) for leg in robot.legs)
+    if count != len(pose.followers):
+        raise ValueError(f"{robot.name}: pose space {pose!r} has {len(pose.followers)} followers "
+                         f"({', '.join(pose.followers)}) and the legs name {count} closures "
+                         f"({[leg.closures for leg in robot.legs]}, ChainLeg.closures: scalars of a leg's geometry "
+                         "that vanish where the platform can be): expected one closure per follower")
     prog = Program()
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
         prog.declare(s_)
     motion = pose.motion()
     values, rates = [], []
     for i, leg in enumerate(robot.legs, start=1):
+        if not leg.closures:
+            continue
         g = leg.geometry(pose.position, pose.rotation, _Symbols())
-        for name in names:
+        for name in leg.closures:
             r = sp.sympify(g[name])
             values.append(prog.let(f"{name}_{i}", r))
             d = {s_: sp.diff(r, s_) for s_, _ in motion}
             rate = sum((d[s_] * row for s_, row in motion if d[s_] != 0), sp.zeros(1, 6))
             rates += [prog.let(f"d{name}_{i}_{k}", rate[0, k]) for k in range(6)]
-    n = len(robot.legs)
-    return prog, {"closure": ((n, len(names)), values), "closure_rate": ((n, len(names), 6), rates)}
+    return prog, {"closure": ((count,), values), "closure_rate": ((count, 6), rates)}
 
 
 def loop_closure(robot, q_all: list):

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..description import Leg
+from ..description.joints import JOINT_KINDS
 from .program import Program
 from ..description.screw import pure_translation, reciprocal_product, unit_twist
 
@@ -40,11 +41,12 @@ def _translation(axes, location, geometry: dict, origin: sp.Matrix) -> list:
     return [pure_translation(_vector(geometry, axes[0]))]
 
 
-#: the unit twists of each joint kind: rotations about its axes through its location (R,
-#: U, S and the virtual joint's twist of restriction), or a translation along its axis
-#: (P, and Pi: a curvilinear translation)
-TWISTS = {"R": _rotations, "U": _rotations, "S": _rotations, "virtual": _rotations,
-          "P": _translation, "Pi": _translation}
+#: the unit twists of each joint kind, from its record's motion
+#: (:data:`~eigentwist.description.joints.JOINT_KINDS`): rotations about its axes through its
+#: location (R, U, S and the virtual joint's twist of restriction), or a translation along
+#: its axis (P, and Pi: a curvilinear translation)
+TWISTS = {name: {"rotation": _rotations, "translation": _translation}[kind.motion]
+          for name, kind in JOINT_KINDS.items()}
 
 
 def joint_twists(joint, geometry: dict, origin: sp.Matrix) -> list[sp.Matrix]:

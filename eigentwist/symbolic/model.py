@@ -50,7 +50,8 @@ class DerivedModel:
     * ``gravity``: ``G`` (legs, n_e, 6, 6), the matrices multiplying the elastic joint
       torques tau_e (the actuated joint, then the virtual joints; RR(Pi)RR: 2) in the
       first term of Eq. 13 (sum_j d(J_e,i^-T col k)/d theta_j . row j of J_i^-1,
-      theta_3 = l2 q3 for the Pi joint); ``Kqe`` (legs, n_e, n_e), each leg's
+      theta_3 = l2 q3 for the Pi joint; zeros for a robot that offers no preload effect,
+      where tau_e = 0); ``Kqe`` (legs, n_e, n_e), each leg's
       elastic joint stiffness (Eq. 40); ``k_act`` (legs,), each leg's actuated-joint
       stiffness with its joint-series effects; ``W`` (6,), the static preload wrench on
       the platform at the EE origin (N m; N).
@@ -173,6 +174,11 @@ def derive(robot: RobotDescription) -> DerivedModel:
     body, and their elastic joints are the actuated joint (k_a in series with the
     joint-series effects, Eq. 34) and each virtual joint (``rigid_compliance``, Eq. 42;
     a leg with six freedoms has none). Nothing here depends on which robot or chain it is.
+
+    Legs may differ: in their chains, their actuator (R or P, the leg's own ``stiffness``)
+    or none (a passive leg: its virtual joints' constraints only, no term in K_R). The
+    per-leg outputs are padded to the largest leg's: a padded elastic joint is a zero row
+    with unit compliance and no stiffness, a padded inverse-Jacobian row zero.
     """
     ik, ik_outputs, q_all = inverse_kinematics(robot)
     pose = robot.pose_space
@@ -188,35 +194,55 @@ def derive(robot: RobotDescription) -> DerivedModel:
     K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all, k_acts, G = [], [], [], [], [], [], []
     Cq_phys = []                  # each leg's joint compliance without rigid_compliance
+    preloaded = bool(fx.of_kind("preload"))
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
         ls = leg_screws(prog, leg, q, pose, tag)
         screws.append(ls)
         M += _leg_inertia(prog, fx, leg, ls, i)
         act, virtual, coords = _joint_keys(leg, ls)
-        c_act = prog.let(f"c_act_{tag}", _joint_series(robot, fx, i))
-        k_act = prog.let(f"k_act_{tag}", 1 / c_act)
-        K_R += rows_outer(ls.rows[act], sp.Matrix([[k_act]]))              # Eqs. 14, 33, 34
-        Je = sp.Matrix.vstack(*[ls.rows[k] for k in [act] + virtual])       # elastic joints
-        Cs = prog.let_matrix(f"Cs_{tag}", _body_compliance(fx, ls, i))
-        Cq = Je * Cs * Je.T + sp.diag(c_act, *[robot.rigid_compliance] * len(virtual))   # Eqs. 41-43
-        Cq_phys.append(Je * Cs * Je.T + sp.diag(c_act, *[0] * len(virtual)))
-        Cq = prog.let_matrix(f"Cq_{tag}", Cq)
-        Kqe = prog.let_matrix(f"Kqe_{tag}", inverse_small(Cq))           # Eq. 40 block
+        actuated = [] if act is None else [act]            # a passive leg: constraints only
+        if act is None:
+            k_act = sp.Integer(0)
+            c_act = []
+        else:
+            c_act = [prog.let(f"c_act_{tag}", _joint_series(robot, fx, i))]
+            k_act = prog.let(f"k_act_{tag}", 1 / c_act[0])
+            K_R += rows_outer(ls.rows[act], sp.Matrix([[k_act]]))          # Eqs. 14, 33, 34
+        elastic = [ls.rows[k] for k in actuated + virtual]
+        Je = sp.Matrix.vstack(*elastic) if elastic else sp.zeros(0, 6)      # elastic joints
+        Cs = prog.let_matrix(f"Cs_{tag}", _body_compliance(fx, ls, i)) if Je.rows else sp.zeros(6, 6)
+        if Je.rows:
+            Cq = Je * Cs * Je.T + sp.diag(*c_act, *[robot.rigid_compliance] * len(virtual))   # Eqs. 41-43
+            Cq_phys.append(Je * Cs * Je.T + sp.diag(*c_act, *[0] * len(virtual)))
+            Cq = prog.let_matrix(f"Cq_{tag}", Cq)
+            Kqe = prog.let_matrix(f"Kqe_{tag}", _joint_stiffness(robot, Cq, len(actuated)))   # Eq. 40 block
+        else:
+            Cq_phys.append(sp.zeros(0, 0))
+            Kqe = sp.zeros(0, 0)
         body = leg.platform_body
-        K_groups[body] = K_groups.get(body, sp.zeros(6, 6)) + rows_outer(Je, Kqe)
+        K_groups[body] = K_groups.get(body, sp.zeros(6, 6)) + (rows_outer(Je, Kqe) if Je.rows else sp.zeros(6, 6))
         J_rows.append(sp.Matrix.vstack(*[ls.rows[ls.keys[k]] for k in leg.kinematics.jacobian_rows]))
         levers.append(prog.let(f"lever_{tag}", leg.kinematics.lever(ls, act)))
         motion = [(qj, ls.rows[key] / rate) for qj, (key, rate) in zip(q, coords)] + pose.motion()
-        G += _preload_derivatives(prog, motion, ls, [act] + virtual, tag)
+        if preloaded:
+            G.append(_preload_derivatives(prog, motion, ls, actuated + virtual, tag))
+        else:                     # no preload effect: Eq. 13's first term vanishes (tau_e = 0)
+            G.append([sp.zeros(6, 6)] * len(actuated + virtual))
         Je_all.append(Je)
         Kqe_all.append(Kqe)
         k_acts.append(k_act)
     K_F = _platform_stiffness(prog, robot, K_groups, fx) + K_ground
-    n, n_e = len(robot.legs), Je_all[0].rows
-    if any(r.shape != J_rows[0].shape for r in J_rows) or any(j.rows != n_e for j in Je_all):
-        raise ValueError(f"{robot.name}: legs with different numbers of joint coordinates or constraints "
-                         f"({[r.rows for r in J_rows]} rows): expected alike legs")
+    # legs that differ (joint chains, passive legs): every leg's arrays padded to the largest,
+    # a padded elastic joint a zero row with unit compliance and no stiffness (it adds nothing)
+    n, n_e = len(robot.legs), max(j.rows for j in Je_all)
+    n_rows = max(r.rows for r in J_rows)
+    J_rows = [sp.Matrix.vstack(r, sp.zeros(n_rows - r.rows, 6)) for r in J_rows]
+    G = [g + [sp.zeros(6, 6)] * (n_e - len(g)) for g in G]
+    Kqe_all = [sp.diag(k, sp.zeros(n_e - k.rows, n_e - k.rows)) if k.rows < n_e else k for k in Kqe_all]
+    Cq_phys = [sp.diag(c, sp.eye(n_e - c.rows)) if c.rows < n_e else c for c in Cq_phys]
+    Je_all = [sp.Matrix.vstack(j, sp.zeros(n_e - j.rows, 6)) for j in Je_all]
+    G = [g for leg_g in G for g in leg_g]
     sym6 = lambda m: [m[i, j] for i in range(6) for j in range(6)]  # noqa: E731
     outputs = {
         "matrices": {"M": ((6, 6), sym6(M)), "K_R": ((6, 6), sym6(K_R)), "K_F": ((6, 6), sym6(K_F))},
@@ -248,7 +274,7 @@ def _legs_outputs(robot: RobotDescription, Je_all: list, Cq_phys: list, K_ground
     (sorted by body, as K_F condenses them) ``G_c`` (couplings, 6, m) its unit twists at
     the EE origin and ``K_c`` (couplings, m) its stiffnesses.
     """
-    n, n_e = len(Je_all), Je_all[0].rows
+    n, n_e = len(Je_all), Je_all[0].rows  # padded alike by derive
     flat = lambda m: [m[i, j] for i in range(m.rows) for j in range(m.cols)]  # noqa: E731
     out = {
         "Je": ((n, n_e, 6), [e for j in Je_all for e in flat(j)]),
@@ -272,13 +298,34 @@ def _joint_keys(leg, ls: LegScrews):
     of each IK coordinate's joint (``Leg.kinematics.coordinates``)."""
     first = {j: k for k, j in reversed(list(zip(ls.keys, ls.joint_of)))}
     actuated = [j for j, joint in enumerate(leg.joints) if joint.actuated]
-    if len(actuated) != 1:
-        raise ValueError(f"{leg.name}: {len(actuated)} actuated joints: expected exactly one")
+    if len(actuated) > 1:
+        raise ValueError(f"{leg.name}: {len(actuated)} actuated joints: expected one, or none for a passive leg")
     virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].virtual]
     # (joint, rate[, freedom within the joint]): a U or S joint's coordinates address its twists
     coords = [(ls.keys[ls.joint_of.index(c[0]) + (c[2] if len(c) > 2 else 0)], c[1])
               for c in leg.kinematics.coordinates]
-    return first[actuated[0]], virtual, coords
+    return (first[actuated[0]] if actuated else None), virtual, coords
+
+
+def _joint_stiffness(robot, Cq: sp.Matrix, n_act: int) -> sp.Matrix:
+    """Eq. 40's block ``Kqe = Cq^-1`` of one leg's elastic joints (the ``n_act`` actuated
+    ones first, then the virtual ones). A robot whose ``rigid_compliance`` is exactly 0
+    (no penalty: its constraints exact, in its allowed twists and the ``legs`` kernel's
+    condensation) gives its virtual joints no spring in K_F: ``Kqe`` is the inverse of the
+    actuated block, zero elsewhere."""
+    if sp.sympify(robot.rigid_compliance) != 0 or Cq.rows == n_act:
+        return inverse_small(Cq)
+    K = sp.zeros(Cq.rows, Cq.rows)
+    if n_act:
+        K[:n_act, :n_act] = inverse_small(Cq[:n_act, :n_act])
+    return K
+
+
+def actuator_stiffness(robot, leg):
+    """The stiffness of ``leg``'s actuated joint: its own (``stiffness``, N/m or N m/rad by
+    its kind) or the robot's ``actuator_stiffness``."""
+    own = getattr(leg, "stiffness", None)
+    return robot.actuator_stiffness if own is None else own
 
 
 def _platform_inertia(robot: RobotDescription, fx: EffectSymbols) -> sp.Matrix:
@@ -315,8 +362,9 @@ def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -
 
 
 def _joint_series(robot: RobotDescription, fx: EffectSymbols, i: int):
-    """Compliance of leg ``i``'s actuated joint: 1/k_a plus every joint-series effect (Eq. 34)."""
-    c = 1 / robot.actuator_stiffness
+    """Compliance of leg ``i``'s actuated joint: 1/k plus every joint-series effect (Eq. 34),
+    k the leg's own actuator stiffness (``leg.stiffness``) or the robot's k_a."""
+    c = 1 / actuator_stiffness(robot, robot.legs[i])
     for e in fx.of_kind("joint_series"):
         on, ce = fx.term(e, i)
         c = c + on * ce

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..evaluator import AXES
-from .spec import SweepSpec, sweep_evaluator
+from .spec import SweepSpec, stiffness_parameter, sweep_evaluator
 
 __all__ = ["FORMAT", "MANIFEST", "LOWEST_FILE", "WIDE", "manifest", "chunk_file", "flat_columns",
            "unflat_columns", "pyarrow_modules", "lowest_path"]
@@ -21,8 +21,13 @@ def manifest(spec: SweepSpec, complete: bool, backend: str = "", lowest_file: st
     return {"format": FORMAT, "version": 1, "spec": spec.to_dict(), "backend": backend,
             "n_rows": spec.n_rows, "n_chunks": spec.n_chunks, "n_modes": spec.n_modes, "axes": list(AXES),
             "design_names": list(spec.design_names), "complete": complete, "lowest": lowest_file,
-            "units": {"pose": "m" if len(pose_columns(spec)) == 3 else "m, rad", "k_a": sweep_evaluator(spec.robot, spec.backend).parameter("k_a").unit, "freq_hz": "Hz", "direction": "index into axes, -1: unreachable",
+            "units": {"pose": "m, rad" if any(c.startswith("rot") for c in pose_columns(spec)) else "m", "k_a": _stiffness_unit(spec), "freq_hz": "Hz", "direction": "index into axes, -1: unreachable",
                       "status": "0 reachable, 1 unreachable, 2 serial singular, 3 parallel singular"}}
+
+
+def _stiffness_unit(spec: SweepSpec) -> str:
+    ev = sweep_evaluator(spec.robot, spec.backend)
+    return ev.parameter(stiffness_parameter(ev)).unit
 
 
 def pose_columns(spec: SweepSpec) -> tuple:

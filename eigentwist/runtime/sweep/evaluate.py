@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..evaluator import Evaluator
-from .spec import SweepSpec, sweep_evaluator
+from .spec import SweepSpec, stiffness_parameter, sweep_evaluator
 
 __all__ = ["reachable_rows", "evaluate_chunk", "COLUMNS"]
 
@@ -32,8 +32,9 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
     case, pose_index = np.divmod(rows, spec.n_poses)
     poses = spec.poses.take(pose_index)
     k_a, design = spec.case_values(case)
-    params = {**dict(spec.fixed), "k_a": k_a, **{name: design[:, k] for k, name in enumerate(spec.design_names)}}
     ev = sweep_evaluator(spec.robot, spec.backend)
+    params = {**dict(spec.fixed), stiffness_parameter(ev): k_a,
+              **{name: design[:, k] for k, name in enumerate(spec.design_names)}}
     # invalid="nan": unreachable or singular rows are NaN and marked, never raise
     modes = ev.modes(poses, spec.model, invalid="nan", **params)
     reachable = np.ones(len(rows), bool) if modes.valid is None else np.asarray(modes.valid, bool)

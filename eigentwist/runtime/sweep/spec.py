@@ -21,7 +21,8 @@ from ..errors import InputError
 from ..evaluator import Evaluator
 from .box import workspace_box
 
-__all__ = ["PoseSet", "SweepSpec", "make_spec", "sweep_evaluator", "DEFAULT_CHUNK_SIZE", "POSE_BLOCK"]
+__all__ = ["PoseSet", "SweepSpec", "make_spec", "sweep_evaluator", "stiffness_parameter", "DEFAULT_CHUNK_SIZE",
+           "POSE_BLOCK"]
 
 DEFAULT_CHUNK_SIZE = 65536   # rows per chunk: peak RSS about 400 MB (NumPy backend), 230 MB (C); measured
 POSE_BLOCK = 65536           # random poses are drawn in seeded blocks of this many
@@ -240,10 +241,9 @@ def make_spec(robot: str = "heli4", *, model: str = "paper", backend: str = "num
     except ValueError as exc:
         raise InputError(f"model {model!r}: {exc}") from None
     poses = _pose_set(grid, random, seed, workspace_box(box, ev.robot))
-    if "k_a" not in ev.parameters:
-        raise InputError(f"robot {robot!r} has no parameter 'k_a': a sweep needs the actuator stiffness")
-    k_a = (ev.defaults["k_a"],) if k_a is None else _numbers(k_a, "k_a")
-    _check_parameter(ev, "k_a", k_a, "k_a")
+    name_k = stiffness_parameter(ev, robot)
+    k_a = (ev.defaults[name_k],) if k_a is None else _numbers(k_a, "k_a")
+    _check_parameter(ev, name_k, k_a, "k_a")
     pairs = tuple(_vary_pairs(vary))
     fixed = tuple((str(k), float(v)) for k, v in dict(fixed or {}).items())
     names = [n for n, _ in pairs]
@@ -262,6 +262,17 @@ def make_spec(robot: str = "heli4", *, model: str = "paper", backend: str = "num
     if int(chunk_size) != chunk_size or chunk_size < 1:
         raise InputError(f"chunk size {chunk_size!r}: expected an integer number of rows >= 1")
     return SweepSpec(robot, backend, model, poses, k_a, pairs, fixed, int(chunk_size))
+
+
+def stiffness_parameter(ev, robot=None) -> str:
+    """The parameter a sweep's ``k_a`` column sets: ``k_a``, or the robot's shared actuator
+    stiffness where its legs differ (an RRR-RRR-PRR's ``k_r``); ``InputError`` else."""
+    if "k_a" in ev.parameters:
+        return "k_a"
+    shared = str(getattr(ev.robot, "actuator_stiffness", ""))
+    if shared in ev.parameters:
+        return shared
+    raise InputError(f"robot {robot or ev.robot.name!r} has no parameter 'k_a': a sweep needs the actuator stiffness")
 
 
 def _vary_pairs(vary):
