@@ -439,3 +439,20 @@ def test_sweep_of_legs_that_differ_sets_their_shared_stiffness(mechanisms):
     f4 = ev.frequencies(np.asarray(spec.poses.take(np.arange(16))), "none", k_r=4.0e4)[:, 0]
     np.testing.assert_allclose(low["freq_hz"][1], f4.min(), rtol=1e-12)
     assert stiffness_parameter(ev) == "k_r" and stiffness_parameter(mechanisms["tricept"]) == "k_a"
+
+
+def test_point_platform_parallel_singularity_is_said(mechanisms):
+    """The five-bar's distal links in one line (C1, P, C2 collinear: by symmetry P on the
+    y axis at y = sqrt(l1^2 - (l2 - d/2)^2), elbows out) leave the point free to move
+    across that line: parallel singular, refused by ``frequencies``; a pose just beside it,
+    and home, are not (the point's rotations, which no leg fixes, are no freedom)."""
+    from eigentwist.runtime.errors import SingularPoseError
+
+    ev = mechanisms["five_bar"]
+    d, l1, l2 = (ev.robot.defaults[k] for k in ("d", "l1", "l2"))
+    y = np.sqrt(l1**2 - (l2 - d / 2) ** 2)
+    status = ev.pose_status([[0.0, y], [0.0, y + 0.02], [0.0, 0.30]])
+    assert list(status["status"]) == ["parallel singular", "reachable", "reachable"]
+    assert status["conditioning"][0] < 1e-6 < status["conditioning"][1]
+    with pytest.raises(SingularPoseError, match="parallel singular"):
+        ev.frequencies([[0.0, y]], "none")

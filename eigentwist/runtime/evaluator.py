@@ -137,6 +137,8 @@ class Evaluator:
         self.space = getattr(robot, "pose_space", None)
         #: True when the kernels take a rigid platform's six coordinates (rotation included)
         self._six = self.space is not None and len(self.space.inputs) > 3
+        #: a point platform's translations (6 x d): the only twists its legs' rows must fix
+        self._freedoms = self.space.basis if getattr(self.space, "point", False) else None
         self._rigid_models: dict = {}          # model -> whether a leg has a rigid direction (_route)
         self._checked_defaults: set = set()    # parameters whose default _params has checked
         self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
@@ -501,7 +503,7 @@ class Evaluator:
             with np.errstate(invalid="ignore", divide="ignore"):
                 jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
             lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
-            rows = platform_rows(jac["J_rows"], legs)
+            rows = platform_rows(jac["J_rows"], legs, self._freedoms)
             if strict:
                 raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None)
                 raise_parallel(poses[ok], rows)
@@ -514,7 +516,7 @@ class Evaluator:
         pp = self._with_pose(poses, p)
         with np.errstate(invalid="ignore", divide="ignore"):
             q = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], pp)["q"]
-            return platform_rows(self._kernels.jacobians(q, pp)["J_rows"], self.robot.legs)
+            return platform_rows(self._kernels.jacobians(q, pp)["J_rows"], self.robot.legs, self._freedoms)
 
     def _parallel_ok(self, poses: np.ndarray, p: dict, rows: np.ndarray, strict: bool) -> np.ndarray:
         """(len(rows),) bool: the poses ``rows`` (indices) are not parallel singular; with
@@ -646,7 +648,7 @@ class Evaluator:
             with np.errstate(invalid="ignore", divide="ignore"):
                 jac = self._kernels.jacobians(ik["q"][reach], sub)
             lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
-            rows = platform_rows(jac["J_rows"], self.robot.legs)
+            rows = platform_rows(jac["J_rows"], self.robot.legs, self._freedoms)
             idx = np.arange(sl.start, sl.stop)[reach]
             cond[idx] = conditioning(rows)
             lever_min[idx] = np.abs(lever).min(axis=-1)

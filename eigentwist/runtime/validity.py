@@ -138,13 +138,16 @@ def _layout(legs) -> tuple:
     return legs_idx, rows_idx, blocks
 
 
-def platform_rows(J_rows, legs) -> np.ndarray:
-    """(n, r, 6) the platform's unit actuation and constraint rows, legs in order: each
+def platform_rows(J_rows, legs, basis=None) -> np.ndarray:
+    """(n, r, d) the platform's unit actuation and constraint rows, legs in order: each
     leg's actuated inverse-Jacobian row (the first of its ``J_rows``) scaled to unit
     length, then an orthonormal basis of its virtual joints' rows (the span of its
     constraint wrenches: the basis Huang's method happens to give does not matter), each
     acting on ``[L omega; v]`` (L = :data:`CONDITIONING_LENGTH`). Together they fix the
-    platform's six twists unless the pose is parallel singular."""
+    platform's six twists unless the pose is parallel singular. ``basis`` (6 x d, or None:
+    the six unit twists): the platform's freedoms when the pose space fixes fewer than six
+    (a point's translations: its rotations are no freedom of the mechanism, so the rows
+    need fix only those d twists); the rows are then their components along it."""
     legs_idx, rows_idx, blocks = _layout(legs)
     W = np.asarray(J_rows, dtype=float)[:, legs_idx, rows_idx, :]
     if CONDITIONING_LENGTH != 1.0:
@@ -157,7 +160,7 @@ def platform_rows(J_rows, legs) -> np.ndarray:
                 for m in range(start, k):
                     v -= np.einsum("ni,ni->n", W[:, m, :], v)[:, None] * W[:, m, :]
             W[:, k, :] = _unit(v)
-    return W
+    return W if basis is None else W @ np.asarray(basis, dtype=float)
 
 
 def _gram(rows: np.ndarray) -> np.ndarray:
@@ -171,7 +174,7 @@ def conditioning(rows: np.ndarray) -> np.ndarray:
     rows = np.asarray(rows, dtype=float)
     out = np.full(len(rows), np.nan)
     finite = np.isfinite(rows).all(axis=(1, 2))
-    if rows.shape[1] < 6:
+    if rows.shape[1] < rows.shape[2]:
         out[finite] = 0.0
         return out
     if finite.any():
@@ -182,11 +185,12 @@ def conditioning(rows: np.ndarray) -> np.ndarray:
 
 def parallel_mask(rows: np.ndarray) -> np.ndarray:
     """(n,) bool: the conditioning of the rows is above :data:`CONDITIONING_TOL` (not
-    parallel singular). ``det(G) / tr(G)^6`` of the Gram matrix G bounds the squared
-    conditioning from below (det G <= lam_min lam_max^5, lam_max <= tr G): the exact value
-    is computed only where that bound does not settle it."""
+    parallel singular). ``det(G) / tr(G)^d`` of the d x d Gram matrix G bounds the squared
+    conditioning from below (det G <= lam_min lam_max^(d-1), lam_max <= tr G): the exact
+    value is computed only where that bound does not settle it."""
     rows = np.asarray(rows, dtype=float)
-    if rows.shape[1] < 6:
+    d = rows.shape[2]
+    if rows.shape[1] < d:
         return np.zeros(len(rows), dtype=bool)
     with np.errstate(invalid="ignore", over="ignore"):
         finite = np.isfinite(rows.reshape(len(rows), -1).sum(axis=1))
@@ -194,7 +198,7 @@ def parallel_mask(rows: np.ndarray) -> np.ndarray:
     G = _gram(rows if finite.all() else rows[finite])
     tr = np.einsum("nii->n", G)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        sure = np.linalg.det(G) / tr**6 > CONDITIONING_TOL**2
+        sure = np.linalg.det(G) / tr**d > CONDITIONING_TOL**2
     good = sure.copy()
     if (~sure).any():
         lam = np.linalg.eigvalsh(G[~sure])
