@@ -59,6 +59,7 @@ from .plausible import PLAUSIBLE_SIGMA  # noqa: F401 (re-exported: the rule's th
 from .plausible import is_plausible as _plausible
 from .predict import Predictor
 from .separate import equivalent, next_measurement
+from .search import SearchResult, search_subsets
 from .settings import find_setting_anomalies, rescored
 from .significance import significant
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
@@ -193,6 +194,7 @@ class Diagnosis:
     untestable: dict = field(default_factory=dict)
     removed: list = field(default_factory=list)
     setting_anomalies: list = field(default_factory=list)
+    search: SearchResult | None = None
 
     @property
     def final_comparison(self) -> Comparison:
@@ -437,6 +439,39 @@ def _stepwise(meas, ev, current: FitResult, alpha: float, progress) -> tuple[lis
     return steps, removals
 
 
+def _search(meas, ev, base: FitResult, steps: list[Step], m: int, alpha: float) -> SearchResult | None:
+    """The subset search (:mod:`.search`) when the stepwise result misfits or holds two or more
+    effects; None when it is not run."""
+    final = steps[-1].fit
+    chosen = tuple(e for e in final.effects if e not in base.effects)
+    if explained(final.chi2, final.n, final.k, alpha) and len(chosen) < 2:
+        return None
+    return search_subsets(meas, ev, base, steps[0].ranking, final, chosen, m, alpha)
+
+
+def _path(meas, ev, first: Step, found: SearchResult) -> list[Step]:
+    """The selection path to the search's subset: its members in the order of their single fits,
+    each step ranked among the member and its equivalent singles (the step's alternatives)."""
+    by = {c.effect: c for c in first.ranking}
+    order = sorted(found.best.effects, key=lambda e: (by[e].fit.aicc, by[e].order))
+    steps = [Step(first.fit, ranking=first.ranking)]
+    current = first.fit
+    for k, e in enumerate(order):
+        if k == 0:
+            ranking = first.ranking
+        else:
+            names = [x for x in [e] + found.same.get(e, []) if x in candidates_for(ev, current.effects)]
+            ranking = rank_candidates(meas, ev, current, names)
+            steps[-1].ranking = ranking
+        c = next(x for x in ranking if x.effect == e)
+        same = found.same.get(e, [])
+        alternatives = [x.effect for x in ranking if x is not c and x.plausible and x.effect in same
+                        and x.effect in c.indistinguishable_from]
+        steps.append(Step(c.fit, e, c.p_value, alternatives=alternatives))
+        current = c.fit
+    return steps
+
+
 def _swap(meas, ev, final: FitResult, step: Step, rival: Candidate) -> FitResult | None:
     """The final model with ``step.added`` replaced by ``rival``, refitted as a whole (None: not a model)."""
     dropped = set(scope.parameter_names(ev, step.added))
@@ -497,6 +532,7 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     manual = add is not None
     cands = candidates_for(ev, current.effects)
     removed: list = []
+    search = None
     if manual:
         _check_manual(ev, add, current.effects)
         steps = _manual_steps(meas, ev, current, add)
@@ -504,6 +540,10 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     else:
         steps, removed = _stepwise(meas, ev, current, alpha, progress)
         first = steps[0].ranking
+        found = _search(meas, ev, current, steps, len(cands), alpha)
+        if found is not None and found.changed:
+            steps, removed = _forward(meas, ev, _path(meas, ev, steps[0], found), alpha, progress), []
+        search = found
     final = steps[-1].fit
     signatures = {c.effect: c.signature for c in first}
     return Diagnosis(
@@ -513,7 +553,7 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
         manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
         untestable=_untestable(meas, ev, steps if not manual else steps[:1]),
-        parameters=used_parameters(ev, final.effects, values, meas, final.values))
+        parameters=used_parameters(ev, final.effects, values, meas, final.values), search=search)
 
 
 def _untestable(meas, ev, steps) -> dict:
