@@ -2,7 +2,9 @@
 
 In this order, each a short sentence wrapped at :data:`WIDTH` characters:
 
-1. the verdict: explained or not, chi2/nu, p, the RMS error before and after;
+1. the verdict: explained or not, chi2/nu, p, the RMS error before and after (a model that
+   needs a value outside its plausible range is never explained); why not, or, when the only
+   explanation is implausible, the inputs to check (:func:`check_inputs`);
 2. what was added, where (all legs, leg N) and its fitted values ± standard errors with units;
 3. what these data cannot tell apart (mirror images at the measured poses grouped,
    :mod:`.mirror`);
@@ -27,7 +29,7 @@ from .plausible import is_plausible
 from .mirror import collapse, group_label, mirror_groups
 from .stats import gof_p_value
 
-__all__ = ["answer", "answer_text", "uncertainty_sentence", "WIDTH", "MAX_LINES"]
+__all__ = ["answer", "answer_text", "uncertainty_sentence", "check_inputs", "WIDTH", "MAX_LINES"]
 
 WIDTH = 100       # characters per line of the default output
 MAX_LINES = 8     # lines of the answer block
@@ -51,7 +53,53 @@ def _verdict(d) -> str:
     stat = f"chi2/nu = {f.chi2:.3g}/{f.dof} = {f.chi2 / f.dof:.3g}"
     if d.explained:
         return f"Explained within the stated sigma ({stat}, p = {p:.2g}); {rms}."
+    if getattr(d, "implausible", None) and p > d.alpha:
+        names = ", ".join(d.implausible)
+        return f"NOT explained: it fits ({stat}, p = {p:.2g}) only with {names} outside the plausible range; {rms}."
     return f"NOT explained within the stated sigma ({stat}, p = {p:.2g}); {rms}."
+
+
+def _value(v: float, unit: str) -> str:
+    return f"{v:.3g} {unit}".rstrip() if unit not in ("-", "") else f"{v:.3g}"
+
+
+def check_inputs(d, ev) -> str | None:
+    """When the only explanation is implausible (a value of the final model outside its plausible
+    range, or a candidate that would be significant but for its value), the inputs to check: its
+    fitted value beside the effect's other, given parameters (the tube's radii beside its modulus)."""
+    found = None
+    if getattr(d, "implausible", None):
+        name, (value, rng) = next(iter(d.implausible.items()))
+        owner = _owner(ev, d.final.effects, name)
+        found = (owner, name, value, rng, d.final)
+    elif not d.explained and not d.manual:
+        from .significance import significant
+
+        last = d.steps[-1].ranking
+        for c in last:
+            if c.plausible or not significant(c, d.final, len(last), d.alpha, False):
+                continue
+            own = {n: v for n, v in c.implausible.items() if n in c.names} or c.implausible
+            name, value = next(iter(own.items()))
+            found = (c.effect, name, value, tuple(ev.parameter(name).plausible_range), c.fit)
+            break
+    if found is None or found[0] is None:
+        return None
+    effect, name, value, (lo, hi), f = found
+    base, legs = split_scope(effect)
+    unit = ev.parameter(name).unit
+    fitted = set(f.names)
+    given = []
+    for n in scope.parameter_names(ev, effect):
+        if n in fitted or n == name or not ev.accepts(n):
+            continue
+        v = f.fixed.get(n, f.fixed.get(n.partition("@")[0], ev.parameter(n).default))
+        given.append((n, float(v), ev.parameter(n).unit))
+    component = getattr(ev.robot.effect(base), "component", "") or base
+    what = "dimensions" if any(u == "m" for _, _, u in given) else "values"
+    with_given = (" with " + ", ".join(f"{n} = {_value(v, u)}" for n, v, u in given)) if given else ""
+    return (f"Check the inputs: {effect} needs {name} = {_value(value, unit)} (plausible {lo:.3g} ... "
+            f"{_value(hi, unit)}){with_given}: check the {component}'s {what}.")
 
 
 def _why(d, short: bool = False) -> str:
@@ -262,14 +310,15 @@ def answer(d, ev, width: int = WIDTH) -> dict:
     items = added_effects(d, ev)
     u = None if d.uncertainty is None else {k: getattr(d.uncertainty, k) for k in
                                             ("verdict", "birge_ratio", "possibly_understated")}
-    parts = {"verdict": _verdict(d), "why": "" if d.explained or d.final.dof <= 0 else _why(d),
+    check = check_inputs(d, ev)
+    parts = {"verdict": _verdict(d), "why": "" if d.explained or d.final.dof <= 0 else (check or _why(d)),
              "added": _added(d, ev, items, groups)}
     apart = _apart(d)
     parts["apart"] = ("Cannot tell apart: " + "; ".join(apart) + ".") if apart else ""
     parts["rows"] = _rows_sentence(d) + " " + uncertainty_sentence(u, d.explained)
     parts["next"] = _next(d, ev)
     lines = _lines(parts, width)
-    if len(lines) > MAX_LINES and parts["why"]:
+    if len(lines) > MAX_LINES and parts["why"] and not check:
         parts["why"] = _why(d, short=True)
         lines = _lines(parts, width)
     if len(lines) > MAX_LINES:

@@ -57,6 +57,7 @@ from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
 from .plausible import PLAUSIBLE_SIGMA  # noqa: F401 (re-exported: the rule's threshold)
 from .plausible import is_plausible as _plausible
+from .plausible import outside_plausible
 from .predict import Predictor
 from .separate import equivalent, next_measurement
 from .search import SearchResult, search_subsets
@@ -169,6 +170,9 @@ class Diagnosis:
     untestable : effect -> rows needed, for candidates these data have too few rows for.
     removed : :class:`~.backward.Removal` of each effect taken back by backward elimination.
     setting_anomalies : :class:`~.settings.SettingAnomaly` of each whole setting set aside.
+    search : :class:`~.search.SearchResult` of the subset search (None: not run).
+    implausible : the final model's fitted values outside their plausible range (name ->
+    (value, (low, high))); such a model is never ``explained``.
     alternatives : :class:`Alternative` final models. outliers : :class:`Outlier` rows
     set aside (the selection and fits are those without them); all_rows : the diagnosis
     with every row, when some were set aside. uncertainty : :class:`Uncertainty`.
@@ -195,6 +199,7 @@ class Diagnosis:
     removed: list = field(default_factory=list)
     setting_anomalies: list = field(default_factory=list)
     search: SearchResult | None = None
+    implausible: dict = field(default_factory=dict)
 
     @property
     def final_comparison(self) -> Comparison:
@@ -549,7 +554,8 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     return Diagnosis(
         robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
         selected=[s.added for s in steps[1:] if s.added in final.effects], steps=steps, final=final, removed=removed,
-        explained=explained(final.chi2, final.n, final.k, alpha),
+        explained=explained(final.chi2, final.n, final.k, alpha) and not outside_plausible(ev, final),
+        implausible=outside_plausible(ev, final),
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
         manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
         untestable=_untestable(meas, ev, steps if not manual else steps[:1]),
