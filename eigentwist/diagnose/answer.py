@@ -344,7 +344,7 @@ def _wrap(text: str, width: int) -> list[str]:
 
 def _lines(parts: dict, width: int) -> list[str]:
     out = []
-    for key in ("verdict", "why", "added", "search", "apart", "rows", "next"):
+    for key in ("verdict", "notes", "why", "added", "search", "apart", "rows", "next"):
         if parts[key]:
             out += _wrap(parts[key], width)
     return out
@@ -366,6 +366,7 @@ def answer(d, ev, width: int = WIDTH) -> dict:
     else:
         parts["apart"] = ("Cannot tell apart: " + "; ".join(apart) + ".") if apart else ""
     parts["search"] = getattr(d, "search", None) and d.search.sentence or ""
+    parts["notes"] = " ".join(getattr(d, "notes", None) or [])
     parts["rows"] = _rows_sentence(d) + " " + uncertainty_sentence(u, d.explained)
     parts["next"] = _next(d, ev, apart, equal)
     lines = _lines(parts, width)

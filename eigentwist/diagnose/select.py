@@ -53,6 +53,7 @@ from .evaluators import resolve
 from .fit import FitResult, fit
 from .backward import eliminate
 from .identifiable import extra_parameters, sign_free, trial_value
+from .matching import ModeMatchError
 from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
 from .plausible import PLAUSIBLE_SIGMA  # noqa: F401 (re-exported: the rule's threshold)
@@ -63,6 +64,7 @@ from .separate import equivalent, next_measurement
 from .search import SearchResult, search_subsets
 from .settings import find_setting_anomalies, rescored
 from .significance import significant
+from .units import unit_note
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 from .values import used_parameters
 
@@ -173,6 +175,9 @@ class Diagnosis:
     search : :class:`~.search.SearchResult` of the subset search (None: not run).
     implausible : the final model's fitted values outside their plausible range (name ->
     (value, (low, high))); such a model is never ``explained``.
+    notes : one-line remarks on the input, each said once: the likely unit of frequencies
+    that are ~1000 or ~2 pi times the model's (:mod:`.units`), rows matched by shape where
+    the model's labels are ambiguous at a pose.
     alternatives : :class:`Alternative` final models. outliers : :class:`Outlier` rows
     set aside (the selection and fits are those without them); all_rows : the diagnosis
     with every row, when some were set aside. uncertainty : :class:`Uncertainty`.
@@ -200,6 +205,7 @@ class Diagnosis:
     setting_anomalies: list = field(default_factory=list)
     search: SearchResult | None = None
     implausible: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
 
     @property
     def final_comparison(self) -> Comparison:
@@ -532,7 +538,7 @@ def unproven(meas, ev, steps, alpha: float) -> list[Alternative]:
 
 def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = None) -> Diagnosis:
     """Rank, select and judge on these rows (no outlier handling); ``values``: see :func:`diagnose`."""
-    base_cmp = compare(meas, base_effects, ev, values, check=False)  # strict mode matching
+    base_cmp, notes = _baseline(meas, ev, base_effects, values)
     current = fit(meas, base_effects, ev, (), fixed=values)
     manual = add is not None
     cands = candidates_for(ev, current.effects)
@@ -559,7 +565,26 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
         manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
         untestable=_untestable(meas, ev, steps if not manual else steps[:1]),
-        parameters=used_parameters(ev, final.effects, values, meas, final.values), search=search)
+        parameters=used_parameters(ev, final.effects, values, meas, final.values), search=search, notes=notes)
+
+
+def _baseline(meas, ev, base_effects, values) -> tuple[Comparison, list]:
+    """The baseline's comparison (mode labels matched strictly where the model's labels allow)
+    and the notes on the input (see :class:`Diagnosis`)."""
+    notes = []
+    try:
+        base_cmp = compare(meas, base_effects, ev, values, check=False)
+    except ModeMatchError as exc:
+        if "points along" not in str(exc):
+            raise
+        base_cmp = compare(meas, base_effects, ev, values, check=False, strict=False)
+        where = str(exc).partition(":")[0]
+        notes.append(f"Mode labels: at some poses no model mode points along a measured direction ({where} first); "
+                     "those rows are matched by frequency order and shape.")
+    unit = unit_note(meas.freq_hz, base_cmp.predicted)
+    if unit:
+        notes.insert(0, unit)
+    return base_cmp, notes
 
 
 def _untestable(meas, ev, steps) -> dict:
