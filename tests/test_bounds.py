@@ -82,3 +82,24 @@ def test_sensitivity_of_every_delta_parameter_runs_at_the_defaults(capsys):
 
     assert main(["sensitivity", "--robot", "delta", "--backend", "numpy", "--wrt", "all"]) == 0
     assert "I_e_zz" in capsys.readouterr().out
+
+
+def test_a_fit_of_the_outer_radius_stays_above_the_inner_one(delta):
+    """A tube 0.2 mm thicker than its inner radius: the fit of r_o_l1 from the default 15 mm down
+    to it never steps across r_i_l1 (13 mm), and lands on the truth."""
+    from eigentwist.diagnose import synth
+    from eigentwist.diagnose.fit import fit
+
+    truth = 0.0132
+    meas = synth(f"paper+lower_link_compliance:r_o_l1={truth}", (1000, 4000), [[0.0, 0.0, -0.75]], ("x", "z"),
+                 0.0, seed=0, ev=delta)
+    f = fit(meas, ("actuator_loss", "rod_compliance", "lower_link_compliance"), delta, ("r_o_l1",))
+    assert 0.013 < f.values["r_o_l1"] and f.values["r_o_l1"] == pytest.approx(truth, rel=1e-4)
+
+
+def test_an_optimisation_box_across_a_constraint_is_one_error_line(delta):
+    from eigentwist.design.optimize import Vary, optimize_worst_case
+
+    with pytest.raises(InputError, match=r"vary r_o_l1=0.012:0.02: .*r_i_l1 = 0.013.*inner radius"):
+        optimize_worst_case(delta, [Vary("r_o_l1", 0.012, 0.02)], [[0.0, 0.0, -0.75]],
+                            model="paper,lower_link_compliance")

@@ -33,7 +33,8 @@ from ..runtime.errors import InputError
 from .measurements import Measurements
 from .predict import Predictor
 
-__all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of", "best_label", "measured_label", "rescored"]
+__all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of", "best_label", "measured_label", "rescored",
+           "deviates", "relabelled_fits", "FAR", "MIN_ROWS"]
 
 FAR = 10.0          # the best other k_a (or pose) fits this many times better in chi-square
 KA_SPAN = 4.0       # k_a searched from min/KA_SPAN to max*KA_SPAN of the measured values
@@ -151,6 +152,20 @@ def rescored(anomaly: SettingAnomaly, meas, ev, final) -> SettingAnomaly:
                           chi2, anomaly.n_rows, anomaly.p_own, anomaly.scale)
 
 
+def deviates(own: float, scale: float, n_rows: int, alpha: float, n_settings: int) -> float | None:
+    """p-value of a setting's chi-square ``own`` over ``n_rows`` rows (scaled by ``scale``, the
+    other rows' squared Birge ratio) when it is below alpha/n_settings (Bonferroni over the
+    settings checked), else None."""
+    p = float(stats.chi2.sf(own / scale, n_rows))
+    return p if p < alpha / max(n_settings, 1) else None
+
+
+def relabelled_fits(best: float, own: float, scale: float, dof: int, alpha: float) -> bool:
+    """Whether a setting relabelled (chi-square ``best``) fits within the noise (chi2_dof test at
+    alpha, dof at least 1) and ``FAR`` times better than as written (``own``)."""
+    return bool(stats.chi2.sf(best / scale, max(dof, 1)) > alpha and best * FAR < own)
+
+
 def _left_out(meas, ev, final, g: np.ndarray, alpha: float, n_settings: int) -> SettingAnomaly | None:
     """The leave-one-setting-out check of a setting of fewer than MIN_ROWS rows (module doc)."""
     from .fit import fit
@@ -170,11 +185,11 @@ def _left_out(meas, ev, final, g: np.ndarray, alpha: float, n_settings: int) -> 
     res = (pred - sub.freq_hz) / sub.sigma_hz
     own = float(res @ res) if np.all(np.isfinite(res)) else np.inf
     scale = max(1.0, g_fit.chi2 / dof_rest)
-    p_own = float(stats.chi2.sf(own / scale, len(g)))
-    if not p_own < alpha / n_settings:
+    p_own = deviates(own, scale, len(g), alpha, n_settings)
+    if p_own is None:
         return None
     k, pose, chi2 = measured_label(sub, ev, g_fit, meas)
-    if stats.chi2.sf(chi2 / scale, len(g)) > alpha and chi2 * FAR < own:
+    if relabelled_fits(chi2, own, scale, len(g), alpha):
         return SettingAnomaly([int(x) for x in sub.lines], sub.poses[0].tolist(), float(sub.k_a[0]), k,
                               np.asarray(pose).tolist(), own, chi2, len(g), p_own, scale)
     return None
@@ -196,13 +211,12 @@ def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly
         own = float(r[g] @ r[g])
         dof_other = n - len(g) - final.k
         scale = max(1.0, (total - own) / dof_other) if dof_other > 0 else 1.0
-        p_own = float(stats.chi2.sf(own / scale, len(g)))
-        if p_own >= alpha / len(groups):
+        p_own = deviates(own, scale, len(g), alpha, len(groups))
+        if p_own is None:
             continue
         sub = meas.subset(g)
         k, pose, chi2 = best_label(sub, ev, final, meas)
-        fits = stats.chi2.sf(chi2 / scale, max(len(g) - 1, 1)) > alpha
-        if fits and chi2 * FAR < own:
+        if relabelled_fits(chi2, own, scale, len(g) - 1, alpha):
             out.append(SettingAnomaly([int(x) for x in sub.lines], sub.poses[0].tolist(), float(sub.k_a[0]), k,
                                       np.asarray(pose).tolist(), own, chi2, len(g), p_own, scale))
     return sorted(out, key=lambda a: -a.chi2_own)
