@@ -145,6 +145,7 @@ def test_a_value_outside_its_plausible_range_is_never_explained():
     assert outside_plausible(ev, NS(values={"eta_a": 1.0})) == {}
     assert outside_plausible(ev, NS(values={"eta_a": 1.0 + 1e-9})) == {"eta_a": (1.0 + 1e-9, (0.3, 1.0))}
     assert outside_plausible(ev, NS(values={"eta_a": 0.3 - 1e-9})) != {}
+    assert outside_plausible(ev, NS(values={"eta_a": 1.0 - 1e-9}, at_bound=("eta_a",))) != {}   # at a hard bound
 
 
 # ------------------------------------------------------------------ units, band, search

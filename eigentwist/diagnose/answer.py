@@ -33,6 +33,7 @@ __all__ = ["answer", "answer_text", "uncertainty_sentence", "check_inputs", "WID
 
 WIDTH = 100       # characters per line of the default output
 MAX_LINES = 8     # lines of the answer block
+MAX_TIES = 2      # subsets of the search named beside the selected one (the rest: the JSON's search.ties)
 
 
 def _num(v: float, fmt: str = ".3g") -> str:
@@ -361,6 +362,11 @@ def answer(d, ev, width: int = WIDTH) -> dict:
     parts = {"verdict": _verdict(d), "why": "" if d.explained or d.final.dof <= 0 else (check or _why(d)),
              "added": _added(d, ev, items, groups)}
     apart, equal = _apart(d)
+    search = getattr(d, "search", None)
+    if search is not None and search.ties and not d.manual:        # subsets the search found as good
+        chosen = " + ".join(e for e in d.final.effects if e not in d.baseline.effects) or "nothing"
+        apart.append(" or ".join([chosen] + [" + ".join(t.effects) for t in search.ties[:MAX_TIES]]))
+        equal = False
     if apart and equal:
         parts["apart"] = "One model under two names (equal frequencies everywhere): " + "; ".join(apart) + "."
     else:

@@ -33,11 +33,12 @@ def is_plausible(value: float, std: float, bounds, at_bound: bool = False) -> bo
 
 def outside_plausible(ev, f) -> dict:
     """Fitted values of ``f`` (a :class:`~.fit.FitResult`) outside their parameter's plausible
-    range (closed; no allowance for the standard error): name -> (value, (low, high)). A model
-    holding one is never "explained", however well it fits."""
+    range (closed; no allowance for the standard error) or at a search or hard bound: name ->
+    (value, (low, high)). A model holding one is never "explained", however well it fits."""
     out = {}
+    at_bound = set(getattr(f, "at_bound", ()) or ())
     for name, value in f.values.items():
         lo, hi = ev.parameter(name).plausible_range
-        if not lo <= value <= hi:
+        if not lo <= value <= hi or name in at_bound:
             out[name] = (float(value), (float(lo), float(hi)))
     return out

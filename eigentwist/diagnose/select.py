@@ -536,14 +536,15 @@ def unproven(meas, ev, steps, alpha: float) -> list[Alternative]:
     return out
 
 
-def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = None) -> Diagnosis:
-    """Rank, select and judge on these rows (no outlier handling); ``values``: see :func:`diagnose`."""
+def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = None,
+            search: bool = False) -> Diagnosis:
+    """Rank, select and judge on these rows (no outlier handling); ``values``: see :func:`diagnose`;
+    ``search``: run the subset search (:func:`_searched`) on the stepwise result."""
     base_cmp, notes = _baseline(meas, ev, base_effects, values)
     current = fit(meas, base_effects, ev, (), fixed=values)
     manual = add is not None
     cands = candidates_for(ev, current.effects)
     removed: list = []
-    search = None
     if manual:
         _check_manual(ev, add, current.effects)
         steps = _manual_steps(meas, ev, current, add)
@@ -551,10 +552,12 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     else:
         steps, removed = _stepwise(meas, ev, current, alpha, progress)
         first = steps[0].ranking
-        found = _search(meas, ev, current, steps, len(cands), alpha)
-        if found is not None and found.changed:
-            steps, removed = _forward(meas, ev, _path(meas, ev, steps[0], found), alpha, progress), []
-        search = found
+    d = _diagnosis(meas, ev, base_cmp, first, steps, removed, manual, alpha, values, notes)
+    return _searched(d, ev, progress, values) if search and not manual else d
+
+
+def _diagnosis(meas, ev, base_cmp, first, steps, removed, manual, alpha, values, notes, search=None) -> Diagnosis:
+    """The :class:`Diagnosis` of a selection path ``steps`` on these rows."""
     final = steps[-1].fit
     signatures = {c.effect: c.signature for c in first}
     return Diagnosis(
@@ -566,6 +569,21 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
         manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
         untestable=_untestable(meas, ev, steps if not manual else steps[:1]),
         parameters=used_parameters(ev, final.effects, values, meas, final.values), search=search, notes=notes)
+
+
+def _searched(d: Diagnosis, ev, progress, values=None) -> Diagnosis:
+    """``d`` with the subset search (:mod:`.search`) run on its rows: the path to the search's
+    subset when it beats the stepwise result (rows set aside carried over), else ``d`` with
+    the search's findings (ties) attached."""
+    base = d.steps[0].fit
+    found = _search(d.meas, ev, base, d.steps, len(candidates_for(ev, base.effects)), d.alpha)
+    if found is None or not found.changed:
+        d.search = found
+        return d
+    steps = _forward(d.meas, ev, _path(d.meas, ev, d.steps[0], found), d.alpha, progress)
+    out = _diagnosis(d.meas, ev, d.baseline, d.ranking, steps, [], False, d.alpha, values, d.notes, found)
+    out.outliers, out.all_rows, out.setting_anomalies = d.outliers, d.all_rows, d.setting_anomalies
+    return out
 
 
 def _baseline(meas, ev, base_effects, values) -> tuple[Comparison, list]:
@@ -605,7 +623,8 @@ def _judge(d: Diagnosis) -> Diagnosis:
     return d
 
 
-def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress, values=None) -> Diagnosis:
+def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress, values=None,
+                      search: bool = False) -> Diagnosis:
     """Set aside isolated outlying rows one at a time (worst first), rerunning the selection."""
     d, removed = d_all, []
     limit = max(1, int(MAX_OUTLIER_SHARE * len(meas)))
@@ -615,7 +634,7 @@ def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress,
             break
         removed.append(found[0])
         keep = ~np.isin(meas.lines, [o.line for o in removed])
-        d = _select(meas.subset(keep), ev, base_effects, None, alpha, progress, values)
+        d = _select(meas.subset(keep), ev, base_effects, None, alpha, progress, values, search)
     if removed:
         d.outliers, d.all_rows = removed, _judge(d_all)
     return d
@@ -624,7 +643,8 @@ def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress,
 MAX_SETTING_SHARE = 0.25   # at most this share of the rows is set aside as whole settings
 
 
-def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, values=None) -> Diagnosis:
+def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, values=None,
+                      search: bool = False) -> Diagnosis:
     """Set aside whole settings that fit another k_a (or pose) far better (:mod:`.settings`), worst
     first, one at a time, rerunning the selection; the all-rows result is kept beside."""
     d_all, found = d.all_rows or d, []
@@ -636,7 +656,7 @@ def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, val
             break
         found.append(anomalies[0])
         keep = ~np.isin(d.meas.lines, anomalies[0].lines)
-        d = _select(d.meas.subset(keep), ev, base_effects, None, alpha, progress, values)
+        d = _select(d.meas.subset(keep), ev, base_effects, None, alpha, progress, values, search)
     if found:
         found = [rescored(a, meas, ev, d.final) for a in found]
         d.setting_anomalies, d.outliers, d.all_rows = found, outliers, d_all if d_all.all_rows is None else d_all
@@ -680,7 +700,25 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
                   "the baseline" + (" with the added effects" if manual_effects else ""))
     order = None if add is None else manual_effects
     d = _select(meas, ev, base_effects, order, alpha, progress, values)
-    if order is None and not d.untestable and d.final.dof > 2:
+    if order is None:
+        d = _rows_and_search(meas, ev, d, base_effects, alpha, progress, values)
+    return _judge(d)
+
+
+def _rows_and_search(meas, ev, d: Diagnosis, base_effects, alpha, progress, values) -> Diagnosis:
+    """Outliers and settings set aside under the stepwise result, then the subset search on the
+    rows kept (cheap where the stepwise result already explains them with one effect). Where
+    the search changes the result and rows were set aside under the stepwise one, the whole
+    diagnosis is redone with the search in every selection (rows set aside under its model)."""
+    d0 = d
+    if not d.untestable and d.final.dof > 2:
         d = _without_outliers(meas, ev, d, base_effects, alpha, progress, values)
         d = _without_settings(meas, ev, d, base_effects, alpha, progress, values)
-    return _judge(d)
+    s = _searched(d, ev, progress, values)
+    if not (s.search is not None and s.search.changed and (d.outliers or d.setting_anomalies)):
+        return s
+    d = _searched(d0, ev, progress, values)
+    if not d.untestable and d.final.dof > 2:
+        d = _without_outliers(meas, ev, d, base_effects, alpha, progress, values, search=True)
+        d = _without_settings(meas, ev, d, base_effects, alpha, progress, values, search=True)
+    return d
