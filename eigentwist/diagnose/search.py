@@ -2,24 +2,24 @@
 
 Forward selection cannot undo a wrong early step: with two faults at once (struts 2 and 5
 of a hexapod softer) the best single effect may be a third leg that stands for both, and
-every later step builds on it. When the stepwise result
-leaves the data unexplained or has selected two or more effects, a beam search runs over
-subsets of the scoped candidates that lower AICc on their own: each of the ``BEAM`` best
-distinct plausible single candidates is fitted jointly with every other one, then (while no pair explains the data)
-each of the ``BEAM`` best plausible pairs with every other single, up to ``MAX_SIZE``
-effects. Each joint fit is warm-started from the members' single fits (no start grid), and
-each subset is fitted once. A subset counts when
+every later step builds on it. When the stepwise result leaves the data unexplained or has
+selected two or more effects, a beam search runs over subsets of the scoped single
+candidates that are plausible and lower AICc on their own: each of the ``BEAM`` best
+(distinct) singles is fitted jointly with every other one, then, while no subset of that
+size explains the data, each of the ``BEAM`` best plausible subsets with every other
+single, up to ``MAX_SIZE`` effects. Each joint fit is warm-started from the members' single
+fits (no start grid) and each subset is fitted once. A subset counts when
 
 * every fitted value is plausible (:mod:`.plausible`; never at a search or hard bound), and
-* each member is needed: the subset against the subset without it (refitted; the
-  singles' and pairs' fits) by the forward rule, p < alpha/m (Bonferroni over the m
-  candidates of the baseline's step) and a lower AICc.
+* each member is needed: the subset against the subset without it (both fitted here) by
+  the forward rule, p < alpha/m (Bonferroni over the m candidates of the baseline's step)
+  and a lower AICc.
 
-The counted subset with the lowest AICc replaces the stepwise result when its AICc is
-lower by more than :data:`BETTER`; counted subsets within ``DELTA_AICC`` of the best are
-stated as its ties. Single candidates whose fitted predictions are never more than
-:data:`SAME` sigma apart (a strut's and its joints' series compliances) are one entry of
-the pool; the others are named as the path's alternatives.
+The counted subset with the lowest AICc replaces the stepwise result when its AICc is lower
+by more than :data:`BETTER`; counted subsets within ``DELTA_AICC`` of the result are stated
+as its ties. Singles whose fitted predictions stay within :data:`SAME` (chi distance) of a
+better one's (a strut's and its joints' series compliances) are one entry of the search,
+named as its equivalents (the path's alternatives).
 """
 from __future__ import annotations
 
@@ -59,8 +59,9 @@ class Subset:
 @dataclass
 class SearchResult:
     """What the subset search found: ``best`` (None: no subset counts), the stepwise result
-    (``greedy``), whether the best replaced it (``changed``), ``ties`` (counted subsets
-    within DELTA_AICC of the best), the pool's equivalent singles and how many subsets were fitted."""
+    (``greedy``, its AICc ``greedy_aicc``), whether the best replaced it (``changed``),
+    ``ties`` (counted subsets within DELTA_AICC of the result), ``same`` (each searched
+    single -> its equivalent singles) and how many subsets were fitted (``fitted``)."""
 
     greedy: tuple
     best: Subset | None
@@ -68,6 +69,7 @@ class SearchResult:
     ties: list
     same: dict
     fitted: int
+    greedy_aicc: float = math.nan
 
     def to_json(self) -> dict:
         return {"greedy": list(self.greedy), "best": list(self.best.effects) if self.best else None,
@@ -83,8 +85,6 @@ class SearchResult:
         was = " + ".join(self.greedy) or "nothing"
         return (f"Search: {' + '.join(self.best.effects)} fits better than the stepwise path's {was} "
                 f"(dAICc = {self.best.fit.aicc - self.greedy_aicc:.3g}).")
-
-    greedy_aicc: float = math.nan
 
 
 def _plausible_fit(ev, f: FitResult) -> bool:
