@@ -103,3 +103,25 @@ def test_an_optimisation_box_across_a_constraint_is_one_error_line(delta):
     with pytest.raises(InputError, match=r"vary r_o_l1=0.012:0.02: .*r_i_l1 = 0.013.*inner radius"):
         optimize_worst_case(delta, [Vary("r_o_l1", 0.012, 0.02)], [[0.0, 0.0, -0.75]],
                             model="paper,lower_link_compliance")
+
+
+def test_the_only_explanation_implausible_names_the_inputs_to_check(delta):
+    """A thinner tube than the model's: lower_link_compliance would explain the data only with a
+    modulus below any tube material's; the answer names that value beside the tube's radii."""
+    from types import SimpleNamespace as NS
+
+    from eigentwist.diagnose.answer import check_inputs
+
+    final = NS(aicc=100.0, effects=("actuator_loss", "rod_compliance"), names=(), values={}, fixed={})
+    cand = NS(effect="lower_link_compliance", plausible=False, implausible={"E_l1": 1.78e10}, names=("E_l1",),
+              p_value=1e-9, fit=NS(aicc=20.0, names=("E_l1",), fixed={"E_l1": 1.78e10}, values={"E_l1": 1.78e10}))
+    d = NS(implausible={}, explained=False, manual=False, final=final, alpha=0.01,
+           steps=[NS(ranking=[cand])])
+    text = check_inputs(d, delta)
+    lo, hi = delta.parameter("E_l1").plausible_range
+    assert text.startswith("Check the inputs: lower_link_compliance needs E_l1 = 1.78e+10 Pa")
+    assert f"plausible {lo:.3g} ... {hi:.3g} Pa" in text
+    assert "r_o_l1 = 0.015 m" in text and "r_i_l1 = 0.013 m" in text and "dimensions" in text
+    # a candidate that would not be significant even with its value allowed: nothing to check
+    cand.p_value = 0.5
+    assert check_inputs(d, delta) is None

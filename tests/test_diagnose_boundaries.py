@@ -194,3 +194,32 @@ def test_search_member_needed_below_alpha_over_m_and_lowering_aicc():
     ok, p = search._needed(_fit(chi2=chi2_edge * 1.0001, k=2, n=n, aicc=-1.0), smaller, m, ALPHA)
     assert not ok and p > ALPHA / m
     assert not search._needed(_fit(chi2=1.0, k=2, n=n, aicc=0.0), smaller, m, ALPHA)[0]   # AICc not lower
+
+
+def test_an_axis_no_mode_points_along_takes_the_mode_repeating_a_lower_direction():
+    from eigentwist.diagnose.matching import _by_order
+
+    direction = np.array([[3, 3, 5, 0, 2, 1], [4, 3, 5, 0, 2, 1]])      # "x, x, z, ..." and "y, x, z, ..."
+    share = np.array([[0.4, 0.3, 0.0, 0.1, 0.1, 0.1], [0.5, 0.3, 0.0, 0.1, 0.1, 0.1]])
+    assert _by_order(direction, share).tolist() == [1, 0]      # the second x; no repeat: the largest share
+
+
+def test_ambiguous_labels_at_a_delta_pose_are_matched_by_order_and_said_once():
+    """At this pose the Delta's two lowest modes both point along x: rows written 1, 2, 3 by rank
+    and relabelled x, y, z are matched to the same modes as the ranks (noise-free: exactly)."""
+    import dataclasses
+
+    import eigentwist
+    from eigentwist.diagnose import synth
+    from eigentwist.diagnose.select import _baseline
+
+    ev = eigentwist.load("delta", backend="numpy")
+    pose = [[-0.0057, 0.1558, -0.6231]]
+    meas = synth("paper", (1000, 4000), pose, ("1", "2", "3"), 0.0, seed=0, ev=ev)
+    named = dataclasses.replace(meas, mode=tuple({"1": "x", "2": "y", "3": "z"}[m] for m in meas.mode))
+    cmp, notes = _baseline(named, ev, ("actuator_loss", "rod_compliance"), None)
+    assert np.allclose(cmp.predicted, meas.freq_hz, rtol=1e-9)
+    assert len(notes) == 1 and notes[0].startswith("Mode labels:")
+    scaled = dataclasses.replace(meas, freq_hz=meas.freq_hz * 2 * np.pi, sigma_hz=meas.sigma_hz * 2 * np.pi)
+    cmp, notes = _baseline(scaled, ev, ("actuator_loss", "rod_compliance"), None)
+    assert len(notes) == 1 and "rad/s" in notes[0]
