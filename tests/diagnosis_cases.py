@@ -175,7 +175,7 @@ def hexapod_struts(ev, seed):
                  HEXAPOD_POSES, [str(k) for k in range(1, 7)], NOISE, seed=seed, ev=ev)
     d = diagnose(meas, "paper", ev=ev)
     ok = _series_pair(d, (2, 5)) and d.explained
-    return d, ok, f"selected={d.selected} explained={d.explained} search changed={d.search and d.search.changed}"
+    return d, ok, f"selected={d.selected} explained={d.explained} search changed={bool(getattr(d, 'search', None) and d.search.changed)}"
 
 
 def heli4_actuator_transmission(ev, seed):
@@ -187,7 +187,7 @@ def heli4_actuator_transmission(ev, seed):
     named = set(d.selected) | {a for s in d.steps for a in s.alternatives} | {
         e for a in d.alternatives for e in a.effects}
     ok = ({"actuator_loss@3", "transmission_compliance@1"} <= named and len(d.selected) == 2 and d.explained)
-    return d, ok, f"selected={d.selected} explained={d.explained} search changed={d.search and d.search.changed}"
+    return d, ok, f"selected={d.selected} explained={d.explained} search changed={bool(getattr(d, 'search', None) and d.search.changed)}"
 
 
 TWO_FAULTS = {"hexapod_struts": ("hexapod", hexapod_struts),
