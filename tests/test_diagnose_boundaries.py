@@ -223,3 +223,21 @@ def test_ambiguous_labels_at_a_delta_pose_are_matched_by_order_and_said_once():
     scaled = dataclasses.replace(meas, freq_hz=meas.freq_hz * 2 * np.pi, sigma_hz=meas.sigma_hz * 2 * np.pi)
     cmp, notes = _baseline(scaled, ev, ("actuator_loss", "rod_compliance"), None)
     assert len(notes) == 1 and "rad/s" in notes[0]
+
+
+def test_the_search_replaces_the_stepwise_result_only_when_better_by_more_than_better():
+    def sub(effects, aicc):
+        return search.Subset(tuple(effects), _fit(aicc=aicc), True, True)
+
+    assert search.replaces(sub(("a", "b"), -search.BETTER * OUT), ("c", "d"), 0.0)
+    assert not search.replaces(sub(("a", "b"), -search.BETTER * IN), ("c", "d"), 0.0)
+    assert not search.replaces(sub(("d", "c"), -100.0), ("c", "d"), 0.0)        # the same effects
+    assert not search.replaces(None, ("c",), 0.0)
+
+
+def test_rows_and_settings_are_checked_from_min_dof_rows_degrees_of_freedom():
+    from eigentwist.diagnose.select import MIN_DOF_ROWS, rows_checked
+
+    assert rows_checked(NS(untestable={}, final=NS(dof=MIN_DOF_ROWS)))
+    assert not rows_checked(NS(untestable={}, final=NS(dof=MIN_DOF_ROWS - 1)))
+    assert not rows_checked(NS(untestable={"payload_mass": 5}, final=NS(dof=30)))

@@ -32,7 +32,7 @@ from .fit import FitResult, fit
 from .plausible import is_plausible
 from .stats import DELTA_AICC, explained, f_test, separation
 
-__all__ = ["Subset", "SearchResult", "search_subsets", "BEAM", "MAX_SIZE", "SAME", "BETTER"]
+__all__ = ["Subset", "SearchResult", "search_subsets", "replaces", "BEAM", "MAX_SIZE", "SAME", "BETTER"]
 
 BEAM = 5            # subsets kept at each size of the beam search
 MAX_SIZE = 3        # largest subset searched
@@ -162,6 +162,13 @@ def _judge(fits: _Fits, key, base: FitResult, m: int, alpha: float, ev) -> Subse
                   {e: p for e, (_, p) in tests.items()})
 
 
+def replaces(best: Subset | None, greedy_effects, greedy_aicc: float) -> bool:
+    """Whether the search's ``best`` subset replaces the stepwise result (its effects
+    ``greedy_effects``, AICc ``greedy_aicc``): another set of effects, AICc lower by more than BETTER."""
+    return bool(best is not None and set(best.effects) != set(greedy_effects)
+                and best.fit.aicc < greedy_aicc - BETTER)
+
+
 def search_subsets(meas, ev, base: FitResult, ranking, greedy: FitResult, greedy_effects: tuple, m: int,
                    alpha: float) -> SearchResult:
     """A beam search over subsets of the plausible single candidates ``ranking`` (fitted on
@@ -190,8 +197,7 @@ def search_subsets(meas, ev, base: FitResult, ranking, greedy: FitResult, greedy
     counted = sorted((s for s in judged.values() if s is not None and s.counts),
                      key=lambda s: (s.fit.aicc, len(s.effects)))
     best = counted[0] if counted else None
-    changed = (best is not None and set(best.effects) != set(greedy_effects)
-               and best.fit.aicc < greedy.aicc - BETTER)
+    changed = replaces(best, greedy_effects, greedy.aicc)
     top_aicc = best.fit.aicc if changed else greedy.aicc
     ties = [s for s in counted if s is not best and set(s.effects) != set(greedy_effects)
             and abs(s.fit.aicc - top_aicc) < DELTA_AICC]

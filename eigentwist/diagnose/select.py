@@ -705,20 +705,30 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     return _judge(d)
 
 
+MIN_DOF_ROWS = 3    # degrees of freedom the final model needs before rows or settings are set aside
+
+
+def rows_checked(d) -> bool:
+    """Whether the outlier and setting checks run on ``d``: every candidate testable and the
+    final model with at least MIN_DOF_ROWS degrees of freedom (fewer: the residuals cannot
+    tell a bad row from the model's own misfit)."""
+    return not d.untestable and d.final.dof >= MIN_DOF_ROWS
+
+
 def _rows_and_search(meas, ev, d: Diagnosis, base_effects, alpha, progress, values) -> Diagnosis:
     """Outliers and settings set aside under the stepwise result, then the subset search on the
     rows kept (cheap where the stepwise result already explains them with one effect). Where
     the search changes the result and rows were set aside under the stepwise one, the whole
     diagnosis is redone with the search in every selection (rows set aside under its model)."""
     d0 = d
-    if not d.untestable and d.final.dof > 2:
+    if rows_checked(d):
         d = _without_outliers(meas, ev, d, base_effects, alpha, progress, values)
         d = _without_settings(meas, ev, d, base_effects, alpha, progress, values)
     s = _searched(d, ev, progress, values)
     if not (s.search is not None and s.search.changed and (d.outliers or d.setting_anomalies)):
         return s
     d = _searched(d0, ev, progress, values)
-    if not d.untestable and d.final.dof > 2:
+    if rows_checked(d):
         d = _without_outliers(meas, ev, d, base_effects, alpha, progress, values, search=True)
         d = _without_settings(meas, ev, d, base_effects, alpha, progress, values, search=True)
     return d
