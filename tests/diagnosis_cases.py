@@ -151,3 +151,44 @@ def run(case, ev, seeds, allowed_wrong: int | None = None) -> list[tuple[int, bo
             if wrong > allowed_wrong or wrong + len(seeds) - (k + 1) <= allowed_wrong:
                 break
     return out
+
+
+# ------------------------------------------------------------------ two faults at once
+
+HEXAPOD_POSES = ((0, 0, 0.8, 0, 0, 0), (0.05, 0, 0.78, 0, 0.05, 0.1), (-0.04, 0.05, 0.82, 0.05, 0, -0.1))
+HELI4_POSES = POSES + ((-0.05, 0.05, -0.58),)
+
+
+def _series_pair(d, legs) -> bool:
+    """Whether the final model holds one series compliance (strut, joints or actuator: one model
+    on a hexapod leg) on each of ``legs`` and nothing else, selected or stated as its equal."""
+    named = set(d.selected) | {a for s in d.steps for a in s.alternatives}
+    chosen = {int(e.partition("@")[2] or 0) for e in d.selected}
+    return chosen == set(legs) and len(d.selected) == len(legs) and all(
+        any(e.endswith(f"@{k}") for e in named) for k in legs)
+
+
+def hexapod_struts(ev, seed):
+    """Hexapod, struts 2 and 5 at k_s = 3e7 N/m (0.5 % noise, 54 rows): a series compliance on legs
+    2 and 5 (strut, joints and actuator loss are one model on a leg), the data explained."""
+    meas = synth("paper+strut_compliance@2:k_s@2=3e7+strut_compliance@5:k_s@5=3e7", (1e7, 2e7, 4e7),
+                 HEXAPOD_POSES, [str(k) for k in range(1, 7)], NOISE, seed=seed, ev=ev)
+    d = diagnose(meas, "paper", ev=ev)
+    ok = _series_pair(d, (2, 5)) and d.explained
+    return d, ok, f"selected={d.selected} explained={d.explained} search changed={bool(getattr(d, 'search', None) and d.search.changed)}"
+
+
+def heli4_actuator_transmission(ev, seed):
+    """Heli4, leg 3's actuator at eta_a = 0.5 and leg 1's transmission at k_t = 4000 N m/rad (0.5 %
+    noise, 45 rows): actuator_loss@3 and transmission_compliance@1 (or a stated equal), explained."""
+    meas = synth(_truth(ev, seed, "actuator_loss@3:eta_a@3=0.5+transmission_compliance@1:k_t@1=4000"), KA,
+                 HELI4_POSES, XYZ, NOISE, seed=seed, ev=ev)
+    d = diagnose(meas, "paper", ev=ev)
+    named = set(d.selected) | {a for s in d.steps for a in s.alternatives} | {
+        e for a in d.alternatives for e in a.effects}
+    ok = ({"actuator_loss@3", "transmission_compliance@1"} <= named and len(d.selected) == 2 and d.explained)
+    return d, ok, f"selected={d.selected} explained={d.explained} search changed={bool(getattr(d, 'search', None) and d.search.changed)}"
+
+
+TWO_FAULTS = {"hexapod_struts": ("hexapod", hexapod_struts),
+              "heli4_actuator_transmission": ("heli4", heli4_actuator_transmission)}

@@ -122,9 +122,10 @@ def test_log_transform_round_trips_and_keeps_to_the_search_range(ev_fast):
     assert t.bounds == pytest.approx((math.log(t.lo), math.log(t.hi)))
     assert t.std(0.5, 0.1) == pytest.approx(0.05)               # delta method: std_p = p std_theta
     assert t.ref == 0.2 and t.scale == 1.0
-    eta = Transform.of(ev_fast.parameters["eta_a"])             # physical bounds (0.05, 1.5) are tighter
-    # inside them by a relative margin (not one ulp), so that exp(log(p)) cannot round outside
-    assert eta.lo == pytest.approx(0.05 * (1 + 1e-9), rel=1e-13) and eta.hi == pytest.approx(1.5 * (1 - 1e-9), rel=1e-13)
+    eta = Transform.of(ev_fast.parameters["eta_a"])             # hard bound (0, 1]: no actuator delivers more
+    # inside it by a relative margin (not one ulp), so that exp(log(p)) cannot round outside
+    assert eta.log and eta.hi == pytest.approx(1 - 1e-9, rel=1e-13) and eta.hi < 1.0
+    assert eta.lo == pytest.approx(0.82 / SPAN, rel=1e-13)
 
 
 def test_linear_transform_for_a_parameter_that_can_be_negative(ev_fast):

@@ -80,3 +80,22 @@ def test_mislabelled_setting_is_flagged_and_the_payload_recovered(ev_cd, what):
         # the answer block names the setting by its lines and the label that fits
         text = answer_text(d, ev_cd)
         assert f"Setting set aside: lines {', '.join(str(x) for x in a.lines)} ({what} written" in text, text
+
+
+def test_a_two_row_setting_written_with_another_k_a_is_left_out_and_flagged(ev_cd):
+    """Modes x and y at k_a = 1000 written as 3000 (two rows, below MIN_ROWS): the model refitted
+    without them predicts them far off, the measured k_a = 1000 fits them; without them the true
+    k_t = 8000 N m/rad is within 3 sigma."""
+    meas = synth("paper+transmission_compliance:k_t=8000", KA, POSES, ("x", "y"), 0.005, seed=4, ev=ev_cd)
+    rows = np.flatnonzero(np.isclose(meas.k_a, 1000) & np.all(np.isclose(meas.poses, POSES[0]), axis=1))
+    k = meas.k_a.copy()
+    k[rows] = 3000.0
+    meas = dataclasses.replace(meas, k_a=k)
+    model = resolve_model("paper,transmission_compliance", ev_cd.robot)
+    f = fit(meas, model, ev_cd, ("k_t",))
+    found = find_setting_anomalies(meas, ev_cd, f, ALPHA)
+    assert [a.lines for a in found] == [[int(x) for x in meas.lines[rows]]]
+    assert found[0].n_rows == 2 and found[0].best_k_a == 1000.0 and found[0].what == "k_a"
+    keep = ~np.isin(meas.lines, found[0].lines)
+    g = fit(meas.subset(keep), model, ev_cd, ("k_t",))
+    assert abs(g.values["k_t"] - 8000.0) < 3 * g.std["k_t"]

@@ -256,7 +256,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
     Effect("actuator_loss",
            "delivered/commanded actuator stiffness factor eta_a (Eq. 34, App. B: 0.82)",
            (_p("eta_a", 0.82, "-", "delivered/commanded actuator stiffness (App. B); plausible: a servo delivers "
-               "30 % to 105 % of its commanded stiffness", "actuator_loss", (0.3, 1.05), (0.05, 1.5), "Eq. 34, App. B"),),
+               "30 % to 100 % of its commanded stiffness, never more", "actuator_loss", (0.3, 1.0), (0.0, 1.0),
+               "Eq. 34, App. B"),),
            ("eta_a",), kind="joint_series", leg_level=True, equation="Eq. 34, App. B", build=_actuator_loss,
            component="actuator", phrase="delivers {eta_a:.2f} of its commanded stiffness"),
     Effect("rod_compliance",

@@ -29,8 +29,13 @@ class Parameter:
     doc : str
         What it is, with the paper equation or table it comes from.
     bounds : tuple
-        Physically admissible open interval ``(low, high)``; evaluation rejects values
-        outside it and fits stay inside it.
+        Hard physical bounds ``(low, high)``: what the physics admits (a stiffness or a
+        mass > 0, an efficiency in (0, 1]). ``low`` is excluded when it is 0 and included
+        otherwise; a finite ``high`` is included. Evaluation rejects a value outside them,
+        and every fit, difference step and optimisation stays inside them (the diagnosis
+        fits ``ln p`` for a positive parameter and never steps across a bound). Conditions
+        between parameters (``r_i < r_o``, the inertia triangle inequality) are
+        :mod:`.constraints`.
     effect : str or None
         Name of the effect this parameter belongs to (None: the base model).
     plausible : tuple or None
@@ -67,6 +72,19 @@ class Parameter:
         lo, hi = self.plausible_range
         return bool(lo <= float(value) <= hi)
 
+    def admits(self, value) -> bool:
+        """True when every element of ``value`` lies inside the hard :attr:`bounds`."""
+        import numpy as np
+
+        return not bool(np.any(self._outside(np.asarray(value, dtype=float))))
+
+    def _outside(self, arr):
+        import numpy as np
+
+        lo, hi = self.bounds
+        below = arr <= lo if lo == 0.0 else arr < lo
+        return ~np.isfinite(arr) | below | (arr > hi)
+
     def with_values(self, **changes) -> "Parameter":
         """A copy with some fields changed (a robot's own default, doc or plausible range)."""
         return replace(self, **changes)
@@ -77,9 +95,9 @@ class Parameter:
 
         arr = np.asarray(value, dtype=float)
         lo, hi = self.bounds
-        bad = ~np.isfinite(arr) | (arr <= lo) | (arr >= hi) if lo == 0.0 else ~np.isfinite(arr) | (arr < lo) | (arr > hi)
+        bad = self._outside(arr)
         if np.any(bad):
             first = arr.reshape(-1)[np.argmax(bad.reshape(-1))]
             rng = (f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
-                   f"a finite value in ({lo:g}, {hi:g})" if lo == 0.0 else f"a finite value in [{lo:g}, {hi:g}]")
+                   f"a finite value in ({lo:g}, {hi:g}]" if lo == 0.0 else f"a finite value in [{lo:g}, {hi:g}]")
             raise ValueError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")

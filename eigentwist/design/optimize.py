@@ -198,6 +198,30 @@ def _usable_poses(ev, vary, poses, model, params) -> np.ndarray:
     return ok
 
 
+def _check_vary_constraints(ev, vary, model, params) -> None:
+    """Raise :class:`InputError` when a corner of the ``vary`` box breaks a constraint between
+    parameters (``r_i_l1 < r_o_l1``, the inertia triangle inequality; linear, so the corners
+    decide), the other parameters at ``params`` or their defaults: the optimiser never leaves them."""
+    import itertools
+
+    from ..description.effects import base_name, resolve_model
+    from ..runtime.errors import InputError
+
+    names = {v.name for v in vary}
+    on = {base_name(e) for e in resolve_model(model, ev.robot)}
+    values = {**ev.defaults, **(params or {})}
+    for c in getattr(ev, "constraints", ()):
+        if (c.effect is not None and c.effect not in on) or not names & set(c.names):
+            continue
+        box = [v for v in vary if v.name in c.names]
+        for corner in itertools.product(*[(v.lo, v.hi) for v in box]):
+            point = {**values, **{v.name: x for v, x in zip(box, corner)}}
+            if not bool(np.all(c.holds(point))):
+                shown = ", ".join(f"{n} = {float(point[n]):g}" for n in c.names)
+                raise InputError(f"vary {', '.join(f'{v.name}={v.lo:g}:{v.hi:g}' for v in box)}: at {shown} "
+                                 f"{c.constraint.doc}: expected a box inside {c.constraint}")
+
+
 def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints=(), *, method="SLSQP",
                         n_track: int = 2, start=None, maxiter: int = 100, progress=None,
                         jacobian: str = "differences") -> OptimizationResult:
@@ -226,6 +250,7 @@ def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints
         lo_b, hi_b = ev.parameters[v.name].bounds
         if not (lo_b <= v.lo and v.hi <= hi_b) or (lo_b == 0.0 and v.lo <= 0.0):
             raise InputError(f"vary {v.name}={v.lo:g}:{v.hi:g}: outside the parameter's bounds ({lo_b:g}, {hi_b:g})")
+    _check_vary_constraints(ev, vary, model, params)
     if method not in ("SLSQP", "trust-constr"):
         raise InputError(f"method {method!r}: expected SLSQP or trust-constr")
     poses = np.atleast_2d(np.asarray(poses, dtype=float))

@@ -2,7 +2,9 @@
 
 In this order, each a short sentence wrapped at :data:`WIDTH` characters:
 
-1. the verdict: explained or not, chi2/nu, p, the RMS error before and after;
+1. the verdict: explained or not, chi2/nu, p, the RMS error before and after (a model that
+   needs a value outside its plausible range is never explained); why not, or, when the only
+   explanation is implausible, the inputs to check (:func:`check_inputs`);
 2. what was added, where (all legs, leg N) and its fitted values ± standard errors with units;
 3. what these data cannot tell apart (mirror images at the measured poses grouped,
    :mod:`.mirror`);
@@ -27,10 +29,11 @@ from .plausible import is_plausible
 from .mirror import collapse, group_label, mirror_groups
 from .stats import gof_p_value
 
-__all__ = ["answer", "answer_text", "uncertainty_sentence", "WIDTH", "MAX_LINES"]
+__all__ = ["answer", "answer_text", "uncertainty_sentence", "check_inputs", "WIDTH", "MAX_LINES"]
 
 WIDTH = 100       # characters per line of the default output
 MAX_LINES = 8     # lines of the answer block
+MAX_TIES = 2      # subsets of the search named beside the selected one (the rest: the JSON's search.ties)
 
 
 def _num(v: float, fmt: str = ".3g") -> str:
@@ -51,7 +54,53 @@ def _verdict(d) -> str:
     stat = f"chi2/nu = {f.chi2:.3g}/{f.dof} = {f.chi2 / f.dof:.3g}"
     if d.explained:
         return f"Explained within the stated sigma ({stat}, p = {p:.2g}); {rms}."
+    if getattr(d, "implausible", None) and p > d.alpha:
+        names = ", ".join(d.implausible)
+        return f"NOT explained: it fits ({stat}, p = {p:.2g}) only with {names} outside the plausible range; {rms}."
     return f"NOT explained within the stated sigma ({stat}, p = {p:.2g}); {rms}."
+
+
+def _value(v: float, unit: str) -> str:
+    return f"{v:.3g} {unit}".rstrip() if unit not in ("-", "") else f"{v:.3g}"
+
+
+def check_inputs(d, ev) -> str | None:
+    """When the only explanation is implausible (a value of the final model outside its plausible
+    range, or a candidate that would be significant but for its value), the inputs to check: its
+    fitted value beside the effect's other, given parameters (the tube's radii beside its modulus)."""
+    found = None
+    if getattr(d, "implausible", None):
+        name, (value, rng) = next(iter(d.implausible.items()))
+        owner = _owner(ev, d.final.effects, name)
+        found = (owner, name, value, rng, d.final)
+    elif not d.explained and not d.manual:
+        from .significance import significant
+
+        last = d.steps[-1].ranking
+        for c in last:
+            if c.plausible or not significant(c, d.final, len(last), d.alpha, False):
+                continue
+            own = {n: v for n, v in c.implausible.items() if n in c.names} or c.implausible
+            name, value = next(iter(own.items()))
+            found = (c.effect, name, value, tuple(ev.parameter(name).plausible_range), c.fit)
+            break
+    if found is None or found[0] is None:
+        return None
+    effect, name, value, (lo, hi), f = found
+    base, legs = split_scope(effect)
+    unit = ev.parameter(name).unit
+    fitted = set(f.names)
+    given = []
+    for n in scope.parameter_names(ev, effect):
+        if n in fitted or n == name or not ev.accepts(n):
+            continue
+        v = f.fixed.get(n, f.fixed.get(n.partition("@")[0], ev.parameter(n).default))
+        given.append((n, float(v), ev.parameter(n).unit))
+    component = getattr(ev.robot.effect(base), "component", "") or base
+    what = "dimensions" if any(u == "m" for _, _, u in given) else "values"
+    with_given = (" with " + ", ".join(f"{n} = {_value(v, u)}" for n, v, u in given)) if given else ""
+    return (f"Check the inputs: {effect} needs {name} = {_value(value, unit)} (plausible {lo:.3g} ... "
+            f"{_value(hi, unit)}){with_given}: check the {component}'s {what}.")
 
 
 def _why(d, short: bool = False) -> str:
@@ -147,8 +196,9 @@ def _added_groups(d) -> list:
     return out
 
 
-def _apart(d) -> list[str]:
-    """Sets of effects these data cannot tell apart, mirror images as one."""
+def _apart(d) -> tuple[list[str], bool]:
+    """Sets of effects these data cannot tell apart, mirror images as one, and whether every
+    one of them is a single model under several names (:func:`~.separate.equivalent`)."""
     sets = []
     for k, s in enumerate(d.steps[1:]):
         if s.added and s.alternatives:
@@ -163,14 +213,17 @@ def _apart(d) -> list[str]:
     unproven = [a.by for a in d.alternatives if a.replaced is None]
     if len(unproven) > 1:
         sets.append((unproven, _groups_at(d, len(d.steps) - 1)))
-    out = []
+    out, equal = [], True
+    same = {frozenset((a.replaced, a.by)) for a in d.alternatives if a.equivalent and a.replaced}
     for x, groups in sets:
         names = collapse(x, groups)
         if len(names) > 1:
             out.append(" or ".join(names))
+            equal &= all(frozenset((x[0], b)) in same for b in x[1:])
         elif len(x) > 1:                      # only mirror images: one effect, which leg is open
             out.append(f"{names[0]} (mirror images at the measured poses)")
-    return out
+            equal = False
+    return out, equal and bool(out)
 
 
 def uncertainty_sentence(u: dict | None, explained: bool) -> str:
@@ -210,11 +263,38 @@ def _rows_sentence(d) -> str:
     return " ".join(parts)
 
 
-def _next(d, ev) -> str:
-    nm = d.next_measurement
-    tied = nm is not None and nm.get("indistinguishable", True)
-    if not tied:
-        nm = next((a.next_measurement for a in d.alternatives if a.next_measurement), None)
+def _allowed(d) -> set:
+    """Effects a next measurement may be about: the selected ones and their plausible
+    alternatives (step ties and alternative final models), never one backward elimination removed."""
+    names = set(d.selected) | {a for s in d.steps if s.added in d.selected for a in s.alternatives}
+    names |= {e for a in d.alternatives for e in a.effects} | {a.by for a in d.alternatives}
+    return names - {r.effect for r in (getattr(d, "removed", None) or [])}
+
+
+def _about_allowed(nm, d) -> bool:
+    allowed = _allowed(d) | set(d.baseline.effects)
+    return all(e in allowed for side in nm["between"] for e in side.split(","))
+
+
+def next_choice(d) -> dict | None:
+    """The next measurement the answer proposes: between two models made of allowed effects
+    (:func:`_allowed`), the selection's own first, then an alternative final model's; None."""
+    options = [d.next_measurement] + [a.next_measurement for a in d.alternatives]
+    return next((nm for nm in options if nm and _about_allowed(nm, d)), None)
+
+
+def _runner_up(d):
+    """The best other candidate of the step that added the last selected effect (None)."""
+    for k in range(len(d.steps) - 1, 0, -1):
+        s = d.steps[k]
+        if s.added and s.added in d.selected:
+            rest = [c for c in d.steps[k - 1].ranking if c.effect != s.added and c.plausible]
+            return (s.added, rest[0]) if rest else None
+    return None
+
+
+def _next(d, ev, apart: list, equal: bool) -> str:
+    nm = next_choice(d)
     if nm:
         a, b = nm["between"]
         pred = nm["predicted_hz"]
@@ -226,6 +306,11 @@ def _next(d, ev) -> str:
         need = max(d.untestable.values()) if d.untestable else d.final.k + 3
         return (f"Next: measure more rows (at least {max(need - len(d.meas), 1)}): more k_a values, "
                 "another pose or other mode directions.")
+    if apart:
+        if equal:
+            return "Next: no measurement tells them apart: they are one model (equal frequencies everywhere)."
+        return ("Next: no mode in the measured band and directions tells them apart: measure another "
+                "direction or a wider band.")
     if not d.explained:
         fails = d.final.comparison.where_it_fails()
         if fails:
@@ -235,11 +320,22 @@ def _next(d, ev) -> str:
             ka = f"k_a = {lo:g} {unit}" if lo == hi else f"k_a {lo:g}-{hi:g} {unit}"
             return (f"Next: measure more where the final model still fails (mode {w['mode']}, {ka}, "
                     f"{_pose(w['poses'][0])}): other poses at the same k_a.")
-    if len(d.ranking) >= 2 and d.selected:
-        top, second = d.ranking[0], d.ranking[1]
-        return (f"Next: none needed: the data already tell {top.effect} from the runner-up {second.effect} "
-                f"(dAICc = {second.delta_aicc:.3g}).")
+    ru = _runner_up(d)
+    if ru is not None:
+        added, other = ru
+        return (f"Next: none needed: the data already tell {added} from the runner-up {other.effect} "
+                f"(dAICc = {_gap(d, added, other):.3g}).")
     return "Next: no measurement needed to choose between the candidates."
+
+
+def _gap(d, added: str, other) -> float:
+    """AICc of ``other`` minus that of ``added`` in the ranking they were compared in."""
+    for k in range(1, len(d.steps)):
+        if d.steps[k].added == added:
+            ranking = d.steps[k - 1].ranking
+            mine = next((c.fit.aicc for c in ranking if c.effect == added), math.nan)
+            return other.fit.aicc - mine
+    return math.nan
 
 
 def _wrap(text: str, width: int) -> list[str]:
@@ -249,7 +345,7 @@ def _wrap(text: str, width: int) -> list[str]:
 
 def _lines(parts: dict, width: int) -> list[str]:
     out = []
-    for key in ("verdict", "why", "added", "apart", "rows", "next"):
+    for key in ("verdict", "notes", "why", "added", "search", "apart", "rows", "next"):
         if parts[key]:
             out += _wrap(parts[key], width)
     return out
@@ -262,14 +358,25 @@ def answer(d, ev, width: int = WIDTH) -> dict:
     items = added_effects(d, ev)
     u = None if d.uncertainty is None else {k: getattr(d.uncertainty, k) for k in
                                             ("verdict", "birge_ratio", "possibly_understated")}
-    parts = {"verdict": _verdict(d), "why": "" if d.explained or d.final.dof <= 0 else _why(d),
+    check = check_inputs(d, ev)
+    parts = {"verdict": _verdict(d), "why": "" if d.explained or d.final.dof <= 0 else (check or _why(d)),
              "added": _added(d, ev, items, groups)}
-    apart = _apart(d)
-    parts["apart"] = ("Cannot tell apart: " + "; ".join(apart) + ".") if apart else ""
+    apart, equal = _apart(d)
+    search = getattr(d, "search", None)
+    if search is not None and search.ties and not d.manual:        # subsets the search found as good
+        chosen = " + ".join(e for e in d.final.effects if e not in d.baseline.effects) or "nothing"
+        apart.append(" or ".join([chosen] + [" + ".join(t.effects) for t in search.ties[:MAX_TIES]]))
+        equal = False
+    if apart and equal:
+        parts["apart"] = "One model under two names (equal frequencies everywhere): " + "; ".join(apart) + "."
+    else:
+        parts["apart"] = ("Cannot tell apart: " + "; ".join(apart) + ".") if apart else ""
+    parts["search"] = getattr(d, "search", None) and d.search.sentence or ""
+    parts["notes"] = " ".join(getattr(d, "notes", None) or [])
     parts["rows"] = _rows_sentence(d) + " " + uncertainty_sentence(u, d.explained)
-    parts["next"] = _next(d, ev)
+    parts["next"] = _next(d, ev, apart, equal)
     lines = _lines(parts, width)
-    if len(lines) > MAX_LINES and parts["why"]:
+    if len(lines) > MAX_LINES and parts["why"] and not check:
         parts["why"] = _why(d, short=True)
         lines = _lines(parts, width)
     if len(lines) > MAX_LINES:

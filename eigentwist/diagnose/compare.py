@@ -88,13 +88,16 @@ class Comparison:
         return {"effects": list(self.effects), "rms_pct": self.rms_pct, "max_pct": self.max_pct}
 
 
-def compare(meas, model="rigid", ev=None, values: dict | None = None, check: bool = True) -> Comparison:
+def compare(meas, model="rigid", ev=None, values: dict | None = None, check: bool = True,
+            strict: bool = True) -> Comparison:
     """Compare ``model`` (preset, effect list or ``"none"``) with the measurements.
 
     ``values`` override parameter defaults (SI units; the measurements' own parameter
     columns win). Mode labels are matched strictly: a direction no mode points along is
     an error naming the line. With ``check``, a parameter column of an effect the model
-    lacks is an error naming the column (:func:`~.measurements.check_columns`).
+    lacks is an error naming the column (:func:`~.measurements.check_columns`). ``strict``
+    False: a direction no mode points along at a row takes the mode with the largest share
+    along it (:func:`~.matching.match_frequencies`).
     """
     from .measurements import check_columns
 
@@ -102,7 +105,7 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
     effects = resolve_model(model, ev.robot)
     if check:
         check_columns(meas, effects, ev)
-    pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=True, return_modes=True)
+    pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=strict, return_modes=True)
     shapes = getattr(meas, "shapes", None)
     mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
     return Comparison(meas, effects, pred, idx, dict(values or {}), mac)

@@ -41,7 +41,7 @@ from .compare import Comparison
 from .predict import Predictor
 from .stats import aicc, chi2_value, gof_p_value
 
-__all__ = ["FitResult", "fit", "Transform", "SPAN", "JACOBIANS", "using_jacobian"]
+__all__ = ["FitResult", "fit", "Transform", "SPAN", "JACOBIANS", "using_jacobian", "constraint_range"]
 
 SPAN = 1e3          # search range: default / SPAN ... default * SPAN (within the physical bounds)
 STEP = 1e-2         # central-difference step in theta (1 % in p): K_F carries ~1e-7 relative
@@ -101,6 +101,19 @@ class Transform:
             return cls(parameter.name, True, lo_f, hi_f, d, 1.0)
         scale = max(abs(d), (hi - lo) / 20 if math.isfinite(hi - lo) else 1.0, 1e-12)
         return cls(parameter.name, False, max(lo, d - SPAN * scale), min(hi, d + SPAN * scale), d, scale)
+
+    def within(self, lo: float, hi: float) -> "Transform":
+        """This transform with its search range cut to the open interval (lo, hi) (the range a
+        constraint between parameters leaves, :func:`constraint_range`)."""
+        import dataclasses
+
+        margin = 1e-9 if self.log else 1e-9 * self.scale
+        new_lo = max(self.lo, lo * (1 + margin) if self.log else lo + margin) if math.isfinite(lo) else self.lo
+        new_hi = min(self.hi, hi * (1 - margin) if self.log else hi - margin) if math.isfinite(hi) else self.hi
+        if not new_lo < new_hi:
+            raise InputError(f"parameter {self.name!r}: the constraints between parameters leave it no range "
+                             f"(from {lo:g} to {hi:g}): expected the other parameters' values to admit one")
+        return dataclasses.replace(self, lo=new_lo, hi=new_hi)
 
     def theta(self, p):
         p = np.clip(p, self.lo, self.hi)
@@ -235,6 +248,29 @@ class _Objective:
         return np.sum(r * r, axis=1)
 
 
+def constraint_range(ev, name: str, values: dict, effects) -> tuple[float, float]:
+    """The open interval the constraints between parameters (``r_i_l1 < r_o_l1``, the inertia
+    triangle inequality; :mod:`eigentwist.description.constraints`) leave parameter ``name``
+    (``P`` or a leg's own ``P@N``) with every other parameter at ``values`` (else its default),
+    for the model ``effects``: the fit's search range is cut to it, so that neither a step
+    nor a difference crosses it."""
+    from ..runtime.constraints import interval
+
+    compiled = getattr(ev, "constraints", None) or ()
+    base, _, leg = name.partition("@")
+
+    def value(n):
+        for key in ((f"{n}@{leg}",) if leg else ()) + (n,):
+            if key in values:
+                return float(values[key])
+        return float(ev.parameter(n).default)
+
+    names = {n for c in compiled if base in c.names for n in c.names}
+    if not names:
+        return -math.inf, math.inf
+    return interval(compiled, base, {n: value(n) for n in names}, {e.partition("@")[0] for e in effects})
+
+
 def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
     grids = []
     for t in transforms:
@@ -295,8 +331,9 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
         comp = Comparison(meas, tuple(effects), *predictor.predict(strict=False), dict(fixed))
         chi2 = comp.chi2
         return FitResult(tuple(effects), (), {}, {}, dict(fixed), comp, chi2, n, 0, aicc(chi2, n, 0))
-    transforms = [Transform.of(ev.parameter(nm)) for nm in names]
     start = {nm: float((start or {}).get(nm, given.get(nm, ev.parameter(nm).default))) for nm in names}
+    transforms = [Transform.of(ev.parameter(nm)).within(*constraint_range(ev, nm, {**given, **start}, effects))
+                  for nm in names]
     obj = _Objective(predictor, transforms, jacobian)
     table = _starts(transforms, start, set(names if explore is None else explore), starts)
     best = table[int(np.argmin(obj.chi2_of(table)))]

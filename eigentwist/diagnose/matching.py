@@ -63,7 +63,9 @@ def match_modes(modes, labels, strict: bool = True, lines=None) -> np.ndarray:
     labels : N normalised labels (:func:`parse_mode`).
     strict : when True, a direction that no mode of a row points along raises
         :class:`ModeMatchError`. When False (inside fits, where a trial parameter may
-        tilt a mode), the mode (group) with the largest share along the axis is taken.
+        tilt a mode; the diagnosis where the model's labels are ambiguous at a pose), the
+        mode (group) with the largest share along the axis among the modes that repeat a
+        lower mode's direction is taken (frequency order and shape), else among all.
     lines : optional N source line numbers, used in error messages.
 
     Returns
@@ -116,6 +118,18 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
     return freq, idx
 
 
+def _by_order(direction: np.ndarray, share: np.ndarray) -> np.ndarray:
+    """For rows whose axis no mode points along: the mode with the largest share along it among
+    the modes that are not the lowest along their own direction (at a pose where the model
+    labels two modes "x, x", a measured "y" takes the second), else among all modes."""
+    n = direction.shape[1]
+    earlier = np.tril(np.ones((n, n), dtype=bool), -1)                    # [j, i]: i < j
+    repeat = np.any((direction[:, :, None] == direction[:, None, :]) & earlier[None], axis=2)
+    share = np.nan_to_num(share, nan=-np.inf)
+    pick = np.argmax(np.where(repeat, share, -np.inf), axis=1)
+    return np.where(repeat.any(axis=1), pick, np.argmax(share, axis=1))
+
+
 def _match_axes(modes, shares, groups, axis, rows, labels, strict, lines):
     """(index, frequency) of the lowest mode group along each row's local ``axis``."""
     r = np.arange(len(rows))
@@ -133,7 +147,7 @@ def _match_axes(modes, shares, groups, axis, rows, labels, strict, lines):
             raise ModeMatchError(f"{_where(rows[k], lines)}no mode of the {modes.kind} model points along "
                                  f"{labels[rows[k]]} at this row (mode directions: "
                                  f"{', '.join(DIRECTIONS[d] for d in direction)}); use a rank instead")
-        first = np.where(missing, np.argmax(np.nan_to_num(total[r, axis], nan=-np.inf), axis=1), first)
+        first = np.where(missing, _by_order(modes.direction[rows], total[r, axis]), first)
     member = groups == groups[r, first][:, None]                          # (rows, modes) the chosen group
     own = np.where(member, np.clip(own_share, 0.0, None), 0.0)
     weight = np.where(own.sum(axis=1, keepdims=True) > 0, own, member.astype(float))

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["PLAUSIBLE_SIGMA", "is_plausible"]
+__all__ = ["PLAUSIBLE_SIGMA", "is_plausible", "outside_plausible"]
 
 PLAUSIBLE_SIGMA = 3.0   # a fit this many standard errors outside the plausible range is implausible
 
@@ -29,3 +29,16 @@ def is_plausible(value: float, std: float, bounds, at_bound: bool = False) -> bo
     if lo > 0 and value > 0:
         return abs(math.log(value / edge)) <= PLAUSIBLE_SIGMA * std / value
     return abs(value - edge) <= PLAUSIBLE_SIGMA * std
+
+
+def outside_plausible(ev, f) -> dict:
+    """Fitted values of ``f`` (a :class:`~.fit.FitResult`) outside their parameter's plausible
+    range (closed; no allowance for the standard error) or at a search or hard bound: name ->
+    (value, (low, high)). A model holding one is never "explained", however well it fits."""
+    out = {}
+    at_bound = set(getattr(f, "at_bound", ()) or ())
+    for name, value in f.values.items():
+        lo, hi = ev.parameter(name).plausible_range
+        if not lo <= value <= hi or name in at_bound:
+            out[name] = (float(value), (float(lo), float(hi)))
+    return out

@@ -43,6 +43,7 @@ def _final(d) -> dict:
     f = d.final
     return {"effects": list(f.effects), "rms_pct": f.rms_pct, "max_pct": f.max_pct,
             "explained": d.explained, "chi2": f.chi2, "dof": f.dof,
+            "implausible": {k: {"value": v, "plausible_range": list(r)} for k, (v, r) in d.implausible.items()},
             "p_value": gof_p_value(f.chi2, f.n, f.k), "params": f.values, "param_std": f.std,
             "message": verdict_text(d), "failing": f.comparison.where_it_fails(), "hints": d.final_hints,
             "alternatives": [list(a.effects) for a in d.alternatives],
@@ -86,6 +87,7 @@ def diagnosis_json(d) -> dict:
         "outliers": [asdict(o) for o in d.outliers],
         "removed": [r.to_json() for r in d.removed],   # backward elimination
         "setting_anomalies": [a.to_json() for a in d.setting_anomalies],   # whole settings set aside
+        "search": d.search.to_json() if d.search else None,   # the subset search off the stepwise path
         "uncertainty": _uncertainty(d.uncertainty) if d.uncertainty else None,
         "untestable": dict(d.untestable),
         "manual": d.manual, "alpha": d.alpha, "criteria": CRITERIA,

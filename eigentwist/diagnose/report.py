@@ -133,6 +133,9 @@ def _head(d) -> str:
     stat = f"chi2 = {f.chi2:.1f} for {f.dof} degrees of freedom (reduced {f.reduced_chi2:.2f}, p = {p:.3g})"
     if d.explained:
         return f"the final model explains the data within the measurement uncertainty: {stat}"
+    if getattr(d, "implausible", None) and p > d.alpha:
+        return (f"the final model does NOT explain the data: it fits ({stat}) only with "
+                f"{', '.join(d.implausible)} outside the plausible range")
     return f"the final model does NOT explain the data within the measurement uncertainty: {stat} <= alpha = {d.alpha:g}"
 
 

@@ -53,14 +53,18 @@ from .evaluators import resolve
 from .fit import FitResult, fit
 from .backward import eliminate
 from .identifiable import extra_parameters, sign_free, trial_value
+from .matching import ModeMatchError
 from .misfit import Uncertainty, find_outliers, judge_uncertainty, untestable
 from .patterns import classify, hints
 from .plausible import PLAUSIBLE_SIGMA  # noqa: F401 (re-exported: the rule's threshold)
 from .plausible import is_plausible as _plausible
+from .plausible import outside_plausible
 from .predict import Predictor
 from .separate import equivalent, next_measurement
+from .search import SearchResult, search_subsets
 from .settings import find_setting_anomalies, rescored
 from .significance import significant
+from .units import unit_note
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 from .values import used_parameters
 
@@ -168,6 +172,12 @@ class Diagnosis:
     untestable : effect -> rows needed, for candidates these data have too few rows for.
     removed : :class:`~.backward.Removal` of each effect taken back by backward elimination.
     setting_anomalies : :class:`~.settings.SettingAnomaly` of each whole setting set aside.
+    search : :class:`~.search.SearchResult` of the subset search (None: not run).
+    implausible : the final model's fitted values outside their plausible range (name ->
+    (value, (low, high))); such a model is never ``explained``.
+    notes : one-line remarks on the input, each said once: the likely unit of frequencies
+    that are ~1000 or ~2 pi times the model's (:mod:`.units`), rows matched by shape where
+    the model's labels are ambiguous at a pose.
     alternatives : :class:`Alternative` final models. outliers : :class:`Outlier` rows
     set aside (the selection and fits are those without them); all_rows : the diagnosis
     with every row, when some were set aside. uncertainty : :class:`Uncertainty`.
@@ -193,6 +203,9 @@ class Diagnosis:
     untestable: dict = field(default_factory=dict)
     removed: list = field(default_factory=list)
     setting_anomalies: list = field(default_factory=list)
+    search: SearchResult | None = None
+    implausible: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
 
     @property
     def final_comparison(self) -> Comparison:
@@ -437,6 +450,39 @@ def _stepwise(meas, ev, current: FitResult, alpha: float, progress) -> tuple[lis
     return steps, removals
 
 
+def _search(meas, ev, base: FitResult, steps: list[Step], m: int, alpha: float) -> SearchResult | None:
+    """The subset search (:mod:`.search`) when the stepwise result misfits or holds two or more
+    effects; None when it is not run."""
+    final = steps[-1].fit
+    chosen = tuple(e for e in final.effects if e not in base.effects)
+    if explained(final.chi2, final.n, final.k, alpha) and len(chosen) < 2:
+        return None
+    return search_subsets(meas, ev, base, steps[0].ranking, final, chosen, m, alpha)
+
+
+def _path(meas, ev, first: Step, found: SearchResult) -> list[Step]:
+    """The selection path to the search's subset: its members in the order of their single fits,
+    each step ranked among the member and its equivalent singles (the step's alternatives)."""
+    by = {c.effect: c for c in first.ranking}
+    order = sorted(found.best.effects, key=lambda e: (by[e].fit.aicc, by[e].order))
+    steps = [Step(first.fit, ranking=first.ranking)]
+    current = first.fit
+    for k, e in enumerate(order):
+        if k == 0:
+            ranking = first.ranking
+        else:
+            names = [x for x in [e] + found.same.get(e, []) if x in candidates_for(ev, current.effects)]
+            ranking = rank_candidates(meas, ev, current, names)
+            steps[-1].ranking = ranking
+        c = next(x for x in ranking if x.effect == e)
+        same = found.same.get(e, [])
+        alternatives = [x.effect for x in ranking if x is not c and x.plausible and x.effect in same
+                        and x.effect in c.indistinguishable_from]
+        steps.append(Step(c.fit, e, c.p_value, alternatives=alternatives))
+        current = c.fit
+    return steps
+
+
 def _swap(meas, ev, final: FitResult, step: Step, rival: Candidate) -> FitResult | None:
     """The final model with ``step.added`` replaced by ``rival``, refitted as a whole (None: not a model)."""
     dropped = set(scope.parameter_names(ev, step.added))
@@ -490,9 +536,11 @@ def unproven(meas, ev, steps, alpha: float) -> list[Alternative]:
     return out
 
 
-def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = None) -> Diagnosis:
-    """Rank, select and judge on these rows (no outlier handling); ``values``: see :func:`diagnose`."""
-    base_cmp = compare(meas, base_effects, ev, values, check=False)  # strict mode matching
+def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = None,
+            search: bool = False) -> Diagnosis:
+    """Rank, select and judge on these rows (no outlier handling); ``values``: see :func:`diagnose`;
+    ``search``: run the subset search (:func:`_searched`) on the stepwise result."""
+    base_cmp, notes = _baseline(meas, ev, base_effects, values)
     current = fit(meas, base_effects, ev, (), fixed=values)
     manual = add is not None
     cands = candidates_for(ev, current.effects)
@@ -504,16 +552,57 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     else:
         steps, removed = _stepwise(meas, ev, current, alpha, progress)
         first = steps[0].ranking
+    d = _diagnosis(meas, ev, base_cmp, first, steps, removed, manual, alpha, values, notes)
+    return _searched(d, ev, progress, values) if search and not manual else d
+
+
+def _diagnosis(meas, ev, base_cmp, first, steps, removed, manual, alpha, values, notes, search=None) -> Diagnosis:
+    """The :class:`Diagnosis` of a selection path ``steps`` on these rows."""
     final = steps[-1].fit
     signatures = {c.effect: c.signature for c in first}
     return Diagnosis(
         robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
         selected=[s.added for s in steps[1:] if s.added in final.effects], steps=steps, final=final, removed=removed,
-        explained=explained(final.chi2, final.n, final.k, alpha),
+        explained=explained(final.chi2, final.n, final.k, alpha) and not outside_plausible(ev, final),
+        implausible=outside_plausible(ev, final),
         next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
         manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
         untestable=_untestable(meas, ev, steps if not manual else steps[:1]),
-        parameters=used_parameters(ev, final.effects, values, meas, final.values))
+        parameters=used_parameters(ev, final.effects, values, meas, final.values), search=search, notes=notes)
+
+
+def _searched(d: Diagnosis, ev, progress, values=None) -> Diagnosis:
+    """``d`` with the subset search (:mod:`.search`) run on its rows: the path to the search's
+    subset when it beats the stepwise result (rows set aside carried over), else ``d`` with
+    the search's findings (ties) attached."""
+    base = d.steps[0].fit
+    found = _search(d.meas, ev, base, d.steps, len(candidates_for(ev, base.effects)), d.alpha)
+    if found is None or not found.changed:
+        d.search = found
+        return d
+    steps = _forward(d.meas, ev, _path(d.meas, ev, d.steps[0], found), d.alpha, progress)
+    out = _diagnosis(d.meas, ev, d.baseline, d.ranking, steps, [], False, d.alpha, values, d.notes, found)
+    out.outliers, out.all_rows, out.setting_anomalies = d.outliers, d.all_rows, d.setting_anomalies
+    return out
+
+
+def _baseline(meas, ev, base_effects, values) -> tuple[Comparison, list]:
+    """The baseline's comparison (mode labels matched strictly where the model's labels allow)
+    and the notes on the input (see :class:`Diagnosis`)."""
+    notes = []
+    try:
+        base_cmp = compare(meas, base_effects, ev, values, check=False)
+    except ModeMatchError as exc:
+        if "points along" not in str(exc):
+            raise
+        base_cmp = compare(meas, base_effects, ev, values, check=False, strict=False)
+        where = str(exc).partition(":")[0]
+        notes.append(f"Mode labels: at some poses no model mode points along a measured direction ({where} first); "
+                     "those rows are matched by frequency order and shape.")
+    unit = unit_note(meas.freq_hz, base_cmp.predicted)
+    if unit:
+        notes.insert(0, unit)
+    return base_cmp, notes
 
 
 def _untestable(meas, ev, steps) -> dict:
@@ -534,7 +623,8 @@ def _judge(d: Diagnosis) -> Diagnosis:
     return d
 
 
-def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress, values=None) -> Diagnosis:
+def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress, values=None,
+                      search: bool = False) -> Diagnosis:
     """Set aside isolated outlying rows one at a time (worst first), rerunning the selection."""
     d, removed = d_all, []
     limit = max(1, int(MAX_OUTLIER_SHARE * len(meas)))
@@ -544,7 +634,7 @@ def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress,
             break
         removed.append(found[0])
         keep = ~np.isin(meas.lines, [o.line for o in removed])
-        d = _select(meas.subset(keep), ev, base_effects, None, alpha, progress, values)
+        d = _select(meas.subset(keep), ev, base_effects, None, alpha, progress, values, search)
     if removed:
         d.outliers, d.all_rows = removed, _judge(d_all)
     return d
@@ -553,7 +643,8 @@ def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress,
 MAX_SETTING_SHARE = 0.25   # at most this share of the rows is set aside as whole settings
 
 
-def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, values=None) -> Diagnosis:
+def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, values=None,
+                      search: bool = False) -> Diagnosis:
     """Set aside whole settings that fit another k_a (or pose) far better (:mod:`.settings`), worst
     first, one at a time, rerunning the selection; the all-rows result is kept beside."""
     d_all, found = d.all_rows or d, []
@@ -565,7 +656,7 @@ def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, val
             break
         found.append(anomalies[0])
         keep = ~np.isin(d.meas.lines, anomalies[0].lines)
-        d = _select(d.meas.subset(keep), ev, base_effects, None, alpha, progress, values)
+        d = _select(d.meas.subset(keep), ev, base_effects, None, alpha, progress, values, search)
     if found:
         found = [rescored(a, meas, ev, d.final) for a in found]
         d.setting_anomalies, d.outliers, d.all_rows = found, outliers, d_all if d_all.all_rows is None else d_all
@@ -609,7 +700,35 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
                   "the baseline" + (" with the added effects" if manual_effects else ""))
     order = None if add is None else manual_effects
     d = _select(meas, ev, base_effects, order, alpha, progress, values)
-    if order is None and not d.untestable and d.final.dof > 2:
+    if order is None:
+        d = _rows_and_search(meas, ev, d, base_effects, alpha, progress, values)
+    return _judge(d)
+
+
+MIN_DOF_ROWS = 3    # degrees of freedom the final model needs before rows or settings are set aside
+
+
+def rows_checked(d) -> bool:
+    """Whether the outlier and setting checks run on ``d``: every candidate testable and the
+    final model with at least MIN_DOF_ROWS degrees of freedom (fewer: the residuals cannot
+    tell a bad row from the model's own misfit)."""
+    return not d.untestable and d.final.dof >= MIN_DOF_ROWS
+
+
+def _rows_and_search(meas, ev, d: Diagnosis, base_effects, alpha, progress, values) -> Diagnosis:
+    """Outliers and settings set aside under the stepwise result, then the subset search on the
+    rows kept (cheap where the stepwise result already explains them with one effect). Where
+    the search changes the result and rows were set aside under the stepwise one, the whole
+    diagnosis is redone with the search in every selection (rows set aside under its model)."""
+    d0 = d
+    if rows_checked(d):
         d = _without_outliers(meas, ev, d, base_effects, alpha, progress, values)
         d = _without_settings(meas, ev, d, base_effects, alpha, progress, values)
-    return _judge(d)
+    s = _searched(d, ev, progress, values)
+    if not (s.search is not None and s.search.changed and (d.outliers or d.setting_anomalies)):
+        return s
+    d = _searched(d0, ev, progress, values)
+    if rows_checked(d):
+        d = _without_outliers(meas, ev, d, base_effects, alpha, progress, values, search=True)
+        d = _without_settings(meas, ev, d, base_effects, alpha, progress, values, search=True)
+    return d

@@ -16,7 +16,7 @@ import numpy as np
 from ..runtime import EigentwistError
 from .matching import DIRECTIONS, match_frequencies
 
-__all__ = ["next_measurement", "workspace_poses", "equivalent", "EQUIVALENT_SIGMA"]
+__all__ = ["next_measurement", "workspace_poses", "equivalent", "measured_band", "EQUIVALENT_SIGMA", "BAND"]
 
 GRID = 3          # poses per axis of the workspace box
 N_KA = 9          # log-spaced k_a values over the measured range
@@ -57,8 +57,17 @@ def _constant_columns(meas) -> dict:
     return {k: float(v[0]) for k, v in meas.params.items() if np.all(v == v[0])}
 
 
-def _best(modes_of, labels, rel_sigma):
-    """(separation, label, row, f_a, f_b) of the largest separation over ``labels``."""
+BAND = 1.25       # a proposed mode lies within the measured band widened this factor each way
+
+
+def measured_band(meas) -> tuple[float, float]:
+    """The frequencies (Hz) a next measurement may ask for: the measured band widened ``BAND`` each way."""
+    return float(np.min(meas.freq_hz)) / BAND, float(np.max(meas.freq_hz)) * BAND
+
+
+def _best(modes_of, labels, rel_sigma, band=(0.0, np.inf)):
+    """(separation, label, row, f_a, f_b) of the largest separation over ``labels``, both
+    predictions inside ``band`` (Hz)."""
     best = None
     n = len(modes_of[0].freq_hz)
     for label in labels:
@@ -69,6 +78,7 @@ def _best(modes_of, labels, rel_sigma):
             ok &= m.direction[np.arange(n), idx] == DIRECTIONS.index(label)
             if m.constrained is not None:          # a rigid constraint's mode: not measurable
                 ok &= ~m.constrained[np.arange(n), idx]
+        ok &= (np.minimum(fs[0], fs[1]) >= band[0]) & (np.maximum(fs[0], fs[1]) <= band[1])
         sep = np.abs(fs[0] - fs[1]) / (rel_sigma * 0.5 * (fs[0] + fs[1]))
         sep = np.where(ok, sep, -np.inf)
         k = int(np.argmax(sep))
@@ -80,11 +90,12 @@ def _best(modes_of, labels, rel_sigma):
 def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -> dict | None:
     """Where ``fit_a`` and ``fit_b`` (:class:`~eigentwist.diagnose.fit.FitResult`) differ most.
 
-    Returns None when the models share no mode direction, else a dict: ``between`` (the
-    two models, named by the effects that differ), ``pose`` (m), ``k_a`` (N m/rad),
-    ``mode`` (direction), ``predicted_hz`` (per model), ``separation_sigma``,
-    ``sigma_hz``, and ``with_measured_modes``: the same restricted to the mode
-    directions the data already contain (None if they contain none).
+    Only a mode direction the data's sensors observed (a label of ``meas``) and predicted
+    inside the measured band (:func:`measured_band`) by both models is proposed. Returns
+    None when there is none, else a dict: ``between`` (the two models, named by the
+    effects that differ), ``pose`` (m), ``k_a`` (N m/rad), ``mode`` (direction),
+    ``predicted_hz`` (per model), ``separation_sigma``, ``sigma_hz``, and
+    ``with_measured_modes`` (the same; kept for the JSON's readers).
     """
     lo, hi = k_a_range or (float(meas.k_a.min()), float(meas.k_a.max()))
     k_a = np.unique(np.concatenate([np.geomspace(lo, hi, N_KA), meas.k_a[(meas.k_a >= lo) & (meas.k_a <= hi)]]))
@@ -93,7 +104,7 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
     ka_rows = np.tile(k_a, len(poses))
     base = _constant_columns(meas)
     modes_of = [ev.modes(pose_rows, f.effects, k_a=ka_rows, **{**base, **f.fixed}) for f in (fit_a, fit_b)]
-    labels = [a for a in modes_of[0].axes if a in modes_of[1].axes]
+    labels = [a for a in modes_of[0].axes if a in modes_of[1].axes and a in set(meas.mode)]
     rel_sigma = float(np.median(meas.relative_sigma))
     name_a, name_b = _label(fit_a, fit_b), _label(fit_b, fit_a)
 
@@ -105,10 +116,9 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
                 "mode": label, "predicted_hz": {name_a: fa, name_b: fb}, "separation_sigma": sep,
                 "sigma_hz": rel_sigma * 0.5 * (fa + fb)}
 
-    out = describe(_best(modes_of, labels, rel_sigma))
+    out = describe(_best(modes_of, labels, rel_sigma, measured_band(meas)))
     if out is not None:
-        measured = [lb for lb in labels if lb in set(meas.mode)]
-        out["with_measured_modes"] = describe(_best(modes_of, measured, rel_sigma)) if measured else None
+        out["with_measured_modes"] = dict(out)
     return out
 
 

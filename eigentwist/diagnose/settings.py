@@ -12,6 +12,12 @@ check, each setting with ``MIN_ROWS`` or more rows is checked as a unit against 
   k_a) fits its rows within the noise (chi-square test at alpha, one degree of freedom
   spent on the search) and ``FAR`` times better than at its own.
 
+A setting of fewer than ``MIN_ROWS`` rows (one or two modes at one pose and k_a) is checked
+by leaving it out: the final model refitted on the other rows predicts its rows; their
+chi-square, scaled by the Birge ratio of that refit (never below 1), is beyond the
+chi2_{n_s} quantile at alpha/S (S: every setting), and the same refit at another *measured* k_a
+or pose (:func:`measured_label`) fits them within the noise (chi2_{n_s} test at alpha) and ``FAR`` times better.
+
 Such a setting is reported (:class:`SettingAnomaly`: its CSV lines, the written and the
 best-fitting k_a or pose, the evidence), set aside like an outlier, and the selection
 rerun without it; its best k_a (or pose) is then given under the model refitted without it.
@@ -23,10 +29,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from ..runtime.errors import InputError
 from .measurements import Measurements
 from .predict import Predictor
 
-__all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of", "best_label", "rescored"]
+__all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of", "best_label", "measured_label", "rescored",
+           "deviates", "relabelled_fits", "FAR", "MIN_ROWS"]
 
 FAR = 10.0          # the best other k_a (or pose) fits this many times better in chi-square
 KA_SPAN = 4.0       # k_a searched from min/KA_SPAN to max*KA_SPAN of the measured values
@@ -63,11 +71,16 @@ class SettingAnomaly:
 
 
 def settings_of(meas) -> list[np.ndarray]:
-    """Row indices of each setting (same pose to 1e-6, same k_a to 1e-9 relative), in row order."""
+    """Row indices of each setting (same pose to 1e-6, same k_a to 1e-9 relative), in row order.
+    A mode label met again under the same pose and k_a starts another setting (the n-th row of
+    each label is the n-th setting): a setting written with another's k_a or pose stays apart."""
     key = [tuple(np.round(p, 6)) + (float(f"{k:.9g}"),) for p, k in zip(meas.poses, meas.k_a)]
     groups: dict = {}
-    for i, k in enumerate(key):
-        groups.setdefault(k, []).append(i)
+    seen: dict = {}
+    for i, (k, label) in enumerate(zip(key, meas.mode)):
+        n = seen.get((k, label), 0)
+        seen[(k, label)] = n + 1
+        groups.setdefault(k + (n,), []).append(i)
     return [np.array(g) for g in groups.values()]
 
 
@@ -111,34 +124,99 @@ def best_label(sub: Measurements, ev, final, meas) -> tuple[float, np.ndarray, f
     return float(k_try[best]), p_try[best], float(chi2[best])
 
 
+def measured_label(sub: Measurements, ev, final, meas) -> tuple[float, np.ndarray, float]:
+    """(k_a, pose, chi2) under which ``final`` fits the small setting ``sub`` best among the labels
+    ``meas`` already has: another measured k_a at its pose, or another measured pose at its k_a
+    (a search over a continuous k_a would spend a degree of freedom that one or two rows cannot
+    spare: any model error there would look like a wrong label)."""
+    levels = np.unique(meas.k_a)
+    poses = np.unique(np.round(meas.poses, 9), axis=0)
+    pose0, ka0 = sub.poses[0], float(sub.k_a[0])
+    ks = levels[~np.isclose(levels, ka0, rtol=1e-9)]
+    others = np.reshape([p for p in poses if not np.allclose(p, pose0, atol=1e-6)], (-1, poses.shape[1]))
+    k_try = np.concatenate([ks, np.full(len(others), ka0)])
+    p_try = np.concatenate([np.repeat(pose0[None, :], len(ks), axis=0), others])
+    if not len(k_try):
+        return ka0, pose0, np.inf
+    chi2 = _chi2_table(sub, ev, final, k_try, p_try)
+    best = int(np.argmin(chi2))
+    return float(k_try[best]), p_try[best], float(chi2[best])
+
+
 def rescored(anomaly: SettingAnomaly, meas, ev, final) -> SettingAnomaly:
     """``anomaly``'s best k_a (or pose) and its chi-square under ``final``, e.g. the model refitted
     without it (the model that flagged it was biased by its rows)."""
     sub = meas.subset(np.isin(meas.lines, anomaly.lines))
-    k, pose, chi2 = best_label(sub, ev, final, meas)
+    k, pose, chi2 = (best_label if anomaly.n_rows >= MIN_ROWS else measured_label)(sub, ev, final, meas)
     return SettingAnomaly(anomaly.lines, anomaly.pose, anomaly.k_a, k, np.asarray(pose).tolist(), anomaly.chi2_own,
                           chi2, anomaly.n_rows, anomaly.p_own, anomaly.scale)
 
 
+def deviates(own: float, scale: float, n_rows: int, alpha: float, n_settings: int) -> float | None:
+    """p-value of a setting's chi-square ``own`` over ``n_rows`` rows (scaled by ``scale``, the
+    other rows' squared Birge ratio) when it is below alpha/n_settings (Bonferroni over the
+    settings checked), else None."""
+    p = float(stats.chi2.sf(own / scale, n_rows))
+    return p if p < alpha / max(n_settings, 1) else None
+
+
+def relabelled_fits(best: float, own: float, scale: float, dof: int, alpha: float) -> bool:
+    """Whether a setting relabelled (chi-square ``best``) fits within the noise (chi2_dof test at
+    alpha, dof at least 1) and ``FAR`` times better than as written (``own``)."""
+    return bool(stats.chi2.sf(best / scale, max(dof, 1)) > alpha and best * FAR < own)
+
+
+def _left_out(meas, ev, final, g: np.ndarray, alpha: float, n_settings: int) -> SettingAnomaly | None:
+    """The leave-one-setting-out check of a setting of fewer than MIN_ROWS rows (module doc)."""
+    from .fit import fit
+
+    keep = np.ones(len(meas), dtype=bool)
+    keep[g] = False
+    rest = meas.subset(keep)
+    dof_rest = len(rest) - final.k
+    if dof_rest <= 0:
+        return None
+    try:
+        g_fit = fit(rest, final.effects, ev, final.names, start=final.values, fixed=final.fixed, explore=())
+    except InputError:
+        return None
+    sub = meas.subset(~keep)
+    pred = np.asarray(Predictor(sub, g_fit.effects, ev, g_fit.fixed).predict(strict=False)[0], dtype=float)
+    res = (pred - sub.freq_hz) / sub.sigma_hz
+    own = float(res @ res) if np.all(np.isfinite(res)) else np.inf
+    scale = max(1.0, g_fit.chi2 / dof_rest)
+    p_own = deviates(own, scale, len(g), alpha, n_settings)
+    if p_own is None:
+        return None
+    k, pose, chi2 = measured_label(sub, ev, g_fit, meas)
+    if relabelled_fits(chi2, own, scale, len(g), alpha):
+        return SettingAnomaly([int(x) for x in sub.lines], sub.poses[0].tolist(), float(sub.k_a[0]), k,
+                              np.asarray(pose).tolist(), own, chi2, len(g), p_own, scale)
+    return None
+
+
 def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly]:
     """Settings that do not belong (see module doc), worst first."""
-    groups = [g for g in settings_of(meas) if len(g) >= MIN_ROWS]
-    if len(groups) < 3:
+    every = settings_of(meas)
+    groups = [g for g in every if len(g) >= MIN_ROWS]
+    if len(every) < 3:
         return []
+    out = [a for g in every if len(g) < MIN_ROWS
+           for a in [_left_out(meas, ev, final, g, alpha, len(every))] if a is not None]
+    if len(groups) < 3:
+        return sorted(out, key=lambda a: -a.chi2_own)
     r = final.comparison.error_sigma
     total, n = float(r @ r), len(r)
-    out = []
     for g in groups:
         own = float(r[g] @ r[g])
         dof_other = n - len(g) - final.k
         scale = max(1.0, (total - own) / dof_other) if dof_other > 0 else 1.0
-        p_own = float(stats.chi2.sf(own / scale, len(g)))
-        if p_own >= alpha / len(groups):
+        p_own = deviates(own, scale, len(g), alpha, len(groups))
+        if p_own is None:
             continue
         sub = meas.subset(g)
         k, pose, chi2 = best_label(sub, ev, final, meas)
-        fits = stats.chi2.sf(chi2 / scale, max(len(g) - 1, 1)) > alpha
-        if fits and chi2 * FAR < own:
+        if relabelled_fits(chi2, own, scale, len(g) - 1, alpha):
             out.append(SettingAnomaly([int(x) for x in sub.lines], sub.poses[0].tolist(), float(sub.k_a[0]), k,
                                       np.asarray(pose).tolist(), own, chi2, len(g), p_own, scale))
     return sorted(out, key=lambda a: -a.chi2_own)

@@ -1176,7 +1176,8 @@ class Evaluator:
         """``M``, ``K_R``, ``K_F`` (N, 6, 6) and their derivatives ``dM``, ``dK_R``, ``dK_F``
         (N, len(wrt), 6, 6; per SI unit of each parameter) by central differences of
         :meth:`matrices` (relative step :data:`.sensitivity.DIFFERENCE_STEP`; second-order
-        one-sided where the step would cross the parameter's lower bound): the output of the
+        one-sided, away from it, where a step would cross a parameter's bound or a constraint
+        between parameters: ``r_i < r_o``, the inertia triangle inequality): the output of the
         generated sensitivity kernel without deriving anything. ``wrt`` names parameters,
         ``P@N`` a leg's own value."""
         from .sensitivity import DIFFERENCE_STEP
@@ -1190,17 +1191,31 @@ class Evaluator:
             scale = np.maximum(np.abs(value), abs(self.defaults[base]))
             h = DIFFERENCE_STEP * np.where(scale > 0, scale, 1.0)
             step = np.reshape(2 * h, (-1, 1, 1) if np.ndim(h) else ())
-            hi = self.matrices(poses, model, **{**params, name: value + h})
-            if np.all(value - h > self.parameters[base].bounds[0]):      # central differences
-                lo = self.matrices(poses, model, **{**params, name: value - h})
+            hi, lo = (self._admissible(poses, model, params, name, value + s * h) for s in (1, -1))
+            if hi is not None and lo is not None:                      # central differences
                 for k in MATRICES:
                     d["d" + k][:, j] = (hi[k] - lo[k]) / step
-            else:                                                      # at a bound: one-sided, second order
-                hi2 = self.matrices(poses, model, **{**params, name: value + 2 * h})
-                for k in MATRICES:
-                    d["d" + k][:, j] = (4 * hi[k] - 3 * out[k] - hi2[k]) / step
+                continue
+            sign = 1 if hi is not None else -1                         # at a bound: one-sided, second order
+            far = self._admissible(poses, model, params, name, value + 2 * sign * h)
+            if far is None:
+                raise InputError(f"parameter {name!r} = {float(np.max(value)):g}: no difference step of "
+                                 f"{float(np.max(h)):.3g} either way stays within its bounds and constraints; "
+                                 "expected a value away from them")
+            near = hi if sign == 1 else lo
+            for k in MATRICES:
+                d["d" + k][:, j] = sign * (4 * near[k] - 3 * out[k] - far[k]) / step
         out.update(d)
         return out
+
+    def _admissible(self, poses, model, params: dict, name: str, value):
+        """:meth:`matrices` with ``name`` at ``value``; None where that value leaves the
+        parameter's bounds or a constraint between parameters (a difference step never
+        crosses them)."""
+        try:
+            return self.matrices(poses, model, **{**params, name: value})
+        except InputError:
+            return None
 
     def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
