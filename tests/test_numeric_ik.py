@@ -264,3 +264,32 @@ def test_content_hash_sees_the_urdf_data():
     b = dataclasses.replace(a, legs=(moved,) + a.legs[1:])
     assert description_key(a) != description_key(b)
     assert description_key(a) == description_key(rrpirr_urdf.delta())
+
+
+def test_newton_memo_keys_every_input(numeric):
+    """Two calls that differ only in a parameter whose name starts with q (a rod length
+    ``q_rod``) solve anew: the closure r(q) = q - q_rod has the solution q = q_rod."""
+    import copy
+
+    ev = copy.copy(numeric["heli4"][0])
+    nq = len(ev.robot.legs[0].kinematics.coordinates)
+
+    class Kernels:
+        @staticmethod
+        def loop_closure(q, p):
+            r = q - np.asarray(p["q_rod"], dtype=float).reshape(-1, 1, 1)
+            return {"residual": r, "dresidual": np.broadcast_to(np.eye(nq), r.shape + (nq,)).copy()}
+
+        @staticmethod
+        def jacobians(q, p):
+            return {"lever": np.ones(q.shape[:2])}
+
+    ev._kernels, ev.__dict__["_newton_memo"] = Kernels, {}
+    poses = np.zeros((3, 3))
+    for rod in (0.10, 0.20, 0.20, 0.15):
+        q = ev.solve_joints(poses, {"q_rod": np.asarray(rod)})
+        assert np.abs(q - rod).max() < 1e-12
+    # the joint coordinates it adds itself do not change the key
+    p = {"q_rod": np.asarray(0.3)}
+    first = ev.solve_joints(poses, p)
+    assert ev.solve_joints(poses, {**p, "q1_1": np.zeros(3)}) is first

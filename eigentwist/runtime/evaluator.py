@@ -225,8 +225,7 @@ class Evaluator:
         from .newton import solve
 
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
-        key = (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
-                                      if not k.startswith("q")))
+        key = self._newton_key(poses, p)
         memo = self.__dict__.setdefault("_newton_memo", {})
         if key in memo:
             return memo[key]
@@ -248,6 +247,25 @@ class Evaluator:
         memo.clear()
         memo[key] = q
         return q
+
+    def _joint_inputs(self) -> frozenset:
+        """Names of the IK kernel's joint-coordinate inputs ``q<m>_<leg>`` (what
+        :meth:`numeric_joints` adds to the inputs)."""
+        names = self.__dict__.get("_joint_input_names")
+        if names is None:
+            nq = len(self.robot.legs[0].kinematics.coordinates)
+            names = self._joint_input_names = frozenset(f"q{m + 1}_{i + 1}" for i in range(self.n_legs)
+                                                        for m in range(nq))
+        return names
+
+    def _newton_key(self, poses: np.ndarray, p: dict) -> tuple:
+        """What a Newton solution depends on: the poses and every input (shape, dtype and
+        bytes) but the joint coordinates it produces itself. The memo keeps one solution,
+        so that a public call that reads the joints twice solves once."""
+        skip = self._joint_inputs()
+        return (poses.shape, poses.tobytes()) + tuple(
+            (k, np.shape(v), np.asarray(v).dtype.str, np.asarray(v).tobytes()) for k, v in sorted(p.items())
+            if k not in skip)
 
     def rigid_size(self) -> int:
         """Size of the rigid model's eigenproblem: the number of the platform's allowed
