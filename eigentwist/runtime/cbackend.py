@@ -148,10 +148,11 @@ def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
     scalar = [a.size == 1 for a in arrays]
     packed = np.array([a.reshape(-1)[0] if sc else 0.0 for a, sc in zip(arrays, scalar)], dtype=np.float64)
     keep.append(packed)
+    base = packed.ctypes.data
     addresses, strides = [], []
     for k, (arr, sc) in enumerate(zip(arrays, scalar)):
         if sc:
-            addresses.append(packed.ctypes.data + 8 * k)
+            addresses.append(base + 8 * k)
             strides.append(0)
         elif arr.ndim == 1 and arr.shape == lead and arr.strides[0] > 0 and arr.strides[0] % 8 == 0:
             keep.append(arr)
@@ -163,6 +164,42 @@ def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
             addresses.append(flat.ctypes.data)
             strides.append(1)
     return addresses, strides
+
+
+def _fixed(v) -> bool:
+    """Whether input ``v`` is a scalar that cannot change after the call (a Python or NumPy
+    number, or a 0-d float64 array that owns its data and is read-only, as the evaluator's
+    resolved parameters are): its packed value may be reused while the same object is passed."""
+    t = type(v)
+    if t is float or t is int or t is np.float64:
+        return True
+    return t is np.ndarray and v.ndim == 0 and v.dtype == np.float64 and v.base is None and not v.flags.writeable
+
+
+class _Packed:
+    """The scalar inputs of one call packed once, with the ctypes arrays of addresses and
+    strides: reused by a later call that passes the very same (immutable, :func:`_fixed`)
+    objects at the same positions, which then fills in only its per-pose arrays."""
+
+    __slots__ = ("size", "fixed", "ids", "refs", "packed", "addresses", "strides", "others")
+
+    def __init__(self, values: list):
+        self.size = len(values)
+        self.fixed = [i for i, v in enumerate(values) if _fixed(v)]
+        self.refs = tuple(values[i] for i in self.fixed)          # keeps the ids valid
+        self.ids = tuple(map(id, self.refs))
+        self.packed = np.array([float(v) for v in self.refs], dtype=np.float64)
+        base = self.packed.ctypes.data
+        addresses = [0] * self.size
+        for k, i in enumerate(self.fixed):
+            addresses[i] = base + 8 * k
+        self.addresses = _ptrs(addresses)
+        self.strides = _strides([0] * self.size)
+        fixed = set(self.fixed)
+        self.others = [i for i in range(self.size) if i not in fixed]
+
+    def matches(self, values: list) -> bool:
+        return len(values) == self.size and tuple(map(id, map(values.__getitem__, self.fixed))) == self.ids
 
 
 def _check_rc(rc: int, what: str) -> None:
@@ -201,6 +238,8 @@ class CKernels:
         self.N_LEGS, self.JOINTS_PER_LEG = self.OUTPUTS["inverse_kinematics"]["q"]
         self.BLOCK = int(signature["block"])
         self.FUSED_MATRICES = {o: tuple(s) for o, s in signature["fused"]["matrices"]}
+        self._fused_names = [name for _, name in signature["fused"]["inputs"]]
+        self._packed: _Packed | None = None
         if signature["fused"]["status"] != STATUS:
             raise RuntimeError(f"the C library of {self.ROBOT!r} has status codes {signature['fused']['status']}, "
                                f"expected {STATUS}: run `eigentwist generate`")
@@ -313,6 +352,25 @@ class CKernels:
             raise np.linalg.LinAlgError(f"pair {k}: M is not positive definite (or K, M are not finite)")
         return lam, V
 
+    def _pack(self, values: list) -> tuple:
+        """``(keep, addresses, strides, lead)`` of the fused pass's inputs (ctypes arrays):
+        the scalars of the previous call reused when the same immutable objects come again
+        (the evaluator's resolved parameters), only the per-pose arrays marshalled anew."""
+        packed = self._packed
+        if packed is None or not packed.matches(values):
+            packed = self._packed = _Packed(values)
+        others = [values[i] for i in packed.others]
+        shapes = {np.shape(v) for v in others}
+        lead = shapes.pop() if len(shapes) == 1 and len(next(iter(shapes))) <= 1 else self._lead(shapes or [()])
+        keep: list = [packed]
+        addresses = type(packed.addresses).from_buffer_copy(packed.addresses)
+        strides = type(packed.strides).from_buffer_copy(packed.strides)
+        if others:
+            a, st = _inputs(others, lead, keep)
+            for i, ai, si in zip(packed.others, a, st):
+                addresses[i], strides[i] = ai, si
+        return keep, addresses, strides, lead
+
     def fused(self, x, y, z, p: dict, *, matrices=("M", "K_F"), ik=(), jacobians=(), model=None,
               vectors: bool = False, status: bool = False, normalize: bool = False, out: dict | None = None,
               threads: int = 1) -> dict:
@@ -341,13 +399,9 @@ class CKernels:
         from .validity import LEVER_SCALE, LEVER_TOL
 
         spec = self.signature["fused"]
-        values = {}
-        for group, name in spec["inputs"]:
-            values[name] = {"x": x, "y": y, "z": z}[name] if group == "pose" else p[name]
-        lead = self._lead([np.shape(v) for v in values.values()])
-        n = int(np.prod(lead, dtype=np.int64))
-        keep: list = []
-        addresses, strides = _inputs(values.values(), lead, keep)
+        values = list(map({**p, "x": x, "y": y, "z": z}.__getitem__, self._fused_names))
+        keep, ins, ins_stride, lead = self._pack(values)
+        n = lead[0] if len(lead) == 1 else int(np.prod(lead, dtype=np.int64))
         result: dict = {}
         given = dict(out or {})
 
@@ -388,10 +442,10 @@ class CKernels:
             st_p = alloc("status", (), np.int8)
         if given:
             raise KeyError(f"out has arrays for {sorted(given)}, which this call does not compute")
-        names = [name for _, name in spec["inputs"]]
+        names = self._fused_names
         scale = names.index(LEVER_SCALE) if LEVER_SCALE in names else -1
         opts = (ctypes.c_double * 4)(LEVER_TOL, scale, ROUNDOFF_EPS, 1.0 if normalize else 0.0)
-        ins, ins_stride, fn = _ptrs(addresses), _strides(strides), self._fn["fused"]
+        fn = self._fn["fused"]
 
         def call(begin: int, end: int) -> int:
             return fn(begin, end, ins, ins_stride, model_id, ik_p, mat_p, jac_p, freq, vec, st_p, opts)

@@ -23,6 +23,8 @@ from .validity import LEVER_SCALE, LEVER_TOL, STATUS, lever_mask, raise_singular
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL"]
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
+_ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
+_NUMBERS = (float, int, np.float64, np.float32, np.int64, np.int32)
 CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
 MATRIX_CHUNK = 65536         # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
@@ -131,6 +133,8 @@ class Evaluator:
         self._checked_defaults: set = set()    # parameters whose default _params has checked
         self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
         self._effect = {e: robot.effect(e) for e in robot.effects}
+        self._params_memo: dict = {}           # (model, scalar values) -> resolved inputs (_params)
+        self._kinds: dict = {}                 # effects -> "rigid" / "flexible" (kind)
 
     def _resolve(self, model) -> tuple:
         """``resolve_model(model, self.robot)``, remembered per (hashable) model spec."""
@@ -187,12 +191,11 @@ class Evaluator:
         ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`)."""
         if not self._six:
             return {}
-        from .poses import rotation_matrix
+        from .poses import rotation_entries
 
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
-        R = rotation_matrix(poses[:, 3:6])
         out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
-        out.update({f"R_{i}{j}": R[:, i, j] for i in range(3) for j in range(3)})
+        out.update(zip(_ROTATION_NAMES, rotation_entries(poses[:, 3:6])))
         return out
 
     def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
@@ -334,7 +337,45 @@ class Evaluator:
         return arr
 
     def _params(self, n: int, params: dict, model) -> dict:
-        """The generated code's inputs: parameters, effect switches and each leg's copies."""
+        """The generated code's inputs: parameters, effect switches and each leg's copies.
+
+        Scalar values are resolved once per (model, values): a repeated call gets the same
+        read-only 0-d arrays (which the C pass packs once, :mod:`.cbackend`)."""
+        key = self._params_key(params, model)
+        if key is not None:
+            hit = self._params_memo.get(key)
+            if hit is not None:
+                return dict(hit)
+        out = self._resolve_params(n, params, model)
+        if key is not None:
+            frozen = {}
+            for k, v in out.items():
+                a = np.array(v, dtype=float)
+                a.flags.writeable = False
+                frozen[k] = a
+            if len(self._params_memo) >= 64:
+                self._params_memo.clear()
+            self._params_memo[key] = frozen
+            return dict(frozen)
+        return out
+
+    def _params_key(self, params: dict, model):
+        """A hashable key of (model, scalar values) for :meth:`_params`; None when a value is
+        an array (or anything but a plain number)."""
+        items = []
+        for k, v in params.items():
+            if v is condense.EXACT:
+                items.append((k, "exact"))
+            elif type(v) in _NUMBERS or (type(v) is np.ndarray and v.ndim == 0 and v.dtype.kind in "fiu"):
+                items.append((k, float(v)))
+            else:
+                return None
+        try:
+            return (model if isinstance(model, str) else tuple(self._resolve(model)), tuple(sorted(items)))
+        except TypeError:
+            return None
+
+    def _resolve_params(self, n: int, params: dict, model) -> dict:
         scoped = self._scoped(params)
         effects = self._resolve(model)
         on = {base_name(e) for e in effects}
@@ -396,7 +437,15 @@ class Evaluator:
     def kind(self, model) -> str:
         """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""
         effects = self._resolve(model)
-        return "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid"
+        try:
+            return self._kinds[effects]
+        except (KeyError, TypeError):
+            kind = "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid"
+        try:
+            self._kinds[effects] = kind
+        except TypeError:
+            pass
+        return kind
 
     # ---------------------------------------------------------------- kernels
     def _chunks(self, n: int):

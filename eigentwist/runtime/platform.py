@@ -15,7 +15,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..description.pose import FULL
-from .poses import rotation_matrix
+from .poses import rotation_entries
+
+_ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 
 __all__ = ["full_poses", "follow", "left_jacobian", "TOL_M", "MAX_STEPS"]
 
@@ -40,10 +42,9 @@ def left_jacobian(rotvec: np.ndarray) -> np.ndarray:
 
 
 def _kernel_inputs(full: np.ndarray, p: dict) -> dict:
-    R = rotation_matrix(full[:, 3:6])
     out = dict(p)
     out.update({"x": full[:, 0], "y": full[:, 1], "z": full[:, 2]})
-    out.update({f"R_{i}{j}": R[:, i, j] for i in range(3) for j in range(3)})
+    out.update(zip(_ROTATION_NAMES, rotation_entries(full[:, 3:6])))
     return out
 
 
