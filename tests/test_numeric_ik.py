@@ -293,3 +293,28 @@ def test_newton_memo_keys_every_input(numeric):
     p = {"q_rod": np.asarray(0.3)}
     first = ev.solve_joints(poses, p)
     assert ev.solve_joints(poses, {**p, "q1_1": np.zeros(3)}) is first
+
+
+@pytest.mark.parametrize("systems", [1, 63, 64, 300])
+def test_damped_step_solves_the_normal_equations(systems):
+    """Both ways of solving (LAPACK below SOA_MIN systems, entry by entry from it) give
+    the damped Gauss-Newton step, checked by its defining equation."""
+    from eigentwist.runtime.newton import SOA_MIN, normal_solve
+
+    assert SOA_MIN == 64
+    rng = np.random.default_rng(systems)
+    for rows, nq in ((3, 3), (6, 5)):
+        A = rng.normal(size=(systems, rows, nq))
+        r = rng.normal(size=(systems, rows))
+        lam = 10.0 ** rng.uniform(-6, 1, systems)
+        step = normal_solve(A, r, lam, 1e-12 * lam)
+        AtA = np.einsum("nri,nrj->nij", A, A)
+        H = AtA + np.einsum("n,nij->nij", lam, np.einsum("nii->ni", AtA)[:, :, None] * np.eye(nq) + 1e-12 * np.eye(nq))
+        assert np.abs(np.einsum("nij,nj->ni", H, step) + np.einsum("nri,nr->ni", A, r)).max() < 1e-11
+    # a system whose matrix is not finite gets a non-finite step (the caller rejects it);
+    # the others are untouched
+    bad = A.copy()
+    bad[0, 0, 0] = np.inf
+    again = normal_solve(bad, r, lam, 1e-12 * lam)
+    assert not np.isfinite(again[0]).all()
+    assert np.array_equal(again[1:], step[1:])
