@@ -757,7 +757,15 @@ class Evaluator:
         fixed = getattr(self.space, "basis", None)
         if fixed is not None:
             return np.broadcast_to(np.asarray(fixed, dtype=float), (len(poses), 6, len(fixed[0])))
-        rows = self.jacobians(poses, **params)["J_rows"]
+        if self._fused:                    # the C pass: IK, checks and J_rows at once
+            p = self._params(len(poses), params, "paper")
+            res = self._c_pass(poses, p, matrices=(), jacobians=("J_rows",))
+            bad = res["status"] != STATUS["ok"]
+            if bad.any():
+                self._raise_first(poses, p, bad)
+            rows = res["J_rows"]
+        else:
+            rows = self.jacobians(poses, **params)["J_rows"]
         picks = [(i, r) for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
         A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(poses), 0, 6))
         return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
