@@ -236,9 +236,7 @@ class Evaluator:
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
         parts = []
         for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
-            kp = {**(self._take(p, sl) if n > 1 else p), "x": poses[sl, 0], "y": poses[sl, 1], "z": poses[sl, 2]}
-            if self._six:
-                kp.update(self.kernel_pose_inputs(poses[sl]))
+            kp = self._newton_inputs(poses[sl], self._take(p, sl) if n > 1 else p)
 
             def branch(q, kp=kp):
                 with np.errstate(invalid="ignore", divide="ignore"):
@@ -250,6 +248,32 @@ class Evaluator:
         memo.clear()
         memo[key] = q
         return q
+
+    def _pose_inputs(self, poses: np.ndarray) -> dict:
+        """The pose as the kernels read it by name: x, y, z (m), and a 6-DoF robot's
+        rotation matrix entries (:meth:`kernel_pose_inputs`)."""
+        if self._six:
+            return self.kernel_pose_inputs(poses)
+        return {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+
+    def _newton_inputs(self, poses: np.ndarray, p: dict) -> dict:
+        """The ``loop_closure`` kernel's inputs at ``poses``: ``p`` and the pose by name."""
+        return {**p, **self._pose_inputs(poses)}
+
+    def joint_sensitivities(self, poses, wrt=None, **params) -> np.ndarray:
+        """d q / d p of legs solved numerically: (N, legs, n_q, len(wrt)), rad (m for a
+        prismatic joint) per SI unit of each parameter, by the implicit function theorem on
+        the loop closure ``r(q, p) = 0``: ``J_q dq/dp = -dr/dp`` (:mod:`.implicit`; J_q the
+        closure's exact Jacobian, dr/dp by central differences of the residual at fixed q).
+        ``wrt``: parameter names (default: every parameter; ``P@N`` one leg's own value)."""
+        from .implicit import joint_derivatives
+        from .sensitivity import check_wrt
+
+        if not self.numeric_ik:
+            raise InputError(f"joint_sensitivities of {self.robot.name}: its legs have a closed-form inverse "
+                             "kinematics (no loop closure is solved); differentiate joint_angles instead")
+        poses = self._poses(poses, params)
+        return joint_derivatives(self, poses, check_wrt(self, wrt), params)[1]
 
     def _joint_inputs(self) -> frozenset:
         """Names of the IK kernel's joint-coordinate inputs ``q<m>_<leg>`` (what
@@ -1005,7 +1029,9 @@ class Evaluator:
         code is generated on first use for each ``wrt`` and cached (see
         :mod:`eigentwist.runtime.sensitivity`); ``method="differences"`` derives nothing
         (central differences of the matrices, see :meth:`modes_and_sensitivities`); models
-        with ``gravity_preload`` raise.
+        with ``gravity_preload`` raise. Legs solved by Newton and rigid models on allowed
+        twists that turn with the pose are differentiated through their solved coordinates
+        (:mod:`eigentwist.runtime.implicit`).
         """
         return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method,
                                             **params)[1]
@@ -1018,26 +1044,42 @@ class Evaluator:
         cached on first use per ``wrt``); ``"differences"`` derives nothing: dM/dp and
         dK/dp by central differences of :meth:`matrices` (relative step 1e-5; the matrices
         are smooth in the parameters even where frequencies cross), then the same
-        eigenvalue perturbation (clusters included), ~1e-9 relative from the exact one."""
+        eigenvalue perturbation (clusters included), ~1e-9 relative from the exact one.
+
+        Where no sensitivity kernel can be generated, both methods differentiate through
+        the solved coordinates (:mod:`.implicit`): legs solved by Newton (URDF form) take
+        dq/dp from the implicit function theorem on their loop closure and the matrices'
+        central differences along that tangent (no Newton solve repeated); the rigid model
+        of a lower-mobility platform (allowed twists that turn with the pose) takes central
+        differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved."""
         from .sensitivity import (check_model, check_wrt, frequency_derivatives, kernel_wrt, own_legs,
                                   sensitivity_kernels, shared_columns)
 
         if method not in ("exact", "differences"):
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
-        if method == "exact" and self.numeric_ik:
-            raise InputError(f"sensitivities of {self.robot.name}: its legs are solved numerically (Newton), and the "
-                             "derivative of their joint coordinates with respect to the parameters is not derived yet; "
-                             "use central differences of frequencies()")
+        given = poses
         poses = self._poses(poses, params)
         effects = self._resolve(model)
         check_model(effects)
         wrt = check_wrt(self, wrt)
         rigid = self.kind(effects) == "rigid"
         if rigid and getattr(self.space, "basis", 0) is None:
-            raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
-                             "pose) are not available: use a flexible model")
+            from .implicit import reduced_derivatives
+            from .sensitivity import eigenvalue_derivatives
+
+            out = reduced_derivatives(self, given, wrt, effects, params)
+            lam, V = generalized_eigh(out["K"], out["M"])
+            omega = np.sqrt(np.clip(lam, 0.0, None))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
+            return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.axes("rigid"), "rigid"), dfdp
         solved, exact = self._route(effects, params)
-        if method == "differences":
+        if method == "exact" and self.numeric_ik:
+            from .implicit import numeric_matrix_derivatives
+
+            out = numeric_matrix_derivatives(self, poses, wrt, effects, solved)
+            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six)
+        elif method == "differences":
             out = self.matrix_derivatives(poses, wrt, effects, **solved)
             freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six)
         else:
