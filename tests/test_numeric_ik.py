@@ -182,6 +182,18 @@ def test_c_loop_closure_equals_numpy(numeric):
     for k in ("residual", "dresidual"):
         assert np.allclose(a[k], b[k], rtol=1e-12, atol=1e-14)
     assert np.abs(evc.joint_angles(poses) - ev.joint_angles(poses)).max() < 1e-12
+    # the Newton iterations in C (cnewton) and in NumPy around the same compiled closure
+    from eigentwist.runtime import cnewton
+
+    assert cnewton.driver() is not None
+    full, pc = evc._poses(poses), evc.parameter_values(30)
+    in_c = evc.solve_joints(full, pc)
+    evc.c_newton = False
+    evc._newton_memo.clear()                                              # solved again, in NumPy
+    in_numpy = evc.solve_joints(full, pc)
+    evc.c_newton = True
+    assert in_numpy is not in_c
+    assert np.isfinite(in_c).all() and np.abs(in_c - in_numpy).max() < 1e-12
     fa, fc = ev.frequencies(poses), evc.frequencies(poses)
     assert np.abs(fa - fc).max() / fa.max() < 1e-12
 

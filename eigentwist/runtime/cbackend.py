@@ -310,6 +310,35 @@ class CKernels:
             raise AttributeError("loop_closure")
         return self._q_kernel("loop_closure", q, p)
 
+    def newton(self, q, p: dict, iterations: int, tol: float):
+        """``(q, |r|)``: the damped Newton iterations of :mod:`.newton` on this library's
+        ``loop_closure`` kernel, run in C (:mod:`.cnewton`); ``q`` (n, legs, n_q) starting
+        coordinates, ``p`` the kernel's inputs ((n,) arrays or scalars). None where the C
+        driver cannot be built."""
+        from . import cnewton
+
+        if "loop_closure" not in self._spec or cnewton.driver() is None:
+            return None
+        spec = self._spec["loop_closure"]
+        n, legs, nq = np.shape(q)
+        keep: list = []
+        external = [name for group, name, _ in spec["inputs"] if group != "q"]
+        found = iter(zip(*_inputs((p[name] for name in external), (n,), keep))) if external else iter(())
+        addresses, strides, q_of = [], [], []
+        for group, name, joint in spec["inputs"]:
+            if group == "q":
+                addresses.append(0)
+                strides.append(0)
+                q_of.append(joint[0] * nq + joint[1])
+            else:
+                a, st = next(found)
+                addresses.append(a)
+                strides.append(st)
+                q_of.append(-1)
+        rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
+        return cnewton.iterate(ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value, q_of, addresses,
+                               strides, np.asarray(q, dtype=np.float64), rows, iterations, tol)
+
     def gravity(self, q, p: dict) -> dict:
         """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""
         return self._q_kernel("gravity", q, p)

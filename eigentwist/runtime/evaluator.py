@@ -133,6 +133,8 @@ class Evaluator:
         self._checked_defaults: set = set()    # parameters whose default _params has checked
         self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
         self._effect = {e: robot.effect(e) for e in robot.effects}
+        #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.cnewton`)
+        self.c_newton = True
         self._params_memo: dict = {}           # (model, scalar values) -> resolved inputs (_params)
         self._kinds: dict = {}                 # effects -> "rigid" / "flexible" (kind)
 
@@ -234,31 +236,45 @@ class Evaluator:
             return memo[key]
         n = len(poses)
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+        iterate = None
+        if self._fused and self.c_newton:
+            from . import cnewton
+
+            if cnewton.driver() is not None:
+                def iterate(q, pp, its, tl):
+                    return self._kernels.newton(q, pp, its, tl)
         parts = []
         for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
-            kp = self._newton_inputs(poses[sl], self._take(p, sl) if n > 1 else p)
+            kp = self.closure_inputs(poses[sl], self._take(p, sl) if n > 1 else p)
 
             def branch(q, kp=kp):
                 with np.errstate(invalid="ignore", divide="ignore"):
                     return self._kernels.jacobians(q, kp)["lever"]
 
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-                parts.append(solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch))
+                parts.append(solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch,
+                                   iterate=iterate))
         q = np.concatenate(parts)
         memo.clear()
         memo[key] = q
         return q
 
-    def _pose_inputs(self, poses: np.ndarray) -> dict:
+    @property
+    def kernels(self):
+        """The generated kernels of this backend: the NumPy module, or the C library's
+        :class:`~eigentwist.runtime.cbackend.CKernels` (same functions and outputs)."""
+        return self._kernels
+
+    def pose_inputs(self, poses: np.ndarray) -> dict:
         """The pose as the kernels read it by name: x, y, z (m), and a 6-DoF robot's
         rotation matrix entries (:meth:`kernel_pose_inputs`)."""
         if self._six:
             return self.kernel_pose_inputs(poses)
         return {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
 
-    def _newton_inputs(self, poses: np.ndarray, p: dict) -> dict:
+    def closure_inputs(self, poses: np.ndarray, p: dict) -> dict:
         """The ``loop_closure`` kernel's inputs at ``poses``: ``p`` and the pose by name."""
-        return {**p, **self._pose_inputs(poses)}
+        return {**p, **self.pose_inputs(poses)}
 
     def joint_sensitivities(self, poses, wrt=None, **params) -> np.ndarray:
         """d q / d p of legs solved numerically: (N, legs, n_q, len(wrt)), rad (m for a

@@ -62,21 +62,22 @@ def joint_derivatives(ev, poses: np.ndarray, wrt, params: dict) -> tuple[np.ndar
     completed ``poses`` and their derivatives (N, legs, n_q, len(wrt)) (rad, m for a
     prismatic joint, per SI unit of each parameter)."""
     n = len(poses)
-    p = ev._params(n, params, "paper")
-    ev._check_rows(poses, p, strict=True)                        # unreachable or singular: one line
+    p = ev.parameter_values(n, "paper", **params)
+    ev.joint_angles(poses, **params)                             # unreachable or singular: one line
     q = ev.solve_joints(poses, p)
+    closure = ev.kernels.loop_closure
 
     def inputs(pp: dict) -> dict:
-        return ev._newton_inputs(poses, pp)
+        return ev.closure_inputs(poses, pp)
 
-    A = ev._kernels.loop_closure(q, inputs(p))["dresidual"]      # (N, legs, rows, n_q)
+    A = closure(q, inputs(p))["dresidual"]                       # (N, legs, rows, n_q)
     r0 = None
     cols = []
     for name, value, h, central in difference_steps(ev, wrt, params):
         def residual(pp: dict):
-            return ev._kernels.loop_closure(q, inputs(ev._params(n, pp, "paper")))["residual"]
+            return closure(q, inputs(ev.parameter_values(n, "paper", **pp)))["residual"]
         if not central and r0 is None:
-            r0 = ev._kernels.loop_closure(q, inputs(p))["residual"]
+            r0 = closure(q, inputs(p))["residual"]
         cols.append(_difference(residual, name, value, h, central, params, r0))
     dr = np.stack(cols, axis=-1)                                 # (N, legs, rows, P)
     At = np.swapaxes(A, -1, -2)
@@ -93,7 +94,7 @@ def numeric_matrix_derivatives(ev, poses: np.ndarray, wrt, model, params: dict) 
     names = ("M", "K_R", "K_F")
 
     def matrices(qq: np.ndarray, pp: dict) -> dict:
-        out = ev._kernels.matrices(qq, {**ev._params(n, pp, model), **ev._pose_inputs(poses)})
+        out = ev.kernels.matrices(qq, {**ev.parameter_values(n, model, **pp), **ev.pose_inputs(poses)})
         return {k: out[k] for k in names}
 
     out = matrices(q, params)
@@ -116,12 +117,12 @@ def reduced_derivatives(ev, given, wrt, model, params: dict) -> dict:
     """``M, K`` (N, n, n) of the rigid model on the allowed twists and ``dM, dK``
     (N, P, n, n): central differences of the reduced pencil with the followers and the
     basis recomputed at each step (commanded ``given`` poses)."""
-    M, K = ev._stiffness(given, model, params)
+    M, K = ev.stiffness(given, model, **params)
     out = {"M": M, "K": K, "dM": np.empty((len(M), len(wrt)) + M.shape[1:]),
            "dK": np.empty((len(M), len(wrt)) + M.shape[1:])}
 
     def pencil(pp: dict) -> dict:
-        Mp, Kp = ev._stiffness(given, model, pp)
+        Mp, Kp = ev.stiffness(given, model, **pp)
         return {"M": Mp, "K": Kp}
 
     for j, (name, value, h, central) in enumerate(difference_steps(ev, wrt, params)):

@@ -166,7 +166,7 @@ def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
 
 
 def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
-          iterations: int = MAX_ITERATIONS, tol: float = TOL) -> np.ndarray:
+          iterations: int = MAX_ITERATIONS, tol: float = TOL, iterate=None) -> np.ndarray:
     """Joint coordinates (n, legs, n_q) closing every leg's loop at n poses; NaN where
     Newton does not converge (or lands on another assembly branch).
 
@@ -175,9 +175,14 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
     p : the kernel's inputs (parameters and the pose, (n,) arrays or scalars).
     branch : optional ``branch(q) -> (n, legs)`` signs of each leg's determinant; a
         solution whose sign differs from the reference configuration's is rejected.
+    iterate : optional ``iterate(q, p, iterations, tol) -> (q, |r|)`` that runs this
+        module's iterations on ``closure`` by other means (the C driver, :mod:`.cnewton`).
     """
+    if iterate is None:
+        def iterate(q, pp, its, tl):
+            return _iterate(closure, q, pp, its, tl)
     q0 = np.broadcast_to(reference, (n,) + reference.shape).copy()
-    q, norm = _iterate(closure, q0, p, iterations, tol)
+    q, norm = iterate(q0, p, iterations, tol)
     ok = norm < tol
     # warm start: a pose that fails from the reference starts from the previous pose's solution
     for _ in range(3):
@@ -187,7 +192,7 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
         prev = prev[ok[prev - 1].all(-1)] if prev.size else prev
         if prev.size == 0:
             break
-        qs, ns = _iterate(closure, q[prev - 1].copy(), _take(p, prev, n), iterations, tol)
+        qs, ns = iterate(q[prev - 1].copy(), _take(p, prev, n), iterations, tol)
         q[prev], norm[prev] = qs, ns
         ok = norm < tol
     if branch is not None and ok.any():
