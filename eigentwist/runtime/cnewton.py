@@ -31,78 +31,130 @@ SOURCE = r"""
 typedef int (*et_kernel)(int64_t, const double *const *, const int64_t *, double *const *);
 
 #define B 64
+#define FOR_I for (int i = 0; i < B; ++i)
 
-/* x = -(A^T A + diag(scale * diag(A^T A) + shift))^-1 A^T r for one (rows x nq) A (row
-   major) and r; returns 0 when the matrix is not finite (x = -A^T r, as numpy's H = I),
-   1 when solved (NaN entries when it is not positive definite). */
-static int et_step(int rows, int nq, const double *A, const double *r, double scale, double shift, double *x)
+/* Per leg, for all B poses of a block at once (the pose index innermost: vector code):
+   x = -(A^T A + diag(scale * (diag(A^T A) + shift)))^-1 A^T r by Cholesky (no scale:
+   diag(shift)), where A
+   (rows x nq) and r are the leg's rows of the structure-of-arrays buffers As, rs; a pose
+   whose matrix is not finite takes x = -A^T r (numpy's H = I); one that is not positive
+   definite gets NaN. w: workspace of (nq * nq + 3 * nq) * B doubles. */
+static void et_steps(int rows, int nq, const double *As, const double *rs, const double *scale, double shift,
+                     double *x, double *w)
 {
-    double H[64], L[64], g[8], y[8];
-    int finite = 1;
-    for (int i = 0; i < nq; ++i) {
-        for (int j = 0; j <= i; ++j) {
-            double s = A[i] * A[j];
-            for (int k = 1; k < rows; ++k)
-                s += A[k * nq + i] * A[k * nq + j];
-            H[i * nq + j] = s;
+    double *H = w, *g = H + nq * nq * B, *y = g + nq * B, *inv = y + nq * B;
+    int fin[B];
+    FOR_I fin[i] = 1;
+    for (int a = 0; a < nq; ++a) {
+        for (int b = 0; b <= a; ++b) {
+            double *h = H + (a * nq + b) * B;
+            const double *pa = As + a * B, *pb = As + b * B;
+            FOR_I h[i] = pa[i] * pb[i];
+            for (int k = 1; k < rows; ++k) {
+                pa = As + (k * nq + a) * B;
+                pb = As + (k * nq + b) * B;
+                FOR_I h[i] += pa[i] * pb[i];
+            }
         }
-        double s = A[i] * r[0];
-        for (int k = 1; k < rows; ++k)
-            s += A[k * nq + i] * r[k];
-        g[i] = s;
+        double *gg = g + a * B;
+        const double *pa = As + a * B;
+        FOR_I gg[i] = pa[i] * rs[i];
+        for (int k = 1; k < rows; ++k) {
+            pa = As + (k * nq + a) * B;
+            const double *pr = rs + k * B;
+            FOR_I gg[i] += pa[i] * pr[i];
+        }
     }
-    for (int i = 0; i < nq; ++i) {
-        H[i * nq + i] = H[i * nq + i] + (scale * H[i * nq + i] + shift);
-        for (int j = 0; j <= i; ++j)
-            finite &= isfinite(H[i * nq + j]) ? 1 : 0;
+    for (int a = 0; a < nq; ++a) {
+        double *h = H + (a * nq + a) * B;
+        if (scale)
+            FOR_I h[i] = h[i] + (scale[i] * h[i] + shift * scale[i]);
+        else
+            FOR_I h[i] = h[i] + shift;
+        for (int b = 0; b <= a; ++b) {
+            const double *hb = H + (a * nq + b) * B;
+            FOR_I fin[i] &= isfinite(hb[i]) ? 1 : 0;
+        }
     }
-    if (!finite) {
-        for (int i = 0; i < nq; ++i)
-            x[i] = -g[i];
-        return 0;
-    }
-    double inv_d[8];
+    /* Cholesky in place: H's lower triangle becomes L */
     for (int j = 0; j < nq; ++j) {
-        double s = H[j * nq + j];
-        for (int k = 0; k < j; ++k)
-            s = s - L[j * nq + k] * L[j * nq + k];
-        L[j * nq + j] = sqrt(s);
-        const double inv = 1.0 / L[j * nq + j];
-        inv_d[j] = inv;
-        for (int i = j + 1; i < nq; ++i) {
-            double t = H[i * nq + j];
-            for (int k = 0; k < j; ++k)
-                t = t - L[i * nq + k] * L[j * nq + k];
-            L[i * nq + j] = t * inv;
+        double *d = H + (j * nq + j) * B, *iv = inv + j * B;
+        for (int k = 0; k < j; ++k) {
+            const double *l = H + (j * nq + k) * B;
+            FOR_I d[i] = d[i] - l[i] * l[i];
+        }
+        FOR_I d[i] = sqrt(d[i]);
+        FOR_I iv[i] = 1.0 / d[i];
+        for (int a = j + 1; a < nq; ++a) {
+            double *t = H + (a * nq + j) * B;
+            for (int k = 0; k < j; ++k) {
+                const double *la = H + (a * nq + k) * B, *lj = H + (j * nq + k) * B;
+                FOR_I t[i] = t[i] - la[i] * lj[i];
+            }
+            FOR_I t[i] = t[i] * iv[i];
         }
     }
-    for (int i = 0; i < nq; ++i) {
-        double s = g[i];
-        for (int k = 0; k < i; ++k)
-            s = s - L[i * nq + k] * y[k];
-        y[i] = s * inv_d[i];
+    for (int a = 0; a < nq; ++a) {
+        double *ya = y + a * B;
+        const double *ga = g + a * B, *iv = inv + a * B;
+        FOR_I ya[i] = ga[i];
+        for (int k = 0; k < a; ++k) {
+            const double *l = H + (a * nq + k) * B, *yk = y + k * B;
+            FOR_I ya[i] = ya[i] - l[i] * yk[i];
+        }
+        FOR_I ya[i] = ya[i] * iv[i];
     }
-    for (int i = nq - 1; i >= 0; --i) {
-        double s = y[i];
-        for (int k = i + 1; k < nq; ++k)
-            s = s - L[k * nq + i] * x[k];
-        x[i] = s * inv_d[i];
+    for (int a = nq - 1; a >= 0; --a) {
+        double *xa = x + a * B;
+        const double *iv = inv + a * B;
+        FOR_I xa[i] = y[a * B + i];
+        for (int k = a + 1; k < nq; ++k) {
+            const double *l = H + (k * nq + a) * B, *xk = x + k * B;
+            FOR_I xa[i] = xa[i] - l[i] * xk[i];
+        }
+        FOR_I xa[i] = xa[i] * iv[i];
     }
-    for (int i = 0; i < nq; ++i)
-        x[i] = -x[i];
-    return 1;
+    for (int a = 0; a < nq; ++a) {
+        double *xa = x + a * B;
+        const double *ga = g + a * B;
+        FOR_I xa[i] = fin[i] ? -xa[i] : -ga[i];
+    }
 }
 
-static double et_norm(int rows, const double *r)
+/* AoS kernel outputs (pose, leg, rows[, nq]) of m poses -> SoA (leg, rows[, nq], B) */
+static void et_soa(int m, int legs, int rows, int nq, const double *r, const double *A, double *rs, double *As)
 {
-    double s = 0.0;
-    for (int k = 0; k < rows; ++k)
-        s += r[k] * r[k];
-    return sqrt(s);
+    const int lr = legs * rows;
+    for (int e = 0; e < lr; ++e)
+        for (int i = 0; i < m; ++i)
+            rs[e * B + i] = r[(int64_t)i * lr + e];
+    for (int e = 0; e < lr * nq; ++e)
+        for (int i = 0; i < m; ++i)
+            As[e * B + i] = A[(int64_t)i * lr * nq + e];
+    for (int i = m; i < B; ++i) {             /* padding lanes: copies of the last pose */
+        for (int e = 0; e < lr; ++e)
+            rs[e * B + i] = rs[e * B + m - 1];
+        for (int e = 0; e < lr * nq; ++e)
+            As[e * B + i] = As[e * B + m - 1];
+    }
 }
 
-/* Point the closure's inputs at block b0 (m poses): joint coordinates from the SoA buffer
-   qs ((legs * nq) rows of B), the others from the caller's arrays. */
+static void et_norms(int legs, int rows, const double *rs, double *nrm)
+{
+    for (int l = 0; l < legs; ++l) {
+        double *o = nrm + l * B;
+        const double *r0 = rs + (l * rows) * B;
+        FOR_I o[i] = r0[i] * r0[i];
+        for (int k = 1; k < rows; ++k) {
+            const double *rk = rs + (l * rows + k) * B;
+            FOR_I o[i] += rk[i] * rk[i];
+        }
+        FOR_I o[i] = sqrt(o[i]);
+    }
+}
+
+/* Point the closure's inputs at block b0: joint coordinates from the SoA buffer qs
+   ((legs * nq) rows of B), the others from the caller's arrays. */
 static void et_point(int n_in, const int *q_of, const double *const *in, const int64_t *stride, int64_t b0,
                      const double *qs, const double **ptr, int64_t *st)
 {
@@ -122,126 +174,127 @@ int et_newton_lm(int64_t n, void *closure_address, int n_in, const double *const
                  double tol, double lambda0, double max_step)
 {
     et_kernel closure = (et_kernel)closure_address;
-    if (nq > 8 || rows > 64 || nq * rows > 512)
+    if (nq < 1 || nq > 8 || rows < 1)
         return -1;
     const int lq = legs * nq, lr = legs * rows;
-    double *qs = malloc(sizeof(double) * (size_t)(2 * lq * B));
-    double *res = malloc(sizeof(double) * (size_t)(2 * B * lr * (1 + nq)));
-    double *lam = malloc(sizeof(double) * (size_t)(2 * B * legs));
+    const size_t soa = (size_t)B * (size_t)(lr * (1 + nq));
+    double *buf = malloc(sizeof(double) * (2 * (size_t)lq * B + 4 * soa + 3 * (size_t)legs * B
+                                           + (size_t)(nq * nq + 4 * nq) * B));
     const double **ptr = malloc(sizeof(double *) * (size_t)(n_in > 0 ? n_in : 1));
     int64_t *st = malloc(sizeof(int64_t) * (size_t)(n_in > 0 ? n_in : 1));
-    char *act = malloc((size_t)(B * legs));
-    if (!qs || !res || !lam || !ptr || !st || !act) {
-        free(qs); free(res); free(lam); free(ptr); free(st); free(act);
+    int *act = malloc(sizeof(int) * (size_t)legs * B);
+    if (!buf || !ptr || !st || !act) {
+        free(buf); free(ptr); free(st); free(act);
         return -2;
     }
-    double *qt = qs + lq * B;                       /* trial coordinates */
-    double *r = res, *A = r + B * lr;               /* current residual and Jacobian (AoS per pose) */
-    double *rt = A + B * lr * nq, *At = rt + B * lr; /* at the trial */
-    double *nrm = lam + B * legs;
-    double *outs[2];
+    double *qs = buf, *qt = qs + lq * B;          /* coordinates and trial coordinates (SoA) */
+    double *r = qt + lq * B, *A = r + B * lr;     /* kernel outputs (AoS) */
+    double *rs = r + soa, *As = rs + B * lr;      /* current residual and Jacobian (SoA) */
+    double *rts = rs + soa, *Ats = rts + B * lr;  /* at the trial (SoA) */
+    double *lam = rts + soa, *nrm = lam + legs * B, *nn = nrm + legs * B;
+    double *x = nn + legs * B, *w = x + nq * B;
+    double *outs[2] = {r, A};
     int rc = 0;
     for (int64_t b0 = 0; b0 < n && rc == 0; b0 += B) {
         const int m = n - b0 < B ? (int)(n - b0) : B;
-        for (int i = 0; i < m; ++i)
-            for (int c = 0; c < lq; ++c)
-                qs[c * B + i] = q[(b0 + i) * lq + c];
+        for (int c = 0; c < lq; ++c)
+            for (int i = 0; i < B; ++i)
+                qs[c * B + i] = q[(b0 + (i < m ? i : m - 1)) * lq + c];
         et_point(n_in, q_of, in, stride, b0, qs, ptr, st);
-        outs[0] = r; outs[1] = A;
         if ((rc = closure(m, ptr, st, outs)) != 0)
             break;
-        for (int i = 0; i < m * legs; ++i) {
-            nrm[i] = et_norm(rows, r + (int64_t)i * rows);
-            lam[i] = lambda0;
-        }
-        for (int it = 0; it < iterations; ++it) {
+        et_soa(m, legs, rows, nq, r, A, rs, As);
+        et_norms(legs, rows, rs, nrm);
+        for (int e = 0; e < legs * B; ++e)
+            lam[e] = lambda0;
+        for (int pass = 0; pass <= iterations; ++pass) {
+            const int polish = pass == iterations;     /* the last pass: one undamped step */
             int any = 0;
-            for (int i = 0; i < m; ++i) {
-                for (int l = 0; l < legs; ++l) {
-                    const int e = i * legs + l;
-                    act[e] = !(nrm[e] < tol) && isfinite(nrm[e]);
-                    double step[8];
-                    if (act[e]) {
-                        any = 1;
-                        et_step(rows, nq, A + (int64_t)e * rows * nq, r + (int64_t)e * rows, lam[e], 1e-12 * lam[e],
-                                step);
-                        double big = 0.0;             /* a NaN entry makes the trial NaN: rejected */
-                        for (int j = 0; j < nq; ++j)
-                            big = fabs(step[j]) > big ? fabs(step[j]) : big;
-                        if (big > max_step)
-                            for (int j = 0; j < nq; ++j)
-                                step[j] = step[j] * (max_step / big);
+            for (int l = 0; l < legs; ++l) {
+                int *a = act + l * B;
+                const double *nl = nrm + l * B;
+                if (polish)
+                    FOR_I a[i] = nl[i] < tol;
+                else
+                    FOR_I a[i] = !(nl[i] < tol) && isfinite(nl[i]);
+                for (int i = 0; i < m; ++i)
+                    any |= a[i];
+            }
+            if (!any) {
+                if (!polish) {                           /* converged: go straight to the polish */
+                    pass = iterations - 1;
+                    continue;
+                }
+                break;
+            }
+            for (int l = 0; l < legs; ++l) {
+                const int *a = act + l * B;
+                et_steps(rows, nq, As + (l * rows * nq) * B, rs + (l * rows) * B, polish ? 0 : lam + l * B,
+                         polish ? 1e-300 : 1e-12, x, w);
+                if (!polish) {
+                    double *big = w;
+                    FOR_I big[i] = 0.0;
+                    for (int j = 0; j < nq; ++j) {
+                        const double *xj = x + j * B;
+                        FOR_I big[i] = fabs(xj[i]) > big[i] ? fabs(xj[i]) : big[i];
                     }
-                    for (int j = 0; j < nq; ++j)
-                        qt[(l * nq + j) * B + i] = qs[(l * nq + j) * B + i] + (act[e] ? step[j] : 0.0);
+                    for (int j = 0; j < nq; ++j) {
+                        double *xj = x + j * B;
+                        FOR_I xj[i] = big[i] > max_step ? xj[i] * (max_step / big[i]) : xj[i];
+                    }
+                }
+                for (int j = 0; j < nq; ++j) {
+                    const double *xj = x + j * B, *qj = qs + (l * nq + j) * B;
+                    double *tj = qt + (l * nq + j) * B;
+                    FOR_I tj[i] = qj[i] + (a[i] ? xj[i] : 0.0);
                 }
             }
-            if (!any)
-                break;
             et_point(n_in, q_of, in, stride, b0, qt, ptr, st);
-            outs[0] = rt; outs[1] = At;
             if ((rc = closure(m, ptr, st, outs)) != 0)
                 break;
-            for (int i = 0; i < m; ++i) {
-                for (int l = 0; l < legs; ++l) {
-                    const int e = i * legs + l;
-                    const double nn = et_norm(rows, rt + (int64_t)e * rows);
-                    const int better = act[e] && nn < nrm[e];
-                    if (better) {
-                        for (int j = 0; j < nq; ++j)
-                            qs[(l * nq + j) * B + i] = qt[(l * nq + j) * B + i];
-                        memcpy(r + (int64_t)e * rows, rt + (int64_t)e * rows, sizeof(double) * (size_t)rows);
-                        memcpy(A + (int64_t)e * rows * nq, At + (int64_t)e * rows * nq,
-                               sizeof(double) * (size_t)(rows * nq));
-                        nrm[e] = nn;
-                        lam[e] = lam[e] / 4 > 1e-12 ? lam[e] / 4 : 1e-12;
-                    } else if (act[e]) {
-                        lam[e] = lam[e] * 4 < 1e12 ? lam[e] * 4 : 1e12;
-                    }
+            et_soa(m, legs, rows, nq, r, A, rts, Ats);
+            et_norms(legs, rows, rts, nn);
+            for (int l = 0; l < legs; ++l) {
+                const int *a = act + l * B;
+                double *nl = nrm + l * B, *ll = lam + l * B;
+                const double *nnl = nn + l * B;
+                int better[B];
+                if (polish)
+                    FOR_I better[i] = a[i] && nnl[i] <= nl[i];
+                else
+                    FOR_I better[i] = a[i] && nnl[i] < nl[i];
+                for (int j = 0; j < nq; ++j) {
+                    double *qj = qs + (l * nq + j) * B;
+                    const double *tj = qt + (l * nq + j) * B;
+                    FOR_I qj[i] = better[i] ? tj[i] : qj[i];
                 }
+                if (!polish) {
+                    for (int k = 0; k < rows; ++k) {
+                        double *rk = rs + (l * rows + k) * B;
+                        const double *tk = rts + (l * rows + k) * B;
+                        FOR_I rk[i] = better[i] ? tk[i] : rk[i];
+                    }
+                    for (int k = 0; k < rows * nq; ++k) {
+                        double *ak = As + (l * rows * nq + k) * B;
+                        const double *tk = Ats + (l * rows * nq + k) * B;
+                        FOR_I ak[i] = better[i] ? tk[i] : ak[i];
+                    }
+                    FOR_I ll[i] = better[i] ? (ll[i] / 4 > 1e-12 ? ll[i] / 4 : 1e-12)
+                                            : (a[i] ? (ll[i] * 4 < 1e12 ? ll[i] * 4 : 1e12) : ll[i]);
+                }
+                FOR_I nl[i] = better[i] ? nnl[i] : nl[i];
             }
         }
         if (rc != 0)
             break;
-        /* one undamped Gauss-Newton step polishes a converged configuration */
-        int any = 0;
-        for (int i = 0; i < m; ++i) {
-            for (int l = 0; l < legs; ++l) {
-                const int e = i * legs + l;
-                double step[8];
-                act[e] = nrm[e] < tol;
-                if (act[e]) {
-                    any = 1;
-                    et_step(rows, nq, A + (int64_t)e * rows * nq, r + (int64_t)e * rows, 0.0, 1e-300, step);
-                }
-                for (int j = 0; j < nq; ++j)
-                    qt[(l * nq + j) * B + i] = qs[(l * nq + j) * B + i] + (act[e] ? step[j] : 0.0);
-            }
-        }
-        if (any) {
-            et_point(n_in, q_of, in, stride, b0, qt, ptr, st);
-            outs[0] = rt; outs[1] = At;
-            if ((rc = closure(m, ptr, st, outs)) != 0)
-                break;
-            for (int i = 0; i < m; ++i)
-                for (int l = 0; l < legs; ++l) {
-                    const int e = i * legs + l;
-                    const double nn = et_norm(rows, rt + (int64_t)e * rows);
-                    if (act[e] && nn <= nrm[e]) {
-                        for (int j = 0; j < nq; ++j)
-                            qs[(l * nq + j) * B + i] = qt[(l * nq + j) * B + i];
-                        nrm[e] = nn;
-                    }
-                }
-        }
         for (int i = 0; i < m; ++i) {
             for (int c = 0; c < lq; ++c)
                 q[(b0 + i) * lq + c] = qs[c * B + i];
             for (int l = 0; l < legs; ++l)
-                norm[(b0 + i) * legs + l] = nrm[i * legs + l];
+                norm[(b0 + i) * legs + l] = nrm[l * B + i];
         }
     }
-    free(qs); free(res); free(lam); free(ptr); free(st); free(act);
+    free(buf); free(ptr); free(st); free(act);
     return rc;
 }
 """
