@@ -193,6 +193,16 @@ def test_c_loop_closure_equals_numpy(numeric):
     in_numpy = evc.solve_joints(full, pc)
     evc.c_newton = True
     assert in_numpy is not in_c
+    # ranges of blocks on two threads (from 2 x 16 blocks of 64 poses): the same iterations, bit for bit
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD, threads_for
+
+    n = 2 * MIN_BLOCKS_PER_THREAD * 64
+    assert threads_for(n, 64, 2) == 2
+    many = random_poses(ev.robot, n, seed=4)
+    kp = evc.closure_inputs(many, evc.parameter_values(n))
+    start = np.broadcast_to([leg.kinematics.reference for leg in evc.robot.legs], (n, 6, 3))
+    one, two = evc.kernels.newton(start, kp, 80, 1e-12), evc.kernels.newton(start, kp, 80, 1e-12, threads=2)
+    assert np.array_equal(one[0], two[0], equal_nan=True) and np.array_equal(one[1], two[1], equal_nan=True)
     assert np.isfinite(in_c).all() and np.abs(in_c - in_numpy).max() < 1e-12
     fa, fc = ev.frequencies(poses), evc.frequencies(poses)
     assert np.abs(fa - fc).max() / fa.max() < 1e-12

@@ -310,11 +310,12 @@ class CKernels:
             raise AttributeError("loop_closure")
         return self._q_kernel("loop_closure", q, p)
 
-    def newton(self, q, p: dict, iterations: int, tol: float):
+    def newton(self, q, p: dict, iterations: int, tol: float, threads: int = 1):
         """``(q, |r|)``: the damped Newton iterations of :mod:`.newton` on this library's
         ``loop_closure`` kernel, run in C (:mod:`.cnewton`); ``q`` (n, legs, n_q) starting
-        coordinates, ``p`` the kernel's inputs ((n,) arrays or scalars). None where the C
-        driver cannot be built."""
+        coordinates, ``p`` the kernel's inputs ((n,) arrays or scalars); ``threads`` > 1
+        runs ranges of whole blocks on threads (same results). None where the C driver
+        cannot be built."""
         from . import cnewton
 
         if "loop_closure" not in self._spec or cnewton.driver() is None:
@@ -337,7 +338,7 @@ class CKernels:
                 q_of.append(-1)
         rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
         return cnewton.iterate(ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value, q_of, addresses,
-                               strides, np.asarray(q, dtype=np.float64), rows, iterations, tol)
+                               strides, np.asarray(q, dtype=np.float64), rows, iterations, tol, threads)
 
     def gravity(self, q, p: dict) -> dict:
         """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""

@@ -299,6 +299,7 @@ int et_newton_lm(int64_t n, void *closure_address, int n_in, const double *const
 }
 """
 
+BLOCK = 64                  # poses per block (B in the source)
 _DRIVER: list = []          # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []       # the loaded driver library, kept for the process
 
@@ -334,19 +335,29 @@ def driver():
 
 
 def iterate(closure_address: int, n_q_inputs: list, addresses: list, strides: list, q: np.ndarray,
-            rows: int, iterations: int, tol: float):
+            rows: int, iterations: int, tol: float, threads: int = 1):
     """Run the driver: ``(q, |r|)`` from ``q`` (n, legs, n_q) for the closure kernel at
     ``closure_address``; ``n_q_inputs[k]`` is ``leg * n_q + coordinate`` for the kernel's
     joint-coordinate inputs and -1 for the others, read at ``addresses[k]`` with
-    ``strides[k]`` (doubles). Raises RuntimeError when the driver fails."""
+    ``strides[k]`` (doubles). ``threads`` > 1 runs ranges of whole blocks on that many
+    threads (each pose's iterations are its own: the results do not depend on it).
+    Raises RuntimeError when the driver fails."""
+    from .threads import run_ranges, threads_for
+
     n, legs, nq = q.shape
     qq = np.array(q, dtype=np.float64, order="C")
     norm = np.empty((n, legs))
     size = max(len(addresses), 1)
-    rc = driver()(n, closure_address, len(addresses), (ctypes.c_void_p * size)(*addresses),
-                  (ctypes.c_int64 * size)(*strides),
-                  (ctypes.c_int * max(len(n_q_inputs), 1))(*n_q_inputs), legs, rows, nq, qq.ctypes.data,
-                  norm.ctypes.data, int(iterations), float(tol), LAMBDA0, MAX_STEP)
-    if rc != 0:
-        raise RuntimeError(f"C Newton iterations returned {rc}")
+    q_of = (ctypes.c_int * max(len(n_q_inputs), 1))(*n_q_inputs)
+    fn = driver()
+
+    def call(a: int, b: int) -> int:
+        moved = [x + 8 * a * st for x, st in zip(addresses, strides)]
+        return fn(b - a, closure_address, len(addresses), (ctypes.c_void_p * size)(*moved),
+                  (ctypes.c_int64 * size)(*strides), q_of, legs, rows, nq, qq.ctypes.data + 8 * a * legs * nq,
+                  norm.ctypes.data + 8 * a * legs, int(iterations), float(tol), LAMBDA0, MAX_STEP)
+
+    for rc in run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C Newton iterations returned {rc}")
     return qq, norm

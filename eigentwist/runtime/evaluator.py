@@ -242,7 +242,7 @@ class Evaluator:
 
             if cnewton.driver() is not None:
                 def iterate(q, pp, its, tl):
-                    return self._kernels.newton(q, pp, its, tl)
+                    return self._kernels.newton(q, pp, its, tl, threads=self._nthreads())
         parts = []
         for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
             kp = self.closure_inputs(poses[sl], self._take(p, sl) if n > 1 else p)
