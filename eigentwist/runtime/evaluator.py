@@ -772,12 +772,22 @@ class Evaluator:
         ``M`` of the NumPy path (for :meth:`_exact_modes`)."""
         poses_arr = self._poses(poses, params)
         effects = self._resolve(model)
+        rigid = self.kind(effects) == "rigid"
+        if (rigid and self._fused and stash is None and getattr(self.space, "basis", 0) is None
+                and not self._preloaded(effects)):
+            # allowed twists that turn with the pose: M, K_R and J_rows from one C pass
+            p = self._params(len(poses_arr), params, effects)
+            res = self._c_pass(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
+            bad = res["status"] != STATUS["ok"]
+            if bad.any():
+                self._raise_first(poses_arr, p, bad)
+            B = self._basis(res["J_rows"])
+            return reduce(res["M"], B), reduce(res["K_R"], B)
         if stash is not None and not self._fused:
             mats, stash["q"] = self._matrices_q(poses_arr, self._params(len(poses_arr), params, effects))
             stash["M"] = mats["M"]
         else:
             mats = self.matrices(poses_arr, effects, **params)
-        rigid = self.kind(effects) == "rigid"
         B = self.allowed_twists(poses_arr, **params) if rigid else None
         M = reduce(mats["M"], B) if rigid else mats["M"]
         K = reduce(mats["K_R"], B) if rigid else mats["K_F"]
@@ -806,8 +816,13 @@ class Evaluator:
             rows = res["J_rows"]
         else:
             rows = self.jacobians(poses, **params)["J_rows"]
+        return self._basis(rows)
+
+    def _basis(self, rows: np.ndarray) -> np.ndarray:
+        """The allowed twists (N, 6, n) from the legs' inverse-Jacobian rows (N, legs, r, 6):
+        the null space of their virtual joints' rows (:func:`.allowed.allowed_twists`)."""
         picks = [(i, r) for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
-        A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(poses), 0, 6))
+        A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(rows), 0, 6))
         return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
 
     def _preloaded(self, effects) -> bool:
