@@ -23,7 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
-from .validity import STATUS
+from . import eigen, validity
+from .threads import run_ranges, threads_for
+from .validity import LEVER_SCALE, STATUS
 
 __all__ = ["load_c_kernels", "CKernels", "CompilerNotFoundError", "CompileError", "find_compiler",
            "cache_dir", "build_library", "flag_sets", "source_path"]
@@ -240,6 +242,8 @@ class CKernels:
         self.FUSED_MATRICES = {o: tuple(s) for o, s in signature["fused"]["matrices"]}
         self._fused_names = [name for _, name in signature["fused"]["inputs"]]
         self._packed: _Packed | None = None
+        self._scale_index = self._fused_names.index(LEVER_SCALE) if LEVER_SCALE in self._fused_names else -1
+        self._opts: dict = {}                  # the fused pass's option arrays (read only by C)
         if signature["fused"]["status"] != STATUS:
             raise RuntimeError(f"the C library of {self.ROBOT!r} has status codes {signature['fused']['status']}, "
                                f"expected {STATUS}: run `eigentwist generate`")
@@ -358,8 +362,6 @@ class CKernels:
         (N, n, n) (None when ``vectors`` is False). Only the upper triangles are read.
         ``threads`` > 1 splits the batch on block boundaries (bit-identical results).
         """
-        from .threads import run_ranges, threads_for
-
         K = np.ascontiguousarray(K, dtype=np.float64)
         M = np.ascontiguousarray(M, dtype=np.float64)
         if K.shape != M.shape or K.ndim != 3 or K.shape[1] != K.shape[2] or K.shape[1] not in self.signature["eigh"]["dims"]:
@@ -424,10 +426,6 @@ class CKernels:
         of whole blocks on that many threads (bounded by :func:`threads_for`); the results
         are bit-identical to one thread.
         """
-        from .eigen import ROUNDOFF_EPS
-        from .threads import run_ranges, threads_for
-        from .validity import LEVER_SCALE, LEVER_TOL
-
         spec = self.signature["fused"]
         values = list(map({**p, "x": x, "y": y, "z": z}.__getitem__, self._fused_names))
         keep, ins, ins_stride, lead = self._pack(values)
@@ -472,9 +470,11 @@ class CKernels:
             st_p = alloc("status", (), np.int8)
         if given:
             raise KeyError(f"out has arrays for {sorted(given)}, which this call does not compute")
-        names = self._fused_names
-        scale = names.index(LEVER_SCALE) if LEVER_SCALE in names else -1
-        opts = (ctypes.c_double * 4)(LEVER_TOL, scale, ROUNDOFF_EPS, 1.0 if normalize else 0.0)
+        # lever tolerance, scale input, round-off, normalize (read when called: they may be set)
+        key = (validity.LEVER_TOL, eigen.ROUNDOFF_EPS, bool(normalize))
+        opts = self._opts.get(key)
+        if opts is None:
+            opts = self._opts[key] = (ctypes.c_double * 4)(key[0], self._scale_index, key[1], 1.0 if normalize else 0.0)
         fn = self._fn["fused"]
 
         def call(begin: int, end: int) -> int:

@@ -826,7 +826,16 @@ class Evaluator:
         return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
 
     def _preloaded(self, effects) -> bool:
-        return any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
+        key = ("preloaded", effects)
+        try:
+            return self._kinds[key]
+        except (KeyError, TypeError):
+            out = any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
+        try:
+            self._kinds[key] = out
+        except TypeError:
+            pass
+        return out
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
               unstable: str = "nan", joints=None, **params) -> Modes:
