@@ -620,9 +620,10 @@ class Evaluator:
         """The generated kernels' parameter input for ``n`` poses, validated.
 
         Every parameter of the robot (``params`` overriding the defaults, SI units) as an
-        array that broadcasts with the poses, plus the 0/1 switch of every effect.
+        array that broadcasts with the poses, plus the 0/1 switch of every effect (the
+        caller's own arrays: writing into them changes nothing here).
         """
-        return self._params(n, params, model)
+        return {k: np.array(v) for k, v in self._params(n, params, model).items()}
 
     def run_kernel(self, kernel: str, poses, model="paper", **params) -> dict:
         """Outputs of the generated kernel ``kernel`` (e.g. ``"gravity"``) for ``poses``.
