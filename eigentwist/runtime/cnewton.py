@@ -1,9 +1,9 @@
 """The damped Newton iterations of :mod:`.newton` in C, around a robot's compiled closure.
 
-:func:`iterate` (through :meth:`~eigentwist.runtime.cbackend.CKernels.newton`) runs :func:`eigentwist.runtime.newton._iterate`'s algorithm (the same
-Levenberg-Marquardt steps, acceptance rule, damping updates, bounded steps and final
-undamped polish, per (pose, leg)) in one C call per batch: blocks of 64 poses, each
-iterated to convergence with its joint coordinates kept in a structure-of-arrays buffer
+:func:`iterate` (through :meth:`~eigentwist.runtime.cbackend.CKernels.newton`) runs the
+algorithm of :func:`eigentwist.runtime.newton._iterate` (the same Levenberg-Marquardt
+steps, acceptance rule, damping updates, bounded steps and final undamped polish, per
+(pose, leg)) in one C call per batch: blocks of 64 poses, each iterated to convergence with its joint coordinates kept in a structure-of-arrays buffer
 that the generated ``loop_closure`` kernel of the robot's C library reads in place (the
 driver calls it through its address). The small normal equations are solved by
 Cholesky. No Python runs between iterations; the results equal the NumPy iterations' to
