@@ -3,11 +3,12 @@
 :func:`iterate` (through :meth:`~eigentwist.runtime.cbackend.CKernels.newton`) runs the
 algorithm of :func:`eigentwist.runtime.newton._iterate` (the same Levenberg-Marquardt
 steps, acceptance rule, damping updates, bounded steps and final undamped polish, per
-(pose, leg)) in one C call per batch: blocks of 64 poses, each iterated to convergence with its joint coordinates kept in a structure-of-arrays buffer
-that the generated ``loop_closure`` kernel of the robot's C library reads in place (the
-driver calls it through its address). The small normal equations are solved by
-Cholesky. No Python runs between iterations; the results equal the NumPy iterations' to
-round-off (``tests/test_numeric_ik.py``).
+(pose, leg)) in one C call per batch: blocks of 64 poses, each iterated to convergence
+with its joint coordinates kept in a structure-of-arrays buffer that the generated
+``loop_closure`` kernel of the robot's C library reads in place (the driver calls it
+through its address). The small normal equations are solved by Cholesky, vectorised
+across the block. No Python runs between iterations; the results equal the NumPy
+iterations' to round-off (``tests/test_numeric_ik.py``).
 
 The driver is plain C99, compiled once into the cache (:mod:`.ccompile`); where it cannot
 be built, :func:`driver` is None and the NumPy iterations run.
