@@ -244,7 +244,9 @@ class Evaluator:
                 def iterate(q, pp, its, tl):
                     return self._kernels.newton(q, pp, its, tl, threads=self._nthreads())
         parts = []
-        for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
+        # bounded memory: (chunk, legs, rows, n_q) Jacobians; the C iterations keep theirs per
+        # block, so their chunks are larger (enough blocks for every thread)
+        for sl in self._chunks(n, CHUNK if iterate is None else 4 * CHUNK):
             kp = self.closure_inputs(poses[sl], self._take(p, sl) if n > 1 else p)
 
             def branch(q, kp=kp):
@@ -488,9 +490,9 @@ class Evaluator:
         return kind
 
     # ---------------------------------------------------------------- kernels
-    def _chunks(self, n: int):
-        for start in range(0, n, CHUNK):
-            yield slice(start, min(n, start + CHUNK))
+    def _chunks(self, n: int, size: int = CHUNK):
+        for start in range(0, n, size):
+            yield slice(start, min(n, start + size))
 
     @staticmethod
     def _take(p: dict, sl: slice) -> dict:
