@@ -215,3 +215,23 @@ def test_unstable_model_in_c(ev_c, ev):
     assert (out["status"] == np.where(np.arange(200) % 3 == 0, STATUS["unstable"], STATUS["ok"])).all()
     assert_freq_close(out["freq_hz"], frequencies_hz(lam))
     assert np.isnan(out["freq_hz"][::3]).all()
+
+
+@compiled
+def test_packed_scalars_follow_the_values(ev_c):
+    """The C pass packs its scalar inputs once and reuses them only for the very same
+    read-only objects: a writeable 0-d array changed in place between calls is read anew."""
+    poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6]])
+    p = ev_c.inputs("paper")
+    p = {k: np.array(v) for k, v in p.items()}                 # writeable 0-d arrays
+    kw = dict(matrices=(), model="flexible", status=True)
+    f1 = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, **kw)["freq_hz"].copy()
+    p["k_a"][...] = 4.0 * p["k_a"]
+    f2 = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, **kw)["freq_hz"]
+    assert np.all(f2[:, 0] > f1[:, 0] * 1.05)
+    frozen = ev_c._params(2, {}, "paper")                       # read-only: packed once, reused
+    a = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], frozen, **kw)["freq_hz"]
+    b = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], ev_c._params(2, {}, "paper"), **kw)["freq_hz"]
+    fresh = {k: np.array(v) for k, v in frozen.items()}          # writeable copies: packed anew
+    c = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], fresh, **kw)["freq_hz"]
+    assert np.array_equal(a, b) and np.array_equal(a, c)

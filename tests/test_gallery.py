@@ -456,3 +456,44 @@ def test_point_platform_parallel_singularity_is_said(mechanisms):
     assert status["conditioning"][0] < 1e-6 < status["conditioning"][1]
     with pytest.raises(SingularPoseError, match="parallel singular"):
         ev.frequencies([[0.0, y]], "none")
+@pytest.mark.parametrize("name", ("rus6", "upu3", "prs3", "rrr3"))
+def test_sensitivities_equal_differences_of_the_frequencies(gallery, name):
+    """Legs solved by Newton (implicit function theorem) and rigid models on allowed twists
+    that turn with the pose: d f / d p equals central differences of frequencies() to 1e-6
+    of f / p (poses off the symmetric home, where no two frequencies coincide)."""
+    ev = gallery[name]
+    x = np.array(ev.robot.x_ref) + 0.02 * np.random.default_rng(7).standard_normal((2, len(ev.robot.x_ref)))
+    x = x[ev.valid(x, "none")]
+    wrt = [w for w in ("R_b", "R_p", "k_a") if w in ev.parameters]
+    modes, d = ev.modes_and_sensitivities(x, wrt, "none")
+    f0 = ev.frequencies(x, "none")
+    np.testing.assert_allclose(modes.freq_hz, f0, rtol=1e-9)
+    for j, w in enumerate(wrt):
+        v = ev.defaults[w]
+        h = 1e-4 * abs(v)
+        fd = (ev.frequencies(x, "none", **{w: v + h}) - ev.frequencies(x, "none", **{w: v - h})) / (2 * h)
+        assert np.abs(fd - d[..., j]).max() <= 1e-6 * f0.max() / abs(v), (w, fd, d[..., j])
+
+
+@pytest.mark.parametrize("name", ("rus6", "upu3"))
+def test_joint_sensitivities_equal_differences_of_the_ik(gallery, name):
+    """dq/dp by the implicit function theorem on the loop closure equals central differences
+    of the Newton-solved joint coordinates (step 1e-6 relative) to 1e-7."""
+    ev = gallery[name]
+    x = np.array(ev.robot.x_ref) + 0.02 * np.random.default_rng(8).standard_normal((3, len(ev.robot.x_ref)))
+    x = x[ev.valid(x, "none")]
+    wrt = [w for w in ("R_b", "R_p", "l_r", "l_c") if w in ev.parameters]
+    dq = ev.joint_sensitivities(x, wrt)
+    assert dq.shape == ev.joint_angles(x).shape + (len(wrt),)
+    for j, w in enumerate(wrt):
+        v = ev.defaults[w]
+        h = 1e-6 * abs(v)
+        fd = (ev.joint_angles(x, **{w: v + h}) - ev.joint_angles(x, **{w: v - h})) / (2 * h)
+        assert np.abs(fd - dq[..., j]).max() < 1e-7 * max(1.0, np.abs(fd).max())
+
+
+def test_joint_sensitivities_need_a_loop_closure():
+    from eigentwist.runtime.errors import InputError
+
+    with pytest.raises(InputError, match="closed-form inverse kinematics"):
+        eigentwist.load("delta", backend="numpy").joint_sensitivities([0.0, 0.0, -0.8], ["l1"])

@@ -65,3 +65,23 @@ def test_batch_outputs_are_finite(ev):
 
     f = ev.frequencies(random_poses(ev.robot, 200, seed=11), k_a=np.linspace(100, 5000, 200))
     assert f.shape == (200, 6) and np.isfinite(f).all()
+
+
+def test_resolved_inputs_are_remembered_but_not_shared():
+    """Scalar parameter values are resolved once per (model, values): a repeated call gets
+    the same read-only arrays (which the C pass packs once), a changed value new ones, and
+    parameter_values hands out the caller's own (writable) arrays."""
+    ev = eigentwist.load("heli4", backend="numpy")
+    a, b = ev._params(1, {"k_a": 2000.0}, "paper"), ev._params(1, {"k_a": 2000.0}, "paper")
+    assert a is not b and a["k_a"] is b["k_a"] and not a["k_a"].flags.writeable
+    c = ev._params(1, {"k_a": 2500.0}, "paper")
+    assert float(c["k_a"]) == 2500.0 and float(a["k_a"]) == 2000.0
+    mine = ev.parameter_values(1, k_a=2000.0)
+    mine["k_a"][...] = 1.0
+    assert float(ev._params(1, {"k_a": 2000.0}, "paper")["k_a"]) == 2000.0
+    # an array value is resolved every time (never remembered): the caller may change it in place
+    arr = np.array([2000.0, 2100.0])
+    first = ev._params(2, {"k_a": arr}, "paper")["k_a"].copy()
+    arr[0] = 2200.0
+    assert ev._params_key({"k_a": arr}, "paper") is None
+    assert ev._params(2, {"k_a": arr}, "paper")["k_a"][0] == 2200.0 and first[0] == 2000.0

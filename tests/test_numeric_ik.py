@@ -182,6 +182,28 @@ def test_c_loop_closure_equals_numpy(numeric):
     for k in ("residual", "dresidual"):
         assert np.allclose(a[k], b[k], rtol=1e-12, atol=1e-14)
     assert np.abs(evc.joint_angles(poses) - ev.joint_angles(poses)).max() < 1e-12
+    # the Newton iterations in C (cnewton) and in NumPy around the same compiled closure
+    from eigentwist.runtime import cnewton
+
+    assert cnewton.driver() is not None
+    full, pc = evc._poses(poses), evc.parameter_values(30)
+    in_c = evc.solve_joints(full, pc)
+    evc.c_newton = False
+    evc._newton_memo.clear()                                              # solved again, in NumPy
+    in_numpy = evc.solve_joints(full, pc)
+    evc.c_newton = True
+    assert in_numpy is not in_c
+    # ranges of blocks on two threads (from 2 x 16 blocks of 64 poses): the same iterations, bit for bit
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD, threads_for
+
+    n = 2 * MIN_BLOCKS_PER_THREAD * 64
+    assert threads_for(n, 64, 2) == 2
+    many = random_poses(ev.robot, n, seed=4)
+    kp = evc.closure_inputs(many, evc.parameter_values(n))
+    start = np.broadcast_to([leg.kinematics.reference for leg in evc.robot.legs], (n, 6, 3))
+    one, two = evc.kernels.newton(start, kp, 80, 1e-12), evc.kernels.newton(start, kp, 80, 1e-12, threads=2)
+    assert np.array_equal(one[0], two[0], equal_nan=True) and np.array_equal(one[1], two[1], equal_nan=True)
+    assert np.isfinite(in_c).all() and np.abs(in_c - in_numpy).max() < 1e-12
     fa, fc = ev.frequencies(poses), evc.frequencies(poses)
     assert np.abs(fa - fc).max() / fa.max() < 1e-12
 
@@ -314,3 +336,57 @@ def test_content_hash_sees_the_urdf_data():
     b = dataclasses.replace(a, legs=(moved,) + a.legs[1:])
     assert description_key(a) != description_key(b)
     assert description_key(a) == description_key(rrpirr_urdf.delta())
+
+
+def test_newton_memo_keys_every_input(numeric):
+    """Two calls that differ only in a parameter whose name starts with q (a rod length
+    ``q_rod``) solve anew: the closure r(q) = q - q_rod has the solution q = q_rod."""
+    import copy
+
+    ev = copy.copy(numeric["heli4"][0])
+    nq = len(ev.robot.legs[0].kinematics.coordinates)
+
+    class Kernels:
+        @staticmethod
+        def loop_closure(q, p):
+            r = q - np.asarray(p["q_rod"], dtype=float).reshape(-1, 1, 1)
+            return {"residual": r, "dresidual": np.broadcast_to(np.eye(nq), r.shape + (nq,)).copy()}
+
+        @staticmethod
+        def jacobians(q, p):
+            return {"lever": np.ones(q.shape[:2])}
+
+    ev._kernels, ev.__dict__["_newton_memo"] = Kernels, {}
+    poses = np.zeros((3, 3))
+    for rod in (0.10, 0.20, 0.20, 0.15):
+        q = ev.solve_joints(poses, {"q_rod": np.asarray(rod)})
+        assert np.abs(q - rod).max() < 1e-12
+    # the joint coordinates it adds itself do not change the key
+    p = {"q_rod": np.asarray(0.3)}
+    first = ev.solve_joints(poses, p)
+    assert ev.solve_joints(poses, {**p, "q1_1": np.zeros(3)}) is first
+
+
+@pytest.mark.parametrize("systems", [1, 63, 64, 300])
+def test_damped_step_solves_the_normal_equations(systems):
+    """Both ways of solving (LAPACK below SOA_MIN systems, entry by entry from it) give
+    the damped Gauss-Newton step, checked by its defining equation."""
+    from eigentwist.runtime.newton import SOA_MIN, normal_solve
+
+    assert SOA_MIN == 64
+    rng = np.random.default_rng(systems)
+    for rows, nq in ((3, 3), (6, 5)):
+        A = rng.normal(size=(systems, rows, nq))
+        r = rng.normal(size=(systems, rows))
+        lam = 10.0 ** rng.uniform(-6, 1, systems)
+        step = normal_solve(A, r, lam, 1e-12 * lam)
+        AtA = np.einsum("nri,nrj->nij", A, A)
+        H = AtA + np.einsum("n,nij->nij", lam, np.einsum("nii->ni", AtA)[:, :, None] * np.eye(nq) + 1e-12 * np.eye(nq))
+        assert np.abs(np.einsum("nij,nj->ni", H, step) + np.einsum("nri,nr->ni", A, r)).max() < 1e-11
+    # a system whose matrix is not finite gets a non-finite step (the caller rejects it);
+    # the others are untouched
+    bad = A.copy()
+    bad[0, 0, 0] = np.inf
+    again = normal_solve(bad, r, lam, 1e-12 * lam)
+    assert not np.isfinite(again[0]).all()
+    assert np.array_equal(again[1:], step[1:])

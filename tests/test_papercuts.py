@@ -109,6 +109,27 @@ def test_version(capsys):
     assert capsys.readouterr().out.strip() == f"eigentwist {eigentwist.__version__}"
 
 
+def test_version_imports_neither_sympy_nor_numpy():
+    """``eigentwist --version`` answers before the subcommands (and SymPy) are imported."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from eigentwist.cli.main import main\n"
+            "try:\n    main(['--debug', '--version'])\nexcept SystemExit as e:\n    assert e.code == 0\n"
+            "print(sorted(m for m in ('sympy', 'numpy') if m in sys.modules))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines() == [f"eigentwist {eigentwist.__version__}", "[]"]
+
+
+def test_version_only_before_a_command():
+    from eigentwist.cli.main import version_only
+
+    assert version_only(["--version"]) and version_only(["--debug", "--version"])
+    assert not version_only(["matrices", "--version"]) and not version_only(["-h", "--version"])
+    assert not version_only([])
+
+
 # ------------------------------------------------------------------ stale text
 def test_readme_does_not_say_hexapod_sensitivity_is_missing():
     text = README.read_text()

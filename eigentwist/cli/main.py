@@ -8,11 +8,6 @@ import re
 import sys
 import warnings
 
-import numpy as np
-
-from ..runtime.ccompile import BuildError
-from .common import CliError
-
 # Subcommands are the modules of this package that define ``add_parser``; this order
 # first, any others alphabetically (adding a command needs no edit here).
 ORDER = ("reproduce", "matrices", "compare", "diagnose", "synth", "sweep", "report", "generate")
@@ -91,10 +86,26 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return (text if text.startswith("eigentwist") else f"eigentwist: {category.__name__}: {text}") + "\n"
 
 
+def version_only(argv: list[str]) -> bool:
+    """True when ``--version`` comes before any command or help option: argparse would
+    print the version and exit, so nothing else (SymPy, NumPy, the subcommands) is imported."""
+    for tok in argv:
+        if tok == "--version":
+            return True
+        if tok in ("-h", "--help") or not tok.startswith("-"):
+            return False
+    return False
+
+
 def main(argv=None) -> int:
     from .examples import requested_robot
 
     argv = join_negative_percentages(list(sys.argv[1:] if argv is None else argv))
+    if version_only(argv):
+        from .. import __version__
+
+        print(f"eigentwist {__version__}")
+        raise SystemExit(0)
     parser = build_parser(requested_robot(argv))
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)     # the command line, for provenance
@@ -114,6 +125,11 @@ def main(argv=None) -> int:
 
 def _run(args) -> int:
     """``args.func(args)`` under the one-line error contract (exit status 2)."""
+    import numpy as np
+
+    from ..runtime.ccompile import BuildError
+    from .common import CliError
+
     try:
         # floating-point overflow on absurd inputs is detected and named by the checks
         # (unreachable pose, non-finite frequency); NumPy's own warnings would only add lines

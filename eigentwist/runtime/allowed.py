@@ -38,20 +38,35 @@ def coordinate_twists(names) -> np.ndarray:
     return E
 
 
+def _dot(a: list, b: list) -> np.ndarray:
+    """Entry-wise dot product of two twists held as six (N,) arrays."""
+    s = a[0] * b[0]
+    for i in range(1, 6):
+        s += a[i] * b[i]
+    return s
+
+
 def _orthonormal_rows(A: np.ndarray, rtol: float) -> list:
-    """An orthonormal basis (list of (N, 6)) of the span of the rows ``A`` (N, c, 6):
-    Gram-Schmidt twice per row, a row within ``rtol`` of the span so far dropped (its
-    vector 0): dependent constraints (a planar leg's three, four Heli4 legs' couples)."""
+    """An orthonormal basis (list of twists, each six (N,) arrays) of the span of the rows
+    ``A`` (N, c, 6): Gram-Schmidt twice per row, a row within ``rtol`` of the span so far
+    dropped (its vector 0): dependent constraints (a planar leg's three, four Heli4 legs'
+    couples). The twists' components are separate arrays: every step is a vector
+    operation over the N poses."""
     Q: list = []
     for k in range(A.shape[1]):
-        a = A[:, k, :]
-        v = a.copy()
+        a = [A[:, k, i] for i in range(6)]
+        v = [c.copy() for c in a]
         for _ in range(2):
             for q in Q:
-                v -= np.einsum("ni,ni->n", q, v)[:, None] * q
-        norm = np.linalg.norm(v, axis=1)
-        keep = norm > rtol * np.linalg.norm(a, axis=1)
-        Q.append(np.where(keep[:, None], v / np.where(keep, norm, 1.0)[:, None], 0.0))
+                d = _dot(q, v)
+                for i in range(6):
+                    v[i] -= d * q[i]
+        norm = np.sqrt(_dot(v, v))
+        keep = norm > rtol * np.sqrt(_dot(a, a))
+        if not keep.any():                 # dependent at every pose: a zero vector adds nothing
+            continue
+        inv = np.where(keep, 1.0 / np.where(keep, norm, 1.0), 0.0)
+        Q.append([np.where(keep, c * inv, 0.0) for c in v])
     return Q
 
 
@@ -70,19 +85,34 @@ def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rtol: float = 1e-9)
     A = np.asarray(rows, dtype=float)
     n = A.shape[0]
     E = np.broadcast_to(np.asarray(candidates, dtype=float), (n,) + np.shape(candidates)[-2:])
-    P = np.array(E)
-    for q in _orthonormal_rows(A, rtol):
-        P -= q[:, :, None] * np.einsum("ni,nik->nk", q, E)[:, None, :]
-    B = np.empty_like(P)
-    scale = np.linalg.norm(E, axis=1)                                # (N, n)
-    for k in range(P.shape[2]):
-        v = P[:, :, k].copy()
-        for m in range(k):
-            v -= np.einsum("ni,ni->n", B[:, :, m], v)[:, None] * B[:, :, m]
-        norm = np.linalg.norm(v, axis=1)
-        ok = norm > 1e-8 * scale[:, k]
-        B[:, :, k] = np.where(ok[:, None], v / np.where(ok, norm, 1.0)[:, None], np.nan)
-    return B
+    Et = np.moveaxis(E, 0, -1)                                       # (6, m, N)
+    m = Et.shape[1]
+    Q = _orthonormal_rows(A, rtol)
+    P = []
+    for k in range(m):
+        e = [Et[i, k] for i in range(6)]
+        p = [c.copy() for c in e]
+        for q in Q:
+            d = _dot(q, e)
+            for i in range(6):
+                p[i] -= q[i] * d
+        P.append(p)
+    B = np.empty((6, m, n))
+    cols: list = []
+    for k in range(m):
+        v = P[k]
+        for b in cols:
+            d = _dot(b, v)
+            for i in range(6):
+                v[i] -= d * b[i]
+        norm = np.sqrt(_dot(v, v))
+        ok = norm > 1e-8 * np.sqrt(_dot(Et[:, k], Et[:, k]))
+        inv = 1.0 / np.where(ok, norm, 1.0)
+        col = [np.where(ok, c * inv, np.nan) for c in v]
+        cols.append(col)
+        for i in range(6):
+            B[i, k] = col[i]
+    return np.moveaxis(B, -1, 0)
 
 
 def reduce(X: np.ndarray, B: np.ndarray) -> np.ndarray:

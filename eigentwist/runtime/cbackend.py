@@ -23,7 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
-from .validity import STATUS
+from . import eigen, validity
+from .threads import run_ranges, threads_for
+from .validity import LEVER_SCALE, STATUS
 
 __all__ = ["load_c_kernels", "CKernels", "CompilerNotFoundError", "CompileError", "find_compiler",
            "cache_dir", "build_library", "flag_sets", "source_path"]
@@ -148,10 +150,11 @@ def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
     scalar = [a.size == 1 for a in arrays]
     packed = np.array([a.reshape(-1)[0] if sc else 0.0 for a, sc in zip(arrays, scalar)], dtype=np.float64)
     keep.append(packed)
+    base = packed.ctypes.data
     addresses, strides = [], []
     for k, (arr, sc) in enumerate(zip(arrays, scalar)):
         if sc:
-            addresses.append(packed.ctypes.data + 8 * k)
+            addresses.append(base + 8 * k)
             strides.append(0)
         elif arr.ndim == 1 and arr.shape == lead and arr.strides[0] > 0 and arr.strides[0] % 8 == 0:
             keep.append(arr)
@@ -163,6 +166,42 @@ def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
             addresses.append(flat.ctypes.data)
             strides.append(1)
     return addresses, strides
+
+
+def _fixed(v) -> bool:
+    """Whether input ``v`` is a scalar that cannot change after the call (a Python or NumPy
+    number, or a 0-d float64 array that owns its data and is read-only, as the evaluator's
+    resolved parameters are): its packed value may be reused while the same object is passed."""
+    t = type(v)
+    if t is float or t is int or t is np.float64:
+        return True
+    return t is np.ndarray and v.ndim == 0 and v.dtype == np.float64 and v.base is None and not v.flags.writeable
+
+
+class _Packed:
+    """The scalar inputs of one call packed once, with the ctypes arrays of addresses and
+    strides: reused by a later call that passes the very same (immutable, :func:`_fixed`)
+    objects at the same positions, which then fills in only its per-pose arrays."""
+
+    __slots__ = ("size", "fixed", "ids", "refs", "packed", "addresses", "strides", "others")
+
+    def __init__(self, values: list):
+        self.size = len(values)
+        self.fixed = [i for i, v in enumerate(values) if _fixed(v)]
+        self.refs = tuple(values[i] for i in self.fixed)          # keeps the ids valid
+        self.ids = tuple(map(id, self.refs))
+        self.packed = np.array([float(v) for v in self.refs], dtype=np.float64)
+        base = self.packed.ctypes.data
+        addresses = [0] * self.size
+        for k, i in enumerate(self.fixed):
+            addresses[i] = base + 8 * k
+        self.addresses = _ptrs(addresses)
+        self.strides = _strides([0] * self.size)
+        fixed = set(self.fixed)
+        self.others = [i for i in range(self.size) if i not in fixed]
+
+    def matches(self, values: list) -> bool:
+        return len(values) == self.size and tuple(map(id, map(values.__getitem__, self.fixed))) == self.ids
 
 
 def _check_rc(rc: int, what: str) -> None:
@@ -201,6 +240,10 @@ class CKernels:
         self.N_LEGS, self.JOINTS_PER_LEG = self.OUTPUTS["inverse_kinematics"]["q"]
         self.BLOCK = int(signature["block"])
         self.FUSED_MATRICES = {o: tuple(s) for o, s in signature["fused"]["matrices"]}
+        self._fused_names = [name for _, name in signature["fused"]["inputs"]]
+        self._packed: _Packed | None = None
+        self._scale_index = self._fused_names.index(LEVER_SCALE) if LEVER_SCALE in self._fused_names else -1
+        self._opts: dict = {}                  # the fused pass's option arrays (read only by C)
         if signature["fused"]["status"] != STATUS:
             raise RuntimeError(f"the C library of {self.ROBOT!r} has status codes {signature['fused']['status']}, "
                                f"expected {STATUS}: run `eigentwist generate`")
@@ -271,6 +314,36 @@ class CKernels:
             raise AttributeError("loop_closure")
         return self._q_kernel("loop_closure", q, p)
 
+    def newton(self, q, p: dict, iterations: int, tol: float, threads: int = 1):
+        """``(q, |r|)``: the damped Newton iterations of :mod:`.newton` on this library's
+        ``loop_closure`` kernel, run in C (:mod:`.cnewton`); ``q`` (n, legs, n_q) starting
+        coordinates, ``p`` the kernel's inputs ((n,) arrays or scalars); ``threads`` > 1
+        runs ranges of whole blocks on threads (same results). None where the C driver
+        cannot be built."""
+        from . import cnewton
+
+        if "loop_closure" not in self._spec or cnewton.driver() is None:
+            return None
+        spec = self._spec["loop_closure"]
+        n, legs, nq = np.shape(q)
+        keep: list = []
+        external = [name for group, name, _ in spec["inputs"] if group != "q"]
+        found = iter(zip(*_inputs((p[name] for name in external), (n,), keep))) if external else iter(())
+        addresses, strides, q_of = [], [], []
+        for group, name, joint in spec["inputs"]:
+            if group == "q":
+                addresses.append(0)
+                strides.append(0)
+                q_of.append(joint[0] * nq + joint[1])
+            else:
+                a, st = next(found)
+                addresses.append(a)
+                strides.append(st)
+                q_of.append(-1)
+        rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
+        return cnewton.iterate(ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value, q_of, addresses,
+                               strides, np.asarray(q, dtype=np.float64), rows, iterations, tol, threads)
+
     def gravity(self, q, p: dict) -> dict:
         """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""
         return self._q_kernel("gravity", q, p)
@@ -289,8 +362,6 @@ class CKernels:
         (N, n, n) (None when ``vectors`` is False). Only the upper triangles are read.
         ``threads`` > 1 splits the batch on block boundaries (bit-identical results).
         """
-        from .threads import run_ranges, threads_for
-
         K = np.ascontiguousarray(K, dtype=np.float64)
         M = np.ascontiguousarray(M, dtype=np.float64)
         if K.shape != M.shape or K.ndim != 3 or K.shape[1] != K.shape[2] or K.shape[1] not in self.signature["eigh"]["dims"]:
@@ -312,6 +383,25 @@ class CKernels:
             k = int(np.argmax(bad))
             raise np.linalg.LinAlgError(f"pair {k}: M is not positive definite (or K, M are not finite)")
         return lam, V
+
+    def _pack(self, values: list) -> tuple:
+        """``(keep, addresses, strides, lead)`` of the fused pass's inputs (ctypes arrays):
+        the scalars of the previous call reused when the same immutable objects come again
+        (the evaluator's resolved parameters), only the per-pose arrays marshalled anew."""
+        packed = self._packed
+        if packed is None or not packed.matches(values):
+            packed = self._packed = _Packed(values)
+        others = [values[i] for i in packed.others]
+        shapes = {np.shape(v) for v in others}
+        lead = shapes.pop() if len(shapes) == 1 and len(next(iter(shapes))) <= 1 else self._lead(shapes or [()])
+        keep: list = [packed]
+        addresses = type(packed.addresses).from_buffer_copy(packed.addresses)
+        strides = type(packed.strides).from_buffer_copy(packed.strides)
+        if others:
+            a, st = _inputs(others, lead, keep)
+            for i, ai, si in zip(packed.others, a, st):
+                addresses[i], strides[i] = ai, si
+        return keep, addresses, strides, lead
 
     def fused(self, x, y, z, p: dict, *, matrices=("M", "K_F"), ik=(), jacobians=(), model=None,
               vectors: bool = False, status: bool = False, normalize: bool = False, out: dict | None = None,
@@ -336,18 +426,10 @@ class CKernels:
         of whole blocks on that many threads (bounded by :func:`threads_for`); the results
         are bit-identical to one thread.
         """
-        from .eigen import ROUNDOFF_EPS
-        from .threads import run_ranges, threads_for
-        from .validity import LEVER_SCALE, LEVER_TOL
-
         spec = self.signature["fused"]
-        values = {}
-        for group, name in spec["inputs"]:
-            values[name] = {"x": x, "y": y, "z": z}[name] if group == "pose" else p[name]
-        lead = self._lead([np.shape(v) for v in values.values()])
-        n = int(np.prod(lead, dtype=np.int64))
-        keep: list = []
-        addresses, strides = _inputs(values.values(), lead, keep)
+        values = list(map({**p, "x": x, "y": y, "z": z}.__getitem__, self._fused_names))
+        keep, ins, ins_stride, lead = self._pack(values)
+        n = lead[0] if len(lead) == 1 else int(np.prod(lead, dtype=np.int64))
         result: dict = {}
         given = dict(out or {})
 
@@ -388,10 +470,12 @@ class CKernels:
             st_p = alloc("status", (), np.int8)
         if given:
             raise KeyError(f"out has arrays for {sorted(given)}, which this call does not compute")
-        names = [name for _, name in spec["inputs"]]
-        scale = names.index(LEVER_SCALE) if LEVER_SCALE in names else -1
-        opts = (ctypes.c_double * 4)(LEVER_TOL, scale, ROUNDOFF_EPS, 1.0 if normalize else 0.0)
-        ins, ins_stride, fn = _ptrs(addresses), _strides(strides), self._fn["fused"]
+        # lever tolerance, scale input, round-off, normalize (read when called: they may be set)
+        key = (validity.LEVER_TOL, eigen.ROUNDOFF_EPS, bool(normalize))
+        opts = self._opts.get(key)
+        if opts is None:
+            opts = self._opts[key] = (ctypes.c_double * 4)(key[0], self._scale_index, key[1], 1.0 if normalize else 0.0)
+        fn = self._fn["fused"]
 
         def call(begin: int, end: int) -> int:
             return fn(begin, end, ins, ins_stride, model_id, ik_p, mat_p, jac_p, freq, vec, st_p, opts)

@@ -130,8 +130,16 @@ def _assemble(Je: np.ndarray, Cq, K_x: np.ndarray, T: list, rtol: float) -> np.n
     place), moved by its map ``T[i]`` (N, 6, d) from the coordinates x to its body's twist
     (None: x is the twist), and return the legs' rigid rows in x, stacked (N, legs*e, d)."""
     rows = []
+    Cq = np.asarray(Cq)
+    if all(Ti is None for Ti in T):              # every leg on the tool: one batched condensation
+        N, legs, e = Je.shape[:3]
+        K, R = leg_condensation(Je.reshape(N * legs, e, 6), Cq.reshape(N * legs, e, e), rtol)
+        K = K.reshape(N, legs, 6, 6)
+        for i in range(legs):
+            K_x += K[:, i]
+        return R.reshape(N, legs * e, 6)
     for i, Ti in enumerate(T):
-        K, R = leg_condensation(Je[:, i], np.asarray(Cq)[:, i], rtol)
+        K, R = leg_condensation(Je[:, i], Cq[:, i], rtol)
         K_x += K if Ti is None else np.swapaxes(Ti, -1, -2) @ K @ Ti
         rows.append(R if Ti is None else R @ Ti)
     return np.concatenate(rows, axis=1)

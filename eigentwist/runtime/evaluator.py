@@ -33,6 +33,8 @@ __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_
 PARALLEL_SCREEN = 1e-3
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
+_ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
+_NUMBERS = (float, int, np.float64, np.float32, np.int64, np.int32)
 CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
 MATRIX_CHUNK = 65536         # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
@@ -145,6 +147,10 @@ class Evaluator:
         self._effect = {e: robot.effect(e) for e in robot.effects}
         if self.numeric_ik:
             self.assembly()                    # a reference on no branch is refused at load
+        #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.cnewton`)
+        self.c_newton = True
+        self._params_memo: dict = {}           # (model, scalar values) -> resolved inputs (_params)
+        self._kinds: dict = {}                 # effects -> "rigid" / "flexible" (kind)
 
     def _resolve(self, model) -> tuple:
         """``resolve_model(model, self.robot)``, remembered per (hashable) model spec."""
@@ -201,12 +207,11 @@ class Evaluator:
         ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`)."""
         if not self._six:
             return {}
-        from .poses import rotation_matrix
+        from .poses import rotation_entries
 
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
-        R = rotation_matrix(poses[:, 3:6])
         out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
-        out.update({f"R_{i}{j}": R[:, i, j] for i in range(3) for j in range(3)})
+        out.update(zip(_ROTATION_NAMES, rotation_entries(poses[:, 3:6])))
         return out
 
     def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
@@ -318,11 +323,18 @@ class Evaluator:
         n = len(poses)
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
         signs = self.assembly()["sign"]
+        iterate = None
+        if self._fused and self.c_newton:
+            from . import cnewton
+
+            if cnewton.driver() is not None:
+                def iterate(q, pp, its, tl):
+                    return self._kernels.newton(q, pp, its, tl, threads=self._nthreads())
         parts, offs = [], []
-        for sl in self._chunks(n):                 # bounded memory: (chunk, legs, rows, n_q) Jacobians
-            kp = {**(self._take(p, sl) if n > 1 else p), "x": poses[sl, 0], "y": poses[sl, 1], "z": poses[sl, 2]}
-            if self._six:
-                kp.update(self.kernel_pose_inputs(poses[sl]))
+        # bounded memory: (chunk, legs, rows, n_q) Jacobians; the C iterations keep theirs per
+        # block, so their chunks are larger (enough blocks for every thread)
+        for sl in self._chunks(n, CHUNK if iterate is None else 4 * CHUNK):
+            kp = self.closure_inputs(poses[sl], self._take(p, sl) if n > 1 else p)
 
             def branch(q, kp=kp):
                 with np.errstate(invalid="ignore", divide="ignore"):
@@ -330,13 +342,64 @@ class Evaluator:
 
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
                 q, off = solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch, signs=signs,
-                               report=True)
+                               report=True, iterate=iterate)
             parts.append(q)
             offs.append(off)
         q = np.concatenate(parts)
         memo.clear()
         memo[key] = (q, np.concatenate(offs))
         return q
+
+    @property
+    def kernels(self):
+        """The generated kernels of this backend: the NumPy module, or the C library's
+        :class:`~eigentwist.runtime.cbackend.CKernels` (same functions and outputs)."""
+        return self._kernels
+
+    def pose_inputs(self, poses: np.ndarray) -> dict:
+        """The pose as the kernels read it by name: x, y, z (m), and a 6-DoF robot's
+        rotation matrix entries (:meth:`kernel_pose_inputs`)."""
+        if self._six:
+            return self.kernel_pose_inputs(poses)
+        return {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+
+    def closure_inputs(self, poses: np.ndarray, p: dict) -> dict:
+        """The ``loop_closure`` kernel's inputs at ``poses``: ``p`` and the pose by name."""
+        return {**p, **self.pose_inputs(poses)}
+
+    def joint_sensitivities(self, poses, wrt=None, **params) -> np.ndarray:
+        """d q / d p of legs solved numerically: (N, legs, n_q, len(wrt)), rad (m for a
+        prismatic joint) per SI unit of each parameter, by the implicit function theorem on
+        the loop closure ``r(q, p) = 0``: ``J_q dq/dp = -dr/dp`` (:mod:`.implicit`; J_q the
+        closure's exact Jacobian, dr/dp by central differences of the residual at fixed q).
+        ``wrt``: parameter names (default: every parameter; ``P@N`` one leg's own value)."""
+        from .implicit import joint_derivatives
+        from .sensitivity import check_wrt
+
+        if not self.numeric_ik:
+            raise InputError(f"joint_sensitivities of {self.robot.name}: its legs have a closed-form inverse "
+                             "kinematics (no loop closure is solved); differentiate joint_angles instead")
+        poses = self._poses(poses, params)
+        return joint_derivatives(self, poses, check_wrt(self, wrt), params)[1]
+
+    def _joint_inputs(self) -> frozenset:
+        """Names of the IK kernel's joint-coordinate inputs ``q<m>_<leg>`` (what
+        :meth:`numeric_joints` adds to the inputs)."""
+        names = self.__dict__.get("_joint_input_names")
+        if names is None:
+            nq = len(self.robot.legs[0].kinematics.coordinates)
+            names = self._joint_input_names = frozenset(f"q{m + 1}_{i + 1}" for i in range(self.n_legs)
+                                                        for m in range(nq))
+        return names
+
+    def _newton_key(self, poses: np.ndarray, p: dict) -> tuple:
+        """What a Newton solution depends on: the poses and every input (shape, dtype and
+        bytes) but the joint coordinates it produces itself. The memo keeps one solution,
+        so that a public call that reads the joints twice solves once."""
+        skip = self._joint_inputs()
+        return (poses.shape, poses.tobytes()) + tuple(
+            (k, np.shape(v), np.asarray(v).dtype.str, np.asarray(v).tobytes()) for k, v in sorted(p.items())
+            if k not in skip)
 
     def rigid_size(self) -> int:
         """Size of the rigid model's eigenproblem: the number of the platform's allowed
@@ -405,7 +468,45 @@ class Evaluator:
         return arr
 
     def _params(self, n: int, params: dict, model) -> dict:
-        """The generated code's inputs: parameters, effect switches and each leg's copies."""
+        """The generated code's inputs: parameters, effect switches and each leg's copies.
+
+        Scalar values are resolved once per (model, values): a repeated call gets the same
+        read-only 0-d arrays (which the C pass packs once, :mod:`.cbackend`)."""
+        key = self._params_key(params, model)
+        if key is not None:
+            hit = self._params_memo.get(key)
+            if hit is not None:
+                return dict(hit)
+        out = self._resolve_params(n, params, model)
+        if key is not None:
+            frozen = {}
+            for k, v in out.items():
+                a = np.array(v, dtype=float)
+                a.flags.writeable = False
+                frozen[k] = a
+            if len(self._params_memo) >= 64:
+                self._params_memo.clear()
+            self._params_memo[key] = frozen
+            return dict(frozen)
+        return out
+
+    def _params_key(self, params: dict, model):
+        """A hashable key of (model, scalar values) for :meth:`_params`; None when a value is
+        an array (or anything but a plain number)."""
+        items = []
+        for k, v in params.items():
+            if v is condense.EXACT:
+                items.append((k, "exact"))
+            elif type(v) in _NUMBERS or (type(v) is np.ndarray and v.ndim == 0 and v.dtype.kind in "fiu"):
+                items.append((k, float(v)))
+            else:
+                return None
+        try:
+            return (model if isinstance(model, str) else tuple(self._resolve(model)), tuple(sorted(items)))
+        except TypeError:
+            return None
+
+    def _resolve_params(self, n: int, params: dict, model) -> dict:
         scoped = self._scoped(params)
         effects = self._resolve(model)
         on = {base_name(e) for e in effects}
@@ -467,12 +568,20 @@ class Evaluator:
     def kind(self, model) -> str:
         """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""
         effects = self._resolve(model)
-        return "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid"
+        try:
+            return self._kinds[effects]
+        except (KeyError, TypeError):
+            kind = "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid"
+        try:
+            self._kinds[effects] = kind
+        except TypeError:
+            pass
+        return kind
 
     # ---------------------------------------------------------------- kernels
-    def _chunks(self, n: int):
-        for start in range(0, n, CHUNK):
-            yield slice(start, min(n, start + CHUNK))
+    def _chunks(self, n: int, size: int = CHUNK):
+        for start in range(0, n, size):
+            yield slice(start, min(n, start + size))
 
     @staticmethod
     def _take(p: dict, sl: slice) -> dict:
@@ -674,9 +783,10 @@ class Evaluator:
         """The generated kernels' parameter input for ``n`` poses, validated.
 
         Every parameter of the robot (``params`` overriding the defaults, SI units) as an
-        array that broadcasts with the poses, plus the 0/1 switch of every effect.
+        array that broadcasts with the poses, plus the 0/1 switch of every effect (the
+        caller's own arrays: writing into them changes nothing here).
         """
-        return self._params(n, params, model)
+        return {k: np.array(v) for k, v in self._params(n, params, model).items()}
 
     def run_kernel(self, kernel: str, poses, model="paper", **params) -> dict:
         """Outputs of the generated kernel ``kernel`` (e.g. ``"gravity"``) for ``poses``.
@@ -827,12 +937,22 @@ class Evaluator:
         ``M`` of the NumPy path (for :meth:`_exact_modes`)."""
         poses_arr = self._poses(poses, params)
         effects = self._resolve(model)
+        rigid = self.kind(effects) == "rigid"
+        if (rigid and self._fused and stash is None and getattr(self.space, "basis", 0) is None
+                and not self._preloaded(effects)):
+            # allowed twists that turn with the pose: M, K_R and J_rows from one C pass
+            p = self._params(len(poses_arr), params, effects)
+            res = self._c_pass(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
+            bad = res["status"] != STATUS["ok"]
+            if bad.any():
+                self._raise_first(poses_arr, p, bad)
+            B = self._basis(res["J_rows"])
+            return reduce(res["M"], B), reduce(res["K_R"], B)
         if stash is not None and not self._fused:
             mats, stash["q"] = self._matrices_q(poses_arr, self._params(len(poses_arr), params, effects))
             stash["M"] = mats["M"]
         else:
             mats = self.matrices(poses_arr, effects, **params)
-        rigid = self.kind(effects) == "rigid"
         B = self.allowed_twists(poses_arr, **params) if rigid else None
         M = reduce(mats["M"], B) if rigid else mats["M"]
         K = reduce(mats["K_R"], B) if rigid else mats["K_F"]
@@ -852,9 +972,22 @@ class Evaluator:
         fixed = getattr(self.space, "basis", None)
         if fixed is not None:
             return np.broadcast_to(np.asarray(fixed, dtype=float), (len(poses), 6, len(fixed[0])))
-        rows = self.jacobians(poses, **params)["J_rows"]
+        if self._fused:                    # the C pass: IK, checks and J_rows at once
+            p = self._params(len(poses), params, "paper")
+            res = self._c_pass(poses, p, matrices=(), jacobians=("J_rows",))
+            bad = res["status"] != STATUS["ok"]
+            if bad.any():
+                self._raise_first(poses, p, bad)
+            rows = res["J_rows"]
+        else:
+            rows = self.jacobians(poses, **params)["J_rows"]
+        return self._basis(rows)
+
+    def _basis(self, rows: np.ndarray) -> np.ndarray:
+        """The allowed twists (N, 6, n) from the legs' inverse-Jacobian rows (N, legs, r, 6):
+        the null space of their virtual joints' rows (:func:`.allowed.allowed_twists`)."""
         picks = [(i, r) for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
-        A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(poses), 0, 6))
+        A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(rows), 0, 6))
         return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
 
     @property
@@ -870,7 +1003,16 @@ class Evaluator:
         return names in (("x", "y", "z"), FULL) and len(basis[0]) == len(names)
 
     def _preloaded(self, effects) -> bool:
-        return any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
+        key = ("preloaded", effects)
+        try:
+            return self._kinds[key]
+        except (KeyError, TypeError):
+            out = any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
+        try:
+            self._kinds[key] = out
+        except TypeError:
+            pass
+        return out
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
               unstable: str = "nan", joints=None, **params) -> Modes:
@@ -1116,7 +1258,9 @@ class Evaluator:
         code is generated on first use for each ``wrt`` and cached (see
         :mod:`eigentwist.runtime.sensitivity`); ``method="differences"`` derives nothing
         (central differences of the matrices, see :meth:`modes_and_sensitivities`); models
-        with ``gravity_preload`` raise.
+        with ``gravity_preload`` raise. Legs solved by Newton and rigid models on allowed
+        twists that turn with the pose are differentiated through their solved coordinates
+        (:mod:`eigentwist.runtime.implicit`).
         """
         return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method,
                                             **params)[1]
@@ -1129,27 +1273,43 @@ class Evaluator:
         cached on first use per ``wrt``); ``"differences"`` derives nothing: dM/dp and
         dK/dp by central differences of :meth:`matrices` (relative step 1e-5; the matrices
         are smooth in the parameters even where frequencies cross), then the same
-        eigenvalue perturbation (clusters included), ~1e-9 relative from the exact one."""
+        eigenvalue perturbation (clusters included), ~1e-9 relative from the exact one.
+
+        Where no sensitivity kernel can be generated, both methods differentiate through
+        the solved coordinates (:mod:`.implicit`): legs solved by Newton (URDF form) take
+        dq/dp from the implicit function theorem on their loop closure and the matrices'
+        central differences along that tangent (no Newton solve repeated); the rigid model
+        of a lower-mobility platform (allowed twists that turn with the pose) takes central
+        differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved."""
         from .sensitivity import (check_model, check_wrt, frequency_derivatives, kernel_wrt, own_legs,
                                   sensitivity_kernels, shared_columns)
 
         if method not in ("exact", "differences"):
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
-        if method == "exact" and self.numeric_ik:
-            raise InputError(f"sensitivities of {self.robot.name}: its legs are solved numerically (Newton), and the "
-                             "derivative of their joint coordinates with respect to the parameters is not derived yet; "
-                             "use central differences of frequencies()")
+        given = poses
         poses = self._poses(poses, params)
         effects = self._resolve(model)
         check_model(effects)
         wrt = check_wrt(self, wrt)
         rigid = self.kind(effects) == "rigid"
         if rigid and getattr(self.space, "basis", 0) is None:
-            raise InputError(f"sensitivities of {self.robot.name}'s rigid model (on allowed twists that turn with the "
-                             "pose) are not available: use a flexible model")
+            from .implicit import reduced_derivatives
+            from .sensitivity import eigenvalue_derivatives
+
+            out = reduced_derivatives(self, given, wrt, effects, params)
+            lam, V = generalized_eigh(out["K"], out["M"])
+            omega = np.sqrt(np.clip(lam, 0.0, None))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
+            return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.axes("rigid"), "rigid"), dfdp
         solved, exact = self._route(effects, params)
         basis = None if self._c_rigid else getattr(self.space, "basis", None)     # a point's translations
-        if method == "differences":
+        if method == "exact" and self.numeric_ik:
+            from .implicit import numeric_matrix_derivatives
+
+            out = numeric_matrix_derivatives(self, poses, wrt, effects, solved)
+            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
+        elif method == "differences":
             out = self.matrix_derivatives(poses, wrt, effects, **solved)
             freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
         else:

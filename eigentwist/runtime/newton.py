@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["solve", "continuation", "same_configuration", "MAX_ITERATIONS", "TOL", "HOMOTOPY_STEPS", "PATH_TOL",
-           "BRANCH_GAP"]
+__all__ = ["solve", "normal_solve", "continuation", "same_configuration", "MAX_ITERATIONS", "TOL", "HOMOTOPY_STEPS",
+           "PATH_TOL", "BRANCH_GAP"]
 
 MAX_ITERATIONS = 80
 TOL = 1e-12            # |r| (m and rad) of a converged configuration
@@ -51,10 +51,87 @@ def _take(p: dict, rows: np.ndarray, n: int) -> dict:
     return {k: (v[rows] if np.ndim(v) >= 1 and np.shape(v)[0] == n and n > 1 else v) for k, v in p.items()}
 
 
-def _normal(A: np.ndarray, r: np.ndarray):
-    """``(A^T A, A^T r)`` of stacked (..., rows, n_q) Jacobians and (..., rows) residuals."""
+SOA_MIN = 64           # systems from which the normal equations are solved entry by entry (_cholesky_solve)
+
+
+def _lapack_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
+    """:func:`normal_solve` by LAPACK, one small system at a time (few systems)."""
     At = A.swapaxes(-1, -2)
-    return At @ A, (At @ r[..., None])[..., 0]
+    AtA, Atr = At @ A, (At @ r[..., None])[..., 0]
+    eye = np.eye(A.shape[-1])
+    diag = np.einsum("...ii->...i", AtA)
+    H = AtA + (np.asarray(scale)[..., None] * diag + np.asarray(shift)[..., None])[..., None, :] * eye
+    finite = np.isfinite(H).all((-1, -2))
+    H = np.where(finite[..., None, None], H, eye)
+    try:
+        return -np.linalg.solve(H, Atr[..., None])[..., 0]
+    except np.linalg.LinAlgError:               # a singular H (a zero row): least squares
+        return -(np.linalg.pinv(H) @ Atr[..., None])[..., 0]
+
+
+def _cholesky_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
+    """:func:`normal_solve` with the systems in the last axis: A^T A, A^T r, the Cholesky
+    factor and both substitutions entry by entry, each a vector operation over every
+    system (n_q <= 6: a few dozen operations in all, against one LAPACK call per system)."""
+    R, Q = A.shape[-2:]
+    At = np.ascontiguousarray(np.moveaxis(A, (-2, -1), (0, 1)))      # (R, Q, ...)
+    rt = np.ascontiguousarray(np.moveaxis(r, -1, 0))                 # (R, ...)
+    H, g = {}, []
+    for i in range(Q):
+        for j in range(i + 1):
+            s = At[0, i] * At[0, j]
+            for k in range(1, R):
+                s += At[k, i] * At[k, j]
+            H[i, j] = s
+        s = At[0, i] * rt[0]
+        for k in range(1, R):
+            s += At[k, i] * rt[k]
+        g.append(s)
+    finite = np.ones(rt.shape[1:], dtype=bool)
+    for i in range(Q):
+        H[i, i] = H[i, i] + (scale * H[i, i] + shift)
+        for j in range(i + 1):
+            finite &= np.isfinite(H[i, j])
+    L = {}
+    for j in range(Q):                                               # H = L L^T
+        s = H[j, j]
+        for k in range(j):
+            s = s - L[j, k] * L[j, k]
+        L[j, j] = np.sqrt(s)
+        inv = 1.0 / L[j, j]
+        for i in range(j + 1, Q):
+            s = H[i, j]
+            for k in range(j):
+                s = s - L[i, k] * L[j, k]
+            L[i, j] = s * inv
+    y = []
+    for i in range(Q):
+        s = g[i]
+        for k in range(i):
+            s = s - L[i, k] * y[k]
+        y.append(s / L[i, i])
+    x = [None] * Q
+    for i in reversed(range(Q)):
+        s = y[i]
+        for k in range(i + 1, Q):
+            s = s - L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    step = -np.stack(x, axis=-1)
+    if not finite.all():                        # a non-finite H: the gradient step (as H = I)
+        step[~finite] = -np.stack(g, axis=-1)[~finite]
+    return step
+
+
+def normal_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
+    """The damped Gauss-Newton step ``-(A^T A + diag(scale diag(A^T A) + shift))^-1 A^T r``
+    of stacked Jacobians A (..., rows, n_q) and residuals r (..., rows); ``scale`` and
+    ``shift`` broadcast against the stack (Levenberg-Marquardt: ``scale = lambda``,
+    ``shift = 1e-12 lambda``). A system whose matrix is not finite takes ``-A^T r``; one
+    that is not positive definite a non-finite step (rejected by the caller)."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        if int(np.prod(A.shape[:-2])) >= SOA_MIN:
+            return _cholesky_solve(A, r, scale, shift)
+        return _lapack_solve(A, r, scale, shift)
 
 
 def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
@@ -66,29 +143,22 @@ def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
     norm = np.sqrt((r * r).sum(-1))
     lam = np.full(norm.shape, LAMBDA0)
     q = q.copy()
-    eye = np.eye(q.shape[-1])
     for _ in range(iterations):
         active = ~(norm < tol) & np.isfinite(norm)
-        rows = np.flatnonzero(active.any(-1))
-        if rows.size == 0:
+        some = active.any(-1)
+        every = bool(some.all())
+        rows = slice(None) if every else np.flatnonzero(some)
+        if not every and rows.size == 0:
             break
         act, A_, r_, lam_, q_ = active[rows], A[rows], r[rows], lam[rows], q[rows]
-        AtA, Atr = _normal(A_, r_)
-        diag = np.einsum("...ii->...i", AtA)
-        H = AtA + lam_[..., None, None] * (diag[..., None, :] * eye + 1e-12 * eye)
-        finite = np.isfinite(H).all((-1, -2))
-        H = np.where(finite[..., None, None], H, eye)
+        step = normal_solve(A_, r_, lam_, 1e-12 * lam_)
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            try:
-                step = -np.linalg.solve(H, Atr[..., None])[..., 0]
-            except np.linalg.LinAlgError:               # a singular H (a zero row): least squares
-                step = -(np.linalg.pinv(H) @ Atr[..., None])[..., 0]
             # a bounded step (MAX_STEP rad or m per coordinate) keeps Newton near the branch
             # it starts on: an undamped first step from far away may jump past a singularity
             big = np.abs(step).max(-1, keepdims=True)
             step = np.where(big > MAX_STEP, step * (MAX_STEP / big), step)
         trial = q_ + np.where(act[..., None], step, 0.0)
-        new = closure(trial, _take(p, rows, n))
+        new = closure(trial, p if every else _take(p, rows, n))
         new_norm = np.sqrt((new["residual"] ** 2).sum(-1))
         better = act & (new_norm < norm[rows])
         q[rows] = np.where(better[..., None], trial, q_)
@@ -101,12 +171,8 @@ def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
     rows = np.flatnonzero((norm < tol).any(-1))
     if rows.size == 0:
         return q, norm
-    AtA, Atr = _normal(A[rows], r[rows])
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        try:
-            trial = q[rows] - np.linalg.solve(AtA + 1e-300 * eye, Atr[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            return q, norm
+        trial = q[rows] + normal_solve(A[rows], r[rows], 0.0, 1e-300)
         new_norm = np.sqrt((closure(trial, _take(p, rows, n))["residual"] ** 2).sum(-1))
     keep = (norm[rows] < tol) & (new_norm <= norm[rows])
     q[rows] = np.where(keep[..., None], trial, q[rows])
@@ -153,7 +219,7 @@ def continuation(closure, reference: np.ndarray, p: dict, steps: int = HOMOTOPY_
 
 
 def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
-          iterations: int = MAX_ITERATIONS, tol: float = TOL, signs=None, report: bool = False):
+          iterations: int = MAX_ITERATIONS, tol: float = TOL, signs=None, report: bool = False, iterate=None):
     """Joint coordinates (n, legs, n_q) closing every leg's loop at n poses; NaN where
     Newton does not converge (or lands on another assembly branch).
 
@@ -165,9 +231,14 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
     signs : (legs,) the branch's signs, recorded where the reference closes the loop
         (:func:`continuation`); None: the reference configuration's own.
     report : also return the (n, legs) mask of solutions rejected for their branch.
+    iterate : optional ``iterate(q, p, iterations, tol) -> (q, |r|)`` that runs this
+        module's iterations on ``closure`` by other means (the C driver, :mod:`.cnewton`).
     """
+    if iterate is None:
+        def iterate(q, pp, its, tl):
+            return _iterate(closure, q, pp, its, tl)
     q0 = np.broadcast_to(reference, (n,) + reference.shape).copy()
-    q, norm = _iterate(closure, q0, p, iterations, tol)
+    q, norm = iterate(q0, p, iterations, tol)
     ok = norm < tol
     # warm start: a pose that fails from the reference starts from the previous pose's solution
     for _ in range(3):
@@ -177,7 +248,7 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
         prev = prev[ok[prev - 1].all(-1)] if prev.size else prev
         if prev.size == 0:
             break
-        qs, ns = _iterate(closure, q[prev - 1].copy(), _take(p, prev, n), iterations, tol)
+        qs, ns = iterate(q[prev - 1].copy(), _take(p, prev, n), iterations, tol)
         q[prev], norm[prev] = qs, ns
         ok = norm < tol
     off = np.zeros(ok.shape, dtype=bool)

@@ -15,7 +15,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..description.pose import FULL
-from .poses import rotation_matrix
+from .poses import rotation_entries
+
+_ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 
 __all__ = ["full_poses", "follow", "left_jacobian", "TOL_M", "MAX_STEPS"]
 
@@ -28,22 +30,25 @@ def left_jacobian(rotvec: np.ndarray) -> np.ndarray:
     platform's angular velocity (base axes) per unit rate of the rotation vector,
     ``omega = J_l(phi) dphi/dt``, ``J_l = I + (1 - cos t)/t^2 [phi]x + (t - sin t)/t^3 [phi]x^2``."""
     r = np.asarray(rotvec, dtype=float)
-    t2 = np.sum(r * r, axis=-1)[..., None, None]
+    x, y, z = r[..., 0], r[..., 1], r[..., 2]
+    xx, yy, zz = x * x, y * y, z * z
+    t2 = xx + yy + zz
     small = t2 < 1e-10
     t = np.sqrt(np.where(small, 1.0, t2))
     a = np.where(small, 0.5 - t2 / 24, (1 - np.cos(t)) / t**2)
     b = np.where(small, 1 / 6 - t2 / 120, (t - np.sin(t)) / t**3)
-    K = np.zeros(r.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
-    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
-    return np.eye(3) + a * K + b * (K @ K)
+    ax, ay, az = a * x, a * y, a * z
+    bxy, bxz, byz = b * (x * y), b * (x * z), b * (y * z)
+    # I + a [r]x + b [r]x^2, entry by entry ([r]x^2 = r r^T - |r|^2 I)
+    return np.stack([1 + b * (-zz - yy), -az + bxy, ay + bxz,
+                     az + bxy, 1 + b * (-zz - xx), -ax + byz,
+                     -ay + bxz, ax + byz, 1 + b * (-yy - xx)], axis=-1).reshape(r.shape[:-1] + (3, 3))
 
 
 def _kernel_inputs(full: np.ndarray, p: dict) -> dict:
-    R = rotation_matrix(full[:, 3:6])
     out = dict(p)
     out.update({"x": full[:, 0], "y": full[:, 1], "z": full[:, 2]})
-    out.update({f"R_{i}{j}": R[:, i, j] for i in range(3) for j in range(3)})
+    out.update(zip(_ROTATION_NAMES, rotation_entries(full[:, 3:6])))
     return out
 
 

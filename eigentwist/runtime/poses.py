@@ -3,23 +3,34 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rotation_matrix", "rotation_vector", "exp_twist"]
+__all__ = ["rotation_matrix", "rotation_entries", "rotation_vector", "exp_twist"]
+
+
+def rotation_entries(rotvec) -> list:
+    """The nine entries ``[R_00, R_01, ..., R_22]`` of the rotation matrices of rotation
+    vectors (..., 3) (rad), each an array of shape (...): Rodrigues' formula
+    ``R = I + a [r]x + b [r]x^2``, ``a = sin(t)/t``, ``b = (1 - cos t)/t^2``, with their
+    series near t = 0 (the arithmetic of :func:`rotation_matrix`, element by element)."""
+    r = np.asarray(rotvec, dtype=float)
+    x, y, z = r[..., 0], r[..., 1], r[..., 2]
+    xx, yy, zz = x * x, y * y, z * z
+    t2 = xx + yy + zz
+    small = t2 < 1e-12
+    safe = np.where(small, 1.0, np.sqrt(t2))
+    a = np.where(small, 1 - t2 / 6, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
+    ax, ay, az = a * x, a * y, a * z
+    bxy, bxz, byz = b * (x * y), b * (x * z), b * (y * z)
+    return [1 + b * (-zz - yy), -az + bxy, ay + bxz,
+            az + bxy, 1 + b * (-zz - xx), -ax + byz,
+            -ay + bxz, ax + byz, 1 + b * (-yy - xx)]
 
 
 def rotation_matrix(rotvec) -> np.ndarray:
     """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) by Rodrigues' formula,
     with the series of sin(t)/t and (1 - cos t)/t^2 near t = 0."""
     r = np.asarray(rotvec, dtype=float)
-    t2 = np.sum(r * r, axis=-1)[..., None, None]
-    t = np.sqrt(t2)
-    small = t2 < 1e-12
-    safe = np.where(small, 1.0, t)
-    a = np.where(small, 1 - t2 / 6, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
-    K = np.zeros(r.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
-    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
-    return np.eye(3) + a * K + b * (K @ K)
+    return np.stack(rotation_entries(r), axis=-1).reshape(r.shape[:-1] + (3, 3))
 
 
 def rotation_vector(R) -> np.ndarray:
