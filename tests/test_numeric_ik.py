@@ -357,6 +357,7 @@ def test_newton_memo_keys_every_input(numeric):
             return {"lever": np.ones(q.shape[:2])}
 
     ev._kernels, ev.__dict__["_newton_memo"] = Kernels, {}
+    ev.__dict__["_assembly"] = {**ev.assembly(), "sign": np.ones(ev.n_legs)}   # the fake lever's branch
     poses = np.zeros((3, 3))
     for rod in (0.10, 0.20, 0.20, 0.15):
         q = ev.solve_joints(poses, {"q_rod": np.asarray(rod)})

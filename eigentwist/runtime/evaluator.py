@@ -145,12 +145,12 @@ class Evaluator:
         self._checked_defaults: set = set()    # parameters whose default _params has checked
         self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
         self._effect = {e: robot.effect(e) for e in robot.effects}
-        if self.numeric_ik:
-            self.assembly()                    # a reference on no branch is refused at load
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.cnewton`)
         self.c_newton = True
         self._params_memo: dict = {}           # (model, scalar values) -> resolved inputs (_params)
         self._kinds: dict = {}                 # effects -> "rigid" / "flexible" (kind)
+        if self.numeric_ik:
+            self.assembly()                    # a reference on no branch is refused at load
 
     def _resolve(self, model) -> tuple:
         """``resolve_model(model, self.robot)``, remembered per (hashable) model spec."""
@@ -239,12 +239,6 @@ class Evaluator:
         q = self.solve_joints(poses, p)
         return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
 
-    def _closure_inputs(self, poses: np.ndarray, p: dict) -> dict:
-        kp = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
-        if self._six:
-            kp.update(self.kernel_pose_inputs(poses))
-        return kp
-
     def assembly(self) -> dict:
         """Each leg's assembly branch, recorded at ``x_ref`` with the default parameters
         (legs solved numerically, :mod:`eigentwist.description.serial`).
@@ -263,7 +257,7 @@ class Evaluator:
 
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
         x = self._poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
-        kp = self._closure_inputs(x, self._params(1, {}, "none"))
+        kp = self.closure_inputs(x, self._params(1, {}, "none"))
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             r0 = self._kernels.loop_closure(reference[None], kp)["residual"][0]
             q_path, _ = continuation(self._kernels.loop_closure, reference, kp)

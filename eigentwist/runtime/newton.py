@@ -180,6 +180,12 @@ def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
     return q, norm
 
 
+def _normal(A: np.ndarray, r: np.ndarray):
+    """``(A^T A, A^T r)`` of stacked (..., rows, n_q) Jacobians and (..., rows) residuals."""
+    At = A.swapaxes(-1, -2)
+    return At @ A, (At @ r[..., None])[..., 0]
+
+
 def continuation(closure, reference: np.ndarray, p: dict, steps: int = HOMOTOPY_STEPS,
                  tol: float = TOL) -> tuple[np.ndarray, np.ndarray]:
     """The configuration the reference is connected to at one pose: the Newton homotopy
