@@ -42,6 +42,8 @@ class Parameter:
         (:meth:`with_values`).
     equation : str
         The paper equation or appendix the parameter enters (``"Eq. 34, App. B"``), or "".
+    closed : bool
+        True: the lower bound itself is admitted (``c_a >= 0``: no damping is a value).
     """
 
     name: str
@@ -52,6 +54,7 @@ class Parameter:
     effect: str | None = None
     plausible: tuple[float, float] | None = None
     equation: str = ""
+    closed: bool = False
 
     @property
     def symbol(self) -> sp.Symbol:
@@ -77,9 +80,11 @@ class Parameter:
 
         arr = np.asarray(value, dtype=float)
         lo, hi = self.bounds
-        bad = ~np.isfinite(arr) | (arr <= lo) | (arr >= hi) if lo == 0.0 else ~np.isfinite(arr) | (arr < lo) | (arr > hi)
+        open_low = lo == 0.0 and not self.closed
+        bad = ~np.isfinite(arr) | (arr <= lo) | (arr >= hi) if open_low else ~np.isfinite(arr) | (arr < lo) | (arr > hi)
         if np.any(bad):
             first = arr.reshape(-1)[np.argmax(bad.reshape(-1))]
-            rng = (f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
+            rng = (f"a finite value >= {lo:g}" if self.closed and hi == math.inf else
+                   f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
                    f"a finite value in ({lo:g}, {hi:g})" if lo == 0.0 else f"a finite value in [{lo:g}, {hi:g}]")
             raise ValueError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")

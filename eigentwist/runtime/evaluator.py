@@ -62,6 +62,10 @@ class Modes:
     shares : (N, n, n) each coordinate's share of each mode's energy
         (:func:`eigentwist.runtime.labels.energy_shares`) where the evaluator had M at hand
         (the C pass of a flexible model); None: computed from the eigentwists when needed.
+    damping : the damped modes (:class:`eigentwist.runtime.damped.Damping`: poles, complex
+        eigentwists) of a model with a damping effect (``servo_damping``, ``servo_delay``,
+        ``structural_loss``) or where ``complex_shapes`` was asked; None: no damping, and
+        :attr:`natural_hz` and :attr:`damped_hz` are :attr:`freq_hz`, :attr:`damping_ratio` 0.
     """
 
     freq_hz: np.ndarray
@@ -72,10 +76,36 @@ class Modes:
     stable: np.ndarray | None = None
     constrained: np.ndarray | None = None
     shares: np.ndarray | None = None
+    damping: object = None
 
     def __post_init__(self):
         if self.stable is None:
             self.stable = np.ones(self.freq_hz.shape[:1], dtype=bool)
+
+    @property
+    def natural_hz(self) -> np.ndarray:
+        """(N, n) undamped natural frequency omega_n / 2 pi of each damped mode, Hz: the
+        modulus of its pole (a curve fit's omega_n); :attr:`freq_hz` without damping."""
+        return self.freq_hz if self.damping is None else self.damping.natural_hz
+
+    @property
+    def damped_hz(self) -> np.ndarray:
+        """(N, n) damped frequency omega_d / 2 pi = omega_n sqrt(1 - zeta^2) / 2 pi, Hz (a
+        free decay, a step response); :attr:`freq_hz` without damping."""
+        return self.freq_hz if self.damping is None else self.damping.damped_hz
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        """(N, n) damping ratio zeta of each mode (-); 0 without damping."""
+        if self.damping is None:
+            return np.where(np.isnan(self.freq_hz), np.nan, 0.0)
+        return self.damping.damping_ratio
+
+    @property
+    def complex_eigentwists(self) -> np.ndarray | None:
+        """(N, n, n) complex eigentwists (columns, largest entry 1 + 0j) of the damped modes,
+        from ``modes(..., complex_shapes=True)``; None otherwise."""
+        return None if self.damping is None else self.damping.shapes
 
     @property
     def direction(self) -> np.ndarray:
@@ -699,7 +729,7 @@ class Evaluator:
         return any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
-              unstable: str = "nan", joints=None, **params) -> Modes:
+              unstable: str = "nan", joints=None, complex_shapes: bool = False, **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
 
         ``invalid="raise"`` (the default) raises on the first unreachable or singular
@@ -717,12 +747,20 @@ class Evaluator:
         penalty, couplings and the gravity preload included); a rigid constraint's own
         mode (infinite frequency) keeps K_F's stand-in value (~1e6 Hz) in its column,
         marked in ``Modes.constrained``.
+        A model with a damping effect (``servo_damping``, ``servo_delay``,
+        ``structural_loss``) also gives each mode's pole: ``Modes.natural_hz``,
+        ``Modes.damped_hz`` and ``Modes.damping_ratio`` (:mod:`.damped`; ``freq_hz`` stays
+        the undamped model's), and ``complex_shapes=True`` the complex eigentwists
+        ``Modes.complex_eigentwists``; a growing mode makes its pose unstable.
         """
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
         if joints is not None:
+            if complex_shapes or self.damped_model(model):
+                raise InputError("joints= with a damping effect or complex_shapes: not supported (the damped "
+                                 "modes need the pose's inverse kinematics); give poses")
             return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses, params)
         effects = self._resolve(model)
@@ -735,9 +773,18 @@ class Evaluator:
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
                 modes = self._exact_modes(poses, effects, params, modes, vectors, **stash)
+        if complex_shapes or self.damped_model(effects):
+            from .damped_modes import damped_of
+
+            modes.damping = damped_of(self, poses, effects, params, modes, complex_shapes)
+            modes.stable = modes.stable & modes.damping.stable
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
+
+    def damped_model(self, model) -> bool:
+        """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
+        return any("damping" in self.robot.effect(base_name(e)).kinds for e in self._resolve(model))
 
 
     # ------------------------------------------- rigid constraints exact (issue 20)
@@ -911,6 +958,13 @@ class Evaluator:
     def _raise_unstable(self, poses, modes: Modes, effects) -> None:
         k = int(np.argmax(~modes.stable))
         bad = np.flatnonzero(np.isnan(modes.freq_hz[k]))
+        if not len(bad) and modes.damping is not None:
+            zeta = modes.damping_ratio[k]
+            j = int(np.nanargmin(zeta)) if np.isfinite(zeta).any() else 0
+            raise UnstablePoseError(
+                f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: a pole grows (mode {j + 1} has "
+                f"damping ratio {zeta[j]:.3g}, or an actuator's internal pole); check the torque lag t_d against "
+                "c_a / k_a and negative damping")
         which = ", ".join(str(j + 1) for j in bad)
         raise UnstablePoseError(
             f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: mode{'s' if len(bad) > 1 else ''} "

@@ -1,0 +1,41 @@
+"""Damping ratios as residuals: measured values, and the decay a damped row shows."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["DECAY_SIGMA", "zeta_rows", "zeta_residuals", "zeta_count"]
+
+#: a damped row (``kind`` = damped: a decaying oscillation was seen) bounds the model's
+#: damping ratio of that mode from below: zeta < 0 costs ((zeta - 0) / DECAY_SIGMA)^2
+DECAY_SIGMA = 0.01
+
+
+def zeta_rows(meas):
+    """``(rows, sigma)`` of the damping-ratio residuals: every row with a measured
+    damping ratio and every damped row (the decay bound), or None without either."""
+    measured = ~np.isnan(np.asarray(getattr(meas, "damping_ratio", np.full(len(meas), np.nan)), dtype=float))
+    decay = np.asarray(getattr(meas, "damped", np.zeros(len(meas), dtype=bool)), dtype=bool)
+    rows = np.flatnonzero(measured | decay)
+    if not len(rows):
+        return None
+    sigma = np.where(measured, np.asarray(getattr(meas, "sigma_damping_ratio", np.ones(len(meas)))), DECAY_SIGMA)
+    return rows, sigma[rows], measured[rows]
+
+
+def zeta_residuals(meas, zeta: np.ndarray, spec) -> np.ndarray:
+    """Whitened damping-ratio residuals (..., Z) of predicted ``zeta`` (..., N): measured
+    rows ``(zeta - zeta_meas) / sigma``; damped rows without a measured value
+    ``min(zeta, 0) / DECAY_SIGMA`` (a decay was seen: the mode does not grow)."""
+    rows, sigma, measured = spec
+    z = np.asarray(zeta)[..., rows]
+    target = np.where(measured, np.asarray(meas.damping_ratio)[rows], 0.0)
+    r = (z - np.nan_to_num(target)) / sigma
+    return np.where(measured, r, np.minimum(r, 0.0))
+
+
+def zeta_count(meas) -> int:
+    """How many damping-ratio values ``meas`` carries (rows with ``damping_ratio``)."""
+    return int(np.sum(~np.isnan(np.asarray(getattr(meas, "damping_ratio", np.full(len(meas), np.nan)), dtype=float))))
+
+
+
