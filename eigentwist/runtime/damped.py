@@ -180,11 +180,17 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
             raise InputError("damped modes with coupled platform bodies: an actuator's internal coordinate has no "
                              "compliance in series (beta = 0) and a damping; give its leg a compliance") from None
     A[~ok] = 0.0
-    s, V = np.linalg.eig(A)
-    mech = np.abs(V[:, :n, :]) ** 2 + np.abs(V[:, n:2 * n, :]) ** 2   # (N, n modes, m poles)
-    total = mech.sum(axis=1, keepdims=True)
-    share = mech / np.where(total > 0, total, 1.0)
-    wn, zeta, wd, poles, cols = _assign(s, share, n)
+    if elim.all() and not complex_:           # no internal coordinate: the 2n mechanical states alone
+        A = A[:, :2 * n, :2 * n]
+    fast = None if shapes else _by_order(np.linalg.eigvals(A), om, n)
+    if fast is not None:
+        s, (wn, zeta, wd, poles, cols) = fast
+    else:
+        s, V = np.linalg.eig(A)
+        mech = np.abs(V[:, :n, :]) ** 2 + np.abs(V[:, n:2 * n, :]) ** 2   # (N, n modes, m poles)
+        total = mech.sum(axis=1, keepdims=True)
+        share = mech / np.where(total > 0, total, 1.0)
+        wn, zeta, wd, poles, cols = _assign(s, share, n)
     # a hysteretic loss factor holds for positive frequencies: its mirrored roots (Im s < 0) are not poles
     counted = (s.imag > 0) if complex_ else np.ones(s.shape, dtype=bool)
     stable = ok & ~(counted & (s.real > UNSTABLE_ZETA * np.abs(s))).any(axis=-1)
@@ -201,6 +207,30 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
         X[~ok] = np.nan
         out_shapes = X
     return Damping(natural, damped, zeta, poles, out_shapes, stable)
+
+
+#: the poles of positive frequency, sorted by |s|, belong to the undamped modes in order
+#: where each |s| lies closer to its own mode's omega than AMBIGUOUS times the distance to
+#: a neighbour's; elsewhere the eigenvectors decide (:func:`_assign`)
+AMBIGUOUS = 0.5
+
+
+def _by_order(s: np.ndarray, om: np.ndarray, n: int):
+    """``(s, _assign's tuple)`` from eigenvalues alone where the order decides unambiguously
+    at every pose (:data:`AMBIGUOUS`), else None (the caller solves with eigenvectors)."""
+    upper = s.imag > 0
+    if not (upper.sum(axis=-1) == n).all():
+        return None
+    key = np.where(upper, np.abs(s), np.inf)
+    cols = np.argsort(key, axis=-1, kind="stable")[:, :n]
+    poles = np.take_along_axis(s, cols, axis=-1)
+    wn = np.abs(poles)
+    gap = np.diff(om, axis=-1)
+    left = np.concatenate([np.full((len(om), 1), np.inf), gap], axis=1)
+    right = np.concatenate([gap, np.full((len(om), 1), np.inf)], axis=1)
+    if not (np.abs(wn - om) < AMBIGUOUS * np.minimum(left, right)).all():
+        return None
+    return s, (wn, -poles.real / wn, poles.imag, poles, cols)
 
 
 def _assign(s: np.ndarray, share: np.ndarray, n: int):

@@ -55,10 +55,15 @@ def damped_of(ev, poses, effects, params: dict, modes, shapes: bool) -> Damping:
     pr = poses[rows]
     n = len(pr)
     sub = ev._rows(params, rows, N)
-    p = ev._params(n, sub, effects)
-    q = ev._ik(pr, p)
-    pk = ev._with_pose(pr, p)
-    legs = ev._kernels.legs(q, pk)
+    known = getattr(modes, "legs", None)
+    if known is not None and np.array_equal(known["rows"], rows):
+        p, q, legs = known["p"], known["q"], known["out"]
+        pk = ev._with_pose(pr, p)
+    else:
+        p = ev._params(n, sub, effects)
+        q = ev._ik(pr, p)
+        pk = ev._with_pose(pr, p)
+        legs = ev._kernels.legs(q, pk)
     mats = ev._kernels.matrices(q, pk)
     M = np.broadcast_to(mats["M"], (n, 6, 6))
     k_d, c_d, t_d, loss = actuator_values(ev, p, effects, n)
@@ -70,7 +75,9 @@ def damped_of(ev, poses, effects, params: dict, modes, shapes: bool) -> Damping:
         Je, Cq = Je[:, :, :1, :], Cq[:, :, :1, :1]
         K_model = np.broadcast_to(mats["K_R"], (n, 6, 6))
     else:
-        B = _admissible(Je, Cq, condense)
+        # rigid joint combinations only where the evaluator's route condenses them (Evaluator._route)
+        exact = ev._rigid_models.get(tuple(effects), True)
+        B = _admissible(Je, Cq, condense) if exact else np.broadcast_to(np.eye(6), (n, 6, 6))
         K_model = np.broadcast_to(mats["K_F"], (n, 6, 6)) if B.shape[-1] == 6 else None
     coupled = _couplings(ev, effects, legs, n)
     G = None

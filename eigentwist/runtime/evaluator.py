@@ -1,7 +1,7 @@
 """The evaluator users import: validated batches in, matrices and frequencies out."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import ModuleType
 
 import numpy as np
@@ -77,6 +77,9 @@ class Modes:
     constrained: np.ndarray | None = None
     shares: np.ndarray | None = None
     damping: object = None
+    #: the valid rows' joint coordinates, inputs and legs-kernel outputs where the exact
+    #: condensation computed them (reused by the damped modes); None otherwise
+    legs: dict | None = field(default=None, repr=False)
 
     def __post_init__(self):
         if self.stable is None:
@@ -851,6 +854,7 @@ class Evaluator:
         pk = self._with_pose(pr, p)
         out = self._kernels.legs(q, pk)
         M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
+        modes.legs = {"rows": rows, "q": q, "p": p, "out": out}     # the damped modes reuse them
         coupled = any(c.effect in set(effects) for c in self.robot.couplings)
         if not coupled and not self._preloaded(effects):   # legs on the tool: stiffness form, admissible twists
             f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh)
