@@ -31,7 +31,7 @@ class Comparison:
     mac : (N,) MAC between the measured mode shape and the model's (transported to the
         sensor), NaN on rows without a shape; None when the data have no shape columns.
     zeta : (N,) the model's damping ratio of each row's mode (a model with a damping
-        effect), else None; zeta_residuals : the whitened damping-ratio residuals that
+        effect, or data with damping), else None; zeta_residuals : the whitened damping-ratio residuals that
         :attr:`chi2` includes (measured ``damping_ratio`` values; a damped row's decay,
         ``eigentwist.diagnose.fit.zeta_residuals``), else None.
     """
@@ -113,10 +113,10 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
     shapes = getattr(meas, "shapes", None)
     mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
     comp = Comparison(meas, effects, pred, idx, dict(values or {}), mac)
-    if modes.damping is not None:
-        from .damping import zeta_residuals, zeta_rows
+    from .damping import zeta_residuals, zeta_rows
 
+    spec = zeta_rows(meas, modes.damping is not None)
+    if modes.damping is not None or spec is not None:
         comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
-        spec = zeta_rows(meas)
         comp.zeta_residuals = None if spec is None else zeta_residuals(meas, comp.zeta, spec)
     return comp

@@ -10,11 +10,12 @@ __all__ = ["DECAY_SIGMA", "zeta_rows", "zeta_residuals", "zeta_count", "carries_
 DECAY_SIGMA = 0.01
 
 
-def zeta_rows(meas):
-    """``(rows, sigma)`` of the damping-ratio residuals: every row with a measured
-    damping ratio and every damped row (the decay bound), or None without either."""
+def zeta_rows(meas, damped_model: bool = True):
+    """``(rows, sigma, measured)`` of the damping-ratio residuals: every row with a measured
+    damping ratio and, for a model with damping (``damped_model``), every damped row (the
+    decay bound; a model without damping has zeta = 0 there); None without any."""
     measured = ~np.isnan(np.asarray(getattr(meas, "damping_ratio", np.full(len(meas), np.nan)), dtype=float))
-    decay = np.asarray(getattr(meas, "damped", np.zeros(len(meas), dtype=bool)), dtype=bool)
+    decay = np.asarray(getattr(meas, "damped", np.zeros(len(meas), dtype=bool)), dtype=bool) & damped_model
     rows = np.flatnonzero(measured | decay)
     if not len(rows):
         return None

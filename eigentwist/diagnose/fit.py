@@ -183,7 +183,7 @@ class _Objective:
         self.exact = _exact_wanted(jacobian)
         self.fallback = ""
         # measured damping ratios are residuals too, and a damped row's decay bounds zeta >= 0
-        self.zeta = _zeta_rows(self.meas) if predictor.ev.damped_model(predictor.effects) else None
+        self.zeta = _zeta_rows(self.meas, predictor.ev.damped_model(predictor.effects))
         if self.zeta is not None:
             self.exact = False
 
@@ -249,11 +249,12 @@ class _Objective:
 
 
 def _comparison(meas, effects, ev, values: dict) -> Comparison:
-    """The :class:`Comparison` at ``values``; a damped model's carries the whitened
-    damping-ratio residuals (:func:`zeta_residuals`), which its chi2 includes."""
+    """The :class:`Comparison` at ``values``; with measured damping ratios or damped rows it
+    carries the whitened damping-ratio residuals (:func:`zeta_residuals`; a model without
+    damping predicts zeta = 0), which its chi2 includes."""
     pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=False, return_modes=True)
     comp = Comparison(meas, tuple(effects), pred, idx, values)
-    spec = _zeta_rows(meas) if ev.damped_model(tuple(effects)) else None
+    spec = _zeta_rows(meas, ev.damped_model(tuple(effects)))
     if spec is not None:
         comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
         comp.zeta_residuals = zeta_residuals(meas, comp.zeta, spec)
@@ -316,7 +317,7 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     fixed = {k: v for k, v in given.items() if k not in names}
     predictor = Predictor(meas, effects, ev, fixed)
     n = len(meas)
-    n += zeta_count(meas) if ev.damped_model(tuple(effects)) else 0
+    n += zeta_count(meas)
     if not names:
         comp = _comparison(meas, effects, ev, dict(fixed))
         chi2 = comp.chi2

@@ -141,6 +141,18 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
     N, n = K.shape[:2]
     W = np.asarray(W)
     L = W.shape[1]
+    args = [np.broadcast_to(np.asarray(v), (N, L)) for v in (h, k_d, c_d, t_d)]
+    parts = [M, K, W, *args] + ([] if K_loss is None else [K_loss]) + ([] if G is None else [G])
+    key = np.concatenate([np.ascontiguousarray(v).reshape(N, -1).view(float) if not np.iscomplexobj(v) else
+                          np.concatenate([v.real.reshape(N, -1), v.imag.reshape(N, -1)], axis=1) for v in parts], axis=1)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    if len(first) < N:                 # rows of one condition (modes of one pose and k_a): solved once
+        pick = lambda v: None if v is None else np.asarray(v)[first]   # noqa: E731
+        d = damped_modes(M[first], K[first], W[first], *(a[first] for a in args), shapes=shapes,
+                         K_loss=pick(K_loss), G=pick(G))
+        inverse = np.asarray(inverse).reshape(-1)
+        return Damping(d.natural_hz[inverse], d.damped_hz[inverse], d.damping_ratio[inverse], d.poles[inverse],
+                       None if d.shapes is None else d.shapes[inverse], d.stable[inverse])
     lam, Phi = generalized_eigh(0.5 * (K + np.swapaxes(K, -1, -2)), M)
     ok = (lam > 0).all(axis=-1)
     om = np.sqrt(np.where(ok[:, None], lam, 1.0))
@@ -180,7 +192,7 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
             raise InputError("damped modes with coupled platform bodies: an actuator's internal coordinate has no "
                              "compliance in series (beta = 0) and a damping; give its leg a compliance") from None
     A[~ok] = 0.0
-    if elim.all() and not complex_:           # no internal coordinate: the 2n mechanical states alone
+    if elim.all():                            # no internal coordinate: the 2n mechanical states alone
         A = A[:, :2 * n, :2 * n]
     fast = None if shapes else _by_order(np.linalg.eigvals(A), om, n)
     if fast is not None:

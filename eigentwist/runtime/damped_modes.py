@@ -56,15 +56,19 @@ def damped_of(ev, poses, effects, params: dict, modes, shapes: bool) -> Damping:
     n = len(pr)
     sub = ev._rows(params, rows, N)
     known = getattr(modes, "legs", None)
-    if known is not None and np.array_equal(known["rows"], rows):
-        p, q, legs = known["p"], known["q"], known["out"]
-        pk = ev._with_pose(pr, p)
-    else:
+    if known is None or not np.array_equal(known["rows"], rows):
+        known = None
         p = ev._params(n, sub, effects)
         q = ev._ik(pr, p)
         pk = ev._with_pose(pr, p)
         legs = ev._kernels.legs(q, pk)
-    mats = ev._kernels.matrices(q, pk)
+    else:
+        p, q, legs = known["p"], known["q"], known["out"]
+        pk = ev._with_pose(pr, p)
+    # M (and K_F, K_R where the model uses them) from the matrices kernel unless the exact
+    # condensation brought M and its admissible twists
+    reuse = known is not None and "B" in known and ev.kind(effects) != "rigid"
+    mats = {"M": known["M"]} if reuse else ev._kernels.matrices(q, pk)
     M = np.broadcast_to(mats["M"], (n, 6, 6))
     k_d, c_d, t_d, loss = actuator_values(ev, p, effects, n)
     Je = np.broadcast_to(legs["Je"], (n,) + np.shape(legs["Je"])[-3:])
@@ -77,8 +81,9 @@ def damped_of(ev, poses, effects, params: dict, modes, shapes: bool) -> Damping:
     else:
         # rigid joint combinations only where the evaluator's route condenses them (Evaluator._route)
         exact = ev._rigid_models.get(tuple(effects), True)
-        B = _admissible(Je, Cq, condense) if exact else np.broadcast_to(np.eye(6), (n, 6, 6))
-        K_model = np.broadcast_to(mats["K_F"], (n, 6, 6)) if B.shape[-1] == 6 else None
+        B = (known["B"] if reuse else _admissible(Je, Cq, condense) if exact
+             else np.broadcast_to(np.eye(6), (n, 6, 6)))
+        K_model = np.broadcast_to(mats["K_F"], (n, 6, 6)) if B.shape[-1] == 6 and "K_F" in mats else None
     coupled = _couplings(ev, effects, legs, n)
     G = None
     if coupled is not None and not rigid:      # legs on platform bodies: condense the couplings
@@ -98,8 +103,8 @@ def damped_of(ev, poses, effects, params: dict, modes, shapes: bool) -> Damping:
         B = np.broadcast_to(np.eye(6), (n, 6, 6))
     else:
         K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss)
-    if K_model is None:            # rigid constraint directions: the legs' finite springs on B
-        K_model = K_legs.real + np.asarray(legs["K_ground"], dtype=float)
+    if K_model is None or loss is not None:    # rigid directions (the legs' finite springs on B), a loss factor
+        K_model = K_legs.real + (np.asarray(legs["K_ground"], dtype=float) if not rigid else 0.0)
     Bt = np.swapaxes(B, -1, -2)
     Kr = Bt @ K_model @ B
     if ev._preloaded(effects):                 # the gravity preload's stiffness, in parallel

@@ -854,10 +854,10 @@ class Evaluator:
         pk = self._with_pose(pr, p)
         out = self._kernels.legs(q, pk)
         M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
-        modes.legs = {"rows": rows, "q": q, "p": p, "out": out}     # the damped modes reuse them
+        modes.legs = {"rows": rows, "q": q, "p": p, "out": out, "M": M}     # the damped modes reuse them
         coupled = any(c.effect in set(effects) for c in self.robot.couplings)
         if not coupled and not self._preloaded(effects):   # legs on the tool: stiffness form, admissible twists
-            f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh)
+            f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh, basis=modes.legs)
             return condense.merge_modes(modes, rows, f, V, vectors)
         K_G = None
         if self._preloaded(effects):
