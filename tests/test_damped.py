@@ -218,3 +218,21 @@ def test_synthetic_damped_campaign_recovers_c_a(ev):
     r = fit(by_zeta, ev.robot.presets["damped"], ev, ("c_a",), start={"c_a": 1.0})
     assert abs(r.values["c_a"] - 2.0) < 3 * r.std["c_a"] < 0.5
     assert r.n == 2 * len(ka)                            # frequencies and damping ratios
+
+
+def test_coupled_plates_match_the_split_compliance_at_home(ev):
+    """At x_ref the plates' couplings (ee_coupling: massless plate coordinates condensed,
+    the rigid legs' internal equations a singular pencil) and the paper's split compliance
+    (ee_compliance) give the same lateral modes, damped as well (1e-6)."""
+    a = ev.modes(X_REF, "actuator_loss,ee_coupling,servo_damping", k_a=125.0)
+    b = ev.modes(X_REF, "actuator_loss,ee_compliance,servo_damping", k_a=125.0)
+    assert a.stable.all() and b.stable.all()
+    np.testing.assert_allclose(a.damping.poles[0, :2], b.damping.poles[0, :2], rtol=1e-6)
+
+
+def test_plot_titles_carry_zeta(ev):
+    from eigentwist.plots.robot import _damped
+
+    low = ev.modes(X_REF, "damped", k_a=125.0)
+    assert _damped(low, 0) == f", zeta {low.damping_ratio[0, 0]:.2g}, damped {low.damped_hz[0, 0]:.4g} Hz"
+    assert "zeta 0.43" in _damped(low, 0) and _damped(ev.modes(X_REF, "paper"), 0) == ""

@@ -90,7 +90,7 @@ def test_cli_synth_identify_compare(tmp_path, capsys):
                  "--noise", "1%", "--sensor", "0.05", "0.02", "-0.03", "--seed", "4"]) == 0
     assert main(["identify", str(out / "manifest.csv"), "-o", str(tmp_path / "id.csv"), "--band", "5:45"]) == 0
     header = (tmp_path / "id.csv").read_text().splitlines()[0]
-    assert header == ("k_a,mode,freq_hz,sigma_hz,x,y,z,damping_ratio,phi_x,phi_y,phi_z,"
+    assert header == ("k_a,mode,freq_hz,sigma_hz,kind,x,y,z,damping_ratio,phi_x,phi_y,phi_z,"
                       "sensor_x,sensor_y,sensor_z")
     capsys.readouterr()
     assert main(["compare", str(tmp_path / "id.csv"), "--model", "paper"]) == 0

@@ -57,16 +57,8 @@ def candidates(ev, effects, per_leg: bool = True, damping: bool = True) -> list[
         items = [e]
         if per_leg and ev.robot.effect(e).leg_level:
             items += [scoped_name(e, k) for k in range(1, ev.n_legs + 1)]
-        out += [i for i in items if i not in effects and not set(parameter_names(ev, i)) & have
-                and not _uncondensed(ev, effects, e)]
+        out += [i for i in items if i not in effects and not set(parameter_names(ev, i)) & have]
     return out
-
-
-def _uncondensed(ev, effects, effect: str) -> bool:
-    """Whether ``effect`` and the model pair a damping effect with a coupling of platform
-    bodies, which the damped modes do not condense (:mod:`eigentwist.runtime.damped_modes`)."""
-    kinds = {k for e in set(effects) | {effect} for k in ev.robot.effect(split_scope(e)[0]).kinds}
-    return "damping" in kinds and "platform_coupling" in kinds
 
 
 def where(item: str) -> list[int]:

@@ -449,10 +449,7 @@ def _swap(meas, ev, final: FitResult, step: Step, rival: Candidate) -> FitResult
     names = kept + tuple(n for n in rival.names if n not in kept)
     fixed = {k: v for k, v in final.fixed.items() if k not in dropped}
     start = {**fixed, **rival.params}
-    try:
-        return fit(meas, scope.order(ev, effects + [rival.effect]), ev, names, start=start, fixed=fixed, explore=())
-    except InputError:                # a combination the damped modes do not solve (coupled bodies, no compliance)
-        return None
+    return fit(meas, scope.order(ev, effects + [rival.effect]), ev, names, start=start, fixed=fixed, explore=())
 
 
 def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:

@@ -41,6 +41,9 @@ __all__ = ["Damping", "damped_modes", "actuator_wrenches", "coupled_wrenches", "
 #: a leg's internal pole beyond 1/ELIMINATE times the highest undamped omega is eliminated
 #: statically (relative error of that leg's damping term: ~ELIMINATE)
 ELIMINATE = 1e-9
+#: the legs' coupled internal equations E s y = ... (coupled platform bodies) are solved as a
+#: pencil where E's smallest singular value is below SINGULAR times its largest
+SINGULAR = 1e-12
 #: a pole with damping ratio below -UNSTABLE_ZETA grows: the pose is unstable (round-off
 #: of the undamped limit's poles is ~1e-16)
 UNSTABLE_ZETA = 1e-9
@@ -101,14 +104,14 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None)
     return K, W, h
 
 
-def coupled_wrenches(K_x: np.ndarray, W_x: np.ndarray):
-    """Condense massless coupling coordinates: ``K_x`` (N, d, d) the undamped stiffness and
-    ``W_x`` (N, legs, d) the actuator wrenches on ``x = [t; theta]`` (the tool's twist,
-    then the couplings' coordinates). Returns ``(K, W, G)``: the tool's K (N, 6, 6) =
-    K_tt - K_tc K_cc^-1 K_ct, its wrenches ``W_t - K_tc K_cc^-1 W_c`` (N, legs, 6) and
+def coupled_wrenches(K_x: np.ndarray, W_x: np.ndarray, k: int = 6):
+    """Condense massless coordinates: ``K_x`` (N, d, d) the undamped stiffness and ``W_x``
+    (N, legs, d) the actuator wrenches on ``x = [t; theta]``, the first ``k`` coordinates t
+    with mass (the tool's twist), theta without (the couplings'). Returns ``(K, W, G)``:
+    K (N, k, k) = K_tt - K_tc K_cc^-1 K_ct, the wrenches ``W_t - K_tc K_cc^-1 W_c`` (N, legs, k) and
     ``G = W_c^T K_cc^-1 W_c`` (N, legs, legs), for :func:`damped_modes`."""
-    Ktt, Ktc, Kcc = K_x[:, :6, :6], K_x[:, :6, 6:], K_x[:, 6:, 6:]
-    Wt, Wc = W_x[:, :, :6], W_x[:, :, 6:]
+    Ktt, Ktc, Kcc = K_x[:, :k, :k], K_x[:, :k, k:], K_x[:, k:, k:]
+    Wt, Wc = W_x[:, :, :k], W_x[:, :, k:]
     X = np.linalg.solve(Kcc, np.swapaxes(Ktc, -1, -2))                 # Kcc^-1 K_ct
     Y = np.linalg.solve(Kcc, np.swapaxes(Wc, -1, -2))                  # Kcc^-1 W_c^T
     K = Ktt - Ktc @ X
@@ -180,25 +183,32 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
     A[:, n:2 * n, 2 * n:] = np.swapaxes(np.where(live[..., None], Bw, 0.0), -1, -2)
     A[:, 2 * n:, n:2 * n] = np.where(live[..., None], (D / safe)[..., None] * Bw, 0.0)
     A[:, 2 * n + np.arange(L), 2 * n + np.arange(L)] = np.where(live, -alpha / safe, -1.0)
+    pencil = None
     if G is not None and live.any():
         E = np.where(live[:, :, None], np.eye(L) * beta[:, :, None] - D[:, :, None] * G, np.eye(L))
         rhs = np.where(live[:, :, None], -np.eye(L) * alpha[:, :, None], -np.eye(L))
-        try:
-            A[:, 2 * n:, n:2 * n] = np.linalg.solve(E, np.where(live[..., None], D[..., None] * Bw, 0.0))
+        coupling = np.where(live[..., None], D[..., None] * Bw, 0.0)
+        sv = np.linalg.svd(E, compute_uv=False)
+        if np.all(sv[:, -1] > SINGULAR * sv[:, 0]):
+            A[:, 2 * n:, n:2 * n] = np.linalg.solve(E, coupling)
             A[:, 2 * n:, 2 * n:] = np.linalg.solve(E, rhs)
-        except np.linalg.LinAlgError:
-            from .errors import InputError
-
-            raise InputError("damped modes with coupled platform bodies: an actuator's internal coordinate has no "
-                             "compliance in series (beta = 0) and a damping; give its leg a compliance") from None
+        else:                            # an internal coordinate without series compliance: E s y = ...
+            A[:, 2 * n:, n:2 * n] = coupling
+            A[:, 2 * n:, 2 * n:] = rhs
+            pencil = np.zeros((N, m, m), dtype=E.dtype)
+            pencil[:, :2 * n, :2 * n] = np.eye(2 * n)
+            pencil[:, 2 * n:, 2 * n:] = E
     A[~ok] = 0.0
+    if pencil is not None:
+        s, V = _pencil_eig(A, pencil, big[:, 0] / ELIMINATE)
     if elim.all():                            # no internal coordinate: the 2n mechanical states alone
         A = A[:, :2 * n, :2 * n]
-    fast = None if shapes else _by_order(np.linalg.eigvals(A), om, n)
+    fast = None if shapes or pencil is not None else _by_order(np.linalg.eigvals(A), om, n)
     if fast is not None:
         s, (wn, zeta, wd, poles, cols) = fast
     else:
-        s, V = np.linalg.eig(A)
+        if pencil is None:
+            s, V = np.linalg.eig(A)
         mech = np.abs(V[:, :n, :]) ** 2 + np.abs(V[:, n:2 * n, :]) ** 2   # (N, n modes, m poles)
         total = mech.sum(axis=1, keepdims=True)
         share = mech / np.where(total > 0, total, 1.0)
@@ -225,6 +235,23 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
 #: where each |s| lies closer to its own mode's omega than AMBIGUOUS times the distance to
 #: a neighbour's; elsewhere the eigenvectors decide (:func:`_assign`)
 AMBIGUOUS = 0.5
+
+
+def _pencil_eig(A: np.ndarray, B: np.ndarray, limit: np.ndarray):
+    """``A v = s B v`` pose by pose (QZ, ``scipy.linalg.eig``); the infinite eigenvalues of a
+    singular B (algebraic internal coordinates; round-off leaves them finite but beyond
+    ``limit`` (N,) rad/s, 1/ELIMINATE times the highest undamped omega) are no poles: set
+    far into the left half-plane."""
+    from scipy.linalg import eig
+
+    N, m = A.shape[:2]
+    s = np.empty((N, m), dtype=complex)
+    V = np.empty((N, m, m), dtype=complex)
+    for k in range(N):
+        w, v = eig(A[k], B[k])
+        w[~np.isfinite(w) | (np.abs(w) > limit[k])] = -1e300
+        s[k], V[k] = w, v
+    return s, V
 
 
 def _by_order(s: np.ndarray, om: np.ndarray, n: int):

@@ -84,38 +84,28 @@ def damped_of(ev, poses, effects, params: dict, modes, shapes: bool) -> Damping:
         B = (known["B"] if reuse else _admissible(Je, Cq, condense) if exact
              else np.broadcast_to(np.eye(6), (n, 6, 6)))
         K_model = np.broadcast_to(mats["K_F"], (n, 6, 6)) if B.shape[-1] == 6 and "K_F" in mats else None
-    coupled = _couplings(ev, effects, legs, n)
-    G = None
-    if coupled is not None and not rigid:      # legs on platform bodies: condense the couplings
-        if loss is not None:
-            raise InputError("structural_loss with a coupling of platform bodies (ee_coupling): not available; use "
-                             "ee_compliance")
-        T, K_x = coupled
-        K_x = K_x.copy()
-        Ws = []
-        for i in range(Je.shape[1]):
-            Ki, Wi, hi = actuator_wrenches(Je[:, i:i + 1], Cq[:, i:i + 1], 1.0 / k_d[:, i:i + 1])
-            K_x += np.swapaxes(T[i], -1, -2) @ Ki @ T[i]
-            Ws.append((Wi @ T[i])[:, 0])
-            h = hi if i == 0 else np.concatenate([h, hi], axis=1)
-        K_model, W, G = coupled_wrenches(K_x, np.stack(Ws, axis=1))
-        K_legs = K_model
-        B = np.broadcast_to(np.eye(6), (n, 6, 6))
-    else:
-        K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss)
-    if K_model is None or loss is not None:    # rigid directions (the legs' finite springs on B), a loss factor
-        K_model = K_legs.real + (np.asarray(legs["K_ground"], dtype=float) if not rigid else 0.0)
-    Bt = np.swapaxes(B, -1, -2)
-    Kr = Bt @ K_model @ B
+    coupled = _couplings(ev, effects, legs, n) if not rigid else None
+    K_G = None
     if ev._preloaded(effects):                 # the gravity preload's stiffness, in parallel
         from .gravity import gravity_stiffness
 
         full = {k: np.broadcast_to(mats[k], (n, 6, 6)) for k in ("M", "K_R", "K_F")}
         K_G = gravity_stiffness(ev, pr, effects, sub, full, rigid, B if rigid else None)
-        Kr = Kr + (K_G if rigid else Bt @ K_G @ B)
-    Mr = Bt @ M @ B
-    Wr = W @ B
-    K_loss = (Bt @ K_legs.imag @ B) if loss is not None else None
+    if coupled is not None:                    # legs on platform bodies: condense the couplings
+        Mr, Kc, Wr, h, G, B = _coupled_reduction(Je, Cq, k_d, M, K_G, *coupled, condense, loss)
+        Kr, K_loss = Kc.real, (Kc.imag if loss is not None else None)
+    else:
+        G = None
+        K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss)
+        if K_model is None or loss is not None:    # rigid directions (the legs' finite springs on B), a loss factor
+            K_model = K_legs.real + (np.asarray(legs["K_ground"], dtype=float) if not rigid else 0.0)
+        Bt = np.swapaxes(B, -1, -2)
+        Kr = Bt @ K_model @ B
+        if K_G is not None:
+            Kr = Kr + (K_G if rigid else Bt @ K_G @ B)
+        Mr = Bt @ M @ B
+        Wr = W @ B
+        K_loss = (Bt @ K_legs.imag @ B) if loss is not None else None
     d = damped_modes(Mr, Kr, Wr, h, k_d, c_d, t_d, shapes=shapes, K_loss=K_loss, G=G)
     m = B.shape[-1]
     finite = np.zeros(size, dtype=bool)
@@ -166,6 +156,63 @@ def _couplings(ev, effects, legs: dict, n: int):
         idx = np.arange(6 + k * m, 6 + (k + 1) * m)
         K_x[:, idx, idx] = K_c[:, k]
     return [T[b] for b in bodies], K_x
+
+
+def _coupled_reduction(Je, Cq, k_d, M, K_G, T, K_x, condense, loss=None):
+    """The damped problem of legs on platform bodies joined by compliant couplings:
+    ``(M, K, W, h, G, P)`` on the platform's massive admissible coordinates ``a`` (the twist
+    ``t = P a``, P (n, 6, r)) for :func:`.damped.damped_modes`.
+
+    On ``x = [t; theta]`` (the tool's twist and the couplings' massless coordinates) each
+    leg adds its finite springs and actuator wrench moved by its map ``T_i``; the legs'
+    rigid joint combinations restrict x to an orthonormal basis B_x; the inertia there,
+    ``B_x^T diag(M, 0) B_x``, splits the coordinates into massive ones (its positive
+    eigenvalues) and massless ones, which :func:`.damped.coupled_wrenches` condenses (complex
+    with a structural ``loss`` factor)."""
+    from .damped import coupled_wrenches
+
+    n, d = K_x.shape[0], K_x.shape[-1]
+    K_x = np.array(K_x, dtype=float if loss is None else complex)
+    if K_G is not None:
+        K_x[:, :6, :6] += K_G
+    Ws, hs, rows = [], [], []
+    for i in range(Je.shape[1]):
+        Ki, Wi, hi = actuator_wrenches(Je[:, i:i + 1], Cq[:, i:i + 1], 1.0 / k_d[:, i:i + 1], loss)
+        K_x += np.swapaxes(T[i], -1, -2) @ Ki @ T[i]
+        Ws.append((Wi @ T[i])[:, 0])
+        hs.append(hi[:, 0])
+        rows.append(condense.leg_condensation(Je[:, i], Cq[:, i])[1] @ T[i])
+    W_x = np.stack(Ws, axis=1)
+    B = _null_space(np.concatenate(rows, axis=1), d, condense)
+    M_x = np.zeros((n, d, d))
+    M_x[:, :6, :6] = M
+    Bt = np.swapaxes(B, -1, -2)
+    mu, U = np.linalg.eigh(Bt @ M_x @ B)          # real: B spans the real rigid rows' null space
+    massive = mu > 1e-12 * mu.max(axis=-1, keepdims=True)
+    r = int(massive.sum(axis=-1)[0])
+    if np.any(massive.sum(axis=-1) != r):
+        raise InputError("damped modes: the platform's massive coordinates change in number across the poses; "
+                         "evaluate the poses in groups")
+    U = U[:, :, ::-1]                                                   # massive first
+    Q = B @ U
+    Qt = np.swapaxes(Q, -1, -2)
+    K, W, G = coupled_wrenches(Qt @ K_x @ Q, W_x @ Q, r)
+    Mr = np.zeros((n, r, r))
+    Mr[:, np.arange(r), np.arange(r)] = mu[:, ::-1][:, :r]
+    return Mr, K, W, np.stack(hs, axis=1), G, Q[:, :6, :r]
+
+
+def _null_space(A: np.ndarray, d: int, condense) -> np.ndarray:
+    """(n, d, m) orthonormal basis of the x no row of A (n, rows, d) forbids; one rank for the batch."""
+    n = len(A)
+    if not np.any(A):
+        return np.broadcast_to(np.eye(d), (n, d, d))
+    _, sv, Vt = np.linalg.svd(A, full_matrices=True)
+    rank = (sv > condense.RIGID_RTOL * sv.max(axis=-1, keepdims=True)).sum(axis=-1)
+    if np.any(rank != rank[0]):
+        raise InputError("damped modes: the legs' rigid constraints change rank across the poses; evaluate the "
+                         "poses in groups of one rank")
+    return np.swapaxes(Vt[:, int(rank[0]):, :], -1, -2)
 
 
 def _admissible(Je: np.ndarray, Cq: np.ndarray, condense) -> np.ndarray:
