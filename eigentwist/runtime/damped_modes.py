@@ -31,44 +31,24 @@ def actuator_values(ev, p: dict, effects, n: int):
     return k_d, c_d, t_d, loss
 
 
-def damped_of(ev, poses, effects, params: dict, modes, shapes: bool) -> Damping:
-    """The :class:`~.damped.Damping` of ``modes`` (the undamped modes of ``effects`` at
-    ``poses``, :meth:`Evaluator.modes`): each actuator's impedance in series with its leg's
-    joint compliance (the generated ``legs`` kernel), solved by :func:`.damped.damped_modes`
-    on the model's coordinates (a rigid model: its allowed twists and the actuated joints
-    alone; a flexible one: the twists the legs' rigid constraints admit). Rows that are
-    not valid stay NaN."""
+def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
+    """The :class:`~.damped.Damping` of ``modes`` (the undamped modes of ``effects``,
+    :meth:`Evaluator.modes`): each actuator's impedance in series with its leg's joint
+    compliance (the generated ``legs`` kernel), solved by :func:`.damped.damped_modes` on
+    the model's coordinates (a rigid model: its allowed twists and the actuated joints
+    alone; a flexible one: the twists the legs' rigid constraints admit; coupled platform
+    bodies: condensed). ``inputs``: the evaluator's kernel outputs of the valid rows
+    (``Evaluator._damping_inputs``), None where no row is valid; those rows stay NaN."""
     from . import condense
 
-    outputs = getattr(ev._kernels, "OUTPUTS", {})
-    if "legs" not in outputs:
-        raise InputError(f"damped modes of {ev.robot.name}: its generated code has no legs kernel (joint "
-                         "compliances); regenerate it")
     N, size = modes.freq_hz.shape
-    rows = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
     out = Damping(np.array(modes.freq_hz, dtype=float), np.array(modes.freq_hz, dtype=float),
                   np.full((N, size), np.nan), np.full((N, size), np.nan + 0j),
                   np.full((N, size, size), np.nan + 0j) if shapes else None, np.array(modes.stable, dtype=bool))
-    if not rows.any():
+    if inputs is None:
         return out
-    poses = np.asarray(poses, dtype=float)
-    pr = poses[rows]
+    rows, pr, sub, p, legs, mats = (inputs[k] for k in ("rows", "poses", "params", "p", "legs", "mats"))
     n = len(pr)
-    sub = ev._rows(params, rows, N)
-    known = getattr(modes, "legs", None)
-    if known is None or not np.array_equal(known["rows"], rows):
-        known = None
-        p = ev._params(n, sub, effects)
-        q = ev._ik(pr, p)
-        pk = ev._with_pose(pr, p)
-        legs = ev._kernels.legs(q, pk)
-    else:
-        p, q, legs = known["p"], known["q"], known["out"]
-        pk = ev._with_pose(pr, p)
-    # M (and K_F, K_R where the model uses them) from the matrices kernel unless the exact
-    # condensation brought M and its admissible twists
-    reuse = known is not None and "B" in known and ev.kind(effects) != "rigid"
-    mats = {"M": known["M"]} if reuse else ev._kernels.matrices(q, pk)
     M = np.broadcast_to(mats["M"], (n, 6, 6))
     k_d, c_d, t_d, loss = actuator_values(ev, p, effects, n)
     Je = np.broadcast_to(legs["Je"], (n,) + np.shape(legs["Je"])[-3:])
@@ -80,13 +60,13 @@ def damped_of(ev, poses, effects, params: dict, modes, shapes: bool) -> Damping:
         K_model = np.broadcast_to(mats["K_R"], (n, 6, 6))
     else:
         # rigid joint combinations only where the evaluator's route condenses them (Evaluator._route)
-        exact = ev._rigid_models.get(tuple(effects), True)
-        B = (known["B"] if reuse else _admissible(Je, Cq, condense) if exact
-             else np.broadcast_to(np.eye(6), (n, 6, 6)))
+        B = inputs.get("B")
+        if B is None:
+            B = _admissible(Je, Cq, condense) if inputs["exact"] else np.broadcast_to(np.eye(6), (n, 6, 6))
         K_model = np.broadcast_to(mats["K_F"], (n, 6, 6)) if B.shape[-1] == 6 and "K_F" in mats else None
     coupled = _couplings(ev, effects, legs, n) if not rigid else None
     K_G = None
-    if ev._preloaded(effects):                 # the gravity preload's stiffness, in parallel
+    if inputs["preloaded"]:                    # the gravity preload's stiffness, in parallel
         from .gravity import gravity_stiffness
 
         full = {k: np.broadcast_to(mats[k], (n, 6, 6)) for k in ("M", "K_R", "K_F")}
@@ -169,8 +149,6 @@ def _coupled_reduction(Je, Cq, k_d, M, K_G, T, K_x, condense, loss=None):
     ``B_x^T diag(M, 0) B_x``, splits the coordinates into massive ones (its positive
     eigenvalues) and massless ones, which :func:`.damped.coupled_wrenches` condenses (complex
     with a structural ``loss`` factor)."""
-    from .damped import coupled_wrenches
-
     n, d = K_x.shape[0], K_x.shape[-1]
     K_x = np.array(K_x, dtype=float if loss is None else complex)
     if K_G is not None:

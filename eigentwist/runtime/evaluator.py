@@ -779,11 +779,40 @@ class Evaluator:
         if complex_shapes or self.damped_model(effects):
             from .damped_modes import damped_of
 
-            modes.damping = damped_of(self, poses, effects, params, modes, complex_shapes)
+            modes.damping = damped_of(self, effects, self._damping_inputs(poses, effects, params, modes), modes,
+                                      complex_shapes)
             modes.stable = modes.stable & modes.damping.stable
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
+
+    def _damping_inputs(self, poses, effects, params: dict, modes: Modes) -> dict | None:
+        """What :func:`.damped_modes.damped_of` needs from the kernels for the valid rows of
+        ``modes``: their poses, parameters (``params``, the generated inputs ``p``), the
+        ``legs`` kernel's outputs and the matrices (``M`` and the admissible twists ``B``
+        the exact condensation found, where it ran), whether the route condenses rigid
+        directions (``exact``) and the gravity preload; None where no row is valid."""
+        if "legs" not in getattr(self._kernels, "OUTPUTS", {}):
+            raise InputError(f"damped modes of {self.robot.name}: its generated code has no legs kernel (joint "
+                             "compliances); regenerate it")
+        N = len(modes.freq_hz)
+        rows = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+        if not rows.any():
+            return None
+        pr = np.asarray(poses, dtype=float)[rows]
+        sub = self._rows(params, rows, N)
+        known = modes.legs if modes.legs is not None and np.array_equal(modes.legs["rows"], rows) else None
+        if known is None:
+            p = self._params(len(pr), sub, effects)
+            q = self._ik(pr, p)
+            legs = self._kernels.legs(q, self._with_pose(pr, p))
+        else:
+            p, q, legs = known["p"], known["q"], known["out"]
+        reuse = known is not None and "B" in known and self.kind(effects) != "rigid"
+        mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
+        return {"rows": rows, "poses": pr, "params": sub, "p": p, "legs": legs, "mats": mats,
+                "B": known["B"] if reuse else None, "exact": self._rigid_models.get(tuple(effects), True),
+                "preloaded": self._preloaded(effects)}
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
