@@ -183,7 +183,9 @@ class _Objective:
         self.exact = _exact_wanted(jacobian)
         self.fallback = ""
         # measured damping ratios are residuals too, and a damped row's decay bounds zeta >= 0
-        self.zeta = _zeta_rows(self.meas, predictor.ev.damped_model(predictor.effects))
+        ev = getattr(predictor, "ev", None)
+        damped = ev is not None and ev.damped_model(predictor.effects)
+        self.zeta = None if self.meas is None else _zeta_rows(self.meas, damped)
         if self.zeta is not None:
             self.exact = False
 
