@@ -193,6 +193,10 @@ def test_decay_bound():
     meas = Measurements(np.ones(2), ("x", "y"), np.ones(2), np.ones(2), np.zeros((2, 3)), kind=("damped", "damped"))
     r = zeta_residuals(meas, np.array([-DECAY_SIGMA, DECAY_SIGMA]), zeta_rows(meas))
     np.testing.assert_allclose(r, [-1.0, 0.0])
+    # another mode of the row's condition growing costs as much: the oscillation would not decay
+    r = zeta_residuals(meas, np.array([DECAY_SIGMA, DECAY_SIGMA]), zeta_rows(meas), least=np.array([-DECAY_SIGMA, 0.0]))
+    np.testing.assert_allclose(r, [-1.0, 0.0])
+    assert zeta_rows(meas, damped_model=False) is None     # a model without damping: zeta = 0, no residual
 
 
 def test_synthetic_damped_campaign_recovers_c_a(ev):

@@ -113,10 +113,10 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
     shapes = getattr(meas, "shapes", None)
     mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
     comp = Comparison(meas, effects, pred, idx, dict(values or {}), mac)
-    from .damping import zeta_residuals, zeta_rows
+    from .damping import least_damping, zeta_residuals, zeta_rows
 
     spec = zeta_rows(meas, modes.damping is not None)
     if modes.damping is not None or spec is not None:
         comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
-        comp.zeta_residuals = None if spec is None else zeta_residuals(meas, comp.zeta, spec)
+        comp.zeta_residuals = None if spec is None else zeta_residuals(meas, comp.zeta, spec, least_damping(modes))
     return comp

@@ -3,11 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DECAY_SIGMA", "zeta_rows", "zeta_residuals", "zeta_count", "carries_damping"]
+__all__ = ["DECAY_SIGMA", "zeta_rows", "zeta_residuals", "zeta_count", "carries_damping", "least_damping"]
 
-#: a damped row (``kind`` = damped: a decaying oscillation was seen) bounds the model's
-#: damping ratio of that mode from below: zeta < 0 costs ((zeta - 0) / DECAY_SIGMA)^2
-DECAY_SIGMA = 0.01
+#: a damped row (``kind`` = damped: a decaying oscillation was seen and counted) bounds the
+#: damping ratio of every mode of that condition from below: zeta < 0 costs (zeta / DECAY_SIGMA)^2,
+#: a stiff penalty (a mode growing by zeta = -0.001 costs 100 in chi2): the model must be stable there
+DECAY_SIGMA = 1e-4
 
 
 def zeta_rows(meas, damped_model: bool = True):
@@ -23,15 +24,24 @@ def zeta_rows(meas, damped_model: bool = True):
     return rows, sigma[rows], measured[rows]
 
 
-def zeta_residuals(meas, zeta: np.ndarray, spec) -> np.ndarray:
-    """Whitened damping-ratio residuals (..., Z) of predicted ``zeta`` (..., N): measured
-    rows ``(zeta - zeta_meas) / sigma``; damped rows without a measured value
-    ``min(zeta, 0) / DECAY_SIGMA`` (a decay was seen: the mode does not grow)."""
+def zeta_residuals(meas, zeta: np.ndarray, spec, least: np.ndarray | None = None) -> np.ndarray:
+    """Whitened damping-ratio residuals (..., Z) of predicted ``zeta`` (..., N, the rows'
+    modes): measured rows ``(zeta - zeta_meas) / sigma``; damped rows without a measured
+    value ``min(zeta_least, 0) / DECAY_SIGMA`` with ``least`` (..., N) the least damping
+    ratio of the row's modes (default ``zeta``): a decay was seen, so no mode of that
+    condition grows (a growing one would have left no oscillation to count)."""
     rows, sigma, measured = spec
     z = np.asarray(zeta)[..., rows]
+    low = z if least is None else np.minimum(z, np.asarray(least)[..., rows])
     target = np.where(measured, np.asarray(meas.damping_ratio)[rows], 0.0)
     r = (z - np.nan_to_num(target)) / sigma
-    return np.where(measured, r, np.minimum(r, 0.0))
+    return np.where(measured, r, np.minimum(low / sigma, 0.0))
+
+
+def least_damping(modes) -> np.ndarray:
+    """(N,) the least damping ratio among each row's modes (NaN modes left out)."""
+    zeta = np.asarray(modes.damping_ratio, dtype=float)
+    return np.min(np.where(np.isnan(zeta), np.inf, zeta), axis=1)
 
 
 def zeta_count(meas) -> int:

@@ -38,7 +38,7 @@ from scipy.optimize import least_squares
 
 from ..runtime.errors import InputError
 from .compare import Comparison
-from .damping import zeta_count, zeta_residuals, zeta_rows as _zeta_rows
+from .damping import least_damping, zeta_count, zeta_residuals, zeta_rows as _zeta_rows
 from .predict import Predictor
 from .stats import aicc, gof_p_value
 
@@ -225,10 +225,10 @@ class _Objective:
         if self.zeta is None:
             f = self.pred.predict_sets(self.names, values, strict=False)
             return f, (f - self.meas.freq_hz) / self.meas.sigma_hz
-        f, z = self.pred.predict_sets(self.names, values, strict=False, zeta=True)
+        f, z, least = self.pred.predict_sets(self.names, values, strict=False, zeta=True)
         r = (f - self.meas.freq_hz) / self.meas.sigma_hz
-        fz = np.concatenate([f, zeta_residuals(self.meas, z, self.zeta) * self.zeta[1]], axis=1)
-        return fz, np.concatenate([r, zeta_residuals(self.meas, z, self.zeta)], axis=1)
+        rz = zeta_residuals(self.meas, z, self.zeta, least)
+        return np.concatenate([f, rz * self.zeta[1]], axis=1), np.concatenate([r, rz], axis=1)
 
     def _exact(self, theta: np.ndarray):
         """Residuals and the exact Jacobian in theta (generated sensitivities, issue 16)."""
@@ -259,7 +259,7 @@ def _comparison(meas, effects, ev, values: dict) -> Comparison:
     spec = _zeta_rows(meas, ev.damped_model(tuple(effects)))
     if spec is not None:
         comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
-        comp.zeta_residuals = zeta_residuals(meas, comp.zeta, spec)
+        comp.zeta_residuals = zeta_residuals(meas, comp.zeta, spec, least_damping(modes))
     return comp
 
 

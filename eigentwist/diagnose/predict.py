@@ -137,7 +137,7 @@ class Predictor:
     def predict_sets(self, names, table: np.ndarray, strict: bool = False, zeta: bool = False):
         """Predictions for B parameter sets in one call: ``table`` is (B, P) values of
         ``names``; returns (B, N) Hz, and with ``zeta`` also the (B, N) damping ratios of
-        the matched modes."""
+        the matched modes and the (B, N) least damping ratio of each row's modes."""
         table = np.atleast_2d(np.asarray(table, dtype=float))
         b = table.shape[0]
         values = {name: table[:, j] for j, name in enumerate(names)}
@@ -148,7 +148,9 @@ class Predictor:
                                     joints=self._joints(b), damped=self._damped(b), return_modes=True, **self._shapes(b))
         if zeta:
             z = modes.damping_ratio[np.arange(len(idx)), idx]
-            return freq.reshape(b, len(self.meas)), z.reshape(b, len(self.meas))
+            with np.errstate(invalid="ignore"):
+                least = np.nanmin(np.where(np.isnan(modes.damping_ratio), np.inf, modes.damping_ratio), axis=1)
+            return tuple(v.reshape(b, len(self.meas)) for v in (freq, z, least))
         return freq.reshape(b, len(self.meas))
 
     def predict_with_jacobian(self, names, values, strict: bool = False):
