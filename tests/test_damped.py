@@ -240,3 +240,15 @@ def test_plot_titles_carry_zeta(ev):
     low = ev.modes(X_REF, "damped", k_a=125.0)
     assert _damped(low, 0) == f", zeta {low.damping_ratio[0, 0]:.2g}, damped {low.damped_hz[0, 0]:.4g} Hz"
     assert "zeta 0.43" in _damped(low, 0) and _damped(ev.modes(X_REF, "paper"), 0) == ""
+
+
+def test_cli_synth_writes_damped_frequencies(capsys):
+    from eigentwist.cli.main import main
+
+    assert main(["synth", "--truth", "paper+servo_damping:c_a=2", "--k-a", "125", "--modes", "x", "--kind", "damped",
+                 "--noise", "0", "--sigma", "1%"]) == 0
+    row = capsys.readouterr().out.splitlines()[1].split(",")
+    ev = __import__("eigentwist").load("heli4", backend="numpy")
+    assert row[4] == "damped"
+    assert float(row[2]) == pytest.approx(ev.modes(X_REF, "paper,servo_damping", k_a=125.0, c_a=2.0).damped_hz[0, 0],
+                                          rel=1e-9)
