@@ -183,6 +183,10 @@ def test_compare_like_with_like(ev):
     assert comp.predicted[0] == pytest.approx(modes.damped_hz[0, 0], rel=1e-12)
     assert comp.predicted[1] == pytest.approx(modes.natural_hz[1, 0], rel=1e-12)
     assert comp.zeta[0] == pytest.approx(modes.damping_ratio[0, 0], rel=1e-12)
+    from eigentwist.cli.compare import to_json
+
+    rows = to_json(comp, [])["rows"]
+    assert [r["kind"] for r in rows] == ["damped", "undamped"] and rows[0]["model_damping_ratio"] == comp.zeta[0]
 
 
 def test_decay_bound():
