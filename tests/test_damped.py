@@ -256,3 +256,15 @@ def test_cli_synth_writes_damped_frequencies(capsys):
     assert row[4] == "damped"
     assert float(row[2]) == pytest.approx(ev.modes(X_REF, "paper,servo_damping", k_a=125.0, c_a=2.0).damped_hz[0, 0],
                                           rel=1e-9)
+
+
+def test_workspace_map_of_a_damped_model(ev):
+    """The report's map: the lowest damped frequency below the lowest undamped one, and the
+    least damping ratio no larger than the lowest mode's."""
+    from eigentwist.report.figures import lowest_frequency_map
+
+    m = lowest_frequency_map(ev, "damped", X_REF, 125.0, {}, grid=2)
+    lowest = ev.modes(np.array([[m["x"][0], m["y"][0], X_REF[2]]]), "damped", k_a=125.0)
+    assert m["f1_damped"][0, 0] == pytest.approx(np.min(lowest.damped_hz), rel=1e-12)
+    assert np.all(m["f1_damped"] < m["f1"]) and np.all(m["zeta_min"] <= lowest.damping_ratio[0, 0])
+    assert "f1_damped" not in lowest_frequency_map(ev, "paper", X_REF, 125.0, {}, grid=2)
