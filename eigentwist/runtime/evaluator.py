@@ -782,6 +782,7 @@ class Evaluator:
             modes.damping = damped_of(self, effects, self._damping_inputs(poses, effects, params, modes), modes,
                                       complex_shapes)
             modes.stable = modes.stable & modes.damping.stable
+        modes.legs = None                      # the exact condensation's arrays: not kept with the result
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
@@ -925,6 +926,7 @@ class Evaluator:
         modes = self._solve(M, K, vectors, kind)
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=q, M=M)
+            modes.legs = None
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
@@ -1070,6 +1072,7 @@ class Evaluator:
         modes = Modes(freq, vec, self.axes(kind), kind)
         if exact:                                  # K_F's penalty: the finite modes exact
             modes = self._exact_modes(poses, effects, params, modes, True)
+            modes.legs = None
         return modes, dfdp
 
     def matrix_derivatives(self, poses, wrt, model="paper", **params) -> dict:
