@@ -239,11 +239,13 @@ def test_coupled_plates_match_the_split_compliance_at_home(ev):
 
 
 def test_plot_titles_carry_zeta(ev):
-    from eigentwist.plots.robot import _damped
+    from eigentwist.plots.animate import modes_svg
+    from eigentwist.plots.robot import damped_text as _damped
 
     low = ev.modes(X_REF, "damped", k_a=125.0)
     assert _damped(low, 0) == f", zeta {low.damping_ratio[0, 0]:.2g}, damped {low.damped_hz[0, 0]:.4g} Hz"
     assert "zeta 0.43" in _damped(low, 0) and _damped(ev.modes(X_REF, "paper"), 0) == ""
+    assert "zeta 0.43, damped 5.282 Hz" in modes_svg(ev, X_REF, "damped", k_a=125.0, n_modes=1)   # the report's
 
 
 def test_cli_synth_writes_damped_frequencies(capsys):

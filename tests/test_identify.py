@@ -49,7 +49,13 @@ def test_every_mode_within_half_a_percent_and_labelled_right(campaign, ev):
 
 def test_diagnose_on_the_identified_csv_finds_the_payload(campaign, ev):
     _, res = campaign
-    d = diagnose(res.measurements, baseline="paper", ev=ev)
+    # the frequencies and shapes only: the campaign's damping ratios are the synthesis' uniform
+    # 1.5 %, which the damping effects would be fitted to (README; seconds of damped fits)
+    import dataclasses
+
+    meas = dataclasses.replace(res.measurements, modal={k: v for k, v in res.measurements.modal.items()
+                                                        if k != "damping_ratio"})
+    d = diagnose(meas, baseline="paper", ev=ev)
     assert d.selected[0] == "payload_mass"
     m_p, std = d.final.values["m_p"], d.final.std["m_p"]
     assert abs(m_p - 0.35) < 3 * std, (m_p, std)

@@ -18,7 +18,8 @@ import sympy as sp
 
 from ..plotting import pyplot
 
-__all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS"]
+__all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS",
+           "damped_text"]
 
 AXIS_WORDS = {"rx": "rotation about X", "ry": "rotation about Y", "rz": "rotation about Z",
               "x": "translation along X", "y": "translation along Y", "z": "translation along Z"}
@@ -176,7 +177,7 @@ def _zoom(ax, g: RobotGeometry, d: np.ndarray, color: str, k: int):
     ax.set_title(f"mode {k + 1}, platform in the {names[i]}{names[j]} plane (+: EE origin)", fontsize=9)
 
 
-def _damped(modes, k: int) -> str:
+def damped_text(modes, k: int) -> str:
     """``", zeta 0.43, damped 5.28 Hz"`` for a model with damping (:attr:`Modes.damping`), else ""."""
     if modes.damping is None:
         return ""
@@ -210,7 +211,7 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
         moved = g.attachment + scale * d
         ax.plot(*_outline(moved, g.pose + scale * d.mean(axis=0)).T, "-", color=color, lw=2.5, gid=f"mode {k + 1}")
         ax.quiver(*g.attachment.T, *(scale * d).T, color=color, arrow_length_ratio=0.25, lw=1.2)
-        ax.set_title(f"mode {k + 1}: {modes.freq_hz[0, k]:.4g} Hz{_damped(modes, k)}\nmostly {axis} "
+        ax.set_title(f"mode {k + 1}: {modes.freq_hz[0, k]:.4g} Hz{damped_text(modes, k)}\nmostly {axis} "
                      f"({AXIS_WORDS[axis]})", fontsize=10)
         _limits(ax, np.vstack([g.base, g.elbow, g.attachment, moved]))
         ax.view_init(elev=18, azim=-60)
