@@ -331,7 +331,7 @@ def test_delta_report_draws_its_robot(tmp_path):
     parsed = _no_script(render_html(rep))
     assert len(parsed.images) >= 3
     assert "The robot at the most measured pose, [0, 0, -0.75] m" in parsed.section_text("model")
-    assert "servo_damping: c_a = 2.41 ± 0.20 N m s/rad" in parsed.section_text("answer")
+    assert "fits m_p = 0.2047 ± 0.0032 kg" in parsed.section_text("diagnosis")
 
 
 # --------------------------------------------------------------- issues 22 and 23: the answer first, shown
@@ -353,7 +353,7 @@ def test_provenance_criteria_uncertainty_and_implausible_marks(report_path, pars
     assert __version__ in text and "eigentwist report -o" in text and re.search(r"\d{4}-\d\d-\d\d \d\d:\d\d", text)
     diag = parsed.section_text("diagnosis")
     assert "How the diagnosis decides" in diag and "extra-sum-of-squares F test" in diag
-    assert "The stated uncertainty cannot be judged: the misfit is systematic (Birge ratio 1.74)." in diag
+    assert "The stated uncertainty is consistent with the fit (Birge ratio 0.897)." in diag   # damped frequencies
     assert "IMPLAUSIBLE: needs E_rod = 1.15" in diag              # rod_compliance alone (README)
     assert hashlib.sha256(b"x").hexdigest() == sha256_file_of(b"x")
 

@@ -44,6 +44,8 @@ ELIMINATE = 1e-9
 #: the legs' coupled internal equations E s y = ... (coupled platform bodies) are solved as a
 #: pencil where E's smallest singular value is below SINGULAR times its largest
 SINGULAR = 1e-12
+#: where the pencil's infinite eigenvalues are put (far left: never a pole of a mode)
+NO_POLE = 1e300
 #: a pole with damping ratio below -UNSTABLE_ZETA grows: the pose is unstable (round-off
 #: of the undamped limit's poles is ~1e-16)
 UNSTABLE_ZETA = 1e-9
@@ -249,7 +251,7 @@ def _pencil_eig(A: np.ndarray, B: np.ndarray, limit: np.ndarray):
     V = np.empty((N, m, m), dtype=complex)
     for k in range(N):
         w, v = eig(A[k], B[k])
-        w[~np.isfinite(w) | (np.abs(w) > limit[k])] = -1e300
+        w[~np.isfinite(w) | (np.abs(w) > limit[k])] = -NO_POLE
         s[k], V[k] = w, v
     return s, V
 
@@ -305,7 +307,7 @@ def _assign(s: np.ndarray, share: np.ndarray, n: int):
 def _pair(s: np.ndarray, share: np.ndarray, j: int, first: int):
     """The two real poles of overdamped mode j: ``first`` and the real pole with the next
     largest share in it."""
-    real = np.flatnonzero((s.imag == 0) & (np.arange(len(s)) != first))
+    real = np.flatnonzero((s.imag == 0) & (np.arange(len(s)) != first) & (np.abs(s) < NO_POLE))
     other = real[np.argmax(share[j, real])] if len(real) else first
     return s[first].real, s[other].real
 
@@ -323,7 +325,7 @@ def _assign_one(s: np.ndarray, share: np.ndarray, n: int):
         rows, c = linear_sum_assignment(-share[:, upper])
         keep = share[rows, upper[c]] > 0
         poles[rows[keep]], cols[rows[keep]], done[rows[keep]] = s[upper[c][keep]], upper[c][keep], True
-    real = np.flatnonzero(s.imag == 0)
+    real = np.flatnonzero((s.imag == 0) & (np.abs(s) < NO_POLE))
     for j in np.flatnonzero(~done):
         if not len(real):
             break
