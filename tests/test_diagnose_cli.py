@@ -35,6 +35,7 @@ def test_diagnose_json_keys(capsys):
     assert d["baseline"]["effects"] == ["actuator_loss"] and round(d["baseline"]["rms_pct"], 1) == 13.6
     assert d["ranking"][0]["effect"] == "ee_compliance" and d["selected"][0] == "ee_compliance"
     assert d["steps"][0]["effects"] == ["actuator_loss"] and d["final"]["rms_pct"] < 5
+    assert d["selected"] == ["ee_compliance", "servo_damping"]        # damped frequencies: the servo damping
     assert {"pose", "k_a", "mode", "between"} <= set(d["next_measurement"])
     # ties at every step and at the end, plausibility, outliers, the stated uncertainty
     for c in d["ranking"]:
@@ -42,7 +43,7 @@ def test_diagnose_json_keys(capsys):
         assert all(len(r) == 2 and r[0] <= r[1] for r in c["plausible_range"].values())
     assert all(isinstance(s["alternatives"], list) for s in d["steps"])
     assert d["steps"][1]["alternatives"] == ["ee_coupling"]
-    assert d["final"]["alternatives"] == [["actuator_loss", "ee_coupling"]]
+    assert d["final"]["alternatives"] == [["actuator_loss", "ee_coupling", "servo_damping"]]
     assert d["outliers"] == []                                  # the k_a = 125 rows are a pattern
     assert d["uncertainty"]["verdict"] in ("consistent", "understated", "overstated", "too few rows", "cannot be judged")
     assert d["uncertainty"]["birge_ratio"] == pytest.approx((d["final"]["chi2"] / d["final"]["dof"]) ** 0.5)

@@ -49,7 +49,13 @@ def test_every_mode_within_half_a_percent_and_labelled_right(campaign, ev):
 
 def test_diagnose_on_the_identified_csv_finds_the_payload(campaign, ev):
     _, res = campaign
-    d = diagnose(res.measurements, baseline="paper", ev=ev)
+    # the frequencies and shapes only: the campaign's damping ratios are the synthesis' uniform
+    # 1.5 %, which the damping effects would be fitted to (README; seconds of damped fits)
+    import dataclasses
+
+    meas = dataclasses.replace(res.measurements, modal={k: v for k, v in res.measurements.modal.items()
+                                                        if k != "damping_ratio"})
+    d = diagnose(meas, baseline="paper", ev=ev)
     assert d.selected[0] == "payload_mass"
     m_p, std = d.final.values["m_p"], d.final.std["m_p"]
     assert abs(m_p - 0.35) < 3 * std, (m_p, std)
@@ -90,7 +96,7 @@ def test_cli_synth_identify_compare(tmp_path, capsys):
                  "--noise", "1%", "--sensor", "0.05", "0.02", "-0.03", "--seed", "4"]) == 0
     assert main(["identify", str(out / "manifest.csv"), "-o", str(tmp_path / "id.csv"), "--band", "5:45"]) == 0
     header = (tmp_path / "id.csv").read_text().splitlines()[0]
-    assert header == ("k_a,mode,freq_hz,sigma_hz,x,y,z,damping_ratio,phi_x,phi_y,phi_z,"
+    assert header == ("k_a,mode,freq_hz,sigma_hz,kind,x,y,z,damping_ratio,phi_x,phi_y,phi_z,"
                       "sensor_x,sensor_y,sensor_z")
     capsys.readouterr()
     assert main(["compare", str(tmp_path / "id.csv"), "--model", "paper"]) == 0

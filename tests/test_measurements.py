@@ -23,7 +23,8 @@ def test_paper_data_is_tables_e1_e2(ev):
         assert m.k_a[rows].tolist() == list(TABLE_KA)
         assert m.freq_hz[rows].tolist() == list(MEASURED[label])
     assert np.allclose(m.poses, [0.0, 0.0, -0.625])
-    assert paper_csv().splitlines()[0] == "k_a,mode,freq_hz,x,y,z"
+    assert paper_csv().splitlines()[0] == "k_a,mode,freq_hz,x,y,z,kind"
+    assert set(m.kind) == {"damped"}                     # counted from step responses (Sec. 4)
 
 
 def test_defaults_pose_sigma_and_parameter_columns(tmp_path, ev):

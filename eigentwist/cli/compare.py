@@ -20,7 +20,11 @@ DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Colum
   phi_x, phi_y, phi_z  measured mode shape at the sensor (optional, e.g. from `eigentwist identify`):
             rows are matched to model modes by shape (largest MAC), the table adds the MAC
   sensor_x, sensor_y, sensor_z  the sensor's offset from the end-effector origin, m (optional)
-  damping_ratio  identified modal damping (optional; carried along, not modelled)
+  kind      undamped (default: freq_hz is omega_n/2pi) or damped (omega_d/2pi: a free decay, a
+            step response); each row is compared with the model's frequency of its kind
+  damping_ratio  identified modal damping (optional): compared with the model's (a model with
+            servo_damping, servo_delay or structural_loss), sigma_damping_ratio its uncertainty
+            (default: the larger of 20 % of it and 0.005)
 Separator ',', ';' or tab (with ';' or tab a decimal comma is accepted); UTF-8 (BOM
 allowed) or UTF-16 with BOM. Two rows with the same pose, k_a and mode are an error.
 Use `paper` as DATA to load the paper's measurements shipped with eigentwist
@@ -98,6 +102,9 @@ def to_json(cmp, parameters: list) -> dict:
     if getattr(cmp, "mac", None) is not None:             # measured mode shapes
         for row, value in zip(rows, cmp.mac):
             row["mac"] = value
+    if getattr(cmp, "zeta", None) is not None:            # the model's damping ratio of each row's mode
+        for i, row in enumerate(rows):
+            row["kind"], row["model_damping_ratio"] = m.kind[i], cmp.zeta[i]
     return json_safe({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
                    "rms_pct": cmp.rms_pct, "max_pct": cmp.max_pct, "chi2": cmp.chi2,
                    "failing": cmp.where_it_fails(), "parameters": parameters})

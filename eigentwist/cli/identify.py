@@ -35,7 +35,8 @@ motion; otherwise one note says so and frequencies and damping go on. sigma_hz: 
 largest of the pole's spread over the stable orders, the fit's standard error and 0.1 %
 of the frequency.
 
-Output columns: k_a, mode, freq_hz, sigma_hz, x, y, z, damping_ratio, phi_x, phi_y, phi_z
+Output columns: k_a, mode, freq_hz, sigma_hz, kind, x, y, z, damping_ratio, phi_x, phi_y, phi_z
+(freq_hz: each pole's omega_n/2pi, so kind = undamped; damping_ratio: its zeta)
 (+ sensor_x, sensor_y, sensor_z when a shape point is off the origin or the manifest gives
 positions, + phi_N_x ... and nodeN_x ... for shapes over other DOFs, + its parameter
 columns). mode: x, y, z (the largest translation) and phi at a node measured along X, Y and

@@ -14,7 +14,8 @@ error). Rows: every pose x k_a x mode; measured value
 f_true (1 + noise N(0,1)) from a generator seeded by (seed, noise level), so two noise levels
 draw independently; sigma_hz = sigma x value, sigma = noise unless --sigma states it apart
 (e.g. --noise 3% --sigma 1%: uncertainty understated). Output columns:
-k_a, mode, freq_hz, sigma_hz, x, y, z (the input of compare and diagnose).
+k_a, mode, freq_hz, sigma_hz, x, y, z (the input of compare and diagnose), and kind with
+--kind damped.
 
 examples:
   eigentwist synth --truth paper+transmission_compliance:k_t=8000 --k-a 125,250,500,1000,2000,4000 \\
@@ -41,6 +42,9 @@ def add_parser(sub):
     p.add_argument("--sigma", default=None, metavar="P%",
                    help="relative standard uncertainty written to sigma_hz, e.g. 1%% (default: the --noise value)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument("--kind", choices=("undamped", "damped"), default="undamped",
+                   help="what freq_hz is: undamped (omega_n/2pi, the default) or damped (omega_d/2pi, a free decay); "
+                        "they differ where the truth has a damping effect (servo_damping, servo_delay, structural_loss)")
     p.add_argument("--extra-stiffness", action="append", default=[], metavar="AXIS=K",
                    help="add a spring to ground at the EE origin, N/m (x,y,z) or N m/rad (rx,ry,rz): "
                         "an effect outside the catalogue (repeatable)")
@@ -117,7 +121,7 @@ def run(args) -> int:
                "the 2 % default uncertainty (state another with --sigma, e.g. --sigma 0.5%)")
     meas = synth(args.truth, _numbers(args.k_a, "--k-a value"), poses,
                  [m for m in args.modes.split(",") if m.strip()], args.noise, args.seed, ev=ev,
-                 extra_stiffness=_extra(args.extra_stiffness) or None, sigma=args.sigma, values=values)
+                 extra_stiffness=_extra(args.extra_stiffness) or None, sigma=args.sigma, values=values, kind=args.kind)
     text = meas.to_csv(args.output)
     if args.output:
         say(f"wrote {len(meas)} rows to {args.output} (truth: {args.truth})")

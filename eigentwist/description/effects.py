@@ -38,6 +38,8 @@ KINDS = {
     "ground_spring": "a spring between the tool and the ground (hoses, cables, a guard); no catalogue effect: "
                      "a user's description adds one (README, 'Effects of your own')",
     "preload": "a static preload whose stiffness enters the first term of Eq. 13 (gravity)",
+    "damping": "a dissipation (servo damping, a torque lag, a structural loss factor): no term of M or K; each "
+               "mode's pole from the damped problem (eigentwist.runtime.damped)",
 }
 
 
@@ -239,8 +241,8 @@ def _gravity(ctx):
     return sp.Matrix([0, 0, -ctx.p["g"]])
 
 
-def _p(name, default, unit, doc, effect, plausible, bounds=(0.0, INF), equation=""):
-    return Parameter(name, default, unit, doc, bounds, effect, plausible, equation)
+def _p(name, default, unit, doc, effect, plausible, bounds=(0.0, INF), equation="", closed=False):
+    return Parameter(name, default, unit, doc, bounds, effect, plausible, equation, closed)
 
 
 # The end-effector assembly stiffnesses are one physical part described two ways
@@ -318,6 +320,27 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            (_p("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload; a known constant "
                "(plausible 9.78-9.84 m/s^2 on Earth)", "gravity_preload", (9.78, 9.84), (0.0, 100.0), "Eq. 13"),),
            (), kind="preload", equation="Eq. 13", build=_gravity),   # switched, not fitted: g is known
+    Effect("servo_damping",
+           "the servo's derivative gain c_a, delivered as eta_a c_a like the stiffness (Eq. 34, App. B): each actuator "
+           "is eta_a (k_a + c_a s) in series with its leg's compliance; lowers the damped frequency "
+           "omega_n sqrt(1 - zeta^2) a free decay or a step response shows (Sec. 4: 3 N m s/rad)",
+           (_p("c_a", 1.0, "N m s/rad", "commanded actuator damping (the servo's derivative gain), delivered as "
+               "eta_a c_a; plausible 0-30 N m s/rad (the paper's Heli4: 3)", "servo_damping", (0.0, 30.0),
+               equation="Sec. 4", closed=True),),
+           ("c_a",), kind="damping", equation="Sec. 4, Eq. 34", component="actuator",
+           phrase="delivers a damping of {c_a:.3g} N m s/rad"),
+    Effect("servo_delay",
+           "a first-order lag t_d of each actuator's torque (current loop, filter, sampling): the impedance "
+           "eta_a (k_a + c_a s) / (1 + t_d s); negative damping where k_a t_d > c_a and the structure is stiff",
+           (_p("t_d", 1e-3, "s", "time constant of the first-order lag of the actuator torque; plausible 0-20 ms",
+               "servo_delay", (0.0, 0.02), closed=True),),
+           ("t_d",), kind="damping", component="actuator", phrase="lags its torque by {t_d:.3g} s"),
+    Effect("structural_loss",
+           "a hysteretic loss factor eta_s of the passive compliance in series with each actuator (rods, lower links, "
+           "the EE assembly's share, a transmission): C_s / (1 + i eta_s)",
+           (_p("eta_s", 0.02, "-", "structural loss factor of the compliant bodies (hysteretic); plausible "
+               "0.001-0.1 (metals to carbon-fibre joints)", "structural_loss", (0.001, 0.1), (0.0, 2.0), closed=True),),
+           ("eta_s",), kind="damping", component="compliant bodies", phrase="has a loss factor of {eta_s:.3g}"),
 )}
 
 

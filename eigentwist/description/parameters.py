@@ -47,6 +47,8 @@ class Parameter:
         (:meth:`with_values`).
     equation : str
         The paper equation or appendix the parameter enters (``"Eq. 34, App. B"``), or "".
+    closed : bool
+        True: the lower bound itself is admitted (``c_a >= 0``: no damping is a value).
     """
 
     name: str
@@ -57,6 +59,7 @@ class Parameter:
     effect: str | None = None
     plausible: tuple[float, float] | None = None
     equation: str = ""
+    closed: bool = False
 
     @property
     def symbol(self) -> sp.Symbol:
@@ -82,7 +85,7 @@ class Parameter:
         import numpy as np
 
         lo, hi = self.bounds
-        below = arr <= lo if lo == 0.0 else arr < lo
+        below = arr <= lo if lo == 0.0 and not self.closed else arr < lo
         return ~np.isfinite(arr) | below | (arr > hi)
 
     def with_values(self, **changes) -> "Parameter":
@@ -98,6 +101,8 @@ class Parameter:
         bad = self._outside(arr)
         if np.any(bad):
             first = arr.reshape(-1)[np.argmax(bad.reshape(-1))]
-            rng = (f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
-                   f"a finite value in ({lo:g}, {hi:g}]" if lo == 0.0 else f"a finite value in [{lo:g}, {hi:g}]")
+            rng = (f"a finite value >= {lo:g}" if self.closed and hi == math.inf else
+                   f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
+                   f"a finite value in ({lo:g}, {hi:g}]" if lo == 0.0 and not self.closed else
+                   f"a finite value in [{lo:g}, {hi:g}]")
             raise ValueError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")

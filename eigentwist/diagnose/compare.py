@@ -30,6 +30,10 @@ class Comparison:
     predicted : (N,) Hz; mode_index : (N,) matched mode (0 = lowest) per row.
     mac : (N,) MAC between the measured mode shape and the model's (transported to the
         sensor), NaN on rows without a shape; None when the data have no shape columns.
+    zeta : (N,) the model's damping ratio of each row's mode (a model with a damping
+        effect, or data with damping), else None; zeta_residuals : the whitened damping-ratio residuals that
+        :attr:`chi2` includes (measured ``damping_ratio`` values; a damped row's decay,
+        ``eigentwist.diagnose.fit.zeta_residuals``), else None.
     """
 
     meas: object
@@ -38,6 +42,8 @@ class Comparison:
     mode_index: np.ndarray
     values: dict = field(default_factory=dict)
     mac: np.ndarray | None = None
+    zeta: np.ndarray | None = None
+    zeta_residuals: np.ndarray | None = None
 
     @property
     def error_pct(self) -> np.ndarray:
@@ -59,7 +65,8 @@ class Comparison:
 
     @property
     def chi2(self) -> float:
-        return chi2_value(self.predicted, self.meas.freq_hz, self.meas.sigma_hz)
+        extra = 0.0 if self.zeta_residuals is None else float(np.sum(np.square(self.zeta_residuals)))
+        return chi2_value(self.predicted, self.meas.freq_hz, self.meas.sigma_hz) + extra
 
     @property
     def failing(self) -> np.ndarray:
@@ -108,4 +115,11 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
     pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=strict, return_modes=True)
     shapes = getattr(meas, "shapes", None)
     mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
-    return Comparison(meas, effects, pred, idx, dict(values or {}), mac)
+    comp = Comparison(meas, effects, pred, idx, dict(values or {}), mac)
+    from .damping import least_damping, zeta_residuals, zeta_rows
+
+    spec = zeta_rows(meas, modes.damping is not None)
+    if modes.damping is not None or spec is not None:
+        comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
+        comp.zeta_residuals = None if spec is None else zeta_residuals(meas, comp.zeta, spec, least_damping(modes))
+    return comp

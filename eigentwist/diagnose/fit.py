@@ -38,8 +38,9 @@ from scipy.optimize import least_squares
 
 from ..runtime.errors import InputError
 from .compare import Comparison
+from .damping import least_damping, zeta_count, zeta_residuals, zeta_rows as _zeta_rows
 from .predict import Predictor
-from .stats import aicc, chi2_value, gof_p_value
+from .stats import aicc, gof_p_value
 
 __all__ = ["FitResult", "fit", "Transform", "SPAN", "JACOBIANS", "using_jacobian", "constraint_range"]
 
@@ -194,6 +195,12 @@ class _Objective:
         self.nfev = 0
         self.exact = _exact_wanted(jacobian)
         self.fallback = ""
+        # measured damping ratios are residuals too, and a damped row's decay bounds zeta >= 0
+        ev = getattr(predictor, "ev", None)
+        damped = ev is not None and ev.damped_model(predictor.effects)
+        self.zeta = None if self.meas is None else _zeta_rows(self.meas, damped)
+        if self.zeta is not None:
+            self.exact = False
 
     def _sets(self, theta: np.ndarray) -> np.ndarray:
         """theta, then for each j the points theta -/+ STEP e_j (shifted inside the bounds)."""
@@ -217,15 +224,24 @@ class _Objective:
         if key not in self.cache:
             thetas = self._sets(theta)
             values = np.column_stack([t.value(thetas[:, j]) for j, t in enumerate(self.tr)])
-            f = self.pred.predict_sets(self.names, values, strict=False)
+            f, r = self._residuals(values)
             self.nfev += 1
-            r = (f - self.meas.freq_hz) / self.meas.sigma_hz
             # a change below round-off (|df/f| <= ROUNDOFF for a 1 % step) is no influence:
             # noise there would send the Gauss-Newton step to a search bound
             flat = np.abs(f[2::2] - f[1::2]) <= ROUNDOFF * np.abs(f[0])
             jac = np.where(flat, 0.0, (r[2::2] - r[1::2]) / (2 * STEP)).T
             self.cache = {key: (r[0], jac)}
         return self.cache[key]
+
+    def _residuals(self, values: np.ndarray):
+        """``(f, r)`` for B parameter sets: frequencies (B, N) and whitened residuals (B, N [+ Z])."""
+        if self.zeta is None:
+            f = self.pred.predict_sets(self.names, values, strict=False)
+            return f, (f - self.meas.freq_hz) / self.meas.sigma_hz
+        f, z, least = self.pred.predict_sets(self.names, values, strict=False, zeta=True)
+        r = (f - self.meas.freq_hz) / self.meas.sigma_hz
+        rz = zeta_residuals(self.meas, z, self.zeta, least)
+        return np.concatenate([f, rz * self.zeta[1]], axis=1), np.concatenate([r, rz], axis=1)
 
     def _exact(self, theta: np.ndarray):
         """Residuals and the exact Jacobian in theta (generated sensitivities)."""
@@ -242,9 +258,8 @@ class _Objective:
         return self._eval(np.asarray(theta, dtype=float))[1]
 
     def chi2_of(self, value_table: np.ndarray) -> np.ndarray:
-        f = self.pred.predict_sets(self.names, value_table, strict=False)
+        _, r = self._residuals(value_table)
         self.nfev += 1
-        r = (f - self.meas.freq_hz) / self.meas.sigma_hz
         return np.sum(r * r, axis=1)
 
 
@@ -269,6 +284,17 @@ def constraint_range(ev, name: str, values: dict, effects) -> tuple[float, float
     if not names:
         return -math.inf, math.inf
     return interval(compiled, base, {n: value(n) for n in names}, {e.partition("@")[0] for e in effects})
+def _comparison(meas, effects, ev, values: dict) -> Comparison:
+    """The :class:`Comparison` at ``values``; with measured damping ratios or damped rows it
+    carries the whitened damping-ratio residuals (:func:`zeta_residuals`; a model without
+    damping predicts zeta = 0), which its chi2 includes."""
+    pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=False, return_modes=True)
+    comp = Comparison(meas, tuple(effects), pred, idx, values)
+    spec = _zeta_rows(meas, ev.damped_model(tuple(effects)))
+    if spec is not None:
+        comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
+        comp.zeta_residuals = zeta_residuals(meas, comp.zeta, spec, least_damping(modes))
+    return comp
 
 
 def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
@@ -327,8 +353,9 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     fixed = {k: v for k, v in given.items() if k not in names}
     predictor = Predictor(meas, effects, ev, fixed)
     n = len(meas)
+    n += zeta_count(meas)
     if not names:
-        comp = Comparison(meas, tuple(effects), *predictor.predict(strict=False), dict(fixed))
+        comp = _comparison(meas, effects, ev, dict(fixed))
         chi2 = comp.chi2
         return FitResult(tuple(effects), (), {}, {}, dict(fixed), comp, chi2, n, 0, aicc(chi2, n, 0))
     start = {nm: float((start or {}).get(nm, given.get(nm, ev.parameter(nm).default))) for nm in names}
@@ -346,9 +373,8 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     theta = res.x
     values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}
     all_values = {**fixed, **values}
-    comp = Comparison(meas, tuple(effects), *Predictor(meas, effects, ev, all_values).predict(strict=False),
-                      all_values)
-    chi2 = chi2_value(comp.predicted, meas.freq_hz, meas.sigma_hz)
+    comp = _comparison(meas, effects, ev, all_values)
+    chi2 = comp.chi2
     k = len(names)
     cov = _covariance(obj.jacobian(theta), chi2, n - k)
     std = {t.name: t.std(values[t.name], math.sqrt(cov[j, j])) for j, t in enumerate(transforms)}

@@ -11,8 +11,14 @@ blank lines are skipped):
   and any column named after a model parameter (SI units; per leg ``NAME@N``), which
   overrides that parameter for its row. A blank optional cell takes the default (or the
   value given for the run, e.g. ``--set``);
+* optional ``kind``: ``undamped`` (the default: the value is omega_n / 2 pi, e.g. a curve
+  fit's pole) or ``damped`` (a free decay or a step response: the value is the damped
+  omega_d / 2 pi = omega_n sqrt(1 - zeta^2) / 2 pi); ``compare`` and ``diagnose`` compare
+  each row with the model's frequency of the same kind (they differ where the model has
+  a damping effect, :mod:`eigentwist.runtime.damped`);
 * optional modal columns (from ``eigentwist identify``, see :mod:`eigentwist.modal`):
-  ``damping_ratio`` (-), ``phi_x``, ``phi_y``, ``phi_z`` (the measured mode shape: a real
+  ``damping_ratio`` (-; compared with the model's damping ratio, with the uncertainty
+  ``sigma_damping_ratio`` (-), by default the larger of 20 % of the value and 0.005), ``phi_x``, ``phi_y``, ``phi_z`` (the measured mode shape: a real
   unit translation of the sensor point, base-frame axes) and ``sensor_x``, ``sensor_y``,
   ``sensor_z`` (the sensor's offset from the end-effector origin, m; default 0). A shape
   measured at other DOFs (uniaxial accelerometers, a roving hammer) is given
@@ -56,12 +62,17 @@ from .evaluators import resolve
 from .matching import parse_mode
 
 __all__ = ["Measurements", "MeasurementError", "load_measurements", "paper_measurements", "paper_csv",
-           "REQUIRED", "OPTIONAL", "MODAL", "ROTATION_COLUMNS", "pose_columns", "joint_columns", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
+           "REQUIRED", "OPTIONAL", "MODAL", "KINDS", "ROTATION_COLUMNS", "pose_columns", "joint_columns", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
 
 REQUIRED = ("k_a", "mode", "freq_hz")
 # measured modal data: NaN where blank; shapes are phi_x..z, sensor_* in m
-MODAL = ("damping_ratio", "phi_x", "phi_y", "phi_z", "sensor_x", "sensor_y", "sensor_z")
-OPTIONAL = ("x", "y", "z", "sigma_hz") + MODAL
+MODAL = ("damping_ratio", "phi_x", "phi_y", "phi_z", "sensor_x", "sensor_y", "sensor_z", "sigma_damping_ratio")
+OPTIONAL = ("x", "y", "z", "sigma_hz", "kind") + MODAL
+#: the values of the ``kind`` column: what the measured frequency is
+KINDS = ("undamped", "damped")
+#: default uncertainty of a measured damping ratio: the larger of 20 % of it and 0.005
+DEFAULT_SIGMA_ZETA_REL = 0.2
+DEFAULT_SIGMA_ZETA_ABS = 0.005
 #: per-DOF shape columns ``phi_N_x`` and the node positions ``nodeN_x`` they need
 DOF_COLUMN = re.compile(r"(phi_|node)(\d+)_([xyz])$")
 #: the rotation columns of a 6-DoF robot's poses (rotation vector, rad); ``rx, ry, rz`` stay mode labels
@@ -128,12 +139,34 @@ class Measurements:
     k_a_unit: str = "N m/rad"
     #: measured joint coordinates (N, legs, coordinates), columns ``q<m>@<leg>``; None: none
     joints: np.ndarray | None = None
+    #: what each value is (:data:`KINDS`): ``"undamped"`` omega_n / 2 pi, ``"damped"`` omega_d / 2 pi
+    kind: tuple = ()
 
     def __post_init__(self):
         n = len(self.freq_hz)
         if self.lines is None:
             self.lines = np.arange(2, n + 2)
         self.mode = tuple(self.mode)
+        self.kind = tuple(self.kind) or ("undamped",) * n
+
+    @property
+    def damped(self) -> np.ndarray:
+        """(N,) bool: rows whose value is a damped frequency (``kind`` = ``damped``)."""
+        return np.array([k == "damped" for k in self.kind], dtype=bool)
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        """(N,) measured damping ratio (-), NaN where not measured."""
+        return self.modal.get("damping_ratio", np.full(len(self), np.nan))
+
+    @property
+    def sigma_damping_ratio(self) -> np.ndarray:
+        """(N,) uncertainty of the measured damping ratio: the ``sigma_damping_ratio`` column,
+        else the larger of :data:`DEFAULT_SIGMA_ZETA_REL` of it and :data:`DEFAULT_SIGMA_ZETA_ABS`."""
+        zeta = self.damping_ratio
+        default = np.maximum(DEFAULT_SIGMA_ZETA_REL * np.abs(zeta), DEFAULT_SIGMA_ZETA_ABS)
+        given = self.modal.get("sigma_damping_ratio")
+        return default if given is None else np.where(np.isnan(given), default, given)
 
     def __len__(self) -> int:
         return len(self.freq_hz)
@@ -193,12 +226,14 @@ class Measurements:
         return Measurements(self.k_a[rows], tuple(self.mode[i] for i in rows), self.freq_hz[rows],
                             self.sigma_hz[rows], self.poses[rows], {k: v[rows] for k, v in self.params.items()},
                             self.lines[rows], self.source, self.robot, {k: v[rows] for k, v in self.modal.items()},
-                            self.k_a_unit, None if self.joints is None else self.joints[rows])
+                            self.k_a_unit, None if self.joints is None else self.joints[rows],
+                            tuple(self.kind[i] for i in rows))
 
     @classmethod
     def from_arrays(cls, k_a, mode, freq_hz, poses=None, sigma_hz=None, params=None, robot: str = "heli4",
-                    source: str = "<data>", ev=None, modal=None) -> "Measurements":
-        """Build validated measurements from arrays (defaults as in the CSV format).
+                    source: str = "<data>", ev=None, modal=None, kind=None) -> "Measurements":
+        """Build validated measurements from arrays (defaults as in the CSV format);
+        ``kind``: ``"undamped"``/``"damped"`` for every row or one per row.
 
         The arrays go through the same parser as a file, so every check applies; row i
         is reported as line i + 2 of ``source``.
@@ -217,25 +252,30 @@ class Measurements:
                 row["sigma_hz"] = np.broadcast_to(sigma_hz, (n,))[i]
             for name, val in {**(params or {}), **(modal or {})}.items():
                 row[name] = np.broadcast_to(val, (n,))[i]
+            if kind is not None:
+                row["kind"] = str(np.broadcast_to(np.asarray(kind, dtype=object), (n,))[i])
             rows.append(row)
         header = list(rows[0]) if rows else list(REQUIRED)
         text = io.StringIO()
         w = csv.DictWriter(text, header, lineterminator="\n")
         w.writeheader()
         for row in rows:
-            w.writerow({k: (repr(float(v)) if k != "mode" else v) if k == "mode" or np.isfinite(v) else ""
+            w.writerow({k: v if k in ("mode", "kind") else repr(float(v)) if np.isfinite(v) else ""
                         for k, v in row.items()})
         return parse_csv(text.getvalue(), source, ev)
 
     def to_csv(self, path=None) -> str:
         """CSV text of these measurements (written to ``path`` when given)."""
         names = ("x", "y", "z") + (ROTATION_COLUMNS if self.poses.shape[1] == 6 else ())
-        cols = ["k_a", "mode", "freq_hz", "sigma_hz", *names, *self.modal, *self.params]
+        kinds = any(k != "undamped" for k in self.kind)
+        cols = ["k_a", "mode", "freq_hz", "sigma_hz", *(("kind",) if kinds else ()), *names, *self.modal,
+                *self.params]
         out = io.StringIO()
         w = csv.writer(out, lineterminator="\n")
         w.writerow(cols)
         for i in range(len(self)):
-            vals = [self.k_a[i], self.mode[i], self.freq_hz[i], self.sigma_hz[i], *self.poses[i],
+            vals = [self.k_a[i], self.mode[i], self.freq_hz[i], self.sigma_hz[i],
+                    *((self.kind[i],) if kinds else ()), *self.poses[i],
                     *(self.modal[k][i] for k in self.modal), *(self.params[k][i] for k in self.params)]
             w.writerow([v if isinstance(v, str) else format(float(v), ".10g") if np.isfinite(v) else ""
                         for v in vals])
@@ -383,8 +423,9 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
                                        "file has joint-coordinate columns", lines[cols[name].index(None)], name)
         nq = len(joint_columns(ev)) // len(ev.robot.legs)
         joints = np.array([cols[c] for c in joint_columns(ev)], dtype=float).T.reshape(n, len(ev.robot.legs), nq)
+    kind = tuple(k or "undamped" for k in cols.get("kind", [None] * n))
     meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        np.array(lines), source, ev.spec, modal, ev.parameter("k_a").unit, joints)
+                        np.array(lines), source, ev.spec, modal, ev.parameter("k_a").unit, joints, kind)
     _check_duplicates(meas)
     check_poses(meas, ev, values)
     return meas
@@ -422,13 +463,18 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
             return parse_mode(cell)
         except ValueError as exc:
             raise MeasurementError(source, str(exc), line, name) from None
+    if name == "kind":
+        if cell and cell.lower() not in KINDS:
+            raise MeasurementError(source, f"kind {cell!r}: expected {' or '.join(KINDS)} (blank: undamped)", line,
+                                   name)
+        return cell.lower() or None
     if not cell:
         if name in REQUIRED:
             raise MeasurementError(source, "empty cell: a value is required", line, name)
         return None
-    if name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:] or DOF_COLUMN.match(name) or name in joint_columns(ev):
+    if name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:-1] or DOF_COLUMN.match(name) or name in joint_columns(ev):
         return _number(cell, source, line, name, positive=False)
-    if name == "damping_ratio":
+    if name in ("damping_ratio", "sigma_damping_ratio"):
         return _number(cell, source, line, name, positive=True)
     if name in ("k_a", "freq_hz", "sigma_hz"):
         return _number(cell, source, line, name, positive=True)

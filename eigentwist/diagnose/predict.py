@@ -17,7 +17,7 @@ __all__ = ["evaluate", "Predictor"]
 
 
 def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, lines=None, shapes=None,
-             sensor=None, return_modes: bool = False, joints=None):
+             sensor=None, return_modes: bool = False, joints=None, damped=None):
     """Frequency (Hz) of the mode each row's label names.
 
     Parameters
@@ -32,6 +32,9 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     return_modes : also return the model's :class:`~eigentwist.runtime.Modes`.
     joints : optional (N, legs, coordinates) measured joint coordinates, used instead of
         the poses' inverse kinematics (``Evaluator.modes(..., joints=)``).
+    damped : optional (N,) bool: rows whose measured value is a damped frequency; a model
+        with a damping effect predicts omega_d / 2 pi there and omega_n / 2 pi (its poles'
+        modulus) on the other rows (like with like).
 
     Returns
     -------
@@ -54,6 +57,10 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
         idx = match_by_shape(modes, shapes, keys, idx, sensor)
         shaped = has_shape(shapes) | (idx != by_label)
         freq = np.where(shaped, modes.freq_hz[np.arange(n), idx], freq)
+    if modes.damping is not None:
+        rows = np.arange(len(idx))
+        kind = np.zeros(len(idx), dtype=bool) if damped is None else np.asarray(damped, dtype=bool)
+        freq = np.where(kind, modes.damped_hz[rows, idx], modes.natural_hz[rows, idx])
     if strict and not np.all(np.isfinite(freq)):
         raise InputError(_numerical_failure(ev, effects, poses, params, lines, "non-finite frequency",
                                             int(np.argmin(np.isfinite(freq)))))
@@ -119,19 +126,31 @@ class Predictor:
         """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar);
         with ``return_modes`` also the model's modes."""
         return evaluate(self.ev, self.effects, self.meas.poses, self.meas.mode, self._params(values or {}),
-                        strict, self.meas.lines, return_modes=return_modes, joints=self._joints(), **self._shapes())
+                        strict, self.meas.lines, return_modes=return_modes, joints=self._joints(),
+                        damped=self._damped(), **self._shapes())
 
-    def predict_sets(self, names, table: np.ndarray, strict: bool = False) -> np.ndarray:
+    def _damped(self, repeat: int = 1):
+        """(N * repeat,) bool: the rows measured as damped frequencies (``kind``), tiled."""
+        damped = getattr(self.meas, "damped", None)
+        return None if damped is None else np.tile(damped, repeat)
+
+    def predict_sets(self, names, table: np.ndarray, strict: bool = False, zeta: bool = False):
         """Predictions for B parameter sets in one call: ``table`` is (B, P) values of
-        ``names``; returns (B, N) Hz."""
+        ``names``; returns (B, N) Hz, and with ``zeta`` also the (B, N) damping ratios of
+        the matched modes and the (B, N) least damping ratio of each row's modes."""
         table = np.atleast_2d(np.asarray(table, dtype=float))
         b = table.shape[0]
         values = {name: table[:, j] for j, name in enumerate(names)}
         params = self._params(values, repeat=b)
         poses = np.tile(self.meas.poses, (b, 1))
         labels = self.meas.mode * b
-        freq, _ = evaluate(self.ev, self.effects, poses, labels, params, strict, np.tile(self.meas.lines, b),
-                           joints=self._joints(b), **self._shapes(b))
+        freq, idx, modes = evaluate(self.ev, self.effects, poses, labels, params, strict, np.tile(self.meas.lines, b),
+                                    joints=self._joints(b), damped=self._damped(b), return_modes=True, **self._shapes(b))
+        if zeta:
+            z = modes.damping_ratio[np.arange(len(idx)), idx]
+            with np.errstate(invalid="ignore"):
+                least = np.nanmin(np.where(np.isnan(modes.damping_ratio), np.inf, modes.damping_ratio), axis=1)
+            return tuple(v.reshape(b, len(self.meas)) for v in (freq, z, least))
         return freq.reshape(b, len(self.meas))
 
     def predict_with_jacobian(self, names, values, strict: bool = False):

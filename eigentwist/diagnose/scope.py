@@ -44,13 +44,16 @@ def taken(ev, effects) -> set:
     return {p for e in effects for p in parameter_names(ev, e)}
 
 
-def candidates(ev, effects, per_leg: bool = True) -> list[str]:
+def candidates(ev, effects, per_leg: bool = True, damping: bool = True) -> list[str]:
     """Effects to try on top of ``effects``: each effect the robot has that is not in the
     model and not an alternative description of a part in it (shares a parameter), and
-    with ``per_leg`` each leg-level effect on each leg alone."""
+    with ``per_leg`` each leg-level effect on each leg alone; the damping effects only with
+    ``damping`` (data that carry a damped frequency or a damping ratio)."""
     have = taken(ev, effects)
     out = []
     for e in ev.effects:
+        if not damping and "damping" in ev.robot.effect(e).kinds:
+            continue
         items = [e]
         if per_leg and ev.robot.effect(e).leg_level:
             items += [scoped_name(e, k) for k in range(1, ev.n_legs + 1)]

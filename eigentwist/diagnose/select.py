@@ -50,6 +50,7 @@ from ..description.names import did_you_mean
 from ..runtime import InputError
 from .compare import Comparison, compare
 from .evaluators import resolve
+from .damping import carries_damping
 from .fit import FitResult, fit
 from .backward import eliminate
 from .identifiable import extra_parameters, sign_free, trial_value
@@ -242,11 +243,12 @@ class Diagnosis:
         return diagnosis_text(self, evaluator(self.robot), show_rows)
 
 
-def candidates_for(ev, effects) -> list[str]:
+def candidates_for(ev, effects, meas=None) -> list[str]:
     """Effects the robot has, not in ``effects`` and not an alternative to one of them;
     each leg-level effect also on each leg alone (``EFFECT@N``, :mod:`.scope`), so the
-    multiple-test correction counts the per-leg candidates."""
-    return scope.candidates(ev, effects, per_leg=True)
+    multiple-test correction counts the per-leg candidates. A damping effect only where
+    ``meas`` carries damping (:func:`.damping.carries_damping`)."""
+    return scope.candidates(ev, effects, per_leg=True, damping=meas is None or carries_damping(meas))
 
 
 def _starts(ev, names) -> tuple[dict, dict]:
@@ -416,7 +418,7 @@ def _forward(meas, ev, steps: list[Step], alpha: float, progress, removed=()) ->
     effect taken back earlier (``removed``) is not added again (the path stays finite)."""
     current = steps[-1].fit
     while True:
-        cands = candidates_for(ev, current.effects)
+        cands = candidates_for(ev, current.effects, meas)
         if not cands:
             break
         ranking = rank_candidates(meas, ev, current, cands, progress)
@@ -543,7 +545,7 @@ def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = 
     base_cmp, notes = _baseline(meas, ev, base_effects, values)
     current = fit(meas, base_effects, ev, (), fixed=values)
     manual = add is not None
-    cands = candidates_for(ev, current.effects)
+    cands = candidates_for(ev, current.effects, meas)
     removed: list = []
     if manual:
         _check_manual(ev, add, current.effects)
@@ -609,7 +611,7 @@ def _untestable(meas, ev, steps) -> dict:
     """Candidates of each step that these rows are too few to test: effect -> rows needed."""
     out: dict = {}
     for s in steps:
-        cands = candidates_for(ev, s.fit.effects)
+        cands = candidates_for(ev, s.fit.effects, meas)
         for e, need in untestable(len(meas), s.fit.k, {c: len(scope.fit_names(ev, c)) for c in cands}).items():
             out.setdefault(e, need)
     return out

@@ -127,7 +127,7 @@ def _truth_modes(ev, truth: Truth, poses, k_a, extra_stiffness) -> Modes:
 
 def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed: int = 0,
           robot: str = "heli4", ev=None, extra_stiffness: dict | None = None, sigma=None,
-          values: dict | None = None) -> Measurements:
+          values: dict | None = None, kind: str = "undamped", zeta_noise=None) -> Measurements:
     """Measurements of every (pose, k_a, mode) from the truth model, with relative noise.
 
     Parameters
@@ -142,6 +142,10 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
     sigma : relative standard uncertainty written to ``sigma_hz`` (``"1%"``); default:
         ``noise`` (no column, i.e. the 2 % default, when both are 0).
     values : parameter values (SI) of the truth besides those in ``truth`` (which win).
+    kind : ``"undamped"`` (omega_n / 2 pi of the truth's poles) or ``"damped"`` (omega_d / 2 pi,
+        a free decay), the CSV column ``kind``; they differ where the truth has a damping effect.
+    zeta_noise : relative noise of the truth's damping ratios, written with their uncertainty
+        (columns ``damping_ratio``, ``sigma_damping_ratio``); None: no damping ratios.
     """
     ev = resolve(ev, robot)
     t = parse_truth(truth, ev)
@@ -161,8 +165,20 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
     row_ka = k_a[[r[1] for r in rows]]
     row_modes = [r[2] for r in rows]
     m = _truth_modes(ev, t, row_poses, row_ka, extra_stiffness)
-    f_true, _ = match_frequencies(m, row_modes, strict=True)
-    f = f_true * (1.0 + rel * noise_generator(seed, rel).standard_normal(len(f_true)))
+    f_true, idx = match_frequencies(m, row_modes, strict=True)
+    if kind not in ("undamped", "damped"):
+        raise InputError(f"synth kind {kind!r}: expected 'undamped' or 'damped'")
+    at = np.arange(len(idx))
+    if m.damping is not None:
+        f_true = (m.damped_hz if kind == "damped" else m.natural_hz)[at, idx]
+    gen = noise_generator(seed, rel)
+    f = f_true * (1.0 + rel * gen.standard_normal(len(f_true)))
     sigma_hz = stated * f if stated > 0 else None
+    modal = None
+    if zeta_noise is not None:
+        z_rel = parse_noise(zeta_noise, "zeta_noise")
+        z = m.damping_ratio[at, idx]
+        modal = {"damping_ratio": z * (1.0 + z_rel * gen.standard_normal(len(z))), "sigma_damping_ratio": z_rel * z}
     return Measurements.from_arrays(row_ka, row_modes, f, row_poses, sigma_hz, robot=ev.robot.name,
-                                    source=f"synth({truth})", ev=ev)
+                                    source=f"synth({truth})", ev=ev, modal=modal,
+                                    kind=None if kind == "undamped" else kind)

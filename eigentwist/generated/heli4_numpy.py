@@ -53,8 +53,11 @@ PARAMETERS = (
     ("p_z", 0.0, "m"),
     ("I_add", 0.002, "kg m^2"),
     ("g", 9.81, "m/s^2"),
+    ("c_a", 3.0, "N m s/rad"),
+    ("t_d", 0.001, "s"),
+    ("eta_s", 0.02, "-"),
 )
-SWITCHES = ("on_actuator_loss__1", "on_actuator_loss__2", "on_actuator_loss__3", "on_actuator_loss__4", "on_rod_compliance__1", "on_rod_compliance__2", "on_rod_compliance__3", "on_rod_compliance__4", "on_ee_compliance", "on_ee_coupling", "on_lower_link_compliance__1", "on_lower_link_compliance__2", "on_lower_link_compliance__3", "on_lower_link_compliance__4", "on_transmission_compliance__1", "on_transmission_compliance__2", "on_transmission_compliance__3", "on_transmission_compliance__4", "on_payload_mass", "on_rotor_inertia__1", "on_rotor_inertia__2", "on_rotor_inertia__3", "on_rotor_inertia__4", "on_swinging_rods", "on_gravity_preload", )
+SWITCHES = ("on_actuator_loss__1", "on_actuator_loss__2", "on_actuator_loss__3", "on_actuator_loss__4", "on_rod_compliance__1", "on_rod_compliance__2", "on_rod_compliance__3", "on_rod_compliance__4", "on_ee_compliance", "on_ee_coupling", "on_lower_link_compliance__1", "on_lower_link_compliance__2", "on_lower_link_compliance__3", "on_lower_link_compliance__4", "on_transmission_compliance__1", "on_transmission_compliance__2", "on_transmission_compliance__3", "on_transmission_compliance__4", "on_payload_mass", "on_rotor_inertia__1", "on_rotor_inertia__2", "on_rotor_inertia__3", "on_rotor_inertia__4", "on_swinging_rods", "on_gravity_preload", "on_servo_damping", "on_servo_delay", "on_structural_loss", )
 OUTPUTS = {
     "inverse_kinematics": {"q": (4, 3), "sin_q3": (4,), "cos_q2": (4,)},
     "matrices": {"M": (6, 6), "K_R": (6, 6), "K_F": (6, 6)},

@@ -20,9 +20,10 @@ Any layout of responses and references (:mod:`.uff_io`) is identified; the mode 
 frequencies and damping ratios go on.
 
 :func:`identify_campaign` returns the measurements (the columns of a measurement CSV,
-``k_a, mode, freq_hz, sigma_hz, x, y, z, damping_ratio, phi_x, phi_y, phi_z``, then
+``k_a, mode, freq_hz, sigma_hz, kind, x, y, z, damping_ratio, phi_x, phi_y, phi_z``, then
 ``sensor_x, sensor_y, sensor_z`` when a shape point is off the origin or the manifest
-gives positions, then the parameter columns) and the per-setting results (for plots and
+gives positions, then the parameter columns; ``freq_hz`` is each pole's omega_n / 2 pi,
+``kind`` = ``undamped``, ``damping_ratio`` its zeta) and the per-setting results (for plots and
 the report). ``phi_x, phi_y, phi_z`` are the shape of a layout that is one node measured
 along X, Y and Z (``sensor_*`` its position); other layouts (several nodes, uniaxial
 accelerometers, a roving hammer) write it per DOF: ``phi_N_x`` ... (node N along +X) with the
@@ -50,7 +51,8 @@ __all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_mani
 
 SENSOR = ("sensor_x", "sensor_y", "sensor_z")
 NODE_COLUMN = re.compile(r"node(\d+)_([xyz])$")
-OUTPUT_COLUMNS = ("k_a", "mode", "freq_hz", "sigma_hz", "x", "y", "z", "damping_ratio", "phi_x", "phi_y", "phi_z")
+OUTPUT_COLUMNS = ("k_a", "mode", "freq_hz", "sigma_hz", "kind", "x", "y", "z", "damping_ratio", "phi_x", "phi_y",
+                  "phi_z")
 
 
 @dataclass
@@ -258,7 +260,8 @@ def measurement_csv(camp: Campaign, results: list) -> str:
     w.writerow(cols)
     for s, m, phi, r, dofs in rows:
         z = m.damping_ratio if np.isfinite(m.damping_ratio) else None
-        row = [s.k_a, m.label, m.freq_hz, m.sigma_hz, *s.pose, z, *(phi if phi is not None else [None] * 3)]
+        row = [s.k_a, m.label, m.freq_hz, m.sigma_hz, "undamped", *s.pose, z,
+               *(phi if phi is not None else [None] * 3)]
         row += (list(r) if r is not None else [None] * 3) if has_sensor else []
         row += [dofs.get(k) for k in extra]
         row += [s.params.get(n) for n in camp.param_names]

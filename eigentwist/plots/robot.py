@@ -19,7 +19,7 @@ import sympy as sp
 from ..plotting import pyplot
 
 __all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS",
-           "stiffness_argument", "stiffness_text"]
+           "stiffness_argument", "stiffness_text", "damped_text"]
 
 AXIS_WORDS = {"rx": "rotation about X", "ry": "rotation about Y", "rz": "rotation about Z",
               "x": "translation along X", "y": "translation along Y", "z": "translation along Z"}
@@ -200,6 +200,13 @@ def _zoom(ax, g: RobotGeometry, d: np.ndarray, color: str, k: int):
     ax.set_title(f"mode {k + 1}, platform in the {names[i]}{names[j]} plane (+: EE origin)", fontsize=9)
 
 
+def damped_text(modes, k: int) -> str:
+    """``", zeta 0.43, damped 5.28 Hz"`` for a model with damping (:attr:`Modes.damping`), else ""."""
+    if modes.damping is None:
+        return ""
+    return f", zeta {modes.damping_ratio[0, k]:.2g}, damped {modes.damped_hz[0, k]:.4g} Hz"
+
+
 def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes: int = 3, amplitude=0.2,
                title: str | None = None, **params):
     """Draw the robot at ``pose`` with its ``n_modes`` lowest mode shapes, one 3D panel each.
@@ -207,7 +214,8 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
     Top row: the whole robot in 3D; the grey robot is at rest, the coloured platform is
     displaced along the mode's eigentwist, scaled so that the largest attachment
     displacement is ``amplitude`` times the parallelogram length l2 (a mode shape has no
-    absolute size); arrows show each attachment's displacement. Bottom row: the platform
+    absolute size); arrows show each attachment's displacement. A model with a damping
+    effect titles each mode with its damping ratio zeta and damped frequency too. Bottom row: the platform
     close up, in the plane of its largest motion. Saved as PNG to ``path`` (a file name or a binary
     file object) when given. Returns the Matplotlib figure.
     """
@@ -226,7 +234,8 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
         moved = g.attachment + scale * d
         ax.plot(*_outline(moved, g.pose + scale * d.mean(axis=0)).T, "-", color=color, lw=2.5, gid=f"mode {k + 1}")
         ax.quiver(*g.attachment.T, *(scale * d).T, color=color, arrow_length_ratio=0.25, lw=1.2)
-        ax.set_title(f"mode {k + 1}: {modes.freq_hz[0, k]:.4g} Hz\nmostly {axis} ({AXIS_WORDS[axis]})", fontsize=10)
+        ax.set_title(f"mode {k + 1}: {modes.freq_hz[0, k]:.4g} Hz{damped_text(modes, k)}\nmostly {axis} "
+                     f"({AXIS_WORDS[axis]})", fontsize=10)
         _limits(ax, np.vstack([g.base, g.elbow, g.attachment, moved]))
         ax.view_init(elev=18, azim=-60)
         for name, setter in zip("XYZ", (ax.set_xlabel, ax.set_ylabel, ax.set_zlabel)):

@@ -77,7 +77,8 @@ def _comparison_rows(cmp) -> list[dict]:
         rows.append(dict(line=m.where(i), pose=[float(v) for v in m.poses[i]], k_a=float(m.k_a[i]), mode=m.mode[i],
                          measured=float(m.freq_hz[i]), sigma=float(m.sigma_hz[i]),
                          predicted=float(cmp.predicted[i]), error_pct=float(cmp.error_pct[i]),
-                         error_sigma=float(cmp.error_sigma[i]), failing=bool(cmp.failing[i])))
+                         error_sigma=float(cmp.error_sigma[i]), failing=bool(cmp.failing[i]),
+                         kind=m.kind[i], zeta=None if cmp.zeta is None else float(cmp.zeta[i])))
     return rows
 
 

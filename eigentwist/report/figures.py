@@ -25,7 +25,9 @@ def final_values(diag, values: dict | None = None) -> dict:
 
 def lowest_frequency_map(ev, effects, pose, k_a: float, values: dict, grid: int = MAP_GRID) -> dict:
     """The lowest natural frequency (Hz) over the workspace's first two coordinates (x, y),
-    the others held at ``pose``: ``{"x", "y" (m), "f1" (grid, grid) Hz, NaN where unreachable}``."""
+    the others held at ``pose``: ``{"x", "y" (m), "f1" (grid, grid) Hz, NaN where unreachable}``;
+    a model with damping adds the lowest damped frequency ``"f1_damped"`` (Hz) and the
+    least damping ratio of any mode ``"zeta_min"`` (the least damped mode's), (grid, grid)."""
     box = getattr(ev.robot, "workspace", None)
     pose = np.asarray(pose, float)
     if box is None or len(box) < 2:
@@ -37,7 +39,16 @@ def lowest_frequency_map(ev, effects, pose, k_a: float, values: dict, grid: int 
     poses = np.repeat(pose[None, :], X.size, axis=0)
     poses[:, 0], poses[:, 1] = X.ravel(), Y.ravel()
     modes = ev.modes(poses, effects, k_a=k_a, vectors=False, invalid="nan", **values)
-    return {"x": x, "y": y, "f1": modes.freq_hz[:, 0].reshape(X.shape)}
+    out = {"x": x, "y": y, "f1": modes.freq_hz[:, 0].reshape(X.shape)}
+    if modes.damping is not None:
+        with np.errstate(invalid="ignore"):
+            out["f1_damped"] = np.nanmin(np.where(modes.damped_hz > 0, modes.damped_hz, np.nan), axis=1,
+                                         initial=np.inf, where=~np.isnan(modes.damped_hz)).reshape(X.shape)
+            out["zeta_min"] = np.nanmin(modes.damping_ratio, axis=1, initial=np.inf,
+                                        where=~np.isnan(modes.damping_ratio)).reshape(X.shape)
+        for key in ("f1_damped", "zeta_min"):
+            out[key][~np.isfinite(out[key])] = np.nan
+    return out
 
 
 def lowest_frequency_png(ev, effects, pose, k_a: float, values: dict, measured_poses, title: str = "") -> bytes:
@@ -46,12 +57,17 @@ def lowest_frequency_png(ev, effects, pose, k_a: float, values: dict, measured_p
 
     plt = pyplot()
     m = lowest_frequency_map(ev, effects, pose, k_a, values)
+    damped = "f1_damped" in m
+    f = m["f1_damped"] if damped else m["f1"]
     fig, ax = plt.subplots(figsize=(6.2, 4.8))
-    mesh = ax.pcolormesh(m["x"], m["y"], m["f1"], shading="auto", cmap="viridis")
-    if np.isfinite(m["f1"]).sum() > 4:
-        cs = ax.contour(m["x"], m["y"], m["f1"], levels=8, colors="white", linewidths=0.7)
+    mesh = ax.pcolormesh(m["x"], m["y"], f, shading="auto", cmap="viridis")
+    if np.isfinite(f).sum() > 4:
+        cs = ax.contour(m["x"], m["y"], f, levels=8, colors="white", linewidths=0.7)
         ax.clabel(cs, fontsize=7, fmt="%.3g")
-    fig.colorbar(mesh, ax=ax, label="lowest natural frequency f1 [Hz]")
+    if damped and np.isfinite(m["zeta_min"]).sum() > 4:       # the least damped mode's ratio, dashed
+        cz = ax.contour(m["x"], m["y"], m["zeta_min"], levels=5, colors="orange", linewidths=0.8, linestyles="--")
+        ax.clabel(cz, fontsize=7, fmt="zeta %.2g")
+    fig.colorbar(mesh, ax=ax, label="lowest damped frequency [Hz]" if damped else "lowest natural frequency f1 [Hz]")
     mp = np.asarray(measured_poses, float)
     ax.plot(mp[:, 0], mp[:, 1], "o", mfc="none", mec="red", mew=2, ms=9, label="measured poses")
     ax.set_xlabel("x [m]")

@@ -87,7 +87,7 @@ def _eigh_small(S: np.ndarray):
 
 
 def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: np.ndarray, eigh=None,
-                    rtol: float = RIGID_RTOL):
+                    rtol: float = RIGID_RTOL, basis: dict | None = None):
     """The exact modes of legs on the tool body (no couplings) in stiffness form on the
     admissible twists: ``(B^T K B) y = omega^2 (B^T M B) y``, ``v = B y``.
 
@@ -96,7 +96,8 @@ def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: n
     :func:`eigentwist.runtime.eigen.generalized_eigh`; the C backend's Jacobi solver for
     the sizes it has). Returns ``(freq_hz, V)`` as :func:`compliance_eigh` does: NaN for an
     unstable mode, the finite modes ascending, ``inf`` for each rigid direction (its
-    column of V is NaN).
+    column of V is NaN). ``basis`` (a dict) receives the admissible twists ``"B"`` (N, 6, n)
+    where every pose has the same number n of them.
     """
     from .eigen import frequencies_hz, generalized_eigh
 
@@ -115,6 +116,8 @@ def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: n
         if n == 0:
             continue
         B = Q[at][:, :, :n]                                          # ascending: the null vectors first
+        if basis is not None and at.all():
+            basis["B"] = B
         Bt = np.swapaxes(B, -1, -2)
         Kr, Mr = Bt @ K_x[at] @ B, Bt @ np.asarray(M, dtype=float)[at] @ B
         lam, Y = eigh(0.5 * (Kr + np.swapaxes(Kr, -1, -2)), 0.5 * (Mr + np.swapaxes(Mr, -1, -2)))

@@ -1,7 +1,7 @@
 """The evaluator users import: validated batches in, matrices and frequencies out."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import ModuleType
 
 import numpy as np
@@ -74,6 +74,10 @@ class Modes:
     shares : (N, n, n) each coordinate's share of each mode's energy
         (:func:`eigentwist.runtime.labels.energy_shares`) where the evaluator had M at hand
         (the C pass of a flexible model); None: computed from the eigentwists when needed.
+    damping : the damped modes (:class:`eigentwist.runtime.damped.Damping`: poles, complex
+        eigentwists) of a model with a damping effect (``servo_damping``, ``servo_delay``,
+        ``structural_loss``) or where ``complex_shapes`` was asked; None: no damping, and
+        :attr:`natural_hz` and :attr:`damped_hz` are :attr:`freq_hz`, :attr:`damping_ratio` 0.
     """
 
     freq_hz: np.ndarray
@@ -84,10 +88,39 @@ class Modes:
     stable: np.ndarray | None = None
     constrained: np.ndarray | None = None
     shares: np.ndarray | None = None
+    damping: object = None
+    #: the valid rows' joint coordinates, inputs and legs-kernel outputs where the exact
+    #: condensation computed them (reused by the damped modes); None otherwise
+    legs: dict | None = field(default=None, repr=False)
 
     def __post_init__(self):
         if self.stable is None:
             self.stable = np.ones(self.freq_hz.shape[:1], dtype=bool)
+
+    @property
+    def natural_hz(self) -> np.ndarray:
+        """(N, n) undamped natural frequency omega_n / 2 pi of each damped mode, Hz: the
+        modulus of its pole (a curve fit's omega_n); :attr:`freq_hz` without damping."""
+        return self.freq_hz if self.damping is None else self.damping.natural_hz
+
+    @property
+    def damped_hz(self) -> np.ndarray:
+        """(N, n) damped frequency omega_d / 2 pi = omega_n sqrt(1 - zeta^2) / 2 pi, Hz (a
+        free decay, a step response); :attr:`freq_hz` without damping."""
+        return self.freq_hz if self.damping is None else self.damping.damped_hz
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        """(N, n) damping ratio zeta of each mode (-); 0 without damping."""
+        if self.damping is None:
+            return np.where(np.isnan(self.freq_hz), np.nan, 0.0)
+        return self.damping.damping_ratio
+
+    @property
+    def complex_eigentwists(self) -> np.ndarray | None:
+        """(N, n, n) complex eigentwists (columns, largest entry 1 + 0j) of the damped modes,
+        from ``modes(..., complex_shapes=True)``; None otherwise."""
+        return None if self.damping is None else self.damping.shapes
 
     @property
     def direction(self) -> np.ndarray:
@@ -1009,7 +1042,7 @@ class Evaluator:
         return out
 
     def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
-              unstable: str = "nan", joints=None, **params) -> Modes:
+              unstable: str = "nan", joints=None, complex_shapes: bool = False, **params) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
 
         ``invalid="raise"`` (the default) raises on the first unreachable or singular
@@ -1027,12 +1060,20 @@ class Evaluator:
         penalty, couplings and the gravity preload included); a rigid constraint's own
         mode (infinite frequency) keeps K_F's stand-in value (~1e6 Hz) in its column,
         marked in ``Modes.constrained``.
+        A model with a damping effect (``servo_damping``, ``servo_delay``,
+        ``structural_loss``) also gives each mode's pole: ``Modes.natural_hz``,
+        ``Modes.damped_hz`` and ``Modes.damping_ratio`` (:mod:`.damped`; ``freq_hz`` stays
+        the undamped model's), and ``complex_shapes=True`` the complex eigentwists
+        ``Modes.complex_eigentwists``; a growing mode makes its pose unstable.
         """
         if invalid not in ("raise", "nan"):
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
         if joints is not None:
+            if complex_shapes or self.damped_model(model):
+                raise InputError("joints= with a damping effect or complex_shapes: not supported (the damped "
+                                 "modes need the pose's inverse kinematics); give poses")
             return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses, params)
         effects = self._resolve(model)
@@ -1045,9 +1086,48 @@ class Evaluator:
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
                 modes = self._exact_modes(poses, effects, params, modes, vectors, **stash)
+        if complex_shapes or self.damped_model(effects):
+            from .damped_modes import damped_of
+
+            modes.damping = damped_of(self, effects, self._damping_inputs(poses, effects, params, modes), modes,
+                                      complex_shapes)
+            modes.stable = modes.stable & modes.damping.stable
+        modes.legs = None                      # the exact condensation's arrays: not kept with the result
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
+
+    def _damping_inputs(self, poses, effects, params: dict, modes: Modes) -> dict | None:
+        """What :func:`.damped_modes.damped_of` needs from the kernels for the valid rows of
+        ``modes``: their poses, parameters (``params``, the generated inputs ``p``), the
+        ``legs`` kernel's outputs and the matrices (``M`` and the admissible twists ``B``
+        the exact condensation found, where it ran), whether the route condenses rigid
+        directions (``exact``) and the gravity preload; None where no row is valid."""
+        if "legs" not in getattr(self._kernels, "OUTPUTS", {}):
+            raise InputError(f"damped modes of {self.robot.name}: its generated code has no legs kernel (joint "
+                             "compliances); regenerate it")
+        N = len(modes.freq_hz)
+        rows = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+        if not rows.any():
+            return None
+        pr = np.asarray(poses, dtype=float)[rows]
+        sub = self._rows(params, rows, N)
+        known = modes.legs if modes.legs is not None and np.array_equal(modes.legs["rows"], rows) else None
+        if known is None:
+            p = self._params(len(pr), sub, effects)
+            q = self._ik(pr, p)
+            legs = self._kernels.legs(q, self._with_pose(pr, p))
+        else:
+            p, q, legs = known["p"], known["q"], known["out"]
+        reuse = known is not None and "B" in known and self.kind(effects) != "rigid"
+        mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
+        return {"rows": rows, "poses": pr, "params": sub, "p": p, "legs": legs, "mats": mats,
+                "B": known["B"] if reuse else None, "exact": self._rigid_models.get(tuple(effects), True),
+                "preloaded": self._preloaded(effects)}
+
+    def damped_model(self, model) -> bool:
+        """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
+        return any("damping" in self.robot.effect(base_name(e)).kinds for e in self._resolve(model))
 
 
     # ------------------------------------------- rigid constraints exact
@@ -1114,9 +1194,10 @@ class Evaluator:
         pk = self._with_pose(pr, p)
         out = self._kernels.legs(q, pk)
         M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
+        modes.legs = {"rows": rows, "q": q, "p": p, "out": out, "M": M}     # the damped modes reuse them
         coupled = any(c.effect in set(effects) for c in self.robot.couplings)
         if not coupled and not self._preloaded(effects):   # legs on the tool: stiffness form, admissible twists
-            f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh)
+            f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh, basis=modes.legs)
             return condense.merge_modes(modes, rows, f, V, vectors)
         K_G = None
         if self._preloaded(effects):
@@ -1155,6 +1236,7 @@ class Evaluator:
         modes = self._solve(M, K, vectors, kind)
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=q, M=M)
+            modes.legs = None
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
@@ -1233,6 +1315,13 @@ class Evaluator:
     def _raise_unstable(self, poses, modes: Modes, effects) -> None:
         k = int(np.argmax(~modes.stable))
         bad = np.flatnonzero(np.isnan(modes.freq_hz[k]))
+        if not len(bad) and modes.damping is not None:
+            zeta = modes.damping_ratio[k]
+            j = int(np.nanargmin(zeta)) if np.isfinite(zeta).any() else 0
+            raise UnstablePoseError(
+                f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: a pole grows (mode {j + 1} has "
+                f"damping ratio {zeta[j]:.3g}, or an actuator's internal pole); check the torque lag t_d against "
+                "c_a / k_a and negative damping")
         which = ", ".join(str(j + 1) for j in bad)
         raise UnstablePoseError(
             f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: mode{'s' if len(bad) > 1 else ''} "
@@ -1324,6 +1413,7 @@ class Evaluator:
         modes = Modes(freq, vec, self.axes(kind), kind)
         if exact:                                  # K_F's penalty: the finite modes exact
             modes = self._exact_modes(poses, effects, params, modes, True)
+            modes.legs = None
         return modes, dfdp
 
     def matrix_derivatives(self, poses, wrt, model="paper", **params) -> dict:

@@ -309,6 +309,12 @@ def check_model(effects) -> None:
     if "gravity_preload" in effects:
         raise InputError("sensitivities of a model with gravity_preload are not available: its stiffness is solved "
                          "at run time (a static solve), not generated; drop gravity_preload from the model")
+    from ..description.effects import EFFECTS, base_name
+
+    damping = [e for e in effects if base_name(e) in EFFECTS and EFFECTS[base_name(e)].kind == "damping"]
+    if damping:
+        raise InputError(f"sensitivities of a model with {', '.join(damping)} are not available: its damped modes are "
+                         "solved at run time (runtime.damped), not generated; use central differences")
 
 
 def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL, translational: bool = True,

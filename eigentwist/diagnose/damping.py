@@ -1,0 +1,62 @@
+"""Damping ratios as residuals: measured values, and the decay a damped row shows."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["DECAY_SIGMA", "zeta_rows", "zeta_residuals", "zeta_count", "carries_damping", "least_damping"]
+
+#: a damped row (``kind`` = damped: a decaying oscillation was seen and counted) bounds the
+#: damping ratio of every mode of that condition from below: zeta < 0 costs (zeta / DECAY_SIGMA)^2,
+#: a stiff penalty (a mode growing by zeta = -0.001 costs 100 in chi2): the model must be stable there
+DECAY_SIGMA = 1e-4
+
+
+def zeta_rows(meas, damped_model: bool = True):
+    """``(rows, sigma, measured)`` of the damping-ratio residuals: every row with a measured
+    damping ratio and, for a model with damping (``damped_model``), every damped row (the
+    decay bound; a model without damping has zeta = 0 there); None without any."""
+    measured = ~np.isnan(np.asarray(getattr(meas, "damping_ratio", np.full(len(meas), np.nan)), dtype=float))
+    decay = np.asarray(getattr(meas, "damped", np.zeros(len(meas), dtype=bool)), dtype=bool) & damped_model
+    rows = np.flatnonzero(measured | decay)
+    if not len(rows):
+        return None
+    sigma = np.where(measured, np.asarray(getattr(meas, "sigma_damping_ratio", np.ones(len(meas)))), DECAY_SIGMA)
+    return rows, sigma[rows], measured[rows]
+
+
+def zeta_residuals(meas, zeta: np.ndarray, spec, least: np.ndarray | None = None) -> np.ndarray:
+    """Whitened damping-ratio residuals (..., Z) of predicted ``zeta`` (..., N, the rows'
+    modes): measured rows ``(zeta - zeta_meas) / sigma``; damped rows without a measured
+    value ``min(zeta_least, 0) / DECAY_SIGMA`` with ``least`` (..., N) the least damping
+    ratio of the row's modes (default ``zeta``): a decay was seen, so no mode of that
+    condition grows (a growing one would have left no oscillation to count)."""
+    rows, sigma, measured = spec
+    z = np.asarray(zeta)[..., rows]
+    low = z if least is None else np.minimum(z, np.asarray(least)[..., rows])
+    target = np.where(measured, np.asarray(meas.damping_ratio)[rows], 0.0)
+    r = (z - np.nan_to_num(target)) / sigma
+    return np.where(measured, r, np.minimum(low / sigma, 0.0))
+
+
+def least_damping(modes) -> np.ndarray:
+    """(N,) the least damping ratio among each row's modes (NaN modes left out)."""
+    zeta = np.asarray(modes.damping_ratio, dtype=float)
+    return np.min(np.where(np.isnan(zeta), np.inf, zeta), axis=1)
+
+
+def zeta_count(meas) -> int:
+    """How many damping-ratio values ``meas`` carries (rows with ``damping_ratio``)."""
+    return int(np.sum(~np.isnan(np.asarray(getattr(meas, "damping_ratio", np.full(len(meas), np.nan)), dtype=float))))
+
+
+
+
+
+def carries_damping(meas) -> bool:
+    """Whether ``meas`` can tell a damping effect: a damped frequency (``kind`` = damped) or
+    a measured damping ratio. Undamped natural frequencies alone hardly can: omega_n = |s|
+    moves with a damping only through the series compliance (the Heli4 with c_a = 3 N m
+    s/rad: +0.2 to +0.7 %, below the default 2 % uncertainty and alike for both modes), so
+    the diagnosis does not offer damping effects for such data."""
+    damped = np.asarray(getattr(meas, "damped", np.zeros(len(meas), dtype=bool)), dtype=bool)
+    return bool(damped.any() or zeta_count(meas) > 0)

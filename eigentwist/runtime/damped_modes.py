@@ -1,0 +1,209 @@
+"""The damped modes of an evaluator's model: its legs and parameters into :mod:`.damped`."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..description.effects import leg_input_name, leg_switch_name
+from .damped import Damping, actuator_wrenches, coupled_wrenches, damped_modes
+from .errors import InputError
+
+__all__ = ["damped_of", "actuator_values"]
+
+
+def actuator_values(ev, p: dict, effects, n: int):
+    """``(k_d, c_d, t_d, eta_s)``: each leg's delivered stiffness eta_a k_a (N m/rad),
+    delivered damping eta_a c_a (N m s/rad) and torque lag (s), (n, legs), and the
+    structural loss factor (n,) or None, from the generated code's inputs ``p``
+    (:meth:`Evaluator.parameter_values`) and the effects that are on."""
+    on = set(effects)
+    legs = ev.n_legs
+    one = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,))   # noqa: E731
+    k_a = one(p["k_a"])
+    eta = np.ones((n, legs))
+    if "actuator_loss" in ev.effects:
+        for i in range(legs):
+            switch = one(p[leg_switch_name("actuator_loss", i + 1)])
+            eta[:, i] = np.where(switch > 0, one(p[leg_input_name("eta_a", i + 1)]), 1.0)
+    k_d = eta * k_a[:, None]
+    c_d = eta * (one(p["c_a"])[:, None] if "servo_damping" in on else 0.0)
+    t_d = np.broadcast_to(one(p["t_d"])[:, None] if "servo_delay" in on else 0.0, (n, legs))
+    loss = one(p["eta_s"]) if "structural_loss" in on else None
+    return k_d, c_d, t_d, loss
+
+
+def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
+    """The :class:`~.damped.Damping` of ``modes`` (the undamped modes of ``effects``,
+    :meth:`Evaluator.modes`): each actuator's impedance in series with its leg's joint
+    compliance (the generated ``legs`` kernel), solved by :func:`.damped.damped_modes` on
+    the model's coordinates (a rigid model: its allowed twists and the actuated joints
+    alone; a flexible one: the twists the legs' rigid constraints admit; coupled platform
+    bodies: condensed). ``inputs``: the evaluator's kernel outputs of the valid rows
+    (``Evaluator._damping_inputs``), None where no row is valid; those rows stay NaN."""
+    from . import condense
+
+    N, size = modes.freq_hz.shape
+    out = Damping(np.array(modes.freq_hz, dtype=float), np.array(modes.freq_hz, dtype=float),
+                  np.full((N, size), np.nan), np.full((N, size), np.nan + 0j),
+                  np.full((N, size, size), np.nan + 0j) if shapes else None, np.array(modes.stable, dtype=bool))
+    if inputs is None:
+        return out
+    rows, pr, sub, p, legs, mats = (inputs[k] for k in ("rows", "poses", "params", "p", "legs", "mats"))
+    n = len(pr)
+    M = np.broadcast_to(mats["M"], (n, 6, 6))
+    k_d, c_d, t_d, loss = actuator_values(ev, p, effects, n)
+    Je = np.broadcast_to(legs["Je"], (n,) + np.shape(legs["Je"])[-3:])
+    Cq = np.broadcast_to(legs["Cq"], (n,) + np.shape(legs["Cq"])[-3:])
+    rigid = ev.kind(effects) == "rigid"
+    if rigid:                      # the allowed twists and the actuated joints alone (K_R, Eq. 14)
+        B = ev.allowed_twists(pr, **sub)
+        Je, Cq = Je[:, :, :1, :], Cq[:, :, :1, :1]
+        K_model = np.broadcast_to(mats["K_R"], (n, 6, 6))
+    else:
+        # rigid joint combinations only where the evaluator's route condenses them (Evaluator._route)
+        B = inputs.get("B")
+        if B is None:
+            B = _admissible(Je, Cq, condense) if inputs["exact"] else np.broadcast_to(np.eye(6), (n, 6, 6))
+        K_model = np.broadcast_to(mats["K_F"], (n, 6, 6)) if B.shape[-1] == 6 and "K_F" in mats else None
+    coupled = _couplings(ev, effects, legs, n) if not rigid else None
+    K_G = None
+    if inputs["preloaded"]:                    # the gravity preload's stiffness, in parallel
+        from .gravity import gravity_stiffness
+
+        full = {k: np.broadcast_to(mats[k], (n, 6, 6)) for k in ("M", "K_R", "K_F")}
+        K_G = gravity_stiffness(ev, pr, effects, sub, full, rigid, B if rigid else None)
+    if coupled is not None:                    # legs on platform bodies: condense the couplings
+        Mr, Kc, Wr, h, G, B = _coupled_reduction(Je, Cq, k_d, M, K_G, *coupled, condense, loss)
+        Kr, K_loss = Kc.real, (Kc.imag if loss is not None else None)
+    else:
+        G = None
+        K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss)
+        if K_model is None or loss is not None:    # rigid directions (the legs' finite springs on B), a loss factor
+            K_model = K_legs.real + (np.asarray(legs["K_ground"], dtype=float) if not rigid else 0.0)
+        Bt = np.swapaxes(B, -1, -2)
+        Kr = Bt @ K_model @ B
+        if K_G is not None:
+            Kr = Kr + (K_G if rigid else Bt @ K_G @ B)
+        Mr = Bt @ M @ B
+        Wr = W @ B
+        K_loss = (Bt @ K_legs.imag @ B) if loss is not None else None
+    d = damped_modes(Mr, Kr, Wr, h, k_d, c_d, t_d, shapes=shapes, K_loss=K_loss, G=G)
+    m = B.shape[-1]
+    finite = np.zeros(size, dtype=bool)
+    finite[:m] = True
+    for name in ("natural_hz", "damped_hz", "damping_ratio", "poles"):
+        arr = getattr(out, name)
+        block = arr[rows]
+        block[:, :m] = getattr(d, name)
+        if name == "damping_ratio":
+            block[:, m:] = 0.0
+        arr[rows] = block
+    if shapes:
+        X = np.full((n, size, size), np.nan + 0j)
+        X[:, :, :m] = d.shapes if rigid else B @ d.shapes
+        k = np.argmax(np.abs(X[:, :, :m]), axis=-2)
+        X[:, :, :m] /= np.take_along_axis(X[:, :, :m], k[..., None, :], axis=-2)
+        if m < size and modes.eigentwists is not None:
+            X[:, :, m:] = np.asarray(modes.eigentwists)[rows][:, :, m:]
+        out.shapes[rows] = X
+    out.stable[rows] &= d.stable
+    return out
+
+
+def _couplings(ev, effects, legs: dict, n: int):
+    """``(T, K_x)`` of the couplings of platform bodies that are on: each leg's map T_i
+    (n, 6, d) from ``x = [t; theta]`` to its body's twist and the couplings' stiffness on
+    theta (n, d, d), as :func:`.condense.condensed_compliance` assembles them; None without."""
+    couplings = sorted(ev.robot.couplings, key=lambda c: c.body)
+    active = [k for k, c in enumerate(couplings) if c.effect in set(effects)]
+    if not active:
+        return None
+    index = {couplings[k].body: j for j, k in enumerate(active)}
+    bodies = [index.get(leg.platform_body, -1) for leg in ev.robot.legs]
+    G_c = np.broadcast_to(legs["G_c"][:, active] if np.ndim(legs["G_c"]) == 4 else legs["G_c"][active],
+                          (n, len(active)) + np.shape(legs["G_c"])[-2:])
+    K_c = np.broadcast_to(legs["K_c"][:, active] if np.ndim(legs["K_c"]) == 3 else legs["K_c"][active],
+                          (n, len(active), np.shape(legs["K_c"])[-1]))
+    nc, m = G_c.shape[1], G_c.shape[3]
+    d = 6 + nc * m
+    K_x = np.zeros((n, d, d))
+    K_x[:, :6, :6] = np.asarray(legs["K_ground"], dtype=float)
+    T = {-1: np.broadcast_to(np.eye(6, d), (n, 6, d))}
+    for k in range(nc):
+        Tk = np.zeros((n, 6, d))
+        Tk[:, :, :6] = np.eye(6)
+        Tk[:, :, 6 + k * m:6 + (k + 1) * m] = -G_c[:, k]
+        T[k] = Tk
+        idx = np.arange(6 + k * m, 6 + (k + 1) * m)
+        K_x[:, idx, idx] = K_c[:, k]
+    return [T[b] for b in bodies], K_x
+
+
+def _coupled_reduction(Je, Cq, k_d, M, K_G, T, K_x, condense, loss=None):
+    """The damped problem of legs on platform bodies joined by compliant couplings:
+    ``(M, K, W, h, G, P)`` on the platform's massive admissible coordinates ``a`` (the twist
+    ``t = P a``, P (n, 6, r)) for :func:`.damped.damped_modes`.
+
+    On ``x = [t; theta]`` (the tool's twist and the couplings' massless coordinates) each
+    leg adds its finite springs and actuator wrench moved by its map ``T_i``; the legs'
+    rigid joint combinations restrict x to an orthonormal basis B_x; the inertia there,
+    ``B_x^T diag(M, 0) B_x``, splits the coordinates into massive ones (its positive
+    eigenvalues) and massless ones, which :func:`.damped.coupled_wrenches` condenses (complex
+    with a structural ``loss`` factor)."""
+    n, d = K_x.shape[0], K_x.shape[-1]
+    K_x = np.array(K_x, dtype=float if loss is None else complex)
+    if K_G is not None:
+        K_x[:, :6, :6] += K_G
+    Ws, hs, rows = [], [], []
+    for i in range(Je.shape[1]):
+        Ki, Wi, hi = actuator_wrenches(Je[:, i:i + 1], Cq[:, i:i + 1], 1.0 / k_d[:, i:i + 1], loss)
+        K_x += np.swapaxes(T[i], -1, -2) @ Ki @ T[i]
+        Ws.append((Wi @ T[i])[:, 0])
+        hs.append(hi[:, 0])
+        rows.append(condense.leg_condensation(Je[:, i], Cq[:, i])[1] @ T[i])
+    W_x = np.stack(Ws, axis=1)
+    B = _null_space(np.concatenate(rows, axis=1), d, condense)
+    M_x = np.zeros((n, d, d))
+    M_x[:, :6, :6] = M
+    Bt = np.swapaxes(B, -1, -2)
+    mu, U = np.linalg.eigh(Bt @ M_x @ B)          # real: B spans the real rigid rows' null space
+    massive = mu > 1e-12 * mu.max(axis=-1, keepdims=True)
+    r = int(massive.sum(axis=-1)[0])
+    if np.any(massive.sum(axis=-1) != r):
+        raise InputError("damped modes: the platform's massive coordinates change in number across the poses; "
+                         "evaluate the poses in groups")
+    U = U[:, :, ::-1]                                                   # massive first
+    Q = B @ U
+    Qt = np.swapaxes(Q, -1, -2)
+    K, W, G = coupled_wrenches(Qt @ K_x @ Q, W_x @ Q, r)
+    Mr = np.zeros((n, r, r))
+    Mr[:, np.arange(r), np.arange(r)] = mu[:, ::-1][:, :r]
+    return Mr, K, W, np.stack(hs, axis=1), G, Q[:, :6, :r]
+
+
+def _null_space(A: np.ndarray, d: int, condense) -> np.ndarray:
+    """(n, d, m) orthonormal basis of the x no row of A (n, rows, d) forbids; one rank for the batch."""
+    n = len(A)
+    if not np.any(A):
+        return np.broadcast_to(np.eye(d), (n, d, d))
+    _, sv, Vt = np.linalg.svd(A, full_matrices=True)
+    rank = (sv > condense.RIGID_RTOL * sv.max(axis=-1, keepdims=True)).sum(axis=-1)
+    if np.any(rank != rank[0]):
+        raise InputError("damped modes: the legs' rigid constraints change rank across the poses; evaluate the "
+                         "poses in groups of one rank")
+    return np.swapaxes(Vt[:, int(rank[0]):, :], -1, -2)
+
+
+def _admissible(Je: np.ndarray, Cq: np.ndarray, condense) -> np.ndarray:
+    """(n, 6, m) orthonormal twists that no leg's rigid joint combination forbids (the
+    identity where every direction is compliant), one rank for the batch."""
+    n = len(Je)
+    rows = [condense.leg_condensation(Je[:, i], Cq[:, i])[1] for i in range(Je.shape[1])]
+    A = np.concatenate(rows, axis=1)
+    if not np.any(A):
+        return np.broadcast_to(np.eye(6), (n, 6, 6))
+    _, sv, Vt = np.linalg.svd(A, full_matrices=True)
+    rank = (sv > condense.RIGID_RTOL * sv.max(axis=-1, keepdims=True)).sum(axis=-1)
+    if np.any(rank != rank[0]):
+        raise InputError("damped modes: the legs' rigid constraints change rank across the poses; evaluate the "
+                         "poses in groups of one rank")
+    return np.swapaxes(Vt[:, int(rank[0]):, :], -1, -2)
