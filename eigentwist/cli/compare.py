@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from .common import MODEL_SYNTAX, CliError, add_backend_option, add_set_option, model_and_values
+from .common import MODEL_SYNTAX, CliError, declare_outputs, add_backend_option, add_set_option, model_and_values
 
 HELP = "compare a model with measured natural frequencies (table, RMS/max error, Fig. 6 style plot)"
 DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Columns:
@@ -55,6 +55,7 @@ def add_parser(sub):
     p.add_argument("--model", default="paper", help=f"{MODEL_SYNTAX} (default: paper)")
     p.add_argument("--plot", metavar="FILE.png", help="write a Fig. 6 style plot")
     p.add_argument("--json", action="store_true", help="print one JSON object (rows, rms_pct, max_pct, failing)")
+    declare_outputs(p, plot="image")
     p.set_defaults(func=run)
 
 

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 
 from ..runtime.ccompile import BuildError
-from .common import CliError
+from .common import CliError, guard_outputs
 
 # Subcommands are the modules of this package that define ``add_parser``; this order
 # first, any others alphabetically (adding a command needs no edit here).
@@ -117,6 +117,7 @@ def _run(args) -> int:
     try:
         # floating-point overflow on absurd inputs is detected and named by the checks
         # (unreachable pose, non-finite frequency); NumPy's own warnings would only add lines
+        guard_outputs(args)
         with np.errstate(all="ignore"):
             code = int(args.func(args) or 0)
         sys.stdout.flush()                   # a closed pipe shows here, not at interpreter exit

@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from ..description.names import did_you_mean
+from ..outputs import write_atomic
 from ..runtime import InputError, SingularPoseError, UnreachablePoseError
 from .evaluators import resolve
 from .matching import parse_mode
@@ -241,7 +242,7 @@ class Measurements:
                         for v in vals])
         text = out.getvalue()
         if path is not None:
-            Path(path).write_text(text)
+            write_atomic(path, text)
         return text
 
 

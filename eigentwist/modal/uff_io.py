@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import atomic_path
 from ..runtime import InputError
 
 __all__ = ["FrfSet", "ModeSet", "UffError", "read_uff", "write_frf_uff", "write_modes_uff", "dof_label", "node_coordinates",
@@ -256,7 +257,8 @@ def write_frf_uff(path, frfs: FrfSet) -> Path:
             data=np.asarray(frfs.H[:, p], dtype=complex).copy(), x=np.asarray(frfs.freq_hz, dtype=float).copy()))
     if path.exists():
         path.unlink()
-    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    with atomic_path(path) as tmp:
+        pyuff.UFF(str(tmp)).write_sets(sets, mode="overwrite")
     return path
 
 
@@ -274,5 +276,6 @@ def write_modes_uff(path, freq_hz, damping_ratio, shapes, node: int = 1) -> Path
             load_case=1, mode_n=k + 1, modal_m=0.0, freq=float(f), modal_damp_vis=float(z), modal_damp_his=0.0))
     if path.exists():
         path.unlink()
-    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    with atomic_path(path) as tmp:
+        pyuff.UFF(str(tmp)).write_sets(sets, mode="overwrite")
     return path

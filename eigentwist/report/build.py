@@ -26,6 +26,7 @@ import jinja2
 import numpy as np
 
 from ..diagnose.answer import uncertainty_sentence
+from ..outputs import write_atomic
 from ..text import format_estimate
 from .provenance import provenance
 
@@ -304,5 +305,5 @@ def render_html(report: ReportData) -> str:
 def write_report(path, report: ReportData) -> Path:
     """Write the HTML of ``report`` to ``path``; return the path."""
     path = Path(path)
-    path.write_text(render_html(report), encoding="utf-8")
+    write_atomic(path, render_html(report))
     return path

@@ -1,0 +1,95 @@
+"""Outputs never replace an input, are written whole or not at all, and replace a file of
+another kind only with --force (eigentwist/outputs.py, the commands' -o/--plot/--uff)."""
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from eigentwist.cli.main import main
+from eigentwist.outputs import OutputError, atomic_path, check_output, file_kind, write_atomic
+
+CSV = "k_a,mode,freq_hz\n500,1,12.5\n"
+
+
+@pytest.fixture
+def data(tmp_path):
+    path = tmp_path / "good.csv"
+    path.write_text(CSV)
+    return path
+
+
+def _refused(capsys, argv, *words):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1, err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+@pytest.mark.parametrize("argv", [
+    ["report", "{data}", "--baseline", "paper", "-o", "{data}"],
+    ["compare", "{data}", "--plot", "{data}"],
+    ["diagnose", "{data}", "--plot", "{data}"],
+    ["identify", "{data}", "-o", "{data}"],
+    ["report", "{data}", "-o", "{link}"],
+    ["report", "{data}", "-o", "{hard}", "--force"],          # --force never destroys an input
+])
+def test_an_input_is_never_an_output(tmp_path, data, capsys, argv):
+    (tmp_path / "link.csv").symlink_to(data)
+    os.link(data, tmp_path / "hard.csv")
+    argv = [a.format(data=data, link=tmp_path / "link.csv", hard=tmp_path / "hard.csv") for a in argv]
+    _refused(capsys, argv, "is the input", str(data))
+    assert data.read_text() == CSV
+
+
+def test_the_robot_description_file_is_an_input_too(tmp_path, capsys):
+    robot = tmp_path / "robot.py"
+    robot.write_text("def describe():\n    raise SystemExit\n")
+    _refused(capsys, ["synth", "--robot", str(robot), "--truth", "paper", "--k-a", "500", "-o", str(robot)],
+             "is the input")
+    assert robot.read_text().startswith("def describe")
+
+
+def test_another_kind_is_replaced_only_with_force(tmp_path, capsys):
+    png = tmp_path / "figure.png"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + b"\x00" * 16)
+    argv = ["synth", "--truth", "paper", "--k-a", "500", "--modes", "1", "-o", str(png)]
+    _refused(capsys, argv, "png file", "--force")
+    assert png.read_bytes().startswith(b"\x89PNG")
+    assert main([*argv, "--force"]) == 0
+    assert png.read_text().startswith("k_a,mode,freq_hz")
+    # a CSV replaces a CSV (re-running a command) without --force
+    assert main(argv) == 0
+
+
+def test_check_output_kinds(tmp_path):
+    html, csv, empty = tmp_path / "a.html", tmp_path / "b.csv", tmp_path / "c"
+    html.write_text("<!DOCTYPE html>\n<html></html>")
+    csv.write_text(CSV)
+    empty.write_text("")
+    assert [file_kind(p) for p in (html, csv, empty, tmp_path)] == ["html", "text", "empty", "directory"]
+    assert check_output(html, "html") == html and check_output(empty, "html") == empty
+    with pytest.raises(OutputError, match="text file"):
+        check_output(csv, "html")
+    assert check_output(csv, "html", force=True) == csv
+    with pytest.raises(OutputError, match="html file"):
+        check_output(html, "csv")
+    with pytest.raises(OutputError, match="a directory"):
+        check_output(tmp_path, "image")
+    assert check_output(tmp_path / "new.html", "html", inputs=[csv]).name == "new.html"
+
+
+def test_a_failed_write_leaves_the_old_file(tmp_path):
+    path = tmp_path / "out.csv"
+    path.write_text("old\n")
+    path.chmod(0o640)
+    with pytest.raises(RuntimeError):
+        with atomic_path(path) as tmp:
+            tmp.write_text("half")
+            raise RuntimeError("interrupted")
+    assert path.read_text() == "old\n" and os.listdir(tmp_path) == ["out.csv"]
+    write_atomic(path, "new\n")
+    assert path.read_text() == "new\n" and os.listdir(tmp_path) == ["out.csv"]
+    assert (path.stat().st_mode & 0o777) == 0o640          # the replaced file's mode is kept
