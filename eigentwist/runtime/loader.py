@@ -93,9 +93,10 @@ def _load_user(robot, backend: str, threads, progress) -> Evaluator:
         description = describe_file(robot)
         extra, spec = Path(robot).read_bytes(), str(robot)
     key = description_key(description, extra)
-    directory = generated_modules(description, key, progress)
-    module = import_numpy_module(directory / f"{description.name}_numpy.py")
-    source = (directory / f"{description.name}_c.c").read_text()
+    directory, texts = generated_modules(description, key, progress)
+    name = f"{description.name}_numpy.py"
+    module = import_numpy_module(texts[name], directory / name)
+    source = texts[f"{description.name}_c.c"]
     ev = _with_backend(description, module, backend, description.name, threads, source)
     ev.spec = spec
     return ev
