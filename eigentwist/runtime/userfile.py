@@ -59,6 +59,9 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     module = importlib.util.module_from_spec(spec)
     try:
         spec.loader.exec_module(module)
+    except (SystemExit, KeyboardInterrupt) as exc:
+        raise InputError(f"robot description file {str(path)!r} {_ended(exc)} while it was imported: a description "
+                         "file must define describe() and return") from None
     except Exception as exc:
         raise InputError(f"robot description file {str(path)!r} failed to import: {type(exc).__name__}: {exc}") from None
     describe = getattr(module, "describe", None)
@@ -67,12 +70,21 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
                          "(it must return an eigentwist.description.RobotDescription or a joint-list ChainRobot)")
     try:
         desc = describe()
+    except (SystemExit, KeyboardInterrupt) as exc:
+        raise InputError(f"describe() in {str(path)!r} {_ended(exc)}: expected it to return a description") from None
     except Exception as exc:
         raise InputError(f"describe() in {str(path)!r} raised {type(exc).__name__}: {exc}") from None
     if not is_description(desc):
         raise InputError(f"describe() in {str(path)!r} returned {type(desc).__name__}: expected one of "
                          f"{', '.join(k.__name__ for k in description_kinds())}")
     return desc
+
+
+def _ended(exc: BaseException) -> str:
+    """``called sys.exit(0)`` or ``was interrupted (KeyboardInterrupt)``."""
+    if isinstance(exc, SystemExit):
+        return f"called sys.exit({exc.code!r})"
+    return f"was interrupted ({type(exc).__name__})"
 
 
 def description_key(description, extra: bytes = b"") -> str:
