@@ -90,7 +90,7 @@ def check_output(path, kind: str, inputs=(), force: bool = False, option: str = 
             raise OutputError(f"{option} {str(path)!r} is the input {str(source)!r}: writing there would destroy "
                               "it; choose another output path")
     if kind not in KINDS:
-        raise ValueError(f"unknown output kind {kind!r}: expected one of {', '.join(KINDS)}")
+        raise InputError(f"unknown output kind {kind!r}: expected one of {', '.join(KINDS)}")
     if not os.path.lexists(path) or force:
         return path
     try:

@@ -93,3 +93,44 @@ def test_a_failed_write_leaves_the_old_file(tmp_path):
     write_atomic(path, "new\n")
     assert path.read_text() == "new\n" and os.listdir(tmp_path) == ["out.csv"]
     assert (path.stat().st_mode & 0o777) == 0o640          # the replaced file's mode is kept
+
+
+# ------------------------------------------------------------ typed errors on the command line
+def test_user_errors_are_one_line_and_bugs_a_traceback(monkeypatch, capsys):
+    """An EigentwistError (the user's doing) is one line, exit 2; anything else is a bug:
+    its traceback and a line asking for a report, exit 1 (not "error: 'x'")."""
+    import eigentwist.cli.matrices as matrices
+    from eigentwist.errors import DescriptionError, EigentwistError, InputError
+
+    assert issubclass(EigentwistError, ValueError)                   # ``except ValueError`` keeps working
+    assert issubclass(InputError, EigentwistError) and issubclass(DescriptionError, EigentwistError)
+
+    def fails(exc):
+        def run(args):
+            raise exc
+        return run
+
+    for exc, code in ((InputError("pose 'x': expected a number"), 2), (KeyError("x"), 1),
+                      (ValueError("math domain error"), 1)):
+        monkeypatch.setattr(matrices, "run", fails(exc))
+        assert main(["matrices"]) == code
+        err = capsys.readouterr().err
+        if code == 2:
+            assert err == "eigentwist matrices: error: pose 'x': expected a number\n"
+        else:
+            assert "Traceback" in err and type(exc).__name__ in err and "please report" in err.splitlines()[-1]
+
+
+def test_no_bare_value_error_is_raised_in_the_package():
+    """Errors a user can cause are EigentwistError subclasses: no ``raise ValueError(`` left
+    (the generated modules raise none either)."""
+    import re
+    from pathlib import Path
+
+    import eigentwist
+
+    root = Path(eigentwist.__file__).parent
+    bare = [f"{p.relative_to(root)}:{n}" for p in root.rglob("*.py")
+            for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+            if re.search(r"raise ValueError\(", line)]
+    assert bare == [], bare

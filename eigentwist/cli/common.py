@@ -5,6 +5,7 @@ import argparse
 import os
 import sys
 
+from ..errors import InputError
 from ..text import format_table  # re-exported: the CLI's tables
 
 __all__ = ["CliError", "add_model_options", "add_set_option", "add_backend_option", "add_jacobian_option", "BACKEND_ENV", "parse_sets", "check_values", "model_and_values",
@@ -12,8 +13,8 @@ __all__ = ["CliError", "add_model_options", "add_set_option", "add_backend_optio
            "guard_outputs"]
 
 
-class CliError(Exception):
-    """An error reported to the user as one line (exit status 2)."""
+class CliError(InputError):
+    """A malformed option, reported to the user as one line (exit status 2)."""
 
 
 def say(*args, **kwargs) -> None:

@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from .parameters import Parameter, sym
 from .pose import RigidPose
 from .robot import resolve_effects
@@ -56,14 +57,14 @@ class ChainJoint:
 
     def __post_init__(self):
         if self.kind not in JOINT_FREEDOMS:
-            raise ValueError(f"joint kind {self.kind!r}: expected one of {', '.join(JOINT_FREEDOMS)}")
+            raise DescriptionError(f"joint kind {self.kind!r}: expected one of {', '.join(JOINT_FREEDOMS)}")
         if self.actuated and self.kind not in ("R", "P"):
-            raise ValueError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
+            raise DescriptionError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
         n = JOINT_FREEDOMS[self.kind]
         if self.axes and len(self.axes) != n:
-            raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
+            raise DescriptionError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
         if self.swing and (self.kind != "Pi" or len(self.swing) != 2):
-            raise ValueError(f"joint {self.kind!r}: swing is (axis, length) of a Pi joint's rods, got {self.swing!r}")
+            raise DescriptionError(f"joint {self.kind!r}: swing is (axis, length) of a Pi joint's rods, got {self.swing!r}")
 
     @property
     def freedoms(self) -> int:
@@ -248,7 +249,7 @@ class ChainRobot:
     def __post_init__(self):
         coordinates = tuple(getattr(self.pose_space, "coordinates", self.pose))
         if tuple(self.pose) != coordinates:
-            raise ValueError(f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
+            raise DescriptionError(f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
                              f"{coordinates!r}: expected the same names")
         # a leg in URDF form (:class:`~.serial.SerialLeg`) becomes the joint list it stands for
         object.__setattr__(self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg

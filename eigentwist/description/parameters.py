@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+from ..errors import InputError
 import sympy as sp
 
 __all__ = ["Parameter", "sym"]
@@ -82,4 +83,4 @@ class Parameter:
             first = arr.reshape(-1)[np.argmax(bad.reshape(-1))]
             rng = (f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
                    f"a finite value in ({lo:g}, {hi:g})" if lo == 0.0 else f"a finite value in [{lo:g}, {hi:g}]")
-            raise ValueError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")
+            raise InputError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")

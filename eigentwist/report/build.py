@@ -25,6 +25,7 @@ from pathlib import Path
 import jinja2
 import numpy as np
 
+from ..errors import InputError
 from ..diagnose.answer import uncertainty_sentence
 from ..outputs import write_atomic
 from ..text import format_estimate
@@ -107,7 +108,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     campaign_html = ""
     if data is None:
         if robot != "heli4":
-            raise ValueError(f"no embedded measurements for robot {robot!r}: pass a measurement CSV")
+            raise InputError(f"no embedded measurements for robot {robot!r}: pass a measurement CSV")
         meas = parse_csv(paper_csv(robot), "heli4_paper.csv", ev, values=values)
         data_source = "the paper's measurements (Tables E.1/E.2, 'Meas.'), embedded"
     else:

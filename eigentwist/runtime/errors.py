@@ -1,14 +1,9 @@
 """Errors raised on bad input: each names the value and what was expected."""
 
-__all__ = ["EigentwistError", "UnreachablePoseError", "SingularPoseError", "UnstablePoseError", "InputError"]
+from ..errors import DescriptionError, EigentwistError, InputError
 
-
-class EigentwistError(ValueError):
-    """Base class of eigentwist's input errors (a ValueError)."""
-
-
-class InputError(EigentwistError):
-    """A pose, parameter or option is malformed (shape, NaN, unknown name, bounds)."""
+__all__ = ["EigentwistError", "UnreachablePoseError", "SingularPoseError", "UnstablePoseError", "InputError",
+           "DescriptionError"]
 
 
 class UnreachablePoseError(EigentwistError):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from ..description import RobotDescription
 import sympy as sp
 
@@ -36,11 +37,11 @@ def inverse_kinematics(robot: RobotDescription):
     q_all, checks = [], {}
     for i, leg in enumerate(robot.legs, start=1):
         if leg.kinematics is None:
-            raise ValueError(f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
+            raise DescriptionError(f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
                              "one, e.g. a leg built by eigentwist.description.rrpirr.rrpirr_leg")
         q, c = leg.kinematics.inverse_kinematics(ik, leg, pose, str(i))
         if q_all and (len(q) != len(q_all[0]) or list(c) != list(checks)):
-            raise ValueError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates and checks {list(c)}; "
+            raise DescriptionError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates and checks {list(c)}; "
                              f"expected {len(q_all[0])} and {list(checks)} like {robot.legs[0].name}")
         q_all.append(tuple(q))
         for name, value in c.items():
@@ -75,7 +76,7 @@ def closures(robot):
         return None
     names = robot.legs[0].closures
     if not names or any(leg.closures != names for leg in robot.legs):
-        raise ValueError(f"{robot.name}: pose space {pose!r} needs every leg to name the same closures "
+        raise DescriptionError(f"{robot.name}: pose space {pose!r} needs every leg to name the same closures "
                          f"(ChainLeg.closures, scalars of its geometry that vanish), got "
                          f"{[leg.closures for leg in robot.legs]}")
     prog = Program()
@@ -112,7 +113,7 @@ def loop_closure(robot, q_all: list):
     if not any(numeric):
         return None, {}
     if not all(numeric):
-        raise ValueError(f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
+        raise DescriptionError(f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
                          f"{robot.legs[numeric.index(True)].name} is solved numerically: expected alike legs")
     prog = Program()
     pose = robot.pose_space
@@ -123,7 +124,7 @@ def loop_closure(robot, q_all: list):
         r = leg.kinematics.residual(prog, pose, q, str(i))
         r = prog.let_matrix(f"r_{i}", r)
         if res and r.rows != res[0].rows:
-            raise ValueError(f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
+            raise DescriptionError(f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
                              f"{robot.legs[0].name} with {res[0].rows}: expected alike legs")
         res.append(r)
         jac.append(sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]))

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from ..description import RobotDescription, sym
 from ..description.effects import EffectContext, leg_input_name, leg_switch_name, switch_name
 from .inertia import body_inertia_contribution
@@ -215,7 +216,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
     K_F = _platform_stiffness(prog, robot, K_groups, fx) + K_ground
     n, n_e = len(robot.legs), Je_all[0].rows
     if any(r.shape != J_rows[0].shape for r in J_rows) or any(j.rows != n_e for j in Je_all):
-        raise ValueError(f"{robot.name}: legs with different numbers of joint coordinates or constraints "
+        raise DescriptionError(f"{robot.name}: legs with different numbers of joint coordinates or constraints "
                          f"({[r.rows for r in J_rows]} rows): expected alike legs")
     sym6 = lambda m: [m[i, j] for i in range(6) for j in range(6)]  # noqa: E731
     outputs = {
@@ -273,7 +274,7 @@ def _joint_keys(leg, ls: LegScrews):
     first = {j: k for k, j in reversed(list(zip(ls.keys, ls.joint_of)))}
     actuated = [j for j, joint in enumerate(leg.joints) if joint.actuated]
     if len(actuated) != 1:
-        raise ValueError(f"{leg.name}: {len(actuated)} actuated joints: expected exactly one")
+        raise DescriptionError(f"{leg.name}: {len(actuated)} actuated joints: expected exactly one")
     virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].virtual]
     # (joint, rate[, freedom within the joint]): a U or S joint's coordinates address its twists
     coords = [(ls.keys[ls.joint_of.index(c[0]) + (c[2] if len(c) > 2 else 0)], c[1])
@@ -299,13 +300,13 @@ def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -
     for e in fx.of_kind("added_inertia"):
         if e.body != "platform":
             if e.body not in inertia:
-                raise ValueError(f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
+                raise DescriptionError(f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
                                  f"{', '.join(inertia)} or 'platform'")
             on, added = fx.term(e, i, ls)
             # one body's inertia, or {body: inertia} for an effect that moves mass between bodies
             for body, term in (added.items() if isinstance(added, dict) else ((e.body, added),)):
                 if body not in inertia:
-                    raise ValueError(f"effect {e.name!r}: added inertia on body {body!r}: expected one of "
+                    raise DescriptionError(f"effect {e.name!r}: added inertia on body {body!r}: expected one of "
                                      f"{', '.join(inertia)}")
                 inertia[body] = inertia[body] + on * term
     M = sp.zeros(6, 6)
@@ -333,7 +334,7 @@ def _body_compliance(fx: EffectSymbols, ls, i: int) -> sp.Matrix:
             continue
         if e.body != "platform":
             if e.body not in ls.frames:
-                raise ValueError(f"effect {e.name!r}: body {e.body!r}: expected a leg frame "
+                raise DescriptionError(f"effect {e.name!r}: body {e.body!r}: expected a leg frame "
                                  f"({', '.join(ls.frames)}) or 'platform'")
             C = compliance_to_frame(C, *ls.frames[e.body])
         Cs += on * C
@@ -399,7 +400,7 @@ def _platform_stiffness(prog: Program, robot: RobotDescription, K_groups: dict, 
     couplings = {c.body: c for c in robot.couplings}
     unknown = sorted(set(K_groups) - set(couplings) - {robot.tool_body})
     if unknown:
-        raise ValueError(f"{robot.name}: legs attach to platform bodies {unknown} that are neither the tool body "
+        raise DescriptionError(f"{robot.name}: legs attach to platform bodies {unknown} that are neither the tool body "
                          f"{robot.tool_body!r} nor coupled to it (couplings: {sorted(couplings)})")
     K_F = sp.zeros(6, 6)
     for body in sorted(K_groups):
