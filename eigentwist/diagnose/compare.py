@@ -102,7 +102,11 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
     effects = resolve_model(model, ev.robot)
     if check:
         check_columns(meas, effects, ev)
-    pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=True, return_modes=True)
     shapes = getattr(meas, "shapes", None)
-    mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
+    predictor = Predictor(meas, effects, ev, values)
+    if shapes is None:                       # no modes kept: a large file is evaluated a block at a time
+        (pred, idx), mac = predictor.predict(strict=True), None
+    else:
+        pred, idx, modes = predictor.predict(strict=True, return_modes=True)
+        mac = row_mac(modes, idx, shapes, meas.shape_projection)
     return Comparison(meas, effects, pred, idx, dict(values or {}), mac)
