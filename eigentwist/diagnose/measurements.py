@@ -425,6 +425,10 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
     return meas
 
 
+class _RowByRow(Exception):
+    """A block's column holds a cell that the row-by-row reading reports (named there)."""
+
+
 def _numeric(name: str, ev):
     """How :func:`_cell` reads column ``name``: ``(positive, parameter or None)`` for a
     number, None for text (``mode``, or any column it reads otherwise)."""
@@ -465,16 +469,16 @@ def _parse_block(block: list, names: list, source: str, ev, x_ref) -> tuple:
             positive, param = kind
             filled = [c for c in cells if c]
             if len(filled) != len(cells) and name in REQUIRED:
-                raise ValueError(name)
+                raise _RowByRow(name)
             values = np.full(len(cells), np.nan)
             values[[bool(c) for c in cells]] = np.fromiter((float(c) for c in filled), dtype=float, count=len(filled))
             given = values[~np.isnan(values)]
             if len(given) != len(filled) or not np.all(np.isfinite(given)) or (positive and np.any(given <= 0)):
-                raise ValueError(name)
+                raise _RowByRow(name)
             if param is not None:
                 param.check(given)
             out[name] = values
-    except ValueError:                     # MeasurementError and InputError included
+    except (_RowByRow, ValueError):        # MeasurementError and InputError are ValueErrors
         return _parse_rows(block, names, source, ev, x_ref)
     return lines, out
 
