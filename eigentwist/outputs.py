@@ -53,12 +53,12 @@ def file_kind(path) -> str:
         if head.startswith(magic):
             return kind
     try:
-        text = head.decode("utf-8").lstrip("\ufeff \t\r\n").lower()
-    except UnicodeDecodeError:
-        try:                                    # a multi-byte character cut at the 4096th byte
-            text = head[:-3].decode("utf-8").lstrip("\ufeff \t\r\n").lower()
-        except UnicodeDecodeError:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if exc.reason != "unexpected end of data":     # not a multi-byte character cut at byte 4096
             return "binary"
+        text = head[:exc.start].decode("utf-8")
+    text = text.lstrip("\ufeff \t\r\n").lower()
     if "\x00" in text:
         return "binary"
     if text.startswith(("<!doctype html", "<html")):

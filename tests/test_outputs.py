@@ -8,6 +8,7 @@ import pytest
 
 from eigentwist.cli.main import main
 from eigentwist.outputs import OutputError, atomic_path, check_output, file_kind, write_atomic
+from eigentwist.runtime.errors import InputError
 
 CSV = "k_a,mode,freq_hz\n500,1,12.5\n"
 
@@ -79,6 +80,61 @@ def test_check_output_kinds(tmp_path):
     with pytest.raises(OutputError, match="a directory"):
         check_output(tmp_path, "image")
     assert check_output(tmp_path / "new.html", "html", inputs=[csv]).name == "new.html"
+
+
+@pytest.mark.parametrize("head, kind", [
+    (b"\xef\xbb\xbf \n<!DOCTYPE html>\n<html>", "html"),       # BOM and blank lines first
+    (b"<HTML><BODY></BODY></HTML>", "html"),
+    (b"<svg xmlns='http://www.w3.org/2000/svg'/>", "svg"),
+    (b"<?xml version='1.0'?>\n<svg/>", "svg"),
+    (b"<?xml version='1.0'?>\n<root/>", "text"),
+    (b"k_a,mode,freq_hz\n<svg\n", "text"),                     # a word inside, not its start
+    (b"GIF89a...", "gif"), (b"%PDF-1.7", "pdf"), (b"PK\x03\x04", "zip"), (b"PAR1", "parquet"),
+    (b"\xff\xd8\xff\xe0", "jpeg"),
+    (b"a,b\n\x00\x01", "binary"), (b"\xff\xfe\xfa", "binary"),
+    (b"x" * 4095 + "\u00e9".encode(), "text"),                  # a character cut at byte 4096
+    (b"x" * 4096 + b"\x00", "text"),                            # only the first 4096 bytes are read
+])
+def test_file_kind_from_the_first_bytes(tmp_path, head, kind):
+    path = tmp_path / "f"
+    path.write_bytes(head)
+    assert file_kind(path) == kind
+
+
+def test_refusals_say_what_and_why(tmp_path):
+    data, csv, html = tmp_path / "d.csv", tmp_path / "e.csv", tmp_path / "r.html"
+    data.write_text(CSV)
+    csv.write_text(CSV)
+    html.write_text("<html></html>")
+    with pytest.raises(OutputError) as exc:
+        check_output(data, "csv", inputs=[None, data])
+    assert str(exc.value) == (f"-o {str(data)!r} is the input {str(data)!r}: writing there would destroy it; "
+                               "choose another output path")
+    with pytest.raises(OutputError) as exc:
+        check_output(csv, "html", option="--plot")
+    assert str(exc.value) == (f"--plot {str(csv)!r} exists and is a text file, not an html output: choose another "
+                              "path or pass --force to replace it")
+    with pytest.raises(OutputError) as exc:
+        check_output(html, "csv")
+    assert str(exc.value).endswith("exists and is a html file, not a csv output: choose another path or pass "
+                                   "--force to replace it")
+    with pytest.raises(OutputError, match=r"exists and is a directory, not a image output"):
+        check_output(tmp_path, "image")
+    with pytest.raises(InputError) as exc:
+        check_output(csv, "pdf")
+    assert str(exc.value) == "unknown output kind 'pdf': expected one of html, csv, image, directory"
+
+
+@pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o077, 0o600)])
+def test_a_new_file_gets_the_umasks_mode(tmp_path, umask, mode):
+    old = os.umask(umask)
+    try:
+        path = write_atomic(tmp_path / "new.csv", b"k_a\n")
+    finally:
+        os.umask(old)
+    assert path.read_bytes() == b"k_a\n" and (path.stat().st_mode & 0o777) == mode
+    write_atomic(path, "caf\u00e9\n")
+    assert path.read_bytes() == "caf\u00e9\n".encode("utf-8")
 
 
 def test_a_failed_write_leaves_the_old_file(tmp_path):
