@@ -17,7 +17,7 @@ import stat
 import tempfile
 from pathlib import Path
 
-from .runtime.errors import InputError
+from .errors import InputError
 
 __all__ = ["OutputError", "KINDS", "file_kind", "same_file", "check_output", "write_atomic", "atomic_path"]
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from ..outputs import write_atomic
 from ..robots import NAMES, get
 from ..symbolic import POSE, derive
 from ..symbolic.model import EffectSymbols
@@ -173,7 +174,7 @@ def write(files: dict[str, str], directory: Path = GENERATED) -> list[Path]:
     written = []
     for rel, text in files.items():
         path = directory / rel
-        path.write_bytes(text.encode("utf-8"))
+        write_atomic(path, text.encode("utf-8"))
         written.append(path)
     return written
 
