@@ -91,3 +91,26 @@ def test_read_verified_contract(tmp_path):
     path.write_bytes(b"int y;\n")                         # same length, other bytes
     assert ccompile.read_verified(path) is None
     assert ccompile.read_verified(directory / "absent.c") is None
+
+
+def test_shipped_files_are_checked_before_import_or_compile(tmp_path, monkeypatch):
+    """A generated file of eigentwist/generated is imported or compiled only when it matches
+    ``<robot>.sha256`` beside it (written by ``eigentwist generate``): one byte changed, or
+    the digest missing, is an error naming the file."""
+    from eigentwist.codegen.generate import GENERATED, digests_text
+
+    for robot in ("heli4", "delta", "hexapod"):
+        names = [f"{robot}_numpy.py", f"{robot}_c.c", f"{robot}_c.h"]
+        want = digests_text({n: (GENERATED / n).read_text(encoding="utf-8") for n in names})
+        assert (GENERATED / f"{robot}.sha256").read_text(encoding="utf-8") == want
+    for name in ("heli4_numpy.py", "heli4_c.c"):
+        path = tmp_path / name
+        path.write_bytes((GENERATED / name).read_bytes())
+        (tmp_path / "heli4.sha256").write_bytes((GENERATED / "heli4.sha256").read_bytes())
+        assert ccompile.read_shipped(path) == path.read_bytes()
+        path.write_bytes(path.read_bytes() + b"\n")
+        with pytest.raises(ccompile.DamagedFileError, match=rf"{name} does not match its recorded SHA-256"):
+            ccompile.read_shipped(path)
+        (tmp_path / "heli4.sha256").unlink()
+        with pytest.raises(ccompile.DamagedFileError, match=rf"{name} has no recorded SHA-256"):
+            ccompile.read_shipped(path)

@@ -6,6 +6,7 @@
 """
 from __future__ import annotations
 
+import hashlib
 import time
 from pathlib import Path
 
@@ -160,11 +161,23 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
     return files
 
 
+def digests_text(files: dict[str, str]) -> str:
+    """``<robot>.sha256``: the SHA-256 of each rendered file's UTF-8 bytes, one line
+    ``HEX  NAME`` per file in name order (``sha256sum -c`` reads it; the runtime checks a
+    generated file against it before importing or compiling it:
+    :func:`eigentwist.runtime.ccompile.read_shipped`)."""
+    return "".join(f"{hashlib.sha256(text.encode('utf-8')).hexdigest()}  {name}\n"
+                   for name, text in sorted(files.items()))
+
+
 def render_all(robots=NAMES, progress=None, timings=None) -> dict[str, str]:
-    """Render the generated files of every robot (nothing is written)."""
+    """Render the generated files of every robot, and each robot's ``<robot>.sha256``
+    (:func:`digests_text`); nothing is written."""
     files = {}
     for name in robots:
-        files.update(render_robot(name, progress=progress, timings=timings))
+        rendered = render_robot(name, progress=progress, timings=timings)
+        files.update(rendered)
+        files[f"{name}.sha256"] = digests_text(rendered)
     return files
 
 

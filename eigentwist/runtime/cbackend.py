@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
+from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets, read_shipped
 from .validity import STATUS
 
 __all__ = ["load_c_kernels", "CKernels", "CompilerNotFoundError", "CompileError", "find_compiler",
@@ -100,7 +100,7 @@ def compile_and_load(robot: str, source: str | None = None, directory: Path | No
         path = source_path(robot)
         if not path.exists():
             raise FileNotFoundError(f"{path} does not exist: run `eigentwist generate`")
-        source = path.read_text()
+        source = read_shipped(path).decode("utf-8")
     errors = []
     for name, flags in flag_sets():
         try:

@@ -44,7 +44,7 @@ except ImportError:                     # not POSIX: no locking (the rename stil
 
 __all__ = ["BuildError", "CompilerNotFoundError", "UnsafeCacheError", "find_compiler", "compiler_version", "flag_sets",
            "cache_dir", "build_library", "check_private", "library_digest", "private_directory", "write_verified",
-           "read_verified", "note"]
+           "read_verified", "note", "read_shipped", "DamagedFileError"]
 
 
 class BuildError(RuntimeError):
@@ -57,6 +57,10 @@ class CompilerNotFoundError(BuildError):
 
 class UnsafeCacheError(BuildError):
     """The compiled-code cache (or a library in it) is writable by others or not ours."""
+
+
+class DamagedFileError(BuildError):
+    """A generated file shipped in ``eigentwist/generated`` differs from its recorded SHA-256."""
 
 
 def find_compiler() -> str:
@@ -190,6 +194,34 @@ def write_verified(path: Path, data: bytes) -> Path:
     _write_atomic(path, data)
     _write_atomic(_digest_path(path), (hashlib.sha256(data).hexdigest() + "\n").encode())
     return path
+
+
+_SHIPPED: dict = {}
+
+
+def read_shipped(path: Path) -> bytes:
+    """The bytes of a generated file shipped in ``eigentwist/generated`` (``<robot>_numpy.py``,
+    ``<robot>_c.c``), checked against ``<robot>.sha256`` beside it (written by ``eigentwist
+    generate``) before it is imported or compiled; once per process and file version.
+    Raises :class:`DamagedFileError` when the digest is missing or differs."""
+    path = Path(path)
+    data = path.read_bytes()
+    st = os.stat(path)
+    key = (str(path), st.st_mtime_ns, st.st_size)
+    if key in _SHIPPED:
+        return data
+    sums = path.with_name(path.name.rsplit("_", 1)[0] + ".sha256")
+    try:
+        recorded = dict(reversed(line.split(None, 1)) for line in sums.read_text().splitlines() if line.strip())
+    except (OSError, ValueError):
+        recorded = {}
+    digest = hashlib.sha256(data).hexdigest()
+    if recorded.get(path.name) != digest:
+        why = "has no recorded SHA-256" if path.name not in recorded else "does not match its recorded SHA-256"
+        raise DamagedFileError(f"the generated file {path} {why} ({sums.name}): the installation is damaged or "
+                               "edited; reinstall eigentwist, or run `eigentwist generate` in a source checkout")
+    _SHIPPED[key] = digest
+    return data
 
 
 def read_verified(path: Path) -> bytes | None:

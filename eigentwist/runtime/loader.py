@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from ..robots import NAMES, get
+from .ccompile import read_shipped
 from .errors import InputError
 from .evaluator import Evaluator
 from .threads import resolve_threads
@@ -26,7 +27,11 @@ BACKENDS = ("numpy", "c", "auto")
 
 
 def load_module(robot: str, backend: str = "numpy"):
-    """Import the generated module ``eigentwist.generated.<robot>_<backend>``."""
+    """Import the generated module ``eigentwist.generated.<robot>_<backend>``, checked
+    first against its recorded SHA-256 (:func:`~.ccompile.read_shipped`)."""
+    from .. import generated
+
+    read_shipped(Path(generated.__file__).parent / f"{robot}_{backend}.py")
     return importlib.import_module(f"eigentwist.generated.{robot}_{backend}")
 
 
