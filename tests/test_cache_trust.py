@@ -112,8 +112,26 @@ def test_shipped_files_are_checked_before_import_or_compile(tmp_path, monkeypatc
         (tmp_path / "heli4.sha256").write_bytes((GENERATED / "heli4.sha256").read_bytes())
         assert ccompile.read_shipped(path) == path.read_bytes()
         path.write_bytes(path.read_bytes() + b"\n")
-        with pytest.raises(ccompile.DamagedFileError, match=rf"{name} does not match its recorded SHA-256"):
+        with pytest.raises(ccompile.DamagedFileError) as exc:
             ccompile.read_shipped(path)
+        assert str(exc.value) == (f"the generated file {path} does not match its recorded SHA-256 (heli4.sha256): "
+                                  "the installation is damaged or edited; reinstall eigentwist, or run `eigentwist "
+                                  "generate` in a source checkout")
         (tmp_path / "heli4.sha256").unlink()
         with pytest.raises(ccompile.DamagedFileError, match=rf"{name} has no recorded SHA-256"):
             ccompile.read_shipped(path)
+
+
+def test_a_checked_file_is_remembered_by_path_time_and_size(tmp_path):
+    """Checked once per process and file version: another file of the same size and time is
+    checked on its own."""
+    good, bad = tmp_path / "heli4_numpy.py", tmp_path / "heli4_c.c"
+    good.write_bytes(b"VALUE = 1\n")
+    bad.write_bytes(b"VALUE = 2\n")
+    from eigentwist.codegen.generate import digests_text
+
+    (tmp_path / "heli4.sha256").write_text(digests_text({good.name: "VALUE = 1\n", bad.name: "VALUE = 3\n"}))
+    os.utime(bad, ns=(good.stat().st_atime_ns, good.stat().st_mtime_ns))
+    assert ccompile.read_shipped(good) == b"VALUE = 1\n"
+    with pytest.raises(ccompile.DamagedFileError, match="heli4_c.c does not match"):
+        ccompile.read_shipped(bad)

@@ -134,5 +134,17 @@ def test_frf_dataset_with_missing_points_names_the_dataset(tmp_path):
     write_frf_uff(tmp_path / "s.uff", FrfSet.from_grid(FREQ, _frfs()[:, :1, :1], ["1+X"], ["1+X"], "accelerance"))
     lines = (tmp_path / "s.uff").read_text().splitlines(keepends=True)
     (tmp_path / "s.uff").write_text("".join(lines[:20] + lines[30:]))       # ten data lines gone
-    with pytest.raises(UffError, match=r"s\.uff, dataset 1 \(type 58\): \d+ data points where its header says 401"):
+    with pytest.raises(UffError, match=r"s\.uff, dataset 1 \(type 58\): \d+ data points where its header says 401: "
+                                       r"the dataset is truncated or inconsistent$"):
         read_uff(tmp_path / "s.uff")
+
+
+def test_datasets_pyuff_does_not_return_are_an_error(tmp_path, monkeypatch):
+    """Every dataset delimited by -1 lines must come back from pyuff (an unsupported type
+    comes back as its own dict): one missing is an error naming the counts."""
+    write_modes_uff(tmp_path / "m.uff", [12.5, 14.25], [0.015, 0.02], np.eye(3)[:2], node=1)
+    read_sets = pyuff.UFF.read_sets
+    monkeypatch.setattr(pyuff.UFF, "read_sets", lambda self, *a, **kw: read_sets(self, *a, **kw)[:1])
+    with pytest.raises(UffError) as exc:
+        read_uff(tmp_path / "m.uff")
+    assert str(exc.value) == f"{tmp_path / 'm.uff'}: 2 datasets delimited by -1 lines, but 1 read: the file is damaged"
