@@ -59,6 +59,32 @@ def test_blocks_and_columns_read_as_rows_do(tmp_path, ev, monkeypatch, block):
                                                 0.7])
 
 
+def test_a_clean_block_is_read_a_column_at_once(tmp_path, ev, monkeypatch):
+    """Clean rows never go through the row-by-row reader (the fallback is for bad cells):
+    number columns come back as float arrays, NaN where blank."""
+    path = tmp_path / "data.csv"
+    path.write_text(ROWS)
+    lines = [line.split(",") for line in ROWS.splitlines() if line and not line.startswith("#")]
+    block = [(k + 2, cells) for k, cells in enumerate(lines[1:])]
+    got_lines, cols = measurements._parse_block(block, lines[0], "data.csv", ev, np.zeros(3))
+    monkeypatch.setattr(measurements, "_parse_rows", lambda *a: pytest.fail("read row by row"))
+    load_measurements(path, ev=ev)
+    assert got_lines.tolist() == [2, 3, 4, 5] and cols["mode"] == ["x", "2", "y", "3"]
+    for name in lines[0]:
+        if name != "mode":
+            assert isinstance(cols[name], np.ndarray) and cols[name].dtype == float, name
+    np.testing.assert_array_equal(cols["x"], [np.nan, 0.01, 0.0, -0.01])
+    np.testing.assert_array_equal(cols["sigma_hz"], [0.3, np.nan, 0.25, np.nan])
+
+
+@pytest.mark.parametrize("end", ["\n", "\r\n", "\r"])
+def test_line_ends(tmp_path, ev, end):
+    path = tmp_path / "data.csv"
+    path.write_bytes(ROWS.replace("\n", end).encode())
+    m = load_measurements(path, ev=ev)
+    assert m.mode == ("x", "2", "y", "3") and m.lines.tolist() == [2, 4, 6, 7]
+
+
 @pytest.mark.parametrize("bad, message", [
     # the first bad cell by line, then column, whatever column is read first
     ({(3, 6): "-0.2", (2, 2): "abc"}, r"line 3, column 'freq_hz': value 'abc' is not a number"),
@@ -89,6 +115,15 @@ def test_duplicates_name_the_first_repeated_row_and_its_first_line(tmp_path, ev)
     path.write_text(text.replace("2000,1,20.5", "2000,1,20.5").replace("2000,1,20,", "3000,1,20,"))
     with pytest.raises(MeasurementError, match=r"line 6: duplicate of line 2 "):   # -0.0 is 0.0
         load_measurements(path, ev=ev)
+
+
+def test_two_rows_can_be_duplicates(tmp_path, ev):
+    path = tmp_path / "two.csv"
+    path.write_text("k_a,mode,freq_hz\n1000,1,15\n1000,1,15.2\n")
+    with pytest.raises(MeasurementError, match=r"line 3: duplicate of line 2 "):
+        load_measurements(path, ev=ev)
+    path.write_text("k_a,mode,freq_hz\n1000,1,15\n")
+    assert len(load_measurements(path, ev=ev)) == 1
 
 
 def test_progress_is_told_every_row(tmp_path, ev, monkeypatch):
