@@ -92,6 +92,9 @@ def test_line_ends(tmp_path, ev, end):
     ({(3, 0): "", (2, 7): "-1"}, r"line 3, column 'm_e': negative value -1"),
     ({(4, 8): "5"}, r"line 5, column 'eta_a@2': parameter 'eta_a' = 5.0"),
     ({(4, 3): "0.0, 1"}, r"line 5: 10 cells where the header has 9 columns"),
+    ({(1, 0): "0"}, r"line 2, column 'k_a': value 0: expected a value > 0"),
+    ({(3, 2): "inf"}, r"line 4, column 'freq_hz': value 'inf' is not finite"),
+    ({(2, 6): "-0.1"}, r"line 3, column 'sigma_hz': negative value -0.1"),
 ])
 def test_errors_name_the_first_bad_cell(tmp_path, ev, monkeypatch, bad, message):
     lines = [line for line in ROWS.splitlines() if line and not line.startswith("#")]   # line k + 1: lines[k]
