@@ -83,6 +83,8 @@ def test_line_ends(tmp_path, ev, end):
     path.write_bytes(ROWS.replace("\n", end).encode())
     m = load_measurements(path, ev=ev)
     assert m.mode == ("x", "2", "y", "3") and m.lines.tolist() == [2, 4, 6, 7]
+    path.write_bytes((end + ROWS.replace("\n", end)).encode())          # a blank first line
+    assert load_measurements(path, ev=ev).lines.tolist() == [3, 5, 7, 8]
 
 
 @pytest.mark.parametrize("bad, message", [
