@@ -179,3 +179,18 @@ def test_table_lists_every_row_up_to_its_limit_then_the_failing_ones(ev):
     first = comparison_table(cmp, limit=len(failing) - 1)           # more failing rows than the limit
     assert f"the first {len(failing) - 1} of the {len(failing)} failing rows" in first
     assert _listed(first) == failing[:-1]
+
+
+def test_modal_columns_are_read_as_numbers_a_column_at_once(tmp_path, ev, monkeypatch):
+    path = tmp_path / "modal.csv"
+    path.write_text("k_a,mode,freq_hz,damping_ratio,phi_x,phi_y,phi_z,sensor_x\n"
+                    "1000,x,15.5,0.01,1,0,-0.1,0.01\n2000,y,20,,0,1,0,\n")
+    monkeypatch.setattr(measurements, "_parse_rows", lambda *a: pytest.fail("read row by row"))
+    m = load_measurements(path, ev=ev)
+    np.testing.assert_array_equal(m.modal["damping_ratio"], [0.01, np.nan])
+    np.testing.assert_array_equal(m.modal["phi_z"], [-0.1, 0.0])
+    np.testing.assert_array_equal(m.modal["sensor_x"], [0.01, np.nan])
+    monkeypatch.undo()
+    path.write_text(path.read_text().replace("1000,x,15.5,0.01", "1000,x,15.5,-0.01"))
+    with pytest.raises(MeasurementError, match=r"line 2, column 'damping_ratio': negative value"):
+        load_measurements(path, ev=ev)
