@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test test-fast generate check-generated bench clean
+.PHONY: run test test-fast generate check-generated bench mutate clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -41,6 +41,17 @@ check-generated: $(VENV)/.installed
 
 bench: $(VENV)/.installed-test
 	$(BIN)/python benchmarks/run.py
+
+## mutate: mutation testing of the modules in [tool.mutmut] (pyproject.toml), score per module in
+## tests/README.md; MUTANTS="eigentwist.outputs*" restricts the run to matching mutants
+$(VENV)/.installed-dev: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[test,dev]"
+	touch $@ $(VENV)/.installed $(VENV)/.installed-test
+
+mutate: $(VENV)/.installed-dev
+	rm -rf mutants
+	nice $(BIN)/mutmut run --max-children 1 $(MUTANTS)
+	$(BIN)/mutmut results
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

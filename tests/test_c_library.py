@@ -48,15 +48,34 @@ def test_header_lists_the_inputs(robot):
     desc = get(robot)
     params = {p.name: p for p in desc.parameters}
     ev = eigentwist.load(robot, backend="numpy")
-    full = ev.inputs("paper")
+    full = _solved_inputs(ev, "paper", {})
     for _, _, name, unit, default in rows:
         base = re.sub(r"__\d+$", "", name)
-        assert float(default) == full[name], name                  # the default model's value
+        assert float(default) == full[name], name                  # the default model's value as solved
         if base in params:
             assert unit == params[base].unit, name
         else:
             assert name.startswith("on_") and unit == "-", name
     assert "restrict" not in text
+
+
+def _solved_inputs(ev, model, values) -> dict:
+    """The inputs ``ev.frequencies`` solves ``model`` with (its constraint route: ``c_rigid`` = 0
+    where no leg of the model has a rigid direction)."""
+    route, _ = ev.constraint_route(model, **values)
+    return ev.inputs(model, route)
+
+
+@pytest.mark.parametrize("robot", ["heli4", "delta"])
+def test_defaults_are_the_exact_default_model(robot):
+    """The shipped robots' default model has no rigid leg direction: the evaluator solves it
+    with c_rigid = 0 (no stand-in penalty), and the header's defaults say the same."""
+    ev = eigentwist.load(robot, backend="numpy")
+    assert ev.parameters["c_rigid"].default > 0                   # the description's penalty value ...
+    route, condensed = ev.constraint_route(c_library.DEFAULT_MODEL)
+    assert route == {"c_rigid": 0.0} and not condensed             # ... is not what the default model uses
+    text = (GENERATED / f"{robot}_c.h").read_text()
+    assert re.search(rf"#define ET_{robot.upper()}_IN_c_rigid \d+  /\* c_rigid \(rad/\(N m\)\) = 0\.0:", text)
 
 
 def test_inputs_give_per_leg_names():
@@ -183,7 +202,7 @@ def _library_frequencies(ev, poses, model, values):
     from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh
 
     want = ev.frequencies(poses, model, **values)
-    if ev.kind(resolve_model(model, ev.robot)) != "flexible":
+    if ev.kind(resolve_model(model, ev.robot)) != "flexible" or not ev.constraint_route(model, **values)[1]:
         return want
     mats = ev.matrices(poses, model, **values)
     penalty = frequencies_hz(generalized_eigh(mats["K_F"], mats["M"])[0])
@@ -199,11 +218,11 @@ def test_c_and_cxx_programs_reproduce_frequencies(programs, robot, lang, tmp_pat
     ev = eigentwist.load(robot, backend="numpy")
     names = [line.split()[0] for line in _run(prog, "names").splitlines()]
     defaults = [float(line.split()[-1]) for line in _run(prog, "names").splitlines()]
-    full = ev.inputs("paper")
-    assert defaults == [full[n] for n in names]                   # et_<robot>_defaults = the default model
+    full = _solved_inputs(ev, "paper", {})
+    assert defaults == [full[n] for n in names]                   # et_<robot>_defaults = the default model as solved
     poses = random_poses(ev.robot, 20, seed=23)
     for model, values in (("paper", {}), _scoped_values(ev.robot), ("rigid", {})):
-        p = ev.inputs(model, values)
+        p = _solved_inputs(ev, model, values)
         data = tmp_path / "in.txt"
         data.write_text(f"{len(poses)}\n" + "\n".join(" ".join(repr(float(v)) for v in row) for row in poses)
                         + "\n" + " ".join(repr(p[n]) for n in names) + "\n")
@@ -224,7 +243,7 @@ def test_status_codes_and_preload(programs, tmp_path):
     ev = eigentwist.load("heli4", backend="numpy")
     names = [line.split()[0] for line in _run(prog, "names").splitlines()]
     poses = np.array([[0.0, 0.0, -0.6], [0.0, 0.0, -1.5], [0.02, 0.01, -0.58]])
-    p = ev.inputs("paper")
+    p = _solved_inputs(ev, "paper", {})
     data = tmp_path / "in.txt"
     data.write_text(f"3\n{' '.join(map(repr, poses.ravel().tolist()))}\n{' '.join(repr(p[n]) for n in names)}\n")
     rows = np.array([[float(v) for v in line.split()] for line in _run(prog, data).splitlines()])
@@ -251,7 +270,8 @@ def test_generated_source_compiles_as_cxx(tmp_path):
 
 @pytest.mark.compiled
 def test_readme_c_example_builds_and_runs(tmp_path):
-    """The README's C example, built with the README's build line, prints six frequencies."""
+    """The README's C example, built with the README's build line, prints the six frequencies
+    that Python's default model gives, to 1e-12 (its defaults are that model: no penalty)."""
     text = (ROOT / "README.md").read_text()
     block = re.search(r"```c\n(.*?)```", text, re.S).group(1)
     line = re.search(r"^\s*(cc .*?-lm)$", text, re.M).group(1)
@@ -263,4 +283,5 @@ def test_readme_c_example_builds_and_runs(tmp_path):
     out = subprocess.run([str(tmp_path / cmd[cmd.index("-o") + 1])], capture_output=True, text=True).stdout
     want = eigentwist.load("heli4", backend="numpy").frequencies([0.0, 0.0, -0.6], k_a=2000.0)[0]
     got = np.array([float(v) for v in re.findall(r"\d+\.\d+", out)])
-    np.testing.assert_allclose(got, want, rtol=1e-3)
+    assert len(got) == 6
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)

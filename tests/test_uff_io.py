@@ -102,3 +102,49 @@ def test_bad_uff_input_is_one_line_naming_file_and_dataset(tmp_path):
         assert str(path) in str(exc.value) and "\n" not in str(exc.value)
     with pytest.raises(UffError, match=r"axes.uff, dataset 2 \(type 58\)"):
         read_uff(tmp_path / "axes.uff")
+
+
+@pytest.mark.parametrize("keep, message", [
+    (13, None),
+    (14, "dataset 2: truncated: the dataset opened on line 14 has no closing -1 line (the file ends after 1 "
+         "complete dataset); write the file again"),
+    (20, "dataset 2 (type 55): truncated: the dataset opened on line 14 has no closing -1 line (the file ends "
+         "after 1 complete dataset); write the file again"),
+    (25, "dataset 2 (type 55): truncated: the dataset opened on line 14"),
+    (37, "dataset 3 (type 55): truncated: the dataset opened on line 27 has no closing -1 line (the file ends "
+         "after 2 complete datasets); write the file again"),
+])
+def test_a_file_cut_short_names_the_dataset_and_the_file(tmp_path, keep, message):
+    """Three modes, 13 lines each: a cut inside dataset 2 or 3 is an error naming it (pyuff
+    reads the complete ones and drops the rest silently); a cut after a closing -1 leaves a
+    well-formed file of fewer datasets (no UFF field says how many there are)."""
+    write_modes_uff(tmp_path / "m.uff", [12.5, 14.25, 16.0], [0.015, 0.02, 0.01], np.eye(3), node=1)
+    lines = (tmp_path / "m.uff").read_text().splitlines(keepends=True)
+    assert len(lines) == 39
+    (tmp_path / "cut.uff").write_text("".join(lines[:keep]))
+    if message is None:
+        assert len(read_uff(tmp_path / "cut.uff").freq_hz) == 1
+        return
+    with pytest.raises(UffError) as exc:
+        read_uff(tmp_path / "cut.uff")
+    assert str(exc.value).startswith(f"{tmp_path / 'cut.uff'}, {message}")
+
+
+def test_frf_dataset_with_missing_points_names_the_dataset(tmp_path):
+    write_frf_uff(tmp_path / "s.uff", FrfSet.from_grid(FREQ, _frfs()[:, :1, :1], ["1+X"], ["1+X"], "accelerance"))
+    lines = (tmp_path / "s.uff").read_text().splitlines(keepends=True)
+    (tmp_path / "s.uff").write_text("".join(lines[:20] + lines[30:]))       # ten data lines gone
+    with pytest.raises(UffError, match=r"s\.uff, dataset 1 \(type 58\): \d+ data points where its header says 401: "
+                                       r"the dataset is truncated or inconsistent$"):
+        read_uff(tmp_path / "s.uff")
+
+
+def test_datasets_pyuff_does_not_return_are_an_error(tmp_path, monkeypatch):
+    """Every dataset delimited by -1 lines must come back from pyuff (an unsupported type
+    comes back as its own dict): one missing is an error naming the counts."""
+    write_modes_uff(tmp_path / "m.uff", [12.5, 14.25], [0.015, 0.02], np.eye(3)[:2], node=1)
+    read_sets = pyuff.UFF.read_sets
+    monkeypatch.setattr(pyuff.UFF, "read_sets", lambda self, *a, **kw: read_sets(self, *a, **kw)[:1])
+    with pytest.raises(UffError) as exc:
+        read_uff(tmp_path / "m.uff")
+    assert str(exc.value) == f"{tmp_path / 'm.uff'}: 2 datasets delimited by -1 lines, but 1 read: the file is damaged"

@@ -94,6 +94,9 @@ def test_diagnose_finds_the_users_hose(user_robot):
     ("def describe():\n    raise RuntimeError('no robot today')\n", r"describe\(\) in .* raised RuntimeError: no robot today"),
     ("def describe():\n    return 42\n", "returned int: expected one of RobotDescription, ChainRobot"),
     ("import not_a_module_anywhere\n", "failed to import: ModuleNotFoundError"),
+    ("import sys\ndef describe():\n    sys.exit(0)\n", r"describe\(\) in '.*robot\.py' called sys\.exit\(0\)"),
+    ("def describe():\n    raise KeyboardInterrupt\n", r"describe\(\) in '.*robot\.py' was interrupted"),
+    ("import sys\nsys.exit(3)\n", r"file '.*robot\.py' called sys\.exit\(3\) while it was imported"),
 ])
 def test_bad_description_files_fail_with_one_line(tmp_path, capsys, text, message):
     path = tmp_path / "robot.py"

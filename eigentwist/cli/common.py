@@ -5,14 +5,16 @@ import argparse
 import os
 import sys
 
+from ..errors import InputError
 from ..text import format_table  # re-exported: the CLI's tables
 
 __all__ = ["CliError", "add_model_options", "add_set_option", "add_backend_option", "add_jacobian_option", "BACKEND_ENV", "parse_sets", "check_values", "model_and_values",
-           "progress", "format_table", "eprint", "SET_HELP", "MODEL_SYNTAX"]
+           "progress", "format_table", "eprint", "SET_HELP", "MODEL_SYNTAX", "declare_outputs", "input_paths",
+           "guard_outputs"]
 
 
-class CliError(Exception):
-    """An error reported to the user as one line (exit status 2)."""
+class CliError(InputError):
+    """A malformed option, reported to the user as one line (exit status 2)."""
 
 
 def say(*args, **kwargs) -> None:
@@ -174,3 +176,55 @@ def progress(iterable=None, **kwargs):
     kwargs.setdefault("disable", not sys.stderr.isatty())
     kwargs.setdefault("file", sys.stderr)
     return tqdm(iterable, **kwargs)
+
+
+#: options that never name an input file (the command line's own bookkeeping)
+_NOT_INPUTS = {"func", "argv", "outputs", "command", "debug"}
+
+
+def declare_outputs(p: argparse.ArgumentParser, force: bool = True, **kinds: str) -> None:
+    """Declare the options of ``p`` that name files it writes, ``dest=kind`` with a kind of
+    :data:`eigentwist.outputs.KINDS` (``html``, ``csv``, ``image``, ``directory``) or ``""``
+    (checked against the inputs only), and add ``--force`` (unless ``force=False``).
+    :func:`guard_outputs` checks them before the command runs."""
+    p.set_defaults(outputs=kinds)
+    if force:
+        p.add_argument("--force", action="store_true",
+                       help="replace an existing output file of another kind (an output is never an input)")
+
+
+def input_paths(args, outputs=()) -> list[str]:
+    """The values of ``args`` (strings, or lists of strings) that name existing files,
+    except the options ``outputs``: the command's inputs (data, manifest, description)."""
+    found = []
+    for dest, value in vars(args).items():
+        if dest in _NOT_INPUTS or dest in outputs:
+            continue
+        for item in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(item, (str, os.PathLike)) and str(item) and os.path.isfile(item):
+                found.append(str(item))
+    return found
+
+
+def option_name(args, dest: str) -> str:
+    """``-o`` for ``output``, else ``--plot``, ``--uff`` (the option as typed)."""
+    return "-o" if dest == "output" else "--" + dest.replace("_", "-")
+
+
+def guard_outputs(args, extra_inputs=()) -> None:
+    """Refuse each declared output (:func:`declare_outputs`) that is one of the command's
+    inputs, or that would replace a file of another kind without ``--force``
+    (:func:`eigentwist.outputs.check_output`; an :class:`~eigentwist.outputs.OutputError`)."""
+    from ..outputs import check_output
+
+    kinds = getattr(args, "outputs", None) or {}
+    inputs = input_paths(args, kinds) + [str(p) for p in extra_inputs]
+    for dest, kind in kinds.items():
+        path = getattr(args, dest, None)
+        if not path:
+            continue
+        if kind:
+            check_output(path, kind, inputs, force=bool(getattr(args, "force", False)),
+                         option=option_name(args, dest))
+        else:
+            check_output(path, "directory", inputs, force=True, option=option_name(args, dest))

@@ -4,7 +4,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from .common import MODEL_SYNTAX, CliError, add_backend_option, add_set_option, model_and_values
+from .common import (MODEL_SYNTAX, CliError, add_backend_option, add_set_option, declare_outputs, model_and_values,
+                     progress)
 
 HELP = "compare a model with measured natural frequencies (table, RMS/max error, Fig. 6 style plot)"
 DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Columns:
@@ -59,6 +60,7 @@ def add_parser(sub):
     p.add_argument("--model", default="paper", help=f"{MODEL_SYNTAX} (default: paper)")
     p.add_argument("--plot", metavar="FILE.png", help="write a Fig. 6 style plot")
     p.add_argument("--json", action="store_true", help="print one JSON object (rows, rms_pct, max_pct, failing)")
+    declare_outputs(p, plot="image")
     p.set_defaults(func=run)
 
 
@@ -78,7 +80,7 @@ def load_data(args, values: dict | None = None):
         return ev, parse_csv(paper_csv(ev.robot.name), f"{ev.robot.name}_paper.csv", ev, values=values)
     if not Path(args.data).is_file():
         raise CliError(f"{args.data}: no such file (expected a CSV file of measurements, or `paper`)")
-    meas = load_measurements(args.data, ev.robot.name, ev, values)
+    meas = load_measurements(args.data, ev.robot.name, ev, values, progress=progress)
     warn_workspace(ev, meas.poses, getattr(args, "command", "compare"))
     return ev, meas
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import MODEL_SYNTAX, add_jacobian_option
+from .common import MODEL_SYNTAX, add_jacobian_option, declare_outputs
 from .compare import DATA_HELP, add_data_options, evaluator_of, load_data
 
 HELP = "find the physical effect a model is missing from measured frequencies, add it, watch the error fall"
@@ -62,6 +62,7 @@ def add_parser(sub):
     add_jacobian_option(p, "the fits' Jacobian: central differences in the residuals' evaluator call (default: measured "
                         "faster, benchmarks/README.md) or exact, from generated design sensitivities (derived and "
                         "compiled once per cache)")
+    declare_outputs(p, plot="image")
     p.set_defaults(func=run)
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import CliError, eprint, format_table, progress
+from .common import CliError, declare_outputs, eprint, format_table, progress
 
 HELP = "identify modes and shapes of a modal-test campaign (UFF 58 FRFs or 55 modes) into a measurement CSV"
 EPILOG = """MANIFEST.csv: one setting per row, header on line 1. Columns:
@@ -66,6 +66,7 @@ def add_parser(sub):
     p.add_argument("--plot", metavar="DIR", help="write per setting a stabilisation diagram and measured vs "
                                                   "re-synthesised FRFs (PNG) here")
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
+    declare_outputs(p, output="csv", plot="directory")
     p.set_defaults(func=run)
 
 
@@ -131,7 +132,8 @@ def _one_file(args) -> int:
 
 
 def run(args) -> int:
-    from .common import say
+    from ..outputs import write_atomic
+    from .common import guard_outputs, say
     from ..diagnose.evaluators import evaluator
     from ..diagnose.synth import parse_noise
     from ..modal.campaign import identify_campaign, measurement_csv
@@ -154,8 +156,8 @@ def run(args) -> int:
     if not args.output:
         print(text, end="")
         return 0
-    with open(args.output, "w") as fh:
-        fh.write(text)
+    guard_outputs(args, [s.file for s in res.campaign.settings])     # nor one of the manifest's UFF files
+    write_atomic(args.output, text)
     _print_modes([((s.file.name, f"{s.k_a:g}"), r) for s, r in zip(res.campaign.settings, res.results)],
                  ["file", "k_a"])
     secs = [r.seconds for r in res.results if r.seconds]

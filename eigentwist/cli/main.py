@@ -6,6 +6,7 @@ import importlib
 import os
 import re
 import sys
+import traceback
 import warnings
 
 # Subcommands are the modules of this package that define ``add_parser``; this order
@@ -127,12 +128,15 @@ def _run(args) -> int:
     """``args.func(args)`` under the one-line error contract (exit status 2)."""
     import numpy as np
 
+    from .. import __version__
+    from ..errors import EigentwistError
     from ..runtime.ccompile import BuildError
-    from .common import CliError
+    from .common import CliError, guard_outputs
 
     try:
         # floating-point overflow on absurd inputs is detected and named by the checks
         # (unreachable pose, non-finite frequency); NumPy's own warnings would only add lines
+        guard_outputs(args)
         with np.errstate(all="ignore"):
             code = int(args.func(args) or 0)
         sys.stdout.flush()                   # a closed pipe shows here, not at interpreter exit
@@ -150,7 +154,7 @@ def _run(args) -> int:
             raise
         print(f"eigentwist {args.command}: error: {msg}", file=sys.stderr)
         return 2
-    except (CliError, ValueError, OSError, KeyError, BuildError) as exc:
+    except (CliError, EigentwistError, OSError, BuildError) as exc:
         if args.debug:
             raise
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
@@ -158,6 +162,14 @@ def _run(args) -> int:
         return 2
     except KeyboardInterrupt:
         return 130
+    except Exception:                        # not the user's doing: a bug, shown whole
+        if args.debug:
+            raise
+        traceback.print_exc()
+        print(f"eigentwist {args.command}: internal error (a bug in eigentwist {__version__}, not in your input): "
+              "please report it to eigentwist's maintainers with the command line and the traceback above",
+              file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

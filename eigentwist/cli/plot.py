@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_model_options
+from .common import add_model_options, declare_outputs
 
 HELP = "draw the robot and its lowest mode shapes: PNG, animated GIF (--gif) or animated SVG (--svg)"
 EPILOG = """The robot is drawn from its description (legs, inverse kinematics); each mode shape moves the
@@ -32,12 +32,14 @@ def add_parser(sub):
     p.add_argument("--modes", type=int, default=3, metavar="N", help="number of lowest modes drawn (default: 3)")
     p.add_argument("--amplitude", type=float, default=0.2,
                    help="largest displacement drawn, as a fraction of the link length l2 (default: 0.2)")
+    declare_outputs(p, output="image")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     from ..runtime import load
-    from .common import CliError, model_and_values, say
+    from ..outputs import check_output, write_atomic
+    from .common import CliError, input_paths, model_and_values, say
     from .poses import check_pose, pose_argument
     from ..plots.robot import stiffness_argument, stiffness_text
 
@@ -53,6 +55,7 @@ def run(args) -> int:
     check_pose(ev, pose, effects, {**params, **stiffness_argument(ev, k_a)}, "plot")
     model = ",".join(effects)
     out = args.output or ("modes.gif" if args.gif else "modes.svg" if args.svg else "modes.png")
+    check_output(out, "image", input_paths(args, ("output",)), force=args.force)
     if args.gif:
         from ..plots.animate import modes_gif
 
@@ -60,8 +63,7 @@ def run(args) -> int:
     elif args.svg:
         from ..plots.animate import modes_svg
 
-        with open(out, "w", encoding="utf-8") as fh:
-            fh.write(modes_svg(ev, pose, model, k_a=k_a, n_modes=args.modes, amplitude=args.amplitude, **params))
+        write_atomic(out, modes_svg(ev, pose, model, k_a=k_a, n_modes=args.modes, amplitude=args.amplitude, **params))
     else:
         from ..plots import plot_modes
 

@@ -5,7 +5,7 @@ import argparse
 import shlex
 from pathlib import Path
 
-from .common import MODEL_SYNTAX, add_backend_option, add_set_option, format_table, progress
+from .common import MODEL_SYNTAX, declare_outputs, add_backend_option, add_set_option, format_table, progress
 
 HELP = "write a self-contained HTML report: model, paper reproduction, comparison, diagnosis"
 EPILOG = """examples:
@@ -33,6 +33,7 @@ def add_parser(sub):
     p.add_argument("--baseline", default="rigid", help="where the diagnosis starts, same syntax (default: rigid)")
     add_backend_option(p)
     add_set_option(p)
+    declare_outputs(p, output="html")
     p.set_defaults(func=run)
 
 

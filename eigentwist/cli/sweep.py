@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import MODEL_SYNTAX, CliError, add_backend_option, add_set_option, eprint, format_table, model_and_values, progress
+from .common import MODEL_SYNTAX, CliError, declare_outputs, add_backend_option, add_set_option, eprint, format_table, model_and_values, progress
 
 HELP = "sweep designs, k_a and workspace poses in chunks of bounded memory (.npz or Parquet)"
 EPILOG = """examples:
@@ -58,7 +58,8 @@ def add_parser(sub):
                    help="worker processes of the local Dask cluster (default: one per CPU)")
     p.add_argument("-o", "--output", required=True, metavar="OUT",
                    help="output: a directory of .npz chunks, or a file ending in .parquet")
-    p.add_argument("--overwrite", action="store_true", help="replace an existing sweep at OUT")
+    p.add_argument("--overwrite", "--force", action="store_true", dest="overwrite", help="replace an existing sweep at OUT")
+    declare_outputs(p, force=False, output="")
     p.add_argument("--lowest", action="store_true",
                    help="print per design the worst-case lowest frequency over the poses and where it occurs")
     p.add_argument("--top", type=int, default=20, metavar="N",

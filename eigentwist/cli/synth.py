@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import CliError, add_set_option, eprint
+from .common import CliError, add_set_option, declare_outputs, eprint
 from .synth_uff import UFF_EPILOG, add_uff_options, run_uff
 
 HELP = "synthesize measurements from a truth model with a hidden effect and noise (CSV)"
@@ -52,6 +52,7 @@ def add_parser(sub):
     add_set_option(p)
     p.add_argument("-o", "--output", metavar="DATA.csv", help="write here (default: print to stdout)")
     add_uff_options(p)
+    declare_outputs(p, output="csv", uff="directory")
     p.set_defaults(func=run)
 
 

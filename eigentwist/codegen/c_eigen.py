@@ -18,6 +18,8 @@ Symmetric matrices are stored as their upper triangle in row-major order
 """
 from __future__ import annotations
 
+from ..errors import DescriptionError
+
 __all__ = ["upper", "lower", "reduce_lines", "sweep_lines", "finish_lines", "sort_pairs"]
 
 
@@ -33,7 +35,7 @@ def lower(n: int) -> list[tuple[int, int]]:
 
 def _check(n: int) -> None:
     if not 1 <= n <= 9:
-        raise ValueError(f"eigen-solver dimension {n}: expected 1 to 9 (names use one digit per index)")
+        raise DescriptionError(f"eigen-solver dimension {n}: expected 1 to 9 (names use one digit per index)")
 
 
 def _a(i: int, j: int) -> str:

@@ -7,8 +7,11 @@ link against the C object):
 * the model's inputs: their count ``ET_<ROBOT>_N_INPUTS``, one index macro
   ``ET_<ROBOT>_IN_<name>`` each, and a table of names, units and default values in the
   header's comments and as ``et_<robot>_input_names`` / ``et_<robot>_input_units``;
-* ``et_<robot>_defaults(double *inputs)``: fills the robot's default model (the
-  ``paper`` preset, every parameter at its default, each leg's copy at the shared value);
+* ``et_<robot>_defaults(double *inputs)``: fills the robot's default model as
+  ``Evaluator.frequencies`` solves it (the ``paper`` preset, every parameter at its
+  default, each leg's copy at the shared value, and the rigid directions' stand-in
+  compliance ``c_rigid`` at 0: the default model's legs have no rigid direction, so K_F is
+  exact there, as the evaluator's route takes it, :data:`EXACT_DEFAULTS`);
 * ``et_<robot>_frequencies(n, poses, inputs, hz, status)``: poses (n x pose width, the
   robot's pose coordinates, m and rad) to natural frequencies (Hz, n x ET_<ROBOT>_MODES,
   ascending) and per-pose status codes, the runtime's (:data:`STATUS`) and with the
@@ -23,9 +26,10 @@ from __future__ import annotations
 
 import re
 
+from ..errors import DescriptionError
 from ..description.effects import leg_input_name, leg_switch_name, resolve_model, switch_name
 
-__all__ = ["LEVER_TOL", "LEVER_SCALE", "ROUNDOFF_EPS", "MAX_MODES", "DEFAULT_MODEL", "fused_input_names",
+__all__ = ["LEVER_TOL", "LEVER_SCALE", "ROUNDOFF_EPS", "MAX_MODES", "DEFAULT_MODEL", "EXACT_DEFAULTS", "fused_input_names",
            "library_context", "render_c_header"]
 
 # The runtime's options of the fused pass (eigentwist.runtime.validity / .eigen hold the
@@ -36,6 +40,10 @@ LEVER_SCALE = "l1"        # the lever is divided by this input (a robot without 
 ROUNDOFF_EPS = 1e-10      # eigenvalue below -eps * max|lambda| of the pose: unstable mode
 MAX_MODES = 6             # columns of hz per pose
 DEFAULT_MODEL = "paper"   # what et_<robot>_defaults switches on (Evaluator's default model)
+#: inputs whose value in et_<robot>_defaults is not the description's default: the penalty
+#: compliance of rigid directions is 0, K_F exact, as Evaluator.frequencies solves a model whose
+#: legs have no rigid direction (every shipped robot's default model; tests/test_c_library.py)
+EXACT_DEFAULTS = {"c_rigid": 0.0}
 POSITION = ("x", "y", "z")
 ROTATION = {f"R_{i}{j}": (i, j) for i in range(3) for j in range(3)}
 
@@ -79,6 +87,10 @@ def _model_inputs(robot) -> dict:
                 p = params[q.name]
                 out[leg_input_name(q.name, k)] = (p.unit, float(p.default), f"leg {k}'s own {q.name} ({name})")
             out[leg_switch_name(name, k)] = ("-", flag, f"switch of effect {name} on leg {k} (0 or 1)")
+    for name, value in EXACT_DEFAULTS.items():
+        if name in out:
+            unit, _, doc = out[name]
+            out[name] = (unit, value, f"{doc}; 0 in the defaults: the default model is exact")
     for k, leg in enumerate(robot.legs, start=1):
         # legs in URDF form (numeric IK): the kernels read the joint coordinates solved by
         # Newton's method in the runtime; a C caller passes them (default: the reference)
@@ -91,7 +103,7 @@ def _model_inputs(robot) -> dict:
 def _c_literal(value: float) -> str:
     text = repr(float(value))
     if text in ("inf", "-inf", "nan"):
-        raise ValueError(f"default value {text} cannot be written as a C literal")
+        raise DescriptionError(f"default value {text} cannot be written as a C literal")
     return text
 
 
@@ -107,7 +119,7 @@ def library_context(robot, kernels, prefix: str) -> dict:
     model_names = [n for n in names if n not in POSITION and n not in ROTATION]
     unknown = [n for n in model_names if n not in table]
     if unknown:
-        raise ValueError(f"generated inputs {unknown} of {robot.name} are neither parameters nor effect inputs")
+        raise DescriptionError(f"generated inputs {unknown} of {robot.name} are neither parameters nor effect inputs")
     index = {n: k for k, n in enumerate(model_names)}
     inputs = []
     for k, n in enumerate(model_names):

@@ -6,9 +6,11 @@
 """
 from __future__ import annotations
 
+import hashlib
 import time
 from pathlib import Path
 
+from ..outputs import write_atomic
 from ..robots import NAMES, get
 from ..symbolic import POSE, derive
 from ..symbolic.model import EffectSymbols
@@ -148,11 +150,23 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
     return files
 
 
+def digests_text(files: dict[str, str]) -> str:
+    """``<robot>.sha256``: the SHA-256 of each rendered file's UTF-8 bytes, one line
+    ``HEX  NAME`` per file in name order (``sha256sum -c`` reads it; the runtime checks a
+    generated file against it before importing or compiling it:
+    :func:`eigentwist.runtime.ccompile.read_shipped`)."""
+    return "".join(f"{hashlib.sha256(text.encode('utf-8')).hexdigest()}  {name}\n"
+                   for name, text in sorted(files.items()))
+
+
 def render_all(robots=NAMES, progress=None, timings=None) -> dict[str, str]:
-    """Render the generated files of every robot (nothing is written)."""
+    """Render the generated files of every robot, and each robot's ``<robot>.sha256``
+    (:func:`digests_text`); nothing is written."""
     files = {}
     for name in robots:
-        files.update(render_robot(name, progress=progress, timings=timings))
+        rendered = render_robot(name, progress=progress, timings=timings)
+        files.update(rendered)
+        files[f"{name}.sha256"] = digests_text(rendered)
     return files
 
 
@@ -162,7 +176,7 @@ def write(files: dict[str, str], directory: Path = GENERATED) -> list[Path]:
     written = []
     for rel, text in files.items():
         path = directory / rel
-        path.write_bytes(text.encode("utf-8"))
+        write_atomic(path, text.encode("utf-8"))
         written.append(path)
     return written
 

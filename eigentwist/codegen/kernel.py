@@ -11,13 +11,14 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from ..hashing import canonical
 from ..symbolic.program import Program
 
 __all__ = ["Output", "Kernel", "build_kernel", "UndeclaredSymbolError", "source_hash"]
 
 
-class UndeclaredSymbolError(ValueError):
+class UndeclaredSymbolError(DescriptionError):
     """An expression uses a symbol that is neither an input nor an intermediate."""
 
 

@@ -19,6 +19,7 @@ from typing import Any, Callable
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from .joints import JOINT_FREEDOMS, joint_kind
 from .parameters import Parameter, sym
 from .pose import RigidPose
@@ -58,12 +59,12 @@ class ChainJoint:
     def __post_init__(self):
         kind = joint_kind(self.kind)                   # the record of its kind (:mod:`.joints`)
         if self.actuated and not kind.actuatable:
-            raise ValueError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
+            raise DescriptionError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
         n = kind.freedoms
         if self.axes and len(self.axes) != n:
-            raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
+            raise DescriptionError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
         if self.swing and (self.kind != "Pi" or len(self.swing) != 2):
-            raise ValueError(f"joint {self.kind!r}: swing is (axis, length) of a Pi joint's rods, got {self.swing!r}")
+            raise DescriptionError(f"joint {self.kind!r}: swing is (axis, length) of a Pi joint's rods, got {self.swing!r}")
 
     @property
     def freedoms(self) -> int:
@@ -268,7 +269,7 @@ class ChainRobot:
     def __post_init__(self):
         coordinates = tuple(getattr(self.pose_space, "coordinates", self.pose))
         if tuple(self.pose) != coordinates:
-            raise ValueError(f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
+            raise DescriptionError(f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
                              f"{coordinates!r}: expected the same names")
         # a leg in URDF form (:class:`~.serial.SerialLeg`) becomes the joint list it stands for
         object.__setattr__(self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg

@@ -18,6 +18,7 @@ from typing import Any, Callable
 
 import sympy as sp
 
+from ..errors import DescriptionError, InputError
 from .constraints import Constraint, tube
 from .names import did_you_mean
 from .parameters import Parameter, sym
@@ -56,7 +57,7 @@ class Term:
 
     def __post_init__(self):
         if self.kind not in KINDS:
-            raise ValueError(f"term kind {self.kind!r} is not one of {', '.join(KINDS)}")
+            raise DescriptionError(f"term kind {self.kind!r} is not one of {', '.join(KINDS)}")
 
 
 @dataclass(frozen=True)
@@ -118,15 +119,15 @@ class Effect:
     def __post_init__(self):
         if self.terms:
             if not all(isinstance(t, Term) for t in self.terms):
-                raise ValueError(f"effect {self.name!r}: terms must be Term objects (kind, build, body)")
+                raise DescriptionError(f"effect {self.name!r}: terms must be Term objects (kind, build, body)")
             first = self.terms[0]
             object.__setattr__(self, "kind", first.kind)
             object.__setattr__(self, "body", first.body)
             object.__setattr__(self, "build", first.build)
         if self.kind not in KINDS:
-            raise ValueError(f"effect {self.name!r}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
+            raise DescriptionError(f"effect {self.name!r}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
         if "@" in self.name or not self.name.isidentifier():
-            raise ValueError(f"effect name {self.name!r}: expected a Python identifier (no '@')")
+            raise DescriptionError(f"effect name {self.name!r}: expected a Python identifier (no '@')")
     constraints: tuple[Constraint, ...] = ()
     terms: tuple[Term, ...] = ()
 
@@ -231,7 +232,7 @@ def _swinging_rods(ctx):
     which swing with q3 about their pivots (``ChainBody.pivot``)."""
     bodies = {b.name: b for b in ctx.leg.bodies}
     if not {"C3", "rod_a", "rod_b"} <= set(bodies):
-        raise ValueError(f"effect 'swinging_rods': {ctx.leg.name} has bodies {', '.join(bodies)}; expected C3, rod_a "
+        raise DescriptionError(f"effect 'swinging_rods': {ctx.leg.name} has bodies {', '.join(bodies)}; expected C3, rod_a "
                          "and rod_b (an RR(Pi)RR leg built by rrpirr_leg(..., w_pi=...))")
     rod = bodies["C3"].inertia
     return {"C3": -rod, "rod_a": rod / 2, "rod_b": rod / 2}
@@ -365,7 +366,7 @@ def effect_parameters(effects, values: dict | None = None) -> tuple[Parameter, .
             out.append(p)
     if values:
         names = ", ".join(getattr(e, "name", e) for e in effects)
-        raise ValueError(f"values for {', '.join(sorted(values))}: no effect among {names} has them")
+        raise InputError(f"values for {', '.join(sorted(values))}: no effect among {names} has them")
     return tuple(out)
 
 
@@ -413,7 +414,7 @@ def split_scope(item: str, n_legs: int | None = None, what: str = "effect") -> t
         n = None
     if n is None or n < 1 or (n_legs is not None and n > n_legs):
         legs = f"1..{n_legs}" if n_legs is not None else "1, 2, ..."
-        raise ValueError(f"{what} {item!r}: {leg!r} is not a leg number; expected {name}@N with N in {legs} "
+        raise InputError(f"{what} {item!r}: {leg!r} is not a leg number; expected {name}@N with N in {legs} "
                          "(1-based, in the description's order)")
     return name, n
 
@@ -478,20 +479,20 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
             continue
         if name not in catalogue and name not in EFFECTS:
             valid = ["none"] + list(presets) + list(catalogue)
-            raise ValueError(f"unknown model or effect {item!r}{did_you_mean(name, valid)}: "
+            raise InputError(f"unknown model or effect {item!r}{did_you_mean(name, valid)}: "
                              f"expected one of {', '.join(valid)}")
         if leg is None:
             names.add(name)
             continue
         effect = catalogue.get(name) or EFFECTS[name]
         if not effect.leg_level:
-            raise ValueError(f"effect {item!r}: {name} acts on the whole platform, not on one leg "
+            raise InputError(f"effect {item!r}: {name} acts on the whole platform, not on one leg "
                              "(only leg-level effects take @N)")
         legs.setdefault(name, set()).add(leg)
     if names_available is not None:
         missing = sorted((names | set(legs)) - set(names_available))
         if missing:
-            raise ValueError(f"effect(s) {', '.join(missing)} not available for this robot "
+            raise InputError(f"effect(s) {', '.join(missing)} not available for this robot "
                              f"(it has: {', '.join(names_available)})")
     order = list(names_available) if names_available is not None else list(EFFECTS)
     out = []

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+from ..errors import InputError
 import sympy as sp
 
 __all__ = ["Parameter", "sym"]
@@ -105,4 +106,4 @@ class Parameter:
                    f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
                    f"a finite value in ({lo:g}, {hi:g}]" if lo == 0.0 and not self.closed else
                    f"a finite value in [{lo:g}, {hi:g}]")
-            raise ValueError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")
+            raise InputError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from .parameters import sym
 
 __all__ = ["TranslationPose", "RigidPose", "PlanarPose", "PointPose", "LowerMobilityPose", "POSE", "ROTATION", "FULL", "TWIST_AXIS", "twist_order"]
@@ -171,7 +172,7 @@ class LowerMobilityPose(RigidPose):
         commanded = tuple(commanded)
         unknown = [c for c in commanded if c not in FULL]
         if unknown or not commanded or len(set(commanded)) != len(commanded):
-            raise ValueError(f"commanded coordinates {commanded!r}: expected distinct names from {', '.join(FULL)}")
+            raise DescriptionError(f"commanded coordinates {commanded!r}: expected distinct names from {', '.join(FULL)}")
         self.coordinates = commanded
         self.followers = tuple(c for c in FULL if c not in commanded)
 

@@ -11,6 +11,7 @@ from typing import Any
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from .parameters import Parameter
 from .pose import TranslationPose
 
@@ -105,14 +106,14 @@ def resolve_effects(description) -> None:
     for e in description.effects:
         if isinstance(e, Effect):
             if e.name in EFFECTS and EFFECTS[e.name] is not e:
-                raise ValueError(f"{description.name}: effect {e.name!r} is already in the catalogue; "
+                raise DescriptionError(f"{description.name}: effect {e.name!r} is already in the catalogue; "
                                  "name yours differently")
             custom[e.name] = e
             names.append(e.name)
         elif e in EFFECTS or e in custom:
             names.append(e)
         else:
-            raise ValueError(f"{description.name}: unknown effect {e!r}: expected a catalogue name or an Effect")
+            raise DescriptionError(f"{description.name}: unknown effect {e!r}: expected a catalogue name or an Effect")
     have, extra = {p.name for p in description.parameters}, []
     for p in (p for e in custom.values() for p in e.params):
         if p.name not in have:

@@ -40,6 +40,7 @@ from typing import Any
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from .chain import ChainBody, ChainJoint, ChainLeg
 from .joints import JOINT_FREEDOMS, joint_kind
 
@@ -75,13 +76,13 @@ class Joint:
     def __post_init__(self):
         kind = joint_kind(self.kind)                   # the record of its kind (:mod:`.joints`)
         if self.actuated and not kind.actuatable:
-            raise ValueError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
+            raise DescriptionError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
         n = kind.freedoms
         axes = self.axes or kind.default_axes
         if len(axes) != n:
-            raise ValueError(f"joint {self.kind!r} has {n} axes, got {len(axes)}")
+            raise DescriptionError(f"joint {self.kind!r} has {n} axes, got {len(axes)}")
         if self.kind == "Pi" and self.bar is None:
-            raise ValueError("a Pi joint needs its bar (m, joint frame): the vector from the joint to its child frame")
+            raise DescriptionError("a Pi joint needs its bar (m, joint frame): the vector from the joint to its child frame")
         object.__setattr__(self, "axes", tuple(tuple(a) for a in axes))
 
 
@@ -130,16 +131,16 @@ class SerialLeg:
     def __post_init__(self):
         real = [k for k, j in enumerate(self.joints) if j.kind != "virtual"]
         if not real:
-            raise ValueError(f"{self.name}: no joints: expected the chain from the base to the platform")
+            raise DescriptionError(f"{self.name}: no joints: expected the chain from the base to the platform")
         if sum(j.actuated for j in self.joints) != 1:
-            raise ValueError(f"{self.name}: {sum(j.actuated for j in self.joints)} actuated joints: expected one")
+            raise DescriptionError(f"{self.name}: {sum(j.actuated for j in self.joints)} actuated joints: expected one")
         n = coordinate_count(self.joints, real[-1])
         if len(self.reference) != n:
-            raise ValueError(f"{self.name}: reference has {len(self.reference)} coordinates: expected {n} "
+            raise DescriptionError(f"{self.name}: reference has {len(self.reference)} coordinates: expected {n} "
                              "(one per joint freedom, none for virtual joints and a final S joint)")
         for b in self.bodies:
             if not 1 <= b.after <= len(real) or (b.after == len(real) and self.joints[real[-1]].kind == "S"):
-                raise ValueError(f"{self.name}: body {b.name!r} after joint {b.after}: expected 1..{len(real)} "
+                raise DescriptionError(f"{self.name}: body {b.name!r} after joint {b.after}: expected 1..{len(real)} "
                                  "(not after a final S joint: that is the platform)")
 
     @property

@@ -22,6 +22,7 @@ import itertools
 import math
 from dataclasses import dataclass, field
 
+from ..errors import InputError
 import numpy as np
 
 __all__ = ["Vary", "Constraint", "OptimizationResult", "optimize_worst_case", "moving_mass", "QUANTITIES"]
@@ -39,7 +40,7 @@ class Vary:
 
     def __post_init__(self):
         if not (math.isfinite(self.lo) and math.isfinite(self.hi) and self.lo < self.hi):
-            raise ValueError(f"vary {self.name}: expected finite lo < hi, got {self.lo}:{self.hi}")
+            raise InputError(f"vary {self.name}: expected finite lo < hi, got {self.lo}:{self.hi}")
 
 
 @dataclass(frozen=True)
@@ -52,9 +53,9 @@ class Constraint:
 
     def __post_init__(self):
         if self.quantity not in QUANTITIES:
-            raise ValueError(f"constraint {self.quantity!r}: expected one of {', '.join(QUANTITIES)}")
+            raise InputError(f"constraint {self.quantity!r}: expected one of {', '.join(QUANTITIES)}")
         if self.op not in ("<=", ">="):
-            raise ValueError(f"constraint {self.quantity}{self.op}: expected <= or >=")
+            raise InputError(f"constraint {self.quantity}{self.op}: expected <= or >=")
 
     def slack(self, value: float) -> float:
         """>= 0 when satisfied (same units as the quantity)."""

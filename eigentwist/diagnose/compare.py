@@ -112,13 +112,18 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
     effects = resolve_model(model, ev.robot)
     if check:
         check_columns(meas, effects, ev)
-    pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=strict, return_modes=True)
     shapes = getattr(meas, "shapes", None)
-    mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
-    comp = Comparison(meas, effects, pred, idx, dict(values or {}), mac)
+    predictor = Predictor(meas, effects, ev, values)
     from .damping import least_damping, zeta_residuals, zeta_rows
 
-    spec = zeta_rows(meas, modes.damping is not None)
+    damped = bool(ev.damped_model(tuple(effects)))
+    spec = zeta_rows(meas, damped)
+    if shapes is None and not damped and spec is None:   # no modes kept: a large file is evaluated a block at a time
+        pred, idx = predictor.predict(strict=strict)
+        return Comparison(meas, effects, pred, idx, dict(values or {}), None)
+    pred, idx, modes = predictor.predict(strict=strict, return_modes=True)
+    mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
+    comp = Comparison(meas, effects, pred, idx, dict(values or {}), mac)
     if modes.damping is not None or spec is not None:
         comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
         comp.zeta_residuals = None if spec is None else zeta_residuals(meas, comp.zeta, spec, least_damping(modes))

@@ -46,7 +46,7 @@ def parse_mode(label) -> str:
         return text
     if text.isdigit() and int(text) >= 1:
         return str(int(text))
-    raise ValueError(f"unknown mode label {label!r}{did_you_mean(text, DIRECTIONS)}: expected a rank 1, 2, ... (1 = lowest) "
+    raise InputError(f"unknown mode label {label!r}{did_you_mean(text, DIRECTIONS)}: expected a rank 1, 2, ... (1 = lowest) "
                      f"or a direction {', '.join(DIRECTIONS)}")
 
 

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import math
 import re
 from dataclasses import dataclass, field
@@ -57,6 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from ..description.names import did_you_mean
+from ..outputs import write_atomic
 from ..runtime import InputError, SingularPoseError, UnreachablePoseError
 from .evaluators import resolve
 from .matching import parse_mode
@@ -281,7 +283,7 @@ class Measurements:
                         for v in vals])
         text = out.getvalue()
         if path is not None:
-            Path(path).write_text(text)
+            write_atomic(path, text)
         return text
 
 
@@ -351,16 +353,32 @@ def _separator(text: str, source: str) -> str:
     return best
 
 
+def _lines(text: str):
+    """The lines of ``text`` with their ends, one at a time (an ``io.StringIO`` would hold a
+    copy of up to four bytes per character); a lone carriage return (old Mac line ends)
+    is a line end too, through ``io.StringIO``."""
+    if text.count("\r") != text.count("\r\n"):
+        yield from io.StringIO(text, newline="")
+        return
+    start, size = 0, len(text)
+    while start < size:
+        end = text.find("\n", start)
+        end = size if end < 0 else end + 1
+        yield text[start:end]
+        start = end
+
+
 def _records(text: str, source: str, sep: str = ","):
     """(line number, cells) of the header and data rows, skipping blank and ``#`` lines.
 
     With ``;`` or tab separators a decimal comma in a data cell becomes a point.
     """
-    reader = csv.reader(io.StringIO(text, newline=""), delimiter=sep)
+    reader = csv.reader(_lines(text), delimiter=sep)
     first = True
     try:
         for cells in reader:
-            if not cells or all(not c.strip() for c in cells) or cells[0].lstrip().startswith("#"):
+            head = cells[0].strip() if cells else ""
+            if head.startswith("#") or (not head and all(not c.strip() for c in cells)):
                 continue
             if sep != "," and not first:
                 cells = [c.replace(",", ".") for c in cells]
@@ -371,11 +389,19 @@ def _records(text: str, source: str, sep: str = ","):
                                reader.line_num or None) from None
 
 
-def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", values: dict | None = None) -> Measurements:
+#: rows parsed per block: the strings of one block are held at a time (a large file streams)
+BLOCK_ROWS = 65536
+
+
+def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", values: dict | None = None,
+              progress=None) -> Measurements:
     """Parse and validate CSV ``text`` (see the module docstring); ``source`` names it in errors.
 
     ``values`` (SI) replace the robot's defaults for blank parameter cells and for the
     reachability check of the poses (the values given for the run, e.g. ``--set``).
+    Rows are read in blocks of :data:`BLOCK_ROWS`, each column of a block at once
+    (:func:`_parse_block`); ``progress`` (a tqdm-like factory, e.g. the command line's) is
+    told the rows read.
     """
     ev = resolve(ev, robot)
     values = dict(values or {})
@@ -383,66 +409,161 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
         raise MeasurementError(source, "contains NUL characters: expected a text file (CSV)")
     if text.startswith("\ufeff"):
         text = text[1:]
-    records = list(_records(text, source, _separator(text, source)))
-    if not records:
+    records = _records(text, source, _separator(text, source))
+    first = next(records, None)
+    if first is None:
         raise MeasurementError(source, "empty file: expected a header line with the columns "
                                f"{', '.join(REQUIRED)} and one row per measured frequency")
-    header_line, header_cells = records[0]
+    header_line, header_cells = first
     names = _header(header_cells, source, ev)
-    if len(records) == 1:
+    x_ref = np.asarray(ev.robot.x_ref, dtype=float)
+    blocks, bar = [], None
+    if progress is not None:
+        bar = progress(total=max(text.count("\n") - header_line, 0), unit="row", unit_scale=True,
+                       desc=f"reading {Path(source).name}", leave=False)
+    try:
+        while True:
+            block = list(itertools.islice(records, BLOCK_ROWS))
+            if not block:
+                break
+            blocks.append(_parse_block(block, names, source, ev, x_ref))
+            if bar is not None:
+                bar.update(len(block))
+    finally:
+        if bar is not None:
+            bar.close()
+    if not blocks:
         raise MeasurementError(source, "no data rows after the header: expected one row per measured frequency",
                                header_line)
-    x_ref = np.asarray(ev.robot.x_ref, dtype=float)
-    cols: dict[str, list] = {n: [] for n in names}
-    lines = []
-    for line, cells in records[1:]:
-        if len(cells) != len(names):
-            raise MeasurementError(source, f"{len(cells)} cells where the header has {len(names)} columns", line)
-        lines.append(line)
-        for name, cell in zip(names, (c.strip() for c in cells)):
-            cols[name].append(_cell(name, cell, source, line, ev, x_ref))
+    lines = np.concatenate([b[0] for b in blocks])
+    cols = {name: (np.concatenate([b[1][name] for b in blocks]) if isinstance(blocks[0][1][name], np.ndarray)
+                   else [v for b in blocks for v in b[1][name]]) for name in names}
     n = len(lines)
-    freq = np.array(cols["freq_hz"], dtype=float)
-    sigma = np.array([s if s is not None else DEFAULT_SIGMA_REL * f
-                      for s, f in zip(cols.get("sigma_hz", [None] * n), freq)], dtype=float)
-    poses = np.stack([np.array([v if v is not None else x_ref[k] for v in cols.get(a, [None] * n)], dtype=float)
-                      for k, a in enumerate(pose_columns(ev))], axis=1)
+    blank = lambda name: np.isnan(cols[name]) if name in cols else np.ones(n, dtype=bool)  # noqa: E731
+    freq = cols["freq_hz"]
+    sigma = np.where(blank("sigma_hz"), DEFAULT_SIGMA_REL * freq, cols.get("sigma_hz", freq))
+    poses = np.stack([np.where(blank(a), x_ref[k], cols.get(a, 0.0)) for k, a in enumerate(pose_columns(ev))], axis=1)
     params = {}
     for name in names:
         p = _parameter(name, ev) if name not in REQUIRED + OPTIONAL + ROTATION_COLUMNS else None
         if p is not None:
             fill = values.get(name, values.get(p.name, p.default))
-            params[name] = np.array([v if v is not None else fill for v in cols[name]], dtype=float)
-    modal = {name: np.array([np.nan if v is None else v for v in cols[name]], dtype=float)
-             for name in names if name in MODAL or DOF_COLUMN.match(name)}
+            params[name] = np.where(blank(name), fill, cols[name])
+    modal = {name: cols[name] for name in names if name in MODAL or DOF_COLUMN.match(name)}
     joints = None
     if joint_columns(ev)[0] in names:
         for name in joint_columns(ev):
-            if None in cols[name]:
+            if blank(name).any():
                 raise MeasurementError(source, "empty cell: a joint coordinate is required on every row when the "
-                                       "file has joint-coordinate columns", lines[cols[name].index(None)], name)
+                                       "file has joint-coordinate columns", int(lines[np.argmax(blank(name))]), name)
         nq = len(joint_columns(ev)) // len(ev.robot.legs)
         joints = np.array([cols[c] for c in joint_columns(ev)], dtype=float).T.reshape(n, len(ev.robot.legs), nq)
     kind = tuple(k or "undamped" for k in cols.get("kind", [None] * n))
-    meas = Measurements(np.array(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        np.array(lines), source, ev.spec, modal, ev.parameter("k_a").unit, joints, kind)
+    meas = Measurements(np.asarray(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
+                        lines, source, ev.spec, modal, ev.parameter("k_a").unit, joints, kind)
     _check_duplicates(meas)
     check_poses(meas, ev, values)
     return meas
 
 
+class _RowByRow(Exception):
+    """A block's column holds a cell that the row-by-row reading reports (named there)."""
+
+
+def _numeric(name: str, ev):
+    """How :func:`_cell` reads column ``name``: ``(positive, parameter or None)`` for a
+    number, None for text (``mode``, or any column it reads otherwise)."""
+    if name == "mode":
+        return None
+    if (name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:] or DOF_COLUMN.match(name)
+            or name in joint_columns(ev)):
+        return False, None
+    if name in ("damping_ratio", "k_a", "freq_hz", "sigma_hz"):
+        return True, None
+    p = _parameter(name, ev)
+    return (p.bounds[0] >= 0, p) if p is not None else None
+
+
+def _parse_block(block: list, names: list, source: str, ev, x_ref) -> tuple:
+    """``(lines, {name: values})`` of a block of records: a number column as one float
+    array (NaN where blank), a text column as a list (each distinct cell read once by
+    :func:`_cell`). Whatever is wrong in the block is reported as the row-by-row reading
+    reports it (:func:`_parse_rows`: the first bad cell, by line then column)."""
+    width = len(names)
+    if any(len(cells) != width for _, cells in block):
+        return _parse_rows(block, names, source, ev, x_ref)
+    lines = np.fromiter((line for line, _ in block), dtype=np.int64, count=len(block))
+    out = {}
+    try:
+        for k, name in enumerate(names):
+            cells = [cells[k].strip() for _, cells in block]
+            kind = _numeric(name, ev)
+            if kind is None:
+                seen: dict = {}
+                column = []
+                for cell, line in zip(cells, lines):
+                    if cell not in seen:
+                        seen[cell] = _cell(name, cell, source, int(line), ev, x_ref)
+                    column.append(seen[cell])
+                out[name] = column
+                continue
+            positive, param = kind
+            filled = [c for c in cells if c]
+            if len(filled) != len(cells) and name in REQUIRED:
+                raise _RowByRow(name)
+            values = np.full(len(cells), np.nan)
+            values[[bool(c) for c in cells]] = np.fromiter((float(c) for c in filled), dtype=float, count=len(filled))
+            given = values[~np.isnan(values)]
+            if len(given) != len(filled) or not np.all(np.isfinite(given)) or (positive and np.any(given <= 0)):
+                raise _RowByRow(name)
+            if param is not None:
+                param.check(given)
+            out[name] = values
+    except (_RowByRow, ValueError):        # MeasurementError and InputError are ValueErrors
+        return _parse_rows(block, names, source, ev, x_ref)
+    return lines, out
+
+
+def _parse_rows(block: list, names: list, source: str, ev, x_ref) -> tuple:
+    """The row-by-row reading of a block (what :func:`_parse_block` falls back to): raises
+    :class:`MeasurementError` at the first bad cell (line, then column)."""
+    cols: dict[str, list] = {n: [] for n in names}
+    lines = []
+    for line, cells in block:
+        if len(cells) != len(names):
+            raise MeasurementError(source, f"{len(cells)} cells where the header has {len(names)} columns", line)
+        lines.append(line)
+        for name, cell in zip(names, (c.strip() for c in cells)):
+            cols[name].append(_cell(name, cell, source, line, ev, x_ref))
+    out = {name: (column if _numeric(name, ev) is None else
+                  np.array([np.nan if v is None else v for v in column], dtype=float)) for name, column in cols.items()}
+    return np.array(lines, dtype=np.int64), out
+
+
 def _check_duplicates(meas: Measurements) -> None:
-    """Two rows with the same conditions would count twice in chi2: an error naming both lines."""
-    seen: dict = {}
-    for i in range(len(meas)):
-        key = (tuple(meas.poses[i]), float(meas.k_a[i]), meas.mode[i], *(float(v[i]) for v in meas.params.values()))
-        if key in seen:
-            j = seen[key]
-            raise MeasurementError(
-                meas.source, f"duplicate of line {int(meas.lines[j])} (same pose {meas.poses[i].tolist()}, k_a = "
-                f"{meas.k_a[i]:g} {meas.k_a_unit}, mode {meas.mode[i]}): give one row per condition (average repeated "
-                "measurements and state their sigma_hz)", int(meas.lines[i]))
-        seen[key] = i
+    """Two rows with the same conditions would count twice in chi2: an error naming both
+    lines (the first row, in file order, whose conditions an earlier row has)."""
+    n = len(meas)
+    if n < 2:
+        return
+    labels, codes = np.unique(np.asarray(meas.mode, dtype=str), return_inverse=True)
+    keys = [*meas.poses.T, meas.k_a, codes.astype(float), *meas.params.values()]
+    order = np.lexsort(keys[::-1])                           # stable: equal keys keep file order
+    same = np.ones(n - 1, dtype=bool)
+    for key in keys:                                         # one column at a time: bounded memory
+        column = key[order]
+        same &= column[1:] == column[:-1]                    # -0.0 == 0.0, as the rows' values compare
+    if not same.any():
+        return
+    group = np.concatenate([[0], np.cumsum(~same)])           # group number of each sorted row
+    first = order[np.flatnonzero(np.concatenate([[True], ~same]))]
+    later = np.flatnonzero(np.concatenate([[False], same]))   # sorted positions of repeated rows
+    i = int(order[later].min())
+    j = int(first[group[np.flatnonzero(order == i)[0]]])
+    raise MeasurementError(
+        meas.source, f"duplicate of line {int(meas.lines[j])} (same pose {meas.poses[i].tolist()}, k_a = "
+        f"{meas.k_a[i]:g} {meas.k_a_unit}, mode {meas.mode[i]}): give one row per condition (average repeated "
+        "measurements and state their sigma_hz)", int(meas.lines[i]))
 
 
 def check_columns(meas: Measurements, effects, ev, what: str = "the model") -> None:
@@ -493,12 +614,15 @@ def check_poses(meas: Measurements, ev, values: dict | None = None) -> None:
     ``values`` (SI) are the parameter values of the run where no column gives one.
     """
     given = {k: v for k, v in (values or {}).items() if k not in meas.params}
-    try:
-        ev.jacobians(meas.poses, **given, **meas.params)
-        return
-    except (UnreachablePoseError, SingularPoseError):
-        pass
-    for i in range(len(meas)):
+    bad = []
+    for start in range(0, len(meas), BLOCK_ROWS):              # bounded memory: one block's Jacobians
+        rows = slice(start, start + BLOCK_ROWS)
+        try:
+            ev.jacobians(meas.poses[rows], **given, **{k: v[rows] for k, v in meas.params.items()})
+        except (UnreachablePoseError, SingularPoseError):
+            bad = range(start, len(meas))
+            break
+    for i in bad:
         try:
             ev.jacobians(meas.poses[i], **given, **{k: v[i] for k, v in meas.params.items()})
         except (UnreachablePoseError, SingularPoseError) as exc:
@@ -520,15 +644,16 @@ def _decode(data: bytes, name: str) -> str:
                                "UTF-8 CSV") from None
 
 
-def load_measurements(path, robot: str = "heli4", ev=None, values: dict | None = None) -> Measurements:
+def load_measurements(path, robot: str = "heli4", ev=None, values: dict | None = None,
+                      progress=None) -> Measurements:
     """Read and validate a measurement CSV file (see the module docstring).
 
-    ``values``: see :func:`parse_csv`. Raises :class:`MeasurementError` (an
+    ``values``, ``progress``: see :func:`parse_csv`. Raises :class:`MeasurementError` (an
     ``InputError``/``ValueError``) naming the file, line and column of the first
     problem; ``OSError`` if the file is unreadable.
     """
     path = Path(path)
-    return parse_csv(_decode(path.read_bytes(), str(path)), str(path), ev, robot, values)
+    return parse_csv(_decode(path.read_bytes(), str(path)), str(path), ev, robot, values, progress)
 
 
 def paper_csv(robot: str = "heli4") -> str:

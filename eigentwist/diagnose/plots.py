@@ -12,6 +12,7 @@ import textwrap
 
 import numpy as np
 
+from ..outputs import atomic_path
 from ..plotting import pyplot
 from .predict import evaluate
 
@@ -106,7 +107,8 @@ def plot_comparison(cmp, path, ev, title: str | None = None):
                       f"max {cmp.max_pct:.1f} %; shaded: |error| > 2 sigma; circled: failing rows")
     fig.suptitle(textwrap.fill(title, int(fig.get_figwidth() * 12)), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120)
     plt.close(fig)
     return path
 
@@ -139,6 +141,7 @@ def plot_diagnosis(diag, path, ev):
                                f"{', '.join(diag.final.effects) or '(none)'}: {verdict}",
                                int(fig.get_figwidth() * 12)), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120)
     plt.close(fig)
     return path

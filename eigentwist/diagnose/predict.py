@@ -13,7 +13,12 @@ from ..runtime import InputError
 from .matching import match_frequencies
 from .shapes import has_shape, match_by_shape
 
-__all__ = ["evaluate", "Predictor"]
+__all__ = ["evaluate", "Predictor", "EVAL_BLOCK"]
+
+#: rows evaluated per call when no modes are returned and no row has a shape: the memory
+#: of a comparison stays that of one block (the model's matrices and modes of every row
+#: at once would take gigabytes for a million rows)
+EVAL_BLOCK = 65536
 
 
 def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, lines=None, shapes=None,
@@ -41,7 +46,19 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
     freq : (N,) Hz; index : (N,) matched mode index into the model's ascending modes
     (by label: :func:`eigentwist.diagnose.matching.match_frequencies`, which gives a group
     of near-equal modes its share-weighted frequency; rows matched by shape: that mode's).
+    Without shapes and modes asked for, more than :data:`EVAL_BLOCK` rows are evaluated a
+    block at a time (the same numbers: each row is evaluated on its own).
     """
+    n = len(poses)
+    if shapes is None and not return_modes and n > EVAL_BLOCK:
+        freq, idx = np.empty(n), np.empty(n, dtype=int)
+        for start in range(0, n, EVAL_BLOCK):
+            rows = slice(start, start + EVAL_BLOCK)
+            part = {k: (v[rows] if np.ndim(v) >= 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
+            freq[rows], idx[rows] = evaluate(ev, effects, poses[rows], labels[rows], part, strict,
+                                             None if lines is None else lines[rows],
+                                             joints=None if joints is None else joints[rows])
+        return freq, idx
     try:
         with np.errstate(all="ignore"):          # overflow is detected below and named
             modes = (ev.modes(poses, tuple(effects), **params) if joints is None

@@ -37,20 +37,32 @@ def format_params(values: dict, std: dict, ev) -> str:
     return ", ".join(parts) if parts else "-"
 
 
-def comparison_table(cmp) -> str:
+#: rows a comparison table lists in full; a comparison of more rows lists its failing rows
+#: (the first TABLE_ROWS of them, in file order) and says so (``--json`` has every row)
+TABLE_ROWS = 2000
+
+
+def comparison_table(cmp, limit: int = TABLE_ROWS) -> str:
     """One line per measurement: measured, predicted, error in % and in sigma (and the
-    MAC of the mode shapes when the data have them)."""
+    MAC of the mode shapes when the data have them); beyond ``limit`` rows, the failing
+    rows only (at most ``limit``), under a line that says so."""
     m = cmp.meas
     mac = getattr(cmp, "mac", None)
-    rows = []
-    for i in range(len(m)):
-        rows.append([int(m.lines[i]), f"{m.k_a[i]:g}", _pose(m.poses[i]), m.mode[i], int(cmp.mode_index[i]) + 1,
-                     f"{m.freq_hz[i]:.4g}", f"{m.sigma_hz[i]:.3g}", f"{cmp.predicted[i]:.4g}",
-                     f"{cmp.error_pct[i]:+.2f}", f"{cmp.error_sigma[i]:+.2f}", "FAILS" if cmp.failing[i] else ""]
-                    + ([] if mac is None else ["-" if np.isnan(mac[i]) else f"{mac[i]:.4f}"]))
-    return format_table(["line", f"k_a [{m.k_a_unit}]", f"pose [{_pose_unit(m.poses[0]) if len(m) else 'm'}]", "mode", "model mode", "measured [Hz]", "sigma [Hz]",
-                         "predicted [Hz]", "error [%]", "error [sigma]", f"|err|>{FAIL_SIGMA:g}sigma"]
-                        + ([] if mac is None else ["MAC"]), rows)
+    err_pct, err_sigma, failing = cmp.error_pct, cmp.error_sigma, cmp.failing
+    shown = np.arange(len(m)) if len(m) <= limit else np.flatnonzero(failing)[:limit]
+    rows = [[int(m.lines[i]), f"{m.k_a[i]:g}", _pose(m.poses[i]), m.mode[i], int(cmp.mode_index[i]) + 1,
+             f"{m.freq_hz[i]:.4g}", f"{m.sigma_hz[i]:.3g}", f"{cmp.predicted[i]:.4g}",
+             f"{err_pct[i]:+.2f}", f"{err_sigma[i]:+.2f}", "FAILS" if failing[i] else ""]
+            + ([] if mac is None else ["-" if np.isnan(mac[i]) else f"{mac[i]:.4f}"]) for i in shown]
+    table = format_table(["line", f"k_a [{m.k_a_unit}]", f"pose [{_pose_unit(m.poses[0]) if len(m) else 'm'}]", "mode",
+                          "model mode", "measured [Hz]", "sigma [Hz]", "predicted [Hz]", "error [%]", "error [sigma]",
+                          f"|err|>{FAIL_SIGMA:g}sigma"] + ([] if mac is None else ["MAC"]), rows)
+    if len(shown) == len(m):
+        return table
+    n_fail = int(failing.sum())
+    which = f"the {n_fail} failing rows" if n_fail <= limit else f"the first {limit} of the {n_fail} failing rows"
+    return (f"{len(m)} rows, more than {limit}: listed are {which} (--json prints every row)"
+            + ("\n" + table if len(shown) else ""))
 
 
 def comparison_summary(cmp) -> str:

@@ -386,7 +386,7 @@ def _effect_list(add, ev) -> list[str]:
     names = [str(x).strip() for x in items if str(x).strip()]
     for name in names:
         if name.partition("@")[0] not in EFFECTS and name.partition("@")[0] not in ev.effects:
-            raise ValueError(f"add {name!r}: not an effect{did_you_mean(name.partition('@')[0], ev.effects)}; "
+            raise InputError(f"add {name!r}: not an effect{did_you_mean(name.partition('@')[0], ev.effects)}; "
                              f"expected one of {', '.join(ev.effects)}")
         resolve_model(name, ev.robot)  # raises if the robot lacks it (or the leg does not exist)
     return names
@@ -396,10 +396,10 @@ def _check_manual(ev, order, model) -> None:
     model = list(model)
     for e in order:
         if e in model:
-            raise ValueError(f"add {e!r}: the effect is already in the model ({', '.join(model)})")
+            raise InputError(f"add {e!r}: the effect is already in the model ({', '.join(model)})")
         shared = set(scope.parameter_names(ev, e)) & scope.taken(ev, model)
         if shared:
-            raise ValueError(f"add {e!r}: it describes the same part as an effect already in the model "
+            raise InputError(f"add {e!r}: it describes the same part as an effect already in the model "
                              f"(shares {', '.join(sorted(shared))}); remove that one from the baseline instead")
         model.append(e)
 

@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import write_atomic
 from ..diagnose.measurements import MeasurementError, Measurements, parse_csv
 from .identify import SIGMA_FLOOR_REL, SettingModes, identify_frfs, modes_from_set
 from .layout import note_line, shape_note, triaxial_node
@@ -167,7 +168,7 @@ def write_manifest(path, rows: list[dict]) -> Path:
     w.writeheader()
     for r in rows:
         w.writerow({k: v if isinstance(v, str) else format(float(v), ".10g") for k, v in r.items()})
-    path.write_text(out.getvalue())
+    write_atomic(path, out.getvalue())
     return path
 
 

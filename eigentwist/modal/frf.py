@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..diagnose.shapes import transport_matrix
 from ..runtime.eigen import generalized_eigh
 
@@ -32,7 +33,7 @@ def form_factor(freq_hz, form: str) -> np.ndarray:
         return 1j * w
     if form == "accelerance":
         return -(w ** 2) + 0j
-    raise ValueError(f"FRF form {form!r}: expected one of {', '.join(FORMS)}")
+    raise InputError(f"FRF form {form!r}: expected one of {', '.join(FORMS)}")
 
 
 def frf_from_modes(freq_hz, omega_k, shapes, zeta, form: str = "accelerance", ref_shapes=None) -> np.ndarray:

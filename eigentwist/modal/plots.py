@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import atomic_path
 from ..plotting import pyplot
 
 __all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes", "MAX_PANELS"]
@@ -44,7 +45,8 @@ def plot_stabilisation(res, path) -> None:
         ax2.set_ylabel(f"sum |{res.frfs.form}|")
     ax.set_title(f"{Path(res.source).name}: stabilisation (grey: pole not yet stable, blue: stable pole, red: identified mode)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 
@@ -73,7 +75,8 @@ def plot_frfs(res, path) -> None:
     fig.suptitle(f"{Path(res.source).name}: {frfs.form} (LSFD with residuals on {res.band[0]:.3g}..{res.band[1]:.3g} Hz)"
                  + more, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)
 
 

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
 from ..diagnose.shapes import sensor_shapes
 from ..diagnose.synth import parse_noise, parse_truth
 from ..runtime.eigen import generalized_eigh
@@ -68,7 +69,7 @@ def frequency_axis(f_low: float, f_high: float, zeta: float) -> np.ndarray:
 def add_noise(H: np.ndarray, noise: float, rng, kind: str = "proportional") -> np.ndarray:
     """Complex Gaussian noise on FRFs H (F, 3, R) (module doc)."""
     if kind not in NOISE_KINDS:
-        raise ValueError(f"noise kind {kind!r}: expected one of {', '.join(NOISE_KINDS)}")
+        raise InputError(f"noise kind {kind!r}: expected one of {', '.join(NOISE_KINDS)}")
     n = (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
     if kind == "proportional":
         return H * (1 + noise * n)
@@ -115,11 +116,11 @@ def synth_campaign(truth: str, k_a, poses, out_dir, ev, damping=0.015, noise=0.0
     t = parse_truth(truth, ev)
     zeta, rel = parse_noise(damping, "damping"), parse_noise(noise)
     if not zeta > 0:
-        raise ValueError(f"damping {damping!r}: expected a ratio > 0, e.g. 1.5%")
+        raise InputError(f"damping {damping!r}: expected a ratio > 0, e.g. 1.5%")
     if dataset not in (55, 58):
-        raise ValueError(f"dataset {dataset!r}: expected 58 (FRFs) or 55 (modes)")
+        raise InputError(f"dataset {dataset!r}: expected 58 (FRFs) or 55 (modes)")
     if layout not in LAYOUTS:
-        raise ValueError(f"layout {layout!r}: expected one of {', '.join(LAYOUTS)}")
+        raise InputError(f"layout {layout!r}: expected one of {', '.join(LAYOUTS)}")
     poses = np.atleast_2d(np.asarray(ev.robot.x_ref if poses is None else poses, dtype=float))
     k_a = np.atleast_1d(np.asarray(k_a, dtype=float))
     settings = list(itertools.product(range(len(poses)), range(len(k_a))))

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import atomic_path
 from ..runtime import InputError
 
 __all__ = ["FrfSet", "ModeSet", "UffError", "read_uff", "write_frf_uff", "write_modes_uff", "dof_label", "node_coordinates",
@@ -120,7 +121,43 @@ def _sets(path: Path) -> list[dict]:
         sets = uff.read_sets() if n else []
     except Exception as exc:          # pyuff raises bare Exception on malformed files
         raise UffError(path, f"not a readable UFF file ({exc})") from None
-    return [sets] if isinstance(sets, dict) else list(sets)
+    sets = [sets] if isinstance(sets, dict) else list(sets)
+    _check_complete(path, sets)
+    return sets
+
+
+def _delimiters(path: Path) -> list[tuple[int, str]]:
+    """(line number, the next line's first field) of each ``-1`` delimiter line of the file."""
+    out = []
+    with open(path, "rb") as f:
+        lines = f.read().split(b"\n")
+    for i, line in enumerate(lines):
+        if line.strip() == b"-1":
+            following = lines[i + 1].split() if i + 1 < len(lines) else []
+            out.append((i + 1, following[0].decode("ascii", "replace") if following else ""))
+    return out
+
+
+def _check_complete(path: Path, sets: list[dict]) -> None:
+    """A UFF file's datasets each open and close with a ``-1`` line; pyuff drops a dataset
+    whose closing line is missing (a file cut short) without a word, and reads the points
+    present of a dataset cut inside. Raise :class:`UffError` naming the dataset instead."""
+    marks = _delimiters(path)
+    if len(marks) % 2:
+        line, kind = marks[-1]
+        number = len(marks) // 2
+        raise UffError(path, f"truncated: the dataset opened on line {line} has no closing -1 line (the file ends "
+                       f"after {number} complete dataset{'s' if number != 1 else ''}); write the file again",
+                       number, int(kind) if kind.isdigit() else None)
+    if len(sets) != len(marks) // 2:
+        raise UffError(path, f"{len(marks) // 2} datasets delimited by -1 lines, but {len(sets)} read: the file "
+                       "is damaged")
+    for k, s in enumerate(sets):
+        if s.get("type") == 58 and s.get("num_pts") is not None and "data" in s:
+            n, got = int(s["num_pts"]), len(s["data"])
+            if got != n:
+                raise UffError(path, f"{got} data points where its header says {n}: the dataset is truncated or "
+                               "inconsistent", k, 58)
 
 
 def read_uff(path, node: int = 1):
@@ -256,7 +293,8 @@ def write_frf_uff(path, frfs: FrfSet) -> Path:
             data=np.asarray(frfs.H[:, p], dtype=complex).copy(), x=np.asarray(frfs.freq_hz, dtype=float).copy()))
     if path.exists():
         path.unlink()
-    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    with atomic_path(path) as tmp:
+        pyuff.UFF(str(tmp)).write_sets(sets, mode="overwrite")
     return path
 
 
@@ -274,5 +312,6 @@ def write_modes_uff(path, freq_hz, damping_ratio, shapes, node: int = 1) -> Path
             load_case=1, mode_n=k + 1, modal_m=0.0, freq=float(f), modal_damp_vis=float(z), modal_damp_his=0.0))
     if path.exists():
         path.unlink()
-    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    with atomic_path(path) as tmp:
+        pyuff.UFF(str(tmp)).write_sets(sets, mode="overwrite")
     return path

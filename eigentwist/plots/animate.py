@@ -16,6 +16,7 @@ import html
 
 import numpy as np
 
+from ..outputs import atomic_path
 from .robot import AXIS_WORDS, damped_text, mode_displacements, robot_geometry, stiffness_argument
 from .robot import platform_outline as _outline
 
@@ -173,5 +174,6 @@ def modes_gif(ev, pose, path, model="paper", k_a: float = 2000.0, n_modes: int =
         return changed
 
     anim = FuncAnimation(fig, update, frames=frames, interval=1000 / fps, blit=False)
-    anim.save(str(path), writer=PillowWriter(fps=fps), dpi=80)
+    with atomic_path(path) as tmp:
+        anim.save(str(tmp), writer=PillowWriter(fps=fps), dpi=80)
     plt.close(fig)

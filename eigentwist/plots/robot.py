@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from ..outputs import atomic_path
 from ..plotting import pyplot
 
 __all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS",
@@ -251,6 +252,7 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
     fig.suptitle(textwrap.fill(text, 30 * n), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     if path is not None:
-        fig.savefig(path, format="png", dpi=110)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png", dpi=110)
         plt.close(fig)
     return fig

@@ -25,7 +25,9 @@ from pathlib import Path
 import jinja2
 import numpy as np
 
+from ..errors import InputError
 from ..diagnose.answer import uncertainty_sentence
+from ..outputs import write_atomic
 from ..text import format_estimate
 from .provenance import provenance
 
@@ -107,7 +109,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     campaign_html = ""
     if data is None:
         if robot != "heli4":
-            raise ValueError(f"no embedded measurements for robot {robot!r}: pass a measurement CSV")
+            raise InputError(f"no embedded measurements for robot {robot!r}: pass a measurement CSV")
         meas = parse_csv(paper_csv(robot), "heli4_paper.csv", ev, values=values)
         data_source = "the paper's measurements (Tables E.1/E.2, 'Meas.'), embedded"
     else:
@@ -305,5 +307,5 @@ def render_html(report: ReportData) -> str:
 def write_report(path, report: ReportData) -> Path:
     """Write the HTML of ``report`` to ``path``; return the path."""
     path = Path(path)
-    path.write_text(render_html(report), encoding="utf-8")
+    write_atomic(path, render_html(report))
     return path

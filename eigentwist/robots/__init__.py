@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from importlib import import_module
 
+from ..errors import InputError
 from ..description.names import did_you_mean
 
 __all__ = ["get", "NAMES", "heli4", "delta", "hexapod"]
@@ -19,7 +20,7 @@ def get(name: str):
     :class:`~eigentwist.description.RobotDescription`, or a joint-list
     :class:`~eigentwist.description.chain.ChainRobot` (the hexapod)."""
     if name not in NAMES:
-        raise ValueError(f"unknown robot {name!r}{did_you_mean(name, NAMES)}: expected one of {', '.join(NAMES)}")
+        raise InputError(f"unknown robot {name!r}{did_you_mean(name, NAMES)}: expected one of {', '.join(NAMES)}")
     return import_module(f".{name}", __name__).describe()
 
 

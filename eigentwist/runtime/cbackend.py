@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets
+from ..errors import InputError
+from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets, read_shipped
 from . import eigen, validity
 from .threads import run_ranges, threads_for
 from .validity import LEVER_SCALE, STATUS
@@ -101,7 +102,7 @@ def compile_and_load(robot: str, source: str | None = None, directory: Path | No
         path = source_path(robot)
         if not path.exists():
             raise FileNotFoundError(f"{path} does not exist: run `eigentwist generate`")
-        source = path.read_text()
+        source = read_shipped(path).decode("utf-8")
     errors = []
     for name, flags in flag_sets():
         try:
@@ -285,7 +286,7 @@ class CKernels:
     def _q_kernel(self, kernel: str, q, p: dict) -> dict:
         q = np.asarray(q, dtype=np.float64)
         if q.ndim < 2 or q.shape[-2:] != (self.N_LEGS, self.JOINTS_PER_LEG):
-            raise ValueError(f"q has shape {q.shape}: expected (..., {self.N_LEGS}, {self.JOINTS_PER_LEG}) joint "
+            raise InputError(f"q has shape {q.shape}: expected (..., {self.N_LEGS}, {self.JOINTS_PER_LEG}) joint "
                              "coordinates")
         params = self._params(kernel, p)
         lead = self._lead([q.shape[:-2]] + [np.shape(v) for v in params.values()])
@@ -365,7 +366,7 @@ class CKernels:
         K = np.ascontiguousarray(K, dtype=np.float64)
         M = np.ascontiguousarray(M, dtype=np.float64)
         if K.shape != M.shape or K.ndim != 3 or K.shape[1] != K.shape[2] or K.shape[1] not in self.signature["eigh"]["dims"]:
-            raise ValueError(f"K {K.shape} and M {M.shape}: expected equal shapes (N, n, n) with n in "
+            raise InputError(f"K {K.shape} and M {M.shape}: expected equal shapes (N, n, n) with n in "
                              f"{self.signature['eigh']['dims']}")
         n, dim = K.shape[0], K.shape[1]
         lam = np.empty((n, dim))
@@ -439,7 +440,7 @@ class CKernels:
                 arr = np.empty(lead + shape, dtype=dtype)
             elif (not isinstance(arr, np.ndarray) or arr.shape != lead + shape or arr.dtype != dtype
                   or not arr.flags.c_contiguous or not arr.flags.writeable):
-                raise ValueError(f"out[{name!r}]: expected a writeable C-contiguous {np.dtype(dtype).name} array "
+                raise InputError(f"out[{name!r}]: expected a writeable C-contiguous {np.dtype(dtype).name} array "
                                  f"of shape {lead + shape}, got {getattr(arr, 'shape', None)} "
                                  f"{getattr(arr, 'dtype', type(arr).__name__)}")
             result[name] = arr
@@ -460,7 +461,7 @@ class CKernels:
         model_id = 0
         if model is not None:
             if model not in spec["models"]:
-                raise ValueError(f"model {model!r}: expected one of {spec['models']}")
+                raise InputError(f"model {model!r}: expected one of {spec['models']}")
             model_id = spec["models"].index(model)
             dim = spec.get("dims", self.signature["eigh"]["dims"])[model_id]
             freq = alloc("freq_hz", (dim,))

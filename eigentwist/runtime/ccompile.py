@@ -16,6 +16,12 @@ Safe under concurrency and damage:
 * the cache directory is created private (0700); a directory (or library) that another
   user owns or that others may write to is refused with :class:`UnsafeCacheError`,
   since loading a library runs its code.
+
+The same trust rule holds for every generated file cached beside the libraries (a user
+description's NumPy module and C source, the sensitivity kernels): :func:`write_verified`
+records its SHA-256 beside it, :func:`read_verified` returns its bytes only from private
+directories (:func:`private_directory`) and only when they match, so a missing, truncated
+or altered file is regenerated (one line on stderr says so) and never imported or compiled.
 """
 from __future__ import annotations
 
@@ -37,7 +43,8 @@ except ImportError:                     # not POSIX: no locking (the rename stil
     fcntl = None
 
 __all__ = ["BuildError", "CompilerNotFoundError", "UnsafeCacheError", "find_compiler", "compiler_version", "flag_sets",
-           "cache_dir", "build_library", "check_private", "library_digest"]
+           "cache_dir", "build_library", "check_private", "library_digest", "private_directory", "write_verified",
+           "read_verified", "note", "read_shipped", "DamagedFileError"]
 
 
 class BuildError(RuntimeError):
@@ -50,6 +57,10 @@ class CompilerNotFoundError(BuildError):
 
 class UnsafeCacheError(BuildError):
     """The compiled-code cache (or a library in it) is writable by others or not ours."""
+
+
+class DamagedFileError(BuildError):
+    """A generated file shipped in ``eigentwist/generated`` differs from its recorded SHA-256."""
 
 
 def find_compiler() -> str:
@@ -113,7 +124,7 @@ def check_private(path: Path) -> None:
     """Raise :class:`UnsafeCacheError` unless ``path`` is owned by this user and not
     writable by group or others (a library loaded from there would run their code)."""
     st = os.stat(path)
-    kind = "directory" if stat.S_ISDIR(st.st_mode) else "library"
+    kind = "directory" if stat.S_ISDIR(st.st_mode) else "library" if Path(path).suffix == ".so" else "file"
     if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
         raise UnsafeCacheError(f"refusing the compiled-code cache {kind} {path}: it is owned by uid {st.st_uid}, "
                                f"not by this user (uid {os.geteuid()}); set EIGENTWIST_CACHE to a private directory")
@@ -143,9 +154,95 @@ def _intact(target: Path) -> bool:
 
 
 def _cache_directory(directory: Path) -> Path:
-    directory.mkdir(mode=0o700, parents=True, exist_ok=True)
+    missing = []
+    level = directory
+    while not level.exists() and level != level.parent:
+        missing.append(level)
+        level = level.parent
+    for level in reversed(missing):           # every level created here is private, not only the last
+        level.mkdir(mode=0o700, exist_ok=True)
     check_private(directory)
     return directory
+
+
+def private_directory(*parts: str) -> Path:
+    """``cache_dir() / parts...``, each level created 0700 where missing and each level from
+    the cache directory down checked by :func:`check_private` (a directory others may write
+    could have its files swapped)."""
+    root = cache_dir()
+    directory = _cache_directory(root.joinpath(*parts))
+    level = root
+    check_private(level)
+    for part in parts:
+        level = level / part
+        check_private(level)
+    return directory
+
+
+def note(message: str) -> None:
+    """One line on stderr, ``eigentwist: message`` (cache events the user should know of)."""
+    print(f"eigentwist: {message}", file=sys.stderr, flush=True)
+
+
+def _digest_path(path: Path) -> Path:
+    return path.with_name(path.name + ".sha256")
+
+
+def write_verified(path: Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically and its SHA-256 beside it (``path.sha256``)."""
+    path = Path(path)
+    _write_atomic(path, data)
+    _write_atomic(_digest_path(path), (hashlib.sha256(data).hexdigest() + "\n").encode())
+    return path
+
+
+_SHIPPED: dict = {}
+
+
+def read_shipped(path: Path) -> bytes:
+    """The bytes of a generated file shipped in ``eigentwist/generated`` (``<robot>_numpy.py``,
+    ``<robot>_c.c``), checked against ``<robot>.sha256`` beside it (written by ``eigentwist
+    generate``) before it is imported or compiled; once per process and file version.
+    Raises :class:`DamagedFileError` when the digest is missing or differs."""
+    path = Path(path)
+    data = path.read_bytes()
+    st = os.stat(path)
+    key = (str(path), st.st_mtime_ns, st.st_size)
+    if key in _SHIPPED:
+        return data
+    sums = path.with_name(path.name.rsplit("_", 1)[0] + ".sha256")
+    try:
+        recorded = dict(reversed(line.split(None, 1)) for line in sums.read_text().splitlines() if line.strip())
+    except (OSError, ValueError):
+        recorded = {}
+    digest = hashlib.sha256(data).hexdigest()
+    if recorded.get(path.name) != digest:
+        why = "has no recorded SHA-256" if path.name not in recorded else "does not match its recorded SHA-256"
+        raise DamagedFileError(f"the generated file {path} {why} ({sums.name}): the installation is damaged or "
+                               "edited; reinstall eigentwist, or run `eigentwist generate` in a source checkout")
+    _SHIPPED[key] = digest
+    return data
+
+
+def read_verified(path: Path) -> bytes | None:
+    """The bytes of the cached file ``path`` when they match the SHA-256 recorded beside it,
+    else None (missing, truncated or altered: a :func:`note` says which; regenerate it).
+    Raises :class:`UnsafeCacheError` when ``path`` or its directory is not private."""
+    path = Path(path)
+    check_private(path.parent)
+    if not path.exists():
+        return None
+    check_private(path)
+    data = path.read_bytes()
+    try:
+        want = _digest_path(path).read_text().strip()
+    except OSError:
+        want = ""
+    if hashlib.sha256(data).hexdigest() != want:
+        why = "has no recorded SHA-256" if not want else "does not match its recorded SHA-256 (truncated or altered)"
+        note(f"the cached file {path} {why}: regenerating it")
+        return None
+    return data
 
 
 class _Lock:
@@ -211,6 +308,8 @@ def build_library(source: str, name: str, cc: str, flags: list[str], directory: 
     stem = f"{name}_{content_hash(source, tuple(flags), cc, compiler_version(cc))}"
     target = directory / f"{stem}.so"
     if not _intact(target):
+        if target.exists():
+            note(f"the cached library {target} does not match its recorded SHA-256 (truncated or altered): rebuilding it")
         with _Lock(directory / f"{stem}.lock"):
             if not _intact(target):                # another process may have built it meanwhile
                 _compile(source, name, cc, flags, target)

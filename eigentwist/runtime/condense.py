@@ -24,6 +24,7 @@ modes then 3 ``inf``; :func:`finite_modes` drops them.
 """
 from __future__ import annotations
 
+from ..errors import DescriptionError, InputError
 import numpy as np
 
 __all__ = ["leg_condensation", "condensed_compliance", "condensed_modes", "compliance_eigh", "finite_modes",
@@ -255,7 +256,7 @@ def finite_modes(freq_hz: np.ndarray) -> np.ndarray:
     finite = np.isfinite(freq_hz)
     n = finite.sum(axis=-1)
     if np.any(n != n.flat[0]):
-        raise ValueError(f"{sorted(set(n.ravel().tolist()))} finite modes across the poses: expected one number")
+        raise InputError(f"{sorted(set(n.ravel().tolist()))} finite modes across the poses: expected one number")
     return freq_hz[..., : int(n.flat[0])]
 
 
@@ -279,7 +280,7 @@ def compliance_from_legs(robot, effects, out: dict, K_extra=None) -> np.ndarray:
     couplings = sorted(robot.couplings, key=lambda c: c.body)
     active = [k for k, c in enumerate(couplings) if c.effect in names]
     if active and "G_c" not in out:
-        raise ValueError(f"{robot.name}: couplings with different numbers of compliant directions: "
+        raise DescriptionError(f"{robot.name}: couplings with different numbers of compliant directions: "
                          "expected one number for the exact condensation")
     bodies = G_c = K_c = None
     if active:

@@ -1,15 +1,9 @@
 """Errors raised on bad input: each names the value and what was expected."""
 
+from ..errors import DescriptionError, EigentwistError, InputError
+
 __all__ = ["EigentwistError", "UnreachablePoseError", "SingularPoseError", "UnstablePoseError", "InputError",
-           "AssemblyError"]
-
-
-class EigentwistError(ValueError):
-    """Base class of eigentwist's input errors (a ValueError)."""
-
-
-class InputError(EigentwistError):
-    """A pose, parameter or option is malformed (shape, NaN, unknown name, bounds)."""
+           "DescriptionError", "AssemblyError"]
 
 
 class AssemblyError(InputError):

@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from ..robots import NAMES, get
+from .ccompile import read_shipped
 from .errors import InputError
 from .evaluator import Evaluator
 from .threads import resolve_threads
@@ -26,7 +27,11 @@ BACKENDS = ("numpy", "c", "auto")
 
 
 def load_module(robot: str, backend: str = "numpy"):
-    """Import the generated module ``eigentwist.generated.<robot>_<backend>``."""
+    """Import the generated module ``eigentwist.generated.<robot>_<backend>``, checked
+    first against its recorded SHA-256 (:func:`~.ccompile.read_shipped`)."""
+    from .. import generated
+
+    read_shipped(Path(generated.__file__).parent / f"{robot}_{backend}.py")
     return importlib.import_module(f"eigentwist.generated.{robot}_{backend}")
 
 
@@ -93,9 +98,10 @@ def _load_user(robot, backend: str, threads, progress) -> Evaluator:
         description = describe_file(robot)
         extra, spec = Path(robot).read_bytes(), str(robot)
     key = description_key(description, extra)
-    directory = generated_modules(description, key, progress)
-    module = import_numpy_module(directory / f"{description.name}_numpy.py")
-    source = (directory / f"{description.name}_c.c").read_text()
+    directory, texts = generated_modules(description, key, progress)
+    name = f"{description.name}_numpy.py"
+    module = import_numpy_module(texts[name], directory / name)
+    source = texts[f"{description.name}_c.c"]
     ev = _with_backend(description, module, backend, description.name, threads, source)
     ev.spec = spec
     return ev

@@ -19,15 +19,13 @@ from __future__ import annotations
 
 import ctypes
 import json
-import os
-import tempfile
 import types
 from pathlib import Path
 
 import numpy as np
 
 from ..hashing import canonical, content_hash, package_digest
-from .ccompile import cache_dir
+from .ccompile import private_directory, read_verified, write_verified
 
 __all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "DIFFERENCE_STEP", "clusters", "check_wrt",
            "own_legs", "kernel_wrt", "shared_columns",
@@ -49,21 +47,14 @@ def cache_key(ev, wrt) -> str:
                         tuple(wrt), package_digest())
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
-
-
 def _sources(ev, wrt, progress) -> dict:
     """``{"numpy": text, "c": text}`` from the cache, or generated and cached."""
     key = cache_key(ev, wrt)
-    directory = cache_dir() / "sensitivities"
+    directory = private_directory("sensitivities")
     paths = {"numpy": directory / f"{ev.robot.name}_sens_{key}.py", "c": directory / f"{ev.robot.name}_sens_{key}.c"}
-    if all(p.exists() for p in paths.values()):
-        return {b: p.read_text() for b, p in paths.items()}
+    found = {b: read_verified(p) for b, p in paths.items()}
+    if all(data is not None for data in found.values()):
+        return {b: data.decode("utf-8") for b, data in found.items()}
     from ..codegen.sensitivity import render_c_sensitivity, render_numpy_sensitivity, sensitivity_kernel
     from ..symbolic import derive
 
@@ -75,7 +66,7 @@ def _sources(ev, wrt, progress) -> dict:
     say(f"{ev.robot.name}: render")
     texts = {"numpy": render_numpy_sensitivity(ev.robot, kernel, wrt), "c": render_c_sensitivity(ev.robot, kernel, wrt)}
     for b, p in paths.items():
-        _write_atomic(p, texts[b])
+        write_verified(p, texts[b].encode("utf-8"))
     return texts
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from ..errors import InputError
 from scipy.optimize import linear_sum_assignment
 
 __all__ = ["mac", "track_modes", "TrackedModes"]
@@ -78,7 +79,7 @@ def track_modes(freqs, eigentwists, M=None) -> TrackedModes:
     V = np.asarray(eigentwists, dtype=float)
     S, n = freqs.shape
     if V.shape != (S, n, n):
-        raise ValueError(f"eigentwists has shape {V.shape}: expected {(S, n, n)} for freqs of shape {freqs.shape}")
+        raise InputError(f"eigentwists has shape {V.shape}: expected {(S, n, n)} for freqs of shape {freqs.shape}")
     Ms = None if M is None else np.broadcast_to(np.asarray(M, dtype=float), (S, n, n))
     order = np.empty((S, n), dtype=int)
     similarity = np.ones((S, n))

@@ -7,20 +7,22 @@ renders its evaluators (NumPy module and C source) on first use into
 (its data, its effects' ``build`` functions by their code: :mod:`eigentwist.hashing`) and eigentwist's
 derivation and code generation, so an unchanged description is never derived twice
 and a changed one (or a new eigentwist) regenerates. The cache is the C library's
-(``$EIGENTWIST_CACHE``, see :mod:`eigentwist.runtime.ccompile`) and may be deleted.
+(``$EIGENTWIST_CACHE``, see :mod:`eigentwist.runtime.ccompile`) and may be deleted; its
+files are trusted as the library is (:func:`~eigentwist.runtime.ccompile.read_verified`):
+created private, each checked against its recorded SHA-256 before it is imported or
+compiled, regenerated when missing, truncated or altered.
 """
 from __future__ import annotations
 
 import importlib.util
 import os
 import sys
-import tempfile
 import time
 import types
 from pathlib import Path
 
 from ..hashing import canonical, content_hash, package_digest
-from .ccompile import cache_dir
+from .ccompile import private_directory, read_verified, write_verified
 from .errors import InputError
 
 __all__ = ["describe_file", "is_description_file", "is_description", "description_kinds", "description_key", "generated_modules", "import_numpy_module"]
@@ -57,6 +59,9 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     module = importlib.util.module_from_spec(spec)
     try:
         spec.loader.exec_module(module)
+    except (SystemExit, KeyboardInterrupt) as exc:
+        raise InputError(f"robot description file {str(path)!r} {_ended(exc)} while it was imported: a description "
+                         "file must define describe() and return") from None
     except Exception as exc:
         raise InputError(f"robot description file {str(path)!r} failed to import: {type(exc).__name__}: {exc}") from None
     describe = getattr(module, "describe", None)
@@ -65,6 +70,8 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
                          "(it must return an eigentwist.description.RobotDescription or a joint-list ChainRobot)")
     try:
         desc = describe()
+    except (SystemExit, KeyboardInterrupt) as exc:
+        raise InputError(f"describe() in {str(path)!r} {_ended(exc)}: expected it to return a description") from None
     except Exception as exc:
         raise InputError(f"describe() in {str(path)!r} raised {type(exc).__name__}: {exc}") from None
     if not is_description(desc):
@@ -73,44 +80,48 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     return desc
 
 
+def _ended(exc: BaseException) -> str:
+    """``called sys.exit(0)`` or ``was interrupted (KeyboardInterrupt)``."""
+    if isinstance(exc, SystemExit):
+        return f"called sys.exit({exc.code!r})"
+    return f"was interrupted ({type(exc).__name__})"
+
+
 def description_key(description, extra: bytes = b"") -> str:
     """Content hash of ``description`` (its functions by their code) and of eigentwist's
     derivation and code generation, 24 hex digits (:func:`eigentwist.hashing.content_hash`)."""
     return content_hash(canonical(description), extra, package_digest())
 
 
-def generated_modules(description, key: str, progress=None) -> Path:
-    """Directory holding ``<name>_numpy.py`` and ``<name>_c.c`` of ``description``,
-    rendered on first use (``progress(message)`` is told each step)."""
-    from ..codegen.generate import render_robot, write
+def generated_modules(description, key: str, progress=None) -> tuple[Path, dict[str, str]]:
+    """The directory and the verified texts ``{file name: text}`` of ``<name>_numpy.py`` and
+    ``<name>_c.c`` of ``description``, rendered on first use, or again when a cached file is
+    missing, truncated or altered (``progress(message)`` is told each step)."""
+    from ..codegen.generate import render_robot
 
-    directory = cache_dir() / "descriptions" / f"{description.name}_{key}"
-    if (directory / f"{description.name}_numpy.py").exists():
-        return directory
+    names = [f"{description.name}_numpy.py", f"{description.name}_c.c"]
+    directory = private_directory("descriptions", f"{description.name}_{key}")
+    found = {name: read_verified(directory / name) for name in names}
+    if all(data is not None for data in found.values()):
+        return directory, {name: data.decode("utf-8") for name, data in found.items()}
     say = progress or (lambda message: None)
     t0 = time.perf_counter()
     say(f"generating the evaluators of {description.name!r} (first use; cached in {directory})")
     files = render_robot(description, progress=lambda m: say(f"  {m}"))
-    directory.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{description.name}_", dir=directory.parent))
-    write(files, tmp)
-    try:
-        os.replace(tmp, directory)          # atomic: a concurrent first use keeps one copy
-    except OSError:
-        for f in tmp.iterdir():
-            f.unlink()
-        tmp.rmdir()
+    for name in names:
+        write_verified(directory / name, files[name].encode("utf-8"))
     say(f"generated {description.name!r} in {time.perf_counter() - t0:.1f} s")
-    return directory
+    return directory, {name: files[name] for name in names}
 
 
-def import_numpy_module(path: Path) -> types.ModuleType:
-    """Import a generated NumPy module from a file outside the package."""
+def import_numpy_module(text: str, path: Path) -> types.ModuleType:
+    """Import a generated NumPy module from its verified ``text`` (read from ``path``, a file
+    outside the package: the file is not read again, so what runs is what was checked)."""
     name = f"eigentwist_generated_{path.parent.name}"
     if name in sys.modules:
         return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = types.ModuleType(name)
+    module.__file__ = str(path)
+    exec(compile(text, str(path), "exec"), module.__dict__)
     sys.modules[name] = module
     return module

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from ..description.formulas import parallelogram_inertia, point_mass_inertia
 from ..description.screw import inverse_adjoint, unit_twist
 from .leg import LegScrews
@@ -38,7 +39,7 @@ def body_inertia_contribution(prog: Program, screws: LegScrews, body, inertia_lo
     if getattr(body, "pivot", None) is not None:
         joint = joints[body.after - 1] if len(joints) >= body.after else None
         if joint is None or not joint.swing:
-            raise ValueError(f"body {body.name!r} has a pivot: expected joint {body.after} of its leg to be a Pi "
+            raise DescriptionError(f"body {body.name!r} has a pivot: expected joint {body.after} of its leg to be a Pi "
                              "joint with a swing (axis, length)")
         axis, length = joint.swing
         scalar = lambda v: g[v] if isinstance(v, str) else v  # noqa: E731

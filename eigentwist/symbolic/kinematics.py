@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from ..description import RobotDescription
 import sympy as sp
 
@@ -37,11 +38,11 @@ def inverse_kinematics(robot: RobotDescription):
     q_all, per_leg = [], []
     for i, leg in enumerate(robot.legs, start=1):
         if leg.kinematics is None:
-            raise ValueError(f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
+            raise DescriptionError(f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
                              "one, e.g. a leg built by eigentwist.description.rrpirr.rrpirr_leg")
         q, c = leg.kinematics.inverse_kinematics(ik, leg, pose, str(i))
         if q_all and len(q) != len(q_all[0]):
-            raise ValueError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates; "
+            raise DescriptionError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates; "
                              f"expected {len(q_all[0])} like {robot.legs[0].name}")
         q_all.append(tuple(q))
         per_leg.append(dict(c))
@@ -78,7 +79,7 @@ def closures(robot):
         return None
     count = sum(len(leg.closures) for leg in robot.legs)
     if count != len(pose.followers):
-        raise ValueError(f"{robot.name}: pose space {pose!r} has {len(pose.followers)} followers "
+        raise DescriptionError(f"{robot.name}: pose space {pose!r} has {len(pose.followers)} followers "
                          f"({', '.join(pose.followers)}) and the legs name {count} closures "
                          f"({[leg.closures for leg in robot.legs]}, ChainLeg.closures: scalars of a leg's geometry "
                          "that vanish where the platform can be): expected one closure per follower")
@@ -117,7 +118,7 @@ def loop_closure(robot, q_all: list):
     if not any(numeric):
         return None, {}
     if not all(numeric):
-        raise ValueError(f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
+        raise DescriptionError(f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
                          f"{robot.legs[numeric.index(True)].name} is solved numerically: expected alike legs")
     prog = Program()
     pose = robot.pose_space
@@ -128,7 +129,7 @@ def loop_closure(robot, q_all: list):
         r = leg.kinematics.residual(prog, pose, q, str(i))
         r = prog.let_matrix(f"r_{i}", r)
         if res and r.rows != res[0].rows:
-            raise ValueError(f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
+            raise DescriptionError(f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
                              f"{robot.legs[0].name} with {res[0].rows}: expected alike legs")
         res.append(r)
         jac.append(sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]))

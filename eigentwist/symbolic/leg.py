@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from ..description import Leg
 from ..description.joints import JOINT_KINDS
 from .program import Program
@@ -161,7 +162,7 @@ def leg_screws(prog: Program, leg: Leg, q: tuple, pose, tag: str) -> LegScrews:
     origin = pose.origin
     keys, joint_of = _keys(leg)
     if len(keys) != 6:
-        raise ValueError(f"{leg.name}: {len(keys)} unit twists: a leg with fewer than six freedoms lists one "
+        raise DescriptionError(f"{leg.name}: {len(keys)} unit twists: a leg with fewer than six freedoms lists one "
                          f"'virtual' joint (its twist of restriction) per constraint, six twists in all")
     listed = [t for joint in leg.joints for t in joint_twists(joint, g, origin)]
     twists = {k: prog.let_matrix(f"t{k}_{tag}", t) for k, t in zip(keys, listed)}

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from ..description import RobotDescription, sym
 from ..description.effects import EffectContext, leg_input_name, leg_switch_name, switch_name
 from .inertia import body_inertia_contribution
@@ -299,7 +300,7 @@ def _joint_keys(leg, ls: LegScrews):
     first = {j: k for k, j in reversed(list(zip(ls.keys, ls.joint_of)))}
     actuated = [j for j, joint in enumerate(leg.joints) if joint.actuated]
     if len(actuated) > 1:
-        raise ValueError(f"{leg.name}: {len(actuated)} actuated joints: expected one, or none for a passive leg")
+        raise DescriptionError(f"{leg.name}: {len(actuated)} actuated joints: expected one, or none for a passive leg")
     virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].virtual]
     # (joint, rate[, freedom within the joint]): a U or S joint's coordinates address its twists
     coords = [(ls.keys[ls.joint_of.index(c[0]) + (c[2] if len(c) > 2 else 0)], c[1])
@@ -346,13 +347,13 @@ def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -
     for e in fx.of_kind("added_inertia"):
         if e.body != "platform":
             if e.body not in inertia:
-                raise ValueError(f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
+                raise DescriptionError(f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
                                  f"{', '.join(inertia)} or 'platform'")
             on, added = fx.term(e, i, ls)
             # one body's inertia, or {body: inertia} for an effect that moves mass between bodies
             for body, term in (added.items() if isinstance(added, dict) else ((e.body, added),)):
                 if body not in inertia:
-                    raise ValueError(f"effect {e.name!r}: added inertia on body {body!r}: expected one of "
+                    raise DescriptionError(f"effect {e.name!r}: added inertia on body {body!r}: expected one of "
                                      f"{', '.join(inertia)}")
                 inertia[body] = inertia[body] + on * term
     M = sp.zeros(6, 6)
@@ -381,7 +382,7 @@ def _body_compliance(fx: EffectSymbols, ls, i: int) -> sp.Matrix:
             continue
         if e.body != "platform":
             if e.body not in ls.frames:
-                raise ValueError(f"effect {e.name!r}: body {e.body!r}: expected a leg frame "
+                raise DescriptionError(f"effect {e.name!r}: body {e.body!r}: expected a leg frame "
                                  f"({', '.join(ls.frames)}) or 'platform'")
             C = compliance_to_frame(C, *ls.frames[e.body])
         Cs += on * C
@@ -447,7 +448,7 @@ def _platform_stiffness(prog: Program, robot: RobotDescription, K_groups: dict, 
     couplings = {c.body: c for c in robot.couplings}
     unknown = sorted(set(K_groups) - set(couplings) - {robot.tool_body})
     if unknown:
-        raise ValueError(f"{robot.name}: legs attach to platform bodies {unknown} that are neither the tool body "
+        raise DescriptionError(f"{robot.name}: legs attach to platform bodies {unknown} that are neither the tool body "
                          f"{robot.tool_body!r} nor coupled to it (couplings: {sorted(couplings)})")
     K_F = sp.zeros(6, 6)
     for body in sorted(K_groups):

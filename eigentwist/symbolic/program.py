@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..errors import DescriptionError
 import sympy as sp
 
 __all__ = ["Program", "derivative"]
@@ -26,7 +27,7 @@ class Program:
     def declare(self, symbol: sp.Symbol) -> sp.Symbol:
         """Declare an input symbol (a joint angle, a pose coordinate or a parameter)."""
         if symbol.name in self._names:
-            raise ValueError(f"symbol {symbol.name!r} declared twice")
+            raise DescriptionError(f"symbol {symbol.name!r} declared twice")
         self._names.add(symbol.name)
         self.inputs.append(symbol)
         return symbol
@@ -40,7 +41,7 @@ class Program:
         if expr.is_Atom or (isinstance(expr, sp.Mul) and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Symbol):
             return expr
         if name in self._names:
-            raise ValueError(f"intermediate {name!r} assigned twice")
+            raise DescriptionError(f"intermediate {name!r} assigned twice")
         self._names.add(name)
         sym = sp.Symbol(name, real=True)
         self.assignments.append((sym, expr))

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from ..errors import DescriptionError, InputError
 from .program import Program
 
 __all__ = ["gradient", "SensitivityModel", "sensitivity_program", "combined_program", "OUTPUTS"]
@@ -121,7 +122,7 @@ def combined_program(model) -> Program:
             rename[s_] = new
     missing = joints - {s_ for s_, _ in prog.assignments}
     if missing:
-        raise ValueError(f"the IK program does not assign joint angles {sorted(s.name for s in missing)}")
+        raise DescriptionError(f"the IK program does not assign joint angles {sorted(s.name for s in missing)}")
     prog.renamed = rename
     return prog
 
@@ -196,7 +197,7 @@ def sensitivity_program(model, wrt, progress=None) -> SensitivityModel:
     declared = {s_.name: s_ for s_ in prog.inputs}
     unknown = [w for w in wrt if _seeds_of(w, declared) is None]
     if unknown:
-        raise ValueError(f"cannot differentiate with respect to {unknown}: not inputs of the model "
+        raise InputError(f"cannot differentiate with respect to {unknown}: not inputs of the model "
                          f"(expected names from {', '.join(model.parameters)})")
     base = list(prog.assignments)
     mats = {k: (shape, [sp.sympify(e).xreplace(prog.renamed) for e in exprs])

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from ..description.formulas import rod_pair_compliance, tube_cantilever_compliance
 
 __all__ = ["rod_pair_compliance", "tube_cantilever_compliance", "inverse_2x2", "inverse_small", "rows_outer",
@@ -38,7 +39,7 @@ def inverse_small(S: sp.Matrix) -> sp.Matrix:
         return inverse_2x2(S)
     if S.shape == (3, 3):
         return S.adjugate() / S.det(method="berkowitz")
-    raise ValueError(f"coupling with {S.shape[0]} compliant directions: expected at most 3")
+    raise DescriptionError(f"coupling with {S.shape[0]} compliant directions: expected at most 3")
 
 
 def condense_coupling(prog, Kp: sp.Matrix, G: sp.Matrix, Kc: sp.Matrix, switch, name: str) -> sp.Matrix:

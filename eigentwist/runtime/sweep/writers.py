@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...outputs import atomic_path, write_atomic
 from ..errors import InputError
 from .columns import FORMAT, LOWEST_FILE, MANIFEST, chunk_file, flat_columns, lowest_path, manifest, pyarrow_modules
 from .engines import SweepSummary
@@ -38,13 +39,15 @@ class NpzDirectoryWriter:
 
     def _manifest(self, **kwargs) -> None:
         text = json.dumps(manifest(self.spec, **kwargs), indent=1)
-        (self.path / MANIFEST).write_text(text + "\n")
+        write_atomic(self.path / MANIFEST, text + "\n")
 
     def write(self, index: int, result: dict) -> None:
-        np.savez(self.path / chunk_file(index), **result)
+        with atomic_path(self.path / chunk_file(index)) as tmp:
+            np.savez(tmp, **result)
 
     def close(self, summary: SweepSummary) -> None:
-        np.savez(self.path / LOWEST_FILE, **summary.lowest)
+        with atomic_path(self.path / LOWEST_FILE) as tmp:
+            np.savez(tmp, **summary.lowest)
         self._manifest(complete=True, backend=summary.backend, lowest_file=LOWEST_FILE)
 
 
@@ -74,7 +77,8 @@ class ParquetWriter:
     def close(self, summary: SweepSummary) -> None:
         if self.writer is not None:
             self.writer.close()
-        self.pq.write_table(self._table(summary.lowest, {"format": FORMAT + "-lowest"}), str(lowest_path(self.path)))
+        with atomic_path(lowest_path(self.path)) as tmp:
+            self.pq.write_table(self._table(summary.lowest, {"format": FORMAT + "-lowest"}), str(tmp))
 
 
 def open_writer(path, spec: SweepSpec, overwrite: bool = False):
