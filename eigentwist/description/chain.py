@@ -200,9 +200,9 @@ class ChainLeg:
     def __post_init__(self):
         n = sum(1 for j in self.joints if j.actuated)
         if n > 1:
-            raise ValueError(f"{self.name}: {n} actuated joints: expected one, or none for a passive leg")
+            raise DescriptionError(f"{self.name}: {n} actuated joints: expected one, or none for a passive leg")
         if self.stiffness is not None and n == 0:
-            raise ValueError(f"{self.name}: a stiffness on a passive leg (no actuated joint): expected none")
+            raise DescriptionError(f"{self.name}: a stiffness on a passive leg (no actuated joint): expected none")
 
     @property
     def kinematics(self) -> PoseKinematics:
@@ -277,7 +277,7 @@ class ChainRobot:
         resolve_effects(self)
         structural = [e for e in self.effects if self.effect(e).structural]
         if getattr(self.pose_space, "point", False) and structural:
-            raise ValueError(f"{self.name}: effect(s) {', '.join(structural)} on a point platform "
+            raise DescriptionError(f"{self.name}: effect(s) {', '.join(structural)} on a point platform "
                              f"({self.pose_space!r}): expected effects without structural compliance (a point's "
                              "rotations carry neither inertia nor stiffness: only its rigid model is defined)")
 

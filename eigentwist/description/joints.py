@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..errors import DescriptionError
+
 __all__ = ["JointKind", "JOINT_KINDS", "JOINT_FREEDOMS", "joint_kind"]
 
 BASE_AXES = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
@@ -68,4 +70,4 @@ def joint_kind(name: str) -> JointKind:
     try:
         return JOINT_KINDS[name]
     except (KeyError, TypeError):
-        raise ValueError(f"joint kind {name!r}: expected one of {', '.join(JOINT_KINDS)}") from None
+        raise DescriptionError(f"joint kind {name!r}: expected one of {', '.join(JOINT_KINDS)}") from None

@@ -148,7 +148,7 @@ class PointPose(RigidPose):
         coordinates = tuple(coordinates)
         if (not coordinates or len(set(coordinates)) != len(coordinates)
                 or any(c not in ("x", "y", "z") for c in coordinates)):
-            raise ValueError(f"point coordinates {coordinates!r}: expected distinct names from x, y, z "
+            raise DescriptionError(f"point coordinates {coordinates!r}: expected distinct names from x, y, z "
                              "(a point has no rotation)")
         self.coordinates = coordinates
         self.basis = _unit_columns(coordinates)

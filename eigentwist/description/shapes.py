@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from .screw import spatial_inertia
 
 __all__ = ["Shape", "point_mass", "slender_rod", "cylinder", "tube", "box", "sphere"]
@@ -55,7 +56,7 @@ def slender_rod(length, mass=None, *, density=None, area=None) -> Shape:
     about it ``m l^2 / 12`` about any axis normal to the rod, zero about its own axis."""
     if mass is None:
         if density is None or area is None:
-            raise ValueError("slender_rod: give its mass, or its density and cross-section area")
+            raise DescriptionError("slender_rod: give its mass, or its density and cross-section area")
         mass = density * area * length
     return _along_x(mass, length, mass * length**2 / 12, 0)
 

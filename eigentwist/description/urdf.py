@@ -20,6 +20,7 @@ from pathlib import Path
 
 import sympy as sp
 
+from ..errors import DescriptionError
 from .screw import spatial_inertia
 from .serial import Body, Joint, SerialLeg
 
@@ -51,7 +52,7 @@ def _kind_axis(joint, name: str) -> tuple[str, tuple]:
     if short in ("JointModelRevoluteUnaligned", "JointModelRevoluteUnboundedUnaligned", "JointModelPrismaticUnaligned"):
         axis = tuple(float(a) for a in joint.extract().axis)
         return ("P" if "Prismatic" in short else "R"), axis
-    raise ValueError(f"URDF joint {name!r} is {short}: expected revolute, continuous or prismatic joints "
+    raise DescriptionError(f"URDF joint {name!r} is {short}: expected revolute, continuous or prismatic joints "
                      "(fixed ones are merged; a U joint is two revolute joints, a spherical one is given by "
                      "platform_joint)")
 
@@ -86,17 +87,17 @@ def urdf_leg(urdf, name: str, *, actuated: str, attachment, reference, end: str 
     """
     model = _model(urdf)
     if model.njoints < 2:
-        raise ValueError(f"{name}: the URDF has no moving joint: expected the leg's chain")
+        raise DescriptionError(f"{name}: the URDF has no moving joint: expected the leg's chain")
     names = list(model.names)
     if actuated not in names:
-        raise ValueError(f"{name}: actuated joint {actuated!r} is not in the URDF (its joints: "
+        raise DescriptionError(f"{name}: actuated joint {actuated!r} is not in the URDF (its joints: "
                          f"{', '.join(names[1:])})")
     R0 = sp.eye(3) if base_rotation is None else sp.Matrix(base_rotation)
     p0 = sp.Matrix(base_origin)
     joints, bodies = [], []
     for i in range(1, model.njoints):
         if model.parents[i] != i - 1:
-            raise ValueError(f"{name}: URDF joint {names[i]!r} hangs on {names[model.parents[i]]!r}, not on the "
+            raise DescriptionError(f"{name}: URDF joint {names[i]!r} hangs on {names[model.parents[i]]!r}, not on the "
                              "joint before it: expected one serial chain")
         kind, axis = _kind_axis(model.joints[i], names[i])
         placement = model.jointPlacements[i]
@@ -114,7 +115,7 @@ def urdf_leg(urdf, name: str, *, actuated: str, attachment, reference, end: str 
     if end is not None:
         frame = next((f for f in model.frames if f.name == end), None)
         if frame is None or frame.parentJoint != model.njoints - 1:
-            raise ValueError(f"{name}: end link {end!r} is not on the chain's last joint "
+            raise DescriptionError(f"{name}: end link {end!r} is not on the chain's last joint "
                              f"{names[model.njoints - 1]!r}: expected a link after it")
         tip_R, tip_p = _numbers(frame.placement.rotation), _numbers(frame.placement.translation)
     if platform_joint == "S":
@@ -125,6 +126,6 @@ def urdf_leg(urdf, name: str, *, actuated: str, attachment, reference, end: str 
         attachment = tuple(sp.Matrix(attachment) - Ra * tip_R.T * tip_p)
         attachment_rotation = Ra * tip_R.T
     else:
-        raise ValueError(f"{name}: platform_joint {platform_joint!r}: expected 'S' or None (rigid)")
+        raise DescriptionError(f"{name}: platform_joint {platform_joint!r}: expected 'S' or None (rigid)")
     return SerialLeg(name, tuple(joints) + tuple(virtual), tuple(bodies), tuple(attachment), tuple(reference),
                      attachment_rotation=attachment_rotation, platform_body=platform_body)
