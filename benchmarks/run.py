@@ -72,7 +72,7 @@ def machine() -> dict:
 # ------------------------------------------------------------- generation
 def generation_times() -> dict:
     """derive, CSE, emit (NumPy and C separately) for the Heli4; compile; `eigentwist generate`."""
-    from eigentwist.codegen.c_backend import render_c
+    from eigentwist.codegen.c_source import render_c
     from eigentwist.codegen.generate import _render_numpy, _template_text, kernels_for
     from eigentwist.codegen.kernel import source_hash
     from eigentwist.robots import get
@@ -260,7 +260,7 @@ def main(argv=None) -> int:
 
     import eigentwist
     from eigentwist.runtime import load
-    from eigentwist.runtime.cbackend import load_c_kernels
+    from eigentwist.runtime.c_kernels import load_c_kernels
     from eigentwist.symbolic import derive
 
     sizes = [1_000, 10_000] if args.quick else [1_000, 100_000, 1_000_000]

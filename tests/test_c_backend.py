@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
-import eigentwist.runtime.cbackend as cb
+import eigentwist.runtime.c_kernels as cb
 import eigentwist.runtime.ccompile as ccompile
-from eigentwist.codegen.c_backend import CCodePrinter, c_identifiers
+from eigentwist.codegen.c_source import CCodePrinter, c_identifiers
 from eigentwist.codegen.generate import GENERATED
 from eigentwist.robots import NAMES
 from eigentwist.runtime import InputError, UnreachablePoseError, load

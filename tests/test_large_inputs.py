@@ -12,7 +12,7 @@ import eigentwist.diagnose.measurements as measurements
 import eigentwist.diagnose.predict as predict
 from eigentwist.diagnose import MeasurementError, load_measurements, paper_measurements
 from eigentwist.diagnose.compare import compare
-from eigentwist.diagnose.report import comparison_table
+from eigentwist.diagnose.verdict import comparison_table
 
 ROWS = """k_a,mode,freq_hz,x,y,z,sigma_hz,m_e,eta_a@2
 1000,X,15.5,,0.001,-0.625,0.3,,

@@ -72,7 +72,7 @@ def test_module_respects_the_layers(path):
 
 
 @pytest.mark.parametrize("source, module, is_package", [
-    ("from ..cli.common import format_table", "eigentwist.diagnose.report", False),
+    ("from ..cli.common import format_table", "eigentwist.diagnose.verdict", False),
     ("import eigentwist.cli.main", "eigentwist.runtime.loader", False),
     ("from eigentwist import cli", "eigentwist.report.build", False),
     ("from .. import cli", "eigentwist.report", True),

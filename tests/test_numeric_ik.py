@@ -182,10 +182,10 @@ def test_c_loop_closure_equals_numpy(numeric):
     for k in ("residual", "dresidual"):
         assert np.allclose(a[k], b[k], rtol=1e-12, atol=1e-14)
     assert np.abs(evc.joint_angles(poses) - ev.joint_angles(poses)).max() < 1e-12
-    # the Newton iterations in C (cnewton) and in NumPy around the same compiled closure
-    from eigentwist.runtime import cnewton
+    # the Newton iterations in C (c_levenberg_marquardt) and in NumPy around the same compiled closure
+    from eigentwist.runtime import c_levenberg_marquardt
 
-    assert cnewton.driver() is not None
+    assert c_levenberg_marquardt.driver() is not None
     full, pc = evc._poses(poses), evc.parameter_values(30)
     in_c = evc.solve_joints(full, pc)
     evc.c_newton = False
@@ -255,7 +255,7 @@ def _two_link(poses, l1=1.0, l2=0.8):
 def test_newton_keeps_the_descriptions_branch(elbow):
     """The elbow sign of the reference configuration is the solution's (law of cosines),
     and an unreachable target gives NaN, never a nearby configuration."""
-    from eigentwist.runtime.newton import solve
+    from eigentwist.runtime.levenberg_marquardt import solve
 
     rng = np.random.default_rng(4)
     radius = rng.uniform(0.3, 1.7, 200)
@@ -275,7 +275,7 @@ def test_homotopy_keeps_the_references_elbow_where_newton_jumps():
     """From a reference far from closing, plain Newton closes the two-link arm on the other
     elbow; the homotopy from the reference (the branch recorded at x_ref) keeps its elbow
     (law of cosines for the angle, the sign of sin b for the elbow)."""
-    from eigentwist.runtime.newton import continuation, solve
+    from eigentwist.runtime.levenberg_marquardt import continuation, solve
 
     target = np.array([[-0.59, -0.14]])
     reference = np.array([[-1.02, 1.73]])                     # elbow +: sin(1.73) > 0
@@ -293,7 +293,7 @@ def test_homotopy_follows_its_path_within_path_tol(factor, follows):
     """Two residuals of one coordinate that disagree by 2f, r = [q - a, q - a - 2f]: the
     homotopy's target (1 - t) r(q_ref) is met to f t sqrt(2) at best (least squares), so the
     path ends at f sqrt(2): followed just below PATH_TOL, lost (NaN) just above it."""
-    from eigentwist.runtime.newton import PATH_TOL, continuation
+    from eigentwist.runtime.levenberg_marquardt import PATH_TOL, continuation
 
     a, f = 0.4, factor * PATH_TOL / np.sqrt(2)
 
@@ -308,7 +308,7 @@ def test_homotopy_follows_its_path_within_path_tol(factor, follows):
 
 
 def test_two_configurations_are_one_within_the_branch_gap():
-    from eigentwist.runtime.newton import BRANCH_GAP, same_configuration
+    from eigentwist.runtime.levenberg_marquardt import BRANCH_GAP, same_configuration
 
     a = np.array([0.3, -2.0, 0.8])                           # rad, rad, m
     angular = np.array([True, True, False])
@@ -372,7 +372,7 @@ def test_newton_memo_keys_every_input(numeric):
 def test_damped_step_solves_the_normal_equations(systems):
     """Both ways of solving (LAPACK below SOA_MIN systems, entry by entry from it) give
     the damped Gauss-Newton step, checked by its defining equation."""
-    from eigentwist.runtime.newton import SOA_MIN, normal_solve
+    from eigentwist.runtime.levenberg_marquardt import SOA_MIN, normal_solve
 
     assert SOA_MIN == 64
     rng = np.random.default_rng(systems)

@@ -314,7 +314,7 @@ def test_every_shipped_robot_sweeps_its_workspace(robot):
 
 @pytest.mark.compiled
 def test_c_backend_sweep_agrees_with_numpy(monkeypatch):
-    cb = pytest.importorskip("eigentwist.runtime.cbackend", reason="this build has no C backend")
+    cb = pytest.importorskip("eigentwist.runtime.c_kernels", reason="this build has no C backend")
     try:
         cb.find_compiler()
     except cb.CompilerNotFoundError as exc:

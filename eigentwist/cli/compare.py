@@ -115,7 +115,7 @@ def to_json(cmp, parameters: list) -> dict:
 def run(args) -> int:
     from .common import say
     from ..diagnose.compare import compare
-    from ..diagnose.report import comparison_summary, comparison_table, failing_text
+    from ..diagnose.verdict import comparison_summary, comparison_table, failing_text
 
     from ..diagnose.values import changed_text, used_parameters
 

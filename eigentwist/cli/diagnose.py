@@ -70,7 +70,7 @@ def run(args) -> int:
     from ..diagnose.fit import using_jacobian
     from ..diagnose.answer import answer_text
     from ..diagnose.values import changed_text
-    from ..diagnose.report import diagnosis_text
+    from ..diagnose.verdict import diagnosis_text
     from ..diagnose.select import diagnose
     from ..diagnose.stats import ALPHA
     from .common import CliError, model_and_values, progress, say

@@ -14,13 +14,13 @@ from ..outputs import write_atomic
 from ..robots import NAMES, get
 from ..symbolic import POSE, derive
 from ..symbolic.model import EffectSymbols
-from .c_backend import render_c
+from .c_source import render_c
 from .c_library import render_c_header
 from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
 
-__all__ = ["GENERATED", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "BACKENDS",
+__all__ = ["GENERATED", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "TARGETS",
            "PROGRESS_STEPS"]
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
@@ -106,13 +106,15 @@ def _render_numpy(robot, kernels, digest):
     return render_numpy(robot, kernels, digest, EffectSymbols(robot).switches())
 
 
-# the C header shares the C source's templates and hash (one library, two files)
-BACKENDS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", render_c),
+#: the files rendered per robot (target -> file name, renderer); the C header shares the C
+#: source's templates and hash (one library, two files). The runtime's backends that run
+#: them are :data:`eigentwist.runtime.loader.BACKENDS`.
+TARGETS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", render_c),
             "c_header": ("{robot}_c.h", render_c_header)}
 TEMPLATE_DIR = {"c_header": "c"}
 # progress messages of render_robot per robot (every backend): derive, CSE of the matrices,
 # jacobians, gravity and legs kernels, CSE of the fused pass's matrices_lever, one per file emitted
-PROGRESS_STEPS = 6 + len(BACKENDS)
+PROGRESS_STEPS = 6 + len(TARGETS)
 
 
 def render_robot(robot, progress=None, timings: dict | None = None, backends=None) -> dict[str, str]:
@@ -133,7 +135,7 @@ def render_robot(robot, progress=None, timings: dict | None = None, backends=Non
     t2 = time.perf_counter()
     files = {}
     fused = None
-    for backend, (pattern, render) in BACKENDS.items():
+    for backend, (pattern, render) in TARGETS.items():
         if backends is not None and backend not in backends:
             continue
         if backend in ("c", "c_header") and fused is None:

@@ -87,7 +87,7 @@ def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None) -> list[di
     reads followed by its store into row ``slot`` of ``et_s``). Returns the parts and the
     number of slots in ``kctx["n_spill"]``.
     """
-    from .c_backend import c_identifiers
+    from .c_source import c_identifiers
 
     chunk = chunk or CHUNK
     body = kernel.body
@@ -136,7 +136,7 @@ def render_c_sensitivity(robot, kernel: Kernel, wrt) -> str:
     """
     import json
 
-    from .c_backend import BLOCK, c_string_literals, kernel_context
+    from .c_source import BLOCK, c_string_literals, kernel_context
 
     digest = source_hash([kernel], code_version())
     prefix = "et_" + re.sub(r"\W", "_", robot.name) + "_sens"

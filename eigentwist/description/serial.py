@@ -6,7 +6,7 @@ frame (the base frame for the first joint). eigentwist derives the leg's forward
 kinematics and the loop-closure equations (the chain's end = the platform attachment
 point, and its frame unless the chain ends in a spherical joint) with their exact Jacobian
 (:mod:`eigentwist.symbolic.serial`), generates them with the evaluator, and solves them per
-pose by a damped Newton method (:mod:`eigentwist.runtime.newton`) started from the leg's
+pose by a damped Newton method (:mod:`eigentwist.runtime.levenberg_marquardt`) started from the leg's
 ``reference`` configuration: which assembly branch (elbow up or down) the robot is on is
 the description's choice. A pose where Newton does not converge is unreachable.
 
@@ -212,7 +212,7 @@ class NumericKinematics:
     """The kinematics of a :class:`SerialLeg` as the derivation reads it: forward
     kinematics (the named vectors at the joint coordinates), the loop-closure residual,
     and the IK coordinates as *inputs* of the IK program (solved by the runtime's Newton
-    method, :mod:`eigentwist.runtime.newton`; the IK program checks the closure).
+    method, :mod:`eigentwist.runtime.levenberg_marquardt`; the IK program checks the closure).
 
     ``coordinates``: (joint index, rate of its unit twist's coordinate per unit of q,
     freedom within the joint) of each coordinate: rate 1, a Pi joint's ``|bar|`` (m/rad).

@@ -12,7 +12,7 @@ predictions), :mod:`.compare` (errors, where a model fails), :mod:`.patterns` (w
 residual shape suggests), :mod:`.fit` (weighted least squares), :mod:`.stats` (the
 criteria), :mod:`.identifiable` (which parameters the data can fit), :mod:`.select` (ranking,
 forward selection, ties), :mod:`.misfit` (too few rows, the stated uncertainty, outliers),
-:mod:`.separate` (the next measurement), :mod:`.synth` (synthetic data), :mod:`.report`
+:mod:`.separate` (the next measurement), :mod:`.synth` (synthetic data), :mod:`.verdict`
 (text), :mod:`.render_json` (JSON), :mod:`.plots`.
 """
 from .compare import Comparison, compare

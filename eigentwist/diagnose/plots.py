@@ -13,7 +13,7 @@ import textwrap
 import numpy as np
 
 from ..outputs import atomic_path
-from ..plotting import pyplot
+from ..matplotlib_agg import pyplot
 from .predict import evaluate
 
 __all__ = ["plot_comparison", "plot_diagnosis", "model_curves"]

@@ -38,7 +38,7 @@ def step_json(s) -> dict:
 
 
 def _final(d) -> dict:
-    from .report import verdict_text
+    from .verdict import verdict_text
 
     f = d.final
     return {"effects": list(f.effects), "rms_pct": f.rms_pct, "max_pct": f.max_pct,

@@ -1,7 +1,7 @@
 """Which catalogue effect is missing: rank candidates, select forward, name every tie.
 
 ``diagnose(meas, baseline)`` returns plain data (:class:`Diagnosis`); the text
-(:mod:`.report`), the JSON (:mod:`.render_json`) and the HTML report render it.
+(:mod:`.verdict`), the JSON (:mod:`.render_json`) and the HTML report render it.
 
 1. **Too few rows** is decided before any ranking: a candidate with k parameters needs
    n > k + 2 rows (AICc is infinite otherwise); the ones that cannot be tested are named
@@ -167,7 +167,7 @@ class Alternative:
 
 @dataclass
 class Diagnosis:
-    """Result of :func:`diagnose`: plain data; rendered by :mod:`.report` (text) and
+    """Result of :func:`diagnose`: plain data; rendered by :mod:`.verdict` (text) and
     :mod:`.render_json` (``to_json()``).
 
     untestable : effect -> rows needed, for candidates these data have too few rows for.
@@ -220,7 +220,7 @@ class Diagnosis:
     @property
     def message(self) -> str:
         """The verdict in sentences (rendered by :func:`.report.verdict_text`)."""
-        from .report import verdict_text
+        from .verdict import verdict_text
 
         return verdict_text(self)
 
@@ -238,7 +238,7 @@ class Diagnosis:
     def text(self, show_rows: bool = False) -> str:
         """The diagnosis as the plain-text report the CLI prints."""
         from .evaluators import evaluator
-        from .report import diagnosis_text
+        from .verdict import diagnosis_text
 
         return diagnosis_text(self, evaluator(self.robot), show_rows)
 

@@ -1,6 +1,6 @@
 """The selection's significance rule for one candidate effect (used by the selection and its report).
 
-Its own module so that :mod:`.report` renders a diagnosis without importing :mod:`.select`.
+Its own module so that :mod:`.verdict` renders a diagnosis without importing :mod:`.select`.
 """
 from __future__ import annotations
 

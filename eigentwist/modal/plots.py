@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..outputs import atomic_path
-from ..plotting import pyplot
+from ..matplotlib_agg import pyplot
 
 __all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes", "MAX_PANELS"]
 

@@ -129,7 +129,7 @@ def modes_gif(ev, pose, path, model="paper", k_a: float = 2000.0, n_modes: int =
     ``FuncAnimation`` with the Pillow writer): one 3D panel per mode, ``frames`` per period."""
     from matplotlib.animation import FuncAnimation, PillowWriter
 
-    from ..plotting import pyplot
+    from ..matplotlib_agg import pyplot
 
     plt = pyplot()
     g, modes = mode_frames(ev, pose, model, k_a, n_modes, amplitude, **params)

@@ -17,7 +17,7 @@ import numpy as np
 import sympy as sp
 
 from ..outputs import atomic_path
-from ..plotting import pyplot
+from ..matplotlib_agg import pyplot
 
 __all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS",
            "stiffness_argument", "stiffness_text", "damped_text"]

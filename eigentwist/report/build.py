@@ -101,7 +101,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     from ..diagnose import compare, diagnose, load_measurements
     from ..diagnose.measurements import paper_csv, parse_csv
     from ..diagnose.values import used_parameters
-    from ..diagnose.report import failing_text
+    from ..diagnose.verdict import failing_text
     from ..plots import plot_comparison, plot_diagnosis
     from ..runtime import load
 

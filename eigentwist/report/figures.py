@@ -53,7 +53,7 @@ def lowest_frequency_map(ev, effects, pose, k_a: float, values: dict, grid: int 
 
 def lowest_frequency_png(ev, effects, pose, k_a: float, values: dict, measured_poses, title: str = "") -> bytes:
     """The map of :func:`lowest_frequency_map` as a PNG, the measured poses marked."""
-    from ..plotting import pyplot
+    from ..matplotlib_agg import pyplot
 
     plt = pyplot()
     m = lowest_frequency_map(ev, effects, pose, k_a, values)

@@ -178,7 +178,7 @@ class Evaluator:
         self._checked_defaults: set = set()    # parameters whose default _params has checked
         self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
         self._effect = {e: robot.effect(e) for e in robot.effects}
-        #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.cnewton`)
+        #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}           # (model, scalar values) -> resolved inputs (_params)
         self._kinds: dict = {}                 # effects -> "rigid" / "flexible" (kind)
@@ -265,7 +265,7 @@ class Evaluator:
         return hasattr(self.module, "loop_closure")
 
     def numeric_joints(self, poses, p: dict) -> dict:
-        """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.newton`: damped
+        """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.levenberg_marquardt`: damped
         Newton from the description's reference configuration, warm-started from the
         previous pose), as the IK kernel's inputs ``q<m>_<leg>`` ((N,) arrays, NaN where it
         does not converge: the IK's closure check then reports the pose unreachable)."""
@@ -277,7 +277,7 @@ class Evaluator:
         (legs solved numerically, :mod:`eigentwist.description.serial`).
 
         Returns ``{"q": (legs, n_q) the closed configuration connected to the reference
-        (:func:`~.newton.continuation`), "sign": (legs,) the sign of each leg's determinant
+        (:func:`~.levenberg_marquardt.continuation`), "sign": (legs,) the sign of each leg's determinant
         there (the branch every solution must keep), "residual": (legs,) |r| of the
         reference itself (m and rad)}``. Raises :class:`AssemblyError` naming the leg and
         the residual when a reference closes on no branch (a singularity between) or
@@ -286,7 +286,7 @@ class Evaluator:
         if "_assembly" in self.__dict__:
             return self.__dict__["_assembly"]
         from .errors import AssemblyError
-        from .newton import continuation, same_configuration, solve
+        from .levenberg_marquardt import continuation, same_configuration, solve
 
         reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
         x = self._poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
@@ -314,10 +314,6 @@ class Evaluator:
         self.__dict__["_assembly"] = record
         return record
 
-    def _newton_key(self, poses: np.ndarray, p: dict) -> tuple:
-        return (poses.tobytes(), tuple((k, np.asarray(v).tobytes()) for k, v in sorted(p.items())
-                                       if not k.startswith("q")))
-
     def _raise_off_branch(self, poses: np.ndarray, p: dict) -> None:
         """Raise :class:`UnreachablePoseError` for the first pose of the batch last solved
         whose Newton solution lies on another assembly branch than the one recorded at
@@ -338,9 +334,9 @@ class Evaluator:
             "description's reference puts the robot)")
 
     def solve_joints(self, poses, p: dict) -> np.ndarray:
-        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.newton.solve`),
+        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.levenberg_marquardt.solve`),
         on each leg's assembly branch recorded at x_ref (:meth:`assembly`)."""
-        from .newton import solve
+        from .levenberg_marquardt import solve
 
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
         key = self._newton_key(poses, p)
@@ -352,9 +348,9 @@ class Evaluator:
         signs = self.assembly()["sign"]
         iterate = None
         if self._fused and self.c_newton:
-            from . import cnewton
+            from . import c_levenberg_marquardt
 
-            if cnewton.driver() is not None:
+            if c_levenberg_marquardt.driver() is not None:
                 def iterate(q, pp, its, tl):
                     return self._kernels.newton(q, pp, its, tl, threads=self._nthreads())
         parts, offs = [], []
@@ -380,7 +376,7 @@ class Evaluator:
     @property
     def kernels(self):
         """The generated kernels of this backend: the NumPy module, or the C library's
-        :class:`~eigentwist.runtime.cbackend.CKernels` (same functions and outputs)."""
+        :class:`~eigentwist.runtime.c_kernels.CKernels` (same functions and outputs)."""
         return self._kernels
 
     def pose_inputs(self, poses: np.ndarray) -> dict:
@@ -498,7 +494,7 @@ class Evaluator:
         """The generated code's inputs: parameters, effect switches and each leg's copies.
 
         Scalar values are resolved once per (model, values): a repeated call gets the same
-        read-only 0-d arrays (which the C pass packs once, :mod:`.cbackend`)."""
+        read-only 0-d arrays (which the C pass packs once, :mod:`.c_kernels`)."""
         key = self._params_key(params, model)
         if key is not None:
             hit = self._params_memo.get(key)

@@ -1,7 +1,7 @@
 """Derivatives through coordinates that are solved, not written in closed form.
 
 Legs in URDF form have joint coordinates ``q`` defined implicitly by their loop closure
-``r(q, p) = 0`` (:mod:`.newton`). By the implicit function theorem,
+``r(q, p) = 0`` (:mod:`.levenberg_marquardt`). By the implicit function theorem,
 
     J_q dq/dp = -dr/dp,
 

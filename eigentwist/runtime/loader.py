@@ -111,7 +111,7 @@ def _with_backend(description, module, backend: str, robot: str, threads, source
     if backend == "numpy":
         return Evaluator(description, module, "numpy", threads=threads)
     try:
-        from .cbackend import load_c_kernels
+        from .c_kernels import load_c_kernels
     except ImportError:
         load_c_kernels = None
     if load_c_kernels is None:

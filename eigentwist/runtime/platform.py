@@ -6,7 +6,7 @@ rotation vector rot_x, rot_y, rot_z in rad). Any coordinate that is neither give
 follower is 0 (a planar platform's z, rot_x, rot_y). The followers of a lower-mobility
 space (a 3-PRS platform's x, y, rot_z) are solved per pose from the legs' closure
 equations (the generated ``followers`` kernel) by the damped Newton method of the legs'
-numeric IK (:func:`eigentwist.runtime.newton.solve`): batched over the poses from the
+numeric IK (:func:`eigentwist.runtime.levenberg_marquardt.solve`): batched over the poses from the
 reference (followers 0), then warm-started from the previous pose. A pose that still does
 not converge has NaN followers: the evaluator reports it unreachable.
 """
@@ -53,7 +53,7 @@ def _kernel_inputs(full: np.ndarray, p: dict) -> dict:
 
 
 def _follower_closure(closure, followers: list):
-    """The ``followers`` kernel as :func:`eigentwist.runtime.newton.solve` takes a closure:
+    """The ``followers`` kernel as :func:`eigentwist.runtime.levenberg_marquardt.solve` takes a closure:
     unknowns (n, 1, followers), the commanded full poses in ``p["_full"]`` (n, 6); residual
     (n, 1, closures) and its Jacobian (n, 1, closures, followers) by the rates along the twist
     of each follower (a position follower: a translation; a rotation-vector follower: the
@@ -81,10 +81,10 @@ def follow(closure, full: np.ndarray, followers: list, p: dict) -> np.ndarray:
     """Solve the followers (indices into ``FULL``) of the poses ``full`` (N, 6; the
     commanded coordinates set, the followers' starting values 0) so that every leg's
     closure vanishes; returns the completed (N, 6) poses, NaN followers where Newton did not
-    converge (:func:`eigentwist.runtime.newton.solve`: batched from the reference, then
+    converge (:func:`eigentwist.runtime.levenberg_marquardt.solve`: batched from the reference, then
     warm-started from the previous pose). ``closure(x, y, z, p)`` is the generated
     ``followers`` kernel; ``p`` holds the parameters as the kernels take them."""
-    from .newton import solve
+    from .levenberg_marquardt import solve
 
     full = np.array(full, dtype=float)
     q = solve(_follower_closure(closure, followers), np.zeros((1, len(followers))), {**p, "_full": full},

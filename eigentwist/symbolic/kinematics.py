@@ -112,7 +112,7 @@ def loop_closure(robot, q_all: list):
     chain does not end in a spherical joint), and ``dresidual`` (legs, rows, n_q): its
     exact Jacobian with respect to the leg's coordinates (forward mode through the
     program, :func:`~eigentwist.symbolic.program.derivative`), for the runtime's damped
-    Newton method (:mod:`eigentwist.runtime.newton`).
+    Newton method (:mod:`eigentwist.runtime.levenberg_marquardt`).
     """
     numeric = [hasattr(leg.kinematics, "residual") for leg in robot.legs]
     if not any(numeric):

@@ -310,20 +310,20 @@ class CKernels:
 
     def loop_closure(self, q, p: dict) -> dict:
         """Loop-closure ``residual`` (..., legs, rows) and its Jacobian ``dresidual`` of legs
-        solved numerically (:mod:`eigentwist.runtime.newton`); absent for closed-form IK."""
+        solved numerically (:mod:`eigentwist.runtime.levenberg_marquardt`); absent for closed-form IK."""
         if "loop_closure" not in self._spec:
             raise AttributeError("loop_closure")
         return self._q_kernel("loop_closure", q, p)
 
     def newton(self, q, p: dict, iterations: int, tol: float, threads: int = 1):
-        """``(q, |r|)``: the damped Newton iterations of :mod:`.newton` on this library's
-        ``loop_closure`` kernel, run in C (:mod:`.cnewton`); ``q`` (n, legs, n_q) starting
+        """``(q, |r|)``: the damped Newton iterations of :mod:`.levenberg_marquardt` on this library's
+        ``loop_closure`` kernel, run in C (:mod:`.c_levenberg_marquardt`); ``q`` (n, legs, n_q) starting
         coordinates, ``p`` the kernel's inputs ((n,) arrays or scalars); ``threads`` > 1
         runs ranges of whole blocks on threads (same results). None where the C driver
         cannot be built."""
-        from . import cnewton
+        from . import c_levenberg_marquardt
 
-        if "loop_closure" not in self._spec or cnewton.driver() is None:
+        if "loop_closure" not in self._spec or c_levenberg_marquardt.driver() is None:
             return None
         spec = self._spec["loop_closure"]
         n, legs, nq = np.shape(q)
@@ -342,7 +342,7 @@ class CKernels:
                 strides.append(st)
                 q_of.append(-1)
         rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
-        return cnewton.iterate(ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value, q_of, addresses,
+        return c_levenberg_marquardt.iterate(ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value, q_of, addresses,
                                strides, np.asarray(q, dtype=np.float64), rows, iterations, tol, threads)
 
     def gravity(self, q, p: dict) -> dict:

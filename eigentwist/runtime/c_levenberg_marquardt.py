@@ -1,7 +1,7 @@
-"""The damped Newton iterations of :mod:`.newton` in C, around a robot's compiled closure.
+"""The damped Newton iterations of :mod:`.levenberg_marquardt` in C, around a robot's compiled closure.
 
-:func:`iterate` (through :meth:`~eigentwist.runtime.cbackend.CKernels.newton`) runs the
-algorithm of :func:`eigentwist.runtime.newton._iterate` (the same Levenberg-Marquardt
+:func:`iterate` (through :meth:`~eigentwist.runtime.c_kernels.CKernels.newton`) runs the
+algorithm of :func:`eigentwist.runtime.levenberg_marquardt._iterate` (the same Levenberg-Marquardt
 steps, acceptance rule, damping updates, bounded steps and final undamped polish, per
 (pose, leg)) in one C call per batch: blocks of 64 poses, each iterated to convergence
 with its joint coordinates kept in a structure-of-arrays buffer that the generated
@@ -19,7 +19,7 @@ import ctypes
 
 import numpy as np
 
-from .newton import LAMBDA0, MAX_STEP
+from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
 __all__ = ["driver", "iterate", "SOURCE"]
 

@@ -1,7 +1,7 @@
 """C backend: render the kernels and a fused pose-to-frequency pipeline as one C source.
 
 Render only (a string comes back; nothing is written or compiled here: see
-``eigentwist.runtime.cbackend`` for compiling and loading). The source has
+``eigentwist.runtime.c_kernels`` for compiling and loading). The source has
 
 * one exported function per :class:`~eigentwist.codegen.kernel.Kernel`
   (``et_<robot>_<kernel>``), evaluating a batch of poses in blocks of ``ET_BLOCK``

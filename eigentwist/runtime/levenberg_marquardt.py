@@ -238,7 +238,7 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
         (:func:`continuation`); None: the reference configuration's own.
     report : also return the (n, legs) mask of solutions rejected for their branch.
     iterate : optional ``iterate(q, p, iterations, tol) -> (q, |r|)`` that runs this
-        module's iterations on ``closure`` by other means (the C driver, :mod:`.cnewton`).
+        module's iterations on ``closure`` by other means (the C driver, :mod:`.c_levenberg_marquardt`).
     """
     if iterate is None:
         def iterate(q, pp, its, tl):
