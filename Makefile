@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test test-fast generate check-generated bench mutate clean
+.PHONY: run test test-fast lint generate check-generated bench mutate clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,10 @@ test: $(VENV)/.installed-test
 test-fast: $(VENV)/.installed-test
 	EIGENTWIST_TEST_BACKEND=numpy $(BIN)/python -m pytest -n auto --dist loadgroup \
 		-m "not compiled and not browser and not slow and not derives" --durations=15
+
+## lint: ruff's lint rules and format check (configured in pyproject.toml)
+lint: $(VENV)/.installed-test
+	$(BIN)/ruff check . && $(BIN)/ruff format --check .
 
 ## generate: regenerate eigentwist/generated (checked in)
 generate: $(VENV)/.installed

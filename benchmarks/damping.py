@@ -14,6 +14,7 @@ effects' seeded study and the damped modes' throughput.
 4. Poses/s of ``Evaluator.modes`` with and without servo damping, same run, same poses (each
    pose its own k_a, so no two rows share a condition), NumPy and C backends.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -51,8 +52,10 @@ def paper_before_after(ev):
         d = diagnose(m, "rigid", ev=ev)
         f = d.final
         c = f"{f.values['c_a']:.2f} ± {f.std['c_a']:.2f}" if "c_a" in f.values else "-"
-        print(f"| {label} | {f.reduced_chi2:.2f} | {f.rms_pct:.2f} | {', '.join(d.selected)} | {c} |"
-              f" <!-- {time.process_time() - t:.1f} s CPU -->")
+        print(
+            f"| {label} | {f.reduced_chi2:.2f} | {f.rms_pct:.2f} | {', '.join(d.selected)} | {c} |"
+            f" <!-- {time.process_time() - t:.1f} s CPU -->"
+        )
 
 
 def servo_alternatives(ev):
@@ -63,17 +66,21 @@ def servo_alternatives(ev):
     print(_line("no damping", fit(meas, PAPER, ev, k_e)))
     print(_line("c_a = 3 (stated)", fit(meas, PAPER + ("servo_damping",), ev, k_e, fixed={"c_a": 3.0})))
     print(_line("c_a fitted", fit(meas, PAPER + ("servo_damping",), ev, k_e + ("c_a",))))
-    lag = fit(meas, PAPER + ("servo_damping", "servo_delay"), ev, k_e + ("t_d",), fixed={"c_a": 3.0},
-              start={"t_d": 1e-3})
+    lag = fit(
+        meas, PAPER + ("servo_damping", "servo_delay"), ev, k_e + ("t_d",), fixed={"c_a": 3.0}, start={"t_d": 1e-3}
+    )
     print(_line("c_a = 3, t_d fitted", lag))
     both = fit(meas, PAPER + ("servo_damping", "servo_delay"), ev, k_e + ("c_a", "t_d"), start={"t_d": 1e-3})
     print(_line("c_a and t_d fitted", both))
     ka = np.array([1000.0, 2000.0, 2200.0, 2400.0, 3000.0, 4000.0])
     for label, f in (("c_a = 3, t_d fitted", lag), ("both fitted", both)):
-        m = ev.modes(np.tile(X_REF, (len(ka), 1)), PAPER + ("servo_damping", "servo_delay"), k_a=ka, vectors=False,
-                     **f.fixed)
-        print(f"\n{label}: stable at k_a = {ka[m.stable].tolist()}, unstable at {ka[~m.stable].tolist()} "
-              f"(c_a / t_d = {f.fixed.get('c_a', 3.0) / f.fixed['t_d']:.0f} N m/rad)")
+        m = ev.modes(
+            np.tile(X_REF, (len(ka), 1)), PAPER + ("servo_damping", "servo_delay"), k_a=ka, vectors=False, **f.fixed
+        )
+        print(
+            f"\n{label}: stable at k_a = {ka[m.stable].tolist()}, unstable at {ka[~m.stable].tolist()} "
+            f"(c_a / t_d = {f.fixed.get('c_a', 3.0) / f.fixed['t_d']:.0f} N m/rad)"
+        )
 
 
 def seeded_study(ev):

@@ -9,6 +9,7 @@ that other work on the machine does not inflate them; the walkthrough's 30-row f
 the ``rigid`` model (28 candidates: the full catalogue, each leg-level effect also on each
 leg alone) and from ``paper`` (25).
 """
+
 from __future__ import annotations
 
 import os
@@ -45,16 +46,25 @@ def seeds(ev, names, n) -> None:
 def timing() -> None:
     for backend in ("c", "numpy"):
         ev = eigentwist.load("heli4", backend=backend)
-        meas = synth("paper+payload_mass:m_p=0.35", (250, 500, 1000, 2000, 4000), ((0, 0, -0.625), (0.06, -0.04, -0.6)),
-                     ("x", "y", "z"), 0.005, seed=3, ev=ev)
+        meas = synth(
+            "paper+payload_mass:m_p=0.35",
+            (250, 500, 1000, 2000, 4000),
+            ((0, 0, -0.625), (0.06, -0.04, -0.6)),
+            ("x", "y", "z"),
+            0.005,
+            seed=3,
+            ev=ev,
+        )
         for baseline in ("rigid", "paper"):
             best = float("inf")
             for _ in range(3):
                 t = time.process_time()
                 d = diagnose(meas, baseline, ev=ev)
                 best = min(best, time.process_time() - t)
-            print(f"30-row diagnosis, backend {backend}, from {baseline} ({len(d.ranking)} candidates): "
-                  f"{best:.2f} s CPU; selected {', '.join(d.selected)}")
+            print(
+                f"30-row diagnosis, backend {backend}, from {baseline} ({len(d.ranking)} candidates): "
+                f"{best:.2f} s CPU; selected {', '.join(d.selected)}"
+            )
 
 
 def main() -> None:

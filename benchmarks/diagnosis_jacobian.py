@@ -17,6 +17,7 @@ machine inflates wall time, not CPU time), the fits by Jacobian kind (exact, or
 differences with the reason), the batched evaluations (nfev), the selected effects and the
 largest relative difference of a fitted value between the two kinds. One thread.
 """
+
 from __future__ import annotations
 
 import os
@@ -73,8 +74,15 @@ def _data(ev):
 
     return {
         "paper data": paper_measurements(ev),
-        "synthetic 30 rows": synth("paper+payload_mass:m_p=0.35", (250, 500, 1000, 2000, 4000),
-                                   ((0, 0, -0.625), (0.06, -0.04, -0.6)), ("x", "y", "z"), 0.005, seed=3, ev=ev),
+        "synthetic 30 rows": synth(
+            "paper+payload_mass:m_p=0.35",
+            (250, 500, 1000, 2000, 4000),
+            ((0, 0, -0.625), (0.06, -0.04, -0.6)),
+            ("x", "y", "z"),
+            0.005,
+            seed=3,
+            ev=ev,
+        ),
     }
 
 
@@ -84,6 +92,7 @@ def _fitted(d) -> dict:
 
 def _run(meas, ev, exact: bool, rec: _Recorder):
     from eigentwist.diagnose import diagnose
+
     fit_module = importlib.import_module("eigentwist.diagnose.fit")
 
     fit_module.EXACT_JACOBIAN = exact
@@ -102,6 +111,7 @@ def _cpu() -> float:
 
 def bench(backend: str, repeat: int) -> None:
     import eigentwist
+
     fit_module = importlib.import_module("eigentwist.diagnose.fit")
     from eigentwist.runtime import sensitivity as sens
 
@@ -111,7 +121,7 @@ def bench(backend: str, repeat: int) -> None:
     rec = _Recorder(fit_module)
     for name, meas in _data(ev).items():
         print(f"{name} ({len(meas)} rows), backend {backend}, from rigid:")
-        if name == "paper data":                       # the first exact run pays the generation
+        if name == "paper data":  # the first exact run pays the generation
             cpu, d, what = _run(meas, ev, True, rec)
             print(f"  cold cache, exact:        {cpu:7.2f} s CPU  {what}; selected {', '.join(d.selected)}")
         runs = {}
@@ -127,8 +137,10 @@ def bench(backend: str, repeat: int) -> None:
         a, b = _fitted(runs[False][1]), _fitted(runs[True][1])
         same = runs[False][1].selected == runs[True][1].selected
         diff = max((abs(b[k] - a[k]) / max(abs(a[k]), 1e-300) for k in a if k in b), default=0.0)
-        print(f"  speed-up (differences / exact, warm): {runs[False][0] / runs[True][0]:.2f}x; same selection: "
-              f"{same}; largest relative difference of a fitted value: {diff:.1e}")
+        print(
+            f"  speed-up (differences / exact, warm): {runs[False][0] / runs[True][0]:.2f}x; same selection: "
+            f"{same}; largest relative difference of a fitted value: {diff:.1e}"
+        )
     fit_module.EXACT_JACOBIAN = True
 
 

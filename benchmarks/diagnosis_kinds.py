@@ -18,6 +18,7 @@ effects. The cases:
   eta_a@3 = 0.5) instead of the payload, from ``--baseline paper``;
 * ``hexapod``: the hexapod with an 8 kg payload (2 k_a x 2 poses x 6 modes, 0.2 % noise).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -31,10 +32,38 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-WALK = ["--k-a", "250,500,1000,2000,4000", "--pose", "0", "0", "-0.625", "--pose", "0.06", "-0.04", "-0.6",
-        "--modes", "x,y,z", "--noise", "0.5%", "--seed", "3"]
-HEX = ["--robot", "hexapod", "--k-a", "1e7,2e7", "--poses", "0,0,0.8,0,0,0;0.05,0,0.78,0,0.05,0.1",
-       "--modes", "1,2,3,4,5,6", "--noise", "0.2%", "--seed", "1"]
+WALK = [
+    "--k-a",
+    "250,500,1000,2000,4000",
+    "--pose",
+    "0",
+    "0",
+    "-0.625",
+    "--pose",
+    "0.06",
+    "-0.04",
+    "-0.6",
+    "--modes",
+    "x,y,z",
+    "--noise",
+    "0.5%",
+    "--seed",
+    "3",
+]
+HEX = [
+    "--robot",
+    "hexapod",
+    "--k-a",
+    "1e7,2e7",
+    "--poses",
+    "0,0,0.8,0,0,0;0.05,0,0.78,0,0.05,0.1",
+    "--modes",
+    "1,2,3,4,5,6",
+    "--noise",
+    "0.2%",
+    "--seed",
+    "1",
+]
 CASES = {
     "paper": (None, ["paper"]),
     "walkthrough": (["--truth", "paper+payload_mass:m_p=0.35", *WALK], ["{csv}", "--baseline", "paper"]),
@@ -44,8 +73,14 @@ CASES = {
 
 
 def _env(cache: Path) -> dict:
-    env = dict(os.environ, EIGENTWIST_CACHE=str(cache), OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
-               MKL_NUM_THREADS="1", PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(
+        os.environ,
+        EIGENTWIST_CACHE=str(cache),
+        OMP_NUM_THREADS="1",
+        OPENBLAS_NUM_THREADS="1",
+        MKL_NUM_THREADS="1",
+        PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    )
     return env
 
 
@@ -53,8 +88,9 @@ def _cli(args, env) -> tuple[float, float, str]:
     """(CPU s, wall s, stdout) of one ``python -m eigentwist ARGS`` process."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, "-m", "eigentwist", *args], env=env, check=True, capture_output=True,
-                         text=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "eigentwist", *args], env=env, check=True, capture_output=True, text=True
+    ).stdout
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime, wall, out
@@ -81,8 +117,11 @@ def main(argv=None) -> int:
                     selected[kind] = json.loads(out)["final"]["effects"]
                     rows.append((case, kind, run, cpu, wall))
                     print(f"{case:12s} {kind:12s} {run:5s} CPU {cpu:6.1f} s  wall {wall:6.1f} s", flush=True)
-            print(f"{case:12s} same selection: {selected['differences'] == selected['exact']} "
-                  f"({', '.join(selected['differences'])})", flush=True)
+            print(
+                f"{case:12s} same selection: {selected['differences'] == selected['exact']} "
+                f"({', '.join(selected['differences'])})",
+                flush=True,
+            )
     print("\n| case | Jacobian | cold CPU (s) | warm CPU (s) |\n|---|---|---|---|")
     for case in dict.fromkeys(r[0] for r in rows):
         for kind in ("differences", "exact"):

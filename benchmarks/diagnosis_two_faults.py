@@ -11,6 +11,7 @@
   paper's measurements from ``rigid`` (``eigentwist diagnose paper``) and of the README
   walkthrough (30 rows, a hidden payload).
 """
+
 from __future__ import annotations
 
 import os
@@ -45,9 +46,11 @@ def two_faults(n: int) -> None:
             right += ok
             changed += bool(getattr(d, "search", None) and d.search.changed)
             print(f"  {name} seed {seed}: {'right' if ok else 'WRONG'} {cpu[-1]:.1f} s CPU; {why}", flush=True)
-        print(f"{name}: right in {right}/{n} seeds; search changed the stepwise result in {changed}; "
-              f"CPU per diagnosis {min(cpu):.1f}-{max(cpu):.1f} s (median {sorted(cpu)[len(cpu) // 2]:.1f} s)",
-              flush=True)
+        print(
+            f"{name}: right in {right}/{n} seeds; search changed the stepwise result in {changed}; "
+            f"CPU per diagnosis {min(cpu):.1f}-{max(cpu):.1f} s (median {sorted(cpu)[len(cpu) // 2]:.1f} s)",
+            flush=True,
+        )
 
 
 def clean(n: int) -> None:
@@ -61,8 +64,10 @@ def timing() -> None:
     ev = eigentwist.load("heli4", backend="auto")
     paper = paper_measurements(ev)
     walk = synth("paper+payload_mass:m_p=0.35", cases.KA, cases.POSES, cases.XYZ, 0.005, seed=3, ev=ev)
-    for what, meas, baseline in (("paper's measurements from rigid", paper, "rigid"),
-                                 ("README walkthrough from paper", walk, "paper")):
+    for what, meas, baseline in (
+        ("paper's measurements from rigid", paper, "rigid"),
+        ("README walkthrough from paper", walk, "paper"),
+    ):
         best = float("inf")
         for _ in range(3):
             t = time.process_time()

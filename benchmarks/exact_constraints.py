@@ -9,6 +9,7 @@ backends, 30 and 2000 poses; and the largest relative change of a finite frequen
 
     PYTHONPATH=. python benchmarks/exact_constraints.py
 """
+
 from __future__ import annotations
 
 import time
@@ -38,15 +39,17 @@ def main() -> None:
                 repeat = 50 if n == 30 else 5
                 f = ev.frequencies(P, model)
                 exact = _cpu(lambda: ev.frequencies(P, model), repeat)
-                ev._route = lambda effects, params: (params, False)        # the penalty route of before
+                ev._route = lambda effects, params: (params, False)  # the penalty route of before
                 try:
                     g = ev.frequencies(P, model)
                     penalty = _cpu(lambda: ev.frequencies(P, model), repeat)
                 finally:
                     del ev._route
                 finite = f < 1e5
-                print(f"{backend:5s} N={n:5d} {model:28s} exact {exact * 1e3:7.2f} ms  penalty {penalty * 1e3:7.2f} ms"
-                      f"  ({exact / penalty:4.1f}x)  max |df/f| {np.abs(f[finite] / g[finite] - 1).max():.1e}")
+                print(
+                    f"{backend:5s} N={n:5d} {model:28s} exact {exact * 1e3:7.2f} ms  penalty {penalty * 1e3:7.2f} ms"
+                    f"  ({exact / penalty:4.1f}x)  max |df/f| {np.abs(f[finite] / g[finite] - 1).max():.1e}"
+                )
 
 
 if __name__ == "__main__":

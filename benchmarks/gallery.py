@@ -14,6 +14,7 @@ URDF-form robot's its legs' numeric IK. Figures are poses per CPU-second of the 
 (``time.process_time``, BLAS on one thread), the best of R repetitions: a shared machine
 stretches wall time, not CPU time.
 """
+
 from __future__ import annotations
 
 import os
@@ -41,7 +42,7 @@ def fresh_batches(ev, box: np.ndarray, n: int, repeat: int, model: str = "none",
     while len(pool) < n * repeat:
         draw = box[:, 0] + (box[:, 1] - box[:, 0]) * rng.random((2 * n * repeat, len(box)))
         pool = np.concatenate([pool, draw[ev.valid(draw, model)]])
-    return [pool[k * n:(k + 1) * n] for k in range(repeat)]
+    return [pool[k * n : (k + 1) * n] for k in range(repeat)]
 
 
 def fresh_rate(ev, box: np.ndarray, n: int, repeat: int, model: str = "none", seed: int = 0) -> float:
@@ -83,8 +84,11 @@ def main(argv=None) -> None:
         ev = eigentwist.load(str(path), backend=args.backend, threads=1, progress=None)
         home = ev.frequencies(np.array([robot.x_ref]), "none")[0]
         rate = fresh_rate(ev, np.array(robot.workspace), args.n, args.repeat)
-        print(f"{robot.name}: {gen}at home {np.round(home, 2).tolist()} Hz (k_a only); "
-              f"{rate:,.0f} poses/s per CPU-s ({rate / ref:.1%} of the hexapod)", flush=True)
+        print(
+            f"{robot.name}: {gen}at home {np.round(home, 2).tolist()} Hz (k_a only); "
+            f"{rate:,.0f} poses/s per CPU-s ({rate / ref:.1%} of the hexapod)",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

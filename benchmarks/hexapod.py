@@ -8,6 +8,7 @@ default model (``paper``: the actuator loss eta_a = 0.82) and without any effect
 times poses -> six frequencies through ``eigentwist.load("hexapod")`` on one core
 (``threads=1``): the C backend's fused pass and the NumPy backend, same poses, same run.
 """
+
 from __future__ import annotations
 
 import sys
@@ -44,8 +45,10 @@ def main(n: int = 200_000) -> None:
     t0 = time.perf_counter()
     render_robot("hexapod", timings=timings)
     t = timings["hexapod"]
-    print(f"generation: {time.perf_counter() - t0:.1f} s (derive {t['derive_s']:.1f} s, CSE {t['cse_s']:.1f} s, "
-          f"render {t['emit_s']:.1f} s)")
+    print(
+        f"generation: {time.perf_counter() - t0:.1f} s (derive {t['derive_s']:.1f} s, CSE {t['cse_s']:.1f} s, "
+        f"render {t['emit_s']:.1f} s)"
+    )
     c = eigentwist.load("hexapod", backend="c", threads=1)
     py = eigentwist.load("hexapod", backend="numpy")
     np.set_printoptions(precision=2, suppress=True, linewidth=120)

@@ -9,6 +9,7 @@ Times, best of 3, wall and CPU (one BLAS thread, as ``identify`` runs):
 * one setting of each synthetic layout (triaxial, uniaxial, roving-hammer, shaker) of
   ``eigentwist synth --uff`` (the paper's Heli4 with a 0.35 kg payload, 1 % noise).
 """
+
 from __future__ import annotations
 
 import sys
@@ -37,20 +38,34 @@ def main() -> None:
     frfs = read_uff(ROOT / "tests" / "data" / "measured_beam" / "beam_accelerance.uff")
     wall, cpu, res = best(lambda: identify_frfs(frfs))
     modes = sorted(res.modes, key=lambda m: m.freq_hz)
-    print(f"measured beam ({frfs.H.shape[0]} lines, {frfs.H.shape[1]} FRFs): {len(modes)} modes, "
-          f"wall {wall:.2f} s, CPU {cpu:.2f} s")
+    print(
+        f"measured beam ({frfs.H.shape[0]} lines, {frfs.H.shape[1]} FRFs): {len(modes)} modes, "
+        f"wall {wall:.2f} s, CPU {cpu:.2f} s"
+    )
     for m in modes:
-        print(f"  {m.freq_hz:9.3f} Hz  zeta {100 * m.damping_ratio:.3f} %  sigma {m.sigma_hz:.3g} Hz  "
-              f"({m.orders} stable orders)")
+        print(
+            f"  {m.freq_hz:9.3f} Hz  zeta {100 * m.damping_ratio:.3f} %  sigma {m.sigma_hz:.3g} Hz  "
+            f"({m.orders} stable orders)"
+        )
     ev = evaluator("heli4")
     with tempfile.TemporaryDirectory() as tmp:
         for layout in ("triaxial", "uniaxial", "roving-hammer", "shaker"):
-            manifest = synth_campaign("paper+payload_mass:m_p=0.35", [1000.0], [[0.06, -0.04, -0.6]],
-                                      Path(tmp) / layout, ev, noise="1%", seed=1, layout=layout)
+            manifest = synth_campaign(
+                "paper+payload_mass:m_p=0.35",
+                [1000.0],
+                [[0.06, -0.04, -0.6]],
+                Path(tmp) / layout,
+                ev,
+                noise="1%",
+                seed=1,
+                layout=layout,
+            )
             one = read_uff(manifest.parent / "setting_01.uff")
             wall, cpu, res = best(lambda: identify_frfs(one))
-            print(f"{layout:>13}: {one.H.shape[1]:2d} FRFs x {one.H.shape[0]} lines, {len(res.modes)} modes, "
-                  f"wall {wall:.2f} s, CPU {cpu:.2f} s")
+            print(
+                f"{layout:>13}: {one.H.shape[1]:2d} FRFs x {one.H.shape[0]} lines, {len(res.modes)} modes, "
+                f"wall {wall:.2f} s, CPU {cpu:.2f} s"
+            )
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ frequencies with 1 % noise), then runs the command in a fresh process under
 
 Figures: benchmarks/README.md ("Large measurement files").
 """
+
 from __future__ import annotations
 
 import re
@@ -42,15 +43,21 @@ def run(command: str, n: int, extra: list[str]) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp) / f"m{n}.csv"
         write_csv(data, n)
-        res = subprocess.run(["/usr/bin/time", "-v", sys.executable, "-m", "eigentwist", command, str(data), *extra],
-                             capture_output=True, text=True)
+        res = subprocess.run(
+            ["/usr/bin/time", "-v", sys.executable, "-m", "eigentwist", command, str(data), *extra],
+            capture_output=True,
+            text=True,
+        )
     if res.returncode != 0:
         raise SystemExit(res.stderr[-2000:])
     field = lambda name: re.search(rf"{name}: (.+)", res.stderr).group(1).strip()  # noqa: E731
     wall = field(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\)").split(":")
-    return {"rows": n, "wall_s": sum(float(v) * 60 ** k for k, v in enumerate(reversed(wall))),
-            "cpu_s": float(field("User time \\(seconds\\)")) + float(field("System time \\(seconds\\)")),
-            "peak_rss_mb": int(field("Maximum resident set size \\(kbytes\\)")) / 1024}
+    return {
+        "rows": n,
+        "wall_s": sum(float(v) * 60**k for k, v in enumerate(reversed(wall))),
+        "cpu_s": float(field("User time \\(seconds\\)")) + float(field("System time \\(seconds\\)")),
+        "peak_rss_mb": int(field("Maximum resident set size \\(kbytes\\)")) / 1024,
+    }
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ over random poses of the workspace box; the numeric IK's Newton iterations run i
 around the generated C ``loop_closure`` kernel. ``--generate`` also times the derivation,
 CSE and rendering of the URDF-form Heli4 and hexapod (``render_robot``, no compiling).
 """
+
 from __future__ import annotations
 
 import os
@@ -21,7 +22,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -59,7 +59,7 @@ def main(argv=None) -> None:
         closed = eigentwist.load(name, backend="c", threads=1)
         numeric = eigentwist.load(make(), backend="c", threads=1, progress=quiet)
         poses = random_poses(closed.robot, args.n, seed=1)
-        model = "rigid" if name == "heli4" else "paper"   # the URDF Heli4 has no rods, effects or couplings
+        model = "rigid" if name == "heli4" else "paper"  # the URDF Heli4 has no rods, effects or couplings
         for label, ev in (("closed-form", closed), ("numeric", numeric)):
             t = cpu(lambda k: ev.frequencies(poses + 1e-9 * k, model))
             print(f"{name} {label} IK: {args.n / t:,.0f} poses/s ({model}, one core)")

@@ -13,6 +13,7 @@ Extra end-to-end rows: the validated evaluator API on both backends and the chec
 fast path ``fused_frequencies``. Every pipeline writes full (N, 6, 6) M and K_F arrays (or
 (N, 6) frequencies), so memory figures compare like with like.
 """
+
 from __future__ import annotations
 
 import time
@@ -34,7 +35,7 @@ class Pipeline:
     label: str
     matrices: Callable | None
     frequencies: Callable | None
-    setup: dict = field(default_factory=dict)       # generation / compile times, s
+    setup: dict = field(default_factory=dict)  # generation / compile times, s
 
 
 def _upper_to_full(vals, n_poses):
@@ -69,9 +70,12 @@ def per_pose(params: dict) -> Pipeline:
             t_eig += t2 - t1
         return {"M": M, "K_F": K, "freq": F}, t_mat, t_mat + t_eig
 
-    pipe = Pipeline("per_pose", "(a) per-pose NumPy loop (reference_loop.py)",
-                    lambda poses: ref.matrices_loop(poses, params),
-                    lambda poses: ref.frequencies_loop(poses, params))
+    pipe = Pipeline(
+        "per_pose",
+        "(a) per-pose NumPy loop (reference_loop.py)",
+        lambda poses: ref.matrices_loop(poses, params),
+        lambda poses: ref.frequencies_loop(poses, params),
+    )
     pipe.timed = timed
     return pipe
 
@@ -85,15 +89,18 @@ def lambdify_pipeline(derived, params: dict) -> Pipeline:
     t0 = time.perf_counter()
     q_exprs = derived.ik.expand(sp.Matrix(derived.ik_outputs["q"][1]))
     (_, M), (_, K) = derived.outputs["matrices"]["M"], derived.outputs["matrices"]["K_F"]
-    upper = [M[i * 6 + j] for i in range(6) for j in range(i, 6)] + [K[i * 6 + j] for i in range(6) for j in range(i, 6)]
+    upper = [M[i * 6 + j] for i in range(6) for j in range(i, 6)] + [
+        K[i * 6 + j] for i in range(6) for j in range(i, 6)
+    ]
     mk_exprs = derived.program.expand(sp.Matrix(upper))
     t1 = time.perf_counter()
     pose_syms = list(derived.ik.inputs[:3])
     names = [s.name for s in derived.program.inputs if s not in derived.joints]
     ik_args = pose_syms + [s for s in derived.ik.inputs[3:]]
     ik_f = sp.lambdify(ik_args, list(q_exprs), modules="numpy", cse=True)
-    mk_f = sp.lambdify(list(derived.joints) + [sp.Symbol(n, real=True) for n in names], list(mk_exprs),
-                       modules="numpy", cse=True)
+    mk_f = sp.lambdify(
+        list(derived.joints) + [sp.Symbol(n, real=True) for n in names], list(mk_exprs), modules="numpy", cse=True
+    )
     t2 = time.perf_counter()
     ik_vals = [params[s.name] for s in derived.ik.inputs[3:]]
     mk_vals = [params[n] for n in names]
@@ -102,23 +109,28 @@ def lambdify_pipeline(derived, params: dict) -> Pipeline:
         n = len(poses)
         out = {"M": np.empty((n, 6, 6)), "K_F": np.empty((n, 6, 6))}
         for s in range(0, n, CHUNK):
-            P = poses[s:s + CHUNK]
+            P = poses[s : s + CHUNK]
             m = len(P)
             q = [np.broadcast_to(v, (m,)) for v in ik_f(P[:, 0], P[:, 1], P[:, 2], *ik_vals)]
             vals = [np.broadcast_to(v, (m,)) for v in mk_f(*q, *mk_vals)]
-            out["M"][s:s + m] = _upper_to_full(vals[:21], m)
-            out["K_F"][s:s + m] = _upper_to_full(vals[21:], m)
+            out["M"][s : s + m] = _upper_to_full(vals[:21], m)
+            out["K_F"][s : s + m] = _upper_to_full(vals[21:], m)
         return out
 
     def frequencies(poses):
         out = np.empty((len(poses), 6))
         for s in range(0, len(poses), CHUNK):
-            m = matrices(poses[s:s + CHUNK])
-            out[s:s + CHUNK] = frequencies_hz(generalized_eigvalsh(m["K_F"], m["M"]))
+            m = matrices(poses[s : s + CHUNK])
+            out[s : s + CHUNK] = frequencies_hz(generalized_eigvalsh(m["K_F"], m["M"]))
         return out
 
-    return Pipeline("lambdify", "(b) sympy.lambdify(cse=True), chunks of 4096", matrices, frequencies,
-                    {"expand_s": t1 - t0, "lambdify_s": t2 - t1})
+    return Pipeline(
+        "lambdify",
+        "(b) sympy.lambdify(cse=True), chunks of 4096",
+        matrices,
+        frequencies,
+        {"expand_s": t1 - t0, "lambdify_s": t2 - t1},
+    )
 
 
 def numpy_pipeline(module, params: dict) -> Pipeline:
@@ -129,20 +141,20 @@ def numpy_pipeline(module, params: dict) -> Pipeline:
         n = len(poses)
         out = {"M": np.empty((n, 6, 6)), "K_F": np.empty((n, 6, 6))}
         for s in range(0, n, CHUNK):
-            P = poses[s:s + CHUNK]
+            P = poses[s : s + CHUNK]
             q = module.inverse_kinematics(P[:, 0], P[:, 1], P[:, 2], params)["q"]
             m = module.matrices(q, params)
-            out["M"][s:s + len(P)] = m["M"]
-            out["K_F"][s:s + len(P)] = m["K_F"]
+            out["M"][s : s + len(P)] = m["M"]
+            out["K_F"][s : s + len(P)] = m["K_F"]
         return out
 
     def frequencies(poses):
         out = np.empty((len(poses), 6))
         for s in range(0, len(poses), CHUNK):
-            P = poses[s:s + CHUNK]
+            P = poses[s : s + CHUNK]
             q = module.inverse_kinematics(P[:, 0], P[:, 1], P[:, 2], params)["q"]
             m = module.matrices(q, params)
-            out[s:s + len(P)] = frequencies_hz(generalized_eigvalsh(m["K_F"], m["M"]))
+            out[s : s + len(P)] = frequencies_hz(generalized_eigvalsh(m["K_F"], m["M"]))
         return out
 
     return Pipeline("numpy", "(c) generated NumPy module, chunks of 4096", matrices, frequencies)
@@ -159,8 +171,13 @@ def c_pipeline(kernels, params: dict) -> Pipeline:
         x, y, z = (np.ascontiguousarray(poses[:, k]) for k in range(3))
         return kernels.fused(x, y, z, params, matrices=(), model="flexible")["freq_hz"]
 
-    return Pipeline("c", "(d) generated C library, fused (IK, M, K_F, Cholesky + Jacobi)", matrices, frequencies,
-                    {"compile_s": getattr(kernels, "compile_s", float("nan"))})
+    return Pipeline(
+        "c",
+        "(d) generated C library, fused (IK, M, K_F, Cholesky + Jacobi)",
+        matrices,
+        frequencies,
+        {"compile_s": getattr(kernels, "compile_s", float("nan"))},
+    )
 
 
 def extra_pipelines(ev_numpy, ev_c, kernels, params: dict) -> list[Pipeline]:
@@ -171,9 +188,17 @@ def extra_pipelines(ev_numpy, ev_c, kernels, params: dict) -> list[Pipeline]:
         return kernels.fused_frequencies(x, y, z, params)["freq_hz"]
 
     return [
-        Pipeline("evaluator_numpy", "Evaluator.frequencies, NumPy backend (validated)", None,
-                 lambda poses: ev_numpy.frequencies(poses)),
-        Pipeline("evaluator_c", "Evaluator.frequencies, C backend (validated, checks in the C pass, one thread)", None,
-                 lambda poses: ev_c.frequencies(poses)),
+        Pipeline(
+            "evaluator_numpy",
+            "Evaluator.frequencies, NumPy backend (validated)",
+            None,
+            lambda poses: ev_numpy.frequencies(poses),
+        ),
+        Pipeline(
+            "evaluator_c",
+            "Evaluator.frequencies, C backend (validated, checks in the C pass, one thread)",
+            None,
+            lambda poses: ev_c.frequencies(poses),
+        ),
         Pipeline("c_checked", "C fused_frequencies (reachability and lever checked)", None, checked),
     ]

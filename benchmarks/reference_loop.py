@@ -16,6 +16,7 @@ Where eigentwist uses closed forms, this uses plain numerics:
 
 Units: SI (m, rad, kg, N); frequencies in Hz. Parameter names are eigentwist's.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -65,7 +66,7 @@ def _to_local(rotation, origin):
     A = np.zeros((6, 6))
     A[:3, :3] = Rt
     A[3:, 3:] = Rt
-    A[3:, :3] = -Rt @ S          # v_local = R^T (v + w x o) = R^T v - R^T [o]x w
+    A[3:, :3] = -Rt @ S  # v_local = R^T (v + w x o) = R^T v - R^T [o]x w
     return A
 
 
@@ -166,17 +167,27 @@ def matrices(pose, p: dict, effects=PAPER) -> dict:
         w = np.cos(q1 + q2) * u - np.sin(q1 + q2) * EZ
         r2 = np.cos(q3) * w + np.sin(q3) * s
         s3 = np.cos(q3) * s - np.sin(q3) * w
-        s4 = _unit(np.cross(np.cross(r2, s), s))                      # misprint 3: normalised
+        s4 = _unit(np.cross(np.cross(r2, s), s))  # misprint 3: normalised
         elbow = a - p["l2"] * r2
         base = elbow - p["l1"] * r1
         f5 = np.cross(np.cross(r1, s), s3)
         c = _unit(np.cross(np.cross(f5, s4), s4))
-        T = np.column_stack([_twist(s, base), _twist(s, elbow), np.concatenate([np.zeros(3), s3]),
-                             _twist(s4, a), _twist(s, a), _twist(c, a)])  # App. A
-        Jinv = np.linalg.inv(T)                                         # Eq. 15 (facts file)
+        T = np.column_stack(
+            [
+                _twist(s, base),
+                _twist(s, elbow),
+                np.concatenate([np.zeros(3), s3]),
+                _twist(s4, a),
+                _twist(s, a),
+                _twist(c, a),
+            ]
+        )  # App. A
+        Jinv = np.linalg.inv(T)  # Eq. 15 (facts file)
         # inertia, Eqs. 9, 24, 30, 32: body twist = (first j twists) (their joint rates)
-        for M_local, frame, j in ((M1, (np.column_stack([r1, s, np.cross(r1, s)]), base), 1),
-                                  (M3, (np.column_stack([r2, s3, np.cross(r2, s3)]), elbow + p["l2"] / 2 * r2), 3)):
+        for M_local, frame, j in (
+            (M1, (np.column_stack([r1, s, np.cross(r1, s)]), base), 1),
+            (M3, (np.column_stack([r2, s3, np.cross(r2, s3)]), elbow + p["l2"] / 2 * r2), 3),
+        ):
             body = _to_local(*frame) @ T[:, :j] @ Jinv[:j]
             M += body.T @ M_local @ body
         # rigid-body stiffness, Eqs. 14, 33, 34
@@ -186,20 +197,20 @@ def matrices(pose, p: dict, effects=PAPER) -> dict:
         Ad = _to_ee(np.column_stack([r2, s3, np.cross(r2, s3)]), a)
         Cs = np.zeros((6, 6))
         if "rod_compliance" in effects:
-            Cs += Ad @ _rod_pair_compliance(p, q3) @ Ad.T               # Eq. 44
+            Cs += Ad @ _rod_pair_compliance(p, q3) @ Ad.T  # Eq. 44
         if "ee_compliance" in effects:
             C_ltp = np.zeros((6, 6))
             if i < 2:
-                C_ltp[1, 1] = 1 / (0.5 * p["k_E_rot"])                  # Eqs. 45, 46
+                C_ltp[1, 1] = 1 / (0.5 * p["k_E_rot"])  # Eqs. 45, 46
             else:
-                C_ltp[4, 4] = 1 / (0.5 * p["k_E_lin"])                  # Eqs. 47, 48
+                C_ltp[4, 4] = 1 / (0.5 * p["k_E_lin"])  # Eqs. 47, 48
             Ad_ltp = _to_ee(np.eye(3), np.array([0, 0, p["d"]]))
-            Cs += Ad_ltp @ C_ltp @ Ad_ltp.T                             # Eq. 49
+            Cs += Ad_ltp @ C_ltp @ Ad_ltp.T  # Eq. 49
         if C_tube is not None:
             Ad_e1 = _to_ee(np.column_stack([r1, s, np.cross(r1, s)]), elbow)
             Cs += Ad_e1 @ C_tube @ Ad_e1.T
-        Cq = Je @ Cs @ Je.T + np.diag([c_act, p["c_rigid"]])            # Eqs. 41-43
-        K_F += Je.T @ np.linalg.inv(Cq) @ Je                            # Eqs. 13, 40
+        Cq = Je @ Cs @ Je.T + np.diag([c_act, p["c_rigid"]])  # Eqs. 41-43
+        K_F += Je.T @ np.linalg.inv(Cq) @ Je  # Eqs. 13, 40
     return {"M": M, "K_R": K_R, "K_F": K_F}
 
 

@@ -11,6 +11,7 @@ not depend on N; at N = 1e6 it is extrapolated from its N = 1e5 rate and marked 
 Peak memory is measured in a separate pass with tracemalloc (Python and NumPy
 allocations; the C library allocates nothing but its stack buffers).
 """
+
 from __future__ import annotations
 
 import os
@@ -64,9 +65,18 @@ def machine() -> dict:
     import scipy
     import sympy
 
-    return dict(cpu=cpu, nproc=os.cpu_count(), flags=flags, python=platform.python_version(),
-                numpy=np.__version__, scipy=scipy.__version__, sympy=sympy.__version__, cc=cc,
-                glibc=" ".join(platform.libc_ver()), affinity=sorted(os.sched_getaffinity(0)))
+    return dict(
+        cpu=cpu,
+        nproc=os.cpu_count(),
+        flags=flags,
+        python=platform.python_version(),
+        numpy=np.__version__,
+        scipy=scipy.__version__,
+        sympy=sympy.__version__,
+        cc=cc,
+        glibc=" ".join(platform.libc_ver()),
+        affinity=sorted(os.sched_getaffinity(0)),
+    )
 
 
 # ------------------------------------------------------------- generation
@@ -100,8 +110,9 @@ def generation_times() -> dict:
         t6 = time.perf_counter()
         # timed only: the exit status says whether the checked-in files are current, which
         # does not matter here (and may change while others edit the derivation)
-        subprocess.run([sys.executable, "-m", "eigentwist", "generate", "--check", *extra], check=False,
-                       capture_output=True)
+        subprocess.run(
+            [sys.executable, "-m", "eigentwist", "generate", "--check", *extra], check=False, capture_output=True
+        )
         out[label] = time.perf_counter() - t6
     return out
 
@@ -178,24 +189,34 @@ def public_path(n: int, repeat: int, log) -> dict:
     x, y, z = (np.ascontiguousarray(poses[:, k]) for k in range(3))
     params = ev1.parameter_values(n, "paper")
     rows = {
-        "raw_1": ("raw fused kernel, frequencies only, no checks (`CKernels.fused`), 1 thread",
-                  lambda: ck.fused(x, y, z, params, matrices=(), model="flexible")),
-        "raw_all": (f"raw fused kernel, {available_cores()} threads",
-                    lambda: ck.fused(x, y, z, params, matrices=(), model="flexible", threads=available_cores())),
-        "public_1": ("`Evaluator.frequencies` (validated: inputs, reachability, lever, stability), 1 thread",
-                     lambda: ev1.frequencies(poses)),
-        "public_all": (f"`Evaluator.frequencies`, default threads ({available_cores()})",
-                       lambda: evs[available_cores()].frequencies(poses)),
+        "raw_1": (
+            "raw fused kernel, frequencies only, no checks (`CKernels.fused`), 1 thread",
+            lambda: ck.fused(x, y, z, params, matrices=(), model="flexible"),
+        ),
+        "raw_all": (
+            f"raw fused kernel, {available_cores()} threads",
+            lambda: ck.fused(x, y, z, params, matrices=(), model="flexible", threads=available_cores()),
+        ),
+        "public_1": (
+            "`Evaluator.frequencies` (validated: inputs, reachability, lever, stability), 1 thread",
+            lambda: ev1.frequencies(poses),
+        ),
+        "public_all": (
+            f"`Evaluator.frequencies`, default threads ({available_cores()})",
+            lambda: evs[available_cores()].frequencies(poses),
+        ),
         "modes_1": ("`Evaluator.modes` with eigentwists, 1 thread", lambda: ev1.modes(poses)),
-        "modes_all": (f"`Evaluator.modes` with eigentwists, {available_cores()} threads",
-                      lambda: evs[available_cores()].modes(poses)),
+        "modes_all": (
+            f"`Evaluator.modes` with eigentwists, {available_cores()} threads",
+            lambda: evs[available_cores()].modes(poses),
+        ),
         "matrices_1": ("`Evaluator.matrices` (M, K_R, K_F), 1 thread", lambda: ev1.matrices(poses)),
         "numpy_public": ("`Evaluator.frequencies`, NumPy backend", lambda: ev_np.frequencies(poses)),
     }
     rates: dict = {k: [] for k in rows}
     cpu: dict = {k: [] for k in rows}
     load = [os.getloadavg()[0]]
-    for r in range(repeat):                      # interleaved, so slow phases of a shared machine hit all rows
+    for r in range(repeat):  # interleaved, so slow phases of a shared machine hit all rows
         for key, (_, fn) in rows.items():
             if key == "numpy_public" and r > 0:
                 continue
@@ -203,14 +224,22 @@ def public_path(n: int, repeat: int, log) -> dict:
             fn()
             t1, c1 = time.perf_counter(), time.process_time()
             rates[key].append(n / (t1 - t0))
-            cpu[key].append(n / (c1 - c0))      # poses per CPU-second of this process (all its threads)
+            cpu[key].append(n / (c1 - c0))  # poses per CPU-second of this process (all its threads)
             log(f"[bench] public N={n} {key}: {rates[key][-1]:.3g} poses/s, {cpu[key][-1]:.3g} per CPU-s")
         load.append(os.getloadavg()[0])
     ref = pipelines.per_pose(ev1.defaults)
     m_pp = 2000
     _, _, t_pp = ref.timed(poses[:m_pp])
-    out = dict(n=n, labels={k: v[0] for k, v in rows.items()}, rates=rates, cpu_rates=cpu, loadavg=load,
-               best={k: max(v) for k, v in rates.items()}, per_pose_per_s=m_pp / t_pp, per_pose_n=m_pp)
+    out = dict(
+        n=n,
+        labels={k: v[0] for k, v in rows.items()},
+        rates=rates,
+        cpu_rates=cpu,
+        loadavg=load,
+        best={k: max(v) for k, v in rates.items()},
+        per_pose_per_s=m_pp / t_pp,
+        per_pose_n=m_pp,
+    )
     log("[bench] peak RSS (fresh processes)")
     out["rss_mb"] = {case: peak_rss(case, n) for case in MEMORY_CASES}
     tracemalloc.start()
@@ -223,13 +252,23 @@ def public_path(n: int, repeat: int, log) -> dict:
 
 def public_report(out: dict) -> str:
     b, pp = out["best"], out["per_pose_per_s"]
-    lines = [f"## Public path at N = {out['n']:.0e} (best of {len(out['rates']['raw_1'])}, poses/s)", "",
-             "| pipeline | poses/s | time / raw kernel's (1 thread) | vs per-pose loop |", "|---|---|---|---|"]
+    lines = [
+        f"## Public path at N = {out['n']:.0e} (best of {len(out['rates']['raw_1'])}, poses/s)",
+        "",
+        "| pipeline | poses/s | time / raw kernel's (1 thread) | vs per-pose loop |",
+        "|---|---|---|---|",
+    ]
     for key, label in out["labels"].items():
         lines.append(f"| {label} | {b[key]:.3g} | {b['raw_1'] / b[key]:.2f} | {b[key] / pp:.0f}× |")
-    lines += [f"| per-pose NumPy loop (reference_loop.py, {out['per_pose_n']} poses) | {pp:.3g} | | 1× |", "",
-              f"Threads: raw kernel {b['raw_all'] / b['raw_1']:.2f}×, public path {b['public_all'] / b['public_1']:.2f}× "
-              "the one-thread rate.", "", "| memory case (N poses) | baseline RSS | peak RSS | added |", "|---|---|---|---|"]
+    lines += [
+        f"| per-pose NumPy loop (reference_loop.py, {out['per_pose_n']} poses) | {pp:.3g} | | 1× |",
+        "",
+        f"Threads: raw kernel {b['raw_all'] / b['raw_1']:.2f}×, public path {b['public_all'] / b['public_1']:.2f}× "
+        "the one-thread rate.",
+        "",
+        "| memory case (N poses) | baseline RSS | peak RSS | added |",
+        "|---|---|---|---|",
+    ]
     for case, (base, peak) in out["rss_mb"].items():
         lines.append(f"| {case} | {base:.0f} MiB | {peak:.0f} MiB | {peak - base:.0f} MiB |")
     lines.append(f"\n`iter_matrices` (default chunk) traced peak: {out['iter_matrices_traced_mb']:.1f} MiB.")
@@ -245,11 +284,14 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per measurement (best is kept)")
     ap.add_argument("--json", type=Path, help="also write the results here")
     ap.add_argument("--no-pin", action="store_true", help="do not pin the process to one CPU")
-    ap.add_argument("--public", action="store_true",
-                    help="only the public-path rows: Evaluator vs raw kernel, 1 vs all threads, memory")
+    ap.add_argument(
+        "--public",
+        action="store_true",
+        help="only the public-path rows: Evaluator vs raw kernel, 1 vs all threads, memory",
+    )
     ap.add_argument("--n", type=int, default=1_000_000, help="poses for --public")
     args = ap.parse_args(argv)
-    if args.public:                      # every core: the thread rows need them (1-thread rows set threads=1)
+    if args.public:  # every core: the thread rows need them (1-thread rows set threads=1)
         out = public_path(args.n, args.repeat, lambda *a: print(*a, file=sys.stderr, flush=True))
         print(public_report(out))
         if args.json:
@@ -279,8 +321,12 @@ def main(argv=None) -> int:
     params = ev.parameter_values(1, "paper")
     log("[bench] lambdify (expand + lambdify with cse=True)")
     lam = pipelines.lambdify_pipeline(derive(ev.robot), params)
-    pipes = [pipelines.per_pose(ev.defaults), lam, pipelines.numpy_pipeline(ev.module, params),
-             pipelines.c_pipeline(ck, params)]
+    pipes = [
+        pipelines.per_pose(ev.defaults),
+        lam,
+        pipelines.numpy_pipeline(ev.module, params),
+        pipelines.c_pipeline(ck, params),
+    ]
     extras = pipelines.extra_pipelines(ev, evc, ck, params)
 
     # agreement at N = 1e3 (every pipeline against the C library)
@@ -310,21 +356,30 @@ def main(argv=None) -> int:
                 _, t_mk, t_e2e = p.timed(poses)
                 row.update(mk_per_s=n / t_mk, e2e_per_s=n / t_e2e)
                 if n == sizes[0]:
-                    row.update(mk_peak_mb=peak_bytes(p.matrices, poses) / 2**20,
-                               e2e_peak_mb=peak_bytes(p.frequencies, poses) / 2**20)
+                    row.update(
+                        mk_peak_mb=peak_bytes(p.matrices, poses) / 2**20,
+                        e2e_peak_mb=peak_bytes(p.frequencies, poses) / 2**20,
+                    )
             else:
                 log(f"[bench] {p.key} N={n}")
                 reps = args.repeat if n < 1_000_000 else max(1, args.repeat - 1)
                 for kind, fn in (("mk", p.matrices), ("e2e", p.frequencies)):
                     if fn is None:
                         continue
-                    fn(poses[: min(n, 2048)])                      # warm-up
+                    fn(poses[: min(n, 2048)])  # warm-up
                     row[f"{kind}_per_s"] = n / best_time(fn, poses, reps)
                     row[f"{kind}_peak_mb"] = peak_bytes(fn, poses) / 2**20
             results.append(row)
-    out = dict(machine=info, generation=gen, c_load_s=load_s, lambdify_setup=lam.setup, agreement=agreement,
-               results=results, max_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-               command=" ".join([Path(sys.executable).name, "benchmarks/run.py", *(argv or sys.argv[1:])]))
+    out = dict(
+        machine=info,
+        generation=gen,
+        c_load_s=load_s,
+        lambdify_setup=lam.setup,
+        agreement=agreement,
+        results=results,
+        max_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        command=" ".join([Path(sys.executable).name, "benchmarks/run.py", *(argv or sys.argv[1:])]),
+    )
     print(report(out))
     if args.json:
         args.json.write_text(json.dumps(out, indent=1))
@@ -341,9 +396,16 @@ def report(out: dict) -> str:
     sizes = sorted({r["n"] for r in res})
     base = {(r["n"]): r for r in res if r["pipeline"] == "per_pose"}
     lines = ["## Throughput (poses/s, one core) and ratio to the per-pose loop", ""]
-    for kind, title in (("mk", "M + K_F (from poses, IK included)"), ("e2e", "end to end: poses -> 6 natural frequencies")):
-        lines += [f"### {title}", "", "| pipeline | " + " | ".join(f"N = {n:.0e}" for n in sizes) + " |",
-                  "|---|" + "---|" * len(sizes)]
+    for kind, title in (
+        ("mk", "M + K_F (from poses, IK included)"),
+        ("e2e", "end to end: poses -> 6 natural frequencies"),
+    ):
+        lines += [
+            f"### {title}",
+            "",
+            "| pipeline | " + " | ".join(f"N = {n:.0e}" for n in sizes) + " |",
+            "|---|" + "---|" * len(sizes),
+        ]
         for key in dict.fromkeys(r["pipeline"] for r in res):
             cells = []
             label = next(r["label"] for r in res if r["pipeline"] == key)
@@ -359,8 +421,12 @@ def report(out: dict) -> str:
             if any(c != "—" for c in cells):
                 lines.append(f"| {label} | " + " | ".join(cells) + " |")
         lines.append("")
-    lines += ["## Peak traced memory (MiB; tracemalloc, separate pass)", "",
-              "| pipeline | kind | " + " | ".join(f"N = {n:.0e}" for n in sizes) + " |", "|---|---|" + "---|" * len(sizes)]
+    lines += [
+        "## Peak traced memory (MiB; tracemalloc, separate pass)",
+        "",
+        "| pipeline | kind | " + " | ".join(f"N = {n:.0e}" for n in sizes) + " |",
+        "|---|---|" + "---|" * len(sizes),
+    ]
     for key in dict.fromkeys(r["pipeline"] for r in res):
         for kind in ("mk", "e2e"):
             cells = []
@@ -371,19 +437,28 @@ def report(out: dict) -> str:
             if any(c != "—" for c in cells):
                 lines.append(f"| {key} | {kind} | " + " | ".join(cells) + " |")
     g = out["generation"]
-    lines += ["", "## Generation and compile times (s)", "",
-              "| step | s |", "|---|---|"]
+    lines += ["", "## Generation and compile times (s)", "", "| step | s |", "|---|---|"]
     lines += [f"| {k[:-2]} | {v:.2f} |" for k, v in g.items()]
     lines += [f"| C library load (compile or cache hit, first call) | {out['c_load_s']:.2f} |"]
     lines += [f"| lambdify: {k[:-2]} | {v:.1f} |" for k, v in out["lambdify_setup"].items()]
-    lines += ["", "## Agreement at N = 1e3 (max relative deviation from the C results)", "",
-              "| pipeline | deviation |", "|---|---|"]
+    lines += [
+        "",
+        "## Agreement at N = 1e3 (max relative deviation from the C results)",
+        "",
+        "| pipeline | deviation |",
+        "|---|---|",
+    ]
     lines += [f"| {k} | {v:.1e} |" for k, v in out["agreement"].items()]
     m = out["machine"]
-    lines += ["", f"Process peak RSS: {out['max_rss_mb']:.0f} MiB.", "",
-              f"Machine: {m['cpu']}, nproc {m['nproc']} (pinned to CPU {m['affinity']}), flags {m['flags']}; "
-              f"{m['cc']}; {m['glibc']}; Python {m['python']}, NumPy {m['numpy']}, SciPy {m['scipy']}, "
-              f"SymPy {m['sympy']}.", f"Command: `{out['command']}`."]
+    lines += [
+        "",
+        f"Process peak RSS: {out['max_rss_mb']:.0f} MiB.",
+        "",
+        f"Machine: {m['cpu']}, nproc {m['nproc']} (pinned to CPU {m['affinity']}), flags {m['flags']}; "
+        f"{m['cc']}; {m['glibc']}; Python {m['python']}, NumPy {m['numpy']}, SciPy {m['scipy']}, "
+        f"SymPy {m['sympy']}.",
+        f"Command: `{out['command']}`.",
+    ]
     return "\n".join(lines)
 
 

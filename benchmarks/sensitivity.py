@@ -16,6 +16,7 @@ on one thread; the C code is single-threaded), so CPU time (``time.process_time`
 core's time even on a shared machine; generation and compile: wall clock and CPU time of
 the process and of the compiler (children).
 """
+
 from __future__ import annotations
 
 import os
@@ -76,16 +77,28 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
     t_kern = _best(lambda: kern(poses[:, 0], poses[:, 1], poses[:, 2], p))
     t_sens = _best(lambda: ev.sensitivities(poses, wrt))
     m = len(poses)
-    return dict(robot=robot, wrt=len(wrt), chunk=CHUNK, poses=m, generate_and_compile=gen,
-                frequencies=m / t_freq, kernel=m / t_kern, sensitivities=m / t_sens)
+    return dict(
+        robot=robot,
+        wrt=len(wrt),
+        chunk=CHUNK,
+        poses=m,
+        generate_and_compile=gen,
+        frequencies=m / t_freq,
+        kernel=m / t_kern,
+        sensitivities=m / t_sens,
+    )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--robots", default="heli4,delta")
     ap.add_argument("--n", type=int, default=2000, help="random workspace poses (unreachable ones dropped)")
-    ap.add_argument("--wrt", choices=("all", "default"), default="all",
-                    help="every parameter, or the CLI's default list (eigentwist sensitivity without --wrt)")
+    ap.add_argument(
+        "--wrt",
+        choices=("all", "default"),
+        default="all",
+        help="every parameter, or the CLI's default list (eigentwist sensitivity without --wrt)",
+    )
     ap.add_argument("--cold", action="store_true", help="a fresh cache directory: time generation and compile")
     args = ap.parse_args()
     if args.cold:
@@ -94,13 +107,17 @@ def main() -> None:
         r = run(robot, args.n, args.wrt)
         g = r["generate_and_compile"]
         print(f"{robot}: {r['wrt']} parameters, {r['poses']} poses, C backend, one thread")
-        print(f"  kernel {'generated and compiled' if args.cold else 'loaded'} in {g['wall_s']:.1f} s wall "
-              f"({g['python_cpu_s']:.1f} s Python CPU, {g['compiler_cpu_s']:.1f} s compiler CPU; "
-              f"{r['chunk']} statements per C function)")
+        print(
+            f"  kernel {'generated and compiled' if args.cold else 'loaded'} in {g['wall_s']:.1f} s wall "
+            f"({g['python_cpu_s']:.1f} s Python CPU, {g['compiler_cpu_s']:.1f} s compiler CPU; "
+            f"{r['chunk']} statements per C function)"
+        )
         print(f"  frequencies (baseline)      {r['frequencies']:10.4g} poses/s")
         print(f"  raw sensitivity kernel      {r['kernel']:10.4g} poses/s  ({r['kernel'] / r['frequencies']:.3f}x)")
-        print(f"  Evaluator.sensitivities     {r['sensitivities']:10.4g} poses/s  "
-              f"({r['sensitivities'] / r['frequencies']:.3f}x)")
+        print(
+            f"  Evaluator.sensitivities     {r['sensitivities']:10.4g} poses/s  "
+            f"({r['sensitivities'] / r['frequencies']:.3f}x)"
+        )
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ Shipped robots on the C backend, one thread; 400 calls per size, each on its own
 (drawn uniformly in the workspace box, batches with an unreachable pose dropped), best of 3
 rounds of ``time.process_time`` (CPU time: a shared machine stretches wall time).
 """
+
 from __future__ import annotations
 
 import os

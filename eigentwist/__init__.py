@@ -4,6 +4,7 @@ Method: Hoevenaars, Krut & Herder (2020), Jacobian-based natural frequency analy
 parallel manipulators, Mechanism and Machine Theory 148, 103775,
 DOI 10.1016/j.mechmachtheory.2019.103775.
 """
+
 __version__ = "0.1.0"
 
 __all__ = ["load", "__version__"]

@@ -20,6 +20,7 @@ Used by the compiled libraries (:mod:`eigentwist.runtime.ccompile`), the user
 descriptions (:mod:`eigentwist.runtime.userfile`) and the sensitivity kernels
 (:mod:`eigentwist.runtime.sensitivity`). This module imports nothing of eigentwist.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -66,8 +67,9 @@ def files_digest(paths) -> str:
 def package_digest(subpackages: tuple = ("description", "symbolic", "codegen")) -> str:
     """:func:`files_digest` of every ``.py`` and ``.jinja`` file under ``subpackages`` of eigentwist:
     the code that derives and renders generated code (part of every generated file's cache key)."""
-    files = [f for sub in subpackages for f in (PACKAGE / sub).rglob("*")
-             if f.is_file() and f.suffix in (".py", ".jinja")]
+    files = [
+        f for sub in subpackages for f in (PACKAGE / sub).rglob("*") if f.is_file() and f.suffix in (".py", ".jinja")
+    ]
     return files_digest(files)
 
 
@@ -75,7 +77,7 @@ def package_digest(subpackages: tuple = ("description", "symbolic", "codegen")) 
 def _symbol_text(symbol) -> str:
     import sympy
 
-    if type(symbol) is not sympy.Symbol:                  # Dummy, Wild: srepr names their identity
+    if type(symbol) is not sympy.Symbol:  # Dummy, Wild: srepr names their identity
         return sympy.srepr(symbol)
     return f"Symbol({symbol.name!r},{sorted(symbol.assumptions0.items())})"
 
@@ -154,21 +156,26 @@ class _Canon:
     def _function(self, fn) -> str:
         globals_ = fn.__globals__
         cells = tuple(c.cell_contents if _filled(c) else "<empty>" for c in (fn.__closure__ or ()))
-        return (f"function({fn.__qualname__};{self._code(fn.__code__, globals_, fn.__module__)};"
-                f"defaults={self.text(fn.__defaults__)};kwdefaults={self.text(fn.__kwdefaults__)};"
-                f"closure={self.text(cells)})")
+        return (
+            f"function({fn.__qualname__};{self._code(fn.__code__, globals_, fn.__module__)};"
+            f"defaults={self.text(fn.__defaults__)};kwdefaults={self.text(fn.__kwdefaults__)};"
+            f"closure={self.text(cells)})"
+        )
 
     def _code(self, code, globals_: dict, module: str | None = None) -> str:
-        consts = ",".join(self._code(c, globals_, module) if isinstance(c, types.CodeType) else self.text(c)
-                          for c in code.co_consts)
+        consts = ",".join(
+            self._code(c, globals_, module) if isinstance(c, types.CodeType) else self.text(c) for c in code.co_consts
+        )
         called = []
-        for name in code.co_names:          # helper functions of the same module: by their code too
+        for name in code.co_names:  # helper functions of the same module: by their code too
             value = globals_.get(name)
             if isinstance(value, types.FunctionType) and value.__module__ == module:
                 called.append(f"{name}={self.text(value)}")
-        return (f"code({code.co_name};{code.co_code.hex()};consts[{consts}];names{code.co_names};"
-                f"vars{code.co_varnames};free{code.co_freevars};args{code.co_argcount},{code.co_kwonlyargcount};"
-                f"calls[{','.join(called)}])")
+        return (
+            f"code({code.co_name};{code.co_code.hex()};consts[{consts}];names{code.co_names};"
+            f"vars{code.co_varnames};free{code.co_freevars};args{code.co_argcount},{code.co_kwonlyargcount};"
+            f"calls[{','.join(called)}])"
+        )
 
 
 def _qualname(cls) -> str:

@@ -1,4 +1,5 @@
 """Matplotlib for files, not screens: the one place eigentwist imports pyplot."""
+
 from __future__ import annotations
 
 __all__ = ["pyplot"]

@@ -9,6 +9,7 @@
   output's directory and rename it into place (:func:`os.replace`), so a reader sees the
   old file or the new one, never a partial one, and a failed write leaves the old file.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -34,8 +35,14 @@ KINDS = {
     "directory": ("directory",),
 }
 
-_MAGIC = ((b"\x89PNG", "png"), (b"GIF8", "gif"), (b"%PDF", "pdf"), (b"\xff\xd8\xff", "jpeg"),
-          (b"PK\x03\x04", "zip"), (b"PAR1", "parquet"))
+_MAGIC = (
+    (b"\x89PNG", "png"),
+    (b"GIF8", "gif"),
+    (b"%PDF", "pdf"),
+    (b"\xff\xd8\xff", "jpeg"),
+    (b"PK\x03\x04", "zip"),
+    (b"PAR1", "parquet"),
+)
 
 
 def file_kind(path) -> str:
@@ -55,9 +62,9 @@ def file_kind(path) -> str:
     try:
         text = head.decode("utf-8")
     except UnicodeDecodeError as exc:
-        if exc.reason != "unexpected end of data":     # not a multi-byte character cut at byte 4096
+        if exc.reason != "unexpected end of data":  # not a multi-byte character cut at byte 4096
             return "binary"
-        text = head[:exc.start].decode("utf-8")
+        text = head[: exc.start].decode("utf-8")
     text = text.lstrip("\ufeff \t\r\n").lower()
     if "\x00" in text:
         return "binary"
@@ -87,8 +94,10 @@ def check_output(path, kind: str, inputs=(), force: bool = False, option: str = 
     path = Path(path)
     for source in inputs:
         if source is not None and same_file(path, source):
-            raise OutputError(f"{option} {str(path)!r} is the input {str(source)!r}: writing there would destroy "
-                              "it; choose another output path")
+            raise OutputError(
+                f"{option} {str(path)!r} is the input {str(source)!r}: writing there would destroy "
+                "it; choose another output path"
+            )
     if kind not in KINDS:
         raise InputError(f"unknown output kind {kind!r}: expected one of {', '.join(KINDS)}")
     if not os.path.lexists(path) or force:
@@ -96,12 +105,15 @@ def check_output(path, kind: str, inputs=(), force: bool = False, option: str = 
     try:
         found = file_kind(path)
     except OSError as exc:
-        raise OutputError(f"{option} {str(path)!r} exists and cannot be read ({exc.strerror}); choose another "
-                          "output path") from None
+        raise OutputError(
+            f"{option} {str(path)!r} exists and cannot be read ({exc.strerror}); choose another output path"
+        ) from None
     if found not in KINDS[kind]:
         what = "a directory" if found == "directory" else f"a {found} file"
-        raise OutputError(f"{option} {str(path)!r} exists and is {what}, not {'an' if kind == 'html' else 'a'} "
-                          f"{kind} output: choose another path or pass --force to replace it")
+        raise OutputError(
+            f"{option} {str(path)!r} exists and is {what}, not {'an' if kind == 'html' else 'a'} "
+            f"{kind} output: choose another path or pass --force to replace it"
+        )
     return path
 
 

@@ -6,14 +6,29 @@ Tables E.1/E.2 (BM; BM - K_E^-1 and BM - K_Pi^-1, i.e. that compliance / 1000).
 Values are kept as printed (strings) so that the print rounding (half a unit of the
 last printed digit) follows from the text itself.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["X_REF", "K_A_REF", "PaperValue", "paper_values", "reproduce", "summary", "TABLE_KA", "MEASURED",
-           "RIGID_HZ", "FLEX_HZ", "TABLE_E1", "TABLE_E2", "CALIBRATION", "EXCEPTIONS"]
+__all__ = [
+    "X_REF",
+    "K_A_REF",
+    "PaperValue",
+    "paper_values",
+    "reproduce",
+    "summary",
+    "TABLE_KA",
+    "MEASURED",
+    "RIGID_HZ",
+    "FLEX_HZ",
+    "TABLE_E1",
+    "TABLE_E2",
+    "CALIBRATION",
+    "EXCEPTIONS",
+]
 
 X_REF = (0.0, 0.0, -0.625)
 K_A_REF = 2000.0
@@ -45,26 +60,35 @@ EQ65_SV = """0 0.023 0 0 1.000 0
 1.000 0 0 -0.029 0 0
 0 1.000 0 0 0.031 0
 0 0 1.000 0 0 0"""
-RIGID_HZ = ("23.5", "26.3", "45.8")                                   # Eqs. 54-56
-FLEX_HZ = ("20.7", "23.9", "41.1", "246.0", "262.6", "635.8")         # Eqs. 59-64
-TABLE_KA = (125, 250, 500, 1000, 1500, 2000, 3000, 4000)              # Table 2
+RIGID_HZ = ("23.5", "26.3", "45.8")  # Eqs. 54-56
+FLEX_HZ = ("20.7", "23.9", "41.1", "246.0", "262.6", "635.8")  # Eqs. 59-64
+TABLE_KA = (125, 250, 500, 1000, 1500, 2000, 3000, 4000)  # Table 2
 # Tables E.1 (omega_1) and E.2 (omega_2): BM, BM - K_E^-1, BM - K_Pi^-1, Hz
-TABLE_E1 = {"BM": "5.8 8.2 11.4 15.5 18.5 20.7 24.1 26.5",
-            "BM-KE": "5.9 8.3 11.7 16.6 20.3 23.5 28.7 33.1",
-            "BM-KPi": "5.8 8.2 11.4 15.6 18.5 20.7 24.1 26.5"}
-TABLE_E2 = {"BM": "6.5 9.2 12.8 17.7 21.2 23.9 28.1 31.2",
-            "BM-KE": "6.6 9.3 13.2 18.6 22.8 26.3 32.2 37.1",
-            "BM-KPi": "6.5 9.2 12.8 17.7 21.2 24.0 28.2 31.3"}
-MEASURED = {"x": (5.4, 8.1, 11.1, 15.5, 17.6, 20.3, 23.1, 25.0),
-            "y": (6.0, 9.1, 12.8, 18.0, 22.2, 24.0, 29.4, 31.9)}
+TABLE_E1 = {
+    "BM": "5.8 8.2 11.4 15.5 18.5 20.7 24.1 26.5",
+    "BM-KE": "5.9 8.3 11.7 16.6 20.3 23.5 28.7 33.1",
+    "BM-KPi": "5.8 8.2 11.4 15.6 18.5 20.7 24.1 26.5",
+}
+TABLE_E2 = {
+    "BM": "6.5 9.2 12.8 17.7 21.2 23.9 28.1 31.2",
+    "BM-KE": "6.6 9.3 13.2 18.6 22.8 26.3 32.2 37.1",
+    "BM-KPi": "6.5 9.2 12.8 17.7 21.2 24.0 28.2 31.3",
+}
+MEASURED = {"x": (5.4, 8.1, 11.1, 15.5, 17.6, 20.3, 23.1, 25.0), "y": (6.0, 9.1, 12.8, 18.0, 22.2, 24.0, 29.4, 31.9)}
 
 # Entries outside print rounding that the facts file explains: (accepted relative deviation, why).
 # They are not counted as reproduced; the tolerance only keeps `eigentwist reproduce` failing on a regression.
 EXCEPTIONS = {
     ("Eq. 52 M", (3, 3)): (None, "EE inertia I_zz printed to one digit in Eq. 31 (facts file)"),
-    ("Eq. 58 K_F", (2, 2)): (5e-5, "0.045 N/m outside rounding with E_rod rounded to 170 GPa; E_rod in "
-                                   "[170.0003, 170.0036] GPa puts K_F(1,1), (2,2) and (3,3) all within rounding"),
-    ("Eq. 58 K_F", (2, 4)): (1.5e-2, "K_F(2,4)/K_F(4,4) = K_R(2,4)/K_R(4,4) geometrically: likely misprint (facts file)"),
+    ("Eq. 58 K_F", (2, 2)): (
+        5e-5,
+        "0.045 N/m outside rounding with E_rod rounded to 170 GPa; E_rod in "
+        "[170.0003, 170.0036] GPa puts K_F(1,1), (2,2) and (3,3) all within rounding",
+    ),
+    ("Eq. 58 K_F", (2, 4)): (
+        1.5e-2,
+        "K_F(2,4)/K_F(4,4) = K_R(2,4)/K_R(4,4) geometrically: likely misprint (facts file)",
+    ),
     ("Eq. 58 K_F", (4, 2)): (1.5e-2, "symmetric to (2,4)"),
 }
 NOT_REQUIRED = {"omega_4", "omega_5", "omega_6"}  # depend on EE inertias printed to one digit
@@ -75,7 +99,7 @@ CALIBRATION = {
     ("Eq. 58 K_F", (3, 3)): "calibration: E_rod = 170 GPa (not in the paper) fitted to it",
     ("Eq. 58 K_F", (6, 6)): "calibration: k_E_rot = 500 N m/rad chosen to match it (Eq. D.1 gives 514: 103 856)",
     ("Eq. 58 K_F", (4, 4)): "calibration: EE compliance frame height (+78 mm) chosen to match it "
-                            "(-78, 0, +-138 mm tried)",
+    "(-78, 0, +-138 mm tried)",
 }
 
 
@@ -144,8 +168,18 @@ def _matrix_values(source, printed_text, decimals, model) -> list[PaperValue]:
             tol, note = EXCEPTIONS.get((source, (i + 1, j + 1)), (0.0, ""))
             calibration = CALIBRATION.get((source, (i + 1, j + 1)), "")
             required = not (source == "Eq. 52 M" and (i, j) == (2, 2))
-            vals.append(PaperValue(source, f"({i + 1},{j + 1})", txt, float(model[i, j]),
-                                   tol or None, calibration or note, required, bool(calibration)))
+            vals.append(
+                PaperValue(
+                    source,
+                    f"({i + 1},{j + 1})",
+                    txt,
+                    float(model[i, j]),
+                    tol or None,
+                    calibration or note,
+                    required,
+                    bool(calibration),
+                )
+            )
     return vals
 
 
@@ -165,15 +199,25 @@ def paper_values(ev) -> list[PaperValue]:
     vals += _matrix_values("Eq. 58 K_F", EQ58_KF, 0, KF)
     for k, txt in enumerate(FLEX_HZ):
         name = f"omega_{k + 1}"
-        vals.append(PaperValue(f"Eq. {59 + k}", f"{name} flexible (Hz)", txt, float(flex.freq_hz[0, k]),
-                               note="EE inertias printed to one digit (facts file)" if name in NOT_REQUIRED else "",
-                               required=name not in NOT_REQUIRED))
+        vals.append(
+            PaperValue(
+                f"Eq. {59 + k}",
+                f"{name} flexible (Hz)",
+                txt,
+                float(flex.freq_hz[0, k]),
+                note="EE inertias printed to one digit (facts file)" if name in NOT_REQUIRED else "",
+                required=name not in NOT_REQUIRED,
+            )
+        )
     vals += _matrix_values("Eq. 65 S_v flexible", EQ65_SV, 3, flex.eigentwists[0])
     poses = np.repeat(x, len(TABLE_KA), axis=0)
     ka = np.array(TABLE_KA, dtype=float)
     d = ev.defaults
-    scen = {"BM": {}, "BM-KE": {"k_E_rot": d["k_E_rot"] * 1000, "k_E_lin": d["k_E_lin"] * 1000},
-            "BM-KPi": {"E_rod": d["E_rod"] * 1000}}
+    scen = {
+        "BM": {},
+        "BM-KE": {"k_E_rot": d["k_E_rot"] * 1000, "k_E_lin": d["k_E_lin"] * 1000},
+        "BM-KPi": {"E_rod": d["E_rod"] * 1000},
+    }
     for table, data in (("Table E.1", TABLE_E1), ("Table E.2", TABLE_E2)):
         mode = 0 if table.endswith("1") else 1
         for col, over in scen.items():
@@ -198,22 +242,31 @@ def reproduce(ev) -> dict:
     req = [v for v in vals if v.required]
     nonzero = [v for v in vals if v.paper != 0]
     tested = [v for v in nonzero if not v.calibration]
-    return {"values": vals, "printed": len(vals), "within_rounding": sum(v.within_rounding for v in vals),
-            "nonzero": len(nonzero), "nonzero_within": sum(v.within_rounding for v in nonzero),
-            "calibration": sum(v.calibration for v in nonzero),
-            "tested": len(tested), "tested_within": sum(v.within_rounding for v in tested),
-            "explained": [v for v in vals if v.status == "explained"],
-            "failing": [v for v in vals if v.status == "FAILS"],
-            "required": len(req), "required_ok": sum(v.ok for v in req)}
+    return {
+        "values": vals,
+        "printed": len(vals),
+        "within_rounding": sum(v.within_rounding for v in vals),
+        "nonzero": len(nonzero),
+        "nonzero_within": sum(v.within_rounding for v in nonzero),
+        "calibration": sum(v.calibration for v in nonzero),
+        "tested": len(tested),
+        "tested_within": sum(v.within_rounding for v in tested),
+        "explained": [v for v in vals if v.status == "explained"],
+        "failing": [v for v in vals if v.status == "FAILS"],
+        "required": len(req),
+        "required_ok": sum(v.ok for v in req),
+    }
 
 
 def summary(res: dict) -> str:
     """What reproduces, in one paragraph (``eigentwist reproduce``, the report, the README)."""
     expl = res["explained"]
-    return (f"{res['nonzero_within']} of the {res['nonzero']} non-zero printed numbers are within print rounding "
-            f"(half a unit of the last printed digit). {res['calibration']} of them are calibration targets that "
-            f"chose an input (E_rod, k_E_rot, the EE compliance frame height), so {res['tested_within']} of the "
-            f"other {res['tested']} reproduce. Outside rounding, explained: "
-            + ", ".join(f"{v.source} {v.label}" for v in expl)
-            + (f"; NOT explained: {', '.join(f'{v.source} {v.label}' for v in res['failing'])}" if res["failing"]
-               else "") + ".")
+    return (
+        f"{res['nonzero_within']} of the {res['nonzero']} non-zero printed numbers are within print rounding "
+        f"(half a unit of the last printed digit). {res['calibration']} of them are calibration targets that "
+        f"chose an input (E_rod, k_E_rot, the EE compliance frame height), so {res['tested_within']} of the "
+        f"other {res['tested']} reproduce. Outside rounding, explained: "
+        + ", ".join(f"{v.source} {v.label}" for v in expl)
+        + (f"; NOT explained: {', '.join(f'{v.source} {v.label}' for v in res['failing'])}" if res["failing"] else "")
+        + "."
+    )

@@ -3,6 +3,7 @@
 Core modules (diagnosis, report, paper reproduction) and the command line share these;
 they live here so that the core never imports :mod:`eigentwist.cli`.
 """
+
 from __future__ import annotations
 
 import math
@@ -13,11 +14,16 @@ import numpy as np
 __all__ = ["format_table", "json_safe", "format_estimate", "wrap", "WIDTH"]
 
 
-WIDTH = 100     # characters per line of a command's default output
+WIDTH = 100  # characters per line of a command's default output
 
 
-def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g", width: int | None = WIDTH,
-                 footnote: tuple | None = None) -> str:
+def format_table(
+    headers: list[str],
+    rows: list[list],
+    floatfmt: str = ".4g",
+    width: int | None = WIDTH,
+    footnote: tuple | None = None,
+) -> str:
     """Plain-text table with right-aligned cells; floats formatted with ``floatfmt``.
 
     A table wider than ``width`` characters first puts its headers on two lines (split at
@@ -26,16 +32,20 @@ def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g", wi
     texts share one number), until it fits or no text cell is left to move.
     ``width=None``: one line per row, however wide.
     """
+
     def fmt(v):
         if isinstance(v, (float, np.floating)):
             return format(float(v), floatfmt)
         return str(v)
+
     cells = [[fmt(v) for v in r] for r in rows]
     heads = [[h] for h in headers]
 
     def widths():
-        return [max(max(len(x) for x in heads[k]), *(len(r[k]) for r in cells)) if cells else
-                max(len(x) for x in heads[k]) for k in range(len(headers))]
+        return [
+            max(max(len(x) for x in heads[k]), *(len(r[k]) for r in cells)) if cells else max(len(x) for x in heads[k])
+            for k in range(len(headers))
+        ]
 
     def total():
         return sum(widths()) + 2 * max(len(headers) - 1, 0)
@@ -46,8 +56,11 @@ def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g", wi
         moved = set()
         while total() > width:
             w = widths()
-            text_cols = [k for k in (range(len(headers)) if footnote is None else footnote)
-                         if k not in moved and any(_is_text(r[k]) for r in cells)]
+            text_cols = [
+                k
+                for k in (range(len(headers)) if footnote is None else footnote)
+                if k not in moved and any(_is_text(r[k]) for r in cells)
+            ]
             if not text_cols:
                 break
             k = max(text_cols, key=lambda j: w[j]) if footnote is None else text_cols[0]
@@ -62,8 +75,9 @@ def format_table(headers: list[str], rows: list[list], floatfmt: str = ".4g", wi
     head_lines = [line([(h[len(h) - depth + i] if i >= depth - len(h) else "") for h in heads]) for i in range(depth)]
     out = head_lines + [line(["-" * n for n in w])] + [line(r) for r in cells]
     for text, n in notes.items():
-        out += textwrap.wrap(f"[{n}] {text}", width=width, subsequent_indent="    ", break_long_words=False,
-                             break_on_hyphens=False)
+        out += textwrap.wrap(
+            f"[{n}] {text}", width=width, subsequent_indent="    ", break_long_words=False, break_on_hyphens=False
+        )
     return "\n".join(out)
 
 
@@ -76,8 +90,14 @@ def wrap(text: str, width: int = WIDTH) -> str:
             out.append(line)
             continue
         indent = " " * (len(line) - len(line.lstrip()))
-        out += textwrap.wrap(line, width=width, initial_indent=indent, subsequent_indent=indent + "  ",
-                             break_long_words=False, break_on_hyphens=False) or [line]
+        out += textwrap.wrap(
+            line,
+            width=width,
+            initial_indent=indent,
+            subsequent_indent=indent + "  ",
+            break_long_words=False,
+            break_on_hyphens=False,
+        ) or [line]
     return "\n".join(out)
 
 
@@ -89,7 +109,7 @@ def _split_header(h: str) -> list[str]:
     cut = min(spaces, key=lambda i: abs(i - len(h) / 2))
     if "[" in h and h.index("[") - 1 in spaces:
         cut = h.index("[") - 1
-    return [h[:cut], h[cut + 1:]]
+    return [h[:cut], h[cut + 1 :]]
 
 
 def _is_text(cell: str) -> bool:
@@ -140,7 +160,7 @@ def format_estimate(value, std=None, unit: str = "") -> str:
     v = float(value)
     exp = math.floor(math.log10(abs(v))) if v != 0 else 0
     scale_exp = exp if (exp >= 4 or exp <= -4) else 0
-    scale = 10.0 ** scale_exp
+    scale = 10.0**scale_exp
     finite = std is not None and math.isfinite(float(std)) and float(std) > 0
     if finite:
         s = float(std) / scale
@@ -149,8 +169,11 @@ def format_estimate(value, std=None, unit: str = "") -> str:
     else:
         text = f"{v / scale:.6g}"
     if scale_exp:
-        text = f"({text})·10{str(scale_exp).translate(_SUPERSCRIPT)}" if finite else \
-            f"{text}·10{str(scale_exp).translate(_SUPERSCRIPT)}"
+        text = (
+            f"({text})·10{str(scale_exp).translate(_SUPERSCRIPT)}"
+            if finite
+            else f"{text}·10{str(scale_exp).translate(_SUPERSCRIPT)}"
+        )
     if not finite and std is not None:
         text += " (± undetermined)"
     return f"{text} {unit}".strip()

@@ -31,6 +31,7 @@ written any way can be checked; :func:`from_description` reads an eigentwist des
 add a robot: ``tests/PINOCCHIO.md`` (see
 :func:`compare`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -39,8 +40,17 @@ import numpy as np
 import pinocchio as pin
 import sympy as sp
 
-__all__ = ["PinJoint", "PinBody", "PinFrame", "PinLeg", "PinRobot", "PinocchioRobot", "from_description",
-           "eigen_frequencies", "rotation_vector_matrix"]
+__all__ = [
+    "PinJoint",
+    "PinBody",
+    "PinFrame",
+    "PinLeg",
+    "PinRobot",
+    "PinocchioRobot",
+    "from_description",
+    "eigen_frequencies",
+    "rotation_vector_matrix",
+]
 
 
 # --------------------------------------------------------------------------- description (numbers)
@@ -117,7 +127,7 @@ class PinRobot:
 
 
 # --------------------------------------------------------------------------- helpers
-SWAP = np.block([[np.zeros((3, 3)), np.eye(3)], [np.eye(3), np.zeros((3, 3))]])   # [v; w] <-> [w; v]
+SWAP = np.block([[np.zeros((3, 3)), np.eye(3)], [np.eye(3), np.zeros((3, 3))]])  # [v; w] <-> [w; v]
 
 
 def rotation_vector_matrix(rv) -> np.ndarray:
@@ -128,7 +138,7 @@ def rotation_vector_matrix(rv) -> np.ndarray:
 def _inertia(M6: np.ndarray) -> pin.Inertia:
     """pin.Inertia of a 6x6 [omega; v] spatial inertia in its own frame."""
     m = M6[3, 3]
-    mc = M6[:3, 3:]                       # m [c]x
+    mc = M6[:3, 3:]  # m [c]x
     c = np.array([mc[2, 1], mc[0, 2], mc[1, 0]]) / m if m > 0 else np.zeros(3)
     I_com = M6[:3, :3] - m * (c @ c * np.eye(3) - np.outer(c, c))
     return pin.Inertia(m, c, 0.5 * (I_com + I_com.T))
@@ -153,10 +163,10 @@ class _LegTree:
     def __init__(self, leg: PinLeg, platform_origin: np.ndarray):
         self.leg = leg
         model = pin.Model()
-        loc = {0: np.zeros(3)}                    # pin joint id -> world location at reference
-        self.cols = []                            # per pin joint: list of (independent index, factor)
-        last_of = []                              # chain joint -> pin joint id carrying the link after it
-        swing_of = {}                             # chain joint (Pi) -> (parent id, axis, independent index)
+        loc = {0: np.zeros(3)}  # pin joint id -> world location at reference
+        self.cols = []  # per pin joint: list of (independent index, factor)
+        last_of = []  # chain joint -> pin joint id carrying the link after it
+        swing_of = {}  # chain joint (Pi) -> (parent id, axis, independent index)
         self.actuated, self.virtual = [], []
         parent, n_u = 0, 0
 
@@ -220,25 +230,40 @@ class _LegTree:
             self.cols.append([(k, 1.0)])
             return jid, pivot
 
-        self.riding = []                          # (frame id placing it, carrier joint id, inertia)
+        self.riding = []  # (frame id placing it, carrier joint id, inertia)
         for b in leg.bodies:
             if b.riding:
                 sid, at = carrier(b.joint, leg.joints[b.joint].location, b.name)
-                fid = model.addFrame(pin.Frame(f"{b.name}_place", sid, pin.SE3(np.asarray(b.rotation, float),
-                                                np.asarray(b.origin, float) - at), pin.FrameType.OP_FRAME))
+                fid = model.addFrame(
+                    pin.Frame(
+                        f"{b.name}_place",
+                        sid,
+                        pin.SE3(np.asarray(b.rotation, float), np.asarray(b.origin, float) - at),
+                        pin.FrameType.OP_FRAME,
+                    )
+                )
                 self.riding.append((fid, last_of[b.joint], np.asarray(b.inertia, float)))
                 continue
             jid, at = carrier(b.joint, b.pivot, b.name)
-            model.appendBodyToJoint(jid, _inertia(np.asarray(b.inertia, float)),
-                                    pin.SE3(np.asarray(b.rotation, float), np.asarray(b.origin, float) - at))
+            model.appendBodyToJoint(
+                jid,
+                _inertia(np.asarray(b.inertia, float)),
+                pin.SE3(np.asarray(b.rotation, float), np.asarray(b.origin, float) - at),
+            )
         self.frame_ids = {}
         for f in leg.frames:
             jid, at = carrier(f.joint, f.pivot, f.name)
-            self.frame_ids[f.name] = model.addFrame(pin.Frame(
-                f.name, jid, pin.SE3(np.asarray(f.rotation, float), np.asarray(f.origin, float) - at),
-                pin.FrameType.OP_FRAME))
-        self.origin_id = model.addFrame(pin.Frame("platform_origin", end,
-                                                  pin.SE3(np.eye(3), platform_origin - loc[end]), pin.FrameType.OP_FRAME))
+            self.frame_ids[f.name] = model.addFrame(
+                pin.Frame(
+                    f.name,
+                    jid,
+                    pin.SE3(np.asarray(f.rotation, float), np.asarray(f.origin, float) - at),
+                    pin.FrameType.OP_FRAME,
+                )
+            )
+        self.origin_id = model.addFrame(
+            pin.Frame("platform_origin", end, pin.SE3(np.eye(3), platform_origin - loc[end]), pin.FrameType.OP_FRAME)
+        )
         self.model, self.data = model, model.createData()
         # P: tree joint rates (nv) per independent coordinate (6)
         P = np.zeros((model.nv, n_u))
@@ -270,18 +295,22 @@ class _LegTree:
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         J = SWAP @ pin.getFrameJacobian(model, data, self.origin_id, pin.LOCAL_WORLD_ALIGNED) @ self.P  # [w; v]
-        G = np.linalg.inv(J)                                      # independent rates per platform twist
+        G = np.linalg.inv(J)  # independent rates per platform twist
         M = _sym(pin.crba(model, data, q))
         for fid, jid, I6 in self.riding:
             oMf, oMj = data.oMf[fid], data.oMi[jid]
-            Jj = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED)    # [v at the joint; w], world
+            Jj = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED)  # [v at the joint; w], world
             v_at = Jj[:3] + np.cross(Jj[3:].T, oMf.translation - oMj.translation).T
-            Jb = np.vstack([oMf.rotation.T @ Jj[3:], oMf.rotation.T @ v_at])         # [w; v] in the body frame
+            Jb = np.vstack([oMf.rotation.T @ Jj[3:], oMf.rotation.T @ v_at])  # [w; v] in the body frame
             M = M + Jb.T @ I6 @ Jb
         PG = self.P @ G
-        return {"M": PG.T @ M @ PG, "G": G, "q": q.copy(),
-                "frames": {name: data.oMf[fid].copy() for name, fid in self.frame_ids.items()},
-                "origin": data.oMf[self.origin_id].translation.copy()}
+        return {
+            "M": PG.T @ M @ PG,
+            "G": G,
+            "q": q.copy(),
+            "frames": {name: data.oMf[fid].copy() for name, fid in self.frame_ids.items()},
+            "origin": data.oMf[self.origin_id].translation.copy(),
+        }
 
 
 class PinocchioRobot:
@@ -315,13 +344,12 @@ class PinocchioRobot:
     def platform_mass(self, position, R) -> np.ndarray:
         """The platform's 6x6 inertia at its origin, base axes, ``[omega; v]``, from the
         free-flyer model's ``crba`` (body-local ``[v; omega]``)."""
-        q = np.concatenate([position, pin.Quaternion(R).coeffs()])   # the platform's axes are R
+        q = np.concatenate([position, pin.Quaternion(R).coeffs()])  # the platform's axes are R
         Ml = SWAP @ _sym(pin.crba(self.platform, self.platform_data, q)) @ SWAP
-        A = np.kron(np.eye(2), R.T)                             # base twist -> platform axes
+        A = np.kron(np.eye(2), R.T)  # base twist -> platform axes
         return A.T @ Ml @ A
 
-    def matrices(self, position, rotation=None, *, c_act, c_virtual=0.0, compliances=None,
-                 stiffness="elastic") -> dict:
+    def matrices(self, position, rotation=None, *, c_act, c_virtual=0.0, compliances=None, stiffness="elastic") -> dict:
         """``M`` and ``K`` (6x6, platform origin, base axes, ``[omega; v]``) at a pose.
 
         c_act : compliance of each actuated joint (rad/(N m) or m/N; a number or a list
@@ -355,7 +383,7 @@ class PinocchioRobot:
                 if C_local is None:
                     continue
                 oMf = st["frames"][name]
-                Ad = SWAP @ pin.SE3(oMf.rotation, oMf.translation - st["origin"]).action @ SWAP   # local -> origin
+                Ad = SWAP @ pin.SE3(oMf.rotation, oMf.translation - st["origin"]).action @ SWAP  # local -> origin
                 Cs += Ad @ C_local @ Ad.T
             Cq = Je @ Cs @ Je.T + np.diag([ca] * len(leg.actuated) + [c_virtual] * len(leg.virtual))
             K += Je.T @ np.linalg.solve(Cq, Je)
@@ -393,8 +421,14 @@ def from_description(robot, params: dict, q_ref, pose_ref, *, frames=(), swing_b
     R = rotation_vector_matrix(pose_ref[3:6]) if len(pose_ref) == 6 else np.eye(3)
     subs = {sym(k): v for k, v in params.items()}
     subs.update({s: float(v) for s, v in zip(pose_space.inputs[:3], position)})
-    subs.update({pose_space.inputs[3 + 3 * i + j]: float(R[i, j]) for i in range(3) for j in range(3)
-                 if len(pose_space.inputs) > 3})
+    subs.update(
+        {
+            pose_space.inputs[3 + 3 * i + j]: float(R[i, j])
+            for i in range(3)
+            for j in range(3)
+            if len(pose_space.inputs) > 3
+        }
+    )
     num = lambda e: np.array(sp.Matrix(e).xreplace(subs).evalf(30), dtype=float).ravel()  # noqa: E731
     origin = num(pose_space.origin)
     point = lambda e: num(e) - origin + position  # noqa: E731
@@ -408,14 +442,29 @@ def from_description(robot, params: dict, q_ref, pose_ref, *, frames=(), swing_b
         for jt in leg.joints:
             axes = tuple(vec(a) for a in jt.axes) if jt.axes else tuple(np.eye(3))
             swing = getattr(jt, "swing", None) or None
-            joints.append(PinJoint(jt.kind, axes, None if jt.location is None else pt(jt.location), jt.actuated,
-                                   None if swing is None else (vec(swing[0]), scal(swing[1]))))
+            joints.append(
+                PinJoint(
+                    jt.kind,
+                    axes,
+                    None if jt.location is None else pt(jt.location),
+                    jt.actuated,
+                    None if swing is None else (vec(swing[0]), scal(swing[1])),
+                )
+            )
         rot = lambda names: np.column_stack([vec(a) for a in names])  # noqa: E731
         # a body after a Pi joint without a pivot is the paper's fictitious rod: it rides
-        bodies = [PinBody(b.name, b.after - 1, num(b.inertia).reshape(6, 6), rot(b.rotation), pt(b.origin),
-                          None if getattr(b, "pivot", None) is None else pt(b.pivot),
-                          riding=leg.joints[b.after - 1].kind == "Pi" and getattr(b, "pivot", None) is None)
-                  for b in leg.bodies]
+        bodies = [
+            PinBody(
+                b.name,
+                b.after - 1,
+                num(b.inertia).reshape(6, 6),
+                rot(b.rotation),
+                pt(b.origin),
+                None if getattr(b, "pivot", None) is None else pt(b.pivot),
+                riding=leg.joints[b.after - 1].kind == "Pi" and getattr(b, "pivot", None) is None,
+            )
+            for b in leg.bodies
+        ]
         for name, joint, pivot, inertia, axes, org in swing_bodies:
             I6 = inertia(params) if callable(inertia) else inertia
             bodies.append(PinBody(name, joint, np.asarray(I6, float), rot(axes), pt(org), pt(pivot)))

@@ -8,6 +8,7 @@ vertical axis (a rotation about it or a reflection in a plane through it) maps e
 base joint and platform attachment onto another leg's at every measured pose, and leg i onto
 leg j.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -40,8 +41,15 @@ def cases(heli4, paper_rigid_diagnosis):
     """name -> (diagnosis, evaluator, the effect that must be named, its parameter, true value or None)."""
     out = {}
     # the README walkthrough: 30 rows, a hidden 0.35 kg payload, 0.5 % noise (seed 3)
-    meas = synth("paper+payload_mass:m_p=0.35", KA, [[0, 0, -0.625], [0.06, -0.04, -0.6]], ["x", "y", "z"],
-                 "0.5%", seed=3, ev=heli4)
+    meas = synth(
+        "paper+payload_mass:m_p=0.35",
+        KA,
+        [[0, 0, -0.625], [0.06, -0.04, -0.6]],
+        ["x", "y", "z"],
+        "0.5%",
+        seed=3,
+        ev=heli4,
+    )
     out["walkthrough"] = (diagnose(meas, "paper", ev=heli4), heli4, "payload_mass", "m_p", 0.35)
     # the paper's measurements from the rigid model: ee_compliance (the paper's static test: 500 N m/rad)
     # (conftest's paper_rigid_diagnosis: diagnose(parse_csv(paper_csv("heli4"), ...), "rigid") on NumPy)
@@ -71,8 +79,9 @@ def _check_answer(d, ev, effect, name, truth):
     # the effect and its value, with the error and the unit the parameter has
     assert re.search(rf"{re.escape(effect)}( or @\d)?\b", text), text
     unit = ev.parameter(name).unit
-    m = re.search(rf"{re.escape(name)} = \(?([\d.]+) ± ([\d.]+)\)?(·10\S+)? ?{re.escape(unit) if unit != '-' else ''}",
-                  text)
+    m = re.search(
+        rf"{re.escape(name)} = \(?([\d.]+) ± ([\d.]+)\)?(·10\S+)? ?{re.escape(unit) if unit != '-' else ''}", text
+    )
     assert m, (name, text)
     value, std = d.final.values[name], d.final.std[name]
     if truth is not None:
@@ -114,10 +123,10 @@ def _legs_symmetric(ev, poses, i: int, j: int) -> bool:
     b = geo[0].base
     ti, tj = (np.arctan2(b[k, 1], b[k, 0]) for k in (i, j))
     maps = []
-    for phi in (tj - ti,):                                   # rotation about z by phi
+    for phi in (tj - ti,):  # rotation about z by phi
         c, s = np.cos(phi), np.sin(phi)
         maps.append(np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]))
-    theta = (ti + tj) / 2                                    # reflection in the vertical plane at theta
+    theta = (ti + tj) / 2  # reflection in the vertical plane at theta
     for t in (theta, theta + np.pi / 2):
         c, s = np.cos(2 * t), np.sin(2 * t)
         maps.append(np.array([[c, s, 0], [s, -c, 0], [0, 0, 1]]))
@@ -151,8 +160,11 @@ def test_mirror_images_are_grouped_exactly_when_the_robot_is_symmetric(cases, ca
         for a, b in itertools.combinations(legs, 2):
             assert _legs_symmetric(ev, poses, a - 1, b - 1), (case, [c.effect for c in g])
             grouped.add((names.pop() if len(names) else split_scope(g[0].effect)[0], a, b))
-    symmetric = [(a, b) for a, b in itertools.combinations(range(1, ev.n_legs + 1), 2)
-                 if _legs_symmetric(ev, poses, a - 1, b - 1)]
+    symmetric = [
+        (a, b)
+        for a, b in itertools.combinations(range(1, ev.n_legs + 1), 2)
+        if _legs_symmetric(ev, poses, a - 1, b - 1)
+    ]
     if case == "walkthrough":
         assert symmetric == [] and all(len(g) == 1 for g in groups)
     else:
@@ -180,6 +192,6 @@ def test_the_cli_opens_with_the_answer_and_details_hold_the_rest(capsys):
     # the paper's step responses are damped frequencies: the servo damping explains them
     assert 1 <= len(head.splitlines()) <= MAX_LINES and head.startswith("Explained") and "servo_damping" in head
     assert "2. Candidate effects" in rest and "criteria:" in rest
-    assert "transmission_compliance@1 or @2" in rest       # one row for the mirror images
+    assert "transmission_compliance@1 or @2" in rest  # one row for the mirror images
     assert not re.search(r"^\s+\d+\s+transmission_compliance@2\b", rest, re.M)
     assert max(len(line) for line in head.splitlines()) <= WIDTH

@@ -4,6 +4,7 @@ An effect added early that the final model no longer needs is removed, with the 
 needed effects stay. Truth and data from synth (the catalogue's payload), so what is
 needed is known independently of the selection.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -26,7 +27,7 @@ POSES = ((0.0, 0.0, -0.625), (0.06, -0.04, -0.6))
 @pytest.fixture(scope="session")
 def ev_cd():
     mp = pytest.MonkeyPatch()
-    mp.setattr(fitmod, "EXACT_JACOBIAN", False)          # central differences: fast, no kernel to compile
+    mp.setattr(fitmod, "EXACT_JACOBIAN", False)  # central differences: fast, no kernel to compile
     yield eigentwist.load("heli4", backend="auto")
     mp.undo()
 
@@ -55,8 +56,15 @@ def test_per_leg_effect_added_early_is_removed_in_nine_of_ten_seeds(per_leg_firs
 
 @pytest.mark.slow
 def test_needed_effects_stay(ev_cd):
-    meas = synth("paper+payload_mass:m_p=0.3+transmission_compliance:k_t=8000", KA, POSES, ("x", "y", "z"), 0.005,
-                 seed=3, ev=ev_cd)
+    meas = synth(
+        "paper+payload_mass:m_p=0.3+transmission_compliance:k_t=8000",
+        KA,
+        POSES,
+        ("x", "y", "z"),
+        0.005,
+        seed=3,
+        ev=ev_cd,
+    )
     d = diagnose(meas, "paper", ev=ev_cd)
     assert set(d.selected) == {"payload_mass", "transmission_compliance"} and d.removed == []
     assert all(s.removed is None for s in d.steps) and d.to_json()["removed"] == []
@@ -66,8 +74,16 @@ def test_needed_effects_stay(ev_cd):
 def test_removal_is_a_step_of_the_path_in_json(ev_cd):
     # the catalogue cannot describe a spring to ground: the path takes back what the final model does not need
     shipped = ev_cd
-    meas = synth("paper+payload_mass:m_p=0.3", KA, POSES, ("x", "y", "z"), 0.005, seed=0, ev=shipped,
-                 extra_stiffness={"y": 2500.0})
+    meas = synth(
+        "paper+payload_mass:m_p=0.3",
+        KA,
+        POSES,
+        ("x", "y", "z"),
+        0.005,
+        seed=0,
+        ev=shipped,
+        extra_stiffness={"y": 2500.0},
+    )
     d = diagnose(meas, "paper", ev=shipped)
     j = d.to_json()
     for r in d.removed:
@@ -77,10 +93,10 @@ def test_removal_is_a_step_of_the_path_in_json(ev_cd):
     assert j["selected"] == [e for e in j["selected"] if e in j["final"]["effects"]]
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_sigma_verdict_never_consistent_when_chi2_rejects_it(ev_cd):
     d = diagnose(paper_measurements(ev_cd), "rigid", ev=ev_cd)
     u = d.uncertainty
-    assert stats.chi2.sf(u.chi2, u.dof) < ALPHA                 # the paper's rows misfit systematically
+    assert stats.chi2.sf(u.chi2, u.dof) < ALPHA  # the paper's rows misfit systematically
     assert u.verdict == "cannot be judged" and u.possibly_understated and u.pattern
     assert u.birge_ratio == pytest.approx(math.sqrt(d.final.chi2 / d.final.dof))

@@ -5,6 +5,7 @@ stiffness: eta_a in (0, 1]); the constraints between parameters (a tube's inner 
 outer one, the inertia triangle inequality) cut a fitted parameter's range; a difference step
 never crosses either.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,12 +26,12 @@ def delta():
 
 def test_eta_a_hard_bound_is_zero_to_one_with_one_included():
     eta = EFFECTS["actuator_loss"].params[0]
-    assert eta.admits(1.0) and eta.admits(1e-6)                  # just inside, both ends
-    assert not eta.admits(1.0 + 1e-12) and not eta.admits(0.0)   # just outside
+    assert eta.admits(1.0) and eta.admits(1e-6)  # just inside, both ends
+    assert not eta.admits(1.0 + 1e-12) and not eta.admits(0.0)  # just outside
     with pytest.raises(ValueError, match=r"eta_a.*\(0, 1\]"):
         eta.check(1.0 + 1e-9)
     lo, hi = eta.plausible_range
-    assert hi <= eta.bounds[1]                                   # a plausible value is always admissible
+    assert hi <= eta.bounds[1]  # a plausible value is always admissible
 
 
 def test_a_positive_parameter_excludes_zero_and_admits_any_positive_value():
@@ -43,11 +44,11 @@ def test_the_tube_constraint_cuts_the_outer_radius_range_at_the_inner_one(delta)
     lo, hi = constraint_range(delta, "r_o_l1", {"r_i_l1": r_i}, ("lower_link_compliance",))
     assert lo == pytest.approx(r_i) and hi == math.inf
     lo, hi = constraint_range(delta, "r_i_l1@2", {"r_o_l1@2": 0.02, "r_o_l1": 0.015}, ("lower_link_compliance@2",))
-    assert hi == pytest.approx(0.02) and lo == -math.inf          # a leg's own copy pairs with its own partner
+    assert hi == pytest.approx(0.02) and lo == -math.inf  # a leg's own copy pairs with its own partner
     # the effect not in the model: no constraint
     assert constraint_range(delta, "r_o_l1", {"r_i_l1": r_i}, ("actuator_loss",)) == (-math.inf, math.inf)
     t = Transform.of(delta.parameter("r_o_l1")).within(lo=r_i, hi=math.inf)
-    assert r_i < t.lo < r_i * (1 + 1e-8)                         # strictly inside, by a relative margin
+    assert r_i < t.lo < r_i * (1 + 1e-8)  # strictly inside, by a relative margin
     with pytest.raises(InputError, match="no range"):
         Transform.of(delta.parameter("r_o_l1")).within(lo=1.0, hi=0.5)
 
@@ -91,8 +92,15 @@ def test_a_fit_of_the_outer_radius_stays_above_the_inner_one(delta):
     from eigentwist.diagnose.fit import fit
 
     truth = 0.0132
-    meas = synth(f"paper+lower_link_compliance:r_o_l1={truth}", (1000, 4000), [[0.0, 0.0, -0.75]], ("x", "z"),
-                 0.0, seed=0, ev=delta)
+    meas = synth(
+        f"paper+lower_link_compliance:r_o_l1={truth}",
+        (1000, 4000),
+        [[0.0, 0.0, -0.75]],
+        ("x", "z"),
+        0.0,
+        seed=0,
+        ev=delta,
+    )
     f = fit(meas, ("actuator_loss", "rod_compliance", "lower_link_compliance"), delta, ("r_o_l1",))
     assert 0.013 < f.values["r_o_l1"] and f.values["r_o_l1"] == pytest.approx(truth, rel=1e-4)
 
@@ -101,8 +109,9 @@ def test_an_optimisation_box_across_a_constraint_is_one_error_line(delta):
     from eigentwist.design.optimize import Vary, optimize_worst_case
 
     with pytest.raises(InputError, match=r"vary r_o_l1=0.012:0.02: .*r_i_l1 = 0.013.*inner radius"):
-        optimize_worst_case(delta, [Vary("r_o_l1", 0.012, 0.02)], [[0.0, 0.0, -0.75]],
-                            model="paper,lower_link_compliance")
+        optimize_worst_case(
+            delta, [Vary("r_o_l1", 0.012, 0.02)], [[0.0, 0.0, -0.75]], model="paper,lower_link_compliance"
+        )
 
 
 def test_the_only_explanation_implausible_names_the_inputs_to_check(delta):
@@ -113,10 +122,15 @@ def test_the_only_explanation_implausible_names_the_inputs_to_check(delta):
     from eigentwist.diagnose.answer import check_inputs
 
     final = NS(aicc=100.0, effects=("actuator_loss", "rod_compliance"), names=(), values={}, fixed={})
-    cand = NS(effect="lower_link_compliance", plausible=False, implausible={"E_l1": 1.78e10}, names=("E_l1",),
-              p_value=1e-9, fit=NS(aicc=20.0, names=("E_l1",), fixed={"E_l1": 1.78e10}, values={"E_l1": 1.78e10}))
-    d = NS(implausible={}, explained=False, manual=False, final=final, alpha=0.01,
-           steps=[NS(ranking=[cand])])
+    cand = NS(
+        effect="lower_link_compliance",
+        plausible=False,
+        implausible={"E_l1": 1.78e10},
+        names=("E_l1",),
+        p_value=1e-9,
+        fit=NS(aicc=20.0, names=("E_l1",), fixed={"E_l1": 1.78e10}, values={"E_l1": 1.78e10}),
+    )
+    d = NS(implausible={}, explained=False, manual=False, final=final, alpha=0.01, steps=[NS(ranking=[cand])])
     text = check_inputs(d, delta)
     lo, hi = delta.parameter("E_l1").plausible_range
     assert text.startswith("Check the inputs: lower_link_compliance needs E_l1 = 1.78e+10 Pa")

@@ -5,6 +5,7 @@ program against the header and the checked-in generated source, as a user would,
 compares their frequencies with ``Evaluator.frequencies`` of the NumPy backend (LAPACK:
 an independent eigen-solver) at 20 random poses.
 """
+
 from __future__ import annotations
 
 import re
@@ -29,8 +30,11 @@ def test_library_options_are_the_runtimes():
     from eigentwist.runtime.eigen import ROUNDOFF_EPS
     from eigentwist.runtime.validity import LEVER_SCALE, LEVER_TOL, STATUS
 
-    assert (c_library.LEVER_TOL, c_library.LEVER_SCALE, c_library.ROUNDOFF_EPS) == (LEVER_TOL, LEVER_SCALE,
-                                                                                  ROUNDOFF_EPS)
+    assert (c_library.LEVER_TOL, c_library.LEVER_SCALE, c_library.ROUNDOFF_EPS) == (
+        LEVER_TOL,
+        LEVER_SCALE,
+        ROUNDOFF_EPS,
+    )
     text = (GENERATED / "heli4_c.h").read_text()
     for name, code in STATUS.items():
         assert re.search(rf"#define ET_HELI4_{name.upper()} {code}\b", text), name
@@ -51,7 +55,7 @@ def test_header_lists_the_inputs(robot):
     full = _solved_inputs(ev, "paper", {})
     for _, _, name, unit, default in rows:
         base = re.sub(r"__\d+$", "", name)
-        assert float(default) == full[name], name                  # the default model's value as solved
+        assert float(default) == full[name], name  # the default model's value as solved
         if base in params:
             assert unit == params[base].unit, name
         else:
@@ -71,23 +75,24 @@ def test_defaults_are_the_exact_default_model(robot):
     """The shipped robots' default model has no rigid leg direction: the evaluator solves it
     with c_rigid = 0 (no stand-in penalty), and the header's defaults say the same."""
     ev = eigentwist.load(robot, backend="numpy")
-    assert ev.parameters["c_rigid"].default > 0                   # the description's penalty value ...
+    assert ev.parameters["c_rigid"].default > 0  # the description's penalty value ...
     route, condensed = ev.constraint_route(c_library.DEFAULT_MODEL)
-    assert route == {"c_rigid": 0.0} and not condensed             # ... is not what the default model uses
+    assert route == {"c_rigid": 0.0} and not condensed  # ... is not what the default model uses
     text = (GENERATED / f"{robot}_c.h").read_text()
     assert re.search(rf"#define ET_{robot.upper()}_IN_c_rigid \d+  /\* c_rigid \(rad/\(N m\)\) = 0\.0:", text)
 
 
 def test_inputs_give_per_leg_names():
     """ev.inputs: the dict the NumPy module takes, per-leg copies and switches included."""
-    ev = eigentwist.load("heli4", backend="numpy")          # its matrices are the module's, bit for bit
+    ev = eigentwist.load("heli4", backend="numpy")  # its matrices are the module's, bit for bit
     p = ev.inputs("paper", {"eta_a@2": 0.5}, m_e=0.6)
     assert p["eta_a__2"] == 0.5 and p["eta_a__1"] == ev.defaults["eta_a"] and p["m_e"] == 0.6
     assert p["on_actuator_loss__3"] == 1.0 and p["on_payload_mass"] == 0.0 and p["on_ee_compliance"] == 1.0
     q = ev.module.inverse_kinematics(np.array([0.0]), np.array([0.0]), np.array([-0.6]), p)["q"]
     M = ev.module.matrices(q, p)["M"][0]
-    np.testing.assert_allclose(M, ev.matrices([0.0, 0.0, -0.6], "paper", **{"eta_a@2": 0.5, "m_e": 0.6})["M"][0],
-                               rtol=1e-13, atol=0)
+    np.testing.assert_allclose(
+        M, ev.matrices([0.0, 0.0, -0.6], "paper", **{"eta_a@2": 0.5, "m_e": 0.6})["M"][0], rtol=1e-13, atol=0
+    )
     with pytest.raises(InputError, match="eta_a@9"):
         ev.inputs("paper", {"eta_a@9": 0.5})
 
@@ -219,20 +224,25 @@ def test_c_and_cxx_programs_reproduce_frequencies(programs, robot, lang, tmp_pat
     names = [line.split()[0] for line in _run(prog, "names").splitlines()]
     defaults = [float(line.split()[-1]) for line in _run(prog, "names").splitlines()]
     full = _solved_inputs(ev, "paper", {})
-    assert defaults == [full[n] for n in names]                   # et_<robot>_defaults = the default model as solved
+    assert defaults == [full[n] for n in names]  # et_<robot>_defaults = the default model as solved
     poses = random_poses(ev.robot, 20, seed=23)
     for model, values in (("paper", {}), _scoped_values(ev.robot), ("rigid", {})):
         p = _solved_inputs(ev, model, values)
         data = tmp_path / "in.txt"
-        data.write_text(f"{len(poses)}\n" + "\n".join(" ".join(repr(float(v)) for v in row) for row in poses)
-                        + "\n" + " ".join(repr(p[n]) for n in names) + "\n")
+        data.write_text(
+            f"{len(poses)}\n"
+            + "\n".join(" ".join(repr(float(v)) for v in row) for row in poses)
+            + "\n"
+            + " ".join(repr(p[n]) for n in names)
+            + "\n"
+        )
         rows = np.array([[float(v) for v in line.split()] for line in _run(prog, data).splitlines()])
         status, hz = rows[:, 0], rows[:, 1:]
         want = _library_frequencies(ev, poses, model, values)
         assert (status == 0).all(), (model, status)
         k = want.shape[1]
         np.testing.assert_allclose(hz[:, :k], want, rtol=1e-12, atol=0, err_msg=f"{robot} {model} ({lang})")
-        assert np.isnan(hz[:, k:]).all()                           # a 3-DoF robot's rigid model: 3 modes
+        assert np.isnan(hz[:, k:]).all()  # a 3-DoF robot's rigid model: 3 modes
 
 
 @pytest.mark.compiled
@@ -250,8 +260,9 @@ def test_status_codes_and_preload(programs, tmp_path):
     modes = ev.modes(poses, "paper", invalid="nan", vectors=False)
     assert rows[:, 0].tolist() == [0, 1, 0] and not modes.valid[1]
     assert np.isnan(rows[1, 1:]).all()
-    np.testing.assert_allclose(rows[[0, 2], 1:], _library_frequencies(ev, poses[[0, 2]], "paper", {}),
-                               rtol=1e-12, atol=0)
+    np.testing.assert_allclose(
+        rows[[0, 2], 1:], _library_frequencies(ev, poses[[0, 2]], "paper", {}), rtol=1e-12, atol=0
+    )
     if "on_gravity_preload" in names:
         p = ev.inputs("paper,gravity_preload")
         data.write_text(f"1\n0 0 -0.6\n{' '.join(repr(p[n]) for n in names)}\n")
@@ -263,8 +274,9 @@ def test_status_codes_and_preload(programs, tmp_path):
 def test_generated_source_compiles_as_cxx(tmp_path):
     """``restrict`` does not stop the source compiling as C++ (a macro, ``__restrict`` there)."""
     cxx = _cxx()
-    res = subprocess.run([cxx, "-fsyntax-only", "-x", "c++", str(GENERATED / "heli4_c.c")],
-                         capture_output=True, text=True)
+    res = subprocess.run(
+        [cxx, "-fsyntax-only", "-x", "c++", str(GENERATED / "heli4_c.c")], capture_output=True, text=True
+    )
     assert res.returncode == 0, res.stderr[-3000:]
 
 

@@ -1,6 +1,7 @@
 """One trust rule for the cache: generated files are imported or compiled only from private
 directories and only when they match their recorded SHA-256; anything missing, truncated or
 altered is regenerated with one line on stderr (eigentwist/runtime/ccompile.py, userfile.py)."""
+
 from __future__ import annotations
 
 import os
@@ -23,7 +24,7 @@ def cache(tmp_path, monkeypatch):
     monkeypatch.setenv("EIGENTWIST_CACHE", str(root))
     calls = []
 
-    def render(description, progress=None, **kw):        # stands in for the SymPy derivation
+    def render(description, progress=None, **kw):  # stands in for the SymPy derivation
         calls.append(description.name)
         return {f"{description.name}_numpy.py": NUMPY, f"{description.name}_c.c": C_SOURCE}
 
@@ -64,11 +65,13 @@ def test_damaged_file_is_regenerated_not_imported(cache, capsys, damage):
     _, texts = generated_modules(get("heli4"), "k2")
     assert calls == ["heli4", "heli4"] and texts["heli4_numpy.py"] == NUMPY and path.read_text() == NUMPY
     err = capsys.readouterr().err.strip().splitlines()
-    why = {"truncate": "does not match its recorded SHA-256 (truncated or altered)",
-           "append code": "does not match its recorded SHA-256 (truncated or altered)",
-           "delete digest": "has no recorded SHA-256"}
+    why = {
+        "truncate": "does not match its recorded SHA-256 (truncated or altered)",
+        "append code": "does not match its recorded SHA-256 (truncated or altered)",
+        "delete digest": "has no recorded SHA-256",
+    }
     if damage == "delete":
-        assert err == []                    # a missing file is simply generated
+        assert err == []  # a missing file is simply generated
     else:
         assert err == [f"eigentwist: the cached file {path} {why[damage]}: regenerating it"]
 
@@ -77,8 +80,12 @@ def test_damaged_file_is_regenerated_not_imported(cache, capsys, damage):
 def test_nothing_is_read_from_a_place_others_may_write(cache, level):
     root, calls = cache
     directory, _ = generated_modules(get("heli4"), "k3")
-    target = {"root": root, "descriptions": root / "descriptions", "leaf": directory,
-              "file": directory / "heli4_numpy.py"}[level]
+    target = {
+        "root": root,
+        "descriptions": root / "descriptions",
+        "leaf": directory,
+        "file": directory / "heli4_numpy.py",
+    }[level]
     target.chmod(_mode(target) | stat.S_IWOTH)
     with pytest.raises(ccompile.UnsafeCacheError, match="writable by others"):
         generated_modules(get("heli4"), "k3")
@@ -91,7 +98,7 @@ def test_read_verified_contract(tmp_path):
     directory.mkdir(mode=0o700)
     path = ccompile.write_verified(directory / "kernel.c", b"int x;\n")
     assert ccompile.read_verified(path) == b"int x;\n"
-    path.write_bytes(b"int y;\n")                         # same length, other bytes
+    path.write_bytes(b"int y;\n")  # same length, other bytes
     assert ccompile.read_verified(path) is None
     assert ccompile.read_verified(directory / "absent.c") is None
 
@@ -114,9 +121,11 @@ def test_shipped_files_are_checked_before_import_or_compile(tmp_path, monkeypatc
         path.write_bytes(path.read_bytes() + b"\n")
         with pytest.raises(ccompile.DamagedFileError) as exc:
             ccompile.read_shipped(path)
-        assert str(exc.value) == (f"the generated file {path} does not match its recorded SHA-256 (heli4.sha256): "
-                                  "the installation is damaged or edited; reinstall eigentwist, or run `eigentwist "
-                                  "generate` in a source checkout")
+        assert str(exc.value) == (
+            f"the generated file {path} does not match its recorded SHA-256 (heli4.sha256): "
+            "the installation is damaged or edited; reinstall eigentwist, or run `eigentwist "
+            "generate` in a source checkout"
+        )
         (tmp_path / "heli4.sha256").unlink()
         with pytest.raises(ccompile.DamagedFileError, match=rf"{name} has no recorded SHA-256"):
             ccompile.read_shipped(path)

@@ -1,5 +1,6 @@
 """The compiled-code cache under concurrency and damage (compiled tier): two processes
 building at once compile once, a damaged library is rebuilt, an unsafe directory is refused."""
+
 from __future__ import annotations
 
 import ctypes
@@ -58,7 +59,7 @@ def test_two_processes_compile_once(cc, tmp_path):
     for p in procs:
         p.join(timeout=60)
         assert p.exitcode == 0
-    assert len(log.read_text().split()) == 1                     # one compilation for both
+    assert len(log.read_text().split()) == 1  # one compilation for both
     assert results[0] == results[1] and results[0][1] == 42
     assert not [p.name for p in directory.iterdir() if p.name.endswith(".tmp") or p.suffix == ".c"]
 
@@ -76,11 +77,11 @@ def test_damaged_library_is_rebuilt(cc, tmp_path, damage):
     else:
         digest.unlink()
     again = ccompile.build_library(SOURCE, "tiny", cc, _flags(), tmp_path / "cache")
-    assert again == path and len(log.read_text().split()) == 2     # rebuilt
+    assert again == path and len(log.read_text().split()) == 2  # rebuilt
     assert digest.read_text().strip() == ccompile.library_digest(again)
     assert ctypes.CDLL(str(again)).et_tiny_answer() == 42
     ccompile.build_library(SOURCE, "tiny", cc, _flags(), tmp_path / "cache")
-    assert len(log.read_text().split()) == 2                      # intact now: reused
+    assert len(log.read_text().split()) == 2  # intact now: reused
 
 
 def test_cache_directory_is_private(cc, tmp_path):
@@ -98,8 +99,11 @@ def test_directory_writable_by_others_is_refused(cc, tmp_path, who):
     path = ccompile.build_library(SOURCE, "tiny", cc, _flags(), directory)
     bit = stat.S_IWOTH if who == "o+w" else stat.S_IWGRP
     directory.chmod(0o700 | bit)
-    with pytest.raises(ccompile.UnsafeCacheError, match=rf"refusing the compiled-code cache directory {directory}: "
-                                                          "it is writable by others"):
+    with pytest.raises(
+        ccompile.UnsafeCacheError,
+        match=rf"refusing the compiled-code cache directory {directory}: "
+        "it is writable by others",
+    ):
         ccompile.build_library(SOURCE, "tiny", cc, _flags(), directory)
     directory.chmod(0o700)
     path.chmod(0o777)

@@ -13,6 +13,7 @@ random configurations:
   and the leg's ``determinant`` is that of its six unit twists (``numpy.linalg.det``);
 * a leg whose joints give fewer than six twists is refused, naming the virtual joint.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -69,13 +70,19 @@ def test_hexapod_actuated_row_is_the_strut_line():
         K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
         R = np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
         d = {**robot.defaults}
-        b_deg, a_deg = (130, 170)                          # leg 4's joints
+        b_deg, a_deg = (130, 170)  # leg 4's joints
         b = d["R_b"] * np.array([np.cos(np.radians(b_deg)), np.sin(np.radians(b_deg)), 0])
         top = x + R @ (d["R_p"] * np.array([np.cos(np.radians(a_deg)), np.sin(np.radians(a_deg)), 0]))
         strut = top - b
         s = strut / np.linalg.norm(strut)
-        values = {**d, "l_4": np.linalg.norm(strut), "x": x[0], "y": x[1], "z": x[2],
-                  **{f"R_{i}{j}": R[i, j] for i in range(3) for j in range(3)}}
+        values = {
+            **d,
+            "l_4": np.linalg.norm(strut),
+            "x": x[0],
+            "y": x[1],
+            "z": x[2],
+            **{f"R_{i}{j}": R[i, j] for i in range(3) for j in range(3)},
+        }
         act = ls.keys[leg.kinematics.jacobian_rows[0]]
         want = np.concatenate([np.cross(top - x, s), s])
         assert np.abs(_num(prog, values, ls.rows[act]).ravel() - want).max() <= 1e-12

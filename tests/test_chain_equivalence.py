@@ -14,6 +14,7 @@ went through the one derivation every robot shares (pinned at commit b2ceb15). T
 derivation itself, evaluated in SymPy arithmetic (``Program.evaluate``, 20 digits) without
 any generated code, gives them too, at a few poses.
 """
+
 from __future__ import annotations
 
 from importlib import import_module
@@ -81,19 +82,25 @@ def test_the_derivation_gives_the_pinned_outputs(robot):
     model = derive(get(robot))
     for case in ("custom",):
         p = _pinned_inputs(robot, case)
-        for k in ((7,) if robot == "hexapod" else (0, 7)):     # the hexapod: a tilted pose (40 s each)
+        for k in (7,) if robot == "hexapod" else (0, 7):  # the hexapod: a tilted pose (40 s each)
             x = PIN[f"{robot}/poses"][k]
             pose = {name: v[k] for name, v in _pose_inputs(robot).items()} or {"x": x[0], "y": x[1], "z": x[2]}
-            ik = {name: np.array(model.ik.evaluate({**p, **pose}, sp.Matrix(ex), 20),
-                                 dtype=float).reshape(shape) for name, (shape, ex) in model.ik_outputs.items()}
+            ik = {
+                name: np.array(model.ik.evaluate({**p, **pose}, sp.Matrix(ex), 20), dtype=float).reshape(shape)
+                for name, (shape, ex) in model.ik_outputs.items()
+            }
             q = {s_.name: v for s_, v in zip(model.joints, ik["q"].ravel())}
             got = {"inverse_kinematics": ik}
             for g, outs in model.outputs.items():
-                got[g] = {name: np.array(model.program.evaluate({**p, **pose, **q}, sp.Matrix(ex), 20),
-                                         dtype=float).reshape(shape) for name, (shape, ex) in outs.items()}
+                got[g] = {
+                    name: np.array(model.program.evaluate({**p, **pose, **q}, sp.Matrix(ex), 20), dtype=float).reshape(
+                        shape
+                    )
+                    for name, (shape, ex) in outs.items()
+                }
             for g in GROUPS:
                 for name, value in got[g].items():
-                    want = PIN[f"{robot}/{case}/{g}/{name}"][k:k + 1]
+                    want = PIN[f"{robot}/{case}/{g}/{name}"][k : k + 1]
                     assert _close(value[None], want, 1)[0] <= 1e-12, f"{robot} {case} pose {k}: {g}/{name}"
 
 
@@ -106,8 +113,9 @@ def test_every_output_equals_the_pinned_one(robot, case):
         for name, value in got[g].items():
             want = PIN[f"{robot}/{case}/{g}/{name}"]
             rel = _close(value, want, n)
-            assert np.all(rel <= 1e-12), \
+            assert np.all(rel <= 1e-12), (
                 f"{robot} {case} {g}/{name}: relative error {rel.max():.3g} (pose {rel.argmax()})"
+            )
             checked += 1
     # q and the checks (sin_q3, cos_q2; the hexapod's cos_u); M, K_R, K_F; J_rows, lever; G, Kqe, k_act, W
     assert checked == (2 if robot == "hexapod" else 3) + 3 + 2 + 4

@@ -1,4 +1,5 @@
 """The command line as scripts use it: JSON keys, exit codes, one-line errors."""
+
 from __future__ import annotations
 
 import json
@@ -18,8 +19,18 @@ def run_cli(*args):
 def test_matrices_json_keys_and_values(capsys):
     assert main(["matrices", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    for key in ("pose", "k_a", "joint_angles_deg", "M", "K_R", "K_F", "freq_rigid_hz", "freq_flexible_hz",
-                "eigentwists_rigid", "eigentwists_flexible"):
+    for key in (
+        "pose",
+        "k_a",
+        "joint_angles_deg",
+        "M",
+        "K_R",
+        "K_F",
+        "freq_rigid_hz",
+        "freq_flexible_hz",
+        "eigentwists_rigid",
+        "eigentwists_flexible",
+    ):
         assert key in out
     assert np.shape(out["M"]) == (6, 6) and np.shape(out["eigentwists_flexible"]) == (6, 6)
     assert np.shape(out["eigentwists_rigid"]) == (3, 3) and len(out["freq_rigid_hz"]) == 3
@@ -53,7 +64,9 @@ def test_generate_check_passes_on_fresh_tree(monkeypatch, capsys, rendered):
     import eigentwist.codegen.generate as gen
 
     heli4 = {k: v for k, v in rendered.items() if k.startswith("heli4_")}
-    monkeypatch.setattr(gen, "render_all", lambda robots, **kw: heli4 if list(robots) == ["heli4"] else pytest.fail(robots))
+    monkeypatch.setattr(
+        gen, "render_all", lambda robots, **kw: heli4 if list(robots) == ["heli4"] else pytest.fail(robots)
+    )
     assert main(["generate", "--check", "--robot", "heli4"]) == 0, capsys.readouterr()
     assert "up to date" in capsys.readouterr().out
 
@@ -69,7 +82,7 @@ def test_generate_check_names_stale_files(tmp_path, monkeypatch, capsys, rendere
     monkeypatch.setattr(gcli, "__name__", gcli.__name__)
     import eigentwist.codegen.generate as g2
 
-    files = {k: v for k, v in rendered.items() if k.startswith("heli4_")}    # = g2.render_all(["heli4"]): conftest
+    files = {k: v for k, v in rendered.items() if k.startswith("heli4_")}  # = g2.render_all(["heli4"]): conftest
     assert set(g2.stale(files, tmp_path)) == set(files) and "heli4_numpy.py" in files
     g2.write(files, tmp_path)
     assert g2.stale(files, tmp_path) == []
@@ -96,11 +109,11 @@ def test_matrices_rigid_prints_the_frequencies_of_its_printed_matrices():
     assert "3x3 translational" in out["frequencies_from"]
     K_F = np.array(out["K_F"])
     flex = frequencies_hz(generalized_eigh(K_F[None], M[None])[0])[0]
-    assert np.allclose(out["freq_flexible_hz"], flex, rtol=1e-9)       # of the printed K_F, not the paper model's
-    text = run_cli("matrices", "--model", "rigid").stdout.replace("\n  ", " ")   # lines wrap at 100 columns
+    assert np.allclose(out["freq_flexible_hz"], flex, rtol=1e-9)  # of the printed K_F, not the paper model's
+    text = run_cli("matrices", "--model", "rigid").stdout.replace("\n  ", " ")  # lines wrap at 100 columns
     lines = text.splitlines()
     k = next(i for i, ln in enumerate(lines) if ln.startswith("natural frequencies of this"))
-    line = " ".join([lines[k]] + [ln.strip() for ln in lines[k + 1:k + 3] if ln.startswith("  ")])  # wrapped
+    line = " ".join([lines[k]] + [ln.strip() for ln in lines[k + 1 : k + 3] if ln.startswith("  ")])  # wrapped
     assert "rigid model (from M and K_R, 3x3 translational subsets)" in line
     assert ", ".join(f"{f:.3f}" for f in expected) in line
 
@@ -110,16 +123,17 @@ def test_matrices_flexible_prints_its_own_frequencies():
     assert out["kind"] == "flexible" and out["freq_hz"] == pytest.approx(out["freq_flexible_hz"], rel=1e-9)
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_piping_into_head_is_no_error():
     """``eigentwist diagnose paper | head -1``: the reader has gone when the output comes."""
     import os
 
     read, write = os.pipe()
-    os.close(read)                        # deterministic: every write meets a closed pipe
+    os.close(read)  # deterministic: every write meets a closed pipe
     try:
-        r = subprocess.run([sys.executable, "-m", "eigentwist", "diagnose", "paper"], stdout=write,
-                           stderr=subprocess.PIPE, text=True)
+        r = subprocess.run(
+            [sys.executable, "-m", "eigentwist", "diagnose", "paper"], stdout=write, stderr=subprocess.PIPE, text=True
+        )
     finally:
         os.close(write)
     assert r.returncode == 0 and "Broken pipe" not in r.stderr and "Traceback" not in r.stderr, r.stderr
@@ -130,20 +144,24 @@ def test_c_backend_without_compiler_is_one_line(tmp_path):
     import os
 
     env = {**os.environ, "CC": str(tmp_path / "no-such-cc"), "EIGENTWIST_CACHE": str(tmp_path)}
-    r = subprocess.run([sys.executable, "-m", "eigentwist", "matrices", "--backend", "c"], capture_output=True,
-                       text=True, env=env)
+    r = subprocess.run(
+        [sys.executable, "-m", "eigentwist", "matrices", "--backend", "c"], capture_output=True, text=True, env=env
+    )
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.strip().splitlines() == [r.stderr.strip()] and "no C compiler found" in r.stderr
 
 
-@pytest.mark.parametrize("argv, hint", [
-    (["compare", "paper", "--model", "rigid,rod_complience"], "did you mean rod_compliance?"),
-    (["compare", "paper", "--model", "papr"], "did you mean paper?"),
-    (["matrices", "--set", "E_rdo=1e11"], "did you mean E_rod?"),
-    (["compare", "paper", "--robot", "heli5"], "did you mean heli4?"),
-    (["synth", "--truth", "paper+payload_mas", "--k-a", "500"], "did you mean payload_mass?"),
-    (["synth", "--truth", "paper", "--k-a", "500", "--modes", "xx"], "did you mean x?"),
-])
+@pytest.mark.parametrize(
+    "argv, hint",
+    [
+        (["compare", "paper", "--model", "rigid,rod_complience"], "did you mean rod_compliance?"),
+        (["compare", "paper", "--model", "papr"], "did you mean paper?"),
+        (["matrices", "--set", "E_rdo=1e11"], "did you mean E_rod?"),
+        (["compare", "paper", "--robot", "heli5"], "did you mean heli4?"),
+        (["synth", "--truth", "paper+payload_mas", "--k-a", "500"], "did you mean payload_mass?"),
+        (["synth", "--truth", "paper", "--k-a", "500", "--modes", "xx"], "did you mean x?"),
+    ],
+)
 def test_typos_suggest_the_closest_name(argv, hint, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
@@ -163,7 +181,7 @@ def test_unreachable_pose_says_which_heights_are_reachable(capsys, ev):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "reachable, non-singular heights are z in [" in err
     lo, hi = (float(v) for v in err.split("z in [")[1].split("]")[0].split(","))
-    assert lo < -0.70 and hi > -0.55                                    # the workspace box lies inside
+    assert lo < -0.70 and hi > -0.55  # the workspace box lies inside
     assert ev.valid([[0, 0, lo + 1e-3], [0, 0, hi - 1e-3]]).all()
     assert not ev.valid([[0, 0, lo - 1e-3], [0, 0, hi + 1e-3]]).any()
 
@@ -201,8 +219,10 @@ def test_every_command_defaults_to_the_backend_of_load(monkeypatch, capsys):
 
     def defaults():
         sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
-        return {name: next((a.default for a in parser._actions if "--backend" in a.option_strings), None)
-                for name, parser in sub.choices.items()}
+        return {
+            name: next((a.default for a in parser._actions if "--backend" in a.option_strings), None)
+            for name, parser in sub.choices.items()
+        }
 
     monkeypatch.delenv("EIGENTWIST_BACKEND", raising=False)
     found = {name: d for name, d in defaults().items() if d is not None}

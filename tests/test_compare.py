@@ -1,4 +1,5 @@
 """Comparing a model with measurements: the paper's numbers, mode matching, residual patterns."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,7 +32,7 @@ def test_paper_model_on_the_paper_measurements(ev, paper_data):
     assert round(c.rms_pct, 1) == 4.2 and round(c.max_pct, 1) == 9.0
     last_x = (np.asarray(paper_data.mode) == "x") & (paper_data.k_a == 4000)
     assert float(c.error_pct[last_x][0]) == pytest.approx(6.0, abs=0.05)
-    assert c.chi2 == pytest.approx(np.sum(c.error_sigma ** 2))
+    assert c.chi2 == pytest.approx(np.sum(c.error_sigma**2))
     fails = {w["mode"]: w for w in c.where_it_fails()}
     assert fails["x"]["predicted"] == "too high" and 4000 in fails["x"]["k_a_range"]
 
@@ -40,8 +41,10 @@ def test_direction_matching_survives_a_mode_swap(tmp_path, ev):
     # Lowering the EE linear stiffness along Y (k_E_lin) lowers the Y mode below the X mode
     # at x_ref: rank 1 changes from the X mode to the Y mode, the directions do not.
     path = tmp_path / "swap.csv"
-    path.write_text("k_a,mode,freq_hz,k_E_lin\n"
-                    "2000,x,20,1.3e5\n2000,x,20,2e4\n2000,y,20,1.3e5\n2000,y,20,2e4\n2000,1,20,1.3e5\n2000,1,20,2e4\n")
+    path.write_text(
+        "k_a,mode,freq_hz,k_E_lin\n"
+        "2000,x,20,1.3e5\n2000,x,20,2e4\n2000,y,20,1.3e5\n2000,y,20,2e4\n2000,1,20,1.3e5\n2000,1,20,2e4\n"
+    )
     c = compare(load_measurements(path, ev=ev), "paper", ev)
     modes = ev.modes(np.tile(ev.robot.x_ref, (2, 1)), "paper", k_a=2000.0, k_E_lin=np.array([1.3e5, 2e4]))
     assert [modes.axes[a] for a in np.argmax(np.abs(modes.eigentwists[:, :, 0]), axis=1)] == ["x", "y"]  # swapped
@@ -59,7 +62,7 @@ def test_direction_absent_from_the_model_is_a_clear_error(tmp_path, ev):
     meas = load_measurements(path, ev=ev)
     with pytest.raises(ModeMatchError, match=r"line 3: mode 'rx': the rigid model has no mode along rx"):
         compare(meas, "rigid", ev)
-    assert compare(meas, "paper", ev).mode_index[1] >= 3      # the flexible model has rotation modes
+    assert compare(meas, "paper", ev).mode_index[1] >= 3  # the flexible model has rotation modes
     path.write_text("k_a,mode,freq_hz\n2000,4,60\n")
     with pytest.raises(ModeMatchError, match=r"line 2: mode rank 4 does not exist.*3 modes"):
         compare(load_measurements(path, ev=ev), "rigid", ev)
@@ -74,7 +77,7 @@ def test_classify_recognises_the_three_shapes():
     assert res["shape"] == "constant" and res["ratio"] == pytest.approx(0.9)
     assert classify(k, np.zeros(6), w)["shape"] is None
     noise = np.random.default_rng(0).normal(0, 1e-3, 6)
-    assert classify(k, noise, w)["shape"] is None          # pure noise at sigma = 1e-3: no pattern
+    assert classify(k, noise, w)["shape"] is None  # pure noise at sigma = 1e-3: no pattern
 
 
 def test_hints_on_the_paper_data_point_to_a_series_compliance(ev, paper_data):

@@ -1,4 +1,5 @@
 """App. C against an independent computation; screw-algebra identities."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -60,7 +61,7 @@ def test_compliance_transport_preserves_elastic_energy():
     Ce = np.array(compliance_to_frame(Cl, Rm, p).evalf(), dtype=float)
     Ad = np.array(adjoint(Rm, p).evalf(), dtype=float)
     w_e = rng.normal(size=6)
-    w_local = Ad.T @ w_e                       # wrenches transform with Ad^T
+    w_local = Ad.T @ w_e  # wrenches transform with Ad^T
     assert np.isclose(w_e @ Ce @ w_e, w_local @ np.array(Cl, dtype=float) @ w_local, rtol=1e-12)
 
 
@@ -68,8 +69,10 @@ def test_adjoint_of_homogeneous_composes_and_inverts():
     from eigentwist.description.screw import adjoint_of_homogeneous, homogeneous
 
     rng = np.random.default_rng(8)
-    Hs = [homogeneous(sp.Matrix(np.linalg.qr(rng.normal(size=(3, 3)))[0]), sp.Matrix(rng.normal(size=3)))
-          for _ in range(2)]
+    Hs = [
+        homogeneous(sp.Matrix(np.linalg.qr(rng.normal(size=(3, 3)))[0]), sp.Matrix(rng.normal(size=3)))
+        for _ in range(2)
+    ]
     A = [np.array(adjoint_of_homogeneous(H).evalf(), dtype=float) for H in Hs]
     A12 = np.array(adjoint_of_homogeneous(Hs[0] * Hs[1]).evalf(), dtype=float)
     np.testing.assert_allclose(A[0] @ A[1], A12, atol=1e-12)

@@ -5,12 +5,18 @@ independent of the condensation's own null-space basis; the limit of a structure
 whose compliance goes to zero; a hand-made two-spring example; the penalty model of the
 paper (c_rigid = 1e-12) within its penalty error.
 """
+
 import numpy as np
 import pytest
 
 import eigentwist
-from eigentwist.runtime.condense import (compliance_eigh, condensed_compliance, finite_modes, leg_joints,
-                                         platform_compliance)
+from eigentwist.runtime.condense import (
+    compliance_eigh,
+    condensed_compliance,
+    finite_modes,
+    leg_joints,
+    platform_compliance,
+)
 from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh
 
 
@@ -26,7 +32,7 @@ def test_rigid_six_by_six_equals_allowed_twist_subsets(case):
     ev, poses = case
     C, M = platform_compliance(ev, poses, "rigid")
     f, V = compliance_eigh(C, M)
-    assert np.isinf(f[:, 3:]).all()                      # the constrained directions: infinite frequency
+    assert np.isinf(f[:, 3:]).all()  # the constrained directions: infinite frequency
     np.testing.assert_allclose(finite_modes(f), ev.frequencies(poses, "rigid"), rtol=1e-10, atol=0)
     # eigentwists are M-orthonormal; the finite ones lie in the allowed twists (three translations)
     np.testing.assert_allclose(np.swapaxes(V, 1, 2) @ M @ V, np.broadcast_to(np.eye(6), (3, 6, 6)), atol=1e-9)
@@ -38,7 +44,7 @@ def test_vanishing_structure_tends_to_the_rigid_model(case):
     rigid model's frequencies, with an error proportional to s."""
     ev, poses = case
     Je, Cq, _, _ = leg_joints(ev, poses, "paper")
-    Je_r, Cq_r, Kp, M = leg_joints(ev, poses, "actuator_loss")        # rigid: the actuators only
+    Je_r, Cq_r, Kp, M = leg_joints(ev, poses, "actuator_loss")  # rigid: the actuators only
     np.testing.assert_array_equal(Je, Je_r)
     rigid = ev.frequencies(poses, "actuator_loss")
     errs = []
@@ -47,7 +53,7 @@ def test_vanishing_structure_tends_to_the_rigid_model(case):
         f = finite_modes(compliance_eigh(C, M)[0])[:, :3]
         errs.append(np.abs(f / rigid - 1).max())
     assert errs[-1] < 1e-10
-    assert 5 < errs[0] / errs[1] < 20                     # first order in the structural compliance
+    assert 5 < errs[0] / errs[1] < 20  # first order in the structural compliance
 
 
 def test_two_springs_and_a_rigid_link_by_hand():
@@ -57,7 +63,7 @@ def test_two_springs_and_a_rigid_link_by_hand():
     Je[0, 0, 0, 3], Je[0, 1, 0, 4], Je[0, 2, 0, 5] = 1.0, 1.0, 1.0
     Cq = np.array([1 / k1, 1 / k2, 0.0]).reshape(1, 3, 1, 1)
     Kp = np.zeros((1, 6, 6))
-    Kp[0, :3, :3] = np.diag([1.0e3, 2.0e3, 3.0e3])        # rotational springs in parallel
+    Kp[0, :3, :3] = np.diag([1.0e3, 2.0e3, 3.0e3])  # rotational springs in parallel
     M = np.eye(6)[None]
     C, B = condensed_compliance(Je, Cq, Kp)
     f, _ = compliance_eigh(C, M)
@@ -100,9 +106,9 @@ def test_penalty_model_within_its_penalty(case):
         fp = frequencies_hz(generalized_eigh(K, M)[0])
         n = int(np.isfinite(f[0]).sum())
         rtol = penalty_rtol(K, M, C, n)
-        assert (np.abs(fp[:, :n] - f[:, :n]) <= rtol * f[:, :n]).all(), (np.abs(fp[:, :n] / f[:, :n] - 1) / rtol)
-        assert rtol.max() < 1e-3                          # the bound still bites: far below a wrong model's error
-        assert (fp[:, n:] > 1e5).all()                    # the penalty's stiff directions: ~1e6 Hz
+        assert (np.abs(fp[:, :n] - f[:, :n]) <= rtol * f[:, :n]).all(), np.abs(fp[:, :n] / f[:, :n] - 1) / rtol
+        assert rtol.max() < 1e-3  # the bound still bites: far below a wrong model's error
+        assert (fp[:, n:] > 1e5).all()  # the penalty's stiff directions: ~1e6 Hz
 
 
 def test_penalty_rtol_is_the_conditioning():
@@ -114,7 +120,7 @@ def test_penalty_rtol_is_the_conditioning():
     C = np.diag([1.0, 0.25, 0.0])[None]
     eps = np.finfo(float).eps
     np.testing.assert_allclose(penalty_rtol(K, M, C, 2), [[3 * eps * 1e12, 3 * eps * 1e12 / 4]], rtol=1e-3)
-    C_off = np.diag([1.0 + 1e-6, 0.25, 0.0])[None]        # an exact model 1e-6 off: Weyl's term sees it
+    C_off = np.diag([1.0 + 1e-6, 0.25, 0.0])[None]  # an exact model 1e-6 off: Weyl's term sees it
     assert penalty_rtol(K, M, C_off, 2)[0, 0] >= 0.5e-6
 
 
@@ -127,10 +133,10 @@ def test_exact_model_is_well_conditioned():
         C, M = platform_compliance(ev, x, model)
         f = finite_modes(compliance_eigh(C, M)[0])
         L = np.linalg.cholesky(M)
-        mu = np.linalg.eigvalsh(np.swapaxes(L, 1, 2) @ C @ L)[0, 6 - f.shape[1]:]
+        mu = np.linalg.eigvalsh(np.swapaxes(L, 1, 2) @ C @ L)[0, 6 - f.shape[1] :]
         np.testing.assert_allclose(mu.max() / mu.min(), (f.max() / f.min()) ** 2, rtol=1e-9)
         assert mu.max() / mu.min() < 10
-        assert np.linalg.cond(ev.matrices(x, model)["K_F"][0]) > 1e7   # the penalty route's
+        assert np.linalg.cond(ev.matrices(x, model)["K_F"][0]) > 1e7  # the penalty route's
 
 
 def test_coupled_platform_bodies_condensed_exactly():
@@ -141,15 +147,15 @@ def test_coupled_platform_bodies_condensed_exactly():
     x = np.array([ev.robot.x_ref, np.add(ev.robot.x_ref, [0.04, -0.03, 0.02])])
     C, M = platform_compliance(ev, x, "ee_coupling")
     f = finite_modes(compliance_eigh(C, M)[0])
-    assert f.shape == (2, 3)                               # the legs' rotations stay rigid
+    assert f.shape == (2, 3)  # the legs' rotations stay rigid
     mats = ev.matrices(x, "ee_coupling")
     penalty = frequencies_hz(generalized_eigh(mats["K_F"], mats["M"])[0])[:, :3]
     assert (np.abs(penalty - f) <= penalty_rtol(mats["K_F"], mats["M"], C, 3) * f).all()
     stiff = {k: 1e6 * next(q.default for q in ev.robot.parameters if q.name == k) for k in ("k_E_rot", "k_E_lin")}
     C, M = platform_compliance(ev, x, "ee_coupling", **stiff)
-    bare = ev.frequencies(x, "rigid", eta_a=1.0)            # the actuators alone (rigid: eta_a 0.82)
+    bare = ev.frequencies(x, "rigid", eta_a=1.0)  # the actuators alone (rigid: eta_a 0.82)
     np.testing.assert_allclose(finite_modes(compliance_eigh(C, M)[0]), bare, rtol=1e-5)
-    np.testing.assert_allclose(ev.frequencies(x, "ee_coupling")[:, :3], f, rtol=1e-12)   # the default route
+    np.testing.assert_allclose(ev.frequencies(x, "ee_coupling")[:, :3], f, rtol=1e-12)  # the default route
 
 
 def test_default_route_is_exact():
@@ -163,7 +169,7 @@ def test_default_route_is_exact():
     stiff = {k: 1e9 * next(q.default for q in ev.robot.parameters if q.name == k) for k in ("k_E_rot", "k_E_lin")}
     f = ev.frequencies(x, "actuator_loss,ee_compliance", **stiff)
     np.testing.assert_allclose(f[:, :3], ev.frequencies(x, "actuator_loss"), rtol=1e-8)
-    assert (f[:, 3:] > 1e5).all()                          # the rigid directions' stand-ins
+    assert (f[:, 3:] > 1e5).all()  # the rigid directions' stand-ins
     mats = ev.matrices(x, "actuator_loss,ee_compliance", **stiff)
     penalty = frequencies_hz(generalized_eigh(mats["K_F"], mats["M"])[0])[:, :3]
     assert np.abs(penalty / ev.frequencies(x, "actuator_loss") - 1).max() > 1e-7
@@ -188,7 +194,7 @@ def test_matrices_json_exact_route(robot, capsys):
     np.testing.assert_allclose(finite_modes(compliance_eigh(C[None], M[None])[0])[0], d["freq_rigid_hz"], rtol=1e-10)
     assert main(["matrices", "--robot", robot, "--model", "paper", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    np.testing.assert_allclose(d["freq_exact_hz"], d["freq_hz"], rtol=1e-6)   # K_F's penalty: ~1e-8 here
+    np.testing.assert_allclose(d["freq_exact_hz"], d["freq_hz"], rtol=1e-6)  # K_F's penalty: ~1e-8 here
 
 
 @pytest.mark.derives
@@ -201,10 +207,12 @@ def test_paper_fit_does_not_depend_on_the_jacobian_kind():
     from eigentwist.diagnose import paper_measurements
 
     fit = importlib.import_module("eigentwist.diagnose.fit").fit
-    ev = eigentwist.load("heli4", backend="numpy")        # the Jacobian kinds under test, not the backend
+    ev = eigentwist.load("heli4", backend="numpy")  # the Jacobian kinds under test, not the backend
     meas = paper_measurements()
-    got = {kind: fit(meas, ("actuator_loss", "ee_compliance"), ev, ("k_E_rot", "k_E_lin"), jacobian=kind)
-           for kind in ("differences", "exact")}
+    got = {
+        kind: fit(meas, ("actuator_loss", "ee_compliance"), ev, ("k_E_rot", "k_E_lin"), jacobian=kind)
+        for kind in ("differences", "exact")
+    }
     assert got["exact"].jacobian == "exact"
     for name in ("k_E_rot", "k_E_lin"):
         assert got["differences"].values[name] == pytest.approx(got["exact"].values[name], rel=1e-5)
@@ -227,7 +235,8 @@ def test_rigid_constraint_modes_are_marked_and_never_proposed():
     assert (m.freq_hz[m.constrained] > 1e5).all() and (m.freq_hz[~m.constrained] < 1e3).all()
     assert ev.modes(x, "paper").constrained is None
     meas = paper_measurements(ev)
-    fits = [fit(meas, ("actuator_loss", extra), ev, ("k_E_rot", "k_E_lin"))
-            for extra in ("ee_compliance", "ee_coupling")]
+    fits = [
+        fit(meas, ("actuator_loss", extra), ev, ("k_E_rot", "k_E_lin")) for extra in ("ee_compliance", "ee_coupling")
+    ]
     out = next_measurement(ev, meas, *fits)
     assert out is not None and max(out["predicted_hz"].values()) < 1e4

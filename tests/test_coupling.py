@@ -1,4 +1,5 @@
 """End-effector assembly as bodies joined by compliant couplings."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -54,7 +55,7 @@ def test_coupling_needs_no_per_leg_split(ev):
     assert not np.allclose(fs[:2], fc[:2], rtol=1e-6)
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_paper_data_cannot_tell_split_from_coupled_and_the_next_measurement_can(ev):
     """Modes x and y at x_ref only: ee_compliance and ee_coupling are indistinguishable;
     the proposed measurement is where their predictions differ most relative to sigma."""
@@ -66,6 +67,6 @@ def test_paper_data_cannot_tell_split_from_coupled_and_the_next_measurement_can(
     assert "ee_compliance" in ranked["ee_coupling"].indistinguishable_from
     nm = d.next_measurement
     assert set(nm["between"]) == {"ee_compliance", "ee_coupling"}
-    assert nm["mode"] == "z"                       # they differ in the vertical stiffness only
+    assert nm["mode"] == "z"  # they differ in the vertical stiffness only
     pred = nm["predicted_hz"]
     assert abs(pred["ee_coupling"] - pred["ee_compliance"]) / nm["sigma_hz"] > 3

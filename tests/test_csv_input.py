@@ -1,13 +1,13 @@
 """Measurement files as people export them and their faults:
 separators, decimal commas, encodings, duplicated rows, columns the model cannot use,
 and a property test that malformed text is always one error line, never a traceback."""
+
 from __future__ import annotations
 
 import subprocess
 import sys
 import warnings
 
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -24,13 +24,16 @@ def write(tmp_path, data, name="d.csv"):
     return path
 
 
-@pytest.mark.parametrize("text", [
-    "k_a;mode;freq_hz\n1000;x;15,5\n2000;y;20,25\n",               # European Excel
-    "k_a;mode;freq_hz\r\n1000;x;15.5\r\n2000;y;20.25\r\n",        # CRLF, decimal point
-    "\ufeffk_a;mode;freq_hz\n1000;x;15,5\n2000;y;20,25\n",         # BOM
-    "k_a\tmode\tfreq_hz\n1000\tx\t15,5\n2000\ty\t20.25\n",         # tab
-    "\ufeffk_a,mode,freq_hz\r\n1000,x,15.5\r\n2000,y,20.25\r\n",  # BOM + CRLF, commas
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "k_a;mode;freq_hz\n1000;x;15,5\n2000;y;20,25\n",  # European Excel
+        "k_a;mode;freq_hz\r\n1000;x;15.5\r\n2000;y;20.25\r\n",  # CRLF, decimal point
+        "\ufeffk_a;mode;freq_hz\n1000;x;15,5\n2000;y;20,25\n",  # BOM
+        "k_a\tmode\tfreq_hz\n1000\tx\t15,5\n2000\ty\t20.25\n",  # tab
+        "\ufeffk_a,mode,freq_hz\r\n1000,x,15.5\r\n2000,y,20.25\r\n",  # BOM + CRLF, commas
+    ],
+)
 def test_exported_separators_and_decimal_commas(tmp_path, ev, text):
     m = load_measurements(write(tmp_path, text.encode("utf-8")), ev=ev)
     assert m.freq_hz.tolist() == [15.5, 20.25] and m.mode == ("x", "y")
@@ -56,7 +59,9 @@ def test_duplicated_rows_are_an_error_naming_both_lines(tmp_path, ev):
 
 def test_parameter_column_of_an_effect_the_model_lacks(tmp_path, ev):
     meas = load_measurements(write(tmp_path, "k_a,mode,freq_hz,m_p\n1000,x,15.5,0.3\n2000,x,20,0.3\n"), ev=ev)
-    with pytest.raises(MeasurementError, match=r"column 'm_p': parameter column of effect payload_mass, which the model"):
+    with pytest.raises(
+        MeasurementError, match=r"column 'm_p': parameter column of effect payload_mass, which the model"
+    ):
         compare(meas, "rigid", ev)
     assert compare(meas, "rigid,payload_mass", ev).predicted.shape == (2,)
     with pytest.raises(MeasurementError, match="payload_mass"):
@@ -89,15 +94,61 @@ def test_unreachable_row_names_the_reachable_heights(tmp_path, ev):
 
 # --------------------------------------------------------------- property test
 CELLS = st.one_of(
-    st.sampled_from(["", " ", "nan", "NaN", "inf", "-inf", "1e400", "-1", "0", "1e308", "x", "y", "rz", "7", "abc",
-                     "1,5", "0x10", "\"", "\"\"", "#", "1e-320", "99999999999999999999", "-0.625", "0.1"]),
+    st.sampled_from(
+        [
+            "",
+            " ",
+            "nan",
+            "NaN",
+            "inf",
+            "-inf",
+            "1e400",
+            "-1",
+            "0",
+            "1e308",
+            "x",
+            "y",
+            "rz",
+            "7",
+            "abc",
+            "1,5",
+            "0x10",
+            "\"",
+            "\"\"",
+            "#",
+            "1e-320",
+            "99999999999999999999",
+            "-0.625",
+            "0.1",
+        ]
+    ),
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.text(max_size=6),
 )
 HEADERS = st.one_of(
-    st.lists(st.sampled_from(["k_a", "mode", "freq_hz", "x", "y", "z", "sigma_hz", "m_e", "l2", "m_p",
-                              "eta_a@2", "damping_ratio", "bogus", ""]), min_size=1, max_size=6),
-    st.just(["k_a", "mode", "freq_hz", "z", "sigma_hz", "m_e", "l2"]),      # well-formed header, wild values
+    st.lists(
+        st.sampled_from(
+            [
+                "k_a",
+                "mode",
+                "freq_hz",
+                "x",
+                "y",
+                "z",
+                "sigma_hz",
+                "m_e",
+                "l2",
+                "m_p",
+                "eta_a@2",
+                "damping_ratio",
+                "bogus",
+                "",
+            ]
+        ),
+        min_size=1,
+        max_size=6,
+    ),
+    st.just(["k_a", "mode", "freq_hz", "z", "sigma_hz", "m_e", "l2"]),  # well-formed header, wild values
 )
 
 
@@ -118,11 +169,18 @@ def _bytes(text, encoding) -> bytes:
     return text.encode(encoding, errors="replace")
 
 
-NUMBERS = st.one_of(st.sampled_from(["1e308", "1e-320", "1e300", "5e-324", "1e-300", "1000", "15", "-0.625", "0",
-                                      "nan", "inf"]), st.floats(min_value=1e-300, max_value=1e300).map(repr))
-WELL_FORMED = st.builds(lambda k, m, f, z, l2: f"k_a,mode,freq_hz,z,l2\n{k},{m},{f},{z},{l2}\n".encode(),
-                        NUMBERS, st.sampled_from(["x", "y", "z", "rz", "1", "6", "40"]), NUMBERS,
-                        st.sampled_from(["", "-0.6", "-0.7", "-2", "1e300"]), st.sampled_from(["", "0.5", "1e300", "1e-300"]))
+NUMBERS = st.one_of(
+    st.sampled_from(["1e308", "1e-320", "1e300", "5e-324", "1e-300", "1000", "15", "-0.625", "0", "nan", "inf"]),
+    st.floats(min_value=1e-300, max_value=1e300).map(repr),
+)
+WELL_FORMED = st.builds(
+    lambda k, m, f, z, l2: f"k_a,mode,freq_hz,z,l2\n{k},{m},{f},{z},{l2}\n".encode(),
+    NUMBERS,
+    st.sampled_from(["x", "y", "z", "rz", "1", "6", "40"]),
+    NUMBERS,
+    st.sampled_from(["", "-0.6", "-0.7", "-2", "1e300"]),
+    st.sampled_from(["", "0.5", "1e300", "1e-300"]),
+)
 
 
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -131,10 +189,10 @@ def test_malformed_csv_is_one_error_line(tmp_path, capsys, data):
     path = tmp_path / "fuzz.csv"
     path.write_bytes(data)
     with warnings.catch_warnings():
-        warnings.simplefilter("error", RuntimeWarning)       # a warning would be a second stderr line
+        warnings.simplefilter("error", RuntimeWarning)  # a warning would be a second stderr line
         code = main(["compare", str(path), "--model", "rigid"])
     captured = capsys.readouterr()
-    if code == 0:                       # some random text is a valid file
+    if code == 0:  # some random text is a valid file
         return
     err = captured.err.strip()
     assert code == 2, err

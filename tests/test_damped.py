@@ -1,5 +1,6 @@
 """Damped modes (servo damping, a torque lag, a structural loss factor) against independent
 computations written here, their limits and thresholds, and damping in the measurements."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -10,7 +11,7 @@ from eigentwist.runtime.damped import ELIMINATE, UNSTABLE_ZETA, damped_modes
 
 X_REF = np.array([0.0, 0.0, -0.625])
 POSES = np.array([X_REF, [0.05, -0.03, -0.6]])
-ETA = 0.82                                          # the Heli4's eta_a (App. B)
+ETA = 0.82  # the Heli4's eta_a (App. B)
 
 
 def _upper(s):
@@ -33,12 +34,12 @@ def test_against_a_state_space_model_written_here(ev):
         Kxx, Kxt = np.zeros((6, 6)), np.zeros((6, 4))
         for i in range(4):
             Je, Cs = legs["Je"][k, i], legs["Cq"][k, i].copy()
-            Cs[0, 0] -= 1 / kd                      # the actuator's own compliance out: the structure
+            Cs[0, 0] -= 1 / kd  # the actuator's own compliance out: the structure
             Ks = np.linalg.inv(Cs)
             e0 = np.eye(len(Cs))[0]
             Kxx += Je.T @ Ks @ Je
             Kxt[:, i] = -Je.T @ Ks @ e0
-            a, hs = e0 @ Ks @ Je, e0 @ Ks @ e0      # tau = a x - hs th
+            a, hs = e0 @ Ks @ Je, e0 @ Ks @ e0  # tau = a x - hs th
             den = cd + t * hs
             A[12 + i, :6], A[12 + i, 6:12], A[12 + i, 12 + i] = a / den, t * a / den, -(hs + kd) / den
         A[6:12, :6] = -np.linalg.solve(M[k], Kxx)
@@ -49,7 +50,7 @@ def test_against_a_state_space_model_written_here(ev):
 def test_rigid_model_is_a_damping_matrix(ev):
     """The rigid model (K_R on the translations, Eq. 14): M x'' + C x' + K x = 0 with
     C = sum_i eta c_a J_a,i^T J_a,i, by the companion matrix."""
-    rows = ev.jacobians(X_REF)["J_rows"][0, :, 0, 3:]           # actuated rows, translational part
+    rows = ev.jacobians(X_REF)["J_rows"][0, :, 0, 3:]  # actuated rows, translational part
     M3 = ev.matrices(X_REF, "rigid")["M"][0, 3:, 3:]
     K = ETA * 500.0 * rows.T @ rows
     C = ETA * 3.0 * rows.T @ rows
@@ -61,14 +62,15 @@ def test_rigid_model_is_a_damping_matrix(ev):
 @pytest.mark.parametrize("model", ["damped", "rigid,servo_damping", "damped,servo_delay"])
 def test_undamped_limit(ev, model):
     """c_a = 0 and t_d = 0: every pole is +/- i omega of today's frequencies (1e-12)."""
-    undamped = ev.frequencies(POSES, model.replace(",servo_delay", "").replace("damped", "paper")
-                              .replace(",servo_damping", ""), k_a=125.0)
+    undamped = ev.frequencies(
+        POSES, model.replace(",servo_delay", "").replace("damped", "paper").replace(",servo_damping", ""), k_a=125.0
+    )
     modes = ev.modes(POSES, model, k_a=125.0, c_a=0.0, t_d=0.0, complex_shapes=True)
     np.testing.assert_allclose(modes.freq_hz, undamped, rtol=1e-12)
     np.testing.assert_allclose(modes.damped_hz, undamped, rtol=1e-12)
     np.testing.assert_allclose(modes.natural_hz, undamped, rtol=1e-12)
     np.testing.assert_allclose(modes.damping_ratio, 0.0, atol=1e-12)
-    real = modes.complex_eigentwists                  # undamped shapes are real: today's eigentwists
+    real = modes.complex_eigentwists  # undamped shapes are real: today's eigentwists
     np.testing.assert_allclose(real.imag, 0.0, atol=1e-9)
 
 
@@ -78,11 +80,11 @@ def test_paper_numbers_do_not_move(ev):
     paper = ev.modes(X_REF, "paper", k_a=2000.0)
     damped = ev.modes(X_REF, "damped", k_a=2000.0)
     np.testing.assert_array_equal(damped.freq_hz, paper.freq_hz)
-    np.testing.assert_allclose(paper.freq_hz[0, :2], [20.723, 23.932], atol=5e-4)     # facts file
+    np.testing.assert_allclose(paper.freq_hz[0, :2], [20.723, 23.932], atol=5e-4)  # facts file
     assert paper.damping is None and np.all(paper.damping_ratio == 0)
     low = ev.modes(X_REF, "damped", k_a=125.0)
     drop = 1 - low.damped_hz[0, :2] / low.freq_hz[0, :2]
-    assert np.all((drop > 0.09) & (drop < 0.13))                   # 9-12 % at k_a = 125
+    assert np.all((drop > 0.09) & (drop < 0.13))  # 9-12 % at k_a = 125
     assert np.all((low.damping_ratio[0, :2] > 0.4) & (low.damping_ratio[0, :2] < 0.5))
 
 
@@ -102,22 +104,21 @@ def test_structural_loss_against_a_complex_stiffness(ev):
         Cq = Cq / (1 + 1j * eta_s)
         Cq[0, 0] += act
         Kc += Je.T @ np.linalg.inv(Cq) @ Je
-    s = 1j * np.sqrt(eigvals(Kc, M))                    # s^2 = -lambda, the root of positive frequency
+    s = 1j * np.sqrt(eigvals(Kc, M))  # s^2 = -lambda, the root of positive frequency
     modes = ev.modes(X_REF, "paper,structural_loss", k_a=2000.0, eta_s=eta_s)
     order = np.argsort(s.imag)
     np.testing.assert_allclose(modes.damping.poles[0], s[order], rtol=1e-9)
-    assert modes.damping_ratio[0, 5] == pytest.approx(eta_s / 2, rel=0.02)   # a purely structural mode
+    assert modes.damping_ratio[0, 5] == pytest.approx(eta_s / 2, rel=0.02)  # a purely structural mode
 
 
 def _one_mode(beta_factor=None, zeta=None):
     """One mode (M = 1, omega = 2 pi 10 Hz) and one actuator leg (w = 1, k_d = 1000)."""
     om, kd, c = 2 * np.pi * 10.0, 1000.0, 1.0
-    if zeta is not None:                               # an eliminated leg, c chosen for this zeta
-        c, h = 2 * zeta * om * kd ** 2, kd
-    else:                                              # beta = c (k_d - h) at beta_factor x the threshold
-        h = kd - beta_factor * ELIMINATE * kd ** 2 / (c * om)
-    d = damped_modes(np.ones((1, 1, 1)), np.full((1, 1, 1), om ** 2), np.ones((1, 1, 1)), np.array([[h]]),
-                     kd, c, 0.0)
+    if zeta is not None:  # an eliminated leg, c chosen for this zeta
+        c, h = 2 * zeta * om * kd**2, kd
+    else:  # beta = c (k_d - h) at beta_factor x the threshold
+        h = kd - beta_factor * ELIMINATE * kd**2 / (c * om)
+    d = damped_modes(np.ones((1, 1, 1)), np.full((1, 1, 1), om**2), np.ones((1, 1, 1)), np.array([[h]]), kd, c, 0.0)
     return d, om, kd, c
 
 
@@ -126,7 +127,7 @@ def test_elimination_threshold(factor):
     """A leg's internal pole just beyond (0.5) or inside (2) the ELIMINATE bound: the same
     pole as s^2 + (c w^2/k_d^2) s + omega^2 = 0 (the leg eliminated), to 1e-6."""
     d, om, kd, c = _one_mode(beta_factor=factor)
-    exact = np.roots([1.0, c / kd ** 2, om ** 2])
+    exact = np.roots([1.0, c / kd**2, om**2])
     assert d.poles[0, 0] == pytest.approx(exact[exact.imag > 0][0], rel=1e-6)
 
 
@@ -160,7 +161,7 @@ def test_damping_parameters_closed_at_zero(ev):
 def test_kind_and_damping_ratio_columns(ev):
     from eigentwist.diagnose.measurements import MeasurementError, paper_measurements, parse_csv
 
-    assert paper_measurements(ev).damped.all()          # camera frames of step responses (Sec. 4)
+    assert paper_measurements(ev).damped.all()  # camera frames of step responses (Sec. 4)
     text = "k_a,mode,freq_hz,kind,damping_ratio\n125,x,5.4,damped,0.02\n250,x,8.1,,0.03\n"
     meas = parse_csv(text, "m.csv", ev)
     assert meas.kind == ("damped", "undamped")
@@ -176,8 +177,15 @@ def test_compare_like_with_like(ev):
     from eigentwist.diagnose import compare
     from eigentwist.diagnose.measurements import Measurements
 
-    meas = Measurements.from_arrays(125.0, ["x", "x"], [5.3, 5.9], poses=[X_REF, X_REF], ev=ev,
-                                    kind=["damped", "undamped"], params={"E_rod": [170e9, 169e9]})
+    meas = Measurements.from_arrays(
+        125.0,
+        ["x", "x"],
+        [5.3, 5.9],
+        poses=[X_REF, X_REF],
+        ev=ev,
+        kind=["damped", "undamped"],
+        params={"E_rod": [170e9, 169e9]},
+    )
     modes = ev.modes(np.tile(X_REF, (2, 1)), "damped", k_a=125.0, E_rod=np.array([170e9, 169e9]))
     comp = compare(meas, "damped", ev)
     assert comp.predicted[0] == pytest.approx(modes.damped_hz[0, 0], rel=1e-12)
@@ -200,7 +208,7 @@ def test_decay_bound():
     # another mode of the row's condition growing costs as much: the oscillation would not decay
     r = zeta_residuals(meas, np.array([DECAY_SIGMA, DECAY_SIGMA]), zeta_rows(meas), least=np.array([-DECAY_SIGMA, 0.0]))
     np.testing.assert_allclose(r, [-1.0, 0.0])
-    assert zeta_rows(meas, damped_model=False) is None     # a model without damping: zeta = 0, no residual
+    assert zeta_rows(meas, damped_model=False) is None  # a model without damping: zeta = 0, no residual
 
 
 def test_synthetic_damped_campaign_recovers_c_a(ev):
@@ -221,11 +229,17 @@ def test_synthetic_damped_campaign_recovers_c_a(ev):
     assert abs(r.values["c_a"] - 2.0) < 3 * r.std["c_a"] < 0.5
     true = modes.damping_ratio[np.arange(len(ka)), col]
     zeta = true * (1 + 0.1 * rng.standard_normal(len(ka)))
-    by_zeta = Measurements.from_arrays(ka, labels, modes.natural_hz[np.arange(len(ka)), col], poses=poses, ev=ev,
-                                       modal={"damping_ratio": zeta, "sigma_damping_ratio": 0.1 * true})
+    by_zeta = Measurements.from_arrays(
+        ka,
+        labels,
+        modes.natural_hz[np.arange(len(ka)), col],
+        poses=poses,
+        ev=ev,
+        modal={"damping_ratio": zeta, "sigma_damping_ratio": 0.1 * true},
+    )
     r = fit(by_zeta, ev.robot.presets["damped"], ev, ("c_a",), start={"c_a": 1.0})
     assert abs(r.values["c_a"] - 2.0) < 3 * r.std["c_a"] < 0.5
-    assert r.n == 2 * len(ka)                            # frequencies and damping ratios
+    assert r.n == 2 * len(ka)  # frequencies and damping ratios
 
 
 def test_coupled_plates_match_the_split_compliance_at_home(ev):
@@ -245,19 +259,38 @@ def test_plot_titles_carry_zeta(ev):
     low = ev.modes(X_REF, "damped", k_a=125.0)
     assert _damped(low, 0) == f", zeta {low.damping_ratio[0, 0]:.2g}, damped {low.damped_hz[0, 0]:.4g} Hz"
     assert "zeta 0.43" in _damped(low, 0) and _damped(ev.modes(X_REF, "paper"), 0) == ""
-    assert "zeta 0.43, damped 5.282 Hz" in modes_svg(ev, X_REF, "damped", k_a=125.0, n_modes=1)   # the report's
+    assert "zeta 0.43, damped 5.282 Hz" in modes_svg(ev, X_REF, "damped", k_a=125.0, n_modes=1)  # the report's
 
 
 def test_cli_synth_writes_damped_frequencies(capsys):
     from eigentwist.cli.main import main
 
-    assert main(["synth", "--truth", "paper+servo_damping:c_a=2", "--k-a", "125", "--modes", "x", "--kind", "damped",
-                 "--noise", "0", "--sigma", "1%"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--truth",
+                "paper+servo_damping:c_a=2",
+                "--k-a",
+                "125",
+                "--modes",
+                "x",
+                "--kind",
+                "damped",
+                "--noise",
+                "0",
+                "--sigma",
+                "1%",
+            ]
+        )
+        == 0
+    )
     row = capsys.readouterr().out.splitlines()[1].split(",")
     ev = __import__("eigentwist").load("heli4", backend="numpy")
     assert row[4] == "damped"
-    assert float(row[2]) == pytest.approx(ev.modes(X_REF, "paper,servo_damping", k_a=125.0, c_a=2.0).damped_hz[0, 0],
-                                          rel=1e-9)
+    assert float(row[2]) == pytest.approx(
+        ev.modes(X_REF, "paper,servo_damping", k_a=125.0, c_a=2.0).damped_hz[0, 0], rel=1e-9
+    )
 
 
 def test_workspace_map_of_a_damped_model(ev):

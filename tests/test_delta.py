@@ -1,4 +1,5 @@
 """The Delta robot from a description alone: symmetry and full rank."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -52,8 +53,16 @@ def test_diagnosis_finds_hidden_payload_on_delta(delta):
     from eigentwist.diagnose import diagnose, synth
 
     poses = [[0.0, 0.0, -0.75], [0.12, -0.05, -0.70]]
-    meas = synth("paper+payload_mass:m_p=0.25", k_a=[250, 500, 1000, 2000, 4000], poses=poses,
-                 modes=("x", "y", "z"), noise="0.5%", seed=4, robot="delta", ev=delta)
+    meas = synth(
+        "paper+payload_mass:m_p=0.25",
+        k_a=[250, 500, 1000, 2000, 4000],
+        poses=poses,
+        modes=("x", "y", "z"),
+        noise="0.5%",
+        seed=4,
+        robot="delta",
+        ev=delta,
+    )
     d = diagnose(meas, baseline="paper", ev=delta)
     first = d.ranking[0]
     assert first.effect == "payload_mass" or "payload_mass" in first.indistinguishable_from
@@ -63,15 +72,37 @@ def test_diagnosis_finds_hidden_payload_on_delta(delta):
     assert d.final.rms_pct < 1.0
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_every_command_takes_robot_delta(tmp_path, capsys):
     import json
 
     from eigentwist.cli.main import main
 
     data = tmp_path / "delta.csv"
-    assert main(["synth", "--robot", "delta", "--truth", "paper+payload_mass:m_p=0.2", "--k-a", "500,2000",
-                 "--pose", "0", "0", "-0.75", "--modes", "x,y,z", "--seed", "1", "-o", str(data)]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--robot",
+                "delta",
+                "--truth",
+                "paper+payload_mass:m_p=0.2",
+                "--k-a",
+                "500,2000",
+                "--pose",
+                "0",
+                "0",
+                "-0.75",
+                "--modes",
+                "x,y,z",
+                "--seed",
+                "1",
+                "-o",
+                str(data),
+            ]
+        )
+        == 0
+    )
     assert main(["matrices", "--robot", "delta", "--json"]) == 0
     out = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert out["robot"] == "delta" and len(out["joint_angles_deg"]) == 3

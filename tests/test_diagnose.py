@@ -4,6 +4,7 @@ Every effect of the catalogue is hidden in synthetic data (6 k_a from 125 to 400
 modes x, y, z, two poses, 0.5 % noise, fixed seed) at a physically plausible value, and
 diagnosed from a baseline without it.
 """
+
 from __future__ import annotations
 
 import math
@@ -18,22 +19,34 @@ from eigentwist.robots import get
 NOISE = 0.005
 KA = (125, 250, 500, 1000, 2000, 4000)
 KA_ROD = (250, 500, 1000, 2000, 4000, 8000)
-KA_LOW = (20, 35, 60, 100, 150, 200)        # gravity preload: ~m_e g / l2 = 11 N/m, visible at low k_a
+KA_LOW = (20, 35, 60, 100, 150, 200)  # gravity preload: ~m_e g / l2 = 11 N/m, visible at low k_a
 POSES = ((0.0, 0.0, -0.625), (-0.1, 0.0, -0.55))
 
 # effect: (truth, baseline lacking it, truth values of its fitted parameters, k_a)
 SCENARIOS = {
     # a weaker drive than the paper's 0.82 (App. B)
-    "actuator_loss": ("rod_compliance+ee_compliance+actuator_loss:eta_a=0.7", "rod_compliance,ee_compliance",
-                      {"eta_a": 0.7}, KA),
+    "actuator_loss": (
+        "rod_compliance+ee_compliance+actuator_loss:eta_a=0.7",
+        "rod_compliance,ee_compliance",
+        {"eta_a": 0.7},
+        KA,
+    ),
     # glass-fibre instead of carbon-fibre rods (40 GPa, the low end of the plausible range); rods
     # matter little, most at high k_a: measured up to 8000 N m/rad
     "rod_compliance": ("paper:E_rod=40e9", "actuator_loss,ee_compliance", {"E_rod": 40e9}, KA_ROD),
     # a looser end-effector assembly than the static test of App. D
-    "ee_compliance": ("paper:k_E_rot=300,k_E_lin=8e4", "actuator_loss,rod_compliance",
-                      {"k_E_rot": 300.0, "k_E_lin": 8e4}, KA),
-    "ee_coupling": ("coupled:k_E_rot=300,k_E_lin=8e4", "actuator_loss,rod_compliance",
-                    {"k_E_rot": 300.0, "k_E_lin": 8e4}, KA),
+    "ee_compliance": (
+        "paper:k_E_rot=300,k_E_lin=8e4",
+        "actuator_loss,rod_compliance",
+        {"k_E_rot": 300.0, "k_E_lin": 8e4},
+        KA,
+    ),
+    "ee_coupling": (
+        "coupled:k_E_rot=300,k_E_lin=8e4",
+        "actuator_loss,rod_compliance",
+        {"k_E_rot": 300.0, "k_E_lin": 8e4},
+        KA,
+    ),
     # magnesium-alloy lower links (E ~ 45 GPa)
     "lower_link_compliance": ("paper+lower_link_compliance:E_l1=45e9", "paper", {"E_l1": 45e9}, KA),
     # a belt or gear stage of 8000 N m/rad behind each motor
@@ -54,8 +67,11 @@ SCENARIOS = {
     "structural_loss": ("paper+structural_loss:eta_s=0.05", "paper", {"eta_s": 0.05}, KA),
 }
 # what the damping scenarios measure: damped frequencies, or damping ratios (10 % noise)
-MEASURED = {"servo_damping": {"kind": "damped"}, "servo_delay": {"kind": "damped"},
-            "structural_loss": {"zeta_noise": 0.1}}
+MEASURED = {
+    "servo_damping": {"kind": "damped"},
+    "servo_delay": {"kind": "damped"},
+    "structural_loss": {"zeta_noise": 0.1},
+}
 HELI4_EFFECTS = get("heli4").effects
 
 
@@ -72,7 +88,7 @@ def _found(d, effect) -> bool:
     return effect in d.selected or any(effect in s.alternatives for s in d.steps)
 
 
-@pytest.mark.slow          # a seeded study (three diagnoses per effect): make test, not make test-fast
+@pytest.mark.slow  # a seeded study (three diagnoses per effect): make test, not make test-fast
 # the damping effects' seeds (damped modes in every fit) run in benchmarks/damping.py
 @pytest.mark.parametrize("effect", [e for e in HELI4_EFFECTS if "damping" not in EFFECTS[e].kinds])
 def test_hidden_effect_is_selected_in_several_seeds(ev_fast, effect):
@@ -81,7 +97,7 @@ def test_hidden_effect_is_selected_in_several_seeds(ev_fast, effect):
         meas = synth(truth, k_a, POSES, ("x", "y", "z"), NOISE, seed=seed, ev=ev_fast, **MEASURED.get(effect, {}))
         d = diagnose(meas, baseline, ev=ev_fast)
         assert _found(d, effect), (seed, d.selected, [s.alternatives for s in d.steps])
-        assert d.final.values.get("g", 9.81) == 9.81           # g is known, never fitted
+        assert d.final.values.get("g", 9.81) == 9.81  # g is known, never fitted
 
 
 @pytest.mark.parametrize("effect", HELI4_EFFECTS)
@@ -105,7 +121,7 @@ def test_hidden_effect_is_found_measured_and_explains_the_data(ev, effect):
     added = d if d.selected[:1] == [effect] else diagnose(meas, baseline, ev=ev, add=[effect])
     step = added.steps[1]
     assert step.added == effect
-    if "zeta_noise" in MEASURED.get(effect, {}):      # seen in the damping ratios: chi2, not the RMS
+    if "zeta_noise" in MEASURED.get(effect, {}):  # seen in the damping ratios: chi2, not the RMS
         assert step.fit.reduced_chi2 < 2 and d.baseline.chi2 > 4 * step.fit.chi2
     else:
         assert step.fit.rms_pct <= 1.5 * 100 * NOISE < d.baseline.rms_pct
@@ -114,7 +130,7 @@ def test_hidden_effect_is_found_measured_and_explains_the_data(ev, effect):
         assert d.final.rms_pct <= step.fit.rms_pct + 1e-9
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_effect_outside_the_catalogue_is_reported_missing(ev):
     # A cable carrier pulling the end-effector along X (a 300 N/m spring to ground on X
     # only) is not in the catalogue: no effect adds stiffness on one translation alone
@@ -125,7 +141,7 @@ def test_effect_outside_the_catalogue_is_reported_missing(ev):
     assert not d.explained
     assert "outside the catalogue" in d.message and "NOT explain" in d.message
     assert d.to_json()["final"]["explained"] is False
-    assert d.final.rms_pct > 1.5 * 100 * NOISE         # still above the noise
+    assert d.final.rms_pct > 1.5 * 100 * NOISE  # still above the noise
 
 
 def test_changed_end_effector_mass_is_found_as_a_payload(ev):
@@ -140,10 +156,10 @@ def test_changed_end_effector_mass_is_found_as_a_payload(ev):
 
 @pytest.fixture(scope="module")
 def paper_diagnosis(paper_rigid_diagnosis):
-    return paper_rigid_diagnosis          # diagnose(paper_measurements(ev), "rigid", ev=ev): conftest
+    return paper_rigid_diagnosis  # diagnose(paper_measurements(ev), "rigid", ev=ev): conftest
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_paper_measurements_from_the_rigid_model(paper_diagnosis):
     d = paper_diagnosis
     assert round(d.baseline.rms_pct, 1) == 13.6 and round(d.baseline.max_pct, 1) == 32.9
@@ -153,7 +169,7 @@ def test_paper_measurements_from_the_rigid_model(paper_diagnosis):
     # the single pose x_ref it predicts the same frequencies and cannot be told apart
     assert set(top.indistinguishable_from) <= {"ee_coupling"}
     assert d.selected[0] == "ee_compliance"
-    assert "rod_compliance" not in d.selected                    # App. E: rods not significant
+    assert "rod_compliance" not in d.selected  # App. E: rods not significant
     after_ee = {c.effect: c for c in d.steps[1].ranking}
     assert after_ee["rod_compliance"].p_value > 0.05
     assert d.final.rms_pct < 5.0 < 13.6
@@ -165,14 +181,14 @@ def test_paper_measurements_from_the_rigid_model(paper_diagnosis):
     assert nm["between"][0] == "ee_compliance" and nm["separation_sigma"] > 0
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_next_measurement_is_where_the_two_models_differ_most(ev, paper_diagnosis):
     d = paper_diagnosis
     nm = d.next_measurement
     a, b = nm["between"]
     fits = {c.effect: c.fit for c in d.ranking}
     axis = ("rx", "ry", "rz", "x", "y", "z").index(nm["mode"])
-    for name in (a, b):       # recompute the proposed point independently
+    for name in (a, b):  # recompute the proposed point independently
         m = ev.modes(nm["pose"], fits[name].effects, k_a=nm["k_a"], **fits[name].values)
         k = int(np.flatnonzero(m.direction[0] == axis)[0])
         assert m.freq_hz[0, k] == pytest.approx(nm["predicted_hz"][name], rel=1e-9)
@@ -187,14 +203,21 @@ def test_next_measurement_is_where_the_two_models_differ_most(ev, paper_diagnosi
     assert all(lo <= f <= hi for f in nm["predicted_hz"].values())
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_effect_signatures_match_their_physics(paper_diagnosis):
     # what each effect does to the frequencies over k_a, from its own closed form: compliances
     # in series saturate, masses and inertias scale all k_a alike, the gravity preload adds
     # a stiffness in parallel
-    expected = {"rod_compliance": "series", "ee_compliance": "series", "ee_coupling": "series",
-                "lower_link_compliance": "series", "transmission_compliance": "series",
-                "payload_mass": "constant", "rotor_inertia": "constant", "gravity_preload": "parallel"}
+    expected = {
+        "rod_compliance": "series",
+        "ee_compliance": "series",
+        "ee_coupling": "series",
+        "lower_link_compliance": "series",
+        "transmission_compliance": "series",
+        "payload_mass": "constant",
+        "rotor_inertia": "constant",
+        "gravity_preload": "parallel",
+    }
     got = {c.effect: c.signature for c in paper_diagnosis.ranking}
     assert {e: got[e] for e in got if e in expected} == {e: expected[e] for e in got if e in expected}
     assert "series" in paper_diagnosis.hints[0] and "ee_compliance" in paper_diagnosis.hints[0]
@@ -207,8 +230,9 @@ def test_reported_standard_error_matches_the_scatter_of_repeated_fits(ev):
     fits = []
     for seed in range(40):
         meas = synth("paper+transmission_compliance:k_t=8000", ka, POSES[:1], ("x", "y"), NOISE, seed=seed, ev=ev)
-        fits.append(fit(meas, ("actuator_loss", "rod_compliance", "ee_compliance", "transmission_compliance"), ev,
-                        ("k_t",)))
+        fits.append(
+            fit(meas, ("actuator_loss", "rod_compliance", "ee_compliance", "transmission_compliance"), ev, ("k_t",))
+        )
     values = np.array([f.values["k_t"] for f in fits])
     reported = np.median([f.std["k_t"] for f in fits])
     # 40 draws: the sample std lies within +-30 % of the true std with probability > 99 %

@@ -5,6 +5,7 @@ and F distributions): the Bonferroni divisors, the "far better" factor, the mini
 setting, the AICc conditions, the mirror tolerance, the plausible range, the unit factors, the
 measured band and the equivalence threshold of the subset search.
 """
+
 from __future__ import annotations
 
 import math
@@ -20,7 +21,7 @@ from eigentwist.diagnose.significance import significant
 from eigentwist.diagnose.stats import DELTA_AICC, SEPARATION, indistinguishable
 
 ALPHA = 0.01
-IN, OUT = 0.99, 1.01          # just inside / just outside a threshold (relative)
+IN, OUT = 0.99, 1.01  # just inside / just outside a threshold (relative)
 
 
 def _fit(chi2=10.0, k=1, n=30, aicc=0.0, pred=(1.0,)):
@@ -28,6 +29,7 @@ def _fit(chi2=10.0, k=1, n=30, aicc=0.0, pred=(1.0,)):
 
 
 # ------------------------------------------------------------------ forward and backward rules
+
 
 @pytest.mark.parametrize("m", [1, 5, 28])
 def test_forward_significance_is_bonferroni_over_the_step_candidates(m):
@@ -47,7 +49,7 @@ def test_backward_keeps_an_effect_only_below_alpha_over_m_and_with_a_lower_aicc(
     final, smaller = _fit(aicc=-1.0), _fit(aicc=0.0)
     assert backward._needed(ALPHA / m * IN, final, smaller, m, ALPHA)
     assert not backward._needed(ALPHA / m * OUT, final, smaller, m, ALPHA)
-    assert not backward._needed(1e-12, _fit(aicc=0.0), smaller, m, ALPHA)         # AICc not lower
+    assert not backward._needed(1e-12, _fit(aicc=0.0), smaller, m, ALPHA)  # AICc not lower
     assert not backward._needed(math.nan, final, smaller, m, ALPHA)
 
 
@@ -55,8 +57,9 @@ def test_backward_removes_the_least_needed_effect_first(monkeypatch):
     """Two unneeded effects: the one with the larger p-value goes first (then the other)."""
     final = _fit(aicc=-10.0)
     p = {"a": 0.3, "b": 0.6, "c": 1e-9}
-    monkeypatch.setattr(backward, "without", lambda meas, ev, f, e: NS(aicc=f.aicc + (5.0 if e == "c" else -1.0),
-                                                                         effects=(), removed=e))
+    monkeypatch.setattr(
+        backward, "without", lambda meas, ev, f, e: NS(aicc=f.aicc + (5.0 if e == "c" else -1.0), effects=(), removed=e)
+    )
     monkeypatch.setattr(backward, "removal_test", lambda f, smaller: p[smaller.removed])
     final.effects = ("a", "b", "c")
     out = backward.eliminate(None, None, final, [("a", 3), ("b", 3), ("c", 3)], ALPHA)
@@ -66,9 +69,10 @@ def test_backward_removes_the_least_needed_effect_first(monkeypatch):
 
 # ------------------------------------------------------------------ settings
 
+
 @pytest.mark.parametrize("n_rows, n_settings", [(2, 8), (1, 20), (3, 10)])
 def test_a_setting_deviates_below_alpha_over_the_number_of_settings(n_rows, n_settings):
-    edge = stats.chi2.isf(ALPHA / n_settings, n_rows)          # chi2 with p = alpha/S exactly
+    edge = stats.chi2.isf(ALPHA / n_settings, n_rows)  # chi2 with p = alpha/S exactly
     assert settings.deviates(edge * OUT, 1.0, n_rows, ALPHA, n_settings) is not None
     assert settings.deviates(edge * IN, 1.0, n_rows, ALPHA, n_settings) is None
     # the Birge scale of the other rows divides the chi-square
@@ -80,10 +84,10 @@ def test_a_relabelled_setting_must_fit_far_better_and_within_the_noise():
     best = 1.0
     assert settings.relabelled_fits(best, settings.FAR * best * OUT, 1.0, 2, ALPHA)
     assert not settings.relabelled_fits(best, settings.FAR * best * IN, 1.0, 2, ALPHA)
-    edge = stats.chi2.isf(ALPHA, 2)                            # the relabelled fit's own test at alpha
+    edge = stats.chi2.isf(ALPHA, 2)  # the relabelled fit's own test at alpha
     assert settings.relabelled_fits(edge * IN, 1e9, 1.0, 2, ALPHA)
     assert not settings.relabelled_fits(edge * OUT, 1e9, 1.0, 2, ALPHA)
-    assert settings.relabelled_fits(stats.chi2.isf(ALPHA, 1) * IN, 1e9, 1.0, 0, ALPHA)   # dof at least 1
+    assert settings.relabelled_fits(stats.chi2.isf(ALPHA, 1) * IN, 1e9, 1.0, 0, ALPHA)  # dof at least 1
 
 
 def _meas(labels, k_a, poses):
@@ -92,7 +96,7 @@ def _meas(labels, k_a, poses):
 
 def test_settings_are_split_where_a_mode_label_repeats():
     p = [0, 0, -0.6]
-    m = _meas("xyxyz", [2000] * 5, [p] * 5)              # a setting written with another's k_a
+    m = _meas("xyxyz", [2000] * 5, [p] * 5)  # a setting written with another's k_a
     assert [g.tolist() for g in settings.settings_of(m)] == [[0, 1, 4], [2, 3]]
 
 
@@ -101,7 +105,7 @@ def test_settings_below_min_rows_take_the_leave_one_out_check(monkeypatch):
     calls = []
     monkeypatch.setattr(settings, "_left_out", lambda meas, ev, final, g, alpha, s: calls.append(len(g)))
     n = settings.MIN_ROWS
-    labels = ["x", "y", "z"][:n] * 2 + ["x", "y", "z"][:n - 1] * 2
+    labels = ["x", "y", "z"][:n] * 2 + ["x", "y", "z"][: n - 1] * 2
     k_a = [100] * n + [200] * n + [300] * (n - 1) + [400] * (n - 1)
     m = _meas(labels, k_a, [[0, 0, -0.6]] * len(labels))
     final = NS(comparison=NS(error_sigma=np.zeros(len(labels))), k=1)
@@ -110,6 +114,7 @@ def test_settings_below_min_rows_take_the_leave_one_out_check(monkeypatch):
 
 
 # ------------------------------------------------------------------ ties, mirrors, plausibility
+
 
 def test_indistinguishable_at_delta_aicc_and_separation():
     sigma = np.ones(1)
@@ -128,13 +133,13 @@ def test_mirror_images_agree_within_mirror_sigma_on_every_row():
 
 
 def test_plausible_within_plausible_sigma_standard_errors_of_the_range():
-    lo, hi, std = 1.0, 2.0, 0.1                          # linear range edge 2.0, std 0.1
+    lo, hi, std = 1.0, 2.0, 0.1  # linear range edge 2.0, std 0.1
     assert is_plausible(2.0 + PLAUSIBLE_SIGMA * std * IN, std, (-1.0, hi))
     assert not is_plausible(2.0 + PLAUSIBLE_SIGMA * std * OUT, std, (-1.0, hi))
     # positive range: relative, on the log
     v_in, v_out = hi * math.exp(PLAUSIBLE_SIGMA * 0.01 * IN), hi * math.exp(PLAUSIBLE_SIGMA * 0.01 * OUT)
     assert is_plausible(v_in, 0.01 * v_in, (lo, hi)) and not is_plausible(v_out, 0.01 * v_out, (lo, hi))
-    assert not is_plausible(1.5, 0.1, (lo, hi), at_bound=True)        # never at a bound
+    assert not is_plausible(1.5, 0.1, (lo, hi), at_bound=True)  # never at a bound
 
 
 def test_a_value_outside_its_plausible_range_is_never_explained():
@@ -145,10 +150,11 @@ def test_a_value_outside_its_plausible_range_is_never_explained():
     assert outside_plausible(ev, NS(values={"eta_a": 1.0})) == {}
     assert outside_plausible(ev, NS(values={"eta_a": 1.0 + 1e-9})) == {"eta_a": (1.0 + 1e-9, (0.3, 1.0))}
     assert outside_plausible(ev, NS(values={"eta_a": 0.3 - 1e-9})) != {}
-    assert outside_plausible(ev, NS(values={"eta_a": 1.0 - 1e-9}, at_bound=("eta_a",))) != {}   # at a hard bound
+    assert outside_plausible(ev, NS(values={"eta_a": 1.0 - 1e-9}, at_bound=("eta_a",))) != {}  # at a hard bound
 
 
 # ------------------------------------------------------------------ units, band, search
+
 
 @pytest.mark.parametrize("unit, factor", units.UNITS)
 def test_units_line_within_unit_tol_of_the_unit_factor(unit, factor):
@@ -178,8 +184,12 @@ def test_search_pools_singles_whose_predictions_stay_within_same():
     def cand(name, pred, aicc):
         return NS(effect=name, plausible=True, fit=_fit(aicc=aicc, pred=pred))
 
-    ranking = [cand("a", (0.0, 0.0), 1.0), cand("b", (0.0, search.SAME * IN), 1.0),
-               cand("c", (0.0, search.SAME * OUT), 2.0), NS(effect="d", plausible=False, fit=_fit(aicc=0.0))]
+    ranking = [
+        cand("a", (0.0, 0.0), 1.0),
+        cand("b", (0.0, search.SAME * IN), 1.0),
+        cand("c", (0.0, search.SAME * OUT), 2.0),
+        NS(effect="d", plausible=False, fit=_fit(aicc=0.0)),
+    ]
     pool, same = search._distinct(meas, ranking)
     assert [c.effect for c in pool] == ["a", "c"] and same == {"a": ["b"]}
 
@@ -187,21 +197,21 @@ def test_search_pools_singles_whose_predictions_stay_within_same():
 def test_search_member_needed_below_alpha_over_m_and_lowering_aicc():
     n, m = 40, 20
     smaller = _fit(chi2=100.0, k=1, n=n, aicc=0.0)
-    f_edge = stats.f.isf(ALPHA / m, 1, n - 2)                  # F with p = alpha/m exactly
-    chi2_edge = 100.0 / (1 + f_edge / (n - 2))                 # (100 - c)/(c/(n-2)) = F
+    f_edge = stats.f.isf(ALPHA / m, 1, n - 2)  # F with p = alpha/m exactly
+    chi2_edge = 100.0 / (1 + f_edge / (n - 2))  # (100 - c)/(c/(n-2)) = F
     ok, p = search._needed(_fit(chi2=chi2_edge * IN, k=2, n=n, aicc=-1.0), smaller, m, ALPHA)
     assert ok and p < ALPHA / m
     ok, p = search._needed(_fit(chi2=chi2_edge * 1.0001, k=2, n=n, aicc=-1.0), smaller, m, ALPHA)
     assert not ok and p > ALPHA / m
-    assert not search._needed(_fit(chi2=1.0, k=2, n=n, aicc=0.0), smaller, m, ALPHA)[0]   # AICc not lower
+    assert not search._needed(_fit(chi2=1.0, k=2, n=n, aicc=0.0), smaller, m, ALPHA)[0]  # AICc not lower
 
 
 def test_an_axis_no_mode_points_along_takes_the_mode_repeating_a_lower_direction():
     from eigentwist.diagnose.matching import _by_order
 
-    direction = np.array([[3, 3, 5, 0, 2, 1], [4, 3, 5, 0, 2, 1]])      # "x, x, z, ..." and "y, x, z, ..."
+    direction = np.array([[3, 3, 5, 0, 2, 1], [4, 3, 5, 0, 2, 1]])  # "x, x, z, ..." and "y, x, z, ..."
     share = np.array([[0.4, 0.3, 0.0, 0.1, 0.1, 0.1], [0.5, 0.3, 0.0, 0.1, 0.1, 0.1]])
-    assert _by_order(direction, share).tolist() == [1, 0]      # the second x; no repeat: the largest share
+    assert _by_order(direction, share).tolist() == [1, 0]  # the second x; no repeat: the largest share
 
 
 def test_ambiguous_labels_at_a_delta_pose_are_matched_by_order_and_said_once():
@@ -231,7 +241,7 @@ def test_the_search_replaces_the_stepwise_result_only_when_better_by_more_than_b
 
     assert search.replaces(sub(("a", "b"), -search.BETTER * OUT), ("c", "d"), 0.0)
     assert not search.replaces(sub(("a", "b"), -search.BETTER * IN), ("c", "d"), 0.0)
-    assert not search.replaces(sub(("d", "c"), -100.0), ("c", "d"), 0.0)        # the same effects
+    assert not search.replaces(sub(("d", "c"), -100.0), ("c", "d"), 0.0)  # the same effects
     assert not search.replaces(None, ("c",), 0.0)
 
 

@@ -1,4 +1,5 @@
 """The compare / diagnose / synth commands as scripts use them: JSON keys, plots, one-line errors."""
+
 from __future__ import annotations
 
 import json
@@ -16,7 +17,7 @@ def run_main(capsys, *args):
     return code, out.out, out.err
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_diagnose_json_keys(capsys):
     code, out, _ = run_main(capsys, "diagnose", "paper", "--json")
     assert code == 0
@@ -25,8 +26,16 @@ def test_diagnose_json_keys(capsys):
         assert key in d
     assert {"effects", "rms_pct", "max_pct"} <= set(d["baseline"])
     for c in d["ranking"]:
-        assert {"effect", "params", "param_std", "rms_pct", "max_pct", "aicc", "p_value",
-                "indistinguishable_from"} <= set(c)
+        assert {
+            "effect",
+            "params",
+            "param_std",
+            "rms_pct",
+            "max_pct",
+            "aicc",
+            "p_value",
+            "indistinguishable_from",
+        } <= set(c)
         assert isinstance(c["indistinguishable_from"], list)
     for s in d["steps"]:
         assert {"effects", "rms_pct", "max_pct"} <= set(s)
@@ -35,7 +44,7 @@ def test_diagnose_json_keys(capsys):
     assert d["baseline"]["effects"] == ["actuator_loss"] and round(d["baseline"]["rms_pct"], 1) == 13.6
     assert d["ranking"][0]["effect"] == "ee_compliance" and d["selected"][0] == "ee_compliance"
     assert d["steps"][0]["effects"] == ["actuator_loss"] and d["final"]["rms_pct"] < 5
-    assert d["selected"] == ["ee_compliance", "servo_damping"]        # damped frequencies: the servo damping
+    assert d["selected"] == ["ee_compliance", "servo_damping"]  # damped frequencies: the servo damping
     assert {"pose", "k_a", "mode", "between"} <= set(d["next_measurement"])
     # ties at every step and at the end, plausibility, outliers, the stated uncertainty
     for c in d["ranking"]:
@@ -44,8 +53,14 @@ def test_diagnose_json_keys(capsys):
     assert all(isinstance(s["alternatives"], list) for s in d["steps"])
     assert d["steps"][1]["alternatives"] == ["ee_coupling"]
     assert d["final"]["alternatives"] == [["actuator_loss", "ee_coupling", "servo_damping"]]
-    assert d["outliers"] == []                                  # the k_a = 125 rows are a pattern
-    assert d["uncertainty"]["verdict"] in ("consistent", "understated", "overstated", "too few rows", "cannot be judged")
+    assert d["outliers"] == []  # the k_a = 125 rows are a pattern
+    assert d["uncertainty"]["verdict"] in (
+        "consistent",
+        "understated",
+        "overstated",
+        "too few rows",
+        "cannot be judged",
+    )
     assert d["uncertainty"]["birge_ratio"] == pytest.approx((d["final"]["chi2"] / d["final"]["dof"]) ** 0.5)
 
 
@@ -70,18 +85,21 @@ def test_compare_json_and_plot(capsys, tmp_path):
     assert code == 0 and "RMS error 4.17 %" in out and "FAILS" in out
 
 
-@pytest.mark.parametrize("args, words", [
-    (["compare", "{bad}"], "line 1, column 'flux'"),
-    (["compare", "{missing}"], "no such file"),
-    (["compare", "paper", "--model", "warp"], "warp"),
-    (["compare", "paper", "--robot", "nonexistent"], "nonexistent"),
-    (["compare", "{rot}", "--model", "rigid"], "no mode along rx"),
-    (["diagnose", "paper", "--baseline", "warp"], "warp"),
-    (["diagnose", "paper", "--add", "ee_compliance", "--baseline", "paper"], "already in the model"),
-    (["diagnose", "paper", "--alpha", "2"], "--alpha"),
-    (["synth", "--truth", "paper", "--k-a", "fast"], "not a number"),
-    (["synth", "--truth", "paper", "--k-a", "100", "--poses", "0,0"], "X,Y,Z"),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["compare", "{bad}"], "line 1, column 'flux'"),
+        (["compare", "{missing}"], "no such file"),
+        (["compare", "paper", "--model", "warp"], "warp"),
+        (["compare", "paper", "--robot", "nonexistent"], "nonexistent"),
+        (["compare", "{rot}", "--model", "rigid"], "no mode along rx"),
+        (["diagnose", "paper", "--baseline", "warp"], "warp"),
+        (["diagnose", "paper", "--add", "ee_compliance", "--baseline", "paper"], "already in the model"),
+        (["diagnose", "paper", "--alpha", "2"], "--alpha"),
+        (["synth", "--truth", "paper", "--k-a", "fast"], "not a number"),
+        (["synth", "--truth", "paper", "--k-a", "100", "--poses", "0,0"], "X,Y,Z"),
+    ],
+)
 def test_errors_are_one_line(capsys, tmp_path, args, words):
     bad = tmp_path / "bad.csv"
     bad.write_text("k_a,mode,freq_hz,flux\n1000,x,15,1\n")
@@ -112,8 +130,22 @@ def test_help_explains_inputs_with_units_and_examples(capsys, command):
 
 def test_other_robot(capsys, tmp_path):
     data = tmp_path / "delta.csv"
-    code, _, _ = run_main(capsys, "synth", "--robot", "delta", "--truth", "rigid+transmission_compliance:k_t=3000",
-                          "--k-a", "125,500,2000,4000", "--poses", "0,0,-0.75 0.1,0,-0.7", "--seed", "2", "-o", str(data))
+    code, _, _ = run_main(
+        capsys,
+        "synth",
+        "--robot",
+        "delta",
+        "--truth",
+        "rigid+transmission_compliance:k_t=3000",
+        "--k-a",
+        "125,500,2000,4000",
+        "--poses",
+        "0,0,-0.75 0.1,0,-0.7",
+        "--seed",
+        "2",
+        "-o",
+        str(data),
+    )
     assert code == 0
     code, out, _ = run_main(capsys, "diagnose", str(data), "--robot", "delta", "--json")
     assert code == 0

@@ -7,6 +7,7 @@ a series compliance on legs 2 and 5 (strut, joints and actuator loss are one mod
 equal frequencies everywhere, so either name is right), the data explained, and the answer
 says the search changed the stepwise result.
 """
+
 from __future__ import annotations
 
 import pytest
@@ -23,7 +24,7 @@ def test_two_softer_struts_are_found_off_the_greedy_path():
     d, ok, why = cases.hexapod_struts(ev, 0)
     assert ok, why
     assert d.search is not None and d.search.changed and set(d.search.greedy) != set(d.selected)
-    assert not d.implausible                       # every fitted value inside its plausible range
+    assert not d.implausible  # every fitted value inside its plausible range
     lines = answer(d, ev)["lines"]
     assert sum(line.startswith("Search:") for line in lines) == 1, lines
     assert lines[0].startswith("Explained")

@@ -4,6 +4,7 @@ Each case (``tests/diagnosis_cases.py``) draws its noise and the truth's nuisanc
 parameters (eta_a and l2 +-1 %, in the truth only) from the seed. In-process calls on the
 C backend where a compiler exists (NumPy otherwise; same numbers).
 """
+
 from __future__ import annotations
 
 import pytest

@@ -1,4 +1,5 @@
 """The README stays in step with the interfaces it documents."""
+
 from __future__ import annotations
 
 from pathlib import Path

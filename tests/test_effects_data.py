@@ -1,4 +1,5 @@
 """Effects own their parameters: declared once, with a plausible range."""
+
 from __future__ import annotations
 
 import math
@@ -36,12 +37,14 @@ def test_robots_do_not_redeclare_catalogue_parameters(robot):
     names = [p.name for p in desc.parameters]
     assert len(names) == len(set(names))
     for e in desc.effects:
-        assert set(desc.effect(e).parameters) <= set(names)      # a robot's own effects too (hexapod)
+        assert set(desc.effect(e).parameters) <= set(names)  # a robot's own effects too (hexapod)
 
 
 def test_a_robot_passes_only_the_values_that_differ():
-    ps = {p.name: p for p in effect_parameters(("lower_link_compliance",), {"r_o_l1": 0.02,
-                                                                             "E_l1": {"plausible": (60e9, 80e9)}})}
+    ps = {
+        p.name: p
+        for p in effect_parameters(("lower_link_compliance",), {"r_o_l1": 0.02, "E_l1": {"plausible": (60e9, 80e9)}})
+    }
     assert ps["r_o_l1"].default == 0.02 and ps["r_o_l1"].unit == "m"
     assert ps["E_l1"].plausible == (60e9, 80e9) and ps["E_l1"].default == 70e9
     assert ps["E_l1"].is_plausible(70e9) and not ps["E_l1"].is_plausible(3.3e12)

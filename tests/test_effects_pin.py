@@ -13,6 +13,7 @@ A flexible model's frequencies from the evaluator come from the exact condensati
 the constraints (runtime/condense.py): they equal the pinned ones to the
 penalty's error, and the pinned ones are those of the pinned matrices.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -25,7 +26,7 @@ from eigentwist.description.effects import resolve_model
 from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh
 
 PIN = np.load(Path(__file__).parent / "data" / "effects_pin.npz")
-PARAMS = {"p_x": 0.01, "p_y": -0.02, "p_z": 0.03}      # as in tests/data/make_effects_pin.py
+PARAMS = {"p_x": 0.01, "p_y": -0.02, "p_z": 0.03}  # as in tests/data/make_effects_pin.py
 CASES = sorted({k.rsplit("/", 1)[0] for k in PIN.files if not k.endswith("/poses")})
 
 
@@ -46,8 +47,8 @@ def test_outputs_equal_the_pinned_ones(evaluators, case):
         # (c_rigid = 1e-12 rad/(N m)): they differ by the penalty, < 1e-5 relative; the
         # pinned frequencies are those of the pinned matrices (strictly, below)
         np.testing.assert_allclose(freq, PIN[f"{case}/freq_hz"], rtol=1e-5, err_msg=case)
-        assert not np.allclose(freq, PIN[f"{case}/freq_hz"], rtol=1e-14, atol=0)   # exact, not the penalty's
-        M, K = ev.stiffness(poses, model, **PARAMS)          # K_F (and the preload) as pinned
+        assert not np.allclose(freq, PIN[f"{case}/freq_hz"], rtol=1e-14, atol=0)  # exact, not the penalty's
+        M, K = ev.stiffness(poses, model, **PARAMS)  # K_F (and the preload) as pinned
         freq = frequencies_hz(generalized_eigh(K, M)[0])
     got = {**mats, "freq_hz": freq}
     for key, value in got.items():
@@ -67,6 +68,6 @@ def _round_off(case: str, freq: np.ndarray) -> np.ndarray:
     ||dK||_2 / lambda_min(M)`` (Weyl; a principal block of M has no smaller eigenvalue),
     ``lambda = (2 pi f)^2``."""
     K = np.stack([PIN[f"{case}/{k}"] for k in ("K_R", "K_F")])
-    dK = 6 * 1e-14 * np.abs(K).max(axis=(0, 2, 3))               # ||dK||_2 <= n max|dK_ij|
+    dK = 6 * 1e-14 * np.abs(K).max(axis=(0, 2, 3))  # ||dK||_2 <= n max|dK_ij|
     lam_M = np.linalg.eigvalsh(PIN[f"{case}/M"])[:, 0]
     return (dK / lam_M)[:, None] / (8 * np.pi**2 * freq)

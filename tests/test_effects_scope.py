@@ -1,4 +1,5 @@
 """Per-leg scope: EFFECT@N and NAME@N, with no regeneration."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -22,8 +23,13 @@ def _rel(a, b):
 
 def test_an_effect_on_every_leg_alone_equals_the_effect_on_all_legs(heli4):
     poses = random_poses(heli4.robot, 4, 11)
-    for effect in ("actuator_loss", "rod_compliance", "lower_link_compliance", "transmission_compliance",
-                   "rotor_inertia"):
+    for effect in (
+        "actuator_loss",
+        "rod_compliance",
+        "lower_link_compliance",
+        "transmission_compliance",
+        "rotor_inertia",
+    ):
         legs = ",".join(f"{effect}@{k}" for k in range(1, 5))
         a = heli4.matrices(poses, f"paper,{effect}")
         b = heli4.matrices(poses, f"rod_compliance,ee_compliance,actuator_loss,{legs}")
@@ -55,30 +61,42 @@ def test_a_leg_scoped_effect_without_the_all_legs_one_acts_on_that_leg_alone(hel
 
 def test_resolve_model_orders_scoped_effects_after_their_effect(heli4):
     got = resolve_model("actuator_loss@4,paper,actuator_loss@2,transmission_compliance@1", heli4.robot)
-    assert got == ("actuator_loss", "actuator_loss@2", "actuator_loss@4", "rod_compliance", "ee_compliance",
-                   "transmission_compliance@1")
+    assert got == (
+        "actuator_loss",
+        "actuator_loss@2",
+        "actuator_loss@4",
+        "rod_compliance",
+        "ee_compliance",
+        "transmission_compliance@1",
+    )
 
 
-@pytest.mark.parametrize("spec, message", [
-    ("paper,actuator_loss@0", "'0' is not a leg number; expected actuator_loss@N with N in 1..4"),
-    ("paper,actuator_loss@9", "'9' is not a leg number; expected actuator_loss@N with N in 1..4"),
-    ("paper,actuator_loss@x", "'x' is not a leg number"),
-    ("paper,ee_compliance@2", "acts on the whole platform, not on one leg"),
-    ("payload_mass@1", "acts on the whole platform, not on one leg"),
-])
+@pytest.mark.parametrize(
+    "spec, message",
+    [
+        ("paper,actuator_loss@0", "'0' is not a leg number; expected actuator_loss@N with N in 1..4"),
+        ("paper,actuator_loss@9", "'9' is not a leg number; expected actuator_loss@N with N in 1..4"),
+        ("paper,actuator_loss@x", "'x' is not a leg number"),
+        ("paper,ee_compliance@2", "acts on the whole platform, not on one leg"),
+        ("payload_mass@1", "acts on the whole platform, not on one leg"),
+    ],
+)
 def test_bad_scopes_fail_with_one_line(heli4, spec, message):
     with pytest.raises(ValueError, match=message) as exc:
         heli4.frequencies(heli4.robot.x_ref, spec)
     assert "\n" not in str(exc.value)
 
 
-@pytest.mark.parametrize("params, message", [
-    ({"eta_a@0": 0.5}, "'0' is not a leg number"),
-    ({"eta_a@5": 0.5}, "'5' is not a leg number; expected eta_a@N with N in 1..4"),
-    ({"k_a@2": 100.0}, "k_a belongs to no leg-level effect"),
-    ({"eta_a@2": -1.0}, "parameter 'eta_a@2'"),
-    ({"r_i_l1@2": 0.02}, "leg 2: parameters"),
-])
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"eta_a@0": 0.5}, "'0' is not a leg number"),
+        ({"eta_a@5": 0.5}, "'5' is not a leg number; expected eta_a@N with N in 1..4"),
+        ({"k_a@2": 100.0}, "k_a belongs to no leg-level effect"),
+        ({"eta_a@2": -1.0}, "parameter 'eta_a@2'"),
+        ({"r_i_l1@2": 0.02}, "leg 2: parameters"),
+    ],
+)
 def test_bad_scoped_parameters_fail_with_one_line(heli4, params, message):
     with pytest.raises(InputError, match=message) as exc:
         heli4.frequencies(heli4.robot.x_ref, "paper,lower_link_compliance", **params)

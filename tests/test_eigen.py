@@ -1,4 +1,5 @@
 """Batched eigen-solver against scipy.linalg.eigh pose by pose; mode tracking through a crossing."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -30,7 +31,7 @@ def assert_matches_scipy(K, M, lam, V, rtol=1e-10):
         for c in range(len(w)):
             near = [g for g in (gap[c - 1] if c else np.inf, gap[c] if c < len(gap) else np.inf)]
             if min(near) < 1e-4:
-                continue                      # (nearly) repeated eigenvalue: vectors not unique
+                continue  # (nearly) repeated eigenvalue: vectors not unique
             v, u = V[k][:, c], U[:, c]
             v = v * np.sign(v @ M[k] @ u)
             np.testing.assert_allclose(v, u, rtol=0, atol=rtol / min(near) * np.abs(u).max())
@@ -80,11 +81,11 @@ def _crossing_sweep(steps: int = 41):
     M = A @ A.T + 6 * np.eye(6)
     L = np.linalg.cholesky(M)
     G = rng.normal(size=(6, 6))
-    G = 0.5 * (G - G.T)                                  # generator of the slow rotation
+    G = 0.5 * (G - G.T)  # generator of the slow rotation
     s = np.linspace(0.0, 1.0, steps)
     lam = np.empty((steps, 6))
-    lam[:, 0] = 100 + 200 * s                            # label 0 rises ...
-    lam[:, 1] = 260 - 200 * s                            # ... label 1 falls: they cross at s = 0.6
+    lam[:, 0] = 100 + 200 * s  # label 0 rises ...
+    lam[:, 1] = 260 - 200 * s  # ... label 1 falls: they cross at s = 0.6
     lam[:, 2:] = [500, 800, 1200, 2000]
     Ks, Ms = [], []
     for k in range(steps):

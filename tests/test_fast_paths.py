@@ -3,6 +3,7 @@ one thread, outputs written in place, the gravity preload through C, unstable mo
 against the NumPy backend. The NumPy-only parts (unstable modes, chunked matrices) run
 without a compiler.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,7 +28,7 @@ UNSTABLE_MODEL = "paper,gravity_preload,payload_mass"
 def ev_c():
     try:
         ccompile.find_compiler()
-    except ccompile.CompilerNotFoundError as exc:      # the only reason to skip
+    except ccompile.CompilerNotFoundError as exc:  # the only reason to skip
         skip_tier("compiled", str(exc))
     mp = pytest.MonkeyPatch()
     mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
@@ -48,7 +49,7 @@ def assert_freq_close(got, want, rtol=1e-12):
 def _poses(ev, n, seed, bad=()):
     poses = random_poses(ev.robot, n, seed)
     for k in bad:
-        poses[k] = (0.0, 0.0, 0.0)                    # too close to the base: unreachable
+        poses[k] = (0.0, 0.0, 0.0)  # too close to the base: unreachable
     return poses
 
 
@@ -69,16 +70,33 @@ def test_unstable_model_is_nan_with_a_flag_not_zero_hz(ev):
     assert not m.stable.any()
     assert np.isnan(m.freq_hz[:, 0]).all() and np.isfinite(m.freq_hz[:, 1:]).all()
     M, K = ev.stiffness(poses, UNSTABLE_MODEL, **UNSTABLE)
-    assert (np.linalg.eigvalsh(K)[:, 0] < 0).all()                 # K itself is indefinite there
+    assert (np.linalg.eigvalsh(K)[:, 0] < 0).all()  # K itself is indefinite there
     ok = ev.modes(poses, UNSTABLE_MODEL, **{**UNSTABLE, "m_p": 0.2})
     assert ok.stable.all() and np.isfinite(ok.freq_hz).all()
-    with pytest.raises(UnstablePoseError, match=r"pose \[0.0, 0.0, -0.625\] m is unstable .*mode 1 of 6 has a negative"):
+    with pytest.raises(
+        UnstablePoseError, match=r"pose \[0.0, 0.0, -0.625\] m is unstable .*mode 1 of 6 has a negative"
+    ):
         ev.modes(poses, UNSTABLE_MODEL, unstable="raise", **UNSTABLE)
 
 
 def test_cli_matrices_names_the_unstable_pose_and_mode(capsys):
-    rc = main(["matrices", "--backend", "numpy", "--model", "rigid,gravity_preload,payload_mass",
-               "--set", "g=50", "--set", "m_p=100", "--set", "p_z=0.3", "--k-a", "50"])
+    rc = main(
+        [
+            "matrices",
+            "--backend",
+            "numpy",
+            "--model",
+            "rigid,gravity_preload,payload_mass",
+            "--set",
+            "g=50",
+            "--set",
+            "m_p=100",
+            "--set",
+            "p_z=0.3",
+            "--k-a",
+            "50",
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1
     assert "pose [0.0, 0.0, -0.625] m is unstable" in err and "mode 1 of 3" in err
@@ -108,7 +126,7 @@ def test_modes_without_vectors(ev):
     poses = random_poses(ev.robot, 50, seed=4)
     m = ev.modes(poses, "paper", vectors=False)
     assert m.eigentwists is None
-    np.testing.assert_array_equal(m.freq_hz, ev.modes(poses, "paper").freq_hz)         # bit for bit
+    np.testing.assert_array_equal(m.freq_hz, ev.modes(poses, "paper").freq_hz)  # bit for bit
 
 
 # ---------------------------------------------------------------- compiled tier
@@ -130,7 +148,7 @@ def test_checks_in_the_c_pass_match_numpy(ev_c, ev):
     mc, mn = ev_c.modes(poses, invalid="nan"), ev.modes(poses, invalid="nan")
     np.testing.assert_array_equal(mc.valid, mn.valid)
     assert mc.valid.sum() == 298
-    assert_freq_close(mc.freq_hz, mn.freq_hz)    # NaN in the same places
+    assert_freq_close(mc.freq_hz, mn.freq_hz)  # NaN in the same places
     np.testing.assert_array_equal(ev_c.valid(poses), ev.valid(poses))
     for evaluator in (ev_c, ev):
         with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, 0.0\] m is unreachable for leg"):
@@ -143,7 +161,7 @@ def test_checks_in_the_c_pass_match_numpy(ev_c, ev):
 def test_singular_pose_is_found_in_the_c_pass(ev_c, monkeypatch):
     import eigentwist.runtime.validity as validity
 
-    monkeypatch.setattr(validity, "LEVER_TOL", 10.0)     # every lever counts as vanishing
+    monkeypatch.setattr(validity, "LEVER_TOL", 10.0)  # every lever counts as vanishing
     with pytest.raises(SingularPoseError, match=r"pose \[0.0, 0.0, -0.625\] m is serial singular for leg 1"):
         ev_c.frequencies([[0.0, 0.0, -0.625]])
     assert not ev_c.valid([[0.0, 0.0, -0.625]])[0]
@@ -152,7 +170,7 @@ def test_singular_pose_is_found_in_the_c_pass(ev_c, monkeypatch):
 @compiled
 @pytest.mark.parametrize("threads", [2, 3])
 def test_threads_give_bit_identical_results(ev_c, ev, threads):
-    n = 64 * 16 * threads * 2 + 37                       # several ranges, a partial last block
+    n = 64 * 16 * threads * 2 + 37  # several ranges, a partial last block
     poses = _poses(ev, n, seed=43, bad=(5, 1500))
     k_a = np.random.default_rng(44).uniform(200.0, 5000.0, n)
     many = eigentwist.load("heli4", backend="c", threads=threads)
@@ -162,7 +180,7 @@ def test_threads_give_bit_identical_results(ev_c, ev, threads):
         for a, b in ((one.freq_hz, par.freq_hz), (one.eigentwists, par.eigentwists), (one.valid, par.valid)):
             assert a.tobytes() == b.tobytes()
     ok = one.valid
-    shifted = np.empty((n, 4))                           # other addresses and strides: the same bits
+    shifted = np.empty((n, 4))  # other addresses and strides: the same bits
     shifted[:, 1:] = poses
     other = many.modes(shifted[:, 1:], "rigid", invalid="nan", k_a=k_a.copy())
     assert other.freq_hz.tobytes() == one.freq_hz.tobytes()
@@ -204,7 +222,7 @@ def test_unstable_model_in_c(ev_c, ev):
     poses = np.array([[0.0, 0.0, -0.625], [0.05, 0.02, -0.6]])
     mc, mn = ev_c.modes(poses, UNSTABLE_MODEL, **UNSTABLE), ev.modes(poses, UNSTABLE_MODEL, **UNSTABLE)
     assert not mc.stable.any()
-    assert_freq_close(mc.freq_hz, mn.freq_hz)      # NaN in the same places
+    assert_freq_close(mc.freq_hz, mn.freq_hz)  # NaN in the same places
     # the fused pass (no gravity): a negative actuator stiffness, below any parameter check
     ck = ev_c._kernels
     poses = random_poses(ev.robot, 200, seed=47)
@@ -223,15 +241,15 @@ def test_packed_scalars_follow_the_values(ev_c):
     read-only objects: a writeable 0-d array changed in place between calls is read anew."""
     poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6]])
     p = ev_c.inputs("paper")
-    p = {k: np.array(v) for k, v in p.items()}                 # writeable 0-d arrays
+    p = {k: np.array(v) for k, v in p.items()}  # writeable 0-d arrays
     kw = dict(matrices=(), model="flexible", status=True)
     f1 = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, **kw)["freq_hz"].copy()
     p["k_a"][...] = 4.0 * p["k_a"]
     f2 = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, **kw)["freq_hz"]
     assert np.all(f2[:, 0] > f1[:, 0] * 1.05)
-    frozen = ev_c._params(2, {}, "paper")                       # read-only: packed once, reused
+    frozen = ev_c._params(2, {}, "paper")  # read-only: packed once, reused
     a = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], frozen, **kw)["freq_hz"]
     b = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], ev_c._params(2, {}, "paper"), **kw)["freq_hz"]
-    fresh = {k: np.array(v) for k, v in frozen.items()}          # writeable copies: packed anew
+    fresh = {k: np.array(v) for k, v in frozen.items()}  # writeable copies: packed anew
     c = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], fresh, **kw)["freq_hz"]
     assert np.array_equal(a, b) and np.array_equal(a, c)

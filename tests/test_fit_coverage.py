@@ -7,6 +7,7 @@ to synthetic Heli4 frequencies. Its standard error is compared with SciPy's
 including data whose scatter exceeds the stated sigma (where the Birge scaling matters).
 The same draws give the F test's false-positive rate under the null.
 """
+
 from __future__ import annotations
 
 import math
@@ -54,8 +55,15 @@ def _scipy_fit(meas, ev, start, absolute: bool):
     def model(_x, m_p):
         return predictor.predict_sets(["m_p"], [[m_p]])[0]
 
-    p, cov = curve_fit(model, np.arange(len(meas)), meas.freq_hz, p0=[start], sigma=meas.sigma_hz,
-                       absolute_sigma=absolute, epsfcn=1e-10)
+    p, cov = curve_fit(
+        model,
+        np.arange(len(meas)),
+        meas.freq_hz,
+        p0=[start],
+        sigma=meas.sigma_hz,
+        absolute_sigma=absolute,
+        epsfcn=1e-10,
+    )
     return float(p[0]), float(math.sqrt(cov[0, 0]))
 
 
@@ -66,10 +74,10 @@ def test_standard_error_matches_scipy_curve_fit(ev_fast, truth, noise, stated):
     value, std_abs = _scipy_fit(meas, ev_fast, r.values["m_p"], absolute=True)
     _, std_rel = _scipy_fit(meas, ev_fast, r.values["m_p"], absolute=False)
     assert r.values["m_p"] == pytest.approx(value, rel=1e-4)
-    if noise < stated:   # fit better than sigma: sigma at face value, never shrunk by chi2/nu
+    if noise < stated:  # fit better than sigma: sigma at face value, never shrunk by chi2/nu
         assert r.reduced_chi2 < 0.2 and std_rel < 0.5 * std_abs
         assert r.std["m_p"] == pytest.approx(std_abs, rel=0.02)
-    else:                # fit worse than sigma: scaled by the Birge ratio sqrt(chi2/nu)
+    else:  # fit worse than sigma: scaled by the Birge ratio sqrt(chi2/nu)
         assert r.reduced_chi2 > 4 and std_rel > 2 * std_abs
         assert r.std["m_p"] == pytest.approx(std_rel, rel=0.02)
         assert r.std["m_p"] == pytest.approx(std_abs * math.sqrt(r.chi2 / r.dof), rel=0.02)
@@ -82,10 +90,11 @@ def test_standard_error_matches_the_chi2_profile(ev_fast, truth):
     f = Predictor(meas, MODEL, ev_fast).predict_sets(["m_p"], grid[:, None])
     chi2 = np.sum(((f - meas.freq_hz) / meas.sigma_hz) ** 2, axis=1)
     assert chi2.min() == pytest.approx(r.chi2, abs=1e-3)
-    inside = grid[chi2 <= r.chi2 + 1.0]                          # the delta chi2 = 1 interval
+    inside = grid[chi2 <= r.chi2 + 1.0]  # the delta chi2 = 1 interval
     half_width = (inside.max() - inside.min()) / 2
-    assert half_width == pytest.approx(r.std["m_p"] * max(1.0, math.sqrt(r.reduced_chi2)) if r.reduced_chi2 > 1
-                                       else r.std["m_p"], rel=0.05)
+    assert half_width == pytest.approx(
+        r.std["m_p"] * max(1.0, math.sqrt(r.reduced_chi2)) if r.reduced_chi2 > 1 else r.std["m_p"], rel=0.05
+    )
 
 
 @pytest.mark.slow
@@ -102,14 +111,14 @@ def test_intervals_cover_the_truth_and_the_f_test_holds_its_level(ev_fast, truth
             r = fit(meas, MODEL, ev_fast, ["m_p"], explore=())
             hits += abs(r.values["m_p"] - TRUTH_MP) <= r.std["m_p"]
             chi2_truth = float(np.sum(((truth.freq_hz - meas.freq_hz) / meas.sigma_hz) ** 2))
-            if noise >= stated:   # m_p fitted vs m_p held at the truth: the null is true
+            if noise >= stated:  # m_p fitted vs m_p held at the truth: the null is true
                 p_values.append(f_test(chi2_truth, 0, r.chi2, 1, n))
         coverage[(noise, stated)] = hits / draws
     assert coverage[(0.01, 0.01)] == pytest.approx(0.68, abs=0.1), coverage
-    assert coverage[(0.03, 0.01)] == pytest.approx(0.68, abs=0.1), coverage       # Birge-scaled
-    assert coverage[(0.005, 0.02)] > 0.97, coverage                              # sigma overstated: conservative
+    assert coverage[(0.03, 0.01)] == pytest.approx(0.68, abs=0.1), coverage  # Birge-scaled
+    assert coverage[(0.005, 0.02)] > 0.97, coverage  # sigma overstated: conservative
     p_values = np.array(p_values)
-    assert np.mean(p_values < 0.1) == pytest.approx(0.1, abs=0.045)              # 400 draws: sd 1.5 %
+    assert np.mean(p_values < 0.1) == pytest.approx(0.1, abs=0.045)  # 400 draws: sd 1.5 %
     assert np.mean(p_values < 0.5) == pytest.approx(0.5, abs=0.08)
 
 
@@ -120,16 +129,16 @@ def test_log_transform_round_trips_and_keeps_to_the_search_range(ev_fast):
     assert t.theta(0.5) == pytest.approx(math.log(0.5)) and t.value(math.log(0.5)) == pytest.approx(0.5)
     assert t.theta(1e6) == pytest.approx(math.log(t.hi)) and t.theta(0.0) == pytest.approx(math.log(t.lo))
     assert t.bounds == pytest.approx((math.log(t.lo), math.log(t.hi)))
-    assert t.std(0.5, 0.1) == pytest.approx(0.05)               # delta method: std_p = p std_theta
+    assert t.std(0.5, 0.1) == pytest.approx(0.05)  # delta method: std_p = p std_theta
     assert t.ref == 0.2 and t.scale == 1.0
-    eta = Transform.of(ev_fast.parameters["eta_a"])             # hard bound (0, 1]: no actuator delivers more
+    eta = Transform.of(ev_fast.parameters["eta_a"])  # hard bound (0, 1]: no actuator delivers more
     # inside it by a relative margin (not one ulp), so that exp(log(p)) cannot round outside
     assert eta.log and eta.hi == pytest.approx(1 - 1e-9, rel=1e-13) and eta.hi < 1.0
     assert eta.lo == pytest.approx(0.82 / SPAN, rel=1e-13)
 
 
 def test_linear_transform_for_a_parameter_that_can_be_negative(ev_fast):
-    t = Transform.of(ev_fast.parameters["p_x"])                 # default 0, bounds (-1, 1)
+    t = Transform.of(ev_fast.parameters["p_x"])  # default 0, bounds (-1, 1)
     assert not t.log and t.ref == 0.0 and t.scale == pytest.approx(0.1)
     assert (t.lo, t.hi) == (-1.0, 1.0)
     assert t.theta(0.05) == pytest.approx(0.5) and t.value(0.5) == pytest.approx(0.05)
@@ -140,15 +149,15 @@ def test_linear_transform_for_a_parameter_that_can_be_negative(ev_fast):
 def test_covariance_is_the_inverse_normal_matrix_scaled_only_upwards():
     jac = np.array([[1.0, 0.0], [0.0, 2.0], [1.0, 1.0], [0.5, -1.0]])
     normal_inv = np.linalg.inv(jac.T @ jac)
-    assert _covariance(jac, 2.0, 2) == pytest.approx(normal_inv)           # chi2/nu = 1
-    assert _covariance(jac, 1.0, 2) == pytest.approx(normal_inv)           # better than sigma: not shrunk
-    assert _covariance(jac, 8.0, 2) == pytest.approx(4 * normal_inv)       # worse: Birge ratio^2
-    assert _covariance(jac, 8.0, 0) == pytest.approx(normal_inv)           # no dof: no scale
-    assert _covariance(0.01 * jac, 2.0, 2) == pytest.approx(1e4 * normal_inv)   # small but determined
+    assert _covariance(jac, 2.0, 2) == pytest.approx(normal_inv)  # chi2/nu = 1
+    assert _covariance(jac, 1.0, 2) == pytest.approx(normal_inv)  # better than sigma: not shrunk
+    assert _covariance(jac, 8.0, 2) == pytest.approx(4 * normal_inv)  # worse: Birge ratio^2
+    assert _covariance(jac, 8.0, 0) == pytest.approx(normal_inv)  # no dof: no scale
+    assert _covariance(0.01 * jac, 2.0, 2) == pytest.approx(1e4 * normal_inv)  # small but determined
 
 
 def test_covariance_of_an_undetermined_parameter_is_infinite():
-    jac = np.array([[1.0, 0.0, 2.0], [2.0, 0.0, 1.0], [0.0, 0.0, 1.0]])    # column 2 has no influence
+    jac = np.array([[1.0, 0.0, 2.0], [2.0, 0.0, 1.0], [0.0, 0.0, 1.0]])  # column 2 has no influence
     cov = _covariance(jac, 3.0, 1)
     assert np.isinf(cov[1, 1]) and np.isinf(cov[0, 1]) and np.isinf(cov[1, 2])
     sub = np.linalg.inv(jac[:, [0, 2]].T @ jac[:, [0, 2]]) * 3.0
@@ -159,7 +168,7 @@ def test_covariance_of_an_undetermined_parameter_is_infinite():
 def test_start_grid_explores_only_the_named_log_parameters(ev_fast):
     tr = [Transform.of(ev_fast.parameters[n]) for n in ("m_p", "p_x", "k_t")]
     table = _starts(tr, {"m_p": 0.3, "p_x": 0.01, "k_t": 1e4}, {"m_p", "p_x"})
-    assert table.shape == (5, 3)                                 # p_x is linear, k_t not explored
+    assert table.shape == (5, 3)  # p_x is linear, k_t not explored
     assert sorted(table[:, 0]) == pytest.approx([0.03, 0.09, 0.3, 0.9, 3.0])
     assert np.all(table[:, 1] == 0.01) and np.all(table[:, 2] == 1e4)
     clipped = _starts(tr[:1], {"m_p": 150.0}, {"m_p"})
@@ -179,21 +188,28 @@ def test_fit_result_and_edge_cases(ev_fast, truth):
     assert r.chi2 < none.chi2 and r.fixed == {"m_p": r.values["m_p"]} and r.at_bound == ()
     assert r.rms_pct == r.comparison.rms_pct and r.max_pct == r.comparison.max_pct and r.nfev > 0
     assert r.chi2 == pytest.approx(float(np.sum(((r.comparison.predicted - meas.freq_hz) / meas.sigma_hz) ** 2)))
-    other = fit(meas, MODEL, ev_fast, ["m_p"], fixed={"m_p": 5.0, "eta_a": 0.8})   # m_p starts at 5 kg
+    other = fit(meas, MODEL, ev_fast, ["m_p"], fixed={"m_p": 5.0, "eta_a": 0.8})  # m_p starts at 5 kg
     assert other.fixed["eta_a"] == 0.8 and "eta_a" not in other.values and other.names == ("m_p",)
     assert other.values["m_p"] == pytest.approx(TRUTH_MP, rel=0.1)
 
 
 def test_a_parameter_given_as_data_is_not_fitted(ev_fast, truth):
     meas = _draw(truth, 0.01, 0.01, np.random.default_rng(3))
-    with_column = Measurements(meas.k_a, meas.mode, meas.freq_hz, meas.sigma_hz, meas.poses,
-                               {"m_p": np.full(len(meas), TRUTH_MP)}, robot=meas.robot)
+    with_column = Measurements(
+        meas.k_a,
+        meas.mode,
+        meas.freq_hz,
+        meas.sigma_hz,
+        meas.poses,
+        {"m_p": np.full(len(meas), TRUTH_MP)},
+        robot=meas.robot,
+    )
     r = fit(with_column, MODEL, ev_fast, ["m_p", "eta_a"])
     assert r.names == ("eta_a",) and r.k == 1
 
 
 def test_a_fit_that_ends_on_its_search_bound_says_so(ev_fast):
-    empty = synth("rigid", KA, POSES, ("x", "y", "z"), 0, ev=ev_fast)   # no payload at all: m_p -> 0
+    empty = synth("rigid", KA, POSES, ("x", "y", "z"), 0, ev=ev_fast)  # no payload at all: m_p -> 0
     r = fit(empty, MODEL, ev_fast, ["m_p"])
     assert r.at_bound == ("m_p",) and r.values["m_p"] == pytest.approx(0.2 / SPAN, rel=1e-3)
 
@@ -203,8 +219,14 @@ TWO = ("actuator_loss", "payload_mass", "transmission_compliance")
 
 
 def test_two_parameter_covariance_matches_scipy_curve_fit(ev_fast):
-    truth2 = synth("rigid+payload_mass:m_p=0.4+transmission_compliance:k_t=8000", [125.0, 500.0, 2000.0, 8000.0],
-                   POSES, ("x", "y", "z"), 0, ev=ev_fast)
+    truth2 = synth(
+        "rigid+payload_mass:m_p=0.4+transmission_compliance:k_t=8000",
+        [125.0, 500.0, 2000.0, 8000.0],
+        POSES,
+        ("x", "y", "z"),
+        0,
+        ev=ev_fast,
+    )
     meas = _draw(truth2, 0.01, 0.01, np.random.default_rng(8))
     r = fit(meas, TWO, ev_fast, ["m_p", "k_t"])
     predictor = Predictor(meas, TWO, ev_fast)
@@ -213,11 +235,20 @@ def test_two_parameter_covariance_matches_scipy_curve_fit(ev_fast):
         return predictor.predict_sets(["m_p", "k_t"], [[m_p, k_t]])[0]
 
     p0 = [r.values["m_p"], r.values["k_t"]]
-    p, cov = curve_fit(model, np.arange(len(meas)), meas.freq_hz, p0=p0, sigma=meas.sigma_hz,
-                       absolute_sigma=True, method="trf", x_scale=p0, diff_step=1e-6)
+    p, cov = curve_fit(
+        model,
+        np.arange(len(meas)),
+        meas.freq_hz,
+        p0=p0,
+        sigma=meas.sigma_hz,
+        absolute_sigma=True,
+        method="trf",
+        x_scale=p0,
+        diff_step=1e-6,
+    )
     assert [r.values["m_p"], r.values["k_t"]] == pytest.approx(p, rel=1e-3)
-    cov = cov * max(1.0, r.chi2 / r.dof)                         # the Birge scaling, when chi2/nu > 1
-    cov_p = r.cov_theta * np.outer(p0, p0)                       # delta method for log-parameters
+    cov = cov * max(1.0, r.chi2 / r.dof)  # the Birge scaling, when chi2/nu > 1
+    cov_p = r.cov_theta * np.outer(p0, p0)  # delta method for log-parameters
     assert np.sqrt(np.diag(cov_p)) == pytest.approx(np.sqrt(np.diag(cov)), rel=0.03)
     corr = cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1])
     assert cov_p[0, 1] / np.sqrt(cov_p[0, 0] * cov_p[1, 1]) == pytest.approx(corr, abs=0.02)
@@ -234,14 +265,14 @@ def _objective(transforms, meas=None):
 
 def test_difference_points_stay_inside_the_search_range(ev_fast):
     m_p = Transform.of(ev_fast.parameters["m_p"])
-    narrow = Transform("narrow", False, -0.0075, 0.0075, 0.0, 1.0)       # narrower than two steps
-    room = Transform("room", False, -0.0125, 0.0125, 0.0, 1.0)          # 2.5 steps: the points move inside
+    narrow = Transform("narrow", False, -0.0075, 0.0075, 0.0, 1.0)  # narrower than two steps
+    room = Transform("room", False, -0.0125, 0.0125, 0.0, 1.0)  # 2.5 steps: the points move inside
     obj, step = _objective([m_p, narrow, room])
     assert step == 0.01
     lo, hi = m_p.bounds
     sets = obj._sets(np.array([lo, 0.005, 0.005]))
     assert sets.shape == (7, 3)
-    assert sets[:, 0] == pytest.approx([lo, lo, lo + 2 * step, lo, lo, lo, lo])   # one-sided at the lower bound
+    assert sets[:, 0] == pytest.approx([lo, lo, lo + 2 * step, lo, lo, lo, lo])  # one-sided at the lower bound
     assert sets[:, 1] == pytest.approx([0.005] * 3 + [0.005 - step, 0.005 + step] + [0.005] * 2)
     assert sets[:, 2] == pytest.approx([0.005] * 5 + [-0.0075, 0.0125])
     sets = obj._sets(np.array([hi, 0.0, 0.0]))
@@ -266,7 +297,7 @@ def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth, monkey
     theta = np.array([math.log(0.3), math.log(5000.0)])
     r = obj.residuals(list(theta))
     jac = obj.jacobian(theta)
-    assert obj.nfev == 1                                                   # one batched call for both
+    assert obj.nfev == 1  # one batched call for both
     f = predictor.predict_sets(["m_p", "k_t"], [[0.3, 5000.0]])[0]
     assert r == pytest.approx((f - meas.freq_hz) / meas.sigma_hz, rel=1e-12)
     for j, name in enumerate(("m_p", "k_t")):
@@ -282,7 +313,7 @@ def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth, monkey
     assert chi2 == pytest.approx(want, rel=1e-12) and chi2[0] == pytest.approx(r @ r, rel=1e-12)
     obj.residuals(theta + 0.1)
     obj.jacobian(theta + 0.1)
-    assert obj.nfev == 3                                                   # one more call, cached for both
+    assert obj.nfev == 3  # one more call, cached for both
 
 
 def test_fit_result_carries_its_model_covariance_and_message(ev_fast, truth):
@@ -298,7 +329,7 @@ def test_fit_result_carries_its_model_covariance_and_message(ev_fast, truth):
 
 
 def test_a_fit_that_ends_on_its_upper_search_bound_says_so(ev_fast, truth):
-    r = fit(truth, TWO, ev_fast, ["k_t"], fixed={"m_p": TRUTH_MP})   # no transmission compliance: k_t -> inf
+    r = fit(truth, TWO, ev_fast, ["k_t"], fixed={"m_p": TRUTH_MP})  # no transmission compliance: k_t -> inf
     assert r.at_bound == ("k_t",) and r.values["k_t"] == pytest.approx(20000.0 * SPAN, rel=1e-3)
 
 
@@ -318,22 +349,25 @@ def test_start_grid_is_clipped_at_the_lower_bound(ev_fast):
 
 
 def test_a_parameter_without_influence_stays_at_its_start(ev_fast, truth):
-    paper = ("actuator_loss", "rod_compliance", "ee_compliance")     # G_rod has no influence (README)
+    paper = ("actuator_loss", "rod_compliance", "ee_compliance")  # G_rod has no influence (README)
     r = fit(truth, paper, ev_fast, ["G_rod"], start={"G_rod": 3e10}, explore=())
     assert r.values["G_rod"] == pytest.approx(3e10, rel=1e-3) and r.std["G_rod"] > 100 * r.values["G_rod"]
 
 
 def test_a_fit_near_but_inside_its_bound_is_not_at_the_bound(ev_fast):
-    small = synth("rigid+payload_mass:m_p=0.0005", KA, POSES, ("x", "y", "z"), 0, ev=ev_fast)   # bound: 0.0002 kg
+    small = synth("rigid+payload_mass:m_p=0.0005", KA, POSES, ("x", "y", "z"), 0, ev=ev_fast)  # bound: 0.0002 kg
     r = fit(small, MODEL, ev_fast, ["m_p"])
     assert r.values["m_p"] == pytest.approx(0.0005, rel=1e-3) and r.at_bound == ()
 
 
-@pytest.mark.parametrize("default, bounds, scale, lo, hi", [
-    (0.0, (0.0, 1.0), 0.05, 0.0, 1.0),                    # zero default: linear even if p >= 0
-    (5.0, (-math.inf, math.inf), 5.0, 5.0 - 5000.0, 5.0 + 5000.0),
-    (0.5, (-math.inf, math.inf), 1.0, 0.5 - 1000.0, 0.5 + 1000.0),
-])
+@pytest.mark.parametrize(
+    "default, bounds, scale, lo, hi",
+    [
+        (0.0, (0.0, 1.0), 0.05, 0.0, 1.0),  # zero default: linear even if p >= 0
+        (5.0, (-math.inf, math.inf), 5.0, 5.0 - 5000.0, 5.0 + 5000.0),
+        (0.5, (-math.inf, math.inf), 1.0, 0.5 - 1000.0, 0.5 + 1000.0),
+    ],
+)
 def test_linear_transform_scale_and_range(default, bounds, scale, lo, hi):
     from types import SimpleNamespace
 
@@ -346,6 +380,6 @@ def test_given_start_values_replace_the_grid_for_their_parameter(ev_fast):
     tr = [Transform.of(ev_fast.parameters[n]) for n in ("p_z", "m_p")]
     table = _starts(tr, {"m_p": 0.3, "p_z": 0.0}, {"m_p", "p_z"}, {"p_z": [-5.0, -0.05, 0.05, 5.0]})
     assert table.shape == (20, 2)
-    assert sorted(set(table[:, 0])) == pytest.approx([-1.0, -0.05, 0.05, 1.0])   # clipped to the search range
+    assert sorted(set(table[:, 0])) == pytest.approx([-1.0, -0.05, 0.05, 1.0])  # clipped to the search range
     assert sorted(set(table[:, 1])) == pytest.approx([0.03, 0.09, 0.3, 0.9, 3.0])  # the others keep their grid
     assert _starts(tr, {"m_p": 0.3, "p_z": 0.0}, set(), None).shape == (1, 2)

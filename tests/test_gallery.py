@@ -6,6 +6,7 @@ from an independent computation: the kinetic energy of the bodies from finite di
 of their points (the description's closed-form geometry, evaluated numerically), against
 1/2 t^T M t of the derived M.
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -58,7 +59,9 @@ def test_inertia_definite_stiffness_semidefinite(gallery, name):
     assert (lam > -1e-9 * lam.max(axis=1, keepdims=True)).all()
     M, K = ev.stiffness(x, "rigid")
     n = len(ev.pose_names)
-    assert M.shape == K.shape == (len(x), n, n) and (np.linalg.eigvalsh(M) > 0).all() and (np.linalg.eigvalsh(K) > 0).all()
+    assert (
+        M.shape == K.shape == (len(x), n, n) and (np.linalg.eigvalsh(M) > 0).all() and (np.linalg.eigvalsh(K) > 0).all()
+    )
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -94,7 +97,7 @@ def test_allowed_twists_are_annihilated_by_the_constraint_wrenches(gallery, name
     A = _constraint_rows(ev, x)
     assert np.abs(A @ B).max() < 1e-12 * np.abs(A).max()
     np.testing.assert_allclose(np.swapaxes(B, 1, 2) @ B, np.broadcast_to(np.eye(3), (len(x), 3, 3)), atol=1e-12)
-    assert np.linalg.matrix_rank(A[0], tol=1e-9) == 3             # three independent constraints
+    assert np.linalg.matrix_rank(A[0], tol=1e-9) == 3  # three independent constraints
 
 
 @pytest.mark.parametrize("name", ("heli4", "delta", "hexapod", "linear_delta", "upu3", "rus6"))
@@ -109,8 +112,9 @@ def test_fixed_subsets_are_the_rule(gallery, name):
     np.testing.assert_allclose(B, ev.allowed_twists(x), rtol=0, atol=1e-14)
     home = np.array([ev.robot.x_ref])
     rows = _constraint_rows(ev, home) if rows.shape[1] else np.zeros((1, 0, 6))
-    np.testing.assert_array_equal(allowed_twists(rows, coordinate_twists(twist_order(ev.robot.pose))),
-                                  ev.allowed_twists(home))
+    np.testing.assert_array_equal(
+        allowed_twists(rows, coordinate_twists(twist_order(ev.robot.pose))), ev.allowed_twists(home)
+    )
 
 
 def test_followers_meet_the_closures_and_turn_the_basis(gallery):
@@ -139,7 +143,7 @@ def test_unreachable_commanded_pose_is_one_line(gallery, monkeypatch):
     assert m.valid.tolist() == [True, False] and np.isnan(m.freq_hz[1]).all()
     from eigentwist.runtime import platform
 
-    monkeypatch.setattr(platform, "MAX_STEPS", 1)                  # Newton cannot converge in one step
+    monkeypatch.setattr(platform, "MAX_STEPS", 1)  # Newton cannot converge in one step
     with pytest.raises(UnreachablePoseError) as err:
         ev.frequencies(np.array([[0.60, 0.1, -0.1]]), "rigid")
     assert "\n" not in str(err.value) and "rot_x = 0.1" in str(err.value) and "did not converge" in str(err.value)
@@ -162,6 +166,7 @@ def _points(ev, bodies, values):
         Rn = rotation_matrix(full[3:])
         out = f(*full[:3], *Rn.reshape(-1), *values)
         return [{k: np.asarray(v, dtype=float).reshape(-1) for k, v in zip(names, leg)} for leg in out]
+
     return at
 
 
@@ -181,16 +186,20 @@ def _energy(ev, full, dfull, bodies, platform, d):
     return T + platform(d, omega, v), np.concatenate([omega, v])
 
 
-PLATE = lambda d, w, v: d["m_pl"] / 2 * v @ v + 0.5 * (d["I_pl_xx"] * (w[0] ** 2 + w[1] ** 2) + d["I_pl_zz"] * w[2] ** 2)  # noqa: E731, E501
+def PLATE(d, w, v):
+    return d["m_pl"] / 2 * v @ v + 0.5 * (d["I_pl_xx"] * (w[0] ** 2 + w[1] ** 2) + d["I_pl_zz"] * w[2] ** 2)
 
 
-@pytest.mark.parametrize("name, bodies, platform, values", [
-    ("prs3", [("m_s", ("c",)), ("m_r", ("c", "top"))], PLATE, {}),
-    ("rrr3", [("m1", ("A", "C")), ("m2", ("C", "top"))], PLATE, {}),
-    # the linear Delta's parallelogram is the paper's fictitious rod (no physical rods'
-    # energy to compare with): its mass made negligible (1e-12 kg), the sliders and platform remain
-    ("linear_delta", [("m_s", ("c",))], lambda d, w, v: d["m_pl"] / 2 * v @ v, {"m_r": 1e-12}),
-])
+@pytest.mark.parametrize(
+    "name, bodies, platform, values",
+    [
+        ("prs3", [("m_s", ("c",)), ("m_r", ("c", "top"))], PLATE, {}),
+        ("rrr3", [("m1", ("A", "C")), ("m2", ("C", "top"))], PLATE, {}),
+        # the linear Delta's parallelogram is the paper's fictitious rod (no physical rods'
+        # energy to compare with): its mass made negligible (1e-12 kg), the sliders and platform remain
+        ("linear_delta", [("m_s", ("c",))], lambda d, w, v: d["m_pl"] / 2 * v @ v, {"m_r": 1e-12}),
+    ],
+)
 def test_kinetic_energy_matches_finite_differences(gallery, name, bodies, platform, values):
     """1/2 t^T M t of the derived M equals the bodies' kinetic energy from central
     differences of their points along a random motion of the commanded coordinates (the
@@ -205,7 +214,7 @@ def test_kinetic_energy_matches_finite_differences(gallery, name, bodies, platfo
     rng = np.random.default_rng(7)
     for k in range(len(x)):
         dx = rng.standard_normal(3) * np.array([0.1 if c[0] != "r" else 1.0 for c in ev.pose_names])
-        h = 1e-6                                                    # followers move too: the full pose's rate
+        h = 1e-6  # followers move too: the full pose's rate
         dfull = (six(ev._poses(x[k] + h * dx)) - six(ev._poses(x[k] - h * dx)))[0] / (2 * h)
         T, twist = _energy(ev, full[k], dfull, bodies, platform, d)
         np.testing.assert_allclose(0.5 * twist @ M[k] @ twist, T, rtol=1e-6)
@@ -251,12 +260,14 @@ def test_a_reference_on_another_branch_is_refused(gallery):
     ev = gallery["upu3"]
     legs = [leg.kinematics.leg for leg in ev.robot.legs]
     tilt, length = legs[0].reference[0], legs[0].reference[2]
-    assert np.abs(ev.assembly()["residual"]).max() < 1e-12       # the shipped reference closes
+    assert np.abs(ev.assembly()["residual"]).max() < 1e-12  # the shipped reference closes
     bad = dataclasses.replace(legs[0], reference=(tilt + 3.0, 0.0, length, 0.0, -tilt - 3.0))
-    with pytest.raises(AssemblyError, match=r"leg 1's reference .* residual 0\.6\d+ \(m, rad\).*another assembly branch"):
+    with pytest.raises(
+        AssemblyError, match=r"leg 1's reference .* residual 0\.6\d+ \(m, rad\).*another assembly branch"
+    ):
         Evaluator(dataclasses.replace(ev.robot, legs=(bad, *legs[1:])), ev.module, "numpy")
     flipped = Evaluator(ev.robot, ev.module, "numpy")
-    flipped.assembly()["sign"][1] *= -1                            # as if leg 2 had been assembled the other way
+    flipped.assembly()["sign"][1] *= -1  # as if leg 2 had been assembled the other way
     with pytest.raises(UnreachablePoseError, match="unreachable for leg 2 on its assembly branch"):
         flipped.frequencies(ev.robot.x_ref)
     assert not flipped.valid(ev.robot.x_ref).any()
@@ -376,13 +387,46 @@ def test_matrices_command_on_a_point_and_legs_that_differ(mechanisms, capsys):
 
     from eigentwist.cli.main import main
 
-    assert main(["matrices", "--robot", str(GALLERY / "five_bar.py"), "--backend", "numpy", "--pose", "0", "0.3",
-                 "--model", "none", "--json"]) == 0
+    assert (
+        main(
+            [
+                "matrices",
+                "--robot",
+                str(GALLERY / "five_bar.py"),
+                "--backend",
+                "numpy",
+                "--pose",
+                "0",
+                "0.3",
+                "--model",
+                "none",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     np.testing.assert_allclose(out["freq_hz"], SPEC["five_bar"][1], rtol=2e-11)
     assert out["frequencies_from"] == "M and K_R on the allowed twists, 2x2" and np.isnan(out["freq_flexible_hz"]).all()
-    assert main(["matrices", "--robot", str(GALLERY / "rrr_rrr_prr.py"), "--backend", "numpy", "--pose", "0", "0", "0",
-                 "--model", "none", "--json"]) == 0
+    assert (
+        main(
+            [
+                "matrices",
+                "--robot",
+                str(GALLERY / "rrr_rrr_prr.py"),
+                "--backend",
+                "numpy",
+                "--pose",
+                "0",
+                "0",
+                "0",
+                "--model",
+                "none",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["k_a"] == 1.0e4 and out["k_a_unit"] == "N m/rad"
 
@@ -418,7 +462,7 @@ def test_robot_geometry_of_mechanisms(mechanisms):
     R = rotation_matrix(np.asarray(tri._poses(p[None]))[0, 3:])
     np.testing.assert_allclose(R[:, 2], p / np.linalg.norm(p), atol=1e-12)
     ev = mechanisms["rrr_rrr_prr"]
-    g = robot_geometry(ev, [0.0, 0.0, 0.0])                  # the specification's S ~ (-0.3354, 0.20) at home
+    g = robot_geometry(ev, [0.0, 0.0, 0.0])  # the specification's S ~ (-0.3354, 0.20) at home
     np.testing.assert_allclose(np.linalg.norm(g.attachment[:, :2], axis=1), 0.10, rtol=1e-12)
     assert abs(g.base[2, 1] - 0.20) < 1e-12 and abs(g.base[2, 0] - (-0.3354)) < 5e-5
     assert stiffness_argument(ev, 2000.0) == {} and stiffness_argument(tri, 2000.0) == {"k_a": 2000.0}
@@ -456,6 +500,8 @@ def test_point_platform_parallel_singularity_is_said(mechanisms):
     assert status["conditioning"][0] < 1e-6 < status["conditioning"][1]
     with pytest.raises(SingularPoseError, match="parallel singular"):
         ev.frequencies([[0.0, y]], "none")
+
+
 @pytest.mark.parametrize("name", ("rus6", "upu3", "prs3", "rrr3"))
 def test_sensitivities_equal_differences_of_the_frequencies(gallery, name):
     """Legs solved by Newton (implicit function theorem) and rigid models on allowed twists

@@ -13,6 +13,7 @@ pose is eigentwist's completed pose (its followers from the legs' closures): Pin
 closure solve, with the virtual joints' rates left free, finds them at zero only if the
 followers are right (checked).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -51,15 +52,20 @@ def _virtual_angles(pr, qs) -> list:
 
 #: each leg's actuated-joint stiffness parameter (None: a passive leg), from the robots' specification
 #: (shared/mechanisms-spec.md for the legs that differ), not from the descriptions
-STIFFNESS = {"five_bar": ("k_a", "k_a"), "five_bar_tube": ("k_a", "k_a"), "rrr_rrr_prr": ("k_r", "k_r", "k_p"),
-             "tricept": ("k_a", "k_a", "k_a", None)}
+STIFFNESS = {
+    "five_bar": ("k_a", "k_a"),
+    "five_bar_tube": ("k_a", "k_a"),
+    "rrr_rrr_prr": ("k_r", "k_r", "k_p"),
+    "tricept": ("k_a", "k_a", "k_a", None),
+}
 #: the robots whose platform is a point: its freedoms are the translations it is given
 POINT = {"five_bar": (3, 4), "five_bar_tube": (3, 4)}
 
 
-@pytest.mark.derives      # the gallery's files are generated with SymPy on first use (make test, not test-fast)
-@pytest.mark.parametrize("name", ("prs3", "rrr3", "linear_delta", "upu3", "rus6",
-                                  "five_bar", "rrr_rrr_prr", "tricept", "five_bar_tube"))
+@pytest.mark.derives  # the gallery's files are generated with SymPy on first use (make test, not test-fast)
+@pytest.mark.parametrize(
+    "name", ("prs3", "rrr3", "linear_delta", "upu3", "rus6", "five_bar", "rrr_rrr_prr", "tricept", "five_bar_tube")
+)
 def test_gallery_equals_pinocchio(name):
     ev = eigentwist.load(str(GALLERY / f"{name}.py"), backend="numpy", progress=None)
     p = dict(ev.defaults)
@@ -78,7 +84,7 @@ def test_gallery_equals_pinocchio(name):
         R = rotation_vector_matrix(pose[3:6]) if six else None
         rigid = pr.matrices(pose[:3], R, c_act=c_act, stiffness="actuated")
         rows = np.vstack([st["G"][leg.virtual] for leg, st in zip(pr.legs, rigid["states"])] + [np.zeros((0, 6))])
-        if name in POINT:                  # a point's freedoms: its translations, which the legs must allow
+        if name in POINT:  # a point's freedoms: its translations, which the legs must allow
             E = np.eye(6)[:, POINT[name]]
             worst["point"] = max(worst["point"], float(np.abs(rows @ E).max() / np.abs(rows).max()))
         else:

@@ -1,4 +1,5 @@
 """Generated NumPy code equals the SymPy expressions; regeneration is byte-identical."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,7 +22,9 @@ def _random_params(robot, rng):
         v = p.default * (1 + 0.4 * (rng.random() - 0.5)) if p.default != 0 else 0.02 * (rng.random() - 0.5)
         vals[p.name] = v
     # every effect on; each leg its own value of the leg-level parameters (tube radii kept ordered)
-    vals = {k: float(v) for k, v in effect_inputs(robot, vals, robot.effects, lambda: 0.1 * (rng.random() - 0.5)).items()}
+    vals = {
+        k: float(v) for k, v in effect_inputs(robot, vals, robot.effects, lambda: 0.1 * (rng.random() - 0.5)).items()
+    }
     for k in range(1, len(robot.legs) + 1):
         vals[f"r_i_l1__{k}"] = min(vals[f"r_i_l1__{k}"], 0.9 * vals[f"r_o_l1__{k}"])
     return vals
@@ -60,7 +63,9 @@ def test_checked_in_code_is_fresh(rendered_with_progress):
     for robot in NAMES:
         steps = [m for m in messages if m.startswith(f"{robot}: ")]
         assert len(steps) == PROGRESS_STEPS, steps
-        assert {f"{robot}: CSE matrices_lever", f"{robot}: emit {robot}_c.c", f"{robot}: emit {robot}_c.h"} <= set(steps)
+        assert {f"{robot}: CSE matrices_lever", f"{robot}: emit {robot}_c.c", f"{robot}: emit {robot}_c.h"} <= set(
+            steps
+        )
 
 
 def test_regeneration_is_deterministic(rendered):

@@ -4,6 +4,7 @@ The model is the shipped generated one, ``eigentwist.load("hexapod")`` (NumPy an
 every reference here is computed independently in a few lines of NumPy from the leg
 vectors.
 """
+
 from __future__ import annotations
 
 
@@ -34,12 +35,14 @@ def ev(request):
 def evaluate(ev):
     """``evaluate(pose, on, **params)``: the evaluator's matrices, leg lengths and
     actuation rows at one pose, with the effects ``on`` switched on."""
+
     def run(pose, on=(), **params):
         model = ",".join(on) or "none"
         out = dict(ev.matrices(pose, model, **params))
         out["q_a"] = ev.joint_angles(pose, **params)[..., 0]
         out["J_a"] = ev.jacobians(pose, **params)["J_rows"][:, :, 0, :]
         return out
+
     return run
 
 
@@ -82,9 +85,13 @@ def kinetic_energy_fd(robot, pose, twist, eps=1e-6) -> float:
     R = rotation_matrix(pose[3:])
     omega = twist[:3]
     I_pl = R @ np.diag([p["I_pl_xx"], p["I_pl_yy"], p["I_pl_zz"]]) @ R.T
-    return 0.5 * (p["m_cyl"] * np.sum(d(c0, c1) ** 2) + p["m_pis"] * np.sum(d(p0, p1) ** 2)
-                  + (p["I_cyl"] + p["I_pis"]) * np.sum(w_strut**2)
-                  + p["m_pl"] * np.sum(d(g0, g1) ** 2) + omega @ I_pl @ omega)
+    return 0.5 * (
+        p["m_cyl"] * np.sum(d(c0, c1) ** 2)
+        + p["m_pis"] * np.sum(d(p0, p1) ** 2)
+        + (p["I_cyl"] + p["I_pis"]) * np.sum(w_strut**2)
+        + p["m_pl"] * np.sum(d(g0, g1) ** 2)
+        + omega @ I_pl @ omega
+    )
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -101,8 +108,13 @@ def test_kinetic_energy_equals_half_tMt(robot, evaluate, seed):
 def test_stiffness_equals_JT_Kq_J_from_leg_lengths(robot, evaluate, seed):
     eps = 1e-6
     for pose in random_poses(3, seed):
-        J = np.stack([(lengths(robot, exp_twist(pose, e, eps)) - lengths(robot, exp_twist(pose, e, -eps))) / (2 * eps)
-                      for e in np.eye(6)], axis=1)
+        J = np.stack(
+            [
+                (lengths(robot, exp_twist(pose, e, eps)) - lengths(robot, exp_twist(pose, e, -eps))) / (2 * eps)
+                for e in np.eye(6)
+            ],
+            axis=1,
+        )
         K_fd = J.T @ (robot.defaults["k_a"] * J)
         out = evaluate(pose)
         K = out["K_R"][0]
@@ -138,24 +150,25 @@ def test_home_symmetry_gives_equal_pairs(robot, evaluate):
 
 
 def test_mirror_symmetry_about_xz(robot, evaluate):
-    pose = np.array([0.04, 0.0, 0.78, 0.0, 0.07, 0.0])        # a pose in the mirror plane
-    D = np.diag([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0])           # y -> -y on [omega (axial); v]
+    pose = np.array([0.04, 0.0, 0.78, 0.0, 0.07, 0.0])  # a pose in the mirror plane
+    D = np.diag([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0])  # y -> -y on [omega (axial); v]
     out = evaluate(pose)
     for name in ("M", "K_R"):
         A = out[name][0]
         np.testing.assert_allclose(D @ A @ D, A, atol=1e-9 * np.abs(A).max())
-    np.testing.assert_allclose(_frequencies(evaluate(TILTED * [1, -1, 1, -1, 1, -1])),
-                               _frequencies(evaluate(TILTED)), rtol=1e-9)
+    np.testing.assert_allclose(
+        _frequencies(evaluate(TILTED * [1, -1, 1, -1, 1, -1])), _frequencies(evaluate(TILTED)), rtol=1e-9
+    )
 
 
 @pytest.mark.parametrize("pose", [HOME, TILTED])
 def test_massless_struts_match_platform_and_line_coordinates(robot, evaluate, pose):
-    tiny = 1e-15                      # masses must be positive: massless up to 1e-15 kg, kg m^2
+    tiny = 1e-15  # masses must be positive: massless up to 1e-15 kg, kg m^2
     f = _frequencies(evaluate(pose, m_cyl=tiny, m_pis=tiny, I_cyl=tiny, I_pis=tiny))
     p = robot.defaults
     b, top = joints(robot, pose)
     s = (top - b) / np.linalg.norm(top - b, axis=1)[:, None]
-    j = np.hstack([np.cross(top - pose[:3], s), s])          # line coordinates at the platform origin
+    j = np.hstack([np.cross(top - pose[:3], s), s])  # line coordinates at the platform origin
     K = p["k_a"] * j.T @ j
     R = rotation_matrix(pose[3:])
     c = R @ [0, 0, p["c_pl"]]
@@ -168,7 +181,7 @@ def test_massless_struts_match_platform_and_line_coordinates(robot, evaluate, po
 def test_payload_at_the_origin_lowers_all_but_the_twist_about_z(robot, evaluate):
     f0 = _frequencies(evaluate(HOME))
     f1 = _frequencies(evaluate(HOME, ("payload_mass",)))
-    assert (f1 <= f0 * (1 + 1e-12)).all() and (f1 < f0 * (1 - 1e-6)).sum() == 5   # a point mass: no inertia about z
+    assert (f1 <= f0 * (1 + 1e-12)).all() and (f1 < f0 * (1 - 1e-6)).sum() == 5  # a point mass: no inertia about z
 
 
 @pytest.mark.derives
@@ -194,7 +207,7 @@ def test_frequencies_are_the_rigid_6x6_eigenproblem(ev, evaluate):
     assert ev.frequencies(HOME, "rigid").shape == (1, 6)
 
 
-@pytest.mark.compiled      # compiles the hexapod's C (make test, not make test-fast)
+@pytest.mark.compiled  # compiles the hexapod's C (make test, not make test-fast)
 def test_c_equals_numpy():
     poses = random_poses(200, 9)
     a, b = (eigentwist.load("hexapod", backend=k) for k in ("numpy", "c"))
@@ -243,10 +256,15 @@ def test_gravity_preload_is_the_derivative_of_the_strut_wrenches(robot, ev):
     weight = p["m_pl"] * np.array([0, 0, -g])
     W = np.concatenate([np.cross(c, weight), weight])
     f = np.linalg.solve(_line_rows(robot, pose).T, W)
-    KG = np.stack([f @ (_line_rows(robot, exp_twist(pose, e, eps)) - _line_rows(robot, exp_twist(pose, e, -eps)))
-                   / (2 * eps) for e in np.eye(6)], axis=1)
+    KG = np.stack(
+        [
+            f @ (_line_rows(robot, exp_twist(pose, e, eps)) - _line_rows(robot, exp_twist(pose, e, -eps))) / (2 * eps)
+            for e in np.eye(6)
+        ],
+        axis=1,
+    )
     KG = 0.5 * (KG + KG.T)
     _, K0 = ev.stiffness(pose, "none")
     _, K1 = ev.stiffness(pose, "gravity_preload", g=g)
     assert np.abs((K1 - K0)[0] - KG).max() <= 1e-6 * np.abs(KG).max()
-    assert np.abs(KG).max() > 1e-6 * np.abs(K0).max()        # the term is not negligible here
+    assert np.abs(KG).max() > 1e-6 * np.abs(K0).max()  # the term is not negligible here

@@ -1,5 +1,6 @@
 """Every command with ``--robot hexapod``: 6-DoF poses on the command line and
 in CSV files (columns ``rot_x, rot_y, rot_z``), a hidden payload found by diagnose."""
+
 from __future__ import annotations
 
 import json
@@ -32,18 +33,39 @@ def test_a_three_coordinate_pose_is_refused(capsys):
     assert "hexapod takes 6 coordinates (x, y, z, rot_x, rot_y, rot_z), got 3" in capsys.readouterr().err
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_sweep_over_a_six_dimensional_box(tmp_path, capsys):
     out = tmp_path / "s.parquet"
     pytest.importorskip("pyarrow")
     box = ["-0.05", "0.05", "-0.05", "0.05", "0.75", "0.85", "-0.05", "0.05", "-0.05", "0.05", "-0.1", "0.1"]
-    assert main(["sweep", "--robot", "hexapod", "--grid", "2", "1", "2", "1", "2", "1", "--box", *box,
-                 "-o", str(out), "--backend", "c"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "--robot",
+                "hexapod",
+                "--grid",
+                "2",
+                "1",
+                "2",
+                "1",
+                "2",
+                "1",
+                "--box",
+                *box,
+                "-o",
+                str(out),
+                "--backend",
+                "c",
+            ]
+        )
+        == 0
+    )
     import pyarrow.parquet as pq
 
     table = pq.read_table(out).to_pydict()
     assert {"x", "y", "z", "rot_x", "rot_y", "rot_z", "f6_hz"} <= set(table)
-    assert sorted(set(table["rot_y"])) == [-0.05, 0.05] and set(table["rot_z"]) == {0.0}   # one point: mid-box
+    assert sorted(set(table["rot_y"])) == [-0.05, 0.05] and set(table["rot_z"]) == {0.0}  # one point: mid-box
     poses = np.column_stack([table[c] for c in ("x", "y", "z", "rot_x", "rot_y", "rot_z")])
     f = eigentwist.load("hexapod", backend="numpy").frequencies(poses)
     np.testing.assert_allclose(np.column_stack([table[f"f{k}_hz"] for k in range(1, 7)]), f, rtol=1e-10)
@@ -58,8 +80,28 @@ def test_sweep_box_needs_twelve_numbers(tmp_path, capsys):
 
 def test_synth_writes_rotation_columns_and_compare_reads_them(tmp_path, capsys):
     data = tmp_path / "d.csv"
-    assert main(["synth", "--robot", "hexapod", "--truth", "paper", "--k-a", "2e7", "--poses", POSES,
-                 "--modes", "1,2,3", "--noise", "0", "-o", str(data)]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--robot",
+                "hexapod",
+                "--truth",
+                "paper",
+                "--k-a",
+                "2e7",
+                "--poses",
+                POSES,
+                "--modes",
+                "1,2,3",
+                "--noise",
+                "0",
+                "-o",
+                str(data),
+            ]
+        )
+        == 0
+    )
     header = data.read_text().splitlines()[0].split(",")
     assert header[4:10] == ["x", "y", "z", "rot_x", "rot_y", "rot_z"]
     capsys.readouterr()
@@ -83,8 +125,28 @@ def test_diagnose_finds_a_hidden_payload():
 
 def test_report_draws_the_hexapod(tmp_path, capsys):
     data = tmp_path / "d.csv"
-    assert main(["synth", "--robot", "hexapod", "--truth", "paper", "--k-a", "1e7,2e7", "--poses", POSES,
-                 "--modes", "1,2,3,4,5,6", "--noise", "0.2%", "-o", str(data)]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--robot",
+                "hexapod",
+                "--truth",
+                "paper",
+                "--k-a",
+                "1e7,2e7",
+                "--poses",
+                POSES,
+                "--modes",
+                "1,2,3,4,5,6",
+                "--noise",
+                "0.2%",
+                "-o",
+                str(data),
+            ]
+        )
+        == 0
+    )
     html = tmp_path / "r.html"
     assert main(["report", "--robot", "hexapod", str(data), "-o", str(html)]) == 0
     text = html.read_text()
@@ -111,5 +173,5 @@ def test_default_model_is_the_bare_strut_stiffness_and_is_named(capsys):
     lossy = ev.frequencies(TILTED, "actuator_loss", eta_a=0.82)[0]
     np.testing.assert_allclose(lossy, np.sqrt(0.82) * np.array(out["freq_hz"]), rtol=1e-10)
     assert main(["matrices", "--robot", "hexapod", "--pose", *map(str, TILTED)]) == 0
-    text = " ".join(capsys.readouterr().out.split())            # wrapped at 100 columns
+    text = " ".join(capsys.readouterr().out.split())  # wrapped at 100 columns
     assert "model: paper = (no effect: bare actuator stiffness k_a)" in text

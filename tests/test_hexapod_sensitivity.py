@@ -1,6 +1,7 @@
 """Sensitivities of a 6-DoF robot: the hexapod's generated dM/dp and
 dK/dp give frequency derivatives equal to central differences of its evaluator, with the
 rigid model's full 6x6 eigenproblem and the pose's rotation passed to the kernel."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -26,7 +27,7 @@ def test_hexapod_sensitivities_equal_central_differences(ev, model):
     defaults = ev.robot.defaults
     for k, name in enumerate(WRT):
         want = _central(ev, TILTED, model, name, defaults[name], {})
-        _assert_close(dfdp[:, :, k:k + 1], want[:, :, None])
+        _assert_close(dfdp[:, :, k : k + 1], want[:, :, None])
 
 
 def test_frequency_scales_with_the_square_root_of_k_a(ev):

@@ -1,4 +1,5 @@
 """Which extra parameters the data identify: payload offsets only when rotational modes are measured."""
+
 from __future__ import annotations
 
 import pytest
@@ -19,12 +20,13 @@ def ev_fast():
 
 def test_trial_offset_is_away_from_the_symmetric_zero(ev_fast):
     p_z = ev_fast.parameters["p_z"]
-    assert sign_free(p_z) and trial_value(p_z) == pytest.approx(0.05)       # 1/6 of the 0.3 m half-width
+    assert sign_free(p_z) and trial_value(p_z) == pytest.approx(0.05)  # 1/6 of the 0.3 m half-width
     assert not sign_free(ev_fast.parameters["m_p"]) and trial_value(ev_fast.parameters["m_p"]) == 0.2
 
 
-@pytest.mark.parametrize("modes, expected", [(("x", "y", "z"), ()),
-                                             (("x", "y", "z", "rx", "ry", "rz"), ("p_x", "p_y", "p_z"))])
+@pytest.mark.parametrize(
+    "modes, expected", [(("x", "y", "z"), ()), (("x", "y", "z", "rx", "ry", "rz"), ("p_x", "p_y", "p_z"))]
+)
 def test_payload_offsets_join_the_fit_only_when_the_data_see_them(ev_fast, modes, expected):
     meas = synth("paper+payload_mass:m_p=0.5", KA, POSES, modes, 0.005, seed=1, ev=ev_fast)
     effects = resolve_model("paper,payload_mass", ev_fast.effects)

@@ -3,6 +3,7 @@
 The synthetic campaign: 2 poses x 4 k_a, 3x3 accelerance FRFs, modal
 damping 1.5 %, 1 % complex noise, from a truth with a hidden 0.35 kg payload.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -27,15 +28,14 @@ POSES = [[0.0, 0.0, -0.625], [0.06, -0.04, -0.6]]
 @pytest.fixture(scope="module", params=[58, 55])
 def campaign(request, tmp_path_factory, ev):
     out = tmp_path_factory.mktemp(f"campaign{request.param}")
-    noise = "1%" if request.param == 58 else "0.1%"          # 55: noise on the frequencies themselves
-    manifest = synth_campaign(TRUTH, K_A, POSES, out, ev, damping="1.5%", noise=noise, seed=1,
-                              dataset=request.param)
+    noise = "1%" if request.param == 58 else "0.1%"  # 55: noise on the frequencies themselves
+    manifest = synth_campaign(TRUTH, K_A, POSES, out, ev, damping="1.5%", noise=noise, seed=1, dataset=request.param)
     return request.param, identify_campaign(manifest, ev)
 
 
 def test_every_mode_within_half_a_percent_and_labelled_right(campaign, ev):
     dataset, res = campaign
-    poses = np.repeat(np.repeat(POSES, 4, axis=0), 3, axis=0)          # settings pose-major, 3 rows each
+    poses = np.repeat(np.repeat(POSES, 4, axis=0), 3, axis=0)  # settings pose-major, 3 rows each
     truth = ev.modes(poses, "paper,payload_mass", k_a=np.repeat(np.tile(K_A, 2), 3), m_p=0.35)
     f_truth = truth.freq_hz[np.arange(24), match_modes(truth, ["x", "y", "z"] * 8)].reshape(8, 3)
     for s, (setting, r) in enumerate(zip(res.campaign.settings, res.results)):
@@ -53,24 +53,26 @@ def test_diagnose_on_the_identified_csv_finds_the_payload(campaign, ev):
     # 1.5 %, which the damping effects would be fitted to (README; seconds of damped fits)
     import dataclasses
 
-    meas = dataclasses.replace(res.measurements, modal={k: v for k, v in res.measurements.modal.items()
-                                                        if k != "damping_ratio"})
+    meas = dataclasses.replace(
+        res.measurements, modal={k: v for k, v in res.measurements.modal.items() if k != "damping_ratio"}
+    )
     d = diagnose(meas, baseline="paper", ev=ev)
     assert d.selected[0] == "payload_mass"
     m_p, std = d.final.values["m_p"], d.final.std["m_p"]
     assert abs(m_p - 0.35) < 3 * std, (m_p, std)
-    shapes = d.to_json()["shapes"]                           # the final model's shape term
+    shapes = d.to_json()["shapes"]  # the final model's shape term
     assert shapes["n"] == 24 and shapes["mac_min"] > 0.99
 
 
 def test_two_modes_three_percent_apart_at_three_percent_noise_are_resolved():
-    f_k = np.array([20.0, 20.6, 33.0])                        # modes 1 and 2 are 3 % apart
+    f_k = np.array([20.0, 20.6, 33.0])  # modes 1 and 2 are 3 % apart
     q = np.linalg.qr(np.random.default_rng(2).standard_normal((3, 3)))[0]
     freq = np.round(np.arange(int(45 / 0.02) + 1) * 0.02, 10)
     H = frf_from_modes(freq, 2 * np.pi * f_k, q, 0.015, "accelerance")
     H = add_noise(H, 0.03, np.random.default_rng(3))
-    res = identify_frfs(FrfSet.from_grid(freq, H, ["1+X", "1+Y", "1+Z"], ["1+X", "1+Y", "1+Z"], "accelerance",
-                                         source="close.uff"))
+    res = identify_frfs(
+        FrfSet.from_grid(freq, H, ["1+X", "1+Y", "1+Z"], ["1+X", "1+Y", "1+Z"], "accelerance", source="close.uff")
+    )
     found = np.array(sorted(m.freq_hz for m in res.modes))
     assert len(found) == 3
     assert np.all(np.abs(found / f_k - 1) < 0.005)
@@ -92,12 +94,35 @@ def test_a_band_with_no_modes_and_a_missing_file_are_one_line_each(tmp_path, ev,
 
 def test_cli_synth_identify_compare(tmp_path, capsys):
     out = tmp_path / "c"
-    assert main(["synth", "--truth", TRUTH, "--k-a", "500,2000", "--pose", "0.06", "-0.04", "-0.6", "--uff", str(out),
-                 "--noise", "1%", "--sensor", "0.05", "0.02", "-0.03", "--seed", "4"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--truth",
+                TRUTH,
+                "--k-a",
+                "500,2000",
+                "--pose",
+                "0.06",
+                "-0.04",
+                "-0.6",
+                "--uff",
+                str(out),
+                "--noise",
+                "1%",
+                "--sensor",
+                "0.05",
+                "0.02",
+                "-0.03",
+                "--seed",
+                "4",
+            ]
+        )
+        == 0
+    )
     assert main(["identify", str(out / "manifest.csv"), "-o", str(tmp_path / "id.csv"), "--band", "5:45"]) == 0
     header = (tmp_path / "id.csv").read_text().splitlines()[0]
-    assert header == ("k_a,mode,freq_hz,sigma_hz,kind,x,y,z,damping_ratio,phi_x,phi_y,phi_z,"
-                      "sensor_x,sensor_y,sensor_z")
+    assert header == ("k_a,mode,freq_hz,sigma_hz,kind,x,y,z,damping_ratio,phi_x,phi_y,phi_z,sensor_x,sensor_y,sensor_z")
     capsys.readouterr()
     assert main(["compare", str(tmp_path / "id.csv"), "--model", "paper"]) == 0
     text = capsys.readouterr().out
@@ -138,7 +163,7 @@ def test_public_measured_beam():
     assert frfs.responses == ["1+X"] and frfs.references == ["1+X", "2+X", "3+X"]
     res = identify_frfs(frfs)
     f = np.array(sorted(m.freq_hz for m in res.modes))
-    assert len(f) == 6, f                                                     # every mode, nothing spurious
+    assert len(f) == 6, f  # every mode, nothing spurious
     ratio = (f / f[0]) / (BETA_L / BETA_L[0]) ** 2
     assert np.all(np.abs(ratio - 1) < 0.01), ratio
     assert all(0 < m.damping_ratio < 0.01 and m.dofs == ("1+X", "2+X", "3+X") for m in res.modes)
@@ -150,8 +175,9 @@ def test_public_measured_beam_cli(capsys):
     assert main(["identify", str(BEAM)]) == 0
     out, err = capsys.readouterr()
     assert "shape over 1+X, 2+X, 3+X" in out and "6 modes in 1..990 Hz" in out
-    assert err.strip() == ("note: beam_accelerance.uff: no shape (no position of nodes 1, 2, 3); "
-                           "frequencies and damping go on")
+    assert err.strip() == (
+        "note: beam_accelerance.uff: no shape (no position of nodes 1, 2, 3); frequencies and damping go on"
+    )
     assert max(len(line) for line in (out + err).splitlines()) <= 100
 
 
@@ -161,8 +187,18 @@ LAYOUT_POSES = [[0.06, -0.04, -0.6], [-0.05, 0.05, -0.62]]
 @pytest.fixture(scope="module", params=["uniaxial", "roving-hammer", "shaker"])
 def layout_campaign(request, tmp_path_factory, ev):
     out = tmp_path_factory.mktemp(request.param)
-    manifest = synth_campaign(TRUTH, [500.0, 2000.0], LAYOUT_POSES, out, ev, damping="1.5%", noise="1%", seed=3,
-                              sensor=[0.03, 0.02, -0.02], layout=request.param)
+    manifest = synth_campaign(
+        TRUTH,
+        [500.0, 2000.0],
+        LAYOUT_POSES,
+        out,
+        ev,
+        damping="1.5%",
+        noise="1%",
+        seed=3,
+        sensor=[0.03, 0.02, -0.02],
+        layout=request.param,
+    )
     return request.param, identify_campaign(manifest, ev)
 
 
@@ -188,7 +224,7 @@ def test_uniaxial_roving_hammer_and_shaker_campaigns(layout_campaign, ev):
             k = int(np.argmin(np.abs(f_true - m.freq_hz)))
             assert k < 3 and abs(m.freq_hz / f_true[k] - 1) < 0.001, (layout, s.file, m.freq_hz, f_true[k])
             u = []
-            for d in dofs:                                   # e . (v + omega x r), twist [omega; v]
+            for d in dofs:  # e . (v + omega x r), twist [omega; v]
                 node, axis = int(d[0]), "XYZ".index(d[-1])
                 pos = r1 + (np.array(NODE_OFFSETS[node]) if node > 1 else 0.0)
                 u.append((V[3:, k] + np.cross(V[:3, k], pos))[axis])
@@ -196,11 +232,11 @@ def test_uniaxial_roving_hammer_and_shaker_campaigns(layout_campaign, ev):
             mac = (u @ m.shape) ** 2 / ((u @ u) * (m.shape @ m.shape))
             assert mac >= 0.99, (layout, s.file, m.label, mac)
     labels = sorted(m.label for m in res.results[0].modes)
-    assert labels == ["1", "2", "3"]                          # no triaxial node: modes by rank
-    meas = res.measurements                                   # per-DOF shape columns phi_N_a + node positions
+    assert labels == ["1", "2", "3"]  # no triaxial node: modes by rank
+    meas = res.measurements  # per-DOF shape columns phi_N_a + node positions
     names = [f"phi_{d[0]}_{d[-1].lower()}" for d in dofs]
     assert all(n in meas.modal for n in names) and np.allclose(meas.modal["node2_x"], r1[0] + 0.08)
-    cmp = compare(meas, "paper,payload_mass", ev=ev, values={"m_p": 0.35})    # the diagnosis side: MAC per row
+    cmp = compare(meas, "paper,payload_mass", ev=ev, values={"m_p": 0.35})  # the diagnosis side: MAC per row
     assert np.all(cmp.mac >= 0.99), cmp.mac
 
 
@@ -212,16 +248,16 @@ def test_a_layout_without_a_shape_says_so_once(tmp_path, ev):
     import unittest.mock as mock
 
     with mock.patch.object(synth_module, "LAYOUTS", layouts):
-        manifest = synth_campaign(TRUTH, [500.0, 2000.0], [LAYOUT_POSES[0]], tmp_path, ev, noise="0.5%",
-                                  seed=5, layout="single")
+        manifest = synth_campaign(
+            TRUTH, [500.0, 2000.0], [LAYOUT_POSES[0]], tmp_path, ev, noise="0.5%", seed=5, layout="single"
+        )
     res = identify_campaign(manifest, ev)
     assert res.notes == ["2 settings: no shape (one DOF, 1+X); frequencies and damping go on"]
     assert all(len(r.modes) >= 1 for r in res.results) and len(res.measurements) >= 2
 
 
 def test_manifest_node_columns_override_uff_coordinates(tmp_path, ev):
-    manifest = synth_campaign(TRUTH, [1000.0], [LAYOUT_POSES[0]], tmp_path, ev, noise="0.5%", seed=6,
-                              layout="uniaxial")
+    manifest = synth_campaign(TRUTH, [1000.0], [LAYOUT_POSES[0]], tmp_path, ev, noise="0.5%", seed=6, layout="uniaxial")
     text = manifest.read_text().splitlines()
     manifest.write_text(f"{text[0]},node3_x,node3_y,node3_z\n{text[1]},0.01,0.02,0.03\n")
     res = identify_campaign(manifest, ev)
@@ -237,7 +273,7 @@ def test_one_hertz_lines_three_percent_damping_and_impulsive_noise():
     freedom, plus 1 % of lines hit by spikes 20x larger): the three modes within 0.5 %, nothing else."""
     f_k = np.array([52.0, 143.0, 281.0])
     rng = np.random.default_rng(7)
-    shapes = np.array([[1.0, 0.8, 0.6], [0.7, -0.5, 0.9], [0.3, 1.0, -0.6], [-0.8, 0.4, 0.7]])   # 4 DOFs x 3 modes
+    shapes = np.array([[1.0, 0.8, 0.6], [0.7, -0.5, 0.9], [0.3, 1.0, -0.6], [-0.8, 0.4, 0.7]])  # 4 DOFs x 3 modes
     freq = np.arange(0.0, 400.0)
     H = frf_from_modes(freq, 2 * np.pi * f_k, shapes, 0.03, "accelerance", shapes[:1])[:, :, 0]
     rms = np.sqrt(np.mean(np.abs(H) ** 2, axis=0))
@@ -258,20 +294,22 @@ def test_per_dof_shape_columns_give_the_mac_over_the_measured_dofs(ev):
 
     pose = [0.06, -0.04, -0.6]
     modes = ev.modes(np.array([pose]), "paper", k_a=1000.0)
-    k = int(np.argmin(np.abs(modes.direction[0] - 3)))                          # the mode along x
+    k = int(np.argmin(np.abs(modes.direction[0] - 3)))  # the mode along x
     t = modes.eigentwists[0][:, k]
     nodes = {1: np.array([0.02, 0.0, 0.0]), 2: np.array([0.0, 0.1, -0.03])}
-    u = {"1_x": (t[3:] + np.cross(t[:3], nodes[1]))[0], "2_y": (t[3:] + np.cross(t[:3], nodes[2]))[1],
-         "2_z": (t[3:] + np.cross(t[:3], nodes[2]))[2]}
-    measured = {"1_x": u["1_x"], "2_y": u["2_y"] + 0.3 * abs(u["1_x"]), "2_z": u["2_z"]}     # a perturbed shape
+    u = {
+        "1_x": (t[3:] + np.cross(t[:3], nodes[1]))[0],
+        "2_y": (t[3:] + np.cross(t[:3], nodes[2]))[1],
+        "2_z": (t[3:] + np.cross(t[:3], nodes[2]))[2],
+    }
+    measured = {"1_x": u["1_x"], "2_y": u["2_y"] + 0.3 * abs(u["1_x"]), "2_z": u["2_z"]}  # a perturbed shape
     a, b = np.array(list(u.values())), np.array(list(measured.values()))
     expected = (a @ b) ** 2 / ((a @ a) * (b @ b))
     head = "k_a,mode,freq_hz,x,y,z," + ",".join(f"phi_{c}" for c in measured)
     head += "," + ",".join(f"node{n}_{a}" for n in nodes for a in "xyz")
     row = f"1000,{modes.freq_hz[0, k]:.6f},{modes.freq_hz[0, k]:.6f},{pose[0]},{pose[1]},{pose[2]},"
     row = row.replace(f"1000,{modes.freq_hz[0, k]:.6f},", "1000,x,", 1)
-    row += ",".join(f"{v:.12g}" for v in measured.values()) + "," + ",".join(
-        f"{c:g}" for n in nodes for c in nodes[n])
+    row += ",".join(f"{v:.12g}" for v in measured.values()) + "," + ",".join(f"{c:g}" for n in nodes for c in nodes[n])
     meas = parse_csv(f"{head}\n{row}\n", "dofs.csv", ev)
     cmp = compare(meas, "paper", ev=ev)
     assert cmp.mac[0] == pytest.approx(expected, abs=1e-9) and expected < 0.99
@@ -289,8 +327,9 @@ def test_two_triaxial_nodes_label_by_axis_and_compare_over_all_six_dofs(tmp_path
     dofs = ("1+X", "1+Y", "1+Z", "2+X", "2+Y", "2+Z")
     layouts = dict(synth_module.LAYOUTS, two=(dofs, ("1+X", "1+Y", "1+Z")))
     with mock.patch.object(synth_module, "LAYOUTS", layouts):
-        manifest = synth_campaign(TRUTH, [500.0, 2000.0], [LAYOUT_POSES[0]], tmp_path, ev, noise="1%", seed=8,
-                                  layout="two")
+        manifest = synth_campaign(
+            TRUTH, [500.0, 2000.0], [LAYOUT_POSES[0]], tmp_path, ev, noise="1%", seed=8, layout="two"
+        )
     res = identify_campaign(manifest, ev)
     assert res.notes == [] and all(sorted(m.label for m in r.modes) == ["x", "y", "z"] for r in res.results)
     meas = res.measurements

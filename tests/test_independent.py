@@ -1,6 +1,7 @@
 """Independent checks of M and K_R for every robot: kinetic energy and
 stiffness from finite differences of the inverse kinematics, with the body twists and
 inertia transport written here in plain NumPy (not from the symbolic derivation)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,14 +24,21 @@ def _skew(p):
 
 
 def _legs(robot, params):
-    return [dict(u=_num(leg.radial, params), s=_num(leg.axis, params), a=_num(leg.attachment, params),
-                 B=_num(leg.base, params)) for leg in robot.legs]
+    return [
+        dict(
+            u=_num(leg.radial, params),
+            s=_num(leg.axis, params),
+            a=_num(leg.attachment, params),
+            B=_num(leg.base, params),
+        )
+        for leg in robot.legs
+    ]
 
 
 def _rod_inertia(p):
-    m = 2 * p["l2"] * p["rho"] * np.pi * (p["r_o"] ** 2 - p["r_i"] ** 2)       # Eq. 29
-    ix = m / 2 * (p["r_i"] ** 2 + p["r_o"] ** 2)                             # Eq. 27
-    iyz = m / 12 * (3 * (p["r_i"] ** 2 + p["r_o"] ** 2) + p["l2"] ** 2)      # Eq. 28
+    m = 2 * p["l2"] * p["rho"] * np.pi * (p["r_o"] ** 2 - p["r_i"] ** 2)  # Eq. 29
+    ix = m / 2 * (p["r_i"] ** 2 + p["r_o"] ** 2)  # Eq. 27
+    iyz = m / 12 * (3 * (p["r_i"] ** 2 + p["r_o"] ** 2) + p["l2"] ** 2)  # Eq. 28
     return np.diag([ix, iyz, iyz, m, m, m])
 
 
@@ -41,8 +49,12 @@ def kinetic_energy(ev, pose, velocity, h=1e-7):
     q0 = ev.joint_angles(pose)[0]
     qdot = (ev.joint_angles(pose + h * velocity)[0] - ev.joint_angles(pose - h * velocity)[0]) / (2 * h)
     ez = np.array([0.0, 0.0, 1.0])
-    M1 = np.array(ev.robot.lower_link_inertia.xreplace({sp.Symbol(k, real=True): v for k, v in p.items()})
-                  .subs({sp.Symbol("on_rotor_inertia", real=True): 0}), dtype=float)
+    M1 = np.array(
+        ev.robot.lower_link_inertia.xreplace({sp.Symbol(k, real=True): v for k, v in p.items()}).subs(
+            {sp.Symbol("on_rotor_inertia", real=True): 0}
+        ),
+        dtype=float,
+    )
     M3 = _rod_inertia(p)
     T = 0.5 * p["m_e"] * velocity @ velocity
     for leg, q, qd in zip(legs, q0, qdot):
@@ -56,7 +68,7 @@ def kinetic_energy(ev, pose, velocity, h=1e-7):
         r1 = np.cos(q[0]) * u - np.sin(q[0]) * ez
         r2 = np.cos(q[2]) * w + np.sin(q[2]) * s
         s3 = np.cos(q[2]) * s - np.sin(q[2]) * w
-        elbow = a - p["l2"] * r2                     # from the EE origin
+        elbow = a - p["l2"] * r2  # from the EE origin
         base = elbow - p["l1"] * r1
         omega = s * (qd[0] + qd[1])
         v = np.cross(base, s) * qd[0] + np.cross(elbow, s) * qd[1] + s3 * p["l2"] * qd[2]
@@ -89,8 +101,13 @@ def test_rigid_stiffness_matches_finite_difference_jacobian(robot):
     poses = random_poses(ev.robot, 6, seed=6)
     K = ev.matrices(poses, "rigid")["K_R"][:, 3:, 3:]
     h = 1e-6
-    Ja = np.stack([(ev.joint_angles(poses + h * e)[..., 0] - ev.joint_angles(poses - h * e)[..., 0]) / (2 * h)
-                   for e in np.eye(3)], axis=-1)                       # (N, legs, 3) = d q_a / d x
+    Ja = np.stack(
+        [
+            (ev.joint_angles(poses + h * e)[..., 0] - ev.joint_angles(poses - h * e)[..., 0]) / (2 * h)
+            for e in np.eye(3)
+        ],
+        axis=-1,
+    )  # (N, legs, 3) = d q_a / d x
     ka = ev.defaults["eta_a"] * ev.defaults["k_a"]
     K_fd = ka * np.einsum("nli,nlj->nij", Ja, Ja)
     np.testing.assert_allclose(K, K_fd, rtol=1e-6, atol=1e-6 * np.abs(K).max())

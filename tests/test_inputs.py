@@ -1,4 +1,5 @@
 """Bad input: each a clear error naming the value, never a NaN in the output."""
+
 from __future__ import annotations
 
 import numpy as np

@@ -1,4 +1,5 @@
 """Direction labels from energy shares; degenerate pairs matched as one eigenspace."""
+
 from __future__ import annotations
 
 import warnings
@@ -45,8 +46,8 @@ def test_energy_shares_are_the_kinetic_energy_shares(heli4):
         m = heli4.modes(poses, model, k_a=1500.0)
         s = energy_shares(m.eigentwists)
         assert s == pytest.approx(_kinetic_shares(M, m.eigentwists), abs=1e-9)
-        assert s.sum(axis=1) == pytest.approx(np.ones(s.shape[::2]), abs=1e-9)     # per mode
-        assert s.sum(axis=2) == pytest.approx(np.ones(s.shape[:2]), abs=1e-9)      # per coordinate
+        assert s.sum(axis=1) == pytest.approx(np.ones(s.shape[::2]), abs=1e-9)  # per mode
+        assert s.sum(axis=2) == pytest.approx(np.ones(s.shape[:2]), abs=1e-9)  # per coordinate
 
 
 def test_shares_kept_with_the_modes_are_the_shares_of_their_eigentwists(heli4, delta):
@@ -56,7 +57,7 @@ def test_shares_kept_with_the_modes_are_the_shares_of_their_eigentwists(heli4, d
         poses = random_poses(ev.robot, 200, seed=8)
         m = ev.modes(poses, "paper", k_a=1500.0)
         if m.shares is None:
-            assert ev.backend == "numpy"          # make test-fast: computed on demand
+            assert ev.backend == "numpy"  # make test-fast: computed on demand
             continue
         assert m.shares == pytest.approx(energy_shares(m.eigentwists), abs=1e-12)
         np.testing.assert_array_equal(directions(m.eigentwists, shares=m.shares), directions(m.eigentwists))
@@ -65,8 +66,8 @@ def test_shares_kept_with_the_modes_are_the_shares_of_their_eigentwists(heli4, d
 def test_energy_shares_do_not_depend_on_units_or_eigentwist_scale(heli4):
     m = heli4.modes(random_poses(heli4.robot, 10, seed=4), "paper", k_a=800.0)
     rng = np.random.default_rng(1)
-    scale = rng.uniform(-5, 5, (10, 1, 6))                      # any scale per eigentwist, signs too
-    units = np.diag([180 / np.pi] * 3 + [1000.0] * 3)           # deg and mm instead of rad and m
+    scale = rng.uniform(-5, 5, (10, 1, 6))  # any scale per eigentwist, signs too
+    units = np.diag([180 / np.pi] * 3 + [1000.0] * 3)  # deg and mm instead of rad and m
     s = energy_shares(m.eigentwists)
     assert energy_shares(m.eigentwists * scale) == pytest.approx(s, abs=1e-9)
     assert energy_shares(units @ m.eigentwists) == pytest.approx(s, abs=1e-9)
@@ -81,9 +82,9 @@ def test_heli4_labels_unchanged_where_modes_are_well_separated(heli4):
     for model in ("rigid", "paper"):
         m = heli4.modes(meas.poses, model, **meas.evaluation_params())
         f = m.freq_hz
-        assert np.all(np.diff(f[:, :3], axis=1) > DEGENERATE_REL * f[:, 1:3])    # no near-equal pair
+        assert np.all(np.diff(f[:, :3], axis=1) > DEGENERATE_REL * f[:, 1:3])  # no near-equal pair
         largest_entry = np.argmax(np.abs(m.eigentwists), axis=-2) + (3 if model == "rigid" else 0)
-        assert np.array_equal(m.direction[:, :2], largest_entry[:, :2])         # the paper's x and y modes
+        assert np.array_equal(m.direction[:, :2], largest_entry[:, :2])  # the paper's x and y modes
         idx = match_modes(m, meas.mode)
         assert np.array_equal(idx, np.where(np.array(meas.mode) == "x", 0, 1))
 
@@ -99,16 +100,18 @@ def _rotated_pair(m: Modes, turn_deg: float) -> Modes:
     """The same eigenspaces with the basis of modes 0 and 1 turned by ``turn_deg``."""
     c, s = np.cos(np.radians(turn_deg)), np.sin(np.radians(turn_deg))
     v = m.eigentwists.copy()
-    v[:, :, 0], v[:, :, 1] = c * m.eigentwists[:, :, 0] + s * m.eigentwists[:, :, 1], \
-        -s * m.eigentwists[:, :, 0] + c * m.eigentwists[:, :, 1]
+    v[:, :, 0], v[:, :, 1] = (
+        c * m.eigentwists[:, :, 0] + s * m.eigentwists[:, :, 1],
+        -s * m.eigentwists[:, :, 0] + c * m.eigentwists[:, :, 1],
+    )
     return Modes(m.freq_hz, v, m.axes, m.kind)
 
 
 @pytest.mark.parametrize("model", ["rigid", "paper"])
 def test_delta_on_axis_pair_is_matched_as_one_eigenspace(delta, model):
     x_ref = np.array(delta.robot.x_ref)
-    m = delta.modes(np.array([x_ref] * 3), model, k_a=1000.0)              # one row per label
-    assert m.freq_hz[0, 1] / m.freq_hz[0, 0] - 1 < 1e-9               # degenerate: any basis is right
+    m = delta.modes(np.array([x_ref] * 3), model, k_a=1000.0)  # one row per label
+    assert m.freq_hz[0, 1] / m.freq_hz[0, 0] - 1 < 1e-9  # degenerate: any basis is right
     for turn in XY_TURNS:
         turned = _rotated_pair(m, turn)
         f, idx = match_frequencies(turned, ["x", "y", "z"])
@@ -127,27 +130,36 @@ def test_delta_poses_1mm_apart_give_the_same_labels(delta, angle):
         fa, ia = match_frequencies(a, labels)
         fb, ib = match_frequencies(b, labels)
         groups_a, groups_b = degenerate_groups(a.freq_hz), degenerate_groups(b.freq_hz)
-        assert np.array_equal(groups_a[np.arange(3), ia], groups_b[np.arange(3), ib])   # same eigenspaces
-        assert fb == pytest.approx(fa, rel=1e-3)                 # the pair splits by 6e-4 per mm
+        assert np.array_equal(groups_a[np.arange(3), ia], groups_b[np.arange(3), ib])  # same eigenspaces
+        assert fb == pytest.approx(fa, rel=1e-3)  # the pair splits by 6e-4 per mm
 
 
 def test_a_pair_that_splits_beyond_the_tolerance_is_matched_mode_by_mode(delta):
-    off = np.array(delta.robot.x_ref) + [0.05, 0.0, 0.0]         # 50 mm along x: split 3 %
+    off = np.array(delta.robot.x_ref) + [0.05, 0.0, 0.0]  # 50 mm along x: split 3 %
     m = delta.modes(np.array([off] * 2), "rigid", k_a=1000.0)
     assert m.freq_hz[0, 1] / m.freq_hz[0, 0] - 1 > 2 * DEGENERATE_REL
     f, idx = match_frequencies(m, ["x", "y"])
     assert idx.tolist() == [1, 0] and f == pytest.approx([m.freq_hz[0, 1], m.freq_hz[0, 0]], rel=1e-12)
 
 
-@pytest.mark.slow                # > ~8 s: make test, not make test-fast
+@pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_delta_diagnosis_is_the_same_1mm_off_axis(delta):
     x_ref = np.array(delta.robot.x_ref)
-    meas = synth("paper+payload_mass:m_p=0.25", k_a=[250, 1000, 4000], poses=[x_ref], modes=("x", "y", "z"),
-                 noise="0.5%", seed=2, robot="delta", ev=delta)
+    meas = synth(
+        "paper+payload_mass:m_p=0.25",
+        k_a=[250, 1000, 4000],
+        poses=[x_ref],
+        modes=("x", "y", "z"),
+        noise="0.5%",
+        seed=2,
+        robot="delta",
+        ev=delta,
+    )
     selections = []
     for shift in ([0.0, 0.0, 0.0], [0.001, 0.0, 0.0], [0.0, 0.001, 0.0], [0.0007, 0.0007, 0.0]):
-        moved = Measurements(meas.k_a, meas.mode, meas.freq_hz, meas.sigma_hz, meas.poses + shift,
-                             robot="delta", source="moved")
+        moved = Measurements(
+            meas.k_a, meas.mode, meas.freq_hz, meas.sigma_hz, meas.poses + shift, robot="delta", source="moved"
+        )
         d = diagnose(moved, baseline="paper", ev=delta)
         selections.append((d.selected, d.ranking[0].effect, d.explained))
     assert all(s == selections[0] for s in selections), selections

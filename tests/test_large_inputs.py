@@ -1,6 +1,7 @@
 """Large measurement files: read a block of rows at a time, a column at once, evaluated a block
 at a time, listed by their failing rows; the same numbers and the same errors as row by row
 (the figures at 10^6 rows: benchmarks/large_inputs.py, benchmarks/README.md)."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -55,8 +56,9 @@ def test_blocks_and_columns_read_as_rows_do(tmp_path, ev, monkeypatch, block):
     monkeypatch.setattr(measurements, "BLOCK_ROWS", block)
     _same(load_measurements(path, ev=ev), rows)
     assert rows.mode == ("x", "2", "y", "3") and rows.lines.tolist() == [2, 4, 6, 7]
-    assert np.allclose(rows.params["eta_a@2"], [ev.parameters["eta_a"].default, 0.5, ev.parameters["eta_a"].default,
-                                                0.7])
+    assert np.allclose(
+        rows.params["eta_a@2"], [ev.parameters["eta_a"].default, 0.5, ev.parameters["eta_a"].default, 0.7]
+    )
 
 
 def test_a_clean_block_is_read_a_column_at_once(tmp_path, ev, monkeypatch):
@@ -83,23 +85,26 @@ def test_line_ends(tmp_path, ev, end):
     path.write_bytes(ROWS.replace("\n", end).encode())
     m = load_measurements(path, ev=ev)
     assert m.mode == ("x", "2", "y", "3") and m.lines.tolist() == [2, 4, 6, 7]
-    path.write_bytes((end + ROWS.replace("\n", end)).encode())          # a blank first line
+    path.write_bytes((end + ROWS.replace("\n", end)).encode())  # a blank first line
     assert load_measurements(path, ev=ev).lines.tolist() == [3, 5, 7, 8]
 
 
-@pytest.mark.parametrize("bad, message", [
-    # the first bad cell by line, then column, whatever column is read first
-    ({(3, 6): "-0.2", (2, 2): "abc"}, r"line 3, column 'freq_hz': value 'abc' is not a number"),
-    ({(2, 7): "nan", (2, 1): "q"}, r"line 3, column 'mode': unknown mode label 'q'"),
-    ({(3, 0): "", (2, 7): "-1"}, r"line 3, column 'm_e': negative value -1"),
-    ({(4, 8): "5"}, r"line 5, column 'eta_a@2': parameter 'eta_a' = 5.0"),
-    ({(4, 3): "0.0, 1"}, r"line 5: 10 cells where the header has 9 columns"),
-    ({(1, 0): "0"}, r"line 2, column 'k_a': value 0: expected a value > 0"),
-    ({(3, 2): "inf"}, r"line 4, column 'freq_hz': value 'inf' is not finite"),
-    ({(2, 6): "-0.1"}, r"line 3, column 'sigma_hz': negative value -0.1"),
-])
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        # the first bad cell by line, then column, whatever column is read first
+        ({(3, 6): "-0.2", (2, 2): "abc"}, r"line 3, column 'freq_hz': value 'abc' is not a number"),
+        ({(2, 7): "nan", (2, 1): "q"}, r"line 3, column 'mode': unknown mode label 'q'"),
+        ({(3, 0): "", (2, 7): "-1"}, r"line 3, column 'm_e': negative value -1"),
+        ({(4, 8): "5"}, r"line 5, column 'eta_a@2': parameter 'eta_a' = 5.0"),
+        ({(4, 3): "0.0, 1"}, r"line 5: 10 cells where the header has 9 columns"),
+        ({(1, 0): "0"}, r"line 2, column 'k_a': value 0: expected a value > 0"),
+        ({(3, 2): "inf"}, r"line 4, column 'freq_hz': value 'inf' is not finite"),
+        ({(2, 6): "-0.1"}, r"line 3, column 'sigma_hz': negative value -0.1"),
+    ],
+)
 def test_errors_name_the_first_bad_cell(tmp_path, ev, monkeypatch, bad, message):
-    lines = [line for line in ROWS.splitlines() if line and not line.startswith("#")]   # line k + 1: lines[k]
+    lines = [line for line in ROWS.splitlines() if line and not line.startswith("#")]  # line k + 1: lines[k]
     cells = [line.split(",") for line in lines]
     for (row, col), value in bad.items():
         cells[row][col] = value
@@ -111,14 +116,16 @@ def test_errors_name_the_first_bad_cell(tmp_path, ev, monkeypatch, bad, message)
 
 
 def test_duplicates_name_the_first_repeated_row_and_its_first_line(tmp_path, ev):
-    text = ("k_a,mode,freq_hz,x,y,z\n1000,1,15,0,0,-0.6\n2000,1,20,0,0,-0.6\n2000,2,21,0,0,-0.6\n"
-            "2000,1,20.5,0,0,-0.6\n1000,1,15.2,-0.0,0,-0.6\n1000,1,15.1,0,0,-0.6\n")
+    text = (
+        "k_a,mode,freq_hz,x,y,z\n1000,1,15,0,0,-0.6\n2000,1,20,0,0,-0.6\n2000,2,21,0,0,-0.6\n"
+        "2000,1,20.5,0,0,-0.6\n1000,1,15.2,-0.0,0,-0.6\n1000,1,15.1,0,0,-0.6\n"
+    )
     path = tmp_path / "dup.csv"
     path.write_text(text)
     with pytest.raises(MeasurementError, match=r"line 5: duplicate of line 3 "):
         load_measurements(path, ev=ev)
     path.write_text(text.replace("2000,1,20.5", "2000,1,20.5").replace("2000,1,20,", "3000,1,20,"))
-    with pytest.raises(MeasurementError, match=r"line 6: duplicate of line 2 "):   # -0.0 is 0.0
+    with pytest.raises(MeasurementError, match=r"line 6: duplicate of line 2 "):  # -0.0 is 0.0
         load_measurements(path, ev=ev)
 
 
@@ -155,7 +162,7 @@ def test_progress_is_told_every_row(tmp_path, ev, monkeypatch):
 def test_blocks_of_evaluation_give_the_same_numbers(ev, monkeypatch):
     meas = paper_measurements(ev)
     whole = compare(meas, "paper", ev)
-    monkeypatch.setattr(predict, "EVAL_BLOCK", 5)                   # 16 rows: blocks of 5, 5, 5, 1
+    monkeypatch.setattr(predict, "EVAL_BLOCK", 5)  # 16 rows: blocks of 5, 5, 5, 1
     blocks = compare(meas, "paper", ev)
     np.testing.assert_array_equal(blocks.predicted, whole.predicted)
     np.testing.assert_array_equal(blocks.mode_index, whole.mode_index)
@@ -163,28 +170,34 @@ def test_blocks_of_evaluation_give_the_same_numbers(ev, monkeypatch):
 
 def _listed(table: str) -> list[int]:
     """The source lines of the rows a table lists (its first column)."""
-    return [int(w[0]) for w in (line.split() for line in table.splitlines()) if len(w) > 8 and w[0].isdigit() and w[1] != "rows,"]
+    return [
+        int(w[0])
+        for w in (line.split() for line in table.splitlines())
+        if len(w) > 8 and w[0].isdigit() and w[1] != "rows,"
+    ]
 
 
 def test_table_lists_every_row_up_to_its_limit_then_the_failing_ones(ev):
     cmp = compare(paper_measurements(ev), "rigid", ev)
     n, failing = len(cmp.meas), cmp.meas.lines[cmp.failing].tolist()
     assert 1 < len(failing) < n
-    full = comparison_table(cmp, limit=n)                           # just inside: every row
+    full = comparison_table(cmp, limit=n)  # just inside: every row
     assert "more than" not in full and _listed(full) == cmp.meas.lines.tolist()
-    short = comparison_table(cmp, limit=n - 1)                      # just outside: the failing rows
-    assert short.splitlines()[0] == (f"{n} rows, more than {n - 1}: listed are the {len(failing)} failing rows "
-                                     "(--json prints every row)")
+    short = comparison_table(cmp, limit=n - 1)  # just outside: the failing rows
+    assert short.splitlines()[0] == (
+        f"{n} rows, more than {n - 1}: listed are the {len(failing)} failing rows (--json prints every row)"
+    )
     assert _listed(short) == failing
-    first = comparison_table(cmp, limit=len(failing) - 1)           # more failing rows than the limit
+    first = comparison_table(cmp, limit=len(failing) - 1)  # more failing rows than the limit
     assert f"the first {len(failing) - 1} of the {len(failing)} failing rows" in first
     assert _listed(first) == failing[:-1]
 
 
 def test_modal_columns_are_read_as_numbers_a_column_at_once(tmp_path, ev, monkeypatch):
     path = tmp_path / "modal.csv"
-    path.write_text("k_a,mode,freq_hz,damping_ratio,phi_x,phi_y,phi_z,sensor_x\n"
-                    "1000,x,15.5,0.01,1,0,-0.1,0.01\n2000,y,20,,0,1,0,\n")
+    path.write_text(
+        "k_a,mode,freq_hz,damping_ratio,phi_x,phi_y,phi_z,sensor_x\n1000,x,15.5,0.01,1,0,-0.1,0.01\n2000,y,20,,0,1,0,\n"
+    )
     monkeypatch.setattr(measurements, "_parse_rows", lambda *a: pytest.fail("read row by row"))
     m = load_measurements(path, ev=ev)
     np.testing.assert_array_equal(m.modal["damping_ratio"], [0.01, np.nan])

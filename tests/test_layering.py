@@ -7,6 +7,7 @@
   ``something._name`` (``self._name``, ``cls._name`` and ``super()._name`` excepted: a
   class's own attributes, and a printer overriding its base class's ``_print_*``).
 """
+
 from __future__ import annotations
 
 import ast
@@ -27,7 +28,7 @@ def _absolute(node: ast.ImportFrom, module: str, is_package: bool) -> str:
     if not node.level:
         return node.module or ""
     base = module.split(".") if is_package else module.split(".")[:-1]
-    base = base[:len(base) - (node.level - 1)]
+    base = base[: len(base) - (node.level - 1)]
     return ".".join(base + ([node.module] if node.module else []))
 
 
@@ -53,8 +54,11 @@ def violations(source: str, module: str, is_package: bool = False) -> list[str]:
             base = _absolute(node, module, is_package)
             targets = [base] + [f"{base}.{a.name}" for a in node.names]
             if base != module:
-                out += [f"line {node.lineno}: from {base} import {a.name} (private name of another module)"
-                        for a in node.names if _private(a.name)]
+                out += [
+                    f"line {node.lineno}: from {base} import {a.name} (private name of another module)"
+                    for a in node.names
+                    if _private(a.name)
+                ]
         elif isinstance(node, ast.Attribute) and _private(node.attr) and not _own_object(node.value):
             out.append(f"line {node.lineno}: {ast.unparse(node)} (private attribute of another object)")
         if not in_cli and any(t == "eigentwist.cli" or t.startswith("eigentwist.cli.") for t in targets):
@@ -71,26 +75,35 @@ def test_module_respects_the_layers(path):
     assert not bad, f"{path.relative_to(PACKAGE.parent)}:\n  " + "\n  ".join(bad)
 
 
-@pytest.mark.parametrize("source, module, is_package", [
-    ("from ..cli.common import format_table", "eigentwist.diagnose.verdict", False),
-    ("import eigentwist.cli.main", "eigentwist.runtime.loader", False),
-    ("from eigentwist import cli", "eigentwist.report.build", False),
-    ("from .. import cli", "eigentwist.report", True),
-    ("def f():\n    from ..diagnose.select import _clean\n", "eigentwist.cli.compare", False),
-    ("def f(ev):\n    return ev._params(1, {}, 'paper')\n", "eigentwist.runtime.gravity", False),
-    ("from . import _helpers", "eigentwist.diagnose.fit", False),
-])
+@pytest.mark.parametrize(
+    "source, module, is_package",
+    [
+        ("from ..cli.common import format_table", "eigentwist.diagnose.verdict", False),
+        ("import eigentwist.cli.main", "eigentwist.runtime.loader", False),
+        ("from eigentwist import cli", "eigentwist.report.build", False),
+        ("from .. import cli", "eigentwist.report", True),
+        ("def f():\n    from ..diagnose.select import _clean\n", "eigentwist.cli.compare", False),
+        ("def f(ev):\n    return ev._params(1, {}, 'paper')\n", "eigentwist.runtime.gravity", False),
+        ("from . import _helpers", "eigentwist.diagnose.fit", False),
+    ],
+)
 def test_the_checker_catches_cli_imports_and_private_names(source, module, is_package):
     assert violations(source, module, is_package)
 
 
-@pytest.mark.parametrize("source, module", [
-    ("from .common import format_table", "eigentwist.cli.report"),
-    ("from eigentwist.cli.main import main", "eigentwist.__main__"),
-    ("class A:\n    def f(self):\n        return self._x + type(self).__name__\n", "eigentwist.runtime.evaluator"),
-    ("class P(Base):\n    def g(self, e):\n        return super()._print_Pow(e)\n", "eigentwist.codegen.numpy_backend"),
-    ("def _own():\n    pass\n_own()\n", "eigentwist.text"),
-])
+@pytest.mark.parametrize(
+    "source, module",
+    [
+        ("from .common import format_table", "eigentwist.cli.report"),
+        ("from eigentwist.cli.main import main", "eigentwist.__main__"),
+        ("class A:\n    def f(self):\n        return self._x + type(self).__name__\n", "eigentwist.runtime.evaluator"),
+        (
+            "class P(Base):\n    def g(self, e):\n        return super()._print_Pow(e)\n",
+            "eigentwist.codegen.numpy_backend",
+        ),
+        ("def _own():\n    pass\n_own()\n", "eigentwist.text"),
+    ],
+)
 def test_the_checker_allows_own_names(source, module):
     assert not violations(source, module)
 
@@ -182,8 +195,9 @@ def import_circles(graph: dict) -> list[list[str]]:
 
 
 def _graph() -> dict:
-    return {m: imports_of(p.read_text(encoding="utf-8"), m, p.name == "__init__.py", MODULES)
-            for m, p in MODULES.items()}
+    return {
+        m: imports_of(p.read_text(encoding="utf-8"), m, p.name == "__init__.py", MODULES) for m, p in MODULES.items()
+    }
 
 
 def test_no_import_circles():
@@ -193,10 +207,13 @@ def test_no_import_circles():
 
 def test_the_circle_checker_finds_a_function_level_circle():
     modules = {"eigentwist.a", "eigentwist.b", "eigentwist.c"}
-    graph = {"eigentwist.a": imports_of("from .b import f\n", "eigentwist.a", False, modules),
-             "eigentwist.b": imports_of("def g():\n    from .c import h\n", "eigentwist.b", False, modules),
-             "eigentwist.c": imports_of("import eigentwist.a\n", "eigentwist.c", False, modules)}
+    graph = {
+        "eigentwist.a": imports_of("from .b import f\n", "eigentwist.a", False, modules),
+        "eigentwist.b": imports_of("def g():\n    from .c import h\n", "eigentwist.b", False, modules),
+        "eigentwist.c": imports_of("import eigentwist.a\n", "eigentwist.c", False, modules),
+    }
     assert import_circles(graph) == [["eigentwist.a", "eigentwist.b", "eigentwist.c"]]
-    graph["eigentwist.c"] = imports_of("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import eigentwist.a\n",
-                                       "eigentwist.c", False, modules)
+    graph["eigentwist.c"] = imports_of(
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import eigentwist.a\n", "eigentwist.c", False, modules
+    )
     assert import_circles(graph) == []

@@ -9,6 +9,7 @@ must be found at the right leg (or with the right leg among equal alternatives),
 parameter within 3 standard deviations and the data explained; an effect on all legs alike
 must be reported on all legs (no false localisation in at least 9 of 10 seeds).
 """
+
 from __future__ import annotations
 
 import pytest
@@ -87,11 +88,14 @@ def test_per_leg_candidates_count_in_the_correction(ev):
 
     cands = candidates_for(ev, ("actuator_loss", "rod_compliance", "ee_compliance"))
     assert "actuator_loss@3" in cands and "rod_compliance@1" in cands and "actuator_loss" not in cands
-    assert "ee_coupling" not in cands and not any(c.startswith(("ee_", "payload_mass@", "gravity_preload@"))
-                                                  and "@" in c for c in cands)
+    assert "ee_coupling" not in cands and not any(
+        c.startswith(("ee_", "payload_mass@", "gravity_preload@")) and "@" in c for c in cands
+    )
     # the effects the model lacks (the catalogue's, counted here), and the 5 leg-level effects on
     # each of 4 legs alone
-    lacking = [e for e in ev.robot.effects if e not in ("actuator_loss", "rod_compliance", "ee_compliance", "ee_coupling")]
+    lacking = [
+        e for e in ev.robot.effects if e not in ("actuator_loss", "rod_compliance", "ee_compliance", "ee_coupling")
+    ]
     assert len(cands) == len(lacking) + 5 * 4
 
 
@@ -102,8 +106,11 @@ def test_add_takes_one_leg(ev):
     assert d.selected == ["lower_link_compliance@4"] and d.steps[-1].added == "lower_link_compliance@4"
     assert abs(d.final.values["E_l1@4"] - 4.2e10) < 3 * d.final.std["E_l1@4"]
     assert "leg 4's lower link: E_l1 = " in d.text()
-    for bad, message in (("ee_compliance@2", "not on one leg"), ("actuator_loss@5", "N in 1..4"),
-                         ("actuator_loss@3", "already in the model")):
+    for bad, message in (
+        ("ee_compliance@2", "not on one leg"),
+        ("actuator_loss@5", "N in 1..4"),
+        ("actuator_loss@3", "already in the model"),
+    ):
         with pytest.raises(ValueError, match=message):
             diagnose(meas, "paper,actuator_loss@3", ev=ev, add=[bad])
 
@@ -112,13 +119,22 @@ def test_add_takes_one_leg(ev):
 def test_legs_the_data_cannot_tell_apart_are_alternatives_and_the_next_pose_separates_them(ev):
     """At the central pose legs 3 and 4 of the Heli4 are mirror images: a weak actuator on
     either gives the same frequencies; the proposed measurement tells them apart."""
-    meas = synth("paper+actuator_loss@3:eta_a@3=0.55", [250, 500, 1000, 2000, 4000], [[0, 0, -0.625]],
-                 ["x", "y", "z"], 0.005, 0, ev=ev)
+    meas = synth(
+        "paper+actuator_loss@3:eta_a@3=0.55",
+        [250, 500, 1000, 2000, 4000],
+        [[0, 0, -0.625]],
+        ["x", "y", "z"],
+        0.005,
+        0,
+        ev=ev,
+    )
     d = diagnose(meas, "paper", ev=ev)
     top = d.ranking[0]
     assert {top.effect} | set(top.indistinguishable_from) >= {"actuator_loss@3", "actuator_loss@4"}
     nm = d.next_measurement
     assert set(nm["between"]) == {"actuator_loss@3", "actuator_loss@4"} and nm["separation_sigma"] > 3
     message = d.to_json()["final"]["message"]
-    assert ("leg 3's actuator delivers 0.55 of its commanded stiffness (the other legs 0.82)" in message
-            or "leg 4's actuator delivers" in message)
+    assert (
+        "leg 3's actuator delivers 0.55 of its commanded stiffness (the other legs 0.82)" in message
+        or "leg 4's actuator delivers" in message
+    )

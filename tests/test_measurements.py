@@ -1,4 +1,5 @@
 """Measurement CSV files: defaults, per-row parameters, and errors naming file, line and column."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,7 +25,7 @@ def test_paper_data_is_tables_e1_e2(ev):
         assert m.freq_hz[rows].tolist() == list(MEASURED[label])
     assert np.allclose(m.poses, [0.0, 0.0, -0.625])
     assert paper_csv().splitlines()[0] == "k_a,mode,freq_hz,x,y,z,kind"
-    assert set(m.kind) == {"damped"}                     # counted from step responses (Sec. 4)
+    assert set(m.kind) == {"damped"}  # counted from step responses (Sec. 4)
 
 
 def test_defaults_pose_sigma_and_parameter_columns(tmp_path, ev):
@@ -32,9 +33,9 @@ def test_defaults_pose_sigma_and_parameter_columns(tmp_path, ev):
     m = load_measurements(path, ev=ev)
     assert m.mode == ("x", "2")
     assert m.lines.tolist() == [4, 5]
-    assert np.allclose(m.poses, [[0.0, 0.0, -0.625], [0.0, 0.0, -0.6]])      # x, y and blank z -> x_ref
+    assert np.allclose(m.poses, [[0.0, 0.0, -0.625], [0.0, 0.0, -0.6]])  # x, y and blank z -> x_ref
     assert np.allclose(m.sigma_hz, [0.3, DEFAULT_SIGMA_REL * 20.0])
-    assert np.allclose(m.params["m_e"], [ev.parameters["m_e"].default, 0.7])   # blank -> default
+    assert np.allclose(m.params["m_e"], [ev.parameters["m_e"].default, 0.7])  # blank -> default
 
 
 def test_parameter_column_overrides_the_row(tmp_path, ev):
@@ -46,23 +47,26 @@ def test_parameter_column_overrides_the_row(tmp_path, ev):
     assert np.allclose(pred, direct) and pred[1] < pred[0]
 
 
-@pytest.mark.parametrize("text, line, column, words", [
-    ("k_a,freq_hz\n1000,15\n", 1, "mode", "missing required column"),
-    ("k_a,mode,freq_hz\n1000,x,fast\n", 2, "freq_hz", "not a number"),
-    ("k_a,mode,freq_hz\n1000,x,15\n-5,y,12\n", 3, "k_a", "negative"),
-    ("k_a,mode,freq_hz,sigma_hz\n1000,x,15,-0.1\n", 2, "sigma_hz", "negative"),
-    ("k_a,mode,freq_hz\n1000,x,0\n", 2, "freq_hz", "> 0"),
-    ("k_a,mode,freq_hz\n1000,x,nan\n", 2, "freq_hz", "not finite"),
-    ("k_a,mode,freq_hz\n1000,x,15\n1000,sideways,15\n", 3, "mode", "unknown mode label"),
-    ("k_a,mode,freq_hz\n1000,0,15\n", 2, "mode", "unknown mode label"),
-    ("k_a,mode,freq_hz,flux\n1000,x,15,1\n", 1, "flux", "unknown column"),
-    ("k_a,mode,freq_hz,E_rod\n1000,x,15,-1e9\n", 2, "E_rod", "negative"),
-    ("k_a,mode,freq_hz,eta_a\n1000,x,15,7\n", 2, "eta_a", "eta_a"),
-    ("k_a,mode,freq_hz,z\n1000,x,15,-0.625\n1000,x,15,-3\n", 3, "x, y, z", "unreachable"),
-    ("k_a,mode,freq_hz\n1000,x\n", 2, None, "2 cells where the header has 3"),
-    ("k_a,mode,freq_hz,k_a\n1000,x,15,3\n", 1, "k_a", "appears twice"),
-    ("k_a,mode,freq_hz\n,x,15\n", 2, "k_a", "empty cell"),
-])
+@pytest.mark.parametrize(
+    "text, line, column, words",
+    [
+        ("k_a,freq_hz\n1000,15\n", 1, "mode", "missing required column"),
+        ("k_a,mode,freq_hz\n1000,x,fast\n", 2, "freq_hz", "not a number"),
+        ("k_a,mode,freq_hz\n1000,x,15\n-5,y,12\n", 3, "k_a", "negative"),
+        ("k_a,mode,freq_hz,sigma_hz\n1000,x,15,-0.1\n", 2, "sigma_hz", "negative"),
+        ("k_a,mode,freq_hz\n1000,x,0\n", 2, "freq_hz", "> 0"),
+        ("k_a,mode,freq_hz\n1000,x,nan\n", 2, "freq_hz", "not finite"),
+        ("k_a,mode,freq_hz\n1000,x,15\n1000,sideways,15\n", 3, "mode", "unknown mode label"),
+        ("k_a,mode,freq_hz\n1000,0,15\n", 2, "mode", "unknown mode label"),
+        ("k_a,mode,freq_hz,flux\n1000,x,15,1\n", 1, "flux", "unknown column"),
+        ("k_a,mode,freq_hz,E_rod\n1000,x,15,-1e9\n", 2, "E_rod", "negative"),
+        ("k_a,mode,freq_hz,eta_a\n1000,x,15,7\n", 2, "eta_a", "eta_a"),
+        ("k_a,mode,freq_hz,z\n1000,x,15,-0.625\n1000,x,15,-3\n", 3, "x, y, z", "unreachable"),
+        ("k_a,mode,freq_hz\n1000,x\n", 2, None, "2 cells where the header has 3"),
+        ("k_a,mode,freq_hz,k_a\n1000,x,15,3\n", 1, "k_a", "appears twice"),
+        ("k_a,mode,freq_hz\n,x,15\n", 2, "k_a", "empty cell"),
+    ],
+)
 def test_errors_name_file_line_and_column(tmp_path, ev, text, line, column, words):
     path = write(tmp_path, text, "bench.csv")
     with pytest.raises(MeasurementError) as info:
@@ -74,8 +78,9 @@ def test_errors_name_file_line_and_column(tmp_path, ev, text, line, column, word
     assert info.value.line == line
 
 
-@pytest.mark.parametrize("text, words", [("", "empty file"), ("# only a comment\n\n", "empty file"),
-                                         ("k_a,mode,freq_hz\n", "no data rows")])
+@pytest.mark.parametrize(
+    "text, words", [("", "empty file"), ("# only a comment\n\n", "empty file"), ("k_a,mode,freq_hz\n", "no data rows")]
+)
 def test_empty_files(tmp_path, ev, text, words):
     with pytest.raises(MeasurementError, match=words) as info:
         load_measurements(write(tmp_path, text, "empty.csv"), ev=ev)

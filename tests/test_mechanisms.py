@@ -1,6 +1,7 @@
 """Bodies from shapes (eigentwist.description.shapes), joint kinds as data and the
 descriptions' checks on mechanisms of any mobility: expectations from the specification's
 numbers and from numerical integration over the shapes' volume (a few lines of NumPy)."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -49,15 +50,36 @@ def _integrated(inside, lo, hi, density, n=60):
     return m, c, inertia
 
 
-@pytest.mark.parametrize("shape, density, inside, lo, hi, rtol", [
-    (box(0.3, 0.2, 0.1, 7800.0), 7800.0, lambda X: np.ones(len(X), bool), (-0.15, -0.1, -0.05), (0.15, 0.1, 0.05), 1e-3),
-    (sphere(0.1, 1000.0), 1000.0, lambda X: np.sum(X**2, axis=1) < 0.01, (-0.1,) * 3, (0.1,) * 3, 2e-2),
-    (cylinder(0.4, 0.05, 2700.0), 2700.0, lambda X: X[:, 1]**2 + X[:, 2]**2 < 0.0025, (0, -0.05, -0.05),
-     (0.4, 0.05, 0.05), 2e-2),
-    (tube(0.4, 0.05, 0.03, 2700.0), 2700.0,
-     lambda X: (X[:, 1]**2 + X[:, 2]**2 < 0.0025) & (X[:, 1]**2 + X[:, 2]**2 > 0.0009), (0, -0.05, -0.05),
-     (0.4, 0.05, 0.05), 3e-2),
-])
+@pytest.mark.parametrize(
+    "shape, density, inside, lo, hi, rtol",
+    [
+        (
+            box(0.3, 0.2, 0.1, 7800.0),
+            7800.0,
+            lambda X: np.ones(len(X), bool),
+            (-0.15, -0.1, -0.05),
+            (0.15, 0.1, 0.05),
+            1e-3,
+        ),
+        (sphere(0.1, 1000.0), 1000.0, lambda X: np.sum(X**2, axis=1) < 0.01, (-0.1,) * 3, (0.1,) * 3, 2e-2),
+        (
+            cylinder(0.4, 0.05, 2700.0),
+            2700.0,
+            lambda X: X[:, 1] ** 2 + X[:, 2] ** 2 < 0.0025,
+            (0, -0.05, -0.05),
+            (0.4, 0.05, 0.05),
+            2e-2,
+        ),
+        (
+            tube(0.4, 0.05, 0.03, 2700.0),
+            2700.0,
+            lambda X: (X[:, 1] ** 2 + X[:, 2] ** 2 < 0.0025) & (X[:, 1] ** 2 + X[:, 2] ** 2 > 0.0009),
+            (0, -0.05, -0.05),
+            (0.4, 0.05, 0.05),
+            3e-2,
+        ),
+    ],
+)
 def test_shapes_integrate(shape, density, inside, lo, hi, rtol):
     """Mass, centre of mass and inertia of each shape against the midpoint rule over its
     volume (60^3 cells: a curved boundary's cells give the tolerance)."""
@@ -72,7 +94,7 @@ def test_spatial_inertia_moves_to_the_frame_origin():
     moment m l / 2; a point mass has no rotational inertia about itself."""
     rod = _num(slender_rod(sp.Float(0.5), sp.Float(2.0)).spatial())
     np.testing.assert_allclose(np.diag(rod)[:3], [0, 2 * 0.25 / 3, 2 * 0.25 / 3], rtol=1e-14)
-    c_cross = np.array([[0, 0, 0], [0, 0, -0.25], [0, 0.25, 0]])                    # [c]x, c = (l/2, 0, 0)
+    c_cross = np.array([[0, 0, 0], [0, 0, -0.25], [0, 0.25, 0]])  # [c]x, c = (l/2, 0, 0)
     np.testing.assert_allclose(rod[3:, :3], -2.0 * c_cross, atol=1e-15)
     np.testing.assert_array_equal(_num(point_mass(sp.Float(3.0)).spatial())[:3, :3], np.zeros((3, 3)))
     with pytest.raises(ValueError, match="slender_rod: give its mass, or its density"):

@@ -1,4 +1,5 @@
 """The cause of a misfit: too few rows, the stated uncertainty, outliers; plausibility; the switch test."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -28,8 +29,8 @@ def paper(ev_fast):
 
 
 def test_switch_test_is_the_chi2_1_tail_scaled_when_the_fit_is_worse_than_sigma():
-    assert switch_test(30.0, 20.0, 30, 2) == pytest.approx(stats.chi2.sf(10.0, 1))          # 20/28 < 1: unscaled
-    assert switch_test(120.0, 56.0, 30, 2) == pytest.approx(stats.chi2.sf(64.0 / 2.0, 1))   # scaled by 56/28
+    assert switch_test(30.0, 20.0, 30, 2) == pytest.approx(stats.chi2.sf(10.0, 1))  # 20/28 < 1: unscaled
+    assert switch_test(120.0, 56.0, 30, 2) == pytest.approx(stats.chi2.sf(64.0 / 2.0, 1))  # scaled by 56/28
     assert switch_test(10.0, 12.0, 30, 2) == 1.0 and math.isnan(switch_test(1.0, 0.5, 2, 2))
 
 
@@ -43,9 +44,12 @@ def test_paper_k_a_125_rows_are_a_pattern_not_outliers(paper):
     assert paper.outliers == [] and paper.all_rows is None
     assert find_outliers(paper.final.comparison, paper.final.k, 0.01) == []
     u = paper.uncertainty
-    assert u.verdict == "cannot be judged" and u.possibly_understated and u.birge_ratio == pytest.approx(
-        math.sqrt(paper.final.chi2 / paper.final.dof))
-    assert any("2, 10" in p for p in u.pattern)                           # lines 2 and 10: both modes at 125
+    assert (
+        u.verdict == "cannot be judged"
+        and u.possibly_understated
+        and u.birge_ratio == pytest.approx(math.sqrt(paper.final.chi2 / paper.final.dof))
+    )
+    assert any("2, 10" in p for p in u.pattern)  # lines 2 and 10: both modes at 125
 
 
 def test_implausible_fit_is_reported_with_the_value_it_needs_and_never_selected(paper):
@@ -64,7 +68,7 @@ def test_ties_are_named_at_the_step_and_in_the_verdict(paper):
     assert [a.effects for a in paper.alternatives] == [("actuator_loss", "ee_coupling")]
     said = "ee_compliance or ee_coupling: these data cannot tell them apart; measure mode "
     assert said in paper.message
-    assert paper.message.split(said)[1][0] in set(paper.meas.mode)       # a direction the data measured
+    assert paper.message.split(said)[1][0] in set(paper.meas.mode)  # a direction the data measured
 
 
 def test_too_few_rows_is_said_and_more_proposed(ev_fast):
@@ -76,29 +80,55 @@ def test_too_few_rows_is_said_and_more_proposed(ev_fast):
 
 
 def test_bad_row_is_set_aside_by_its_line_and_the_all_rows_result_kept(ev_fast):
-    meas = synth("paper+payload_mass:m_p=0.35", (250, 500, 1000, 2000, 4000), ((0, 0, -0.625), (0.06, -0.04, -0.6)),
-                 ("x", "y", "z"), 0.005, seed=2, ev=ev_fast)
+    meas = synth(
+        "paper+payload_mass:m_p=0.35",
+        (250, 500, 1000, 2000, 4000),
+        ((0, 0, -0.625), (0.06, -0.04, -0.6)),
+        ("x", "y", "z"),
+        0.005,
+        seed=2,
+        ev=ev_fast,
+    )
     f = meas.freq_hz.copy()
     f[11] *= 1.2
     d = diagnose(dataclasses.replace(meas, freq_hz=f), "paper", ev=ev_fast)
     assert [o.line for o in d.outliers] == [13] and d.outliers[0].residual_sigma < -10
     assert len(d.meas) == 29 and d.all_rows is not None and len(d.all_rows.meas) == 30
     assert abs(d.final.values["m_p"] - 0.35) <= 3 * d.final.std["m_p"]
-    assert d.all_rows.final.std["m_p"] > 3 * d.final.std["m_p"]          # the bad row blurs the all-rows fit
+    assert d.all_rows.final.std["m_p"] > 3 * d.final.std["m_p"]  # the bad row blurs the all-rows fit
     j = d.to_json()
-    assert j["outliers"][0]["line"] == 13 and set(j["outliers"][0]) == {"line", "k_a", "mode", "freq_hz",
-                                                                          "residual_sigma"}
+    assert j["outliers"][0]["line"] == 13 and set(j["outliers"][0]) == {
+        "line",
+        "k_a",
+        "mode",
+        "freq_hz",
+        "residual_sigma",
+    }
     assert j["all_rows"]["n_rows"] == 30 and "line 13" in j["final"]["message"]
 
 
 def test_stated_sigma_misstated_either_way(ev_fast):
-    meas = synth("paper", (250, 500, 1000, 2000, 4000), ((0, 0, -0.625), (0.06, -0.04, -0.6)), ("x", "y", "z"),
-                 0.005, seed=4, ev=ev_fast)
+    meas = synth(
+        "paper",
+        (250, 500, 1000, 2000, 4000),
+        ((0, 0, -0.625), (0.06, -0.04, -0.6)),
+        ("x", "y", "z"),
+        0.005,
+        seed=4,
+        ev=ev_fast,
+    )
     over = diagnose(dataclasses.replace(meas, sigma_hz=0.05 * meas.freq_hz), "paper", ev=ev_fast)
     assert over.uncertainty.verdict == "overstated" and over.uncertainty.birge_ratio < 0.3
     assert "overstated" in over.message
-    noisy = synth("paper", (250, 500, 1000, 2000, 4000), ((0, 0, -0.625), (0.06, -0.04, -0.6)), ("x", "y", "z"),
-                  0.03, seed=4, ev=ev_fast)
+    noisy = synth(
+        "paper",
+        (250, 500, 1000, 2000, 4000),
+        ((0, 0, -0.625), (0.06, -0.04, -0.6)),
+        ("x", "y", "z"),
+        0.03,
+        seed=4,
+        ev=ev_fast,
+    )
     under = diagnose(dataclasses.replace(noisy, sigma_hz=0.01 * noisy.freq_hz), "paper", ev=ev_fast)
     assert under.selected == [] and under.uncertainty.verdict == "understated"
     assert 2 < under.uncertainty.birge_ratio < 4.5 and "understated" in under.message

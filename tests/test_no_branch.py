@@ -16,6 +16,7 @@ in ``eigentwist/symbolic/`` (an ``ast`` scan, docstrings excluded) and asserts:
 
 The scanner is shown to catch each kind of branch on small sources written here.
 """
+
 from __future__ import annotations
 
 import ast
@@ -28,7 +29,7 @@ from eigentwist.description.chain import JOINT_FREEDOMS
 SYMBOLIC = Path(__file__).resolve().parent.parent / "eigentwist" / "symbolic"
 ROBOT_NAMES = ("heli4", "delta", "hexapod")
 JOINT_KINDS = set(JOINT_FREEDOMS)
-KIND_READERS = {"joint_twists", "of_kind"}   # the table look-up; effect kinds
+KIND_READERS = {"joint_twists", "of_kind"}  # the table look-up; effect kinds
 
 
 def _docstrings(tree: ast.AST) -> set[int]:
@@ -36,7 +37,11 @@ def _docstrings(tree: ast.AST) -> set[int]:
     for node in ast.walk(tree):
         if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
             first = node.body[0]
-            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str):
+            if (
+                isinstance(first, ast.Expr)
+                and isinstance(first.value, ast.Constant)
+                and isinstance(first.value.value, str)
+            ):
                 out.add(id(first.value))
     return out
 
@@ -76,13 +81,18 @@ def branches(source: str) -> list[str]:
     docs, described, parents = _docstrings(tree), _description_names(tree), _parents(tree)
     out = []
     for node in ast.walk(tree):
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("isinstance", "issubclass"):
+        if (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id in ("isinstance", "issubclass")
+        ):
             used = {n.id for a in node.args[1:] for n in ast.walk(a) if isinstance(n, ast.Name)}
             used |= {n.attr for a in node.args[1:] for n in ast.walk(a) if isinstance(n, ast.Attribute)}
             if used & described:
                 out.append(f"line {node.lineno}: {ast.unparse(node)} (a test of the description's class)")
         elif isinstance(node, ast.Compare) and any(
-                isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "type" for n in ast.walk(node)):
+            isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "type" for n in ast.walk(node)
+        ):
             other = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)} & described
             named = [n.value for n in ast.walk(node) if isinstance(n, ast.Constant) and isinstance(n.value, str)]
             if other or named:
@@ -97,8 +107,11 @@ def branches(source: str) -> list[str]:
             name = getattr(node, "id", None) or getattr(node, "attr", None) or getattr(node, "name", None) or node.arg
             if any(r in name.lower() for r in ROBOT_NAMES):
                 out.append(f"line {node.lineno}: {name} (a robot name)")
-            if isinstance(node, ast.Attribute) and node.attr == "kind" and \
-                    _enclosing_function(node, parents) not in KIND_READERS:
+            if (
+                isinstance(node, ast.Attribute)
+                and node.attr == "kind"
+                and _enclosing_function(node, parents) not in KIND_READERS
+            ):
                 out.append(f"line {node.lineno}: {ast.unparse(node)} (a kind read outside the joint-twist table)")
     return out
 
@@ -115,22 +128,27 @@ def test_the_twist_table_covers_every_joint_kind():
     assert set(TWISTS) == JOINT_KINDS
 
 
-@pytest.mark.parametrize("source", [
-    "from ..description.chain import ChainRobot\ndef f(r):\n    return 1 if isinstance(r, ChainRobot) else 2\n",
-    "from ..description import RobotDescription\ndef f(r):\n    return isinstance(r, (int, RobotDescription))\n",
-    "def f(r):\n    return type(r).__name__ == 'ChainRobot'\n",
-    "from ..description.chain import ChainRobot\ndef f(r):\n    return type(r) is ChainRobot\n",
-    "def f(robot):\n    return robot.name == 'hexapod'\n",
-    "def derive_heli4(robot):\n    return robot\n",
-    "def f(joint):\n    return joint.kind in ('P', 'Pi')\n",
-    "def f(joint):\n    return joint.virtual or joint.kind\n",
-    "OTHER = {'R': 1}\n",
-])
+@pytest.mark.parametrize(
+    "source",
+    [
+        "from ..description.chain import ChainRobot\ndef f(r):\n    return 1 if isinstance(r, ChainRobot) else 2\n",
+        "from ..description import RobotDescription\ndef f(r):\n    return isinstance(r, (int, RobotDescription))\n",
+        "def f(r):\n    return type(r).__name__ == 'ChainRobot'\n",
+        "from ..description.chain import ChainRobot\ndef f(r):\n    return type(r) is ChainRobot\n",
+        "def f(robot):\n    return robot.name == 'hexapod'\n",
+        "def derive_heli4(robot):\n    return robot\n",
+        "def f(joint):\n    return joint.kind in ('P', 'Pi')\n",
+        "def f(joint):\n    return joint.virtual or joint.kind\n",
+        "OTHER = {'R': 1}\n",
+    ],
+)
 def test_the_scan_catches_each_kind_of_branch(source):
     assert branches(source)
 
 
 def test_the_scan_passes_a_table_lookup():
-    source = ('"""A module about the Heli4."""\nTWISTS = {"R": 1, "P": 2}\n'
-              'def joint_twists(joint):\n    """For the hexapod too."""\n    return TWISTS[joint.kind]\n')
+    source = (
+        '"""A module about the Heli4."""\nTWISTS = {"R": 1, "P": 2}\n'
+        'def joint_twists(joint):\n    """For the hexapod too."""\n    return TWISTS[joint.kind]\n'
+    )
     assert branches(source) == []

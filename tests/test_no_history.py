@@ -2,6 +2,7 @@
 which ticket brought them: no issue number anywhere in the text the repository ships
 (the history belongs to the commit messages).
 """
+
 from __future__ import annotations
 
 import json
@@ -11,11 +12,38 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-SCANNED = ("eigentwist", "tests", "benchmarks", "notebooks", "examples", ".ci",
-           "README.md", "pyproject.toml", "Makefile")
-TEXT = {".py", ".md", ".ipynb", ".jinja", ".toml", ".c", ".h", ".txt", ".cfg", ".ini", ".yml", ".yaml",
-        ".json", ".sh", ".html", ".css", ".js", ""}
-SKIPPED = {"__pycache__", "mutants", "build", "dist"}     # and hidden or *.egg-info folders (caches, tools)
+SCANNED = (
+    "eigentwist",
+    "tests",
+    "benchmarks",
+    "notebooks",
+    "examples",
+    ".ci",
+    "README.md",
+    "pyproject.toml",
+    "Makefile",
+)
+TEXT = {
+    ".py",
+    ".md",
+    ".ipynb",
+    ".jinja",
+    ".toml",
+    ".c",
+    ".h",
+    ".txt",
+    ".cfg",
+    ".ini",
+    ".yml",
+    ".yaml",
+    ".json",
+    ".sh",
+    ".html",
+    ".css",
+    ".js",
+    "",
+}
+SKIPPED = {"__pycache__", "mutants", "build", "dist"}  # and hidden or *.egg-info folders (caches, tools)
 #: "issue" or "issues" in any case, then a space or a line break or nothing, an optional "#", the number
 ISSUE = re.compile(r"\bissues?\s?#?\d+", re.IGNORECASE)
 
@@ -28,8 +56,11 @@ def _files():
         elif top.is_dir():
             for path in sorted(top.rglob("*")):
                 parts = path.relative_to(top).parts[:-1]
-                if path.is_file() and path.suffix in TEXT and not any(
-                        p in SKIPPED or p.startswith(".") or p.endswith(".egg-info") for p in parts):
+                if (
+                    path.is_file()
+                    and path.suffix in TEXT
+                    and not any(p in SKIPPED or p.startswith(".") or p.endswith(".egg-info") for p in parts)
+                ):
                     yield path
 
 
@@ -40,15 +71,18 @@ def mentions(text: str) -> list[tuple[int, str]]:
 
 # the samples are templates ("{}": the number; ``found``: the text before it and its line),
 # so that this file's own source holds no match
-@pytest.mark.parametrize("template, number, found", [
-    ("rigid constraints (issue {})", 20, [("issue ", 1)]),
-    ("# Issue {}.1: one --set", 12, [("Issue ", 1)]),
-    ("after issues {}–16", 10, [("issues ", 1)]),
-    ("see issue #{}", 7, [("issue #", 1)]),
-    ("the 3x3 subsets, issue\n{}), independent", 21, [("issue ", 1)]),
-    ("ISSUE{} and\n\nissue {}", 3, [("ISSUE", 1), ("issue ", 3)]),
-    ("a tissue {} mm thick; issues with {} rows; issue-free; issue_{}_names; issue\n\n{}", 3, []),
-])
+@pytest.mark.parametrize(
+    "template, number, found",
+    [
+        ("rigid constraints (issue {})", 20, [("issue ", 1)]),
+        ("# Issue {}.1: one --set", 12, [("Issue ", 1)]),
+        ("after issues {}–16", 10, [("issues ", 1)]),
+        ("see issue #{}", 7, [("issue #", 1)]),
+        ("the 3x3 subsets, issue\n{}), independent", 21, [("issue ", 1)]),
+        ("ISSUE{} and\n\nissue {}", 3, [("ISSUE", 1), ("issue ", 3)]),
+        ("a tissue {} mm thick; issues with {} rows; issue-free; issue_{}_names; issue\n\n{}", 3, []),
+    ],
+)
 def test_the_pattern_finds_issue_numbers_and_nothing_else(template, number, found):
     text = template.replace("{}", str(number))
     assert mentions(text) == [(line, f"{before}{number}") for before, line in found]

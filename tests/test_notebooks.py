@@ -6,6 +6,7 @@ this file). Execution uses nbclient with the ``python3`` kernel (the interpreter
 the tests), the notebook's own folder as working directory and the non-interactive
 Matplotlib backend, and fails on the first cell that raises.
 """
+
 from __future__ import annotations
 
 import ast
@@ -21,8 +22,8 @@ nbformat = pytest.importorskip("nbformat", reason="notebook tests need the test 
 NOTEBOOK_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 SCRIPTS = sorted(NOTEBOOK_DIR.glob("*.py"))
-CELL_TIMEOUT_S = 300      # per cell; each notebook is meant to finish within two minutes in all
-BUDGET_S = 120            # the goal: "runs top to bottom on a fresh install in under two minutes"
+CELL_TIMEOUT_S = 300  # per cell; each notebook is meant to finish within two minutes in all
+BUDGET_S = 120  # the goal: "runs top to bottom on a fresh install in under two minutes"
 
 
 def _id(path: Path) -> str:
@@ -37,8 +38,11 @@ def test_notebooks_exist():
 def test_notebook_is_stripped(path):
     """Checked-in notebooks carry no outputs or execution counts, and name the python3 kernel."""
     nb = nbformat.read(path, as_version=4)
-    dirty = [k for k, cell in enumerate(nb.cells) if cell.cell_type == "code"
-             and (cell.get("outputs") or cell.get("execution_count") is not None)]
+    dirty = [
+        k
+        for k, cell in enumerate(nb.cells)
+        if cell.cell_type == "code" and (cell.get("outputs") or cell.get("execution_count") is not None)
+    ]
     assert not dirty, f"{path.name}: cells {dirty} have outputs or execution counts: clear them before committing"
     assert nb.metadata.get("kernelspec", {}).get("name") == "python3", f"{path.name}: kernelspec must be python3"
 
@@ -48,15 +52,21 @@ def test_notebook_is_stripped(path):
 def test_notebook_runs(path, monkeypatch):
     """Execute the notebook in a fresh kernel; any cell error fails the test with its traceback."""
     nbclient = pytest.importorskip("nbclient", reason="notebook tests need the test extras: pip install -e '.[test]'")
-    monkeypatch.setenv("MPLBACKEND", "Agg")          # inherited by the kernel process
+    monkeypatch.setenv("MPLBACKEND", "Agg")  # inherited by the kernel process
     nb = nbformat.read(path, as_version=4)
-    client = nbclient.NotebookClient(nb, timeout=CELL_TIMEOUT_S, kernel_name="python3",
-                                     resources={"metadata": {"path": str(path.parent)}})
+    client = nbclient.NotebookClient(
+        nb, timeout=CELL_TIMEOUT_S, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}
+    )
     start = time.perf_counter()
     client.execute()
     elapsed = time.perf_counter() - start
-    errors = [out for cell in nb.cells if cell.cell_type == "code" for out in cell.get("outputs", [])
-              if out.get("output_type") == "error"]
+    errors = [
+        out
+        for cell in nb.cells
+        if cell.cell_type == "code"
+        for out in cell.get("outputs", [])
+        if out.get("output_type") == "error"
+    ]
     assert not errors, f"{path.name}: {errors[0].get('ename')}: {errors[0].get('evalue')}"
     assert elapsed < 2 * BUDGET_S, f"{path.name} took {elapsed:.0f} s (budget {BUDGET_S} s on a fresh install)"
 
@@ -71,14 +81,16 @@ def test_notebook_is_paired_with_its_percent_script(path):
     script = path.with_suffix(".py")
     assert script.exists(), f"{path.name} has no paired script {script.name}: jupytext --set-formats ipynb,py:percent"
     nb = nbformat.read(path, as_version=4)
-    assert nb.metadata.get("jupytext", {}).get("formats") == "ipynb,py:percent", \
+    assert nb.metadata.get("jupytext", {}).get("formats") == "ipynb,py:percent", (
         f"{path.name}: not paired (jupytext --set-formats ipynb,py:percent notebooks/{path.name})"
+    )
     compare_notebooks(jupytext.read(script), nb, fmt="py:percent")
 
 
 def test_every_script_has_its_notebook():
-    assert SCRIPTS and all(p.with_suffix(".ipynb").exists() for p in SCRIPTS), \
+    assert SCRIPTS and all(p.with_suffix(".ipynb").exists() for p in SCRIPTS), (
         "a notebooks/*.py without its .ipynb: jupytext --to ipynb notebooks/NAME.py"
+    )
 
 
 # ---------------------------------------------------------------- public API only
@@ -98,13 +110,15 @@ def public_api() -> tuple[set, dict]:
 
 def api_violations(code: str, top: set, subpackages: dict) -> list[str]:
     """Uses of eigentwist in ``code`` that go past the public API, as readable lines."""
-    bound = {}                                 # local name -> "" (eigentwist) or a subpackage name
+    bound = {}  # local name -> "" (eigentwist) or a subpackage name
     bad = []
 
     def check(sub, name, line):
         if sub == "":
             if name not in top and name not in subpackages:
-                bad.append(f"line {line}: eigentwist.{name} is neither in eigentwist.__all__ nor a documented subpackage")
+                bad.append(
+                    f"line {line}: eigentwist.{name} is neither in eigentwist.__all__ nor a documented subpackage"
+                )
         elif name not in subpackages[sub]:
             bad.append(f"line {line}: eigentwist.{sub}.{name} is not in eigentwist.{sub}.__all__")
 
@@ -135,9 +149,13 @@ def api_violations(code: str, top: set, subpackages: dict) -> list[str]:
         if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in bound:
             sub = bound[node.value.id]
             check(sub, node.attr, node.lineno)
-        elif (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute)
-              and isinstance(node.value.value, ast.Name) and bound.get(node.value.value.id) == ""
-              and node.value.attr in subpackages):
+        elif (
+            isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Attribute)
+            and isinstance(node.value.value, ast.Name)
+            and bound.get(node.value.value.id) == ""
+            and node.value.attr in subpackages
+        ):
             check(node.value.attr, node.attr, node.lineno)
     return sorted(set(bad))
 
@@ -153,25 +171,31 @@ def test_notebook_uses_the_public_api_only(path, api):
     assert not bad, f"{path.name}:\n  " + "\n  ".join(bad)
 
 
-@pytest.mark.parametrize("code", [
-    "from eigentwist.runtime.loader import evaluator_from_description",       # a private module
-    "from eigentwist.codegen.generate import kernels_for",
-    "from eigentwist.diagnose.plots import plot_comparison",                  # a private module
-    "from eigentwist import paper\npaper.EQ58_KF",                            # 02: an unexported table
-    "import eigentwist\neigentwist.runtime.loader.load_module('heli4')",
-    "import eigentwist.runtime.loader",
-    "from eigentwist.diagnose import select",
-    "import eigentwist\neigentwist.diagnose.select",
-])
+@pytest.mark.parametrize(
+    "code",
+    [
+        "from eigentwist.runtime.loader import evaluator_from_description",  # a private module
+        "from eigentwist.codegen.generate import kernels_for",
+        "from eigentwist.diagnose.plots import plot_comparison",  # a private module
+        "from eigentwist import paper\npaper.EQ58_KF",  # 02: an unexported table
+        "import eigentwist\neigentwist.runtime.loader.load_module('heli4')",
+        "import eigentwist.runtime.loader",
+        "from eigentwist.diagnose import select",
+        "import eigentwist\neigentwist.diagnose.select",
+    ],
+)
 def test_the_api_check_catches_private_uses(code, api):
     assert api_violations(code, *api)
 
 
-@pytest.mark.parametrize("code", [
-    "import eigentwist\nev = eigentwist.load('heli4')\neigentwist.robots.get('heli4')",
-    "from eigentwist import paper\npaper.TABLE_E1",
-    "from eigentwist.plots import plot_modes",
-    "import eigentwist.robots as robots\nrobots.get('delta')",
-])
+@pytest.mark.parametrize(
+    "code",
+    [
+        "import eigentwist\nev = eigentwist.load('heli4')\neigentwist.robots.get('heli4')",
+        "from eigentwist import paper\npaper.TABLE_E1",
+        "from eigentwist.plots import plot_modes",
+        "import eigentwist.robots as robots\nrobots.get('delta')",
+    ],
+)
 def test_the_api_check_allows_public_names(code, api):
     assert not api_violations(code, *api)

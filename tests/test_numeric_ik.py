@@ -12,6 +12,7 @@ derivation of the same joint coordinates), not from the Newton code:
 * the README's joint-list file loads through ``eigentwist.load(PATH)`` and ``--robot PATH``;
 * compiled tier: the C loop-closure kernel equals the NumPy one, and so do the solutions.
 """
+
 from __future__ import annotations
 
 import re
@@ -36,8 +37,10 @@ def numeric():
     """NumPy evaluators of the shipped robots with their legs in URDF form (generated once
     into the cache) and of the shipped robots themselves."""
     robots = {"heli4": rrpirr_urdf.heli4(), "delta": rrpirr_urdf.delta(), "hexapod": hexapod_urdf.describe()}
-    return {name: (eigentwist.load(robot, backend="numpy", progress=lambda m: None),
-                   eigentwist.load(name, backend="numpy")) for name, robot in robots.items()}
+    return {
+        name: (eigentwist.load(robot, backend="numpy", progress=lambda m: None), eigentwist.load(name, backend="numpy"))
+        for name, robot in robots.items()
+    }
 
 
 def _closed_coordinates(name: str, q_numeric: np.ndarray) -> np.ndarray:
@@ -73,7 +76,7 @@ def test_newton_converges_over_the_workspace_box(numeric, name):
 def test_unreachable_pose_is_reported(numeric):
     ev, shipped = numeric["heli4"]
     far = np.array([[0.0, 0.0, -1.2], [0.0, 0.0, -0.625], [0.6, 0.0, -0.6]])
-    assert not shipped.valid(far[[0, 2]]).any()          # beyond the legs' reach
+    assert not shipped.valid(far[[0, 2]]).any()  # beyond the legs' reach
     assert ev.valid(far).tolist() == [False, True, False]
     q = ev.joint_angles(far[1:2])
     assert np.isfinite(q).all()
@@ -119,7 +122,7 @@ def test_joint_coordinates_in_equal_pose_in(numeric, name):
         assert np.abs(ma[k] - mj[k]).max() <= 1e-12 * np.abs(ma[k]).max()
     modes = ev.modes(poses, joints=q)
     assert np.abs(modes.freq_hz - by_pose).max() <= 1e-12 * by_pose.max()
-    if ev.dof == 3:                                      # a translational model reads the joints only
+    if ev.dof == 3:  # a translational model reads the joints only
         assert np.array_equal(ev.frequencies(None, joints=q), at_joints)
 
 
@@ -155,8 +158,23 @@ def test_readme_joint_list_file_loads(readme_file, numeric):
     a, b = ev.frequencies(poses, "none"), shipped.frequencies(poses, "none")
     assert np.abs(a - b).max() / b.max() < 1e-9
     # the same file through the command line's --robot door
-    cmd = [sys.executable, "-m", "eigentwist", "matrices", "--robot", str(readme_file), "--pose", "0", "0", "0.8",
-           "0", "0", "0", "--model", "none"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "eigentwist",
+        "matrices",
+        "--robot",
+        str(readme_file),
+        "--pose",
+        "0",
+        "0",
+        "0.8",
+        "0",
+        "0",
+        "0",
+        "--model",
+        "none",
+    ]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert "62.27" in run.stdout or "62.3" in run.stdout
@@ -178,7 +196,7 @@ def test_c_loop_closure_equals_numpy(numeric):
     q = ev.joint_angles(poses) + 0.05 * rng.standard_normal((30, 6, 3))
     p = {**ev.parameter_values(30), **ev.kernel_pose_inputs(poses)}
     a = ev.module.loop_closure(q, p)
-    b = evc._kernels.loop_closure(q, p)            # the compiled kernel itself
+    b = evc._kernels.loop_closure(q, p)  # the compiled kernel itself
     for k in ("residual", "dresidual"):
         assert np.allclose(a[k], b[k], rtol=1e-12, atol=1e-14)
     assert np.abs(evc.joint_angles(poses) - ev.joint_angles(poses)).max() < 1e-12
@@ -189,7 +207,7 @@ def test_c_loop_closure_equals_numpy(numeric):
     full, pc = evc._poses(poses), evc.parameter_values(30)
     in_c = evc.solve_joints(full, pc)
     evc.c_newton = False
-    evc._newton_memo.clear()                                              # solved again, in NumPy
+    evc._newton_memo.clear()  # solved again, in NumPy
     in_numpy = evc.solve_joints(full, pc)
     evc.c_newton = True
     assert in_numpy is not in_c
@@ -231,8 +249,9 @@ def test_measurement_csv_joint_columns(numeric):
     b = Predictor(without, ("actuator_loss",), ev).predict()[0]
     assert np.abs(a - b).max() <= 1e-12 * b.max()
     # shifted encoder readings move the prediction: the columns are used, not ignored
-    shifted = parse_csv("\n".join(rows).replace(repr(float(q[0, 0, 0])), repr(float(q[0, 0, 0]) + 0.01)) + "\n",
-                        "shift.csv", ev)
+    shifted = parse_csv(
+        "\n".join(rows).replace(repr(float(q[0, 0, 0])), repr(float(q[0, 0, 0]) + 0.01)) + "\n", "shift.csv", ev
+    )
     assert np.abs(Predictor(shifted, ("actuator_loss",), ev).predict()[0][:2] - b[:2]).max() > 1e-3
     with pytest.raises(MeasurementError, match="'q3@4' is missing"):
         parse_csv("\n".join(r.rsplit(",", 1)[0] for r in rows) + "\n", "cut.csv", ev)
@@ -241,13 +260,25 @@ def test_measurement_csv_joint_columns(numeric):
 # ------------------------------------------------------------ the solver on its own
 def _two_link(poses, l1=1.0, l2=0.8):
     """Loop closure of a planar two-link arm reaching (x, y): an independent NumPy model."""
+
     def closure(q, p):
         a, b = q[..., 0], q[..., 1]
-        r = np.stack([l1 * np.cos(a) + l2 * np.cos(a + b) - p["x"][:, None],
-                      l1 * np.sin(a) + l2 * np.sin(a + b) - p["y"][:, None]], -1)
-        A = np.stack([np.stack([-l1 * np.sin(a) - l2 * np.sin(a + b), -l2 * np.sin(a + b)], -1),
-                      np.stack([l1 * np.cos(a) + l2 * np.cos(a + b), l2 * np.cos(a + b)], -1)], -2)
+        r = np.stack(
+            [
+                l1 * np.cos(a) + l2 * np.cos(a + b) - p["x"][:, None],
+                l1 * np.sin(a) + l2 * np.sin(a + b) - p["y"][:, None],
+            ],
+            -1,
+        )
+        A = np.stack(
+            [
+                np.stack([-l1 * np.sin(a) - l2 * np.sin(a + b), -l2 * np.sin(a + b)], -1),
+                np.stack([l1 * np.cos(a) + l2 * np.cos(a + b), l2 * np.cos(a + b)], -1),
+            ],
+            -2,
+        )
         return {"residual": r, "dresidual": A}
+
     return closure, {"x": poses[:, 0], "y": poses[:, 1]}
 
 
@@ -259,9 +290,9 @@ def test_newton_keeps_the_descriptions_branch(elbow):
 
     rng = np.random.default_rng(4)
     radius = rng.uniform(0.3, 1.7, 200)
-    angle = rng.uniform(-0.6, 1.2, 200)                # the arm's workspace: a sector about the reference
+    angle = rng.uniform(-0.6, 1.2, 200)  # the arm's workspace: a sector about the reference
     poses = np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
-    poses = np.vstack([poses, [[2.5, 0.0]], [[0.05, 0.0]]])       # out of reach: too far, too close
+    poses = np.vstack([poses, [[2.5, 0.0]], [[0.05, 0.0]]])  # out of reach: too far, too close
     closure, p = _two_link(poses)
     q = solve(closure, np.array([[0.3, 1.2 * elbow]]), p, len(poses), branch=lambda q: np.sin(q[..., 1]))
     cos_b = (radius**2 - 1.0 - 0.64) / (2 * 0.8)
@@ -278,7 +309,7 @@ def test_homotopy_keeps_the_references_elbow_where_newton_jumps():
     from eigentwist.runtime.levenberg_marquardt import continuation, solve
 
     target = np.array([[-0.59, -0.14]])
-    reference = np.array([[-1.02, 1.73]])                     # elbow +: sin(1.73) > 0
+    reference = np.array([[-1.02, 1.73]])  # elbow +: sin(1.73) > 0
     closure, p = _two_link(target)
     jumped = solve(closure, reference, p, 1)[0, 0]
     kept, residual = continuation(closure, reference, p)
@@ -310,14 +341,14 @@ def test_homotopy_follows_its_path_within_path_tol(factor, follows):
 def test_two_configurations_are_one_within_the_branch_gap():
     from eigentwist.runtime.levenberg_marquardt import BRANCH_GAP, same_configuration
 
-    a = np.array([0.3, -2.0, 0.8])                           # rad, rad, m
+    a = np.array([0.3, -2.0, 0.8])  # rad, rad, m
     angular = np.array([True, True, False])
     for k in range(3):
         step = np.eye(3)[k]
         assert same_configuration(a + 0.9 * BRANCH_GAP * step, a, angular)
         assert not same_configuration(a + 1.1 * BRANCH_GAP * step, a, angular)
-    assert same_configuration(a + [2 * np.pi, -2 * np.pi, 0], a, angular)       # a turn is the same joint
-    assert not same_configuration(a + [0, 0, 2 * np.pi], a, angular)            # a length is not an angle
+    assert same_configuration(a + [2 * np.pi, -2 * np.pi, 0], a, angular)  # a turn is the same joint
+    assert not same_configuration(a + [0, 0, 2 * np.pi], a, angular)  # a length is not an angle
     assert not same_configuration(a + [np.nan, 0, 0], a, angular)
 
 
@@ -357,7 +388,7 @@ def test_newton_memo_keys_every_input(numeric):
             return {"lever": np.ones(q.shape[:2])}
 
     ev._kernels, ev.__dict__["_newton_memo"] = Kernels, {}
-    ev.__dict__["_assembly"] = {**ev.assembly(), "sign": np.ones(ev.n_legs)}   # the fake lever's branch
+    ev.__dict__["_assembly"] = {**ev.assembly(), "sign": np.ones(ev.n_legs)}  # the fake lever's branch
     poses = np.zeros((3, 3))
     for rod in (0.10, 0.20, 0.20, 0.15):
         q = ev.solve_joints(poses, {"q_rod": np.asarray(rod)})

@@ -1,4 +1,5 @@
 """Worst-case frequency optimisation: known optimum, bounds, constraints, no FD."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,7 +15,7 @@ from .test_sensitivity import WRT
 @pytest.fixture(scope="module")
 def ev():
     ev = eigentwist.load("heli4", backend="numpy")
-    ev.sensitivities(ev.robot.x_ref, WRT["heli4"])       # one generated kernel serves every subset below
+    ev.sensitivities(ev.robot.x_ref, WRT["heli4"])  # one generated kernel serves every subset below
     return ev
 
 
@@ -25,12 +26,14 @@ def _count_calls(monkeypatch, ev):
     def counted(*a, **k):
         calls["sens"] += 1
         return real(*a, **k)
+
     monkeypatch.setattr(sens, "frequency_sensitivities", counted)
     real_modes = ev.modes
 
     def modes(*a, **k):
         calls["freq"] += 1
         return real_modes(*a, **k)
+
     monkeypatch.setattr(ev, "modes", modes)
     return calls
 
@@ -42,7 +45,7 @@ def test_one_parameter_optimum_equals_brute_force(ev, monkeypatch):
     f1 = ev.frequencies(np.repeat(poses, len(grid), axis=0), "paper", l1=np.tile(grid, len(poses)))[:, 0]
     worst = f1.reshape(len(poses), -1).min(axis=0)
     k = int(np.argmax(worst))
-    assert 0 < k < len(grid) - 1                              # interior: a real optimum
+    assert 0 < k < len(grid) - 1  # interior: a real optimum
     calls = _count_calls(monkeypatch, ev)
     res = optimize_worst_case(ev, [Vary("l1", 0.15, 0.25)], poses, "paper")
     assert abs(res.values["l1"] - grid[k]) <= grid[1] - grid[0]
@@ -59,8 +62,9 @@ def test_bounds_and_mass_constraint_are_respected(ev, method):
     vary = [Vary("l2", 0.5, 0.56), Vary("m_e", 0.3, 0.6)]
     start_mass, _ = moving_mass(ev, ("l2", "m_e"), {})
     limit = start_mass * 0.98
-    res = optimize_worst_case(ev, vary, poses, "paper", constraints=[Constraint("moving-mass", "<=", limit)],
-                              method=method, maxiter=60)
+    res = optimize_worst_case(
+        ev, vary, poses, "paper", constraints=[Constraint("moving-mass", "<=", limit)], method=method, maxiter=60
+    )
     for v in vary:
         assert v.lo - 1e-12 <= res.values[v.name] <= v.hi + 1e-12
     mass, _ = moving_mass(ev, ("l2", "m_e"), res.values)

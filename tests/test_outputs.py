@@ -1,5 +1,6 @@
 """Outputs never replace an input, are written whole or not at all, and replace a file of
 another kind only with --force (eigentwist/outputs.py, the commands' -o/--plot/--uff)."""
+
 from __future__ import annotations
 
 import os
@@ -29,14 +30,17 @@ def _refused(capsys, argv, *words):
     return err
 
 
-@pytest.mark.parametrize("argv", [
-    ["report", "{data}", "--baseline", "paper", "-o", "{data}"],
-    ["compare", "{data}", "--plot", "{data}"],
-    ["diagnose", "{data}", "--plot", "{data}"],
-    ["identify", "{data}", "-o", "{data}"],
-    ["report", "{data}", "-o", "{link}"],
-    ["report", "{data}", "-o", "{hard}", "--force"],          # --force never destroys an input
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["report", "{data}", "--baseline", "paper", "-o", "{data}"],
+        ["compare", "{data}", "--plot", "{data}"],
+        ["diagnose", "{data}", "--plot", "{data}"],
+        ["identify", "{data}", "-o", "{data}"],
+        ["report", "{data}", "-o", "{link}"],
+        ["report", "{data}", "-o", "{hard}", "--force"],  # --force never destroys an input
+    ],
+)
 def test_an_input_is_never_an_output(tmp_path, data, capsys, argv):
     (tmp_path / "link.csv").symlink_to(data)
     os.link(data, tmp_path / "hard.csv")
@@ -48,8 +52,9 @@ def test_an_input_is_never_an_output(tmp_path, data, capsys, argv):
 def test_the_robot_description_file_is_an_input_too(tmp_path, capsys):
     robot = tmp_path / "robot.py"
     robot.write_text("def describe():\n    raise SystemExit\n")
-    _refused(capsys, ["synth", "--robot", str(robot), "--truth", "paper", "--k-a", "500", "-o", str(robot)],
-             "is the input")
+    _refused(
+        capsys, ["synth", "--robot", str(robot), "--truth", "paper", "--k-a", "500", "-o", str(robot)], "is the input"
+    )
     assert robot.read_text().startswith("def describe")
 
 
@@ -82,19 +87,26 @@ def test_check_output_kinds(tmp_path):
     assert check_output(tmp_path / "new.html", "html", inputs=[csv]).name == "new.html"
 
 
-@pytest.mark.parametrize("head, kind", [
-    (b"\xef\xbb\xbf \n<!DOCTYPE html>\n<html>", "html"),       # BOM and blank lines first
-    (b"<HTML><BODY></BODY></HTML>", "html"),
-    (b"<svg xmlns='http://www.w3.org/2000/svg'/>", "svg"),
-    (b"<?xml version='1.0'?>\n<svg/>", "svg"),
-    (b"<?xml version='1.0'?>\n<root/>", "text"),
-    (b"k_a,mode,freq_hz\n<svg\n", "text"),                     # a word inside, not its start
-    (b"GIF89a...", "gif"), (b"%PDF-1.7", "pdf"), (b"PK\x03\x04", "zip"), (b"PAR1", "parquet"),
-    (b"\xff\xd8\xff\xe0", "jpeg"),
-    (b"a,b\n\x00\x01", "binary"), (b"\xff\xfe\xfa", "binary"),
-    (b"x" * 4095 + "\u00e9".encode(), "text"),                  # a character cut at byte 4096
-    (b"x" * 4096 + b"\x00", "text"),                            # only the first 4096 bytes are read
-])
+@pytest.mark.parametrize(
+    "head, kind",
+    [
+        (b"\xef\xbb\xbf \n<!DOCTYPE html>\n<html>", "html"),  # BOM and blank lines first
+        (b"<HTML><BODY></BODY></HTML>", "html"),
+        (b"<svg xmlns='http://www.w3.org/2000/svg'/>", "svg"),
+        (b"<?xml version='1.0'?>\n<svg/>", "svg"),
+        (b"<?xml version='1.0'?>\n<root/>", "text"),
+        (b"k_a,mode,freq_hz\n<svg\n", "text"),  # a word inside, not its start
+        (b"GIF89a...", "gif"),
+        (b"%PDF-1.7", "pdf"),
+        (b"PK\x03\x04", "zip"),
+        (b"PAR1", "parquet"),
+        (b"\xff\xd8\xff\xe0", "jpeg"),
+        (b"a,b\n\x00\x01", "binary"),
+        (b"\xff\xfe\xfa", "binary"),
+        (b"x" * 4095 + "\u00e9".encode(), "text"),  # a character cut at byte 4096
+        (b"x" * 4096 + b"\x00", "text"),  # only the first 4096 bytes are read
+    ],
+)
 def test_file_kind_from_the_first_bytes(tmp_path, head, kind):
     path = tmp_path / "f"
     path.write_bytes(head)
@@ -108,16 +120,20 @@ def test_refusals_say_what_and_why(tmp_path):
     html.write_text("<html></html>")
     with pytest.raises(OutputError) as exc:
         check_output(data, "csv", inputs=[None, data])
-    assert str(exc.value) == (f"-o {str(data)!r} is the input {str(data)!r}: writing there would destroy it; "
-                               "choose another output path")
+    assert str(exc.value) == (
+        f"-o {str(data)!r} is the input {str(data)!r}: writing there would destroy it; choose another output path"
+    )
     with pytest.raises(OutputError) as exc:
         check_output(csv, "html", option="--plot")
-    assert str(exc.value) == (f"--plot {str(csv)!r} exists and is a text file, not an html output: choose another "
-                              "path or pass --force to replace it")
+    assert str(exc.value) == (
+        f"--plot {str(csv)!r} exists and is a text file, not an html output: choose another "
+        "path or pass --force to replace it"
+    )
     with pytest.raises(OutputError) as exc:
         check_output(html, "csv")
-    assert str(exc.value).endswith("exists and is a html file, not a csv output: choose another path or pass "
-                                   "--force to replace it")
+    assert str(exc.value).endswith(
+        "exists and is a html file, not a csv output: choose another path or pass --force to replace it"
+    )
     with pytest.raises(OutputError, match=r"exists and is a directory, not a image output"):
         check_output(tmp_path, "image")
     with pytest.raises(InputError) as exc:
@@ -148,7 +164,7 @@ def test_a_failed_write_leaves_the_old_file(tmp_path):
     assert path.read_text() == "old\n" and os.listdir(tmp_path) == ["out.csv"]
     write_atomic(path, "new\n")
     assert path.read_text() == "new\n" and os.listdir(tmp_path) == ["out.csv"]
-    assert (path.stat().st_mode & 0o777) == 0o640          # the replaced file's mode is kept
+    assert (path.stat().st_mode & 0o777) == 0o640  # the replaced file's mode is kept
 
 
 # ------------------------------------------------------------ typed errors on the command line
@@ -158,16 +174,20 @@ def test_user_errors_are_one_line_and_bugs_a_traceback(monkeypatch, capsys):
     import eigentwist.cli.matrices as matrices
     from eigentwist.errors import DescriptionError, EigentwistError, InputError
 
-    assert issubclass(EigentwistError, ValueError)                   # ``except ValueError`` keeps working
+    assert issubclass(EigentwistError, ValueError)  # ``except ValueError`` keeps working
     assert issubclass(InputError, EigentwistError) and issubclass(DescriptionError, EigentwistError)
 
     def fails(exc):
         def run(args):
             raise exc
+
         return run
 
-    for exc, code in ((InputError("pose 'x': expected a number"), 2), (KeyError("x"), 1),
-                      (ValueError("math domain error"), 1)):
+    for exc, code in (
+        (InputError("pose 'x': expected a number"), 2),
+        (KeyError("x"), 1),
+        (ValueError("math domain error"), 1),
+    ):
         monkeypatch.setattr(matrices, "run", fails(exc))
         assert main(["matrices"]) == code
         err = capsys.readouterr().err
@@ -186,7 +206,10 @@ def test_no_bare_value_error_is_raised_in_the_package():
     import eigentwist
 
     root = Path(eigentwist.__file__).parent
-    bare = [f"{p.relative_to(root)}:{n}" for p in root.rglob("*.py")
-            for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
-            if re.search(r"raise ValueError\(", line)]
+    bare = [
+        f"{p.relative_to(root)}:{n}"
+        for p in root.rglob("*.py")
+        for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+        if re.search(r"raise ValueError\(", line)
+    ]
     assert bare == [], bare

@@ -1,4 +1,5 @@
 """Against the paper (DOI 10.1016/j.mechmachtheory.2019.103775), within print rounding."""
+
 from __future__ import annotations
 
 import pytest
@@ -16,8 +17,11 @@ def _select(values, source):
 
 
 def _assert_within_rounding(vals, skip=()):
-    bad = [f"{v.source} {v.label}: paper {v.printed}, model {v.model:.6g}" for v in vals
-           if v.label not in skip and not v.within_rounding]
+    bad = [
+        f"{v.source} {v.label}: paper {v.printed}, model {v.model:.6g}"
+        for v in vals
+        if v.label not in skip and not v.within_rounding
+    ]
     assert not bad, "outside print rounding:\n" + "\n".join(bad)
 
 
@@ -99,7 +103,7 @@ def test_kf22_explanation_one_e_rod_puts_the_rod_entries_within_rounding(ev):
     for E in (170.0004e9, 170.002e9, 170.0035e9):
         K = ev.matrices(x, "paper", k_a=K_A_REF, E_rod=E)["K_F"][0]
         assert all(abs(K[ij] - p) <= 0.5 for ij, p in printed.items()), E
-    K = ev.matrices(x, "paper", k_a=K_A_REF)["K_F"][0]            # the rounded default: (2,2) just outside
+    K = ev.matrices(x, "paper", k_a=K_A_REF)["K_F"][0]  # the rounded default: (2,2) just outside
     assert 0.5 < abs(K[1, 1] - 28114) < 0.6
 
 
@@ -111,8 +115,9 @@ def test_k_e_rot_500_is_what_matches_kf66(ev):
 
 
 def test_reproduce_command_marks_calibration_and_gives_both_counts():
-    out = subprocess.run([sys.executable, "-m", "eigentwist", "reproduce"], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "eigentwist", "reproduce"], capture_output=True, text=True, check=True
+    ).stdout
     lines = [ln for ln in out.splitlines() if ln.split()[:3] == ["Eq.", "58", "K_F"]]
     assert sum("calibration" in ln for ln in lines) == 3
     assert any("(2,2)" in ln and "explained" in ln for ln in lines)
@@ -122,10 +127,18 @@ def test_reproduce_command_marks_calibration_and_gives_both_counts():
 
 def test_readme_says_exactly_what_reproduces(counts):
     text = " ".join(README.read_text(encoding="utf-8").split())
-    m = re.search(r"Of the (\d+) non-zero numbers the paper prints .*?, (\d+) are within print rounding; (\d+) of "
-                  r"those are calibration targets.*?so (\d+) of the other (\d+) reproduce\. The (\d+) that do not", text)
+    m = re.search(
+        r"Of the (\d+) non-zero numbers the paper prints .*?, (\d+) are within print rounding; (\d+) of "
+        r"those are calibration targets.*?so (\d+) of the other (\d+) reproduce\. The (\d+) that do not",
+        text,
+    )
     assert m, "README: the sentence on what reproduces is missing"
-    assert tuple(map(int, m.groups())) == (counts["nonzero"], counts["nonzero_within"], counts["calibration"],
-                                           counts["tested_within"], counts["tested"],
-                                           counts["tested"] - counts["tested_within"])
+    assert tuple(map(int, m.groups())) == (
+        counts["nonzero"],
+        counts["nonzero_within"],
+        counts["calibration"],
+        counts["tested_within"],
+        counts["tested"],
+        counts["tested"] - counts["tested_within"],
+    )
     assert "every model number" not in text

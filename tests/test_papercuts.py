@@ -1,4 +1,5 @@
 """Papercuts a new user met: each one line and to the point, none silent."""
+
 from __future__ import annotations
 
 import inspect
@@ -28,7 +29,7 @@ def one_error_line(err: str) -> str:
 
 # ------------------------------------------------------------ the modal extra
 def test_missing_modal_extra_names_the_install_command(capsys, monkeypatch, tmp_path):
-    monkeypatch.setitem(sys.modules, "pyuff", None)          # as if the modal extra were not installed
+    monkeypatch.setitem(sys.modules, "pyuff", None)  # as if the modal extra were not installed
     code, _, err = run(capsys, "synth", "--truth", "paper", "--k-a", "1000", "--uff", str(tmp_path / "c"))
     assert code == 2
     line = one_error_line(err)
@@ -37,8 +38,9 @@ def test_missing_modal_extra_names_the_install_command(capsys, monkeypatch, tmp_
 
 def test_identify_without_the_modal_extra(capsys, monkeypatch, tmp_path):
     pytest.importorskip("pyuff")
-    code, _, _ = run(capsys, "synth", "--truth", "paper", "--k-a", "1000", "--uff", str(tmp_path / "c"),
-                     "--dataset", "55")
+    code, _, _ = run(
+        capsys, "synth", "--truth", "paper", "--k-a", "1000", "--uff", str(tmp_path / "c"), "--dataset", "55"
+    )
     assert code == 0
     monkeypatch.setitem(sys.modules, "pyuff", None)
     monkeypatch.setitem(sys.modules, "sdypy", None)
@@ -48,8 +50,9 @@ def test_identify_without_the_modal_extra(capsys, monkeypatch, tmp_path):
 
 # ----------------------------------------------------------- percentages
 def test_damping_error_names_damping(capsys, tmp_path):
-    code, _, err = run(capsys, "synth", "--truth", "paper", "--k-a", "1000", "--uff", str(tmp_path / "c"),
-                       "--damping", "150%")
+    code, _, err = run(
+        capsys, "synth", "--truth", "paper", "--k-a", "1000", "--uff", str(tmp_path / "c"), "--damping", "150%"
+    )
     line = one_error_line(err)
     assert code == 2 and "damping '150%'" in line and "noise" not in line
 
@@ -66,8 +69,9 @@ def test_zero_noise_says_which_sigma_it_writes(capsys):
     header, row = out.strip().splitlines()
     cells = dict(zip(header.split(","), row.split(",")))
     assert float(cells["sigma_hz"]) == pytest.approx(0.02 * float(cells["freq_hz"]), rel=1e-9)
-    code, out, _ = run(capsys, "synth", "--truth", "paper", "--k-a", "1000", "--noise", "0%", "--sigma", "1%",
-                       "--modes", "x")
+    code, out, _ = run(
+        capsys, "synth", "--truth", "paper", "--k-a", "1000", "--noise", "0%", "--sigma", "1%", "--modes", "x"
+    )
     assert code == 0
     header, row = out.strip().splitlines()
     cells = dict(zip(header.split(","), row.split(",")))
@@ -114,9 +118,11 @@ def test_version_imports_neither_sympy_nor_numpy():
     import subprocess
     import sys
 
-    code = ("import sys; from eigentwist.cli.main import main\n"
-            "try:\n    main(['--debug', '--version'])\nexcept SystemExit as e:\n    assert e.code == 0\n"
-            "print(sorted(m for m in ('sympy', 'numpy') if m in sys.modules))")
+    code = (
+        "import sys; from eigentwist.cli.main import main\n"
+        "try:\n    main(['--debug', '--version'])\nexcept SystemExit as e:\n    assert e.code == 0\n"
+        "print(sorted(m for m in ('sympy', 'numpy') if m in sys.modules))"
+    )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0, run.stderr
     assert run.stdout.splitlines() == [f"eigentwist {eigentwist.__version__}", "[]"]
@@ -154,7 +160,7 @@ def test_report_help_names_campaign_manifests(capsys):
 def test_matrices_does_not_disown_its_own_frequencies(capsys):
     code, out, _ = run(capsys, "matrices", "--robot", "hexapod")
     assert code == 0 and "not this model's frequencies" not in out
-    assert "has the same frequencies here" in out                 # K_F = K_R: the numbers are equal
+    assert "has the same frequencies here" in out  # K_F = K_R: the numbers are equal
     code, out, _ = run(capsys, "matrices")
     assert code == 0 and "for reference, the rigid model from the printed M and K_R" in out
 

@@ -1,4 +1,5 @@
 """Identities of physics over the workspace (style: pinocchio-like identity tests)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -44,7 +45,7 @@ def _twist_adjoint(p):
 
 def test_frequencies_invariant_under_change_of_reference_point(ev, grid):
     M, K = ev.stiffness(grid[:8], PAPER)
-    f0 = np.sqrt(generalized_eigh(K, M)[0]) / (2 * np.pi)   # of the same (M, K) pair (K_F with its c_rigid)
+    f0 = np.sqrt(generalized_eigh(K, M)[0]) / (2 * np.pi)  # of the same (M, K) pair (K_F with its c_rigid)
     A = _twist_adjoint(np.array([0.03, -0.2, 0.11]))
     M2, K2 = A.T @ M @ A, A.T @ K @ A
     assert not np.allclose(M2, M)
@@ -56,21 +57,28 @@ def test_stiffness_scaling_scales_frequencies_by_sqrt_c(ev, grid):
     c = 3.7
     d = ev.defaults
     f0 = ev.frequencies(grid[:6], PAPER)
-    f1 = ev.frequencies(grid[:6], PAPER, k_a=c * d["k_a"], k_E_rot=c * d["k_E_rot"], k_E_lin=c * d["k_E_lin"],
-                        E_rod=c * d["E_rod"], G_rod=c * d["G_rod"])
+    f1 = ev.frequencies(
+        grid[:6],
+        PAPER,
+        k_a=c * d["k_a"],
+        k_E_rot=c * d["k_E_rot"],
+        k_E_lin=c * d["k_E_lin"],
+        E_rod=c * d["E_rod"],
+        G_rod=c * d["G_rod"],
+    )
     # the legs' rigid constraint directions are exact: no c_rigid to scale
     np.testing.assert_allclose(f1, np.sqrt(c) * f0, rtol=1e-12)
 
 
 def test_inverse_jacobian_rows_match_finite_differences_of_ik(ev):
     poses = random_poses(ev.robot, 5, seed=7)
-    rows = ev.jacobians(poses)["J_rows"]                 # (N, legs, 4, 6)
+    rows = ev.jacobians(poses)["J_rows"]  # (N, legs, 4, 6)
     h = 1e-6
     l2 = ev.defaults["l2"]
     for k in range(3):
         dp = np.zeros(3)
         dp[k] = h
-        dq = (ev.joint_angles(poses + dp) - ev.joint_angles(poses - dp)) / (2 * h)   # (N, legs, 3)
+        dq = (ev.joint_angles(poses + dp) - ev.joint_angles(poses - dp)) / (2 * h)  # (N, legs, 3)
         np.testing.assert_allclose(rows[:, :, 0, 3 + k], dq[..., 0], rtol=1e-6, atol=1e-6)
         np.testing.assert_allclose(rows[:, :, 1, 3 + k], dq[..., 1], rtol=1e-6, atol=1e-6)
         np.testing.assert_allclose(rows[:, :, 2, 3 + k], l2 * dq[..., 2], rtol=1e-6, atol=1e-6)
@@ -113,7 +121,7 @@ def test_screws_are_reciprocal(derived):
         T = sp.Matrix.hstack(*[ls.twists[k] for k in keys])
         R = sp.Matrix.vstack(*[ls.rows[k] for k in keys])
         num = lambda m: np.array(derived.program.evaluate(vals, m), dtype=float)  # noqa: E731
-        T, R, t4 = num(T), num(R), num(ls.twists[4])     # numbers first: the products in NumPy
+        T, R, t4 = num(T), num(R), num(ls.twists[4])  # numbers first: the products in NumPy
         np.testing.assert_allclose(R @ T, np.eye(5), atol=1e-12)
         # the actuation and constraint wrenches are also reciprocal to t_a4
         np.testing.assert_allclose(R[[0, 1, 2, 4]] @ t4, 0, atol=1e-12)

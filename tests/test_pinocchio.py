@@ -3,6 +3,7 @@ its own free body, the tree's mass matrix (``crba``) and the actuated/elastic jo
 rows reduced through the loop-closure velocity map to the platform's freedoms
 (``tests/pinocchio_model.py``); frequencies, M and K equal eigentwist's at 20 random
 reachable poses to 1e-8 relative."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -18,7 +19,7 @@ from .pinocchio_model import PinFrame, PinocchioRobot, eigen_frequencies, from_d
 
 RTOL = 1e-8
 N_POSES = 20
-TRANSLATION = np.vstack([np.zeros((3, 3)), np.eye(3)])          # the 3-DoF robots' freedoms: [0; v]
+TRANSLATION = np.vstack([np.zeros((3, 3)), np.eye(3)])  # the 3-DoF robots' freedoms: [0; v]
 
 
 def _rel(a, b) -> float:
@@ -43,10 +44,11 @@ def _rod_law(params):
 
     def law(i, state):
         r2 = state["frames"]["L2"].rotation[:, 0]
-        s = state["frames"]["E1"].rotation[:, 1]          # the bars' direction s_i (elbow link)
+        s = state["frames"]["E1"].rotation[:, 1]  # the bars' direction s_i (elbow link)
         d_pi = params["w_pi"] * np.linalg.norm(np.cross(r2, s))
         C = rod_pair_compliance(params["l2"], params["r_i"], params["r_o"], params["E_rod"], params["G_rod"], d_pi)
         return np.array(C, dtype=float)
+
     return law
 
 
@@ -91,8 +93,12 @@ def build(ev, model: str):
             laws["L2"] = _rod_law(p)
         if "ee_compliance" in effects:
             split = robot.ee_compliance
-            origin = x_ref[:3] + np.array([float(c.subs({s: p[s.name] for s in c.free_symbols}))
-                                           if hasattr(c, "free_symbols") else float(c) for c in split.origin])
+            origin = x_ref[:3] + np.array(
+                [
+                    float(c.subs({s: p[s.name] for s in c.free_symbols})) if hasattr(c, "free_symbols") else float(c)
+                    for c in split.origin
+                ]
+            )
             for leg in spec.legs:
                 leg.frames.append(PinFrame("ee", -1, np.eye(3), origin))
             subs = {s: p[s.name] for s in set().union(*[m.free_symbols for m in split.per_leg.values()])}
@@ -103,9 +109,18 @@ def build(ev, model: str):
     return PinocchioRobot(spec), freedoms, kw
 
 
-CASES = [("hexapod", "none"), ("hexapod", "rigid"), ("heli4", "none"), ("heli4", "paper"),
-         ("heli4", "swinging_rods"), ("heli4", "paper,swinging_rods"),
-         ("delta", "none"), ("delta", "paper"), ("delta", "swinging_rods"), ("delta", "paper,swinging_rods")]
+CASES = [
+    ("hexapod", "none"),
+    ("hexapod", "rigid"),
+    ("heli4", "none"),
+    ("heli4", "paper"),
+    ("heli4", "swinging_rods"),
+    ("heli4", "paper,swinging_rods"),
+    ("delta", "none"),
+    ("delta", "paper"),
+    ("delta", "swinging_rods"),
+    ("delta", "paper,swinging_rods"),
+]
 
 
 @pytest.mark.parametrize("name,model", CASES)

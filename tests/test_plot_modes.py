@@ -1,4 +1,5 @@
 """``eigentwist plot modes``: the lowest mode shapes as a GIF for slides, an animated SVG."""
+
 from __future__ import annotations
 
 import re
@@ -20,7 +21,7 @@ def test_gif_frames_move_the_platform(tmp_path, capsys):
     im = Image.open(out)
     assert im.format == "GIF" and im.n_frames >= 12
     frames = []
-    for k in (0, im.n_frames // 4):                     # rest and a quarter period: the largest displacement
+    for k in (0, im.n_frames // 4):  # rest and a quarter period: the largest displacement
         im.seek(k)
         frames.append(np.asarray(im.convert("RGB"), dtype=float))
     assert np.mean(np.abs(frames[0] - frames[1]).sum(axis=-1) > 30) > 0.002

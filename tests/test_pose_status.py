@@ -13,6 +13,7 @@
   on both sides of it;
 * design studies name the masses and inertias they hold fixed while lengths move.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -46,7 +47,7 @@ def rps():
 def test_legs_without_checks_evaluate(rpr):
     f = rpr.frequencies([0.0, 0.0, 0.3], "none")[0]
     assert np.isfinite(f).all() and f[0] > 0
-    assert abs(f[1] - f[2]) <= 1e-9 * f[2]            # threefold symmetry: x and y alike
+    assert abs(f[1] - f[2]) <= 1e-9 * f[2]  # threefold symmetry: x and y alike
     assert rpr.valid([[0.0, 0.0, 0.3], [0.01, -0.02, 0.2]]).all()
 
 
@@ -71,11 +72,18 @@ def test_virtual_joint_after_a_final_spherical_joint():
     from eigentwist.symbolic.program import Program
 
     L, R_b, s, th = 0.4, 0.3, 0.5, 0.3
-    leg = SerialLeg("leg 1", joints=(Joint("P", origin=(R_b, 0, 0), axes=((0, 0, 1),), actuated=True),
-                                     Joint("R", axes=((0, 1, 0),)), Joint("S", origin=(0, 0, L)),
-                                     Joint("virtual", origin=(0, 0, -L), axes=((1, 0, 0),))),
-                    bodies=(Body("rod", 2, spatial_inertia(1.0, sp.Matrix([0, 0, L / 2]), sp.diag(0.01, 0.01, 0))),),
-                    attachment=(0.15, 0, 0), reference=(s, th))
+    leg = SerialLeg(
+        "leg 1",
+        joints=(
+            Joint("P", origin=(R_b, 0, 0), axes=((0, 0, 1),), actuated=True),
+            Joint("R", axes=((0, 1, 0),)),
+            Joint("S", origin=(0, 0, L)),
+            Joint("virtual", origin=(0, 0, -L), axes=((1, 0, 0),)),
+        ),
+        bodies=(Body("rod", 2, spatial_inertia(1.0, sp.Matrix([0, 0, L / 2]), sp.diag(0.01, 0.01, 0))),),
+        attachment=(0.15, 0, 0),
+        reference=(s, th),
+    )
     chain = leg.chain_leg()
     pose = RigidPose()
     prog = Program()
@@ -83,13 +91,19 @@ def test_virtual_joint_after_a_final_spherical_joint():
     for v in pose.program_inputs:
         prog.declare(v)
     ls = leg_screws(prog, chain, q, pose, "1")
-    values = {"q1_1": s, "q2_1": th, "x": 0.0, "y": 0.0, "z": 0.0,
-              **{f"R_{i}{j}": float(i == j) for i in range(3) for j in range(3)}}
+    values = {
+        "q1_1": s,
+        "q2_1": th,
+        "x": 0.0,
+        "y": 0.0,
+        "z": 0.0,
+        **{f"R_{i}{j}": float(i == j) for i in range(3) for j in range(3)},
+    }
     twist = np.array(prog.evaluate(values, sp.Matrix(ls.twists["c"])), dtype=float).ravel()
     axis, point = np.array([np.cos(th), 0, -np.sin(th)]), np.array([R_b, 0, s])
     np.testing.assert_allclose(twist, np.concatenate([axis, np.cross(point, axis)]), atol=1e-14)
     T = np.hstack([np.array(prog.evaluate(values, sp.Matrix(ls.twists[k])), dtype=float) for k in ls.keys])
-    assert abs(np.linalg.det(T)) > 1e-3                  # six independent twists
+    assert abs(np.linalg.det(T)) > 1e-3  # six independent twists
 
 
 def test_the_old_screw_import_warns_and_works():
@@ -106,8 +120,9 @@ def test_the_old_chain_evaluator_warns_and_loads():
 
     with pytest.warns(DeprecationWarning, match=r"eigentwist.load\(robot\)"):
         ev = ChainEvaluator("delta", backend="numpy")
-    np.testing.assert_array_equal(ev.frequencies(ev.robot.x_ref),
-                                  eigentwist.load("delta", backend="numpy").frequencies(ev.robot.x_ref))
+    np.testing.assert_array_equal(
+        ev.frequencies(ev.robot.x_ref), eigentwist.load("delta", backend="numpy").frequencies(ev.robot.x_ref)
+    )
 
 
 def test_the_models_error_names_none():
@@ -203,7 +218,7 @@ def test_the_fused_pass_checks_exactly_the_poses_below_its_screen(monkeypatch):
     d = numpy_ev.defaults
     z0 = -np.sqrt(d["l1"] ** 2 - (0.4 - d["R"] + d["r_p"]) ** 2)
 
-    dz = np.geomspace(1e-5, 0.05, 200)                      # consecutive distances 4.4 % apart
+    dz = np.geomspace(1e-5, 0.05, 200)  # consecutive distances 4.4 % apart
     f = numpy_ev.frequencies(np.column_stack([0 * dz, 0 * dz, z0 - dz]), "paper", l2=0.4)
     ratio = f.min(axis=1) / f.max(axis=1)
     k = int(np.argmax(ratio > evaluator.PARALLEL_SCREEN))
@@ -229,9 +244,12 @@ def test_sweep_maps_the_singular_region(rps):
     spec = make_spec(str(DESCRIPTIONS / "rps3.py"), model="none", grid=(8, 1, 1), box=(0.0, 0.7, 0, 0, 0, 0))
     cols = evaluate_chunk(spec, 0)
     z = cols["pose"][:, 0]
-    length = np.hypot(0.15, z)                             # untilted: the strut from R_b to R_p, z up
-    want = np.where(z == 0, POSE_STATUS.index("parallel singular"),
-                    np.where((length < 0.1) | (length > 0.6), POSE_STATUS.index("unreachable"), 0))
+    length = np.hypot(0.15, z)  # untilted: the strut from R_b to R_p, z up
+    want = np.where(
+        z == 0,
+        POSE_STATUS.index("parallel singular"),
+        np.where((length < 0.1) | (length > 0.6), POSE_STATUS.index("unreachable"), 0),
+    )
     assert cols["status"].tolist() == want.tolist()
     assert cols["reachable"].tolist() == (want == 0).tolist()
 
@@ -256,9 +274,11 @@ def test_design_studies_name_the_masses_held_fixed(capsys):
     ev = eigentwist.load("delta", backend="numpy")
     fixed = held_fixed(ev, ["l1"], ("actuator_loss",))
     assert {"m_1", "I1_yy", "I_rotor", "m_e"} <= set(fixed) and "l1" not in fixed and "rho" not in fixed
-    assert held_fixed(ev, ["m_1"], ()) == []               # no length moves
-    rows = [dict(name="m_1", unit="kg", dlnf1_dlnp=ZERO_SENSITIVITY * 0.9),
-            dict(name="m_e", unit="kg", dlnf1_dlnp=ZERO_SENSITIVITY * 1.1)]
+    assert held_fixed(ev, ["m_1"], ()) == []  # no length moves
+    rows = [
+        dict(name="m_1", unit="kg", dlnf1_dlnp=ZERO_SENSITIVITY * 0.9),
+        dict(name="m_e", unit="kg", dlnf1_dlnp=ZERO_SENSITIVITY * 1.1),
+    ]
     lines = zero_mass_lines(ev, rows)
     assert len(lines) == 1 and lines[0].startswith("m_1 ranks +0") and "I1_xx, I1_yy, I1_zz" in lines[0]
     assert main(["sensitivity", "--robot", "delta", "--backend", "numpy", "--wrt", "l1,m_1,m_e", "--json"]) == 0

@@ -1,4 +1,5 @@
 """6-DoF poses: rotation vectors, Rodrigues' formula and the exponential map."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -10,11 +11,11 @@ from eigentwist.runtime.poses import exp_twist, rotation_matrix, rotation_vector
 def test_rotation_matrix_is_a_rotation_about_its_vector():
     rng = np.random.default_rng(7)
     r = rng.normal(size=(5, 3))
-    r *= 3.0 * rng.random((5, 1)) / np.linalg.norm(r, axis=1, keepdims=True)   # angles below pi
+    r *= 3.0 * rng.random((5, 1)) / np.linalg.norm(r, axis=1, keepdims=True)  # angles below pi
     R = rotation_matrix(r)
     np.testing.assert_allclose(R @ np.swapaxes(R, -1, -2), np.broadcast_to(np.eye(3), R.shape), atol=1e-14)
     np.testing.assert_allclose(np.linalg.det(R), 1.0, rtol=1e-14)
-    np.testing.assert_allclose(np.einsum("nij,nj->ni", R, r), r, atol=1e-14)     # the axis stays put
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", R, r), r, atol=1e-14)  # the axis stays put
     for k in range(5):
         np.testing.assert_allclose(rotation_vector(R[k]), r[k], atol=1e-10)
 
@@ -33,6 +34,6 @@ def test_exp_twist_moves_the_origin_by_v_and_turns_by_omega():
     a, b = exp_twist(pose, twist, -eps), exp_twist(pose, twist, eps)
     np.testing.assert_allclose((b[:3] - a[:3]) / (2 * eps), twist[3:], atol=1e-9)
     Rdot = (rotation_matrix(b[3:]) - rotation_matrix(a[3:])) / (2 * eps)
-    W = Rdot @ rotation_matrix(pose[3:]).T                       # [omega]x in base axes
+    W = Rdot @ rotation_matrix(pose[3:]).T  # [omega]x in base axes
     np.testing.assert_allclose([W[2, 1], W[0, 2], W[1, 0]], twist[:3], rtol=1e-7)
     assert exp_twist(pose, twist, 0.0) == pytest.approx(pose, abs=1e-15)

@@ -1,4 +1,5 @@
 """Property tests (hypothesis) of physics identities over the workspace."""
+
 from __future__ import annotations
 
 import numpy as np

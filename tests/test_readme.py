@@ -16,6 +16,7 @@ Markers, HTML comments just above a block (between it and the previous block):
 
 New README sections are picked up by themselves; a block that cannot run must say so.
 """
+
 from __future__ import annotations
 
 import math
@@ -34,7 +35,7 @@ README = ROOT / "README.md"
 MARKER = re.compile(r"<!--\s*doc-test:\s*(skip|replace)\s*(.*?)\s*-->")
 REPLACE = re.compile(r'"([^"]*)"\s+"([^"]*)"\s*\((.+)\)$')
 NUM = r"-?\d+(?:\.\d+)?"
-UNIT = r"(%|Hz|kg|MB|N m/rad|N/m|m)(?![\w/])"          # not s: durations depend on the machine
+UNIT = r"(%|Hz|kg|MB|N m/rad|N/m|m)(?![\w/])"  # not s: durations depend on the machine
 RANGE = re.compile(rf"(?<![\d.])({NUM})\s*(?:-|–|\.\.\.)\s*(\d+(?:\.\d+)?)\s*(?:s|{UNIT})")
 FIGURE = re.compile(rf"({NUM}(?:\s*(?:,|\+-|±)\s*{NUM})*)\s*{UNIT}")
 OUTPUT_NUMBER = re.compile(r"-?\d+(?:\.(\d+))?(?:[eE]([-+]?\d+))?")
@@ -155,9 +156,12 @@ def workdir(tmp_path_factory):
     shim = bin_dir / "eigentwist"
     shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m eigentwist "$@"\n')
     shim.chmod(shim.stat().st_mode | stat.S_IXUSR)
-    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}",
-           "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
-           "MPLBACKEND": "Agg"}
+    env = {
+        **os.environ,
+        "PATH": f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}",
+        "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+        "MPLBACKEND": "Agg",
+    }
     return work, env
 
 
@@ -181,8 +185,10 @@ def _run_blocks(work, env) -> dict:
             runs = [(f"python {script.name}", "", [sys.executable, script.name])]
         else:
             runs = [(cmd, comment, ["bash", "-c", cmd]) for cmd, comment in commands(text)]
-        out[block.id] = [(cmd, comment, subprocess.run(argv, cwd=work, env=env, capture_output=True, text=True,
-                                                         timeout=TIMEOUT)) for cmd, comment, argv in runs]
+        out[block.id] = [
+            (cmd, comment, subprocess.run(argv, cwd=work, env=env, capture_output=True, text=True, timeout=TIMEOUT))
+            for cmd, comment, argv in runs
+        ]
     return out
 
 
@@ -207,14 +213,18 @@ def test_readme_block(block, results):
     if block.skip:
         pytest.skip(f"README line {block.line}: {block.skip}")
     for cmd, comment, proc in results[block.id]:
-        assert proc.returncode == 0, f"README line {block.line}: `{cmd}` exited {proc.returncode}:\n{proc.stderr[-2000:]}"
+        assert proc.returncode == 0, (
+            f"README line {block.line}: `{cmd}` exited {proc.returncode}:\n{proc.stderr[-2000:]}"
+        )
         assert "Traceback" not in proc.stderr, f"`{cmd}`:\n{proc.stderr[-2000:]}"
         output = proc.stdout + proc.stderr
         missing = [f for f in figures(comment) if not shows(output, f)]
-        assert not missing, f"README line {block.line}: `{cmd}` states {missing} ({comment!r}); output:\n{output[-3000:]}"
+        assert not missing, (
+            f"README line {block.line}: `{cmd}` states {missing} ({comment!r}); output:\n{output[-3000:]}"
+        )
 
 
-WIDTH = 100     # characters per line of a command's default output
+WIDTH = 100  # characters per line of a command's default output
 
 
 def _default_output(cmd: str) -> bool:

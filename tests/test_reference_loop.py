@@ -1,6 +1,7 @@
 """The benchmark's per-pose baseline (benchmarks/reference_loop.py), written from the paper
 with plain numerics (numeric inverse Jacobians and compliance inversions), equals the
 generated evaluator: an independent computation of M, K_R, K_F and the frequencies."""
+
 from __future__ import annotations
 
 import importlib.util
@@ -46,8 +47,9 @@ def test_reference_loop_equals_generated_evaluator(ev, ref, seed, effects):
     for key in ("M", "K_R", "K_F"):
         scale = np.abs(want[key]).max(axis=(1, 2), keepdims=True)
         np.testing.assert_allclose(got[key], want[key], rtol=0, atol=1e-9 * scale.max(), err_msg=key)
-    np.testing.assert_allclose(ev.frequencies(poses, model, **p), ref.frequencies_loop(poses, p, ref.PAPER + effects),
-                               rtol=1e-9)
+    np.testing.assert_allclose(
+        ev.frequencies(poses, model, **p), ref.frequencies_loop(poses, p, ref.PAPER + effects), rtol=1e-9
+    )
 
 
 def test_reference_loop_rigid_frequencies(ev, ref):

@@ -1,4 +1,5 @@
 """The HTML report: every section present, every image decodes; rendered in Chromium."""
+
 from __future__ import annotations
 
 import base64
@@ -83,17 +84,22 @@ def parsed(report_path):
 def test_every_section_present(parsed):
     assert set(SECTIONS) <= parsed.ids
     text = " ".join(parsed.text)
-    for phrase in ("Reproduction of the paper", "Comparison with the measurements", "Diagnosis",
-                   "Suggested next measurement", "10.1016/j.mechmachtheory.2019.103775"):
+    for phrase in (
+        "Reproduction of the paper",
+        "Comparison with the measurements",
+        "Diagnosis",
+        "Suggested next measurement",
+        "10.1016/j.mechmachtheory.2019.103775",
+    ):
         assert phrase in text
 
 
 def test_every_image_is_embedded_and_decodes(parsed):
     import matplotlib.image as mpimg
 
-    assert len(parsed.images) >= 3                     # comparison, diagnosis, robot with its mode shapes
+    assert len(parsed.images) >= 3  # comparison, diagnosis, robot with its mode shapes
     svgs = [src for src in parsed.images if src.startswith("data:image/svg+xml;base64,")]
-    assert len(svgs) == 1                              # the animated mode shapes
+    assert len(svgs) == 1  # the animated mode shapes
     import xml.etree.ElementTree as ET
 
     root = ET.fromstring(base64.b64decode(svgs[0].split(",", 1)[1]))
@@ -104,7 +110,7 @@ def test_every_image_is_embedded_and_decodes(parsed):
         assert src.startswith("data:image/png;base64,"), src[:40]
         img = mpimg.imread(io.BytesIO(base64.b64decode(src.split(",", 1)[1])), format="png")
         assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
-        assert img.std() > 0.01                       # not a blank picture
+        assert img.std() > 0.01  # not a blank picture
 
 
 def test_report_numbers_match_the_paper_comparison(parsed):
@@ -134,10 +140,26 @@ def test_report_renders_in_headless_chromium(report_path, tmp_path):
         skip_tier("browser", "Chromium is not installed (CI installs it in .ci/run; apt-get install chromium)")
     png = tmp_path / "report.png"
     with tempfile.TemporaryDirectory() as profile:
-        subprocess.run([exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                        "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                        f"--user-data-dir={profile}", "--window-size=1200,2000", f"--screenshot={png}",
-                        Path(report_path).resolve().as_uri()], check=True, capture_output=True, timeout=120)
+        subprocess.run(
+            [
+                exe,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                f"--user-data-dir={profile}",
+                "--window-size=1200,2000",
+                f"--screenshot={png}",
+                Path(report_path).resolve().as_uri(),
+            ],
+            check=True,
+            capture_output=True,
+            timeout=120,
+        )
     import matplotlib.image as mpimg
 
     img = mpimg.imread(str(png))
@@ -154,8 +176,11 @@ def test_final_model_fitted_values_with_errors_and_units(parsed):
     import re
 
     text = parsed.section_text("diagnosis")
-    m = re.search(r"The final model, actuator_loss \+ ee_compliance \+ servo_damping, fits k_E_rot = (\d+) ± 22 N m/rad, "
-                  r"k_E_lin = \((1\.\d\d) ± 0\.19\)·10⁵ N/m and c_a = 2\.41 ± 0\.20 N m s/rad", text)
+    m = re.search(
+        r"The final model, actuator_loss \+ ee_compliance \+ servo_damping, fits k_E_rot = (\d+) ± 22 N m/rad, "
+        r"k_E_lin = \((1\.\d\d) ± 0\.19\)·10⁵ N/m and c_a = 2\.41 ± 0\.20 N m s/rad",
+        text,
+    )
     assert m, text
     assert abs(int(m.group(1)) - 377) <= 1 and abs(float(m.group(2)) - 1.70) <= 0.01
     assert "final-model" in parsed.ids
@@ -163,8 +188,10 @@ def test_final_model_fitted_values_with_errors_and_units(parsed):
     assert rows["k_E_rot"][1] == f"{m.group(1)} ± 22 N m/rad" and rows["k_E_lin"][1] == f"({m.group(2)} ± 0.19)·10⁵ N/m"
     assert rows["c_a"][1] == "2.41 ± 0.20 N m s/rad"
     summary = parsed.section_text(None)
-    assert (f"with k_E_rot = {m.group(1)} ± 22 N m/rad, k_E_lin = ({m.group(2)} ± 0.19)·10⁵ N/m and c_a = 2.41 ± 0.20 "
-            "N m s/rad") in summary
+    assert (
+        f"with k_E_rot = {m.group(1)} ± 22 N m/rad, k_E_lin = ({m.group(2)} ± 0.19)·10⁵ N/m and c_a = 2.41 ± 0.20 "
+        "N m s/rad"
+    ) in summary
 
 
 def test_ranking_states_units(parsed):
@@ -177,7 +204,7 @@ def test_next_measurement_is_prose_and_a_table_not_a_python_dict(parsed):
     assert "{" not in text and "'" not in text and "predicted_hz" not in text
     assert "These data cannot tell ee_compliance from ee_coupling" in text
     rows = {r[0]: r[1] for r in parsed.rows["next-measurement"]}
-    assert rows["pose"].endswith("] m") and rows["mode"] in ("x", "y")     # the directions the paper measured
+    assert rows["pose"].endswith("] m") and rows["mode"] in ("x", "y")  # the directions the paper measured
     assert re.match(r"[\d.]+ σ", rows["separation"])
 
 
@@ -190,9 +217,34 @@ def test_robot_picture_at_the_measured_pose(parsed):
 def hidden_payload_report(tmp_path_factory):
     """README walkthrough data: a 0.35 kg payload the paper model lacks; ranked first by far."""
     d = tmp_path_factory.mktemp("hidden")
-    assert main(["synth", "--truth", "paper+payload_mass:m_p=0.35", "--k-a", "250,500,1000,2000,4000",
-                 "--pose", "0", "0", "-0.625", "--pose", "0.06", "-0.04", "-0.6", "--modes", "x,y,z",
-                 "--noise", "0.5%", "--seed", "3", "-o", str(d / "hidden.csv")]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--truth",
+                "paper+payload_mass:m_p=0.35",
+                "--k-a",
+                "250,500,1000,2000,4000",
+                "--pose",
+                "0",
+                "0",
+                "-0.625",
+                "--pose",
+                "0.06",
+                "-0.04",
+                "-0.6",
+                "--modes",
+                "x,y,z",
+                "--noise",
+                "0.5%",
+                "--seed",
+                "3",
+                "-o",
+                str(d / "hidden.csv"),
+            ]
+        )
+        == 0
+    )
     from eigentwist.report import build_report, render_html
 
     rep = build_report(d / "hidden.csv", baseline="paper")
@@ -213,16 +265,27 @@ def test_no_separation_proposed_when_the_data_tell_the_effects_apart(hidden_payl
 def test_next_measurement_text_follows_the_indistinguishable_flag():
     from eigentwist.report.build import next_measurement_text
 
-    nm = {"between": ["a", "b"], "pose": [0, 0, -0.55], "k_a": 4000.0, "mode": "z",
-          "predicted_hz": {"a": 50.0, "b": 60.0}, "separation_sigma": 9.0, "sigma_hz": 1.0}
-    ranking = [{"effect": "a", "indistinguishable_from": [], "delta_aicc": 0.0},
-               {"effect": "b", "indistinguishable_from": [], "delta_aicc": 143.0}]
+    nm = {
+        "between": ["a", "b"],
+        "pose": [0, 0, -0.55],
+        "k_a": 4000.0,
+        "mode": "z",
+        "predicted_hz": {"a": 50.0, "b": 60.0},
+        "separation_sigma": 9.0,
+        "sigma_hz": 1.0,
+    }
+    ranking = [
+        {"effect": "a", "indistinguishable_from": [], "delta_aicc": 0.0},
+        {"effect": "b", "indistinguishable_from": [], "delta_aicc": 143.0},
+    ]
     diag = {"ranking": ranking, "final": {"explained": True}}
-    assert next_measurement_text({**diag, "next_measurement": {**nm, "indistinguishable": False}})["kind"] == "told_apart"
+    assert (
+        next_measurement_text({**diag, "next_measurement": {**nm, "indistinguishable": False}})["kind"] == "told_apart"
+    )
     assert next_measurement_text({**diag, "next_measurement": {**nm, "indistinguishable": True}})["kind"] == "separate"
     tied = [{**ranking[0], "indistinguishable_from": ["b"]}, ranking[1]]
     assert next_measurement_text({**diag, "ranking": tied, "next_measurement": nm})["kind"] == "separate"
-    out = next_measurement_text({**diag, "next_measurement": nm})          # no flag, not tied: told apart
+    out = next_measurement_text({**diag, "next_measurement": nm})  # no flag, not tied: told apart
     assert out["kind"] == "told_apart" and out["delta_aicc"] == 143.0
 
 
@@ -250,9 +313,9 @@ def test_keys_the_diagnosis_gains_are_rendered_as_text(report_data):
     assert "equally good alternatives" in text and "ee_coupling" in text
     assert "effects: actuator_loss, ee_coupling; delta_aicc: 0" in text
     assert "line: 2; mode: x; error_sigma: 4.2" in text
-    assert "sigma_pct" not in text                # the uncertainty is a sentence, not a key dump
+    assert "sigma_pct" not in text  # the uncertainty is a sentence, not a key dump
     assert rep.uncertainty_text in text
-    assert "{" not in text.partition("How the diagnosis decides")[0]     # the criteria's formulas have braces
+    assert "{" not in text.partition("How the diagnosis decides")[0]  # the criteria's formulas have braces
 
 
 # --------------------------------------------------------------- escaping
@@ -295,7 +358,7 @@ def test_user_strings_are_escaped_everywhere(report_data):
     rep.final = _inject(rep.final)
     rep.next_measurement = _inject(rep.next_measurement)
     d = _inject(rep.diagnosis)
-    for c in d["ranking"]:                                   # parameter names as keys
+    for c in d["ranking"]:  # parameter names as keys
         c["params"], c["param_std"] = _inject(c["params"], True), _inject(c["param_std"], True)
     d["final"]["params"] = _inject(d["final"]["params"], True)
     d["outliers"] = [{"line": SCRIPT, "mode": SCRIPT}]
@@ -305,7 +368,7 @@ def test_user_strings_are_escaped_everywhere(report_data):
     rep.units = _inject(rep.units, True)
     parsed = _no_script(render_html(rep))
     text = " ".join(parsed.text)
-    assert text.count(SCRIPT) > 50                   # shown as text, not dropped
+    assert text.count(SCRIPT) > 50  # shown as text, not dropped
 
 
 def test_script_in_the_file_name_is_escaped(tmp_path):
@@ -323,8 +386,28 @@ def test_script_in_the_file_name_is_escaped(tmp_path):
 def test_delta_report_draws_its_robot(tmp_path):
     """Any robot: the Delta's report has its own picture and the final fitted values with units."""
     csv = tmp_path / "delta.csv"
-    assert main(["synth", "--robot", "delta", "--truth", "paper+payload_mass:m_p=0.2", "--k-a", "500,1000,2000",
-                 "--modes", "x,y,z", "--noise", "0.5%", "--seed", "1", "-o", str(csv)]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--robot",
+                "delta",
+                "--truth",
+                "paper+payload_mass:m_p=0.2",
+                "--k-a",
+                "500,1000,2000",
+                "--modes",
+                "x,y,z",
+                "--noise",
+                "0.5%",
+                "--seed",
+                "1",
+                "-o",
+                str(csv),
+            ]
+        )
+        == 0
+    )
     from eigentwist.report import build_report, render_html
 
     rep = build_report(csv, robot="delta")
@@ -353,8 +436,8 @@ def test_provenance_criteria_uncertainty_and_implausible_marks(report_path, pars
     assert __version__ in text and "eigentwist report -o" in text and re.search(r"\d{4}-\d\d-\d\d \d\d:\d\d", text)
     diag = parsed.section_text("diagnosis")
     assert "How the diagnosis decides" in diag and "extra-sum-of-squares F test" in diag
-    assert "The stated uncertainty is consistent with the fit (Birge ratio 0.897)." in diag   # damped frequencies
-    assert "IMPLAUSIBLE: needs E_rod = 1.15" in diag              # rod_compliance alone (README)
+    assert "The stated uncertainty is consistent with the fit (Birge ratio 0.897)." in diag  # damped frequencies
+    assert "IMPLAUSIBLE: needs E_rod = 1.15" in diag  # rod_compliance alone (README)
     assert hashlib.sha256(b"x").hexdigest() == sha256_file_of(b"x")
 
 
@@ -380,8 +463,9 @@ def test_provenance_hashes_every_input_file(hidden_payload_report):
 def test_the_report_needs_no_network(report_path):
     """Every resource is embedded: no http(s) URL in a src, a stylesheet, a script or CSS url()."""
     html = Path(report_path).read_text(encoding="utf-8")
-    assert not re.search(r"""<(?:img|script|link|iframe|source|video|audio)\b[^>]*\b(?:src|href)\s*=\s*["']?https?:""",
-                         html, re.I)
+    assert not re.search(
+        r"""<(?:img|script|link|iframe|source|video|audio)\b[^>]*\b(?:src|href)\s*=\s*["']?https?:""", html, re.I
+    )
     assert not re.search(r"url\(\s*['\"]?https?:", html, re.I) and "@import" not in html
     svg = _svg_of(html)
     assert "http://" not in svg.replace('xmlns="http://www.w3.org/2000/svg"', "") and "https://" not in svg
@@ -402,8 +486,9 @@ def test_lowest_frequency_map_matches_the_evaluator(report_data):
     view = report_data.lowest_map
     values = {"k_E_rot": 373.5, "k_E_lin": 1.641e5}
     m = lowest_frequency_map(ev, "actuator_loss,ee_compliance", view["pose"], view["k_a"], values, grid=5)
-    f = ev.frequencies([[m["x"][1], m["y"][3], view["pose"][2]]], "actuator_loss,ee_compliance", k_a=view["k_a"],
-                       **values)[0, 0]
+    f = ev.frequencies(
+        [[m["x"][1], m["y"][3], view["pose"][2]]], "actuator_loss,ee_compliance", k_a=view["k_a"], **values
+    )[0, 0]
     assert m["f1"][3, 1] == pytest.approx(f, rel=1e-12)
     assert np.all(np.isfinite(m["f1"])) and np.ptp(m["f1"]) > 0
 
@@ -440,10 +525,22 @@ def test_mac_matrix_of_measured_vs_model_shapes(tmp_path):
 
 
 def _chrome(exe, url, png, profile, size="1200,900", budget=None):
-    args = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync",
-            "--proxy-server=127.0.0.1:9", "--proxy-bypass-list=<-loopback>",    # any network request fails
-            f"--user-data-dir={profile}", f"--window-size={size}", f"--screenshot={png}"]
+    args = [
+        exe,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--proxy-server=127.0.0.1:9",
+        "--proxy-bypass-list=<-loopback>",  # any network request fails
+        f"--user-data-dir={profile}",
+        f"--window-size={size}",
+        f"--screenshot={png}",
+    ]
     if budget is not None:
         args.append(f"--virtual-time-budget={budget}")
     subprocess.run(args + [url], check=True, capture_output=True, timeout=120)
@@ -454,8 +551,10 @@ def _chrome(exe, url, png, profile, size="1200,900", budget=None):
 
 def _only(html: str, element_id: str) -> str:
     """The report with everything but one element hidden (a screenshot of that element)."""
-    style = (f"<style>body * {{ visibility: hidden; }} #{element_id}, #{element_id} * {{ visibility: visible; }}"
-             f" #{element_id} {{ position: absolute; left: 0; top: 0; }}</style>")
+    style = (
+        f"<style>body * {{ visibility: hidden; }} #{element_id}, #{element_id} * {{ visibility: visible; }}"
+        f" #{element_id} {{ position: absolute; left: 0; top: 0; }}</style>"
+    )
     return html.replace("</head>", style + "</head>", 1)
 
 
@@ -472,10 +571,11 @@ def test_the_animation_runs_offline_in_chromium(report_path, tmp_path):
         # catches the 1.6 s cycle at a phase of its own (two caught alike now and then: 77 and
         # 151 moved pixels seen, 336 to 5934 more often): four frames, the most different pair
         for k, budget in enumerate((300, 700, 1100, 1500)):
-            frames.append(_chrome(exe, page.resolve().as_uri(), tmp_path / f"f{k}.png", profile, "1000,420",
-                                  budget)[..., :3])
-    assert frames[0].std() > 0.02                          # something is drawn
-    changed = max(int((np.abs(a - b).sum(axis=-1) > 0.1).sum()) for k, a in enumerate(frames) for b in frames[k + 1:])
+            frames.append(
+                _chrome(exe, page.resolve().as_uri(), tmp_path / f"f{k}.png", profile, "1000,420", budget)[..., :3]
+            )
+    assert frames[0].std() > 0.02  # something is drawn
+    changed = max(int((np.abs(a - b).sum(axis=-1) > 0.1).sum()) for k, a in enumerate(frames) for b in frames[k + 1 :])
     # the platforms moved between two frames (a still page changes no pixel; the lines of a
     # small-amplitude mode move a few hundred to a few thousand)
     assert changed > 100, changed
@@ -505,8 +605,8 @@ def test_screenshots_of_the_answer_and_the_mac_matrix(report_path, report_data, 
             shots[element] = _chrome(exe, page.resolve().as_uri(), tmp_path / f"{element}.png", profile, "1100,500")
     for element, img in shots.items():
         grey = img[..., :3].mean(axis=-1)
-        assert (grey < 0.6).sum() > 2000, element          # text (the answer) or dark cells (the MAC) drawn
+        assert (grey < 0.6).sum() > 2000, element  # text (the answer) or dark cells (the MAC) drawn
     # the MAC's diagonal cells are dark blue: count strongly blue pixels
     img = shots["mac-table"][..., :3]
-    blue = (img[..., 2] - img[..., 0] > 0.3)
+    blue = img[..., 2] - img[..., 0] > 0.3
     assert blue.sum() > 1000

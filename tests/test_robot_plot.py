@@ -1,4 +1,5 @@
 """The robot picture: legs from the description and the generated IK, any robot."""
+
 from __future__ import annotations
 
 import io
@@ -48,9 +49,9 @@ def test_a_translation_moves_every_attachment_alike(ev):
     g = robot_geometry(ev, ev.robot.x_ref)
     d = mode_displacements(g, [0, 0, 0, 1.0, 0, 0], ("rx", "ry", "rz", "x", "y", "z"))
     np.testing.assert_allclose(d, np.tile([1.0, 0, 0], (len(g.legs), 1)))
-    d = mode_displacements(g, [0, 0, 1.0, 0, 0, 0], ("rx", "ry", "rz", "x", "y", "z"))   # rotation about Z
+    d = mode_displacements(g, [0, 0, 1.0, 0, 0, 0], ("rx", "ry", "rz", "x", "y", "z"))  # rotation about Z
     np.testing.assert_allclose(d, np.cross([0, 0, 1.0], g.offsets))
-    d3 = mode_displacements(g, [0, 1.0, 0], ("x", "y", "z"))                            # rigid model: 3 entries
+    d3 = mode_displacements(g, [0, 1.0, 0], ("x", "y", "z"))  # rigid model: 3 entries
     np.testing.assert_allclose(d3, np.tile([0, 1.0, 0], (len(g.legs), 1)))
 
 
@@ -65,8 +66,11 @@ def test_drawn_legs_end_at_the_ik_attachment_points_and_the_png_decodes(robot, p
     axes3d = [ax for ax in fig.axes if ax.name == "3d"]
     assert len(axes3d) == 3
     for ax in axes3d:
-        legs = {ln.get_gid(): np.array(ln.get_data_3d()).T for ln in ax.get_lines() if
-                (ln.get_gid() or "").startswith("leg ")}
+        legs = {
+            ln.get_gid(): np.array(ln.get_data_3d()).T
+            for ln in ax.get_lines()
+            if (ln.get_gid() or "").startswith("leg ")
+        }
         assert sorted(legs) == sorted(f"leg {n}" for n in g.legs)
         for i, name in enumerate(g.legs):
             pts = legs[f"leg {name}"]

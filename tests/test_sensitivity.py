@@ -4,6 +4,7 @@ The derivative code is generated on first use (forward mode on the straight-line
 seconds to a minute per parameter list) and cached by content hash; the fixtures below ask
 for one parameter list per robot, so the suite generates it once per cache.
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -57,8 +58,11 @@ def _assert_close(got, want, rtol=1e-6):
 
 def test_gradient_matches_sympy_diff():
     x, y = sp.symbols("x y", real=True)
-    for e in (sp.atan2(x * y, x**2 + 1) + sp.sin(x) ** 3 / y, sp.acos(x / (1 + y**2)) * sp.sqrt(x + y),
-              (x + y) ** 4 / sp.asin(y / 3)):
+    for e in (
+        sp.atan2(x * y, x**2 + 1) + sp.sin(x) ** 3 / y,
+        sp.acos(x / (1 + y**2)) * sp.sqrt(x + y),
+        (x + y) ** 4 / sp.asin(y / 3),
+    ):
         g = gradient(e)
         for s in (x, y):
             assert sp.simplify(g[s] - sp.diff(e, s)) == 0
@@ -73,8 +77,9 @@ def test_sensitivities_equal_central_differences(evs, robot):
         model_ = model + (",payload_mass" if robot == "delta" else "")
         got = ev.sensitivities(poses, WRT[robot], model_, **params)
         assert got.shape == (3, 3 if model == "rigid" else 6, len(WRT[robot]))
-        want = np.stack([_central(ev, poses, model_, name, {**ev.defaults, **params}[name], params)
-                         for name in WRT[robot]], axis=-1)
+        want = np.stack(
+            [_central(ev, poses, model_, name, {**ev.defaults, **params}[name], params) for name in WRT[robot]], axis=-1
+        )
         _assert_close(got, want)
 
 
@@ -89,7 +94,7 @@ def test_sensitivities_equal_an_independent_per_pose_model(evs):
     for j, name in enumerate(WRT["heli4"]):
         p = dict(ev.defaults)
         want = _richardson(lambda v: ref.frequencies_loop(poses, {**p, name: v}), p[name])
-        _assert_close(got[..., j:j + 1], want[..., None])
+        _assert_close(got[..., j : j + 1], want[..., None])
 
 
 def test_cluster_gives_individual_derivatives(evs):
@@ -105,14 +110,14 @@ def test_cluster_gives_individual_derivatives(evs):
     f1, f2 = ev.frequencies(x, "rigid", h=h0 + d), ev.frequencies(x, "rigid", h=h0 + 2 * d)
     want = ((-3 * f0 + 4 * f1 - f2) / (2 * d))[0]
     assert np.allclose(got, want, rtol=1e-6, atol=1e-6 * np.abs(want).max())
-    assert abs(got[1] - got[0]) > 10.0                       # split, not averaged
+    assert abs(got[1] - got[0]) > 10.0  # split, not averaged
 
 
 def test_eigenvalue_derivatives_of_a_constructed_cluster():
     rng = np.random.default_rng(3)
     A = rng.normal(size=(3, 3))
     A = A + A.T
-    K0, M = np.diag([1.0, 1.0, 2.0]), np.eye(3)
+    K0 = np.diag([1.0, 1.0, 2.0])
     lam, V = np.linalg.eigh(K0)
     got = eigenvalue_derivatives(lam[None], V[None], A[None, None], np.zeros((1, 1, 3, 3)))[0, :, 0]
     t = 1e-7
@@ -173,7 +178,7 @@ def test_difference_method_equals_the_generated_kernel(evs, robot):
     for model in MODELS[robot]:
         m1, exact = ev.modes_and_sensitivities(poses, WRT[robot], model)
         m2, diff = ev.modes_and_sensitivities(poses, WRT[robot], model, method="differences")
-        np.testing.assert_allclose(m1.freq_hz, m2.freq_hz, rtol=1e-12)     # the same model (two programs)
+        np.testing.assert_allclose(m1.freq_hz, m2.freq_hz, rtol=1e-12)  # the same model (two programs)
         scale = np.abs(exact).max(axis=(0, 1), keepdims=True)
         assert np.all(np.abs(diff - exact) <= 1e-7 * scale), np.max(np.abs(diff - exact) / scale)
     if robot == "heli4":
@@ -181,5 +186,5 @@ def test_difference_method_equals_the_generated_kernel(evs, robot):
         exact = ev.sensitivities(x, WRT[robot], "rigid", h=1e-9)
         diff = ev.sensitivities(x, WRT[robot], "rigid", h=1e-9, method="differences")
         j = WRT[robot].index("h")
-        assert abs(exact[0, 1, j] - exact[0, 0, j]) > 10.0             # split, not averaged
+        assert abs(exact[0, 1, j] - exact[0, 0, j]) > 10.0  # split, not averaged
         np.testing.assert_allclose(diff[0, :, j], exact[0, :, j], rtol=1e-6, atol=1e-8 * np.abs(exact[0, :, j]).max())

@@ -1,4 +1,5 @@
 """``eigentwist sensitivity`` and ``eigentwist optimize``."""
+
 from __future__ import annotations
 
 import json
@@ -15,7 +16,7 @@ from .test_sensitivity import WRT
 @pytest.fixture(scope="module")
 def ev():
     ev = eigentwist.load("heli4", backend="numpy")
-    ev.sensitivities(ev.robot.x_ref, WRT["heli4"])        # loaded once: every subset below reuses it
+    ev.sensitivities(ev.robot.x_ref, WRT["heli4"])  # loaded once: every subset below reuses it
     return ev
 
 
@@ -42,8 +43,21 @@ def test_sensitivity_errors_are_one_line(capsys):
 
 
 def test_optimize_prints_design_map_and_active_constraints(ev, capsys):
-    argv = ["optimize", "--backend", "numpy", "--vary", "l1=0.15:0.25", "--pose", "0", "0", "-0.625",
-            "--pose", "0.05", "-0.03", "-0.6"]
+    argv = [
+        "optimize",
+        "--backend",
+        "numpy",
+        "--vary",
+        "l1=0.15:0.25",
+        "--pose",
+        "0",
+        "0",
+        "-0.625",
+        "--pose",
+        "0.05",
+        "-0.03",
+        "-0.6",
+    ]
     assert main(argv + ["--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert 0.15 <= out["values"]["l1"] <= 0.25 and out["worst_hz"] >= out["start_worst_hz"]

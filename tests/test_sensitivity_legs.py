@@ -5,6 +5,7 @@ may switch an effect on one leg (``lower_link_compliance@3``); a shared ``E_rod`
 given its own value moves legs 1, 3, 4 only. Each is checked against central differences
 of the evaluator (Richardson-extrapolated), varying exactly the value the name denotes.
 """
+
 from __future__ import annotations
 
 import json
@@ -74,8 +75,23 @@ def test_bad_leg_names_are_one_line(ev):
 
 
 def test_cli_table_and_json_name_leg_values(ev, capsys):
-    assert main(["sensitivity", "--backend", "numpy", "--wrt", "E_rod@2,eta_a@3", "--set", "E_rod@2=1.5e11",
-                 "--model", "paper,lower_link_compliance@3", "--json"]) == 0
+    assert (
+        main(
+            [
+                "sensitivity",
+                "--backend",
+                "numpy",
+                "--wrt",
+                "E_rod@2,eta_a@3",
+                "--set",
+                "E_rod@2=1.5e11",
+                "--model",
+                "paper,lower_link_compliance@3",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     rows = {r["name"]: r for r in out["parameters"]}
     assert set(rows) == {"E_rod@2", "eta_a@3"}

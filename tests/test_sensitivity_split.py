@@ -5,6 +5,7 @@ code is cut into parts of at most ``CHUNK`` statements, values crossing a cut pa
 through a block buffer. Cut very finely here (every 40 statements: dozens of parts, most
 values crossing several cuts), the C kernel must still equal the unsplit NumPy kernel.
 """
+
 from __future__ import annotations
 
 import re
@@ -37,7 +38,7 @@ def test_parts_are_bounded_and_every_crossing_value_is_stored_before_it_is_read(
     stored: set = set()
     for _, body in bodies:
         loads = set(re.findall(r"= et_s\[(\d+) \* ET_SPILL_STRIDE \+ et_i\];", body))
-        assert loads <= stored                               # defined by an earlier part
+        assert loads <= stored  # defined by an earlier part
         stored |= set(re.findall(r"et_s\[(\d+) \* ET_SPILL_STRIDE \+ et_i\] =", body))
         own = len(re.findall(r"^        (?:const double \w+ = (?!et_)|et_o\d+\[et_i\] =)", body, flags=re.M))
         assert own - body.count("= et_x") <= 40
@@ -54,7 +55,7 @@ def test_finely_split_c_kernel_equals_numpy(kernel, monkeypatch):
     flags = ["-O2" if f == "-O3" else f for f in flag_sets()[0][1]]
     c = _CKernel(build_library(text, "delta_sens_split_test", find_compiler(), flags)).bind("et_delta_sens")
     py = _numpy_kernel(codegen.render_numpy_sensitivity(ev.robot, kern, WRT), "delta_sens_split_test")
-    poses = random_poses(ev.robot, 70, seed=8)                # more than one block of 64
+    poses = random_poses(ev.robot, 70, seed=8)  # more than one block of 64
     p = ev._params(len(poses), {"E_rod": 1.5e11}, "paper")
     a, b = py(poses[:, 0], poses[:, 1], poses[:, 2], p), c(poses[:, 0], poses[:, 1], poses[:, 2], p)
     assert np.abs(a["dK_F"]).max() > 0 and np.abs(a["M"]).max() > 0

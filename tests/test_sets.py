@@ -1,6 +1,7 @@
 """One ``--set NAME=VALUE`` (and ``NAME@N=VALUE``) for every command that
 evaluates the model; ``--model PRESET:NAME=VALUE``; the values used shown in every output;
 precedence CSV column > --set > the robot's default."""
+
 from __future__ import annotations
 
 import json
@@ -29,16 +30,19 @@ def test_parse_sets_accepts_per_leg_spelling():
     assert parse_sets(["l2=0.60", "eta_a@3=0.5", "k_t@01=9e3"]) == {"l2": 0.6, "eta_a@3": 0.5, "k_t@1": 9000.0}
 
 
-@pytest.mark.parametrize("item, words", [
-    ("l2", "expected NAME=VALUE"),
-    ("=0.5", "expected NAME=VALUE"),
-    ("l2=abc", "not a number"),
-    ("l2=nan", "not finite"),
-    ("eta_a@0=0.5", "leg '0' is not a leg number"),
-    ("eta_a@x=0.5", "leg 'x' is not a leg number"),
-    ("eta_a@-1=0.5", "is not a leg number"),
-    ("2l=0.5", "is not a parameter name"),
-])
+@pytest.mark.parametrize(
+    "item, words",
+    [
+        ("l2", "expected NAME=VALUE"),
+        ("=0.5", "expected NAME=VALUE"),
+        ("l2=abc", "not a number"),
+        ("l2=nan", "not finite"),
+        ("eta_a@0=0.5", "leg '0' is not a leg number"),
+        ("eta_a@x=0.5", "leg 'x' is not a leg number"),
+        ("eta_a@-1=0.5", "is not a leg number"),
+        ("2l=0.5", "is not a parameter name"),
+    ],
+)
 def test_parse_sets_rejects_malformed_items(item, words):
     with pytest.raises(CliError, match=words):
         parse_sets([item])
@@ -49,11 +53,17 @@ def test_parse_sets_rejects_a_name_given_twice():
         parse_sets(["l2=0.5", "l2=0.6"])
 
 
-@pytest.mark.parametrize("argv", [
-    ["compare", "paper"], ["diagnose", "paper", "--add", "ee_compliance"], ["matrices"],
-    ["synth", "--truth", "paper", "--k-a", "500"], ["report", "-o", "r.html"],
-    ["sweep", "--grid", "1", "1", "1", "-o", "sw"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["compare", "paper"],
+        ["diagnose", "paper", "--add", "ee_compliance"],
+        ["matrices"],
+        ["synth", "--truth", "paper", "--k-a", "500"],
+        ["report", "-o", "r.html"],
+        ["sweep", "--grid", "1", "1", "1", "-o", "sw"],
+    ],
+)
 def test_every_evaluating_command_accepts_set_and_names_an_unknown_parameter(argv, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main([*argv, "--set", "l3=0.5"]) == 2
@@ -92,7 +102,7 @@ def test_per_leg_value_reaches_the_evaluator(capsys):
     """The parser passes ``eta_a@3`` on by that name; the evaluator decides whether it knows it."""
     code = main(["matrices", "--set", "eta_a@3=0.5", "--json"])
     captured = capsys.readouterr()
-    if code == 0:                         # per-leg values implemented in the evaluator
+    if code == 0:  # per-leg values implemented in the evaluator
         assert changed(json.loads(captured.out))["eta_a@3"] == (0.5, "given")
     else:
         assert code == 2 and "eta_a@3" in captured.err and len(captured.err.strip().splitlines()) == 1
@@ -137,8 +147,14 @@ def test_diagnose_set_is_the_start_of_a_fitted_parameter(monkeypatch, ev):
         return real(fun, x0, **kwargs)
 
     monkeypatch.setattr(fitmod, "least_squares", spy)
-    fitmod.fit(paper_measurements(ev), ("actuator_loss", "ee_compliance", "rod_compliance"), ev, ("k_E_rot",),
-               fixed={"k_E_rot": 321.0}, explore=())
+    fitmod.fit(
+        paper_measurements(ev),
+        ("actuator_loss", "ee_compliance", "rod_compliance"),
+        ev,
+        ("k_E_rot",),
+        fixed={"k_E_rot": 321.0},
+        explore=(),
+    )
     assert starts[0][0] == pytest.approx(321.0)
 
 
@@ -154,5 +170,5 @@ def test_report_table_shows_the_used_values(capsys, tmp_path):
     html = tmp_path / "r.html"
     assert main(["report", "--set", "l2=0.60", "-o", str(html)]) == 0
     text = html.read_text()
-    cell = text[text.index("<code>l2</code>"):].split("</tr>")[0]
+    cell = text[text.index("<code>l2</code>") :].split("</tr>")[0]
     assert ">0.6 " in cell and "default 0.53" in cell and ">0.53<" not in cell

@@ -5,6 +5,7 @@ recovered within 3 sigma; clean campaigns flag nothing.
 Data from synth with a 0.3 kg payload; the mislabelling is done here (the rows measured at
 k_a = 1000 N m/rad at the central pose written as 1500, or at another pose).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -30,7 +31,7 @@ M_P = 0.3
 @pytest.fixture(scope="session")
 def ev_cd():
     mp = pytest.MonkeyPatch()
-    mp.setattr(fitmod, "EXACT_JACOBIAN", False)          # central differences
+    mp.setattr(fitmod, "EXACT_JACOBIAN", False)  # central differences
     yield eigentwist.load("heli4", backend="auto")
     mp.undo()
 
@@ -75,7 +76,11 @@ def test_mislabelled_setting_is_flagged_and_the_payload_recovered(ev_cd, what):
             assert np.allclose(a.best_pose, POSES[0])
         assert d.selected == ["payload_mass"] and abs(d.final.values["m_p"] - M_P) < 3 * d.final.std["m_p"]
         j = d.to_json()["setting_anomalies"][0]
-        assert j["lines"] == a.lines and j["best_k_a"] == a.best_k_a and j["evidence"]["chi2_best"] < j["evidence"]["chi2_written"]
+        assert (
+            j["lines"] == a.lines
+            and j["best_k_a"] == a.best_k_a
+            and j["evidence"]["chi2_best"] < j["evidence"]["chi2_written"]
+        )
         assert len(d.meas) == len(meas) - len(rows) and d.all_rows is not None
         # the answer block names the setting by its lines and the label that fits
         text = answer_text(d, ev_cd)

@@ -1,4 +1,5 @@
 """Mode shapes as evidence: MAC identities, transport to a sensor, matching by shape."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,7 +14,7 @@ def test_mac_of_a_mode_with_itself_is_one_and_of_orthogonal_modes_zero():
     rng = np.random.default_rng(4)
     a = rng.standard_normal(3) + 1j * rng.standard_normal(3)
     assert mac(a, a) == pytest.approx(1.0, abs=1e-14)
-    assert mac(a, -2.5j * a) == pytest.approx(1.0, abs=1e-14)             # any scale and phase
+    assert mac(a, -2.5j * a) == pytest.approx(1.0, abs=1e-14)  # any scale and phase
     q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
     for i in range(3):
         for j in range(3):
@@ -26,7 +27,7 @@ def test_transport_is_v_plus_omega_cross_r():
     assert np.allclose(transport_matrix(r) @ twist, twist[3:] + np.cross(twist[:3], r), rtol=1e-14)
     V = rng.standard_normal((2, 6, 6))
     assert np.allclose(sensor_shapes(V, r)[1][:, 4], V[1, 3:, 4] + np.cross(V[1, :3, 4], r))
-    assert np.array_equal(sensor_shapes(V[:, 3:, 3:]), V[:, 3:, 3:])       # rigid: translations already
+    assert np.array_equal(sensor_shapes(V[:, 3:, 3:]), V[:, 3:, 3:])  # rigid: translations already
 
 
 def _measured(ev, labels, shapes, sensor=None):
@@ -46,9 +47,9 @@ def test_matching_follows_the_shape_not_the_label(ev):
     sensor = np.array([0.05, 0.02, -0.03])
     pose = np.array([[0.06, -0.04, -0.6]])
     m = ev.modes(pose, "paper", k_a=1000.0)
-    U = sensor_shapes(m.eigentwists, sensor)[0][:, :3].T                  # modes 1, 2, 3 at the sensor
+    U = sensor_shapes(m.eigentwists, sensor)[0][:, :3].T  # modes 1, 2, 3 at the sensor
     U = U / np.linalg.norm(U, axis=1)[:, None]
-    meas, _ = _measured(ev, ["2", "1", "3"], U[[0, 1, 2]], sensor)       # labels 1 <-> 2 swapped
+    meas, _ = _measured(ev, ["2", "1", "3"], U[[0, 1, 2]], sensor)  # labels 1 <-> 2 swapped
     cmp = compare(meas, "paper", ev)
     assert list(cmp.mode_index) == [0, 1, 2]
     assert np.allclose(cmp.mac, 1.0, atol=1e-9)
@@ -60,8 +61,10 @@ def test_matching_follows_the_shape_not_the_label(ev):
 
 
 def test_shape_columns_round_trip_through_csv(ev):
-    text = ("k_a,mode,freq_hz,damping_ratio,phi_x,phi_y,phi_z,sensor_x\n"
-            "1000,x,15.5,0.015,1,0.01,-0.02,0.05\n1000,z,30.6,,,,,\n")
+    text = (
+        "k_a,mode,freq_hz,damping_ratio,phi_x,phi_y,phi_z,sensor_x\n"
+        "1000,x,15.5,0.015,1,0.01,-0.02,0.05\n1000,z,30.6,,,,,\n"
+    )
     meas = parse_csv(text, "shapes.csv", ev)
     assert np.isnan(meas.shapes[1]).all() and meas.shapes[0, 0] == 1.0
     assert np.allclose(meas.sensor, [[0.05, 0, 0], [0, 0, 0]])

@@ -6,6 +6,7 @@ Gaussian likelihood maximised numerically (AICc), SciPy's F and chi-square distr
 the reversal probability behind the separation threshold). Fits of the real model are in
 ``test_fit_coverage.py``.
 """
+
 from __future__ import annotations
 
 import math
@@ -21,19 +22,22 @@ from eigentwist.diagnose import stats
 def _neg2_log_likelihood(chi2: float, n: int, log_sigma2: np.ndarray) -> float:
     """-2 ln L of n Gaussian residuals whose sigma_i are known up to one factor s, maximised
     over s numerically (not in closed form), with sum(ln sigma_i^2) = ``log_sigma2``."""
-    res = optimize.minimize_scalar(lambda ln_s2: n * ln_s2 + chi2 / math.exp(ln_s2), bounds=(-40, 40),
-                                   method="bounded", options={"xatol": 1e-12})
+    res = optimize.minimize_scalar(
+        lambda ln_s2: n * ln_s2 + chi2 / math.exp(ln_s2), bounds=(-40, 40), method="bounded", options={"xatol": 1e-12}
+    )
     return n * math.log(2 * math.pi) + log_sigma2 + float(res.fun)
 
 
 def _aicc_independent(chi2: float, n: int, k: int, log_sigma2: float = 0.0) -> float:
-    n_params = k + 1                               # k fitted + the common scale of sigma
+    n_params = k + 1  # k fitted + the common scale of sigma
     aic = _neg2_log_likelihood(chi2, n, log_sigma2) + 2 * n_params
     return aic + 2 * n_params * (n_params + 1) / (n - n_params - 1)
 
 
-@pytest.mark.parametrize("n, k_a, k_b, chi2_a, chi2_b", [(6, 0, 1, 9.0, 4.0), (8, 1, 2, 30.0, 11.0),
-                                                          (5, 0, 2, 3.0, 0.5), (40, 2, 3, 55.0, 50.0)])
+@pytest.mark.parametrize(
+    "n, k_a, k_b, chi2_a, chi2_b",
+    [(6, 0, 1, 9.0, 4.0), (8, 1, 2, 30.0, 11.0), (5, 0, 2, 3.0, 0.5), (40, 2, 3, 55.0, 50.0)],
+)
 def test_aicc_differences_match_the_maximised_likelihood(n, k_a, k_b, chi2_a, chi2_b):
     # the constants of the likelihood (n ln 2 pi + sum ln sigma_i^2 + n) cancel in a difference
     got = stats.aicc(chi2_a, n, k_a) - stats.aicc(chi2_b, n, k_b)
@@ -49,29 +53,31 @@ def test_aicc_small_sample_term_is_counted():
     assert stats.aicc(2.0, 6, 1) == pytest.approx(base + 4 + 4)
     assert stats.aicc(2.0, 6, 2) == pytest.approx(base + 6 + 12)
     assert stats.aicc(2.0, 6, 3) == pytest.approx(base + 8 + 40)
-    assert stats.aicc(2.0, 6, 4) == math.inf                  # n - K - 1 = 0: undefined, never preferred
+    assert stats.aicc(2.0, 6, 4) == math.inf  # n - K - 1 = 0: undefined, never preferred
     assert stats.aicc(2.0, 5, 3) == math.inf
-    assert math.isfinite(stats.aicc(0.0, 6, 0))               # a perfect fit stays comparable
+    assert math.isfinite(stats.aicc(0.0, 6, 0))  # a perfect fit stays comparable
 
 
 # --------------------------------------------------------------------------------- F test
-@pytest.mark.parametrize("chi2_0, k_0, chi2_1, k_1, n", [(20.0, 0, 8.0, 1, 10), (14.0, 1, 9.0, 3, 12),
-                                                          (5.0, 2, 4.9, 3, 30), (7.0, 1, 1.0, 2, 4)])
+@pytest.mark.parametrize(
+    "chi2_0, k_0, chi2_1, k_1, n",
+    [(20.0, 0, 8.0, 1, 10), (14.0, 1, 9.0, 3, 12), (5.0, 2, 4.9, 3, 30), (7.0, 1, 1.0, 2, 4)],
+)
 def test_f_test_is_the_extra_sum_of_squares_test(chi2_0, k_0, chi2_1, k_1, n):
     f = ((chi2_0 - chi2_1) / (k_1 - k_0)) / (chi2_1 / (n - k_1))
     assert stats.f_test(chi2_0, k_0, chi2_1, k_1, n) == pytest.approx(sps.f.sf(f, k_1 - k_0, n - k_1), rel=1e-12)
 
 
 def test_f_test_edge_cases():
-    assert math.isnan(stats.f_test(5.0, 1, 4.0, 1, 10))       # not nested: nothing added
+    assert math.isnan(stats.f_test(5.0, 1, 4.0, 1, 10))  # not nested: nothing added
     assert math.isnan(stats.f_test(5.0, 2, 4.0, 1, 10))
-    assert math.isnan(stats.f_test(5.0, 0, 4.0, 3, 3))        # no residual degrees of freedom
-    assert stats.f_test(5.0, 0, 0.0, 1, 10) == 0.0            # a perfect fit of data the smaller model misses
+    assert math.isnan(stats.f_test(5.0, 0, 4.0, 3, 3))  # no residual degrees of freedom
+    assert stats.f_test(5.0, 0, 0.0, 1, 10) == 0.0  # a perfect fit of data the smaller model misses
     assert stats.f_test(0.0, 0, 0.0, 1, 10) == 1.0
-    assert stats.f_test(5.0, 0, 6.0, 1, 10) == 1.0            # a worse fit is no improvement
-    assert 0.0 < stats.f_test(5.0, 0, 4.0, 1, 3) < 1.0        # dof = 2 is enough
-    assert stats.f_test(5.0, 0, 4.0, 1, 2) == pytest.approx(sps.f.sf(0.25, 1, 1))   # and dof = 1
-    assert stats.f_test(0.5, 0, 0.0, 1, 10) == 0.0            # any misfit of model 0 that model 1 removes
+    assert stats.f_test(5.0, 0, 6.0, 1, 10) == 1.0  # a worse fit is no improvement
+    assert 0.0 < stats.f_test(5.0, 0, 4.0, 1, 3) < 1.0  # dof = 2 is enough
+    assert stats.f_test(5.0, 0, 4.0, 1, 2) == pytest.approx(sps.f.sf(0.25, 1, 1))  # and dof = 1
+    assert stats.f_test(0.5, 0, 0.0, 1, 10) == 0.0  # any misfit of model 0 that model 1 removes
 
 
 def test_f_test_false_positive_rate_under_the_null_is_alpha():
@@ -84,11 +90,11 @@ def test_f_test_false_positive_rate_under_the_null_is_alpha():
     sigma = 0.3
     chi2_0 = np.sum(((y - y.mean(axis=1, keepdims=True)) / sigma) ** 2, axis=1)
     slope = (y - y.mean(axis=1, keepdims=True)) @ x / (x @ x)
-    chi2_1 = chi2_0 - slope ** 2 * (x @ x) / sigma ** 2
+    chi2_1 = chi2_0 - slope**2 * (x @ x) / sigma**2
     p = np.array([stats.f_test(c0, 1, c1, 2, n) for c0, c1 in zip(chi2_0, chi2_1)])
     rate = np.mean(p < alpha)
     assert abs(rate - alpha) < 4 * math.sqrt(alpha * (1 - alpha) / reps), rate
-    assert np.mean(p < 0.5) == pytest.approx(0.5, abs=0.03)   # uniform p-values, not only the tail
+    assert np.mean(p < 0.5) == pytest.approx(0.5, abs=0.03)  # uniform p-values, not only the tail
 
 
 # ------------------------------------------------------------------ goodness of fit, chi2
@@ -96,11 +102,11 @@ def test_chi2_and_goodness_of_fit():
     assert stats.chi2_value([10.0, 20.0], [11.0, 18.0], [0.5, 1.0]) == pytest.approx(4.0 + 4.0)
     assert stats.gof_p_value(12.0, 10, 2) == pytest.approx(sps.chi2.sf(12.0, 8), rel=1e-12)
     assert math.isnan(stats.gof_p_value(1.0, 3, 3))
-    assert stats.gof_p_value(1.0, 3, 2) == pytest.approx(sps.chi2.sf(1.0, 1))      # one dof is enough
+    assert stats.gof_p_value(1.0, 3, 2) == pytest.approx(sps.chi2.sf(1.0, 1))  # one dof is enough
     dof = 8
-    edge = sps.chi2.isf(stats.ALPHA, dof)                     # the chi2 at p = alpha
+    edge = sps.chi2.isf(stats.ALPHA, dof)  # the chi2 at p = alpha
     assert stats.explained(edge * 0.999, dof + 2, 2) and not stats.explained(edge * 1.001, dof + 2, 2)
-    assert not stats.explained(0.0, 2, 2)                     # nothing left to judge with
+    assert not stats.explained(0.0, 2, 2)  # nothing left to judge with
     assert stats.explained(edge * 1.001, dof + 2, 2, alpha=stats.ALPHA / 2)
     assert stats.ALPHA == 0.01 and stats.DELTA_AICC == 2.0
 
@@ -131,7 +137,7 @@ def test_noise_reverses_the_order_of_two_models_as_stated():
     data = a + sigma * rng.standard_normal((reps, n))
     reversed_ = np.mean(np.sum(((data - b) / sigma) ** 2, axis=1) < np.sum(((data - a) / sigma) ** 2, axis=1))
     assert reversed_ == pytest.approx(sps.norm.cdf(-stats.SEPARATION / 2), abs=0.005)
-    assert 0.06 < reversed_ < 0.075                           # the 3 of the criteria: ~7 %
+    assert 0.06 < reversed_ < 0.075  # the 3 of the criteria: ~7 %
 
 
 def _pair(distance: float, n: int = 5):
@@ -140,8 +146,9 @@ def _pair(distance: float, n: int = 5):
     return a, a + sigma * distance / math.sqrt(n), sigma
 
 
-@pytest.mark.parametrize("distance, same", [(0.5, True), (1.5, True), (2.5, True), (2.95, True),
-                                            (3.05, False), (6.0, False)])
+@pytest.mark.parametrize(
+    "distance, same", [(0.5, True), (1.5, True), (2.5, True), (2.95, True), (3.05, False), (6.0, False)]
+)
 def test_models_closer_than_three_sigma_are_indistinguishable(distance, same):
     a, b, sigma = _pair(distance)
     assert stats.separation(a, b, sigma) == pytest.approx(distance)
@@ -171,9 +178,9 @@ def test_switch_test_is_the_chi2_of_one_dof_scaled_up_only():
     assert stats.switch_test(30.0, 18.0, 20, 2) == pytest.approx(sps.chi2.sf(12.0, 1), rel=1e-12)
     # fit worse than sigma: delta chi2 divided by chi2_1/nu = 2
     assert stats.switch_test(76.0, 36.0, 20, 2) == pytest.approx(sps.chi2.sf(20.0, 1), rel=1e-12)
-    assert stats.switch_test(10.0, 12.0, 20, 2) == 1.0           # worse with it: no evidence
+    assert stats.switch_test(10.0, 12.0, 20, 2) == 1.0  # worse with it: no evidence
     assert math.isnan(stats.switch_test(10.0, 5.0, 3, 3))
-    assert stats.switch_test(10.0, 5.0, 4, 3) == pytest.approx(sps.chi2.sf(1.0, 1), rel=1e-12)   # dof 1
+    assert stats.switch_test(10.0, 5.0, 4, 3) == pytest.approx(sps.chi2.sf(1.0, 1), rel=1e-12)  # dof 1
 
 
 def test_switch_test_false_positive_rate_under_the_null_is_alpha():
@@ -183,7 +190,7 @@ def test_switch_test_false_positive_rate_under_the_null_is_alpha():
     d = rng.standard_normal(n)
     d /= np.linalg.norm(d)
     e = rng.standard_normal((reps, n))
-    chi2_0 = np.sum(e ** 2, axis=1)
-    chi2_1 = chi2_0 - (e @ d) ** 2                               # the switched model removes one direction
+    chi2_0 = np.sum(e**2, axis=1)
+    chi2_1 = chi2_0 - (e @ d) ** 2  # the switched model removes one direction
     p = np.array([stats.switch_test(c0, c1, n, 0) for c0, c1 in zip(chi2_0, chi2_1)])
     assert abs(np.mean(p < alpha) - alpha) < 4 * math.sqrt(alpha * (1 - alpha) / reps)

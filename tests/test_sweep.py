@@ -1,4 +1,5 @@
 """Design sweeps: spec parsing, chunking, unreachable poses, the lowest summary, writers, Dask."""
+
 from __future__ import annotations
 
 import itertools
@@ -28,11 +29,17 @@ def concat(spec) -> dict:
 def full_product(spec):
     """The sweep's rows built independently: designs (first slowest), k_a, poses (fastest)."""
     names = spec.design_names
-    axes = [np.linspace(lo, hi, n) if n > 1 else np.array([0.5 * (lo + hi)])
-            for (lo, hi), n in zip(spec.poses.box, spec.poses.shape)]
+    axes = [
+        np.linspace(lo, hi, n) if n > 1 else np.array([0.5 * (lo + hi)])
+        for (lo, hi), n in zip(spec.poses.box, spec.poses.shape)
+    ]
     poses = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    rows = [(design, k_a, pose) for design in itertools.product(*(v for _, v in spec.vary))
-            for k_a in spec.k_a for pose in poses]
+    rows = [
+        (design, k_a, pose)
+        for design in itertools.product(*(v for _, v in spec.vary))
+        for k_a in spec.k_a
+        for pose in poses
+    ]
     pose = np.array([r[2] for r in rows])
     k_a = np.array([r[1] for r in rows])
     params = {name: np.array([r[0][j] for r in rows]) for j, name in enumerate(names)}
@@ -40,12 +47,15 @@ def full_product(spec):
 
 
 # ---------------------------------------------------------------------- parsing
-@pytest.mark.parametrize("text, expected", [
-    ("0.45:0.60:16", np.linspace(0.45, 0.60, 16)),
-    ("500,1000,2000", [500.0, 1000.0, 2000.0]),
-    ("2000", [2000.0]),
-    ("1e3:2e3:3", [1000.0, 1500.0, 2000.0]),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("0.45:0.60:16", np.linspace(0.45, 0.60, 16)),
+        ("500,1000,2000", [500.0, 1000.0, 2000.0]),
+        ("2000", [2000.0]),
+        ("1e3:2e3:3", [1000.0, 1500.0, 2000.0]),
+    ],
+)
 def test_parse_values(text, expected):
     assert np.array_equal(parse_values(text), np.asarray(expected, dtype=float))
 
@@ -55,39 +65,45 @@ def test_parse_vary():
     assert name == "l2" and len(values) == 16 and values[0] == 0.45 and values[-1] == 0.60
 
 
-@pytest.mark.parametrize("item, fragment", [
-    ("l2=0.45:0.60", "'0.45:0.60' is not a range"),
-    ("l2=0.45:0.60:x", "count 'x'"),
-    ("l2=0.45:0.60:0", "count 0"),
-    ("l2=abc", "'abc' is not a number"),
-    ("l2=nan", "'nan' is not a finite number"),
-    ("l2", "expected NAME=LO:HI:N"),
-    ("=0.5", "expected NAME=LO:HI:N"),
-    ("l2=", "empty"),
-])
+@pytest.mark.parametrize(
+    "item, fragment",
+    [
+        ("l2=0.45:0.60", "'0.45:0.60' is not a range"),
+        ("l2=0.45:0.60:x", "count 'x'"),
+        ("l2=0.45:0.60:0", "count 0"),
+        ("l2=abc", "'abc' is not a number"),
+        ("l2=nan", "'nan' is not a finite number"),
+        ("l2", "expected NAME=LO:HI:N"),
+        ("=0.5", "expected NAME=LO:HI:N"),
+        ("l2=", "empty"),
+    ],
+)
 def test_bad_vary_names_the_value(item, fragment):
     with pytest.raises(CliError, match="--vary") as err:
         parse_vary(item)
     assert fragment in str(err.value)
 
 
-@pytest.mark.parametrize("kwargs, fragment", [
-    ({"vary": [("nope", [1, 2])]}, "'nope'"),
-    ({"vary": [("l2", [-0.5, 0.5])]}, "'l2' = "),
-    ({"vary": [("k_a", [1, 2])]}, "its own argument"),
-    ({"vary": [("l2", 0.5), ("l2", 0.6)]}, "more than once"),
-    ({"vary": {"l2": 0.5}, "fixed": {"l2": 0.5}}, "both varied and fixed"),
-    ({"vary": {"l2": "0.45:0.60:16"}}, "is text"),
-    ({"vary": {"l2": [0.5, float("nan")]}}, "finite numbers"),
-    ({"k_a": [0, 1000]}, "'k_a' = 0"),
-    ({"box": (0.1, -0.1, 0, 0, -0.7, -0.6)}, "box x range"),
-    ({"box": (0, 1, 2)}, "six finite numbers"),
-    ({"grid": (2, 0, 2)}, "grid [2, 0, 2]"),
-    ({"random": 0}, "random sample size 0"),
-    ({"random": 10, "seed": -1}, "seed -1"),
-    ({"model": "paper,nope"}, "'nope'"),
-    ({"chunk_size": 0}, "chunk size 0"),
-])
+@pytest.mark.parametrize(
+    "kwargs, fragment",
+    [
+        ({"vary": [("nope", [1, 2])]}, "'nope'"),
+        ({"vary": [("l2", [-0.5, 0.5])]}, "'l2' = "),
+        ({"vary": [("k_a", [1, 2])]}, "its own argument"),
+        ({"vary": [("l2", 0.5), ("l2", 0.6)]}, "more than once"),
+        ({"vary": {"l2": 0.5}, "fixed": {"l2": 0.5}}, "both varied and fixed"),
+        ({"vary": {"l2": "0.45:0.60:16"}}, "is text"),
+        ({"vary": {"l2": [0.5, float("nan")]}}, "finite numbers"),
+        ({"k_a": [0, 1000]}, "'k_a' = 0"),
+        ({"box": (0.1, -0.1, 0, 0, -0.7, -0.6)}, "box x range"),
+        ({"box": (0, 1, 2)}, "six finite numbers"),
+        ({"grid": (2, 0, 2)}, "grid [2, 0, 2]"),
+        ({"random": 0}, "random sample size 0"),
+        ({"random": 10, "seed": -1}, "seed -1"),
+        ({"model": "paper,nope"}, "'nope'"),
+        ({"chunk_size": 0}, "chunk size 0"),
+    ],
+)
 def test_bad_spec_names_the_value(kwargs, fragment):
     with pytest.raises(InputError) as err:
         sw.make_spec("heli4", **kwargs)
@@ -95,8 +111,14 @@ def test_bad_spec_names_the_value(kwargs, fragment):
 
 
 def test_spec_round_trips_through_json():
-    spec = sw.make_spec(random=50, seed=3, k_a=parse_values("500:4000:8"), vary={"l2": parse_values("0.45:0.60:16"), "l1": [0.18, 0.2]},
-                        fixed={"m_e": 0.6}, chunk_size=100)
+    spec = sw.make_spec(
+        random=50,
+        seed=3,
+        k_a=parse_values("500:4000:8"),
+        vary={"l2": parse_values("0.45:0.60:16"), "l1": [0.18, 0.2]},
+        fixed={"m_e": 0.6},
+        chunk_size=100,
+    )
     again = sw.SweepSpec.from_dict(json.loads(json.dumps(spec.to_dict())))
     assert again == spec
     assert spec.n_rows == 16 * 2 * 8 * 50 and spec.n_chunks == -(-spec.n_rows // 100)
@@ -104,8 +126,14 @@ def test_spec_round_trips_through_json():
 
 # --------------------------------------------------------------------- chunking
 def test_chunks_reassemble_to_the_unchunked_evaluation(ev):
-    spec = sw.make_spec(grid=(3, 2, 3), k_a=parse_values("1000,2000"), vary=[parse_vary("l2=0.48:0.58:3"), parse_vary("l1=0.19,0.21")],
-                        fixed={"m_e": 0.65}, chunk_size=25, backend=ev.backend)   # 25 does not divide 216 rows
+    spec = sw.make_spec(
+        grid=(3, 2, 3),
+        k_a=parse_values("1000,2000"),
+        vary=[parse_vary("l2=0.48:0.58:3"), parse_vary("l1=0.19,0.21")],
+        fixed={"m_e": 0.65},
+        chunk_size=25,
+        backend=ev.backend,
+    )  # 25 does not divide 216 rows
     cols = concat(spec)
     pose, k_a, params = full_product(spec)
     assert spec.n_rows == len(pose) == 216
@@ -113,12 +141,20 @@ def test_chunks_reassemble_to_the_unchunked_evaluation(ev):
     np.testing.assert_array_equal(cols["k_a"], k_a)
     np.testing.assert_array_equal(cols["design"], np.column_stack([params["l2"], params["l1"]]))
     modes = ev.modes(pose, "paper", k_a=k_a, m_e=0.65, **params)
-    np.testing.assert_array_equal(cols["freq_hz"], modes.freq_hz)   # same kernels, same bits
+    np.testing.assert_array_equal(cols["freq_hz"], modes.freq_hz)  # same kernels, same bits
     np.testing.assert_array_equal(cols["direction"], modes.direction)
     assert cols["reachable"].all()
     # another chunking gives the same bits
-    other = concat(sw.make_spec(grid=(3, 2, 3), k_a=parse_values("1000,2000"), vary=[parse_vary("l2=0.48:0.58:3"), parse_vary("l1=0.19,0.21")],
-                                fixed={"m_e": 0.65}, chunk_size=1000, backend=ev.backend))
+    other = concat(
+        sw.make_spec(
+            grid=(3, 2, 3),
+            k_a=parse_values("1000,2000"),
+            vary=[parse_vary("l2=0.48:0.58:3"), parse_vary("l1=0.19,0.21")],
+            fixed={"m_e": 0.65},
+            chunk_size=1000,
+            backend=ev.backend,
+        )
+    )
     for key in cols:
         np.testing.assert_array_equal(cols[key], other[key])
 
@@ -128,7 +164,7 @@ def test_rigid_model_has_three_modes(ev):
     cols = concat(spec)
     assert cols["freq_hz"].shape == (8, 3)
     np.testing.assert_allclose(cols["freq_hz"], ev.frequencies(cols["pose"], "rigid"), rtol=1e-12)
-    assert set(np.unique(cols["direction"])) <= {3, 4, 5}       # x, y, z
+    assert set(np.unique(cols["direction"])) <= {3, 4, 5}  # x, y, z
 
 
 def test_random_poses_are_seeded_and_independent_of_chunking():
@@ -161,10 +197,10 @@ def test_unreachable_poses_are_marked_not_raised(ev):
     for pose, l2 in zip(cols["pose"], cols["design"][:, 0]):
         try:
             expected.append(ev.frequencies(pose, l2=l2)[0])
-        except ValueError:                       # UnreachablePoseError / SingularPoseError
+        except ValueError:  # UnreachablePoseError / SingularPoseError
             expected.append(None)
     ok = np.array([e is not None for e in expected])
-    assert 0 < ok.sum() < len(ok)                # the box holds both kinds
+    assert 0 < ok.sum() < len(ok)  # the box holds both kinds
     np.testing.assert_array_equal(cols["reachable"], ok)
     np.testing.assert_allclose(cols["freq_hz"][ok], np.array([e for e in expected if e is not None]), rtol=1e-12)
     assert np.isnan(cols["freq_hz"][~ok]).all() and (cols["direction"][~ok] == -1).all()
@@ -178,7 +214,13 @@ def test_reachable_rows_mirrors_the_evaluator(ev):
 
 # ------------------------------------------------------------------- the summary
 def test_lowest_equals_brute_force():
-    spec = sw.make_spec(grid=(5, 1, 5), box=MIXED_BOX, k_a=parse_values("1000,2000"), vary=[parse_vary("l2=0.5,0.53,0.56")], chunk_size=13)
+    spec = sw.make_spec(
+        grid=(5, 1, 5),
+        box=MIXED_BOX,
+        k_a=parse_values("1000,2000"),
+        vary=[parse_vary("l2=0.5,0.53,0.56")],
+        chunk_size=13,
+    )
     summary = sw.run_sweep(spec)
     cols = concat(spec)
     low = summary.lowest
@@ -246,8 +288,31 @@ def test_parquet_without_pyarrow_names_the_extra(tmp_path, monkeypatch):
 # --------------------------------------------------------------------------- CLI
 def test_cli_sweep_writes_and_prints_lowest(tmp_path, capsys):
     out = tmp_path / "sweep"
-    assert main(["sweep", "--grid", "3", "1", "3", "--box", *map(str, MIXED_BOX), "--k-a", "1000,2000",
-                 "--vary", "l2=0.5:0.56:2", "--set", "m_e=0.6", "--chunk-size", "5", "-o", str(out), "--lowest"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "--grid",
+                "3",
+                "1",
+                "3",
+                "--box",
+                *map(str, MIXED_BOX),
+                "--k-a",
+                "1000,2000",
+                "--vary",
+                "l2=0.5:0.56:2",
+                "--set",
+                "m_e=0.6",
+                "--chunk-size",
+                "5",
+                "-o",
+                str(out),
+                "--lowest",
+            ]
+        )
+        == 0
+    )
     captured = capsys.readouterr()
     assert "worst-case lowest" in captured.out and "lowest Hz" in captured.out and "l2" in captured.out
     assert "36 rows" in captured.err and "reachable" in captured.err and "poses/s" in captured.err
@@ -276,11 +341,19 @@ def test_dask_engine_without_dask_names_the_extra(monkeypatch):
 # -------------------------------------------------------------------------- Dask
 def test_dask_two_workers_equal_in_process(tmp_path):
     distributed = pytest.importorskip("dask.distributed", reason="the dask extra is not installed")
-    spec = sw.make_spec(random=400, seed=11, box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.56")], k_a=parse_values("1000,2000"), chunk_size=150)
+    spec = sw.make_spec(
+        random=400,
+        seed=11,
+        box=MIXED_BOX,
+        vary=[parse_vary("l2=0.5,0.56")],
+        k_a=parse_values("1000,2000"),
+        chunk_size=150,
+    )
     local = sw.run_sweep(spec, sw.open_writer(tmp_path / "local", spec))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        remote = sw.run_sweep(spec, sw.open_writer(tmp_path / "dask", spec), engine="dask",
-                              scheduler=cluster.scheduler_address)
+        remote = sw.run_sweep(
+            spec, sw.open_writer(tmp_path / "dask", spec), engine="dask", scheduler=cluster.scheduler_address
+        )
     a, b = sw.load_sweep(tmp_path / "local"), sw.load_sweep(tmp_path / "dask")
     assert 0 < local.n_reachable == remote.n_reachable < spec.n_rows
     for key in sw.COLUMNS:
@@ -320,11 +393,13 @@ def test_c_backend_sweep_agrees_with_numpy(monkeypatch):
     except cb.CompilerNotFoundError as exc:
         skip_tier("compiled", str(exc))
     monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
-    kwargs = dict(grid=(6, 1, 6), box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.56")], k_a=parse_values("1000,2000"), chunk_size=19)
+    kwargs = dict(
+        grid=(6, 1, 6), box=MIXED_BOX, vary=[parse_vary("l2=0.5,0.56")], k_a=parse_values("1000,2000"), chunk_size=19
+    )
     for model in ("paper", "rigid"):
         a = concat(sw.make_spec(backend="numpy", model=model, **kwargs))
         b = concat(sw.make_spec(backend="c", model=model, **kwargs))
         assert 0 < a["reachable"].sum() < len(a["reachable"])
         np.testing.assert_array_equal(a["reachable"], b["reachable"])
         np.testing.assert_array_equal(a["direction"], b["direction"])
-        np.testing.assert_allclose(b["freq_hz"], a["freq_hz"], rtol=1e-10)     # NaN where unreachable, in both
+        np.testing.assert_allclose(b["freq_hz"], a["freq_hz"], rtol=1e-10)  # NaN where unreachable, in both

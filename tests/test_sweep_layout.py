@@ -1,5 +1,6 @@
 """The sweep package has one job per module and its errors speak the library's language
 (not the command line's): no runtime error quotes a command-line flag."""
+
 from __future__ import annotations
 
 import ast

@@ -9,6 +9,7 @@ of its frame (x along the rod, y normal to the parallelogram's plane). The paper
 fictitious rod (double density, riding on the far bar, Eqs. 26-29) likewise from the IK.
 ``M(swinging_rods) - M(none)`` must equal the difference of the two energies to 1e-8.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,7 +46,7 @@ def _state(ev, poses):
     normal to the parallelogram's plane), the angle q1 + q2 of the bars (rad), the centre
     line's ends (elbow, a_i) and s_i; arrays over the poses."""
     p, legs = ev.defaults, _legs(ev)
-    q = ev.joint_angles(poses)                              # (N, legs, 3)
+    q = ev.joint_angles(poses)  # (N, legs, 3)
     out = []
     for k, leg in enumerate(legs):
         q1 = q[:, k, 0][:, None]
@@ -59,7 +60,7 @@ def _state(ev, poses):
             r2 = (far_end - near_end) / np.linalg.norm(far_end - near_end, axis=1)[:, None]
             n = np.cross(r2, leg["s"])
             n /= np.linalg.norm(n, axis=1)[:, None]
-            R = np.stack([r2, n, np.cross(r2, n)], axis=2)          # (N, 3, 3), columns
+            R = np.stack([r2, n, np.cross(r2, n)], axis=2)  # (N, 3, 3), columns
             rods.append((near_end, far_end, R))
         out.append((rods, q[:, k, 0] + q[:, k, 1], (elbow, far), leg["s"]))
     return out
@@ -86,12 +87,13 @@ def _energies(ev, poses, v):
             far = _rates(lambda P: field(P)[k][0][j][1], poses, v)
             R = st[k][0][j][2]
             Rdot = _rates(lambda P: field(P)[k][0][j][2], poses, v)
-            W = np.einsum("nij,nkj->nik", Rdot, R)                 # [omega]x = Rdot R^T
+            W = np.einsum("nij,nkj->nik", Rdot, R)  # [omega]x = Rdot R^T
             omega = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], axis=1)
-            vc = (near + far) / 2                                  # the centre: mean of the ends
+            vc = (near + far) / 2  # the centre: mean of the ends
             w_ax = np.einsum("ni,ni->n", omega, R[:, :, 0])
-            T_rods += 0.5 * m * np.einsum("ni,ni->n", vc, vc) + 0.5 * (i_ax * w_ax**2
-                                                                       + i_tr * (np.einsum("ni,ni->n", omega, omega) - w_ax**2))
+            T_rods += 0.5 * m * np.einsum("ni,ni->n", vc, vc) + 0.5 * (
+                i_ax * w_ax**2 + i_tr * (np.einsum("ni,ni->n", omega, omega) - w_ax**2)
+            )
         # the fictitious rod: mass 2m at the centre line's midpoint, moving with the far bar
         # (angular velocity (dq1 + dq2) s, no rotation with q3), inertia axes along the rods
         _, _, (elbow, far), s = st[k]
@@ -101,8 +103,9 @@ def _energies(ev, poses, v):
         vc = v + np.cross(omega, centre - far)
         r2 = (far - elbow) / np.linalg.norm(far - elbow, axis=1)[:, None]
         w_ax = np.einsum("ni,ni->n", omega, r2)
-        T_fict += m * np.einsum("ni,ni->n", vc, vc) + (i_ax * w_ax**2 + i_tr * (np.einsum("ni,ni->n", omega, omega)
-                                                                               - w_ax**2))
+        T_fict += m * np.einsum("ni,ni->n", vc, vc) + (
+            i_ax * w_ax**2 + i_tr * (np.einsum("ni,ni->n", omega, omega) - w_ax**2)
+        )
     return T_rods, T_fict
 
 

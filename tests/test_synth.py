@@ -1,4 +1,5 @@
 """Synthetic measurements: truth specs, seeded noise, the effect outside the catalogue."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,10 +20,17 @@ def test_parse_truth(ev):
     assert parse_truth("none", ev).effects == ()
 
 
-@pytest.mark.parametrize("spec, words", [
-    ("paper+warp_drive", "warp_drive"), ("paper+payload_mass:mass=3", "unknown parameter 'mass'"),
-    ("paper+payload_mass:m_p=heavy", "not a number"), ("paper+payload_mass:m_p", "PARAM=VALUE"),
-    ("paper+payload_mass:m_p=-1", "m_p"), ("", "empty")])
+@pytest.mark.parametrize(
+    "spec, words",
+    [
+        ("paper+warp_drive", "warp_drive"),
+        ("paper+payload_mass:mass=3", "unknown parameter 'mass'"),
+        ("paper+payload_mass:m_p=heavy", "not a number"),
+        ("paper+payload_mass:m_p", "PARAM=VALUE"),
+        ("paper+payload_mass:m_p=-1", "m_p"),
+        ("", "empty"),
+    ],
+)
 def test_bad_truth_specs(ev, spec, words):
     with pytest.raises(InputError, match=words):
         parse_truth(spec, ev)
@@ -39,9 +47,9 @@ def test_noise_free_data_is_the_truth_model(ev):
     poses = [ev.robot.x_ref, [-0.1, 0.0, -0.55]]
     m = synth("paper+payload_mass:m_p=0.5", KA, poses, ("x", "y", "z"), noise=0, ev=ev)
     assert len(m) == 2 * 3 * 3
-    assert np.allclose(m.sigma_hz, 0.02 * m.freq_hz)                     # no noise: default sigma
+    assert np.allclose(m.sigma_hz, 0.02 * m.freq_hz)  # no noise: default sigma
     pred = compare(m, "paper", ev).predicted
-    assert not np.allclose(pred, m.freq_hz)                              # payload not in "paper"
+    assert not np.allclose(pred, m.freq_hz)  # payload not in "paper"
     pred = compare(m, "paper,payload_mass", ev, {"m_p": 0.5}).predicted
     assert np.allclose(pred, m.freq_hz, rtol=1e-12)
 
@@ -75,9 +83,33 @@ def test_synth_cli_writes_a_loadable_file(tmp_path, ev, capsys):
     from eigentwist.cli.main import main
 
     out = tmp_path / "d.csv"
-    assert main(["synth", "--truth", "paper+transmission_compliance:k_t=8000", "--k-a", "125,500", "2000",
-                 "--poses", "0,0,-0.625 -0.1,0,-0.55", "--pose", "0.05", "0", "-0.6", "--modes", "x,y",
-                 "--noise", "0.5%", "--seed", "3", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--truth",
+                "paper+transmission_compliance:k_t=8000",
+                "--k-a",
+                "125,500",
+                "2000",
+                "--poses",
+                "0,0,-0.625 -0.1,0,-0.55",
+                "--pose",
+                "0.05",
+                "0",
+                "-0.6",
+                "--modes",
+                "x,y",
+                "--noise",
+                "0.5%",
+                "--seed",
+                "3",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     m = load_measurements(out, ev=ev)
     assert len(m) == 3 * 3 * 2 and len(np.unique(m.poses, axis=0)) == 3
     assert "wrote 18 rows" in capsys.readouterr().out
@@ -89,12 +121,12 @@ def test_stated_sigma_is_apart_from_the_noise_drawn(ev):
     k_a = np.geomspace(100, 4000, 40)
     a = synth("rigid", k_a, None, ("x", "y", "z"), "3%", seed=5, ev=ev, sigma="1%")
     b = synth("rigid", k_a, None, ("x", "y", "z"), "3%", seed=5, ev=ev)
-    assert np.array_equal(a.freq_hz, b.freq_hz)                          # same draws: sigma changes only the column
+    assert np.array_equal(a.freq_hz, b.freq_hz)  # same draws: sigma changes only the column
     assert np.allclose(a.sigma_hz, 0.01 * a.freq_hz) and np.allclose(b.sigma_hz, 0.03 * b.freq_hz)
     truth = synth("rigid", k_a, None, ("x", "y", "z"), 0, ev=ev).freq_hz
     assert np.std(a.freq_hz / truth - 1) == pytest.approx(0.03, rel=0.2)  # 120 draws of N(0, 3 %)
     exact = synth("rigid", k_a, None, ("x",), 0, ev=ev, sigma="5%")
-    assert np.allclose(exact.sigma_hz, 0.05 * exact.freq_hz)              # noise-free data, stated sigma
+    assert np.allclose(exact.sigma_hz, 0.05 * exact.freq_hz)  # noise-free data, stated sigma
     with pytest.raises(InputError, match="sigma"):
         synth("rigid", k_a, None, ("x",), 0, ev=ev, sigma="lots")
 
@@ -102,20 +134,43 @@ def test_stated_sigma_is_apart_from_the_noise_drawn(ev):
 def test_noise_levels_draw_independently(ev):
     k_a = np.geomspace(100, 4000, 100)
     truth = synth("rigid", k_a, None, ("x", "y", "z"), 0, ev=ev).freq_hz
-    z = {level: (synth("rigid", k_a, None, ("x", "y", "z"), f"{level}%", seed=11, ev=ev).freq_hz / truth - 1) / (level / 100)
-         for level in (0.5, 2.0)}
+    z = {
+        level: (synth("rigid", k_a, None, ("x", "y", "z"), f"{level}%", seed=11, ev=ev).freq_hz / truth - 1)
+        / (level / 100)
+        for level in (0.5, 2.0)
+    }
     # one draw scaled would give identical standardised deviations (correlation 1); independent draws
     # of 300 have |correlation| < 4/sqrt(300) = 0.23 with overwhelming probability
     assert abs(np.corrcoef(z[0.5], z[2.0])[0, 1]) < 0.23
     again = synth("rigid", k_a, None, ("x", "y", "z"), "2%", seed=11, ev=ev).freq_hz / truth - 1
-    assert np.allclose(again / 0.02, z[2.0], rtol=1e-12)                 # the same (seed, level): the same draws
+    assert np.allclose(again / 0.02, z[2.0], rtol=1e-12)  # the same (seed, level): the same draws
 
 
 def test_synth_cli_sigma_option(tmp_path, ev):
     from eigentwist.cli.main import main
 
     out = tmp_path / "d.csv"
-    assert main(["synth", "--truth", "rigid", "--k-a", "500,2000", "--modes", "x,y", "--noise", "3%",
-                 "--sigma", "1%", "--seed", "2", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "--truth",
+                "rigid",
+                "--k-a",
+                "500,2000",
+                "--modes",
+                "x,y",
+                "--noise",
+                "3%",
+                "--sigma",
+                "1%",
+                "--seed",
+                "2",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     m = load_measurements(out, ev=ev)
     assert np.allclose(m.sigma_hz, 0.01 * m.freq_hz, rtol=1e-9)

@@ -1,4 +1,5 @@
 """Thread counts of the C passes (no compiler needed): precedence, small batches, ranges."""
+
 from __future__ import annotations
 
 import pytest
@@ -17,7 +18,7 @@ def test_default_is_every_core_but_one_in_a_dask_worker(monkeypatch):
     assert threads.resolve_threads() == threads.available_cores()
     monkeypatch.setattr(threads, "_in_dask_worker", lambda: True)
     assert threads.resolve_threads() == 1
-    assert threads.resolve_threads(4) == 4                          # unless asked
+    assert threads.resolve_threads(4) == 4  # unless asked
     monkeypatch.setenv("EIGENTWIST_THREADS", "2")
     assert threads.resolve_threads() == 2
 
@@ -37,7 +38,7 @@ def test_bad_argument_is_named(bad):
 
 def test_small_batches_stay_on_one_thread():
     per = threads.MIN_BLOCKS_PER_THREAD * 64
-    assert threads.threads_for(30, 64, 8) == 1                      # a diagnosis fit's rows
+    assert threads.threads_for(30, 64, 8) == 1  # a diagnosis fit's rows
     assert threads.threads_for(2 * per - 64, 64, 8) == 1
     assert threads.threads_for(2 * per, 64, 8) == 2
     assert threads.threads_for(10**6, 64, 8) == 8

@@ -1,5 +1,6 @@
 """CI runs every tier: with EIGENTWIST_REQUIRE_TIERS=1 (set by .ci/run) a tier that cannot
 run fails instead of skipping."""
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -1,4 +1,5 @@
 """UFF in and out through pyuff: round trips and one clear line per bad input."""
+
 from __future__ import annotations
 
 import re
@@ -10,7 +11,7 @@ import pytest
 from eigentwist.modal.frf import form_factor, modal_frf
 from eigentwist.modal.uff_io import FrfSet, ModeSet, UffError, read_uff, write_frf_uff, write_modes_uff
 
-FREQ = np.round(np.arange(401) * 0.05, 10)        # 0 ... 20 Hz, a step UFF's 6-digit abscissa holds
+FREQ = np.round(np.arange(401) * 0.05, 10)  # 0 ... 20 Hz, a step UFF's 6-digit abscissa holds
 
 
 def _frfs(seed=0):
@@ -36,8 +37,17 @@ def test_any_layout_mixed_forms_and_node_coordinates(tmp_path):
     node coordinates in dataset 15: read as accelerance (-w^2 x receptance), -Y as +Y with the sign flipped."""
     rng = np.random.default_rng(1)
     data = rng.standard_normal((3, len(FREQ))) + 1j * rng.standard_normal((3, len(FREQ)))
-    sets = [pyuff.prepare_15(node_nums=[1, 2, 3], def_cs=[0] * 3, disp_cs=[0] * 3, color=[1] * 3,
-                             x=[0.0, 0.1, 0.2], y=[0.0, 0.0, 0.05], z=[0.0, -0.01, 0.0])]
+    sets = [
+        pyuff.prepare_15(
+            node_nums=[1, 2, 3],
+            def_cs=[0] * 3,
+            disp_cs=[0] * 3,
+            color=[1] * 3,
+            x=[0.0, 0.1, 0.2],
+            y=[0.0, 0.0, 0.05],
+            z=[0.0, -0.01, 0.0],
+        )
+    ]
     for k, (ref_node, ref_dir, ordinate) in enumerate([(1, 1, 12), (2, -2, 8), (3, 3, 12)]):
         s = _set58(1, ref_dir=ref_dir, ordinate=ordinate, data=data[k])
         s["ref_node"] = ref_node
@@ -47,7 +57,7 @@ def test_any_layout_mixed_forms_and_node_coordinates(tmp_path):
     assert back.responses == ["1+X"] and back.references == ["1+X", "2+Y", "3+Z"] and back.form == "accelerance"
     w = 2 * np.pi * FREQ
     assert np.allclose(back.H[:, 0], data[0]) and np.allclose(back.H[:, 2], data[2])
-    assert np.allclose(back.H[:, 1], -1.0 * -(w ** 2) * data[1])            # -Y reference, receptance
+    assert np.allclose(back.H[:, 1], -1.0 * -(w**2) * data[1])  # -Y reference, receptance
     assert np.allclose(back.coords[2], [0.1, 0.0, -0.01]) and np.allclose(back.coords[3], [0.2, 0.05, 0.0])
 
 
@@ -74,16 +84,31 @@ def _write58(path, sets):
 
 def _set58(rsp_dir, ref_dir=1, x=FREQ, node=1, ordinate=12, data=None, abscissa=18):
     data = np.ones(len(x), dtype=complex) if data is None else data
-    return pyuff.prepare_58(binary=0, func_type=4, rsp_node=node, rsp_dir=rsp_dir, ref_node=1, ref_dir=ref_dir,
-                            abscissa_spacing=1, abscissa_spec_data_type=abscissa, ordinate_spec_data_type=ordinate,
-                            orddenom_spec_data_type=13, data=data, x=x.copy(),
-                            id1="t", rsp_ent_name="EE", ref_ent_name="EE")
+    return pyuff.prepare_58(
+        binary=0,
+        func_type=4,
+        rsp_node=node,
+        rsp_dir=rsp_dir,
+        ref_node=1,
+        ref_dir=ref_dir,
+        abscissa_spacing=1,
+        abscissa_spec_data_type=abscissa,
+        ordinate_spec_data_type=ordinate,
+        orddenom_spec_data_type=13,
+        data=data,
+        x=x.copy(),
+        id1="t",
+        rsp_ent_name="EE",
+        ref_ent_name="EE",
+    )
 
 
 def test_bad_uff_input_is_one_line_naming_file_and_dataset(tmp_path):
     nodes = tmp_path / "nodes.uff"
-    pyuff.UFF(str(nodes)).write_sets([pyuff.prepare_15(node_nums=[1], def_cs=[0], disp_cs=[0], color=[1],
-                                                       x=[0.0], y=[0.0], z=[0.0])], mode="overwrite")
+    pyuff.UFF(str(nodes)).write_sets(
+        [pyuff.prepare_15(node_nums=[1], def_cs=[0], disp_cs=[0], color=[1], x=[0.0], y=[0.0], z=[0.0])],
+        mode="overwrite",
+    )
     cases = {
         nodes: "no dataset 58 (FRF) or 55 (modes)",
         tmp_path / "twice.uff": "FRF 1+X / 1+X given twice (first in dataset 1)",
@@ -104,16 +129,28 @@ def test_bad_uff_input_is_one_line_naming_file_and_dataset(tmp_path):
         read_uff(tmp_path / "axes.uff")
 
 
-@pytest.mark.parametrize("keep, message", [
-    (13, None),
-    (14, "dataset 2: truncated: the dataset opened on line 14 has no closing -1 line (the file ends after 1 "
-         "complete dataset); write the file again"),
-    (20, "dataset 2 (type 55): truncated: the dataset opened on line 14 has no closing -1 line (the file ends "
-         "after 1 complete dataset); write the file again"),
-    (25, "dataset 2 (type 55): truncated: the dataset opened on line 14"),
-    (37, "dataset 3 (type 55): truncated: the dataset opened on line 27 has no closing -1 line (the file ends "
-         "after 2 complete datasets); write the file again"),
-])
+@pytest.mark.parametrize(
+    "keep, message",
+    [
+        (13, None),
+        (
+            14,
+            "dataset 2: truncated: the dataset opened on line 14 has no closing -1 line (the file ends after 1 "
+            "complete dataset); write the file again",
+        ),
+        (
+            20,
+            "dataset 2 (type 55): truncated: the dataset opened on line 14 has no closing -1 line (the file ends "
+            "after 1 complete dataset); write the file again",
+        ),
+        (25, "dataset 2 (type 55): truncated: the dataset opened on line 14"),
+        (
+            37,
+            "dataset 3 (type 55): truncated: the dataset opened on line 27 has no closing -1 line (the file ends "
+            "after 2 complete datasets); write the file again",
+        ),
+    ],
+)
 def test_a_file_cut_short_names_the_dataset_and_the_file(tmp_path, keep, message):
     """Three modes, 13 lines each: a cut inside dataset 2 or 3 is an error naming it (pyuff
     reads the complete ones and drops the rest silently); a cut after a closing -1 leaves a
@@ -133,9 +170,12 @@ def test_a_file_cut_short_names_the_dataset_and_the_file(tmp_path, keep, message
 def test_frf_dataset_with_missing_points_names_the_dataset(tmp_path):
     write_frf_uff(tmp_path / "s.uff", FrfSet.from_grid(FREQ, _frfs()[:, :1, :1], ["1+X"], ["1+X"], "accelerance"))
     lines = (tmp_path / "s.uff").read_text().splitlines(keepends=True)
-    (tmp_path / "s.uff").write_text("".join(lines[:20] + lines[30:]))       # ten data lines gone
-    with pytest.raises(UffError, match=r"s\.uff, dataset 1 \(type 58\): \d+ data points where its header says 401: "
-                                       r"the dataset is truncated or inconsistent$"):
+    (tmp_path / "s.uff").write_text("".join(lines[:20] + lines[30:]))  # ten data lines gone
+    with pytest.raises(
+        UffError,
+        match=r"s\.uff, dataset 1 \(type 58\): \d+ data points where its header says 401: "
+        r"the dataset is truncated or inconsistent$",
+    ):
         read_uff(tmp_path / "s.uff")
 
 

@@ -4,6 +4,7 @@ The README's description file, copied verbatim into a temporary directory, is ge
 on first use into a fresh cache, found there on the second use, and its hose is what
 ``diagnose`` finds in data with a spring to ground along x.
 """
+
 from __future__ import annotations
 
 import re
@@ -77,8 +78,9 @@ def test_diagnose_finds_the_users_hose(user_robot):
     _, ev, _, _ = user_robot
     shipped = eigentwist.load("heli4", backend="c")
     poses = [[0, 0, -0.625], [0.08, 0, -0.6], [0, 0.08, -0.65]]
-    meas = synth("paper", [250, 500, 1000, 2000], poses, ["x", "y", "z"], 0.005, 1, ev=shipped,
-                 extra_stiffness={"x": K_HOSE})
+    meas = synth(
+        "paper", [250, 500, 1000, 2000], poses, ["x", "y", "z"], 0.005, 1, ev=shipped, extra_stiffness={"x": K_HOSE}
+    )
     catalogue = diagnose(meas, "paper", ev=shipped)
     assert not catalogue.explained and "outside the catalogue" in catalogue.message
     d = diagnose(meas, "paper", ev=ev)
@@ -88,16 +90,22 @@ def test_diagnose_finds_the_users_hose(user_robot):
     assert d.final.rms_pct < 1.0 < catalogue.final.rms_pct
 
 
-@pytest.mark.parametrize("text, message", [
-    (None, "does not exist"),
-    ("X = 1\n", r"does not define describe\(\)"),
-    ("def describe():\n    raise RuntimeError('no robot today')\n", r"describe\(\) in .* raised RuntimeError: no robot today"),
-    ("def describe():\n    return 42\n", "returned int: expected one of RobotDescription, ChainRobot"),
-    ("import not_a_module_anywhere\n", "failed to import: ModuleNotFoundError"),
-    ("import sys\ndef describe():\n    sys.exit(0)\n", r"describe\(\) in '.*robot\.py' called sys\.exit\(0\)"),
-    ("def describe():\n    raise KeyboardInterrupt\n", r"describe\(\) in '.*robot\.py' was interrupted"),
-    ("import sys\nsys.exit(3)\n", r"file '.*robot\.py' called sys\.exit\(3\) while it was imported"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (None, "does not exist"),
+        ("X = 1\n", r"does not define describe\(\)"),
+        (
+            "def describe():\n    raise RuntimeError('no robot today')\n",
+            r"describe\(\) in .* raised RuntimeError: no robot today",
+        ),
+        ("def describe():\n    return 42\n", "returned int: expected one of RobotDescription, ChainRobot"),
+        ("import not_a_module_anywhere\n", "failed to import: ModuleNotFoundError"),
+        ("import sys\ndef describe():\n    sys.exit(0)\n", r"describe\(\) in '.*robot\.py' called sys\.exit\(0\)"),
+        ("def describe():\n    raise KeyboardInterrupt\n", r"describe\(\) in '.*robot\.py' was interrupted"),
+        ("import sys\nsys.exit(3)\n", r"file '.*robot\.py' called sys\.exit\(3\) while it was imported"),
+    ],
+)
 def test_bad_description_files_fail_with_one_line(tmp_path, capsys, text, message):
     path = tmp_path / "robot.py"
     if text is not None:

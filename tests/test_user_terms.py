@@ -5,6 +5,7 @@ effects, whose mass half is the catalogue's payload under another name.
 Expectations from physics: the chain adds m_chain to the platform's translational inertia
 (as a point payload at the EE origin does) and k_chain to K_F(5, 5), the y stiffness.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -42,7 +43,7 @@ def robots(tmp_path_factory):
     (directory / "my_chain.py").write_text(readme_chain_file())
     mp = pytest.MonkeyPatch()
     mp.setenv("EIGENTWIST_CACHE", str(directory / "cache"))
-    mp.setattr(fitmod, "EXACT_JACOBIAN", False)       # central differences: no sensitivity kernel to generate
+    mp.setattr(fitmod, "EXACT_JACOBIAN", False)  # central differences: no sensitivity kernel to generate
     chain = eigentwist.load(str(directory / "my_chain.py"), backend="numpy")
     two = eigentwist.load(str(ROOT / "data" / "user" / "heli4_two_part.py"), backend="numpy")
     yield chain, two
@@ -52,8 +53,16 @@ def robots(tmp_path_factory):
 @pytest.fixture(scope="module")
 def chain_data():
     shipped = eigentwist.load("heli4", backend="auto")
-    return synth(f"paper+payload_mass:m_p={M_TRUE}", KA, POSES, ("x", "y", "z"), 0.005, seed=2, ev=shipped,
-                 extra_stiffness={"y": K_TRUE})
+    return synth(
+        f"paper+payload_mass:m_p={M_TRUE}",
+        KA,
+        POSES,
+        ("x", "y", "z"),
+        0.005,
+        seed=2,
+        ev=shipped,
+        extra_stiffness={"y": K_TRUE},
+    )
 
 
 def test_one_switch_adds_the_mass_and_the_spring(robots):
@@ -84,9 +93,9 @@ def test_chain_mass_is_the_payload_under_another_name(robots, chain_data):
     assert payload.values["m_p"] == pytest.approx(mass.values["m_chain"], rel=1e-5)
     same = equivalent(two, chain_data, payload, mass)
     assert same is not None and same["max_separation_sigma"] < 0.05 and same["poses"] > 40
-    assert min(same["k_a"]) < min(KA) and max(same["k_a"]) > max(KA)      # beyond the measured rows
+    assert min(same["k_a"]) < min(KA) and max(same["k_a"]) > max(KA)  # beyond the measured rows
     assert equivalent(two, chain_data, payload, spring) is None
     from eigentwist.diagnose.select import _between
 
-    assert _between(two, chain_data, payload, mass, True) is None          # never a separating measurement
+    assert _between(two, chain_data, payload, mass, True) is None  # never a separating measurement
     assert _between(two, chain_data, payload, spring, True) is not None

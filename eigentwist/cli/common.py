@@ -1,4 +1,5 @@
 """Shared CLI helpers: options, progress, tables and the one-line error contract."""
+
 from __future__ import annotations
 
 import argparse
@@ -8,9 +9,25 @@ import sys
 from ..errors import InputError
 from ..text import format_table  # re-exported: the CLI's tables
 
-__all__ = ["CliError", "add_model_options", "add_set_option", "add_backend_option", "add_jacobian_option", "BACKEND_ENV", "parse_sets", "check_values", "model_and_values",
-           "progress", "format_table", "eprint", "SET_HELP", "MODEL_SYNTAX", "declare_outputs", "input_paths",
-           "guard_outputs"]
+__all__ = [
+    "CliError",
+    "add_model_options",
+    "add_set_option",
+    "add_backend_option",
+    "add_jacobian_option",
+    "BACKEND_ENV",
+    "parse_sets",
+    "check_values",
+    "model_and_values",
+    "progress",
+    "format_table",
+    "eprint",
+    "SET_HELP",
+    "MODEL_SYNTAX",
+    "declare_outputs",
+    "input_paths",
+    "guard_outputs",
+]
 
 
 class CliError(InputError):
@@ -29,11 +46,15 @@ def eprint(*args) -> None:
     print(*args, file=sys.stderr)
 
 
-SET_HELP = ("set a design parameter for this run, SI units: NAME=VALUE, e.g. --set l2=0.60, or one leg's value "
-            "NAME@N=VALUE (leg N = 1, 2, ...), e.g. --set eta_a@3=0.5; repeatable. A CSV column of the same "
-            "name wins over it; it wins over the robot's default")
-MODEL_SYNTAX = ("PRESET or EFFECT items joined by ',' or '+', each optionally with :PARAM=VALUE,... "
-                "(the syntax of synth --truth), e.g. paper:l2=0.60 or rigid,payload_mass:m_p=0.5; none is the bare model")
+SET_HELP = (
+    "set a design parameter for this run, SI units: NAME=VALUE, e.g. --set l2=0.60, or one leg's value "
+    "NAME@N=VALUE (leg N = 1, 2, ...), e.g. --set eta_a@3=0.5; repeatable. A CSV column of the same "
+    "name wins over it; it wins over the robot's default"
+)
+MODEL_SYNTAX = (
+    "PRESET or EFFECT items joined by ',' or '+', each optionally with :PARAM=VALUE,... "
+    "(the syntax of synth --truth), e.g. paper:l2=0.60 or rigid,payload_mass:m_p=0.5; none is the bare model"
+)
 
 
 #: environment variable holding the default of every command's ``--backend`` (default: auto)
@@ -46,8 +67,9 @@ def _backend(value: str) -> str:
     text = str(value).strip().lower()
     if text not in BACKENDS:
         source = f" (from {BACKEND_ENV})" if os.environ.get(BACKEND_ENV, "").strip() == str(value).strip() else ""
-        raise argparse.ArgumentTypeError(f"unknown backend {value!r}{source}: expected one of "
-                                         f"{', '.join(sorted(BACKENDS))}")
+        raise argparse.ArgumentTypeError(
+            f"unknown backend {value!r}{source}: expected one of {', '.join(sorted(BACKENDS))}"
+        )
     return text
 
 
@@ -55,10 +77,15 @@ def add_backend_option(p: argparse.ArgumentParser) -> None:
     """The shared ``--backend auto|c|numpy`` option; its default is ``auto`` (as
     ``eigentwist.load``), or the value of the ``EIGENTWIST_BACKEND`` environment variable."""
     default = os.environ.get(BACKEND_ENV, "").strip() or "auto"
-    p.add_argument("--backend", default=default, type=_backend, metavar="{auto,c,numpy}",
-                   help="generated evaluator: auto = the C library where a C compiler exists (compiled on first "
-                        "use, cached), else the NumPy module; c or numpy to choose (same numbers to 1e-12). "
-                        f"Default: {BACKEND_ENV} if set, else auto (now: {default})")
+    p.add_argument(
+        "--backend",
+        default=default,
+        type=_backend,
+        metavar="{auto,c,numpy}",
+        help="generated evaluator: auto = the C library where a C compiler exists (compiled on first "
+        "use, cached), else the NumPy module; c or numpy to choose (same numbers to 1e-12). "
+        f"Default: {BACKEND_ENV} if set, else auto (now: {default})",
+    )
 
 
 def add_jacobian_option(p: argparse.ArgumentParser, help: str) -> None:
@@ -74,15 +101,30 @@ def add_set_option(p: argparse.ArgumentParser, help: str = SET_HELP) -> None:
 
 def add_model_options(p: argparse.ArgumentParser, model_default: str | None = "paper") -> None:
     """``--robot``, ``--pose``, ``--k-a``, ``--set`` and ``--model`` with units in the help."""
-    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
+    p.add_argument(
+        "--robot",
+        default="heli4",
+        help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() "
+        "(default: heli4)",
+    )
     add_backend_option(p)
-    p.add_argument("--pose", nargs="+", type=float, metavar="X",
-                   help="end-effector position in the base frame, m: X Y Z; for a 6-DoF robot (hexapod) "
-                        "X Y Z ROT_X ROT_Y ROT_Z, the platform origin (m) and its rotation vector (rad) "
-                        "(default: the robot's x_ref)")
-    p.add_argument("--k-a", type=float, dest="k_a", metavar="KA",
-                   help="commanded actuator stiffness in the robot's unit: N m/rad (revolute actuator) or N/m "
-                        "(prismatic) (default: the robot's)")
+    p.add_argument(
+        "--pose",
+        nargs="+",
+        type=float,
+        metavar="X",
+        help="end-effector position in the base frame, m: X Y Z; for a 6-DoF robot (hexapod) "
+        "X Y Z ROT_X ROT_Y ROT_Z, the platform origin (m) and its rotation vector (rad) "
+        "(default: the robot's x_ref)",
+    )
+    p.add_argument(
+        "--k-a",
+        type=float,
+        dest="k_a",
+        metavar="KA",
+        help="commanded actuator stiffness in the robot's unit: N m/rad (revolute actuator) or N/m "
+        "(prismatic) (default: the robot's)",
+    )
     add_set_option(p)
     if model_default is not None:
         p.add_argument("--model", default=model_default, help=f"{MODEL_SYNTAX} (default: {model_default})")
@@ -92,13 +134,17 @@ def _set_name(item: str, name: str) -> str:
     """``"l2"`` -> ``"l2"``, ``"eta_a@03"`` -> ``"eta_a@3"``; malformed names raise :class:`CliError`."""
     base, at, leg = name.partition("@")
     if not base.isidentifier():
-        raise CliError(f"--set {item!r}: {base!r} is not a parameter name: expected NAME=VALUE or NAME@N=VALUE, "
-                       "e.g. --set l2=0.60 or --set eta_a@3=0.5")
+        raise CliError(
+            f"--set {item!r}: {base!r} is not a parameter name: expected NAME=VALUE or NAME@N=VALUE, "
+            "e.g. --set l2=0.60 or --set eta_a@3=0.5"
+        )
     if not at:
         return base
     if not leg.isdigit() or int(leg) < 1:
-        raise CliError(f"--set {item!r}: leg {leg!r} is not a leg number: expected NAME@N=VALUE with N = 1, 2, ..., "
-                       "e.g. --set eta_a@3=0.5")
+        raise CliError(
+            f"--set {item!r}: leg {leg!r} is not a leg number: expected NAME@N=VALUE with N = 1, 2, ..., "
+            "e.g. --set eta_a@3=0.5"
+        )
     return f"{base}@{int(leg)}"
 
 
@@ -139,8 +185,10 @@ def check_values(values: dict, ev, option: str = "--set") -> dict:
     for key, value in values.items():
         base = key.partition("@")[0]
         if base not in ev.parameters:
-            raise CliError(f"{option} {key}={value:g}: unknown parameter {base!r} of {ev.robot.name}"
-                           f"{did_you_mean(base, ev.parameters)}; expected one of {', '.join(ev.parameters)}")
+            raise CliError(
+                f"{option} {key}={value:g}: unknown parameter {base!r} of {ev.robot.name}"
+                f"{did_you_mean(base, ev.parameters)}; expected one of {', '.join(ev.parameters)}"
+            )
         try:
             ev.parameters[base].check(value)
         except ValueError as exc:
@@ -189,8 +237,11 @@ def declare_outputs(p: argparse.ArgumentParser, force: bool = True, **kinds: str
     :func:`guard_outputs` checks them before the command runs."""
     p.set_defaults(outputs=kinds)
     if force:
-        p.add_argument("--force", action="store_true",
-                       help="replace an existing output file of another kind (an output is never an input)")
+        p.add_argument(
+            "--force",
+            action="store_true",
+            help="replace an existing output file of another kind (an output is never an input)",
+        )
 
 
 def input_paths(args, outputs=()) -> list[str]:
@@ -224,7 +275,6 @@ def guard_outputs(args, extra_inputs=()) -> None:
         if not path:
             continue
         if kind:
-            check_output(path, kind, inputs, force=bool(getattr(args, "force", False)),
-                         option=option_name(args, dest))
+            check_output(path, kind, inputs, force=bool(getattr(args, "force", False)), option=option_name(args, dest))
         else:
             check_output(path, "directory", inputs, force=True, option=option_name(args, dest))

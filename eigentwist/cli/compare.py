@@ -1,11 +1,19 @@
 """``eigentwist compare``: a model beside measured natural frequencies, row by row."""
+
 from __future__ import annotations
 
 import argparse
 import json
 
-from .common import (MODEL_SYNTAX, CliError, add_backend_option, add_set_option, declare_outputs, model_and_values,
-                     progress)
+from .common import (
+    MODEL_SYNTAX,
+    CliError,
+    add_backend_option,
+    add_set_option,
+    declare_outputs,
+    model_and_values,
+    progress,
+)
 
 HELP = "compare a model with measured natural frequencies (table, RMS/max error, Fig. 6 style plot)"
 DATA_HELP = """DATA.csv: one measured frequency per row, header on line 1. Columns:
@@ -30,7 +38,9 @@ Separator ',', ';' or tab (with ';' or tab a decimal comma is accepted); UTF-8 (
 allowed) or UTF-16 with BOM. Two rows with the same pose, k_a and mode are an error.
 Use `paper` as DATA to load the paper's measurements shipped with eigentwist
 (Tables E.1/E.2: modes x and y at x_ref, k_a = 125 ... 4000 N m/rad)."""
-EPILOG = DATA_HELP + """
+EPILOG = (
+    DATA_HELP
+    + """
 
 error = (predicted - measured) / measured (the paper's App. E); a row fails when
 |predicted - measured| > 2 sigma. With mode-shape columns (phi_x, phi_y, phi_z, e.g. from
@@ -43,19 +53,26 @@ examples:
   eigentwist compare paper --model paper --set l2=0.60     # same as --model paper:l2=0.60
   eigentwist compare data.csv --model rigid,ee_compliance,payload_mass --json
 """
+)
 
 
 def add_data_options(p: argparse.ArgumentParser) -> None:
     """DATA, --robot and --backend (shared with diagnose)."""
     p.add_argument("data", metavar="DATA.csv", help="measurements (see below), or `paper`")
-    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
+    p.add_argument(
+        "--robot",
+        default="heli4",
+        help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() "
+        "(default: heli4)",
+    )
     add_backend_option(p)
     add_set_option(p)
 
 
 def add_parser(sub):
-    p = sub.add_parser("compare", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "compare", help=HELP, description=HELP, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     add_data_options(p)
     p.add_argument("--model", default="paper", help=f"{MODEL_SYNTAX} (default: paper)")
     p.add_argument("--plot", metavar="FILE.png", help="write a Fig. 6 style plot")
@@ -97,19 +114,41 @@ def to_json(cmp, parameters: list) -> dict:
     from ..text import json_safe
 
     m = cmp.meas
-    rows = [{"line": int(m.lines[i]), "k_a": m.k_a[i], "pose": m.poses[i].tolist(), "mode": m.mode[i],
-             "model_mode": int(cmp.mode_index[i]) + 1, "measured_hz": m.freq_hz[i], "sigma_hz": m.sigma_hz[i],
-             "predicted_hz": cmp.predicted[i], "error_pct": cmp.error_pct[i], "error_sigma": cmp.error_sigma[i],
-             "fails": bool(cmp.failing[i])} for i in range(len(m))]
-    if getattr(cmp, "mac", None) is not None:             # measured mode shapes
+    rows = [
+        {
+            "line": int(m.lines[i]),
+            "k_a": m.k_a[i],
+            "pose": m.poses[i].tolist(),
+            "mode": m.mode[i],
+            "model_mode": int(cmp.mode_index[i]) + 1,
+            "measured_hz": m.freq_hz[i],
+            "sigma_hz": m.sigma_hz[i],
+            "predicted_hz": cmp.predicted[i],
+            "error_pct": cmp.error_pct[i],
+            "error_sigma": cmp.error_sigma[i],
+            "fails": bool(cmp.failing[i]),
+        }
+        for i in range(len(m))
+    ]
+    if getattr(cmp, "mac", None) is not None:  # measured mode shapes
         for row, value in zip(rows, cmp.mac):
             row["mac"] = value
-    if getattr(cmp, "zeta", None) is not None:            # the model's damping ratio of each row's mode
+    if getattr(cmp, "zeta", None) is not None:  # the model's damping ratio of each row's mode
         for i, row in enumerate(rows):
             row["kind"], row["model_damping_ratio"] = m.kind[i], cmp.zeta[i]
-    return json_safe({"robot": m.robot, "source": m.source, "model": list(cmp.effects), "rows": rows,
-                   "rms_pct": cmp.rms_pct, "max_pct": cmp.max_pct, "chi2": cmp.chi2,
-                   "failing": cmp.where_it_fails(), "parameters": parameters})
+    return json_safe(
+        {
+            "robot": m.robot,
+            "source": m.source,
+            "model": list(cmp.effects),
+            "rows": rows,
+            "rms_pct": cmp.rms_pct,
+            "max_pct": cmp.max_pct,
+            "chi2": cmp.chi2,
+            "failing": cmp.where_it_fails(),
+            "parameters": parameters,
+        }
+    )
 
 
 def run(args) -> int:
@@ -130,8 +169,10 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(to_json(cmp, parameters), allow_nan=False))
         return 0
-    say(f"{meas.robot}: {len(meas)} measured frequencies from {meas.source}; model: "
-          f"{', '.join(cmp.effects) or '(no effect)'} ({ev.kind(cmp.effects)})")
+    say(
+        f"{meas.robot}: {len(meas)} measured frequencies from {meas.source}; model: "
+        f"{', '.join(cmp.effects) or '(no effect)'} ({ev.kind(cmp.effects)})"
+    )
     say(changed_text(parameters, meas.robot) + "\n")
     say(comparison_table(cmp))
     say("\n" + comparison_summary(cmp))

@@ -1,4 +1,5 @@
 """``eigentwist diagnose``: which physical effect is the model missing?"""
+
 from __future__ import annotations
 
 import argparse
@@ -7,7 +8,9 @@ from .common import MODEL_SYNTAX, add_jacobian_option, declare_outputs
 from .compare import DATA_HELP, add_data_options, evaluator_of, load_data
 
 HELP = "find the physical effect a model is missing from measured frequencies, add it, watch the error fall"
-EPILOG = DATA_HELP + """
+EPILOG = (
+    DATA_HELP
+    + """
 
 The output opens with the answer (at most 8 lines): the verdict, what was added where with its
 fitted values, what the data cannot tell apart (mirror images at the measured poses as one),
@@ -41,27 +44,45 @@ examples:
   eigentwist diagnose data.csv --baseline paper --json
   eigentwist diagnose data.csv --add ee_compliance --plot steps.png
 """
+)
 
 
 def add_parser(sub):
-    p = sub.add_parser("diagnose", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "diagnose", help=HELP, description=HELP, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     add_data_options(p)
-    p.add_argument("--baseline", default="rigid",
-                   help=f"starting model: {MODEL_SYNTAX} (default: rigid)")
-    p.add_argument("--add", action="append", metavar="EFFECT",
-                   help="add this effect by hand (fitted) instead of the automatic selection; repeatable or comma-separated")
-    p.add_argument("--alpha", type=float, default=None,
-                   help="significance level of the F test, the goodness of fit and the outlier test (default: 0.01)")
+    p.add_argument("--baseline", default="rigid", help=f"starting model: {MODEL_SYNTAX} (default: rigid)")
+    p.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT",
+        help="add this effect by hand (fitted) instead of the automatic selection; repeatable or comma-separated",
+    )
+    p.add_argument(
+        "--alpha",
+        type=float,
+        default=None,
+        help="significance level of the F test, the goodness of fit and the outlier test (default: 0.01)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="FILE.png", help="write the baseline/final model plot and the error step by step")
-    p.add_argument("--details", action="store_true",
-                   help="after the answer, print the full diagnosis: ranking, residual patterns, selection steps, criteria")
-    p.add_argument("--rows", action="store_true", help="also print the per-row tables of the baseline and final model "
-                   "(implies --details)")
-    add_jacobian_option(p, "the fits' Jacobian: central differences in the residuals' evaluator call (default: measured "
-                        "faster, benchmarks/README.md) or exact, from generated design sensitivities (derived and "
-                        "compiled once per cache)")
+    p.add_argument(
+        "--details",
+        action="store_true",
+        help="after the answer, print the full diagnosis: ranking, residual patterns, selection steps, criteria",
+    )
+    p.add_argument(
+        "--rows",
+        action="store_true",
+        help="also print the per-row tables of the baseline and final model (implies --details)",
+    )
+    add_jacobian_option(
+        p,
+        "the fits' Jacobian: central differences in the residuals' evaluator call (default: measured "
+        "faster, benchmarks/README.md) or exact, from generated design sensitivities (derived and "
+        "compiled once per cache)",
+    )
     declare_outputs(p, plot="image")
     p.set_defaults(func=run)
 
@@ -93,7 +114,7 @@ def run(args) -> int:
     print(answer_text(d, ev))
     given = [r for r in d.parameters if r["source"] != "fitted"]
     if any(r["differs"] for r in given) and not (args.details or args.rows):
-        say(changed_text(given, d.robot))               # the values used, when not the robot's defaults
+        say(changed_text(given, d.robot))  # the values used, when not the robot's defaults
     if args.details or args.rows:
         say("\n" + diagnosis_text(d, ev, show_rows=args.rows))
     else:

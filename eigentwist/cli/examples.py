@@ -5,6 +5,7 @@ robot, their ``examples:`` block is replaced by the same kinds of call written i
 terms: its reference pose (m, and rad for a 6-DoF robot), its k_a (N m/rad or N/m), one
 of its geometry parameters and one of its leg-level effects.
 """
+
 from __future__ import annotations
 
 import re
@@ -32,21 +33,28 @@ def robot_examples(command: str, robot: str) -> list[str] | None:
     ka_text = f"{ka.default:g} {ka.unit}"
     grid = " ".join(["5"] * len(pose))
     lo, hi = 0.9 * geo.default, 1.1 * geo.default
-    truth = f"paper+payload_mass:m_p=0.5" if payload else "paper"
+    truth = "paper+payload_mass:m_p=0.5" if payload else "paper"
     table = {
-        "matrices": [f"eigentwist matrices {r}           # at x_ref = [{', '.join(f'{v:g}' for v in pose)}], "
-                     f"k_a = {ka_text}",
-                     f"eigentwist matrices {r} --pose {_fmt(pose2)} --k-a {0.5 * ka.default:g} --json",
-                     f"eigentwist matrices {r} --model rigid{',payload_mass --set m_p=0.5' if payload else ''}"],
-        "compare": [f"eigentwist compare data.csv {r} --model rigid",
-                    f"eigentwist compare data.csv {r} --model paper --set {geo.name}={1.05 * geo.default:g}"],
+        "matrices": [
+            f"eigentwist matrices {r}           # at x_ref = [{', '.join(f'{v:g}' for v in pose)}], k_a = {ka_text}",
+            f"eigentwist matrices {r} --pose {_fmt(pose2)} --k-a {0.5 * ka.default:g} --json",
+            f"eigentwist matrices {r} --model rigid{',payload_mass --set m_p=0.5' if payload else ''}",
+        ],
+        "compare": [
+            f"eigentwist compare data.csv {r} --model rigid",
+            f"eigentwist compare data.csv {r} --model paper --set {geo.name}={1.05 * geo.default:g}",
+        ],
         "diagnose": [f"eigentwist diagnose data.csv {r} --baseline paper --json"]
-                    + ([f"eigentwist diagnose data.csv {r} --add {leg}@2"] if leg else []),
-        "synth": [f"eigentwist synth {r} --truth {truth} --k-a {0.5 * ka.default:g},{ka.default:g} \\",
-                  f"    --pose {_fmt(pose)} --pose {_fmt(pose2)} --noise 0.5% --seed 1 -o data.csv"],
+        + ([f"eigentwist diagnose data.csv {r} --add {leg}@2"] if leg else []),
+        "synth": [
+            f"eigentwist synth {r} --truth {truth} --k-a {0.5 * ka.default:g},{ka.default:g} \\",
+            f"    --pose {_fmt(pose)} --pose {_fmt(pose2)} --noise 0.5% --seed 1 -o data.csv",
+        ],
         "sweep": [f"eigentwist sweep {r} --grid {grid} --k-a {0.5 * ka.default:g}:{2 * ka.default:g}:4 -o sweep"],
-        "sensitivity": [f"eigentwist sensitivity {r} --pose {_fmt(pose2)}",
-                        f"eigentwist sensitivity {r} --wrt {geo.name},k_a"],
+        "sensitivity": [
+            f"eigentwist sensitivity {r} --pose {_fmt(pose2)}",
+            f"eigentwist sensitivity {r} --wrt {geo.name},k_a",
+        ],
         "optimize": [f"eigentwist optimize {r} --vary {geo.name}={lo:g}:{hi:g} --pose {_fmt(pose)}"],
         "report": [f"eigentwist report data.csv {r} -o report.html"],
         "identify": [f"eigentwist identify campaign/manifest.csv {r} -o identified.csv"],
@@ -61,7 +69,7 @@ def adapt_epilog(epilog: str | None, command: str, robot: str) -> str | None:
         return epilog
     head, _, rest = epilog.partition("examples:")
     block_end = re.search(r"\n\s*\n", rest)
-    tail = rest[block_end.start():] if block_end else "\n"
+    tail = rest[block_end.start() :] if block_end else "\n"
     return head + f"examples ({robot}):\n" + "\n".join(f"  {ln}" for ln in lines) + tail
 
 
@@ -72,7 +80,13 @@ def requested_robot(argv: list[str]) -> str | None:
     if not any(a in ("-h", "--help") for a in argv):
         return None
     for k, a in enumerate(argv):
-        value = a.partition("=")[2] if a.startswith("--robot=") else argv[k + 1] if a == "--robot" and k + 1 < len(argv) else None
+        value = (
+            a.partition("=")[2]
+            if a.startswith("--robot=")
+            else argv[k + 1]
+            if a == "--robot" and k + 1 < len(argv)
+            else None
+        )
         if value in NAMES and value != "heli4":
             return value
     return None

@@ -1,4 +1,5 @@
 """``eigentwist generate [--check]``: regenerate the evaluators in eigentwist/generated."""
+
 from __future__ import annotations
 
 import difflib
@@ -15,12 +16,20 @@ EPILOG = """examples:
 
 
 def add_parser(sub):
-    p = sub.add_parser("generate", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=__import__("argparse").RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "generate",
+        help=HELP,
+        description=HELP,
+        epilog=EPILOG,
+        formatter_class=__import__("argparse").RawDescriptionHelpFormatter,
+    )
     p.add_argument("--check", action="store_true", help="compare only; exit 1 naming stale files")
-    p.add_argument("--robot", action="append",
-                   help="only this robot (repeatable; default: all shipped ones); a description file PATH.py is "
-                        "generated into the cache instead (as on its first use by any command)")
+    p.add_argument(
+        "--robot",
+        action="append",
+        help="only this robot (repeatable; default: all shipped ones); a description file PATH.py is "
+        "generated into the cache instead (as on its first use by any command)",
+    )
     p.add_argument("--diff", action="store_true", help="with --check, print a unified diff")
     p.set_defaults(func=run)
 
@@ -44,6 +53,7 @@ def run(args) -> int:
     t0 = time.perf_counter()
     # derive, CSE and emit per robot; the bar is silent when stderr is not a terminal
     with progress(total=PROGRESS_STEPS * len(robots), desc="generate", unit="step") as bar:
+
         def step(message):
             bar.set_description(message)
             bar.update(1)
@@ -60,7 +70,11 @@ def run(args) -> int:
                 if args.diff:
                     path = GENERATED / rel
                     old = path.read_text().splitlines(keepends=True) if path.exists() else []
-                    print("".join(difflib.unified_diff(old, files[rel].splitlines(keepends=True), rel, rel + " (regenerated)")))
+                    print(
+                        "".join(
+                            difflib.unified_diff(old, files[rel].splitlines(keepends=True), rel, rel + " (regenerated)")
+                        )
+                    )
             print("run `eigentwist generate` (or `make generate`) to update them")
             return 1
         print(f"up to date: {len(files)} file(s) in eigentwist/generated ({total:.1f} s)")

@@ -1,4 +1,5 @@
 """``eigentwist identify``: a modal-test campaign (manifest + UFF files) -> measurement CSV."""
+
 from __future__ import annotations
 
 import argparse
@@ -54,17 +55,26 @@ examples:
 
 
 def add_parser(sub):
-    p = sub.add_parser("identify", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "identify", help=HELP, description=HELP, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("manifest", metavar="MANIFEST.csv", help="campaign manifest (see below) or one FILE.uff")
     p.add_argument("-o", "--output", metavar="MEAS.csv", help="write the measurement CSV here (default: stdout)")
     p.add_argument("--band", metavar="FMIN:FMAX", help="frequency band, Hz (default: the FRFs' axis)")
-    p.add_argument("--node", type=int, default=1,
-                   help="node of the sensor_* columns and of dataset 55 shapes (default: 1)")
-    p.add_argument("--sigma-floor", default="0.1%", metavar="REL",
-                   help="smallest sigma_hz relative to the frequency; the sigma of dataset 55 modes (default: 0.1%%)")
-    p.add_argument("--plot", metavar="DIR", help="write per setting a stabilisation diagram and measured vs "
-                                                  "re-synthesised FRFs (PNG) here")
+    p.add_argument(
+        "--node", type=int, default=1, help="node of the sensor_* columns and of dataset 55 shapes (default: 1)"
+    )
+    p.add_argument(
+        "--sigma-floor",
+        default="0.1%",
+        metavar="REL",
+        help="smallest sigma_hz relative to the frequency; the sigma of dataset 55 modes (default: 0.1%%)",
+    )
+    p.add_argument(
+        "--plot",
+        metavar="DIR",
+        help="write per setting a stabilisation diagram and measured vs re-synthesised FRFs (PNG) here",
+    )
     p.add_argument("--robot", default="heli4", help="robot description (default: heli4)")
     declare_outputs(p, output="csv", plot="directory")
     p.set_defaults(func=run)
@@ -83,7 +93,7 @@ def parse_band(text):
     return band
 
 
-SHOWN = 5          # shape components shown per row (all of them are in the CSV)
+SHOWN = 5  # shape components shown per row (all of them are in the CSV)
 
 
 def _mode_rows(named_results) -> tuple[list, list]:
@@ -94,8 +104,18 @@ def _mode_rows(named_results) -> tuple[list, list]:
             if m.dofs not in dofs:
                 dofs.append(m.dofs)
             shape = " ".join(f"{v:+.2f}" for v in m.shape[:SHOWN]) + (" ..." if len(m.shape) > SHOWN else "")
-            rows.append([*name, m.label, f"{m.freq_hz:.4f}", f"{m.sigma_hz:.3g}", f"{100 * m.damping_ratio:.3f}",
-                         shape, f"{m.complexity:.2f}", m.orders or "-"])
+            rows.append(
+                [
+                    *name,
+                    m.label,
+                    f"{m.freq_hz:.4f}",
+                    f"{m.sigma_hz:.3g}",
+                    f"{100 * m.damping_ratio:.3f}",
+                    shape,
+                    f"{m.complexity:.2f}",
+                    m.orders or "-",
+                ]
+            )
     return rows, dofs
 
 
@@ -112,8 +132,10 @@ def _one_file(args) -> int:
     from ..modal.uff_io import FrfSet, read_uff
 
     if args.output:
-        raise CliError(f"-o {args.output}: a single UFF file has no k_a or pose for a measurement CSV; "
-                       "list it in a campaign manifest (see --help)")
+        raise CliError(
+            f"-o {args.output}: a single UFF file has no k_a or pose for a measurement CSV; "
+            "list it in a campaign manifest (see --help)"
+        )
     data = read_uff(args.manifest, args.node)
     res = identify_frfs(data, parse_band(args.band)) if isinstance(data, FrfSet) else modes_from_set(data)
     _print_modes([((), res)], [])
@@ -126,8 +148,10 @@ def _one_file(args) -> int:
         Path(args.plot).mkdir(parents=True, exist_ok=True)
         plot_stabilisation(res, Path(args.plot) / f"{Path(args.manifest).stem}_stabilisation.png")
         plot_frfs(res, Path(args.plot) / f"{Path(args.manifest).stem}_frf.png")
-    print(f"{len(res.modes)} modes in {res.band[0]:g}..{res.band[1]:g} Hz" +
-          (f" in {res.seconds:.2f} s" if res.seconds else ""))
+    print(
+        f"{len(res.modes)} modes in {res.band[0]:g}..{res.band[1]:g} Hz"
+        + (f" in {res.seconds:.2f} s" if res.seconds else "")
+    )
     return 0
 
 
@@ -144,8 +168,14 @@ def run(args) -> int:
     if args.robot not in NAMES:
         raise CliError(f"--robot {args.robot!r}: expected one of {', '.join(NAMES)}")
     ev = evaluator(args.robot)
-    res = identify_campaign(args.manifest, ev, parse_band(args.band), args.node, parse_noise(args.sigma_floor, "--sigma-floor"),
-                            progress=progress)
+    res = identify_campaign(
+        args.manifest,
+        ev,
+        parse_band(args.band),
+        args.node,
+        parse_noise(args.sigma_floor, "--sigma-floor"),
+        progress=progress,
+    )
     for note in res.notes:
         eprint(f"note: {note}")
     text = measurement_csv(res.campaign, res.results)
@@ -156,12 +186,15 @@ def run(args) -> int:
     if not args.output:
         print(text, end="")
         return 0
-    guard_outputs(args, [s.file for s in res.campaign.settings])     # nor one of the manifest's UFF files
+    guard_outputs(args, [s.file for s in res.campaign.settings])  # nor one of the manifest's UFF files
     write_atomic(args.output, text)
-    _print_modes([((s.file.name, f"{s.k_a:g}"), r) for s, r in zip(res.campaign.settings, res.results)],
-                 ["file", "k_a"])
+    _print_modes(
+        [((s.file.name, f"{s.k_a:g}"), r) for s, r in zip(res.campaign.settings, res.results)], ["file", "k_a"]
+    )
     secs = [r.seconds for r in res.results if r.seconds]
     timing = f"; {sum(secs) / len(secs):.3f} s per setting" if secs else ""
-    say(f"wrote {len(res.measurements)} modes of {len(res.results)} settings to {args.output}{timing}"
-          + (f"; plots in {args.plot}" if args.plot else ""))
+    say(
+        f"wrote {len(res.measurements)} modes of {len(res.results)} settings to {args.output}{timing}"
+        + (f"; plots in {args.plot}" if args.plot else "")
+    )
     return 0

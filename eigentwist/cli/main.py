@@ -1,4 +1,5 @@
 """Entry point of the ``eigentwist`` command."""
+
 from __future__ import annotations
 
 import argparse
@@ -19,9 +20,13 @@ def subcommands() -> list[str]:
 
     from pathlib import Path
 
-    names = [m.name for m in pkgutil.iter_modules([str(Path(__file__).parent)])
-             if m.name not in ("main", "common", "__init__")]
+    names = [
+        m.name
+        for m in pkgutil.iter_modules([str(Path(__file__).parent)])
+        if m.name not in ("main", "common", "__init__")
+    ]
     return sorted(names, key=lambda n: (ORDER.index(n) if n in ORDER else len(ORDER), n))
+
 
 DESCRIPTION = """eigentwist: closed-form natural-frequency models of parallel manipulators
 (Hoevenaars, Krut & Herder 2020, DOI 10.1016/j.mechmachtheory.2019.103775).
@@ -31,9 +36,12 @@ Units are SI throughout: m, rad, kg, N, N m/rad, Pa, Hz."""
 def build_parser(robot: str | None = None) -> argparse.ArgumentParser:
     """The command line's parser; ``robot`` (a shipped robot) rewrites the subcommands'
     examples in its terms (:mod:`.examples`)."""
-    parser = argparse.ArgumentParser(prog="eigentwist", description=DESCRIPTION,
-                                     epilog="example: eigentwist matrices --pose 0 0 -0.625 --k-a 2000 --json",
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="eigentwist",
+        description=DESCRIPTION,
+        epilog="example: eigentwist matrices --pose 0 0 -0.625 --k-a 2000 --json",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     from .. import __version__
 
@@ -56,8 +64,15 @@ def build_parser(robot: str | None = None) -> argparse.ArgumentParser:
 # option's own check names the value
 _NEGATIVE_PERCENT = re.compile(r"^-\d*\.?\d+(e[-+]?\d+)?%$", re.I)
 # optional dependencies -> the extra that installs them (pyproject.toml)
-EXTRA_OF = {"pyuff": "modal", "sdypy": "modal", "threadpoolctl": "modal", "matplotlib": "plot",
-            "dask": "dask", "distributed": "dask", "pyarrow": "parquet"}
+EXTRA_OF = {
+    "pyuff": "modal",
+    "sdypy": "modal",
+    "threadpoolctl": "modal",
+    "matplotlib": "plot",
+    "dask": "dask",
+    "distributed": "dask",
+    "pyarrow": "parquet",
+}
 
 
 def join_negative_percentages(argv: list[str]) -> list[str]:
@@ -78,8 +93,8 @@ def missing_extra(exc: ImportError, args) -> str | None:
     if extra is None:
         return None
     if args.command == "identify" or getattr(args, "uff", None):
-        extra = "modal"                        # modal-test campaigns need the whole modal extra
-    return (f"the optional module {root!r} is not installed (needed here): pip install 'eigentwist[{extra}]'")
+        extra = "modal"  # modal-test campaigns need the whole modal extra
+    return f"the optional module {root!r} is not installed (needed here): pip install 'eigentwist[{extra}]'"
 
 
 def _one_line_warning(message, category, filename, lineno, line=None) -> str:
@@ -109,7 +124,7 @@ def main(argv=None) -> int:
         raise SystemExit(0)
     parser = build_parser(requested_robot(argv))
     args = parser.parse_args(argv)
-    args.argv = list(sys.argv[1:] if argv is None else argv)     # the command line, for provenance
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # the command line, for provenance
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
@@ -139,7 +154,7 @@ def _run(args) -> int:
         guard_outputs(args)
         with np.errstate(all="ignore"):
             code = int(args.func(args) or 0)
-        sys.stdout.flush()                   # a closed pipe shows here, not at interpreter exit
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
         return code
     except BrokenPipeError:
         # the reader stopped reading (``eigentwist diagnose paper | head -1``): what it took
@@ -162,13 +177,15 @@ def _run(args) -> int:
         return 2
     except KeyboardInterrupt:
         return 130
-    except Exception:                        # not the user's doing: a bug, shown whole
+    except Exception:  # not the user's doing: a bug, shown whole
         if args.debug:
             raise
         traceback.print_exc()
-        print(f"eigentwist {args.command}: internal error (a bug in eigentwist {__version__}, not in your input): "
-              "please report it to eigentwist's maintainers with the command line and the traceback above",
-              file=sys.stderr)
+        print(
+            f"eigentwist {args.command}: internal error (a bug in eigentwist {__version__}, not in your input): "
+            "please report it to eigentwist's maintainers with the command line and the traceback above",
+            file=sys.stderr,
+        )
         return 1
 
 

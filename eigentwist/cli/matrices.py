@@ -1,4 +1,5 @@
 """``eigentwist matrices``: M, K_R, K_F, frequencies and eigentwists at one pose."""
+
 from __future__ import annotations
 
 import argparse
@@ -38,15 +39,19 @@ kg m^2; N/m, N, N m/rad; Hz.
 
 
 def add_parser(sub):
-    p = sub.add_parser("matrices", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "matrices", help=HELP, description=HELP, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     add_model_options(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
 
-FROM = {"rigid": "M and K_R, 3x3 translational subsets", "flexible": "M and K_F, 6x6",
-        "condensed": "M and C_F, rigid constraints exact; K_F's c_rigid only for the infinite ones"}
+FROM = {
+    "rigid": "M and K_R, 3x3 translational subsets",
+    "flexible": "M and K_F, 6x6",
+    "condensed": "M and C_F, rigid constraints exact; K_F's c_rigid only for the infinite ones",
+}
 
 
 def reference_line(other: str, label: str, freq_other, freq) -> str:
@@ -54,8 +59,10 @@ def reference_line(other: str, label: str, freq_other, freq) -> str:
     as this model's (a 6-DoF robot's legs without constraint wrench: K_F = K_R) are said to be."""
     values = ", ".join(f"{f:.3f}" for f in freq_other)
     if len(freq_other) == len(freq) and np.allclose(freq_other, freq, rtol=1e-9, atol=0, equal_nan=True):
-        return (f"(the {other} model, from the printed {label}, has the same frequencies here: {values} Hz; "
-                "K_F = K_R when no leg has a constraint wrench)")
+        return (
+            f"(the {other} model, from the printed {label}, has the same frequencies here: {values} Hz; "
+            "K_F = K_R when no leg has a constraint wrench)"
+        )
     return f"(for reference, the {other} model from the printed {label}: {values} Hz)"
 
 
@@ -84,15 +91,17 @@ def compute(args) -> dict:
     if args.k_a is not None:
         params["k_a"] = args.k_a
     check_pose(ev, pose, effects, params)
-    solved, condensed = ev.constraint_route(effects, **params)   # c_rigid = 0 where no leg direction is rigid
+    solved, condensed = ev.constraint_route(effects, **params)  # c_rigid = 0 where no leg direction is rigid
     mats = ev.matrices(pose, effects, **solved)
     q = ev.joint_angles(pose, **params)[0]
     units = ev.joint_units
     # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
     model = ev.modes(pose, effects, unstable="raise", **params)
-    B = ev.allowed_twists(pose, **params)                # the rigid model's allowed twists (the 3x3 subsets'
-    f_rigid, v_rigid = _modes_of(B.swapaxes(1, 2) @ mats["M"] @ B,     # rule; a 3-PRS's turn with the pose)
-                                 B.swapaxes(1, 2) @ mats["K_R"] @ B)
+    B = ev.allowed_twists(pose, **params)  # the rigid model's allowed twists (the 3x3 subsets'
+    f_rigid, v_rigid = _modes_of(
+        B.swapaxes(1, 2) @ mats["M"] @ B,  # rule; a 3-PRS's turn with the pose)
+        B.swapaxes(1, 2) @ mats["K_R"] @ B,
+    )
     f_flex, v_flex = _modes_of(mats["M"], mats["K_F"])
     C_F, f_exact = _exact(ev, pose, effects, params)
     kind = ev.kind(effects)
@@ -100,10 +109,16 @@ def compute(args) -> dict:
     k_a = "k_a" if "k_a" in ev.defaults else str(ev.robot.actuator_stiffness)
     fixed = getattr(ev.space, "basis", None) is not None
     n = ev.rigid_size()
-    rigid_from = ("M and K_R, 6x6" if fixed and n == 6 else FROM["rigid"] if fixed and ev.pose_names == ("x", "y", "z")
-                  else f"M and K_R on the allowed twists, {n}x{n}")
+    rigid_from = (
+        "M and K_R, 6x6"
+        if fixed and n == 6
+        else FROM["rigid"]
+        if fixed and ev.pose_names == ("x", "y", "z")
+        else f"M and K_R on the allowed twists, {n}x{n}"
+    )
     source = (rigid_from if kind == "rigid" else FROM["condensed"] if condensed else FROM[kind]) + (
-        " + gravity preload" if "gravity_preload" in effects else "")
+        " + gravity preload" if "gravity_preload" in effects else ""
+    )
     return {
         "robot": ev.robot.name,
         "model": list(effects),
@@ -113,8 +128,11 @@ def compute(args) -> dict:
         "pose": pose.tolist(),
         "k_a": params.get(k_a, ev.defaults[k_a]),
         "k_a_unit": ev.parameter(k_a).unit,
-        "joint_angles_deg": ({leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)}
-                             if units == ("rad",) * 3 else None),
+        "joint_angles_deg": (
+            {leg.name: np.degrees(q[i]).tolist() for i, leg in enumerate(ev.robot.legs)}
+            if units == ("rad",) * 3
+            else None
+        ),
         "leg_lengths_m": {leg.name: float(q[i, 0]) for i, leg in enumerate(ev.robot.legs)} if units == ("m",) else None,
         # every leg's joint coordinates in SI (rad; m for a prismatic joint), any robot
         "joint_coordinates": {leg.name: q[i].tolist() for i, leg in enumerate(ev.robot.legs)},
@@ -155,7 +173,7 @@ def _exact(ev, pose, effects, params):
         return None, None
     try:
         f = compliance_eigh(C, M)[0][0]
-    except np.linalg.LinAlgError:          # M not positive definite (a point platform's rotations)
+    except np.linalg.LinAlgError:  # M not positive definite (a point platform's rotations)
         return C[0].tolist(), None
     return C[0].tolist(), [float(v) if np.isfinite(v) else None for v in f]
 
@@ -168,28 +186,42 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(out))
         return 0
-    say(f"{out['robot']} at pose {out['pose']} {'m, rad' if len(out['pose']) == 6 else 'm'}, k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
-        f"{out['model_name']} = {', '.join(out['model']) or '(no effect: bare actuator stiffness k_a)'} ({out['kind']})")
+    say(
+        f"{out['robot']} at pose {out['pose']} {'m, rad' if len(out['pose']) == 6 else 'm'}, "
+        f"k_a = {out['k_a']:g} {out['k_a_unit']}, model: "
+        f"{out['model_name']} = {', '.join(out['model']) or '(no effect: bare actuator stiffness k_a)'} ({out['kind']})"
+    )
     say(changed_text([r for r in out["parameters"] if r["name"] != "k_a"], out["robot"]))
     if out["joint_angles_deg"] is not None:
-        say("joint angles (deg): " + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals)
-                                                 for k, vals in out["joint_angles_deg"].items()))
+        say(
+            "joint angles (deg): "
+            + "; ".join(f"{k}: " + ", ".join(f"{v:.3f}" for v in vals) for k, vals in out["joint_angles_deg"].items())
+        )
     elif out["leg_lengths_m"] is not None:
         say("leg lengths (m): " + "; ".join(f"{k}: {v:.6f}" for k, v in out["leg_lengths_m"].items()))
     else:
-        say(f"joint coordinates ({', '.join(out['joint_units'])}): " + "; ".join(
-            f"{k}: " + ", ".join(f"{v:.6f}" for v in vals) for k, vals in out["joint_coordinates"].items()))
+        say(
+            f"joint coordinates ({', '.join(out['joint_units'])}): "
+            + "; ".join(f"{k}: " + ", ".join(f"{v:.6f}" for v in vals) for k, vals in out["joint_coordinates"].items())
+        )
     axes = ["rx", "ry", "rz", "x", "y", "z"]
     for key, fmt in (("M", ".6f"), ("K_R", ".2f"), ("K_F", ".2f")):
         say(f"\n{key} (model: {', '.join(out['model']) or 'no effect'}):")
         say(format_table([""] + axes, [[a] + row for a, row in zip(axes, out[key])], fmt))
     n = len(out["freq_hz"])
-    say(f"\nnatural frequencies of this {out['kind']} model (from {out['frequencies_from']}), Hz: "
-          + ", ".join(f"{f:.3f}" for f in out["freq_hz"]))
+    say(
+        f"\nnatural frequencies of this {out['kind']} model (from {out['frequencies_from']}), Hz: "
+        + ", ".join(f"{f:.3f}" for f in out["freq_hz"])
+    )
     other = "flexible" if out["kind"] == "rigid" else "rigid"
     label = out["frequencies_rigid_from"] if other == "rigid" else FROM[other]
     say(reference_line(other, label, out[f"freq_{other}_hz"], out["freq_hz"]))
     say(f"\neigentwists of this model (columns; {', '.join(out['axes'])}):")
-    say(format_table([""] + [f"w{k + 1}" for k in range(n)],
-                     [[a] + row for a, row in zip(out["axes"], out["eigentwists"])], ".3f"))
+    say(
+        format_table(
+            [""] + [f"w{k + 1}" for k in range(n)],
+            [[a] + row for a, row in zip(out["axes"], out["eigentwists"])],
+            ".3f",
+        )
+    )
     return 0

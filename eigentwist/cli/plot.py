@@ -1,5 +1,6 @@
 """``eigentwist plot modes``: the robot at a pose and its lowest mode shapes, as a picture
 (PNG), an animation for slides (``--gif``) or for a web page (``--svg``)."""
+
 from __future__ import annotations
 
 import argparse
@@ -20,18 +21,24 @@ examples:
 
 
 def add_parser(sub):
-    p = sub.add_parser("plot", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "plot", help=HELP, description=HELP, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("what", choices=("modes",), help="what to draw: modes (the lowest mode shapes)")
     add_model_options(p)
-    p.add_argument("-o", "--output", help="file to write (default: modes.png, modes.gif with --gif, modes.svg "
-                   "with --svg)")
+    p.add_argument(
+        "-o", "--output", help="file to write (default: modes.png, modes.gif with --gif, modes.svg with --svg)"
+    )
     kind = p.add_mutually_exclusive_group()
     kind.add_argument("--gif", action="store_true", help="write an animated GIF (for slides)")
     kind.add_argument("--svg", action="store_true", help="write an animated SVG (self-contained, no script)")
     p.add_argument("--modes", type=int, default=3, metavar="N", help="number of lowest modes drawn (default: 3)")
-    p.add_argument("--amplitude", type=float, default=0.2,
-                   help="largest displacement drawn, as a fraction of the link length l2 (default: 0.2)")
+    p.add_argument(
+        "--amplitude",
+        type=float,
+        default=0.2,
+        help="largest displacement drawn, as a fraction of the link length l2 (default: 0.2)",
+    )
     declare_outputs(p, output="image")
     p.set_defaults(func=run)
 
@@ -68,6 +75,9 @@ def run(args) -> int:
         from ..plots import plot_modes
 
         plot_modes(ev, pose, out, model=model, k_a=k_a, n_modes=args.modes, amplitude=args.amplitude, **params)
-    say(f"wrote {out}: {ev.robot.title} at {[round(float(v), 6) for v in pose]}, model {' + '.join(effects) or '(none)'}, "
-        f"{stiffness_text(ev, k_a)}{args.modes} lowest modes")
+    say(
+        f"wrote {out}: {ev.robot.title} at {[round(float(v), 6) for v in pose]}, "
+        f"model {' + '.join(effects) or '(none)'}, "
+        f"{stiffness_text(ev, k_a)}{args.modes} lowest modes"
+    )
     return 0

@@ -1,13 +1,16 @@
 """Pose checks the commands share: a warning outside the workspace box, where an
 unreachable pose could go instead."""
+
 from __future__ import annotations
 
 from .common import CliError, eprint
 
 __all__ = ["warn_workspace", "check_pose", "pose_argument", "POSE_HELP"]
 
-POSE_HELP = ("pose: the end-effector position in the base frame, m (X Y Z) for a 3-DoF robot; the platform "
-             "origin, m, and its rotation vector, rad (X Y Z ROT_X ROT_Y ROT_Z) for a 6-DoF robot (hexapod)")
+POSE_HELP = (
+    "pose: the end-effector position in the base frame, m (X Y Z) for a 3-DoF robot; the platform "
+    "origin, m, and its rotation vector, rad (X Y Z ROT_X ROT_Y ROT_Z) for a 6-DoF robot (hexapod)"
+)
 
 
 def pose_argument(ev, values, option: str = "--pose"):
@@ -19,8 +22,10 @@ def pose_argument(ev, values, option: str = "--pose"):
         return np.array(ev.robot.x_ref, dtype=float)
     names = tuple(getattr(ev.robot, "pose", ("x", "y", "z")))
     if len(values) != len(names):
-        raise CliError(f"{option} {' '.join(f'{v:g}' for v in values)}: {ev.robot.name} takes {len(names)} "
-                       f"coordinates ({', '.join(names)}), got {len(values)}")
+        raise CliError(
+            f"{option} {' '.join(f'{v:g}' for v in values)}: {ev.robot.name} takes {len(names)} "
+            f"coordinates ({', '.join(names)}), got {len(values)}"
+        )
     return np.array(values, dtype=float)
 
 

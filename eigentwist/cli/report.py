@@ -1,4 +1,5 @@
 """``eigentwist report [DATA.csv] [-o report.html]``: one self-contained HTML report."""
+
 from __future__ import annotations
 
 import argparse
@@ -24,11 +25,17 @@ report adds a campaign section (stabilisation diagrams, FRF fits, MAC):
 
 
 def add_parser(sub):
-    p = sub.add_parser("report", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "report", help=HELP, description=HELP, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("data", nargs="?", help="measurement CSV (default: the robot's embedded measurements)")
     p.add_argument("-o", "--output", default="report.html", help="HTML file to write (default: report.html)")
-    p.add_argument("--robot", default="heli4", help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() (default: heli4)")
+    p.add_argument(
+        "--robot",
+        default="heli4",
+        help="robot: a shipped name (heli4, delta, hexapod) or a description file PATH.py defining describe() "
+        "(default: heli4)",
+    )
     p.add_argument("--model", default="paper", help=f"model compared with the data: {MODEL_SYNTAX} (default: paper)")
     p.add_argument("--baseline", default="rigid", help="where the diagnosis starts, same syntax (default: rigid)")
     add_backend_option(p)
@@ -51,13 +58,26 @@ def run(args) -> int:
     for name, value in base_values.items():
         if values.get(name, value) != value:
             raise CliError(f"--model and --baseline set {name} to {values[name]:g} and {value:g}: give it once")
-    rep = build_report(args.data, robot=args.robot, model=effects, baseline=baseline, backend=args.backend,
-                       progress=progress, values={**values, **base_values},
-                       command=" ".join(["eigentwist", *map(shlex.quote, getattr(args, "argv", None) or ["report"])]))
+    rep = build_report(
+        args.data,
+        robot=args.robot,
+        model=effects,
+        baseline=baseline,
+        backend=args.backend,
+        progress=progress,
+        values={**values, **base_values},
+        command=" ".join(["eigentwist", *map(shlex.quote, getattr(args, "argv", None) or ["report"])]),
+    )
     path = write_report(args.output, rep)
     d = rep.diagnosis
-    rows = [["compared model", " + ".join(rep.model), rep.comparison["summary"]["rms_pct"],
-             rep.comparison["summary"]["max_pct"]]]
+    rows = [
+        [
+            "compared model",
+            " + ".join(rep.model),
+            rep.comparison["summary"]["rms_pct"],
+            rep.comparison["summary"]["max_pct"],
+        ]
+    ]
     for k, s in enumerate(d["steps"]):
         rows.append([f"diagnosis step {k}", " + ".join(s["effects"]) or "(no effect)", s["rms_pct"], s["max_pct"]])
     say(format_table(["", "effects", "RMS error [%]", "max error [%]"], rows, ".3g"))

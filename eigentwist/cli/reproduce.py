@@ -1,12 +1,15 @@
 """``eigentwist reproduce``: every number the paper prints for its model, beside ours."""
+
 from __future__ import annotations
 
 import argparse
 
 from .common import add_backend_option
 
-HELP = ("reproduce the paper's printed model numbers (Eqs. 52-65 at x_ref = [0, 0, -0.625] m and k_a = 2000 N m/rad, "
-        "Tables E.1/E.2 over k_a in N m/rad; frequencies in Hz)")
+HELP = (
+    "reproduce the paper's printed model numbers (Eqs. 52-65 at x_ref = [0, 0, -0.625] m and k_a = 2000 N m/rad, "
+    "Tables E.1/E.2 over k_a in N m/rad; frequencies in Hz)"
+)
 EPILOG = """status of each printed number:
   reproduced   within print rounding (half a unit of the last printed digit)
   calibration  within print rounding because an input was chosen to match it (E_rod, k_E_rot,
@@ -21,8 +24,9 @@ examples:
 
 
 def add_parser(sub):
-    p = sub.add_parser("reproduce", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "reproduce", help=HELP, description=HELP, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--all", action="store_true", help="list every entry, zeros included")
     add_backend_option(p)
     p.set_defaults(func=run)

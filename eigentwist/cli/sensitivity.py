@@ -1,4 +1,5 @@
 """``eigentwist sensitivity``: which design parameter moves the lowest natural frequency most."""
+
 from __future__ import annotations
 
 import argparse
@@ -38,14 +39,22 @@ held fixed, and each mass ranked +0 because its body's inertia is a separate par
 
 
 def add_parser(sub):
-    p = sub.add_parser("sensitivity", help=HELP, description=HELP, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "sensitivity", help=HELP, description=HELP, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     add_model_options(p)
-    p.add_argument("--wrt", default=None, metavar="NAMES",
-                   help="comma-separated parameter names, NAME@N for leg N's own value, or 'all' (default: k_a "
-                        "and the model's parameters in m, kg and Pa: geometry, masses, moduli)")
-    add_jacobian_option(p, "derivatives: central differences of the matrices (default: nothing derived) or the "
-                        "generated sensitivity kernel (derived and cached on first use per --wrt)")
+    p.add_argument(
+        "--wrt",
+        default=None,
+        metavar="NAMES",
+        help="comma-separated parameter names, NAME@N for leg N's own value, or 'all' (default: k_a "
+        "and the model's parameters in m, kg and Pa: geometry, masses, moduli)",
+    )
+    add_jacobian_option(
+        p,
+        "derivatives: central differences of the matrices (default: nothing derived) or the "
+        "generated sensitivity kernel (derived and cached on first use per --wrt)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
@@ -63,8 +72,11 @@ def default_wrt(ev, effects) -> tuple:
     from ..description.effects import base_name
 
     on = {base_name(e) for e in effects}
-    return tuple(n for n, p in ev.parameters.items()
-                 if (p.effect is None or p.effect in on) and (p.unit in DEFAULT_UNITS or n == "k_a"))
+    return tuple(
+        n
+        for n, p in ev.parameters.items()
+        if (p.effect is None or p.effect in on) and (p.unit in DEFAULT_UNITS or n == "k_a")
+    )
 
 
 def compute(args, progress=None) -> dict:
@@ -84,38 +96,63 @@ def compute(args, progress=None) -> dict:
         wrt = [w.strip() for w in args.wrt.split(",") if w.strip()]
     else:
         wrt = list(default_wrt(ev, effects))
-    modes, dfdp = frequency_sensitivities(ev, pose, wrt, effects, params, progress=progress,
-                                          method=args.jacobian)
+    modes, dfdp = frequency_sensitivities(ev, pose, wrt, effects, params, progress=progress, method=args.jacobian)
     f = modes.freq_hz[0]
     rows = []
     for j, name in enumerate(wrt):
         base = name.partition("@")[0]
         value = float(params.get(name, params.get(base, ev.defaults[base])))
-        rows.append(dict(name=name, unit=ev.parameter(name).unit, value=value,
-                         dfdp_hz_per_unit=dfdp[0, :, j].tolist(),
-                         dlnf1_dlnp=float(dfdp[0, 0, j] * value / f[0]) if f[0] > 0 else float("nan")))
+        rows.append(
+            dict(
+                name=name,
+                unit=ev.parameter(name).unit,
+                value=value,
+                dfdp_hz_per_unit=dfdp[0, :, j].tolist(),
+                dlnf1_dlnp=float(dfdp[0, 0, j] * value / f[0]) if f[0] > 0 else float("nan"),
+            )
+        )
     rows.sort(key=lambda r: -abs(r["dlnf1_dlnp"]) if np.isfinite(r["dlnf1_dlnp"]) else 0.0)
     from ..design.fixed import held_fixed, held_fixed_line, zero_mass_lines
 
     # each derivative holds every other parameter: the masses in --wrt too, while a length moves
     lengths = [w for w in wrt if ev.parameter(w).unit == "m"]
     notes = [line for line in [held_fixed_line(ev, lengths, effects, params)] if line] + zero_mass_lines(ev, rows)
-    return dict(robot=ev.robot.name, model=list(effects), pose=pose.tolist(), freq_hz=f.tolist(), parameters=rows,
-                held_fixed=held_fixed(ev, lengths, effects), notes=notes)
+    return dict(
+        robot=ev.robot.name,
+        model=list(effects),
+        pose=pose.tolist(),
+        freq_hz=f.tolist(),
+        parameters=rows,
+        held_fixed=held_fixed(ev, lengths, effects),
+        notes=notes,
+    )
 
 
 def run(args) -> int:
     from .common import say
+
     out = compute(args, progress=eprint)
     if args.json:
         print(json.dumps(out))
         return 0
     f1 = out["freq_hz"][0]
-    say(f"{out['robot']} at pose {out['pose']} m, model: {', '.join(out['model'])}; "
-          f"lowest natural frequency f1 = {f1:.4g} Hz")
+    say(
+        f"{out['robot']} at pose {out['pose']} m, model: {', '.join(out['model'])}; "
+        f"lowest natural frequency f1 = {f1:.4g} Hz"
+    )
     say("ranked by the relative sensitivity d ln f1 / d ln p (% change of f1 per % change of p):\n")
-    table = [[k + 1, r["name"], f"{r['value']:.6g}", r["unit"], f"{r['dlnf1_dlnp']:+.4f}",
-              f"{r['dfdp_hz_per_unit'][0]:+.4g}", f"Hz/({r['unit']})"] for k, r in enumerate(out["parameters"])]
+    table = [
+        [
+            k + 1,
+            r["name"],
+            f"{r['value']:.6g}",
+            r["unit"],
+            f"{r['dlnf1_dlnp']:+.4f}",
+            f"{r['dfdp_hz_per_unit'][0]:+.4g}",
+            f"Hz/({r['unit']})",
+        ]
+        for k, r in enumerate(out["parameters"])
+    ]
     say(format_table(["rank", "parameter", "value", "unit", "dlnf1/dlnp", "df1/dp", "per"], table))
     for line in out["notes"]:
         say(f"note: {line}")

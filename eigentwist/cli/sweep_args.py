@@ -1,4 +1,5 @@
 """Command-line text of ``eigentwist sweep`` to numbers: value lists, ranges, ``--vary``."""
+
 from __future__ import annotations
 
 import math
@@ -37,7 +38,9 @@ def parse_values(text: str, what: str = "values") -> tuple[float, ...]:
         try:
             n = int(parts[2])
         except ValueError:
-            raise CliError(f"{what}: count {parts[2]!r} in {text!r} is not an integer: expected LO:HI:N with N >= 1") from None
+            raise CliError(
+                f"{what}: count {parts[2]!r} in {text!r} is not an integer: expected LO:HI:N with N >= 1"
+            ) from None
         if n < 1:
             raise CliError(f"{what}: count {n} in {text!r}: expected N >= 1")
         return tuple(float(v) for v in np.linspace(lo, hi, n))
@@ -50,4 +53,3 @@ def parse_vary(item: str) -> tuple[str, tuple[float, ...]]:
     if not sep or not name.strip():
         raise CliError(f"--vary {item!r}: expected NAME=LO:HI:N or NAME=A,B,C, e.g. l2=0.45:0.60:16")
     return name.strip(), parse_values(values, f"--vary {item!r}")
-

@@ -3,6 +3,7 @@
 Kept beside ``synth`` (which calls :func:`add_uff_options` and :func:`run_uff`); this
 module defines no subcommand of its own.
 """
+
 from __future__ import annotations
 
 UFF_EPILOG = """
@@ -23,24 +24,60 @@ def add_uff_options(p) -> None:
     g = p.add_argument_group("modal-test campaign (UFF)")
     g.add_argument("--uff", metavar="DIR", help="write a campaign (manifest.csv + UFF files) here instead of a CSV")
     g.add_argument("--damping", default="1.5%", help="modal damping ratio of every mode (default: 1.5%%)")
-    g.add_argument("--noise-kind", default="proportional", choices=("proportional", "additive"),
-                   help="FRF noise relative to each value, or to each FRF's RMS (default: proportional)")
-    g.add_argument("--form", default="accelerance", choices=("accelerance", "mobility", "receptance"),
-                   help="FRF form written (default: accelerance)")
-    g.add_argument("--dataset", type=int, default=58, choices=(58, 55),
-                   help="58: FRFs (default); 55: the truth's modes as already identified")
-    g.add_argument("--sensor", nargs=3, type=float, metavar=("RX", "RY", "RZ"),
-                   help="sensor offset from the end-effector origin, m (default: the origin)")
+    g.add_argument(
+        "--noise-kind",
+        default="proportional",
+        choices=("proportional", "additive"),
+        help="FRF noise relative to each value, or to each FRF's RMS (default: proportional)",
+    )
+    g.add_argument(
+        "--form",
+        default="accelerance",
+        choices=("accelerance", "mobility", "receptance"),
+        help="FRF form written (default: accelerance)",
+    )
+    g.add_argument(
+        "--dataset",
+        type=int,
+        default=58,
+        choices=(58, 55),
+        help="58: FRFs (default); 55: the truth's modes as already identified",
+    )
+    g.add_argument(
+        "--sensor",
+        nargs=3,
+        type=float,
+        metavar=("RX", "RY", "RZ"),
+        help="sensor offset from the end-effector origin, m (default: the origin)",
+    )
     g.add_argument("--node", type=int, default=1, help="UFF node number of the sensor (default: 1)")
-    g.add_argument("--layout", default="triaxial", choices=("triaxial", "uniaxial", "roving-hammer", "shaker"),
-                   help="where the FRFs are measured (see below; default: triaxial)")
+    g.add_argument(
+        "--layout",
+        default="triaxial",
+        choices=("triaxial", "uniaxial", "roving-hammer", "shaker"),
+        help="where the FRFs are measured (see below; default: triaxial)",
+    )
 
 
 def run_uff(args, ev, k_a, poses) -> int:
     from ..modal.synth import synth_campaign
 
-    path = synth_campaign(args.truth, k_a, poses, args.uff, ev, args.damping, args.noise, args.seed,
-                          args.noise_kind, args.form, args.sensor, args.node, args.dataset, args.layout)
+    path = synth_campaign(
+        args.truth,
+        k_a,
+        poses,
+        args.uff,
+        ev,
+        args.damping,
+        args.noise,
+        args.seed,
+        args.noise_kind,
+        args.form,
+        args.sensor,
+        args.node,
+        args.dataset,
+        args.layout,
+    )
     n = len(k_a) * (len(poses) if poses is not None else 1)
     print(f"wrote {n} UFF files (dataset {args.dataset}) and {path} (truth: {args.truth})")
     return 0

@@ -8,6 +8,7 @@ Public names (imported on first use, so that loading an evaluator never imports 
 * :func:`render_robot`, :func:`render_all` — generated sources as ``{path: text}``;
 * :func:`write`, :func:`stale` — write them / name the checked-in files that differ.
 """
+
 __all__ = ["kernels_for", "render_robot", "render_all", "write", "stale"]
 
 

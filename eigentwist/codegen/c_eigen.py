@@ -16,6 +16,7 @@ statements (no I/O); the template ``c/eigen.c.jinja`` wraps them in functions.
 Symmetric matrices are stored as their upper triangle in row-major order
 (:func:`upper`), the Cholesky factor as its lower triangle (:func:`lower`).
 """
+
 from __future__ import annotations
 
 from ..errors import DescriptionError
@@ -65,18 +66,18 @@ def reduce_lines(n: int) -> tuple[list[str], list[str]]:
         lines.append(f"const double k{i}{j} = kp{k}[et_i];")
     mij = lambda i, j: f"m{min(i, j)}{max(i, j)}"  # noqa: E731
     kij = lambda i, j: f"k{min(i, j)}{max(i, j)}"  # noqa: E731
-    for j in range(n):                                   # Cholesky, column by column
+    for j in range(n):  # Cholesky, column by column
         terms = [mij(j, j)] + [f"l{j}{k} * l{j}{k}" for k in range(j)]
         lines.append(f"const double l{j}{j} = sqrt({_sum(terms)});")
         lines.append(f"const double il{j} = 1.0 / l{j}{j};")
         for i in range(j + 1, n):
             terms = [mij(j, i)] + [f"l{i}{k} * l{j}{k}" for k in range(j)]
             lines.append(f"const double l{i}{j} = ({_sum(terms)}) * il{j};")
-    for c in range(n):                                   # Y = L^-1 K (forward substitution)
+    for c in range(n):  # Y = L^-1 K (forward substitution)
         for r in range(n):
             terms = [kij(r, c)] + [f"l{r}{k} * y{k}{c}" for k in range(r)]
             lines.append(f"const double y{r}{c} = ({_sum(terms)}) * il{r};")
-    for c in range(n):                                   # A = L^-1 Y^T, upper triangle
+    for c in range(n):  # A = L^-1 Y^T, upper triangle
         for r in range(c + 1):
             terms = [f"y{c}{r}"] + [f"l{r}{k} * a{k}{c}" for k in range(r)]
             lines.append(f"const double a{r}{c} = ({_sum(terms)}) * il{r};")
@@ -113,7 +114,9 @@ def _rotation(n: int, p: int, q: int, vectors: bool) -> list[str]:
         lines.append(f"    {{ const double g = {arp}, h = {arq}; {arp} = c * g - s * h; {arq} = s * g + c * h; }}")
     if vectors:
         for r in range(n):
-            lines.append(f"    {{ const double g = w{r}{p}, h = w{r}{q}; w{r}{p} = c * g - s * h; w{r}{q} = s * g + c * h; }}")
+            lines.append(
+                f"    {{ const double g = w{r}{p}, h = w{r}{q}; w{r}{p} = c * g - s * h; w{r}{q} = s * g + c * h; }}"
+            )
     lines.append("}")
     return lines
 
@@ -173,14 +176,17 @@ def finish_lines(n: int, vectors: bool) -> tuple[list[str], list[str]]:
         lines.append(f"    lam{k} = sw ? g : h;")
         if vectors:
             for r in range(n):
-                lines.append(f"    {{ const double gw = w{r}{j}, hw = w{r}{k}; w{r}{j} = sw ? hw : gw; w{r}{k} = sw ? gw : hw; }}")
+                lines.append(
+                    f"    {{ const double gw = w{r}{j}, hw = w{r}{k}; "
+                    f"w{r}{j} = sw ? hw : gw; w{r}{k} = sw ? gw : hw; }}"
+                )
         lines.append("}")
     for j in range(n):
         lines.append(f"lo{j}[et_i] = et_hz ? sqrt(lam{j} > 0.0 ? lam{j} : 0.0) * ET_INV_TWO_PI : lam{j};")
     if vectors:
         for k, (i, j) in enumerate(lower(n)):
             lines.append(f"const double l{i}{j} = lp{k}[et_i];")
-        for c in range(n):                               # solve L^T v = w, bottom up
+        for c in range(n):  # solve L^T v = w, bottom up
             for r in reversed(range(n)):
                 terms = [f"w{r}{c}"] + [f"l{k}{r} * v{k}{c}" for k in range(r + 1, n)]
                 lines.append(f"const double v{r}{c} = ({_sum(terms)}) / l{r}{r};")

@@ -22,6 +22,7 @@ The input vector is the fused pass's inputs without the pose: parameters (SI uni
 effect switches ``on_<effect>`` / ``on_<effect>__N`` (0 or 1) and each leg's copy
 ``P__N`` of a leg-level effect's parameter, in the generated code's order.
 """
+
 from __future__ import annotations
 
 import re
@@ -29,17 +30,26 @@ import re
 from ..errors import DescriptionError
 from ..description.effects import leg_input_name, leg_switch_name, resolve_model, switch_name
 
-__all__ = ["LEVER_TOL", "LEVER_SCALE", "ROUNDOFF_EPS", "MAX_MODES", "DEFAULT_MODEL", "EXACT_DEFAULTS", "fused_input_names",
-           "library_context", "render_c_header"]
+__all__ = [
+    "LEVER_TOL",
+    "LEVER_SCALE",
+    "ROUNDOFF_EPS",
+    "MAX_MODES",
+    "DEFAULT_MODEL",
+    "EXACT_DEFAULTS",
+    "fused_input_names",
+    "library_context",
+    "render_c_header",
+]
 
 # The runtime's options of the fused pass (eigentwist.runtime.validity / .eigen hold the
 # same values; tests/test_c_library.py checks they agree): the C library must give the
 # frequencies and status codes that Evaluator.frequencies gives.
-LEVER_TOL = 1e-3          # |w_a1 . t_a1| / l1 at or below this: singular pose
-LEVER_SCALE = "l1"        # the lever is divided by this input (a robot without it: by 1)
-ROUNDOFF_EPS = 1e-10      # eigenvalue below -eps * max|lambda| of the pose: unstable mode
-MAX_MODES = 6             # columns of hz per pose
-DEFAULT_MODEL = "paper"   # what et_<robot>_defaults switches on (Evaluator's default model)
+LEVER_TOL = 1e-3  # |w_a1 . t_a1| / l1 at or below this: singular pose
+LEVER_SCALE = "l1"  # the lever is divided by this input (a robot without it: by 1)
+ROUNDOFF_EPS = 1e-10  # eigenvalue below -eps * max|lambda| of the pose: unstable mode
+MAX_MODES = 6  # columns of hz per pose
+DEFAULT_MODEL = "paper"  # what et_<robot>_defaults switches on (Evaluator's default model)
 #: inputs whose value in et_<robot>_defaults is not the description's default: the penalty
 #: compliance of rigid directions is 0, K_F exact, as Evaluator.frequencies solves a model whose
 #: legs have no rigid direction (every shipped robot's default model; tests/test_c_library.py)
@@ -54,8 +64,11 @@ def fused_input_names(kernels) -> list[str]:
     but the joint coordinates, each once, in order of first use."""
     by_name = {k.name: k for k in kernels}
     out: list[str] = []
-    for kern in (by_name["inverse_kinematics"], by_name.get("matrices_lever", by_name["matrices"]),
-                 by_name["jacobians"]):
+    for kern in (
+        by_name["inverse_kinematics"],
+        by_name.get("matrices_lever", by_name["matrices"]),
+        by_name["jacobians"],
+    ):
         for name in kern.input_names:
             group = next(g for g, ns in kern.inputs if name in ns)
             if group != "q" and name not in out:
@@ -95,8 +108,12 @@ def _model_inputs(robot) -> dict:
         # legs in URDF form (numeric IK): the kernels read the joint coordinates solved by
         # Newton's method in the runtime; a C caller passes them (default: the reference)
         for m, value in enumerate(getattr(getattr(leg, "kinematics", None), "reference", ()) or (), start=1):
-            out[f"q{m}_{k}"] = ("rad or m", float(value), f"leg {k}'s joint coordinate {m} (numeric IK: the caller "
-                                "solves it; default: the reference configuration)")
+            out[f"q{m}_{k}"] = (
+                "rad or m",
+                float(value),
+                f"leg {k}'s joint coordinate {m} (numeric IK: the caller "
+                "solves it; default: the reference configuration)",
+            )
     return out
 
 
@@ -124,8 +141,16 @@ def library_context(robot, kernels, prefix: str) -> dict:
     inputs = []
     for k, n in enumerate(model_names):
         unit, default, doc = table[n]
-        inputs.append(dict(index=k, name=n, macro=re.sub(r"\W", "_", n), unit=_c_text(unit),
-                           default=_c_literal(default), doc=_c_text(doc)))
+        inputs.append(
+            dict(
+                index=k,
+                name=n,
+                macro=re.sub(r"\W", "_", n),
+                unit=_c_text(unit),
+                default=_c_literal(default),
+                doc=_c_text(doc),
+            )
+        )
     sources = []
     for n in names:
         if n in POSITION:
@@ -142,21 +167,36 @@ def library_context(robot, kernels, prefix: str) -> dict:
         for e in effects:
             if not pick(e):
                 continue
-            keys = [leg_switch_name(e.name, k) for k in range(1, len(robot.legs) + 1)] if e.leg_level \
+            keys = (
+                [leg_switch_name(e.name, k) for k in range(1, len(robot.legs) + 1)]
+                if e.leg_level
                 else [switch_name(e.name)]
+            )
             out += [index[s] for s in keys if s in index]
         return out
 
     rigid_dim = 3 if len(pose) == 3 else 6
     upper = "ET_" + prefix[3:].upper()
     return dict(
-        prefix=prefix, upper=upper, robot=robot, pose=pose, pose_width=len(pose),
+        prefix=prefix,
+        upper=upper,
+        robot=robot,
+        pose=pose,
+        pose_width=len(pose),
         pose_units=", ".join(f"{p} ({'m' if p in POSITION else 'rad'})" for p in pose),
-        rotation=any(n in ROTATION for n in names), inputs=inputs, n_inputs=len(inputs),
-        sources=sources, n_fused=len(names), structural=switches(lambda e: e.structural),
-        preload=switches(lambda e: e.kind == "preload"), rigid_dim=rigid_dim, modes=MAX_MODES,
-        scale=names.index(LEVER_SCALE) if LEVER_SCALE in names else -1, lever_tol=repr(LEVER_TOL),
-        roundoff=repr(ROUNDOFF_EPS), default_model=DEFAULT_MODEL,
+        rotation=any(n in ROTATION for n in names),
+        inputs=inputs,
+        n_inputs=len(inputs),
+        sources=sources,
+        n_fused=len(names),
+        structural=switches(lambda e: e.structural),
+        preload=switches(lambda e: e.kind == "preload"),
+        rigid_dim=rigid_dim,
+        modes=MAX_MODES,
+        scale=names.index(LEVER_SCALE) if LEVER_SCALE in names else -1,
+        lever_tol=repr(LEVER_TOL),
+        roundoff=repr(ROUNDOFF_EPS),
+        default_model=DEFAULT_MODEL,
         default_on=", ".join(resolve_model(DEFAULT_MODEL, robot)) or "none",
     )
 
@@ -167,5 +207,8 @@ def render_c_header(robot, kernels, digest: str) -> str:
 
     prefix = "et_" + re.sub(r"\W", "_", robot.name)
     lib = library_context(robot, kernels, prefix)
-    return environment().get_template("c/library.h.jinja").render(
-        header=header(robot.name, digest, comment="//"), lib=lib, robot=robot)
+    return (
+        environment()
+        .get_template("c/library.h.jinja")
+        .render(header=header(robot.name, digest, comment="//"), lib=lib, robot=robot)
+    )

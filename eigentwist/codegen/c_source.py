@@ -19,6 +19,7 @@ Render only (a string comes back; nothing is written or compiled here: see
 * the library entry points of ``<robot>_c.h`` (:mod:`eigentwist.codegen.c_library`):
   the model inputs' names, units and defaults and ``et_<robot>_frequencies``.
 """
+
 from __future__ import annotations
 
 import json
@@ -36,7 +37,7 @@ from .render import environment, header
 __all__ = ["render_c", "CCodePrinter", "c_identifiers", "ABI_VERSION", "BLOCK", "EIGEN_MODELS"]
 
 ABI_VERSION = 2
-BLOCK = 64                 # poses per block: inputs, outputs and temporaries stay in L1/L2
+BLOCK = 64  # poses per block: inputs, outputs and temporaries stay in L1/L2
 # eigenproblems of the fused pipeline: (model, dimension, first index, inertia, stiffness).
 # The flexible model uses the full 6x6 M and K_F (Eq. 13); the rigid one the lower-right
 # 3x3 translational blocks of M and K_R (Eq. 14), as the paper does (Eqs. 54-56).
@@ -44,17 +45,22 @@ EIGEN_MODELS = (("flexible", 6, 0, "M", "K_F"), ("rigid", 3, 3, "M", "K_R"))
 # a 6-DoF robot (six pose coordinates): the rigid model is the full 6x6 M and K_R
 EIGEN_MODELS_6DOF = (("flexible", 6, 0, "M", "K_F"), ("rigid", 6, 0, "M", "K_R"))
 # what the C comments say of a 6-DoF robot's pose inputs read from the parameter dict
-POSE_DOCS = {**{f"R_{i}{j}": f"platform rotation matrix entry ({i}, {j}) (-)" for i in range(3) for j in range(3)},
-             "x": "platform origin x (m)", "y": "platform origin y (m)", "z": "platform origin z (m)"}
+POSE_DOCS = {
+    **{f"R_{i}{j}": f"platform rotation matrix entry ({i}, {j}) (-)" for i in range(3) for j in range(3)},
+    "x": "platform origin x (m)",
+    "y": "platform origin y (m)",
+    "z": "platform origin z (m)",
+}
 EIGEN_DIMS = tuple(n for _, n, _, _, _ in EIGEN_MODELS)
 JACOBI_MAX_SWEEPS = 20
-JACOBI_TOL = 1e-30         # sum of squared off-diagonals relative to the squared diagonal
+JACOBI_TOL = 1e-30  # sum of squared off-diagonals relative to the squared diagonal
 # kernels rendered only for the fused pass (not exported, not in the signature's kernels)
 FUSED_ONLY = ("matrices_lever",)
 # per-pose status codes of the fused pass, in order of precedence (0: evaluated and stable)
 STATUS = {"ok": 0, "unreachable": 1, "singular": 2, "not_finite": 3, "unstable": 4}
 
-C_RESERVED = frozenset("""
+C_RESERVED = frozenset(
+    """
 auto break case char const continue default do double else enum extern float for goto if
 inline int long register restrict return short signed sizeof static struct switch typedef
 union unsigned void volatile while bool true false NULL main errno _Bool _Complex _Imaginary
@@ -65,7 +71,8 @@ sqrt erf erfc lgamma tgamma gamma ceil floor nearbyint rint lrint llrint round l
 trunc fmod remainder remquo drem copysign nan nextafter nexttoward fdim fmax fmin fma j0 j1
 jn y0 y1 yn signgam significand finite isnan isinf isfinite signbit fpclassify sincos
 HUGE_VAL INFINITY NAN M_PI int64_t int32_t size_t ptrdiff_t
-""".split())
+""".split()
+)
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
@@ -183,12 +190,26 @@ def _kernel_context(kern: Kernel, prefix: str, units: dict) -> dict:
         where = None
         if group == "q":
             where = list(kern.joint_index(name))
-        inputs.append(dict(name=name, cname=names[name], group=group, joint=where,
-                           doc=_input_doc(name, group, where, units, kern.joints_per_leg)))
+        inputs.append(
+            dict(
+                name=name,
+                cname=names[name],
+                group=group,
+                joint=where,
+                doc=_input_doc(name, group, where, units, kern.joints_per_leg),
+            )
+        )
     return dict(
-        name=kern.name, doc=kern.doc, cname=f"{prefix}_{kern.name}", inputs=inputs, entries=entries,
+        name=kern.name,
+        doc=kern.doc,
+        cname=f"{prefix}_{kern.name}",
+        inputs=inputs,
+        entries=entries,
         outputs=[dict(name=o.name, shape=list(o.shape), size=_size(o.shape)) for o in kern.outputs],
-        lines=lines, n_in=len(inputs), n_ent=len(entries), export=kern.name not in FUSED_ONLY,
+        lines=lines,
+        n_in=len(inputs),
+        n_ent=len(entries),
+        export=kern.name not in FUSED_ONLY,
     )
 
 
@@ -220,23 +241,42 @@ def _fused_context(kctx: dict, models=EIGEN_MODELS) -> dict:
             inputs.append(dict(name=inp["name"], group=inp["group"], doc=inp["doc"]))
         return f"et_ip[{seen[inp['name']]}]"
 
-    wiring = {k: [source(inp) for inp in kc["inputs"]] for k, kc in (("ik", ik), ("matrices", mats), ("jacobians", jac))}
+    wiring = {
+        k: [source(inp) for inp in kc["inputs"]] for k, kc in (("ik", ik), ("matrices", mats), ("jacobians", jac))
+    }
     row = {(e["name"], tuple(e["idx"])): r for r, e in enumerate(mats["entries"])}
     eig = []
     for model, n, off, mname, kname in models:
-        eig.append(dict(
-            n=n, model=model, M=mname, K=kname,
-            m_src=[f"et_mb[{row[(mname, (i + off, j + off))]}]" for i, j in c_eigen.upper(n)],
-            k_src=[f"et_mb[{row[(kname, (i + off, j + off))]}]" for i, j in c_eigen.upper(n)],
-        ))
+        eig.append(
+            dict(
+                n=n,
+                model=model,
+                M=mname,
+                K=kname,
+                m_src=[f"et_mb[{row[(mname, (i + off, j + off))]}]" for i, j in c_eigen.upper(n)],
+                k_src=[f"et_mb[{row[(kname, (i + off, j + off))]}]" for i, j in c_eigen.upper(n)],
+            )
+        )
     n = max(EIGEN_DIMS)
     work = max(_eigen_work(d) for d in EIGEN_DIMS)
     blocks = len(inputs) + ik["n_ent"] + mats["n_ent"] + jac["n_ent"] + n + n * n + work + 2
     reach = [f"et_ikb[{r}]" for r, e in enumerate(ik["entries"]) if e["name"] != "q"]
     lever = [f"et_mb[{r}]" for r, e in enumerate(mats["entries"]) if e["name"] == "lever"]
-    return dict(inputs=inputs, wiring=wiring, eigen=eig, n_in=len(inputs), max_n=n,
-                max_up=len(c_eigen.upper(n)), n_blocks=blocks, work=work, mats=mats["name"], reach=reach, lever=lever,
-                mat_outputs=[[o["name"], o["shape"]] for o in mats["outputs"]], status=STATUS)
+    return dict(
+        inputs=inputs,
+        wiring=wiring,
+        eigen=eig,
+        n_in=len(inputs),
+        max_n=n,
+        max_up=len(c_eigen.upper(n)),
+        n_blocks=blocks,
+        work=work,
+        mats=mats["name"],
+        reach=reach,
+        lever=lever,
+        mat_outputs=[[o["name"], o["shape"]] for o in mats["outputs"]],
+        status=STATUS,
+    )
 
 
 def _eigen_work(n: int) -> int:
@@ -246,33 +286,52 @@ def _eigen_work(n: int) -> int:
 
 def _eigen_context(n: int) -> dict:
     return dict(
-        n=n, n_up=len(c_eigen.upper(n)), n_low=len(c_eigen.lower(n)), work=_eigen_work(n),
-        reduce=c_eigen.reduce_lines(n), sweep=c_eigen.sweep_lines(n, False), sweepv=c_eigen.sweep_lines(n, True),
-        finish=c_eigen.finish_lines(n, False), finishv=c_eigen.finish_lines(n, True),
+        n=n,
+        n_up=len(c_eigen.upper(n)),
+        n_low=len(c_eigen.lower(n)),
+        work=_eigen_work(n),
+        reduce=c_eigen.reduce_lines(n),
+        sweep=c_eigen.sweep_lines(n, False),
+        sweepv=c_eigen.sweep_lines(n, True),
+        finish=c_eigen.finish_lines(n, False),
+        finishv=c_eigen.finish_lines(n, True),
         upper=c_eigen.upper(n),
     )
 
 
 def _signature(robot, prefix: str, kernels: list[dict], fused: dict, digest: str) -> dict:
     return dict(
-        abi=ABI_VERSION, robot=robot.name, prefix=prefix, block=BLOCK, source_hash=digest,
-        kernels={k["name"]: dict(
-            function=k["cname"],
-            inputs=[[i["group"], i["name"], i["joint"]] for i in k["inputs"]],
-            outputs=[[o["name"], o["shape"]] for o in k["outputs"]],
-        ) for k in kernels if k["name"] not in FUSED_ONLY},
-        fused=dict(function=f"{prefix}_fused", inputs=[[i["group"], i["name"]] for i in fused["inputs"]],
-                   models=[e["model"] for e in fused["eigen"]], matrices=fused["mat_outputs"],
-                   status=fused["status"], lever_check=bool(fused["lever"]),
-                   # each model's dimension, where it differs from eigh's dims (a 6-DoF robot)
-                   **({"dims": [e["n"] for e in fused["eigen"]]} if eigen_models(robot) is not EIGEN_MODELS else {})),
+        abi=ABI_VERSION,
+        robot=robot.name,
+        prefix=prefix,
+        block=BLOCK,
+        source_hash=digest,
+        kernels={
+            k["name"]: dict(
+                function=k["cname"],
+                inputs=[[i["group"], i["name"], i["joint"]] for i in k["inputs"]],
+                outputs=[[o["name"], o["shape"]] for o in k["outputs"]],
+            )
+            for k in kernels
+            if k["name"] not in FUSED_ONLY
+        },
+        fused=dict(
+            function=f"{prefix}_fused",
+            inputs=[[i["group"], i["name"]] for i in fused["inputs"]],
+            models=[e["model"] for e in fused["eigen"]],
+            matrices=fused["mat_outputs"],
+            status=fused["status"],
+            lever_check=bool(fused["lever"]),
+            # each model's dimension, where it differs from eigh's dims (a 6-DoF robot)
+            **({"dims": [e["n"] for e in fused["eigen"]]} if eigen_models(robot) is not EIGEN_MODELS else {}),
+        ),
         eigh=dict(function=f"{prefix}_eigh", dims=list(EIGEN_DIMS)),
     )
 
 
 def _c_string(text: str, width: int = 96) -> list[str]:
     """``text`` as adjacent C string literals (escaped), one per line."""
-    chunks = [text[i:i + width] for i in range(0, len(text), width)] or [""]
+    chunks = [text[i : i + width] for i in range(0, len(text), width)] or [""]
     return ['"' + c.replace("\\", "\\\\").replace('"', '\\"') + '"' for c in chunks]
 
 
@@ -292,10 +351,20 @@ def render_c(robot, kernels: list[Kernel], digest: str) -> str:
     env = environment()
     tmpl = env.get_template("c/module.c.jinja")
     return tmpl.render(
-        header=header(robot.name, digest, comment="//"), robot=robot, prefix=prefix, hash=digest,
-        abi=ABI_VERSION, block=BLOCK, kernels=kctx, k=by_name, fused=fused,
-        eigen=[_eigen_context(n) for n in EIGEN_DIMS], max_sweeps=JACOBI_MAX_SWEEPS, tol=repr(JACOBI_TOL),
-        signature=_c_string(json.dumps(sig, sort_keys=True, separators=(",", ":"))), lib=lib,
+        header=header(robot.name, digest, comment="//"),
+        robot=robot,
+        prefix=prefix,
+        hash=digest,
+        abi=ABI_VERSION,
+        block=BLOCK,
+        kernels=kctx,
+        k=by_name,
+        fused=fused,
+        eigen=[_eigen_context(n) for n in EIGEN_DIMS],
+        max_sweeps=JACOBI_MAX_SWEEPS,
+        tol=repr(JACOBI_TOL),
+        signature=_c_string(json.dumps(sig, sort_keys=True, separators=(",", ":"))),
+        lib=lib,
     )
 
 

@@ -4,6 +4,7 @@
 ``write`` writes; ``stale`` compares with what is checked in. The command line
 ``eigentwist generate [--check]`` wraps these.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -20,20 +21,54 @@ from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
 
-__all__ = ["GENERATED", "joints_per_leg", "kernels_for", "fused_kernels_for", "render_robot", "render_all", "write", "stale", "TARGETS",
-           "PROGRESS_STEPS"]
+__all__ = [
+    "GENERATED",
+    "joints_per_leg",
+    "kernels_for",
+    "fused_kernels_for",
+    "render_robot",
+    "render_all",
+    "write",
+    "stale",
+    "TARGETS",
+    "PROGRESS_STEPS",
+]
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
 KERNEL_DOCS = {
     "inverse_kinematics": "Joint angles of every leg for end-effector positions (facts file IK).",
-    "matrices": "Cartesian inertia M (Eq. 12), rigid-body stiffness K_R (Eq. 14) and flexible-body stiffness K_F (Eq. 13, tau_e = 0) at the EE origin.",
-    "jacobians": "Inverse-Jacobian rows of joints 1, 2, 3 and the virtual joint of every leg (Huang's method), and the actuation levers (m).",
-    "matrices_lever": "The matrices kernel with each leg's actuation lever (m) as a further output: the fused C pass checks singularity without the jacobians kernel.",
-    "followers": "Each leg's closure equations (m, zero where the platform can be) and their rates along the platform's six unit twists, for the followers of a lower-mobility pose space.",
-    "loop_closure": "Loop-closure residual of every leg at its joint coordinates and the pose (orientation error, rad, then position, m) and its exact Jacobian with respect to the leg's coordinates, for the damped Newton inverse kinematics.",
-    "legs": "Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and stiffnesses K_c: the exact condensation of rigid constraints.",
-    "gravity": "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint stiffness Kqe (Eq. 40), each leg's series actuator stiffness k_act and the static preload wrench W on the platform.",
+    "matrices": (
+        "Cartesian inertia M (Eq. 12), rigid-body stiffness K_R (Eq. 14) and flexible-body stiffness K_F (Eq. 13, "
+        "tau_e = 0) at the EE origin."
+    ),
+    "jacobians": (
+        "Inverse-Jacobian rows of joints 1, 2, 3 and the virtual joint of every leg (Huang's method), and the "
+        "actuation levers (m)."
+    ),
+    "matrices_lever": (
+        "The matrices kernel with each leg's actuation lever (m) as a further output: the fused C pass checks "
+        "singularity without the jacobians kernel."
+    ),
+    "followers": (
+        "Each leg's closure equations (m, zero where the platform can be) and their rates along the platform's six "
+        "unit twists, for the followers of a lower-mobility pose space."
+    ),
+    "loop_closure": (
+        "Loop-closure residual of every leg at its joint coordinates and the pose (orientation error, rad, then "
+        "position, m) and its exact Jacobian with respect to the leg's coordinates, for the damped Newton inverse "
+        "kinematics."
+    ),
+    "legs": (
+        "Each leg's elastic-joint rows Je, their compliance Cq without the rigid-constraint penalty (rigid "
+        "directions exact zeros), the springs K_ground in parallel with the legs, and each coupling's twists G_c and "
+        "stiffnesses K_c: the exact condensation of rigid constraints."
+    ),
+    "gravity": (
+        "Matrices G multiplying the elastic joint torques in the first term of Eq. 13, each leg's elastic joint "
+        "stiffness Kqe (Eq. 40), each leg's series actuator stiffness k_act and the static preload wrench W on the "
+        "platform."
+    ),
 }
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
 
@@ -63,24 +98,45 @@ def kernels_for(model, progress=None) -> list[Kernel]:
     nq = joints_per_leg(model)
     kernels = []
     ik_outs = [Output(k, sh, ex) for k, (sh, ex) in model.ik_outputs.items()]
-    kernels.append(build_kernel("inverse_kinematics", KERNEL_DOCS["inverse_kinematics"], model.ik,
-                                ik_outs, position, [], params + rotation + list(model.ik_joint_inputs)))
+    kernels.append(
+        build_kernel(
+            "inverse_kinematics",
+            KERNEL_DOCS["inverse_kinematics"],
+            model.ik,
+            ik_outs,
+            position,
+            [],
+            params + rotation + list(model.ik_joint_inputs),
+        )
+    )
     program_params = params + [s.name for s in position] + rotation
     if model.closure is not None:
         outs = [Output(k, sh, ex) for k, (sh, ex) in model.closure_outputs.items()]
-        kernels.append(build_kernel("loop_closure", KERNEL_DOCS["loop_closure"], model.closure, outs, [],
-                                    model.joints, program_params, nq))
+        kernels.append(
+            build_kernel(
+                "loop_closure", KERNEL_DOCS["loop_closure"], model.closure, outs, [], model.joints, program_params, nq
+            )
+        )
     for group in ("matrices", "jacobians", "gravity", "legs"):
         if progress:
             progress(f"CSE {group}")
         outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
-        kernels.append(build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints,
-                                    program_params, nq))
-    if getattr(model, "followers", None) is not None:      # NumPy only: the runtime's Newton steps
+        kernels.append(
+            build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints, program_params, nq)
+        )
+    if getattr(model, "followers", None) is not None:  # NumPy only: the runtime's Newton steps
         prog, closure = model.followers
-        kernels.append(build_kernel("followers", KERNEL_DOCS["followers"], prog,
-                                    [Output(k, sh, ex) for k, (sh, ex) in closure.items()], position, [],
-                                    params + rotation))
+        kernels.append(
+            build_kernel(
+                "followers",
+                KERNEL_DOCS["followers"],
+                prog,
+                [Output(k, sh, ex) for k, (sh, ex) in closure.items()],
+                position,
+                [],
+                params + rotation,
+            )
+        )
     return kernels
 
 
@@ -94,8 +150,18 @@ def fused_kernels_for(model) -> list[Kernel]:
     params = list(model.inputs) + [s.name for s in position] + rotation
     outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs["matrices"].items()]
     outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))
-    return [build_kernel("matrices_lever", KERNEL_DOCS["matrices_lever"], model.program, outs, [], model.joints, params,
-                         joints_per_leg(model))]
+    return [
+        build_kernel(
+            "matrices_lever",
+            KERNEL_DOCS["matrices_lever"],
+            model.program,
+            outs,
+            [],
+            model.joints,
+            params,
+            joints_per_leg(model),
+        )
+    ]
 
 
 def _template_text(backend: str) -> str:
@@ -109,8 +175,11 @@ def _render_numpy(robot, kernels, digest):
 #: the files rendered per robot (target -> file name, renderer); the C header shares the C
 #: source's templates and hash (one library, two files). The runtime's backends that run
 #: them are :data:`eigentwist.runtime.loader.BACKENDS`.
-TARGETS = {"numpy": ("{robot}_numpy.py", _render_numpy), "c": ("{robot}_c.c", render_c),
-            "c_header": ("{robot}_c.h", render_c_header)}
+TARGETS = {
+    "numpy": ("{robot}_numpy.py", _render_numpy),
+    "c": ("{robot}_c.c", render_c),
+    "c_header": ("{robot}_c.h", render_c_header),
+}
 TEMPLATE_DIR = {"c_header": "c"}
 # progress messages of render_robot per robot (every backend): derive, CSE of the matrices,
 # jacobians, gravity and legs kernels, CSE of the fused pass's matrices_lever, one per file emitted
@@ -157,8 +226,9 @@ def digests_text(files: dict[str, str]) -> str:
     ``HEX  NAME`` per file in name order (``sha256sum -c`` reads it; the runtime checks a
     generated file against it before importing or compiling it:
     :func:`eigentwist.runtime.ccompile.read_shipped`)."""
-    return "".join(f"{hashlib.sha256(text.encode('utf-8')).hexdigest()}  {name}\n"
-                   for name, text in sorted(files.items()))
+    return "".join(
+        f"{hashlib.sha256(text.encode('utf-8')).hexdigest()}  {name}\n" for name, text in sorted(files.items())
+    )
 
 
 def render_all(robots=NAMES, progress=None, timings=None) -> dict[str, str]:

@@ -4,6 +4,7 @@ A :class:`Kernel` is what every backend template renders: ordered statements
 ``name = expression`` over declared inputs, and output entries placed right after the
 statement that completes them (so dead temporaries can be freed early).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -96,8 +97,16 @@ def _sorted_syms(expr) -> list:
     return sorted(expr.free_symbols, key=lambda s: s.name)
 
 
-def build_kernel(name: str, doc: str, program: Program, outputs: list[Output],
-                 pose: list, joints: list, params: list, joints_per_leg: int = 3) -> Kernel:
+def build_kernel(
+    name: str,
+    doc: str,
+    program: Program,
+    outputs: list[Output],
+    pose: list,
+    joints: list,
+    params: list,
+    joints_per_leg: int = 3,
+) -> Kernel:
     """Prune ``program`` to what ``outputs`` need, run CSE and order the statements.
 
     Raises :class:`UndeclaredSymbolError` naming the symbol when an expression uses
@@ -123,13 +132,13 @@ def build_kernel(name: str, doc: str, program: Program, outputs: list[Output],
             if s_.name not in declared:
                 raise UndeclaredSymbolError(
                     f"kernel {name!r}: symbol {s_.name!r} is not a declared input "
-                    f"(declare it as a parameter of the robot description)")
+                    f"(declare it as a parameter of the robot description)"
+                )
             used_inputs.add(s_.name)
 
-    replacements, reduced = sp.cse([r for _, r in lets] + out_exprs,
-                                   symbols=sp.numbered_symbols("t", real=True))
+    replacements, reduced = sp.cse([r for _, r in lets] + out_exprs, symbols=sp.numbered_symbols("t", real=True))
     stmts = {s_: e for s_, e in replacements}
-    stmts.update({s_: red for (s_, _), red in zip(lets, reduced[:len(lets)])})
+    stmts.update({s_: red for (s_, _), red in zip(lets, reduced[: len(lets)])})
     order: list = []
     done: set = set()
 
@@ -143,7 +152,7 @@ def build_kernel(name: str, doc: str, program: Program, outputs: list[Output],
 
     for s_, _ in lets:
         visit(s_)
-    out_reduced = reduced[len(lets):]
+    out_reduced = reduced[len(lets) :]
     for e in out_reduced:
         for dep in _sorted_syms(e):
             visit(dep)

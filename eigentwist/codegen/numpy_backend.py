@@ -1,4 +1,5 @@
 """NumPy backend: render kernels into a Python module (render only, no I/O)."""
+
 from __future__ import annotations
 
 import sympy as sp
@@ -20,7 +21,7 @@ class NumpyCodePrinter(NumPyPrinter):
         base, exp = expr.args
         if exp == 2:
             b = self.parenthesize(base, 60)
-            return f"({b}*{b})"   # parenthesised: it may stand in a denominator
+            return f"({b}*{b})"  # parenthesised: it may stand in a denominator
         if exp == -1:
             return f"1/{self.parenthesize(base, 60)}"
         if exp == -2:
@@ -74,7 +75,7 @@ def _kernel_context(kern: Kernel, printer) -> dict:
     if pose:
         args += ["x", "y", "z"]
         shape_args += ["shape(x)", "shape(y)", "shape(z)"]
-    if joints or kern.joint_order:         # the runtime passes q to every kernel after the IK
+    if joints or kern.joint_order:  # the runtime passes q to every kernel after the IK
         args.append("q")
         shape_args.append("shape(q)[:-2]")
     args.append("p")
@@ -90,13 +91,19 @@ def _kernel_context(kern: Kernel, printer) -> dict:
     if joints and kern.joints_per_leg == 3:
         arg_doc.append("q: joint angles (rad), shape (N, legs, 3) as (q1, q2, q3) per leg")
     elif joints:
-        arg_doc.append(f"q: joint coordinates, shape (N, legs, {kern.joints_per_leg}) (leg lengths in m for "
-                       "prismatic actuators)")
+        arg_doc.append(
+            f"q: joint coordinates, shape (N, legs, {kern.joints_per_leg}) (leg lengths in m for prismatic actuators)"
+        )
     arg_doc.append("p: parameters")
     return dict(
-        name=kern.name, doc=kern.doc, outputs=kern.outputs, signature=", ".join(args),
-        unpack=unpack, shape_args=", ".join(shape_args) if shape_args else "()",
-        lines=kernel_lines(kern, printer), arg_doc="; ".join(arg_doc),
+        name=kern.name,
+        doc=kern.doc,
+        outputs=kern.outputs,
+        signature=", ".join(args),
+        unpack=unpack,
+        shape_args=", ".join(shape_args) if shape_args else "()",
+        lines=kernel_lines(kern, printer),
+        arg_doc="; ".join(arg_doc),
         param_doc=", ".join(params) if params else "none",
     )
 
@@ -107,6 +114,10 @@ def render_numpy(robot, kernels: list[Kernel], digest: str, switches) -> str:
     env = environment()
     tmpl = env.get_template("numpy/module.py.jinja")
     return tmpl.render(
-        header=header(robot.name, digest), robot=robot, n_legs=len(robot.legs), hash=digest,
-        switches=switches, kernels=[_kernel_context(k, printer) for k in kernels],
+        header=header(robot.name, digest),
+        robot=robot,
+        n_legs=len(robot.legs),
+        hash=digest,
+        switches=switches,
+        kernels=[_kernel_context(k, printer) for k in kernels],
     )

@@ -1,4 +1,5 @@
 """Jinja environment and the fixed header of every generated file."""
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -1,4 +1,5 @@
 """Descriptions of parallel manipulators as data (parameters, legs, bodies, effects)."""
+
 from .parameters import Parameter, sym
 from .robot import Coupling, Leg, RobotDescription, EECompliance
 from .chain import ChainJoint as Joint
@@ -7,7 +8,23 @@ from .effects import EFFECTS, KINDS, PRESETS, Effect, EffectContext, Term, effec
 from .constraints import Constraint, tube, triangle_inequality
 
 __all__ = [
-    "Parameter", "sym", "Coupling", "Joint", "Leg", "RobotDescription", "EECompliance", "RRPIRR_CHAIN",
-    "EFFECTS", "KINDS", "PRESETS", "Effect", "EffectContext", "Term", "effect_parameters", "resolve_model",
-    "Constraint", "tube", "triangle_inequality",
+    "Parameter",
+    "sym",
+    "Coupling",
+    "Joint",
+    "Leg",
+    "RobotDescription",
+    "EECompliance",
+    "RRPIRR_CHAIN",
+    "EFFECTS",
+    "KINDS",
+    "PRESETS",
+    "Effect",
+    "EffectContext",
+    "Term",
+    "effect_parameters",
+    "resolve_model",
+    "Constraint",
+    "tube",
+    "triangle_inequality",
 ]

@@ -12,6 +12,7 @@ derivation (:func:`eigentwist.symbolic.derive`, :mod:`eigentwist.symbolic.leg`) 
 reciprocal wrenches and inverse-Jacobian rows by Huang's method without knowing which
 chain it is.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -26,7 +27,6 @@ from .pose import RigidPose
 from .robot import resolve_effects
 
 __all__ = ["JOINT_FREEDOMS", "ChainJoint", "ChainBody", "PoseKinematics", "ChainLeg", "ChainRobot"]
-
 
 
 @dataclass(frozen=True)
@@ -57,14 +57,16 @@ class ChainJoint:
     swing: tuple = ()
 
     def __post_init__(self):
-        kind = joint_kind(self.kind)                   # the record of its kind (:mod:`.joints`)
+        kind = joint_kind(self.kind)  # the record of its kind (:mod:`.joints`)
         if self.actuated and not kind.actuatable:
             raise DescriptionError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
         n = kind.freedoms
         if self.axes and len(self.axes) != n:
             raise DescriptionError(f"joint {self.kind!r} has {n} axes, got {len(self.axes)}")
         if self.swing and (self.kind != "Pi" or len(self.swing) != 2):
-            raise DescriptionError(f"joint {self.kind!r}: swing is (axis, length) of a Pi joint's rods, got {self.swing!r}")
+            raise DescriptionError(
+                f"joint {self.kind!r}: swing is (axis, length) of a Pi joint's rods, got {self.swing!r}"
+            )
 
     @property
     def freedoms(self) -> int:
@@ -152,8 +154,10 @@ class PoseKinematics:
         """The leg's named vectors at ``pose`` with its coordinate ``q`` (from the IK),
         each appended to ``prog`` as ``<name>_<tag>``."""
         g = self.leg.geometry(pose.position, pose.rotation, _ParameterSymbols(), q[0])
-        return {k: (prog.let_matrix(f"{k}_{tag}", v) if isinstance(v, sp.MatrixBase) else prog.let(f"{k}_{tag}", v))
-                for k, v in g.items()}
+        return {
+            k: (prog.let_matrix(f"{k}_{tag}", v) if isinstance(v, sp.MatrixBase) else prog.let(f"{k}_{tag}", v))
+            for k, v in g.items()
+        }
 
     def lever(self, screws, key):
         """The actuation lever the runtime's singularity check reads: the determinant of
@@ -244,7 +248,7 @@ class ChainRobot:
     name: str
     title: str
     parameters: tuple[Parameter, ...]
-    legs: tuple[ChainLeg, ...]          # or SerialLeg (URDF form, numeric IK: :mod:`.serial`)
+    legs: tuple[ChainLeg, ...]  # or SerialLeg (URDF form, numeric IK: :mod:`.serial`)
     platform_inertia: sp.Matrix
     actuator_stiffness: sp.Expr
     x_ref: tuple
@@ -269,17 +273,22 @@ class ChainRobot:
     def __post_init__(self):
         coordinates = tuple(getattr(self.pose_space, "coordinates", self.pose))
         if tuple(self.pose) != coordinates:
-            raise DescriptionError(f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
-                             f"{coordinates!r}: expected the same names")
+            raise DescriptionError(
+                f"{self.name}: pose {tuple(self.pose)!r} differs from its pose space's coordinates "
+                f"{coordinates!r}: expected the same names"
+            )
         # a leg in URDF form (:class:`~.serial.SerialLeg`) becomes the joint list it stands for
-        object.__setattr__(self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg
-                                               for leg in self.legs))
+        object.__setattr__(
+            self, "legs", tuple(leg.chain_leg() if hasattr(leg, "chain_leg") else leg for leg in self.legs)
+        )
         resolve_effects(self)
         structural = [e for e in self.effects if self.effect(e).structural]
         if getattr(self.pose_space, "point", False) and structural:
-            raise DescriptionError(f"{self.name}: effect(s) {', '.join(structural)} on a point platform "
-                             f"({self.pose_space!r}): expected effects without structural compliance (a point's "
-                             "rotations carry neither inertia nor stiffness: only its rigid model is defined)")
+            raise DescriptionError(
+                f"{self.name}: effect(s) {', '.join(structural)} on a point platform "
+                f"({self.pose_space!r}): expected effects without structural compliance (a point's "
+                "rotations carry neither inertia nor stiffness: only its rigid model is defined)"
+            )
 
     @property
     def pose_units(self) -> tuple:

@@ -7,6 +7,7 @@ moments of inertia satisfy the triangle inequality. A :class:`Constraint` is a S
 relation in parameter symbols; robots and effects declare theirs, the runtime checks
 them with every evaluation (:mod:`eigentwist.runtime.constraints`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -45,5 +46,6 @@ def triangle_inequality(ixx: sp.Symbol, iyy: sp.Symbol, izz: sp.Symbol, what: st
     """Principal moments of inertia of a rigid body (kg m^2): each at most the sum of the
     other two (a physical mass distribution cannot violate it)."""
     doc = f"the moments of inertia of {what} must satisfy the triangle inequality"
-    return tuple(Constraint(sp.LessThan(a, b + c), doc) for a, b, c in ((ixx, iyy, izz), (iyy, izz, ixx),
-                                                                         (izz, ixx, iyy)))
+    return tuple(
+        Constraint(sp.LessThan(a, b + c), doc) for a, b, c in ((ixx, iyy, izz), (iyy, izz, ixx), (izz, ixx, iyy))
+    )

@@ -11,6 +11,7 @@ per leg (``on_<effect>__<N>``, ``<param>__<N>``), so that it can act on one leg 
 (``EFFECT@N``, ``NAME@N``) without regenerating either. The names below are an
 interface (CLI, JSON, CSV): keep them stable.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -23,8 +24,23 @@ from .constraints import Constraint, tube
 from .names import did_you_mean
 from .parameters import Parameter, sym
 
-__all__ = ["Effect", "Term", "EffectContext", "EFFECTS", "PRESETS", "STRUCTURAL", "KINDS", "resolve_model", "switch_name",
-           "effect_parameters", "split_scope", "scoped_name", "base_name", "leg_switch_name", "leg_input_name"]
+__all__ = [
+    "Effect",
+    "Term",
+    "EffectContext",
+    "EFFECTS",
+    "PRESETS",
+    "STRUCTURAL",
+    "KINDS",
+    "resolve_model",
+    "switch_name",
+    "effect_parameters",
+    "split_scope",
+    "scoped_name",
+    "base_name",
+    "leg_switch_name",
+    "leg_input_name",
+]
 
 INF = float("inf")
 
@@ -33,14 +49,14 @@ INF = float("inf")
 KINDS = {
     "joint_series": "a compliance in series with a leg's actuated joint (actuator loss, transmission)",
     "body_compliance": "a 6x6 compliance of a body of a leg's chain, in that body's frame (rods, lower-link tubes, "
-                       "the paper's per-leg share of the end-effector assembly)",
+    "the paper's per-leg share of the end-effector assembly)",
     "added_inertia": "inertia added to a body (payload on the platform, rotor inertia on the actuated link)",
     "platform_coupling": "a compliant coupling between two platform bodies (ee_coupling)",
     "ground_spring": "a spring between the tool and the ground (hoses, cables, a guard); no catalogue effect: "
-                     "a user's description adds one (README, 'Effects of your own')",
+    "a user's description adds one (README, 'Effects of your own')",
     "preload": "a static preload whose stiffness enters the first term of Eq. 13 (gravity)",
     "damping": "a dissipation (servo damping, a torque lag, a structural loss factor): no term of M or K; each "
-               "mode's pole from the damped problem (eigentwist.runtime.damped)",
+    "mode's pole from the damped problem (eigentwist.runtime.damped)",
 }
 
 
@@ -128,6 +144,7 @@ class Effect:
             raise DescriptionError(f"effect {self.name!r}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
         if "@" in self.name or not self.name.isidentifier():
             raise DescriptionError(f"effect name {self.name!r}: expected a Python identifier (no '@')")
+
     constraints: tuple[Constraint, ...] = ()
     terms: tuple[Term, ...] = ()
 
@@ -232,8 +249,10 @@ def _swinging_rods(ctx):
     which swing with q3 about their pivots (``ChainBody.pivot``)."""
     bodies = {b.name: b for b in ctx.leg.bodies}
     if not {"C3", "rod_a", "rod_b"} <= set(bodies):
-        raise DescriptionError(f"effect 'swinging_rods': {ctx.leg.name} has bodies {', '.join(bodies)}; expected C3, rod_a "
-                         "and rod_b (an RR(Pi)RR leg built by rrpirr_leg(..., w_pi=...))")
+        raise DescriptionError(
+            f"effect 'swinging_rods': {ctx.leg.name} has bodies {', '.join(bodies)}; expected C3, rod_a "
+            "and rod_b (an RR(Pi)RR leg built by rrpirr_leg(..., w_pi=...))"
+        )
     rod = bodies["C3"].inertia
     return {"C3": -rod, "rod_a": rod / 2, "rod_b": rod / 2}
 
@@ -249,100 +268,336 @@ def _p(name, default, unit, doc, effect, plausible, bounds=(0.0, INF), equation=
 # The end-effector assembly stiffnesses are one physical part described two ways
 # (ee_compliance splits it over the legs, ee_coupling condenses it): one declaration.
 _K_E = (
-    _p("k_E_rot", 500.0, "N m/rad", "EE assembly rotational stiffness about Y (Eq. D.1; facts file: 500 reproduces Eq. 58)",
-       "ee_compliance", (50.0, 5.0e4), equation="App. D, Eqs. 45-46, D.1"),
-    _p("k_E_lin", 100 / 0.77e-3, "N/m", "EE assembly linear stiffness along Y (Eq. D.2)",
-       "ee_compliance", (1.0e4, 1.0e8), equation="App. D, Eqs. 47-48, D.2"),
+    _p(
+        "k_E_rot",
+        500.0,
+        "N m/rad",
+        "EE assembly rotational stiffness about Y (Eq. D.1; facts file: 500 reproduces Eq. 58)",
+        "ee_compliance",
+        (50.0, 5.0e4),
+        equation="App. D, Eqs. 45-46, D.1",
+    ),
+    _p(
+        "k_E_lin",
+        100 / 0.77e-3,
+        "N/m",
+        "EE assembly linear stiffness along Y (Eq. D.2)",
+        "ee_compliance",
+        (1.0e4, 1.0e8),
+        equation="App. D, Eqs. 47-48, D.2",
+    ),
 )
 
-EFFECTS: dict[str, Effect] = {e.name: e for e in (
-    Effect("actuator_loss",
-           "delivered/commanded actuator stiffness factor eta_a (Eq. 34, App. B: 0.82)",
-           (_p("eta_a", 0.82, "-", "delivered/commanded actuator stiffness (App. B); plausible: a servo delivers "
-               "30 % to 100 % of its commanded stiffness, never more", "actuator_loss", (0.3, 1.0), (0.0, 1.0),
-               "Eq. 34, App. B"),),
-           ("eta_a",), kind="joint_series", leg_level=True, equation="Eq. 34, App. B", build=_actuator_loss,
-           component="actuator", phrase="delivers {eta_a:.2f} of its commanded stiffness"),
-    Effect("rod_compliance",
-           "bending/axial compliance of the two parallelogram rods as cantilevers (App. C, Eqs. 44, C.10)",
-           (_p("E_rod", 170e9, "Pa", "Young's modulus of the parallelogram rods (facts file: fitted to K_F(3,3), carbon "
-               "fibre); plausible: glass fibre to steel, 40-250 GPa", "rod_compliance", (40e9, 250e9),
-               equation="App. C, Eq. C.10"),
-            _p("G_rod", 65e9, "Pa", "shear modulus of the rods (not in the paper; no influence on K_F); plausible "
-               "10-90 GPa", "rod_compliance", (10e9, 90e9), equation="App. C")),
-           ("E_rod",), structural=True, kind="body_compliance", leg_level=True, equation="App. C, Eqs. 44, C.10",
-           body="L2", build=_rod_pair, component="parallelogram rods"),
-    Effect("ee_compliance",
-           "end-effector assembly compliance k_E_rot about Y and k_E_lin along Y, split over the legs (App. D, Eqs. 45-49)",
-           _K_E, ("k_E_rot", "k_E_lin"), structural=True, kind="body_compliance", equation="App. D, Eqs. 45-49",
-           body="platform", build=_ee_split),
-    Effect("ee_coupling",
-           "traveling plates as rigid bodies joined to the tool by compliant couplings (k_E_rot about Y, k_E_lin along Y), "
-           "condensed in closed form at any pose",
-           _K_E, ("k_E_rot", "k_E_lin"), structural=True, kind="platform_coupling", equation="App. D"),
-    Effect("lower_link_compliance",
-           "bending and torsion of the lower links l1 as hollow tubes clamped at the actuated joint",
-           (_p("r_o_l1", 0.012, "m", "outer radius of the lower link tube", "lower_link_compliance", (0.002, 0.1)),
-            _p("r_i_l1", 0.010, "m", "inner radius of the lower link tube (below r_o_l1)", "lower_link_compliance",
-               (0.0, 0.1)),
-            _p("E_l1", 70e9, "Pa", "Young's modulus of the lower link tube (aluminium); plausible: aluminium to "
-               "steel, or carbon fibre, 40-250 GPa", "lower_link_compliance", (40e9, 250e9)),
-            _p("nu_l1", 0.33, "-", "Poisson ratio of the lower link tube (G = E/(2(1+nu)))", "lower_link_compliance",
-               (0.2, 0.45), (0.0, 0.5))),
-           ("E_l1",), structural=True, kind="body_compliance", leg_level=True, body="E1", build=_lower_link_tube, component="lower link",
-           constraints=tube(sym("r_i_l1"), sym("r_o_l1"), "the lower link tube")),
-    Effect("transmission_compliance",
-           "torsional compliance 1/k_t in series with each actuator",
-           (_p("k_t", 20000.0, "N m/rad", "torsional stiffness of each transmission, in series with the actuator; "
-               "plausible: belts and small gearboxes to large harmonic drives, 1e3-1e6 N m/rad",
-               "transmission_compliance", (1.0e3, 1.0e6)),),
-           ("k_t",), kind="joint_series", leg_level=True, build=_transmission,
-           component="transmission"),
-    Effect("payload_mass",
-           "rigid point payload m_p on the end-effector at offset (p_x, p_y, p_z)",
-           (_p("m_p", 0.2, "kg", "payload mass on the end-effector; plausible 0-20 kg", "payload_mass", (0.0, 20.0)),
-            _p("p_x", 0.0, "m", "payload offset from the EE origin along X", "payload_mass", (-0.3, 0.3), (-1.0, 1.0)),
-            _p("p_y", 0.0, "m", "payload offset from the EE origin along Y", "payload_mass", (-0.3, 0.3), (-1.0, 1.0)),
-            _p("p_z", 0.0, "m", "payload offset from the EE origin along Z", "payload_mass", (-0.3, 0.3), (-1.0, 1.0))),
-           ("m_p",), kind="added_inertia", body="platform", build=_payload),
-    Effect("rotor_inertia",
-           "additional inertia I_add about each actuated axis (adds to Eq. 22)",
-           (_p("I_add", 2e-3, "kg m^2", "additional inertia about each actuated axis; plausible 0-0.05 kg m^2 "
-               "(up to ten times a large servo rotor)", "rotor_inertia", (0.0, 0.05), equation="Eq. 22"),),
-           ("I_add",), kind="added_inertia", leg_level=True, equation="Eq. 22", body="J1", build=_rotor,
-           component="actuated link", phrase="carries {I_add:.3g} kg m^2 of added inertia"),
-    Effect("swinging_rods",
-           "the parallelogram's two rods as they move, swinging with q3 about their pivots (centres at the mean of "
-           "their ends' velocities), instead of the paper's fictitious rod riding on the far bar (Eqs. 26-29)",
-           (), (), kind="added_inertia", equation="replaces Eqs. 26-29", body="C3", build=_swinging_rods,
-           component="parallelogram rods"),   # switched, not fitted: the rods' mass is the paper's
-    Effect("gravity_preload",
-           "the tau_e term of Eq. 13 from the static gravity load g on the end-effector and payload",
-           (_p("g", 9.81, "m/s^2", "gravitational acceleration (along -Z) for the static preload; a known constant "
-               "(plausible 9.78-9.84 m/s^2 on Earth)", "gravity_preload", (9.78, 9.84), (0.0, 100.0), "Eq. 13"),),
-           (), kind="preload", equation="Eq. 13", build=_gravity),   # switched, not fitted: g is known
-    Effect("servo_damping",
-           "the servo's derivative gain c_a, delivered as eta_a c_a like the stiffness (Eq. 34, App. B): each actuator "
-           "is eta_a (k_a + c_a s) in series with its leg's compliance; lowers the damped frequency "
-           "omega_n sqrt(1 - zeta^2) a free decay or a step response shows (Sec. 4: 3 N m s/rad)",
-           (_p("c_a", 1.0, "N m s/rad", "commanded actuator damping (the servo's derivative gain), delivered as "
-               "eta_a c_a; plausible 0-30 N m s/rad (the paper's Heli4: 3)", "servo_damping", (0.0, 30.0),
-               equation="Sec. 4", closed=True),),
-           ("c_a",), kind="damping", equation="Sec. 4, Eq. 34", component="actuator",
-           phrase="delivers a damping of {c_a:.3g} N m s/rad"),
-    Effect("servo_delay",
-           "a first-order lag t_d of each actuator's torque (current loop, filter, sampling): the impedance "
-           "eta_a (k_a + c_a s) / (1 + t_d s); negative damping where k_a t_d > c_a and the structure is stiff",
-           (_p("t_d", 1e-3, "s", "time constant of the first-order lag of the actuator torque; plausible 0-20 ms",
-               "servo_delay", (0.0, 0.02), closed=True),),
-           ("t_d",), kind="damping", component="actuator", phrase="lags its torque by {t_d:.3g} s"),
-    Effect("structural_loss",
-           "a hysteretic loss factor eta_s of the passive compliance in series with each actuator (rods, lower links, "
-           "the EE assembly's share, a transmission): C_s / (1 + i eta_s)",
-           (_p("eta_s", 0.02, "-", "structural loss factor of the compliant bodies (hysteretic); plausible "
-               "0.001-0.1 (metals to carbon-fibre joints)", "structural_loss", (0.001, 0.1), (0.0, 2.0), closed=True),),
-           ("eta_s",), kind="damping", component="compliant bodies", phrase="has a loss factor of {eta_s:.3g}"),
-)}
+EFFECTS: dict[str, Effect] = {
+    e.name: e
+    for e in (
+        Effect(
+            "actuator_loss",
+            "delivered/commanded actuator stiffness factor eta_a (Eq. 34, App. B: 0.82)",
+            (
+                _p(
+                    "eta_a",
+                    0.82,
+                    "-",
+                    "delivered/commanded actuator stiffness (App. B); plausible: a servo delivers "
+                    "30 % to 100 % of its commanded stiffness, never more",
+                    "actuator_loss",
+                    (0.3, 1.0),
+                    (0.0, 1.0),
+                    "Eq. 34, App. B",
+                ),
+            ),
+            ("eta_a",),
+            kind="joint_series",
+            leg_level=True,
+            equation="Eq. 34, App. B",
+            build=_actuator_loss,
+            component="actuator",
+            phrase="delivers {eta_a:.2f} of its commanded stiffness",
+        ),
+        Effect(
+            "rod_compliance",
+            "bending/axial compliance of the two parallelogram rods as cantilevers (App. C, Eqs. 44, C.10)",
+            (
+                _p(
+                    "E_rod",
+                    170e9,
+                    "Pa",
+                    "Young's modulus of the parallelogram rods (facts file: fitted to K_F(3,3), carbon "
+                    "fibre); plausible: glass fibre to steel, 40-250 GPa",
+                    "rod_compliance",
+                    (40e9, 250e9),
+                    equation="App. C, Eq. C.10",
+                ),
+                _p(
+                    "G_rod",
+                    65e9,
+                    "Pa",
+                    "shear modulus of the rods (not in the paper; no influence on K_F); plausible 10-90 GPa",
+                    "rod_compliance",
+                    (10e9, 90e9),
+                    equation="App. C",
+                ),
+            ),
+            ("E_rod",),
+            structural=True,
+            kind="body_compliance",
+            leg_level=True,
+            equation="App. C, Eqs. 44, C.10",
+            body="L2",
+            build=_rod_pair,
+            component="parallelogram rods",
+        ),
+        Effect(
+            "ee_compliance",
+            "end-effector assembly compliance k_E_rot about Y and k_E_lin along Y, split over the legs "
+            "(App. D, Eqs. 45-49)",
+            _K_E,
+            ("k_E_rot", "k_E_lin"),
+            structural=True,
+            kind="body_compliance",
+            equation="App. D, Eqs. 45-49",
+            body="platform",
+            build=_ee_split,
+        ),
+        Effect(
+            "ee_coupling",
+            "traveling plates as rigid bodies joined to the tool by compliant couplings "
+            "(k_E_rot about Y, k_E_lin along Y), "
+            "condensed in closed form at any pose",
+            _K_E,
+            ("k_E_rot", "k_E_lin"),
+            structural=True,
+            kind="platform_coupling",
+            equation="App. D",
+        ),
+        Effect(
+            "lower_link_compliance",
+            "bending and torsion of the lower links l1 as hollow tubes clamped at the actuated joint",
+            (
+                _p("r_o_l1", 0.012, "m", "outer radius of the lower link tube", "lower_link_compliance", (0.002, 0.1)),
+                _p(
+                    "r_i_l1",
+                    0.010,
+                    "m",
+                    "inner radius of the lower link tube (below r_o_l1)",
+                    "lower_link_compliance",
+                    (0.0, 0.1),
+                ),
+                _p(
+                    "E_l1",
+                    70e9,
+                    "Pa",
+                    "Young's modulus of the lower link tube (aluminium); plausible: aluminium to "
+                    "steel, or carbon fibre, 40-250 GPa",
+                    "lower_link_compliance",
+                    (40e9, 250e9),
+                ),
+                _p(
+                    "nu_l1",
+                    0.33,
+                    "-",
+                    "Poisson ratio of the lower link tube (G = E/(2(1+nu)))",
+                    "lower_link_compliance",
+                    (0.2, 0.45),
+                    (0.0, 0.5),
+                ),
+            ),
+            ("E_l1",),
+            structural=True,
+            kind="body_compliance",
+            leg_level=True,
+            body="E1",
+            build=_lower_link_tube,
+            component="lower link",
+            constraints=tube(sym("r_i_l1"), sym("r_o_l1"), "the lower link tube"),
+        ),
+        Effect(
+            "transmission_compliance",
+            "torsional compliance 1/k_t in series with each actuator",
+            (
+                _p(
+                    "k_t",
+                    20000.0,
+                    "N m/rad",
+                    "torsional stiffness of each transmission, in series with the actuator; "
+                    "plausible: belts and small gearboxes to large harmonic drives, 1e3-1e6 N m/rad",
+                    "transmission_compliance",
+                    (1.0e3, 1.0e6),
+                ),
+            ),
+            ("k_t",),
+            kind="joint_series",
+            leg_level=True,
+            build=_transmission,
+            component="transmission",
+        ),
+        Effect(
+            "payload_mass",
+            "rigid point payload m_p on the end-effector at offset (p_x, p_y, p_z)",
+            (
+                _p(
+                    "m_p", 0.2, "kg", "payload mass on the end-effector; plausible 0-20 kg", "payload_mass", (0.0, 20.0)
+                ),
+                _p(
+                    "p_x",
+                    0.0,
+                    "m",
+                    "payload offset from the EE origin along X",
+                    "payload_mass",
+                    (-0.3, 0.3),
+                    (-1.0, 1.0),
+                ),
+                _p(
+                    "p_y",
+                    0.0,
+                    "m",
+                    "payload offset from the EE origin along Y",
+                    "payload_mass",
+                    (-0.3, 0.3),
+                    (-1.0, 1.0),
+                ),
+                _p(
+                    "p_z",
+                    0.0,
+                    "m",
+                    "payload offset from the EE origin along Z",
+                    "payload_mass",
+                    (-0.3, 0.3),
+                    (-1.0, 1.0),
+                ),
+            ),
+            ("m_p",),
+            kind="added_inertia",
+            body="platform",
+            build=_payload,
+        ),
+        Effect(
+            "rotor_inertia",
+            "additional inertia I_add about each actuated axis (adds to Eq. 22)",
+            (
+                _p(
+                    "I_add",
+                    2e-3,
+                    "kg m^2",
+                    "additional inertia about each actuated axis; plausible 0-0.05 kg m^2 "
+                    "(up to ten times a large servo rotor)",
+                    "rotor_inertia",
+                    (0.0, 0.05),
+                    equation="Eq. 22",
+                ),
+            ),
+            ("I_add",),
+            kind="added_inertia",
+            leg_level=True,
+            equation="Eq. 22",
+            body="J1",
+            build=_rotor,
+            component="actuated link",
+            phrase="carries {I_add:.3g} kg m^2 of added inertia",
+        ),
+        Effect(
+            "swinging_rods",
+            "the parallelogram's two rods as they move, swinging with q3 about their pivots (centres at the mean of "
+            "their ends' velocities), instead of the paper's fictitious rod riding on the far bar (Eqs. 26-29)",
+            (),
+            (),
+            kind="added_inertia",
+            equation="replaces Eqs. 26-29",
+            body="C3",
+            build=_swinging_rods,
+            component="parallelogram rods",
+        ),  # switched, not fitted: the rods' mass is the paper's
+        Effect(
+            "gravity_preload",
+            "the tau_e term of Eq. 13 from the static gravity load g on the end-effector and payload",
+            (
+                _p(
+                    "g",
+                    9.81,
+                    "m/s^2",
+                    "gravitational acceleration (along -Z) for the static preload; a known constant "
+                    "(plausible 9.78-9.84 m/s^2 on Earth)",
+                    "gravity_preload",
+                    (9.78, 9.84),
+                    (0.0, 100.0),
+                    "Eq. 13",
+                ),
+            ),
+            (),
+            kind="preload",
+            equation="Eq. 13",
+            build=_gravity,
+        ),  # switched, not fitted: g is known
+        Effect(
+            "servo_damping",
+            "the servo's derivative gain c_a, delivered as eta_a c_a like the stiffness (Eq. 34, App. B): "
+            "each actuator "
+            "is eta_a (k_a + c_a s) in series with its leg's compliance; lowers the damped frequency "
+            "omega_n sqrt(1 - zeta^2) a free decay or a step response shows (Sec. 4: 3 N m s/rad)",
+            (
+                _p(
+                    "c_a",
+                    1.0,
+                    "N m s/rad",
+                    "commanded actuator damping (the servo's derivative gain), delivered as "
+                    "eta_a c_a; plausible 0-30 N m s/rad (the paper's Heli4: 3)",
+                    "servo_damping",
+                    (0.0, 30.0),
+                    equation="Sec. 4",
+                    closed=True,
+                ),
+            ),
+            ("c_a",),
+            kind="damping",
+            equation="Sec. 4, Eq. 34",
+            component="actuator",
+            phrase="delivers a damping of {c_a:.3g} N m s/rad",
+        ),
+        Effect(
+            "servo_delay",
+            "a first-order lag t_d of each actuator's torque (current loop, filter, sampling): the impedance "
+            "eta_a (k_a + c_a s) / (1 + t_d s); negative damping where k_a t_d > c_a and the structure is stiff",
+            (
+                _p(
+                    "t_d",
+                    1e-3,
+                    "s",
+                    "time constant of the first-order lag of the actuator torque; plausible 0-20 ms",
+                    "servo_delay",
+                    (0.0, 0.02),
+                    closed=True,
+                ),
+            ),
+            ("t_d",),
+            kind="damping",
+            component="actuator",
+            phrase="lags its torque by {t_d:.3g} s",
+        ),
+        Effect(
+            "structural_loss",
+            "a hysteretic loss factor eta_s of the passive compliance in series with each actuator (rods, lower links, "
+            "the EE assembly's share, a transmission): C_s / (1 + i eta_s)",
+            (
+                _p(
+                    "eta_s",
+                    0.02,
+                    "-",
+                    "structural loss factor of the compliant bodies (hysteretic); plausible "
+                    "0.001-0.1 (metals to carbon-fibre joints)",
+                    "structural_loss",
+                    (0.001, 0.1),
+                    (0.0, 2.0),
+                    closed=True,
+                ),
+            ),
+            ("eta_s",),
+            kind="damping",
+            component="compliant bodies",
+            phrase="has a loss factor of {eta_s:.3g}",
+        ),
+    )
+}
 
 
 def effect_parameters(effects, values: dict | None = None) -> tuple[Parameter, ...]:
@@ -414,8 +669,10 @@ def split_scope(item: str, n_legs: int | None = None, what: str = "effect") -> t
         n = None
     if n is None or n < 1 or (n_legs is not None and n > n_legs):
         legs = f"1..{n_legs}" if n_legs is not None else "1, 2, ..."
-        raise InputError(f"{what} {item!r}: {leg!r} is not a leg number; expected {name}@N with N in {legs} "
-                         "(1-based, in the description's order)")
+        raise InputError(
+            f"{what} {item!r}: {leg!r} is not a leg number; expected {name}@N with N in {legs} "
+            "(1-based, in the description's order)"
+        )
     return name, n
 
 
@@ -465,7 +722,7 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
     presets = presets_of(available)
     if isinstance(spec, str):
         if spec.strip().lower() in ("", "none"):
-            return ()                      # the bare model: no effect at all
+            return ()  # the bare model: no effect at all
         items = [s.strip() for s in spec.replace("+", ",").split(",") if s.strip()]
     else:
         items = list(spec)
@@ -479,21 +736,24 @@ def resolve_model(spec, available=None) -> tuple[str, ...]:
             continue
         if name not in catalogue and name not in EFFECTS:
             valid = ["none"] + list(presets) + list(catalogue)
-            raise InputError(f"unknown model or effect {item!r}{did_you_mean(name, valid)}: "
-                             f"expected one of {', '.join(valid)}")
+            raise InputError(
+                f"unknown model or effect {item!r}{did_you_mean(name, valid)}: expected one of {', '.join(valid)}"
+            )
         if leg is None:
             names.add(name)
             continue
         effect = catalogue.get(name) or EFFECTS[name]
         if not effect.leg_level:
-            raise InputError(f"effect {item!r}: {name} acts on the whole platform, not on one leg "
-                             "(only leg-level effects take @N)")
+            raise InputError(
+                f"effect {item!r}: {name} acts on the whole platform, not on one leg (only leg-level effects take @N)"
+            )
         legs.setdefault(name, set()).add(leg)
     if names_available is not None:
         missing = sorted((names | set(legs)) - set(names_available))
         if missing:
-            raise InputError(f"effect(s) {', '.join(missing)} not available for this robot "
-                             f"(it has: {', '.join(names_available)})")
+            raise InputError(
+                f"effect(s) {', '.join(missing)} not available for this robot (it has: {', '.join(names_available)})"
+            )
     order = list(names_available) if names_available is not None else list(EFFECTS)
     out = []
     for n in order:

@@ -6,6 +6,7 @@ of the parallelogram's fictitious rod (Eqs. 26-29).
 They belong to the description layer: effects (:mod:`.effects`) call them and the
 derivation (:mod:`eigentwist.symbolic`) receives their results, so data flows one way.
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -23,15 +24,15 @@ def rod_pair_compliance(L, r_i, r_o, E, G, d_pi) -> sp.Matrix:
     Corrections (facts file): ``d_pi**2`` in entry (1,1); entry (6,2) = (2,6).
     Units: rad/(N m), m/N and rad/N.
     """
-    A = sp.pi * (r_o**2 - r_i**2)                # Eq. C.2
-    Ix = sp.pi / 2 * (r_o**4 - r_i**4)           # Eq. C.3
-    Iy = sp.pi / 4 * (r_o**4 - r_i**4)           # Eq. C.4 (I_y = I_z)
+    A = sp.pi * (r_o**2 - r_i**2)  # Eq. C.2
+    Ix = sp.pi / 2 * (r_o**4 - r_i**4)  # Eq. C.3
+    Iy = sp.pi / 4 * (r_o**4 - r_i**4)  # Eq. C.4 (I_y = I_z)
     Iz = Iy
     S = A * d_pi**2 + 4 * Iz
     C = sp.zeros(6, 6)
     C[0, 0] = L**3 / (2 * (G * Ix * L**2 + 3 * E * Iy * d_pi**2))
     C[1, 1] = L / (2 * E * Iy)
-    C[1, 5] = C[5, 1] = -L**2 / (4 * E * Iy)
+    C[1, 5] = C[5, 1] = -(L**2) / (4 * E * Iy)
     C[2, 2] = 2 * L / (E * S)
     C[2, 4] = C[4, 2] = L**2 / (E * S)
     C[3, 3] = L / (2 * A * E)
@@ -57,7 +58,7 @@ def tube_cantilever_compliance(L, r_i, r_o, E, nu) -> sp.Matrix:
     C[3, 3] = L / (E * A)
     C[4, 4] = C[5, 5] = L**3 / (3 * E * I)
     C[2, 4] = C[4, 2] = L**2 / (2 * E * I)
-    C[1, 5] = C[5, 1] = -L**2 / (2 * E * I)
+    C[1, 5] = C[5, 1] = -(L**2) / (2 * E * I)
     return C
 
 

@@ -10,6 +10,7 @@ unit twists from ``motion``, the runtime names coordinate units from ``unit``. A
 kind adds a record here (and, for a kind with its own kinematics like the parallelogram's
 bar, its forward kinematics in :mod:`~eigentwist.description.serial`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -50,17 +51,28 @@ class JointKind:
 
 
 #: every joint kind, by name
-JOINT_KINDS = {k.name: k for k in (
-    JointKind("R", 1, "rotation", actuatable=True, stiffness_unit="N m/rad", doc="revolute joint"),
-    JointKind("P", 1, "translation", actuatable=True, unit="m", stiffness_unit="N/m", doc="prismatic joint"),
-    JointKind("Pi", 1, "translation",
-              doc="parallelogram: R(q) R(-q) about two parallel axes, a curvilinear translation"),
-    JointKind("U", 2, "rotation", doc="universal joint: two revolute axes through one point"),
-    JointKind("S", 3, "rotation", default_axes=BASE_AXES, doc="spherical joint: three revolute axes through one point"),
-    JointKind("virtual", 1, "rotation", restriction=True,
-              doc="twist of restriction of a leg with fewer than six freedoms: a rotation about its axis "
-                  "through its location, a constraint of the leg"),
-)}
+JOINT_KINDS = {
+    k.name: k
+    for k in (
+        JointKind("R", 1, "rotation", actuatable=True, stiffness_unit="N m/rad", doc="revolute joint"),
+        JointKind("P", 1, "translation", actuatable=True, unit="m", stiffness_unit="N/m", doc="prismatic joint"),
+        JointKind(
+            "Pi", 1, "translation", doc="parallelogram: R(q) R(-q) about two parallel axes, a curvilinear translation"
+        ),
+        JointKind("U", 2, "rotation", doc="universal joint: two revolute axes through one point"),
+        JointKind(
+            "S", 3, "rotation", default_axes=BASE_AXES, doc="spherical joint: three revolute axes through one point"
+        ),
+        JointKind(
+            "virtual",
+            1,
+            "rotation",
+            restriction=True,
+            doc="twist of restriction of a leg with fewer than six freedoms: a rotation about its axis "
+            "through its location, a constraint of the leg",
+        ),
+    )
+}
 #: number of unit twists each joint kind contributes
 JOINT_FREEDOMS = {name: k.freedoms for name, k in JOINT_KINDS.items()}
 

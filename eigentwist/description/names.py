@@ -1,4 +1,5 @@
 """Suggestions for mistyped names (effects, presets, parameters, robots, modes, columns)."""
+
 from __future__ import annotations
 
 import difflib

@@ -1,4 +1,5 @@
 """Design parameters: a symbol, a unit, a default value and physical bounds."""
+
 from __future__ import annotations
 
 import math
@@ -102,8 +103,13 @@ class Parameter:
         bad = self._outside(arr)
         if np.any(bad):
             first = arr.reshape(-1)[np.argmax(bad.reshape(-1))]
-            rng = (f"a finite value >= {lo:g}" if self.closed and hi == math.inf else
-                   f"a finite value > {lo:g}" if lo == 0.0 and hi == math.inf else
-                   f"a finite value in ({lo:g}, {hi:g}]" if lo == 0.0 and not self.closed else
-                   f"a finite value in [{lo:g}, {hi:g}]")
+            rng = (
+                f"a finite value >= {lo:g}"
+                if self.closed and hi == math.inf
+                else f"a finite value > {lo:g}"
+                if lo == 0.0 and hi == math.inf
+                else f"a finite value in ({lo:g}, {hi:g}]"
+                if lo == 0.0 and not self.closed
+                else f"a finite value in [{lo:g}, {hi:g}]"
+            )
             raise InputError(f"{where}parameter {self.name!r} = {float(first)!r} {self.unit}: expected {rng}")

@@ -24,6 +24,7 @@ space (``pose_space``), which tells the one derivation (:func:`eigentwist.symbol
   (:func:`eigentwist.runtime.allowed.allowed_twists`: the null space of the legs'
   constraint wrenches), which the fixed ones only spare the runtime from computing.
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -31,7 +32,18 @@ import sympy as sp
 from ..errors import DescriptionError
 from .parameters import sym
 
-__all__ = ["TranslationPose", "RigidPose", "PlanarPose", "PointPose", "LowerMobilityPose", "POSE", "ROTATION", "FULL", "TWIST_AXIS", "twist_order"]
+__all__ = [
+    "TranslationPose",
+    "RigidPose",
+    "PlanarPose",
+    "PointPose",
+    "LowerMobilityPose",
+    "POSE",
+    "ROTATION",
+    "FULL",
+    "TWIST_AXIS",
+    "twist_order",
+]
 
 #: position inputs x, y, z (m) of the platform origin
 POSE = (sym("x"), sym("y"), sym("z"))
@@ -146,10 +158,14 @@ class PointPose(RigidPose):
 
     def __init__(self, coordinates=("x", "y", "z")):
         coordinates = tuple(coordinates)
-        if (not coordinates or len(set(coordinates)) != len(coordinates)
-                or any(c not in ("x", "y", "z") for c in coordinates)):
-            raise DescriptionError(f"point coordinates {coordinates!r}: expected distinct names from x, y, z "
-                             "(a point has no rotation)")
+        if (
+            not coordinates
+            or len(set(coordinates)) != len(coordinates)
+            or any(c not in ("x", "y", "z") for c in coordinates)
+        ):
+            raise DescriptionError(
+                f"point coordinates {coordinates!r}: expected distinct names from x, y, z (a point has no rotation)"
+            )
         self.coordinates = coordinates
         self.basis = _unit_columns(coordinates)
 
@@ -172,7 +188,9 @@ class LowerMobilityPose(RigidPose):
         commanded = tuple(commanded)
         unknown = [c for c in commanded if c not in FULL]
         if unknown or not commanded or len(set(commanded)) != len(commanded):
-            raise DescriptionError(f"commanded coordinates {commanded!r}: expected distinct names from {', '.join(FULL)}")
+            raise DescriptionError(
+                f"commanded coordinates {commanded!r}: expected distinct names from {', '.join(FULL)}"
+            )
         self.coordinates = commanded
         self.followers = tuple(c for c in FULL if c not in commanded)
 

@@ -4,6 +4,7 @@ A description holds no derivation logic (a leg carries only its closed-form kine
 :mod:`.rrpirr`). The derivation (``eigentwist.symbolic``) reads
 it; a second robot with the same joint types needs a new description only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -106,8 +107,9 @@ def resolve_effects(description) -> None:
     for e in description.effects:
         if isinstance(e, Effect):
             if e.name in EFFECTS and EFFECTS[e.name] is not e:
-                raise DescriptionError(f"{description.name}: effect {e.name!r} is already in the catalogue; "
-                                 "name yours differently")
+                raise DescriptionError(
+                    f"{description.name}: effect {e.name!r} is already in the catalogue; name yours differently"
+                )
             custom[e.name] = e
             names.append(e.name)
         elif e in EFFECTS or e in custom:
@@ -188,6 +190,7 @@ class RobotDescription:
             if e.name == name:
                 return e
         return EFFECTS[name]
+
     constraints: tuple = ()
     #: names of the pose coordinates: ``x, y, z`` (m) for a 3-DoF translational robot
     pose: tuple = ("x", "y", "z")

@@ -18,6 +18,7 @@ chain, and it lives here, as data of the leg (:class:`RRPiRRKinematics`).
 
 All vectors are in base axes; points are measured from the end-effector origin.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -36,8 +37,14 @@ EZ = sp.Matrix([0, 0, 1])
 RRPIRR_CHAIN = (
     ChainJoint("R", ("s",), "pB", actuated=True, doc="actuated base joint, axis s_i through B_i"),
     ChainJoint("R", ("s",), "pE", doc="elbow joint, axis s_i"),
-    ChainJoint("Pi", ("s3",), "pE", doc="parallelogram, translation along s_i3 (its coordinate is l2*q_i3, m); "
-               "its rods swing by q_i3 about n_i2 (pivots on the elbow bar and at a_i)", swing=("n2", "l2")),
+    ChainJoint(
+        "Pi",
+        ("s3",),
+        "pE",
+        doc="parallelogram, translation along s_i3 (its coordinate is l2*q_i3, m); "
+        "its rods swing by q_i3 about n_i2 (pivots on the elbow bar and at a_i)",
+        swing=("n2", "l2"),
+    ),
     ChainJoint("R", ("s4",), "a", doc="twist of the rods about each other, axis s_i4 through a_i"),
     ChainJoint("R", ("s",), "a", doc="joint at the platform, axis s_i through a_i"),
     ChainJoint("virtual", ("ch",), "a", doc="constrained rotation about c_i1 through a_i (twist of restriction)"),
@@ -45,10 +52,10 @@ RRPIRR_CHAIN = (
 
 #: frames of the leg's bodies, by name: (axes x, y, z as geometry names, origin)
 RRPIRR_FRAMES = (
-    ("J1", ("r1", "s", "n1"), "pB"),     # lower link at the actuated joint (Eq. 23)
-    ("E1", ("r1", "s", "n1"), "pE"),     # lower link tip (the elbow)
-    ("C3", ("r2", "s3", "n2"), "pC"),    # parallelogram centre (Eq. 26)
-    ("L2", ("r2", "s3", "n2"), "a"),     # rod tips at a_i (App. C)
+    ("J1", ("r1", "s", "n1"), "pB"),  # lower link at the actuated joint (Eq. 23)
+    ("E1", ("r1", "s", "n1"), "pE"),  # lower link tip (the elbow)
+    ("C3", ("r2", "s3", "n2"), "pC"),  # parallelogram centre (Eq. 26)
+    ("L2", ("r2", "s3", "n2"), "a"),  # rod tips at a_i (App. C)
 )
 
 
@@ -126,18 +133,34 @@ class RRPiRRKinematics:
         c1, s1 = L("c1", sp.cos(q1)), L("s1", sp.sin(q1))
         c12, s12 = L("c12", sp.cos(q1 + q2)), L("s12", sp.sin(q1 + q2))
         c3, s3 = L("c3", sp.cos(q3)), L("s3", sp.sin(q3))
-        r1 = Lv("r1", c1 * u - s1 * EZ)                    # lower link direction
-        w = Lv("w", c12 * u - s12 * EZ)                    # parallelogram plane direction
-        r2 = Lv("r2", c3 * w + s3 * s)                     # parallelogram centre line
-        s3v = Lv("sp", c3 * s - s3 * w)                    # Pi translation direction s_i3
-        s4 = Lv("s4", _cross(_cross(r2, s), s) / c3)       # |(r2 x s) x s| = cos q3 (misprint 3)
-        elbow = Lv("pE", a - l2 * r2)                      # elbow, from the EE origin
-        base = Lv("pB", elbow - l1 * r1)                   # actuated joint, from the EE origin
-        f5 = Lv("f5", _cross(_cross(r1, s), s3v))          # the force of wrench w_a5 (App. A)
+        r1 = Lv("r1", c1 * u - s1 * EZ)  # lower link direction
+        w = Lv("w", c12 * u - s12 * EZ)  # parallelogram plane direction
+        r2 = Lv("r2", c3 * w + s3 * s)  # parallelogram centre line
+        s3v = Lv("sp", c3 * s - s3 * w)  # Pi translation direction s_i3
+        s4 = Lv("s4", _cross(_cross(r2, s), s) / c3)  # |(r2 x s) x s| = cos q3 (misprint 3)
+        elbow = Lv("pE", a - l2 * r2)  # elbow, from the EE origin
+        base = Lv("pB", elbow - l1 * r1)  # actuated joint, from the EE origin
+        f5 = Lv("f5", _cross(_cross(r1, s), s3v))  # the force of wrench w_a5 (App. A)
         cvec = _cross(_cross(f5, s4), s4)
-        chat = Lv("ch", cvec / L("nc", sp.sqrt(cvec.dot(cvec))))   # axis c_i1 of the twist of restriction
-        g = dict(u=u, s=s, a=a, r1=r1, w=w, r2=r2, s3=s3v, s4=s4, c3=c3, pE=elbow, pB=base, ch=chat,
-                 pC=Lv("pC", elbow + l2 / 2 * r2), n1=_cross(r1, s), n2=_cross(r2, s3v), l2=l2)
+        chat = Lv("ch", cvec / L("nc", sp.sqrt(cvec.dot(cvec))))  # axis c_i1 of the twist of restriction
+        g = dict(
+            u=u,
+            s=s,
+            a=a,
+            r1=r1,
+            w=w,
+            r2=r2,
+            s3=s3v,
+            s4=s4,
+            c3=c3,
+            pE=elbow,
+            pB=base,
+            ch=chat,
+            pC=Lv("pC", elbow + l2 / 2 * r2),
+            n1=_cross(r1, s),
+            n2=_cross(r2, s3v),
+            l2=l2,
+        )
         if self.w_pi is not None:
             # the two rods, w_pi apart along s_i: pivots on the elbow bar, centres l2/2 along r2
             for side, sign in (("a", 1), ("b", -1)):
@@ -146,9 +169,19 @@ class RRPiRRKinematics:
         return g
 
 
-def rrpirr_leg(name: str, base: tuple, radial: tuple, axis: tuple, attachment: tuple, l1, l2,
-               lower_link: sp.Matrix, parallelogram: sp.Matrix, platform_body: str = "platform",
-               w_pi=None) -> Leg:
+def rrpirr_leg(
+    name: str,
+    base: tuple,
+    radial: tuple,
+    axis: tuple,
+    attachment: tuple,
+    l1,
+    l2,
+    lower_link: sp.Matrix,
+    parallelogram: sp.Matrix,
+    platform_body: str = "platform",
+    w_pi=None,
+) -> Leg:
     """An RR(Pi)RR leg as a joint list.
 
     base : actuated joint centre B_i (m, base frame); radial : outward unit vector u_i;
@@ -169,9 +202,27 @@ def rrpirr_leg(name: str, base: tuple, radial: tuple, axis: tuple, attachment: t
     )
     if w_pi is not None:
         bodies += tuple(
-            ChainBody(f"rod_{side}", 3, sp.zeros(6, 6), ("r2", "s3", "n2"), f"cR{side}", pivot=f"pR{side}",
-                      doc=f"parallelogram rod {side}, swinging with q_i3 about its pivot on the elbow bar "
-                          "(no inertia unless the swinging_rods effect is on)")
-            for side in ("a", "b"))
-    return Leg(name, base, radial, axis, attachment, joints=RRPIRR_CHAIN, bodies=bodies, frames=RRPIRR_FRAMES,
-               kinematics=RRPiRRKinematics(l1, l2, w_pi=w_pi), platform_body=platform_body)
+            ChainBody(
+                f"rod_{side}",
+                3,
+                sp.zeros(6, 6),
+                ("r2", "s3", "n2"),
+                f"cR{side}",
+                pivot=f"pR{side}",
+                doc=f"parallelogram rod {side}, swinging with q_i3 about its pivot on the elbow bar "
+                "(no inertia unless the swinging_rods effect is on)",
+            )
+            for side in ("a", "b")
+        )
+    return Leg(
+        name,
+        base,
+        radial,
+        axis,
+        attachment,
+        joints=RRPIRR_CHAIN,
+        bodies=bodies,
+        frames=RRPIRR_FRAMES,
+        kinematics=RRPiRRKinematics(l1, l2, w_pi=w_pi),
+        platform_body=platform_body,
+    )

@@ -9,6 +9,7 @@ Conventions (Hoevenaars, Krut & Herder 2020, DOI 10.1016/j.mechmachtheory.2019.1
 
 Every function here is pure and works on ``sympy.Matrix`` objects.
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -35,11 +36,13 @@ __all__ = [
 
 def cross(a: sp.Matrix, b: sp.Matrix) -> sp.Matrix:
     """Cross product ``a x b`` of two 3-vectors."""
-    return sp.Matrix([
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ])
+    return sp.Matrix(
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    )
 
 
 def skew(p: sp.Matrix) -> sp.Matrix:

@@ -33,6 +33,7 @@ joint at ``a`` in the platform frame; the strut along the joint frame's x axis):
         reference=(0.0, 0.0, 0.85))      # U angles (rad), strut length (m): the assembly branch
     robot = ChainRobot(..., legs=tuple(leg.chain_leg() for leg in legs), ...)
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -48,7 +49,6 @@ __all__ = ["Joint", "Body", "SerialLeg", "NumericKinematics", "NumericChainLeg",
 
 #: a solved configuration closes the loop when the residual (m and rad) is below this
 CLOSURE_TOL = 1e-9
-
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,7 @@ class Joint:
     name: str = ""
 
     def __post_init__(self):
-        kind = joint_kind(self.kind)                   # the record of its kind (:mod:`.joints`)
+        kind = joint_kind(self.kind)  # the record of its kind (:mod:`.joints`)
         if self.actuated and not kind.actuatable:
             raise DescriptionError(f"an actuated joint is revolute or prismatic, not {self.kind!r}")
         n = kind.freedoms
@@ -82,7 +82,9 @@ class Joint:
         if len(axes) != n:
             raise DescriptionError(f"joint {self.kind!r} has {n} axes, got {len(axes)}")
         if self.kind == "Pi" and self.bar is None:
-            raise DescriptionError("a Pi joint needs its bar (m, joint frame): the vector from the joint to its child frame")
+            raise DescriptionError(
+                "a Pi joint needs its bar (m, joint frame): the vector from the joint to its child frame"
+            )
         object.__setattr__(self, "axes", tuple(tuple(a) for a in axes))
 
 
@@ -101,8 +103,11 @@ class Body:
 def coordinate_count(joints, last_real: int) -> int:
     """Joint coordinates of a chain: one per freedom, none for virtual joints and for a
     final spherical joint (index ``last_real``)."""
-    return sum(JOINT_FREEDOMS[j.kind] for k, j in enumerate(joints)
-               if j.kind != "virtual" and not (k == last_real and j.kind == "S"))
+    return sum(
+        JOINT_FREEDOMS[j.kind]
+        for k, j in enumerate(joints)
+        if j.kind != "virtual" and not (k == last_real and j.kind == "S")
+    )
 
 
 @dataclass(frozen=True)
@@ -136,12 +141,16 @@ class SerialLeg:
             raise DescriptionError(f"{self.name}: {sum(j.actuated for j in self.joints)} actuated joints: expected one")
         n = coordinate_count(self.joints, real[-1])
         if len(self.reference) != n:
-            raise DescriptionError(f"{self.name}: reference has {len(self.reference)} coordinates: expected {n} "
-                             "(one per joint freedom, none for virtual joints and a final S joint)")
+            raise DescriptionError(
+                f"{self.name}: reference has {len(self.reference)} coordinates: expected {n} "
+                "(one per joint freedom, none for virtual joints and a final S joint)"
+            )
         for b in self.bodies:
             if not 1 <= b.after <= len(real) or (b.after == len(real) and self.joints[real[-1]].kind == "S"):
-                raise DescriptionError(f"{self.name}: body {b.name!r} after joint {b.after}: expected 1..{len(real)} "
-                                 "(not after a final S joint: that is the platform)")
+                raise DescriptionError(
+                    f"{self.name}: body {b.name!r} after joint {b.after}: expected 1..{len(real)} "
+                    "(not after a final S joint: that is the platform)"
+                )
 
     @property
     def last_real(self) -> int:
@@ -164,12 +173,23 @@ class SerialLeg:
             axes = () if final_s else tuple(axis_name(k, m) for m in range(len(j.axes)))
             joints.append(ChainJoint(j.kind, axes, point_name(k), actuated=j.actuated, doc=j.name))
         real = [k for k, j in enumerate(self.joints) if j.kind != "virtual"]
-        bodies = tuple(ChainBody(b.name, b.after, b.inertia, *frame_names(real[b.after - 1]), doc=b.doc)
-                       for b in self.bodies)
-        frames = tuple((f"link{n + 1}", *frame_names(k)) for n, k in enumerate(real)
-                       if not (k == self.last_real and self.joints[k].kind == "S"))
-        return NumericChainLeg(self.name, tuple(joints), bodies, None, platform_body=self.platform_body,
-                               frames=frames, numeric=NumericKinematics(self))
+        bodies = tuple(
+            ChainBody(b.name, b.after, b.inertia, *frame_names(real[b.after - 1]), doc=b.doc) for b in self.bodies
+        )
+        frames = tuple(
+            (f"link{n + 1}", *frame_names(k))
+            for n, k in enumerate(real)
+            if not (k == self.last_real and self.joints[k].kind == "S")
+        )
+        return NumericChainLeg(
+            self.name,
+            tuple(joints),
+            bodies,
+            None,
+            platform_body=self.platform_body,
+            frames=frames,
+            numeric=NumericKinematics(self),
+        )
 
 
 def axis_name(k: int, m: int) -> str:
@@ -234,8 +254,11 @@ class NumericKinematics:
 
     def _moving(self):
         """(joint index, joint) of the joints with coordinates, in chain order."""
-        return [(k, j) for k, j in enumerate(self.leg.joints)
-                if j.kind != "virtual" and not (k == self.leg.last_real and j.kind == "S")]
+        return [
+            (k, j)
+            for k, j in enumerate(self.leg.joints)
+            if j.kind != "virtual" and not (k == self.leg.last_real and j.kind == "S")
+        ]
 
     @property
     def coordinates(self) -> tuple:
@@ -286,7 +309,7 @@ class NumericKinematics:
                 g[axis_name(k, 0)] = L(axis_name(k, 0), Rj * sp.Matrix(j.axes[0]))
                 continue
             if k == last and j.kind == "S":
-                R, o = Rj, oj                  # virtual joints after it sit in its frame
+                R, o = Rj, oj  # virtual joints after it sit in its frame
                 continue
             child = oj
             for m, axis in enumerate(j.axes):
@@ -300,7 +323,7 @@ class NumericKinematics:
                     Rj = L(f"Rj{k}_{m}", Rj * (sp.eye(3) + s * K + (1 - c) * K * K))
                 elif j.kind == "P":
                     child = oj + qk * a
-                else:                                             # Pi: the bar turns about the axis
+                else:  # Pi: the bar turns about the axis
                     c, s = prog.let(f"c{k}_{m}_{tag}", sp.cos(qk)), prog.let(f"s{k}_{m}_{tag}", sp.sin(qk))
                     K = _skew(a_local)
                     bar = L(f"bar{k}", Rj * (sp.eye(3) + s * K + (1 - c) * K * K) * sp.Matrix(j.bar))

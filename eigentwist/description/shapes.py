@@ -12,6 +12,7 @@ Frames: a rod, cylinder or tube lies along the body frame's x axis from its orig
 (``0 <= x <= length``); a box and a sphere are centred on the origin (box sides along
 x, y, z). Densities in kg/m^3; ``mass=`` instead of a density where a shape allows it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

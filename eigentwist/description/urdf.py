@@ -14,6 +14,7 @@ virtual joints of a leg with fewer than six freedoms, and the reference configur
 URDF has no universal or spherical joint: a U joint is two revolute joints whose axes
 meet (zero offset between them), which is the same chain.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -32,7 +33,7 @@ _AXIS = {"X": (1, 0, 0), "Y": (0, 1, 0), "Z": (0, 0, 1)}
 def _model(urdf):
     try:
         import pinocchio as pin
-    except ImportError as exc:                      # pragma: no cover - the test extra installs it
+    except ImportError as exc:  # pragma: no cover - the test extra installs it
         raise ImportError(f'URDF legs need Pinocchio\'s URDF parser: pip install "pin>=3.0" ({exc})') from None
     text = str(urdf)
     if text.lstrip().startswith("<"):
@@ -46,24 +47,38 @@ def _kind_axis(joint, name: str) -> tuple[str, tuple]:
     """eigentwist's kind and the unit axis (joint frame) of a Pinocchio joint model."""
     short = joint.shortname()
     for prefix, kind in (("JointModelRUB", "R"), ("JointModelR", "R"), ("JointModelP", "P")):
-        rest = short[len(prefix):]
+        rest = short[len(prefix) :]
         if short.startswith(prefix) and rest in _AXIS:
             return kind, _AXIS[rest]
     if short in ("JointModelRevoluteUnaligned", "JointModelRevoluteUnboundedUnaligned", "JointModelPrismaticUnaligned"):
         axis = tuple(float(a) for a in joint.extract().axis)
         return ("P" if "Prismatic" in short else "R"), axis
-    raise DescriptionError(f"URDF joint {name!r} is {short}: expected revolute, continuous or prismatic joints "
-                     "(fixed ones are merged; a U joint is two revolute joints, a spherical one is given by "
-                     "platform_joint)")
+    raise DescriptionError(
+        f"URDF joint {name!r} is {short}: expected revolute, continuous or prismatic joints "
+        "(fixed ones are merged; a U joint is two revolute joints, a spherical one is given by "
+        "platform_joint)"
+    )
 
 
 def _numbers(m) -> sp.Matrix:
     return sp.Matrix(m.tolist()).applyfunc(lambda v: sp.Float(float(v), 17))
 
 
-def urdf_leg(urdf, name: str, *, actuated: str, attachment, reference, end: str | None = None,
-             platform_joint: str | None = "S", virtual: tuple = (), base_origin=(0, 0, 0), base_rotation=None,
-             attachment_rotation=None, platform_body: str = "platform") -> SerialLeg:
+def urdf_leg(
+    urdf,
+    name: str,
+    *,
+    actuated: str,
+    attachment,
+    reference,
+    end: str | None = None,
+    platform_joint: str | None = "S",
+    virtual: tuple = (),
+    base_origin=(0, 0, 0),
+    base_rotation=None,
+    attachment_rotation=None,
+    platform_body: str = "platform",
+) -> SerialLeg:
     """A :class:`~eigentwist.description.serial.SerialLeg` from the URDF of its serial chain.
 
     urdf : a path to a ``.urdf`` file, or its XML text; one chain from the root link (the
@@ -90,22 +105,26 @@ def urdf_leg(urdf, name: str, *, actuated: str, attachment, reference, end: str 
         raise DescriptionError(f"{name}: the URDF has no moving joint: expected the leg's chain")
     names = list(model.names)
     if actuated not in names:
-        raise DescriptionError(f"{name}: actuated joint {actuated!r} is not in the URDF (its joints: "
-                         f"{', '.join(names[1:])})")
+        raise DescriptionError(
+            f"{name}: actuated joint {actuated!r} is not in the URDF (its joints: {', '.join(names[1:])})"
+        )
     R0 = sp.eye(3) if base_rotation is None else sp.Matrix(base_rotation)
     p0 = sp.Matrix(base_origin)
     joints, bodies = [], []
     for i in range(1, model.njoints):
         if model.parents[i] != i - 1:
-            raise DescriptionError(f"{name}: URDF joint {names[i]!r} hangs on {names[model.parents[i]]!r}, not on the "
-                             "joint before it: expected one serial chain")
+            raise DescriptionError(
+                f"{name}: URDF joint {names[i]!r} hangs on {names[model.parents[i]]!r}, not on the "
+                "joint before it: expected one serial chain"
+            )
         kind, axis = _kind_axis(model.joints[i], names[i])
         placement = model.jointPlacements[i]
         R, p = _numbers(placement.rotation), _numbers(placement.translation)
         if i == 1:
             R, p = R0 * R, p0 + R0 * p
-        joints.append(Joint(kind, origin=tuple(p), axes=(axis,), rotation=R, actuated=names[i] == actuated,
-                            name=names[i]))
+        joints.append(
+            Joint(kind, origin=tuple(p), axes=(axis,), rotation=R, actuated=names[i] == actuated, name=names[i])
+        )
         inertia = model.inertias[i]
         if inertia.mass > 0:
             c = _numbers(inertia.lever)
@@ -115,8 +134,10 @@ def urdf_leg(urdf, name: str, *, actuated: str, attachment, reference, end: str 
     if end is not None:
         frame = next((f for f in model.frames if f.name == end), None)
         if frame is None or frame.parentJoint != model.njoints - 1:
-            raise DescriptionError(f"{name}: end link {end!r} is not on the chain's last joint "
-                             f"{names[model.njoints - 1]!r}: expected a link after it")
+            raise DescriptionError(
+                f"{name}: end link {end!r} is not on the chain's last joint "
+                f"{names[model.njoints - 1]!r}: expected a link after it"
+            )
         tip_R, tip_p = _numbers(frame.placement.rotation), _numbers(frame.placement.translation)
     if platform_joint == "S":
         joints.append(Joint("S", origin=tuple(tip_p), rotation=tip_R, name=f"{end or names[-1]} spherical joint"))
@@ -127,5 +148,12 @@ def urdf_leg(urdf, name: str, *, actuated: str, attachment, reference, end: str 
         attachment_rotation = Ra * tip_R.T
     else:
         raise DescriptionError(f"{name}: platform_joint {platform_joint!r}: expected 'S' or None (rigid)")
-    return SerialLeg(name, tuple(joints) + tuple(virtual), tuple(bodies), tuple(attachment), tuple(reference),
-                     attachment_rotation=attachment_rotation, platform_body=platform_body)
+    return SerialLeg(
+        name,
+        tuple(joints) + tuple(virtual),
+        tuple(bodies),
+        tuple(attachment),
+        tuple(reference),
+        attachment_rotation=attachment_rotation,
+        platform_body=platform_body,
+    )

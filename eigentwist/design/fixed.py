@@ -7,6 +7,7 @@ These functions name them, and name the inertias that make a mass rank +0 (a bod
 about a fixed joint axis has its kinetic energy from its inertia about that axis, a
 parameter of its own that does not follow the mass).
 """
+
 from __future__ import annotations
 
 __all__ = ["MASS_UNITS", "ZERO_SENSITIVITY", "held_fixed", "held_fixed_line", "inertias_of", "zero_mass_lines"]
@@ -45,8 +46,10 @@ def held_fixed_line(ev, moving, model=(), values=None) -> str | None:
     values = values or {}
     lengths = [m for m in moving if ev.parameters.get(m.partition("@")[0]) and ev.parameter(m).unit == "m"]
     listed = ", ".join(f"{n} = {float(values.get(n, ev.defaults[n])):.4g} {ev.parameters[n].unit}" for n in names)
-    return (f"held fixed while {', '.join(lengths)} move{'s' if len(lengths) == 1 else ''}: {listed} "
-            "(parameters of their own, not functions of the lengths; vary them too or set them with --set)")
+    return (
+        f"held fixed while {', '.join(lengths)} move{'s' if len(lengths) == 1 else ''}: {listed} "
+        "(parameters of their own, not functions of the lengths; vary them too or set them with --set)"
+    )
 
 
 def inertias_of(ev, mass: str) -> list[str]:
@@ -67,6 +70,8 @@ def zero_mass_lines(ev, rows) -> list[str]:
     for r in rows:
         if r["unit"] == "kg" and abs(r["dlnf1_dlnp"]) < ZERO_SENSITIVITY:
             inertias = inertias_of(ev, r["name"])
-            out.append(f"{r['name']} ranks +0: the model takes its body's inertia from separate parameters "
-                       f"({', '.join(inertias)}), which do not follow {r['name']}; a heavier body moves them too")
+            out.append(
+                f"{r['name']} ranks +0: the model takes its body's inertia from separate parameters "
+                f"({', '.join(inertias)}), which do not follow {r['name']}; a heavier body moves them too"
+            )
     return out

@@ -16,6 +16,7 @@ reference pose x_ref: the mean of the diagonal of M's translational 3x3 block,
 (M_xx + M_yy + M_zz) / 3 in kg (Eq. 12: end-effector, payload, parallelograms and lower
 links seen at the end-effector). Its gradient is the same mean of dM/dp.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -70,8 +71,9 @@ class OptimizationResult:
     """The best design found.
 
     values : varied parameter -> value (SI); worst_hz : min over poses of f1 (Hz);
-    f1_hz : (J,) lowest frequency per pose; poses : (J, 3) m, or (J, 6) m and rad for a 6-DoF robot; start : the starting design
-    and its worst_hz; active : the active bounds and constraints (strings);
+    f1_hz : (J,) lowest frequency per pose; poses : (J, 3) m, or (J, 6) m and rad for a
+    6-DoF robot; start : the starting design and its worst_hz; active : the active bounds
+    and constraints (strings);
     constraints : quantity -> value at the optimum; evaluations : sensitivity-kernel
     calls; nit : solver iterations; history : worst f1 per evaluation.
     """
@@ -137,11 +139,12 @@ class _Problem:
         key = np.asarray(u, dtype=float).tobytes()
         if key not in self.cache:
             values = {**self.params, **self.design(u)}
-            modes, dfdp = frequency_sensitivities(self.ev, self.poses, self.wrt, self.model, values,
-                                                  method=self.jacobian)
+            modes, dfdp = frequency_sensitivities(
+                self.ev, self.poses, self.wrt, self.model, values, method=self.jacobian
+            )
             self.evaluations += 1
-            f = modes.freq_hz[:, :self.n_track]
-            dfdu = dfdp[:, :self.n_track, :] * self.span
+            f = modes.freq_hz[:, : self.n_track]
+            dfdu = dfdp[:, : self.n_track, :] * self.span
             quantities = {}
             for c in self.constraints:
                 if c.quantity == "moving-mass" and c.quantity not in quantities:
@@ -184,6 +187,7 @@ class _Problem:
             _, grad = self.evaluate(z[:-1])[2][c.quantity]
             sign = -1.0 if c.op == "<=" else 1.0
             return np.append(sign * grad / abs(c.value or 1.0), 0.0)[None, :]
+
         return fun, jac
 
 
@@ -219,19 +223,34 @@ def _check_vary_constraints(ev, vary, model, params) -> None:
             point = {**values, **{v.name: x for v, x in zip(box, corner)}}
             if not bool(np.all(c.holds(point))):
                 shown = ", ".join(f"{n} = {float(point[n]):g}" for n in c.names)
-                raise InputError(f"vary {', '.join(f'{v.name}={v.lo:g}:{v.hi:g}' for v in box)}: at {shown} "
-                                 f"{c.constraint.doc}: expected a box inside {c.constraint}")
+                raise InputError(
+                    f"vary {', '.join(f'{v.name}={v.lo:g}:{v.hi:g}' for v in box)}: at {shown} "
+                    f"{c.constraint.doc}: expected a box inside {c.constraint}"
+                )
 
 
-def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints=(), *, method="SLSQP",
-                        n_track: int = 2, start=None, maxiter: int = 100, progress=None,
-                        jacobian: str = "differences") -> OptimizationResult:
+def optimize_worst_case(
+    ev,
+    vary,
+    poses,
+    model="paper",
+    params=None,
+    constraints=(),
+    *,
+    method="SLSQP",
+    n_track: int = 2,
+    start=None,
+    maxiter: int = 100,
+    progress=None,
+    jacobian: str = "differences",
+) -> OptimizationResult:
     """Maximise min over ``poses`` of the lowest natural frequency over the ``vary`` box.
 
     Parameters
     ----------
-    ev : evaluator; vary : list of :class:`Vary`; poses : (J, 3) m, or (J, 6) m and rad for a 6-DoF robot (poses that are not
-    valid at the start and every corner of the box are dropped and counted);
+    ev : evaluator; vary : list of :class:`Vary`; poses : (J, 3) m, or (J, 6) m and rad for
+    a 6-DoF robot (poses that are not valid at the start and every corner of the box are
+    dropped and counted);
     model : preset or effects; params : fixed parameter overrides (SI);
     constraints : list of :class:`Constraint`; method : ``"SLSQP"`` or ``"trust-constr"``;
     n_track : modes per pose in the epigraph (>= 1); start : starting values (default: the
@@ -262,8 +281,9 @@ def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints
         raise InputError(f"jacobian {jacobian!r}: expected differences or exact")
     prob = _Problem(ev, vary, poses[ok], model, params, constraints, max(1, n_track), progress, jacobian)
     defaults = {**ev.defaults, **(params or {}), **(start or {})}
-    u0 = np.array([(defaults[v.name] - v.lo) / (v.hi - v.lo) if v.lo <= defaults[v.name] <= v.hi else 0.5
-                   for v in vary])
+    u0 = np.array(
+        [(defaults[v.name] - v.lo) / (v.hi - v.lo) if v.lo <= defaults[v.name] <= v.hi else 0.5 for v in vary]
+    )
     f0 = prob.evaluate(u0)[0]
     prob.scale = float(f0[:, 0].min())
     start_worst = prob.scale
@@ -274,8 +294,15 @@ def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints
         for c in prob.constraints:
             fun, jac = prob.quantity_con(c)
             cons.append(dict(type="ineq", fun=fun, jac=jac))
-        res = minimize(prob.objective, z0, jac=prob.objective_grad, bounds=bounds, constraints=cons,
-                       method="SLSQP", options=dict(maxiter=maxiter, ftol=1e-10))
+        res = minimize(
+            prob.objective,
+            z0,
+            jac=prob.objective_grad,
+            bounds=bounds,
+            constraints=cons,
+            method="SLSQP",
+            options=dict(maxiter=maxiter, ftol=1e-10),
+        )
     else:
         cons = [NonlinearConstraint(prob.frequency_con, 0.0, np.inf, jac=prob.frequency_jac)]
         for c in prob.constraints:
@@ -283,10 +310,16 @@ def optimize_worst_case(ev, vary, poses, model="paper", params=None, constraints
             cons.append(NonlinearConstraint(fun, 0.0, np.inf, jac=jac))
         from scipy.optimize import Bounds
 
-        res = minimize(prob.objective, z0, jac=prob.objective_grad, bounds=Bounds([0.0] * len(vary) + [0.0],
-                                                                                  [1.0] * len(vary) + [np.inf]),
-                       constraints=cons, method="trust-constr", hess=lambda z: np.zeros((z.size, z.size)),
-                       options=dict(maxiter=maxiter * 10, gtol=1e-9, xtol=1e-10))
+        res = minimize(
+            prob.objective,
+            z0,
+            jac=prob.objective_grad,
+            bounds=Bounds([0.0] * len(vary) + [0.0], [1.0] * len(vary) + [np.inf]),
+            constraints=cons,
+            method="trust-constr",
+            hess=lambda z: np.zeros((z.size, z.size)),
+            options=dict(maxiter=maxiter * 10, gtol=1e-9, xtol=1e-10),
+        )
     return _result(prob, res, u0, start_worst, int(len(poses) - ok.sum()))
 
 
@@ -310,6 +343,19 @@ def _result(prob: _Problem, res, u0, start_worst: float, dropped: int) -> Optimi
     near = np.flatnonzero(f1 <= worst * (1 + 1e-5))
     for j in near:
         active.append(f"f1 >= t at pose {np.round(prob.poses[j], 6).tolist()} m (f1 = {f1[j]:.6g} Hz)")
-    return OptimizationResult(prob.design(u), worst, f1, prob.poses, prob.design(u0), start_worst, active, values,
-                              bool(res.success), str(res.message), int(getattr(res, "nit", 0)), prob.evaluations,
-                              dropped, list(prob.history))
+    return OptimizationResult(
+        prob.design(u),
+        worst,
+        f1,
+        prob.poses,
+        prob.design(u0),
+        start_worst,
+        active,
+        values,
+        bool(res.success),
+        str(res.message),
+        int(getattr(res, "nit", 0)),
+        prob.evaluations,
+        dropped,
+        list(prob.history),
+    )

@@ -15,14 +15,30 @@ forward selection, ties), :mod:`.misfit` (too few rows, the stated uncertainty, 
 :mod:`.separate` (the next measurement), :mod:`.synth` (synthetic data), :mod:`.verdict`
 (text), :mod:`.render_json` (JSON), :mod:`.plots`.
 """
+
 from .compare import Comparison, compare
 from .fit import FitResult, fit
 from .matching import ModeMatchError, match_modes, parse_mode
-from .measurements import (Measurements, MeasurementError, load_measurements, paper_csv,
-                           paper_measurements)
+from .measurements import Measurements, MeasurementError, load_measurements, paper_csv, paper_measurements
 from .select import Candidate, Diagnosis, diagnose
 from .synth import parse_truth, synth
 
-__all__ = ["Comparison", "compare", "FitResult", "fit", "ModeMatchError", "match_modes", "parse_mode",
-           "Measurements", "MeasurementError", "load_measurements", "paper_csv", "paper_measurements",
-           "Candidate", "Diagnosis", "diagnose", "parse_truth", "synth"]
+__all__ = [
+    "Comparison",
+    "compare",
+    "FitResult",
+    "fit",
+    "ModeMatchError",
+    "match_modes",
+    "parse_mode",
+    "Measurements",
+    "MeasurementError",
+    "load_measurements",
+    "paper_csv",
+    "paper_measurements",
+    "Candidate",
+    "Diagnosis",
+    "diagnose",
+    "parse_truth",
+    "synth",
+]

@@ -15,6 +15,7 @@ In this order, each a short sentence wrapped at :data:`WIDTH` characters:
 CLI prints ``lines``, the HTML report shows the parts. The full ranking, the residual
 patterns and the criteria are in ``eigentwist diagnose --details`` and the JSON.
 """
+
 from __future__ import annotations
 
 import math
@@ -31,9 +32,9 @@ from .stats import gof_p_value
 
 __all__ = ["answer", "answer_text", "uncertainty_sentence", "check_inputs", "WIDTH", "MAX_LINES"]
 
-WIDTH = 100       # characters per line of the default output
-MAX_LINES = 8     # lines of the answer block
-MAX_TIES = 2      # subsets of the search named beside the selected one (the rest: the JSON's search.ties)
+WIDTH = 100  # characters per line of the default output
+MAX_LINES = 8  # lines of the answer block
+MAX_TIES = 2  # subsets of the search named beside the selected one (the rest: the JSON's search.ties)
 
 
 def _num(v: float, fmt: str = ".3g") -> str:
@@ -49,7 +50,7 @@ def _verdict(d) -> str:
     f = d.final
     rms = f"RMS {d.baseline.rms_pct:.3g} % -> {f.rms_pct:.3g} %"
     if f.dof <= 0:
-        return (f"Cannot judge: the final model has {f.k} fitted parameters for {f.n} rows; {rms}.")
+        return f"Cannot judge: the final model has {f.k} fitted parameters for {f.n} rows; {rms}."
     p = gof_p_value(f.chi2, f.n, f.k)
     stat = f"chi2/nu = {f.chi2:.3g}/{f.dof} = {f.chi2 / f.dof:.3g}"
     if d.explained:
@@ -99,8 +100,10 @@ def check_inputs(d, ev) -> str | None:
     component = getattr(ev.robot.effect(base), "component", "") or base
     what = "dimensions" if any(u == "m" for _, _, u in given) else "values"
     with_given = (" with " + ", ".join(f"{n} = {_value(v, u)}" for n, v, u in given)) if given else ""
-    return (f"Check the inputs: {effect} needs {name} = {_value(value, unit)} (plausible {lo:.3g} ... "
-            f"{_value(hi, unit)}){with_given}: check the {component}'s {what}.")
+    return (
+        f"Check the inputs: {effect} needs {name} = {_value(value, unit)} (plausible {lo:.3g} ... "
+        f"{_value(hi, unit)}){with_given}: check the {component}'s {what}."
+    )
 
 
 def _why(d, short: bool = False) -> str:
@@ -145,8 +148,17 @@ def added_effects(d, ev) -> list[dict]:
             plausible = is_plausible(value, std, bounds, n in d.final.at_bound)
             if not plausible and bounds:
                 text += f" (IMPLAUSIBLE: plausible {bounds[0]:.2g} ... {bounds[1]:.2g} {unit})".replace(" )", ")")
-            params.append({"name": n, "value": value, "std": std, "unit": unit, "plausible": plausible,
-                           "plausible_range": list(bounds) if bounds else None, "text": text})
+            params.append(
+                {
+                    "name": n,
+                    "value": value,
+                    "std": std,
+                    "unit": unit,
+                    "plausible": plausible,
+                    "plausible_range": list(bounds) if bounds else None,
+                    "text": text,
+                }
+            )
         leg_level = bool(getattr(ev.robot.effect(split_scope(e)[0]), "leg_level", False))
         out.append({"effect": e, "legs": scope.where(e), "leg_level": leg_level, "params": params})
     return out
@@ -220,7 +232,7 @@ def _apart(d) -> tuple[list[str], bool]:
         if len(names) > 1:
             out.append(" or ".join(names))
             equal &= all(frozenset((x[0], b)) in same for b in x[1:])
-        elif len(x) > 1:                      # only mirror images: one effect, which leg is open
+        elif len(x) > 1:  # only mirror images: one effect, which leg is open
             out.append(f"{names[0]} (mirror images at the measured poses)")
             equal = False
     return out, equal and bool(out)
@@ -253,7 +265,7 @@ def _rows_sentence(d) -> str:
         parts.append(f"Outlier(s) set aside: CSV line {lines}.")
     else:
         parts.append("No outliers.")
-    for a in getattr(d, "setting_anomalies", None) or []:       # :class:`~.settings.SettingAnomaly`
+    for a in getattr(d, "setting_anomalies", None) or []:  # :class:`~.settings.SettingAnomaly`
         lines = ", ".join(str(x) for x in a.lines)
         if a.what == "k_a":
             what = f"k_a written {a.k_a:g}, its modes fit k_a = {a.best_k_a:.4g}"
@@ -298,19 +310,25 @@ def _next(d, ev, apart: list, equal: bool) -> str:
     if nm:
         a, b = nm["between"]
         pred = nm["predicted_hz"]
-        return (f"Next: measure mode {nm['mode']} at {_pose(nm['pose'])}, k_a = {nm['k_a']:.4g} "
-                f"{nm.get('k_a_unit', ev.parameter('k_a').unit)}: {a} {pred[a]:.4g} Hz, {b} "
-                f"{pred[b]:.4g} Hz ({nm['separation_sigma']:.1f} sigma apart).")
+        return (
+            f"Next: measure mode {nm['mode']} at {_pose(nm['pose'])}, k_a = {nm['k_a']:.4g} "
+            f"{nm.get('k_a_unit', ev.parameter('k_a').unit)}: {a} {pred[a]:.4g} Hz, {b} "
+            f"{pred[b]:.4g} Hz ({nm['separation_sigma']:.1f} sigma apart)."
+        )
     u = d.uncertainty
     if u is not None and u.verdict == "too few rows":
         need = max(d.untestable.values()) if d.untestable else d.final.k + 3
-        return (f"Next: measure more rows (at least {max(need - len(d.meas), 1)}): more k_a values, "
-                "another pose or other mode directions.")
+        return (
+            f"Next: measure more rows (at least {max(need - len(d.meas), 1)}): more k_a values, "
+            "another pose or other mode directions."
+        )
     if apart:
         if equal:
             return "Next: no measurement tells them apart: they are one model (equal frequencies everywhere)."
-        return ("Next: no mode in the measured band and directions tells them apart: measure another "
-                "direction or a wider band.")
+        return (
+            "Next: no mode in the measured band and directions tells them apart: measure another "
+            "direction or a wider band."
+        )
     if not d.explained:
         fails = d.final.comparison.where_it_fails()
         if fails:
@@ -318,13 +336,17 @@ def _next(d, ev, apart: list, equal: bool) -> str:
             lo, hi = w["k_a_range"]
             unit = d.meas.k_a_unit
             ka = f"k_a = {lo:g} {unit}" if lo == hi else f"k_a {lo:g}-{hi:g} {unit}"
-            return (f"Next: measure more where the final model still fails (mode {w['mode']}, {ka}, "
-                    f"{_pose(w['poses'][0])}): other poses at the same k_a.")
+            return (
+                f"Next: measure more where the final model still fails (mode {w['mode']}, {ka}, "
+                f"{_pose(w['poses'][0])}): other poses at the same k_a."
+            )
     ru = _runner_up(d)
     if ru is not None:
         added, other = ru
-        return (f"Next: none needed: the data already tell {added} from the runner-up {other.effect} "
-                f"(dAICc = {_gap(d, added, other):.3g}).")
+        return (
+            f"Next: none needed: the data already tell {added} from the runner-up {other.effect} "
+            f"(dAICc = {_gap(d, added, other):.3g})."
+        )
     return "Next: no measurement needed to choose between the candidates."
 
 
@@ -339,8 +361,9 @@ def _gap(d, added: str, other) -> float:
 
 
 def _wrap(text: str, width: int) -> list[str]:
-    return textwrap.wrap(text, width=width, subsequent_indent="  ", break_on_hyphens=False,
-                         break_long_words=False) or [""]
+    return textwrap.wrap(text, width=width, subsequent_indent="  ", break_on_hyphens=False, break_long_words=False) or [
+        ""
+    ]
 
 
 def _lines(parts: dict, width: int) -> list[str]:
@@ -356,14 +379,20 @@ def answer(d, ev, width: int = WIDTH) -> dict:
     :data:`MAX_LINES`, each at most ``width`` characters) and its parts."""
     groups = _added_groups(d)
     items = added_effects(d, ev)
-    u = None if d.uncertainty is None else {k: getattr(d.uncertainty, k) for k in
-                                            ("verdict", "birge_ratio", "possibly_understated")}
+    u = (
+        None
+        if d.uncertainty is None
+        else {k: getattr(d.uncertainty, k) for k in ("verdict", "birge_ratio", "possibly_understated")}
+    )
     check = check_inputs(d, ev)
-    parts = {"verdict": _verdict(d), "why": "" if d.explained or d.final.dof <= 0 else (check or _why(d)),
-             "added": _added(d, ev, items, groups)}
+    parts = {
+        "verdict": _verdict(d),
+        "why": "" if d.explained or d.final.dof <= 0 else (check or _why(d)),
+        "added": _added(d, ev, items, groups),
+    }
     apart, equal = _apart(d)
     search = getattr(d, "search", None)
-    if search is not None and search.ties and not d.manual:        # subsets the search found as good
+    if search is not None and search.ties and not d.manual:  # subsets the search found as good
         chosen = " + ".join(e for e in d.final.effects if e not in d.baseline.effects) or "nothing"
         apart.append(" or ".join([chosen] + [" + ".join(t.effects) for t in search.ties[:MAX_TIES]]))
         equal = False
@@ -380,7 +409,7 @@ def answer(d, ev, width: int = WIDTH) -> dict:
         parts["why"] = _why(d, short=True)
         lines = _lines(parts, width)
     if len(lines) > MAX_LINES:
-        lines = lines[:MAX_LINES - 1] + ["  ... (the rest: --details)"]
+        lines = lines[: MAX_LINES - 1] + ["  ... (the rest: --details)"]
     mirrors = [[c.effect for c in g] for g in _groups_at(d, 0) if len(g) > 1]
     unique = []
     for g in mirrors:

@@ -11,6 +11,7 @@ Bonferroni count), *and* it lowers AICc. The least needed effect (largest p-valu
 fails is removed, and the test repeated on the smaller model until every selected effect
 is needed. The baseline's effects are never removed.
 """
+
 from __future__ import annotations
 
 import math
@@ -45,9 +46,17 @@ class Removal:
         return f"{self.effect} removed: not needed in the final model"
 
     def to_json(self) -> dict:
-        return {"effect": self.effect, "p_value": self.p_value, "aicc_with": self.aicc_with,
-                "aicc_without": self.aicc_without, "after": list(self.after), "reason": self.reason,
-                "effects": list(self.fit.effects), "params": self.fit.values, "param_std": self.fit.std}
+        return {
+            "effect": self.effect,
+            "p_value": self.p_value,
+            "aicc_with": self.aicc_with,
+            "aicc_without": self.aicc_without,
+            "after": list(self.after),
+            "reason": self.reason,
+            "effects": list(self.fit.effects),
+            "params": self.fit.values,
+            "param_std": self.fit.std,
+        }
 
 
 def without(meas, ev, final: FitResult, effect: str) -> FitResult:
@@ -90,7 +99,7 @@ def eliminate(meas, ev, final: FitResult, added: list, alpha: float) -> list[Rem
             break
         p, e, smaller = max(tests, key=lambda t: (t[0], -[k for k, _ in kept].index(t[1])))
         names = [k for k, _ in kept]
-        after = tuple(names[names.index(e) + 1:])
+        after = tuple(names[names.index(e) + 1 :])
         out.append(Removal(e, p, final.aicc, smaller.aicc, after, smaller))
         final = smaller
         kept = [(k, m) for k, m in kept if k != e]

@@ -5,6 +5,7 @@ Errors are relative to the measured value, as in the paper's Appendix E:
 standard uncertainties ``error_sigma = (f_pred - f_meas) / sigma``. The model *fails* on
 a row when ``|error_sigma| > 2``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -57,7 +58,7 @@ class Comparison:
 
     @property
     def rms_pct(self) -> float:
-        return float(np.sqrt(np.mean(self.error_pct ** 2)))
+        return float(np.sqrt(np.mean(self.error_pct**2)))
 
     @property
     def max_pct(self) -> float:
@@ -84,19 +85,26 @@ class Comparison:
             total = int(np.sum(np.asarray(self.meas.mode) == label))
             poses = np.unique(np.round(self.meas.poses[rows], 6), axis=0)
             err = self.error_pct[rows]
-            out.append({"mode": label, "rows": len(rows), "of": total,
-                        "k_a_range": [float(self.meas.k_a[rows].min()), float(self.meas.k_a[rows].max())],
-                        "poses": poses.tolist(),
-                        "predicted": "too high" if np.all(err > 0) else "too low" if np.all(err < 0) else "both ways",
-                        "lines": [int(v) for v in self.meas.lines[rows]]})
+            out.append(
+                {
+                    "mode": label,
+                    "rows": len(rows),
+                    "of": total,
+                    "k_a_range": [float(self.meas.k_a[rows].min()), float(self.meas.k_a[rows].max())],
+                    "poses": poses.tolist(),
+                    "predicted": "too high" if np.all(err > 0) else "too low" if np.all(err < 0) else "both ways",
+                    "lines": [int(v) for v in self.meas.lines[rows]],
+                }
+            )
         return out
 
     def summary(self) -> dict:
         return {"effects": list(self.effects), "rms_pct": self.rms_pct, "max_pct": self.max_pct}
 
 
-def compare(meas, model="rigid", ev=None, values: dict | None = None, check: bool = True,
-            strict: bool = True) -> Comparison:
+def compare(
+    meas, model="rigid", ev=None, values: dict | None = None, check: bool = True, strict: bool = True
+) -> Comparison:
     """Compare ``model`` (preset, effect list or ``"none"``) with the measurements.
 
     ``values`` override parameter defaults (SI units; the measurements' own parameter
@@ -118,7 +126,7 @@ def compare(meas, model="rigid", ev=None, values: dict | None = None, check: boo
 
     damped = bool(ev.damped_model(tuple(effects)))
     spec = zeta_rows(meas, damped)
-    if shapes is None and not damped and spec is None:   # no modes kept: a large file is evaluated a block at a time
+    if shapes is None and not damped and spec is None:  # no modes kept: a large file is evaluated a block at a time
         pred, idx = predictor.predict(strict=strict)
         return Comparison(meas, effects, pred, idx, dict(values or {}), None)
     pred, idx, modes = predictor.predict(strict=strict, return_modes=True)

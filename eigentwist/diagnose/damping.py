@@ -1,4 +1,5 @@
 """Damping ratios as residuals: measured values, and the decay a damped row shows."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -47,9 +48,6 @@ def least_damping(modes) -> np.ndarray:
 def zeta_count(meas) -> int:
     """How many damping-ratio values ``meas`` carries (rows with ``damping_ratio``)."""
     return int(np.sum(~np.isnan(np.asarray(getattr(meas, "damping_ratio", np.full(len(meas), np.nan)), dtype=float))))
-
-
-
 
 
 def carries_damping(meas) -> bool:

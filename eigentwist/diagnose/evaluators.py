@@ -1,4 +1,5 @@
 """One generated evaluator per (robot, backend), loaded once per process."""
+
 from __future__ import annotations
 
 from functools import lru_cache

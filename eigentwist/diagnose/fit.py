@@ -25,6 +25,7 @@ worse than the stated uncertainty), propagated to p by the delta method
 (std_p = p std_theta for log-parameters). A parameter that the data do not determine
 (J^T J singular in its direction) gets std = inf.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -44,11 +45,11 @@ from .stats import aicc, gof_p_value
 
 __all__ = ["FitResult", "fit", "Transform", "SPAN", "JACOBIANS", "using_jacobian", "constraint_range"]
 
-SPAN = 1e3          # search range: default / SPAN ... default * SPAN (within the physical bounds)
-STEP = 1e-2         # central-difference step in theta (1 % in p): K_F carries ~1e-7 relative
-                    # round-off (the 1e-12 rad/(N m) "rigid" compliances), so smaller steps give noise
+SPAN = 1e3  # search range: default / SPAN ... default * SPAN (within the physical bounds)
+STEP = 1e-2  # central-difference step in theta (1 % in p): K_F carries ~1e-7 relative
+# round-off (the 1e-12 rad/(N m) "rigid" compliances), so smaller steps give noise
 START_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
-ROUNDOFF = 1e-9     # relative frequency change per central-difference pair treated as none
+ROUNDOFF = 1e-9  # relative frequency change per central-difference pair treated as none
 # The Jacobian kinds: "differences" (central, in the residuals' evaluator call) and "exact"
 # (the generated sensitivities: one kernel for every fitted parameter of the
 # catalogue and each leg's own copy, generated and compiled once per cache). Measured
@@ -56,7 +57,7 @@ ROUNDOFF = 1e-9     # relative frequency change per central-difference pair trea
 # selections and values, differences faster on every case (1-3 parameters per fit), and the
 # exact kind's first run derives and compiles a kernel. Differences are the default.
 JACOBIANS = ("differences", "exact")
-EXACT_JACOBIAN = False          # the default kind when none is given (True: "exact")
+EXACT_JACOBIAN = False  # the default kind when none is given (True: "exact")
 _KIND: contextvars.ContextVar = contextvars.ContextVar("eigentwist_jacobian", default=None)
 
 
@@ -112,8 +113,10 @@ class Transform:
         new_lo = max(self.lo, lo * (1 + margin) if self.log else lo + margin) if math.isfinite(lo) else self.lo
         new_hi = min(self.hi, hi * (1 - margin) if self.log else hi - margin) if math.isfinite(hi) else self.hi
         if not new_lo < new_hi:
-            raise InputError(f"parameter {self.name!r}: the constraints between parameters leave it no range "
-                             f"(from {lo:g} to {hi:g}): expected the other parameters' values to admit one")
+            raise InputError(
+                f"parameter {self.name!r}: the constraints between parameters leave it no range "
+                f"(from {lo:g} to {hi:g}): expected the other parameters' values to admit one"
+            )
         return dataclasses.replace(self, lo=new_lo, hi=new_hi)
 
     def theta(self, p):
@@ -218,7 +221,7 @@ class _Objective:
         if key not in self.cache and self.exact:
             try:
                 self.cache = {key: self._exact(theta)}
-            except InputError as exc:     # no generated sensitivities (gravity preload): differences
+            except InputError as exc:  # no generated sensitivities (gravity preload): differences
                 self.exact = False
                 self.fallback = str(exc)
         if key not in self.cache:
@@ -284,6 +287,8 @@ def constraint_range(ev, name: str, values: dict, effects) -> tuple[float, float
     if not names:
         return -math.inf, math.inf
     return interval(compiled, base, {n: value(n) for n in names}, {e.partition("@")[0] for e in effects})
+
+
 def _comparison(meas, effects, ev, values: dict) -> Comparison:
     """The :class:`Comparison` at ``values``; with measured damping ratios or damped rows it
     carries the whitened damping-ratio residuals (:func:`zeta_residuals`; a model without
@@ -323,8 +328,18 @@ def _covariance(jac: np.ndarray, chi2: float, dof: int) -> np.ndarray:
     return cov * scale
 
 
-def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None = None,
-        explore=None, starts: dict | None = None, max_nfev: int = 200, jacobian: str | None = None) -> FitResult:
+def fit(
+    meas,
+    effects,
+    ev,
+    names,
+    start: dict | None = None,
+    fixed: dict | None = None,
+    explore=None,
+    starts: dict | None = None,
+    max_nfev: int = 200,
+    jacobian: str | None = None,
+) -> FitResult:
     """Fit parameters ``names`` of the model ``effects`` to the measurements.
 
     Parameters
@@ -359,8 +374,9 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
         chi2 = comp.chi2
         return FitResult(tuple(effects), (), {}, {}, dict(fixed), comp, chi2, n, 0, aicc(chi2, n, 0))
     start = {nm: float((start or {}).get(nm, given.get(nm, ev.parameter(nm).default))) for nm in names}
-    transforms = [Transform.of(ev.parameter(nm)).within(*constraint_range(ev, nm, {**given, **start}, effects))
-                  for nm in names]
+    transforms = [
+        Transform.of(ev.parameter(nm)).within(*constraint_range(ev, nm, {**given, **start}, effects)) for nm in names
+    ]
     obj = _Objective(predictor, transforms, jacobian)
     table = _starts(transforms, start, set(names if explore is None else explore), starts)
     best = table[int(np.argmin(obj.chi2_of(table)))]
@@ -368,8 +384,18 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     lo = np.array([t.bounds[0] for t in transforms])
     hi = np.array([t.bounds[1] for t in transforms])
     theta0 = np.clip(theta0, lo + 1e-12, hi - 1e-12)
-    res = least_squares(obj.residuals, theta0, jac=obj.jacobian, bounds=(lo, hi), method="trf",
-                        x_scale=1.0, xtol=1e-8, ftol=1e-9, gtol=1e-9, max_nfev=max_nfev)
+    res = least_squares(
+        obj.residuals,
+        theta0,
+        jac=obj.jacobian,
+        bounds=(lo, hi),
+        method="trf",
+        x_scale=1.0,
+        xtol=1e-8,
+        ftol=1e-9,
+        gtol=1e-9,
+        max_nfev=max_nfev,
+    )
     theta = res.x
     values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}
     all_values = {**fixed, **values}
@@ -378,8 +404,26 @@ def fit(meas, effects, ev, names, start: dict | None = None, fixed: dict | None 
     k = len(names)
     cov = _covariance(obj.jacobian(theta), chi2, n - k)
     std = {t.name: t.std(values[t.name], math.sqrt(cov[j, j])) for j, t in enumerate(transforms)}
-    at_bound = tuple(t.name for j, t in enumerate(transforms)
-                     if min(theta[j] - lo[j], hi[j] - theta[j]) < 1e-6 * max(1.0, abs(theta[j])))
-    return FitResult(tuple(effects), names, values, std, all_values, comp, chi2, n, k, aicc(chi2, n, k),
-                     bool(res.success), str(res.message), obj.nfev, at_bound, cov,
-                     "exact" if obj.exact else "central differences" + (f": {obj.fallback}" if obj.fallback else ""))
+    at_bound = tuple(
+        t.name
+        for j, t in enumerate(transforms)
+        if min(theta[j] - lo[j], hi[j] - theta[j]) < 1e-6 * max(1.0, abs(theta[j]))
+    )
+    return FitResult(
+        tuple(effects),
+        names,
+        values,
+        std,
+        all_values,
+        comp,
+        chi2,
+        n,
+        k,
+        aicc(chi2, n, k),
+        bool(res.success),
+        str(res.message),
+        obj.nfev,
+        at_bound,
+        cov,
+        "exact" if obj.exact else "central differences" + (f": {obj.fallback}" if obj.fallback else ""),
+    )

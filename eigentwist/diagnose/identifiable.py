@@ -23,6 +23,7 @@ fitted with its ``fit`` tuple alone.
 A switched effect (empty ``fit``: ``gravity_preload``) stays switched: its parameters
 are known constants. Parameters given as data columns are never fitted.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -32,11 +33,11 @@ from .predict import Predictor
 
 __all__ = ["extra_parameters", "trial_value", "sign_free", "TRIAL_FRACTION", "MIN_SIGMA"]
 
-TRIAL_FRACTION = 1 / 6     # trial offset: this fraction of the plausible half-width (0.3 m -> 0.05 m)
-REL_STEP = 0.1             # the change h of a parameter with a nonzero value: 10 % of it
-MIN_SIGMA = 3.0            # an identifiable parameter moves the predictions >= 3 sigma beyond the others
-MAX_CORRELATION = 0.99     # ... and its column's multiple correlation with the others' stays below this
-MIN_SINE = float(np.sqrt(1.0 - MAX_CORRELATION ** 2))
+TRIAL_FRACTION = 1 / 6  # trial offset: this fraction of the plausible half-width (0.3 m -> 0.05 m)
+REL_STEP = 0.1  # the change h of a parameter with a nonzero value: 10 % of it
+MIN_SIGMA = 3.0  # an identifiable parameter moves the predictions >= 3 sigma beyond the others
+MAX_CORRELATION = 0.99  # ... and its column's multiple correlation with the others' stays below this
+MIN_SINE = float(np.sqrt(1.0 - MAX_CORRELATION**2))
 
 
 def sign_free(parameter) -> bool:
@@ -75,7 +76,7 @@ def extra_parameters(meas, ev, effects, effect: str, fitted: dict, fixed: dict) 
     ``fitted``: the values of the parameters fitted so far (the effect's own included);
     ``fixed``: every other parameter value differing from the defaults.
     """
-    own = fit_names(ev, effect)                  # scoped like the effect: E_l1@2 for lower_link_compliance@2
+    own = fit_names(ev, effect)  # scoped like the effect: E_l1@2 for lower_link_compliance@2
     if not own:
         return ()
     extras = [p for p in parameter_names(ev, effect) if p not in own and p not in meas.params and p not in fitted]
@@ -94,4 +95,4 @@ def extra_parameters(meas, ev, effects, effect: str, fitted: dict, fixed: dict) 
         norm = float(np.linalg.norm(col))
         if norm >= MIN_SIGMA and norm >= MIN_SINE * float(np.linalg.norm(jac[:, j])):
             keep.append(j)
-    return tuple(extras[j - len(base)] for j in keep[len(base):])
+    return tuple(extras[j - len(base)] for j in keep[len(base) :])

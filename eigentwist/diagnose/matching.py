@@ -19,6 +19,7 @@ the group's frequencies weighted by that axis's energy shares (the frequency of 
 group's motion along the axis; exact when the pair is degenerate or aligned with the
 axes). Across the 1 % edge the matched frequency moves by at most half the gap.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -29,7 +30,7 @@ from ..runtime.labels import DEGENERATE_REL, degenerate_groups, energy_shares, g
 
 __all__ = ["ModeMatchError", "parse_mode", "match_modes", "match_frequencies", "DIRECTIONS", "DEGENERATE_REL"]
 
-DIRECTIONS = AXES   # ("rx", "ry", "rz", "x", "y", "z")
+DIRECTIONS = AXES  # ("rx", "ry", "rz", "x", "y", "z")
 
 
 class ModeMatchError(InputError):
@@ -46,8 +47,10 @@ def parse_mode(label) -> str:
         return text
     if text.isdigit() and int(text) >= 1:
         return str(int(text))
-    raise InputError(f"unknown mode label {label!r}{did_you_mean(text, DIRECTIONS)}: expected a rank 1, 2, ... (1 = lowest) "
-                     f"or a direction {', '.join(DIRECTIONS)}")
+    raise InputError(
+        f"unknown mode label {label!r}{did_you_mean(text, DIRECTIONS)}: expected a rank 1, 2, ... (1 = lowest) "
+        f"or a direction {', '.join(DIRECTIONS)}"
+    )
 
 
 def _where(i: int, lines) -> str:
@@ -88,20 +91,24 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
     n_rows, n_modes = modes.freq_hz.shape
     idx = np.zeros(n_rows, dtype=int)
     freq = np.full(n_rows, np.nan)
-    code = {}                      # label -> rank - 1 (>= 0), or -1 - local axis (< 0)
+    code = {}  # label -> rank - 1 (>= 0), or -1 - local axis (< 0)
     for label in sorted(set(labels)):  # errors in label order, as the labels sort
         first = labels.index(label)
         if label.isdigit():
             rank = int(label)
             if rank > n_modes:
-                raise ModeMatchError(f"{_where(first, lines)}mode rank {rank} does not exist: the {modes.kind} "
-                                     f"model has {n_modes} modes (ranks 1..{n_modes})")
+                raise ModeMatchError(
+                    f"{_where(first, lines)}mode rank {rank} does not exist: the {modes.kind} "
+                    f"model has {n_modes} modes (ranks 1..{n_modes})"
+                )
             code[label] = rank - 1
             continue
         if label not in modes.axes:
-            raise ModeMatchError(f"{_where(first, lines)}mode {label!r}: the {modes.kind} model has no mode along "
-                                 f"{label} (its modes are along {', '.join(modes.axes)}); use a flexible model "
-                                 "(a structural compliance effect, e.g. --model paper) or a rank")
+            raise ModeMatchError(
+                f"{_where(first, lines)}mode {label!r}: the {modes.kind} model has no mode along "
+                f"{label} (its modes are along {', '.join(modes.axes)}); use a flexible model "
+                "(a structural compliance effect, e.g. --model paper) or a rank"
+            )
         code[label] = -1 - modes.axes.index(label)
     codes = np.array([code[label] for label in labels], dtype=int)
     ranked = codes >= 0
@@ -123,7 +130,7 @@ def _by_order(direction: np.ndarray, share: np.ndarray) -> np.ndarray:
     the modes that are not the lowest along their own direction (at a pose where the model
     labels two modes "x, x", a measured "y" takes the second), else among all modes."""
     n = direction.shape[1]
-    earlier = np.tril(np.ones((n, n), dtype=bool), -1)                    # [j, i]: i < j
+    earlier = np.tril(np.ones((n, n), dtype=bool), -1)  # [j, i]: i < j
     repeat = np.any((direction[:, :, None] == direction[:, None, :]) & earlier[None], axis=2)
     share = np.nan_to_num(share, nan=-np.inf)
     pick = np.argmax(np.where(repeat, share, -np.inf), axis=1)
@@ -133,22 +140,24 @@ def _by_order(direction: np.ndarray, share: np.ndarray) -> np.ndarray:
 def _match_axes(modes, shares, groups, axis, rows, labels, strict, lines):
     """(index, frequency) of the lowest mode group along each row's local ``axis``."""
     r = np.arange(len(rows))
-    total = group_shares(shares, groups)                                  # (rows, axes, modes)
-    size = (groups[:, :, None] == groups[:, None, :]).sum(axis=1)         # (rows, modes) group sizes
-    rank = (total > total[r, axis][:, None, :]).sum(axis=1)               # axes with a larger group share
+    total = group_shares(shares, groups)  # (rows, axes, modes)
+    size = (groups[:, :, None] == groups[:, None, :]).sum(axis=1)  # (rows, modes) group sizes
+    rank = (total > total[r, axis][:, None, :]).sum(axis=1)  # axes with a larger group share
     along = rank < size
-    first = np.argmax(along, axis=1)                                      # lowest mode (group) along the axis
+    first = np.argmax(along, axis=1)  # lowest mode (group) along the axis
     missing = ~along.any(axis=1)
-    own_share = shares[r, axis]                                           # (rows, modes) the axis's shares
+    own_share = shares[r, axis]  # (rows, modes) the axis's shares
     if missing.any():
         if strict:
-            k = min(np.flatnonzero(missing), key=lambda i: (labels[rows[i]], i))   # as the labels sort
+            k = min(np.flatnonzero(missing), key=lambda i: (labels[rows[i]], i))  # as the labels sort
             direction = modes.direction[rows[k]]
-            raise ModeMatchError(f"{_where(rows[k], lines)}no mode of the {modes.kind} model points along "
-                                 f"{labels[rows[k]]} at this row (mode directions: "
-                                 f"{', '.join(DIRECTIONS[d] for d in direction)}); use a rank instead")
+            raise ModeMatchError(
+                f"{_where(rows[k], lines)}no mode of the {modes.kind} model points along "
+                f"{labels[rows[k]]} at this row (mode directions: "
+                f"{', '.join(DIRECTIONS[d] for d in direction)}); use a rank instead"
+            )
         first = np.where(missing, _by_order(modes.direction[rows], total[r, axis]), first)
-    member = groups == groups[r, first][:, None]                          # (rows, modes) the chosen group
+    member = groups == groups[r, first][:, None]  # (rows, modes) the chosen group
     own = np.where(member, np.clip(own_share, 0.0, None), 0.0)
     weight = np.where(own.sum(axis=1, keepdims=True) > 0, own, member.astype(float))
     freq = np.sum(weight * np.nan_to_num(modes.freq_hz[rows]), axis=1) / weight.sum(axis=1)

@@ -18,8 +18,9 @@ blank lines are skipped):
   a damping effect, :mod:`eigentwist.runtime.damped`);
 * optional modal columns (from ``eigentwist identify``, see :mod:`eigentwist.modal`):
   ``damping_ratio`` (-; compared with the model's damping ratio, with the uncertainty
-  ``sigma_damping_ratio`` (-), by default the larger of 20 % of the value and 0.005), ``phi_x``, ``phi_y``, ``phi_z`` (the measured mode shape: a real
-  unit translation of the sensor point, base-frame axes) and ``sensor_x``, ``sensor_y``,
+  ``sigma_damping_ratio`` (-), by default the larger of 20 % of the value and 0.005),
+  ``phi_x``, ``phi_y``, ``phi_z`` (the measured mode shape: a real unit translation of
+  the sensor point, base-frame axes) and ``sensor_x``, ``sensor_y``,
   ``sensor_z`` (the sensor's offset from the end-effector origin, m; default 0). A shape
   measured at other DOFs (uniaxial accelerometers, a roving hammer) is given
   per DOF: ``phi_N_x``, ``phi_N_y``, ``phi_N_z`` (the shape's component at node N along
@@ -44,6 +45,7 @@ the model (:func:`check_columns`).
 
 Every error names the file, the line (the header is line 1) and the column.
 """
+
 from __future__ import annotations
 
 import csv
@@ -63,8 +65,24 @@ from ..runtime import InputError, SingularPoseError, UnreachablePoseError
 from .evaluators import resolve
 from .matching import parse_mode
 
-__all__ = ["Measurements", "MeasurementError", "load_measurements", "paper_measurements", "paper_csv",
-           "REQUIRED", "OPTIONAL", "MODAL", "KINDS", "ROTATION_COLUMNS", "pose_columns", "joint_columns", "DEFAULT_SIGMA_REL", "check_poses", "check_columns", "parse_csv"]
+__all__ = [
+    "Measurements",
+    "MeasurementError",
+    "load_measurements",
+    "paper_measurements",
+    "paper_csv",
+    "REQUIRED",
+    "OPTIONAL",
+    "MODAL",
+    "KINDS",
+    "ROTATION_COLUMNS",
+    "pose_columns",
+    "joint_columns",
+    "DEFAULT_SIGMA_REL",
+    "check_poses",
+    "check_columns",
+    "parse_csv",
+]
 
 REQUIRED = ("k_a", "mode", "freq_hz")
 # measured modal data: NaN where blank; shapes are phi_x..z, sensor_* in m
@@ -92,8 +110,10 @@ def pose_columns(ev) -> tuple:
     """The CSV pose columns of ``ev``'s robot: ``x, y, z`` (m), a 6-DoF robot adds ``rot_x,
     rot_y, rot_z`` (rad)."""
     return tuple(getattr(ev, "pose_names", ("x", "y", "z")))
+
+
 SEPARATORS = {",": "','", ";": "';'", "\t": "a tab"}
-DEFAULT_SIGMA_REL = 0.02      # default standard uncertainty: 2 % of the measured value
+DEFAULT_SIGMA_REL = 0.02  # default standard uncertainty: 2 % of the measured value
 
 
 class MeasurementError(InputError):
@@ -215,8 +235,12 @@ class Measurements:
     @property
     def sensor(self) -> np.ndarray:
         """(N, 3) sensor offsets from the end-effector origin, m (0 where not given)."""
-        return np.column_stack([np.nan_to_num(self.modal.get(c, np.zeros(len(self))), nan=0.0)
-                                for c in ("sensor_x", "sensor_y", "sensor_z")])
+        return np.column_stack(
+            [
+                np.nan_to_num(self.modal.get(c, np.zeros(len(self))), nan=0.0)
+                for c in ("sensor_x", "sensor_y", "sensor_z")
+            ]
+        )
 
     def evaluation_params(self) -> dict:
         """Keyword arguments for the evaluator: ``k_a`` and the per-row overrides."""
@@ -225,15 +249,37 @@ class Measurements:
     def subset(self, rows) -> "Measurements":
         """The rows ``rows`` (index array or boolean mask) as new Measurements."""
         rows = np.arange(len(self))[rows]
-        return Measurements(self.k_a[rows], tuple(self.mode[i] for i in rows), self.freq_hz[rows],
-                            self.sigma_hz[rows], self.poses[rows], {k: v[rows] for k, v in self.params.items()},
-                            self.lines[rows], self.source, self.robot, {k: v[rows] for k, v in self.modal.items()},
-                            self.k_a_unit, None if self.joints is None else self.joints[rows],
-                            tuple(self.kind[i] for i in rows))
+        return Measurements(
+            self.k_a[rows],
+            tuple(self.mode[i] for i in rows),
+            self.freq_hz[rows],
+            self.sigma_hz[rows],
+            self.poses[rows],
+            {k: v[rows] for k, v in self.params.items()},
+            self.lines[rows],
+            self.source,
+            self.robot,
+            {k: v[rows] for k, v in self.modal.items()},
+            self.k_a_unit,
+            None if self.joints is None else self.joints[rows],
+            tuple(self.kind[i] for i in rows),
+        )
 
     @classmethod
-    def from_arrays(cls, k_a, mode, freq_hz, poses=None, sigma_hz=None, params=None, robot: str = "heli4",
-                    source: str = "<data>", ev=None, modal=None, kind=None) -> "Measurements":
+    def from_arrays(
+        cls,
+        k_a,
+        mode,
+        freq_hz,
+        poses=None,
+        sigma_hz=None,
+        params=None,
+        robot: str = "heli4",
+        source: str = "<data>",
+        ev=None,
+        modal=None,
+        kind=None,
+    ) -> "Measurements":
         """Build validated measurements from arrays (defaults as in the CSV format);
         ``kind``: ``"undamped"``/``"damped"`` for every row or one per row.
 
@@ -245,8 +291,11 @@ class Measurements:
         n = len(freq)
         rows = []
         for i in range(n):
-            row = {"k_a": np.broadcast_to(k_a, (n,))[i], "mode": np.broadcast_to(np.asarray(mode, dtype=object), (n,))[i],
-                   "freq_hz": freq[i]}
+            row = {
+                "k_a": np.broadcast_to(k_a, (n,))[i],
+                "mode": np.broadcast_to(np.asarray(mode, dtype=object), (n,))[i],
+                "freq_hz": freq[i],
+            }
             if poses is not None:
                 names = pose_columns(ev)
                 row.update(zip(names, np.broadcast_to(np.asarray(poses, dtype=float), (n, len(names)))[i]))
@@ -262,25 +311,31 @@ class Measurements:
         w = csv.DictWriter(text, header, lineterminator="\n")
         w.writeheader()
         for row in rows:
-            w.writerow({k: v if k in ("mode", "kind") else repr(float(v)) if np.isfinite(v) else ""
-                        for k, v in row.items()})
+            w.writerow(
+                {k: v if k in ("mode", "kind") else repr(float(v)) if np.isfinite(v) else "" for k, v in row.items()}
+            )
         return parse_csv(text.getvalue(), source, ev)
 
     def to_csv(self, path=None) -> str:
         """CSV text of these measurements (written to ``path`` when given)."""
         names = ("x", "y", "z") + (ROTATION_COLUMNS if self.poses.shape[1] == 6 else ())
         kinds = any(k != "undamped" for k in self.kind)
-        cols = ["k_a", "mode", "freq_hz", "sigma_hz", *(("kind",) if kinds else ()), *names, *self.modal,
-                *self.params]
+        cols = ["k_a", "mode", "freq_hz", "sigma_hz", *(("kind",) if kinds else ()), *names, *self.modal, *self.params]
         out = io.StringIO()
         w = csv.writer(out, lineterminator="\n")
         w.writerow(cols)
         for i in range(len(self)):
-            vals = [self.k_a[i], self.mode[i], self.freq_hz[i], self.sigma_hz[i],
-                    *((self.kind[i],) if kinds else ()), *self.poses[i],
-                    *(self.modal[k][i] for k in self.modal), *(self.params[k][i] for k in self.params)]
-            w.writerow([v if isinstance(v, str) else format(float(v), ".10g") if np.isfinite(v) else ""
-                        for v in vals])
+            vals = [
+                self.k_a[i],
+                self.mode[i],
+                self.freq_hz[i],
+                self.sigma_hz[i],
+                *((self.kind[i],) if kinds else ()),
+                *self.poses[i],
+                *(self.modal[k][i] for k in self.modal),
+                *(self.params[k][i] for k in self.params),
+            ]
+            w.writerow([v if isinstance(v, str) else format(float(v), ".10g") if np.isfinite(v) else "" for v in vals])
         text = out.getvalue()
         if path is not None:
             write_atomic(path, text)
@@ -316,26 +371,46 @@ def _header(cells: list[str], source: str, ev) -> list[str]:
         if not name:
             raise MeasurementError(source, f"column {k + 1} has an empty name", 1)
         if names.index(name) != k:
-            raise MeasurementError(source, f"column {name!r} appears twice (columns {names.index(name) + 1} and {k + 1})", 1, name)
-        if name not in known and not ev.accepts(name) and not DOF_COLUMN.match(name):   # eta_a@3: leg 3's own
+            raise MeasurementError(
+                source, f"column {name!r} appears twice (columns {names.index(name) + 1} and {k + 1})", 1, name
+            )
+        if name not in known and not ev.accepts(name) and not DOF_COLUMN.match(name):  # eta_a@3: leg 3's own
             hint = did_you_mean(name, list(known) + list(ev.parameters))
             raise MeasurementError(
-                source, f"unknown column (column {k + 1}){hint}: not one of {', '.join(known)} and not a "
-                f"parameter of {ev.robot.name} (NAME or NAME@LEG; parameters: {', '.join(ev.parameters)})", 1, name)
+                source,
+                f"unknown column (column {k + 1}){hint}: not one of {', '.join(known)} and not a "
+                f"parameter of {ev.robot.name} (NAME or NAME@LEG; parameters: {', '.join(ev.parameters)})",
+                1,
+                name,
+            )
     for name in REQUIRED:
         if name not in names:
-            raise MeasurementError(source, f"missing required column {name!r} (header: {', '.join(names)}); "
-                                   f"required: {', '.join(REQUIRED)}", 1, name)
+            raise MeasurementError(
+                source,
+                f"missing required column {name!r} (header: {', '.join(names)}); required: {', '.join(REQUIRED)}",
+                1,
+                name,
+            )
     for name in names:
         m = DOF_COLUMN.match(name)
         if m and m.group(1) == "phi_" and not all(f"node{m.group(2)}_{a}" in names for a in "xyz"):
-            raise MeasurementError(source, f"shape column {name} needs node {m.group(2)}'s position: columns "
-                                   f"node{m.group(2)}_x, node{m.group(2)}_y, node{m.group(2)}_z (m)", 1, name)
+            raise MeasurementError(
+                source,
+                f"shape column {name} needs node {m.group(2)}'s position: columns "
+                f"node{m.group(2)}_x, node{m.group(2)}_y, node{m.group(2)}_z (m)",
+                1,
+                name,
+            )
     joints = joint_columns(ev)
     missing = [c for c in joints if c not in names]
     if len(missing) < len(joints) and missing:
-        raise MeasurementError(source, f"joint-coordinate column {missing[0]!r} is missing: give every coordinate "
-                               f"of every leg ({', '.join(joints)}) or none", 1, missing[0])
+        raise MeasurementError(
+            source,
+            f"joint-coordinate column {missing[0]!r} is missing: give every coordinate "
+            f"of every leg ({', '.join(joints)}) or none",
+            1,
+            missing[0],
+        )
     return names
 
 
@@ -343,13 +418,21 @@ def _separator(text: str, source: str) -> str:
     """The separator that splits the header line into the most columns (``,`` on a tie)."""
     header = next((ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
     best = max(SEPARATORS, key=lambda sep: (header.count(sep), sep == ","))
-    if header.strip() == "-1":          # the delimiter line of a universal file (UFF/UNV)
-        raise MeasurementError(source, "a UFF file (universal file format), not a measurement CSV: identify its "
-                               "modes first, `eigentwist identify MANIFEST.csv -o modes.csv` on the campaign's "
-                               "manifest, and compare modes.csv", 1)
+    if header.strip() == "-1":  # the delimiter line of a universal file (UFF/UNV)
+        raise MeasurementError(
+            source,
+            "a UFF file (universal file format), not a measurement CSV: identify its "
+            "modes first, `eigentwist identify MANIFEST.csv -o modes.csv` on the campaign's "
+            "manifest, and compare modes.csv",
+            1,
+        )
     if header.count(best) == 0 and header.strip():
-        raise MeasurementError(source, f"header {header.strip()[:60]!r} has a single column: expected the columns "
-                               f"{', '.join(REQUIRED)}, ... separated by ',', ';' or a tab", 1)
+        raise MeasurementError(
+            source,
+            f"header {header.strip()[:60]!r} has a single column: expected the columns "
+            f"{', '.join(REQUIRED)}, ... separated by ',', ';' or a tab",
+            1,
+        )
     return best
 
 
@@ -385,16 +468,18 @@ def _records(text: str, source: str, sep: str = ","):
             first = False
             yield reader.line_num, cells
     except csv.Error as exc:
-        raise MeasurementError(source, f"not readable as CSV ({exc}): expected text with one row per line",
-                               reader.line_num or None) from None
+        raise MeasurementError(
+            source, f"not readable as CSV ({exc}): expected text with one row per line", reader.line_num or None
+        ) from None
 
 
 #: rows parsed per block: the strings of one block are held at a time (a large file streams)
 BLOCK_ROWS = 65536
 
 
-def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", values: dict | None = None,
-              progress=None) -> Measurements:
+def parse_csv(
+    text: str, source: str = "<data>", ev=None, robot: str = "heli4", values: dict | None = None, progress=None
+) -> Measurements:
     """Parse and validate CSV ``text`` (see the module docstring); ``source`` names it in errors.
 
     ``values`` (SI) replace the robot's defaults for blank parameter cells and for the
@@ -412,15 +497,23 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
     records = _records(text, source, _separator(text, source))
     first = next(records, None)
     if first is None:
-        raise MeasurementError(source, "empty file: expected a header line with the columns "
-                               f"{', '.join(REQUIRED)} and one row per measured frequency")
+        raise MeasurementError(
+            source,
+            "empty file: expected a header line with the columns "
+            f"{', '.join(REQUIRED)} and one row per measured frequency",
+        )
     header_line, header_cells = first
     names = _header(header_cells, source, ev)
     x_ref = np.asarray(ev.robot.x_ref, dtype=float)
     blocks, bar = [], None
     if progress is not None:
-        bar = progress(total=max(text.count("\n") - header_line, 0), unit="row", unit_scale=True,
-                       desc=f"reading {Path(source).name}", leave=False)
+        bar = progress(
+            total=max(text.count("\n") - header_line, 0),
+            unit="row",
+            unit_scale=True,
+            desc=f"reading {Path(source).name}",
+            leave=False,
+        )
     try:
         while True:
             block = list(itertools.islice(records, BLOCK_ROWS))
@@ -433,11 +526,18 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
         if bar is not None:
             bar.close()
     if not blocks:
-        raise MeasurementError(source, "no data rows after the header: expected one row per measured frequency",
-                               header_line)
+        raise MeasurementError(
+            source, "no data rows after the header: expected one row per measured frequency", header_line
+        )
     lines = np.concatenate([b[0] for b in blocks])
-    cols = {name: (np.concatenate([b[1][name] for b in blocks]) if isinstance(blocks[0][1][name], np.ndarray)
-                   else [v for b in blocks for v in b[1][name]]) for name in names}
+    cols = {
+        name: (
+            np.concatenate([b[1][name] for b in blocks])
+            if isinstance(blocks[0][1][name], np.ndarray)
+            else [v for b in blocks for v in b[1][name]]
+        )
+        for name in names
+    }
     n = len(lines)
     blank = lambda name: np.isnan(cols[name]) if name in cols else np.ones(n, dtype=bool)  # noqa: E731
     freq = cols["freq_hz"]
@@ -454,13 +554,31 @@ def parse_csv(text: str, source: str = "<data>", ev=None, robot: str = "heli4", 
     if joint_columns(ev)[0] in names:
         for name in joint_columns(ev):
             if blank(name).any():
-                raise MeasurementError(source, "empty cell: a joint coordinate is required on every row when the "
-                                       "file has joint-coordinate columns", int(lines[np.argmax(blank(name))]), name)
+                raise MeasurementError(
+                    source,
+                    "empty cell: a joint coordinate is required on every row when the "
+                    "file has joint-coordinate columns",
+                    int(lines[np.argmax(blank(name))]),
+                    name,
+                )
         nq = len(joint_columns(ev)) // len(ev.robot.legs)
         joints = np.array([cols[c] for c in joint_columns(ev)], dtype=float).T.reshape(n, len(ev.robot.legs), nq)
     kind = tuple(k or "undamped" for k in cols.get("kind", [None] * n))
-    meas = Measurements(np.asarray(cols["k_a"], dtype=float), tuple(cols["mode"]), freq, sigma, poses, params,
-                        lines, source, ev.spec, modal, ev.parameter("k_a").unit, joints, kind)
+    meas = Measurements(
+        np.asarray(cols["k_a"], dtype=float),
+        tuple(cols["mode"]),
+        freq,
+        sigma,
+        poses,
+        params,
+        lines,
+        source,
+        ev.spec,
+        modal,
+        ev.parameter("k_a").unit,
+        joints,
+        kind,
+    )
     _check_duplicates(meas)
     check_poses(meas, ev, values)
     return meas
@@ -475,8 +593,13 @@ def _numeric(name: str, ev):
     number, None for text (``mode``, or any column it reads otherwise)."""
     if name == "mode":
         return None
-    if (name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:] or DOF_COLUMN.match(name)
-            or name in joint_columns(ev)):
+    if (
+        name in ("x", "y", "z")
+        or name in ROTATION_COLUMNS
+        or name in MODAL[1:]
+        or DOF_COLUMN.match(name)
+        or name in joint_columns(ev)
+    ):
         return False, None
     if name in ("damping_ratio", "k_a", "freq_hz", "sigma_hz"):
         return True, None
@@ -519,7 +642,7 @@ def _parse_block(block: list, names: list, source: str, ev, x_ref) -> tuple:
             if param is not None:
                 param.check(given)
             out[name] = values
-    except (_RowByRow, ValueError):        # MeasurementError and InputError are ValueErrors
+    except (_RowByRow, ValueError):  # MeasurementError and InputError are ValueErrors
         return _parse_rows(block, names, source, ev, x_ref)
     return lines, out
 
@@ -535,8 +658,14 @@ def _parse_rows(block: list, names: list, source: str, ev, x_ref) -> tuple:
         lines.append(line)
         for name, cell in zip(names, (c.strip() for c in cells)):
             cols[name].append(_cell(name, cell, source, line, ev, x_ref))
-    out = {name: (column if _numeric(name, ev) is None else
-                  np.array([np.nan if v is None else v for v in column], dtype=float)) for name, column in cols.items()}
+    out = {
+        name: (
+            column
+            if _numeric(name, ev) is None
+            else np.array([np.nan if v is None else v for v in column], dtype=float)
+        )
+        for name, column in cols.items()
+    }
     return np.array(lines, dtype=np.int64), out
 
 
@@ -548,22 +677,25 @@ def _check_duplicates(meas: Measurements) -> None:
         return
     labels, codes = np.unique(np.asarray(meas.mode, dtype=str), return_inverse=True)
     keys = [*meas.poses.T, meas.k_a, codes.astype(float), *meas.params.values()]
-    order = np.lexsort(keys[::-1])                           # stable: equal keys keep file order
+    order = np.lexsort(keys[::-1])  # stable: equal keys keep file order
     same = np.ones(n - 1, dtype=bool)
-    for key in keys:                                         # one column at a time: bounded memory
+    for key in keys:  # one column at a time: bounded memory
         column = key[order]
-        same &= column[1:] == column[:-1]                    # -0.0 == 0.0, as the rows' values compare
+        same &= column[1:] == column[:-1]  # -0.0 == 0.0, as the rows' values compare
     if not same.any():
         return
-    group = np.concatenate([[0], np.cumsum(~same)])           # group number of each sorted row
+    group = np.concatenate([[0], np.cumsum(~same)])  # group number of each sorted row
     first = order[np.flatnonzero(np.concatenate([[True], ~same]))]
-    later = np.flatnonzero(np.concatenate([[False], same]))   # sorted positions of repeated rows
+    later = np.flatnonzero(np.concatenate([[False], same]))  # sorted positions of repeated rows
     i = int(order[later].min())
     j = int(first[group[np.flatnonzero(order == i)[0]]])
     raise MeasurementError(
-        meas.source, f"duplicate of line {int(meas.lines[j])} (same pose {meas.poses[i].tolist()}, k_a = "
+        meas.source,
+        f"duplicate of line {int(meas.lines[j])} (same pose {meas.poses[i].tolist()}, k_a = "
         f"{meas.k_a[i]:g} {meas.k_a_unit}, mode {meas.mode[i]}): give one row per condition (average repeated "
-        "measurements and state their sigma_hz)", int(meas.lines[i]))
+        "measurements and state their sigma_hz)",
+        int(meas.lines[i]),
+    )
 
 
 def check_columns(meas: Measurements, effects, ev, what: str = "the model") -> None:
@@ -572,8 +704,12 @@ def check_columns(meas: Measurements, effects, ev, what: str = "the model") -> N
         p = _parameter(name, ev)
         if p is not None and p.effect is not None and p.effect not in effects:
             raise MeasurementError(
-                meas.source, f"parameter column of effect {p.effect}, which {what} ({', '.join(effects) or 'no effect'}) "
-                f"does not have: add {p.effect} to the model or drop the column", 1, name)
+                meas.source,
+                f"parameter column of effect {p.effect}, which {what} ({', '.join(effects) or 'no effect'}) "
+                f"does not have: add {p.effect} to the model or drop the column",
+                1,
+                name,
+            )
 
 
 def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
@@ -586,14 +722,21 @@ def _cell(name: str, cell: str, source: str, line: int, ev, x_ref):
             raise MeasurementError(source, str(exc), line, name) from None
     if name == "kind":
         if cell and cell.lower() not in KINDS:
-            raise MeasurementError(source, f"kind {cell!r}: expected {' or '.join(KINDS)} (blank: undamped)", line,
-                                   name)
+            raise MeasurementError(
+                source, f"kind {cell!r}: expected {' or '.join(KINDS)} (blank: undamped)", line, name
+            )
         return cell.lower() or None
     if not cell:
         if name in REQUIRED:
             raise MeasurementError(source, "empty cell: a value is required", line, name)
         return None
-    if name in ("x", "y", "z") or name in ROTATION_COLUMNS or name in MODAL[1:-1] or DOF_COLUMN.match(name) or name in joint_columns(ev):
+    if (
+        name in ("x", "y", "z")
+        or name in ROTATION_COLUMNS
+        or name in MODAL[1:-1]
+        or DOF_COLUMN.match(name)
+        or name in joint_columns(ev)
+    ):
         return _number(cell, source, line, name, positive=False)
     if name in ("damping_ratio", "sigma_damping_ratio"):
         return _number(cell, source, line, name, positive=True)
@@ -615,7 +758,7 @@ def check_poses(meas: Measurements, ev, values: dict | None = None) -> None:
     """
     given = {k: v for k, v in (values or {}).items() if k not in meas.params}
     bad = []
-    for start in range(0, len(meas), BLOCK_ROWS):              # bounded memory: one block's Jacobians
+    for start in range(0, len(meas), BLOCK_ROWS):  # bounded memory: one block's Jacobians
         rows = slice(start, start + BLOCK_ROWS)
         try:
             ev.jacobians(meas.poses[rows], **given, **{k: v[rows] for k, v in meas.params.items()})
@@ -629,8 +772,9 @@ def check_poses(meas: Measurements, ev, values: dict | None = None) -> None:
             from ..runtime.reach import reach_hint
 
             hint = reach_hint(ev, meas.poses[i], "paper", **given, **{k: v[i] for k, v in meas.params.items()})
-            raise MeasurementError(meas.source, str(exc) + (f"; {hint}" if hint else ""), int(meas.lines[i]),
-                                   "x, y, z") from None
+            raise MeasurementError(
+                meas.source, str(exc) + (f"; {hint}" if hint else ""), int(meas.lines[i]), "x, y, z"
+            ) from None
 
 
 def _decode(data: bytes, name: str) -> str:
@@ -640,12 +784,12 @@ def _decode(data: bytes, name: str) -> str:
             return data.decode("utf-16")
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise MeasurementError(name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start}): save it as "
-                               "UTF-8 CSV") from None
+        raise MeasurementError(
+            name, f"not a UTF-8 text file ({exc.reason} at byte {exc.start}): save it as UTF-8 CSV"
+        ) from None
 
 
-def load_measurements(path, robot: str = "heli4", ev=None, values: dict | None = None,
-                      progress=None) -> Measurements:
+def load_measurements(path, robot: str = "heli4", ev=None, values: dict | None = None, progress=None) -> Measurements:
     """Read and validate a measurement CSV file (see the module docstring).
 
     ``values``, ``progress``: see :func:`parse_csv`. Raises :class:`MeasurementError` (an

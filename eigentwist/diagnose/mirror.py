@@ -11,6 +11,7 @@ different legs are mirror images when their fitted predictions agree on every me
 to within :data:`MIRROR_SIGMA` of that row's sigma (round-off and the optimiser's tolerance;
 a real difference between two legs shows in at least one row far beyond it).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -61,8 +62,11 @@ def group_label(effects) -> str:
     if len(effects) == 1:
         return effects[0]
     legs = [f"@{split_scope(e)[1]}" for e in effects[1:]]
-    return effects[0] + " or " + " or ".join(legs) if len(legs) == 1 else \
-        effects[0] + ", " + ", ".join(legs[:-1]) + " or " + legs[-1]
+    return (
+        effects[0] + " or " + " or ".join(legs)
+        if len(legs) == 1
+        else effects[0] + ", " + ", ".join(legs[:-1]) + " or " + legs[-1]
+    )
 
 
 def collapse(names, groups) -> list[str]:

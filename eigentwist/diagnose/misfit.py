@@ -25,6 +25,7 @@ Decided in this order:
    and the adjacent k_a) deviates the same way by more than ``FAIL_SIGMA``. A pattern
    (the paper's two k_a = 125 N m/rad rows, both modes high) is not an outlier.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,7 +40,7 @@ from .patterns import systematic
 __all__ = ["Uncertainty", "Outlier", "untestable", "judge_uncertainty", "find_outliers", "VERDICTS"]
 
 VERDICTS = ("consistent", "understated", "overstated", "too few rows", "cannot be judged")
-CLUSTER_SIGMA = 2.5     # neighbours both beyond this (studentized, same sign) are a pattern (~0.4 % by chance for 30 rows)
+CLUSTER_SIGMA = 2.5  # neighbours both beyond this (studentized, same sign) are a pattern (~0.4 % by chance for 30 rows)
 
 
 @dataclass
@@ -50,8 +51,8 @@ class Uncertainty:
     birge_ratio: float
     chi2: float
     dof: int
-    p_low: float = math.nan           # P(chi2_nu <= chi2)
-    p_high: float = math.nan          # P(chi2_nu >= chi2)
+    p_low: float = math.nan  # P(chi2_nu <= chi2)
+    p_high: float = math.nan  # P(chi2_nu >= chi2)
     possibly_understated: bool = False
     pattern: list = field(default_factory=list)
     effect_significant: bool = False
@@ -85,8 +86,9 @@ def judge_uncertainty(final, untestable_effects: dict, effect_significant: bool,
     if p_low < alpha:
         out.verdict = "overstated"
     elif p_high < alpha:
-        out.pattern = [f"mode {p} over k_a" if p != "pose" else "over poses"
-                       for p in systematic(final.comparison, max(birge, 1.0))] + clusters(final.comparison, final.k)
+        out.pattern = [
+            f"mode {p} over k_a" if p != "pose" else "over poses" for p in systematic(final.comparison, max(birge, 1.0))
+        ] + clusters(final.comparison, final.k)
         if out.pattern or effect_significant:
             out.verdict, out.possibly_understated = "cannot be judged", True
         else:
@@ -145,7 +147,8 @@ def find_outliers(comparison, k: int, alpha: float) -> list[Outlier]:
     for i in np.flatnonzero(np.abs(z) > threshold):
         near = _neighbours(meas, i)
         if np.any((np.sign(z[near]) == np.sign(z[i])) & (np.abs(z[near]) > FAIL_SIGMA)):
-            continue                                       # part of a pattern, not an isolated row
-        out.append(Outlier(int(meas.lines[i]), float(meas.k_a[i]), str(meas.mode[i]), float(meas.freq_hz[i]),
-                           float(z[i])))
+            continue  # part of a pattern, not an isolated row
+        out.append(
+            Outlier(int(meas.lines[i]), float(meas.k_a[i]), str(meas.mode[i]), float(meas.freq_hz[i]), float(z[i]))
+        )
     return sorted(out, key=lambda o: (-abs(o.residual_sigma), o.line))

@@ -14,6 +14,7 @@ one-parameter shapes over the commanded actuator stiffness k_a (N m/rad):
 Weights are (f_meas/sigma)^2 (rho's variance is (sigma/f)^2). A shape counts only if it
 improves significantly on "no error" (F test, p < ``ALPHA``); the best one wins.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -22,13 +23,13 @@ from .stats import ALPHA, f_test
 
 __all__ = ["classify", "hints", "systematic", "log_ratio", "pose_spread", "SHAPES", "POSE_SPREAD"]
 
-POSE_SPREAD = 3.0     # per-pose mean errors this many standard errors apart: the error depends on the pose
+POSE_SPREAD = 3.0  # per-pose mean errors this many standard errors apart: the error depends on the pose
 
 SHAPES = {
     "constant": "a constant ratio across k_a: a missing or wrong inertia (mass, rotor inertia) or a stiffness factor",
     "series": "an error that grows with k_a and saturates: a compliance in series with the actuators is missing",
     "parallel": "an error largest at low k_a that fades as 1/k_a: a stiffness in parallel with the actuators "
-                "is missing (a preload, a spring)",
+    "is missing (a preload, a spring)",
 }
 
 
@@ -53,8 +54,12 @@ def classify(k_a, rho, weight) -> dict:
     chi2["series"], i_s = _fit_shape(rho, w, -0.5 * np.log1p(k_a[None, :] / k_s[:, None]))
     chi2["parallel"], i_p = _fit_shape(rho, w, 0.5 * np.log1p(k_s[:, None] / k_a[None, :]))
     best = min(("constant", "series", "parallel"), key=lambda s: chi2[s])
-    out = {"shape": None, "chi2": chi2, "ratio": float(np.exp(c)),
-           "k_s": float(k_s[i_s] if best == "series" else k_s[i_p] if best == "parallel" else np.nan)}
+    out = {
+        "shape": None,
+        "chi2": chi2,
+        "ratio": float(np.exp(c)),
+        "k_s": float(k_s[i_s] if best == "series" else k_s[i_p] if best == "parallel" else np.nan),
+    }
     if n >= 3 and len(np.unique(k_a)) >= 2 and f_test(chi2["none"], 0, chi2[best], 1, n) < ALPHA:
         out["shape"] = best
     return out
@@ -103,8 +108,10 @@ def hints(comparison, signatures: dict | None = None, scale: float = 1.0) -> lis
         out.append(text)
     spread, worst = pose_spread(meas, rho, w)
     if spread / scale > POSE_SPREAD:
-        out.append(f"the mean error differs between poses ({spread / scale:.0f} sigma; largest at "
-                   f"{np.round(worst, 4).tolist()} m): the missing effect depends on the pose")
+        out.append(
+            f"the mean error differs between poses ({spread / scale:.0f} sigma; largest at "
+            f"{np.round(worst, 4).tolist()} m): the missing effect depends on the pose"
+        )
     return out
 
 
@@ -113,7 +120,7 @@ def log_ratio(comparison):
     meas = comparison.meas
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.log(meas.freq_hz / comparison.predicted)
-    w = np.where(np.isfinite(rho), (meas.freq_hz / meas.sigma_hz) ** 2, 0.0)   # a zero prediction carries no shape
+    w = np.where(np.isfinite(rho), (meas.freq_hz / meas.sigma_hz) ** 2, 0.0)  # a zero prediction carries no shape
     return np.where(np.isfinite(rho), rho, 0.0), w
 
 
@@ -139,8 +146,11 @@ def systematic(comparison, scale: float = 1.0) -> list[str]:
     meas = comparison.meas
     labels = np.asarray(meas.mode)
     rho, w = log_ratio(comparison)
-    out = [lb for lb in dict.fromkeys(meas.mode)
-           if classify(meas.k_a[labels == lb], rho[labels == lb], w[labels == lb])["shape"] is not None]
+    out = [
+        lb
+        for lb in dict.fromkeys(meas.mode)
+        if classify(meas.k_a[labels == lb], rho[labels == lb], w[labels == lb])["shape"] is not None
+    ]
     if pose_spread(meas, rho, w)[0] / scale > POSE_SPREAD:
         out.append("pose")
     return out

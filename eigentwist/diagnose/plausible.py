@@ -4,13 +4,14 @@ A fitted value is plausible inside its parameter's plausible range (low, high), 
 :data:`PLAUSIBLE_SIGMA` standard errors of it (relative errors for a positive range, where the
 fit is on the log), and never at a search bound.
 """
+
 from __future__ import annotations
 
 import math
 
 __all__ = ["PLAUSIBLE_SIGMA", "is_plausible", "outside_plausible"]
 
-PLAUSIBLE_SIGMA = 3.0   # a fit this many standard errors outside the plausible range is implausible
+PLAUSIBLE_SIGMA = 3.0  # a fit this many standard errors outside the plausible range is implausible
 
 
 def is_plausible(value: float, std: float, bounds, at_bound: bool = False) -> bool:

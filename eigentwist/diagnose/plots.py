@@ -6,6 +6,7 @@ mode, measured points with 1-sigma error bars, and the k_a ranges where the mode
 (dashed) and final (solid) model over the measurements, and the RMS / max error of each
 step of the selection.
 """
+
 from __future__ import annotations
 
 import textwrap
@@ -20,8 +21,6 @@ __all__ = ["plot_comparison", "plot_diagnosis", "model_curves"]
 
 MAX_POSES = 4
 N_CURVE = 120
-
-
 
 
 def _pose_groups(meas):
@@ -103,8 +102,10 @@ def plot_comparison(cmp, path, ev, title: str | None = None):
     colors = _colors(cmp.meas)
     for ax, (pose, rows) in zip(axes[0], groups):
         _panel(ax, ev, cmp, rows, pose, k_grid, ("-", "model"), colors)
-    title = title or (f"model: {', '.join(cmp.effects) or '(no effect)'} - RMS {cmp.rms_pct:.1f} %, "
-                      f"max {cmp.max_pct:.1f} %; shaded: |error| > 2 sigma; circled: failing rows")
+    title = title or (
+        f"model: {', '.join(cmp.effects) or '(no effect)'} - RMS {cmp.rms_pct:.1f} %, "
+        f"max {cmp.max_pct:.1f} %; shaded: |error| > 2 sigma; circled: failing rows"
+    )
     fig.suptitle(textwrap.fill(title, int(fig.get_figwidth() * 12)), fontsize=10)
     fig.tight_layout()
     with atomic_path(path) as tmp:
@@ -129,7 +130,7 @@ def plot_diagnosis(diag, path, ev):
     mx = [s.fit.max_pct for s in diag.steps]
     ax.bar(x - 0.2, rms, 0.4, label="RMS error")
     ax.bar(x + 0.2, mx, 0.4, label="max error")
-    noise = 100 * float(np.sqrt(np.mean(diag.meas.relative_sigma ** 2)))
+    noise = 100 * float(np.sqrt(np.mean(diag.meas.relative_sigma**2)))
     ax.axhline(noise, color="k", ls=":", lw=1, label=f"RMS sigma ({noise:.2g} %)")
     ax.set_xticks(x, [s.change for s in diag.steps], rotation=20, fontsize=8)
     ax.set_ylabel("error [%]")
@@ -137,9 +138,14 @@ def plot_diagnosis(diag, path, ev):
     ax.legend(fontsize=7)
     ax.grid(True, axis="y", alpha=0.3)
     verdict = "explained" if diag.explained else "NOT explained (an effect outside the catalogue?)"
-    fig.suptitle(textwrap.fill(f"{diag.robot}: baseline {', '.join(diag.baseline.effects) or '(none)'} -> "
-                               f"{', '.join(diag.final.effects) or '(none)'}: {verdict}",
-                               int(fig.get_figwidth() * 12)), fontsize=10)
+    fig.suptitle(
+        textwrap.fill(
+            f"{diag.robot}: baseline {', '.join(diag.baseline.effects) or '(none)'} -> "
+            f"{', '.join(diag.final.effects) or '(none)'}: {verdict}",
+            int(fig.get_figwidth() * 12),
+        ),
+        fontsize=10,
+    )
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=120)

@@ -5,6 +5,7 @@ arrays, so B parameter sets for N measurements are B*N rows of a single batch (t
 finite-difference Jacobian of a fit costs one call). Effects are switched by the
 evaluator's 0/1 switches; nothing is re-derived.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,8 +22,20 @@ __all__ = ["evaluate", "Predictor", "EVAL_BLOCK"]
 EVAL_BLOCK = 65536
 
 
-def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, lines=None, shapes=None,
-             sensor=None, return_modes: bool = False, joints=None, damped=None):
+def evaluate(
+    ev,
+    effects,
+    poses,
+    labels,
+    params: dict,
+    strict: bool = True,
+    lines=None,
+    shapes=None,
+    sensor=None,
+    return_modes: bool = False,
+    joints=None,
+    damped=None,
+):
     """Frequency (Hz) of the mode each row's label names.
 
     Parameters
@@ -55,21 +68,36 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
         for start in range(0, n, EVAL_BLOCK):
             rows = slice(start, start + EVAL_BLOCK)
             part = {k: (v[rows] if np.ndim(v) >= 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
-            freq[rows], idx[rows] = evaluate(ev, effects, poses[rows], labels[rows], part, strict,
-                                             None if lines is None else lines[rows],
-                                             joints=None if joints is None else joints[rows])
+            freq[rows], idx[rows] = evaluate(
+                ev,
+                effects,
+                poses[rows],
+                labels[rows],
+                part,
+                strict,
+                None if lines is None else lines[rows],
+                joints=None if joints is None else joints[rows],
+            )
         return freq, idx
     try:
-        with np.errstate(all="ignore"):          # overflow is detected below and named
-            modes = (ev.modes(poses, tuple(effects), **params) if joints is None
-                     else ev.modes(poses, tuple(effects), joints=joints, **params))
+        with np.errstate(all="ignore"):  # overflow is detected below and named
+            modes = (
+                ev.modes(poses, tuple(effects), **params)
+                if joints is None
+                else ev.modes(poses, tuple(effects), joints=joints, **params)
+            )
     except np.linalg.LinAlgError as exc:
         raise InputError(_numerical_failure(ev, effects, poses, params, lines, exc)) from None
     freq, idx = match_frequencies(modes, labels, strict=strict, lines=lines)
     if shapes is not None:
         n = len(idx)
-        keys = np.column_stack([poses, np.reshape(sensor, (n, -1)) if sensor is not None else np.zeros((n, 3)),
-                                *(np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in params.values())])
+        keys = np.column_stack(
+            [
+                poses,
+                np.reshape(sensor, (n, -1)) if sensor is not None else np.zeros((n, 3)),
+                *(np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in params.values()),
+            ]
+        )
         by_label = idx
         idx = match_by_shape(modes, shapes, keys, idx, sensor)
         shaped = has_shape(shapes) | (idx != by_label)
@@ -79,8 +107,11 @@ def evaluate(ev, effects, poses, labels, params: dict, strict: bool = True, line
         kind = np.zeros(len(idx), dtype=bool) if damped is None else np.asarray(damped, dtype=bool)
         freq = np.where(kind, modes.damped_hz[rows, idx], modes.natural_hz[rows, idx])
     if strict and not np.all(np.isfinite(freq)):
-        raise InputError(_numerical_failure(ev, effects, poses, params, lines, "non-finite frequency",
-                                            int(np.argmin(np.isfinite(freq)))))
+        raise InputError(
+            _numerical_failure(
+                ev, effects, poses, params, lines, "non-finite frequency", int(np.argmin(np.isfinite(freq)))
+            )
+        )
     return (freq, idx, modes) if return_modes else (freq, idx)
 
 
@@ -97,10 +128,13 @@ def _numerical_failure(ev, effects, poses, params, lines, exc, row: int | None =
             ok = False
         if not ok:
             where = f"line {lines[i]}" if lines is not None else f"row {i}"
-            values = ", ".join(f"{k} = {float(np.asarray(v)):g}" for k, v in one.items()
-                               if np.ndim(v) == 0 and k in ev.parameters)
-            return (f"{where}: the model cannot be evaluated there ({exc}): the values are beyond what it can "
-                    f"represent ({values}); expected physically plausible values in SI units")
+            values = ", ".join(
+                f"{k} = {float(np.asarray(v)):g}" for k, v in one.items() if np.ndim(v) == 0 and k in ev.parameters
+            )
+            return (
+                f"{where}: the model cannot be evaluated there ({exc}): the values are beyond what it can "
+                f"represent ({values}); expected physically plausible values in SI units"
+            )
     return f"the model cannot be evaluated for these inputs ({exc}): check them for extreme values"
 
 
@@ -142,9 +176,19 @@ class Predictor:
     def predict(self, values: dict | None = None, strict: bool = True, return_modes: bool = False):
         """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar);
         with ``return_modes`` also the model's modes."""
-        return evaluate(self.ev, self.effects, self.meas.poses, self.meas.mode, self._params(values or {}),
-                        strict, self.meas.lines, return_modes=return_modes, joints=self._joints(),
-                        damped=self._damped(), **self._shapes())
+        return evaluate(
+            self.ev,
+            self.effects,
+            self.meas.poses,
+            self.meas.mode,
+            self._params(values or {}),
+            strict,
+            self.meas.lines,
+            return_modes=return_modes,
+            joints=self._joints(),
+            damped=self._damped(),
+            **self._shapes(),
+        )
 
     def _damped(self, repeat: int = 1):
         """(N * repeat,) bool: the rows measured as damped frequencies (``kind``), tiled."""
@@ -161,8 +205,19 @@ class Predictor:
         params = self._params(values, repeat=b)
         poses = np.tile(self.meas.poses, (b, 1))
         labels = self.meas.mode * b
-        freq, idx, modes = evaluate(self.ev, self.effects, poses, labels, params, strict, np.tile(self.meas.lines, b),
-                                    joints=self._joints(b), damped=self._damped(b), return_modes=True, **self._shapes(b))
+        freq, idx, modes = evaluate(
+            self.ev,
+            self.effects,
+            poses,
+            labels,
+            params,
+            strict,
+            np.tile(self.meas.lines, b),
+            joints=self._joints(b),
+            damped=self._damped(b),
+            return_modes=True,
+            **self._shapes(b),
+        )
         if zeta:
             z = modes.damping_ratio[np.arange(len(idx)), idx]
             with np.errstate(invalid="ignore"):
@@ -191,7 +246,7 @@ class Predictor:
         wrt += tuple(n for n in names if n not in wrt)
         params = self._params({name: float(v) for name, v in zip(names, values)})
         check_model(self.effects)
-        sensitivity_kernels(self.ev, wrt)      # loaded (or generated) once; ``names`` select its rows
+        sensitivity_kernels(self.ev, wrt)  # loaded (or generated) once; ``names`` select its rows
         modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, tuple(names), self.effects, **params)
         freq, idx = match_frequencies(modes, self.meas.mode, strict=strict, lines=self.meas.lines)
         rows = np.arange(len(idx))

@@ -4,6 +4,7 @@ and the per-leg candidates.
 A leg-level effect is offered for all legs and for each leg alone, even when the model
 already has it on all legs: ``actuator_loss@3`` fits ``eta_a@3``, leg 3's own value.
 """
+
 from __future__ import annotations
 
 from ..description.effects import EFFECTS, base_name, resolve_model, scoped_name, split_scope

@@ -21,9 +21,9 @@ as its ties. Singles whose fitted predictions stay within :data:`SAME` (chi dist
 better one's (a strut's and its joints' series compliances) are one entry of the search,
 named as its equivalents (the path's alternatives).
 """
+
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -34,11 +34,11 @@ from .stats import DELTA_AICC, explained, f_test, separation
 
 __all__ = ["Subset", "SearchResult", "search_subsets", "replaces", "BEAM", "MAX_SIZE", "SAME", "BETTER"]
 
-BEAM = 5            # subsets kept at each size of the beam search
-MAX_SIZE = 3        # largest subset searched
-SAME = 0.1          # two single fits whose predictions stay within this chi distance are one pool entry
-BETTER = 0.01       # AICc by which the search's subset must beat the stepwise result (optimiser noise below)
-SEARCH_NFEV = 40    # solver budget of a warm-started subset fit
+BEAM = 5  # subsets kept at each size of the beam search
+MAX_SIZE = 3  # largest subset searched
+SAME = 0.1  # two single fits whose predictions stay within this chi distance are one pool entry
+BETTER = 0.01  # AICc by which the search's subset must beat the stepwise result (optimiser noise below)
+SEARCH_NFEV = 40  # solver budget of a warm-started subset fit
 
 
 @dataclass
@@ -72,10 +72,15 @@ class SearchResult:
     greedy_aicc: float = math.nan
 
     def to_json(self) -> dict:
-        return {"greedy": list(self.greedy), "best": list(self.best.effects) if self.best else None,
-                "changed": self.changed, "ties": [list(t.effects) for t in self.ties],
-                "equivalent": {k: list(v) for k, v in self.same.items()}, "subsets_fitted": self.fitted,
-                "aicc": self.best.fit.aicc if self.best else None}
+        return {
+            "greedy": list(self.greedy),
+            "best": list(self.best.effects) if self.best else None,
+            "changed": self.changed,
+            "ties": [list(t.effects) for t in self.ties],
+            "equivalent": {k: list(v) for k, v in self.same.items()},
+            "subsets_fitted": self.fitted,
+            "aicc": self.best.fit.aicc if self.best else None,
+        }
 
     @property
     def sentence(self) -> str | None:
@@ -83,13 +88,17 @@ class SearchResult:
         if not self.changed or self.best is None:
             return None
         was = " + ".join(self.greedy) or "nothing"
-        return (f"Search: {' + '.join(self.best.effects)} fits better than the stepwise path's {was} "
-                f"(dAICc = {self.best.fit.aicc - self.greedy_aicc:.3g}).")
+        return (
+            f"Search: {' + '.join(self.best.effects)} fits better than the stepwise path's {was} "
+            f"(dAICc = {self.best.fit.aicc - self.greedy_aicc:.3g})."
+        )
 
 
 def _plausible_fit(ev, f: FitResult) -> bool:
-    return all(is_plausible(v, f.std.get(n, math.inf), ev.parameter(n).plausible_range, n in f.at_bound)
-               for n, v in f.values.items())
+    return all(
+        is_plausible(v, f.std.get(n, math.inf), ev.parameter(n).plausible_range, n in f.at_bound)
+        for n, v in f.values.items()
+    )
 
 
 def _distinct(meas, ranking) -> tuple[list, dict]:
@@ -99,8 +108,14 @@ def _distinct(meas, ranking) -> tuple[list, dict]:
     for c in ranking:
         if not c.plausible or not math.isfinite(c.fit.aicc):
             continue
-        rep = next((p for p in pool if separation(p.fit.comparison.predicted, c.fit.comparison.predicted,
-                                                  meas.sigma_hz) < SAME), None)
+        rep = next(
+            (
+                p
+                for p in pool
+                if separation(p.fit.comparison.predicted, c.fit.comparison.predicted, meas.sigma_hz) < SAME
+            ),
+            None,
+        )
         if rep is not None:
             same.setdefault(rep.effect, []).append(c.effect)
         else:
@@ -129,7 +144,7 @@ class _Fits:
         effects = list(base.effects)
         for e in order:
             if e not in scope.candidates(self.ev, effects, per_leg=True):
-                return None                    # shares a part with another member
+                return None  # shares a part with another member
             effects.append(e)
         members = [self.by[e] for e in order]
         names = base.names + tuple(n for c in members for n in c.names)
@@ -137,8 +152,16 @@ class _Fits:
         for c in members:
             start.update({n: c.fit.values[n] for n in c.names})
         self.fitted += 1
-        return fit(self.meas, scope.order(self.ev, effects), self.ev, names, start=start, fixed=base.fixed,
-                   explore=(), max_nfev=SEARCH_NFEV)
+        return fit(
+            self.meas,
+            scope.order(self.ev, effects),
+            self.ev,
+            names,
+            start=start,
+            fixed=base.fixed,
+            explore=(),
+            max_nfev=SEARCH_NFEV,
+        )
 
 
 def _needed(sub: FitResult, smaller: FitResult, m: int, alpha: float) -> tuple[bool, float]:
@@ -158,26 +181,27 @@ def _judge(fits: _Fits, key, base: FitResult, m: int, alpha: float, ev) -> Subse
             return None
         tests[e] = _needed(f, smaller, m, alpha)
     order = tuple(sorted(key, key=lambda e: (fits.by[e].fit.aicc, fits.by[e].order)))
-    return Subset(order, f, _plausible_fit(ev, f), all(ok for ok, _ in tests.values()),
-                  {e: p for e, (_, p) in tests.items()})
+    return Subset(
+        order, f, _plausible_fit(ev, f), all(ok for ok, _ in tests.values()), {e: p for e, (_, p) in tests.items()}
+    )
 
 
 def replaces(best: Subset | None, greedy_effects, greedy_aicc: float) -> bool:
     """Whether the search's ``best`` subset replaces the stepwise result (its effects
     ``greedy_effects``, AICc ``greedy_aicc``): another set of effects, AICc lower by more than BETTER."""
-    return bool(best is not None and set(best.effects) != set(greedy_effects)
-                and best.fit.aicc < greedy_aicc - BETTER)
+    return bool(best is not None and set(best.effects) != set(greedy_effects) and best.fit.aicc < greedy_aicc - BETTER)
 
 
-def search_subsets(meas, ev, base: FitResult, ranking, greedy: FitResult, greedy_effects: tuple, m: int,
-                   alpha: float) -> SearchResult:
+def search_subsets(
+    meas, ev, base: FitResult, ranking, greedy: FitResult, greedy_effects: tuple, m: int, alpha: float
+) -> SearchResult:
     """A beam search over subsets of the plausible single candidates ``ranking`` (fitted on
     ``base``): each of the BEAM best distinct singles with every other distinct single, then
     (when no pair explains the data) each of the BEAM best pairs with every other single; each
     subset judged (module doc) and the best compared with the stepwise result ``greedy`` (its
     effects beyond the baseline: ``greedy_effects``)."""
     singles, same = _distinct(meas, ranking)
-    singles = [c for c in singles if c.fit.aicc < base.aicc]     # a member must help on its own
+    singles = [c for c in singles if c.fit.aicc < base.aicc]  # a member must help on its own
     fits = _Fits(meas, ev, base, singles)
     judged: dict = {}
 
@@ -194,11 +218,15 @@ def search_subsets(meas, ev, base: FitResult, ranking, greedy: FitResult, greedy
         best_level = min((s for s in level if s is not None and s.counts), key=lambda s: s.fit.aicc, default=None)
         if best_level is None or explained(best_level.fit.chi2, best_level.fit.n, best_level.fit.k, alpha):
             break
-    counted = sorted((s for s in judged.values() if s is not None and s.counts),
-                     key=lambda s: (s.fit.aicc, len(s.effects)))
+    counted = sorted(
+        (s for s in judged.values() if s is not None and s.counts), key=lambda s: (s.fit.aicc, len(s.effects))
+    )
     best = counted[0] if counted else None
     changed = replaces(best, greedy_effects, greedy.aicc)
     top_aicc = best.fit.aicc if changed else greedy.aicc
-    ties = [s for s in counted if s is not best and set(s.effects) != set(greedy_effects)
-            and abs(s.fit.aicc - top_aicc) < DELTA_AICC]
+    ties = [
+        s
+        for s in counted
+        if s is not best and set(s.effects) != set(greedy_effects) and abs(s.fit.aicc - top_aicc) < DELTA_AICC
+    ]
     return SearchResult(tuple(greedy_effects), best, changed, ties, same, fits.fitted, greedy.aicc)

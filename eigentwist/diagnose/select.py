@@ -37,6 +37,7 @@ An effect that shares parameters with one already in the model (two descriptions
 same physical part, e.g. ``ee_compliance`` and ``ee_coupling``) is an alternative to it,
 not an addition, and is not offered once the other is in.
 """
+
 from __future__ import annotations
 
 import math
@@ -69,12 +70,20 @@ from .units import unit_note
 from .stats import ALPHA, explained, f_test, indistinguishable, switch_test
 from .values import used_parameters
 
-__all__ = ["Candidate", "Step", "Alternative", "Diagnosis", "diagnose", "rank_candidates", "candidates_for",
-           "MAX_OUTLIER_SHARE"]
+__all__ = [
+    "Candidate",
+    "Step",
+    "Alternative",
+    "Diagnosis",
+    "diagnose",
+    "rank_candidates",
+    "candidates_for",
+    "MAX_OUTLIER_SHARE",
+]
 
-CANDIDATE_NFEV = 60     # solver budget of a candidate's fit: one the data do not want crawls towards its
-                        # "switched off" limit (stiffness -> inf) without converging; the ones that matter need < 30
-AICC_DIGITS = 2          # AICc differences below 0.01 are optimiser noise: the next key decides (and the tie is reported)
+CANDIDATE_NFEV = 60  # solver budget of a candidate's fit: one the data do not want crawls towards its
+# "switched off" limit (stiffness -> inf) without converging; the ones that matter need < 30
+AICC_DIGITS = 2  # AICc differences below 0.01 are optimiser noise: the next key decides (and the tie is reported)
 MAX_OUTLIER_SHARE = 0.1  # at most this share of the rows (and at least one) is set aside as outliers
 
 
@@ -119,8 +128,11 @@ class Candidate:
     def implausible(self) -> dict:
         """Fitted parameters at a search bound, or outside their plausible range by more than
         ``PLAUSIBLE_SIGMA`` standard errors: name -> the value it would need."""
-        return {n: v for n, v in self.fit.values.items()
-                if not _plausible(v, self.fit.std.get(n, math.inf), self.plausible_range.get(n), n in self.fit.at_bound)}
+        return {
+            n: v
+            for n, v in self.fit.values.items()
+            if not _plausible(v, self.fit.std.get(n, math.inf), self.plausible_range.get(n), n in self.fit.at_bound)
+        }
 
     @property
     def plausible(self) -> bool:
@@ -266,21 +278,38 @@ def _fit_effect(meas, ev, current: FitResult, effect: str) -> tuple[FitResult, t
     """``effect`` fitted on top of ``current``: (fit, its own fitted parameter names)."""
     effects = scope.order(ev, current.effects + (effect,))
     own = tuple(p for p in scope.fit_names(ev, effect) if p not in current.names and p not in meas.params)
-    f = fit(meas, effects, ev, current.names + own, start=current.values, fixed=current.fixed, explore=own,
-            max_nfev=CANDIDATE_NFEV)
+    f = fit(
+        meas,
+        effects,
+        ev,
+        current.names + own,
+        start=current.values,
+        fixed=current.fixed,
+        explore=own,
+        max_nfev=CANDIDATE_NFEV,
+    )
     try:
         extra = extra_parameters(meas, ev, effects, effect, f.values, f.fixed)
         if not extra:
             return f, own
         start, starts = _starts(ev, extra)
-        g = fit(meas, effects, ev, f.names + extra, start={**f.values, **start}, fixed=f.fixed, explore=(),
-                starts=starts, max_nfev=CANDIDATE_NFEV)
-    except InputError:                # the extra parameters left their joint constraints (r_i < r_o): not identifiable
+        g = fit(
+            meas,
+            effects,
+            ev,
+            f.names + extra,
+            start={**f.values, **start},
+            fixed=f.fixed,
+            explore=(),
+            starts=starts,
+            max_nfev=CANDIDATE_NFEV,
+        )
+    except InputError:  # the extra parameters left their joint constraints (r_i < r_o): not identifiable
         return f, own
     if not _determined(ev, g, f, extra) or (_implausible(ev, g) and not _implausible(ev, f)):
-        return f, own                 # the extra parameters ran away: keep what the data pin down
+        return f, own  # the extra parameters ran away: keep what the data pin down
     if g.chi2 > f.chi2:
-        return f, own                 # the larger fit nests f yet ends worse: a local minimum, keep f
+        return f, own  # the larger fit nests f yet ends worse: a local minimum, keep f
     return g, own + extra
 
 
@@ -299,8 +328,10 @@ def _ranges(ev, names) -> dict:
 
 
 def _implausible(ev, f: FitResult) -> bool:
-    return not all(_plausible(v, f.std.get(n, math.inf), ev.parameter(n).plausible_range, n in f.at_bound)
-                   for n, v in f.values.items())
+    return not all(
+        _plausible(v, f.std.get(n, math.inf), ev.parameter(n).plausible_range, n in f.at_bound)
+        for n, v in f.values.items()
+    )
 
 
 def _candidate(meas, ev, current: FitResult, effect: str) -> Candidate:
@@ -326,8 +357,14 @@ def rank_candidates(meas, ev, current: FitResult, candidates, progress=None) -> 
         for c in out:
             c.delta_aicc = c.fit.aicc - best.fit.aicc
         for a in out:
-            a.indistinguishable_from = [b.effect for b in out if b is not a and indistinguishable(
-                a.fit.aicc, b.fit.aicc, a.fit.comparison.predicted, b.fit.comparison.predicted, meas.sigma_hz)]
+            a.indistinguishable_from = [
+                b.effect
+                for b in out
+                if b is not a
+                and indistinguishable(
+                    a.fit.aicc, b.fit.aicc, a.fit.comparison.predicted, b.fit.comparison.predicted, meas.sigma_hz
+                )
+            ]
         for c in out:
             c.signature = _signature(meas, ev, current, c.effect)
     return out
@@ -335,7 +372,9 @@ def rank_candidates(meas, ev, current: FitResult, candidates, progress=None) -> 
 
 def _signature(meas, ev, current: FitResult, effect: str) -> str | None:
     """Shape (patterns.SHAPES) of what ``effect`` at its default values does to the mode it changes most."""
-    with_effect, _ = Predictor(meas, scope.order(ev, current.effects + (effect,)), ev, current.fixed).predict(strict=False)
+    with_effect, _ = Predictor(meas, scope.order(ev, current.effects + (effect,)), ev, current.fixed).predict(
+        strict=False
+    )
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.log(with_effect / current.comparison.predicted)
     if not np.all(np.isfinite(rho)):
@@ -362,7 +401,7 @@ def _separation(ev, meas, ranking) -> dict | None:
     return None
 
 
-MAX_RIVALS = 4          # rivals tried for the next measurement (equivalent ones are skipped)
+MAX_RIVALS = 4  # rivals tried for the next measurement (equivalent ones are skipped)
 
 
 def _between(ev, meas, fit_a, fit_b, tied: bool) -> dict | None:
@@ -374,9 +413,11 @@ def _between(ev, meas, fit_a, fit_b, tied: bool) -> dict | None:
         out["indistinguishable"] = tied
         a, b = out["between"]
         pose = ", ".join(f"{v:g}" for v in np.round(out["pose"], 4))
-        out["message"] = (f"to tell {a} from {b}, measure mode {out['mode']} at pose [{pose}] m with k_a = "
-                          f"{out['k_a']:.4g} {out['k_a_unit']}: {a} predicts {out['predicted_hz'][a]:.4g} Hz, {b} "
-                          f"{out['predicted_hz'][b]:.4g} Hz ({out['separation_sigma']:.1f} sigma apart)")
+        out["message"] = (
+            f"to tell {a} from {b}, measure mode {out['mode']} at pose [{pose}] m with k_a = "
+            f"{out['k_a']:.4g} {out['k_a_unit']}: {a} predicts {out['predicted_hz'][a]:.4g} Hz, {b} "
+            f"{out['predicted_hz'][b]:.4g} Hz ({out['separation_sigma']:.1f} sigma apart)"
+        )
     return out
 
 
@@ -386,8 +427,10 @@ def _effect_list(add, ev) -> list[str]:
     names = [str(x).strip() for x in items if str(x).strip()]
     for name in names:
         if name.partition("@")[0] not in EFFECTS and name.partition("@")[0] not in ev.effects:
-            raise InputError(f"add {name!r}: not an effect{did_you_mean(name.partition('@')[0], ev.effects)}; "
-                             f"expected one of {', '.join(ev.effects)}")
+            raise InputError(
+                f"add {name!r}: not an effect{did_you_mean(name.partition('@')[0], ev.effects)}; "
+                f"expected one of {', '.join(ev.effects)}"
+            )
         resolve_model(name, ev.robot)  # raises if the robot lacks it (or the leg does not exist)
     return names
 
@@ -399,8 +442,10 @@ def _check_manual(ev, order, model) -> None:
             raise InputError(f"add {e!r}: the effect is already in the model ({', '.join(model)})")
         shared = set(scope.parameter_names(ev, e)) & scope.taken(ev, model)
         if shared:
-            raise InputError(f"add {e!r}: it describes the same part as an effect already in the model "
-                             f"(shares {', '.join(sorted(shared))}); remove that one from the baseline instead")
+            raise InputError(
+                f"add {e!r}: it describes the same part as an effect already in the model "
+                f"(shares {', '.join(sorted(shared))}); remove that one from the baseline instead"
+            )
         model.append(e)
 
 
@@ -432,7 +477,7 @@ def _forward(meas, ev, steps: list[Step], alpha: float, progress, removed=()) ->
     return steps
 
 
-MAX_ROUNDS = 5          # forward-backward rounds at most (each removal is followed by a forward pass)
+MAX_ROUNDS = 5  # forward-backward rounds at most (each removal is followed by a forward pass)
 
 
 def _stepwise(meas, ev, current: FitResult, alpha: float, progress) -> tuple[list[Step], list]:
@@ -478,8 +523,11 @@ def _path(meas, ev, first: Step, found: SearchResult) -> list[Step]:
             steps[-1].ranking = ranking
         c = next(x for x in ranking if x.effect == e)
         same = found.same.get(e, [])
-        alternatives = [x.effect for x in ranking if x is not c and x.plausible and x.effect in same
-                        and x.effect in c.indistinguishable_from]
+        alternatives = [
+            x.effect
+            for x in ranking
+            if x is not c and x.plausible and x.effect in same and x.effect in c.indistinguishable_from
+        ]
         steps.append(Step(c.fit, e, c.p_value, alternatives=alternatives))
         current = c.fit
     return steps
@@ -504,17 +552,19 @@ def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
     out = []
     for k, step in enumerate(steps[1:], start=1):
         if step.added not in final.effects:
-            continue                  # taken back by backward elimination
+            continue  # taken back by backward elimination
         for name in step.alternatives:
             rival = next(c for c in steps[k - 1].ranking if c.effect == name)
             g = _swap(meas, ev, final, step, rival)
             if g is None or _implausible(ev, g):
                 continue
-            if indistinguishable(final.aicc, g.aicc, final.comparison.predicted, g.comparison.predicted,
-                                 meas.sigma_hz):
+            if indistinguishable(final.aicc, g.aicc, final.comparison.predicted, g.comparison.predicted, meas.sigma_hz):
                 same = equivalent(ev, meas, final, g)
-                out.append(Alternative(g.effects, step.added, name, g,
-                                       None if same else _between(ev, meas, final, g, True), same))
+                out.append(
+                    Alternative(
+                        g.effects, step.added, name, g, None if same else _between(ev, meas, final, g, True), same
+                    )
+                )
     return out
 
 
@@ -532,14 +582,22 @@ def unproven(meas, ev, steps, alpha: float) -> list[Alternative]:
     for k, c in enumerate(chosen):
         rival = chosen[1] if k == 0 and len(chosen) > 1 else chosen[0]
         same = equivalent(ev, meas, c.fit, rival.fit) if rival is not c else None
-        out.append(Alternative(c.fit.effects, None, c.effect, c.fit,
-                               _between(ev, meas, c.fit, rival.fit, True) if rival is not c and not same else None,
-                               same))
+        out.append(
+            Alternative(
+                c.fit.effects,
+                None,
+                c.effect,
+                c.fit,
+                _between(ev, meas, c.fit, rival.fit, True) if rival is not c and not same else None,
+                same,
+            )
+        )
     return out
 
 
-def _select(meas, ev, base_effects, add, alpha, progress, values: dict | None = None,
-            search: bool = False) -> Diagnosis:
+def _select(
+    meas, ev, base_effects, add, alpha, progress, values: dict | None = None, search: bool = False
+) -> Diagnosis:
     """Rank, select and judge on these rows (no outlier handling); ``values``: see :func:`diagnose`;
     ``search``: run the subset search (:func:`_searched`) on the stepwise result."""
     base_cmp, notes = _baseline(meas, ev, base_effects, values)
@@ -563,14 +621,26 @@ def _diagnosis(meas, ev, base_cmp, first, steps, removed, manual, alpha, values,
     final = steps[-1].fit
     signatures = {c.effect: c.signature for c in first}
     return Diagnosis(
-        robot=ev.spec, meas=meas, baseline=base_cmp, ranking=first,
-        selected=[s.added for s in steps[1:] if s.added in final.effects], steps=steps, final=final, removed=removed,
+        robot=ev.spec,
+        meas=meas,
+        baseline=base_cmp,
+        ranking=first,
+        selected=[s.added for s in steps[1:] if s.added in final.effects],
+        steps=steps,
+        final=final,
+        removed=removed,
         explained=explained(final.chi2, final.n, final.k, alpha) and not outside_plausible(ev, final),
         implausible=outside_plausible(ev, final),
-        next_measurement=_separation(ev, meas, first), hints=hints(base_cmp, signatures), alpha=alpha,
-        manual=manual, alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
+        next_measurement=_separation(ev, meas, first),
+        hints=hints(base_cmp, signatures),
+        alpha=alpha,
+        manual=manual,
+        alternatives=[] if manual else final_alternatives(meas, ev, steps) + unproven(meas, ev, steps, alpha),
         untestable=_untestable(meas, ev, steps if not manual else steps[:1]),
-        parameters=used_parameters(ev, final.effects, values, meas, final.values), search=search, notes=notes)
+        parameters=used_parameters(ev, final.effects, values, meas, final.values),
+        search=search,
+        notes=notes,
+    )
 
 
 def _searched(d: Diagnosis, ev, progress, values=None) -> Diagnosis:
@@ -599,8 +669,10 @@ def _baseline(meas, ev, base_effects, values) -> tuple[Comparison, list]:
             raise
         base_cmp = compare(meas, base_effects, ev, values, check=False, strict=False)
         where = str(exc).partition(":")[0]
-        notes.append(f"Mode labels: at some poses no model mode points along a measured direction ({where} first); "
-                     "those rows are matched by frequency order and shape.")
+        notes.append(
+            f"Mode labels: at some poses no model mode points along a measured direction ({where} first); "
+            "those rows are matched by frequency order and shape."
+        )
     unit = unit_note(meas.freq_hz, base_cmp.predicted)
     if unit:
         notes.insert(0, unit)
@@ -619,14 +691,16 @@ def _untestable(meas, ev, steps) -> dict:
 
 def _judge(d: Diagnosis) -> Diagnosis:
     last = d.steps[-1].ranking
-    effect = (any(significant(c, d.final, len(last), d.alpha, False) for c in last)
-              or any(a.replaced is None for a in d.alternatives))
+    effect = any(significant(c, d.final, len(last), d.alpha, False) for c in last) or any(
+        a.replaced is None for a in d.alternatives
+    )
     d.uncertainty = judge_uncertainty(d.final, d.untestable, effect, d.alpha)
     return d
 
 
-def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress, values=None,
-                      search: bool = False) -> Diagnosis:
+def _without_outliers(
+    meas, ev, d_all: Diagnosis, base_effects, alpha, progress, values=None, search: bool = False
+) -> Diagnosis:
     """Set aside isolated outlying rows one at a time (worst first), rerunning the selection."""
     d, removed = d_all, []
     limit = max(1, int(MAX_OUTLIER_SHARE * len(meas)))
@@ -642,11 +716,12 @@ def _without_outliers(meas, ev, d_all: Diagnosis, base_effects, alpha, progress,
     return d
 
 
-MAX_SETTING_SHARE = 0.25   # at most this share of the rows is set aside as whole settings
+MAX_SETTING_SHARE = 0.25  # at most this share of the rows is set aside as whole settings
 
 
-def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, values=None,
-                      search: bool = False) -> Diagnosis:
+def _without_settings(
+    meas, ev, d: Diagnosis, base_effects, alpha, progress, values=None, search: bool = False
+) -> Diagnosis:
     """Set aside whole settings that fit another k_a (or pose) far better (:mod:`.settings`), worst
     first, one at a time, rerunning the selection; the all-rows result is kept beside."""
     d_all, found = d.all_rows or d, []
@@ -667,8 +742,17 @@ def _without_settings(meas, ev, d: Diagnosis, base_effects, alpha, progress, val
     return d
 
 
-def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None, alpha: float = ALPHA,
-             progress=None, backend: str = "numpy", values: dict | None = None) -> Diagnosis:
+def diagnose(
+    meas,
+    baseline="rigid",
+    robot: str | None = None,
+    ev=None,
+    add=None,
+    alpha: float = ALPHA,
+    progress=None,
+    backend: str = "numpy",
+    values: dict | None = None,
+) -> Diagnosis:
     """Diagnose what ``baseline`` misses on the measurements ``meas``.
 
     Parameters
@@ -698,8 +782,12 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     ev = resolve(ev, robot or meas.robot, backend)
     base_effects = resolve_model(baseline, ev.robot)
     manual_effects = [] if add is None else _effect_list(add, ev)
-    check_columns(meas, tuple(base_effects) + tuple(manual_effects), ev,
-                  "the baseline" + (" with the added effects" if manual_effects else ""))
+    check_columns(
+        meas,
+        tuple(base_effects) + tuple(manual_effects),
+        ev,
+        "the baseline" + (" with the added effects" if manual_effects else ""),
+    )
     order = None if add is None else manual_effects
     d = _select(meas, ev, base_effects, order, alpha, progress, values)
     if order is None:
@@ -707,7 +795,7 @@ def diagnose(meas, baseline="rigid", robot: str | None = None, ev=None, add=None
     return _judge(d)
 
 
-MIN_DOF_ROWS = 3    # degrees of freedom the final model needs before rows or settings are set aside
+MIN_DOF_ROWS = 3  # degrees of freedom the final model needs before rows or settings are set aside
 
 
 def rows_checked(d) -> bool:

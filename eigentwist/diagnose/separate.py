@@ -7,6 +7,7 @@ have. The measurement proposed is the (pose, k_a, mode) where the predictions di
 most relative to the expected uncertainty sigma = (median relative sigma of the data)
 x (mean prediction).
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -18,18 +19,18 @@ from .matching import DIRECTIONS, match_frequencies
 
 __all__ = ["next_measurement", "workspace_poses", "equivalent", "measured_band", "EQUIVALENT_SIGMA", "BAND"]
 
-GRID = 3          # poses per axis of the workspace box
-N_KA = 9          # log-spaced k_a values over the measured range
-EQUIVALENT_SIGMA = 0.05   # two fitted models never further apart than this (in sigma) are one model
-N_RANDOM = 40             # random workspace poses of the equivalence check (plus the grid and the measured ones)
-KA_SPAN = 4.0             # k_a of the equivalence check: measured range widened by this factor each way
+GRID = 3  # poses per axis of the workspace box
+N_KA = 9  # log-spaced k_a values over the measured range
+EQUIVALENT_SIGMA = 0.05  # two fitted models never further apart than this (in sigma) are one model
+N_RANDOM = 40  # random workspace poses of the equivalence check (plus the grid and the measured ones)
+KA_SPAN = 4.0  # k_a of the equivalence check: measured range widened by this factor each way
 
 
 @lru_cache(maxsize=None)
 def _reachable_grid(ev, n: int) -> np.ndarray:
     dim = len(ev.robot.workspace)
     if dim > 3:
-        n = min(n, 2)          # a 6-D box: the corners (64 poses), not 3^6
+        n = min(n, 2)  # a 6-D box: the corners (64 poses), not 3^6
     axes = [np.linspace(lo, hi, n) for lo, hi in ev.robot.workspace]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
     try:
@@ -57,7 +58,7 @@ def _constant_columns(meas) -> dict:
     return {k: float(v[0]) for k, v in meas.params.items() if np.all(v == v[0])}
 
 
-BAND = 1.25       # a proposed mode lies within the measured band widened this factor each way
+BAND = 1.25  # a proposed mode lies within the measured band widened this factor each way
 
 
 def measured_band(meas) -> tuple[float, float]:
@@ -76,7 +77,7 @@ def _best(modes_of, labels, rel_sigma, band=(0.0, np.inf)):
             f, idx = match_frequencies(m, [label] * n, strict=False)
             fs.append(f)
             ok &= m.direction[np.arange(n), idx] == DIRECTIONS.index(label)
-            if m.constrained is not None:          # a rigid constraint's mode: not measurable
+            if m.constrained is not None:  # a rigid constraint's mode: not measurable
                 ok &= ~m.constrained[np.arange(n), idx]
         ok &= (np.minimum(fs[0], fs[1]) >= band[0]) & (np.maximum(fs[0], fs[1]) <= band[1])
         sep = np.abs(fs[0] - fs[1]) / (rel_sigma * 0.5 * (fs[0] + fs[1]))
@@ -112,9 +113,16 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
         if best is None:
             return None
         sep, label, k, fa, fb = best
-        return {"k_a_unit": ev.parameter("k_a").unit, "between": [name_a, name_b], "pose": pose_rows[k].tolist(), "k_a": float(ka_rows[k]),
-                "mode": label, "predicted_hz": {name_a: fa, name_b: fb}, "separation_sigma": sep,
-                "sigma_hz": rel_sigma * 0.5 * (fa + fb)}
+        return {
+            "k_a_unit": ev.parameter("k_a").unit,
+            "between": [name_a, name_b],
+            "pose": pose_rows[k].tolist(),
+            "k_a": float(ka_rows[k]),
+            "mode": label,
+            "predicted_hz": {name_a: fa, name_b: fb},
+            "separation_sigma": sep,
+            "sigma_hz": rel_sigma * 0.5 * (fa + fb),
+        }
 
     out = describe(_best(modes_of, labels, rel_sigma, measured_band(meas)))
     if out is not None:
@@ -145,8 +153,9 @@ def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | 
     ka_rows = np.tile(k_a, len(poses))
     base = _constant_columns(meas)
     try:
-        modes_of = [ev.modes(pose_rows, f.effects, k_a=ka_rows, invalid="nan", **{**base, **f.fixed})
-                    for f in (fit_a, fit_b)]
+        modes_of = [
+            ev.modes(pose_rows, f.effects, k_a=ka_rows, invalid="nan", **{**base, **f.fixed}) for f in (fit_a, fit_b)
+        ]
     except EigentwistError:
         return None
     fa, fb = (np.asarray(m.freq_hz, dtype=float) for m in modes_of)
@@ -166,8 +175,12 @@ def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | 
     worst = float(np.nanmax(sep))
     if worst >= tol:
         return None
-    return {"max_separation_sigma": worst, "poses": int(len(poses)), "k_a": k_a.tolist(),
-            "k_a_unit": ev.parameter("k_a").unit}
+    return {
+        "max_separation_sigma": worst,
+        "poses": int(len(poses)),
+        "k_a": k_a.tolist(),
+        "k_a_unit": ev.parameter("k_a").unit,
+    }
 
 
 def _label(f, other) -> str:

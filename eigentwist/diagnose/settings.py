@@ -22,6 +22,7 @@ Such a setting is reported (:class:`SettingAnomaly`: its CSV lines, the written 
 best-fitting k_a or pose, the evidence), set aside like an outlier, and the selection
 rerun without it; its best k_a (or pose) is then given under the model refitted without it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -33,14 +34,24 @@ from ..runtime.errors import InputError
 from .measurements import Measurements
 from .predict import Predictor
 
-__all__ = ["SettingAnomaly", "find_setting_anomalies", "settings_of", "best_label", "measured_label", "rescored",
-           "deviates", "relabelled_fits", "FAR", "MIN_ROWS"]
+__all__ = [
+    "SettingAnomaly",
+    "find_setting_anomalies",
+    "settings_of",
+    "best_label",
+    "measured_label",
+    "rescored",
+    "deviates",
+    "relabelled_fits",
+    "FAR",
+    "MIN_ROWS",
+]
 
-FAR = 10.0          # the best other k_a (or pose) fits this many times better in chi-square
-KA_SPAN = 4.0       # k_a searched from min/KA_SPAN to max*KA_SPAN of the measured values
-N_KA = 121          # log-spaced k_a values searched
-MIN_ROWS = 3        # rows a setting needs: the search spends one degree of freedom, the check of the
-                    # relabelled fit needs two more (the paper's two-row k_a = 125 setting stays a pattern)
+FAR = 10.0  # the best other k_a (or pose) fits this many times better in chi-square
+KA_SPAN = 4.0  # k_a searched from min/KA_SPAN to max*KA_SPAN of the measured values
+N_KA = 121  # log-spaced k_a values searched
+MIN_ROWS = 3  # rows a setting needs: the search spends one degree of freedom, the check of the
+# relabelled fit needs two more (the paper's two-row k_a = 125 setting stays a pattern)
 
 
 @dataclass
@@ -64,10 +75,21 @@ class SettingAnomaly:
         return "pose" if self.best_pose != self.pose else "k_a"
 
     def to_json(self) -> dict:
-        return {"lines": list(self.lines), "pose": list(self.pose), "k_a": self.k_a, "best_k_a": self.best_k_a,
-                "best_pose": list(self.best_pose), "mislabelled": self.what,
-                "evidence": {"chi2_written": self.chi2_own, "chi2_best": self.chi2_best, "rows": self.n_rows,
-                             "p_written": self.p_own, "birge_ratio_of_other_rows": self.scale ** 0.5}}
+        return {
+            "lines": list(self.lines),
+            "pose": list(self.pose),
+            "k_a": self.k_a,
+            "best_k_a": self.best_k_a,
+            "best_pose": list(self.best_pose),
+            "mislabelled": self.what,
+            "evidence": {
+                "chi2_written": self.chi2_own,
+                "chi2_best": self.chi2_best,
+                "rows": self.n_rows,
+                "p_written": self.p_own,
+                "birge_ratio_of_other_rows": self.scale**0.5,
+            },
+        }
 
 
 def settings_of(meas) -> list[np.ndarray]:
@@ -88,9 +110,19 @@ def _relabelled(sub: Measurements, k_a: np.ndarray, poses: np.ndarray) -> Measur
     """``sub``'s rows repeated once per (k_a, pose) pair given."""
     n, b = len(sub), len(k_a)
     rows = np.tile(np.arange(n), b)
-    return Measurements(np.repeat(k_a, n), tuple(sub.mode[i] for i in rows), sub.freq_hz[rows], sub.sigma_hz[rows],
-                        np.repeat(poses, n, axis=0), {k: v[rows] for k, v in sub.params.items()}, sub.lines[rows],
-                        sub.source, sub.robot, {}, sub.k_a_unit)
+    return Measurements(
+        np.repeat(k_a, n),
+        tuple(sub.mode[i] for i in rows),
+        sub.freq_hz[rows],
+        sub.sigma_hz[rows],
+        np.repeat(poses, n, axis=0),
+        {k: v[rows] for k, v in sub.params.items()},
+        sub.lines[rows],
+        sub.source,
+        sub.robot,
+        {},
+        sub.k_a_unit,
+    )
 
 
 def _chi2_table(sub: Measurements, ev, final, k_a: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -115,7 +147,7 @@ def best_label(sub: Measurements, ev, final, meas) -> tuple[float, np.ndarray, f
     p_try = np.concatenate([np.repeat(pose0[None, :], len(grid), axis=0), others])
     chi2 = _chi2_table(sub, ev, final, k_try, p_try)
     best = int(np.argmin(chi2))
-    if best < len(grid):               # refine the k_a between the grid's neighbours
+    if best < len(grid):  # refine the k_a between the grid's neighbours
         fine = np.geomspace(grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)], 41)
         chi2_fine = _chi2_table(sub, ev, final, fine, np.repeat(pose0[None, :], len(fine), axis=0))
         j = int(np.argmin(chi2_fine))
@@ -148,8 +180,18 @@ def rescored(anomaly: SettingAnomaly, meas, ev, final) -> SettingAnomaly:
     without it (the model that flagged it was biased by its rows)."""
     sub = meas.subset(np.isin(meas.lines, anomaly.lines))
     k, pose, chi2 = (best_label if anomaly.n_rows >= MIN_ROWS else measured_label)(sub, ev, final, meas)
-    return SettingAnomaly(anomaly.lines, anomaly.pose, anomaly.k_a, k, np.asarray(pose).tolist(), anomaly.chi2_own,
-                          chi2, anomaly.n_rows, anomaly.p_own, anomaly.scale)
+    return SettingAnomaly(
+        anomaly.lines,
+        anomaly.pose,
+        anomaly.k_a,
+        k,
+        np.asarray(pose).tolist(),
+        anomaly.chi2_own,
+        chi2,
+        anomaly.n_rows,
+        anomaly.p_own,
+        anomaly.scale,
+    )
 
 
 def deviates(own: float, scale: float, n_rows: int, alpha: float, n_settings: int) -> float | None:
@@ -190,8 +232,18 @@ def _left_out(meas, ev, final, g: np.ndarray, alpha: float, n_settings: int) -> 
         return None
     k, pose, chi2 = measured_label(sub, ev, g_fit, meas)
     if relabelled_fits(chi2, own, scale, len(g), alpha):
-        return SettingAnomaly([int(x) for x in sub.lines], sub.poses[0].tolist(), float(sub.k_a[0]), k,
-                              np.asarray(pose).tolist(), own, chi2, len(g), p_own, scale)
+        return SettingAnomaly(
+            [int(x) for x in sub.lines],
+            sub.poses[0].tolist(),
+            float(sub.k_a[0]),
+            k,
+            np.asarray(pose).tolist(),
+            own,
+            chi2,
+            len(g),
+            p_own,
+            scale,
+        )
     return None
 
 
@@ -201,8 +253,13 @@ def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly
     groups = [g for g in every if len(g) >= MIN_ROWS]
     if len(every) < 3:
         return []
-    out = [a for g in every if len(g) < MIN_ROWS
-           for a in [_left_out(meas, ev, final, g, alpha, len(every))] if a is not None]
+    out = [
+        a
+        for g in every
+        if len(g) < MIN_ROWS
+        for a in [_left_out(meas, ev, final, g, alpha, len(every))]
+        if a is not None
+    ]
     if len(groups) < 3:
         return sorted(out, key=lambda a: -a.chi2_own)
     r = final.comparison.error_sigma
@@ -217,6 +274,18 @@ def find_setting_anomalies(meas, ev, final, alpha: float) -> list[SettingAnomaly
         sub = meas.subset(g)
         k, pose, chi2 = best_label(sub, ev, final, meas)
         if relabelled_fits(chi2, own, scale, len(g) - 1, alpha):
-            out.append(SettingAnomaly([int(x) for x in sub.lines], sub.poses[0].tolist(), float(sub.k_a[0]), k,
-                                      np.asarray(pose).tolist(), own, chi2, len(g), p_own, scale))
+            out.append(
+                SettingAnomaly(
+                    [int(x) for x in sub.lines],
+                    sub.poses[0].tolist(),
+                    float(sub.k_a[0]),
+                    k,
+                    np.asarray(pose).tolist(),
+                    own,
+                    chi2,
+                    len(g),
+                    p_own,
+                    scale,
+                )
+            )
     return sorted(out, key=lambda a: -a.chi2_own)

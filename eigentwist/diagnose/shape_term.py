@@ -3,6 +3,7 @@
 Apart from :mod:`.shapes` (the residual and MAC of one row, used by the predictions in
 :mod:`.predict`) because it evaluates the model through :class:`.predict.Predictor`.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,6 +32,12 @@ def shape_term(meas, effects, ev, values: dict | None = None) -> dict | None:
     macs = row_mac(modes, idx, shapes, meas.shape_projection)
     ok = np.isfinite(res)
     chi2 = float(np.sum(res[ok] ** 2))
-    return {"chi2": chi2, "n": int(ok.sum()), "p_value": float(stats.chi2.sf(chi2, int(ok.sum()))),
-            "mac_min": float(np.nanmin(macs)), "mac_mean": float(np.nanmean(macs)),
-            "residuals": res.tolist(), "criterion": SHAPE_CRITERION}
+    return {
+        "chi2": chi2,
+        "n": int(ok.sum()),
+        "p_value": float(stats.chi2.sf(chi2, int(ok.sum()))),
+        "mac_min": float(np.nanmin(macs)),
+        "mac_mean": float(np.nanmean(macs)),
+        "residuals": res.tolist(),
+        "criterion": SHAPE_CRITERION,
+    }

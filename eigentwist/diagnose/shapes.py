@@ -30,20 +30,33 @@ its MAC, and a row has a shape when at least two of its DOFs are measured.
   ``theta = arccos(sqrt(MAC))`` (rad), in units of its standard uncertainty
   ``SIGMA_SHAPE_RAD``.
 """
+
 from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["transport_matrix", "sensor_shapes", "mac", "match_by_shape", "has_shape",
-           "shape_residuals", "row_mac", "SIGMA_SHAPE_RAD", "SHAPE_CRITERION", "SHAPE_COLUMNS"]
+__all__ = [
+    "transport_matrix",
+    "sensor_shapes",
+    "mac",
+    "match_by_shape",
+    "has_shape",
+    "shape_residuals",
+    "row_mac",
+    "SIGMA_SHAPE_RAD",
+    "SHAPE_CRITERION",
+    "SHAPE_COLUMNS",
+]
 
 SHAPE_COLUMNS = ("phi_x", "phi_y", "phi_z")
-SIGMA_SHAPE_RAD = 0.05          # standard uncertainty of a measured shape's direction, rad (about 3 degrees)
-SHAPE_CRITERION = ("shape residual per row with a measured shape: theta / sigma_theta, theta = arccos(sqrt(MAC)) "
-                   "the angle between the measured shape and the model's eigentwist transported to the sensor "
-                   f"(v + omega x r), sigma_theta = {SIGMA_SHAPE_RAD} rad; rows are matched to model modes by the "
-                   "largest total MAC among the translational modes of their setting (Hungarian method)")
+SIGMA_SHAPE_RAD = 0.05  # standard uncertainty of a measured shape's direction, rad (about 3 degrees)
+SHAPE_CRITERION = (
+    "shape residual per row with a measured shape: theta / sigma_theta, theta = arccos(sqrt(MAC)) "
+    "the angle between the measured shape and the model's eigentwist transported to the sensor "
+    f"(v + omega x r), sigma_theta = {SIGMA_SHAPE_RAD} rad; rows are matched to model modes by the "
+    "largest total MAC among the translational modes of their setting (Hungarian method)"
+)
 
 
 def transport_matrix(r) -> np.ndarray:
@@ -115,10 +128,10 @@ def match_by_shape(modes, shapes, keys, fallback, sensor=None) -> np.ndarray:
     idx = np.array(fallback, dtype=int, copy=True)
     if not has.any():
         return idx
-    U = sensor_shapes(modes.eigentwists, sensor) * np.isfinite(shapes)[:, :, None]   # (N, D, n)
-    score = mac(np.swapaxes(U, -1, -2), np.nan_to_num(shapes)[:, None, :])           # (N, n)
-    seen = modes.direction >= 3                                       # x, y, z (AXES index)
-    score = np.where(seen, score, score - 2.0)                        # rotations only if nothing else fits
+    U = sensor_shapes(modes.eigentwists, sensor) * np.isfinite(shapes)[:, :, None]  # (N, D, n)
+    score = mac(np.swapaxes(U, -1, -2), np.nan_to_num(shapes)[:, None, :])  # (N, n)
+    seen = modes.direction >= 3  # x, y, z (AXES index)
+    score = np.where(seen, score, score - 2.0)  # rotations only if nothing else fits
     rows = np.flatnonzero(has)
     group = _groups(np.asarray(keys, dtype=float)[rows])
     for g in np.unique(group):

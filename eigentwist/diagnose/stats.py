@@ -25,6 +25,7 @@ chi2 = sum(((f_pred,i - f_meas,i) / sigma_i)^2).
     ``ALPHA / m`` for m candidates tested at that step (Bonferroni: the best of m is
     picked after looking at all of them).
 """
+
 from __future__ import annotations
 
 import math
@@ -32,27 +33,47 @@ import math
 import numpy as np
 from scipy import stats
 
-__all__ = ["ALPHA", "chi2_value", "aicc", "f_test", "switch_test", "gof_p_value", "explained", "indistinguishable",
-           "separation", "DELTA_AICC", "SEPARATION", "CRITERIA"]
+__all__ = [
+    "ALPHA",
+    "chi2_value",
+    "aicc",
+    "f_test",
+    "switch_test",
+    "gof_p_value",
+    "explained",
+    "indistinguishable",
+    "separation",
+    "DELTA_AICC",
+    "SEPARATION",
+    "CRITERIA",
+]
 
-ALPHA = 0.01          # significance level of the F test and of the goodness-of-fit test
-DELTA_AICC = 2.0      # below this, two models have comparable support (Burnham & Anderson)
-SEPARATION = 3.0      # below this chi2 distance between two models' predictions, noise reverses their order > 7 %
+ALPHA = 0.01  # significance level of the F test and of the goodness-of-fit test
+DELTA_AICC = 2.0  # below this, two models have comparable support (Burnham & Anderson)
+SEPARATION = 3.0  # below this chi2 distance between two models' predictions, noise reverses their order > 7 %
 
 CRITERIA = {
     "ranking": "AICc with sigma known up to a common scale factor (n ln(chi2/n) + 2K + 2K(K+1)/(n-K-1), K = k+1)",
     "p_value": "extra-sum-of-squares F test against the model of the previous step",
     "switched": "an effect without fitted parameters: p = P(chi2_1 >= (chi2_0 - chi2_1)/max(1, chi2_1/(n-k)))",
-    "plausible": "a candidate whose fitted value lies outside its parameter's documented plausible range by more than 3 "
-                 "standard errors, or at a search bound, is reported implausible (with the value it would need) and never "
-                 "selected",
-    "selection": "add the best-ranked effect while its p-value < alpha/m (Bonferroni over m candidates) and it lowers AICc",
+    "plausible": (
+        "a candidate whose fitted value lies outside its parameter's documented plausible range by more than 3 "
+        "standard errors, or at a search bound, is reported implausible (with the value it would need) and never "
+        "selected"
+    ),
+    "selection": (
+        "add the best-ranked effect while its p-value < alpha/m (Bonferroni over m candidates) and it lowers AICc"
+    ),
     "explained": "chi-square goodness of fit with the given sigma: P(chi2_{n-k} >= chi2) > alpha",
-    "indistinguishable": "|delta AICc| < 2 (comparable support), or the two fitted models' predictions on the measured rows "
-                         "are less than D = 3 apart, D^2 = sum(((f_a - f_b)/sigma)^2) (noise alone reverses their order "
-                         "with probability > 7 %)",
-    "param_std": "from the Jacobian at the optimum: cov = (J^T J)^-1 * max(1, chi2/(n-k)) (scaled up by the Birge ratio when "
-                 "the fit is worse than sigma), propagated from log-parameters by the delta method",
+    "indistinguishable": (
+        "|delta AICc| < 2 (comparable support), or the two fitted models' predictions on the measured rows "
+        "are less than D = 3 apart, D^2 = sum(((f_a - f_b)/sigma)^2) (noise alone reverses their order "
+        "with probability > 7 %)"
+    ),
+    "param_std": (
+        "from the Jacobian at the optimum: cov = (J^T J)^-1 * max(1, chi2/(n-k)) (scaled up by the Birge ratio when "
+        "the fit is worse than sigma), propagated from log-parameters by the delta method"
+    ),
 }
 
 

@@ -15,6 +15,7 @@ z; N m/rad about rx, ry, rz) to the truth's stiffness matrix: a physical effect 
 the catalogue does not contain (a cable carrier or hose pulling on the end-effector), to
 test that a diagnosis says so.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -50,7 +51,9 @@ def parse_truth(spec: str, ev, what: str = "truth") -> Truth:
     gives ``--model`` of the commands that evaluate a model.
     """
     if not isinstance(spec, str) or not spec.strip():
-        raise InputError(f"{what} spec is empty: expected PRESET[+EFFECT:PARAM=VALUE,...], e.g. paper+payload_mass:m_p=0.5")
+        raise InputError(
+            f"{what} spec is empty: expected PRESET[+EFFECT:PARAM=VALUE,...], e.g. paper+payload_mass:m_p=0.5"
+        )
     names: list[str] = []
     values: dict[str, float] = {}
     for item in spec.split("+"):
@@ -60,8 +63,10 @@ def parse_truth(spec: str, ev, what: str = "truth") -> Truth:
                 continue
             if head not in PRESETS and head.partition("@")[0] not in set(EFFECTS) | set(ev.effects):
                 valid = list(PRESETS) + list(ev.effects)
-                raise InputError(f"{what} item {item!r}: {head!r} is not a preset or effect{did_you_mean(head, valid)} "
-                                 f"(expected one of {', '.join(valid)} or none)")
+                raise InputError(
+                    f"{what} item {item!r}: {head!r} is not a preset or effect{did_you_mean(head, valid)} "
+                    f"(expected one of {', '.join(valid)} or none)"
+                )
             names.append(head)
         for assignment in filter(None, (a.strip() for a in tail.split(","))):
             name, sep, text = assignment.partition("=")
@@ -69,8 +74,10 @@ def parse_truth(spec: str, ev, what: str = "truth") -> Truth:
             if not sep:
                 raise InputError(f"{what} item {item!r}: {assignment!r} is not PARAM=VALUE")
             if not ev.accepts(name):
-                raise InputError(f"{what} item {item!r}: unknown parameter {name!r}{did_you_mean(name, ev.parameters)} "
-                                 f"(parameters of {ev.robot.name}: {', '.join(ev.parameters)})")
+                raise InputError(
+                    f"{what} item {item!r}: unknown parameter {name!r}{did_you_mean(name, ev.parameters)} "
+                    f"(parameters of {ev.robot.name}: {', '.join(ev.parameters)})"
+                )
             try:
                 values[name] = float(text)
             except ValueError:
@@ -121,13 +128,30 @@ def _truth_modes(ev, truth: Truth, poses, k_a, extra_stiffness) -> Modes:
         j = axes.index(axis)
         K[:, j, j] += k
     lam, V = generalized_eigh(K, M)
-    return Modes(frequencies_hz(lam), normalize_eigentwists(V), axes, "rigid" if len(axes) == 3 else "flexible",
-                 stable=~unstable_modes(lam).any(axis=-1))
+    return Modes(
+        frequencies_hz(lam),
+        normalize_eigentwists(V),
+        axes,
+        "rigid" if len(axes) == 3 else "flexible",
+        stable=~unstable_modes(lam).any(axis=-1),
+    )
 
 
-def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed: int = 0,
-          robot: str = "heli4", ev=None, extra_stiffness: dict | None = None, sigma=None,
-          values: dict | None = None, kind: str = "undamped", zeta_noise=None) -> Measurements:
+def synth(
+    truth: str,
+    k_a,
+    poses=None,
+    modes=("x", "y", "z"),
+    noise=0.005,
+    seed: int = 0,
+    robot: str = "heli4",
+    ev=None,
+    extra_stiffness: dict | None = None,
+    sigma=None,
+    values: dict | None = None,
+    kind: str = "undamped",
+    zeta_noise=None,
+) -> Measurements:
     """Measurements of every (pose, k_a, mode) from the truth model, with relative noise.
 
     Parameters
@@ -153,8 +177,10 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
     rel = parse_noise(noise)
     stated = rel if sigma is None else parse_noise(sigma, "sigma")
     if sigma is not None and stated == 0:
-        raise InputError(f"sigma {sigma!r}: a stated standard uncertainty must be > 0, e.g. 0.5% "
-                         "(leave it out to state the noise level)")
+        raise InputError(
+            f"sigma {sigma!r}: a stated standard uncertainty must be > 0, e.g. 0.5% "
+            "(leave it out to state the noise level)"
+        )
     poses = np.atleast_2d(np.asarray(ev.robot.x_ref if poses is None else poses, dtype=float))
     k_a = np.atleast_1d(np.asarray(k_a, dtype=float))
     labels = [parse_mode(m) for m in modes]
@@ -179,6 +205,15 @@ def synth(truth: str, k_a, poses=None, modes=("x", "y", "z"), noise=0.005, seed:
         z_rel = parse_noise(zeta_noise, "zeta_noise")
         z = m.damping_ratio[at, idx]
         modal = {"damping_ratio": z * (1.0 + z_rel * gen.standard_normal(len(z))), "sigma_damping_ratio": z_rel * z}
-    return Measurements.from_arrays(row_ka, row_modes, f, row_poses, sigma_hz, robot=ev.robot.name,
-                                    source=f"synth({truth})", ev=ev, modal=modal,
-                                    kind=None if kind == "undamped" else kind)
+    return Measurements.from_arrays(
+        row_ka,
+        row_modes,
+        f,
+        row_poses,
+        sigma_hz,
+        robot=ev.robot.name,
+        source=f"synth({truth})",
+        ev=ev,
+        modal=modal,
+        kind=None if kind == "undamped" else kind,
+    )

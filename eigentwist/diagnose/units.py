@@ -6,6 +6,7 @@ scale error and the verdict would blame an effect outside the catalogue. The med
 of the measured to the baseline's frequencies is compared with each unit's factor: within
 ``UNIT_TOL`` of it (and farther than that from 1), the line names the unit.
 """
+
 from __future__ import annotations
 
 import math
@@ -16,7 +17,7 @@ __all__ = ["UNITS", "UNIT_TOL", "frequency_ratio", "unit_note"]
 
 # measured / model when the data were written in this unit instead of Hz
 UNITS = (("kHz", 1e-3), ("mHz", 1e3), ("rad/s", 2 * math.pi), ("rad/ms", 2 * math.pi * 1e-3))
-UNIT_TOL = 1.5      # a ratio within this factor of a unit's factor names it (a model is rarely 50 % off)
+UNIT_TOL = 1.5  # a ratio within this factor of a unit's factor names it (a model is rarely 50 % off)
 
 
 def frequency_ratio(measured, predicted) -> float:
@@ -34,6 +35,5 @@ def unit_note(measured, predicted) -> str | None:
         return None
     for unit, factor in UNITS:
         if abs(math.log(r / factor)) < math.log(UNIT_TOL):
-            return (f"Units: the measured frequencies are ~{r:.4g} x the model's: written in {unit}? "
-                    f"(freq_hz is in Hz)")
+            return f"Units: the measured frequencies are ~{r:.4g} x the model's: written in {unit}? (freq_hz is in Hz)"
     return None

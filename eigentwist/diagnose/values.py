@@ -5,6 +5,7 @@ run (``--set``, ``--model NAME:PARAM=VALUE``, the ``values`` argument of
 :func:`~eigentwist.diagnose.compare.compare`), the robot's default. Fitted values (a
 diagnosis) start from the given value and replace it.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,8 +20,15 @@ def _base(name: str) -> str:
 
 
 def _row(p, name: str, value, source: str, effects) -> dict:
-    row = {"name": name, "unit": p.unit, "default": float(p.default), "source": source, "effect": p.effect or "",
-           "active": p.effect is None or p.effect in effects, "doc": p.doc}
+    row = {
+        "name": name,
+        "unit": p.unit,
+        "default": float(p.default),
+        "source": source,
+        "effect": p.effect or "",
+        "active": p.effect is None or p.effect in effects,
+        "doc": p.doc,
+    }
     arr = np.unique(np.asarray(value, dtype=float))
     row["value"] = float(arr[0]) if arr.size == 1 else None
     row["range"] = [float(arr.min()), float(arr.max())]
@@ -41,8 +49,10 @@ def used_parameters(ev, effects=(), values: dict | None = None, meas=None, fitte
     columns = dict(getattr(meas, "params", {}) or {})
     rows = []
     for p in ev.robot.parameters:
-        names = [p.name] + sorted((k for k in {**values, **columns} if "@" in k and _base(k) == p.name),
-                                  key=lambda k: int(k.partition("@")[2]))
+        names = [p.name] + sorted(
+            (k for k in {**values, **columns} if "@" in k and _base(k) == p.name),
+            key=lambda k: int(k.partition("@")[2]),
+        )
         for name in names:
             if name in columns:
                 value, source = columns[name], "data column"

@@ -3,6 +3,7 @@
 :func:`verdict_text` is the diagnosis's verdict in sentences, the same in the text, the
 JSON (``final.message``) and the HTML report.
 """
+
 from __future__ import annotations
 
 import math
@@ -50,26 +51,56 @@ def comparison_table(cmp, limit: int = TABLE_ROWS) -> str:
     mac = getattr(cmp, "mac", None)
     err_pct, err_sigma, failing = cmp.error_pct, cmp.error_sigma, cmp.failing
     shown = np.arange(len(m)) if len(m) <= limit else np.flatnonzero(failing)[:limit]
-    rows = [[int(m.lines[i]), f"{m.k_a[i]:g}", _pose(m.poses[i]), m.mode[i], int(cmp.mode_index[i]) + 1,
-             f"{m.freq_hz[i]:.4g}", f"{m.sigma_hz[i]:.3g}", f"{cmp.predicted[i]:.4g}",
-             f"{err_pct[i]:+.2f}", f"{err_sigma[i]:+.2f}", "FAILS" if failing[i] else ""]
-            + ([] if mac is None else ["-" if np.isnan(mac[i]) else f"{mac[i]:.4f}"]) for i in shown]
-    table = format_table(["line", f"k_a [{m.k_a_unit}]", f"pose [{_pose_unit(m.poses[0]) if len(m) else 'm'}]", "mode",
-                          "model mode", "measured [Hz]", "sigma [Hz]", "predicted [Hz]", "error [%]", "error [sigma]",
-                          f"|err|>{FAIL_SIGMA:g}sigma"] + ([] if mac is None else ["MAC"]), rows)
+    rows = [
+        [
+            int(m.lines[i]),
+            f"{m.k_a[i]:g}",
+            _pose(m.poses[i]),
+            m.mode[i],
+            int(cmp.mode_index[i]) + 1,
+            f"{m.freq_hz[i]:.4g}",
+            f"{m.sigma_hz[i]:.3g}",
+            f"{cmp.predicted[i]:.4g}",
+            f"{err_pct[i]:+.2f}",
+            f"{err_sigma[i]:+.2f}",
+            "FAILS" if failing[i] else "",
+        ]
+        + ([] if mac is None else ["-" if np.isnan(mac[i]) else f"{mac[i]:.4f}"])
+        for i in shown
+    ]
+    table = format_table(
+        [
+            "line",
+            f"k_a [{m.k_a_unit}]",
+            f"pose [{_pose_unit(m.poses[0]) if len(m) else 'm'}]",
+            "mode",
+            "model mode",
+            "measured [Hz]",
+            "sigma [Hz]",
+            "predicted [Hz]",
+            "error [%]",
+            "error [sigma]",
+            f"|err|>{FAIL_SIGMA:g}sigma",
+        ]
+        + ([] if mac is None else ["MAC"]),
+        rows,
+    )
     if len(shown) == len(m):
         return table
     n_fail = int(failing.sum())
     which = f"the {n_fail} failing rows" if n_fail <= limit else f"the first {limit} of the {n_fail} failing rows"
-    return (f"{len(m)} rows, more than {limit}: listed are {which} (--json prints every row)"
-            + ("\n" + table if len(shown) else ""))
+    return f"{len(m)} rows, more than {limit}: listed are {which} (--json prints every row)" + (
+        "\n" + table if len(shown) else ""
+    )
 
 
 def comparison_summary(cmp) -> str:
     n_fail = int(np.sum(cmp.failing))
-    return (f"RMS error {cmp.rms_pct:.2f} %, max {cmp.max_pct:.2f} % (error = (predicted - measured)/measured); "
-            f"chi2 = {cmp.chi2:.1f} for {len(cmp.meas)} rows; {n_fail} of {len(cmp.meas)} rows fail "
-            f"(|error| > {FAIL_SIGMA:g} sigma)")
+    return (
+        f"RMS error {cmp.rms_pct:.2f} %, max {cmp.max_pct:.2f} % (error = (predicted - measured)/measured); "
+        f"chi2 = {cmp.chi2:.1f} for {len(cmp.meas)} rows; {n_fail} of {len(cmp.meas)} rows fail "
+        f"(|error| > {FAIL_SIGMA:g} sigma)"
+    )
 
 
 def failing_text(cmp) -> list[str]:
@@ -79,9 +110,11 @@ def failing_text(cmp) -> list[str]:
         unit = cmp.meas.k_a_unit
         ka = f"k_a = {lo:g} {unit}" if lo == hi else f"k_a {lo:g}-{hi:g} {unit}"
         poses = "; ".join(_pose(p) for p in w["poses"][:4]) + (" ..." if len(w["poses"]) > 4 else "")
-        out.append(f"mode {w['mode']}: {w['rows']} of {w['of']} rows, {ka}, pose(s) {poses} {_pose_unit(w['poses'][0])}, "
-                   f"model {w['predicted']} (lines {', '.join(map(str, w['lines'][:12]))}"
-                   f"{' ...' if len(w['lines']) > 12 else ''})")
+        out.append(
+            f"mode {w['mode']}: {w['rows']} of {w['of']} rows, {ka}, pose(s) {poses} {_pose_unit(w['poses'][0])}, "
+            f"model {w['predicted']} (lines {', '.join(map(str, w['lines'][:12]))}"
+            f"{' ...' if len(w['lines']) > 12 else ''})"
+        )
     return out or ["nowhere: every row is within 2 sigma"]
 
 
@@ -105,24 +138,44 @@ def _ranking_table(ranking, ev) -> str:
         ties = [e for e in c.indistinguishable_from if e not in {m.effect for m in g}]
         if ties:
             note.append(f"~ {', '.join(collapse(ties, groups))}")
-        rows.append([rank[c.effect] + 1, group_label([m.effect for m in g]), format_params(c.params, c.param_std, ev),
-                     f"{c.fit.rms_pct:.2f}", f"{c.fit.max_pct:.2f}", f"{c.fit.aicc:.1f}",
-                     f"{0.0 if abs(c.delta_aicc) < 0.05 else c.delta_aicc:.1f}",
-                     "-" if c.p_value is None or not math.isfinite(c.p_value) else f"{c.p_value:.2g}",
-                     "; ".join(note)])
-    return format_table(["rank", "effect", "fitted (± std)", "RMS [%]", "max [%]", "AICc", "dAICc", "p-value",
-                         "notes (~: tied)"], rows, footnote=(8,))
+        rows.append(
+            [
+                rank[c.effect] + 1,
+                group_label([m.effect for m in g]),
+                format_params(c.params, c.param_std, ev),
+                f"{c.fit.rms_pct:.2f}",
+                f"{c.fit.max_pct:.2f}",
+                f"{c.fit.aicc:.1f}",
+                f"{0.0 if abs(c.delta_aicc) < 0.05 else c.delta_aicc:.1f}",
+                "-" if c.p_value is None or not math.isfinite(c.p_value) else f"{c.p_value:.2g}",
+                "; ".join(note),
+            ]
+        )
+    return format_table(
+        ["rank", "effect", "fitted (± std)", "RMS [%]", "max [%]", "AICc", "dAICc", "p-value", "notes (~: tied)"],
+        rows,
+        footnote=(8,),
+    )
 
 
 def _steps_table(steps, ev) -> str:
     rows = []
     for k, s in enumerate(steps):
-        rows.append([k, s.change, ", ".join(s.fit.effects) or "(none)",
-                     f"{s.fit.rms_pct:.2f}", f"{s.fit.max_pct:.2f}", f"{s.fit.chi2:.1f}",
-                     "-" if s.p_value is None or not math.isfinite(s.p_value) else f"{s.p_value:.2g}",
-                     ", ".join(s.alternatives) or "-"])
-    return format_table(["step", "change", "effects", "RMS [%]", "max [%]", "chi2", "p-value",
-                         "equally good instead"], rows)
+        rows.append(
+            [
+                k,
+                s.change,
+                ", ".join(s.fit.effects) or "(none)",
+                f"{s.fit.rms_pct:.2f}",
+                f"{s.fit.max_pct:.2f}",
+                f"{s.fit.chi2:.1f}",
+                "-" if s.p_value is None or not math.isfinite(s.p_value) else f"{s.p_value:.2g}",
+                ", ".join(s.alternatives) or "-",
+            ]
+        )
+    return format_table(
+        ["step", "change", "effects", "RMS [%]", "max [%]", "chi2", "p-value", "equally good instead"], rows
+    )
 
 
 def _needs(c, ev) -> str:
@@ -139,16 +192,22 @@ def _needs(c, ev) -> str:
 def _head(d) -> str:
     f = d.final
     if f.dof <= 0:
-        return (f"cannot judge whether the final model explains the data: it has {f.k} fitted parameters for "
-                f"{f.n} measurements (measure more)")
+        return (
+            f"cannot judge whether the final model explains the data: it has {f.k} fitted parameters for "
+            f"{f.n} measurements (measure more)"
+        )
     p = gof_p_value(f.chi2, f.n, f.k)
     stat = f"chi2 = {f.chi2:.1f} for {f.dof} degrees of freedom (reduced {f.reduced_chi2:.2f}, p = {p:.3g})"
     if d.explained:
         return f"the final model explains the data within the measurement uncertainty: {stat}"
     if getattr(d, "implausible", None) and p > d.alpha:
-        return (f"the final model does NOT explain the data: it fits ({stat}) only with "
-                f"{', '.join(d.implausible)} outside the plausible range")
-    return f"the final model does NOT explain the data within the measurement uncertainty: {stat} <= alpha = {d.alpha:g}"
+        return (
+            f"the final model does NOT explain the data: it fits ({stat}) only with "
+            f"{', '.join(d.implausible)} outside the plausible range"
+        )
+    return (
+        f"the final model does NOT explain the data within the measurement uncertainty: {stat} <= alpha = {d.alpha:g}"
+    )
 
 
 def _why(d) -> str:
@@ -156,19 +215,27 @@ def _why(d) -> str:
     u = d.uncertainty
     last = d.steps[-1].ranking
     if d.manual:
-        return ("The effects added by hand are not enough; run without --add to let the catalogue be searched, or "
-                "an effect outside the catalogue is missing (or the stated uncertainties are too small)")
+        return (
+            "The effects added by hand are not enough; run without --add to let the catalogue be searched, or "
+            "an effect outside the catalogue is missing (or the stated uncertainties are too small)"
+        )
     if u is not None and u.verdict == "too few rows":
         return "Too few rows to tell a missing effect from the stated uncertainty: measure more (below)"
     if any(a.replaced is None for a in d.alternatives):
-        return ("Catalogue effects would explain it, but these rows cannot show it significantly (below), or the stated "
-                "uncertainties are too small")
+        return (
+            "Catalogue effects would explain it, but these rows cannot show it significantly (below), or the stated "
+            "uncertainties are too small"
+        )
     if u is not None and u.verdict == "understated":
-        return (f"The residuals are {u.birge_ratio:.2g} times the stated uncertainty, without a systematic pattern, and "
-                "no catalogue effect is significant: the stated uncertainties are too small (understated), rather than "
-                "an effect missing")
+        return (
+            f"The residuals are {u.birge_ratio:.2g} times the stated uncertainty, without a systematic pattern, and "
+            "no catalogue effect is significant: the stated uncertainties are too small (understated), rather than "
+            "an effect missing"
+        )
     if not last:
-        why = "Every catalogue effect this robot has is already in the model: an effect outside the catalogue is missing"
+        why = (
+            "Every catalogue effect this robot has is already in the model: an effect outside the catalogue is missing"
+        )
     else:
         why = "No catalogue effect improves it significantly any more: an effect outside the catalogue is missing"
     if u is not None and u.pattern:
@@ -180,9 +247,11 @@ def _too_few(d) -> str:
     n = len(d.meas)
     need = max(d.untestable.values()) if d.untestable else d.final.k + 3
     names = ", ".join(sorted(d.untestable)) or "the final model's goodness of fit"
-    out = (f"Too few rows: with {n} rows, {names} cannot be tested (up to {need} rows needed; AICc is infinite "
-           f"when n <= k + 2). Measure more: at least {need - n} more rows, e.g. more k_a values, another pose or "
-           "the other mode directions")
+    out = (
+        f"Too few rows: with {n} rows, {names} cannot be tested (up to {need} rows needed; AICc is infinite "
+        f"when n <= k + 2). Measure more: at least {need - n} more rows, e.g. more k_a values, another pose or "
+        "the other mode directions"
+    )
     if d.next_measurement:
         out += f"; the most informative: {d.next_measurement['message']}"
     return out
@@ -193,32 +262,40 @@ def _uncertainty_sentence(d) -> str | None:
     if u is None or u.verdict in ("too few rows",):
         return None
     if u.verdict == "overstated":
-        return (f"The stated uncertainties look overstated: the final model fits {1 / max(u.birge_ratio, 1e-12):.2g} "
-                f"times better than they allow (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.2g}, P(chi2 <= "
-                f"{u.chi2:.3g}) = {u.p_low:.2g}); with honest uncertainties smaller effects may become visible")
+        return (
+            f"The stated uncertainties look overstated: the final model fits {1 / max(u.birge_ratio, 1e-12):.2g} "
+            f"times better than they allow (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.2g}, P(chi2 <= "
+            f"{u.chi2:.3g}) = {u.p_low:.2g}); with honest uncertainties smaller effects may become visible"
+        )
     if u.verdict == "understated":
         return f"The stated uncertainties look understated by a factor of about {u.birge_ratio:.2g} (Birge ratio)"
-    return None                 # possibly understated: said in the reason for the misfit
+    return None  # possibly understated: said in the reason for the misfit
 
 
 def _outlier_sentence(d, ev) -> str | None:
     if not d.outliers:
         return None
-    rows = "; ".join(f"line {o.line} (mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "
-                     f"{o.residual_sigma:+.1f} sigma)" for o in d.outliers)
+    rows = "; ".join(
+        f"line {o.line} (mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "
+        f"{o.residual_sigma:+.1f} sigma)"
+        for o in d.outliers
+    )
     a = d.all_rows
-    with_all = (f"with every row the selection is {', '.join(a.selected) or 'nothing'}"
-                + (f" ({format_params(a.final.values, a.final.std, ev)})" if a and a.final.values else ""))
-    return (f"Isolated outlier(s) set aside: {rows}; the selection and fitted values above are without them "
-            f"({with_all})")
+    with_all = f"with every row the selection is {', '.join(a.selected) or 'nothing'}" + (
+        f" ({format_params(a.final.values, a.final.std, ev)})" if a and a.final.values else ""
+    )
+    return f"Isolated outlier(s) set aside: {rows}; the selection and fitted values above are without them ({with_all})"
 
 
 def _alternatives_sentence(d) -> str | None:
     parts = []
     unproven = [a.by for a in d.alternatives if a.replaced is None]
     if unproven:
-        text = (f"{' or '.join(unproven)} would explain the data, but not significantly with {len(d.meas)} rows"
-                + (": these data cannot tell them apart" if len(unproven) > 1 else "") + "; measure more")
+        text = (
+            f"{' or '.join(unproven)} would explain the data, but not significantly with {len(d.meas)} rows"
+            + (": these data cannot tell them apart" if len(unproven) > 1 else "")
+            + "; measure more"
+        )
         nm = next((a.next_measurement for a in d.alternatives if a.replaced is None and a.next_measurement), None)
         if nm:
             text += f" ({nm['message']})"
@@ -232,8 +309,11 @@ def _alternatives_sentence(d) -> str | None:
         nm = a.next_measurement
         if nm:
             pose = ", ".join(f"{v:g}" for v in np.round(nm["pose"], 4))
-            text += (f"; measure mode {nm['mode']} at [{pose}] {_pose_unit(nm['pose'])} with k_a = {nm['k_a']:.4g} {nm.get('k_a_unit', 'N m/rad')}, where they "
-                     f"differ by {nm['separation_sigma']:.1f} sigma")
+            text += (
+                f"; measure mode {nm['mode']} at [{pose}] {_pose_unit(nm['pose'])} "
+                f"with k_a = {nm['k_a']:.4g} {nm.get('k_a_unit', 'N m/rad')}, where they "
+                f"differ by {nm['separation_sigma']:.1f} sigma"
+            )
         parts.append(text)
     if not parts and d.ranking and (d.uncertainty is not None and d.uncertainty.verdict == "too few rows"):
         top = d.ranking[0]
@@ -275,8 +355,12 @@ def verdict_text(d, ev=None) -> str:
     parts = [head] + component_sentences(d, ev)
     if d.uncertainty is not None and d.uncertainty.verdict == "too few rows":
         parts.append(_too_few(d))
-    for sentence in (_uncertainty_sentence(d), _outlier_sentence(d, ev), _alternatives_sentence(d),
-                     _implausible_sentence(d, ev)):
+    for sentence in (
+        _uncertainty_sentence(d),
+        _outlier_sentence(d, ev),
+        _alternatives_sentence(d),
+        _implausible_sentence(d, ev),
+    ):
         if sentence:
             parts.append(sentence)
     return ". ".join(parts)
@@ -285,8 +369,10 @@ def verdict_text(d, ev=None) -> str:
 def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     """The full diagnosis as text (sections 1-4: baseline, candidates, whether the data tell them apart, selection)."""
     m = d.meas
-    out = [f"{d.robot}: {len(m)} measured frequencies from {m.source}; baseline: "
-           f"{', '.join(d.baseline.effects) or '(no effect)'}"]
+    out = [
+        f"{d.robot}: {len(m)} measured frequencies from {m.source}; baseline: "
+        f"{', '.join(d.baseline.effects) or '(no effect)'}"
+    ]
     out += [changed_text([r for r in d.parameters if r["source"] != "fitted"], d.robot), ""]
     out += ["1. Baseline", "   " + comparison_summary(d.baseline), "   where it fails:"]
     out += ["     " + t for t in failing_text(d.baseline)]
@@ -301,25 +387,35 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
     out += ["", "3. Can the data tell them apart?"]
     top = d.ranking[0] if d.ranking else None
     if top and top.indistinguishable_from:
-        out.append(f"   {top.effect} and {', '.join(top.indistinguishable_from)} explain these data equally well "
-                   "(dAICc < 2, or predictions less than 3 sigma apart in total on the measured rows): these data cannot "
-                   "tell them apart.")
+        out.append(
+            f"   {top.effect} and {', '.join(top.indistinguishable_from)} explain these data equally well "
+            "(dAICc < 2, or predictions less than 3 sigma apart in total on the measured rows): these data cannot "
+            "tell them apart."
+        )
     elif top:
-        out.append(f"   yes: every other effect is worse by dAICc >= 2 and predicts these rows at least 3 sigma "
-                   f"differently from {top.effect}.")
+        out.append(
+            f"   yes: every other effect is worse by dAICc >= 2 and predicts these rows at least 3 sigma "
+            f"differently from {top.effect}."
+        )
     if not top:
         out.append("   nothing to compare: no candidate effect")
     nm = d.next_measurement
     if nm:
         a, b = nm["between"]
-        out.append(f"   measurement that separates {a} and {b} best: pose {_pose(nm['pose'])} {_pose_unit(nm['pose'])}, k_a = {nm['k_a']:.4g} "
-                   f"{nm.get('k_a_unit', 'N m/rad')}, mode {nm['mode']}: {nm['predicted_hz'][a]:.4g} vs {nm['predicted_hz'][b]:.4g} Hz "
-                   f"({nm['separation_sigma']:.1f} sigma apart at sigma = {nm['sigma_hz']:.3g} Hz)")
+        out.append(
+            f"   measurement that separates {a} and {b} best: pose {_pose(nm['pose'])} {_pose_unit(nm['pose'])}, "
+            f"k_a = {nm['k_a']:.4g} {nm.get('k_a_unit', 'N m/rad')}, mode {nm['mode']}: "
+            f"{nm['predicted_hz'][a]:.4g} vs {nm['predicted_hz'][b]:.4g} Hz "
+            f"({nm['separation_sigma']:.1f} sigma apart at sigma = {nm['sigma_hz']:.3g} Hz)"
+        )
         alt = nm.get("with_measured_modes")
         if alt and alt["mode"] != nm["mode"]:
-            out.append(f"   with a mode you already measure: pose {_pose(alt['pose'])} {_pose_unit(alt['pose'])}, k_a = {alt['k_a']:.4g} "
-                       f"{alt.get('k_a_unit', nm.get('k_a_unit', 'N m/rad'))}, mode {alt['mode']}: {alt['predicted_hz'][a]:.4g} vs {alt['predicted_hz'][b]:.4g} Hz "
-                       f"({alt['separation_sigma']:.1f} sigma)")
+            out.append(
+                f"   with a mode you already measure: pose {_pose(alt['pose'])} {_pose_unit(alt['pose'])}, "
+                f"k_a = {alt['k_a']:.4g} {alt.get('k_a_unit', nm.get('k_a_unit', 'N m/rad'))}, mode {alt['mode']}: "
+                f"{alt['predicted_hz'][a]:.4g} vs {alt['predicted_hz'][b]:.4g} Hz "
+                f"({alt['separation_sigma']:.1f} sigma)"
+            )
     title = "4. Effects added by hand" if d.manual else "4. Forward selection (add the best significant effect, repeat)"
     out += ["", title, _steps_table(d.steps, ev)]
     out += [f"   {r.reason} (p = {r.p_value:.2g} against the model without it)" for r in d.removed]
@@ -329,19 +425,26 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
         out.append(f"   fitted: {format_params(f.values, f.std, ev)}")
     out += [f"   {text}" for text in component_sentences(d, ev)]
     if f.at_bound:
-        out.append(f"   warning: {', '.join(f.at_bound)} ended at the edge of the search range (default/1000 ... "
-                   "1000 x default, within physical bounds): the value is not physically meaningful")
+        out.append(
+            f"   warning: {', '.join(f.at_bound)} ended at the edge of the search range (default/1000 ... "
+            "1000 x default, within physical bounds): the value is not physically meaningful"
+        )
     out.append(f"   {verdict_text(d, ev)}")
     u = d.uncertainty
     if u is not None:
         out.append(f"   stated uncertainty: {u.verdict} (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.3g})")
     for a in d.setting_anomalies:
         best = f"k_a = {a.best_k_a:.4g}" if a.what == "k_a" else f"pose [{', '.join(f'{v:g}' for v in a.best_pose)}]"
-        out.append(f"   setting set aside: lines {', '.join(map(str, a.lines))} (k_a = {a.k_a:g}) fit {best} far better")
+        out.append(
+            f"   setting set aside: lines {', '.join(map(str, a.lines))} (k_a = {a.k_a:g}) fit {best} far better"
+        )
     if d.outliers:
         out.append("   outliers set aside (CSV line, header = 1):")
-        out += [f"     line {o.line}: mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "
-                f"{o.residual_sigma:+.1f} sigma" for o in d.outliers]
+        out += [
+            f"     line {o.line}: mode {o.mode}, k_a = {o.k_a:g} {d.meas.k_a_unit}, {o.freq_hz:.4g} Hz, "
+            f"{o.residual_sigma:+.1f} sigma"
+            for o in d.outliers
+        ]
     if not d.explained:
         out.append("   where the final model still fails:")
         out += ["     " + t for t in failing_text(f.comparison)]

@@ -31,6 +31,7 @@ node positions ``nodeN_x, nodeN_y, nodeN_z`` (m), which the diagnosis compares w
 model's ``e . (v + omega x r)`` by the MAC over those DOFs
 (:mod:`eigentwist.diagnose.shapes`).
 """
+
 from __future__ import annotations
 
 import csv
@@ -47,13 +48,38 @@ from .identify import SIGMA_FLOOR_REL, SettingModes, identify_frfs, modes_from_s
 from .layout import note_line, shape_note, triaxial_node
 from .uff_io import FrfSet, read_uff
 
-__all__ = ["Setting", "Campaign", "CampaignResult", "read_manifest", "write_manifest", "identify_campaign",
-           "identify_setting", "node_positions", "shape_point", "dof_columns", "measurement_csv", "SENSOR", "OUTPUT_COLUMNS"]
+__all__ = [
+    "Setting",
+    "Campaign",
+    "CampaignResult",
+    "read_manifest",
+    "write_manifest",
+    "identify_campaign",
+    "identify_setting",
+    "node_positions",
+    "shape_point",
+    "dof_columns",
+    "measurement_csv",
+    "SENSOR",
+    "OUTPUT_COLUMNS",
+]
 
 SENSOR = ("sensor_x", "sensor_y", "sensor_z")
 NODE_COLUMN = re.compile(r"node(\d+)_([xyz])$")
-OUTPUT_COLUMNS = ("k_a", "mode", "freq_hz", "sigma_hz", "kind", "x", "y", "z", "damping_ratio", "phi_x", "phi_y",
-                  "phi_z")
+OUTPUT_COLUMNS = (
+    "k_a",
+    "mode",
+    "freq_hz",
+    "sigma_hz",
+    "kind",
+    "x",
+    "y",
+    "z",
+    "damping_ratio",
+    "phi_x",
+    "phi_y",
+    "phi_z",
+)
 
 
 @dataclass
@@ -86,7 +112,7 @@ class Campaign:
 @dataclass
 class CampaignResult:
     campaign: Campaign
-    results: list                   # SettingModes per setting
+    results: list  # SettingModes per setting
     measurements: Measurements
     notes: list = field(default_factory=list)
 
@@ -97,8 +123,9 @@ def _number(text: str, source: str, line: int, column: str, positive: bool = Fal
     except ValueError:
         raise MeasurementError(source, f"value {text!r} is not a number", line, column) from None
     if not np.isfinite(value) or (positive and value <= 0):
-        raise MeasurementError(source, f"value {text!r}: expected a {'positive ' if positive else ''}finite number",
-                               line, column)
+        raise MeasurementError(
+            source, f"value {text!r}: expected a {'positive ' if positive else ''}finite number", line, column
+        )
     return value
 
 
@@ -115,16 +142,22 @@ def read_manifest(path, ev) -> Campaign:
     allowed = {"file", "k_a", "x", "y", "z", *SENSOR, *ev.parameters}
     for name in names:
         if name not in allowed and not NODE_COLUMN.match(name):
-            raise MeasurementError(source, f"unknown column: not one of file, k_a, x, y, z, {', '.join(SENSOR)}, "
-                                   f"nodeN_x/y/z and not a parameter of {ev.robot.name}", records[0][0], name)
+            raise MeasurementError(
+                source,
+                f"unknown column: not one of file, k_a, x, y, z, {', '.join(SENSOR)}, "
+                f"nodeN_x/y/z and not a parameter of {ev.robot.name}",
+                records[0][0],
+                name,
+            )
     node_cols: dict[int, list] = {}
     for name in names:
         if NODE_COLUMN.match(name):
             node_cols.setdefault(int(NODE_COLUMN.match(name).group(1)), []).append(name)
     for n, cols in node_cols.items():
         if len(cols) != 3:
-            raise MeasurementError(source, f"node {n} needs the three columns node{n}_x, node{n}_y, node{n}_z",
-                                   records[0][0], cols[0])
+            raise MeasurementError(
+                source, f"node {n} needs the three columns node{n}_x, node{n}_y, node{n}_z", records[0][0], cols[0]
+            )
     for name in ("file", "k_a"):
         if name not in names:
             raise MeasurementError(source, f"missing required column {name!r}", records[0][0], name)
@@ -138,17 +171,35 @@ def read_manifest(path, ev) -> Campaign:
         row = dict(zip(names, (c.strip() for c in cells)))
         file = path.parent / row["file"]
         if not row["file"] or not file.is_file():
-            raise MeasurementError(source, f"{row['file'] or '(empty)'}: no such file (paths are relative to the "
-                                   f"manifest's folder {path.parent})", line, "file")
-        pose = np.array([_number(row[a], source, line, a) if row.get(a) else ev.robot.x_ref[k]
-                         for k, a in enumerate("xyz")], dtype=float)
+            raise MeasurementError(
+                source,
+                f"{row['file'] or '(empty)'}: no such file (paths are relative to the manifest's folder {path.parent})",
+                line,
+                "file",
+            )
+        pose = np.array(
+            [_number(row[a], source, line, a) if row.get(a) else ev.robot.x_ref[k] for k, a in enumerate("xyz")],
+            dtype=float,
+        )
         has_sensor = any(a in names for a in SENSOR)
         sensor = np.array([_number(row[a], source, line, a) if row.get(a) else 0.0 for a in SENSOR])
-        nodes = {n: np.array([_number(row[f"node{n}_{a}"], source, line, f"node{n}_{a}") for a in "xyz"])
-                 for n in node_cols if all(row[f"node{n}_{a}"] for a in "xyz")}
+        nodes = {
+            n: np.array([_number(row[f"node{n}_{a}"], source, line, f"node{n}_{a}") for a in "xyz"])
+            for n in node_cols
+            if all(row[f"node{n}_{a}"] for a in "xyz")
+        }
         values = {n: _number(row[n], source, line, n) for n in params if row[n]}
-        settings.append(Setting(file, _number(row["k_a"], source, line, "k_a", positive=True), pose,
-                                sensor if has_sensor else None, values, line, nodes))
+        settings.append(
+            Setting(
+                file,
+                _number(row["k_a"], source, line, "k_a", positive=True),
+                pose,
+                sensor if has_sensor else None,
+                values,
+                line,
+                nodes,
+            )
+        )
     return Campaign(settings, source, any(a in names for a in SENSOR) or bool(node_cols), params)
 
 
@@ -182,8 +233,9 @@ def node_positions(setting: Setting, frfs: FrfSet, node: int) -> dict:
     return coords
 
 
-def identify_setting(setting: Setting, band=None, node: int = 1, sigma_floor_rel: float = SIGMA_FLOOR_REL,
-                     max_order: int | None = None) -> SettingModes:
+def identify_setting(
+    setting: Setting, band=None, node: int = 1, sigma_floor_rel: float = SIGMA_FLOOR_REL, max_order: int | None = None
+) -> SettingModes:
     """Modes of one setting from its UFF file (FRFs identified, or dataset 55 modes).
 
     ``coords`` of the result: the node positions (:func:`node_positions`); ``notes``: why the
@@ -203,8 +255,9 @@ def identify_setting(setting: Setting, band=None, node: int = 1, sigma_floor_rel
     return res
 
 
-def identify_campaign(manifest, ev, band=None, node: int = 1, sigma_floor_rel: float = SIGMA_FLOOR_REL,
-                      progress=None) -> CampaignResult:
+def identify_campaign(
+    manifest, ev, band=None, node: int = 1, sigma_floor_rel: float = SIGMA_FLOOR_REL, progress=None
+) -> CampaignResult:
     """Identify every setting of a campaign; the measurements are validated as a CSV would be.
 
     ``notes``: each distinct setting note once (:func:`.layout.note_line`), naming its file or
@@ -261,8 +314,7 @@ def measurement_csv(camp: Campaign, results: list) -> str:
     w.writerow(cols)
     for s, m, phi, r, dofs in rows:
         z = m.damping_ratio if np.isfinite(m.damping_ratio) else None
-        row = [s.k_a, m.label, m.freq_hz, m.sigma_hz, "undamped", *s.pose, z,
-               *(phi if phi is not None else [None] * 3)]
+        row = [s.k_a, m.label, m.freq_hz, m.sigma_hz, "undamped", *s.pose, z, *(phi if phi is not None else [None] * 3)]
         row += (list(r) if r is not None else [None] * 3) if has_sensor else []
         row += [dofs.get(k) for k in extra]
         row += [s.params.get(n) for n in camp.param_names]

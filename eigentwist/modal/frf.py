@@ -11,6 +11,7 @@ with ``c = 1`` (receptance, m/N), ``i w`` (mobility, m/(N s)) and ``-w^2`` (acce
 m/(N s^2)); ``zeta`` is the modal damping ratio of every mode. A force at the sensor
 acts on the end-effector as the wrench ``[r x F; F] = T(r)^T F``, so H is symmetric.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -32,7 +33,7 @@ def form_factor(freq_hz, form: str) -> np.ndarray:
     if form == "mobility":
         return 1j * w
     if form == "accelerance":
-        return -(w ** 2) + 0j
+        return -(w**2) + 0j
     raise InputError(f"FRF form {form!r}: expected one of {', '.join(FORMS)}")
 
 
@@ -46,7 +47,7 @@ def frf_from_modes(freq_hz, omega_k, shapes, zeta, form: str = "accelerance", re
     """
     w = 2 * np.pi * np.asarray(freq_hz, dtype=float)[:, None]
     zeta = np.broadcast_to(np.asarray(zeta, dtype=float), omega_k.shape)
-    denom = omega_k ** 2 - w ** 2 + 2j * zeta * omega_k * w                   # (F, n)
+    denom = omega_k**2 - w**2 + 2j * zeta * omega_k * w  # (F, n)
     H = np.einsum("ik,fk,jk->fij", shapes, 1.0 / denom, shapes if ref_shapes is None else ref_shapes)
     return H * form_factor(freq_hz, form)[:, None, None]
 

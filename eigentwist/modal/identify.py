@@ -39,6 +39,7 @@
 Modes from a dataset 55 file (already identified) go through the same shape
 normalisation; their ``sigma_hz`` is the floor.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -52,16 +53,30 @@ from ..runtime import InputError
 from .layout import triaxial_node
 from .uff_io import FORM_RANK, FrfSet, ModeSet
 
-__all__ = ["IdentifiedMode", "Stabilisation", "SettingModes", "identify_frfs", "modes_from_set", "real_shape",
-           "rank_one", "shape_side",
-           "MAX_ORDER", "SIGMA_FLOOR_REL", "TOL_F", "TOL_ZETA", "TOL_CLUSTER", "MIN_ORDERS", "ZETA_MAX"]
+__all__ = [
+    "IdentifiedMode",
+    "Stabilisation",
+    "SettingModes",
+    "identify_frfs",
+    "modes_from_set",
+    "real_shape",
+    "rank_one",
+    "shape_side",
+    "MAX_ORDER",
+    "SIGMA_FLOOR_REL",
+    "TOL_F",
+    "TOL_ZETA",
+    "TOL_CLUSTER",
+    "MIN_ORDERS",
+    "ZETA_MAX",
+]
 
-MAX_ORDER = 30           # LSCF orders 2, 4, ..., 2 * MAX_ORDER
-ZETA_MAX = 0.2           # physical poles: 0 < zeta < ZETA_MAX
-TOL_F = 0.005            # stable: frequency within 0.5 % of a pole of the previous order
-TOL_ZETA = 0.10          # ... and damping within 10 %
-TOL_CLUSTER = 0.004      # stable poles closer than 0.4 % form one column of the diagram
-MIN_ORDERS = 6           # a column with stable poles at >= 6 orders is a mode
+MAX_ORDER = 30  # LSCF orders 2, 4, ..., 2 * MAX_ORDER
+ZETA_MAX = 0.2  # physical poles: 0 < zeta < ZETA_MAX
+TOL_F = 0.005  # stable: frequency within 0.5 % of a pole of the previous order
+TOL_ZETA = 0.10  # ... and damping within 10 %
+TOL_CLUSTER = 0.004  # stable poles closer than 0.4 % form one column of the diagram
+MIN_ORDERS = 6  # a column with stable poles at >= 6 orders is a mode
 SIGMA_FLOOR_REL = 0.001  # sigma_hz >= 0.1 % of the frequency (and = 0.1 % for dataset 55 modes)
 MIN_CONTRIBUTION = 0.01  # drop modes whose peak response is < 1 % of the strongest mode's
 AXES = ("x", "y", "z")
@@ -103,11 +118,11 @@ class SettingModes:
     band: tuple
     stabilisation: Stabilisation | None = None
     frfs: FrfSet | None = None
-    resynthesised: np.ndarray | None = None     # (F_band, P) LSFD reconstruction on the band
+    resynthesised: np.ndarray | None = None  # (F_band, P) LSFD reconstruction on the band
     band_index: slice | None = None
     seconds: float = 0.0
     notes: list = field(default_factory=list)
-    coords: dict = field(default_factory=dict)                # node -> (3,) position, m (campaign)
+    coords: dict = field(default_factory=dict)  # node -> (3,) position, m (campaign)
 
 
 def real_shape(u) -> tuple[np.ndarray, float]:
@@ -122,7 +137,7 @@ def real_shape(u) -> tuple[np.ndarray, float]:
     phi = phi / np.linalg.norm(phi)
     phi = phi * np.sign(phi[np.argmax(np.abs(phi))])
     sxx, syy, sxy = np.dot(u.real, u.real), np.dot(u.imag, u.imag), np.dot(u.real, u.imag)
-    mcf = 1.0 - ((sxx - syy) ** 2 + 4 * sxy ** 2) / (sxx + syy) ** 2
+    mcf = 1.0 - ((sxx - syy) ** 2 + 4 * sxy**2) / (sxx + syy) ** 2
     return phi, float(max(mcf, 0.0))
 
 
@@ -130,8 +145,9 @@ def _band(freq: np.ndarray, band, source: str) -> tuple[float, float]:
     lo_axis = freq[1] if freq[0] <= 0 else freq[0]
     lo, hi = band if band is not None else (lo_axis, freq[-1] * 0.99)
     if not (lo < hi) or hi <= lo_axis or lo >= freq[-1]:
-        raise InputError(f"{source}: band {lo:g}..{hi:g} Hz lies outside the frequency axis "
-                         f"{freq[0]:g}..{freq[-1]:g} Hz")
+        raise InputError(
+            f"{source}: band {lo:g}..{hi:g} Hz lies outside the frequency axis {freq[0]:g}..{freq[-1]:g} Hz"
+        )
     return max(lo, lo_axis), min(hi, freq[-1] * 0.99)
 
 
@@ -141,8 +157,7 @@ def _poles(frf: np.ndarray, freq: np.ndarray, band, form: str, max_order: int) -
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = EMA.Model(frf=frf, freq=freq, lower=band[0], upper=freq[-1], pol_order_high=max_order,
-                          frf_form=form)
+        model = EMA.Model(frf=frf, freq=freq, lower=band[0], upper=freq[-1], pol_order_high=max_order, frf_form=form)
         model.get_poles("lscf", show_progress=False)
     return [np.asarray(p) for p in model.all_poles]
 
@@ -174,8 +189,11 @@ def _stabilisation(poles: list, band) -> Stabilisation:
 
 def _columns(stab: Stabilisation) -> list[dict]:
     """Columns of stable poles: frequency, damping (medians), spread, orders, pole per order."""
-    rows = [(f, z, k) for k, (fk, zk, sk) in enumerate(zip(stab.freq_hz, stab.damping, stab.stable))
-            for f, z in zip(fk[sk], zk[sk])]
+    rows = [
+        (f, z, k)
+        for k, (fk, zk, sk) in enumerate(zip(stab.freq_hz, stab.damping, stab.stable))
+        for f, z in zip(fk[sk], zk[sk])
+    ]
     if not rows:
         return []
     rows.sort()
@@ -192,15 +210,21 @@ def _columns(stab: Stabilisation) -> list[dict]:
         f_all = np.array([r[0] for r in g])
         centre = np.median(f_all)
         per_order: dict[int, tuple] = {}
-        for f, z, k in g:                                  # one pole per order: nearest the centre
+        for f, z, k in g:  # one pole per order: nearest the centre
             if k not in per_order or abs(f - centre) < abs(per_order[k][0] - centre):
                 per_order[k] = (f, z)
         if len(per_order) < MIN_ORDERS:
             continue
         f = np.array([v[0] for v in per_order.values()])
         z = np.array([v[1] for v in per_order.values()])
-        out.append({"freq_hz": float(np.median(f)), "damping": float(np.median(z)),
-                    "spread_hz": float(np.std(f, ddof=1)), "orders": len(per_order)})
+        out.append(
+            {
+                "freq_hz": float(np.median(f)),
+                "damping": float(np.median(z)),
+                "spread_hz": float(np.std(f, ddof=1)),
+                "orders": len(per_order),
+            }
+        )
     return out
 
 
@@ -230,7 +254,7 @@ def _refine(frf, freq, poles, band_index: slice, form: str):
 
     def unpack(theta):
         w, z = np.exp(theta[::2]), theta[1::2]
-        return -z * w + 1j * w * np.sqrt(1 - z ** 2)
+        return -z * w + 1j * w * np.sqrt(1 - z**2)
 
     def residuals(theta):
         _, H = _lsfd(frf, freq, unpack(theta), band_index, form)
@@ -241,8 +265,15 @@ def _refine(frf, freq, poles, band_index: slice, form: str):
     lo = np.ravel(np.column_stack([np.log(w0) - 0.02, np.full_like(z0, 1e-5)]))
     hi = np.ravel(np.column_stack([np.log(w0) + 0.02, np.full_like(z0, ZETA_MAX)]))
     try:
-        res = least_squares(residuals, np.clip(theta0, lo, hi), bounds=(lo, hi), x_scale=np.abs(theta0) * 1e-3 + 1e-6,
-                            xtol=1e-10, ftol=1e-10, max_nfev=60)
+        res = least_squares(
+            residuals,
+            np.clip(theta0, lo, hi),
+            bounds=(lo, hi),
+            x_scale=np.abs(theta0) * 1e-3 + 1e-6,
+            xtol=1e-10,
+            ftol=1e-10,
+            max_nfev=60,
+        )
     except (ValueError, np.linalg.LinAlgError):
         return poles, np.full(len(poles), np.nan)
     if not res.success or not np.all(np.isfinite(res.x)):
@@ -261,13 +292,14 @@ def _one_blas_thread():
     """Small least-squares problems run fastest on one BLAS thread (threads spin on a busy machine)."""
     try:
         from threadpoolctl import threadpool_limits
-    except ImportError:                                  # optional: only speed depends on it
+    except ImportError:  # optional: only speed depends on it
         return contextlib.nullcontext()
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def identify_frfs(frfs: FrfSet, band=None, max_order: int = MAX_ORDER,
-                  sigma_floor_rel: float = SIGMA_FLOOR_REL) -> SettingModes:
+def identify_frfs(
+    frfs: FrfSet, band=None, max_order: int = MAX_ORDER, sigma_floor_rel: float = SIGMA_FLOOR_REL
+) -> SettingModes:
     """Identify the modes of one setting's FRFs (module doc); ``band`` (lo, hi) in Hz."""
     with _one_blas_thread():
         return _identify(frfs, band, max_order, sigma_floor_rel)
@@ -278,20 +310,22 @@ def _identify(frfs: FrfSet, band, max_order: int, sigma_floor_rel: float) -> Set
     freq = frfs.freq_hz
     _check_axis(freq, frfs.source)
     lo, hi = _band(freq, band, frfs.source)
-    frf = np.ascontiguousarray(frfs.H.T)                                # rows: measured pairs
+    frf = np.ascontiguousarray(frfs.H.T)  # rows: measured pairs
     stab = _stabilisation(_poles(frf, freq, (lo, hi), frfs.form, max_order), (lo, hi))
     cols = _columns(stab)
     if not cols:
-        raise InputError(f"{frfs.source}, dataset 58: no stable mode in the band {lo:g}..{hi:g} Hz "
-                         f"(LSCF orders 2..{2 * max_order}; widen --band or check the FRFs)")
+        raise InputError(
+            f"{frfs.source}, dataset 58: no stable mode in the band {lo:g}..{hi:g} Hz "
+            f"(LSCF orders 2..{2 * max_order}; widen --band or check the FRFs)"
+        )
     w = 2 * np.pi * np.array([c["freq_hz"] for c in cols])
     zeta = np.array([c["damping"] for c in cols])
-    poles = -zeta * w + 1j * w * np.sqrt(1 - zeta ** 2)
+    poles = -zeta * w + 1j * w * np.sqrt(1 - zeta**2)
     band_index = slice(int(np.searchsorted(freq, lo)), int(np.searchsorted(freq, hi, side="right")))
     poles, std_hz = _refine(frf, freq, poles, band_index, frfs.form)
     A, H_rec = _lsfd(frf, freq, poles, band_index, frfs.form)
     w, zeta = np.abs(poles), -poles.real / np.abs(poles)
-    strength = np.linalg.norm(A, axis=0) / (zeta * w) * w ** FORM_RANK[frfs.form]   # peak in the FRFs' form
+    strength = np.linalg.norm(A, axis=0) / (zeta * w) * w ** FORM_RANK[frfs.form]  # peak in the FRFs' form
     side, dofs = shape_side(frfs)
     modes = []
     for k, c in enumerate(cols):
@@ -302,7 +336,7 @@ def _identify(frfs: FrfSet, band, max_order: int, sigma_floor_rel: float) -> Set
         sigma = float(np.nanmax([c["spread_hz"], std_hz[k], sigma_floor_rel * f_k]))
         modes.append(IdentifiedMode(f_k, sigma, zeta[k], shape, mcf, "", c["orders"], dofs))
     _label(modes)
-    H_band = np.asarray(H_rec).T[band_index]                            # LSFD returns (rows, F)
+    H_band = np.asarray(H_rec).T[band_index]  # LSFD returns (rows, F)
     return SettingModes(modes, frfs.source, (lo, hi), stab, frfs, H_band, band_index, time.perf_counter() - t0)
 
 
@@ -326,10 +360,18 @@ def rank_one(a, pairs, n_o: int, n_r: int, iterations: int = 50) -> tuple[np.nda
     x, y = U[:, 0], s[0] * Vh[0]
     if len(pairs) < n_o * n_r:
         for _ in range(iterations):
-            x = np.array([np.vdot(y[r[o == i]], a[o == i]) / max(np.vdot(y[r[o == i]], y[r[o == i]]).real, 1e-300)
-                          for i in range(n_o)])
-            y = np.array([np.vdot(x[o[r == j]], a[r == j]) / max(np.vdot(x[o[r == j]], x[o[r == j]]).real, 1e-300)
-                          for j in range(n_r)])
+            x = np.array(
+                [
+                    np.vdot(y[r[o == i]], a[o == i]) / max(np.vdot(y[r[o == i]], y[r[o == i]]).real, 1e-300)
+                    for i in range(n_o)
+                ]
+            )
+            y = np.array(
+                [
+                    np.vdot(x[o[r == j]], a[r == j]) / max(np.vdot(x[o[r == j]], x[o[r == j]]).real, 1e-300)
+                    for j in range(n_r)
+                ]
+            )
         scale = np.linalg.norm(x)
         x, y = x / scale, y * scale
     return x, y
@@ -350,8 +392,10 @@ def _label(modes: list) -> None:
 def _check_axis(freq: np.ndarray, source: str) -> None:
     step = np.diff(freq)
     if freq.size < 16 or not np.all(step > 0) or np.ptp(step) > 1e-6 * step.mean():
-        raise InputError(f"{source}, dataset 58: the frequency axis must be evenly spaced and increasing with at "
-                         f"least 16 lines (LSCF), got {freq.size} lines")
+        raise InputError(
+            f"{source}, dataset 58: the frequency axis must be evenly spaced and increasing with at "
+            f"least 16 lines (LSCF), got {freq.size} lines"
+        )
 
 
 def modes_from_set(modes: ModeSet, band=None, sigma_floor_rel: float = SIGMA_FLOOR_REL) -> SettingModes:
@@ -362,9 +406,21 @@ def modes_from_set(modes: ModeSet, band=None, sigma_floor_rel: float = SIGMA_FLO
         if not lo <= f <= hi:
             continue
         shape, mcf = real_shape(u)
-        out.append(IdentifiedMode(float(f), sigma_floor_rel * float(f), float(z), shape, mcf,
-                                  AXES[int(np.argmax(np.abs(shape)))], 0, tuple(f"{modes.node}+{a}" for a in "XYZ")))
+        out.append(
+            IdentifiedMode(
+                float(f),
+                sigma_floor_rel * float(f),
+                float(z),
+                shape,
+                mcf,
+                AXES[int(np.argmax(np.abs(shape)))],
+                0,
+                tuple(f"{modes.node}+{a}" for a in "XYZ"),
+            )
+        )
     if not out:
-        raise InputError(f"{modes.source}, dataset 55: no mode in the band {lo:g}..{hi:g} Hz "
-                         f"(modes at {', '.join(f'{f:.4g}' for f in modes.freq_hz)} Hz)")
+        raise InputError(
+            f"{modes.source}, dataset 55: no mode in the band {lo:g}..{hi:g} Hz "
+            f"(modes at {', '.join(f'{f:.4g}' for f in modes.freq_hz)} Hz)"
+        )
     return SettingModes(out, modes.source, (lo, hi))

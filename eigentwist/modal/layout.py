@@ -15,6 +15,7 @@ The measured and model shapes are compared by the MAC over those D DOFs
 compared with when every DOF's node has a position and ``P`` has rank >= 2
 (:func:`shape_note` says why not, in one line).
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -4,8 +4,10 @@
 physical pole as a small dot, stable ones as a filled marker), the identified modes as
 vertical lines, over the sum of the FRF magnitudes (right axis, log). ``plot_frfs``: the
 measured FRF magnitudes (one panel per measured response / reference pair, up to
-``MAX_PANELS``) with the LSFD re-synthesis on the band (dashed). ``plot_campaign`` writes both for every setting of a campaign.
+``MAX_PANELS``) with the LSFD re-synthesis on the band (dashed). ``plot_campaign``
+writes both for every setting of a campaign.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -20,8 +22,6 @@ __all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes", "
 MAX_PANELS = 12
 
 
-
-
 def plot_stabilisation(res, path) -> None:
     """Stabilisation diagram of one setting's :class:`~eigentwist.modal.identify.SettingModes`."""
     plt = pyplot("modal")
@@ -32,8 +32,15 @@ def plot_stabilisation(res, path) -> None:
         ax.plot(f[st], np.full(st.sum(), order), "o", color="tab:blue", ms=3.5)
     for m in res.modes:
         ax.axvline(m.freq_hz, color="tab:red", lw=0.8)
-        ax.text(m.freq_hz, stab.orders[-1] * 1.04, f" {m.label} {m.freq_hz:.3f} Hz", rotation=90, fontsize=7,
-                va="bottom", ha="right")
+        ax.text(
+            m.freq_hz,
+            stab.orders[-1] * 1.04,
+            f" {m.label} {m.freq_hz:.3f} Hz",
+            rotation=90,
+            fontsize=7,
+            va="bottom",
+            ha="right",
+        )
     ax.set_ylim(0, stab.orders[-1] * 1.3)
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("LSCF model order")
@@ -43,7 +50,10 @@ def plot_stabilisation(res, path) -> None:
         ax2 = ax.twinx()
         ax2.semilogy(res.frfs.freq_hz[band], np.sum(np.abs(res.frfs.H[band]), axis=1), color="0.3", lw=0.8)
         ax2.set_ylabel(f"sum |{res.frfs.form}|")
-    ax.set_title(f"{Path(res.source).name}: stabilisation (grey: pole not yet stable, blue: stable pole, red: identified mode)", fontsize=9)
+    ax.set_title(
+        f"{Path(res.source).name}: stabilisation (grey: pole not yet stable, blue: stable pole, red: identified mode)",
+        fontsize=9,
+    )
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110)
@@ -72,8 +82,10 @@ def plot_frfs(res, path) -> None:
     for ax in axes[-1]:
         ax.set_xlabel("frequency [Hz]")
     more = f" (first {n_p} of {frfs.H.shape[1]} FRFs)" if frfs.H.shape[1] > n_p else ""
-    fig.suptitle(f"{Path(res.source).name}: {frfs.form} (LSFD with residuals on {res.band[0]:.3g}..{res.band[1]:.3g} Hz)"
-                 + more, fontsize=9)
+    fig.suptitle(
+        f"{Path(res.source).name}: {frfs.form} (LSFD with residuals on {res.band[0]:.3g}..{res.band[1]:.3g} Hz)" + more,
+        fontsize=9,
+    )
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=100)

@@ -24,6 +24,7 @@ With ``dataset=55`` the files hold the truth's modes along x, y, z instead (freq
 ``f (1 + noise N(0, 1))``, the damping ratio, the shape at the sensor plus ``noise``
 N(0, 1) per component), as a modal-test system exports identified modes.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -80,7 +81,7 @@ def add_noise(H: np.ndarray, noise: float, rng, kind: str = "proportional") -> n
 def _modes_at(M, K, sensor):
     lam, V = generalized_eigh(K[None], M[None])
     omega = np.sqrt(np.clip(lam[0], 0.0, None))
-    U = sensor_shapes(V, sensor)[0]                         # (3, n), mass-normalised
+    U = sensor_shapes(V, sensor)[0]  # (3, n), mass-normalised
     directions = np.argmax(np.abs(V[0] / np.abs(V[0]).max(axis=0)), axis=0) + (3 if V.shape[1] == 3 else 0)
     return omega, U, directions
 
@@ -98,9 +99,22 @@ def _layout_frfs(layout, freq, omega, M, K, r, zeta, form, rel, rng, noise_kind,
     return FrfSet.from_grid(freq, H, *relabel, form, coords=positions)
 
 
-def synth_campaign(truth: str, k_a, poses, out_dir, ev, damping=0.015, noise=0.01, seed: int = 0,
-                   noise_kind: str = "proportional", form: str = "accelerance", sensor=None, node: int = 1,
-                   dataset: int = 58, layout: str = "triaxial") -> Path:
+def synth_campaign(
+    truth: str,
+    k_a,
+    poses,
+    out_dir,
+    ev,
+    damping=0.015,
+    noise=0.01,
+    seed: int = 0,
+    noise_kind: str = "proportional",
+    form: str = "accelerance",
+    sensor=None,
+    node: int = 1,
+    dataset: int = 58,
+    layout: str = "triaxial",
+) -> Path:
     """Write one UFF file per (pose, k_a) and ``manifest.csv`` into ``out_dir``; return the manifest path.
 
     Parameters
@@ -133,12 +147,13 @@ def synth_campaign(truth: str, k_a, poses, out_dir, ev, damping=0.015, noise=0.0
     for j, (p, k) in enumerate(settings):
         omega, U, directions = _modes_at(M[j], K[j], r)
         f_k = omega / (2 * np.pi)
-        seen = directions >= 3                                  # modes along x, y, z
+        seen = directions >= 3  # modes along x, y, z
         name = f"setting_{j + 1:02d}.uff"
         if dataset == 58:
             freq = frequency_axis(f_k[seen].min(), f_k[seen].max(), zeta)
-            write_frf_uff(out / name, _layout_frfs(layout, freq, omega, M[j], K[j], r, zeta, form, rel, rng,
-                                                   noise_kind, node))
+            write_frf_uff(
+                out / name, _layout_frfs(layout, freq, omega, M[j], K[j], r, zeta, form, rel, rng, noise_kind, node)
+            )
         else:
             f_meas = f_k[seen] * (1 + rel * rng.standard_normal(int(seen.sum())))
             shapes = U[:, seen].T / np.linalg.norm(U[:, seen], axis=0)[:, None]

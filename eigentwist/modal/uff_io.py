@@ -19,6 +19,7 @@
 
 Every error is one line ``FILE, dataset K (type T): what is wrong`` (K counts from 1).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -29,13 +30,24 @@ import numpy as np
 from ..outputs import atomic_path
 from ..runtime import InputError
 
-__all__ = ["FrfSet", "ModeSet", "UffError", "read_uff", "write_frf_uff", "write_modes_uff", "dof_label", "node_coordinates",
-           "parse_dof", "FORM_OF_ORDINATE", "ORDINATE_OF_FORM"]
+__all__ = [
+    "FrfSet",
+    "ModeSet",
+    "UffError",
+    "read_uff",
+    "write_frf_uff",
+    "write_modes_uff",
+    "dof_label",
+    "node_coordinates",
+    "parse_dof",
+    "FORM_OF_ORDINATE",
+    "ORDINATE_OF_FORM",
+]
 
 FORM_OF_ORDINATE = {8: "receptance", 11: "mobility", 12: "accelerance"}
 ORDINATE_OF_FORM = {v: k for k, v in FORM_OF_ORDINATE.items()}
 AXIS = {1: "X", 2: "Y", 3: "Z"}
-FORM_RANK = {"receptance": 0, "mobility": 1, "accelerance": 2}      # powers of i w
+FORM_RANK = {"receptance": 0, "mobility": 1, "accelerance": 2}  # powers of i w
 
 
 def dof_label(node: int, axis: int) -> str:
@@ -87,8 +99,15 @@ class FrfSet:
         """From a full grid ``H`` (F, O, R) (every response over every reference)."""
         H = np.asarray(H, dtype=complex)
         pairs = [(o, r) for o in range(H.shape[1]) for r in range(H.shape[2])]
-        return cls(np.asarray(freq_hz, dtype=float), np.stack([H[:, o, r] for o, r in pairs], axis=1),
-                   list(responses), list(references), pairs, form, **kw)
+        return cls(
+            np.asarray(freq_hz, dtype=float),
+            np.stack([H[:, o, r] for o, r in pairs], axis=1),
+            list(responses),
+            list(references),
+            pairs,
+            form,
+            **kw,
+        )
 
     def pair_label(self, p: int) -> str:
         o, r = self.pairs[p]
@@ -119,7 +138,7 @@ def _sets(path: Path) -> list[dict]:
         uff = pyuff.UFF(str(path))
         n = uff.get_n_sets()
         sets = uff.read_sets() if n else []
-    except Exception as exc:          # pyuff raises bare Exception on malformed files
+    except Exception as exc:  # pyuff raises bare Exception on malformed files
         raise UffError(path, f"not a readable UFF file ({exc})") from None
     sets = [sets] if isinstance(sets, dict) else list(sets)
     _check_complete(path, sets)
@@ -146,18 +165,27 @@ def _check_complete(path: Path, sets: list[dict]) -> None:
     if len(marks) % 2:
         line, kind = marks[-1]
         number = len(marks) // 2
-        raise UffError(path, f"truncated: the dataset opened on line {line} has no closing -1 line (the file ends "
-                       f"after {number} complete dataset{'s' if number != 1 else ''}); write the file again",
-                       number, int(kind) if kind.isdigit() else None)
+        raise UffError(
+            path,
+            f"truncated: the dataset opened on line {line} has no closing -1 line (the file ends "
+            f"after {number} complete dataset{'s' if number != 1 else ''}); write the file again",
+            number,
+            int(kind) if kind.isdigit() else None,
+        )
     if len(sets) != len(marks) // 2:
-        raise UffError(path, f"{len(marks) // 2} datasets delimited by -1 lines, but {len(sets)} read: the file "
-                       "is damaged")
+        raise UffError(
+            path, f"{len(marks) // 2} datasets delimited by -1 lines, but {len(sets)} read: the file is damaged"
+        )
     for k, s in enumerate(sets):
         if s.get("type") == 58 and s.get("num_pts") is not None and "data" in s:
             n, got = int(s["num_pts"]), len(s["data"])
             if got != n:
-                raise UffError(path, f"{got} data points where its header says {n}: the dataset is truncated or "
-                               "inconsistent", k, 58)
+                raise UffError(
+                    path,
+                    f"{got} data points where its header says {n}: the dataset is truncated or inconsistent",
+                    k,
+                    58,
+                )
 
 
 def read_uff(path, node: int = 1):
@@ -180,8 +208,13 @@ def _form(path, k: int, s: dict) -> str:
     ordinate = int(s.get("ordinate_spec_data_type", 0) or 0)
     denom = int(s.get("orddenom_spec_data_type", 0) or 0)
     if ordinate not in FORM_OF_ORDINATE:
-        raise UffError(path, f"ordinate specific data type {ordinate} is not displacement (8), velocity (11) or "
-                       "acceleration (12): cannot tell receptance, mobility or accelerance", k, 58)
+        raise UffError(
+            path,
+            f"ordinate specific data type {ordinate} is not displacement (8), velocity (11) or "
+            "acceleration (12): cannot tell receptance, mobility or accelerance",
+            k,
+            58,
+        )
     if denom not in (0, 13):
         raise UffError(path, f"ordinate denominator type {denom}: expected excitation force (13)", k, 58)
     abscissa = int(s.get("abscissa_spec_data_type", 0) or 0)
@@ -201,7 +234,7 @@ def node_coordinates(sets: list[dict]) -> dict:
 
 
 def _frfs(path: Path, sets: list[dict], node: int) -> FrfSet:
-    columns: dict[tuple, tuple] = {}                       # (response, reference) -> (form, data, dataset)
+    columns: dict[tuple, tuple] = {}  # (response, reference) -> (form, data, dataset)
     axis = None
     for k, s in enumerate(sets):
         if s.get("type") != 58 or int(s.get("func_type", 0)) != 4:
@@ -214,20 +247,27 @@ def _frfs(path: Path, sets: list[dict], node: int) -> FrfSet:
         if axis is None:
             axis = (x, k)
         elif x.shape != axis[0].shape or not np.allclose(x, axis[0], rtol=1e-9, atol=1e-9):
-            raise UffError(path, f"inconsistent frequency axes: {len(x)} points {x[0]:g}..{x[-1]:g} Hz where "
-                           f"dataset {axis[1] + 1} has {len(axis[0])} points {axis[0][0]:g}..{axis[0][-1]:g} Hz",
-                           k, 58)
+            raise UffError(
+                path,
+                f"inconsistent frequency axes: {len(x)} points {x[0]:g}..{x[-1]:g} Hz where "
+                f"dataset {axis[1] + 1} has {len(axis[0])} points {axis[0][0]:g}..{axis[0][-1]:g} Hz",
+                k,
+                58,
+            )
         pair = (dof_label(s["rsp_node"], rdir), dof_label(s["ref_node"], fdir))
         if pair in columns:
-            raise UffError(path, f"FRF {pair[0]} / {pair[1]} given twice (first in dataset {columns[pair][2] + 1})",
-                           k, 58)
+            raise UffError(
+                path, f"FRF {pair[0]} / {pair[1]} given twice (first in dataset {columns[pair][2] + 1})", k, 58
+            )
         data = np.sign(rdir) * np.sign(fdir) * np.asarray(s["data"], dtype=complex)
         if not np.all(np.isfinite(data[1:])):
             raise UffError(path, f"FRF {pair[0]} / {pair[1]} has non-finite values above 0 Hz", k, 58)
         columns[pair] = (form, data, k)
     if not columns:
-        raise UffError(path, "no FRF (dataset 58, function type 4) with a translational response and reference "
-                       "(directions X, Y, Z)")
+        raise UffError(
+            path,
+            "no FRF (dataset 58, function type 4) with a translational response and reference (directions X, Y, Z)",
+        )
     freq = axis[0]
     target = max((c[0] for c in columns.values()), key=FORM_RANK.get)
     iw = 2j * np.pi * freq
@@ -237,8 +277,9 @@ def _frfs(path: Path, sets: list[dict], node: int) -> FrfSet:
     for (o, r), (form, data, _) in columns.items():
         pairs.append((responses.index(o), references.index(r)))
         H.append(np.nan_to_num(data * iw ** (FORM_RANK[target] - FORM_RANK[form])))
-    return FrfSet(freq, np.stack(H, axis=1), responses, references, pairs, target, node_coordinates(sets), node,
-                  str(path))
+    return FrfSet(
+        freq, np.stack(H, axis=1), responses, references, pairs, target, node_coordinates(sets), node, str(path)
+    )
 
 
 def _modes(path: Path, sets: list[dict], node: int) -> ModeSet:
@@ -280,17 +321,44 @@ def write_frf_uff(path, frfs: FrfSet) -> Path:
     if frfs.coords:
         nodes = sorted(frfs.coords)
         xyz = np.array([frfs.coords[n] for n in nodes], dtype=float).reshape(-1, 3)
-        sets.append(pyuff.prepare_15(node_nums=nodes, def_cs=[0] * len(nodes), disp_cs=[0] * len(nodes),
-                                     color=[1] * len(nodes), x=xyz[:, 0], y=xyz[:, 1], z=xyz[:, 2]))
+        sets.append(
+            pyuff.prepare_15(
+                node_nums=nodes,
+                def_cs=[0] * len(nodes),
+                disp_cs=[0] * len(nodes),
+                color=[1] * len(nodes),
+                x=xyz[:, 0],
+                y=xyz[:, 1],
+                z=xyz[:, 2],
+            )
+        )
     for p, (o, r) in enumerate(frfs.pairs):
         (rsp_node, rsp_dir), (ref_node, ref_dir) = parse_dof(frfs.responses[o]), parse_dof(frfs.references[r])
-        sets.append(pyuff.prepare_58(
-            binary=0, id1="eigentwist synthetic FRF", id2=frfs.pair_label(p),
-            id3="NONE", id4="NONE", id5="NONE", func_type=4, ver_num=0, load_case_id=0,
-            rsp_ent_name="EE", rsp_node=rsp_node, rsp_dir=rsp_dir, ref_ent_name="EE", ref_node=ref_node,
-            ref_dir=ref_dir, abscissa_spacing=1, abscissa_spec_data_type=18,
-            ordinate_spec_data_type=ORDINATE_OF_FORM[frfs.form], orddenom_spec_data_type=13,
-            data=np.asarray(frfs.H[:, p], dtype=complex).copy(), x=np.asarray(frfs.freq_hz, dtype=float).copy()))
+        sets.append(
+            pyuff.prepare_58(
+                binary=0,
+                id1="eigentwist synthetic FRF",
+                id2=frfs.pair_label(p),
+                id3="NONE",
+                id4="NONE",
+                id5="NONE",
+                func_type=4,
+                ver_num=0,
+                load_case_id=0,
+                rsp_ent_name="EE",
+                rsp_node=rsp_node,
+                rsp_dir=rsp_dir,
+                ref_ent_name="EE",
+                ref_node=ref_node,
+                ref_dir=ref_dir,
+                abscissa_spacing=1,
+                abscissa_spec_data_type=18,
+                ordinate_spec_data_type=ORDINATE_OF_FORM[frfs.form],
+                orddenom_spec_data_type=13,
+                data=np.asarray(frfs.H[:, p], dtype=complex).copy(),
+                x=np.asarray(frfs.freq_hz, dtype=float).copy(),
+            )
+        )
     if path.exists():
         path.unlink()
     with atomic_path(path) as tmp:
@@ -305,11 +373,31 @@ def write_modes_uff(path, freq_hz, damping_ratio, shapes, node: int = 1) -> Path
     path = Path(path)
     sets = []
     for k, (f, z, phi) in enumerate(zip(freq_hz, damping_ratio, np.asarray(shapes, dtype=float))):
-        sets.append(pyuff.prepare_55(
-            id1="eigentwist synthetic modes", id2="NONE", id3="NONE", id4="NONE", id5="NONE",
-            model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2, n_data_per_node=3,
-            r1=np.array([phi[0]]), r2=np.array([phi[1]]), r3=np.array([phi[2]]), node_nums=np.array([node]),
-            load_case=1, mode_n=k + 1, modal_m=0.0, freq=float(f), modal_damp_vis=float(z), modal_damp_his=0.0))
+        sets.append(
+            pyuff.prepare_55(
+                id1="eigentwist synthetic modes",
+                id2="NONE",
+                id3="NONE",
+                id4="NONE",
+                id5="NONE",
+                model_type=1,
+                analysis_type=2,
+                data_ch=2,
+                spec_data_type=8,
+                data_type=2,
+                n_data_per_node=3,
+                r1=np.array([phi[0]]),
+                r2=np.array([phi[1]]),
+                r3=np.array([phi[2]]),
+                node_nums=np.array([node]),
+                load_case=1,
+                mode_n=k + 1,
+                modal_m=0.0,
+                freq=float(f),
+                modal_damp_vis=float(z),
+                modal_damp_his=0.0,
+            )
+        )
     if path.exists():
         path.unlink()
     with atomic_path(path) as tmp:

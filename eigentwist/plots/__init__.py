@@ -7,8 +7,17 @@
 
 Each takes a ``path`` (file name or binary file object) to write a PNG.
 """
+
 from ..diagnose.plots import model_curves, plot_comparison, plot_diagnosis
 from .robot import AXIS_WORDS, RobotGeometry, mode_displacements, plot_modes, robot_geometry
 
-__all__ = ["plot_comparison", "plot_diagnosis", "model_curves", "plot_modes", "robot_geometry", "RobotGeometry",
-           "mode_displacements", "AXIS_WORDS"]
+__all__ = [
+    "plot_comparison",
+    "plot_diagnosis",
+    "model_curves",
+    "plot_modes",
+    "robot_geometry",
+    "RobotGeometry",
+    "mode_displacements",
+    "AXIS_WORDS",
+]

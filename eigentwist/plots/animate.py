@@ -10,6 +10,7 @@ the link length l2 (a mode shape has no absolute size).
 no network, it runs where the report is opened (also inside an ``<img>``).
 :func:`modes_gif` writes the same motion as an animated GIF (Matplotlib, Pillow writer).
 """
+
 from __future__ import annotations
 
 import html
@@ -22,9 +23,9 @@ from .robot import platform_outline as _outline
 
 __all__ = ["mode_frames", "modes_svg", "modes_gif", "PERIOD_S"]
 
-PERIOD_S = 1.6          # one oscillation of the animation, s
+PERIOD_S = 1.6  # one oscillation of the animation, s
 COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
-PHASES = (0.0, 1.0, 0.0, -1.0, 0.0)       # sin at quarter periods: one cycle of SMIL key values
+PHASES = (0.0, 1.0, 0.0, -1.0, 0.0)  # sin at quarter periods: one cycle of SMIL key values
 
 
 def mode_frames(ev, pose, model="paper", k_a: float = 2000.0, n_modes: int = 3, amplitude: float = 0.2, **params):
@@ -41,9 +42,14 @@ def mode_frames(ev, pose, model="paper", k_a: float = 2000.0, n_modes: int = 3, 
     for k in range(min(n_modes, modes.freq_hz.shape[1])):
         d = mode_displacements(g, modes.eigentwists[0][:, k], modes.axes)
         scale = amplitude * g.l2 / max(float(np.max(np.linalg.norm(d, axis=1))), 1e-12)
-        out.append({"freq_hz": float(modes.freq_hz[0, k]),
-                    "axis": ("rx", "ry", "rz", "x", "y", "z")[int(modes.direction[0, k])],
-                    "displacement": scale * d, "damped": damped_text(modes, k)})
+        out.append(
+            {
+                "freq_hz": float(modes.freq_hz[0, k]),
+                "axis": ("rx", "ry", "rz", "x", "y", "z")[int(modes.direction[0, k])],
+                "displacement": scale * d,
+                "damped": damped_text(modes, k),
+            }
+        )
     return g, out
 
 
@@ -68,8 +74,17 @@ def _pts(xy) -> str:
     return " ".join(f"{x:.1f},{y:.1f}" for x, y in xy)
 
 
-def modes_svg(ev, pose, model="paper", k_a: float = 2000.0, n_modes: int = 3, amplitude: float = 0.2,
-              title: str | None = None, panel_px: int = 300, **params) -> str:
+def modes_svg(
+    ev,
+    pose,
+    model="paper",
+    k_a: float = 2000.0,
+    n_modes: int = 3,
+    amplitude: float = 0.2,
+    title: str | None = None,
+    panel_px: int = 300,
+    **params,
+) -> str:
     """An animated SVG (a string): one panel per mode, the grey robot at rest, the coloured
     platform and links oscillating along the mode shape (period :data:`PERIOD_S`)."""
     g, modes = mode_frames(ev, pose, model, k_a, n_modes, amplitude, **params)
@@ -89,42 +104,67 @@ def modes_svg(ev, pose, model="paper", k_a: float = 2000.0, n_modes: int = 3, am
         return np.column_stack([x, y])
 
     width, height = panel_px * max(len(modes), 1), panel_px + top + 8
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
-           f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="12">',
-           f'<rect width="{width}" height="{height}" fill="white"/>']
+    out = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+        f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="12">',
+        f'<rect width="{width}" height="{height}" fill="white"/>',
+    ]
     if title:
         out.append(f'<text x="6" y="14" fill="#333">{html.escape(title)}</text>')
     for k, m in enumerate(modes):
         color = COLORS[k % len(COLORS)]
         out.append(f'<g id="mode-{k + 1}">')
-        out.append(f'<text x="{k * panel_px + 8}" y="32" fill="{color}" font-weight="bold">mode {k + 1}: '
-                   f'{m["freq_hz"]:.4g} Hz{m["damped"]}, mostly {m["axis"]} ({AXIS_WORDS[m["axis"]]})</text>')
-        for i in range(len(g.legs)):                     # the robot at rest, grey
-            out.append(f'<polyline points="{_pts(screen(np.vstack([g.base[i], g.elbow[i], g.attachment[i]]), k))}" '
-                       'fill="none" stroke="#bbb" stroke-width="2"/>')
-        out.append(f'<polyline points="{_pts(screen(_outline(g.attachment, g.pose), k))}" fill="none" '
-                   'stroke="#bbb" stroke-width="1.5"/>')
+        out.append(
+            f'<text x="{k * panel_px + 8}" y="32" fill="{color}" font-weight="bold">mode {k + 1}: '
+            f'{m["freq_hz"]:.4g} Hz{m["damped"]}, mostly {m["axis"]} ({AXIS_WORDS[m["axis"]]})</text>'
+        )
+        for i in range(len(g.legs)):  # the robot at rest, grey
+            out.append(
+                f'<polyline points="{_pts(screen(np.vstack([g.base[i], g.elbow[i], g.attachment[i]]), k))}" '
+                'fill="none" stroke="#bbb" stroke-width="2"/>'
+            )
+        out.append(
+            f'<polyline points="{_pts(screen(_outline(g.attachment, g.pose), k))}" fill="none" '
+            'stroke="#bbb" stroke-width="1.5"/>'
+        )
         for b in screen(g.base, k):
             out.append(f'<rect x="{b[0] - 3:.1f}" y="{b[1] - 3:.1f}" width="6" height="6" fill="#333"/>')
         frames = [g.attachment + s * m["displacement"] for s in PHASES]
         keys = ";".join(_pts(screen(_outline(f, g.pose), k)) for f in frames)
-        anim = f'dur="{PERIOD_S:g}s" repeatCount="indefinite" calcMode="spline" ' \
-               'keySplines="0.4 0 0.6 1;0.4 0 0.6 1;0.4 0 0.6 1;0.4 0 0.6 1"'
-        out.append(f'<polyline class="moving" points="{_pts(screen(_outline(frames[0], g.pose), k))}" '
-                   f'fill="{color}" fill-opacity="0.25" stroke="{color}" stroke-width="2.5">'
-                   f'<animate attributeName="points" values="{keys}" {anim}/></polyline>')
-        for i in range(len(g.legs)):                     # the links to the platform follow it
+        anim = (
+            f'dur="{PERIOD_S:g}s" repeatCount="indefinite" calcMode="spline" '
+            'keySplines="0.4 0 0.6 1;0.4 0 0.6 1;0.4 0 0.6 1;0.4 0 0.6 1"'
+        )
+        out.append(
+            f'<polyline class="moving" points="{_pts(screen(_outline(frames[0], g.pose), k))}" '
+            f'fill="{color}" fill-opacity="0.25" stroke="{color}" stroke-width="2.5">'
+            f'<animate attributeName="points" values="{keys}" {anim}/></polyline>'
+        )
+        for i in range(len(g.legs)):  # the links to the platform follow it
             keys = ";".join(_pts(screen(np.vstack([anchor[i], f[i]]), k)) for f in frames)
-            out.append(f'<polyline points="{_pts(screen(np.vstack([anchor[i], frames[0][i]]), k))}" fill="none" '
-                       f'stroke="{color}" stroke-width="1.5"><animate attributeName="points" values="{keys}" '
-                       f'{anim}/></polyline>')
+            out.append(
+                f'<polyline points="{_pts(screen(np.vstack([anchor[i], frames[0][i]]), k))}" fill="none" '
+                f'stroke="{color}" stroke-width="1.5"><animate attributeName="points" values="{keys}" '
+                f'{anim}/></polyline>'
+            )
         out.append("</g>")
     out.append("</svg>")
     return "\n".join(out)
 
 
-def modes_gif(ev, pose, path, model="paper", k_a: float = 2000.0, n_modes: int = 3, amplitude: float = 0.2,
-              frames: int = 24, fps: int = 15, title: str | None = None, **params) -> None:
+def modes_gif(
+    ev,
+    pose,
+    path,
+    model="paper",
+    k_a: float = 2000.0,
+    n_modes: int = 3,
+    amplitude: float = 0.2,
+    frames: int = 24,
+    fps: int = 15,
+    title: str | None = None,
+    **params,
+) -> None:
     """Write the lowest mode shapes as an animated GIF to ``path`` (Matplotlib's
     ``FuncAnimation`` with the Pillow writer): one 3D panel per mode, ``frames`` per period."""
     from matplotlib.animation import FuncAnimation, PillowWriter
@@ -136,8 +176,9 @@ def modes_gif(ev, pose, path, model="paper", k_a: float = 2000.0, n_modes: int =
     anchor = _anchor(ev, g)
     n = len(modes)
     fig = plt.figure(figsize=(3.6 * n, 3.8))
-    pts = np.vstack([g.base, g.elbow, g.attachment] + [g.attachment + s * m["displacement"]
-                                                        for m in modes for s in (-1, 1)])
+    pts = np.vstack(
+        [g.base, g.elbow, g.attachment] + [g.attachment + s * m["displacement"] for m in modes for s in (-1, 1)]
+    )
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     span, mid = max(float(np.max(hi - lo)), 1e-3) * 0.55, (lo + hi) / 2
     artists = []
@@ -148,8 +189,9 @@ def modes_gif(ev, pose, path, model="paper", k_a: float = 2000.0, n_modes: int =
         ax.plot(*_outline(g.attachment, g.pose).T, "-", color="0.75", lw=1.5)
         color = COLORS[k % len(COLORS)]
         (plat,) = ax.plot(*_outline(g.attachment, g.pose).T, "-", color=color, lw=2.5)
-        links = [ax.plot(*np.vstack([anchor[i], g.attachment[i]]).T, "-", color=color, lw=1.5)[0]
-                 for i in range(len(g.legs))]
+        links = [
+            ax.plot(*np.vstack([anchor[i], g.attachment[i]]).T, "-", color=color, lw=1.5)[0] for i in range(len(g.legs))
+        ]
         artists.append((plat, links, m["displacement"]))
         for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), range(3)):
             setter(mid[c] - span, mid[c] + span)

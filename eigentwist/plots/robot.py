@@ -8,6 +8,7 @@ parallelogram to the attachment ``P + a_i`` (``Leg.attachment``), as in the deri
 (:mod:`eigentwist.symbolic.leg`). A mode shape is the eigentwist ``[omega; v]`` at the EE
 origin moving the platform: each attachment point moves by ``v + omega x a_i`` (Eqs. 57, 65).
 """
+
 from __future__ import annotations
 
 import textwrap
@@ -19,11 +20,26 @@ import sympy as sp
 from ..outputs import atomic_path
 from ..matplotlib_agg import pyplot
 
-__all__ = ["RobotGeometry", "robot_geometry", "mode_displacements", "plot_modes", "platform_outline", "AXIS_WORDS",
-           "stiffness_argument", "stiffness_text", "damped_text"]
+__all__ = [
+    "RobotGeometry",
+    "robot_geometry",
+    "mode_displacements",
+    "plot_modes",
+    "platform_outline",
+    "AXIS_WORDS",
+    "stiffness_argument",
+    "stiffness_text",
+    "damped_text",
+]
 
-AXIS_WORDS = {"rx": "rotation about X", "ry": "rotation about Y", "rz": "rotation about Z",
-              "x": "translation along X", "y": "translation along Y", "z": "translation along Z"}
+AXIS_WORDS = {
+    "rx": "rotation about X",
+    "ry": "rotation about Y",
+    "rz": "rotation about Z",
+    "x": "translation along X",
+    "y": "translation along Y",
+    "z": "translation along Z",
+}
 COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
 
@@ -79,8 +95,9 @@ def robot_geometry(ev, pose, **params) -> RobotGeometry:
         base.append(B)
         elbow.append(B + l1 * r1)
         attach.append(pose + a)
-    return RobotGeometry(pose, np.array(base), np.array(elbow), np.array(attach),
-                         tuple(leg.name for leg in ev.robot.legs), l1, l2, pose)
+    return RobotGeometry(
+        pose, np.array(base), np.array(elbow), np.array(attach), tuple(leg.name for leg in ev.robot.legs), l1, l2, pose
+    )
 
 
 def _chain_geometry(ev, pose, **params) -> RobotGeometry:
@@ -92,10 +109,11 @@ def _chain_geometry(ev, pose, **params) -> RobotGeometry:
     from ..runtime.poses import rotation_matrix
 
     given = np.asarray(pose, dtype=float).reshape(len(ev.pose_names))
-    ev.joint_angles(given[None, :], **params)                 # an unreachable pose raises its usual error
+    ev.joint_angles(given[None, :], **params)  # an unreachable pose raises its usual error
     if len(ev.space.inputs) > 3:
-        full = full_poses(ev.space, given[None, :], getattr(ev.module, "followers", None),
-                          ev.inputs("rigid", params))[0]
+        full = full_poses(ev.space, given[None, :], getattr(ev.module, "followers", None), ev.inputs("rigid", params))[
+            0
+        ]
     else:
         full = np.concatenate([given, np.zeros(3)])
     values = {**ev.defaults, **params}
@@ -105,16 +123,26 @@ def _chain_geometry(ev, pose, **params) -> RobotGeometry:
     base, attach = [], []
     for leg in ev.robot.legs:
         g = leg.geometry(position, rotation, p)
-        located = [j.location for j in leg.joints if j.location is not None]   # a prismatic joint has none
-        point = lambda loc: np.array(sp.Matrix(g[loc] if isinstance(loc, str) else loc).evalf(),  # noqa: E731
-                                     dtype=float).ravel()
+        located = [j.location for j in leg.joints if j.location is not None]  # a prismatic joint has none
+
+        def point(loc):
+            return np.array(sp.Matrix(g[loc] if isinstance(loc, str) else loc).evalf(), dtype=float).ravel()
+
         real = [j.location for j in leg.joints if j.location is not None and not j.virtual]
         base.append(point(located[0]))
-        attach.append(point(real[-1] if len(real) > 1 else located[-1]))   # a U-P leg: its virtual joints' point
+        attach.append(point(real[-1] if len(real) > 1 else located[-1]))  # a U-P leg: its virtual joints' point
     base, attach = np.array(base), np.array(attach)
     length = float(np.mean(np.linalg.norm(attach - base, axis=1)))
-    return RobotGeometry(full[:3], base, 0.5 * (base + attach), attach, tuple(leg.name for leg in ev.robot.legs),
-                         0.5 * length, 0.5 * length, given)
+    return RobotGeometry(
+        full[:3],
+        base,
+        0.5 * (base + attach),
+        attach,
+        tuple(leg.name for leg in ev.robot.legs),
+        0.5 * length,
+        0.5 * length,
+        given,
+    )
 
 
 def stiffness_argument(ev, k_a) -> dict:
@@ -139,8 +167,6 @@ def mode_displacements(geometry: RobotGeometry, twist, axes) -> np.ndarray:
     omega = np.array([full["rx"], full["ry"], full["rz"]])
     v = np.array([full["x"], full["y"], full["z"]])
     return v + np.cross(omega, geometry.offsets)
-
-
 
 
 def platform_outline(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -208,8 +234,17 @@ def damped_text(modes, k: int) -> str:
     return f", zeta {modes.damping_ratio[0, k]:.2g}, damped {modes.damped_hz[0, k]:.4g} Hz"
 
 
-def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes: int = 3, amplitude=0.2,
-               title: str | None = None, **params):
+def plot_modes(
+    ev,
+    pose,
+    path=None,
+    model="paper",
+    k_a: float = 2000.0,
+    n_modes: int = 3,
+    amplitude=0.2,
+    title: str | None = None,
+    **params,
+):
     """Draw the robot at ``pose`` with its ``n_modes`` lowest mode shapes, one 3D panel each.
 
     Top row: the whole robot in 3D; the grey robot is at rest, the coloured platform is
@@ -235,20 +270,27 @@ def plot_modes(ev, pose, path=None, model="paper", k_a: float = 2000.0, n_modes:
         moved = g.attachment + scale * d
         ax.plot(*_outline(moved, g.pose + scale * d.mean(axis=0)).T, "-", color=color, lw=2.5, gid=f"mode {k + 1}")
         ax.quiver(*g.attachment.T, *(scale * d).T, color=color, arrow_length_ratio=0.25, lw=1.2)
-        ax.set_title(f"mode {k + 1}: {modes.freq_hz[0, k]:.4g} Hz{damped_text(modes, k)}\nmostly {axis} "
-                     f"({AXIS_WORDS[axis]})", fontsize=10)
+        ax.set_title(
+            f"mode {k + 1}: {modes.freq_hz[0, k]:.4g} Hz{damped_text(modes, k)}\nmostly {axis} ({AXIS_WORDS[axis]})",
+            fontsize=10,
+        )
         _limits(ax, np.vstack([g.base, g.elbow, g.attachment, moved]))
         ax.view_init(elev=18, azim=-60)
         for name, setter in zip("XYZ", (ax.set_xlabel, ax.set_ylabel, ax.set_zlabel)):
             setter(f"{name} [m]", fontsize=8)
         ax.tick_params(labelsize=7)
         _zoom(fig.add_subplot(2, n, n + k + 1), g, d, color, k)
-    model_name = model if isinstance(model, str) and "," not in model else " + ".join(
-        model.split(",") if isinstance(model, str) else model)
+    model_name = (
+        model
+        if isinstance(model, str) and "," not in model
+        else " + ".join(model.split(",") if isinstance(model, str) else model)
+    )
     where = ", ".join(f"{v:g}" for v in np.round(g.coordinates, 4))
     unit = "m, rad" if any(c.startswith("rot") for c in ev.pose_names) else "m"
-    text = title or (f"{ev.robot.title} at [{where}] {unit}, {stiffness_text(ev, k_a)}model {model_name}: "
-                     "grey at rest, colour the mode shape")
+    text = title or (
+        f"{ev.robot.title} at [{where}] {unit}, {stiffness_text(ev, k_a)}model {model_name}: "
+        "grey at rest, colour the mode shape"
+    )
     fig.suptitle(textwrap.fill(text, 30 * n), fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     if path is not None:

@@ -14,6 +14,7 @@ The diagnosis is read from :meth:`Diagnosis.to_json` only, so keys the diagnosis
 reaches the HTML from the user (file names, CSV cells, parameter names) is escaped by
 Jinja's autoescape; no template marks anything as safe.
 """
+
 from __future__ import annotations
 
 import base64
@@ -57,13 +58,13 @@ class ReportData:
     next_measurement: dict = field(default_factory=dict)
     modes: dict = field(default_factory=dict)
     units: dict = field(default_factory=dict)
-    campaign_html: str = ""          # section of a modal-test campaign (eigentwist.modal.report)
-    answer: dict = field(default_factory=dict)       # the answer first (diagnosis JSON ``answer``)
-    provenance: dict = field(default_factory=dict)   # version, date, command line, SHA-256 of the inputs
-    animation_svg: str = ""          # the final model's three lowest modes, animated (SMIL)
-    mac: dict | None = None          # MAC matrix of measured vs model shapes (campaigns)
-    lowest_map: dict = field(default_factory=dict)   # where the workspace map of f1 is drawn
-    uncertainty_text: str = ""       # the verdict on the stated uncertainty, a sentence
+    campaign_html: str = ""  # section of a modal-test campaign (eigentwist.modal.report)
+    answer: dict = field(default_factory=dict)  # the answer first (diagnosis JSON ``answer``)
+    provenance: dict = field(default_factory=dict)  # version, date, command line, SHA-256 of the inputs
+    animation_svg: str = ""  # the final model's three lowest modes, animated (SMIL)
+    mac: dict | None = None  # MAC matrix of measured vs model shapes (campaigns)
+    lowest_map: dict = field(default_factory=dict)  # where the workspace map of f1 is drawn
+    uncertainty_text: str = ""  # the verdict on the stated uncertainty, a sentence
 
 
 def _png(plot, *args) -> bytes:
@@ -76,16 +77,35 @@ def _comparison_rows(cmp) -> list[dict]:
     m = cmp.meas
     rows = []
     for i in range(len(m)):
-        rows.append(dict(line=m.where(i), pose=[float(v) for v in m.poses[i]], k_a=float(m.k_a[i]), mode=m.mode[i],
-                         measured=float(m.freq_hz[i]), sigma=float(m.sigma_hz[i]),
-                         predicted=float(cmp.predicted[i]), error_pct=float(cmp.error_pct[i]),
-                         error_sigma=float(cmp.error_sigma[i]), failing=bool(cmp.failing[i]),
-                         kind=m.kind[i], zeta=None if cmp.zeta is None else float(cmp.zeta[i])))
+        rows.append(
+            dict(
+                line=m.where(i),
+                pose=[float(v) for v in m.poses[i]],
+                k_a=float(m.k_a[i]),
+                mode=m.mode[i],
+                measured=float(m.freq_hz[i]),
+                sigma=float(m.sigma_hz[i]),
+                predicted=float(cmp.predicted[i]),
+                error_pct=float(cmp.error_pct[i]),
+                error_sigma=float(cmp.error_sigma[i]),
+                failing=bool(cmp.failing[i]),
+                kind=m.kind[i],
+                zeta=None if cmp.zeta is None else float(cmp.zeta[i]),
+            )
+        )
     return rows
 
 
-def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid", backend: str = "numpy",
-                 progress=None, values: dict | None = None, command: str = "eigentwist report") -> ReportData:
+def build_report(
+    data=None,
+    robot: str = "heli4",
+    model="paper",
+    baseline="rigid",
+    backend: str = "numpy",
+    progress=None,
+    values: dict | None = None,
+    command: str = "eigentwist report",
+) -> ReportData:
     """Compute every section of the report.
 
     data : path of a measurement CSV (see the README), or None for the robot's embedded
@@ -115,7 +135,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     else:
         from ..modal.report import campaign_section, is_manifest
 
-        if is_manifest(data):       # a modal-test campaign: identify it first
+        if is_manifest(data):  # a modal-test campaign: identify it first
             meas, campaign_html = campaign_section(data, ev)
         else:
             meas = load_measurements(data, robot, ev, values)
@@ -125,7 +145,7 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     diag = diagnose(meas, baseline=baseline, ev=ev, progress=progress, values=values)
     params = used_parameters(ev, effects, values, meas)
     repro = _reproduction(ev) if robot == "heli4" else None
-    modes = {**_modes_view(meas, effects), "values": dict(values or {})}     # the picture with the used values
+    modes = {**_modes_view(meas, effects), "values": dict(values or {})}  # the picture with the used values
     figures = {
         "comparison": _png(plot_comparison, cmp, ev),
         "diagnosis": _png(plot_diagnosis, diag, ev),
@@ -135,13 +155,24 @@ def build_report(data=None, robot: str = "heli4", model="paper", baseline="rigid
     shown = _shown(ev, diag, meas, values)
     figures["lowest_map"] = shown.pop("png")
     return ReportData(
-        robot=robot, title=ev.robot.title, source=ev.robot.source, data_source=data_source,
-        model=effects, baseline=tuple(diag.baseline.effects), parameters=params, reproduction=repro,
+        robot=robot,
+        title=ev.robot.title,
+        source=ev.robot.source,
+        data_source=data_source,
+        model=effects,
+        baseline=tuple(diag.baseline.effects),
+        parameters=params,
+        reproduction=repro,
         comparison=dict(summary=cmp.summary(), rows=_comparison_rows(cmp), failing=failing_text(cmp)),
-        diagnosis=diag_json, figures=figures, final=final_parameters(diag_json, ev),
-        next_measurement=next_measurement_text(diag_json), modes=modes,
-        units={p.name: p.unit for p in ev.robot.parameters}, campaign_html=campaign_html,
-        answer=diag_json.get("answer") or {}, command=command,
+        diagnosis=diag_json,
+        figures=figures,
+        final=final_parameters(diag_json, ev),
+        next_measurement=next_measurement_text(diag_json),
+        modes=modes,
+        units={p.name: p.unit for p in ev.robot.parameters},
+        campaign_html=campaign_html,
+        answer=diag_json.get("answer") or {},
+        command=command,
         provenance=provenance(command, data, robot if str(robot).endswith(".py") else None),
         uncertainty_text=uncertainty_sentence(diag_json.get("uncertainty"), bool(diag_json["final"]["explained"])),
         **shown,
@@ -159,23 +190,53 @@ def _shown(ev, diag, meas, values) -> dict:
     unit = ev.parameter("k_a").unit
     model = " + ".join(diag.final.effects) or "(no effect)"
     svg = modes_svg(ev, view["pose"], ",".join(diag.final.effects), **{**used, "k_a": view["k_a"]})
-    png = lowest_frequency_png(ev, ",".join(diag.final.effects), view["pose"], view["k_a"], used, meas.poses,
-                               f"final model {model}, k_a = {view['k_a']:g} {unit}")
-    return dict(animation_svg=svg, mac=mac_matrix(meas, ev, ",".join(diag.final.effects), used),
-                lowest_map={**view, "model": model, "k_a_unit": unit}, png=png)
+    png = lowest_frequency_png(
+        ev,
+        ",".join(diag.final.effects),
+        view["pose"],
+        view["k_a"],
+        used,
+        meas.poses,
+        f"final model {model}, k_a = {view['k_a']:g} {unit}",
+    )
+    return dict(
+        animation_svg=svg,
+        mac=mac_matrix(meas, ev, ",".join(diag.final.effects), used),
+        lowest_map={**view, "model": model, "k_a_unit": unit},
+        png=png,
+    )
 
 
 def _reproduction(ev) -> dict:
     from ..paper import reproduce, summary
 
     res = reproduce(ev)
-    rows = [dict(source=v.source, label=v.label, printed=v.printed, model=v.model, dev=v.deviation,
-                 status=v.status, note=v.note)
-            for v in res["values"] if not (v.paper == 0 and abs(v.model) < v.half_unit)]
-    return dict(printed=res["printed"], within=res["within_rounding"], nonzero=res["nonzero"],
-                nonzero_within=res["nonzero_within"], calibration=res["calibration"], tested=res["tested"],
-                tested_within=res["tested_within"], required=res["required"], required_ok=res["required_ok"],
-                summary=summary(res), rows=rows)
+    rows = [
+        dict(
+            source=v.source,
+            label=v.label,
+            printed=v.printed,
+            model=v.model,
+            dev=v.deviation,
+            status=v.status,
+            note=v.note,
+        )
+        for v in res["values"]
+        if not (v.paper == 0 and abs(v.model) < v.half_unit)
+    ]
+    return dict(
+        printed=res["printed"],
+        within=res["within_rounding"],
+        nonzero=res["nonzero"],
+        nonzero_within=res["nonzero_within"],
+        calibration=res["calibration"],
+        tested=res["tested"],
+        tested_within=res["tested_within"],
+        required=res["required"],
+        required_ok=res["required_ok"],
+        summary=summary(res),
+        rows=rows,
+    )
 
 
 def _modes_view(meas, effects) -> dict:
@@ -184,7 +245,7 @@ def _modes_view(meas, effects) -> dict:
     pose = poses[int(np.argmax(counts))]
     at = np.all(np.isclose(meas.poses, pose, atol=1e-9), axis=1)
     measured = np.sort(meas.k_a[at])
-    k_a = float(measured[(len(measured) - 1) // 2])            # a measured value near the median
+    k_a = float(measured[(len(measured) - 1) // 2])  # a measured value near the median
     return dict(pose=[float(v) for v in pose], k_a=k_a, model=",".join(effects), n=int(at.sum()))
 
 
@@ -211,15 +272,22 @@ def final_parameters(diagnosis: dict, ev) -> dict:
         unit = p.unit if p is not None else ""
         default = p.default if p is not None else None
         s = std.get(name)
-        rows.append(dict(name=name, value=value, std=s, unit="" if unit == "-" else unit,
-                         text=f"{name} = {format_estimate(value, s if s is not None else math.inf, unit)}",
-                         default=None if default is None else format_estimate(default, None, unit),
-                         effect=(p.effect or "") if p is not None else "", doc=p.doc if p is not None else "",
-                         relative=(None if s is None or not value else abs(s / value)),
-                         plausible=marks.get(name, {}).get("plausible"),
-                         plausible_range=marks.get(name, {}).get("plausible_range")))
-    return dict(effects=list(final.get("effects", [])), rows=rows,
-                sentence=_and([r["text"] for r in rows]))
+        rows.append(
+            dict(
+                name=name,
+                value=value,
+                std=s,
+                unit="" if unit == "-" else unit,
+                text=f"{name} = {format_estimate(value, s if s is not None else math.inf, unit)}",
+                default=None if default is None else format_estimate(default, None, unit),
+                effect=(p.effect or "") if p is not None else "",
+                doc=p.doc if p is not None else "",
+                relative=(None if s is None or not value else abs(s / value)),
+                plausible=marks.get(name, {}).get("plausible"),
+                plausible_range=marks.get(name, {}).get("plausible_range"),
+            )
+        )
+    return dict(effects=list(final.get("effects", [])), rows=rows, sentence=_and([r["text"] for r in rows]))
 
 
 def _and(items: list) -> str:
@@ -237,9 +305,16 @@ def next_measurement_text(diagnosis: dict) -> dict:
     nm = diagnosis.get("next_measurement") or None
     ranking = diagnosis.get("ranking") or []
     top = ranking[0] if ranking else None
-    out = dict(kind="none", top=top["effect"] if top else None, rival=None, delta_aicc=None, rows=[],
-               alternative=None, explained=bool(diagnosis.get("final", {}).get("explained")),
-               failing=diagnosis.get("final", {}).get("failing") or [])
+    out = dict(
+        kind="none",
+        top=top["effect"] if top else None,
+        rival=None,
+        delta_aicc=None,
+        rows=[],
+        alternative=None,
+        explained=bool(diagnosis.get("final", {}).get("explained")),
+        failing=diagnosis.get("final", {}).get("failing") or [],
+    )
     if nm:
         a, b = (nm.get("between") or [None, None])[:2]
         tied = nm.get("indistinguishable")
@@ -262,8 +337,11 @@ def next_measurement_text(diagnosis: dict) -> dict:
 def _measurement_rows(nm: dict, a: str, b: str) -> list:
     pred = nm.get("predicted_hz") or {}
     pose = ", ".join(f"{v:g}" for v in np.round(nm.get("pose", []), 4))
-    rows = [("pose", f"[{pose}] {'m' if len(nm.get('pose', [])) in (0, 3) else 'm, rad'}"), ("actuator stiffness k_a", f"{nm.get('k_a', float('nan')):.4g} {nm.get('k_a_unit', 'N m/rad')}"),
-            ("mode", str(nm.get("mode")))]
+    rows = [
+        ("pose", f"[{pose}] {'m' if len(nm.get('pose', [])) in (0, 3) else 'm, rad'}"),
+        ("actuator stiffness k_a", f"{nm.get('k_a', float('nan')):.4g} {nm.get('k_a_unit', 'N m/rad')}"),
+        ("mode", str(nm.get("mode"))),
+    ]
     for name in (a, b):
         if name in pred and pred[name] is not None:
             rows.append((f"{name} predicts", f"{pred[name]:.4g} Hz"))
@@ -274,8 +352,14 @@ def _measurement_rows(nm: dict, a: str, b: str) -> list:
 
 
 def _env() -> jinja2.Environment:
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)), undefined=jinja2.StrictUndefined,
-                             autoescape=True, trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True)
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        undefined=jinja2.StrictUndefined,
+        autoescape=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
     env.filters["b64"] = lambda b: base64.b64encode(b).decode("ascii")
     env.filters["g"] = lambda v, fmt=".4g": "" if v is None else format(float(v), fmt)
     env.filters["est"] = lambda v, std=None, unit="": format_estimate(v, math.inf if std is None else std, unit)

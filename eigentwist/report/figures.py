@@ -4,6 +4,7 @@ workspace, the MAC matrix of measured vs model mode shapes, the animated mode sh
 Pure computations returning plain data (and PNG bytes); :mod:`.build` puts them in the
 :class:`~.build.ReportData`, the template draws them.
 """
+
 from __future__ import annotations
 
 import io
@@ -12,7 +13,7 @@ import numpy as np
 
 __all__ = ["lowest_frequency_map", "lowest_frequency_png", "mac_matrix", "final_values"]
 
-MAP_GRID = 41        # points per axis of the workspace map
+MAP_GRID = 41  # points per axis of the workspace map
 
 
 def final_values(diag, values: dict | None = None) -> dict:
@@ -42,10 +43,15 @@ def lowest_frequency_map(ev, effects, pose, k_a: float, values: dict, grid: int 
     out = {"x": x, "y": y, "f1": modes.freq_hz[:, 0].reshape(X.shape)}
     if modes.damping is not None:
         with np.errstate(invalid="ignore"):
-            out["f1_damped"] = np.nanmin(np.where(modes.damped_hz > 0, modes.damped_hz, np.nan), axis=1,
-                                         initial=np.inf, where=~np.isnan(modes.damped_hz)).reshape(X.shape)
-            out["zeta_min"] = np.nanmin(modes.damping_ratio, axis=1, initial=np.inf,
-                                        where=~np.isnan(modes.damping_ratio)).reshape(X.shape)
+            out["f1_damped"] = np.nanmin(
+                np.where(modes.damped_hz > 0, modes.damped_hz, np.nan),
+                axis=1,
+                initial=np.inf,
+                where=~np.isnan(modes.damped_hz),
+            ).reshape(X.shape)
+            out["zeta_min"] = np.nanmin(
+                modes.damping_ratio, axis=1, initial=np.inf, where=~np.isnan(modes.damping_ratio)
+            ).reshape(X.shape)
         for key in ("f1_damped", "zeta_min"):
             out[key][~np.isfinite(out[key])] = np.nan
     return out
@@ -64,7 +70,7 @@ def lowest_frequency_png(ev, effects, pose, k_a: float, values: dict, measured_p
     if np.isfinite(f).sum() > 4:
         cs = ax.contour(m["x"], m["y"], f, levels=8, colors="white", linewidths=0.7)
         ax.clabel(cs, fontsize=7, fmt="%.3g")
-    if damped and np.isfinite(m["zeta_min"]).sum() > 4:       # the least damped mode's ratio, dashed
+    if damped and np.isfinite(m["zeta_min"]).sum() > 4:  # the least damped mode's ratio, dashed
         cz = ax.contour(m["x"], m["y"], m["zeta_min"], levels=5, colors="orange", linewidths=0.8, linestyles="--")
         ax.clabel(cz, fontsize=7, fmt="zeta %.2g")
     fig.colorbar(mesh, ax=ax, label="lowest damped frequency [Hz]" if damped else "lowest natural frequency f1 [Hz]")
@@ -108,10 +114,13 @@ def mac_matrix(meas, ev, effects, values: dict) -> dict | None:
     n = modes.freq_hz.shape[1]
     out = np.zeros((len(rows), n))
     for i, r in enumerate(rows):
-        model = sensor_shapes(modes.eigentwists, meas.sensor[r])[0]       # (3, n)
+        model = sensor_shapes(modes.eigentwists, meas.sensor[r])[0]  # (3, n)
         out[i] = [float(mac(shapes[r], model[:, j])) for j in range(n)]
     order = np.argsort(meas.freq_hz[rows])
-    return {"pose": pose.tolist(), "k_a": k_a,
-            "measured": [f"{meas.mode[rows[i]]} {meas.freq_hz[rows[i]]:.4g} Hz" for i in order],
-            "model": [f"{j + 1}: {modes.freq_hz[0, j]:.4g} Hz" for j in range(n)],
-            "mac": out[order].tolist()}
+    return {
+        "pose": pose.tolist(),
+        "k_a": k_a,
+        "measured": [f"{meas.mode[rows[i]]} {meas.freq_hz[rows[i]]:.4g} Hz" for i in order],
+        "model": [f"{j + 1}: {modes.freq_hz[0, j]:.4g} Hz" for j in range(n)],
+        "mac": out[order].tolist(),
+    }

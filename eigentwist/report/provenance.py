@@ -1,6 +1,7 @@
 """Where a report comes from: eigentwist version, date, command line, and the
 SHA-256 of every input file, so that a reader can check that the report belongs to the data.
 """
+
 from __future__ import annotations
 
 import csv
@@ -35,7 +36,7 @@ def input_files(data=None, robot: str | None = None) -> list[Path]:
                 k = header.index("file")
                 for r in rows[1:]:
                     if len(r) > k and r[k].strip():
-                        f = (path.parent / r[k].strip())
+                        f = path.parent / r[k].strip()
                         if f.is_file() and f not in out:
                             out.append(f)
         except (OSError, UnicodeDecodeError, IndexError):
@@ -50,7 +51,9 @@ def provenance(command: str, data=None, robot: str | None = None, now=None) -> d
     from .. import __version__
 
     now = now or datetime.datetime.now(datetime.timezone.utc)
-    files = [{"path": str(p), "sha256": sha256_file(p), "bytes": p.stat().st_size}
-             for p in input_files(data, robot) if p.is_file()]
-    return {"version": __version__, "date": now.strftime("%Y-%m-%d %H:%M:%S UTC"), "command": command,
-            "files": files}
+    files = [
+        {"path": str(p), "sha256": sha256_file(p), "bytes": p.stat().st_size}
+        for p in input_files(data, robot)
+        if p.is_file()
+    ]
+    return {"version": __version__, "date": now.strftime("%Y-%m-%d %H:%M:%S UTC"), "command": command, "files": files}

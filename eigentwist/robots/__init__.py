@@ -3,6 +3,7 @@
 The modules ``heli4`` and ``delta`` are public: a description file of the user's own
 starts from one (``heli4.describe()``, ``heli4.EFFECTS``) and adds effects.
 """
+
 from __future__ import annotations
 
 from importlib import import_module

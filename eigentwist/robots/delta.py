@@ -6,6 +6,7 @@ on a base circle of radius R, upper arms l1 (0.40 kg, centre of gravity at mid-l
 rotor 2e-3 kg m^2), parallelogram forearms l2 of two carbon tubes like the Heli4's, a
 platform of radius r_p and 0.30 kg.
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -26,7 +27,9 @@ PARAMETERS = (
     Parameter("r_o", 0.005, "m", "outer radius of the forearm tubes"),
     Parameter("rho", 2000.0, "kg/m^3", "density of the forearm tubes"),
     Parameter("m_1", 0.40, "kg", "mass of the upper arm"),
-    Parameter("l1_cog", 0.15, "m", "distance from the actuated joint to the upper arm's centre of gravity (mid-length)"),
+    Parameter(
+        "l1_cog", 0.15, "m", "distance from the actuated joint to the upper arm's centre of gravity (mid-length)"
+    ),
     Parameter("I1_xx", 1e-5, "kg m^2", "upper arm inertia about its own axis, frame J_i1"),
     Parameter("I1_yy", 0.012, "kg m^2", "upper arm inertia about the actuated axis (slender rod, m l1^2/3)"),
     Parameter("I1_zz", 0.012, "kg m^2", "upper arm inertia about z of frame J_i1"),
@@ -36,12 +39,26 @@ PARAMETERS = (
     Parameter("I_e_yy", 1.875e-4, "kg m^2", "platform inertia about Y (disc, m r_p^2/4)"),
     Parameter("I_e_zz", 3.75e-4, "kg m^2", "platform inertia about Z (disc, m r_p^2/2)"),
     Parameter("k_a", 2000.0, "N m/rad", "commanded actuator stiffness"),
-    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance of ideally rigid constrained directions in K_F (modes: exact unless set)", (0.0, 1e-6)),
+    Parameter(
+        "c_rigid",
+        1e-12,
+        "rad/(N m)",
+        "compliance of ideally rigid constrained directions in K_F (modes: exact unless set)",
+        (0.0, 1e-6),
+    ),
 )
 
 
-EFFECTS = ("actuator_loss", "rod_compliance", "lower_link_compliance", "transmission_compliance",
-           "payload_mass", "rotor_inertia", "swinging_rods", "gravity_preload")
+EFFECTS = (
+    "actuator_loss",
+    "rod_compliance",
+    "lower_link_compliance",
+    "transmission_compliance",
+    "payload_mass",
+    "rotor_inertia",
+    "swinging_rods",
+    "gravity_preload",
+)
 
 # only the values that differ from the catalogue's (eigentwist/description/effects.py)
 EFFECT_VALUES = {
@@ -54,17 +71,30 @@ def describe() -> RobotDescription:
     """The Delta description with its specified values as defaults."""
     parameters = PARAMETERS + effect_parameters(EFFECTS, EFFECT_VALUES)
     p = {q.name: q.symbol for q in parameters}
-    upper_arm = spatial_inertia(p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
-                                sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]))
+    upper_arm = spatial_inertia(
+        p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]), sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"])
+    )
     rod = dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"])
     forearm = parallelogram_inertia(rod["r_i"], rod["r_o"], rod["rho"], p["l2"])
     legs = []
     for k in range(3):
         phi = 2 * sp.pi * k / 3
-        u = (sp.cos(phi), sp.sin(phi), 0)          # outward radial direction
-        s = (-sp.sin(phi), sp.cos(phi), 0)         # actuator axis, u x s = e_z
-        legs.append(rrpirr_leg(f"leg {k + 1}", tuple(p["R"] * c for c in u), u, s, tuple(p["r_p"] * c for c in u),
-                               p["l1"], p["l2"], upper_arm, forearm, w_pi=p["w_pi"]))
+        u = (sp.cos(phi), sp.sin(phi), 0)  # outward radial direction
+        s = (-sp.sin(phi), sp.cos(phi), 0)  # actuator axis, u x s = e_z
+        legs.append(
+            rrpirr_leg(
+                f"leg {k + 1}",
+                tuple(p["R"] * c for c in u),
+                u,
+                s,
+                tuple(p["r_p"] * c for c in u),
+                p["l1"],
+                p["l2"],
+                upper_arm,
+                forearm,
+                w_pi=p["w_pi"],
+            )
+        )
     platform = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
     return RobotDescription(
         name="delta",
@@ -85,7 +115,9 @@ def describe() -> RobotDescription:
         effects=EFFECTS,
         # the catalogue's presets: actuator_loss carries the Heli4's measured eta_a = 0.82
         presets=dict(PRESETS),
-        constraints=(tube(p["r_i"], p["r_o"], "the forearm tubes")
-                     + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
-                     + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")),
+        constraints=(
+            tube(p["r_i"], p["r_o"], "the forearm tubes")
+            + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
+            + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")
+        ),
     )

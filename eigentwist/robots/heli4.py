@@ -4,6 +4,7 @@ Sources: Table 1, Eqs. 22-31, 34, Appendix A (corrected), C, D of the paper
 (DOI 10.1016/j.mechmachtheory.2019.103775) and ``heli4-facts.md`` (base geometry,
 frames, the rod modulus E = 170 GPa, misprints).
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -31,7 +32,9 @@ PARAMETERS = (
     Parameter("rho", 2000.0, "kg/m^3", "density of the rods (Table 1)"),
     # lower link with rotor (Eqs. 21-23)
     Parameter("m_1", 0.479, "kg", "mass of the lower link (Eq. 23)"),
-    Parameter("l1_cog", 0.0612, "m", "distance from the actuated joint to the lower link's centre of gravity (Table 1)"),
+    Parameter(
+        "l1_cog", 0.0612, "m", "distance from the actuated joint to the lower link's centre of gravity (Table 1)"
+    ),
     Parameter("I1_xx", 0.0003, "kg m^2", "lower link inertia about x of frame J_i1 (Eq. 23)"),
     Parameter("I1_yy", 0.0044, "kg m^2", "lower link inertia about the actuated axis (Eq. 23)"),
     Parameter("I1_zz", 0.0042, "kg m^2", "lower link inertia about z of frame J_i1 (Eq. 23)"),
@@ -43,13 +46,31 @@ PARAMETERS = (
     Parameter("I_e_zz", 0.001, "kg m^2", "EE inertia about Z (Eq. 31, printed to one digit)"),
     # actuators (Eqs. 34, 42)
     Parameter("k_a", 2000.0, "N m/rad", "commanded actuator stiffness (Table 2)"),
-    Parameter("c_rigid", 1e-12, "rad/(N m)", "compliance of ideally rigid constrained directions in K_F (modes: exact unless set)", (0.0, 1e-6)),
+    Parameter(
+        "c_rigid",
+        1e-12,
+        "rad/(N m)",
+        "compliance of ideally rigid constrained directions in K_F (modes: exact unless set)",
+        (0.0, 1e-6),
+    ),
 )
 
 
-EFFECTS = ("actuator_loss", "rod_compliance", "ee_compliance", "ee_coupling", "lower_link_compliance",
-           "transmission_compliance", "payload_mass", "rotor_inertia", "swinging_rods", "gravity_preload",
-           "servo_damping", "servo_delay", "structural_loss")
+EFFECTS = (
+    "actuator_loss",
+    "rod_compliance",
+    "ee_compliance",
+    "ee_coupling",
+    "lower_link_compliance",
+    "transmission_compliance",
+    "payload_mass",
+    "rotor_inertia",
+    "swinging_rods",
+    "gravity_preload",
+    "servo_damping",
+    "servo_delay",
+    "structural_loss",
+)
 
 # The effects declare their parameters (eigentwist/description/effects.py); the Heli4's
 # values are the catalogue's defaults (App. B, C, D and the facts file: E_rod = 170 GPa,
@@ -73,7 +94,8 @@ def describe() -> RobotDescription:
         ("leg 4", neg(ey), ex, (0, -r, d + h)),
     )
     lower_link = spatial_inertia(
-        p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]),
+        p["m_1"],
+        sp.Matrix([p["l1_cog"], 0, 0]),
         sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]),
     )
     rod = dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"])
@@ -82,21 +104,38 @@ def describe() -> RobotDescription:
     # each an RR(Pi)RR joint list with the lower link (J1) and the parallelogram (C3)
     plates = ("plate_A", "plate_A", "plate_B", "plate_B")
     legs = tuple(
-        rrpirr_leg(name, tuple(R * c for c in u), u, s, a, p["l1"], p["l2"], lower_link, parallelogram,
-                   platform_body=body, w_pi=p["w_pi"])
+        rrpirr_leg(
+            name,
+            tuple(R * c for c in u),
+            u,
+            s,
+            a,
+            p["l1"],
+            p["l2"],
+            lower_link,
+            parallelogram,
+            platform_body=body,
+            w_pi=p["w_pi"],
+        )
         for (name, u, s, a), body in zip(layout, plates)
     )
     # the tool body T couples to plate A through a rotation about Y through the
     # lower plate centre (k_E_rot) and to plate B through a translation along Y (k_E_lin)
     couplings = (
-        Coupling("plate_A", (0, 0, d), ((0, 1, 0, 0, 0, 0),), (p["k_E_rot"],),
-                 doc="rotation about Y through the lower traveling plate centre (App. D, k_E_rot)"),
-        Coupling("plate_B", (0, 0, d), ((0, 0, 0, 0, 1, 0),), (p["k_E_lin"],),
-                 doc="translation along Y (App. D, k_E_lin)"),
+        Coupling(
+            "plate_A",
+            (0, 0, d),
+            ((0, 1, 0, 0, 0, 0),),
+            (p["k_E_rot"],),
+            doc="rotation about Y through the lower traveling plate centre (App. D, k_E_rot)",
+        ),
+        Coupling(
+            "plate_B", (0, 0, d), ((0, 0, 0, 0, 1, 0),), (p["k_E_lin"],), doc="translation along Y (App. D, k_E_lin)"
+        ),
     )
     ee = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
-    c_rot = sp.diag(0, 1 / (p["k_E_rot"] / 2), 0, 0, 0, 0)   # Eqs. 45, 46
-    c_lin = sp.diag(0, 0, 0, 0, 1 / (p["k_E_lin"] / 2), 0)   # Eqs. 47, 48
+    c_rot = sp.diag(0, 1 / (p["k_E_rot"] / 2), 0, 0, 0, 0)  # Eqs. 45, 46
+    c_lin = sp.diag(0, 0, 0, 0, 1 / (p["k_E_lin"] / 2), 0)  # Eqs. 47, 48
     return RobotDescription(
         name="heli4",
         title="Heli4 (4-RR(Pi)RR), Hoevenaars, Krut & Herder 2020",
@@ -121,7 +160,9 @@ def describe() -> RobotDescription:
         # plus "damped": the paper's model with the stated servo damping (its measured frequencies
         # are damped ones, counted from step responses)
         presets={**PRESETS, "damped": PRESETS["paper"] + ("servo_damping",)},
-        constraints=(tube(p["r_i"], p["r_o"], "the parallelogram rods")
-                     + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
-                     + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")),
+        constraints=(
+            tube(p["r_i"], p["r_o"], "the parallelogram rods")
+            + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
+            + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")
+        ),
     )

@@ -10,6 +10,7 @@ and tangent to the base circle, the second normal to it and to the strut, so the
 cylinder does not spin about its axis. The pose is the platform origin (m) and the
 rotation vector of the platform frame (rad); home is [0, 0, 0.80] m, rotation 0.
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -49,21 +50,50 @@ def _joint_series(ctx):
 
 
 STRUT_COMPLIANCE = Effect(
-    "strut_compliance", "axial compliance 1/k_s of each strut's tube in series with its actuator",
-    (Parameter("k_s", 1.0e8, "N/m", "axial stiffness of each strut's tube; plausible 1e7-1e9 N/m",
-               (0.0, float("inf")), "strut_compliance", (1.0e7, 1.0e9)),),
-    ("k_s",), kind="joint_series", leg_level=True, build=_strut_series, component="strut",
+    "strut_compliance",
+    "axial compliance 1/k_s of each strut's tube in series with its actuator",
+    (
+        Parameter(
+            "k_s",
+            1.0e8,
+            "N/m",
+            "axial stiffness of each strut's tube; plausible 1e7-1e9 N/m",
+            (0.0, float("inf")),
+            "strut_compliance",
+            (1.0e7, 1.0e9),
+        ),
+    ),
+    ("k_s",),
+    kind="joint_series",
+    leg_level=True,
+    build=_strut_series,
+    component="strut",
 )
 JOINT_COMPLIANCE = Effect(
-    "joint_compliance", "compliance of the U and S joints along the strut (each 1/k_j), in series with the actuator",
-    (Parameter("k_j", 2.0e8, "N/m", "axial stiffness of each U or S joint along the strut; plausible 2e7-2e9 N/m",
-               (0.0, float("inf")), "joint_compliance", (2.0e7, 2.0e9)),),
-    ("k_j",), kind="joint_series", leg_level=True, build=_joint_series, component="U and S joints",
+    "joint_compliance",
+    "compliance of the U and S joints along the strut (each 1/k_j), in series with the actuator",
+    (
+        Parameter(
+            "k_j",
+            2.0e8,
+            "N/m",
+            "axial stiffness of each U or S joint along the strut; plausible 2e7-2e9 N/m",
+            (0.0, float("inf")),
+            "joint_compliance",
+            (2.0e7, 2.0e9),
+        ),
+    ),
+    ("k_j",),
+    kind="joint_series",
+    leg_level=True,
+    build=_joint_series,
+    component="U and S joints",
 )
 
 EFFECTS = ("actuator_loss", STRUT_COMPLIANCE, JOINT_COMPLIANCE, "payload_mass", "gravity_preload")
-EFFECT_VALUES = {"m_p": {"default": 5.0, "doc": "payload mass on the platform; plausible 0-200 kg",
-                         "plausible": (0.0, 200.0)}}
+EFFECT_VALUES = {
+    "m_p": {"default": 5.0, "doc": "payload mass on the platform; plausible 0-200 kg", "plausible": (0.0, 200.0)}
+}
 
 
 def _on_circle(radius, degrees) -> sp.Matrix:
@@ -73,6 +103,7 @@ def _on_circle(radius, degrees) -> sp.Matrix:
 
 def _geometry(base_deg, platform_deg):
     """The closed-form IK of one leg: joint points, strut direction and length, U axes."""
+
     def geometry(position, rotation, p, q=None):
         b = _on_circle(p["R_b"], base_deg)
         a = _on_circle(p["R_p"], platform_deg)
@@ -84,29 +115,49 @@ def _geometry(base_deg, platform_deg):
         u1 = sp.Matrix([-sp.sin(angle), sp.cos(angle), 0])
         n = cross(s, u1)
         u2 = n / sp.sqrt(n.dot(n))
-        return {"b": b, "top": top, "length": length, "s": s, "u1": u1, "u2": u2, "e2": cross(u2, s),
-                "cos_u": s.dot(u1)}
+        return {
+            "b": b,
+            "top": top,
+            "length": length,
+            "s": s,
+            "u1": u1,
+            "u2": u2,
+            "e2": cross(u2, s),
+            "cos_u": s.dot(u1),
+        }
+
     return geometry
 
 
 def _strut_body(name, mass, distance, inertia, after, origin):
     """A slender strut body in a frame at its joint, x along the strut (no axial inertia)."""
     transverse = inertia + mass * distance**2
-    return ChainBody(name, after, spatial_inertia(mass, sp.Matrix([distance, 0, 0]), sp.diag(0, transverse, transverse)),
-                     ("s", "e2", "u2"), origin)
+    return ChainBody(
+        name,
+        after,
+        spatial_inertia(mass, sp.Matrix([distance, 0, 0]), sp.diag(0, transverse, transverse)),
+        ("s", "e2", "u2"),
+        origin,
+    )
 
 
 def describe() -> ChainRobot:
     """The hexapod with its specified values as defaults."""
     parameters = PARAMETERS + effect_parameters(("actuator_loss", "payload_mass", "gravity_preload"), EFFECT_VALUES)
     p = {q.name: q.symbol for q in parameters}
-    joints = (ChainJoint("U", ("u1", "u2"), "b", doc="base universal joint"),
-              ChainJoint("P", ("s",), actuated=True, doc="prismatic actuator along the strut"),
-              ChainJoint("S", (), "top", doc="platform spherical joint"))
-    bodies = (_strut_body("cylinder", p["m_cyl"], p["d_cyl"], p["I_cyl"], 1, "b"),
-              _strut_body("piston", p["m_pis"], -p["d_pis"], p["I_pis"], 2, "top"))
-    legs = tuple(ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(b, a), checks=("cos_u",))
-                 for i, (b, a) in enumerate(zip(BASE_ANGLES, PLATFORM_ANGLES)))
+    joints = (
+        ChainJoint("U", ("u1", "u2"), "b", doc="base universal joint"),
+        ChainJoint("P", ("s",), actuated=True, doc="prismatic actuator along the strut"),
+        ChainJoint("S", (), "top", doc="platform spherical joint"),
+    )
+    bodies = (
+        _strut_body("cylinder", p["m_cyl"], p["d_cyl"], p["I_cyl"], 1, "b"),
+        _strut_body("piston", p["m_pis"], -p["d_pis"], p["I_pis"], 2, "top"),
+    )
+    legs = tuple(
+        ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(b, a), checks=("cos_u",))
+        for i, (b, a) in enumerate(zip(BASE_ANGLES, PLATFORM_ANGLES))
+    )
     com = sp.Matrix([0, 0, p["c_pl"]])
     at_com = sp.diag(p["I_pl_xx"], p["I_pl_yy"], p["I_pl_zz"])
     platform = spatial_inertia(p["m_pl"], com, at_com + p["m_pl"] * (com.dot(com) * sp.eye(3) - com * com.T))

@@ -14,6 +14,7 @@ whose constraint rows have exact zeros there: their 3x3 translational subsets of
 K_R are this rule's special case; a hexapod's six twists: no constraint). The rigid
 model is then ``M_r = B^T M B``, ``K_r = B^T K_R B`` (``n`` modes).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -63,7 +64,7 @@ def _orthonormal_rows(A: np.ndarray, rtol: float) -> list:
                     v[i] -= d * q[i]
         norm = np.sqrt(_dot(v, v))
         keep = norm > rtol * np.sqrt(_dot(a, a))
-        if not keep.any():                 # dependent at every pose: a zero vector adds nothing
+        if not keep.any():  # dependent at every pose: a zero vector adds nothing
             continue
         inv = np.where(keep, 1.0 / np.where(keep, norm, 1.0), 0.0)
         Q.append([np.where(keep, c * inv, 0.0) for c in v])
@@ -85,7 +86,7 @@ def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rtol: float = 1e-9)
     A = np.asarray(rows, dtype=float)
     n = A.shape[0]
     E = np.broadcast_to(np.asarray(candidates, dtype=float), (n,) + np.shape(candidates)[-2:])
-    Et = np.moveaxis(E, 0, -1)                                       # (6, m, N)
+    Et = np.moveaxis(E, 0, -1)  # (6, m, N)
     m = Et.shape[1]
     Q = _orthonormal_rows(A, rtol)
     P = []

@@ -12,6 +12,7 @@ Compiling is tried with vectorising flags first (``-march=native -fopenmp-simd
 -fno-math-errno``, glibc's vector maths library on x86-64 Linux) and then with portable
 ones (``-O3 -fPIC -shared``); a failure of both raises with the compiler's message.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -23,13 +24,30 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .ccompile import BuildError, CompilerNotFoundError, build_library, cache_dir, find_compiler, flag_sets, read_shipped
+from .ccompile import (
+    BuildError,
+    CompilerNotFoundError,
+    build_library,
+    cache_dir,
+    find_compiler,
+    flag_sets,
+    read_shipped,
+)
 from . import eigen, validity
 from .threads import run_ranges, threads_for
 from .validity import LEVER_SCALE, STATUS
 
-__all__ = ["load_c_kernels", "CKernels", "CompilerNotFoundError", "CompileError", "find_compiler",
-           "cache_dir", "build_library", "flag_sets", "source_path"]
+__all__ = [
+    "load_c_kernels",
+    "CKernels",
+    "CompilerNotFoundError",
+    "CompileError",
+    "find_compiler",
+    "cache_dir",
+    "build_library",
+    "flag_sets",
+    "source_path",
+]
 
 ABI_VERSION = 2
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
@@ -58,8 +76,20 @@ def _bind(lib: ctypes.CDLL, sig: dict) -> dict:
         fn.restype = ctypes.c_int
         fns[name] = fn
     fused = getattr(lib, sig["fused"]["function"])
-    fused.argtypes = [ctypes.c_int64, ctypes.c_int64, _PTRS, _I64P, ctypes.c_int, _PTRS, _PTRS, _PTRS,
-                      ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, _F64P]
+    fused.argtypes = [
+        ctypes.c_int64,
+        ctypes.c_int64,
+        _PTRS,
+        _I64P,
+        ctypes.c_int,
+        _PTRS,
+        _PTRS,
+        _PTRS,
+        ctypes.c_void_p,
+        ctypes.c_void_p,
+        ctypes.c_void_p,
+        _F64P,
+    ]
     fused.restype = ctypes.c_int
     eigh = getattr(lib, sig["eigh"]["function"])
     eigh.argtypes = [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
@@ -69,7 +99,7 @@ def _bind(lib: ctypes.CDLL, sig: dict) -> dict:
 
 
 def _load(path: Path, robot: str):
-    lib = ctypes.CDLL(str(path))           # RTLD_NOW: a missing vector-maths symbol fails here
+    lib = ctypes.CDLL(str(path))  # RTLD_NOW: a missing vector-maths symbol fails here
     prefix = "et_" + "".join(c if c.isalnum() else "_" for c in robot)
     abi = getattr(lib, f"{prefix}_abi_version")
     abi.restype = ctypes.c_int
@@ -110,12 +140,12 @@ def compile_and_load(robot: str, source: str | None = None, directory: Path | No
         except subprocess.CalledProcessError as exc:
             errors.append(f"[{name}] {' '.join(exc.cmd)}\n{(exc.stderr or '').strip()[-2000:]}")
             continue
-        except OSError as exc:                          # e.g. an unwritable cache directory
+        except OSError as exc:  # e.g. an unwritable cache directory
             errors.append(f"[{name}] building failed: {exc}")
             continue
         try:
             lib, sig = _load(lib_path, robot)
-        except OSError as exc:                          # e.g. no vector maths library at run time
+        except OSError as exc:  # e.g. no vector maths library at run time
             errors.append(f"[{name}] loading {lib_path} failed: {exc}")
             continue
         return lib, sig, Build(lib_path, name, flags)
@@ -133,11 +163,15 @@ def load_c_kernels(robot: str, numpy_module=None, source: str | None = None) -> 
     kernels = CKernels(lib, sig, build)
     if numpy_module is not None:
         # the followers kernel of a lower-mobility pose space is NumPy's alone
-        want = {k: {o: tuple(s) for o, s in v.items()} for k, v in getattr(numpy_module, "OUTPUTS", {}).items()
-                if k != "followers"}
+        want = {
+            k: {o: tuple(s) for o, s in v.items()}
+            for k, v in getattr(numpy_module, "OUTPUTS", {}).items()
+            if k != "followers"
+        }
         if want and want != kernels.OUTPUTS:
-            raise RuntimeError(f"the C library of {robot!r} and the NumPy module disagree on their outputs: "
-                               "run `eigentwist generate`")
+            raise RuntimeError(
+                f"the C library of {robot!r} and the NumPy module disagree on their outputs: run `eigentwist generate`"
+            )
     return kernels
 
 
@@ -189,7 +223,7 @@ class _Packed:
     def __init__(self, values: list):
         self.size = len(values)
         self.fixed = [i for i, v in enumerate(values) if _fixed(v)]
-        self.refs = tuple(values[i] for i in self.fixed)          # keeps the ids valid
+        self.refs = tuple(values[i] for i in self.fixed)  # keeps the ids valid
         self.ids = tuple(map(id, self.refs))
         self.packed = np.array([float(v) for v in self.refs], dtype=np.float64)
         base = self.packed.ctypes.data
@@ -244,10 +278,12 @@ class CKernels:
         self._fused_names = [name for _, name in signature["fused"]["inputs"]]
         self._packed: _Packed | None = None
         self._scale_index = self._fused_names.index(LEVER_SCALE) if LEVER_SCALE in self._fused_names else -1
-        self._opts: dict = {}                  # the fused pass's option arrays (read only by C)
+        self._opts: dict = {}  # the fused pass's option arrays (read only by C)
         if signature["fused"]["status"] != STATUS:
-            raise RuntimeError(f"the C library of {self.ROBOT!r} has status codes {signature['fused']['status']}, "
-                               f"expected {STATUS}: run `eigentwist generate`")
+            raise RuntimeError(
+                f"the C library of {self.ROBOT!r} has status codes {signature['fused']['status']}, "
+                f"expected {STATUS}: run `eigentwist generate`"
+            )
 
     def __repr__(self) -> str:
         return f"<eigentwist C kernels {self.ROBOT!r} ({self.build.flags_name}) {self.build.path}>"
@@ -286,8 +322,9 @@ class CKernels:
     def _q_kernel(self, kernel: str, q, p: dict) -> dict:
         q = np.asarray(q, dtype=np.float64)
         if q.ndim < 2 or q.shape[-2:] != (self.N_LEGS, self.JOINTS_PER_LEG):
-            raise InputError(f"q has shape {q.shape}: expected (..., {self.N_LEGS}, {self.JOINTS_PER_LEG}) joint "
-                             "coordinates")
+            raise InputError(
+                f"q has shape {q.shape}: expected (..., {self.N_LEGS}, {self.JOINTS_PER_LEG}) joint coordinates"
+            )
         params = self._params(kernel, p)
         lead = self._lead([q.shape[:-2]] + [np.shape(v) for v in params.values()])
         return self._run(kernel, lead, params, q=q)
@@ -342,8 +379,17 @@ class CKernels:
                 strides.append(st)
                 q_of.append(-1)
         rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
-        return c_levenberg_marquardt.iterate(ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value, q_of, addresses,
-                               strides, np.asarray(q, dtype=np.float64), rows, iterations, tol, threads)
+        return c_levenberg_marquardt.iterate(
+            ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value,
+            q_of,
+            addresses,
+            strides,
+            np.asarray(q, dtype=np.float64),
+            rows,
+            iterations,
+            tol,
+            threads,
+        )
 
     def gravity(self, q, p: dict) -> dict:
         """Gravity-preload terms ``G``, ``Kqe``, ``k_act`` and ``W`` (see the NumPy module)."""
@@ -365,17 +411,30 @@ class CKernels:
         """
         K = np.ascontiguousarray(K, dtype=np.float64)
         M = np.ascontiguousarray(M, dtype=np.float64)
-        if K.shape != M.shape or K.ndim != 3 or K.shape[1] != K.shape[2] or K.shape[1] not in self.signature["eigh"]["dims"]:
-            raise InputError(f"K {K.shape} and M {M.shape}: expected equal shapes (N, n, n) with n in "
-                             f"{self.signature['eigh']['dims']}")
+        if (
+            K.shape != M.shape
+            or K.ndim != 3
+            or K.shape[1] != K.shape[2]
+            or K.shape[1] not in self.signature["eigh"]["dims"]
+        ):
+            raise InputError(
+                f"K {K.shape} and M {M.shape}: expected equal shapes (N, n, n) with n in "
+                f"{self.signature['eigh']['dims']}"
+            )
         n, dim = K.shape[0], K.shape[1]
         lam = np.empty((n, dim))
         V = np.empty((n, dim, dim)) if vectors else None
         fn, mat = self._fn["eigh"], 8 * dim * dim
 
         def call(a: int, b: int) -> int:
-            return fn(b - a, dim, K.ctypes.data + a * mat, M.ctypes.data + a * mat, lam.ctypes.data + a * 8 * dim,
-                      V.ctypes.data + a * mat if vectors else None)
+            return fn(
+                b - a,
+                dim,
+                K.ctypes.data + a * mat,
+                M.ctypes.data + a * mat,
+                lam.ctypes.data + a * 8 * dim,
+                V.ctypes.data + a * mat if vectors else None,
+            )
 
         for rc in run_ranges(call, n, self.BLOCK, threads_for(n, self.BLOCK, threads)):
             _check_rc(rc, "eigh")
@@ -404,9 +463,23 @@ class CKernels:
                 addresses[i], strides[i] = ai, si
         return keep, addresses, strides, lead
 
-    def fused(self, x, y, z, p: dict, *, matrices=("M", "K_F"), ik=(), jacobians=(), model=None,
-              vectors: bool = False, status: bool = False, normalize: bool = False, out: dict | None = None,
-              threads: int = 1) -> dict:
+    def fused(
+        self,
+        x,
+        y,
+        z,
+        p: dict,
+        *,
+        matrices=("M", "K_F"),
+        ik=(),
+        jacobians=(),
+        model=None,
+        vectors: bool = False,
+        status: bool = False,
+        normalize: bool = False,
+        out: dict | None = None,
+        threads: int = 1,
+    ) -> dict:
         """Poses (m) and parameters to the requested outputs in one C pass.
 
         ``matrices``, ``ik`` and ``jacobians`` name the kernel outputs to return (shapes as
@@ -438,11 +511,18 @@ class CKernels:
             arr = given.pop(name, None)
             if arr is None:
                 arr = np.empty(lead + shape, dtype=dtype)
-            elif (not isinstance(arr, np.ndarray) or arr.shape != lead + shape or arr.dtype != dtype
-                  or not arr.flags.c_contiguous or not arr.flags.writeable):
-                raise InputError(f"out[{name!r}]: expected a writeable C-contiguous {np.dtype(dtype).name} array "
-                                 f"of shape {lead + shape}, got {getattr(arr, 'shape', None)} "
-                                 f"{getattr(arr, 'dtype', type(arr).__name__)}")
+            elif (
+                not isinstance(arr, np.ndarray)
+                or arr.shape != lead + shape
+                or arr.dtype != dtype
+                or not arr.flags.c_contiguous
+                or not arr.flags.writeable
+            ):
+                raise InputError(
+                    f"out[{name!r}]: expected a writeable C-contiguous {np.dtype(dtype).name} array "
+                    f"of shape {lead + shape}, got {getattr(arr, 'shape', None)} "
+                    f"{getattr(arr, 'dtype', type(arr).__name__)}"
+                )
             result[name] = arr
             return arr.ctypes.data
 
@@ -485,8 +565,9 @@ class CKernels:
             _check_rc(rc, "fused")
         return result
 
-    def fused_frequencies(self, x, y, z, p: dict, model: str = "flexible", vectors: bool = False,
-                          check: bool = True, threads: int = 1) -> dict:
+    def fused_frequencies(
+        self, x, y, z, p: dict, model: str = "flexible", vectors: bool = False, check: bool = True, threads: int = 1
+    ) -> dict:
         """Natural frequencies (Hz) of poses ``x, y, z`` (m) in one C pass: the sweep fast path.
 
         ``p`` holds every parameter and effect switch (as the evaluator passes them to the
@@ -504,8 +585,9 @@ class CKernels:
         preloads = [switch_name(n) for n, e in EFFECTS.items() if e.kind == "preload"]
         if any(np.any(np.asarray(p.get(s, 0.0)) != 0) for s in preloads):
             raise InputError("the fused C path has no gravity preload: switch it off or use Evaluator.frequencies")
-        out = self.fused(x, y, z, p, matrices=(), model=model, vectors=vectors, normalize=True, status=True,
-                         threads=threads)
+        out = self.fused(
+            x, y, z, p, matrices=(), model=model, vectors=vectors, normalize=True, status=True, threads=threads
+        )
         st = out["status"]
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
@@ -524,12 +606,12 @@ class CKernels:
         from .validity import LEVER_SCALE, raise_singular, raise_unreachable
 
         def row(v):
-            return np.broadcast_to(np.asarray(v, dtype=float), lead).reshape(-1)[k:k + 1]
+            return np.broadcast_to(np.asarray(v, dtype=float), lead).reshape(-1)[k : k + 1]
 
         legs = get(self.ROBOT).legs if legs is None else legs
         pk = {name: row(v) for name, v in p.items()}
         pose = np.stack([row(c) for c in (x, y, z)], axis=-1)
-        if "R_00" in pk:                              # a 6-DoF robot: name the pose as given
+        if "R_00" in pk:  # a 6-DoF robot: name the pose as given
             from .poses import rotation_vector
 
             R = np.array([[pk[f"R_{i}{j}"][0] for j in range(3)] for i in range(3)])
@@ -541,5 +623,7 @@ class CKernels:
             if LEVER_SCALE in pk:
                 lever = lever / pk[LEVER_SCALE][..., None]
             raise_singular(legs, pose, lever, LEVER_SCALE if LEVER_SCALE in pk else None)
-        raise UnreachablePoseError(f"pose {pose[0].tolist()} m gives non-finite frequencies "
-                                   "(the inertia matrix is not positive definite there)")
+        raise UnreachablePoseError(
+            f"pose {pose[0].tolist()} m gives non-finite frequencies "
+            "(the inertia matrix is not positive definite there)"
+        )

@@ -13,6 +13,7 @@ iterations' to round-off (``tests/test_numeric_ik.py``).
 The driver is plain C99, compiled once into the cache (:mod:`.ccompile`); where it cannot
 be built, :func:`driver` is None and the NumPy iterations run.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -300,9 +301,9 @@ int et_newton_lm(int64_t n, void *closure_address, int n_in, const double *const
 }
 """
 
-BLOCK = 64                  # poses per block (B in the source)
-_DRIVER: list = []          # [ctypes function] once built, [None] when it cannot be
-_LIBRARIES: list = []       # the loaded driver library, kept for the process
+BLOCK = 64  # poses per block (B in the source)
+_DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
+_LIBRARIES: list = []  # the loaded driver library, kept for the process
 
 
 def driver():
@@ -324,9 +325,23 @@ def driver():
                 _LIBRARIES.append(lib)
                 fn = lib.et_newton_lm
                 P = ctypes.POINTER
-                fn.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_int, P(ctypes.c_void_p), P(ctypes.c_int64),
-                               P(ctypes.c_int), ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_void_p,
-                               ctypes.c_void_p, ctypes.c_int, ctypes.c_double, ctypes.c_double, ctypes.c_double]
+                fn.argtypes = [
+                    ctypes.c_int64,
+                    ctypes.c_void_p,
+                    ctypes.c_int,
+                    P(ctypes.c_void_p),
+                    P(ctypes.c_int64),
+                    P(ctypes.c_int),
+                    ctypes.c_int,
+                    ctypes.c_int,
+                    ctypes.c_int,
+                    ctypes.c_void_p,
+                    ctypes.c_void_p,
+                    ctypes.c_int,
+                    ctypes.c_double,
+                    ctypes.c_double,
+                    ctypes.c_double,
+                ]
                 fn.restype = ctypes.c_int
                 break
         except (BuildError, OSError):
@@ -335,8 +350,17 @@ def driver():
     return _DRIVER[0]
 
 
-def iterate(closure_address: int, n_q_inputs: list, addresses: list, strides: list, q: np.ndarray,
-            rows: int, iterations: int, tol: float, threads: int = 1):
+def iterate(
+    closure_address: int,
+    n_q_inputs: list,
+    addresses: list,
+    strides: list,
+    q: np.ndarray,
+    rows: int,
+    iterations: int,
+    tol: float,
+    threads: int = 1,
+):
     """Run the driver: ``(q, |r|)`` from ``q`` (n, legs, n_q) for the closure kernel at
     ``closure_address``; ``n_q_inputs[k]`` is ``leg * n_q + coordinate`` for the kernel's
     joint-coordinate inputs and -1 for the others, read at ``addresses[k]`` with
@@ -354,9 +378,23 @@ def iterate(closure_address: int, n_q_inputs: list, addresses: list, strides: li
 
     def call(a: int, b: int) -> int:
         moved = [x + 8 * a * st for x, st in zip(addresses, strides)]
-        return fn(b - a, closure_address, len(addresses), (ctypes.c_void_p * size)(*moved),
-                  (ctypes.c_int64 * size)(*strides), q_of, legs, rows, nq, qq.ctypes.data + 8 * a * legs * nq,
-                  norm.ctypes.data + 8 * a * legs, int(iterations), float(tol), LAMBDA0, MAX_STEP)
+        return fn(
+            b - a,
+            closure_address,
+            len(addresses),
+            (ctypes.c_void_p * size)(*moved),
+            (ctypes.c_int64 * size)(*strides),
+            q_of,
+            legs,
+            rows,
+            nq,
+            qq.ctypes.data + 8 * a * legs * nq,
+            norm.ctypes.data + 8 * a * legs,
+            int(iterations),
+            float(tol),
+            LAMBDA0,
+            MAX_STEP,
+        )
 
     for rc in run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads)):
         if rc != 0:

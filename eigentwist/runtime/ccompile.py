@@ -23,6 +23,7 @@ records its SHA-256 beside it, :func:`read_verified` returns its bytes only from
 directories (:func:`private_directory`) and only when they match, so a missing, truncated
 or altered file is regenerated (one line on stderr says so) and never imported or compiled.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -39,12 +40,27 @@ from ..hashing import content_hash
 
 try:
     import fcntl
-except ImportError:                     # not POSIX: no locking (the rename still keeps builds whole)
+except ImportError:  # not POSIX: no locking (the rename still keeps builds whole)
     fcntl = None
 
-__all__ = ["BuildError", "CompilerNotFoundError", "UnsafeCacheError", "find_compiler", "compiler_version", "flag_sets",
-           "cache_dir", "build_library", "check_private", "library_digest", "private_directory", "write_verified",
-           "read_verified", "note", "read_shipped", "DamagedFileError"]
+__all__ = [
+    "BuildError",
+    "CompilerNotFoundError",
+    "UnsafeCacheError",
+    "find_compiler",
+    "compiler_version",
+    "flag_sets",
+    "cache_dir",
+    "build_library",
+    "check_private",
+    "library_digest",
+    "private_directory",
+    "write_verified",
+    "read_verified",
+    "note",
+    "read_shipped",
+    "DamagedFileError",
+]
 
 
 class BuildError(RuntimeError):
@@ -69,8 +85,9 @@ def find_compiler() -> str:
     if cc:
         path = shutil.which(cc)
         if path is None:
-            raise CompilerNotFoundError(f"no C compiler found: CC={cc!r} is not an executable; "
-                                        "set CC to a C compiler or install gcc")
+            raise CompilerNotFoundError(
+                f"no C compiler found: CC={cc!r} is not an executable; set CC to a C compiler or install gcc"
+            )
         return path
     for name in ("cc", "gcc"):
         path = shutil.which(name)
@@ -126,12 +143,16 @@ def check_private(path: Path) -> None:
     st = os.stat(path)
     kind = "directory" if stat.S_ISDIR(st.st_mode) else "library" if Path(path).suffix == ".so" else "file"
     if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
-        raise UnsafeCacheError(f"refusing the compiled-code cache {kind} {path}: it is owned by uid {st.st_uid}, "
-                               f"not by this user (uid {os.geteuid()}); set EIGENTWIST_CACHE to a private directory")
+        raise UnsafeCacheError(
+            f"refusing the compiled-code cache {kind} {path}: it is owned by uid {st.st_uid}, "
+            f"not by this user (uid {os.geteuid()}); set EIGENTWIST_CACHE to a private directory"
+        )
     if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
-        raise UnsafeCacheError(f"refusing the compiled-code cache {kind} {path}: it is writable by others "
-                               f"(mode {stat.S_IMODE(st.st_mode):o}); run `chmod go-w {path}` or set EIGENTWIST_CACHE "
-                               "to a private directory")
+        raise UnsafeCacheError(
+            f"refusing the compiled-code cache {kind} {path}: it is writable by others "
+            f"(mode {stat.S_IMODE(st.st_mode):o}); run `chmod go-w {path}` or set EIGENTWIST_CACHE "
+            "to a private directory"
+        )
 
 
 def library_digest(path: Path) -> str:
@@ -159,7 +180,7 @@ def _cache_directory(directory: Path) -> Path:
     while not level.exists() and level != level.parent:
         missing.append(level)
         level = level.parent
-    for level in reversed(missing):           # every level created here is private, not only the last
+    for level in reversed(missing):  # every level created here is private, not only the last
         level.mkdir(mode=0o700, exist_ok=True)
     check_private(directory)
     return directory
@@ -218,8 +239,10 @@ def read_shipped(path: Path) -> bytes:
     digest = hashlib.sha256(data).hexdigest()
     if recorded.get(path.name) != digest:
         why = "has no recorded SHA-256" if path.name not in recorded else "does not match its recorded SHA-256"
-        raise DamagedFileError(f"the generated file {path} {why} ({sums.name}): the installation is damaged or "
-                               "edited; reinstall eigentwist, or run `eigentwist generate` in a source checkout")
+        raise DamagedFileError(
+            f"the generated file {path} {why} ({sums.name}): the installation is damaged or "
+            "edited; reinstall eigentwist, or run `eigentwist generate` in a source checkout"
+        )
     _SHIPPED[key] = digest
     return data
 
@@ -309,9 +332,11 @@ def build_library(source: str, name: str, cc: str, flags: list[str], directory: 
     target = directory / f"{stem}.so"
     if not _intact(target):
         if target.exists():
-            note(f"the cached library {target} does not match its recorded SHA-256 (truncated or altered): rebuilding it")
+            note(
+                f"the cached library {target} does not match its recorded SHA-256 (truncated or altered): rebuilding it"
+            )
         with _Lock(directory / f"{stem}.lock"):
-            if not _intact(target):                # another process may have built it meanwhile
+            if not _intact(target):  # another process may have built it meanwhile
                 _compile(source, name, cc, flags, target)
     check_private(target)
     return target

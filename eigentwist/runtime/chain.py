@@ -3,6 +3,7 @@
 ``ChainEvaluator(robot)`` warns (``DeprecationWarning``) and returns that evaluator, whose
 ``frequencies(poses, model, **params)`` the old one offered.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -15,6 +16,9 @@ def ChainEvaluator(robot, **options):
     description or a shipped robot's name)."""
     from .loader import load
 
-    warnings.warn("eigentwist.runtime.chain.ChainEvaluator is deprecated: use eigentwist.load(robot)",
-                  DeprecationWarning, stacklevel=2)
+    warnings.warn(
+        "eigentwist.runtime.chain.ChainEvaluator is deprecated: use eigentwist.load(robot)",
+        DeprecationWarning,
+        stacklevel=2,
+    )
     return load(robot, **options)

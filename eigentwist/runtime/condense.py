@@ -22,14 +22,26 @@ with zero compliance is a mode of **infinite** frequency, reported as ``+inf`` a
 finite modes (frequencies ascending), so a 3-DoF robot's 6 x 6 route gives its 3 finite
 modes then 3 ``inf``; :func:`finite_modes` drops them.
 """
+
 from __future__ import annotations
 
 from ..errors import DescriptionError, InputError
 import numpy as np
 
-__all__ = ["leg_condensation", "condensed_compliance", "condensed_modes", "compliance_eigh", "finite_modes",
-           "leg_joints", "platform_compliance", "has_rigid_direction", "compliance_from_legs", "merge_modes",
-           "RIGID_RTOL", "EXACT"]
+__all__ = [
+    "leg_condensation",
+    "condensed_compliance",
+    "condensed_modes",
+    "compliance_eigh",
+    "finite_modes",
+    "leg_joints",
+    "platform_compliance",
+    "has_rigid_direction",
+    "compliance_from_legs",
+    "merge_modes",
+    "RIGID_RTOL",
+    "EXACT",
+]
 
 # A joint-compliance eigenvalue below RIGID_RTOL times the leg's largest (or a singular
 # value of the stacked rigid rows below RIGID_RTOL times the largest) is a rigid direction
@@ -57,7 +69,7 @@ def leg_condensation(Je: np.ndarray, Cq: np.ndarray, rtol: float = RIGID_RTOL):
     s, U = _eigh_small(0.5 * (Cq + np.swapaxes(Cq, -1, -2)))
     rigid = s <= rtol * np.abs(s).max(axis=-1, keepdims=True)
     inv = np.where(rigid, 0.0, 1.0 / np.where(rigid, 1.0, s))
-    UJ = np.swapaxes(U, -1, -2) @ Je                                  # (N, e, 6): combinations' rows
+    UJ = np.swapaxes(U, -1, -2) @ Je  # (N, e, 6): combinations' rows
     K = np.swapaxes(UJ, -1, -2) @ (inv[..., None] * UJ)
     R = np.where(rigid[..., None], UJ, 0.0)
     return 0.5 * (K + np.swapaxes(K, -1, -2)), R
@@ -83,12 +95,19 @@ def _eigh_small(S: np.ndarray):
     zero = norm == 0
     x = np.where(zero, 1.0, x / np.where(zero, 1.0, norm))
     y = np.where(zero, 0.0, y / np.where(zero, 1.0, norm))
-    U = np.stack([np.stack([-y, x], axis=-1), np.stack([x, y], axis=-1)], axis=-1)   # columns: small, large
+    U = np.stack([np.stack([-y, x], axis=-1), np.stack([x, y], axis=-1)], axis=-1)  # columns: small, large
     return s, U
 
 
-def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: np.ndarray, eigh=None,
-                    rtol: float = RIGID_RTOL, basis: dict | None = None):
+def condensed_modes(
+    Je: np.ndarray,
+    Cq: np.ndarray,
+    K_parallel: np.ndarray,
+    M: np.ndarray,
+    eigh=None,
+    rtol: float = RIGID_RTOL,
+    basis: dict | None = None,
+):
     """The exact modes of legs on the tool body (no couplings) in stiffness form on the
     admissible twists: ``(B^T K B) y = omega^2 (B^T M B) y``, ``v = B y``.
 
@@ -107,7 +126,7 @@ def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: n
     N = Je.shape[0]
     K_x = np.array(np.broadcast_to(K_parallel, (N, 6, 6)), dtype=float)
     A = _assemble(Je, Cq, K_x, [None] * Je.shape[1], rtol)
-    G = np.swapaxes(A, -1, -2) @ A                                   # (N, 6, 6): null space = admissible twists
+    G = np.swapaxes(A, -1, -2) @ A  # (N, 6, 6): null space = admissible twists
     g, Q = eigh(G, np.broadcast_to(np.eye(6), G.shape))
     null = g <= (rtol * 1e-2) * np.abs(g).max(axis=-1, keepdims=True, initial=0.0)
     freq = np.full((N, 6), np.inf)
@@ -116,7 +135,7 @@ def condensed_modes(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray, M: n
         at = null.sum(axis=-1) == n
         if n == 0:
             continue
-        B = Q[at][:, :, :n]                                          # ascending: the null vectors first
+        B = Q[at][:, :, :n]  # ascending: the null vectors first
         if basis is not None and at.all():
             basis["B"] = B
         Bt = np.swapaxes(B, -1, -2)
@@ -135,7 +154,7 @@ def _assemble(Je: np.ndarray, Cq, K_x: np.ndarray, T: list, rtol: float) -> np.n
     (None: x is the twist), and return the legs' rigid rows in x, stacked (N, legs*e, d)."""
     rows = []
     Cq = np.asarray(Cq)
-    if all(Ti is None for Ti in T):              # every leg on the tool: one batched condensation
+    if all(Ti is None for Ti in T):  # every leg on the tool: one batched condensation
         N, legs, e = Je.shape[:3]
         K, R = leg_condensation(Je.reshape(N * legs, e, 6), Cq.reshape(N * legs, e, e), rtol)
         K = K.reshape(N, legs, 6, 6)
@@ -149,9 +168,16 @@ def _assemble(Je: np.ndarray, Cq, K_x: np.ndarray, T: list, rtol: float) -> np.n
     return np.concatenate(rows, axis=1)
 
 
-def condensed_compliance(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray | None = None,
-                         rtol: float = RIGID_RTOL, *, bodies=None, G_c: np.ndarray | None = None,
-                         K_c: np.ndarray | None = None):
+def condensed_compliance(
+    Je: np.ndarray,
+    Cq: np.ndarray,
+    K_parallel: np.ndarray | None = None,
+    rtol: float = RIGID_RTOL,
+    *,
+    bodies=None,
+    G_c: np.ndarray | None = None,
+    K_c: np.ndarray | None = None,
+):
     """Exact platform compliance of legs in parallel with rigid constraints.
 
     Je : (N, legs, e, 6) and Cq : (N, legs, e, e) as in :func:`leg_condensation`;
@@ -180,23 +206,24 @@ def condensed_compliance(Je: np.ndarray, Cq: np.ndarray, K_parallel: np.ndarray 
     K_x = np.zeros((N, d, d))
     if K_parallel is not None:
         K_x[:, :6, :6] = K_parallel
-    T = {-1: np.broadcast_to(np.eye(6, d), (N, 6, d))}                   # x -> a body's twist
+    T = {-1: np.broadcast_to(np.eye(6, d), (N, 6, d))}  # x -> a body's twist
     for k in range(nc):
         Tk = np.zeros((N, 6, d))
         Tk[:, :, :6] = np.eye(6)
-        Tk[:, :, 6 + k * m:6 + (k + 1) * m] = -np.asarray(G_c, dtype=float)[:, k]
+        Tk[:, :, 6 + k * m : 6 + (k + 1) * m] = -np.asarray(G_c, dtype=float)[:, k]
         T[k] = Tk
         idx = np.arange(6 + k * m, 6 + (k + 1) * m)
         K_x[:, idx, idx] = np.asarray(K_c, dtype=float)[:, k]
-    A = _assemble(Je, Cq, K_x, [T[-1 if bodies is None or nc == 0 else int(bodies[i])] for i in range(n_legs)],
-                  rtol)                                               # (N, legs*e, d)
+    A = _assemble(
+        Je, Cq, K_x, [T[-1 if bodies is None or nc == 0 else int(bodies[i])] for i in range(n_legs)], rtol
+    )  # (N, legs*e, d)
     _, sv, Vt = np.linalg.svd(A, full_matrices=True)
     rank = (sv > rtol * sv.max(axis=-1, keepdims=True, initial=0.0)).sum(axis=-1)
     C = np.full((N, 6, 6), np.nan)
     B_out = None
     for r in np.unique(rank):
         at = rank == r
-        B = np.swapaxes(Vt[at][:, int(r):, :], -1, -2)                 # (n_at, d, d - r)
+        B = np.swapaxes(Vt[at][:, int(r) :, :], -1, -2)  # (n_at, d, d - r)
         Kr = np.swapaxes(B, -1, -2) @ K_x[at] @ B
         Kr = 0.5 * (Kr + np.swapaxes(Kr, -1, -2))
         Bt = np.swapaxes(B[:, :6, :], -1, -2)
@@ -238,7 +265,7 @@ def compliance_eigh(C: np.ndarray, M: np.ndarray, rtol: float = RIGID_RTOL):
     A = np.swapaxes(L, -1, -2) @ np.nan_to_num(C) @ L
     mu, W = np.linalg.eigh(0.5 * (A + np.swapaxes(A, -1, -2)))
     zero = np.abs(mu) <= rtol * np.abs(mu).max(axis=-1, keepdims=True)
-    lam = np.where(zero, np.inf, 1.0 / np.where(zero, 1.0, mu))             # omega^2, (rad/s)^2
+    lam = np.where(zero, np.inf, 1.0 / np.where(zero, 1.0, mu))  # omega^2, (rad/s)^2
     order = np.argsort(lam, axis=-1, kind="stable")
     lam = np.take_along_axis(lam, order, axis=-1)
     W = np.take_along_axis(W, order[..., None, :], axis=-1)
@@ -280,17 +307,25 @@ def compliance_from_legs(robot, effects, out: dict, K_extra=None) -> np.ndarray:
     couplings = sorted(robot.couplings, key=lambda c: c.body)
     active = [k for k, c in enumerate(couplings) if c.effect in names]
     if active and "G_c" not in out:
-        raise DescriptionError(f"{robot.name}: couplings with different numbers of compliant directions: "
-                         "expected one number for the exact condensation")
+        raise DescriptionError(
+            f"{robot.name}: couplings with different numbers of compliant directions: "
+            "expected one number for the exact condensation"
+        )
     bodies = G_c = K_c = None
     if active:
         index = {couplings[k].body: j for j, k in enumerate(active)}
         bodies = [index.get(leg.platform_body, -1) for leg in robot.legs]
         G_c, K_c = out["G_c"][:, active], out["K_c"][:, active]
     N = len(out["Je"])
-    bc = lambda a: np.broadcast_to(np.asarray(a, dtype=float), (N,) + np.shape(a)[-(np.ndim(a) - 1):])  # noqa: E731
-    C, _ = condensed_compliance(out["Je"], out["Cq"], np.broadcast_to(K_par, (N, 6, 6)), bodies=bodies,
-                                G_c=None if G_c is None else bc(G_c), K_c=None if K_c is None else bc(K_c))
+    bc = lambda a: np.broadcast_to(np.asarray(a, dtype=float), (N,) + np.shape(a)[-(np.ndim(a) - 1) :])  # noqa: E731
+    C, _ = condensed_compliance(
+        out["Je"],
+        out["Cq"],
+        np.broadcast_to(K_par, (N, 6, 6)),
+        bodies=bodies,
+        G_c=None if G_c is None else bc(G_c),
+        K_c=None if K_c is None else bc(K_c),
+    )
     return C
 
 
@@ -301,7 +336,7 @@ def merge_modes(modes, rows: np.ndarray, freq_hz: np.ndarray, V: np.ndarray, vec
     stand-in frequency and eigentwist and is marked in ``modes.constrained``."""
     from .eigen import normalize_eigentwists
 
-    modes.shares = None                        # the eigentwists change: the shares with them
+    modes.shares = None  # the eigentwists change: the shares with them
     freq = np.array(modes.freq_hz, dtype=float)
     fr = freq[rows]
     finite = ~np.isinf(freq_hz)

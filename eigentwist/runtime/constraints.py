@@ -1,4 +1,5 @@
 """Check the joint parameter conditions of a description (:mod:`eigentwist.description.constraints`)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -22,12 +23,14 @@ class CompiledConstraint:
         rel = constraint.relation
         slack = rel.rhs - rel.lhs if isinstance(rel, (sp.StrictLessThan, sp.LessThan)) else rel.lhs - rel.rhs
         self.strict = isinstance(rel, (sp.StrictLessThan, sp.StrictGreaterThan))
-        self._linear = {}                  # name -> (d slack/d name, slack at name = 0), where slack is linear in it
+        self._linear = {}  # name -> (d slack/d name, slack at name = 0), where slack is linear in it
         for x in symbols:
             a = sp.diff(slack, x)
             if not a.has(x):
-                self._linear[x.name] = (sp.lambdify(symbols, a, "numpy"),
-                                        sp.lambdify(symbols, slack.subs(x, 0), "numpy"))
+                self._linear[x.name] = (
+                    sp.lambdify(symbols, a, "numpy"),
+                    sp.lambdify(symbols, slack.subs(x, 0), "numpy"),
+                )
 
     def interval(self, name: str, values: dict) -> tuple[float, float]:
         """The values of ``name`` for which the relation holds with the other parameters at
@@ -38,7 +41,7 @@ class CompiledConstraint:
         args = [float(values[n]) for n in self.names]
         a, b = (float(f(*args)) for f in self._linear[name])
         if a > 0:
-            return -b / a, np.inf            # slack = a x + b >= 0
+            return -b / a, np.inf  # slack = a x + b >= 0
         if a < 0:
             return -np.inf, -b / a
         return -np.inf, np.inf
@@ -67,10 +70,20 @@ def check_constraints(compiled, values: dict, effects) -> None:
             continue
         ok = c.holds(values)
         if not np.all(ok):
-            k = int(np.argmin(np.broadcast_to(ok, np.broadcast(*(np.asarray(values[n]) for n in c.names)).shape)
-                              .reshape(-1))) if np.ndim(ok) else 0
-            shown = ", ".join(f"{n} = {float(np.asarray(values[n]).reshape(-1)[k if np.size(values[n]) > 1 else 0]):g}"
-                              f" {c.units.get(n, '')}".rstrip() for n in c.names)
+            k = (
+                int(
+                    np.argmin(
+                        np.broadcast_to(ok, np.broadcast(*(np.asarray(values[n]) for n in c.names)).shape).reshape(-1)
+                    )
+                )
+                if np.ndim(ok)
+                else 0
+            )
+            shown = ", ".join(
+                f"{n} = {float(np.asarray(values[n]).reshape(-1)[k if np.size(values[n]) > 1 else 0]):g}"
+                f" {c.units.get(n, '')}".rstrip()
+                for n in c.names
+            )
             row = f" (row {k})" if np.ndim(ok) else ""
             raise InputError(f"parameters {shown}{row}: {c.constraint.doc}: expected {c.constraint}")
 

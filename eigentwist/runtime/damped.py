@@ -28,6 +28,7 @@ frequency; the state matrix is complex then).
 Each damped mode is matched to the undamped mode it grows from (the largest share of
 its modal energy), so column j of the result is mode j of the undamped model.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -99,7 +100,7 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None)
     inv = np.where(rigid, 0.0, 1.0 / np.where(rigid, 1.0, s))
     Ut = np.swapaxes(U, -1, -2)
     Kq = U @ (inv[..., None] * (Ut if loss is None else np.linalg.inv(U)))
-    g = Kq[..., :, 0]                                                  # (N, legs, e)
+    g = Kq[..., :, 0]  # (N, legs, e)
     h = g[..., 0]
     W = np.einsum("nlej,nle->nlj", Je, g)
     K = np.einsum("nlei,nlef,nlfj->nij", Je, Kq, Je)
@@ -114,8 +115,8 @@ def coupled_wrenches(K_x: np.ndarray, W_x: np.ndarray, k: int = 6):
     ``G = W_c^T K_cc^-1 W_c`` (N, legs, legs), for :func:`damped_modes`."""
     Ktt, Ktc, Kcc = K_x[:, :k, :k], K_x[:, :k, k:], K_x[:, k:, k:]
     Wt, Wc = W_x[:, :, :k], W_x[:, :, k:]
-    X = np.linalg.solve(Kcc, np.swapaxes(Ktc, -1, -2))                 # Kcc^-1 K_ct
-    Y = np.linalg.solve(Kcc, np.swapaxes(Wc, -1, -2))                  # Kcc^-1 W_c^T
+    X = np.linalg.solve(Kcc, np.swapaxes(Ktc, -1, -2))  # Kcc^-1 K_ct
+    Y = np.linalg.solve(Kcc, np.swapaxes(Wc, -1, -2))  # Kcc^-1 W_c^T
     K = Ktt - Ktc @ X
     W = Wt - np.swapaxes(Ktc @ Y, -1, -2)
     return 0.5 * (K + np.swapaxes(K, -1, -2)), W, Wc @ Y
@@ -126,8 +127,18 @@ def _eig_symmetric(C: np.ndarray):
     return np.linalg.eig(C)
 
 
-def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d, c_d, t_d,
-                 shapes: bool = False, K_loss: np.ndarray | None = None, G: np.ndarray | None = None) -> Damping:
+def damped_modes(
+    M: np.ndarray,
+    K: np.ndarray,
+    W: np.ndarray,
+    h: np.ndarray,
+    k_d,
+    c_d,
+    t_d,
+    shapes: bool = False,
+    K_loss: np.ndarray | None = None,
+    G: np.ndarray | None = None,
+) -> Damping:
     """The damped modes of ``(s^2 M + K(s)) x = 0`` for a batch of poses (module docstring).
 
     M, K : (N, n, n) inertia and undamped stiffness (SI, in the model's coordinates);
@@ -148,27 +159,41 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
     L = W.shape[1]
     args = [np.broadcast_to(np.asarray(v), (N, L)) for v in (h, k_d, c_d, t_d)]
     parts = [M, K, W, *args] + ([] if K_loss is None else [K_loss]) + ([] if G is None else [G])
-    key = np.concatenate([np.ascontiguousarray(v).reshape(N, -1).view(float) if not np.iscomplexobj(v) else
-                          np.concatenate([v.real.reshape(N, -1), v.imag.reshape(N, -1)], axis=1) for v in parts], axis=1)
+    key = np.concatenate(
+        [
+            np.ascontiguousarray(v).reshape(N, -1).view(float)
+            if not np.iscomplexobj(v)
+            else np.concatenate([v.real.reshape(N, -1), v.imag.reshape(N, -1)], axis=1)
+            for v in parts
+        ],
+        axis=1,
+    )
     _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    if len(first) < N:                 # rows of one condition (modes of one pose and k_a): solved once
-        pick = lambda v: None if v is None else np.asarray(v)[first]   # noqa: E731
-        d = damped_modes(M[first], K[first], W[first], *(a[first] for a in args), shapes=shapes,
-                         K_loss=pick(K_loss), G=pick(G))
+    if len(first) < N:  # rows of one condition (modes of one pose and k_a): solved once
+        pick = lambda v: None if v is None else np.asarray(v)[first]  # noqa: E731
+        d = damped_modes(
+            M[first], K[first], W[first], *(a[first] for a in args), shapes=shapes, K_loss=pick(K_loss), G=pick(G)
+        )
         inverse = np.asarray(inverse).reshape(-1)
-        return Damping(d.natural_hz[inverse], d.damped_hz[inverse], d.damping_ratio[inverse], d.poles[inverse],
-                       None if d.shapes is None else d.shapes[inverse], d.stable[inverse])
+        return Damping(
+            d.natural_hz[inverse],
+            d.damped_hz[inverse],
+            d.damping_ratio[inverse],
+            d.poles[inverse],
+            None if d.shapes is None else d.shapes[inverse],
+            d.stable[inverse],
+        )
     lam, Phi = generalized_eigh(0.5 * (K + np.swapaxes(K, -1, -2)), M)
     ok = (lam > 0).all(axis=-1)
     om = np.sqrt(np.where(ok[:, None], lam, 1.0))
-    Bw = np.einsum("nij,nli->nlj", Phi, W)                           # (N, legs, n): b_i = Phi^T w_i
+    Bw = np.einsum("nij,nli->nlj", Phi, W)  # (N, legs, n): b_i = Phi^T w_i
     k_d, c_d, t_d, h = (np.broadcast_to(np.asarray(v), (N, L)) for v in (k_d, c_d, t_d, h))
     alpha = k_d * k_d
     D = k_d * t_d - c_d
     beta = c_d * (k_d - h) + h * k_d * t_d
     big = om.max(axis=-1)[:, None]
     elim = np.abs(beta) * big <= ELIMINATE * np.abs(alpha)
-    if G is not None:                    # coupled legs: only an undamped one (D = 0: y = 0) drops out
+    if G is not None:  # coupled legs: only an undamped one (D = 0: y = 0) drops out
         elim = D == 0
     m = 2 * n + L
     complex_ = K_loss is not None or np.iscomplexobj(Bw) or np.iscomplexobj(h)
@@ -176,14 +201,14 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
     idx = np.arange(n)
     A[:, idx, n + idx] = om
     A[:, n + idx, idx] = -om
-    if K_loss is not None:                                           # -i Phi^T K_loss Phi q
-        A[:, n:2 * n, :n] -= 1j * (np.swapaxes(Phi, -1, -2) @ K_loss @ Phi) / om[:, None, :]
+    if K_loss is not None:  # -i Phi^T K_loss Phi q
+        A[:, n : 2 * n, :n] -= 1j * (np.swapaxes(Phi, -1, -2) @ K_loss @ Phi) / om[:, None, :]
     ratio = np.where(elim, D / alpha, 0.0)
-    A[:, n:2 * n, n:2 * n] += np.einsum("nl,nli,nlj->nij", ratio, Bw, Bw)
+    A[:, n : 2 * n, n : 2 * n] += np.einsum("nl,nli,nlj->nij", ratio, Bw, Bw)
     live = ~elim
     safe = np.where(live & (beta != 0), beta, 1.0)
-    A[:, n:2 * n, 2 * n:] = np.swapaxes(np.where(live[..., None], Bw, 0.0), -1, -2)
-    A[:, 2 * n:, n:2 * n] = np.where(live[..., None], (D / safe)[..., None] * Bw, 0.0)
+    A[:, n : 2 * n, 2 * n :] = np.swapaxes(np.where(live[..., None], Bw, 0.0), -1, -2)
+    A[:, 2 * n :, n : 2 * n] = np.where(live[..., None], (D / safe)[..., None] * Bw, 0.0)
     A[:, 2 * n + np.arange(L), 2 * n + np.arange(L)] = np.where(live, -alpha / safe, -1.0)
     pencil = None
     if G is not None and live.any():
@@ -192,26 +217,26 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
         coupling = np.where(live[..., None], D[..., None] * Bw, 0.0)
         sv = np.linalg.svd(E, compute_uv=False)
         if np.all(sv[:, -1] > SINGULAR * sv[:, 0]):
-            A[:, 2 * n:, n:2 * n] = np.linalg.solve(E, coupling)
-            A[:, 2 * n:, 2 * n:] = np.linalg.solve(E, rhs)
-        else:                            # an internal coordinate without series compliance: E s y = ...
-            A[:, 2 * n:, n:2 * n] = coupling
-            A[:, 2 * n:, 2 * n:] = rhs
+            A[:, 2 * n :, n : 2 * n] = np.linalg.solve(E, coupling)
+            A[:, 2 * n :, 2 * n :] = np.linalg.solve(E, rhs)
+        else:  # an internal coordinate without series compliance: E s y = ...
+            A[:, 2 * n :, n : 2 * n] = coupling
+            A[:, 2 * n :, 2 * n :] = rhs
             pencil = np.zeros((N, m, m), dtype=E.dtype)
-            pencil[:, :2 * n, :2 * n] = np.eye(2 * n)
-            pencil[:, 2 * n:, 2 * n:] = E
+            pencil[:, : 2 * n, : 2 * n] = np.eye(2 * n)
+            pencil[:, 2 * n :, 2 * n :] = E
     A[~ok] = 0.0
     if pencil is not None:
         s, V = _pencil_eig(A, pencil, big[:, 0] / ELIMINATE)
-    if elim.all():                            # no internal coordinate: the 2n mechanical states alone
-        A = A[:, :2 * n, :2 * n]
+    if elim.all():  # no internal coordinate: the 2n mechanical states alone
+        A = A[:, : 2 * n, : 2 * n]
     fast = None if shapes or pencil is not None else _by_order(np.linalg.eigvals(A), om, n)
     if fast is not None:
         s, (wn, zeta, wd, poles, cols) = fast
     else:
         if pencil is None:
             s, V = np.linalg.eig(A)
-        mech = np.abs(V[:, :n, :]) ** 2 + np.abs(V[:, n:2 * n, :]) ** 2   # (N, n modes, m poles)
+        mech = np.abs(V[:, :n, :]) ** 2 + np.abs(V[:, n : 2 * n, :]) ** 2  # (N, n modes, m poles)
         total = mech.sum(axis=1, keepdims=True)
         share = mech / np.where(total > 0, total, 1.0)
         wn, zeta, wd, poles, cols = _assign(s, share, n)
@@ -223,7 +248,7 @@ def damped_modes(M: np.ndarray, K: np.ndarray, W: np.ndarray, h: np.ndarray, k_d
         arr[~ok] = np.nan
     out_shapes = None
     if shapes:
-        Vm = np.take_along_axis(V, cols[:, None, :], axis=-1)          # (N, m, n)
+        Vm = np.take_along_axis(V, cols[:, None, :], axis=-1)  # (N, m, n)
         q = Vm[:, :n, :] / om[:, :, None]
         X = Phi.astype(complex) @ q
         k = np.argmax(np.abs(X), axis=-2)
@@ -283,8 +308,8 @@ def _assign(s: np.ndarray, share: np.ndarray, n: int):
     the largest share in it, omega_n^2 = s1 s2, 2 zeta omega_n = -(s1 + s2), omega_d = 0.
     """
     upper = s.imag > 0
-    score = np.where(upper[:, None, :], share, -1.0)                   # (N, modes, poles)
-    cols = np.argmax(score, axis=-1)                                   # (N, modes)
+    score = np.where(upper[:, None, :], share, -1.0)  # (N, modes, poles)
+    cols = np.argmax(score, axis=-1)  # (N, modes)
     poles = np.take_along_axis(s, cols, axis=-1).astype(complex)
     unique = (np.diff(np.sort(cols, axis=-1), axis=-1) != 0).all(axis=-1) & (upper.sum(axis=-1) >= n)
     for k in np.flatnonzero(~unique):
@@ -294,7 +319,7 @@ def _assign(s: np.ndarray, share: np.ndarray, n: int):
         zeta = -poles.real / np.where(wn > 0, wn, 1.0)
         wd = np.abs(poles.imag)
         real = (poles.imag == 0) & ~np.isnan(poles.real)
-        if real.any():                                                 # overdamped: the pair's values
+        if real.any():  # overdamped: the pair's values
             k, j = np.nonzero(real)
             for a, b in zip(k, j):
                 s1, s2 = _pair(s[a], share[a], b, cols[a, b])

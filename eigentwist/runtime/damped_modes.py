@@ -1,4 +1,5 @@
 """The damped modes of an evaluator's model: its legs and parameters into :mod:`.damped`."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -17,7 +18,7 @@ def actuator_values(ev, p: dict, effects, n: int):
     (:meth:`Evaluator.parameter_values`) and the effects that are on."""
     on = set(effects)
     legs = ev.n_legs
-    one = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,))   # noqa: E731
+    one = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,))  # noqa: E731
     k_a = one(p["k_a"])
     eta = np.ones((n, legs))
     if "actuator_loss" in ev.effects:
@@ -42,9 +43,14 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
     from . import condense
 
     N, size = modes.freq_hz.shape
-    out = Damping(np.array(modes.freq_hz, dtype=float), np.array(modes.freq_hz, dtype=float),
-                  np.full((N, size), np.nan), np.full((N, size), np.nan + 0j),
-                  np.full((N, size, size), np.nan + 0j) if shapes else None, np.array(modes.stable, dtype=bool))
+    out = Damping(
+        np.array(modes.freq_hz, dtype=float),
+        np.array(modes.freq_hz, dtype=float),
+        np.full((N, size), np.nan),
+        np.full((N, size), np.nan + 0j),
+        np.full((N, size, size), np.nan + 0j) if shapes else None,
+        np.array(modes.stable, dtype=bool),
+    )
     if inputs is None:
         return out
     rows, pr, sub, p, legs, mats = (inputs[k] for k in ("rows", "poses", "params", "p", "legs", "mats"))
@@ -54,7 +60,7 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
     Je = np.broadcast_to(legs["Je"], (n,) + np.shape(legs["Je"])[-3:])
     Cq = np.broadcast_to(legs["Cq"], (n,) + np.shape(legs["Cq"])[-3:])
     rigid = ev.kind(effects) == "rigid"
-    if rigid:                      # the allowed twists and the actuated joints alone (K_R, Eq. 14)
+    if rigid:  # the allowed twists and the actuated joints alone (K_R, Eq. 14)
         B = ev.allowed_twists(pr, **sub)
         Je, Cq = Je[:, :, :1, :], Cq[:, :, :1, :1]
         K_model = np.broadcast_to(mats["K_R"], (n, 6, 6))
@@ -66,18 +72,18 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         K_model = np.broadcast_to(mats["K_F"], (n, 6, 6)) if B.shape[-1] == 6 and "K_F" in mats else None
     coupled = _couplings(ev, effects, legs, n) if not rigid else None
     K_G = None
-    if inputs["preloaded"]:                    # the gravity preload's stiffness, in parallel
+    if inputs["preloaded"]:  # the gravity preload's stiffness, in parallel
         from .gravity import gravity_stiffness
 
         full = {k: np.broadcast_to(mats[k], (n, 6, 6)) for k in ("M", "K_R", "K_F")}
         K_G = gravity_stiffness(ev, pr, effects, sub, full, rigid, B if rigid else None)
-    if coupled is not None:                    # legs on platform bodies: condense the couplings
+    if coupled is not None:  # legs on platform bodies: condense the couplings
         Mr, Kc, Wr, h, G, B = _coupled_reduction(Je, Cq, k_d, M, K_G, *coupled, condense, loss)
         Kr, K_loss = Kc.real, (Kc.imag if loss is not None else None)
     else:
         G = None
         K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss)
-        if K_model is None or loss is not None:    # rigid directions (the legs' finite springs on B), a loss factor
+        if K_model is None or loss is not None:  # rigid directions (the legs' finite springs on B), a loss factor
             K_model = K_legs.real + (np.asarray(legs["K_ground"], dtype=float) if not rigid else 0.0)
         Bt = np.swapaxes(B, -1, -2)
         Kr = Bt @ K_model @ B
@@ -119,10 +125,14 @@ def _couplings(ev, effects, legs: dict, n: int):
         return None
     index = {couplings[k].body: j for j, k in enumerate(active)}
     bodies = [index.get(leg.platform_body, -1) for leg in ev.robot.legs]
-    G_c = np.broadcast_to(legs["G_c"][:, active] if np.ndim(legs["G_c"]) == 4 else legs["G_c"][active],
-                          (n, len(active)) + np.shape(legs["G_c"])[-2:])
-    K_c = np.broadcast_to(legs["K_c"][:, active] if np.ndim(legs["K_c"]) == 3 else legs["K_c"][active],
-                          (n, len(active), np.shape(legs["K_c"])[-1]))
+    G_c = np.broadcast_to(
+        legs["G_c"][:, active] if np.ndim(legs["G_c"]) == 4 else legs["G_c"][active],
+        (n, len(active)) + np.shape(legs["G_c"])[-2:],
+    )
+    K_c = np.broadcast_to(
+        legs["K_c"][:, active] if np.ndim(legs["K_c"]) == 3 else legs["K_c"][active],
+        (n, len(active), np.shape(legs["K_c"])[-1]),
+    )
     nc, m = G_c.shape[1], G_c.shape[3]
     d = 6 + nc * m
     K_x = np.zeros((n, d, d))
@@ -131,7 +141,7 @@ def _couplings(ev, effects, legs: dict, n: int):
     for k in range(nc):
         Tk = np.zeros((n, 6, d))
         Tk[:, :, :6] = np.eye(6)
-        Tk[:, :, 6 + k * m:6 + (k + 1) * m] = -G_c[:, k]
+        Tk[:, :, 6 + k * m : 6 + (k + 1) * m] = -G_c[:, k]
         T[k] = Tk
         idx = np.arange(6 + k * m, 6 + (k + 1) * m)
         K_x[:, idx, idx] = K_c[:, k]
@@ -155,7 +165,7 @@ def _coupled_reduction(Je, Cq, k_d, M, K_G, T, K_x, condense, loss=None):
         K_x[:, :6, :6] += K_G
     Ws, hs, rows = [], [], []
     for i in range(Je.shape[1]):
-        Ki, Wi, hi = actuator_wrenches(Je[:, i:i + 1], Cq[:, i:i + 1], 1.0 / k_d[:, i:i + 1], loss)
+        Ki, Wi, hi = actuator_wrenches(Je[:, i : i + 1], Cq[:, i : i + 1], 1.0 / k_d[:, i : i + 1], loss)
         K_x += np.swapaxes(T[i], -1, -2) @ Ki @ T[i]
         Ws.append((Wi @ T[i])[:, 0])
         hs.append(hi[:, 0])
@@ -165,13 +175,15 @@ def _coupled_reduction(Je, Cq, k_d, M, K_G, T, K_x, condense, loss=None):
     M_x = np.zeros((n, d, d))
     M_x[:, :6, :6] = M
     Bt = np.swapaxes(B, -1, -2)
-    mu, U = np.linalg.eigh(Bt @ M_x @ B)          # real: B spans the real rigid rows' null space
+    mu, U = np.linalg.eigh(Bt @ M_x @ B)  # real: B spans the real rigid rows' null space
     massive = mu > 1e-12 * mu.max(axis=-1, keepdims=True)
     r = int(massive.sum(axis=-1)[0])
     if np.any(massive.sum(axis=-1) != r):
-        raise InputError("damped modes: the platform's massive coordinates change in number across the poses; "
-                         "evaluate the poses in groups")
-    U = U[:, :, ::-1]                                                   # massive first
+        raise InputError(
+            "damped modes: the platform's massive coordinates change in number across the poses; "
+            "evaluate the poses in groups"
+        )
+    U = U[:, :, ::-1]  # massive first
     Q = B @ U
     Qt = np.swapaxes(Q, -1, -2)
     K, W, G = coupled_wrenches(Qt @ K_x @ Q, W_x @ Q, r)
@@ -188,9 +200,11 @@ def _null_space(A: np.ndarray, d: int, condense) -> np.ndarray:
     _, sv, Vt = np.linalg.svd(A, full_matrices=True)
     rank = (sv > condense.RIGID_RTOL * sv.max(axis=-1, keepdims=True)).sum(axis=-1)
     if np.any(rank != rank[0]):
-        raise InputError("damped modes: the legs' rigid constraints change rank across the poses; evaluate the "
-                         "poses in groups of one rank")
-    return np.swapaxes(Vt[:, int(rank[0]):, :], -1, -2)
+        raise InputError(
+            "damped modes: the legs' rigid constraints change rank across the poses; evaluate the "
+            "poses in groups of one rank"
+        )
+    return np.swapaxes(Vt[:, int(rank[0]) :, :], -1, -2)
 
 
 def _admissible(Je: np.ndarray, Cq: np.ndarray, condense) -> np.ndarray:
@@ -204,6 +218,8 @@ def _admissible(Je: np.ndarray, Cq: np.ndarray, condense) -> np.ndarray:
     _, sv, Vt = np.linalg.svd(A, full_matrices=True)
     rank = (sv > condense.RIGID_RTOL * sv.max(axis=-1, keepdims=True)).sum(axis=-1)
     if np.any(rank != rank[0]):
-        raise InputError("damped modes: the legs' rigid constraints change rank across the poses; evaluate the "
-                         "poses in groups of one rank")
-    return np.swapaxes(Vt[:, int(rank[0]):, :], -1, -2)
+        raise InputError(
+            "damped modes: the legs' rigid constraints change rank across the poses; evaluate the "
+            "poses in groups of one rank"
+        )
+    return np.swapaxes(Vt[:, int(rank[0]) :, :], -1, -2)

@@ -6,12 +6,19 @@ which loops in C). The C backend has its own fused solver (Cholesky + cyclic Jac
 ``CKernels.generalized_eigh`` and ``fused_frequencies``); both are tested against
 ``scipy.linalg.eigh`` pose by pose.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["generalized_eigh", "generalized_eigvalsh", "frequencies_hz", "unstable_modes", "normalize_eigentwists",
-           "ROUNDOFF_EPS"]
+__all__ = [
+    "generalized_eigh",
+    "generalized_eigvalsh",
+    "frequencies_hz",
+    "unstable_modes",
+    "normalize_eigentwists",
+    "ROUNDOFF_EPS",
+]
 
 # A negative eigenvalue omega^2 with |lambda| <= ROUNDOFF_EPS * max|lambda| (of the same
 # pose) is round-off of a zero mode (a rank-deficient K) and clips to 0 Hz; a more negative

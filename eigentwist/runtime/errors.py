@@ -2,8 +2,15 @@
 
 from ..errors import DescriptionError, EigentwistError, InputError
 
-__all__ = ["EigentwistError", "UnreachablePoseError", "SingularPoseError", "UnstablePoseError", "InputError",
-           "DescriptionError", "AssemblyError"]
+__all__ = [
+    "EigentwistError",
+    "UnreachablePoseError",
+    "SingularPoseError",
+    "UnstablePoseError",
+    "InputError",
+    "DescriptionError",
+    "AssemblyError",
+]
 
 
 class AssemblyError(InputError):

@@ -1,4 +1,5 @@
 """The evaluator users import: validated batches in, matrices and frequencies out."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -7,8 +8,7 @@ from types import ModuleType
 import numpy as np
 
 from ..description import RobotDescription
-from ..description.effects import (base_name, leg_input_name, leg_switch_name, resolve_model,
-                                   split_scope, switch_name)
+from ..description.effects import base_name, leg_input_name, leg_switch_name, resolve_model, split_scope, switch_name
 from ..description.joints import joint_kind
 from ..description.names import did_you_mean
 from . import condense
@@ -19,8 +19,21 @@ from .allowed import allowed_twists, constraint_positions, coordinate_twists, re
 from .labels import directions, energy_shares
 from ..description.pose import FULL, TWIST_AXIS, twist_order
 from .threads import resolve_threads
-from .validity import (CONDITIONING_TOL, LEVER_SCALE, LEVER_TOL, POSE_STATUS, STATUS, conditioning, lever_mask,
-                       parallel_mask, platform_rows, raise_parallel, raise_singular, raise_unreachable, reachable_mask)
+from .validity import (
+    CONDITIONING_TOL,
+    LEVER_SCALE,
+    LEVER_TOL,
+    POSE_STATUS,
+    STATUS,
+    conditioning,
+    lever_mask,
+    parallel_mask,
+    platform_rows,
+    raise_parallel,
+    raise_singular,
+    raise_unreachable,
+    reachable_mask,
+)
 
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_STATUS"]
 
@@ -35,8 +48,8 @@ PARALLEL_SCREEN = 1e-3
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 _NUMBERS = (float, int, np.float64, np.float32, np.int64, np.int32)
-CHUNK = 4096                 # poses per NumPy kernel call (temporaries stay in cache)
-MATRIX_CHUNK = 65536         # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
+CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
+MATRIX_CHUNK = 65536  # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
 
 
@@ -130,7 +143,7 @@ class Modes:
         if self.eigentwists is None:
             raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
         local = directions(self.eigentwists, shares=self.shares)
-        return np.asarray([AXES.index(a) for a in self.axes])[local]     # the allowed twists' axes
+        return np.asarray([AXES.index(a) for a in self.axes])[local]  # the allowed twists' axes
 
 
 class Evaluator:
@@ -162,8 +175,9 @@ class Evaluator:
         #: what :func:`eigentwist.load` was given: a shipped robot's name or a description file's path
         self.spec = robot.name
         #: parameter name -> the leg-level effect that owns it (these take ``NAME@N``)
-        self.leg_parameters = {q.name: e for e in robot.effects if robot.effect(e).leg_level
-                               for q in robot.effect(e).params}
+        self.leg_parameters = {
+            q.name: e for e in robot.effects if robot.effect(e).leg_level for q in robot.effect(e).params
+        }
         self.constraints = compile_constraints(robot)
         #: names of the pose coordinates (``x, y, z``; a 6-DoF robot adds ``rot_x, rot_y, rot_z``)
         self.pose_names = tuple(getattr(robot, "pose", ("x", "y", "z")))
@@ -174,16 +188,16 @@ class Evaluator:
         self._six = self.space is not None and len(self.space.inputs) > 3
         #: a point platform's translations (6 x d): the only twists its legs' rows must fix
         self._freedoms = self.space.basis if getattr(self.space, "point", False) else None
-        self._rigid_models: dict = {}          # model -> whether a leg has a rigid direction (_route)
-        self._checked_defaults: set = set()    # parameters whose default _params has checked
-        self._resolved: dict = {}              # model spec -> resolve_model's effects (_resolve)
+        self._rigid_models: dict = {}  # model -> whether a leg has a rigid direction (_route)
+        self._checked_defaults: set = set()  # parameters whose default _params has checked
+        self._resolved: dict = {}  # model spec -> resolve_model's effects (_resolve)
         self._effect = {e: robot.effect(e) for e in robot.effects}
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
-        self._params_memo: dict = {}           # (model, scalar values) -> resolved inputs (_params)
-        self._kinds: dict = {}                 # effects -> "rigid" / "flexible" (kind)
+        self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
+        self._kinds: dict = {}  # effects -> "rigid" / "flexible" (kind)
         if self.numeric_ik:
-            self.assembly()                    # a reference on no branch is refused at load
+            self.assembly()  # a reference on no branch is refused at load
 
     def _resolve(self, model) -> tuple:
         """``resolve_model(model, self.robot)``, remembered per (hashable) model spec."""
@@ -193,7 +207,7 @@ class Evaluator:
             effects = resolve_model(model, self.robot)
         try:
             self._resolved[model] = effects
-        except TypeError:                      # an unhashable spec (a list of names)
+        except TypeError:  # an unhashable spec (a list of names)
             pass
         return effects
 
@@ -220,12 +234,15 @@ class Evaluator:
         if arr.ndim == 1:
             arr = arr[None, :]
         if arr.ndim != 2 or arr.shape[1] != self.dof:
-            raise InputError(f"poses has shape {np.shape(poses)}: expected (N, {self.dof}) poses of "
-                             f"{self.robot.name}, columns {', '.join(self.pose_names)} ({self._pose_units()})")
+            raise InputError(
+                f"poses has shape {np.shape(poses)}: expected (N, {self.dof}) poses of "
+                f"{self.robot.name}, columns {', '.join(self.pose_names)} ({self._pose_units()})"
+            )
         if arr.shape[0] == 0:
-            raise InputError(f"poses is empty: expected at least one ({', '.join(self.pose_names)}) pose "
-                             f"({self._pose_units()})")
-        if not np.isfinite(arr).all():             # one pass over the batch; per row only on failure
+            raise InputError(
+                f"poses is empty: expected at least one ({', '.join(self.pose_names)}) pose ({self._pose_units()})"
+            )
+        if not np.isfinite(arr).all():  # one pass over the batch; per row only on failure
             k = int(np.argmax(~np.isfinite(arr).all(axis=1)))
             raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers ({self._pose_units()})")
         return arr
@@ -300,16 +317,25 @@ class Evaluator:
         same = same_configuration(q_direct, q_path, np.array([u == "rad" for u in self.joint_units]))
         for i, leg in enumerate(self.robot.legs):
             ref = ", ".join(f"{v:.6g}" for v in reference[i])
-            where = (f"{self.robot.name}: {leg.name}'s reference ({ref}) (rad; m for P) does not close its loop at "
-                     f"x_ref {list(self.robot.x_ref)}: residual {residual[i]:.3g} (m, rad)")
+            where = (
+                f"{self.robot.name}: {leg.name}'s reference ({ref}) (rad; m for P) does not close its loop at "
+                f"x_ref {list(self.robot.x_ref)}: residual {residual[i]:.3g} (m, rad)"
+            )
             if not np.isfinite(q_path[i]).all():
-                raise AssemblyError(f"{where}, and no path of closed configurations leads from it there (a "
-                                    "singularity between): expected the leg's joint coordinates at x_ref")
+                raise AssemblyError(
+                    f"{where}, and no path of closed configurations leads from it there (a "
+                    "singularity between): expected the leg's joint coordinates at x_ref"
+                )
             if not same[i]:
-                found = "does not converge" if not np.isfinite(q_direct[i]).all() else (
-                    "closes on another assembly branch (" + ", ".join(f"{v:.4g}" for v in q_direct[i]) + ")")
-                raise AssemblyError(f"{where}; Newton's method from it {found}: expected a reference on its own "
-                                    f"branch, e.g. ({', '.join(f'{v:.6g}' for v in q_path[i])})")
+                found = (
+                    "does not converge"
+                    if not np.isfinite(q_direct[i]).all()
+                    else ("closes on another assembly branch (" + ", ".join(f"{v:.4g}" for v in q_direct[i]) + ")")
+                )
+                raise AssemblyError(
+                    f"{where}; Newton's method from it {found}: expected a reference on its own "
+                    f"branch, e.g. ({', '.join(f'{v:.6g}' for v in q_path[i])})"
+                )
         record = {"q": q_path, "sign": np.sign(lever), "residual": residual}
         self.__dict__["_assembly"] = record
         return record
@@ -331,7 +357,8 @@ class Evaluator:
             f"pose {np.asarray(poses[k], dtype=float).tolist()} ({self._pose_units()}) is unreachable for "
             f"{self.robot.legs[leg].name} on its assembly branch: Newton's method closes the loop there only on "
             f"another branch (leg determinant of sign {-int(sign):+d}; {int(sign):+d} at x_ref, where the "
-            "description's reference puts the robot)")
+            "description's reference puts the robot)"
+        )
 
     def solve_joints(self, poses, p: dict) -> np.ndarray:
         """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.levenberg_marquardt.solve`),
@@ -351,8 +378,10 @@ class Evaluator:
             from . import c_levenberg_marquardt
 
             if c_levenberg_marquardt.driver() is not None:
+
                 def iterate(q, pp, its, tl):
                     return self._kernels.newton(q, pp, its, tl, threads=self._nthreads())
+
         parts, offs = [], []
         # bounded memory: (chunk, legs, rows, n_q) Jacobians; the C iterations keep theirs per
         # block, so their chunks are larger (enough blocks for every thread)
@@ -364,8 +393,16 @@ class Evaluator:
                     return self._kernels.jacobians(q, kp)["lever"]
 
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-                q, off = solve(self._kernels.loop_closure, reference, kp, len(poses[sl]), branch=branch, signs=signs,
-                               report=True, iterate=iterate)
+                q, off = solve(
+                    self._kernels.loop_closure,
+                    reference,
+                    kp,
+                    len(poses[sl]),
+                    branch=branch,
+                    signs=signs,
+                    report=True,
+                    iterate=iterate,
+                )
             parts.append(q)
             offs.append(off)
         q = np.concatenate(parts)
@@ -400,8 +437,10 @@ class Evaluator:
         from .sensitivity import check_wrt
 
         if not self.numeric_ik:
-            raise InputError(f"joint_sensitivities of {self.robot.name}: its legs have a closed-form inverse "
-                             "kinematics (no loop closure is solved); differentiate joint_angles instead")
+            raise InputError(
+                f"joint_sensitivities of {self.robot.name}: its legs have a closed-form inverse "
+                "kinematics (no loop closure is solved); differentiate joint_angles instead"
+            )
         poses = self._poses(poses, params)
         return joint_derivatives(self, poses, check_wrt(self, wrt), params)[1]
 
@@ -411,8 +450,9 @@ class Evaluator:
         names = self.__dict__.get("_joint_input_names")
         if names is None:
             nq = len(self.robot.legs[0].kinematics.coordinates)
-            names = self._joint_input_names = frozenset(f"q{m + 1}_{i + 1}" for i in range(self.n_legs)
-                                                        for m in range(nq))
+            names = self._joint_input_names = frozenset(
+                f"q{m + 1}_{i + 1}" for i in range(self.n_legs) for m in range(nq)
+            )
         return names
 
     def _newton_key(self, poses: np.ndarray, p: dict) -> tuple:
@@ -421,8 +461,10 @@ class Evaluator:
         so that a public call that reads the joints twice solves once."""
         skip = self._joint_inputs()
         return (poses.shape, poses.tobytes()) + tuple(
-            (k, np.shape(v), np.asarray(v).dtype.str, np.asarray(v).tobytes()) for k, v in sorted(p.items())
-            if k not in skip)
+            (k, np.shape(v), np.asarray(v).dtype.str, np.asarray(v).tobytes())
+            for k, v in sorted(p.items())
+            if k not in skip
+        )
 
     def rigid_size(self) -> int:
         """Size of the rigid model's eigenproblem: the number of the platform's allowed
@@ -443,7 +485,7 @@ class Evaluator:
         if name in self.parameters:
             return self.parameters[name]
         if not self.accepts(name):
-            self._scoped({name: 0.0})                      # raises the one-line error
+            self._scoped({name: 0.0})  # raises the one-line error
         return self.parameters[name.partition("@")[0]].with_values(name=name)
 
     def accepts(self, name: str) -> bool:
@@ -467,16 +509,20 @@ class Evaluator:
                 unknown.append(key)
                 continue
             if name not in self.leg_parameters:
-                raise InputError(f"parameter {key!r}: {name} belongs to no leg-level effect, so it has no per-leg "
-                                 f"value (leg-level parameters: {', '.join(self.leg_parameters) or 'none'})")
+                raise InputError(
+                    f"parameter {key!r}: {name} belongs to no leg-level effect, so it has no per-leg "
+                    f"value (leg-level parameters: {', '.join(self.leg_parameters) or 'none'})"
+                )
             try:
                 scoped[split_scope(key, self.n_legs, "parameter")] = value
             except ValueError as exc:
                 raise InputError(str(exc)) from None
         if unknown:
-            raise InputError(f"unknown parameter(s) {', '.join(map(repr, unknown))} for {self.robot.name}"
-                             f"{did_you_mean(unknown[0].partition('@')[0], self.parameters)}: "
-                             f"expected names from {', '.join(self.parameters)} (NAME@N for one leg)")
+            raise InputError(
+                f"unknown parameter(s) {', '.join(map(repr, unknown))} for {self.robot.name}"
+                f"{did_you_mean(unknown[0].partition('@')[0], self.parameters)}: "
+                f"expected names from {', '.join(self.parameters)} (NAME@N for one leg)"
+            )
         return scoped
 
     def _array(self, name: str, value, n: int, check: bool) -> np.ndarray:
@@ -487,7 +533,9 @@ class Evaluator:
             try:
                 self.parameters[name.partition("@")[0]].check(arr)
             except ValueError as exc:
-                raise InputError(str(exc).replace(f"parameter {name.partition('@')[0]!r}", f"parameter {name!r}")) from None
+                raise InputError(
+                    str(exc).replace(f"parameter {name.partition('@')[0]!r}", f"parameter {name!r}")
+                ) from None
         return arr
 
     def _params(self, n: int, params: dict, model) -> dict:
@@ -537,7 +585,7 @@ class Evaluator:
         for name, p in self.parameters.items():
             if name in params:
                 check = params[name] is not condense.EXACT
-            else:                              # a default is checked once (where it is first used)
+            else:  # a default is checked once (where it is first used)
                 check = (p.effect is None or p.effect in on) and name not in self._checked_defaults
             out[name] = self._array(name, params.get(name, p.default), n, check)
             if check and name not in params:
@@ -678,7 +726,8 @@ class Evaluator:
             raise UnreachablePoseError(
                 f"pose {given} ({self._pose_units()}) is unreachable for {self.robot.name}: its "
                 f"{', '.join(self.space.followers)} did not converge (damped Newton on the legs' closures, "
-                f"{MAX_STEPS} steps from the reference and from the previous pose)")
+                f"{MAX_STEPS} steps from the reference and from the previous pose)"
+            )
 
     @staticmethod
     def _mask(p: dict, mask: np.ndarray, n: int) -> dict:
@@ -696,8 +745,11 @@ class Evaluator:
             pc = self._take(p, sl)
             q, jac, _ = self._check_rows(poses[sl], pc, strict=True)
             # the checks already evaluated the jacobians kernel: every result carries it
-            out = ({"q": q, **jac} if kernel == "jacobians"
-                   else {"q": q, **jac, **getattr(self._kernels, kernel)(q, self._with_pose(poses[sl], pc))})
+            out = (
+                {"q": q, **jac}
+                if kernel == "jacobians"
+                else {"q": q, **jac, **getattr(self._kernels, kernel)(q, self._with_pose(poses[sl], pc))}
+            )
             for key, val in out.items():
                 results.setdefault(key, []).append(val)
         return {k: np.concatenate(v, axis=0) for k, v in results.items()}
@@ -713,8 +765,15 @@ class Evaluator:
 
     def _c_pass(self, poses: np.ndarray, p: dict, **kw) -> dict:
         """One fused C pass over the batch (status included), on the evaluator's threads."""
-        return self._kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), status=True,
-                                   threads=self._nthreads(), **kw)
+        return self._kernels.fused(
+            poses[:, 0],
+            poses[:, 1],
+            poses[:, 2],
+            self._with_pose(poses, p),
+            status=True,
+            threads=self._nthreads(),
+            **kw,
+        )
 
     def _raise_first(self, poses: np.ndarray, p: dict, bad: np.ndarray) -> None:
         """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
@@ -722,14 +781,17 @@ class Evaluator:
         if self.numeric_ik:
             self._raise_off_branch(poses, self._with_pose(poses, p))
         k = int(np.argmax(bad))
-        self._kernels.raise_invalid(k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),),
-                                    legs=self.robot.legs)
+        self._kernels.raise_invalid(
+            k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),), legs=self.robot.legs
+        )
 
     @staticmethod
     def _rows(params: dict, sl, n: int) -> dict:
         """The user's parameters for rows ``sl`` of n poses ((n,) arrays sliced, the rest kept)."""
-        return {k: (np.asarray(v)[sl] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
-                for k, v in params.items()}
+        return {
+            k: (np.asarray(v)[sl] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
+            for k, v in params.items()
+        }
 
     # ----------------------------------------------------------------- public
     def valid(self, poses, model="paper", **params) -> np.ndarray:
@@ -746,8 +808,9 @@ class Evaluator:
             ok = (st != STATUS["unreachable"]) & (st != STATUS["singular"])
             ok[ok] = self._parallel_ok(poses, p, np.flatnonzero(ok), strict=False)
             return ok
-        return np.concatenate([self._check_rows(poses[sl], self._take(p, sl), strict=False)[2]
-                               for sl in self._chunks(len(poses))])
+        return np.concatenate(
+            [self._check_rows(poses[sl], self._take(p, sl), strict=False)[2] for sl in self._chunks(len(poses))]
+        )
 
     def pose_status(self, poses, model="paper", **params) -> dict:
         """Each pose's status and conditioning, never an error.
@@ -784,11 +847,17 @@ class Evaluator:
             idx = np.arange(sl.start, sl.stop)[reach]
             cond[idx] = conditioning(rows)
             lever_min[idx] = np.abs(lever).min(axis=-1)
-            code[idx] = np.where(~lever_mask(lever), POSE_STATUS.index("serial singular"),
-                                 np.where(~parallel_mask(rows), POSE_STATUS.index("parallel singular"),
-                                          POSE_STATUS.index("reachable")))
-        return {"status": np.array(POSE_STATUS, dtype=object)[code], "code": code, "conditioning": cond,
-                "lever": lever_min}
+            code[idx] = np.where(
+                ~lever_mask(lever),
+                POSE_STATUS.index("serial singular"),
+                np.where(~parallel_mask(rows), POSE_STATUS.index("parallel singular"), POSE_STATUS.index("reachable")),
+            )
+        return {
+            "status": np.array(POSE_STATUS, dtype=object)[code],
+            "code": code,
+            "conditioning": cond,
+            "lever": lever_min,
+        }
 
     def joint_angles(self, poses, **params) -> np.ndarray:
         """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
@@ -872,10 +941,17 @@ class Evaluator:
         if unknown:
             raise InputError(f"out has unknown key(s) {unknown}: expected some of {list(MATRICES)}")
         for k, arr in out.items():
-            if (not isinstance(arr, np.ndarray) or arr.shape != (n, 6, 6) or arr.dtype != np.float64
-                    or not arr.flags.c_contiguous or not arr.flags.writeable):
-                raise InputError(f"out[{k!r}]: expected a writeable C-contiguous float64 array of shape ({n}, 6, 6), "
-                                 f"got {getattr(arr, 'shape', None)} {getattr(arr, 'dtype', type(arr).__name__)}")
+            if (
+                not isinstance(arr, np.ndarray)
+                or arr.shape != (n, 6, 6)
+                or arr.dtype != np.float64
+                or not arr.flags.c_contiguous
+                or not arr.flags.writeable
+            ):
+                raise InputError(
+                    f"out[{k!r}]: expected a writeable C-contiguous float64 array of shape ({n}, 6, 6), "
+                    f"got {getattr(arr, 'shape', None)} {getattr(arr, 'dtype', type(arr).__name__)}"
+                )
         return out
 
     @property
@@ -896,15 +972,19 @@ class Evaluator:
             q = q[None]
         nq = len(self.robot.legs[0].kinematics.coordinates)
         if q.ndim != 3 or q.shape[1:] != (self.n_legs, nq):
-            raise InputError(f"joints has shape {np.shape(joints)}: expected (N, {self.n_legs}, {nq}) joint "
-                             f"coordinates of {self.robot.name} (legs x coordinates, as joint_angles returns)")
+            raise InputError(
+                f"joints has shape {np.shape(joints)}: expected (N, {self.n_legs}, {nq}) joint "
+                f"coordinates of {self.robot.name} (legs x coordinates, as joint_angles returns)"
+            )
         if not np.isfinite(q).all():
             k = int(np.argmax(~np.isfinite(q).reshape(len(q), -1).all(axis=1)))
             raise InputError(f"joints[{k}] is not finite: expected numbers (rad; m for a prismatic joint)")
         if poses is None:
             if self._six:
-                raise InputError(f"joints without poses: the model of {self.robot.name} reads the pose too "
-                                 f"({', '.join(self.pose_names)}): give both")
+                raise InputError(
+                    f"joints without poses: the model of {self.robot.name} reads the pose too "
+                    f"({', '.join(self.pose_names)}): give both"
+                )
             poses = np.zeros((len(q), 3))
         poses = self._poses(poses)
         if len(poses) != len(q):
@@ -920,8 +1000,10 @@ class Evaluator:
         singular configuration raises as for a pose."""
         q, poses = self.joint_coordinates(joints, poses)
         p = self._params(len(q), params, model)
-        pk = {**p, **(self.kernel_pose_inputs(poses) if self._six else
-                       {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]})}
+        pk = {
+            **p,
+            **(self.kernel_pose_inputs(poses) if self._six else {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}),
+        }
         with np.errstate(invalid="ignore", divide="ignore"):
             lever = self._kernels.jacobians(q, pk)["lever"]
         lever = lever / np.asarray(pk.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
@@ -934,8 +1016,9 @@ class Evaluator:
         ``matrices`` what :meth:`matrices` returns for those rows.
 
         Memory stays bounded by the chunk whatever the batch: 3 x 288 B per pose, 57 MB for
-        the default 65536 poses, twice that while the caller still holds the previous chunk. Every input is checked before the first chunk; an
-        unreachable or singular pose raises when its chunk is reached.
+        the default 65536 poses, twice that while the caller still holds the previous chunk.
+        Every input is checked before the first chunk; an unreachable or singular pose raises
+        when its chunk is reached.
         """
         poses = self._poses(poses, params)
         n = len(poses)
@@ -961,8 +1044,13 @@ class Evaluator:
         poses_arr = self._poses(poses, params)
         effects = self._resolve(model)
         rigid = self.kind(effects) == "rigid"
-        if (rigid and self._fused and stash is None and getattr(self.space, "basis", 0) is None
-                and not self._preloaded(effects)):
+        if (
+            rigid
+            and self._fused
+            and stash is None
+            and getattr(self.space, "basis", 0) is None
+            and not self._preloaded(effects)
+        ):
             # allowed twists that turn with the pose: M, K_R and J_rows from one C pass
             p = self._params(len(poses_arr), params, effects)
             res = self._c_pass(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
@@ -995,7 +1083,7 @@ class Evaluator:
         fixed = getattr(self.space, "basis", None)
         if fixed is not None:
             return np.broadcast_to(np.asarray(fixed, dtype=float), (len(poses), 6, len(fixed[0])))
-        if self._fused:                    # the C pass: IK, checks and J_rows at once
+        if self._fused:  # the C pass: IK, checks and J_rows at once
             p = self._params(len(poses), params, "paper")
             res = self._c_pass(poses, p, matrices=(), jacobians=("J_rows",))
             bad = res["status"] != STATUS["ok"]
@@ -1037,8 +1125,18 @@ class Evaluator:
             pass
         return out
 
-    def modes(self, poses, model="paper", *, invalid: str = "raise", vectors: bool = True,
-              unstable: str = "nan", joints=None, complex_shapes: bool = False, **params) -> Modes:
+    def modes(
+        self,
+        poses,
+        model="paper",
+        *,
+        invalid: str = "raise",
+        vectors: bool = True,
+        unstable: str = "nan",
+        joints=None,
+        complex_shapes: bool = False,
+        **params,
+    ) -> Modes:
         """Natural frequencies (Hz) and eigentwists of ``det(omega^2 M - K) = 0`` (Eq. 7).
 
         ``invalid="raise"`` (the default) raises on the first unreachable or singular
@@ -1068,8 +1166,10 @@ class Evaluator:
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
         if joints is not None:
             if complex_shapes or self.damped_model(model):
-                raise InputError("joints= with a damping effect or complex_shapes: not supported (the damped "
-                                 "modes need the pose's inverse kinematics); give poses")
+                raise InputError(
+                    "joints= with a damping effect or complex_shapes: not supported (the damped "
+                    "modes need the pose's inverse kinematics); give poses"
+                )
             return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses, params)
         effects = self._resolve(model)
@@ -1085,10 +1185,11 @@ class Evaluator:
         if complex_shapes or self.damped_model(effects):
             from .damped_modes import damped_of
 
-            modes.damping = damped_of(self, effects, self._damping_inputs(poses, effects, params, modes), modes,
-                                      complex_shapes)
+            modes.damping = damped_of(
+                self, effects, self._damping_inputs(poses, effects, params, modes), modes, complex_shapes
+            )
             modes.stable = modes.stable & modes.damping.stable
-        modes.legs = None                      # the exact condensation's arrays: not kept with the result
+        modes.legs = None  # the exact condensation's arrays: not kept with the result
         if unstable == "raise" and not modes.stable.all():
             self._raise_unstable(poses, modes, effects)
         return modes
@@ -1100,8 +1201,10 @@ class Evaluator:
         the exact condensation found, where it ran), whether the route condenses rigid
         directions (``exact``) and the gravity preload; None where no row is valid."""
         if "legs" not in getattr(self._kernels, "OUTPUTS", {}):
-            raise InputError(f"damped modes of {self.robot.name}: its generated code has no legs kernel (joint "
-                             "compliances); regenerate it")
+            raise InputError(
+                f"damped modes of {self.robot.name}: its generated code has no legs kernel (joint "
+                "compliances); regenerate it"
+            )
         N = len(modes.freq_hz)
         rows = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
         if not rows.any():
@@ -1117,14 +1220,21 @@ class Evaluator:
             p, q, legs = known["p"], known["q"], known["out"]
         reuse = known is not None and "B" in known and self.kind(effects) != "rigid"
         mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
-        return {"rows": rows, "poses": pr, "params": sub, "p": p, "legs": legs, "mats": mats,
-                "B": known["B"] if reuse else None, "exact": self._rigid_models.get(tuple(effects), True),
-                "preloaded": self._preloaded(effects)}
+        return {
+            "rows": rows,
+            "poses": pr,
+            "params": sub,
+            "p": p,
+            "legs": legs,
+            "mats": mats,
+            "B": known["B"] if reuse else None,
+            "exact": self._rigid_models.get(tuple(effects), True),
+            "preloaded": self._preloaded(effects),
+        }
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
         return any("damping" in self.robot.effect(base_name(e)).kinds for e in self._resolve(model))
-
 
     # ------------------------------------------- rigid constraints exact
     def _route(self, effects, params: dict) -> tuple[dict, bool]:
@@ -1162,18 +1272,18 @@ class Evaluator:
     def _probe_rigid(self, effects, params: dict) -> bool:
         """Whether a leg of ``effects`` has a rigid direction: its joint compliance at the
         reference pose with the first pose's parameters (True when x_ref is unreachable)."""
-        first = {k: (np.asarray(v).reshape(-1)[:1] if np.ndim(v) == 1 else v) for k, v in params.items()
-                 if np.ndim(v) <= 1}
+        first = {
+            k: (np.asarray(v).reshape(-1)[:1] if np.ndim(v) == 1 else v) for k, v in params.items() if np.ndim(v) <= 1
+        }
         x = np.array([self.robot.x_ref], dtype=float)
         try:
             p = self._params(1, first, effects)
             Cq = self._kernels.legs(self._ik(x, p), self._with_pose(x, p))["Cq"]
-        except Exception:                      # an unreachable reference: solve exactly at every pose
+        except Exception:  # an unreachable reference: solve exactly at every pose
             return True
         return condense.has_rigid_direction(Cq)
 
-    def _exact_modes(self, poses, effects, params: dict, modes: Modes, vectors: bool, q=None, M=None,
-                     p=None) -> Modes:
+    def _exact_modes(self, poses, effects, params: dict, modes: Modes, vectors: bool, q=None, M=None, p=None) -> Modes:
         """``modes`` (K_F's) with the exact condensation's finite modes on its valid rows
         (:func:`.condense.compliance_from_legs`, :func:`.condense.compliance_eigh`,
         :func:`.condense.merge_modes`). ``q``, ``M`` and the validated inputs ``p`` of every
@@ -1190,9 +1300,9 @@ class Evaluator:
         pk = self._with_pose(pr, p)
         out = self._kernels.legs(q, pk)
         M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
-        modes.legs = {"rows": rows, "q": q, "p": p, "out": out, "M": M}     # the damped modes reuse them
+        modes.legs = {"rows": rows, "q": q, "p": p, "out": out, "M": M}  # the damped modes reuse them
         coupled = any(c.effect in set(effects) for c in self.robot.couplings)
-        if not coupled and not self._preloaded(effects):   # legs on the tool: stiffness form, admissible twists
+        if not coupled and not self._preloaded(effects):  # legs on the tool: stiffness form, admissible twists
             f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh, basis=modes.legs)
             return condense.merge_modes(modes, rows, f, V, vectors)
         K_G = None
@@ -1215,16 +1325,20 @@ class Evaluator:
         deflection needs the pose's inverse kinematics)."""
         effects = self._resolve(model)
         if self._preloaded(effects):
-            raise InputError("joints= with a gravity preload: not supported (the preload's derivative needs the "
-                             "inverse kinematics); drop gravity_preload from the model or give poses only")
+            raise InputError(
+                "joints= with a gravity preload: not supported (the preload's derivative needs the "
+                "inverse kinematics); drop gravity_preload from the model or give poses only"
+            )
         q, poses = self.joint_coordinates(joints, poses)
         params, exact = self._route(effects, params)
         mats = self.joint_matrices(poses, q, effects, **params)
         kind = self.kind(effects)
         if kind == "rigid":
             if getattr(self.space, "basis", None) is None:
-                raise InputError(f"joints= with {self.robot.name}'s rigid model (allowed twists that turn with the "
-                                 "pose): not supported; give poses")
+                raise InputError(
+                    f"joints= with {self.robot.name}'s rigid model (allowed twists that turn with the "
+                    "pose): not supported; give poses"
+                )
             B = self.allowed_twists(poses)
             M, K = reduce(mats["M"], B), reduce(mats["K_R"], B)
         else:
@@ -1261,7 +1375,7 @@ class Evaluator:
         return Modes(freq, vec, self.axes(kind), kind, ok, stable)
 
     def _solve(self, M, K, vectors: bool = True, kind: str | None = None) -> Modes:
-        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:   # the C solver's sizes
+        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:  # the C solver's sizes
             lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
         else:
             # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
@@ -1269,9 +1383,13 @@ class Evaluator:
             lam, V = generalized_eigh(K, M)
         if kind is None:
             kind = "rigid" if M.shape[-1] == 3 else "flexible"
-        return Modes(frequencies_hz(lam), normalize_eigentwists(V) if vectors else None,
-                     self.axes(kind), kind,
-                     stable=~unstable_modes(lam).any(axis=-1))
+        return Modes(
+            frequencies_hz(lam),
+            normalize_eigentwists(V) if vectors else None,
+            self.axes(kind),
+            kind,
+            stable=~unstable_modes(lam).any(axis=-1),
+        )
 
     def _fused_modes(self, poses, effects, params, check: bool, vectors: bool, exact: bool = False) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
@@ -1281,8 +1399,15 @@ class Evaluator:
         kind = self.kind(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
         shares = vectors and not exact and kind == "flexible"
-        out = self._c_pass(poses, p, matrices=("M",) if exact or shares else (), ik=("q",) if exact else (),
-                           model=kind, vectors=vectors, normalize=True)
+        out = self._c_pass(
+            poses,
+            p,
+            matrices=("M",) if exact or shares else (),
+            ik=("q",) if exact else (),
+            model=kind,
+            vectors=vectors,
+            normalize=True,
+        )
         st = out["status"]
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
@@ -1299,10 +1424,16 @@ class Evaluator:
             out["freq_hz"][singular] = np.nan
             if out.get("eigentwists") is not None:
                 out["eigentwists"][singular] = np.nan
-        modes = Modes(out["freq_hz"], out.get("eigentwists"), self.axes(kind), kind,
-                      None if check else valid, st != STATUS["unstable"])
+        modes = Modes(
+            out["freq_hz"],
+            out.get("eigentwists"),
+            self.axes(kind),
+            kind,
+            None if check else valid,
+            st != STATUS["unstable"],
+        )
         if shares and out["eigentwists"].shape[-1] == 6:
-            with np.errstate(invalid="ignore", divide="ignore"):    # invalid poses: NaN rows
+            with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
                 modes.shares = energy_shares(out["eigentwists"], out["M"])
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
@@ -1317,15 +1448,18 @@ class Evaluator:
             raise UnstablePoseError(
                 f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: a pole grows (mode {j + 1} has "
                 f"damping ratio {zeta[j]:.3g}, or an actuator's internal pole); check the torque lag t_d against "
-                "c_a / k_a and negative damping")
+                "c_a / k_a and negative damping"
+            )
         which = ", ".join(str(j + 1) for j in bad)
         raise UnstablePoseError(
             f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: mode{'s' if len(bad) > 1 else ''} "
             f"{which} of {modes.freq_hz.shape[1]} {'have' if len(bad) > 1 else 'has'} a negative stiffness "
-            "(omega^2 < 0, no natural frequency); check negative or extreme parameters and the gravity preload")
+            "(omega^2 < 0, no natural frequency); check negative or extreme parameters and the gravity preload"
+        )
 
-    def sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
-                      method: str = "exact", **params) -> np.ndarray:
+    def sensitivities(
+        self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None, method: str = "exact", **params
+    ) -> np.ndarray:
         """d f / d p of the model's natural frequencies, (N, n_modes, len(wrt)), Hz per SI unit.
 
         ``wrt``: parameter names (default: every parameter of the description); ``P@N`` is
@@ -1341,11 +1475,11 @@ class Evaluator:
         twists that turn with the pose are differentiated through their solved coordinates
         (:mod:`eigentwist.runtime.implicit`).
         """
-        return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method,
-                                            **params)[1]
+        return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method, **params)[1]
 
-    def modes_and_sensitivities(self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None,
-                                method: str = "exact", **params):
+    def modes_and_sensitivities(
+        self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None, method: str = "exact", **params
+    ):
         """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call.
 
         ``method="exact"`` (the default) uses the generated sensitivity kernel (derived and
@@ -1360,8 +1494,15 @@ class Evaluator:
         central differences along that tangent (no Newton solve repeated); the rigid model
         of a lower-mobility platform (allowed twists that turn with the pose) takes central
         differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved."""
-        from .sensitivity import (check_model, check_wrt, frequency_derivatives, kernel_wrt, own_legs,
-                                  sensitivity_kernels, shared_columns)
+        from .sensitivity import (
+            check_model,
+            check_wrt,
+            frequency_derivatives,
+            kernel_wrt,
+            own_legs,
+            sensitivity_kernels,
+            shared_columns,
+        )
 
         if method not in ("exact", "differences"):
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
@@ -1382,7 +1523,7 @@ class Evaluator:
                 dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
             return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.axes("rigid"), "rigid"), dfdp
         solved, exact = self._route(effects, params)
-        basis = None if self._c_rigid else getattr(self.space, "basis", None)     # a point's translations
+        basis = None if self._c_rigid else getattr(self.space, "basis", None)  # a point's translations
         if method == "exact" and self.numeric_ik:
             from .implicit import numeric_matrix_derivatives
 
@@ -1392,7 +1533,7 @@ class Evaluator:
             out = self.matrix_derivatives(poses, wrt, effects, **solved)
             freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
         else:
-            own = own_legs(wrt, params)              # legs whose own P@N does not follow a shared P
+            own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)
             kern = sensitivity_kernels(self, full, progress)
             p = self._params(len(poses), solved, effects)
@@ -1407,7 +1548,7 @@ class Evaluator:
                 dfdp = shared_columns(dfdp, wrt, full, own)
         kind = "rigid" if rigid else "flexible"
         modes = Modes(freq, vec, self.axes(kind), kind)
-        if exact:                                  # K_F's penalty: the finite modes exact
+        if exact:  # K_F's penalty: the finite modes exact
             modes = self._exact_modes(poses, effects, params, modes, True)
             modes.legs = None
         return modes, dfdp
@@ -1432,16 +1573,18 @@ class Evaluator:
             h = DIFFERENCE_STEP * np.where(scale > 0, scale, 1.0)
             step = np.reshape(2 * h, (-1, 1, 1) if np.ndim(h) else ())
             hi, lo = (self._admissible(poses, model, params, name, value + s * h) for s in (1, -1))
-            if hi is not None and lo is not None:                      # central differences
+            if hi is not None and lo is not None:  # central differences
                 for k in MATRICES:
                     d["d" + k][:, j] = (hi[k] - lo[k]) / step
                 continue
-            sign = 1 if hi is not None else -1                         # at a bound: one-sided, second order
+            sign = 1 if hi is not None else -1  # at a bound: one-sided, second order
             far = self._admissible(poses, model, params, name, value + 2 * sign * h)
             if far is None:
-                raise InputError(f"parameter {name!r} = {float(np.max(value)):g}: no difference step of "
-                                 f"{float(np.max(h)):.3g} either way stays within its bounds and constraints; "
-                                 "expected a value away from them")
+                raise InputError(
+                    f"parameter {name!r} = {float(np.max(value)):g}: no difference step of "
+                    f"{float(np.max(h)):.3g} either way stays within its bounds and constraints; "
+                    "expected a value away from them"
+                )
             near = hi if sign == 1 else lo
             for k in MATRICES:
                 d["d" + k][:, j] = sign * (4 * near[k] - 3 * out[k] - far[k]) / step

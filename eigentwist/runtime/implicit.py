@@ -18,6 +18,7 @@ the pose and the parameters; its pencil ``(B^T K_R B, B^T M B)`` is differentiat
 central differences with the followers re-solved; the eigenvalue derivatives
 ``v^T (dK - lambda dM) v`` hold for any smooth choice of ``B`` (:mod:`.sensitivity`).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,6 +46,7 @@ def difference_steps(ev, wrt, params: dict):
 def _difference(f, name, value, h, central: bool, params: dict, at0=None):
     """d f / d name by central differences (or one-sided, second order), ``f(params)``
     returning arrays or dicts of arrays; h broadcasts against the leading axis."""
+
     def div(a, b, c=None):
         hh = np.reshape(h, np.shape(h) + (1,) * (np.ndim(a) - np.ndim(h)))
         return (a - b) / (2 * hh) if c is None else (4 * a - 3 * b - c) / (2 * hh)
@@ -63,23 +65,25 @@ def joint_derivatives(ev, poses: np.ndarray, wrt, params: dict) -> tuple[np.ndar
     prismatic joint, per SI unit of each parameter)."""
     n = len(poses)
     p = ev.parameter_values(n, "paper", **params)
-    ev.joint_angles(poses, **params)                             # unreachable or singular: one line
+    ev.joint_angles(poses, **params)  # unreachable or singular: one line
     q = ev.solve_joints(poses, p)
     closure = ev.kernels.loop_closure
 
     def inputs(pp: dict) -> dict:
         return ev.closure_inputs(poses, pp)
 
-    A = closure(q, inputs(p))["dresidual"]                       # (N, legs, rows, n_q)
+    A = closure(q, inputs(p))["dresidual"]  # (N, legs, rows, n_q)
     r0 = None
     cols = []
     for name, value, h, central in difference_steps(ev, wrt, params):
+
         def residual(pp: dict):
             return closure(q, inputs(ev.parameter_values(n, "paper", **pp)))["residual"]
+
         if not central and r0 is None:
             r0 = closure(q, inputs(p))["residual"]
         cols.append(_difference(residual, name, value, h, central, params, r0))
-    dr = np.stack(cols, axis=-1)                                 # (N, legs, rows, P)
+    dr = np.stack(cols, axis=-1)  # (N, legs, rows, P)
     At = np.swapaxes(A, -1, -2)
     dq = -np.linalg.solve(At @ A, At @ dr)
     return q, dq
@@ -103,7 +107,7 @@ def numeric_matrix_derivatives(ev, poses: np.ndarray, wrt, model, params: dict) 
         hq = np.reshape(h, np.shape(h) + (1, 1)) * dq[..., j]
 
         def along(pp: dict, name=name, value=value):
-            t = (np.asarray(pp[name]) - value) / np.where(h > 0, h, 1.0)    # -1, 1 or 2
+            t = (np.asarray(pp[name]) - value) / np.where(h > 0, h, 1.0)  # -1, 1 or 2
             return matrices(q + np.reshape(t, np.shape(t) + (1, 1)) * hq, pp)
 
         step = _difference(along, name, value, h, central, params, out)
@@ -118,8 +122,12 @@ def reduced_derivatives(ev, given, wrt, model, params: dict) -> dict:
     (N, P, n, n): central differences of the reduced pencil with the followers and the
     basis recomputed at each step (commanded ``given`` poses)."""
     M, K = ev.stiffness(given, model, **params)
-    out = {"M": M, "K": K, "dM": np.empty((len(M), len(wrt)) + M.shape[1:]),
-           "dK": np.empty((len(M), len(wrt)) + M.shape[1:])}
+    out = {
+        "M": M,
+        "K": K,
+        "dM": np.empty((len(M), len(wrt)) + M.shape[1:]),
+        "dK": np.empty((len(M), len(wrt)) + M.shape[1:]),
+    }
 
     def pencil(pp: dict) -> dict:
         Mp, Kp = ev.stiffness(given, model, **pp)

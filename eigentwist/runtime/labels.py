@@ -21,13 +21,14 @@ For a group of modes with (nearly) equal frequencies, any basis of their eigensp
 set of eigentwists; the group's share of a coordinate (the sum over its members, the
 diagonal of the M-orthogonal projector onto the eigenspace) does not depend on the basis.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 __all__ = ["energy_shares", "directions", "DEGENERATE_REL", "degenerate_groups", "group_shares"]
 
-DEGENERATE_REL = 0.01   # modes closer than 1 % in frequency are one measured peak (module doc of matching)
+DEGENERATE_REL = 0.01  # modes closer than 1 % in frequency are one measured peak (module doc of matching)
 
 
 def energy_shares(eigentwists: np.ndarray, M: np.ndarray | None = None) -> np.ndarray:
@@ -73,5 +74,5 @@ def degenerate_groups(freq_hz: np.ndarray, rel: float = DEGENERATE_REL) -> np.nd
 
 def group_shares(shares: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """(N, n, n): for each coordinate i and mode k, the share of i summed over k's group."""
-    same = groups[..., :, None] == groups[..., None, :]           # (N, n, n) mode k' in k's group
+    same = groups[..., :, None] == groups[..., None, :]  # (N, n, n) mode k' in k's group
     return np.nan_to_num(shares) @ same.astype(float)

@@ -10,8 +10,9 @@ Levenberg-Marquardt steps
     (A^T A + lambda diag(A^T A)) dq = -A^T r,
 
 accepting a step when ``|r|`` decreases (lambda / 4) and otherwise retrying with a
-larger damping (lambda x 4), each coordinate moving at most ``MAX_STEP`` per iteration, started from the description's reference configuration (its
-assembly branch); poses that do not converge from there are retried from the solution of
+larger damping (lambda x 4), each coordinate moving at most ``MAX_STEP`` per iteration,
+started from the description's reference configuration (its assembly branch); poses
+that do not converge from there are retried from the solution of
 the previous pose of the batch (a sweep moves in small steps). A pose converges when
 ``|r| < tol``; one that does not has NaN coordinates, which the IK program's closure check
 reports as unreachable (:mod:`.validity`), never a silently wrong configuration. The
@@ -19,20 +20,30 @@ assembly branch is kept: a solution whose leg determinant (the jacobians kernel'
 ``lever``: the six unit twists' determinant) has the opposite sign of the reference
 configuration's lies past a singularity and is rejected too.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["solve", "normal_solve", "continuation", "same_configuration", "MAX_ITERATIONS", "TOL", "HOMOTOPY_STEPS",
-           "PATH_TOL", "BRANCH_GAP"]
+__all__ = [
+    "solve",
+    "normal_solve",
+    "continuation",
+    "same_configuration",
+    "MAX_ITERATIONS",
+    "TOL",
+    "HOMOTOPY_STEPS",
+    "PATH_TOL",
+    "BRANCH_GAP",
+]
 
 MAX_ITERATIONS = 80
-TOL = 1e-12            # |r| (m and rad) of a converged configuration
+TOL = 1e-12  # |r| (m and rad) of a converged configuration
 LAMBDA0 = 1e-3
-MAX_STEP = 0.25        # largest change of one coordinate per iteration (rad; m for P)
-HOMOTOPY_STEPS = 64    # steps of the Newton homotopy from the reference configuration
+MAX_STEP = 0.25  # largest change of one coordinate per iteration (rad; m for P)
+HOMOTOPY_STEPS = 64  # steps of the Newton homotopy from the reference configuration
 HOMOTOPY_ITERATIONS = 12
-PATH_TOL = 1e-9        # |r - (1 - t) r_ref| (m and rad) of a point on the homotopy path
+PATH_TOL = 1e-9  # |r - (1 - t) r_ref| (m and rad) of a point on the homotopy path
 #: two closed configurations of a leg are one when no coordinate differs by more (rad; m):
 #: both close to 1e-12 and a leg's Jacobian is far better conditioned than 1e-6 off a singularity
 BRANCH_GAP = 1e-6
@@ -51,7 +62,7 @@ def _take(p: dict, rows: np.ndarray, n: int) -> dict:
     return {k: (v[rows] if np.ndim(v) >= 1 and np.shape(v)[0] == n and n > 1 else v) for k, v in p.items()}
 
 
-SOA_MIN = 64           # systems from which the normal equations are solved entry by entry (_cholesky_solve)
+SOA_MIN = 64  # systems from which the normal equations are solved entry by entry (_cholesky_solve)
 
 
 def _lapack_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
@@ -65,7 +76,7 @@ def _lapack_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
     H = np.where(finite[..., None, None], H, eye)
     try:
         return -np.linalg.solve(H, Atr[..., None])[..., 0]
-    except np.linalg.LinAlgError:               # a singular H (a zero row): least squares
+    except np.linalg.LinAlgError:  # a singular H (a zero row): least squares
         return -(np.linalg.pinv(H) @ Atr[..., None])[..., 0]
 
 
@@ -74,8 +85,8 @@ def _cholesky_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
     factor and both substitutions entry by entry, each a vector operation over every
     system (n_q <= 6: a few dozen operations in all, against one LAPACK call per system)."""
     R, Q = A.shape[-2:]
-    At = np.ascontiguousarray(np.moveaxis(A, (-2, -1), (0, 1)))      # (R, Q, ...)
-    rt = np.ascontiguousarray(np.moveaxis(r, -1, 0))                 # (R, ...)
+    At = np.ascontiguousarray(np.moveaxis(A, (-2, -1), (0, 1)))  # (R, Q, ...)
+    rt = np.ascontiguousarray(np.moveaxis(r, -1, 0))  # (R, ...)
     H, g = {}, []
     for i in range(Q):
         for j in range(i + 1):
@@ -93,7 +104,7 @@ def _cholesky_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
         for j in range(i + 1):
             finite &= np.isfinite(H[i, j])
     L = {}
-    for j in range(Q):                                               # H = L L^T
+    for j in range(Q):  # H = L L^T
         s = H[j, j]
         for k in range(j):
             s = s - L[j, k] * L[j, k]
@@ -117,7 +128,7 @@ def _cholesky_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
             s = s - L[k, i] * x[k]
         x[i] = s / L[i, i]
     step = -np.stack(x, axis=-1)
-    if not finite.all():                        # a non-finite H: the gradient step (as H = I)
+    if not finite.all():  # a non-finite H: the gradient step (as H = I)
         step[~finite] = -np.stack(g, axis=-1)[~finite]
     return step
 
@@ -186,8 +197,9 @@ def _normal(A: np.ndarray, r: np.ndarray):
     return At @ A, (At @ r[..., None])[..., 0]
 
 
-def continuation(closure, reference: np.ndarray, p: dict, steps: int = HOMOTOPY_STEPS,
-                 tol: float = TOL) -> tuple[np.ndarray, np.ndarray]:
+def continuation(
+    closure, reference: np.ndarray, p: dict, steps: int = HOMOTOPY_STEPS, tol: float = TOL
+) -> tuple[np.ndarray, np.ndarray]:
     """The configuration the reference is connected to at one pose: the Newton homotopy
     ``r(q) = (1 - t) r(q_ref)`` followed from t = 0 (where the reference solves it) to
     t = 1 (the loop closed) in ``steps`` steps, Gauss-Newton at each. Where the reference
@@ -224,8 +236,18 @@ def continuation(closure, reference: np.ndarray, p: dict, steps: int = HOMOTOPY_
     return q[0], np.sqrt((r * r).sum(-1))[0]
 
 
-def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
-          iterations: int = MAX_ITERATIONS, tol: float = TOL, signs=None, report: bool = False, iterate=None):
+def solve(
+    closure,
+    reference: np.ndarray,
+    p: dict,
+    n: int,
+    branch=None,
+    iterations: int = MAX_ITERATIONS,
+    tol: float = TOL,
+    signs=None,
+    report: bool = False,
+    iterate=None,
+):
     """Joint coordinates (n, legs, n_q) closing every leg's loop at n poses; NaN where
     Newton does not converge (or lands on another assembly branch).
 
@@ -241,8 +263,10 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
         module's iterations on ``closure`` by other means (the C driver, :mod:`.c_levenberg_marquardt`).
     """
     if iterate is None:
+
         def iterate(q, pp, its, tl):
             return _iterate(closure, q, pp, its, tl)
+
     q0 = np.broadcast_to(reference, (n,) + reference.shape).copy()
     q, norm = iterate(q0, p, iterations, tol)
     ok = norm < tol
@@ -259,8 +283,11 @@ def solve(closure, reference: np.ndarray, p: dict, n: int, branch=None,
         ok = norm < tol
     off = np.zeros(ok.shape, dtype=bool)
     if branch is not None and ok.any():
-        ref_sign = (np.sign(branch(np.broadcast_to(reference, q.shape))) if signs is None
-                    else np.broadcast_to(np.asarray(signs, dtype=float), ok.shape))
+        ref_sign = (
+            np.sign(branch(np.broadcast_to(reference, q.shape)))
+            if signs is None
+            else np.broadcast_to(np.asarray(signs, dtype=float), ok.shape)
+        )
         # a singular reference (sign 0) names no branch: nothing to compare with
         off = ok & ~((np.sign(branch(np.where(ok[..., None], q, q0))) == ref_sign) | (ref_sign == 0))
         ok &= ~off

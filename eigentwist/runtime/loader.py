@@ -4,6 +4,7 @@
 defines ``describe()``) or a :class:`~eigentwist.description.RobotDescription`: its
 evaluators are generated on first use into the cache (:mod:`.userfile`).
 """
+
 from __future__ import annotations
 
 import importlib
@@ -18,8 +19,14 @@ from .ccompile import read_shipped
 from .errors import InputError
 from .evaluator import Evaluator
 from .threads import resolve_threads
-from .userfile import (describe_file, description_key, generated_modules, import_numpy_module, is_description,
-                       is_description_file)
+from .userfile import (
+    describe_file,
+    description_key,
+    generated_modules,
+    import_numpy_module,
+    is_description,
+    is_description_file,
+)
 
 __all__ = ["load", "load_module", "evaluator_from_description", "BACKENDS"]
 
@@ -82,12 +89,14 @@ def load(robot="heli4", backend: str = "auto", threads: int | None = None, progr
     if backend not in BACKENDS:
         raise InputError(f"unknown backend {backend!r}: expected one of {', '.join(BACKENDS)}")
     if threads is not None:
-        resolve_threads(threads)                # a bad value is an error on every backend
+        resolve_threads(threads)  # a bad value is an error on every backend
     if is_description_file(robot) or is_description(robot):
         return _load_user(robot, backend, threads, progress)
     if robot not in NAMES:
-        raise InputError(f"unknown robot {robot!r}{did_you_mean(str(robot), NAMES)}: expected one of {', '.join(NAMES)} "
-                         "or a description file PATH.py")
+        raise InputError(
+            f"unknown robot {robot!r}{did_you_mean(str(robot), NAMES)}: expected one of {', '.join(NAMES)} "
+            "or a description file PATH.py"
+        )
     return _with_backend(get(robot), load_module(robot, "numpy"), backend, robot, threads)
 
 

@@ -10,6 +10,7 @@ numeric IK (:func:`eigentwist.runtime.levenberg_marquardt.solve`): batched over 
 reference (followers 0), then warm-started from the previous pose. A pose that still does
 not converge has NaN followers: the evaluator reports it unreachable.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,8 +22,8 @@ _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 
 __all__ = ["full_poses", "follow", "left_jacobian", "TOL_M", "MAX_STEPS"]
 
-TOL_M = 1e-12          # a closure below this (m) counts as met
-MAX_STEPS = 40         # Newton steps per attempt
+TOL_M = 1e-12  # a closure below this (m) counts as met
+MAX_STEPS = 40  # Newton steps per attempt
 
 
 def left_jacobian(rotvec: np.ndarray) -> np.ndarray:
@@ -40,9 +41,20 @@ def left_jacobian(rotvec: np.ndarray) -> np.ndarray:
     ax, ay, az = a * x, a * y, a * z
     bxy, bxz, byz = b * (x * y), b * (x * z), b * (y * z)
     # I + a [r]x + b [r]x^2, entry by entry ([r]x^2 = r r^T - |r|^2 I)
-    return np.stack([1 + b * (-zz - yy), -az + bxy, ay + bxz,
-                     az + bxy, 1 + b * (-zz - xx), -ax + byz,
-                     -ay + bxz, ax + byz, 1 + b * (-yy - xx)], axis=-1).reshape(r.shape[:-1] + (3, 3))
+    return np.stack(
+        [
+            1 + b * (-zz - yy),
+            -az + bxy,
+            ay + bxz,
+            az + bxy,
+            1 + b * (-zz - xx),
+            -ax + byz,
+            -ay + bxz,
+            ax + byz,
+            1 + b * (-yy - xx),
+        ],
+        axis=-1,
+    ).reshape(r.shape[:-1] + (3, 3))
 
 
 def _kernel_inputs(full: np.ndarray, p: dict) -> dict:
@@ -58,6 +70,7 @@ def _follower_closure(closure, followers: list):
     (n, 1, closures) and its Jacobian (n, 1, closures, followers) by the rates along the twist
     of each follower (a position follower: a translation; a rotation-vector follower: the
     left Jacobian's column)."""
+
     def evaluate(q, p):
         full = np.array(p["_full"], dtype=float)
         full[:, followers] = q[:, 0, :]
@@ -66,7 +79,7 @@ def _follower_closure(closure, followers: list):
             out = closure(full[:, 0], full[:, 1], full[:, 2], _kernel_inputs(full, p))
         r = out["closure"].reshape(n, -1)
         rate = out["closure_rate"].reshape(n, -1, 6)
-        T = np.zeros((n, 6, len(followers)))            # twist [omega; v] per unit follower rate
+        T = np.zeros((n, 6, len(followers)))  # twist [omega; v] per unit follower rate
         Jl = left_jacobian(full[:, 3:6])
         for c, k in enumerate(followers):
             if k < 3:
@@ -74,6 +87,7 @@ def _follower_closure(closure, followers: list):
             else:
                 T[:, :3, c] = Jl[:, :, k - 3]
         return {"residual": r[:, None, :], "dresidual": (rate @ T)[:, None]}
+
     return evaluate
 
 
@@ -87,8 +101,14 @@ def follow(closure, full: np.ndarray, followers: list, p: dict) -> np.ndarray:
     from .levenberg_marquardt import solve
 
     full = np.array(full, dtype=float)
-    q = solve(_follower_closure(closure, followers), np.zeros((1, len(followers))), {**p, "_full": full},
-              len(full), iterations=MAX_STEPS, tol=TOL_M)
+    q = solve(
+        _follower_closure(closure, followers),
+        np.zeros((1, len(followers))),
+        {**p, "_full": full},
+        len(full),
+        iterations=MAX_STEPS,
+        tol=TOL_M,
+    )
     full[:, followers] = q[:, 0, :]
     return full
 

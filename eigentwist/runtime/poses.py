@@ -1,4 +1,5 @@
 """6-DoF poses: position (m) and rotation vector (axis x angle, rad) of the platform frame."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,9 +22,17 @@ def rotation_entries(rotvec) -> list:
     b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
     ax, ay, az = a * x, a * y, a * z
     bxy, bxz, byz = b * (x * y), b * (x * z), b * (y * z)
-    return [1 + b * (-zz - yy), -az + bxy, ay + bxz,
-            az + bxy, 1 + b * (-zz - xx), -ax + byz,
-            -ay + bxz, ax + byz, 1 + b * (-yy - xx)]
+    return [
+        1 + b * (-zz - yy),
+        -az + bxy,
+        ay + bxz,
+        az + bxy,
+        1 + b * (-zz - xx),
+        -ax + byz,
+        -ay + bxz,
+        ax + byz,
+        1 + b * (-yy - xx),
+    ]
 
 
 def rotation_matrix(rotvec) -> np.ndarray:

@@ -6,14 +6,15 @@ unreachable or singular pose gets the z-ranges that are valid at the same x, y, 
 from the description's own inverse kinematics (``Evaluator.valid`` on a line of
 heights, ends refined by bisection).
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 __all__ = ["outside_workspace", "reachable_z", "reach_hint", "box_text"]
 
-SCAN = 2.0        # m scanned above and below the reference height
-POINTS = 4001     # 1 mm spacing before bisection
+SCAN = 2.0  # m scanned above and below the reference height
+POINTS = 4001  # 1 mm spacing before bisection
 BISECT = 30
 
 
@@ -40,8 +41,10 @@ def outside_workspace(robot, poses) -> str | None:
         return None
     first = poses[out[0]].tolist()
     many = f" ({len(out)} of {len(poses)} poses, first {first})" if len(poses) > 1 else f" ({first})"
-    return (f"pose outside {robot.name}'s documented workspace box{many}: {box_text(robot.workspace, _names(robot))}; "
-            "results there are not covered by the tests")
+    return (
+        f"pose outside {robot.name}'s documented workspace box{many}: {box_text(robot.workspace, _names(robot))}; "
+        "results there are not covered by the tests"
+    )
 
 
 def _at(rest, z) -> np.ndarray:
@@ -94,7 +97,9 @@ def reach_hint(ev, pose, model="paper", **params) -> str:
         return ""
     where = f"at x = {x:g}, y = {y:g} m" + (" and this rotation" if len(np.ravel(pose)) > 3 else "")
     if not spans:
-        return (f"{where} no height is reachable (try x, y within "
-                f"{box_text(ev.robot.workspace, _names(ev.robot))})")
-    return f"{where} the reachable, non-singular heights are " + " or ".join(
-        f"z in [{lo:.4f}, {hi:.4f}]" for lo, hi in spans) + " m"
+        return f"{where} no height is reachable (try x, y within {box_text(ev.robot.workspace, _names(ev.robot))})"
+    return (
+        f"{where} the reachable, non-singular heights are "
+        + " or ".join(f"z in [{lo:.4f}, {hi:.4f}]" for lo, hi in spans)
+        + " m"
+    )

@@ -15,6 +15,7 @@ eigenvalues, the eigenvalues of the cluster's projected derivative
 V_cᵀ(dK − λ dM)V_c, sorted ascending (the one-sided derivatives of the sorted eigenvalues
 for an increasing p), never their mean.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -27,11 +28,23 @@ import numpy as np
 from ..hashing import canonical, content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
 
-__all__ = ["sensitivity_kernels", "eigenvalue_derivatives", "cache_key", "CLUSTER_RTOL", "DIFFERENCE_STEP", "clusters", "check_wrt",
-           "own_legs", "kernel_wrt", "shared_columns",
-           "check_model", "frequency_derivatives", "frequency_sensitivities"]
+__all__ = [
+    "sensitivity_kernels",
+    "eigenvalue_derivatives",
+    "cache_key",
+    "CLUSTER_RTOL",
+    "DIFFERENCE_STEP",
+    "clusters",
+    "check_wrt",
+    "own_legs",
+    "kernel_wrt",
+    "shared_columns",
+    "check_model",
+    "frequency_derivatives",
+    "frequency_sensitivities",
+]
 
-CLUSTER_RTOL = 1e-6        # frequencies closer than this (relative) form one cluster
+CLUSTER_RTOL = 1e-6  # frequencies closer than this (relative) form one cluster
 #: relative step of ``method="differences"`` (central differences of M, K_R, K_F): truncation
 #: ~1e-10 and round-off ~1e-11 of the matrices' derivatives
 DIFFERENCE_STEP = 1e-5
@@ -43,8 +56,9 @@ def cache_key(ev, wrt) -> str:
     """Content hash of what the kernel is made from (:func:`eigentwist.hashing.content_hash`): the
     evaluator's source hash, the robot's description (its functions by their code), ``wrt`` and the
     code that derives and renders the kernel (read from its files: no SymPy is imported)."""
-    return content_hash(ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot),
-                        tuple(wrt), package_digest())
+    return content_hash(
+        ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot), tuple(wrt), package_digest()
+    )
 
 
 def _sources(ev, wrt, progress) -> dict:
@@ -77,6 +91,7 @@ def _numpy_kernel(text: str, name: str):
 
     def run(x, y, z, p):
         return fn(x, y, z, p)
+
     return run
 
 
@@ -93,8 +108,12 @@ class _CKernel:
         sig.restype = ctypes.c_char_p
         self.signature = json.loads(sig().decode())
         fn = getattr(self._lib, self.signature["function"])
-        fn.argtypes = [ctypes.c_int64, ctypes.POINTER(ctypes.c_void_p), ctypes.POINTER(ctypes.c_int64),
-                       ctypes.POINTER(ctypes.c_void_p)]
+        fn.argtypes = [
+            ctypes.c_int64,
+            ctypes.POINTER(ctypes.c_void_p),
+            ctypes.POINTER(ctypes.c_int64),
+            ctypes.POINTER(ctypes.c_void_p),
+        ]
         fn.restype = ctypes.c_int
         self._fn = fn
         return self
@@ -123,8 +142,11 @@ class _CKernel:
         out_ptrs = (ctypes.c_void_p * len(outs))(*[o.ctypes.data for o in outs.values()])
         rc = self._fn(n, ins, st, out_ptrs)
         if rc != 0:
-            raise MemoryError("C sensitivities: out of memory for the block buffers") if rc == -2 else \
-                RuntimeError(f"C sensitivities returned {rc}")
+            raise (
+                MemoryError("C sensitivities: out of memory for the block buffers")
+                if rc == -2
+                else RuntimeError(f"C sensitivities returned {rc}")
+            )
         return outs
 
 
@@ -156,6 +178,7 @@ def _select(kern, columns):
     def run(x, y, z, p):
         out = kern(x, y, z, p)
         return {k: (v[:, idx] if k.startswith("d") else v) for k, v in out.items()}
+
     return run
 
 
@@ -163,7 +186,7 @@ def _description_text(robot) -> str:
     """The canonical text of a description (:func:`eigentwist.hashing.canonical`), once per robot object."""
     held = _ROBOTS.get(id(robot))
     if held is None or held[0] is not robot:
-        held = _ROBOTS[id(robot)] = (robot, canonical(robot))     # tens of ms for a description
+        held = _ROBOTS[id(robot)] = (robot, canonical(robot))  # tens of ms for a description
     return held[1]
 
 
@@ -218,8 +241,8 @@ def eigenvalue_derivatives(lam, V, dK, dM, rtol: float = CLUSTER_RTOL) -> np.nda
     dK, dM : (N, P, n, n) derivatives of K and M. Clusters (:func:`clusters`) get the
     sorted eigenvalues of V_cᵀ(dK − λ̄ dM)V_c (λ̄ the cluster's mean eigenvalue).
     """
-    Vb = V[:, None]                                          # (N, 1, n, n)
-    dK_d = np.sum(Vb * (dK @ Vb), axis=-2)                   # (N, P, n): v_k^T dK v_k
+    Vb = V[:, None]  # (N, 1, n, n)
+    dK_d = np.sum(Vb * (dK @ Vb), axis=-2)  # (N, P, n): v_k^T dK v_k
     dM_d = np.sum(Vb * (dM @ Vb), axis=-2)
     out = np.swapaxes(dK_d - lam[:, None, :] * dM_d, 1, 2).copy()
     joined = clusters(lam, rtol)
@@ -254,12 +277,21 @@ def check_wrt(ev, wrt) -> tuple:
     wrt = tuple(wrt)
     unknown = [w for w in wrt if w not in ev.parameters and not ev.accepts(w)]
     if unknown or not wrt or len(set(wrt)) != len(wrt):
-        what = f"unknown parameter(s) {', '.join(map(repr, unknown))}" if unknown else \
-            "an empty list" if not wrt else f"repeated names in {list(wrt)}"
-        legs = f" (NAME@N, N in 1..{ev.n_legs}, for one leg's own value of {', '.join(ev.leg_parameters)})" \
-            if ev.leg_parameters else ""
-        raise InputError(f"wrt: {what} for {ev.robot.name}: expected distinct names from "
-                         f"{', '.join(ev.parameters)}{legs}")
+        what = (
+            f"unknown parameter(s) {', '.join(map(repr, unknown))}"
+            if unknown
+            else "an empty list"
+            if not wrt
+            else f"repeated names in {list(wrt)}"
+        )
+        legs = (
+            f" (NAME@N, N in 1..{ev.n_legs}, for one leg's own value of {', '.join(ev.leg_parameters)})"
+            if ev.leg_parameters
+            else ""
+        )
+        raise InputError(
+            f"wrt: {what} for {ev.robot.name}: expected distinct names from {', '.join(ev.parameters)}{legs}"
+        )
     return wrt
 
 
@@ -298,18 +330,21 @@ def check_model(effects) -> None:
     from .errors import InputError
 
     if "gravity_preload" in effects:
-        raise InputError("sensitivities of a model with gravity_preload are not available: its stiffness is solved "
-                         "at run time (a static solve), not generated; drop gravity_preload from the model")
+        raise InputError(
+            "sensitivities of a model with gravity_preload are not available: its stiffness is solved "
+            "at run time (a static solve), not generated; drop gravity_preload from the model"
+        )
     from ..description.effects import EFFECTS, base_name
 
     damping = [e for e in effects if base_name(e) in EFFECTS and EFFECTS[base_name(e)].kind == "damping"]
     if damping:
-        raise InputError(f"sensitivities of a model with {', '.join(damping)} are not available: its damped modes are "
-                         "solved at run time (runtime.damped), not generated; use central differences")
+        raise InputError(
+            f"sensitivities of a model with {', '.join(damping)} are not available: its damped modes are "
+            "solved at run time (runtime.damped), not generated; use central differences"
+        )
 
 
-def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL, translational: bool = True,
-                          basis=None):
+def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL, translational: bool = True, basis=None):
     """``(freq_hz, eigentwists, dfdp)`` from one sensitivity-kernel output.
 
     df/dp = (1/2π) dω/dp with dω/dp = φᵀ(dK − ω² dM)φ / (2ω φᵀMφ) (Hz per SI unit,
@@ -339,8 +374,8 @@ def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL, tr
     return frequencies_hz(lam), normalize_eigentwists(V), dfdp
 
 
-def frequency_sensitivities(ev, poses, wrt=None, model="paper", params=None, *, rtol: float = CLUSTER_RTOL,
-                            progress=None, method: str = "exact"):
+def frequency_sensitivities(
+    ev, poses, wrt=None, model="paper", params=None, *, rtol: float = CLUSTER_RTOL, progress=None, method: str = "exact"
+):
     """``(Modes, dfdp)`` of evaluator ``ev``: see :meth:`Evaluator.modes_and_sensitivities`."""
-    return ev.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method,
-                                      **(params or {}))
+    return ev.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method, **(params or {}))

@@ -11,6 +11,7 @@ one task per core already); otherwise every core this process may run on. A batc
 most one thread per :data:`MIN_BLOCKS_PER_THREAD` blocks, so small batches (a diagnosis
 fit's few dozen rows) stay on the calling thread.
 """
+
 from __future__ import annotations
 
 import os
@@ -20,11 +21,18 @@ from concurrent.futures import ThreadPoolExecutor
 
 from .errors import InputError
 
-__all__ = ["MIN_BLOCKS_PER_THREAD", "TASKS_PER_THREAD", "resolve_threads", "threads_for", "block_ranges",
-           "run_ranges", "available_cores"]
+__all__ = [
+    "MIN_BLOCKS_PER_THREAD",
+    "TASKS_PER_THREAD",
+    "resolve_threads",
+    "threads_for",
+    "block_ranges",
+    "run_ranges",
+    "available_cores",
+]
 
-MIN_BLOCKS_PER_THREAD = 16      # 1024 poses at 64 per block: below this, one thread
-TASKS_PER_THREAD = 4            # ranges per thread, so a thread slowed by other load is not the tail
+MIN_BLOCKS_PER_THREAD = 16  # 1024 poses at 64 per block: below this, one thread
+TASKS_PER_THREAD = 4  # ranges per thread, so a thread slowed by other load is not the tail
 
 
 def available_cores() -> int:

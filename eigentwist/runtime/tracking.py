@@ -12,6 +12,7 @@ Units: frequencies in Hz (or any unit: they are only reordered); eigentwists are
 kg m^2) makes the MAC an inner product of kinetic energy, independent of the choice of
 length unit. The MAC is dimensionless, in [0, 1].
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -86,7 +87,7 @@ def track_modes(freqs, eigentwists, M=None) -> TrackedModes:
     order[0] = np.argsort(freqs[0], kind="stable")
     for s in range(1, S):
         prev = V[s - 1][:, order[s - 1]]
-        C = mac(prev, V[s], None if Ms is None else Ms[s])          # (labels, current)
+        C = mac(prev, V[s], None if Ms is None else Ms[s])  # (labels, current)
         rows, cols = linear_sum_assignment(C, maximize=True)
         order[s, rows] = cols
         similarity[s] = C[rows, cols]

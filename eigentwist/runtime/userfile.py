@@ -12,6 +12,7 @@ files are trusted as the library is (:func:`~eigentwist.runtime.ccompile.read_ve
 created private, each checked against its recorded SHA-256 before it is imported or
 compiled, regenerated when missing, truncated or altered.
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -25,7 +26,16 @@ from ..hashing import canonical, content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
 from .errors import InputError
 
-__all__ = ["describe_file", "is_description_file", "is_description", "description_kinds", "description_key", "generated_modules", "import_numpy_module"]
+__all__ = [
+    "describe_file",
+    "is_description_file",
+    "is_description",
+    "description_kinds",
+    "description_key",
+    "generated_modules",
+    "import_numpy_module",
+]
+
 
 def is_description_file(robot) -> bool:
     """True when ``robot`` names a Python file (``*.py``) rather than a shipped robot."""
@@ -60,14 +70,20 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     try:
         spec.loader.exec_module(module)
     except (SystemExit, KeyboardInterrupt) as exc:
-        raise InputError(f"robot description file {str(path)!r} {_ended(exc)} while it was imported: a description "
-                         "file must define describe() and return") from None
+        raise InputError(
+            f"robot description file {str(path)!r} {_ended(exc)} while it was imported: a description "
+            "file must define describe() and return"
+        ) from None
     except Exception as exc:
-        raise InputError(f"robot description file {str(path)!r} failed to import: {type(exc).__name__}: {exc}") from None
+        raise InputError(
+            f"robot description file {str(path)!r} failed to import: {type(exc).__name__}: {exc}"
+        ) from None
     describe = getattr(module, "describe", None)
     if not callable(describe):
-        raise InputError(f"robot description file {str(path)!r} does not define describe() "
-                         "(it must return an eigentwist.description.RobotDescription or a joint-list ChainRobot)")
+        raise InputError(
+            f"robot description file {str(path)!r} does not define describe() "
+            "(it must return an eigentwist.description.RobotDescription or a joint-list ChainRobot)"
+        )
     try:
         desc = describe()
     except (SystemExit, KeyboardInterrupt) as exc:
@@ -75,8 +91,10 @@ def describe_file(path) -> "RobotDescription":  # noqa: F821
     except Exception as exc:
         raise InputError(f"describe() in {str(path)!r} raised {type(exc).__name__}: {exc}") from None
     if not is_description(desc):
-        raise InputError(f"describe() in {str(path)!r} returned {type(desc).__name__}: expected one of "
-                         f"{', '.join(k.__name__ for k in description_kinds())}")
+        raise InputError(
+            f"describe() in {str(path)!r} returned {type(desc).__name__}: expected one of "
+            f"{', '.join(k.__name__ for k in description_kinds())}"
+        )
     return desc
 
 

@@ -5,6 +5,7 @@ Both backends compute the same check quantities (the IK arguments ``sin_q3`` and
 must not vanish); this module turns them into a per-row mask or into the error that
 names the first bad pose, its leg and the violated condition.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -12,10 +13,25 @@ import numpy as np
 from .allowed import constraint_positions
 from .errors import SingularPoseError, UnreachablePoseError
 
-__all__ = ["CONDITIONING_TOL", "POSE_STATUS", "platform_rows", "conditioning", "parallel_mask", "raise_parallel",
-           "LEVER_TOL", "LEVER_SCALE", "STATUS", "IK_CHECKS", "check_names", "reachable_mask", "lever_mask", "raise_unreachable", "raise_singular"]
+__all__ = [
+    "CONDITIONING_TOL",
+    "POSE_STATUS",
+    "platform_rows",
+    "conditioning",
+    "parallel_mask",
+    "raise_parallel",
+    "LEVER_TOL",
+    "LEVER_SCALE",
+    "STATUS",
+    "IK_CHECKS",
+    "check_names",
+    "reachable_mask",
+    "lever_mask",
+    "raise_unreachable",
+    "raise_singular",
+]
 
-LEVER_TOL = 1e-3   # |w_a1 . t_a1| / l1 below this is treated as singular
+LEVER_TOL = 1e-3  # |w_a1 . t_a1| / l1 below this is treated as singular
 LEVER_SCALE = "l1"  # the lever is compared relative to this parameter (the lower link length)
 # per-pose status codes of the C backend's fused pass (the generated C prints the same
 # table in its signature; the loader checks they agree)
@@ -32,12 +48,12 @@ IK_CHECKS = {
     # a leg solved numerically: Newton's method did not close its loop from the
     # reference configuration, or converged on another assembly branch
     "closure": "Newton's method found no configuration of the leg that closes its loop on the description's "
-               "assembly branch (out of reach, or past a singularity)",
+    "assembly branch (out of reach, or past a singularity)",
 }
 
 
 def _bad_ik(arg) -> np.ndarray:
-    return ~(np.abs(np.asarray(arg)) <= 1.0)          # NaN counts as bad
+    return ~(np.abs(np.asarray(arg)) <= 1.0)  # NaN counts as bad
 
 
 def check_names(ik: dict) -> list:
@@ -77,7 +93,8 @@ def raise_unreachable(legs, poses, ik: dict) -> None:
             unit = "m" if len(poses[k]) == 3 else "(m, rad)"
             raise UnreachablePoseError(
                 f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is unreachable for {legs[leg].name}: "
-                f"{what} ({key} = {ik[key][k, leg]:.4g}, expected within [-1, 1])")
+                f"{what} ({key} = {ik[key][k, leg]:.4g}, expected within [-1, 1])"
+            )
     if "q" in ik:
         q = np.asarray(ik["q"])
         bad = ~np.isfinite(q.reshape(q.shape[0], q.shape[1], -1)).all(axis=-1)
@@ -86,7 +103,8 @@ def raise_unreachable(legs, poses, ik: dict) -> None:
             unit = "m" if len(poses[k]) == 3 else "(m, rad)"
             raise UnreachablePoseError(
                 f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is unreachable for {legs[leg].name}: its "
-                "inverse kinematics gives no finite joint coordinates (expected a pose the leg can span)")
+                "inverse kinematics gives no finite joint coordinates (expected a pose the leg can span)"
+            )
 
 
 def raise_singular(legs, poses, lever_ratio, scale: str | None = LEVER_SCALE) -> None:
@@ -101,8 +119,10 @@ def raise_singular(legs, poses, lever_ratio, scale: str | None = LEVER_SCALE) ->
         what = f"w_a1.t_a1/{scale}" if scale else "w_a.t_a (the leg's unit twists are dependent)"
         unit = "m" if len(poses[k]) == 3 else "(m, rad)"
         raise SingularPoseError(
-            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is serial singular for {legs[leg].name}: actuation "
-            f"lever {what} = {lever_ratio[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})")
+            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is serial singular for {legs[leg].name}: "
+            f"actuation "
+            f"lever {what} = {lever_ratio[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})"
+        )
 
 
 #: per-pose status names of :meth:`eigentwist.runtime.Evaluator.pose_status` and the
@@ -153,7 +173,7 @@ def platform_rows(J_rows, legs, basis=None) -> np.ndarray:
     if CONDITIONING_LENGTH != 1.0:
         W[..., :3] /= CONDITIONING_LENGTH
     W = _unit(W)
-    for start, stop in blocks:                  # Gram-Schmidt, twice, within the leg's block
+    for start, stop in blocks:  # Gram-Schmidt, twice, within the leg's block
         for k in range(start + 1, stop):
             v = W[:, k, :].copy()
             for _ in range(2):
@@ -214,8 +234,9 @@ def raise_parallel(poses, rows) -> None:
     if bad.any():
         k = int(np.argmax(bad))
         unit = "m" if len(poses[k]) == 3 else "(m, rad)"
-        cond = conditioning(np.asarray(rows)[k:k + 1])[0]
+        cond = conditioning(np.asarray(rows)[k : k + 1])[0]
         raise SingularPoseError(
             f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is parallel singular: the legs' actuation "
             f"and constraint wrenches leave a twist of the platform free (conditioning {cond:.3g}, expected above "
-            f"{CONDITIONING_TOL:.3g})")
+            f"{CONDITIONING_TOL:.3g})"
+        )

@@ -1,4 +1,5 @@
 """SymPy derivation of the closed-form natural-frequency model."""
+
 from .model import DerivedModel, derive, POSE
 from .program import Program, derivative
 

@@ -1,4 +1,5 @@
 """Cartesian inertia matrix M of the manipulator (Eqs. 8-12, 21-32)."""
+
 from __future__ import annotations
 
 import sympy as sp
@@ -12,8 +13,9 @@ from .program import Program
 __all__ = ["parallelogram_inertia", "body_inertia_contribution", "point_mass_inertia"]
 
 
-def body_inertia_contribution(prog: Program, screws: LegScrews, body, inertia_local: sp.Matrix, name: str,
-                              joints: tuple = ()) -> sp.Matrix:
+def body_inertia_contribution(
+    prog: Program, screws: LegScrews, body, inertia_local: sp.Matrix, name: str, joints: tuple = ()
+) -> sp.Matrix:
     """Term ``J_i^-T J_ij^T M_ij J_ij J_i^-1`` of Eq. 12 for one body of one leg.
 
     The body (:class:`~eigentwist.description.chain.ChainBody`) is moved by the unit
@@ -39,8 +41,10 @@ def body_inertia_contribution(prog: Program, screws: LegScrews, body, inertia_lo
     if getattr(body, "pivot", None) is not None:
         joint = joints[body.after - 1] if len(joints) >= body.after else None
         if joint is None or not joint.swing:
-            raise DescriptionError(f"body {body.name!r} has a pivot: expected joint {body.after} of its leg to be a Pi "
-                             "joint with a swing (axis, length)")
+            raise DescriptionError(
+                f"body {body.name!r} has a pivot: expected joint {body.after} of its leg to be a Pi "
+                "joint with a swing (axis, length)"
+            )
         axis, length = joint.swing
         scalar = lambda v: g[v] if isinstance(v, str) else v  # noqa: E731
         twists[-1] = unit_twist(vec(axis), vec(body.pivot) - screws.origin) / scalar(length)

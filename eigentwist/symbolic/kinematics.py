@@ -10,19 +10,18 @@ leg's kinematics: ``sin_q3`` and ``cos_q2`` for RR(Pi)RR legs, ``cos_u`` for the
 hexapod's, reachable iff they lie in [-1, 1]); the runtime checks them and names the pose
 and the leg when they fail.
 """
+
 from __future__ import annotations
 
 import sympy as sp
 
 from ..errors import DescriptionError
 from ..description import RobotDescription
-import sympy as sp
 
 from ..description.pose import POSE
 from .program import Program, derivative
 
 __all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures"]
-
 
 
 def inverse_kinematics(robot: RobotDescription):
@@ -38,12 +37,16 @@ def inverse_kinematics(robot: RobotDescription):
     q_all, per_leg = [], []
     for i, leg in enumerate(robot.legs, start=1):
         if leg.kinematics is None:
-            raise DescriptionError(f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
-                             "one, e.g. a leg built by eigentwist.description.rrpirr.rrpirr_leg")
+            raise DescriptionError(
+                f"{robot.name}: {leg.name} has no closed-form kinematics (Leg.kinematics): expected "
+                "one, e.g. a leg built by eigentwist.description.rrpirr.rrpirr_leg"
+            )
         q, c = leg.kinematics.inverse_kinematics(ik, leg, pose, str(i))
         if q_all and len(q) != len(q_all[0]):
-            raise DescriptionError(f"{robot.name}: {leg.name} has {len(q)} joint coordinates; "
-                             f"expected {len(q_all[0])} like {robot.legs[0].name}")
+            raise DescriptionError(
+                f"{robot.name}: {leg.name} has {len(q)} joint coordinates; "
+                f"expected {len(q_all[0])} like {robot.legs[0].name}"
+            )
         q_all.append(tuple(q))
         per_leg.append(dict(c))
     names = list(dict.fromkeys(name for c in per_leg for name in c))
@@ -79,10 +82,12 @@ def closures(robot):
         return None
     count = sum(len(leg.closures) for leg in robot.legs)
     if count != len(pose.followers):
-        raise DescriptionError(f"{robot.name}: pose space {pose!r} has {len(pose.followers)} followers "
-                         f"({', '.join(pose.followers)}) and the legs name {count} closures "
-                         f"({[leg.closures for leg in robot.legs]}, ChainLeg.closures: scalars of a leg's geometry "
-                         "that vanish where the platform can be): expected one closure per follower")
+        raise DescriptionError(
+            f"{robot.name}: pose space {pose!r} has {len(pose.followers)} followers "
+            f"({', '.join(pose.followers)}) and the legs name {count} closures "
+            f"({[leg.closures for leg in robot.legs]}, ChainLeg.closures: scalars of a leg's geometry "
+            "that vanish where the platform can be): expected one closure per follower"
+        )
     prog = Program()
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
         prog.declare(s_)
@@ -118,8 +123,10 @@ def loop_closure(robot, q_all: list):
     if not any(numeric):
         return None, {}
     if not all(numeric):
-        raise DescriptionError(f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
-                         f"{robot.legs[numeric.index(True)].name} is solved numerically: expected alike legs")
+        raise DescriptionError(
+            f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
+            f"{robot.legs[numeric.index(True)].name} is solved numerically: expected alike legs"
+        )
     prog = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters] + [qq for q in q_all for qq in q]:
@@ -129,11 +136,15 @@ def loop_closure(robot, q_all: list):
         r = leg.kinematics.residual(prog, pose, q, str(i))
         r = prog.let_matrix(f"r_{i}", r)
         if res and r.rows != res[0].rows:
-            raise DescriptionError(f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
-                             f"{robot.legs[0].name} with {res[0].rows}: expected alike legs")
+            raise DescriptionError(
+                f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
+                f"{robot.legs[0].name} with {res[0].rows}: expected alike legs"
+            )
         res.append(r)
         jac.append(sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]))
     n, rows, nq = len(robot.legs), res[0].rows, len(q_all[0])
-    outputs = {"residual": ((n, rows), [e for r in res for e in r]),
-               "dresidual": ((n, rows, nq), [e for J in jac for e in J])}
+    outputs = {
+        "residual": ((n, rows), [e for r in res for e in r]),
+        "dresidual": ((n, rows, nq), [e for J in jac for e in J]),
+    }
     return prog, outputs

@@ -12,6 +12,7 @@ twists: their generalised cross product from 5x5 minors
 of a virtual joint is a constraint wrench; the others are actuation wrenches. Nothing
 here depends on which chain the leg is.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -46,8 +47,9 @@ def _translation(axes, location, geometry: dict, origin: sp.Matrix) -> list:
 #: (:data:`~eigentwist.description.joints.JOINT_KINDS`): rotations about its axes through its
 #: location (R, U, S and the virtual joint's twist of restriction), or a translation along
 #: its axis (P, and Pi: a curvilinear translation)
-TWISTS = {name: {"rotation": _rotations, "translation": _translation}[kind.motion]
-          for name, kind in JOINT_KINDS.items()}
+TWISTS = {
+    name: {"rotation": _rotations, "translation": _translation}[kind.motion] for name, kind in JOINT_KINDS.items()
+}
 
 
 def joint_twists(joint, geometry: dict, origin: sp.Matrix) -> list[sp.Matrix]:
@@ -69,7 +71,7 @@ def _minor(prog: Program, T: sp.Matrix, rows: tuple, cols: tuple, memo: dict, ta
         entry = T[rows[0], c]
         if entry == 0:
             continue
-        sub = _minor(prog, T, rows[1:], cols[:k] + cols[k + 1:], memo, tag)
+        sub = _minor(prog, T, rows[1:], cols[:k] + cols[k + 1 :], memo, tag)
         if sub != 0:
             total += (-1) ** k * entry * sub
     name = f"mn_{tag}_{''.join(map(str, rows))}_{''.join(map(str, cols))}"
@@ -81,7 +83,7 @@ def reciprocal_wrench(prog: Program, T: sp.Matrix, others: tuple, memo: dict, ta
     """Wrench reciprocal to the five unit twists ``T[others, :]`` (rows of T): their
     generalised cross product, ``w_j = (-1)^j det(T[others, all but j])``."""
     cols = tuple(range(6))
-    return sp.Matrix([(-1) ** j * _minor(prog, T, others, cols[:j] + cols[j + 1:], memo, tag) for j in range(6)])
+    return sp.Matrix([(-1) ** j * _minor(prog, T, others, cols[:j] + cols[j + 1 :], memo, tag) for j in range(6)])
 
 
 def _parity(order: list) -> int:
@@ -162,8 +164,10 @@ def leg_screws(prog: Program, leg: Leg, q: tuple, pose, tag: str) -> LegScrews:
     origin = pose.origin
     keys, joint_of = _keys(leg)
     if len(keys) != 6:
-        raise DescriptionError(f"{leg.name}: {len(keys)} unit twists: a leg with fewer than six freedoms lists one "
-                         f"'virtual' joint (its twist of restriction) per constraint, six twists in all")
+        raise DescriptionError(
+            f"{leg.name}: {len(keys)} unit twists: a leg with fewer than six freedoms lists one "
+            f"'virtual' joint (its twist of restriction) per constraint, six twists in all"
+        )
     listed = [t for joint in leg.joints for t in joint_twists(joint, g, origin)]
     twists = {k: prog.let_matrix(f"t{k}_{tag}", t) for k, t in zip(keys, listed)}
     T = sp.Matrix.hstack(*twists.values()).T
@@ -179,8 +183,10 @@ def leg_screws(prog: Program, leg: Leg, q: tuple, pose, tag: str) -> LegScrews:
         recip = prog.let(f"rp{k}_{tag}", reciprocal_product(w, twists[k]))
         wrenches[k], products[k] = w, recip
         rows[k] = prog.let_matrix(f"j{k}_{tag}", w.T / recip)
-    frames = {name: (sp.Matrix.hstack(*[sp.Matrix(g[a]) for a in axes]), sp.Matrix(g[origin_name]) - origin)
-              for name, axes, origin_name in leg.frames}
+    frames = {
+        name: (sp.Matrix.hstack(*[sp.Matrix(g[a]) for a in axes]), sp.Matrix(g[origin_name]) - origin)
+        for name, axes, origin_name in leg.frames
+    }
     first = [0] + [m for m in order if m != 0]
     determinant = _parity(first) * products[keys[0]]
     return LegScrews(twists, wrenches, products, rows, keys, joint_of, frames, g, origin, determinant)

@@ -16,6 +16,7 @@ pose space (:mod:`eigentwist.description.pose`); nothing here depends on which r
 which chain it is (``tests/test_no_branch.py``). Every number of the design is a symbol; nothing numeric is
 baked into the expressions.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -80,6 +81,7 @@ class DerivedModel:
         by the runtime and passed in by name; none for closed-form IK)."""
         declared = {s.name for s in self.ik.inputs}
         return tuple(s.name for s in self.joints if s.name in declared)
+
     #: ``(program, outputs)`` of the pose space's closure equations, whose followers the
     #: runtime solves (:func:`~eigentwist.symbolic.kinematics.closures`), else None
     followers: tuple | None = None
@@ -144,8 +146,13 @@ class EffectSymbols:
 
     def units(self) -> dict:
         """Unit of each leg copy of a parameter, ``{"eta_a__3": "-, leg 3"}``."""
-        return {leg_input_name(q.name, k): f"{q.unit}, leg {k}" for e in self.effects if e.leg_level
-                for k in range(1, len(self.robot.legs) + 1) for q in e.params}
+        return {
+            leg_input_name(q.name, k): f"{q.unit}, leg {k}"
+            for e in self.effects
+            if e.leg_level
+            for k in range(1, len(self.robot.legs) + 1)
+            for q in e.params
+        }
 
     def switches(self) -> list[str]:
         """Names of the 0/1 switch inputs."""
@@ -192,9 +199,9 @@ def derive(robot: RobotDescription) -> DerivedModel:
     M = S
     K_ground = _ground_springs(fx)  # in parallel with the legs: in K_R and K_F
     K_R = K_ground
-    K_groups: dict = {}           # platform body -> Cartesian stiffness of its legs
+    K_groups: dict = {}  # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all, k_acts, G = [], [], [], [], [], [], []
-    Cq_phys = []                  # each leg's joint compliance without rigid_compliance
+    Cq_phys = []  # each leg's joint compliance without rigid_compliance
     preloaded = bool(fx.of_kind("preload"))
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
@@ -202,22 +209,22 @@ def derive(robot: RobotDescription) -> DerivedModel:
         screws.append(ls)
         M += _leg_inertia(prog, fx, leg, ls, i)
         act, virtual, coords = _joint_keys(leg, ls)
-        actuated = [] if act is None else [act]            # a passive leg: constraints only
+        actuated = [] if act is None else [act]  # a passive leg: constraints only
         if act is None:
             k_act = sp.Integer(0)
             c_act = []
         else:
             c_act = [prog.let(f"c_act_{tag}", _joint_series(robot, fx, i))]
             k_act = prog.let(f"k_act_{tag}", 1 / c_act[0])
-            K_R += rows_outer(ls.rows[act], sp.Matrix([[k_act]]))          # Eqs. 14, 33, 34
+            K_R += rows_outer(ls.rows[act], sp.Matrix([[k_act]]))  # Eqs. 14, 33, 34
         elastic = [ls.rows[k] for k in actuated + virtual]
-        Je = sp.Matrix.vstack(*elastic) if elastic else sp.zeros(0, 6)      # elastic joints
+        Je = sp.Matrix.vstack(*elastic) if elastic else sp.zeros(0, 6)  # elastic joints
         Cs = prog.let_matrix(f"Cs_{tag}", _body_compliance(fx, ls, i)) if Je.rows else sp.zeros(6, 6)
         if Je.rows:
-            Cq = Je * Cs * Je.T + sp.diag(*c_act, *[robot.rigid_compliance] * len(virtual))   # Eqs. 41-43
+            Cq = Je * Cs * Je.T + sp.diag(*c_act, *[robot.rigid_compliance] * len(virtual))  # Eqs. 41-43
             Cq_phys.append(Je * Cs * Je.T + sp.diag(*c_act, *[0] * len(virtual)))
             Cq = prog.let_matrix(f"Cq_{tag}", Cq)
-            Kqe = prog.let_matrix(f"Kqe_{tag}", _joint_stiffness(robot, Cq, len(actuated)))   # Eq. 40 block
+            Kqe = prog.let_matrix(f"Kqe_{tag}", _joint_stiffness(robot, Cq, len(actuated)))  # Eq. 40 block
         else:
             Cq_phys.append(sp.zeros(0, 0))
             Kqe = sp.zeros(0, 0)
@@ -228,7 +235,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
         motion = [(qj, ls.rows[key] / rate) for qj, (key, rate) in zip(q, coords)] + pose.motion()
         if preloaded:
             G.append(_preload_derivatives(prog, motion, ls, actuated + virtual, tag))
-        else:                     # no preload effect: Eq. 13's first term vanishes (tau_e = 0)
+        else:  # no preload effect: Eq. 13's first term vanishes (tau_e = 0)
             G.append([sp.zeros(6, 6)] * len(actuated + virtual))
         Je_all.append(Je)
         Kqe_all.append(Kqe)
@@ -260,8 +267,19 @@ def derive(robot: RobotDescription) -> DerivedModel:
         "legs": _legs_outputs(robot, Je_all, Cq_phys, K_ground),
     }
     closure, closure_outputs = loop_closure(robot, q_all)
-    return DerivedModel(robot, ik, ik_outputs, prog, outputs, joints, screws, pose_inputs=tuple(pose.inputs),
-                        closure=closure, closure_outputs=closure_outputs, followers=closures(robot))
+    return DerivedModel(
+        robot,
+        ik,
+        ik_outputs,
+        prog,
+        outputs,
+        joints,
+        screws,
+        pose_inputs=tuple(pose.inputs),
+        closure=closure,
+        closure_outputs=closure_outputs,
+        followers=closures(robot),
+    )
 
 
 def _legs_outputs(robot: RobotDescription, Je_all: list, Cq_phys: list, K_ground: sp.Matrix) -> dict:
@@ -303,8 +321,9 @@ def _joint_keys(leg, ls: LegScrews):
         raise DescriptionError(f"{leg.name}: {len(actuated)} actuated joints: expected one, or none for a passive leg")
     virtual = [k for k, j in zip(ls.keys, ls.joint_of) if leg.joints[j].virtual]
     # (joint, rate[, freedom within the joint]): a U or S joint's coordinates address its twists
-    coords = [(ls.keys[ls.joint_of.index(c[0]) + (c[2] if len(c) > 2 else 0)], c[1])
-              for c in leg.kinematics.coordinates]
+    coords = [
+        (ls.keys[ls.joint_of.index(c[0]) + (c[2] if len(c) > 2 else 0)], c[1]) for c in leg.kinematics.coordinates
+    ]
     return (first[actuated[0]] if actuated else None), virtual, coords
 
 
@@ -347,14 +366,17 @@ def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -
     for e in fx.of_kind("added_inertia"):
         if e.body != "platform":
             if e.body not in inertia:
-                raise DescriptionError(f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
-                                 f"{', '.join(inertia)} or 'platform'")
+                raise DescriptionError(
+                    f"effect {e.name!r}: added inertia on body {e.body!r}: expected one of "
+                    f"{', '.join(inertia)} or 'platform'"
+                )
             on, added = fx.term(e, i, ls)
             # one body's inertia, or {body: inertia} for an effect that moves mass between bodies
-            for body, term in (added.items() if isinstance(added, dict) else ((e.body, added),)):
+            for body, term in added.items() if isinstance(added, dict) else ((e.body, added),):
                 if body not in inertia:
-                    raise DescriptionError(f"effect {e.name!r}: added inertia on body {body!r}: expected one of "
-                                     f"{', '.join(inertia)}")
+                    raise DescriptionError(
+                        f"effect {e.name!r}: added inertia on body {body!r}: expected one of {', '.join(inertia)}"
+                    )
                 inertia[body] = inertia[body] + on * term
     M = sp.zeros(6, 6)
     for b in leg.bodies:
@@ -382,8 +404,9 @@ def _body_compliance(fx: EffectSymbols, ls, i: int) -> sp.Matrix:
             continue
         if e.body != "platform":
             if e.body not in ls.frames:
-                raise DescriptionError(f"effect {e.name!r}: body {e.body!r}: expected a leg frame "
-                                 f"({', '.join(ls.frames)}) or 'platform'")
+                raise DescriptionError(
+                    f"effect {e.name!r}: body {e.body!r}: expected a leg frame ({', '.join(ls.frames)}) or 'platform'"
+                )
             C = compliance_to_frame(C, *ls.frames[e.body])
         Cs += on * C
     return Cs
@@ -433,7 +456,7 @@ def _preload_wrench(S: sp.Matrix, fx: EffectSymbols) -> sp.Matrix:
     """Static wrench [moment; force] (N m; N) at the platform origin of the platform's
     inertia ``S`` (with added inertia on it; base axes) under each preload's acceleration."""
     mass = S[3, 3]
-    first_moment = sp.Matrix([S[2, 4], S[0, 5], S[1, 3]])          # m c, from m [c]x
+    first_moment = sp.Matrix([S[2, 4], S[0, 5], S[1, 3]])  # m c, from m [c]x
     W = sp.zeros(6, 1)
     for e in fx.of_kind("preload"):
         on, g = fx.term(e)
@@ -448,8 +471,10 @@ def _platform_stiffness(prog: Program, robot: RobotDescription, K_groups: dict, 
     couplings = {c.body: c for c in robot.couplings}
     unknown = sorted(set(K_groups) - set(couplings) - {robot.tool_body})
     if unknown:
-        raise DescriptionError(f"{robot.name}: legs attach to platform bodies {unknown} that are neither the tool body "
-                         f"{robot.tool_body!r} nor coupled to it (couplings: {sorted(couplings)})")
+        raise DescriptionError(
+            f"{robot.name}: legs attach to platform bodies {unknown} that are neither the tool body "
+            f"{robot.tool_body!r} nor coupled to it (couplings: {sorted(couplings)})"
+        )
     K_F = sp.zeros(6, 6)
     for body in sorted(K_groups):
         Kp = K_groups[body]

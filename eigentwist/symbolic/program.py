@@ -6,6 +6,7 @@ That keeps each expression small, which makes common-subexpression elimination f
 and the generated code readable. :meth:`Program.expand` gives the fully substituted
 closed form of any expression when it is wanted (notebooks, tests).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -38,7 +39,9 @@ class Program:
         Constants and single symbols are returned as they are (nothing to name).
         """
         expr = sp.sympify(expr)
-        if expr.is_Atom or (isinstance(expr, sp.Mul) and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Symbol):
+        if expr.is_Atom or (
+            isinstance(expr, sp.Mul) and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Symbol
+        ):
             return expr
         if name in self._names:
             raise DescriptionError(f"intermediate {name!r} assigned twice")
@@ -65,7 +68,7 @@ class Program:
         grows, so expanding many entries one by one stays cheap.
         """
         defs = self.__dict__.setdefault("_expanded", {})
-        for sym, rhs in self.assignments[len(defs):]:
+        for sym, rhs in self.assignments[len(defs) :]:
             defs[sym] = rhs.xreplace(defs)
         if isinstance(expr, sp.MatrixBase):
             return expr.applyfunc(lambda e: sp.sympify(e).xreplace(defs))
@@ -78,7 +81,7 @@ class Program:
         SymPy's own arithmetic (``evalf``), not the code generator.
         """
         env = {sp.Symbol(k, real=True) if isinstance(k, str) else k: sp.Float(v, precision) for k, v in values.items()}
-        needed = _ancestors(self, sp.sympify(exprs).free_symbols)   # only what ``exprs`` depend on
+        needed = _ancestors(self, sp.sympify(exprs).free_symbols)  # only what ``exprs`` depend on
         for sym, rhs in self.assignments:
             if sym in needed:
                 env[sym] = rhs.xreplace(env).evalf(precision)

@@ -14,6 +14,7 @@ Local partials come from reverse accumulation over each (small) right-hand side'
 expression tree: :func:`gradient`. SymPy's ``diff`` is not used: it costs ~10 ms per
 call on these expressions, which for ~7000 (intermediate, argument) pairs is minutes.
 """
+
 from __future__ import annotations
 
 from collections import defaultdict
@@ -179,7 +180,7 @@ def _seeds_of(name: str, declared: dict):
         return [declared[own]] if leg.isdigit() and own in declared else None
     if name not in declared:
         return None
-    copies = [s_ for nm, s_ in declared.items() if nm.startswith(f"{name}__") and nm[len(name) + 2:].isdigit()]
+    copies = [s_ for nm, s_ in declared.items() if nm.startswith(f"{name}__") and nm[len(name) + 2 :].isdigit()]
     return [declared[name], *copies]
 
 
@@ -197,11 +198,15 @@ def sensitivity_program(model, wrt, progress=None) -> SensitivityModel:
     declared = {s_.name: s_ for s_ in prog.inputs}
     unknown = [w for w in wrt if _seeds_of(w, declared) is None]
     if unknown:
-        raise InputError(f"cannot differentiate with respect to {unknown}: not inputs of the model "
-                         f"(expected names from {', '.join(model.parameters)})")
+        raise InputError(
+            f"cannot differentiate with respect to {unknown}: not inputs of the model "
+            f"(expected names from {', '.join(model.parameters)})"
+        )
     base = list(prog.assignments)
-    mats = {k: (shape, [sp.sympify(e).xreplace(prog.renamed) for e in exprs])
-            for k, (shape, exprs) in model.outputs["matrices"].items()}
+    mats = {
+        k: (shape, [sp.sympify(e).xreplace(prog.renamed) for e in exprs])
+        for k, (shape, exprs) in model.outputs["matrices"].items()
+    }
     out_grad: dict = {}
     partials: dict = {}
     d_out = {k: [] for k in OUTPUTS}

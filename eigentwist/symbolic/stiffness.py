@@ -5,6 +5,7 @@ in local frames, moved to the EE frame with the adjoint (Eqs. 44, 49), projected
 each leg's elastic joints (Eq. 43), added to the joint compliance (Eqs. 41, 42) and the
 2x2 sum is inverted in closed form (Eq. 40).
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -12,8 +13,14 @@ import sympy as sp
 from ..errors import DescriptionError
 from ..description.formulas import rod_pair_compliance, tube_cantilever_compliance
 
-__all__ = ["rod_pair_compliance", "tube_cantilever_compliance", "inverse_2x2", "inverse_small", "rows_outer",
-           "condense_coupling"]
+__all__ = [
+    "rod_pair_compliance",
+    "tube_cantilever_compliance",
+    "inverse_2x2",
+    "inverse_small",
+    "rows_outer",
+    "condense_coupling",
+]
 
 
 def inverse_2x2(C: sp.Matrix) -> sp.Matrix:

@@ -19,6 +19,7 @@ is P's (x, y) (:class:`~eigentwist.description.pose.PointPose`), two modes. Work
 kg/m^3, N m/rad. Values illustrative. Home (0, 0.30) m.
 Load: ``eigentwist.load("examples/robots/five_bar_tube.py")``.
 """
+
 import sympy as sp
 
 from eigentwist.description import Parameter
@@ -51,33 +52,59 @@ def _geometry(side, branch):
         P = position
         dv = P - A
         D = sp.sqrt(dv[0] ** 2 + dv[1] ** 2)
-        reach = (p["l1"] ** 2 + D ** 2 - p["l2"] ** 2) / (2 * p["l1"] * D)
+        reach = (p["l1"] ** 2 + D**2 - p["l2"] ** 2) / (2 * p["l1"] * D)
         theta = sp.atan2(dv[1], dv[0]) + branch * sp.acos(reach) if q is None else q
         e1 = sp.Matrix([sp.cos(theta), sp.sin(theta), 0])
         C = A + p["l1"] * e1
         e2 = (P - C) / p["l2"]
-        return {"A": A, "C": C, "P": P, "P_y": P + sp.Matrix([0, 1, 0]), "theta": theta, "reach": reach,
-                "e1": e1, "n1": ez.cross(e1), "e2": e2, "n2": ez.cross(e2), "ez": ez,
-                "ex": sp.Matrix([1, 0, 0]), "ey": sp.Matrix([0, 1, 0])}
+        return {
+            "A": A,
+            "C": C,
+            "P": P,
+            "P_y": P + sp.Matrix([0, 1, 0]),
+            "theta": theta,
+            "reach": reach,
+            "e1": e1,
+            "n1": ez.cross(e1),
+            "e2": e2,
+            "n2": ez.cross(e2),
+            "ez": ez,
+            "ex": sp.Matrix([1, 0, 0]),
+            "ey": sp.Matrix([0, 1, 0]),
+        }
+
     return geometry
 
 
 def describe() -> ChainRobot:
     p = {q.name: q.symbol for q in PARAMETERS}
-    joints = (ChainJoint("R", ("ez",), "A", actuated=True, doc="actuated base joint"),
-              ChainJoint("R", ("ez",), "C", doc="elbow"),
-              ChainJoint("R", ("ez",), "P", doc="the distal links' common joint at P"),
-              ChainJoint("virtual", ("ex",), "P", doc="tilting about x: constrained"),
-              ChainJoint("virtual", ("ey",), "P", doc="tilting about y: constrained"),
-              ChainJoint("virtual", ("ex",), "P_y", doc="with the first: lifting along z, constrained"))
-    bodies = (ChainBody("proximal", 1, tube(p["l1"], p["r_o"], p["r_i"], p["rho"]).spatial(), ("e1", "n1", "ez"), "A"),
-              ChainBody("distal", 2, slender_rod(p["l2"], p["m2"]).spatial(), ("e2", "n2", "ez"), "C"))
-    legs = tuple(ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(side, branch), checks=("reach",),
-                          coordinate="theta")
-                 for i, (side, branch) in enumerate(LEGS))
+    joints = (
+        ChainJoint("R", ("ez",), "A", actuated=True, doc="actuated base joint"),
+        ChainJoint("R", ("ez",), "C", doc="elbow"),
+        ChainJoint("R", ("ez",), "P", doc="the distal links' common joint at P"),
+        ChainJoint("virtual", ("ex",), "P", doc="tilting about x: constrained"),
+        ChainJoint("virtual", ("ey",), "P", doc="tilting about y: constrained"),
+        ChainJoint("virtual", ("ex",), "P_y", doc="with the first: lifting along z, constrained"),
+    )
+    bodies = (
+        ChainBody("proximal", 1, tube(p["l1"], p["r_o"], p["r_i"], p["rho"]).spatial(), ("e1", "n1", "ez"), "A"),
+        ChainBody("distal", 2, slender_rod(p["l2"], p["m2"]).spatial(), ("e2", "n2", "ez"), "C"),
+    )
+    legs = tuple(
+        ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(side, branch), checks=("reach",), coordinate="theta")
+        for i, (side, branch) in enumerate(LEGS)
+    )
     return ChainRobot(
-        name="five_bar_tube", title="planar five-bar with tube proximal links (gallery, illustrative)", parameters=PARAMETERS,
-        legs=legs, platform_inertia=point_mass(p["m_e"]).spatial(), actuator_stiffness=p["k_a"],
-        x_ref=(0.0, 0.30), pose=("x", "y"), workspace=((-0.08, 0.08), (0.22, 0.36)), pose_space=PointPose(("x", "y")),
+        name="five_bar_tube",
+        title="planar five-bar with tube proximal links (gallery, illustrative)",
+        parameters=PARAMETERS,
+        legs=legs,
+        platform_inertia=point_mass(p["m_e"]).spatial(),
+        actuator_stiffness=p["k_a"],
+        x_ref=(0.0, 0.30),
+        pose=("x", "y"),
+        workspace=((-0.08, 0.08), (0.22, 0.36)),
+        pose_space=PointPose(("x", "y")),
         constraints=tube_radii(p["r_i"], p["r_o"], "each proximal tube"),
-        source="examples/robots/five_bar_tube.py (eigentwist gallery); illustrative values")
+        source="examples/robots/five_bar_tube.py (eigentwist gallery); illustrative values",
+    )

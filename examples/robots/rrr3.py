@@ -10,6 +10,7 @@ null space of which is the platform's three allowed twists. Elbows on the + bran
 illustrative (a table-top planar robot with direct-drive motors), not from a data sheet.
 Load: ``eigentwist.load("examples/robots/rrr3.py")`` or ``--robot examples/robots/rrr3.py``.
 """
+
 import sympy as sp
 
 from eigentwist.description import Parameter
@@ -19,7 +20,7 @@ from eigentwist.description.pose import PlanarPose
 from eigentwist.description.screw import spatial_inertia
 
 ANGLES = (90, 210, 330)
-ELBOW = 1                     # +1 or -1: which of the two elbow positions each leg takes
+ELBOW = 1  # +1 or -1: which of the two elbow positions each leg takes
 PARAMETERS = (
     Parameter("R_b", 0.35, "m", "radius of the actuated base joints"),
     Parameter("R_p", 0.10, "m", "radius of the platform joints"),
@@ -45,38 +46,64 @@ def _geometry(deg):
         top = position + rotation * (p["R_p"] * sp.Matrix([sp.cos(a), sp.sin(a), 0]))
         d = top - A
         D = sp.sqrt(d[0] ** 2 + d[1] ** 2)
-        reach = (p["l1"] ** 2 + D ** 2 - p["l2"] ** 2) / (2 * p["l1"] * D)
+        reach = (p["l1"] ** 2 + D**2 - p["l2"] ** 2) / (2 * p["l1"] * D)
         theta = sp.atan2(d[1], d[0]) + ELBOW * sp.acos(reach) if q is None else q
         e1 = sp.Matrix([sp.cos(theta), sp.sin(theta), 0])
         C = A + p["l1"] * e1
         e2 = (top - C) / p["l2"]
-        return {"A": A, "C": C, "top": top, "top_y": top + sp.Matrix([0, 1, 0]), "theta": theta, "reach": reach,
-                "e1": e1, "n1": ez.cross(e1), "e2": e2, "n2": ez.cross(e2), "ez": ez,
-                "ex": sp.Matrix([1, 0, 0]), "ey": sp.Matrix([0, 1, 0])}
+        return {
+            "A": A,
+            "C": C,
+            "top": top,
+            "top_y": top + sp.Matrix([0, 1, 0]),
+            "theta": theta,
+            "reach": reach,
+            "e1": e1,
+            "n1": ez.cross(e1),
+            "e2": e2,
+            "n2": ez.cross(e2),
+            "ez": ez,
+            "ex": sp.Matrix([1, 0, 0]),
+            "ey": sp.Matrix([0, 1, 0]),
+        }
+
     return geometry
 
 
 def _link(mass, length, axes, origin, after):
-    inertia = mass * length ** 2 / 3                     # slender link about its first joint
-    return ChainBody(origin, after, spatial_inertia(mass, sp.Matrix([length / 2, 0, 0]), sp.diag(0, inertia, inertia)),
-                     axes, origin)
+    inertia = mass * length**2 / 3  # slender link about its first joint
+    return ChainBody(
+        origin, after, spatial_inertia(mass, sp.Matrix([length / 2, 0, 0]), sp.diag(0, inertia, inertia)), axes, origin
+    )
 
 
 def describe() -> ChainRobot:
     p = {q.name: q.symbol for q in PARAMETERS}
-    joints = (ChainJoint("R", ("ez",), "A", actuated=True, doc="actuated base joint"),
-              ChainJoint("R", ("ez",), "C", doc="elbow"),
-              ChainJoint("R", ("ez",), "top", doc="platform joint"),
-              ChainJoint("virtual", ("ex",), "top", doc="tilting about x: constrained"),
-              ChainJoint("virtual", ("ey",), "top", doc="tilting about y: constrained"),
-              ChainJoint("virtual", ("ex",), "top_y", doc="with the first: lifting along z, constrained"))
+    joints = (
+        ChainJoint("R", ("ez",), "A", actuated=True, doc="actuated base joint"),
+        ChainJoint("R", ("ez",), "C", doc="elbow"),
+        ChainJoint("R", ("ez",), "top", doc="platform joint"),
+        ChainJoint("virtual", ("ex",), "top", doc="tilting about x: constrained"),
+        ChainJoint("virtual", ("ey",), "top", doc="tilting about y: constrained"),
+        ChainJoint("virtual", ("ex",), "top_y", doc="with the first: lifting along z, constrained"),
+    )
     bodies = (_link(p["m1"], p["l1"], ("e1", "n1", "ez"), "A", 1), _link(p["m2"], p["l2"], ("e2", "n2", "ez"), "C", 2))
-    legs = tuple(ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(a), checks=("reach",), coordinate="theta")
-                 for i, a in enumerate(ANGLES))
+    legs = tuple(
+        ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(a), checks=("reach",), coordinate="theta")
+        for i, a in enumerate(ANGLES)
+    )
     return ChainRobot(
-        name="rrr3", title="planar 3-RRR (gallery, illustrative)", parameters=PARAMETERS, legs=legs,
+        name="rrr3",
+        title="planar 3-RRR (gallery, illustrative)",
+        parameters=PARAMETERS,
+        legs=legs,
         platform_inertia=spatial_inertia(p["m_pl"], sp.zeros(3, 1), sp.diag(p["I_pl_xx"], p["I_pl_xx"], p["I_pl_zz"])),
-        actuator_stiffness=p["k_a"], x_ref=(0.0, 0.0, 0.0), pose=("x", "y", "rot_z"),
-        workspace=((-0.05, 0.05), (-0.05, 0.05), (-0.3, 0.3)), pose_space=PlanarPose(),
+        actuator_stiffness=p["k_a"],
+        x_ref=(0.0, 0.0, 0.0),
+        pose=("x", "y", "rot_z"),
+        workspace=((-0.05, 0.05), (-0.05, 0.05), (-0.3, 0.3)),
+        pose_space=PlanarPose(),
         source="examples/robots/rrr3.py (eigentwist gallery); illustrative values",
-        effects=("actuator_loss", "payload_mass"), rigid_compliance=p["c_rigid"])
+        effects=("actuator_loss", "payload_mass"),
+        rigid_compliance=p["c_rigid"],
+    )

@@ -12,6 +12,7 @@ their leg lines); the slider on the -x side of P3. Links slender and uniform; th
 translates only. Units: m, kg, N m/rad, N/m. Values illustrative. Home (0, 0, 0).
 Load: ``eigentwist.load("examples/robots/rrr_rrr_prr.py")``.
 """
+
 import sympy as sp
 
 from eigentwist.description import Parameter
@@ -51,18 +52,33 @@ def _platform_point(position, rotation, p, deg):
 def _rrr(side, deg, branch):
     """An RRR leg's closed form: theta_i from the two-link IK on its branch (+1: elbow left
     of B_i -> P_i), its joints' points and the links' axes."""
+
     def geometry(position, rotation, p, q=None):
         B = sp.Matrix([side * p["b_x"], -p["b_y"], 0])
         P = _platform_point(position, rotation, p, deg)
         dv = P - B
         D = sp.sqrt(dv[0] ** 2 + dv[1] ** 2)
-        reach = (p["l1"] ** 2 + D ** 2 - p["l2"] ** 2) / (2 * p["l1"] * D)
+        reach = (p["l1"] ** 2 + D**2 - p["l2"] ** 2) / (2 * p["l1"] * D)
         theta = sp.atan2(dv[1], dv[0]) + branch * sp.acos(reach) if q is None else q
         e1 = sp.Matrix([sp.cos(theta), sp.sin(theta), 0])
         C = B + p["l1"] * e1
         e2 = (P - C) / p["l2"]
-        return {"B": B, "C": C, "P": P, "P_y": P + EY, "theta": theta, "reach": reach,
-                "e1": e1, "n1": EZ.cross(e1), "e2": e2, "n2": EZ.cross(e2), "ez": EZ, "ex": EX, "ey": EY}
+        return {
+            "B": B,
+            "C": C,
+            "P": P,
+            "P_y": P + EY,
+            "theta": theta,
+            "reach": reach,
+            "e1": e1,
+            "n1": EZ.cross(e1),
+            "e2": e2,
+            "n2": EZ.cross(e2),
+            "ez": EZ,
+            "ex": EX,
+            "ey": EY,
+        }
+
     return geometry
 
 
@@ -73,39 +89,70 @@ def _prr(position, rotation, p, q=None):
     s = P[0] - sp.sqrt(p["l3"] ** 2 - (p["y_r"] - P[1]) ** 2) if q is None else q
     S = sp.Matrix([s, p["y_r"], 0])
     e3 = (P - S) / p["l3"]
-    return {"S": S, "P": P, "P_y": P + EY, "s": s, "reach": reach, "e3": e3, "n3": EZ.cross(e3),
-            "ez": EZ, "ex": EX, "ey": EY}
+    return {
+        "S": S,
+        "P": P,
+        "P_y": P + EY,
+        "s": s,
+        "reach": reach,
+        "e3": e3,
+        "n3": EZ.cross(e3),
+        "ez": EZ,
+        "ex": EX,
+        "ey": EY,
+    }
 
 
 def _closing(point):
     """The three virtual joints of a planar leg ending at ``point``: tilts about x and y and,
     with the first, lifting along z (its constraint wrenches hold the platform in the plane)."""
-    return (ChainJoint("virtual", ("ex",), point, doc="tilting about x: constrained"),
-            ChainJoint("virtual", ("ey",), point, doc="tilting about y: constrained"),
-            ChainJoint("virtual", ("ex",), f"{point}_y", doc="with the first: lifting along z, constrained"))
+    return (
+        ChainJoint("virtual", ("ex",), point, doc="tilting about x: constrained"),
+        ChainJoint("virtual", ("ey",), point, doc="tilting about y: constrained"),
+        ChainJoint("virtual", ("ex",), f"{point}_y", doc="with the first: lifting along z, constrained"),
+    )
 
 
 def describe() -> ChainRobot:
     p = {q.name: q.symbol for q in PARAMETERS}
-    rrr_joints = (ChainJoint("R", ("ez",), "B", actuated=True, doc="actuated base joint"),
-                  ChainJoint("R", ("ez",), "C", doc="elbow"),
-                  ChainJoint("R", ("ez",), "P", doc="platform joint")) + _closing("P")
-    rrr_bodies = (ChainBody("proximal", 1, slender_rod(p["l1"], p["m1"]).spatial(), ("e1", "n1", "ez"), "B"),
-                  ChainBody("distal", 2, slender_rod(p["l2"], p["m2"]).spatial(), ("e2", "n2", "ez"), "C"))
-    prr_joints = (ChainJoint("P", ("ex",), actuated=True, doc="actuated slider on the rail"),
-                  ChainJoint("R", ("ez",), "S", doc="revolute joint on the slider"),
-                  ChainJoint("R", ("ez",), "P", doc="platform joint")) + _closing("P")
+    rrr_joints = (
+        ChainJoint("R", ("ez",), "B", actuated=True, doc="actuated base joint"),
+        ChainJoint("R", ("ez",), "C", doc="elbow"),
+        ChainJoint("R", ("ez",), "P", doc="platform joint"),
+    ) + _closing("P")
+    rrr_bodies = (
+        ChainBody("proximal", 1, slender_rod(p["l1"], p["m1"]).spatial(), ("e1", "n1", "ez"), "B"),
+        ChainBody("distal", 2, slender_rod(p["l2"], p["m2"]).spatial(), ("e2", "n2", "ez"), "C"),
+    )
+    prr_joints = (
+        ChainJoint("P", ("ex",), actuated=True, doc="actuated slider on the rail"),
+        ChainJoint("R", ("ez",), "S", doc="revolute joint on the slider"),
+        ChainJoint("R", ("ez",), "P", doc="platform joint"),
+    ) + _closing("P")
     slider = spatial_inertia(p["m_s"], sp.zeros(3, 1), sp.diag(0, 0, p["I_s"]))
-    prr_bodies = (ChainBody("slider", 1, slider, ("ex", "ey", "ez"), "S"),
-                  ChainBody("link", 2, slender_rod(p["l3"], p["m3"]).spatial(), ("e3", "n3", "ez"), "S"))
-    legs = (ChainLeg("leg 1 (RRR)", rrr_joints, rrr_bodies, _rrr(-1, 210, -1), checks=("reach",), coordinate="theta"),
-            ChainLeg("leg 2 (RRR)", rrr_joints, rrr_bodies, _rrr(+1, 330, +1), checks=("reach",), coordinate="theta"),
-            ChainLeg("leg 3 (PRR)", prr_joints, prr_bodies, _prr, checks=("reach",), coordinate="s",
-                     stiffness=p["k_p"]))
+    prr_bodies = (
+        ChainBody("slider", 1, slider, ("ex", "ey", "ez"), "S"),
+        ChainBody("link", 2, slender_rod(p["l3"], p["m3"]).spatial(), ("e3", "n3", "ez"), "S"),
+    )
+    legs = (
+        ChainLeg("leg 1 (RRR)", rrr_joints, rrr_bodies, _rrr(-1, 210, -1), checks=("reach",), coordinate="theta"),
+        ChainLeg("leg 2 (RRR)", rrr_joints, rrr_bodies, _rrr(+1, 330, +1), checks=("reach",), coordinate="theta"),
+        ChainLeg("leg 3 (PRR)", prr_joints, prr_bodies, _prr, checks=("reach",), coordinate="s", stiffness=p["k_p"]),
+    )
     c = sp.Matrix([p["c_x"], p["c_y"], 0])
-    platform = spatial_inertia(p["m_pl"], c, sp.diag(0, 0, p["I_pl"]) + p["m_pl"] * ((c.T * c)[0] * sp.eye(3) - c * c.T))
+    platform = spatial_inertia(
+        p["m_pl"], c, sp.diag(0, 0, p["I_pl"]) + p["m_pl"] * ((c.T * c)[0] * sp.eye(3) - c * c.T)
+    )
     return ChainRobot(
-        name="rrr_rrr_prr", title="planar RRR-RRR-PRR platform (gallery, illustrative)", parameters=PARAMETERS,
-        legs=legs, platform_inertia=platform, actuator_stiffness=p["k_r"], x_ref=(0.0, 0.0, 0.0),
-        pose=("x", "y", "rot_z"), workspace=((-0.04, 0.04), (-0.04, 0.04), (-0.20, 0.20)), pose_space=PlanarPose(),
-        source="examples/robots/rrr_rrr_prr.py (eigentwist gallery); illustrative values")
+        name="rrr_rrr_prr",
+        title="planar RRR-RRR-PRR platform (gallery, illustrative)",
+        parameters=PARAMETERS,
+        legs=legs,
+        platform_inertia=platform,
+        actuator_stiffness=p["k_r"],
+        x_ref=(0.0, 0.0, 0.0),
+        pose=("x", "y", "rot_z"),
+        workspace=((-0.04, 0.04), (-0.04, 0.04), (-0.20, 0.20)),
+        pose_space=PlanarPose(),
+        source="examples/robots/rrr_rrr_prr.py (eigentwist gallery); illustrative values",
+    )

@@ -12,6 +12,7 @@ and the rotation vector in rad). Units: m, kg, N m/rad. Values illustrative (a s
 motion platform with servo motors), not from a data sheet.
 Load: ``eigentwist.load("examples/robots/rus6.py")`` or ``--robot examples/robots/rus6.py``.
 """
+
 import sympy as sp
 
 from eigentwist.description import Parameter
@@ -41,7 +42,7 @@ def _slender(mass, length, axis):
     """A slender uniform link from its frame origin along ``axis`` (0: x, 2: z)."""
     com = sp.zeros(3, 1)
     com[axis] = length / 2
-    I = sp.diag(*[0 if k == axis else mass * length ** 2 / 3 for k in range(3)])
+    I = sp.diag(*[0 if k == axis else mass * length**2 / 3 for k in range(3)])
     return spatial_inertia(mass, com, I)
 
 
@@ -51,22 +52,37 @@ def describe() -> ChainRobot:
     for i, (b_deg, a_deg) in enumerate(zip(BASE, PLATFORM)):
         t, a = sp.pi * b_deg / 180, sp.pi * a_deg / 180
         up, tangent = sp.Matrix([0, 0, 1]), sp.Matrix([-sp.sin(t), sp.cos(t), 0])
-        frame = sp.Matrix.hstack(up, tangent, up.cross(tangent))       # x up, y tangent, z inward
+        frame = sp.Matrix.hstack(up, tangent, up.cross(tangent))  # x up, y tangent, z inward
         crank = _slender(p["m_c"], -p["l_c"], 2) + sp.diag(0, p["I_m"], 0, 0, 0, 0)
-        legs.append(SerialLeg(
-            f"leg {i + 1}",
-            joints=(Joint("R", origin=(p["R_b"] * sp.cos(t), p["R_b"] * sp.sin(t), 0), rotation=frame,
-                          axes=((0, 1, 0),), actuated=True, name="motor, axis tangent to the base circle"),
+        legs.append(
+            SerialLeg(
+                f"leg {i + 1}",
+                joints=(
+                    Joint(
+                        "R",
+                        origin=(p["R_b"] * sp.cos(t), p["R_b"] * sp.sin(t), 0),
+                        rotation=frame,
+                        axes=((0, 1, 0),),
+                        actuated=True,
+                        name="motor, axis tangent to the base circle",
+                    ),
                     Joint("U", origin=(0, 0, -p["l_c"]), axes=((0, 1, 0), (0, 0, 1)), name="crank-rod joint"),
-                    Joint("S", origin=(p["l_r"], 0, 0), name="platform spherical joint")),
-            bodies=(Body("crank", 1, crank), Body("rod", 2, _slender(p["m_r"], p["l_r"], 0))),
-            attachment=(p["R_p"] * sp.cos(a), p["R_p"] * sp.sin(a), 0),
-            reference=(-0.388, -0.220, -0.279 if i % 2 == 0 else 0.279)))
+                    Joint("S", origin=(p["l_r"], 0, 0), name="platform spherical joint"),
+                ),
+                bodies=(Body("crank", 1, crank), Body("rod", 2, _slender(p["m_r"], p["l_r"], 0))),
+                attachment=(p["R_p"] * sp.cos(a), p["R_p"] * sp.sin(a), 0),
+                reference=(-0.388, -0.220, -0.279 if i % 2 == 0 else 0.279),
+            )
+        )
     return ChainRobot(
-        name="rus6", title="rotary hexapod 6-RUS (gallery, URDF form, illustrative)", parameters=PARAMETERS,
-        legs=tuple(legs), platform_inertia=spatial_inertia(p["m_pl"], sp.zeros(3, 1), sp.diag(p["I_pl"], p["I_pl"],
-                                                                                                p["I_pl_zz"])),
-        actuator_stiffness=p["k_a"], x_ref=(0.0, 0.0, 0.22, 0.0, 0.0, 0.0),
+        name="rus6",
+        title="rotary hexapod 6-RUS (gallery, URDF form, illustrative)",
+        parameters=PARAMETERS,
+        legs=tuple(legs),
+        platform_inertia=spatial_inertia(p["m_pl"], sp.zeros(3, 1), sp.diag(p["I_pl"], p["I_pl"], p["I_pl_zz"])),
+        actuator_stiffness=p["k_a"],
+        x_ref=(0.0, 0.0, 0.22, 0.0, 0.0, 0.0),
         workspace=((-0.03, 0.03), (-0.03, 0.03), (0.20, 0.24), (-0.1, 0.1), (-0.1, 0.1), (-0.15, 0.15)),
         source="examples/robots/rus6.py (eigentwist gallery); illustrative values",
-        effects=("actuator_loss", "payload_mass"))
+        effects=("actuator_loss", "payload_mass"),
+    )

@@ -14,6 +14,7 @@ orientation R_c = Rx(alpha_c) Ry(beta_c). The pose is p (x, y, z in m,
 central leg's closures (solved per pose). Units: m, kg, kg m^2, N/m. Values illustrative.
 Home (0, 0, 0.70) m. Load: ``eigentwist.load("examples/robots/tricept.py")``.
 """
+
 import sympy as sp
 
 from eigentwist.description import Parameter
@@ -72,6 +73,7 @@ def _ups(deg):
         n = d.cross(er)
         y = n / sp.sqrt(n.dot(n))
         return {"B": B, "A": A, "length": length, "er": er, "x": y.cross(d), "y": y, "d": d, "reach": d.dot(er)}
+
     return geometry
 
 
@@ -82,9 +84,19 @@ def _central(position, rotation, p, q=None):
     and y axes)."""
     xc, yc = rotation[:, 0], rotation[:, 1]
     rho = sp.sqrt(position.dot(position)) if q is None else q
-    return {"O": sp.zeros(3, 1), "p": position, "rho": rho, "ex": EX, "xc": xc, "yc": yc, "zc": position / rho,
-            "reach": position[0] / sp.sqrt(position.dot(position)),
-            "spin": yc[0], "axis_x": position.dot(xc), "axis_y": position.dot(yc)}
+    return {
+        "O": sp.zeros(3, 1),
+        "p": position,
+        "rho": rho,
+        "ex": EX,
+        "xc": xc,
+        "yc": yc,
+        "zc": position / rho,
+        "reach": position[0] / sp.sqrt(position.dot(position)),
+        "spin": yc[0],
+        "axis_x": position.dot(xc),
+        "axis_y": position.dot(yc),
+    }
 
 
 def _body(mass, com, transverse, axial) -> sp.Matrix:
@@ -93,28 +105,52 @@ def _body(mass, com, transverse, axial) -> sp.Matrix:
 
 def describe() -> ChainRobot:
     p = {q.name: q.symbol for q in PARAMETERS}
-    ups_joints = (ChainJoint("U", ("er", "y"), "B", doc="base universal joint"),
-                  ChainJoint("P", ("d",), actuated=True, doc="actuated prismatic joint"),
-                  ChainJoint("S", (), "A", doc="platform spherical joint"))
-    ups_bodies = (ChainBody("cylinder", 1, _body(p["m_c"], (0, 0, p["c_c"]), p["I_c_t"], p["I_c_a"]), ("x", "y", "d"), "B"),
-                  ChainBody("piston", 2, _body(p["m_r"], (0, 0, -p["c_r"]), p["I_r_t"], p["I_r_a"]), ("x", "y", "d"), "A"))
-    legs = tuple(ChainLeg(f"leg {i + 1} (UPS)", ups_joints, ups_bodies, _ups(a), checks=("reach",)) for i, a in enumerate(ANGLES))
+    ups_joints = (
+        ChainJoint("U", ("er", "y"), "B", doc="base universal joint"),
+        ChainJoint("P", ("d",), actuated=True, doc="actuated prismatic joint"),
+        ChainJoint("S", (), "A", doc="platform spherical joint"),
+    )
+    ups_bodies = (
+        ChainBody("cylinder", 1, _body(p["m_c"], (0, 0, p["c_c"]), p["I_c_t"], p["I_c_a"]), ("x", "y", "d"), "B"),
+        ChainBody("piston", 2, _body(p["m_r"], (0, 0, -p["c_r"]), p["I_r_t"], p["I_r_a"]), ("x", "y", "d"), "A"),
+    )
+    legs = tuple(
+        ChainLeg(f"leg {i + 1} (UPS)", ups_joints, ups_bodies, _ups(a), checks=("reach",)) for i, a in enumerate(ANGLES)
+    )
     central = ChainLeg(
         "central leg (U-P, passive)",
-        (ChainJoint("U", ("ex", "yc"), "O", doc="base universal joint"),
-         ChainJoint("P", ("zc",), doc="passive prismatic joint, its piston fixed to the platform"),
-         ChainJoint("virtual", ("xc",), "p", doc="tilting the platform about its x axis: constrained"),
-         ChainJoint("virtual", ("yc",), "p", doc="tilting the platform about its y axis: constrained"),
-         ChainJoint("virtual", ("zc",), "p", doc="spinning the platform about the leg: constrained")),
+        (
+            ChainJoint("U", ("ex", "yc"), "O", doc="base universal joint"),
+            ChainJoint("P", ("zc",), doc="passive prismatic joint, its piston fixed to the platform"),
+            ChainJoint("virtual", ("xc",), "p", doc="tilting the platform about its x axis: constrained"),
+            ChainJoint("virtual", ("yc",), "p", doc="tilting the platform about its y axis: constrained"),
+            ChainJoint("virtual", ("zc",), "p", doc="spinning the platform about the leg: constrained"),
+        ),
         (ChainBody("tube", 1, _body(p["m_t"], (0, 0, p["c_t"]), p["I_t_t"], p["I_t_a"]), ("xc", "yc", "zc"), "O"),),
-        _central, checks=("reach",), closures=("spin", "axis_x", "axis_y"), coordinate="rho")
+        _central,
+        checks=("reach",),
+        closures=("spin", "axis_x", "axis_y"),
+        coordinate="rho",
+    )
     c = sp.Matrix([p["c_pl_x"], p["c_pl_y"], p["c_pl_z"]])
-    I_pl = sp.Matrix([[p["I_pl_xx"], p["I_pl_xy"], p["I_pl_xz"]], [p["I_pl_xy"], p["I_pl_yy"], p["I_pl_yz"]],
-                      [p["I_pl_xz"], p["I_pl_yz"], p["I_pl_zz"]]])
+    I_pl = sp.Matrix(
+        [
+            [p["I_pl_xx"], p["I_pl_xy"], p["I_pl_xz"]],
+            [p["I_pl_xy"], p["I_pl_yy"], p["I_pl_yz"]],
+            [p["I_pl_xz"], p["I_pl_yz"], p["I_pl_zz"]],
+        ]
+    )
     platform = Shape(p["m_pl"], c, I_pl).spatial() + _body(p["m_q"], (0, 0, -p["c_q"]), p["I_q_t"], p["I_q_a"])
     return ChainRobot(
-        name="tricept", title="Tricept: 3 UPS legs and a passive central U-P leg (gallery, illustrative)",
-        parameters=PARAMETERS, legs=legs + (central,), platform_inertia=platform, actuator_stiffness=p["k_a"],
-        x_ref=(0.0, 0.0, 0.70), pose=("x", "y", "z"), workspace=((-0.10, 0.10), (-0.10, 0.10), (0.60, 0.80)),
+        name="tricept",
+        title="Tricept: 3 UPS legs and a passive central U-P leg (gallery, illustrative)",
+        parameters=PARAMETERS,
+        legs=legs + (central,),
+        platform_inertia=platform,
+        actuator_stiffness=p["k_a"],
+        x_ref=(0.0, 0.0, 0.70),
+        pose=("x", "y", "z"),
+        workspace=((-0.10, 0.10), (-0.10, 0.10), (0.60, 0.80)),
         pose_space=LowerMobilityPose(("x", "y", "z")),
-        source="examples/robots/tricept.py (eigentwist gallery); illustrative values")
+        source="examples/robots/tricept.py (eigentwist gallery); illustrative values",
+    )

@@ -17,6 +17,7 @@ by a random factor in [0.95, 1.05], a payload offset, every switch 1) the input 
 values (``names``, ``values``) and each output of ``inverse_kinematics``, ``matrices``,
 ``jacobians`` and ``gravity``.
 """
+
 from __future__ import annotations
 
 from importlib import import_module
@@ -61,7 +62,7 @@ def pins() -> dict:
         ok = np.ones(len(pts), bool)
         for p in cases.values():
             ok &= reachable(mod, pts, p)
-        poses = np.vstack([np.array(robot_desc.x_ref), pts[ok][:N_POSES - 1]])
+        poses = np.vstack([np.array(robot_desc.x_ref), pts[ok][: N_POSES - 1]])
         out[f"{robot}/poses"] = poses
         for case, p in cases.items():
             out[f"{robot}/{case}/names"] = np.array(list(p))

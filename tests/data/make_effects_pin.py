@@ -7,6 +7,7 @@ relative to each matrix's largest entry. Run it again only to pin a deliberate c
 
     python tests/data/make_effects_pin.py
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -46,7 +47,7 @@ def pins() -> dict:
                 mats = ev.matrices(poses, model, **PARAMS)
                 freq = ev.frequencies(poses, model, **PARAMS)
             except ValueError:
-                continue                      # an effect this robot lacks (coupled on the Delta)
+                continue  # an effect this robot lacks (coupled on the Delta)
             for k, v in mats.items():
                 out[f"{robot}/{model}/{k}"] = v
             out[f"{robot}/{model}/freq_hz"] = freq

@@ -16,6 +16,7 @@ and per case (``bare``, ``on``, ``custom`` as in ``make_chain_pin.py``) the inpu
 and values and each output of ``inverse_kinematics``, ``matrices``, ``jacobians`` and
 ``gravity``.
 """
+
 from __future__ import annotations
 
 import sys
@@ -69,8 +70,8 @@ def pins() -> dict:
     for p in cases.values():
         ik = mod.inverse_kinematics(pts[:, 0], pts[:, 1], pts[:, 2], {**p, **pose_inputs(pts, R)})
         ok &= (np.abs(ik["cos_u"]) < 0.95).all(axis=1) & np.isfinite(ik["q"]).all(axis=(1, 2))
-    poses = np.vstack([np.array(desc.x_ref), pts[ok][:N_POSES - 1]])
-    R = np.concatenate([np.eye(3)[None], R[ok][:N_POSES - 1]])
+    poses = np.vstack([np.array(desc.x_ref), pts[ok][: N_POSES - 1]])
+    R = np.concatenate([np.eye(3)[None], R[ok][: N_POSES - 1]])
     out = {f"{ROBOT}/poses": poses, f"{ROBOT}/R": R}
     for case, p in cases.items():
         out[f"{ROBOT}/{case}/names"] = np.array(list(p))

@@ -6,6 +6,7 @@ angles (90, 210, 330 deg), every axis along z; the actuated prismatic strut betw
 centre: the actuators cannot resist a rotation about z (a parallel singularity); turned
 by rot_z the struts leave the centre and the platform is stiff again. Units: m, kg, N/m.
 """
+
 import sympy as sp
 
 from eigentwist.description import Parameter
@@ -36,23 +37,44 @@ def _geometry(deg):
         d = top - A
         length = sp.sqrt(d.dot(d)) if q is None else q
         e = d / length
-        return {"A": A, "top": top, "top_y": top + sp.Matrix([0, 1, 0]), "length": length, "e": e,
-                "n": ez.cross(e), "ez": ez, "ex": sp.Matrix([1, 0, 0]), "ey": sp.Matrix([0, 1, 0])}
+        return {
+            "A": A,
+            "top": top,
+            "top_y": top + sp.Matrix([0, 1, 0]),
+            "length": length,
+            "e": e,
+            "n": ez.cross(e),
+            "ez": ez,
+            "ex": sp.Matrix([1, 0, 0]),
+            "ey": sp.Matrix([0, 1, 0]),
+        }
+
     return geometry
 
 
 def describe() -> ChainRobot:
     p = {q.name: q.symbol for q in PARAMETERS}
-    joints = (ChainJoint("R", ("ez",), "A", doc="base joint"),
-              ChainJoint("P", ("e",), actuated=True, doc="strut"),
-              ChainJoint("R", ("ez",), "top", doc="platform joint"),
-              ChainJoint("virtual", ("ex",), "top"), ChainJoint("virtual", ("ey",), "top"),
-              ChainJoint("virtual", ("ex",), "top_y"))
+    joints = (
+        ChainJoint("R", ("ez",), "A", doc="base joint"),
+        ChainJoint("P", ("e",), actuated=True, doc="strut"),
+        ChainJoint("R", ("ez",), "top", doc="platform joint"),
+        ChainJoint("virtual", ("ex",), "top"),
+        ChainJoint("virtual", ("ey",), "top"),
+        ChainJoint("virtual", ("ex",), "top_y"),
+    )
     bodies = (ChainBody("strut", 1, spatial_inertia(p["m_s"], sp.zeros(3, 1), sp.zeros(3, 3)), ("e", "n", "ez"), "A"),)
     legs = tuple(ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(a)) for i, a in enumerate(ANGLES))
     return ChainRobot(
-        name="rpr3_radial", title="planar 3-RPR, radial struts at home", parameters=PARAMETERS, legs=legs,
+        name="rpr3_radial",
+        title="planar 3-RPR, radial struts at home",
+        parameters=PARAMETERS,
+        legs=legs,
         platform_inertia=spatial_inertia(p["m_pl"], sp.zeros(3, 1), p["I_pl"] * sp.eye(3)),
-        actuator_stiffness=p["k_a"], x_ref=(0.0, 0.0, 0.3), pose=("x", "y", "rot_z"),
-        workspace=((-0.05, 0.05), (-0.05, 0.05), (-0.5, 0.5)), pose_space=PlanarPose(),
-        effects=(), rigid_compliance=p["c_rigid"])
+        actuator_stiffness=p["k_a"],
+        x_ref=(0.0, 0.0, 0.3),
+        pose=("x", "y", "rot_z"),
+        workspace=((-0.05, 0.05), (-0.05, 0.05), (-0.5, 0.5)),
+        pose_space=PlanarPose(),
+        effects=(),
+        rigid_compliance=p["c_rigid"],
+    )

@@ -8,6 +8,7 @@ actuators cannot resist a vertical motion (a parallel singularity). A strut is w
 stroke when its length lies in [s_min, s_max] (the check ``stroke`` within [-1, 1]).
 Units: m, kg, N/m. Home z = 0.40 m.
 """
+
 import sympy as sp
 
 from eigentwist.description import Parameter
@@ -40,23 +41,47 @@ def _geometry(deg):
         length = sp.sqrt(d.dot(d)) if q is None else q
         e = d / length
         mid, half = (p["s_min"] + p["s_max"]) / 2, (p["s_max"] - p["s_min"]) / 2
-        return {"b": b, "top": top, "length": length, "e": e, "u": u, "n": cross(e, u), "ez": ez,
-                "stroke": (length - mid) / half, "off_plane": u.dot(top)}
+        return {
+            "b": b,
+            "top": top,
+            "length": length,
+            "e": e,
+            "u": u,
+            "n": cross(e, u),
+            "ez": ez,
+            "stroke": (length - mid) / half,
+            "off_plane": u.dot(top),
+        }
+
     return geometry
 
 
 def describe() -> ChainRobot:
     p = {q.name: q.symbol for q in PARAMETERS}
-    joints = (ChainJoint("R", ("u",), "b", doc="base revolute joint, tangent to the base circle"),
-              ChainJoint("P", ("e",), actuated=True, doc="strut"),
-              ChainJoint("S", (), "top", doc="spherical joint on the platform"),
-              ChainJoint("virtual", ("ez",), "b", doc="swinging the leg's plane about the vertical: constrained"))
-    bodies = (ChainBody("strut", 1, spatial_inertia(p["m_s"], sp.Matrix([0.1, 0, 0]), sp.zeros(3, 3)), ("e", "u", "n"), "b"),)
-    legs = tuple(ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(a), checks=("stroke",), closures=("off_plane",))
-                 for i, a in enumerate(ANGLES))
+    joints = (
+        ChainJoint("R", ("u",), "b", doc="base revolute joint, tangent to the base circle"),
+        ChainJoint("P", ("e",), actuated=True, doc="strut"),
+        ChainJoint("S", (), "top", doc="spherical joint on the platform"),
+        ChainJoint("virtual", ("ez",), "b", doc="swinging the leg's plane about the vertical: constrained"),
+    )
+    bodies = (
+        ChainBody("strut", 1, spatial_inertia(p["m_s"], sp.Matrix([0.1, 0, 0]), sp.zeros(3, 3)), ("e", "u", "n"), "b"),
+    )
+    legs = tuple(
+        ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(a), checks=("stroke",), closures=("off_plane",))
+        for i, a in enumerate(ANGLES)
+    )
     return ChainRobot(
-        name="rps3_stroke", title="3-RPS with stroke checks", parameters=PARAMETERS, legs=legs,
+        name="rps3_stroke",
+        title="3-RPS with stroke checks",
+        parameters=PARAMETERS,
+        legs=legs,
         platform_inertia=spatial_inertia(p["m_pl"], sp.zeros(3, 1), p["I_pl"] * sp.eye(3)),
-        actuator_stiffness=p["k_a"], x_ref=(0.40, 0.0, 0.0), pose=("z", "rot_x", "rot_y"),
-        workspace=((0.30, 0.50), (-0.1, 0.1), (-0.1, 0.1)), pose_space=LowerMobilityPose(("z", "rot_x", "rot_y")),
-        effects=(), rigid_compliance=p["c_rigid"])
+        actuator_stiffness=p["k_a"],
+        x_ref=(0.40, 0.0, 0.0),
+        pose=("z", "rot_x", "rot_y"),
+        workspace=((0.30, 0.50), (-0.1, 0.1), (-0.1, 0.1)),
+        pose_space=LowerMobilityPose(("z", "rot_x", "rot_y")),
+        effects=(),
+        rigid_compliance=p["c_rigid"],
+    )

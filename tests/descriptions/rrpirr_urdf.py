@@ -7,6 +7,7 @@ point, and the twist of restriction about z there. The loop closes on the point 
 the platform's orientation (attachment frame = the first joint frame). Bodies: the
 lower link with its rotor only (the IK is what these descriptions test).
 """
+
 import sympy as sp
 
 from eigentwist.description.chain import ChainRobot
@@ -21,22 +22,36 @@ def urdf_robot(shipped, name: str, reference: dict) -> ChainRobot:
         u, s = sp.Matrix(leg.radial), sp.Matrix(leg.axis)
         frame = sp.Matrix.hstack(u, s, u.cross(s))
         q1, q2, q3 = reference[i]
-        legs.append(SerialLeg(
-            leg.name,
-            joints=(Joint("R", origin=leg.base, rotation=frame, axes=((0, 1, 0),), actuated=True),
+        legs.append(
+            SerialLeg(
+                leg.name,
+                joints=(
+                    Joint("R", origin=leg.base, rotation=frame, axes=((0, 1, 0),), actuated=True),
                     Joint("R", origin=(shipped.l1, 0, 0), axes=((0, 1, 0),)),
                     Joint("Pi", axes=((0, 0, 1),), bar=(shipped.l2, 0, 0)),
                     Joint("R", axes=((-1, 0, 0),)),
                     Joint("R", axes=((0, 1, 0),)),
-                    Joint("virtual", axes=((0, 0, 1),))),
-            bodies=(Body("J1", 1, shipped.lower_link_inertia),),
-            attachment=leg.attachment, attachment_rotation=frame,
-            reference=(q1, q2, q3, 0.0, -(q1 + q2))))
-    return ChainRobot(name=name, title=f"{shipped.title}, legs in URDF form", parameters=shipped.parameters,
-                      legs=tuple(legs), platform_inertia=shipped.ee_inertia,
-                      actuator_stiffness=shipped.actuator_stiffness, x_ref=shipped.x_ref, pose=("x", "y", "z"),
-                      workspace=shipped.workspace, rigid_compliance=shipped.rigid_compliance,
-                      pose_space=shipped.pose_space)
+                    Joint("virtual", axes=((0, 0, 1),)),
+                ),
+                bodies=(Body("J1", 1, shipped.lower_link_inertia),),
+                attachment=leg.attachment,
+                attachment_rotation=frame,
+                reference=(q1, q2, q3, 0.0, -(q1 + q2)),
+            )
+        )
+    return ChainRobot(
+        name=name,
+        title=f"{shipped.title}, legs in URDF form",
+        parameters=shipped.parameters,
+        legs=tuple(legs),
+        platform_inertia=shipped.ee_inertia,
+        actuator_stiffness=shipped.actuator_stiffness,
+        x_ref=shipped.x_ref,
+        pose=("x", "y", "z"),
+        workspace=shipped.workspace,
+        rigid_compliance=shipped.rigid_compliance,
+        pose_space=shipped.pose_space,
+    )
 
 
 def heli4():

@@ -14,6 +14,7 @@ One job per module:
 Pure functions on numbers, no command line: parsing text such as ``l2=0.45:0.60:16`` is
 :mod:`eigentwist.cli.sweep_args`'s job.
 """
+
 from .columns import lowest_path
 from .engines import ENGINES, SweepSummary, run_sweep
 from .evaluate import COLUMNS, evaluate_chunk, reachable_rows
@@ -22,6 +23,26 @@ from .readers import SweepData, iter_chunks, load_sweep
 from .spec import DEFAULT_CHUNK_SIZE, POSE_BLOCK, PoseSet, SweepSpec, make_spec
 from .writers import NpzDirectoryWriter, OutputExistsError, ParquetWriter, open_writer
 
-__all__ = ["PoseSet", "SweepSpec", "SweepSummary", "SweepData", "LowestTracker", "make_spec", "reachable_rows",
-           "evaluate_chunk", "run_sweep", "lowest", "open_writer", "load_sweep", "iter_chunks", "lowest_path",
-           "NpzDirectoryWriter", "ParquetWriter", "OutputExistsError", "ENGINES", "COLUMNS", "DEFAULT_CHUNK_SIZE", "POSE_BLOCK"]
+__all__ = [
+    "PoseSet",
+    "SweepSpec",
+    "SweepSummary",
+    "SweepData",
+    "LowestTracker",
+    "make_spec",
+    "reachable_rows",
+    "evaluate_chunk",
+    "run_sweep",
+    "lowest",
+    "open_writer",
+    "load_sweep",
+    "iter_chunks",
+    "lowest_path",
+    "NpzDirectoryWriter",
+    "ParquetWriter",
+    "OutputExistsError",
+    "ENGINES",
+    "COLUMNS",
+    "DEFAULT_CHUNK_SIZE",
+    "POSE_BLOCK",
+]

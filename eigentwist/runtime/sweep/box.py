@@ -1,4 +1,5 @@
 """The pose box of a sweep: one (lo, hi) range per pose coordinate of the robot."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,6 +25,7 @@ def workspace_box(box, robot) -> tuple:
     pairs = tuple((float(flat[2 * k]), float(flat[2 * k + 1])) for k in range(len(names)))
     for name, (lo, hi) in zip(names, pairs):
         if lo > hi:
-            raise InputError(f"box {name} range [{lo:g}, {hi:g}] {'rad' if name.startswith('rot') else 'm'}: "
-                             "expected LO <= HI")
+            raise InputError(
+                f"box {name} range [{lo:g}, {hi:g}] {'rad' if name.startswith('rot') else 'm'}: expected LO <= HI"
+            )
     return pairs

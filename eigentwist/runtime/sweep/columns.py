@@ -1,5 +1,6 @@
 """The on-disk layout of a sweep, shared by its writers and readers: file names, the
 manifest, and the flat one-column-per-mode table of Parquet files."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,19 +11,45 @@ from ..errors import InputError
 from ..evaluator import AXES
 from .spec import SweepSpec, stiffness_parameter, sweep_evaluator
 
-__all__ = ["FORMAT", "MANIFEST", "LOWEST_FILE", "WIDE", "manifest", "chunk_file", "flat_columns",
-           "unflat_columns", "pyarrow_modules", "lowest_path"]
+__all__ = [
+    "FORMAT",
+    "MANIFEST",
+    "LOWEST_FILE",
+    "WIDE",
+    "manifest",
+    "chunk_file",
+    "flat_columns",
+    "unflat_columns",
+    "pyarrow_modules",
+    "lowest_path",
+]
 
 FORMAT = "eigentwist-sweep"
 MANIFEST = "manifest.json"
 LOWEST_FILE = "lowest.npz"
 
+
 def manifest(spec: SweepSpec, complete: bool, backend: str = "", lowest_file: str | None = None) -> dict:
-    return {"format": FORMAT, "version": 1, "spec": spec.to_dict(), "backend": backend,
-            "n_rows": spec.n_rows, "n_chunks": spec.n_chunks, "n_modes": spec.n_modes, "axes": list(AXES),
-            "design_names": list(spec.design_names), "complete": complete, "lowest": lowest_file,
-            "units": {"pose": "m, rad" if any(c.startswith("rot") for c in pose_columns(spec)) else "m", "k_a": _stiffness_unit(spec), "freq_hz": "Hz", "direction": "index into axes, -1: unreachable",
-                      "status": "0 reachable, 1 unreachable, 2 serial singular, 3 parallel singular"}}
+    return {
+        "format": FORMAT,
+        "version": 1,
+        "spec": spec.to_dict(),
+        "backend": backend,
+        "n_rows": spec.n_rows,
+        "n_chunks": spec.n_chunks,
+        "n_modes": spec.n_modes,
+        "axes": list(AXES),
+        "design_names": list(spec.design_names),
+        "complete": complete,
+        "lowest": lowest_file,
+        "units": {
+            "pose": "m, rad" if any(c.startswith("rot") for c in pose_columns(spec)) else "m",
+            "k_a": _stiffness_unit(spec),
+            "freq_hz": "Hz",
+            "direction": "index into axes, -1: unreachable",
+            "status": "0 reachable, 1 unreachable, 2 serial singular, 3 parallel singular",
+        },
+    }
 
 
 def _stiffness_unit(spec: SweepSpec) -> str:
@@ -40,7 +67,7 @@ def chunk_file(index: int) -> str:
     return f"chunk-{index:06d}.npz"
 
 
-WIDE = {"freq_hz": "f{}_hz", "direction": "dir{}"}   # (n, modes) arrays as one column per mode
+WIDE = {"freq_hz": "f{}_hz", "direction": "dir{}"}  # (n, modes) arrays as one column per mode
 
 
 def flat_columns(columns: dict, spec: SweepSpec) -> dict:
@@ -62,8 +89,11 @@ def unflat_columns(table: dict, spec: SweepSpec) -> dict:
     """The inverse of :func:`flat_columns`."""
     n = len(table["k_a"])
     names = pose_columns(spec)
-    out = {"pose": np.column_stack([table[a] for a in names]), "k_a": np.asarray(table["k_a"]),
-           "design": np.column_stack([table[n_] for n_ in spec.design_names]) if spec.vary else np.empty((n, 0))}
+    out = {
+        "pose": np.column_stack([table[a] for a in names]),
+        "k_a": np.asarray(table["k_a"]),
+        "design": np.column_stack([table[n_] for n_ in spec.design_names]) if spec.vary else np.empty((n, 0)),
+    }
     used = set(names) | {"k_a"} | set(spec.design_names)
     for key, pattern in WIDE.items():
         names = [pattern.format(j + 1) for j in range(spec.n_modes)]
@@ -79,7 +109,9 @@ def pyarrow_modules():
         import pyarrow
         import pyarrow.parquet
     except ImportError as exc:
-        raise InputError(f'Parquet output needs the optional parquet extra: pip install "eigentwist[parquet]" ({exc})') from None
+        raise InputError(
+            f'Parquet output needs the optional parquet extra: pip install "eigentwist[parquet]" ({exc})'
+        ) from None
     return pyarrow, pyarrow.parquet
 
 
@@ -87,4 +119,3 @@ def lowest_path(path) -> Path:
     """Where the :func:`lowest` table of a Parquet sweep goes: ``OUT.lowest.parquet``."""
     path = Path(path)
     return path.with_name(path.name[: -len(".parquet")] + ".lowest.parquet")
-

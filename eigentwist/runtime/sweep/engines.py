@@ -1,4 +1,5 @@
 """Run every chunk of a sweep in process or on a Dask cluster, streamed into a writer."""
+
 from __future__ import annotations
 
 import math
@@ -17,6 +18,7 @@ __all__ = ["ENGINES", "SweepSummary", "run_sweep"]
 
 ENGINES = ("inprocess", "dask")
 
+
 def _inprocess(spec: SweepSpec):
     for chunk in range(spec.n_chunks):
         yield chunk, evaluate_chunk(spec, chunk)
@@ -32,13 +34,21 @@ def _dask(spec: SweepSpec, scheduler: str | None = None, workers: int | None = N
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:
-        raise InputError(f'engine "dask" needs the optional dask extra: pip install "eigentwist[dask]" ({exc})') from None
+        raise InputError(
+            f'engine "dask" needs the optional dask extra: pip install "eigentwist[dask]" ({exc})'
+        ) from None
     with ExitStack() as stack:
         if scheduler:
             client = stack.enter_context(Client(scheduler))
         else:
-            cluster = stack.enter_context(LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                                       processes=True, dashboard_address=None))
+            cluster = stack.enter_context(
+                LocalCluster(
+                    n_workers=workers or os.cpu_count() or 1,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                )
+            )
             client = stack.enter_context(Client(cluster))
         window = 2 * max(1, len(client.scheduler_info().get("workers", {})))
         pending: deque = deque()
@@ -71,8 +81,14 @@ class SweepSummary:
         return self.n_rows / self.seconds if self.seconds > 0 else math.inf
 
 
-def run_sweep(spec: SweepSpec, writer=None, engine: str = "inprocess", scheduler: str | None = None,
-              workers: int | None = None, on_chunk=None) -> SweepSummary:
+def run_sweep(
+    spec: SweepSpec,
+    writer=None,
+    engine: str = "inprocess",
+    scheduler: str | None = None,
+    workers: int | None = None,
+    on_chunk=None,
+) -> SweepSummary:
     """Evaluate every chunk of ``spec`` and stream it to ``writer`` (or nowhere).
 
     engine : ``"inprocess"`` or ``"dask"`` (``scheduler``: a Dask scheduler address;
@@ -97,9 +113,14 @@ def run_sweep(spec: SweepSpec, writer=None, engine: str = "inprocess", scheduler
         reachable += int(result["reachable"].sum())
         if on_chunk is not None:
             on_chunk(index, result)
-    summary = SweepSummary(spec, spec.n_rows, reachable, time.perf_counter() - start, tracker.result(),
-                           sweep_evaluator(spec.robot, spec.backend).backend)
+    summary = SweepSummary(
+        spec,
+        spec.n_rows,
+        reachable,
+        time.perf_counter() - start,
+        tracker.result(),
+        sweep_evaluator(spec.robot, spec.backend).backend,
+    )
     if writer is not None:
         writer.close(summary)
     return summary
-

@@ -1,4 +1,5 @@
 """Evaluate one chunk of a sweep: natural frequencies of a block of product rows."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,6 +10,7 @@ from .spec import SweepSpec, stiffness_parameter, sweep_evaluator
 __all__ = ["reachable_rows", "evaluate_chunk", "COLUMNS"]
 
 COLUMNS = ("pose", "k_a", "design", "freq_hz", "direction", "reachable", "status", "pose_index", "case")
+
 
 def reachable_rows(ev: Evaluator, poses: np.ndarray, params: dict, model) -> np.ndarray:
     """(N,) bool: the poses that :meth:`Evaluator.modes` accepts (reachable, not singular)."""
@@ -33,8 +35,11 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
     poses = spec.poses.take(pose_index)
     k_a, design = spec.case_values(case)
     ev = sweep_evaluator(spec.robot, spec.backend)
-    params = {**dict(spec.fixed), stiffness_parameter(ev): k_a,
-              **{name: design[:, k] for k, name in enumerate(spec.design_names)}}
+    params = {
+        **dict(spec.fixed),
+        stiffness_parameter(ev): k_a,
+        **{name: design[:, k] for k, name in enumerate(spec.design_names)},
+    }
     # invalid="nan": unreachable or singular rows are NaN and marked, never raise
     modes = ev.modes(poses, spec.model, invalid="nan", **params)
     reachable = np.ones(len(rows), bool) if modes.valid is None else np.asarray(modes.valid, bool)
@@ -44,10 +49,18 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
     direction[~reachable] = -1
     status = np.zeros(len(rows), dtype=np.int8)
     bad = ~reachable
-    if bad.any():                       # why each refused row was refused (its rows only)
+    if bad.any():  # why each refused row was refused (its rows only)
         n = len(rows)
         sub = {k: (np.asarray(v)[bad] if np.ndim(v) == 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
         status[bad] = ev.pose_status(poses[bad], spec.model, **sub)["code"]
-    return {"pose": poses, "k_a": k_a, "design": design, "freq_hz": freq, "direction": direction,
-            "reachable": reachable, "status": status, "pose_index": pose_index, "case": case}
-
+    return {
+        "pose": poses,
+        "k_a": k_a,
+        "design": design,
+        "freq_hz": freq,
+        "direction": direction,
+        "reachable": reachable,
+        "status": status,
+        "pose_index": pose_index,
+        "case": case,
+    }

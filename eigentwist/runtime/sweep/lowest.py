@@ -1,4 +1,5 @@
 """Per design, the worst-case lowest natural frequency over the poses (what a designer maximises)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -6,6 +7,7 @@ import numpy as np
 from .spec import SweepSpec
 
 __all__ = ["LowestTracker", "lowest"]
+
 
 class LowestTracker:
     """Per case (design x k_a), the lowest mode-1 frequency over reachable poses.
@@ -46,9 +48,16 @@ class LowestTracker:
         pose = np.full((len(case), len(self.spec.poses.box)), np.nan)
         found = self.pose_index >= 0
         pose[found] = self.spec.poses.take(self.pose_index[found])
-        return {"case": case, "k_a": k_a, "design": design, "freq_hz": self.freq.copy(), "pose": pose,
-                "pose_index": self.pose_index.copy(), "direction": self.direction.copy(),
-                "n_reachable": self.n_reachable.copy()}
+        return {
+            "case": case,
+            "k_a": k_a,
+            "design": design,
+            "freq_hz": self.freq.copy(),
+            "pose": pose,
+            "pose_index": self.pose_index.copy(),
+            "direction": self.direction.copy(),
+            "n_reachable": self.n_reachable.copy(),
+        }
 
 
 def lowest(columns: dict, spec: SweepSpec) -> dict:
@@ -57,4 +66,3 @@ def lowest(columns: dict, spec: SweepSpec) -> dict:
     tracker = LowestTracker(spec)
     tracker.update(columns)
     return tracker.result()
-

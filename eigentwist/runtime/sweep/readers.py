@@ -1,4 +1,5 @@
 """Read a sweep back: the spec, the manifest, the columns and the lowest-frequency table."""
+
 from __future__ import annotations
 
 import json
@@ -13,6 +14,7 @@ from .evaluate import COLUMNS
 from .spec import SweepSpec
 
 __all__ = ["SweepData", "iter_chunks", "load_sweep"]
+
 
 @dataclass
 class SweepData:
@@ -30,7 +32,9 @@ def _read_manifest(path: Path) -> dict:
     try:
         manifest = json.loads((path / MANIFEST).read_text())
     except FileNotFoundError:
-        raise InputError(f"{str(path)!r} holds no {MANIFEST}: expected a directory written by eigentwist sweep") from None
+        raise InputError(
+            f"{str(path)!r} holds no {MANIFEST}: expected a directory written by eigentwist sweep"
+        ) from None
     if manifest.get("format") != FORMAT:
         raise InputError(f"{str(path / MANIFEST)!r} is not an eigentwist sweep manifest")
     return manifest
@@ -43,7 +47,9 @@ def iter_chunks(path):
     for index in range(manifest["n_chunks"]):
         file = path / chunk_file(index)
         if not file.exists():
-            raise InputError(f"{str(file)!r} is missing: the sweep is incomplete ({index} of {manifest['n_chunks']} chunks)")
+            raise InputError(
+                f"{str(file)!r} is missing: the sweep is incomplete ({index} of {manifest['n_chunks']} chunks)"
+            )
         with np.load(file) as data:
             yield index, {k: data[k] for k in data.files}
 

@@ -10,6 +10,7 @@ built by index arithmetic only, so the product is never materialised.
 chunk runs. It takes numbers only: parsing text such as ``"0.45:0.60:16"`` is the
 command line's job (:mod:`eigentwist.cli.sweep_args`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,11 +22,19 @@ from ..errors import InputError
 from ..evaluator import Evaluator
 from .box import workspace_box
 
-__all__ = ["PoseSet", "SweepSpec", "make_spec", "sweep_evaluator", "stiffness_parameter", "DEFAULT_CHUNK_SIZE",
-           "POSE_BLOCK"]
+__all__ = [
+    "PoseSet",
+    "SweepSpec",
+    "make_spec",
+    "sweep_evaluator",
+    "stiffness_parameter",
+    "DEFAULT_CHUNK_SIZE",
+    "POSE_BLOCK",
+]
 
-DEFAULT_CHUNK_SIZE = 65536   # rows per chunk: peak RSS about 400 MB (NumPy backend), 230 MB (C); measured
-POSE_BLOCK = 65536           # random poses are drawn in seeded blocks of this many
+DEFAULT_CHUNK_SIZE = 65536  # rows per chunk: peak RSS about 400 MB (NumPy backend), 230 MB (C); measured
+POSE_BLOCK = 65536  # random poses are drawn in seeded blocks of this many
+
 
 @dataclass(frozen=True)
 class PoseSet:
@@ -159,20 +168,42 @@ class SweepSpec:
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict:
         poses = {"kind": self.poses.kind, "box": [list(b) for b in self.poses.box]}
-        poses.update({"shape": list(self.poses.shape)} if self.poses.kind == "grid"
-                     else {"n": self.poses.n, "seed": self.poses.seed})
-        return {"robot": self.robot, "backend": self.backend, "model": self.model, "poses": poses,
-                "k_a": list(self.k_a), "vary": {name: list(v) for name, v in self.vary},
-                "fixed": dict(self.fixed), "chunk_size": self.chunk_size}
+        poses.update(
+            {"shape": list(self.poses.shape)}
+            if self.poses.kind == "grid"
+            else {"n": self.poses.n, "seed": self.poses.seed}
+        )
+        return {
+            "robot": self.robot,
+            "backend": self.backend,
+            "model": self.model,
+            "poses": poses,
+            "k_a": list(self.k_a),
+            "vary": {name: list(v) for name, v in self.vary},
+            "fixed": dict(self.fixed),
+            "chunk_size": self.chunk_size,
+        }
 
     @classmethod
     def from_dict(cls, d: dict) -> "SweepSpec":
         p = d["poses"]
-        poses = PoseSet(p["kind"], tuple(tuple(b) for b in p["box"]), tuple(p.get("shape", ())),
-                        int(p.get("n", 0)), int(p.get("seed", 0)))
-        return cls(d["robot"], d["backend"], d["model"], poses, tuple(d["k_a"]),
-                   tuple((k, tuple(v)) for k, v in d["vary"].items()), tuple(d["fixed"].items()),
-                   int(d["chunk_size"]))
+        poses = PoseSet(
+            p["kind"],
+            tuple(tuple(b) for b in p["box"]),
+            tuple(p.get("shape", ())),
+            int(p.get("n", 0)),
+            int(p.get("seed", 0)),
+        )
+        return cls(
+            d["robot"],
+            d["backend"],
+            d["model"],
+            poses,
+            tuple(d["k_a"]),
+            tuple((k, tuple(v)) for k, v in d["vary"].items()),
+            tuple(d["fixed"].items()),
+            int(d["chunk_size"]),
+        )
 
 
 @lru_cache(maxsize=None)
@@ -195,17 +226,20 @@ def _pose_set(grid, random, seed, box) -> PoseSet:
     dim = len(box)
     shape = tuple(grid) if grid is not None else (5, 5, 5) if dim == 3 else (3,) * dim
     if dim > 3 and len(shape) == 3:
-        shape += (1,) * (dim - 3)      # positions only: the rotation at the middle of its box
+        shape += (1,) * (dim - 3)  # positions only: the rotation at the middle of its box
     if len(shape) != dim or any(int(s) != s or s < 1 for s in shape):
-        raise InputError(f"grid {list(shape)}: expected {'three' if dim == 3 else dim} integers >= 1, one per pose "
-                         "coordinate" + (" (NX NY NZ)" if dim == 3 else ""))
+        raise InputError(
+            f"grid {list(shape)}: expected {'three' if dim == 3 else dim} integers >= 1, one per pose "
+            "coordinate" + (" (NX NY NZ)" if dim == 3 else "")
+        )
     return PoseSet("grid", box, shape=tuple(int(s) for s in shape))
 
 
 def _check_parameter(ev: Evaluator, name: str, values, what: str) -> None:
     if name not in ev.parameters:
-        raise InputError(f"{what}: unknown parameter {name!r} for {ev.robot.name}: "
-                         f"expected names from {', '.join(ev.parameters)}")
+        raise InputError(
+            f"{what}: unknown parameter {name!r} for {ev.robot.name}: expected names from {', '.join(ev.parameters)}"
+        )
     p = ev.parameters[name]
     for value in np.atleast_1d(np.asarray(values, dtype=float)).tolist():
         try:
@@ -215,9 +249,20 @@ def _check_parameter(ev: Evaluator, name: str, values, what: str) -> None:
             raise InputError(f"{what}: parameter {name!r} = {value!r} {p.unit}: expected {expected}") from None
 
 
-def make_spec(robot: str = "heli4", *, model: str = "paper", backend: str = "numpy", grid=None,
-              random=None, seed: int = 0, box=None, k_a=None, vary=(), fixed=None,
-              chunk_size: int = DEFAULT_CHUNK_SIZE) -> SweepSpec:
+def make_spec(
+    robot: str = "heli4",
+    *,
+    model: str = "paper",
+    backend: str = "numpy",
+    grid=None,
+    random=None,
+    seed: int = 0,
+    box=None,
+    k_a=None,
+    vary=(),
+    fixed=None,
+    chunk_size: int = DEFAULT_CHUNK_SIZE,
+) -> SweepSpec:
     """Validate a sweep against the robot's description and return its :class:`SweepSpec`.
 
     grid : (nx, ny, nz) poses per axis (default (5, 5, 5) when ``random`` is None); a
@@ -296,4 +341,3 @@ def _numbers(values, what: str) -> tuple[float, ...]:
     if arr.ndim != 1 or arr.size == 0 or not np.isfinite(arr).all():
         raise InputError(f"{what}: {np.asarray(values).tolist()!r}: expected one or more finite numbers")
     return tuple(float(v) for v in arr)
-

@@ -1,4 +1,5 @@
 """Write a sweep: an ``.npz`` directory (manifest + one file per chunk) or a Parquet file."""
+
 from __future__ import annotations
 
 import json
@@ -18,6 +19,7 @@ __all__ = ["NpzDirectoryWriter", "ParquetWriter", "open_writer", "OutputExistsEr
 class OutputExistsError(InputError):
     """The output path already holds a sweep and ``overwrite`` was not given."""
 
+
 class NpzDirectoryWriter:
     """A directory: ``manifest.json``, one ``chunk-NNNNNN.npz`` per chunk, ``lowest.npz``.
 
@@ -27,11 +29,22 @@ class NpzDirectoryWriter:
     def __init__(self, path, spec: SweepSpec, overwrite: bool = False):
         self.path, self.spec = Path(path), spec
         if self.path.exists() and not self.path.is_dir():
-            raise InputError(f"output {str(path)!r} exists and is not a directory: expected a directory for .npz chunks")
-        ours = [p for p in self.path.glob("*") if p.name in (MANIFEST, LOWEST_FILE) or
-                (p.name.startswith("chunk-") and p.suffix == ".npz")] if self.path.exists() else []
+            raise InputError(
+                f"output {str(path)!r} exists and is not a directory: expected a directory for .npz chunks"
+            )
+        ours = (
+            [
+                p
+                for p in self.path.glob("*")
+                if p.name in (MANIFEST, LOWEST_FILE) or (p.name.startswith("chunk-") and p.suffix == ".npz")
+            ]
+            if self.path.exists()
+            else []
+        )
         if ours and not overwrite:
-            raise OutputExistsError(f"output {str(path)!r} already holds a sweep: choose another path or pass overwrite=True")
+            raise OutputExistsError(
+                f"output {str(path)!r} already holds a sweep: choose another path or pass overwrite=True"
+            )
         for p in ours:
             p.unlink()
         self.path.mkdir(parents=True, exist_ok=True)
@@ -61,8 +74,12 @@ class ParquetWriter:
         if self.path.exists() and not overwrite:
             raise OutputExistsError(f"output {str(path)!r} already exists: choose another path or pass overwrite=True")
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.manifest = manifest(spec, complete=True, backend=sweep_evaluator(spec.robot, spec.backend).backend,
-                                  lowest_file=lowest_path(self.path).name)
+        self.manifest = manifest(
+            spec,
+            complete=True,
+            backend=sweep_evaluator(spec.robot, spec.backend).backend,
+            lowest_file=lowest_path(self.path).name,
+        )
 
     def _table(self, columns: dict, manifest: dict):
         table = self.pa.table(flat_columns(columns, self.spec))
@@ -86,5 +103,3 @@ def open_writer(path, spec: SweepSpec, overwrite: bool = False):
     if str(path).endswith(".parquet"):
         return ParquetWriter(path, spec, overwrite)
     return NpzDirectoryWriter(path, spec, overwrite)
-
-
