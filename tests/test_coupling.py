@@ -58,7 +58,9 @@ def test_coupling_needs_no_per_leg_split(ev):
 @pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_paper_data_cannot_tell_split_from_coupled_and_the_next_measurement_can(ev):
     """Modes x and y at x_ref only: ee_compliance and ee_coupling are indistinguishable;
-    the proposed measurement is where their predictions differ most relative to sigma."""
+    the proposed measurement is one these data's set-up can make (a direction they measured,
+    x or y: mode z would separate the two more, but no sensor direction of these data saw it)
+    where their predictions differ beyond sigma."""
     from eigentwist.diagnose import diagnose, paper_measurements
 
     d = diagnose(paper_measurements(ev), "rigid", ev=ev)
@@ -67,6 +69,6 @@ def test_paper_data_cannot_tell_split_from_coupled_and_the_next_measurement_can(
     assert "ee_compliance" in ranked["ee_coupling"].indistinguishable_from
     nm = d.next_measurement
     assert set(nm["between"]) == {"ee_compliance", "ee_coupling"}
-    assert nm["mode"] == "z"  # they differ in the vertical stiffness only
+    assert nm["mode"] in {"x", "y"}
     pred = nm["predicted_hz"]
-    assert abs(pred["ee_coupling"] - pred["ee_compliance"]) / nm["sigma_hz"] > 3
+    assert abs(pred["ee_coupling"] - pred["ee_compliance"]) / nm["sigma_hz"] > 1

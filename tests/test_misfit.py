@@ -25,7 +25,9 @@ def ev_fast():
 
 @pytest.fixture(scope="module")
 def paper(ev_fast):
-    return diagnose(paper_measurements(ev_fast), "rigid", ev=ev_fast)
+    """The paper's values read as natural frequencies, as the paper did: the misfit at
+    k_a = 125 N m/rad that its servos' damping explains (tests/test_damped.py) stays."""
+    return diagnose(paper_measurements(ev_fast, kind="undamped"), "rigid", ev=ev_fast)
 
 
 def test_switch_test_is_the_chi2_1_tail_scaled_when_the_fit_is_worse_than_sigma():
@@ -133,3 +135,14 @@ def test_stated_sigma_misstated_either_way(ev_fast):
     assert under.selected == [] and under.uncertainty.verdict == "understated"
     assert 2 < under.uncertainty.birge_ratio < 4.5 and "understated" in under.message
     assert np.isfinite(under.to_json()["uncertainty"]["birge_ratio"])
+
+
+def test_paper_measurements_are_damped_unless_read_otherwise(ev_fast):
+    """The shipped file says how the values were counted (step responses: damped); a reading
+    is a kind the CSV knows, else refused naming it."""
+    from eigentwist.diagnose import MeasurementError
+
+    assert set(paper_measurements(ev_fast).kind) == {"damped"}
+    assert set(paper_measurements(ev_fast, kind="undamped").kind) == {"undamped"}
+    with pytest.raises(MeasurementError, match="'natural': expected one of undamped, damped"):
+        paper_measurements(ev_fast, kind="natural")

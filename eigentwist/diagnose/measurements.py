@@ -53,7 +53,7 @@ import io
 import itertools
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 
@@ -808,11 +808,18 @@ def paper_csv(robot: str = "heli4") -> str:
     return ref.read_text(encoding="utf-8")
 
 
-def paper_measurements(ev=None) -> Measurements:
+def paper_measurements(ev=None, kind: str | None = None) -> Measurements:
     """The paper's measured omega_1 (mode x) and omega_2 (mode y) at x_ref over k_a.
 
     Hoevenaars, Krut & Herder (2020), Tables E.1/E.2, "Meas." columns; 16 rows, default
-    uncertainty (2 %).
+    uncertainty (2 %). Counted from step responses with the servos' damping on, the values
+    are damped frequencies (``kind`` ``"damped"``, the file's); ``kind="undamped"`` reads
+    them as natural frequencies, as the paper did.
     """
     ev = resolve(ev, "heli4")
-    return parse_csv(paper_csv("heli4"), "heli4_paper.csv", ev)
+    meas = parse_csv(paper_csv("heli4"), "heli4_paper.csv", ev)
+    if kind is None:
+        return meas
+    if kind not in KINDS:
+        raise MeasurementError("heli4_paper.csv", f"kind {kind!r}: expected one of {', '.join(KINDS)}")
+    return replace(meas, kind=(kind,) * len(meas.freq_hz))
