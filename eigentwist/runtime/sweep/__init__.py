@@ -2,7 +2,7 @@
 
 One job per module:
 
-* :mod:`.spec` — :func:`make_spec` validates a sweep (:class:`SweepSpec`, :class:`PoseSet`);
+* :mod:`.spec` — :func:`make_spec` validates a sweep (:class:`SweepSpec`; its poses :class:`PoseSet`, :mod:`.poseset`);
 * :mod:`.evaluate` — :func:`evaluate_chunk` evaluates one chunk (deterministic bits);
 * :mod:`.lowest` — :class:`LowestTracker` / :func:`lowest`: per design, the worst-case
   lowest natural frequency over the poses (the number a designer maximises);
