@@ -251,3 +251,34 @@ def test_rows_and_settings_are_checked_from_min_dof_rows_degrees_of_freedom():
     assert rows_checked(NS(untestable={}, final=NS(dof=MIN_DOF_ROWS)))
     assert not rows_checked(NS(untestable={}, final=NS(dof=MIN_DOF_ROWS - 1)))
     assert not rows_checked(NS(untestable={"payload_mass": 5}, final=NS(dof=30)))
+
+
+@pytest.mark.parametrize(
+    "factor, signs, expected",
+    [
+        (1.01, (1, 1), ["lines 2, 3 deviate together"]),  # both just beyond, the same way: a pattern
+        (0.99, (1, 1), []),  # both just inside: nothing
+        (1.01, (1, -1), []),  # beyond, but opposite ways: no pattern
+    ],
+)
+def test_cluster_sigma_on_both_sides(factor, signs, expected):
+    """Two neighbouring rows (modes x and y at one pose and k_a) whose studentized residuals
+    (each residual over the Birge ratio of the other rows, computed here from its definition)
+    sit just beyond or just inside the documented 2.5 (``misfit.CLUSTER_SIGMA``)."""
+    from types import SimpleNamespace
+
+    from eigentwist.diagnose.misfit import clusters
+
+    n, k = 30, 1
+    background = np.where(np.arange(n - 2) % 2, 1.0, -1.0)  # |z| ~ 1 each, alternating: no pattern
+    B, nu = float(background @ background), n - k
+    z = 2.5 * factor
+    a = np.sqrt(z**2 * B / (nu - 1 - z**2))  # z = a / sqrt((a^2 + B) / (nu - 1))
+    r = np.concatenate([[signs[0] * a, signs[1] * a], background])
+    meas = SimpleNamespace(
+        poses=np.zeros((n, 3)),
+        mode=np.array(["x", "y"] * (n // 2)),
+        k_a=np.repeat(np.arange(1.0, n // 2 + 1), 2),
+        lines=np.arange(n) + 2,
+    )
+    assert clusters(SimpleNamespace(error_sigma=r, meas=meas), k) == expected
