@@ -1561,16 +1561,13 @@ class Evaluator:
         between parameters: ``r_i < r_o``, the inertia triangle inequality): the output of the
         generated sensitivity kernel without deriving anything. ``wrt`` names parameters,
         ``P@N`` a leg's own value."""
-        from .sensitivity import DIFFERENCE_STEP
+        from .sensitivity import difference_step
 
         poses = self._poses(poses, params)
         out = dict(self.matrices(poses, model, **params))
         d = {k: np.empty((len(poses), len(wrt), 6, 6)) for k in ("dM", "dK_R", "dK_F")}
         for j, name in enumerate(wrt):
-            base = name.partition("@")[0]
-            value = np.asarray(params.get(name, params.get(base, self.defaults[base])), dtype=float)
-            scale = np.maximum(np.abs(value), abs(self.defaults[base]))
-            h = DIFFERENCE_STEP * np.where(scale > 0, scale, 1.0)
+            value, h = difference_step(self, name, params)
             step = np.reshape(2 * h, (-1, 1, 1) if np.ndim(h) else ())
             hi, lo = (self._admissible(poses, model, params, name, value + s * h) for s in (1, -1))
             if hi is not None and lo is not None:  # central differences

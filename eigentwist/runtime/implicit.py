@@ -25,20 +25,17 @@ import numpy as np
 
 __all__ = ["difference_steps", "joint_derivatives", "numeric_matrix_derivatives", "reduced_derivatives"]
 
-#: relative step of the residual's and the matrices' differences (truncation ~1e-10)
-STEP = 1e-5
-
 
 def difference_steps(ev, wrt, params: dict):
-    """``[(name, value, h, central), ...]``: each parameter's value, its step (relative
-    :data:`STEP` of the larger of the value and the default) and whether a central
-    difference stays above the parameter's lower bound (else one-sided, second order)."""
+    """``[(name, value, h, central), ...]``: each parameter's value and step
+    (:func:`.sensitivity.difference_step`, the one step rule of the differences) and whether a
+    central difference stays above the parameter's lower bound (else one-sided, second order)."""
+    from .sensitivity import difference_step
+
     out = []
     for name in wrt:
+        value, h = difference_step(ev, name, params)
         base = name.partition("@")[0]
-        value = np.asarray(params.get(name, params.get(base, ev.defaults[base])), dtype=float)
-        scale = np.maximum(np.abs(value), abs(ev.defaults[base]))
-        h = STEP * np.where(scale > 0, scale, 1.0)
         out.append((name, value, h, bool(np.all(value - h > ev.parameters[base].bounds[0]))))
     return out
 

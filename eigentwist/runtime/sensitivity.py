@@ -42,6 +42,8 @@ __all__ = [
     "check_model",
     "frequency_derivatives",
     "frequency_sensitivities",
+    "difference_step",
+    "DIFFERENCE_STEP",
 ]
 
 CLUSTER_RTOL = 1e-6  # frequencies closer than this (relative) form one cluster
@@ -50,6 +52,17 @@ CLUSTER_RTOL = 1e-6  # frequencies closer than this (relative) form one cluster
 DIFFERENCE_STEP = 1e-5
 _MEMORY: dict = {}
 _ROBOTS: dict = {}
+
+
+def difference_step(ev, name: str, params: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``(value, h)`` of parameter ``name`` (``P`` or a leg's own ``P@N``) for a finite
+    difference: its value in ``params`` (else the shared ``P``'s, else the default) and the
+    step :data:`DIFFERENCE_STEP` times the larger of that value and the default (1 where
+    both are 0), in the parameter's SI unit."""
+    base = name.partition("@")[0]
+    value = np.asarray(params.get(name, params.get(base, ev.defaults[base])), dtype=float)
+    scale = np.maximum(np.abs(value), abs(ev.defaults[base]))
+    return value, DIFFERENCE_STEP * np.where(scale > 0, scale, 1.0)
 
 
 def cache_key(ev, wrt) -> str:
