@@ -195,7 +195,7 @@ class Evaluator:
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
-        self._kinds: dict = {}  # effects -> "rigid" / "flexible" (kind)
+        self._kinds: dict = {}  # (question, effects) -> answer (_remembered: kind, preloaded)
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -639,15 +639,22 @@ class Evaluator:
     def kind(self, model) -> str:
         """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""
         effects = self._resolve(model)
+        return self._remembered(
+            ("kind", effects),
+            lambda: "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid",
+        )
+
+    def _remembered(self, key, compute):
+        """``compute()``, remembered per (hashable) ``key`` of the model's effects."""
         try:
-            return self._kinds[effects]
+            return self._kinds[key]
         except (KeyError, TypeError):
-            kind = "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid"
+            out = compute()
         try:
-            self._kinds[effects] = kind
-        except TypeError:
+            self._kinds[key] = out
+        except TypeError:  # effects given as an unhashable spec: computed every time
             pass
-        return kind
+        return out
 
     # ---------------------------------------------------------------- kernels
     def _chunks(self, n: int, size: int = CHUNK):
@@ -1114,16 +1121,9 @@ class Evaluator:
         return names in (("x", "y", "z"), FULL) and len(basis[0]) == len(names)
 
     def _preloaded(self, effects) -> bool:
-        key = ("preloaded", effects)
-        try:
-            return self._kinds[key]
-        except (KeyError, TypeError):
-            out = any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
-        try:
-            self._kinds[key] = out
-        except TypeError:
-            pass
-        return out
+        return self._remembered(
+            ("preloaded", effects), lambda: any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
+        )
 
     def modes(
         self,
