@@ -122,7 +122,7 @@ def compare(
         check_columns(meas, effects, ev)
     shapes = getattr(meas, "shapes", None)
     predictor = Predictor(meas, effects, ev, values)
-    from .damping import least_damping, zeta_residuals, zeta_rows
+    from .damping import attach_damping, zeta_rows
 
     damped = bool(ev.damped_model(tuple(effects)))
     spec = zeta_rows(meas, damped)
@@ -133,6 +133,5 @@ def compare(
     mac = None if shapes is None else row_mac(modes, idx, shapes, meas.shape_projection)
     comp = Comparison(meas, effects, pred, idx, dict(values or {}), mac)
     if modes.damping is not None or spec is not None:
-        comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
-        comp.zeta_residuals = None if spec is None else zeta_residuals(meas, comp.zeta, spec, least_damping(modes))
+        attach_damping(comp, meas, modes, idx, spec)
     return comp

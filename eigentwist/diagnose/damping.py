@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DECAY_SIGMA", "zeta_rows", "zeta_residuals", "zeta_count", "carries_damping", "least_damping"]
+__all__ = [
+    "DECAY_SIGMA",
+    "zeta_rows",
+    "zeta_residuals",
+    "zeta_count",
+    "carries_damping",
+    "least_damping",
+    "attach_damping",
+]
 
 #: a damped row (``kind`` = damped: a decaying oscillation was seen and counted) bounds the
 #: damping ratio of every mode of that condition from below: zeta < 0 costs (zeta / DECAY_SIGMA)^2,
@@ -58,3 +66,12 @@ def carries_damping(meas) -> bool:
     the diagnosis does not offer damping effects for such data."""
     damped = np.asarray(getattr(meas, "damped", np.zeros(len(meas), dtype=bool)), dtype=bool)
     return bool(damped.any() or zeta_count(meas) > 0)
+
+
+def attach_damping(comp, meas, modes, idx: np.ndarray, spec):
+    """``comp`` given the model's damping ratio of each row's matched mode (``modes`` at the
+    rows, ``idx`` their mode indices) and, where the data measured damping (``spec`` from
+    :func:`zeta_rows`, else None), the whitened damping-ratio residuals its chi2 includes."""
+    comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
+    comp.zeta_residuals = None if spec is None else zeta_residuals(meas, comp.zeta, spec, least_damping(modes))
+    return comp

@@ -39,7 +39,7 @@ from scipy.optimize import least_squares
 
 from ..runtime.errors import InputError
 from .compare import Comparison
-from .damping import least_damping, zeta_count, zeta_residuals, zeta_rows as _zeta_rows
+from .damping import attach_damping, zeta_count, zeta_residuals, zeta_rows as _zeta_rows
 from .predict import Predictor
 from .stats import aicc, gof_p_value
 
@@ -296,10 +296,7 @@ def _comparison(meas, effects, ev, values: dict) -> Comparison:
     pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=False, return_modes=True)
     comp = Comparison(meas, tuple(effects), pred, idx, values)
     spec = _zeta_rows(meas, ev.damped_model(tuple(effects)))
-    if spec is not None:
-        comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
-        comp.zeta_residuals = zeta_residuals(meas, comp.zeta, spec, least_damping(modes))
-    return comp
+    return comp if spec is None else attach_damping(comp, meas, modes, idx, spec)
 
 
 def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
