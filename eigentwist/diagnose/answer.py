@@ -6,6 +6,8 @@ In this order, each a short sentence wrapped at :data:`WIDTH` characters:
    needs a value outside its plausible range is never explained); why not, or, when the only
    explanation is implausible, the inputs to check (:func:`check_inputs`);
 2. what was added, where (all legs, leg N) and its fitted values ± standard errors with units;
+   where a damping effect was selected or tested, which damping effects the data support and,
+   where two fit alike, the measurement that separates them (:mod:`.damping_support`);
 3. what these data cannot tell apart (mirror images at the measured poses grouped,
    :mod:`.mirror`);
 4. outliers, settings set aside and the verdict on the stated uncertainty, as a sentence;
@@ -26,14 +28,16 @@ import numpy as np
 from ..description.effects import split_scope
 from ..text import format_estimate
 from . import scope
+from .damping_support import damping_sentence, damping_support
 from .plausible import is_plausible
 from .mirror import collapse, group_label, mirror_groups
 from .stats import gof_p_value
 
-__all__ = ["answer", "answer_text", "uncertainty_sentence", "check_inputs", "WIDTH", "MAX_LINES"]
+__all__ = ["answer", "answer_text", "uncertainty_sentence", "check_inputs", "WIDTH", "MAX_LINES", "DAMPING_LINES"]
 
 WIDTH = 100  # characters per line of the default output
 MAX_LINES = 8  # lines of the answer block
+DAMPING_LINES = 4  # further lines where the answer has a damping part
 MAX_TIES = 2  # subsets of the search named beside the selected one (the rest: the JSON's search.ties)
 
 
@@ -368,7 +372,7 @@ def _wrap(text: str, width: int) -> list[str]:
 
 def _lines(parts: dict, width: int) -> list[str]:
     out = []
-    for key in ("verdict", "notes", "why", "added", "search", "apart", "rows", "next"):
+    for key in ("verdict", "notes", "why", "added", "damping", "search", "apart", "rows", "next"):
         if parts[key]:
             out += _wrap(parts[key], width)
     return out
@@ -376,7 +380,11 @@ def _lines(parts: dict, width: int) -> list[str]:
 
 def answer(d, ev, width: int = WIDTH) -> dict:
     """The answer block of diagnosis ``d`` (see module doc): ``lines`` (at most
-    :data:`MAX_LINES`, each at most ``width`` characters) and its parts."""
+    :data:`MAX_LINES`, :data:`DAMPING_LINES` more with a damping part; each at most
+    ``width`` characters), its parts (``damping``: the damping sentence, "" without one) and
+    ``damping_support`` (:func:`~.damping_support.damping_support`: the damping effects
+    supported and not, the pair that fits alike and the measurement that separates it; None
+    when no damping effect was selected or tested)."""
     groups = _added_groups(d)
     items = added_effects(d, ev)
     u = (
@@ -404,18 +412,28 @@ def answer(d, ev, width: int = WIDTH) -> dict:
     parts["notes"] = " ".join(getattr(d, "notes", None) or [])
     parts["rows"] = _rows_sentence(d) + " " + uncertainty_sentence(u, d.explained)
     parts["next"] = _next(d, ev, apart, equal)
+    support = damping_support(d, ev)
+    parts["damping"] = damping_sentence(support)
+    most = MAX_LINES + (DAMPING_LINES if parts["damping"] else 0)
     lines = _lines(parts, width)
-    if len(lines) > MAX_LINES and parts["why"] and not check:
+    if len(lines) > most and parts["why"] and not check:
         parts["why"] = _why(d, short=True)
         lines = _lines(parts, width)
-    if len(lines) > MAX_LINES:
-        lines = lines[: MAX_LINES - 1] + ["  ... (the rest: --details)"]
+    if len(lines) > most:
+        lines = lines[: most - 1] + ["  ... (the rest: --details)"]
     mirrors = [[c.effect for c in g] for g in _groups_at(d, 0) if len(g) > 1]
     unique = []
     for g in mirrors:
         if g not in unique:
             unique.append(g)
-    return {"lines": lines, **parts, "effects": items, "cannot_tell_apart": apart, "mirror_images": unique}
+    return {
+        "lines": lines,
+        **parts,
+        "effects": items,
+        "cannot_tell_apart": apart,
+        "mirror_images": unique,
+        "damping_support": support,
+    }
 
 
 def answer_text(d, ev, width: int = WIDTH) -> str:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .measurements import DEFAULT_SIGMA_ZETA_ABS, DEFAULT_SIGMA_ZETA_REL
+
 __all__ = [
     "DECAY_SIGMA",
     "zeta_rows",
@@ -12,6 +14,8 @@ __all__ = [
     "carries_damping",
     "least_damping",
     "attach_damping",
+    "whitened_predictions",
+    "zeta_sigma",
 ]
 
 #: a damped row (``kind`` = damped: a decaying oscillation was seen and counted) bounds the
@@ -75,3 +79,26 @@ def attach_damping(comp, meas, modes, idx: np.ndarray, spec):
     comp.zeta = modes.damping_ratio[np.arange(len(idx)), idx]
     comp.zeta_residuals = None if spec is None else zeta_residuals(meas, comp.zeta, spec, least_damping(modes))
     return comp
+
+
+def zeta_sigma(zeta) -> np.ndarray:
+    """The uncertainty of a damping ratio ``zeta`` (-) the data would state by default: the
+    larger of ``DEFAULT_SIGMA_ZETA_REL`` |zeta| and ``DEFAULT_SIGMA_ZETA_ABS``
+    (:attr:`~.measurements.Measurements.sigma_damping_ratio`)."""
+    return np.maximum(DEFAULT_SIGMA_ZETA_REL * np.abs(np.asarray(zeta, dtype=float)), DEFAULT_SIGMA_ZETA_ABS)
+
+
+def whitened_predictions(comp) -> np.ndarray:
+    """A comparison's predictions in units of their measurements' uncertainties: each row's
+    frequency f / sigma_hz and, on the rows with a measured damping ratio, the model's
+    zeta / sigma_damping_ratio (a model without damping: zeta = 0). The distance between two
+    models' vectors (:func:`~.stats.separation` with sigma 1) is their chi distance over
+    everything the data measured; without measured damping ratios it is the frequencies' alone."""
+    meas = comp.meas
+    f = np.asarray(comp.predicted, dtype=float) / np.asarray(meas.sigma_hz, dtype=float)
+    measured = ~np.isnan(np.asarray(getattr(meas, "damping_ratio", np.full(len(f), np.nan)), dtype=float))
+    if not measured.any():
+        return f
+    zeta = np.zeros(len(f)) if comp.zeta is None else np.asarray(comp.zeta, dtype=float)
+    sigma = np.asarray(meas.sigma_damping_ratio, dtype=float)
+    return np.concatenate([f, zeta[measured] / sigma[measured]])

@@ -17,7 +17,8 @@ fits (no start grid) and each subset is fitted once. A subset counts when
 
 The counted subset with the lowest AICc replaces the stepwise result when its AICc is lower
 by more than :data:`BETTER`; counted subsets within ``DELTA_AICC`` of the result are stated
-as its ties. Singles whose fitted predictions stay within :data:`SAME` (chi distance) of a
+as its ties. Singles whose fitted predictions (frequencies and any measured damping ratios,
+:func:`~.damping.whitened_predictions`) stay within :data:`SAME` (chi distance) of a
 better one's (a strut's and its joints' series compliances) are one entry of the search,
 named as its equivalents (the path's alternatives).
 """
@@ -28,6 +29,7 @@ import math
 from dataclasses import dataclass, field
 
 from . import scope
+from .damping import whitened_predictions
 from .fit import FitResult, fit
 from .plausible import is_plausible
 from .stats import DELTA_AICC, explained, f_test, separation
@@ -112,7 +114,8 @@ def _distinct(meas, ranking) -> tuple[list, dict]:
             (
                 p
                 for p in pool
-                if separation(p.fit.comparison.predicted, c.fit.comparison.predicted, meas.sigma_hz) < SAME
+                if separation(whitened_predictions(p.fit.comparison), whitened_predictions(c.fit.comparison), 1.0)
+                < SAME
             ),
             None,
         )

@@ -18,7 +18,8 @@
    *implausible*; it is reported with the value it would need and never selected.
 4. Candidates are ranked by ``sorted`` with the explicit key (implausible last, AICc to
    0.01, catalogue position); every candidate indistinguishable from the one added
-   (:func:`~.stats.indistinguishable`) is listed as that step's ``alternatives``, so no tie
+   (:func:`~.stats.indistinguishable`, on the frequencies and any measured damping ratios:
+   :func:`~.damping.whitened_predictions`) is listed as that step's ``alternatives``, so no tie
    is broken silently. The best plausible candidate is added while it is significant
    (Bonferroni over the step's candidates) and lowers AICc.
    Then backward elimination (:mod:`.backward`): each selected effect is tested against
@@ -51,7 +52,7 @@ from ..description.names import did_you_mean
 from ..runtime import InputError
 from .compare import Comparison, compare
 from .evaluators import resolve
-from .damping import carries_damping
+from .damping import carries_damping, whitened_predictions
 from .fit import FitResult, fit
 from .backward import eliminate
 from .identifiable import extra_parameters, sign_free, trial_value
@@ -356,14 +357,12 @@ def rank_candidates(meas, ev, current: FitResult, candidates, progress=None) -> 
         best = out[0]
         for c in out:
             c.delta_aicc = c.fit.aicc - best.fit.aicc
+        whitened = {c.effect: whitened_predictions(c.fit.comparison) for c in out}
         for a in out:
             a.indistinguishable_from = [
                 b.effect
                 for b in out
-                if b is not a
-                and indistinguishable(
-                    a.fit.aicc, b.fit.aicc, a.fit.comparison.predicted, b.fit.comparison.predicted, meas.sigma_hz
-                )
+                if b is not a and indistinguishable(a.fit.aicc, b.fit.aicc, whitened[a.effect], whitened[b.effect], 1.0)
             ]
         for c in out:
             c.signature = _signature(meas, ev, current, c.effect)
@@ -558,7 +557,9 @@ def final_alternatives(meas, ev, steps: list[Step]) -> list[Alternative]:
             g = _swap(meas, ev, final, step, rival)
             if g is None or _implausible(ev, g):
                 continue
-            if indistinguishable(final.aicc, g.aicc, final.comparison.predicted, g.comparison.predicted, meas.sigma_hz):
+            if indistinguishable(
+                final.aicc, g.aicc, whitened_predictions(final.comparison), whitened_predictions(g.comparison), 1.0
+            ):
                 same = equivalent(ev, meas, final, g)
                 out.append(
                     Alternative(

@@ -10,14 +10,25 @@ x (mean prediction).
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
 
 from ..runtime import EigentwistError
+from .damping import carries_damping, zeta_sigma
 from .matching import DIRECTIONS, match_frequencies
 
-__all__ = ["next_measurement", "workspace_poses", "equivalent", "measured_band", "EQUIVALENT_SIGMA", "BAND"]
+__all__ = [
+    "next_measurement",
+    "damping_measurement",
+    "workspace_poses",
+    "equivalent",
+    "measured_band",
+    "EQUIVALENT_SIGMA",
+    "BAND",
+    "QUANTITIES",
+]
 
 GRID = 3  # poses per axis of the workspace box
 N_KA = 9  # log-spaced k_a values over the measured range
@@ -130,6 +141,88 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
     return out
 
 
+QUANTITIES = ("damping_ratio", "damped_hz", "natural_hz")  # what a damping measurement may read
+
+
+def damping_measurement(ev, meas, fit_a, fit_b, names: tuple | None = None, grid: int = GRID) -> dict | None:
+    """Where two fitted damping explanations (``fit_a``, ``fit_b``: models that differ in a
+    damping effect) differ most: over the grid and measured poses, k_a log-spaced over the
+    measured range (plus the measured values) and the mode directions the data's sensors
+    observed, the condition where their predicted damping ratio (sigma:
+    :func:`~.damping.zeta_sigma` of the two models' mean, a new measurement's default
+    uncertainty) or frequency (the data's kind: damped omega_d / 2 pi where a row is damped,
+    else omega_n / 2 pi; sigma: the data's median relative sigma of the mean, Hz) are most
+    sigma apart. Only conditions where both models are stable (no growing mode: no step
+    response would decay there) and both frequencies lie in the measured band
+    (:func:`measured_band`) count.
+
+    Returns None when there is no such condition, else a dict: ``between`` (the models,
+    named by the effects that differ), ``quantity`` (``damping_ratio``, ``damped_hz`` or
+    ``natural_hz``), ``pose`` (m), ``k_a`` (N m/rad), ``mode`` (direction), ``predicted``
+    (per model: the quantity, - or Hz), ``separation_sigma``, ``sigma`` (the quantity's
+    unit) and ``unit``; ``names`` (two strings) names the models, by default the effects
+    that differ."""
+    lo, hi = float(meas.k_a.min()), float(meas.k_a.max())
+    k_a = np.unique(np.concatenate([np.geomspace(lo, hi, N_KA), meas.k_a]))
+    poses = workspace_poses(ev, meas, grid)
+    pose_rows = np.repeat(poses, len(k_a), axis=0)
+    ka_rows = np.tile(k_a, len(poses))
+    base = _constant_columns(meas)
+    try:
+        modes_of = [
+            ev.modes(pose_rows, f.effects, k_a=ka_rows, invalid="nan", **{**base, **f.fixed}) for f in (fit_a, fit_b)
+        ]
+    except EigentwistError:
+        return None
+    labels = [a for a in modes_of[0].axes if a in modes_of[1].axes and a in set(meas.mode)]
+    rel_sigma = float(np.median(meas.relative_sigma))
+    band = measured_band(meas)
+    freq = "damped_hz" if np.any(np.asarray(getattr(meas, "damped", False))) else "natural_hz"
+    n = len(pose_rows)
+    rows = np.arange(n)
+    stable = np.ones(n, dtype=bool)
+    for m in modes_of:
+        zeta = np.asarray(m.damping_ratio, dtype=float)
+        stable &= np.all(np.isnan(zeta) | (zeta >= 0.0), axis=1) & np.asarray(m.stable, dtype=bool)
+    best = None
+    for label in labels:
+        values = {q: [] for q in ("damping_ratio", freq)}
+        ok = stable.copy()
+        for m in modes_of:
+            _, idx = match_frequencies(m, [label] * n, strict=False)
+            ok &= m.direction[rows, idx] == DIRECTIONS.index(label)
+            if m.constrained is not None:
+                ok &= ~m.constrained[rows, idx]
+            for q in values:
+                values[q].append(np.asarray(getattr(m, q), dtype=float)[rows, idx])
+        fa, fb = values[freq]
+        ok &= (np.minimum(fa, fb) >= band[0]) & (np.maximum(fa, fb) <= band[1])
+        for q, (a, b) in values.items():
+            sigma = zeta_sigma(0.5 * (a + b)) if q == "damping_ratio" else rel_sigma * 0.5 * (a + b)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                sep = np.where(ok, np.abs(a - b) / sigma, -np.inf)
+            sep = np.where(np.isnan(sep), -np.inf, sep)
+            k = int(np.argmax(sep))
+            if np.isfinite(sep[k]) and (best is None or sep[k] > best[0]):
+                best = (float(sep[k]), q, label, k, float(a[k]), float(b[k]), float(sigma[k]))
+    if best is None:
+        return None
+    sep, q, label, k, va, vb, sigma = best
+    name_a, name_b = names or (_label(fit_a, fit_b), _label(fit_b, fit_a))
+    return {
+        "between": [name_a, name_b],
+        "quantity": q,
+        "pose": pose_rows[k].tolist(),
+        "k_a": float(ka_rows[k]),
+        "k_a_unit": ev.parameter("k_a").unit,
+        "mode": label,
+        "predicted": {name_a: va, name_b: vb},
+        "separation_sigma": sep,
+        "sigma": sigma,
+        "unit": "-" if q == "damping_ratio" else "Hz",
+    }
+
+
 def _random_poses(ev, n: int, seed: int = 0) -> np.ndarray:
     """``n`` random poses of the workspace box (fixed seed: the check is reproducible), the
     valid ones only (reachable, not singular: ``Evaluator.valid``, one batch)."""
@@ -144,8 +237,10 @@ def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | 
     ``tol`` sigma, sigma as in :func:`next_measurement`) for every mode both have, at the
     grid and ``N_RANDOM`` random poses of the workspace and the measured ones, times k_a
     log-spaced over the measured range widened ``KA_SPAN`` times each way (not only the
-    measured rows). Returns the evidence (``max_separation_sigma``, ``poses``, ``k_a``)
-    when they are, else None."""
+    measured rows). Where the data carry damping (damped frequencies or damping ratios:
+    :func:`~.damping.carries_damping`) the damped frequencies and the damping ratios must
+    agree as well (:func:`~.damping.zeta_sigma` for a damping ratio's sigma). Returns the
+    evidence (``max_separation_sigma``, ``poses``, ``k_a``) when they are, else None."""
     lo, hi = float(meas.k_a.min()) / KA_SPAN, float(meas.k_a.max()) * KA_SPAN
     k_a = np.unique(np.round(np.concatenate([np.geomspace(lo, hi, N_KA), meas.k_a]), 9))
     poses = np.unique(np.round(np.concatenate([workspace_poses(ev, meas), _random_poses(ev, N_RANDOM)]), 9), axis=0)
@@ -173,6 +268,8 @@ def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | 
     if np.isnan(fa).any() != np.isnan(fb).any() or not np.any(np.isfinite(sep)):
         return None
     worst = float(np.nanmax(sep))
+    if carries_damping(meas):  # damped frequencies and damping ratios measured: compared too
+        worst = max(worst, _damping_apart(modes_of, ~(ca | np.isnan(fa) | np.isnan(fb)), rel_sigma))
     if worst >= tol:
         return None
     return {
@@ -181,6 +278,25 @@ def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | 
         "k_a": k_a.tolist(),
         "k_a_unit": ev.parameter("k_a").unit,
     }
+
+
+def _damping_apart(modes_of, keep: np.ndarray, rel_sigma: float) -> float:
+    """The largest separation (sigma) of two models' damped frequencies (sigma: ``rel_sigma``
+    of their mean) and damping ratios (:func:`~.damping.zeta_sigma` of their mean) over the
+    ``keep`` entries; inf where only one of them is finite (one model stable, one not)."""
+    out = 0.0
+    for quantity, sigma in (
+        ("damped_hz", lambda a, b: rel_sigma * 0.5 * (a + b)),
+        ("damping_ratio", lambda a, b: zeta_sigma(0.5 * (a + b))),
+    ):
+        a, b = (np.asarray(getattr(m, quantity), dtype=float)[keep] for m in modes_of)
+        if np.any(np.isfinite(a) != np.isfinite(b)):
+            return math.inf
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sep = np.abs(a - b) / sigma(a, b)
+        if np.any(np.isfinite(sep)):
+            out = max(out, float(np.nanmax(sep)))
+    return out
 
 
 def _label(f, other) -> str:

@@ -67,8 +67,9 @@ CRITERIA = {
     "explained": "chi-square goodness of fit with the given sigma: P(chi2_{n-k} >= chi2) > alpha",
     "indistinguishable": (
         "|delta AICc| < 2 (comparable support), or the two fitted models' predictions on the measured rows "
-        "are less than D = 3 apart, D^2 = sum(((f_a - f_b)/sigma)^2) (noise alone reverses their order "
-        "with probability > 7 %)"
+        "are less than D = 3 apart, D^2 = sum(((f_a - f_b)/sigma)^2) + sum(((zeta_a - zeta_b)/sigma_zeta)^2) "
+        "over the frequencies and the measured damping ratios (noise alone reverses their order with "
+        "probability > 7 %)"
     ),
     "param_std": (
         "from the Jacobian at the optimum: cov = (J^T J)^-1 * max(1, chi2/(n-k)) (scaled up by the Birge ratio when "
