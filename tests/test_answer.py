@@ -1,6 +1,6 @@
-"""The answer first: a diagnosis opens with at most 8 lines of at most 100
-characters holding the verdict, the effect added with its value, and the next measurement;
-candidates that are mirror images at the measured poses are one row.
+"""The answer first: a diagnosis opens with at most 8 lines (4 more for a damping part) of at
+most 100 characters holding the verdict, the effect added with its value, and the next
+measurement; candidates that are mirror images at the measured poses are one row.
 
 Mirror images are checked against the robot's geometry, independently of the fits: two legs
 are mirror images at the measured poses when an isometry of the base frame that keeps the
@@ -16,12 +16,14 @@ import re
 
 import numpy as np
 import pytest
+from scipy import stats
 
 import eigentwist
 from eigentwist.cli.main import main
 from eigentwist.description.effects import split_scope
 from eigentwist.diagnose import diagnose, synth
-from eigentwist.diagnose.answer import MAX_LINES, WIDTH, answer
+from eigentwist.diagnose.answer import DAMPING_LINES, MAX_LINES, WIDTH, answer
+from eigentwist.diagnose.matching import DIRECTIONS
 from eigentwist.diagnose.mirror import mirror_groups
 from eigentwist.plots import robot_geometry
 
@@ -71,7 +73,8 @@ def hexapod_case():
 def _check_answer(d, ev, effect, name, truth):
     a = answer(d, ev)
     lines = a["lines"]
-    assert 1 <= len(lines) <= MAX_LINES, lines
+    assert 1 <= len(lines) <= MAX_LINES + (DAMPING_LINES if a["damping"] else 0), lines
+    assert not lines[-1].endswith("(the rest: --details)"), lines
     assert all(len(line) <= WIDTH for line in lines), [len(line) for line in lines]
     text = "\n".join(lines)
     assert lines[0].startswith("Explained" if d.explained else "NOT explained"), lines[0]
@@ -112,6 +115,41 @@ def test_the_paper_answer_names_the_tie_and_the_measurement_that_separates_it(ca
     assert m and m.group(1) in set(d.meas.mode), a["next"]
     lo, hi = d.meas.freq_hz.min() / 1.25, d.meas.freq_hz.max() * 1.25
     assert all(lo <= float(m.group(k)) <= hi for k in (2, 3)), a["next"]
+
+
+def test_the_paper_answer_says_which_damping_the_data_support_and_what_separates_them(cases):
+    """Servo damping is supported; a torque lag is not (its F test on top of the final model,
+    computed here) but fits as well; the measurement that separates them lies in the measured
+    k_a range, where both models are stable, and its values are the models' own there."""
+    d, ev, *_ = cases["paper"]
+    a = answer(d, ev)
+    s = a["damping_support"]
+    assert [x["effect"] for x in s["supported"]] == ["servo_damping"]
+    no = {x["effect"]: x for x in s["not_supported"]}
+    assert set(no) == {"servo_delay", "structural_loss"}
+    final = d.final
+    lag = next(c for c in d.steps[-1].ranking if c.effect == "servo_delay")
+    dk, dof = lag.fit.k - final.k, lag.fit.n - lag.fit.k
+    p = stats.f.sf((final.chi2 - lag.fit.chi2) / dk / (lag.fit.chi2 / dof), dk, dof)
+    assert no["servo_delay"]["p_value"] == pytest.approx(p, rel=1e-6) and d.alpha < p
+    assert f"servo_delay (p = {p:.2g}, fits as well with t_d = " in a["damping"]
+    assert no["servo_delay"]["fits_alike"] and abs(lag.fit.aicc - final.aicc) < 2
+    m = s["measurement"]
+    assert m["between"] == ["servo_damping", "servo_damping + servo_delay"] and m["mode"] in set(d.meas.mode)
+    assert d.meas.k_a.min() <= m["k_a"] <= d.meas.k_a.max()
+    values = []
+    for f in (final, lag.fit):
+        modes = ev.modes(np.array([m["pose"]]), f.effects, k_a=np.array([m["k_a"]]), **f.fixed)
+        zeta = modes.damping_ratio[0]
+        assert np.all(zeta >= 0.0)  # stable: a step response decays there
+        k = int(np.flatnonzero(modes.direction[0] == DIRECTIONS.index(m["mode"]))[0])
+        values.append(zeta[k] if m["quantity"] == "damping_ratio" else getattr(modes, m["quantity"])[0, k])
+    assert [m["predicted"][x] for x in m["between"]] == pytest.approx(values, rel=1e-6)
+    if m["quantity"] == "damping_ratio":  # a lag takes damping away; sigma: 20 % of the value, >= 0.005
+        assert values[1] < values[0]
+        sigma = max(0.2 * (values[0] + values[1]) / 2, 0.005)
+        assert m["separation_sigma"] == pytest.approx(abs(values[0] - values[1]) / sigma, rel=1e-6)
+    assert m["separation_sigma"] > 3.0 and "To tell them apart, measure" in a["damping"]
 
 
 # ------------------------------------------------------------------ mirror images
@@ -190,7 +228,8 @@ def test_the_cli_opens_with_the_answer_and_details_hold_the_rest(capsys):
     out = capsys.readouterr().out
     head, _, rest = out.partition("\n\n")
     # the paper's step responses are damped frequencies: the servo damping explains them
-    assert 1 <= len(head.splitlines()) <= MAX_LINES and head.startswith("Explained") and "servo_damping" in head
+    assert 1 <= len(head.splitlines()) <= MAX_LINES + DAMPING_LINES and head.startswith("Explained")
+    assert "servo_damping" in head and "Damping supported: servo_damping" in head
     assert "2. Candidate effects" in rest and "criteria:" in rest
     assert "transmission_compliance@1 or @2" in rest  # one row for the mirror images
     assert not re.search(r"^\s+\d+\s+transmission_compliance@2\b", rest, re.M)
