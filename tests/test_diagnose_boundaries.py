@@ -3,7 +3,11 @@
 Expectations are the documented rules themselves, evaluated here independently (SciPy's chi2
 and F distributions): the Bonferroni divisors, the "far better" factor, the minimum rows of a
 setting, the AICc conditions, the mirror tolerance, the plausible range, the unit factors, the
-measured band and the equivalence threshold of the subset search.
+measured band, the equivalence threshold of the subset search, the shares of rows set aside as
+outliers and as whole settings, a failing row, the pose spread, the rows a shape over k_a and a
+judged uncertainty need, the AICc rounding of the ranking and an identifiable extra parameter.
+The damping part's rules and the equivalence threshold (EQUIVALENT_SIGMA) are in
+tests/test_damping_answer.py.
 """
 
 from __future__ import annotations
@@ -282,3 +286,159 @@ def test_cluster_sigma_on_both_sides(factor, signs, expected):
         lines=np.arange(n) + 2,
     )
     assert clusters(SimpleNamespace(error_sigma=r, meas=meas), k) == expected
+
+
+# ------------------------------------------------------------------ how much is set aside
+
+
+class _Rows:
+    """Rows with CSV line numbers; a subset keeps the same stand-in (the rules count lines)."""
+
+    def __init__(self, n):
+        self.lines = np.arange(n) + 2
+
+    def __len__(self):
+        return len(self.lines)
+
+    def subset(self, keep):
+        return self
+
+
+@pytest.mark.parametrize("n", [9, 10, 19, 20, 29, 30])
+def test_outliers_are_set_aside_up_to_max_outlier_share_of_the_rows_and_at_least_one(monkeypatch, n):
+    """An outlier is found every time it is looked for: floor(share n) rows, at least one, are set
+    aside (29 rows: 2, 2.9 would exceed the share; 30 rows: 3, exactly the share)."""
+    from eigentwist.diagnose import select
+
+    meas, found = _Rows(n), []
+
+    def outliers(comparison, k, alpha):
+        found.append(NS(line=int(meas.lines[len(found)])))
+        return [found[-1]]
+
+    d = NS(final=NS(comparison=None, k=1), outliers=[], all_rows=None)
+    monkeypatch.setattr(select, "find_outliers", outliers)
+    monkeypatch.setattr(select, "_select", lambda *a, **k: NS(final=NS(comparison=None, k=1)))
+    monkeypatch.setattr(select, "_judge", lambda d: d)
+    out = select._without_outliers(meas, None, d, (), ALPHA, None)
+    assert len(out.outliers) == max(1, math.floor(select.MAX_OUTLIER_SHARE * n))
+
+
+@pytest.mark.parametrize("n", [39, 40])
+def test_whole_settings_are_set_aside_up_to_max_setting_share_of_the_rows(monkeypatch, n):
+    """Settings of 5 rows keep deviating: they are set aside while the rows set aside stay within
+    the share (40 rows: 10 = 0.25 n, two settings; 39 rows: 9.75, one)."""
+    from eigentwist.diagnose import select
+
+    meas, taken = _Rows(n), []
+
+    def anomalies(rows, ev, final, alpha):
+        start = 5 * len(taken)
+        a = NS(n_rows=5, lines=list(rows.lines[start : start + 5]))
+        taken.append(a)
+        return [a]
+
+    d = NS(meas=meas, final=None, outliers=[], all_rows=None, uncertainty="judged")
+    monkeypatch.setattr(select, "find_setting_anomalies", anomalies)
+    monkeypatch.setattr(
+        select,
+        "_select",
+        lambda rows, *a, **k: NS(meas=rows, final=None, outliers=[], all_rows=None, uncertainty="judged"),
+    )
+    monkeypatch.setattr(select, "rescored", lambda a, meas, ev, final: a)
+    out = select._without_settings(meas, None, d, (), ALPHA, None)
+    assert len(out.setting_anomalies) == math.floor(select.MAX_SETTING_SHARE * n / 5)
+
+
+# ------------------------------------------------------------------ residual patterns and rows
+
+
+def test_a_row_fails_beyond_fail_sigma():
+    from eigentwist.diagnose.compare import FAIL_SIGMA, Comparison
+
+    meas = NS(freq_hz=np.full(4, 10.0), sigma_hz=np.full(4, 0.5))
+    err = FAIL_SIGMA * np.array([IN, OUT, -IN, -OUT]) * 0.5
+    c = Comparison(meas, ("x",), meas.freq_hz + err, np.zeros(4, dtype=int))
+    assert c.failing.tolist() == [False, True, False, True]
+
+
+@pytest.mark.parametrize("factor, flagged", [(IN, False), (OUT, True)])
+def test_the_error_depends_on_the_pose_beyond_pose_spread_standard_errors(factor, flagged):
+    """Two poses, two rows each, weights (f/sigma)^2 = s^2: each pose's mean error has the standard
+    error 1/(s sqrt 2), so means a and b are (a - b) s apart in their combined standard errors."""
+    from eigentwist.diagnose.patterns import POSE_SPREAD, systematic
+
+    s = 100.0
+    a, b = POSE_SPREAD * factor / s / 2, -POSE_SPREAD * factor / s / 2
+    f_meas = 10.0 * np.exp(np.array([a, a, b, b]))
+    meas = NS(
+        freq_hz=f_meas,
+        sigma_hz=f_meas / s,
+        poses=np.array([[0, 0, -0.6], [0, 0, -0.6], [0.1, 0, -0.6], [0.1, 0, -0.6]]),
+        mode=np.array(["x", "y", "x", "y"]),
+        k_a=np.full(4, 1000.0),  # one k_a: no shape over k_a
+    )
+    out = systematic(NS(meas=meas, predicted=np.full(4, 10.0)))
+    assert ("pose" in out) is flagged
+
+
+def test_a_shape_over_k_a_needs_three_rows_at_two_k_a():
+    from eigentwist.diagnose.patterns import classify
+
+    rho = np.array([0.2, 0.1, 0.05])  # a clear trend, weights 1e6
+    assert classify([100.0, 200.0, 400.0], rho, np.full(3, 1e6))["shape"] is not None
+    assert classify([100.0, 200.0], rho[:2], np.full(2, 1e6))["shape"] is None  # two rows
+    assert classify([100.0, 100.0, 100.0], rho, np.full(3, 1e6))["shape"] is None  # one k_a
+
+
+@pytest.mark.parametrize("nu, few", [(2, True), (3, False)])
+def test_the_stated_uncertainty_needs_three_degrees_of_freedom(nu, few):
+    from eigentwist.diagnose.misfit import judge_uncertainty
+
+    final = NS(n=nu + 2, k=2, chi2=float(nu), comparison=None)  # chi2 = nu: consistent when judged
+    assert (judge_uncertainty(final, {}, False, ALPHA).verdict == "too few rows") is few
+
+
+@pytest.mark.parametrize("n, k, m, testable", [(6, 1, 2, True), (5, 1, 2, False)])
+def test_a_candidate_needs_more_than_k_plus_its_own_plus_two_rows(n, k, m, testable):
+    from eigentwist.diagnose.misfit import untestable
+
+    out = untestable(n, k, {"e": m})
+    assert (out == {}) is testable and (testable or out == {"e": k + m + 3})
+
+
+def test_candidates_rank_by_aicc_to_aicc_digits_then_by_the_catalogue():
+    from eigentwist.diagnose.select import AICC_DIGITS, _rank_key
+
+    half = 0.5 * 10.0**-AICC_DIGITS  # AICc values closer than this round alike
+    first, second = (NS(plausible=True, fit=NS(aicc=1.0 + d), order=o) for d, o in ((0.0, 2), (0.0, 1)))
+    second.fit.aicc = 1.0 + half * IN  # rounds to 1.00: the catalogue order (1 before 2) decides
+    assert sorted([first, second], key=_rank_key)[0] is second
+    second.fit.aicc = 1.0 + 2 * half * OUT  # rounds to 1.01: AICc decides
+    assert sorted([first, second], key=_rank_key)[0] is first
+
+
+@pytest.mark.parametrize(
+    "norm, sine, kept",
+    [(1.01, None, True), (0.99, None, False), (None, 1.01, True), (None, 0.99, False)],
+)
+def test_an_extra_parameter_is_identified_beyond_min_sigma_and_below_max_correlation(monkeypatch, norm, sine, kept):
+    """Its whitened column, beyond the fitted ones (orthogonal part), must move the predictions
+    by MIN_SIGMA and keep sin(angle) >= sqrt(1 - MAX_CORRELATION^2) to the fitted columns."""
+    from eigentwist.diagnose import identifiable as ident
+
+    min_sine = math.sqrt(1.0 - ident.MAX_CORRELATION**2)
+    e1, e2 = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    if norm is not None:  # orthogonal to the fitted column: only its length counts
+        col = ident.MIN_SIGMA * norm * e2
+    else:  # long, but nearly along the fitted column: the angle counts
+        s = min_sine * sine
+        col = 1e3 * (math.sqrt(1 - s * s) * e1 + s * e2)
+    jac = np.stack([10.0 * e1, col], axis=1)
+    monkeypatch.setattr(ident, "fit_names", lambda ev, e: ("a",))
+    monkeypatch.setattr(ident, "parameter_names", lambda ev, e: ("a", "b"))
+    monkeypatch.setattr(ident, "trial_value", lambda p: 1.0)
+    monkeypatch.setattr(ident, "_sensitivity", lambda *a: jac)
+    ev = NS(parameter=lambda n: NS())
+    out = ident.extra_parameters(NS(params={}), ev, ("e",), "e", {"a": 1.0}, {})
+    assert (out == ("b",)) is kept

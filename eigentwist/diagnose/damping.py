@@ -88,13 +88,14 @@ def zeta_sigma(zeta) -> np.ndarray:
     return np.maximum(DEFAULT_SIGMA_ZETA_REL * np.abs(np.asarray(zeta, dtype=float)), DEFAULT_SIGMA_ZETA_ABS)
 
 
-def whitened_predictions(comp) -> np.ndarray:
+def whitened_predictions(comp, meas=None) -> np.ndarray:
     """A comparison's predictions in units of their measurements' uncertainties: each row's
     frequency f / sigma_hz and, on the rows with a measured damping ratio, the model's
     zeta / sigma_damping_ratio (a model without damping: zeta = 0). The distance between two
     models' vectors (:func:`~.stats.separation` with sigma 1) is their chi distance over
-    everything the data measured; without measured damping ratios it is the frequencies' alone."""
-    meas = comp.meas
+    everything the data measured; without measured damping ratios it is the frequencies' alone.
+    ``meas``: the measurements compared (default: the comparison's own)."""
+    meas = comp.meas if meas is None else meas
     f = np.asarray(comp.predicted, dtype=float) / np.asarray(meas.sigma_hz, dtype=float)
     measured = ~np.isnan(np.asarray(getattr(meas, "damping_ratio", np.full(len(f), np.nan)), dtype=float))
     if not measured.any():

@@ -114,7 +114,9 @@ def _distinct(meas, ranking) -> tuple[list, dict]:
             (
                 p
                 for p in pool
-                if separation(whitened_predictions(p.fit.comparison), whitened_predictions(c.fit.comparison), 1.0)
+                if separation(
+                    whitened_predictions(p.fit.comparison, meas), whitened_predictions(c.fit.comparison, meas), 1.0
+                )
                 < SAME
             ),
             None,
