@@ -12,9 +12,11 @@ EPILOG = (
     DATA_HELP
     + """
 
-The output opens with the answer (at most 8 lines): the verdict, what was added where with its
-fitted values, what the data cannot tell apart (mirror images at the measured poses as one),
-outliers and the stated uncertainty, and the one next measurement. --details adds what it did:
+The output opens with the answer (at most 8 lines, 4 more with damping): the verdict, what was
+added where with its fitted values, which damping effects the data support (where one was
+selected or tested) and the measurement that separates two that fit alike, what the data cannot
+tell apart (mirror images at the measured poses as one), outliers and the stated uncertainty,
+and the one next measurement. --details adds what it did:
   1. compares the baseline and says where it fails and what the residual pattern suggests;
   2. fits every catalogue effect the baseline lacks (bounded weighted least squares on the
      frequencies), with standard errors, RMS/max error, AICc and an F-test p-value; ranks them;

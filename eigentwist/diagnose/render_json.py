@@ -2,7 +2,11 @@
 
 Beside the baseline, ranking, steps and final model it holds ``steps[k].alternatives``,
 ``final.alternatives`` (lists of effect names), ``outliers``, ``uncertainty`` and, per
-ranking entry, ``plausible`` and ``plausible_range``.
+ranking entry, ``plausible`` and ``plausible_range``. ``answer`` is :func:`.answer.answer`:
+its lines and parts, ``damping`` (the damping sentence) and ``damping_support``
+(:func:`.damping_support.damping_support`: the damping effects supported and not, with
+p-values, the two that fit alike and the measurement that separates them; null when no
+damping effect was selected or tested).
 """
 
 from __future__ import annotations
