@@ -422,9 +422,10 @@ def test_the_report_leads_with_the_answer(parsed, report_data):
     """The first section is the diagnosis's answer block, the same sentences as the CLI's."""
     assert "answer" in parsed.ids
     text = parsed.section_text("answer")
-    for part in ("verdict", "added", "next"):
+    for part in ("verdict", "added", "damping", "next"):
         assert " ".join(report_data.answer[part].split()) in text
-    assert text.index("Explained") < text.index("Added: ee_compliance") < text.index("Next: measure mode")
+    assert text.index("Explained") < text.index("Added: ee_compliance") < text.index("Damping supported")
+    assert text.index("Damping supported") < text.index("Next: measure mode")
 
 
 def test_provenance_criteria_uncertainty_and_implausible_marks(report_path, parsed):
