@@ -71,6 +71,13 @@ CRITERIA = {
         "over the frequencies and the measured damping ratios (noise alone reverses their order with "
         "probability > 7 %)"
     ),
+    "damping": (
+        "a damping effect not selected fits as well when, fitted on top of the final model, it is plausible and "
+        "its AICc is less than 2 above the final model's; the measurement that separates two damping "
+        "explanations is the pose, k_a (measured range) and measured mode where their damping ratios (sigma = "
+        "max(0.2 zeta, 0.005)) or frequencies (the data's median relative sigma) are most sigma apart, both "
+        "models stable there"
+    ),
     "param_std": (
         "from the Jacobian at the optimum: cov = (J^T J)^-1 * max(1, chi2/(n-k)) (scaled up by the Birge ratio when "
         "the fit is worse than sigma), propagated from log-parameters by the delta method"

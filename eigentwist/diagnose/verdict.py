@@ -7,11 +7,13 @@ JSON (``final.message``) and the HTML report.
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
 
 from ..text import format_table
 from .compare import FAIL_SIGMA
+from .damping_support import damping_sentence, damping_support
 from .stats import CRITERIA, gof_p_value
 from .values import changed_text
 
@@ -430,6 +432,11 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
             "1000 x default, within physical bounds): the value is not physically meaningful"
         )
     out.append(f"   {verdict_text(d, ev)}")
+    damping = damping_sentence(damping_support(d, ev))
+    if damping:
+        out += textwrap.wrap(
+            damping, width=100, initial_indent="   ", subsequent_indent="     ", break_long_words=False
+        )
     u = d.uncertainty
     if u is not None:
         out.append(f"   stated uncertainty: {u.verdict} (Birge ratio sqrt(chi2/nu) = {u.birge_ratio:.3g})")
