@@ -176,6 +176,24 @@ def test_none_supported_names_each_damping_effect_with_its_p_value(calls):
     )
 
 
+def test_damping_of_the_baseline_is_given_and_names_the_models_apart(calls):
+    """A baseline with servo damping (a preset with the stated c_a): nothing more supported, a lag
+    on top fits as well; the two models are named with the given damping."""
+    d = _diagnosis(0.5)
+    d.baseline = NS(effects=("stiff", "servo_damping"))
+    s = ds.damping_support(d, _Ev())
+    assert s["given"] == ["servo_damping"] and s["supported"] == []
+    assert s["alike"]["between"] == ["servo_damping", "servo_damping + servo_delay"]
+    assert ds.damping_sentence(s).startswith(
+        "Damping given: servo_damping; supported: none; not supported: servo_delay"
+    )
+
+
+def test_damping_added_by_hand_is_said_so(calls):
+    s = ds.damping_support(_diagnosis(DELTA_AICC * OUT, manual=True), _Ev())
+    assert s["by_hand"] and ds.damping_sentence(s).startswith("Damping added by hand: servo_damping (p = 1e-05)")
+
+
 # ------------------------------------------------------------------ ties with damping ratios
 
 

@@ -86,8 +86,9 @@ def _model_name(effects) -> str:
 
 def damping_support(d, ev) -> dict | None:
     """What the data say about damping (module doc), or None when no damping effect was
-    selected or tested. Keys: ``supported`` (``effect``, ``p_value``: the test that added it;
-    None when added by hand), ``not_supported`` (``effect``, ``p_value``, ``params``: the
+    selected or tested. Keys: ``given`` (damping effects of the baseline model, taken as
+    given), ``by_hand`` (the effects were added by hand: ``--add``), ``supported``
+    (``effect``, ``p_value``: the test that added it), ``not_supported`` (``effect``, ``p_value``, ``params``: the
     values it would take, ``delta_aicc``: its AICc on top of the final model minus the final
     model's, None when not fitted there, ``fits_alike``), ``alike`` (``between``: the two
     models' damping effects, ``delta_aicc``, ``added``: the effect the second model has on
@@ -107,10 +108,11 @@ def _support(d, ev) -> dict | None:
     mine = [e for e in d.final.effects if e not in base and is_damping(ev, e)]
     tested = _tested(d, ev)
     removed = {r.effect: r for r in (getattr(d, "removed", None) or []) if is_damping(ev, r.effect)}
+    given = [e for e in d.baseline.effects if is_damping(ev, e)]
     if not mine and not tested and not removed:
         return None
     added_p = {s.added: s.p_value for s in d.steps if s.added}
-    supported = [{"effect": e, "p_value": None if d.manual else added_p.get(e)} for e in mine]
+    supported = [{"effect": e, "p_value": added_p.get(e)} for e in mine]
     taken = {split_scope(e)[0] for e in mine}
     not_supported, alike = [], []
     for name, c in tested.items():
@@ -130,16 +132,23 @@ def _support(d, ev) -> dict | None:
             }
         )
         if fits_alike:
-            alike.append((gap, c.fit, (_model_name(mine), _model_name(mine + [c.effect])), c.effect))
+            alike.append((gap, c.fit, (_model_name(given + mine), _model_name(given + mine + [c.effect])), c.effect))
     for e, r in removed.items():
         not_supported.append({"effect": e, "p_value": r.p_value, "params": [], "delta_aicc": None, "fits_alike": False})
     for a in d.alternatives:
         swapped = [e for e in (a.replaced, a.by) if e]
         if any(is_damping(ev, e) for e in swapped) and a.fit is not None:
-            other = [e for e in a.fit.effects if e not in base and is_damping(ev, e)]
-            alike.append((a.fit.aicc - d.final.aicc, a.fit, (_model_name(mine), _model_name(other)), None))
+            other = [e for e in a.fit.effects if is_damping(ev, e)]
+            alike.append((a.fit.aicc - d.final.aicc, a.fit, (_model_name(given + mine), _model_name(other)), None))
     not_supported.sort(key=lambda x: (not x["fits_alike"], _sortable(x["p_value"])))
-    out = {"supported": supported, "not_supported": not_supported, "alike": None, "measurement": None}
+    out = {
+        "given": given,
+        "by_hand": bool(d.manual),
+        "supported": supported,
+        "not_supported": not_supported,
+        "alike": None,
+        "measurement": None,
+    }
     if alike:
         gap, fit_b, names, added = min(alike, key=lambda x: abs(x[0]))
         out["alike"] = {"between": list(names), "delta_aicc": gap, "added": added}
@@ -152,7 +161,7 @@ def _sortable(p) -> float:
 
 
 def _p(p) -> str:
-    return "p untested" if p is None or not math.isfinite(p) else f"p = {p:.2g}"
+    return "p undetermined" if p is None or not math.isfinite(p) else f"p = {p:.2g}"
 
 
 QUANTITY_WORDS = {
@@ -193,7 +202,9 @@ def damping_sentence(s: dict | None) -> str:
             values = ", ".join(v["text"] for v in x["params"])
             text += f", fits as well with {values}" if values else ", fits as well"
         no.append(text + ")")
-    text = "Damping supported: " + (", ".join(yes) if yes else "none")
+    text = f"Damping given: {', '.join(s['given'])}; " if s.get("given") else "Damping "
+    text += "added by hand: " if s.get("by_hand") else "supported: "
+    text += ", ".join(yes) if yes else "none"
     text += ("; not supported: " + ", ".join(no)) if no else ""
     text += "."
     m = s.get("measurement")
