@@ -346,3 +346,36 @@ def test_a_damping_ratios_default_sigma_is_the_larger_of_its_two_rules(zeta):
     edge = DEFAULT_SIGMA_ZETA_ABS / DEFAULT_SIGMA_ZETA_REL  # 0.025: both rules agree
     expected = DEFAULT_SIGMA_ZETA_ABS if zeta < edge else DEFAULT_SIGMA_ZETA_REL * zeta
     assert float(zeta_sigma(zeta)) == pytest.approx(expected)
+
+
+# ------------------------------------------------------------------ like with like: the next measurement
+
+
+@pytest.fixture(scope="module")
+def heli4():
+    import eigentwist
+
+    return eigentwist.load("heli4", backend="numpy")
+
+
+@pytest.mark.parametrize("kind", ["damped", "undamped"])
+def test_the_next_measurement_compares_the_frequency_the_data_measured(heli4, kind):
+    """On the paper's step responses (damped) the proposal's frequencies are the models' damped
+    ones, omega_n sqrt(1 - zeta^2) from the modes at that condition; read as natural frequencies,
+    the natural ones."""
+    from eigentwist.diagnose import paper_measurements
+    from eigentwist.diagnose.matching import DIRECTIONS
+
+    meas = paper_measurements(heli4, kind=kind)
+    damping = {"c_a": 2.4}
+    fits = [
+        NS(effects=("actuator_loss", e, "servo_damping"), fixed={"k_E_rot": 377.0, "k_E_lin": 1.7e5, **damping})
+        for e in ("ee_compliance", "ee_coupling")
+    ]
+    nm = separate.next_measurement(heli4, meas, *fits)
+    for f, name in zip(fits, nm["between"]):
+        m = heli4.modes(np.array([nm["pose"]]), f.effects, k_a=np.array([nm["k_a"]]), **f.fixed)
+        k = int(np.flatnonzero(m.direction[0] == DIRECTIONS.index(nm["mode"]))[0])
+        zeta, natural = m.damping_ratio[0, k], m.natural_hz[0, k]
+        expected = natural * math.sqrt(1.0 - zeta**2) if kind == "damped" else natural
+        assert zeta > 0.01 and nm["predicted_hz"][name] == pytest.approx(expected, rel=1e-9)

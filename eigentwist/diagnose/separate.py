@@ -77,15 +77,22 @@ def measured_band(meas) -> tuple[float, float]:
     return float(np.min(meas.freq_hz)) / BAND, float(np.max(meas.freq_hz)) * BAND
 
 
-def _best(modes_of, labels, rel_sigma, band=(0.0, np.inf)):
+def _kind(meas) -> str:
+    """The frequency the data measured: ``damped_hz`` where a row is a damped frequency, else ``natural_hz``."""
+    return "damped_hz" if np.any(np.asarray(getattr(meas, "damped", False))) else "natural_hz"
+
+
+def _best(modes_of, labels, rel_sigma, band=(0.0, np.inf), quantity: str = "natural_hz"):
     """(separation, label, row, f_a, f_b) of the largest separation over ``labels``, both
-    predictions inside ``band`` (Hz)."""
+    predictions (``quantity``: the natural or the damped frequency) inside ``band`` (Hz)."""
     best = None
     n = len(modes_of[0].freq_hz)
     for label in labels:
         fs, ok = [], np.ones(n, dtype=bool)
         for m in modes_of:
             f, idx = match_frequencies(m, [label] * n, strict=False)
+            if m.damping is not None:  # a damped model: the pole's modulus or its damped frequency
+                f = np.asarray(getattr(m, quantity), dtype=float)[np.arange(n), idx]
             fs.append(f)
             ok &= m.direction[np.arange(n), idx] == DIRECTIONS.index(label)
             if m.constrained is not None:  # a rigid constraint's mode: not measurable
@@ -103,7 +110,9 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
     """Where ``fit_a`` and ``fit_b`` (:class:`~eigentwist.diagnose.fit.FitResult`) differ most.
 
     Only a mode direction the data's sensors observed (a label of ``meas``) and predicted
-    inside the measured band (:func:`measured_band`) by both models is proposed. Returns
+    inside the measured band (:func:`measured_band`) by both models is proposed. The
+    frequencies compared are the kind the data measured: damped (omega_d / 2 pi) where a row
+    is a damped frequency, else the natural ones. Returns
     None when there is none, else a dict: ``between`` (the two models, named by the
     effects that differ), ``pose`` (m), ``k_a`` (N m/rad), ``mode`` (direction),
     ``predicted_hz`` (per model), ``separation_sigma``, ``sigma_hz``, and
@@ -135,7 +144,7 @@ def next_measurement(ev, meas, fit_a, fit_b, k_a_range=None, grid: int = GRID) -
             "sigma_hz": rel_sigma * 0.5 * (fa + fb),
         }
 
-    out = describe(_best(modes_of, labels, rel_sigma, measured_band(meas)))
+    out = describe(_best(modes_of, labels, rel_sigma, measured_band(meas), _kind(meas)))
     if out is not None:
         out["with_measured_modes"] = dict(out)
     return out
@@ -177,7 +186,7 @@ def damping_measurement(ev, meas, fit_a, fit_b, names: tuple | None = None, grid
     labels = [a for a in modes_of[0].axes if a in modes_of[1].axes and a in set(meas.mode)]
     rel_sigma = float(np.median(meas.relative_sigma))
     band = measured_band(meas)
-    freq = "damped_hz" if np.any(np.asarray(getattr(meas, "damped", False))) else "natural_hz"
+    freq = _kind(meas)
     n = len(pose_rows)
     rows = np.arange(n)
     stable = np.ones(n, dtype=bool)
