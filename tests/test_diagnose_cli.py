@@ -62,6 +62,12 @@ def test_diagnose_json_keys(capsys):
         "cannot be judged",
     )
     assert d["uncertainty"]["birge_ratio"] == pytest.approx((d["final"]["chi2"] / d["final"]["dof"]) ** 0.5)
+    # the damping the data support, and the measurement that separates the lag that fits as well
+    s = d["answer"]["damping_support"]
+    assert [x["effect"] for x in s["supported"]] == ["servo_damping"]
+    assert {x["effect"] for x in s["not_supported"]} == {"servo_delay", "structural_loss"}
+    assert {"pose", "k_a", "mode", "quantity", "predicted", "separation_sigma"} <= set(s["measurement"])
+    assert d["answer"]["damping"].startswith("Damping supported: servo_damping")
 
 
 def test_diagnose_text_add_and_plot(capsys, tmp_path):
