@@ -343,9 +343,16 @@ def test_damped_data_make_damping_ratios_count_in_the_equivalence(factor, same):
 def test_a_damping_ratios_default_sigma_is_the_larger_of_its_two_rules(zeta):
     from eigentwist.diagnose.measurements import DEFAULT_SIGMA_ZETA_ABS, DEFAULT_SIGMA_ZETA_REL
 
+    from eigentwist.diagnose.measurements import Measurements
+
     edge = DEFAULT_SIGMA_ZETA_ABS / DEFAULT_SIGMA_ZETA_REL  # 0.025: both rules agree
     expected = DEFAULT_SIGMA_ZETA_ABS if zeta < edge else DEFAULT_SIGMA_ZETA_REL * zeta
     assert float(zeta_sigma(zeta)) == pytest.approx(expected)
+    # the data's own default: the same rule
+    meas = Measurements(
+        np.ones(1), ("x",), np.ones(1), np.ones(1), np.zeros((1, 3)), modal={"damping_ratio": np.array([zeta])}
+    )
+    assert meas.sigma_damping_ratio[0] == pytest.approx(expected)
 
 
 # ------------------------------------------------------------------ like with like: the next measurement
