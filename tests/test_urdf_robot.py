@@ -70,7 +70,13 @@ def test_urdf_legs_are_the_hand_written_legs():
     rng = np.random.default_rng(30)
     for _ in range(3):
         q = rng.uniform(-1.0, 1.0, (3, 3)) + [[2.0, -1.6, 0], [0.1, 2.2, 0], [0, 0, 0.5]]
-        values = {**d, "x": 0.0, "y": 0.25, "z": 0.0, **{f"R_{i}{j}": float(i == j) for i in range(3) for j in range(3)}}
+        values = {
+            **d,
+            "x": 0.0,
+            "y": 0.25,
+            "z": 0.0,
+            **{f"R_{i}{j}": float(i == j) for i in range(3) for j in range(3)},
+        }
         values.update({f"q{m + 1}_{i + 1}": q[i, m] for i in range(3) for m in range(3)})
         for a, b in zip(mine(values), theirs(values)):
             np.testing.assert_allclose(a, b, atol=1e-12)  # twists, then the chain's end
@@ -133,4 +139,6 @@ def test_a_joint_rotation_must_be_a_rotation(stretch, refused):
             Joint("R", axes=((0, 0, 1),), rotation=R, name="mount")
     else:
         Joint("R", axes=((0, 0, 1),), rotation=R, name="mount")
-    assert Joint("R", axes=((0, 0, 1),), rotation=sp.diag(sp.Symbol("s"), 1, 1)).rotation is not None  # expressions pass
+    assert (
+        Joint("R", axes=((0, 0, 1),), rotation=sp.diag(sp.Symbol("s"), 1, 1)).rotation is not None
+    )  # expressions pass

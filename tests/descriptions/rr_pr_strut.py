@@ -70,7 +70,12 @@ def describe() -> ChainRobot:
     strut = SerialLeg(
         "leg 3 (passive strut)",
         (
-            Joint("U", origin=(0, r(55), r(40)), rotation=sp.Matrix([[0, 5, 0], [-3, 0, -4], [-4, 0, 3]]) / 5, axes=EY + EZ),
+            Joint(
+                "U",
+                origin=(0, r(55), r(40)),
+                rotation=sp.Matrix([[0, 5, 0], [-3, 0, -4], [-4, 0, 3]]) / 5,
+                axes=EY + EZ,
+            ),
             Joint("P", axes=EX),
             Joint("S"),
         ),
