@@ -142,3 +142,23 @@ def test_a_joint_rotation_must_be_a_rotation(stretch, refused):
     assert (
         Joint("R", axes=((0, 0, 1),), rotation=sp.diag(sp.Symbol("s"), 1, 1)).rotation is not None
     )  # expressions pass
+
+
+@pytest.mark.derives
+def test_matrices_command_gives_each_legs_coordinates_in_its_units(ev, capsys):
+    """`eigentwist matrices --json`: each leg's own coordinates (no padding) and units."""
+    import json
+
+    from eigentwist.cli.main import main
+
+    assert ev.leg_joint_units == (("rad", "rad"), ("m", "rad"), ("rad", "rad", "m"))
+    args = ["matrices", "--robot", str(EXAMPLE), "--backend", "numpy", "--pose", "0", "0.25", "--model", "none"]
+    assert main(args + ["--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["leg_joint_units"]["leg 2 (PR)"] == ["m", "rad"]
+    q = out["joint_coordinates"]
+    assert [len(v) for v in q.values()] == [2, 2, 3]
+    assert q["leg 2 (PR)"][0] == pytest.approx(0.25 - np.sqrt(0.2**2 - 0.12**2), abs=1e-12)  # the slider under P
+    assert q["leg 3 (passive strut)"][2] == pytest.approx(0.5, abs=1e-12)  # |P - C|: the strut's length
+    assert main(args) == 0
+    assert "leg 2 (PR) (m, rad): 0.090000, 2.214297" in " ".join(capsys.readouterr().out.split())  # lines wrap

@@ -965,9 +965,17 @@ class Evaluator:
     @property
     def joint_units(self) -> tuple:
         """Unit of each joint coordinate per leg (the last axis of :meth:`joint_angles`):
-        ``"m"`` for a prismatic joint's, ``"rad"`` for the others' (a Pi joint's angle too)."""
-        leg = self.robot.legs[0]
-        return tuple(joint_kind(leg.joints[c[0]].kind).unit for c in leg.kinematics.coordinates)
+        ``"m"`` for a prismatic joint's, ``"rad"`` for the others' (a Pi joint's angle too).
+        Leg 1's where legs differ (:attr:`leg_joint_units` gives each leg's)."""
+        return self.leg_joint_units[0]
+
+    @property
+    def leg_joint_units(self) -> tuple:
+        """Each leg's coordinate units, one tuple per leg of its own length (legs that differ:
+        :meth:`joint_angles` pads a shorter leg's coordinates with zeros after them)."""
+        return tuple(
+            tuple(joint_kind(leg.joints[c[0]].kind).unit for c in leg.kinematics.coordinates) for leg in self.robot.legs
+        )
 
     def joint_coordinates(self, joints, poses=None) -> tuple:
         """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.
