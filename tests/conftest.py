@@ -232,6 +232,7 @@ COST = {
     "test_c_library.py": 5,
     "test_pose_status.py": 12,
     "test_urdf_leg.py": 3,
+    "test_urdf_robot.py": 5,
 }
 
 

@@ -94,7 +94,7 @@ def compute(args) -> dict:
     solved, condensed = ev.constraint_route(effects, **params)  # c_rigid = 0 where no leg direction is rigid
     mats = ev.matrices(pose, effects, **solved)
     q = ev.joint_angles(pose, **params)[0]
-    units = ev.joint_units
+    units, per_leg = ev.joint_units, ev.leg_joint_units
     # one pose: an unstable mode (negative stiffness) is an error naming the pose and the mode
     model = ev.modes(pose, effects, unstable="raise", **params)
     B = ev.allowed_twists(pose, **params)  # the rigid model's allowed twists (the 3x3 subsets'
@@ -135,8 +135,11 @@ def compute(args) -> dict:
         ),
         "leg_lengths_m": {leg.name: float(q[i, 0]) for i, leg in enumerate(ev.robot.legs)} if units == ("m",) else None,
         # every leg's joint coordinates in SI (rad; m for a prismatic joint), any robot
-        "joint_coordinates": {leg.name: q[i].tolist() for i, leg in enumerate(ev.robot.legs)},
+        "joint_coordinates": {
+            leg.name: q[i, : len(u)].tolist() for i, (leg, u) in enumerate(zip(ev.robot.legs, per_leg))
+        },
         "joint_units": list(units),
+        "leg_joint_units": {leg.name: list(u) for leg, u in zip(ev.robot.legs, per_leg)},
         "M": mats["M"][0].tolist(),
         "K_R": mats["K_R"][0].tolist(),
         "K_F": mats["K_F"][0].tolist(),
@@ -199,10 +202,18 @@ def run(args) -> int:
         )
     elif out["leg_lengths_m"] is not None:
         say("leg lengths (m): " + "; ".join(f"{k}: {v:.6f}" for k, v in out["leg_lengths_m"].items()))
-    else:
+    elif len({tuple(u) for u in out["leg_joint_units"].values()}) == 1:
         say(
             f"joint coordinates ({', '.join(out['joint_units'])}): "
             + "; ".join(f"{k}: " + ", ".join(f"{v:.6f}" for v in vals) for k, vals in out["joint_coordinates"].items())
+        )
+    else:  # legs that differ: each with its own units
+        say(
+            "joint coordinates: "
+            + "; ".join(
+                f"{k} ({', '.join(out['leg_joint_units'][k])}): " + ", ".join(f"{v:.6f}" for v in vals)
+                for k, vals in out["joint_coordinates"].items()
+            )
         )
     axes = ["rx", "ry", "rz", "x", "y", "z"]
     for key, fmt in (("M", ".6f"), ("K_R", ".2f"), ("K_F", ".2f")):

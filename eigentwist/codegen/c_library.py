@@ -29,6 +29,7 @@ import re
 
 from ..errors import DescriptionError
 from ..description.effects import leg_input_name, leg_switch_name, resolve_model, switch_name
+from ..description.serial import padded_references
 
 __all__ = [
     "LEVER_TOL",
@@ -104,16 +105,22 @@ def _model_inputs(robot) -> dict:
         if name in out:
             unit, _, doc = out[name]
             out[name] = (unit, value, f"{doc}; 0 in the defaults: the default model is exact")
-    for k, leg in enumerate(robot.legs, start=1):
+    numeric = [getattr(getattr(leg, "kinematics", None), "reference", None) is not None for leg in robot.legs]
+    if any(numeric) and all(numeric):
         # legs in URDF form (numeric IK): the kernels read the joint coordinates solved by
-        # Newton's method in the runtime; a C caller passes them (default: the reference)
-        for m, value in enumerate(getattr(getattr(leg, "kinematics", None), "reference", ()) or (), start=1):
-            out[f"q{m}_{k}"] = (
-                "rad or m",
-                float(value),
-                f"leg {k}'s joint coordinate {m} (numeric IK: the caller "
-                "solves it; default: the reference configuration)",
-            )
+        # Newton's method in the runtime; a C caller passes them (default: the reference;
+        # legs that differ: padded to the largest leg's count, a padded one held at 0)
+        for k, (leg, row) in enumerate(zip(robot.legs, padded_references(robot.legs)), start=1):
+            for m, value in enumerate(row, start=1):
+                real = m <= len(leg.kinematics.reference)
+                out[f"q{m}_{k}"] = (
+                    "rad or m",
+                    float(value),
+                    f"leg {k}'s joint coordinate {m} (numeric IK: the caller solves it; default: the "
+                    "reference configuration)"
+                    if real
+                    else f"leg {k}'s padded coordinate {m} (legs that differ: 0, no joint)",
+                )
     return out
 
 

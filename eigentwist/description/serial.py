@@ -45,7 +45,18 @@ from ..errors import DescriptionError
 from .chain import ChainBody, ChainJoint, ChainLeg
 from .joints import JOINT_FREEDOMS, joint_kind
 
-__all__ = ["Joint", "Body", "SerialLeg", "NumericKinematics", "NumericChainLeg", "coordinate_count", "CLOSURE_TOL"]
+__all__ = [
+    "Joint",
+    "Body",
+    "SerialLeg",
+    "NumericKinematics",
+    "NumericChainLeg",
+    "coordinate_count",
+    "CLOSURE_TOL",
+    "padded_references",
+    "padded_units",
+    "ROTATION_TOL",
+]
 
 #: a solved configuration closes the loop when the residual (m and rad) is below this
 CLOSURE_TOL = 1e-9
@@ -86,6 +97,32 @@ class Joint:
                 "a Pi joint needs its bar (m, joint frame): the vector from the joint to its child frame"
             )
         object.__setattr__(self, "axes", tuple(tuple(a) for a in axes))
+        _check_rotation(self.rotation, f"joint {self.name or self.kind!r}")
+
+
+#: a numeric joint rotation is a rotation when R^T R equals the identity and det R = +1 to this
+ROTATION_TOL = 1e-9
+
+
+def _check_rotation(rotation, what: str) -> None:
+    """Refuse a numeric 3x3 ``rotation`` whose columns are not orthonormal and right-handed
+    (within :data:`ROTATION_TOL`); expressions of parameters are taken as written."""
+    if rotation is None:
+        return
+    R = sp.Matrix(rotation)
+    if R.shape != (3, 3):
+        raise DescriptionError(f"{what}: rotation of shape {R.shape}: expected 3x3 (the frame's axes as columns)")
+    if R.free_symbols:
+        return
+    import numpy as np
+
+    Rn = np.array(R.evalf(), dtype=float)
+    gap = max(float(np.abs(Rn.T @ Rn - np.eye(3)).max()), abs(float(np.linalg.det(Rn)) - 1.0))
+    if gap > ROTATION_TOL:
+        raise DescriptionError(
+            f"{what}: rotation {Rn.round(6).tolist()} is not a rotation (R^T R - I or det R - 1 reaches "
+            f"{gap:.3g}): expected orthonormal right-handed columns (exact values, e.g. sp.sqrt(2)/2)"
+        )
 
 
 @dataclass(frozen=True)
@@ -110,11 +147,33 @@ def coordinate_count(joints, last_real: int) -> int:
     )
 
 
+def _padded(rows: list, fill) -> tuple:
+    width = max(len(r) for r in rows)
+    return tuple(tuple(r) + (fill,) * (width - len(r)) for r in rows)
+
+
+def padded_references(legs) -> tuple:
+    """Each numerically solved leg's reference configuration (rad; m for P), padded with
+    zeros to the largest leg's number of coordinates (legs that differ: the loop closure
+    holds a padded coordinate at zero, :func:`eigentwist.symbolic.kinematics.loop_closure`)."""
+    return _padded([leg.kinematics.reference for leg in legs], 0.0)
+
+
+def padded_units(legs) -> tuple:
+    """Each leg's coordinate units (``"rad"``; ``"m"`` for a prismatic joint's), padded
+    like :func:`padded_references` (a padded coordinate counts as ``"m"``: never wrapped)."""
+    return _padded(
+        [tuple(joint_kind(leg.joints[c[0]].kind).unit for c in leg.kinematics.coordinates) for leg in legs], "m"
+    )
+
+
 @dataclass(frozen=True)
 class SerialLeg:
     """A leg as a serial chain in URDF form, solved numerically (no closed-form IK).
 
-    joints : :class:`Joint` from the base to the platform (then any ``virtual`` joints).
+    joints : :class:`Joint` from the base to the platform (then any ``virtual`` joints);
+        one of them actuated, or none (a passive leg: its constraints and inertia only).
+        Legs of one robot may differ in their chains and numbers of coordinates.
     bodies : :class:`Body` list.
     attachment : the chain end's point in the platform frame (m).
     attachment_rotation : the chain end frame's axes in the platform frame when the chain
@@ -123,6 +182,9 @@ class SerialLeg:
         on, in chain order, one per coordinate (:func:`coordinate_count`): Newton starts
         there.
     platform_body : the platform body the leg attaches to.
+    stiffness : the actuated joint's own stiffness (N/m for a P joint, N m/rad for an R
+        joint; :class:`~eigentwist.description.chain.ChainLeg`); None: the robot's
+        ``actuator_stiffness``.
     """
 
     name: str
@@ -132,13 +194,17 @@ class SerialLeg:
     reference: tuple
     attachment_rotation: Any = None
     platform_body: str = "platform"
+    stiffness: Any = None
 
     def __post_init__(self):
         real = [k for k, j in enumerate(self.joints) if j.kind != "virtual"]
         if not real:
             raise DescriptionError(f"{self.name}: no joints: expected the chain from the base to the platform")
-        if sum(j.actuated for j in self.joints) != 1:
-            raise DescriptionError(f"{self.name}: {sum(j.actuated for j in self.joints)} actuated joints: expected one")
+        if sum(j.actuated for j in self.joints) > 1:
+            raise DescriptionError(
+                f"{self.name}: {sum(j.actuated for j in self.joints)} actuated joints: expected one "
+                "(or none: a passive leg)"
+            )
         n = coordinate_count(self.joints, real[-1])
         if len(self.reference) != n:
             raise DescriptionError(
@@ -188,6 +254,7 @@ class SerialLeg:
             None,
             platform_body=self.platform_body,
             frames=frames,
+            stiffness=self.stiffness,
             numeric=NumericKinematics(self),
         )
 

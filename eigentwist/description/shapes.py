@@ -22,7 +22,18 @@ import sympy as sp
 from ..errors import DescriptionError
 from .screw import spatial_inertia
 
-__all__ = ["Shape", "point_mass", "slender_rod", "cylinder", "tube", "box", "sphere"]
+__all__ = [
+    "Shape",
+    "point_mass",
+    "slender_rod",
+    "cylinder",
+    "tube",
+    "box",
+    "sphere",
+    "compound",
+    "hub_and_rod",
+    "hub_and_rod_fit",
+]
 
 
 @dataclass(frozen=True)
@@ -89,3 +100,46 @@ def sphere(radius, density) -> Shape:
     about any axis."""
     mass = density * sp.Rational(4, 3) * sp.pi * radius**3
     return Shape(mass, sp.zeros(3, 1), sp.Rational(2, 5) * mass * radius**2 * sp.eye(3))
+
+
+def compound(*shapes: Shape) -> Shape:
+    """One rigid body made of ``shapes`` (all in the same body frame): masses added, the
+    centre of mass their mass-weighted mean, the inertias moved to it (parallel axes)."""
+    if not shapes:
+        raise DescriptionError("compound: no shapes: expected at least one")
+    mass = sum((sp.sympify(s.mass) for s in shapes), sp.Integer(0))
+    com = sum((s.mass * sp.Matrix(s.com) for s in shapes), sp.zeros(3, 1)) / mass
+    shift = lambda m, c: m * ((c.T * c)[0, 0] * sp.eye(3) - c * c.T)  # noqa: E731
+    inertia = sum((sp.Matrix(s.inertia) + shift(s.mass, sp.Matrix(s.com) - com) for s in shapes), sp.zeros(3, 3))
+    return Shape(mass, com, inertia)
+
+
+def hub_and_rod(length, mass_per_length, hub_mass, hub_inertia) -> Shape:
+    """A link turning about a joint at its frame's origin: a uniform slender rod along x
+    from the origin (``length`` m, ``mass_per_length`` kg/m: mass ``lambda l``, its inertia
+    about the origin ``lambda l^3 / 3`` normal to x) and a hub at the origin (the motor
+    flange, bearings, clamps: ``hub_mass`` kg, ``hub_inertia`` 3 diagonal entries, kg m^2,
+    about the origin). Mass ``m_hub + lambda l``; first moment ``lambda l^2 / 2`` along x."""
+    hub = Shape(sp.sympify(hub_mass), sp.zeros(3, 1), sp.diag(*hub_inertia))
+    return compound(hub, slender_rod(length, mass_per_length * length))
+
+
+def hub_and_rod_fit(mass, cog, inertia, length) -> dict:
+    """The :func:`hub_and_rod` whose body at ``length`` (m) is a measured one: ``mass`` (kg),
+    centre of gravity ``cog`` (m along x), ``inertia`` (3 diagonal entries about the origin,
+    kg m^2). Returns exact rationals ``{"mass_per_length": 2 m c / l^2, "hub_mass": m - lambda l,
+    "hub_inertia": (I_xx, I_yy - lambda l^3/3, I_zz - lambda l^3/3)}`` (the values read as
+    written decimals). Raises ``DescriptionError`` when the hub would need a negative mass or
+    inertia (the measured body is lighter near the joint than a uniform rod)."""
+    m, c, l = (sp.Rational(str(v)) for v in (mass, cog, length))
+    I = [sp.Rational(str(v)) for v in inertia]
+    lam = 2 * m * c / l**2
+    rod = lam * l**3 / 3
+    out = {"mass_per_length": lam, "hub_mass": m - lam * l, "hub_inertia": (I[0], I[1] - rod, I[2] - rod)}
+    if out["hub_mass"] < 0 or min(out["hub_inertia"]) < 0:
+        raise DescriptionError(
+            f"hub_and_rod_fit: mass {mass} kg, cog {cog} m, inertia {tuple(inertia)} kg m^2 at length {length} m "
+            f"leave the hub {float(out['hub_mass']):.4g} kg, {[float(v) for v in out['hub_inertia']]} kg m^2: "
+            "expected non-negative (a body at least as heavy near the joint as a uniform rod)"
+        )
+    return out

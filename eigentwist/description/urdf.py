@@ -60,6 +60,17 @@ def _kind_axis(joint, name: str) -> tuple[str, tuple]:
     )
 
 
+def _link_name(model, joint: int) -> str:
+    """The URDF name of the link joint ``joint`` carries (its child link; links on fixed
+    joints after it are merged into it by the parser)."""
+    import pinocchio as pin
+
+    return next(
+        (f.name for f in model.frames if f.type == pin.FrameType.BODY and f.parentJoint == joint),
+        f"{model.names[joint]} link",
+    )
+
+
 def _numbers(m) -> sp.Matrix:
     return sp.Matrix(m.tolist()).applyfunc(lambda v: sp.Float(float(v), 17))
 
@@ -68,7 +79,7 @@ def urdf_leg(
     urdf,
     name: str,
     *,
-    actuated: str,
+    actuated: str | None,
     attachment,
     reference,
     end: str | None = None,
@@ -78,13 +89,14 @@ def urdf_leg(
     base_rotation=None,
     attachment_rotation=None,
     platform_body: str = "platform",
+    stiffness=None,
 ) -> SerialLeg:
     """A :class:`~eigentwist.description.serial.SerialLeg` from the URDF of its serial chain.
 
     urdf : a path to a ``.urdf`` file, or its XML text; one chain from the root link (the
         leg's base mounting) to its last link (every joint's parent the joint before it).
     name : the leg's name; actuated : the URDF name of its actuated joint (revolute or
-        prismatic).
+        prismatic), None for a passive leg.
     attachment, attachment_rotation : the chain end in the platform frame (m; 3x3 columns):
         the spherical joint's centre, or with ``platform_joint=None`` the ``end`` link's
         frame, rigidly on the platform.
@@ -99,12 +111,14 @@ def urdf_leg(
         frame of the last joint.
     base_origin, base_rotation : the URDF root link's origin (m) and axes (3x3 columns) in
         the robot's base frame (parameter expressions allowed).
+    stiffness : the actuated joint's own stiffness (N/m or N m/rad; None: the robot's
+        ``actuator_stiffness``), as :class:`~eigentwist.description.serial.SerialLeg`'s.
     """
     model = _model(urdf)
     if model.njoints < 2:
         raise DescriptionError(f"{name}: the URDF has no moving joint: expected the leg's chain")
     names = list(model.names)
-    if actuated not in names:
+    if actuated is not None and actuated not in names:
         raise DescriptionError(
             f"{name}: actuated joint {actuated!r} is not in the URDF (its joints: {', '.join(names[1:])})"
         )
@@ -129,7 +143,7 @@ def urdf_leg(
         if inertia.mass > 0:
             c = _numbers(inertia.lever)
             I_origin = _numbers(inertia.inertia) + inertia.mass * (c.dot(c) * sp.eye(3) - c * c.T)
-            bodies.append(Body(f"{names[i]} link", i, spatial_inertia(sp.Float(inertia.mass, 17), c, I_origin)))
+            bodies.append(Body(_link_name(model, i), i, spatial_inertia(sp.Float(inertia.mass, 17), c, I_origin)))
     tip_R, tip_p = sp.eye(3), sp.zeros(3, 1)
     if end is not None:
         frame = next((f for f in model.frames if f.name == end), None)
@@ -156,4 +170,5 @@ def urdf_leg(
         tuple(reference),
         attachment_rotation=attachment_rotation,
         platform_body=platform_body,
+        stiffness=stiffness,
     )

@@ -15,7 +15,7 @@ from ..description import Parameter, RobotDescription, triangle_inequality, tube
 from ..description.effects import PRESETS, effect_parameters
 from ..description.rrpirr import rrpirr_leg
 from ..description.formulas import parallelogram_inertia
-from ..description.screw import spatial_inertia
+from . import lower_link
 
 PARAMETERS = (
     Parameter("R", 0.20, "m", "radius of the actuated joints about the base centre"),
@@ -67,13 +67,18 @@ EFFECT_VALUES = {
 }
 
 
-def describe() -> RobotDescription:
-    """The Delta description with its specified values as defaults."""
-    parameters = PARAMETERS + effect_parameters(EFFECTS, EFFECT_VALUES)
+def describe(bodies: str = "measured") -> RobotDescription:
+    """The Delta description with its specified values as defaults.
+
+    bodies : ``"measured"`` (the upper arm's ``m_1``, ``l1_cog``, ``I1_*``, parameters of
+        their own) or ``"shapes"``: the upper arm as a uniform rod along l1 (and an empty
+        hub plus its I1_xx about its own axis), the specified arm at l1 = 0.30 m, its mass
+        and inertia following l1 (robot ``delta_shapes``, generated on first use;
+        :mod:`.lower_link`).
+    """
+    parameters = lower_link.parameters(PARAMETERS, bodies, "upper arm") + effect_parameters(EFFECTS, EFFECT_VALUES)
     p = {q.name: q.symbol for q in parameters}
-    upper_arm = spatial_inertia(
-        p["m_1"], sp.Matrix([p["l1_cog"], 0, 0]), sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"])
-    )
+    upper_arm, upper_arm_checks = lower_link.inertia(p, bodies, "upper arm")
     rod = dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"])
     forearm = parallelogram_inertia(rod["r_i"], rod["r_o"], rod["rho"], p["l2"])
     legs = []
@@ -97,7 +102,7 @@ def describe() -> RobotDescription:
         )
     platform = sp.diag(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], p["m_e"], p["m_e"], p["m_e"])
     return RobotDescription(
-        name="delta",
+        name="delta" if bodies == "measured" else "delta_shapes",
         title="Delta robot (3-RR(Pi)RR)",
         parameters=parameters,
         legs=tuple(legs),
@@ -117,7 +122,7 @@ def describe() -> RobotDescription:
         presets=dict(PRESETS),
         constraints=(
             tube(p["r_i"], p["r_o"], "the forearm tubes")
-            + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
+            + upper_arm_checks
             + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")
         ),
     )

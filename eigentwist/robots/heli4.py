@@ -13,7 +13,7 @@ from ..description import Coupling, EECompliance, Parameter, RobotDescription, t
 from ..description.effects import PRESETS, effect_parameters
 from ..description.rrpirr import rrpirr_leg
 from ..description.formulas import parallelogram_inertia
-from ..description.screw import spatial_inertia
+from . import lower_link
 
 INF = float("inf")
 
@@ -79,9 +79,17 @@ EFFECTS = (
 EFFECT_VALUES: dict = {"c_a": 3.0}
 
 
-def describe() -> RobotDescription:
-    """The Heli4 description with the paper's values as defaults."""
-    parameters = PARAMETERS + effect_parameters(EFFECTS, EFFECT_VALUES)
+def describe(bodies: str = "measured") -> RobotDescription:
+    """The Heli4 description with the paper's values as defaults.
+
+    bodies : ``"measured"`` (the paper's Eq. 23 lower link: ``m_1``, ``l1_cog``, ``I1_*``,
+        parameters of their own) or ``"shapes"``: the lower link as a uniform rod along l1
+        and a hub at the actuated joint, fitted to be Eq. 23's body at l1 = 0.20 m, so that
+        its mass and inertia follow l1 (robot ``heli4_shapes``, generated on first use;
+        :mod:`.lower_link`). The rods' inertia follows l2, r_i, r_o and rho in both (Eqs.
+        27-29); the end-effector's and the rotor's stay measured.
+    """
+    parameters = lower_link.parameters(PARAMETERS, bodies, "lower link") + effect_parameters(EFFECTS, EFFECT_VALUES)
     p = {q.name: q.symbol for q in parameters}
     R, r, d, h = p["R"], p["r"], p["d"], p["h"]
     ex, ey = (1, 0, 0), (0, 1, 0)
@@ -93,11 +101,7 @@ def describe() -> RobotDescription:
         ("leg 3", ey, neg(ex), (0, r, d + h)),
         ("leg 4", neg(ey), ex, (0, -r, d + h)),
     )
-    lower_link = spatial_inertia(
-        p["m_1"],
-        sp.Matrix([p["l1_cog"], 0, 0]),
-        sp.diag(p["I1_xx"], p["I1_yy"] + p["I_rotor"], p["I1_zz"]),
-    )
+    body1, body1_checks = lower_link.inertia(p, bodies, "lower link")
     rod = dict(r_i=p["r_i"], r_o=p["r_o"], rho=p["rho"], w_pi=p["w_pi"])
     parallelogram = parallelogram_inertia(rod["r_i"], rod["r_o"], rod["rho"], p["l2"])
     # legs 1, 2 attach to plate A (lower traveling plate), legs 3, 4 to plate B (upper);
@@ -112,7 +116,7 @@ def describe() -> RobotDescription:
             a,
             p["l1"],
             p["l2"],
-            lower_link,
+            body1,
             parallelogram,
             platform_body=body,
             w_pi=p["w_pi"],
@@ -137,13 +141,13 @@ def describe() -> RobotDescription:
     c_rot = sp.diag(0, 1 / (p["k_E_rot"] / 2), 0, 0, 0, 0)  # Eqs. 45, 46
     c_lin = sp.diag(0, 0, 0, 0, 1 / (p["k_E_lin"] / 2), 0)  # Eqs. 47, 48
     return RobotDescription(
-        name="heli4",
+        name="heli4" if bodies == "measured" else "heli4_shapes",
         title="Heli4 (4-RR(Pi)RR), Hoevenaars, Krut & Herder 2020",
         parameters=parameters,
         legs=legs,
         l1=p["l1"],
         l2=p["l2"],
-        lower_link_inertia=lower_link,
+        lower_link_inertia=body1,
         rod=rod,
         ee_inertia=ee,
         # lower traveling plate centre at EE origin + [0, 0, d] (facts file)
@@ -162,7 +166,7 @@ def describe() -> RobotDescription:
         presets={**PRESETS, "damped": PRESETS["paper"] + ("servo_damping",)},
         constraints=(
             tube(p["r_i"], p["r_o"], "the parallelogram rods")
-            + triangle_inequality(p["I1_xx"], p["I1_yy"], p["I1_zz"], "the lower link")
+            + body1_checks
             + triangle_inequality(p["I_e_xx"], p["I_e_yy"], p["I_e_zz"], "the end-effector")
         ),
     )

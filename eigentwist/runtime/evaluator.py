@@ -18,6 +18,7 @@ from .errors import InputError, UnstablePoseError
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .labels import directions, energy_shares
 from ..description.pose import FULL, TWIST_AXIS, twist_order
+from ..description.serial import padded_references, padded_units
 from .threads import resolve_threads
 from .validity import (
     CONDITIONING_TOL,
@@ -305,7 +306,7 @@ class Evaluator:
         from .errors import AssemblyError
         from .levenberg_marquardt import continuation, same_configuration, solve
 
-        reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+        reference = np.array(padded_references(self.robot.legs), dtype=float)
         x = self._poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
         kp = self.closure_inputs(x, self._params(1, {}, "none"))
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -314,7 +315,7 @@ class Evaluator:
             q_direct = solve(self._kernels.loop_closure, reference, kp, 1)[0]
             lever = self._kernels.jacobians(q_path[None], kp)["lever"][0]
         residual = np.sqrt((r0 * r0).sum(-1))
-        same = same_configuration(q_direct, q_path, np.array([u == "rad" for u in self.joint_units]))
+        same = same_configuration(q_direct, q_path, np.array(padded_units(self.robot.legs)) == "rad")
         for i, leg in enumerate(self.robot.legs):
             ref = ", ".join(f"{v:.6g}" for v in reference[i])
             where = (
@@ -371,7 +372,7 @@ class Evaluator:
         if key in memo:
             return memo[key][0]
         n = len(poses)
-        reference = np.array([leg.kinematics.reference for leg in self.robot.legs], dtype=float)
+        reference = np.array(padded_references(self.robot.legs), dtype=float)
         signs = self.assembly()["sign"]
         iterate = None
         if self._fused and self.c_newton:
@@ -449,7 +450,7 @@ class Evaluator:
         :meth:`numeric_joints` adds to the inputs)."""
         names = self.__dict__.get("_joint_input_names")
         if names is None:
-            nq = len(self.robot.legs[0].kinematics.coordinates)
+            nq = len(padded_references(self.robot.legs)[0])
             names = self._joint_input_names = frozenset(
                 f"q{m + 1}_{i + 1}" for i in range(self.n_legs) for m in range(nq)
             )
@@ -964,9 +965,17 @@ class Evaluator:
     @property
     def joint_units(self) -> tuple:
         """Unit of each joint coordinate per leg (the last axis of :meth:`joint_angles`):
-        ``"m"`` for a prismatic joint's, ``"rad"`` for the others' (a Pi joint's angle too)."""
-        leg = self.robot.legs[0]
-        return tuple(joint_kind(leg.joints[c[0]].kind).unit for c in leg.kinematics.coordinates)
+        ``"m"`` for a prismatic joint's, ``"rad"`` for the others' (a Pi joint's angle too).
+        Leg 1's where legs differ (:attr:`leg_joint_units` gives each leg's)."""
+        return self.leg_joint_units[0]
+
+    @property
+    def leg_joint_units(self) -> tuple:
+        """Each leg's coordinate units, one tuple per leg of its own length (legs that differ:
+        :meth:`joint_angles` pads a shorter leg's coordinates with zeros after them)."""
+        return tuple(
+            tuple(joint_kind(leg.joints[c[0]].kind).unit for c in leg.kinematics.coordinates) for leg in self.robot.legs
+        )
 
     def joint_coordinates(self, joints, poses=None) -> tuple:
         """Validate measured joint coordinates: ``(joints (N, legs, k), poses (N, dof))``.
@@ -977,7 +986,7 @@ class Evaluator:
         q = np.asarray(joints, dtype=float)
         if q.ndim == 2:
             q = q[None]
-        nq = len(self.robot.legs[0].kinematics.coordinates)
+        nq = max(len(leg.kinematics.coordinates) for leg in self.robot.legs)  # legs that differ: padded
         if q.ndim != 3 or q.shape[1:] != (self.n_legs, nq):
             raise InputError(
                 f"joints has shape {np.shape(joints)}: expected (N, {self.n_legs}, {nq}) joint "

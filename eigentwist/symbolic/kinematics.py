@@ -21,15 +21,30 @@ from ..description import RobotDescription
 from ..description.pose import POSE
 from .program import Program, derivative
 
-__all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures"]
+__all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures", "padding_symbols"]
+
+
+def _numeric(leg) -> bool:
+    """Whether a leg's kinematics is solved numerically (a loop-closure residual, legs in URDF form)."""
+    return hasattr(leg.kinematics, "residual")
+
+
+def padding_symbols(count: int, width: int, tag: str) -> tuple:
+    """The padded coordinates ``q<m>_<tag>``, m = count + 1 .. width, of a leg solved
+    numerically with ``count`` coordinates among legs with up to ``width``."""
+    from ..description import sym
+
+    return tuple(sym(f"q{m + 1}_{tag}") for m in range(count, width))
 
 
 def inverse_kinematics(robot: RobotDescription):
     """``(ik, outputs, q_all)``: the IK program over the pose inputs and the parameters, its
     outputs ``{"q": ((legs, n_q), ...), <check>: ((legs,), ...)}`` and each leg's joint
     coordinate symbols. Legs may name different checks (legs that differ): a check a leg
-    does not name is 0 there (within [-1, 1]: it says nothing). Raises ``ValueError`` when
-    the legs' closed forms differ in their numbers of coordinates."""
+    does not name is 0 there (within [-1, 1]: it says nothing). Legs solved numerically
+    may have different numbers of coordinates: each is padded to the largest leg's with
+    inputs the loop closure holds at zero (:func:`padding_symbols`). Raises
+    ``DescriptionError`` when legs in closed form differ in their numbers of coordinates."""
     ik = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
@@ -42,13 +57,21 @@ def inverse_kinematics(robot: RobotDescription):
                 "one, e.g. a leg built by eigentwist.description.rrpirr.rrpirr_leg"
             )
         q, c = leg.kinematics.inverse_kinematics(ik, leg, pose, str(i))
-        if q_all and len(q) != len(q_all[0]):
-            raise DescriptionError(
-                f"{robot.name}: {leg.name} has {len(q)} joint coordinates; "
-                f"expected {len(q_all[0])} like {robot.legs[0].name}"
-            )
         q_all.append(tuple(q))
         per_leg.append(dict(c))
+    width = max(len(q) for q in q_all)
+    for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
+        if len(q) == width:
+            continue
+        if not _numeric(leg):
+            raise DescriptionError(
+                f"{robot.name}: {leg.name} has {len(q)} joint coordinates in closed form; "
+                f"expected {width} like the others (legs with fewer coordinates are written in URDF form, "
+                "eigentwist.description.serial.SerialLeg)"
+            )
+        # a leg solved numerically with fewer coordinates than the largest: padded coordinates,
+        # inputs of the IK held at zero by the loop closure (:func:`loop_closure`)
+        q_all[i] = q + tuple(ik.declare(s_) for s_ in padding_symbols(len(q), width, str(i + 1)))
     names = list(dict.fromkeys(name for c in per_leg for name in c))
     checks = {name: [c.get(name, sp.Integer(0)) for c in per_leg] for name in names}
     n = len(robot.legs)
@@ -114,12 +137,14 @@ def loop_closure(robot, q_all: list):
     The program reads the pose inputs, the parameters and every leg's coordinates ``q_all``
     (the IK program's inputs); its outputs are ``residual`` (legs, rows): the chain end
     minus the platform attachment (m; with the orientation error first, rad, when the
-    chain does not end in a spherical joint), and ``dresidual`` (legs, rows, n_q): its
+    chain does not end in a spherical joint), then a leg's padded coordinates (legs that
+    differ: the largest leg's number of coordinates, :func:`padding_symbols`) and zero
+    rows up to the largest leg's number of equations; and ``dresidual`` (legs, rows, n_q): its
     exact Jacobian with respect to the leg's coordinates (forward mode through the
     program, :func:`~eigentwist.symbolic.program.derivative`), for the runtime's damped
     Newton method (:mod:`eigentwist.runtime.levenberg_marquardt`).
     """
-    numeric = [hasattr(leg.kinematics, "residual") for leg in robot.legs]
+    numeric = [_numeric(leg) for leg in robot.legs]
     if not any(numeric):
         return None, {}
     if not all(numeric):
@@ -131,18 +156,16 @@ def loop_closure(robot, q_all: list):
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters] + [qq for q in q_all for qq in q]:
         prog.declare(s_)
-    res, jac = [], []
+    res = []
     for i, (leg, q) in enumerate(zip(robot.legs, q_all), start=1):
-        r = leg.kinematics.residual(prog, pose, q, str(i))
-        r = prog.let_matrix(f"r_{i}", r)
-        if res and r.rows != res[0].rows:
-            raise DescriptionError(
-                f"{robot.name}: {leg.name} closes its loop with {r.rows} equations, "
-                f"{robot.legs[0].name} with {res[0].rows}: expected alike legs"
-            )
-        res.append(r)
-        jac.append(sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]))
-    n, rows, nq = len(robot.legs), res[0].rows, len(q_all[0])
+        real = len(leg.kinematics.coordinates)
+        r = leg.kinematics.residual(prog, pose, q[:real], str(i))
+        # legs that differ: a padded coordinate's equation holds it at zero
+        res.append(prog.let_matrix(f"r_{i}", sp.Matrix.vstack(r, sp.Matrix(len(q) - real, 1, list(q[real:])))))
+    rows = max(r.rows for r in res)
+    res = [sp.Matrix.vstack(r, sp.zeros(rows - r.rows, 1)) for r in res]  # zero rows: no equation
+    jac = [sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]) for r, q in zip(res, q_all)]
+    n, nq = len(robot.legs), len(q_all[0])
     outputs = {
         "residual": ((n, rows), [e for r in res for e in r]),
         "dresidual": ((n, rows, nq), [e for J in jac for e in J]),

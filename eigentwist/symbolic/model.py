@@ -19,6 +19,7 @@ baked into the expressions.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import sympy as sp
@@ -205,6 +206,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
     preloaded = bool(fx.of_kind("preload"))
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
+        q = q[: len(leg.kinematics.coordinates)]  # without a numeric leg's padded coordinates
         ls = leg_screws(prog, leg, q, pose, tag)
         screws.append(ls)
         M += _leg_inertia(prog, fx, leg, ls, i)
@@ -380,7 +382,9 @@ def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -
                 inertia[body] = inertia[body] + on * term
     M = sp.zeros(6, 6)
     for b in leg.bodies:
-        M += body_inertia_contribution(prog, ls, b, inertia[b.name], f"{b.name}_{i + 1}", leg.joints)
+        # a body's name in the generated code's intermediates: letters, digits and underscores
+        tag = re.sub(r"\W", "_", b.name)
+        M += body_inertia_contribution(prog, ls, b, inertia[b.name], f"{tag}_{i + 1}", leg.joints)
     return M
 
 
