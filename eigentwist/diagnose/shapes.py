@@ -33,6 +33,8 @@ its MAC, and a row has a shape when at least two of its DOFs are measured.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
@@ -103,9 +105,23 @@ def mac(a, b) -> np.ndarray:
         return np.where((na > 0) & (nb > 0), cross / (na * nb), 0.0)
 
 
-def _groups(keys: np.ndarray) -> np.ndarray:
-    """Group id per row from a (N, k) array of setting keys (rows with equal keys share one)."""
-    return np.unique(np.round(keys, 12), axis=0, return_inverse=True)[1].reshape(-1)
+def _groups(keys: np.ndarray) -> tuple:
+    """The rows of each setting from a (N, k) array of setting keys (rows with keys equal
+    to 12 decimals share one): a tuple of index arrays, in the order of their first key."""
+    rounded = np.ascontiguousarray(np.round(np.asarray(keys, dtype=float), 12) + 0.0)  # -0.0 -> 0.0
+    return _groups_of(rounded.tobytes(), rounded.shape)
+
+
+@functools.lru_cache(maxsize=256)
+def _groups_of(data: bytes, shape: tuple) -> tuple:
+    """:func:`_groups` keyed on the keys' content (a fit asks for the same settings at every
+    evaluation)."""
+    keys = np.frombuffer(data, dtype=float).reshape(shape)
+    group = np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1)
+    members = tuple(np.flatnonzero(group == g) for g in range(int(group.max()) + 1 if len(group) else 0))
+    for m in members:
+        m.setflags(write=False)
+    return members
 
 
 def match_by_shape(modes, shapes, keys, fallback, sensor=None) -> np.ndarray:
@@ -133,9 +149,8 @@ def match_by_shape(modes, shapes, keys, fallback, sensor=None) -> np.ndarray:
     seen = modes.direction >= 3  # x, y, z (AXES index)
     score = np.where(seen, score, score - 2.0)  # rotations only if nothing else fits
     rows = np.flatnonzero(has)
-    group = _groups(np.asarray(keys, dtype=float)[rows])
-    for g in np.unique(group):
-        members = rows[group == g]
+    for local in _groups(np.asarray(keys, dtype=float)[rows]):
+        members = rows[local]
         r, c = linear_sum_assignment(-score[members])
         idx[members[r]] = c
     return idx
