@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .eigen import generalized_eigh
+from .errors import InputError
 
 __all__ = ["Damping", "damped_modes", "actuator_wrenches", "coupled_wrenches", "ELIMINATE", "UNSTABLE_ZETA"]
 
@@ -102,8 +103,8 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None)
     Kq = U @ (inv[..., None] * (Ut if loss is None else np.linalg.inv(U)))
     g = Kq[..., :, 0]  # (N, legs, e)
     h = g[..., 0]
-    W = np.einsum("nlej,nle->nlj", Je, g)
-    K = np.einsum("nlei,nlef,nlfj->nij", Je, Kq, Je)
+    W = (g[..., None, :] @ Je)[..., 0, :]
+    K = (np.swapaxes(Je, -1, -2) @ Kq @ Je).sum(axis=1)
     return K, W, h
 
 
@@ -138,6 +139,8 @@ def damped_modes(
     shapes: bool = False,
     K_loss: np.ndarray | None = None,
     G: np.ndarray | None = None,
+    solver: str = "numpy",
+    threads: int = 1,
 ) -> Damping:
     """The damped modes of ``(s^2 M + K(s)) x = 0`` for a batch of poses (module docstring).
 
@@ -151,13 +154,22 @@ def damped_modes(
         compliant couplings (massless coordinates condensed: :func:`coupled_wrenches`); then
         ``(beta_i + ...)`` couples the legs' internal coordinates: ``E s y = -alpha y + D W^T v``
         with ``E = diag(beta) - diag(D) G`` (no leg is eliminated).
+    solver : ``"numpy"`` or ``"c"``: the compiled driver (:mod:`.c_damped`, the same state
+        matrix and rules, one C call for the batch on ``threads`` threads) where the problem
+        is real and uncoupled (no ``K_loss``, no ``G``) and no ``shapes`` are asked, it fits
+        the driver's sizes and a compiler built it; NumPy otherwise and for the poses the
+        driver leaves undecided.
     """
+    if solver not in ("numpy", "c"):
+        raise InputError(f"solver={solver!r}: expected 'numpy' or 'c'")
     M = np.asarray(M, dtype=float)
     K = np.asarray(K, dtype=float)
     N, n = K.shape[:2]
     W = np.asarray(W)
     L = W.shape[1]
     args = [np.broadcast_to(np.asarray(v), (N, L)) for v in (h, k_d, c_d, t_d)]
+    if solver == "c" and _compiled(n, L, W, args, shapes, K_loss, G):
+        return _damped_c(M, K, W, args, threads)
     parts = [M, K, W, *args] + ([] if K_loss is None else [K_loss]) + ([] if G is None else [G])
     key = np.concatenate(
         [
@@ -168,13 +180,12 @@ def damped_modes(
         ],
         axis=1,
     )
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    if len(first) < N:  # rows of one condition (modes of one pose and k_a): solved once
+    first, inverse = _distinct(key)
+    if first is not None:  # rows of one condition (modes of one pose and k_a): solved once
         pick = lambda v: None if v is None else np.asarray(v)[first]  # noqa: E731
         d = damped_modes(
             M[first], K[first], W[first], *(a[first] for a in args), shapes=shapes, K_loss=pick(K_loss), G=pick(G)
         )
-        inverse = np.asarray(inverse).reshape(-1)
         return Damping(
             d.natural_hz[inverse],
             d.damped_hz[inverse],
@@ -256,6 +267,50 @@ def damped_modes(
         X[~ok] = np.nan
         out_shapes = X
     return Damping(natural, damped, zeta, poles, out_shapes, stable)
+
+
+def _compiled(n: int, L: int, W, args, shapes: bool, K_loss, G) -> bool:
+    """Whether the compiled driver takes this problem (:func:`damped_modes`' ``solver``)."""
+    from . import c_damped
+
+    if shapes or K_loss is not None or G is not None or n > c_damped.MAX_MODES or L > c_damped.MAX_LEGS:
+        return False
+    if np.iscomplexobj(W) or any(np.iscomplexobj(a) for a in args):
+        return False
+    return c_damped.driver() is not None
+
+
+def _damped_c(M, K, W, args, threads: int) -> Damping:
+    """:func:`damped_modes` by the compiled driver, each distinct row once (rows of one
+    condition: the modes of one pose and k_a); the poses it leaves undecided in NumPy."""
+    from . import c_damped
+
+    first, inverse = _distinct(np.concatenate([np.reshape(v, (len(K), -1)) for v in (M, K, W, *args)], axis=1))
+    if first is not None:
+        M, K, W, args = M[first], K[first], W[first], [a[first] for a in args]
+    wn, zeta, wd, poles, stable, redo = c_damped.solve(
+        M, K, W, *args, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS, threads=threads
+    )
+    out = [wn / (2 * np.pi), wd / (2 * np.pi), zeta, poles, stable]
+    if redo.any():
+        d = damped_modes(M[redo], K[redo], W[redo], *(a[redo] for a in args))
+        for arr, name in zip(out, ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable")):
+            arr[redo] = getattr(d, name)
+    if first is not None:
+        out = [arr[inverse] for arr in out]
+    return Damping(*out[:4], None, out[4])
+
+
+def _distinct(key: np.ndarray):
+    """``(first, inverse)`` of the distinct rows of ``key`` (N, width) (``key[first][inverse]
+    == key``), or ``(None, None)`` where every row is distinct (or a row holds a NaN). The
+    rows are grouped by one weighted sum each, then checked equal entry by entry."""
+    N = len(key)
+    weights = 1.0 + np.arange(key.shape[1]) / key.shape[1]
+    _, first, inverse = np.unique(key @ weights, return_index=True, return_inverse=True)
+    if len(first) == N or not np.array_equal(key[first][inverse], key):
+        return None, None
+    return first, inverse
 
 
 #: the poles of positive frequency, sorted by |s|, belong to the undamped modes in order

@@ -7,8 +7,9 @@ import numpy as np
 from ..description.effects import leg_input_name, leg_switch_name
 from .damped import Damping, actuator_wrenches, coupled_wrenches, damped_modes
 from .errors import InputError
+from .threads import resolve_threads
 
-__all__ = ["damped_of", "actuator_values"]
+__all__ = ["damped_of", "actuator_values", "solver_of"]
 
 
 def actuator_values(ev, p: dict, effects, n: int):
@@ -30,6 +31,12 @@ def actuator_values(ev, p: dict, effects, n: int):
     t_d = np.broadcast_to(one(p["t_d"])[:, None] if "servo_delay" in on else 0.0, (n, legs))
     loss = one(p["eta_s"]) if "structural_loss" in on else None
     return k_d, c_d, t_d, loss
+
+
+def solver_of(ev) -> str:
+    """The damped solver for ``ev`` (:func:`.damped.damped_modes`' ``solver``): ``"c"`` on
+    the C backend (where its driver builds), ``"numpy"`` on the NumPy one."""
+    return "c" if ev.backend == "c" else "numpy"
 
 
 def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
@@ -92,7 +99,9 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         Mr = Bt @ M @ B
         Wr = W @ B
         K_loss = (Bt @ K_legs.imag @ B) if loss is not None else None
-    d = damped_modes(Mr, Kr, Wr, h, k_d, c_d, t_d, shapes=shapes, K_loss=K_loss, G=G)
+    d = damped_modes(
+        Mr, Kr, Wr, h, k_d, c_d, t_d, shapes=shapes, K_loss=K_loss, G=G, solver=solver_of(ev), threads=resolve_threads(ev.threads)
+    )
     m = B.shape[-1]
     finite = np.zeros(size, dtype=bool)
     finite[:m] = True
