@@ -31,7 +31,7 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["driver", "solve", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
+__all__ = ["driver", "solve", "wrenches", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
 
 #: the largest problem the C driver takes (modes, legs); a larger one is solved in NumPy
 MAX_MODES = 12
@@ -284,17 +284,18 @@ static int et_francis(int m, double *H, double *wr, double *wi)
         if (++total > 60 * m)
             return 0;
         ++its;
-        double a = H[(hi - 1) * m + hi - 1], b = H[(hi - 1) * m + hi], c = H[hi * m + hi - 1], d = H[hi * m + hi];
-        double t = a + d, det = a * d - b * c;
+        /* the shifts: the roots of (x - a)(x - d) - bc, the trailing 2 x 2 block's eigenvalues */
+        double a = H[(hi - 1) * m + hi - 1], d = H[hi * m + hi], bc = H[(hi - 1) * m + hi] * H[hi * m + hi - 1];
         if (its % 11 == 0) { /* an exceptional shift pair, off the stalled one */
-            double e = fabs(c) + fabs(H[(hi - 1) * m + hi - 2]), x = d + 0.75 * e;
-            t = 2.0 * x;
-            det = x * x;
+            a = d = d + 0.75 * (fabs(H[hi * m + hi - 1]) + fabs(H[(hi - 1) * m + hi - 2]));
+            bc = 0.0;
         }
+        /* first column of (H - s1)(H - s2), from differences to the shifts (no cancellation
+           of the diagonal's size where the eigenvalues cluster) */
         double u[3], v[3];
         double h00 = H[l * m + l], h10 = H[(l + 1) * m + l];
-        u[0] = h00 * h00 + H[l * m + l + 1] * h10 - t * h00 + det;
-        u[1] = h10 * (h00 + H[(l + 1) * m + l + 1] - t);
+        u[0] = (h00 - a) * (h00 - d) - bc + H[l * m + l + 1] * h10;
+        u[1] = h10 * ((h00 - a) + (H[(l + 1) * m + l + 1] - d));
         u[2] = h10 * H[(l + 2) * m + l + 1];
         for (int k = l; k < hi; ++k) {
             int len = k + 2 <= hi ? 3 : 2;
@@ -658,6 +659,60 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
     return 0;
 }
 
+/* per pose: K (c x c) = sum_i Je_i^T Kq_i Je_i, W (L x c) rows g_i^T Je_i, h_i = g_i[0], with
+   Kq_i = pinv(Cq_i) on the compliant eigen-directions (an eigenvalue within rtol of the
+   largest magnitude: rigid, left out) and g_i = Kq_i e_0; Je (L x e x c), Cq (L x e x e) */
+int et_wrenches(int64_t count, int L, int e, int c, const double *Je, const double *Cq, double rtol, double *K,
+                double *W, double *h)
+{
+    if (e < 1 || e > MAXN || L < 1)
+        return -1;
+    for (int64_t p = 0; p < count; ++p) {
+        double *Kp = K + p * c * c;
+        memset(Kp, 0, sizeof(double) * c * c);
+        for (int l = 0; l < L; ++l) {
+            const double *J = Je + (p * L + l) * e * c, *C = Cq + (p * L + l) * e * e;
+            double S[MAXN * MAXN], U[MAXN * MAXN], lam[MAXN], Kq[MAXN * MAXN], KJ[MAXN * 64];
+            memcpy(S, C, sizeof(double) * e * e);
+            et_jacobi(e, S, lam, U);
+            double scale = 0.0;
+            for (int i = 0; i < e; ++i)
+                scale = fmax(scale, fabs(lam[i]));
+            for (int i = 0; i < e; ++i)
+                lam[i] = fabs(lam[i]) <= rtol * scale ? 0.0 : 1.0 / lam[i];
+            for (int a = 0; a < e; ++a)
+                for (int b = 0; b < e; ++b) {
+                    double v = 0.0;
+                    for (int k = 0; k < e; ++k)
+                        v += U[a * e + k] * lam[k] * U[b * e + k];
+                    Kq[a * e + b] = v;
+                }
+            h[p * L + l] = Kq[0];
+            for (int j = 0; j < c; ++j) {
+                double v = 0.0;
+                for (int a = 0; a < e; ++a)
+                    v += Kq[a * e] * J[a * c + j];
+                W[(p * L + l) * c + j] = v;
+            }
+            for (int a = 0; a < e; ++a) /* KJ = Kq Je (e x c) */
+                for (int j = 0; j < c; ++j) {
+                    double v = 0.0;
+                    for (int b = 0; b < e; ++b)
+                        v += Kq[a * e + b] * J[b * c + j];
+                    KJ[a * c + j] = v;
+                }
+            for (int i = 0; i < c; ++i)
+                for (int j = 0; j < c; ++j) {
+                    double v = 0.0;
+                    for (int a = 0; a < e; ++a)
+                        v += J[a * c + i] * KJ[a * c + j];
+                    Kp[i * c + j] += v;
+                }
+        }
+    }
+    return 0;
+}
+
 int et_damped(int64_t count, int n, int L, const double *M, const double *K, const double *W, const double *h,
               const double *kd, const double *cd, const double *td, double eliminate, double unstable,
               double ambiguous, double *wn, double *zeta, double *wd, double *poles, int8_t *stable,
@@ -676,6 +731,7 @@ int et_damped(int64_t count, int n, int L, const double *M, const double *K, con
 
 _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []  # the loaded driver library, kept for the process
+_WRENCHES: list = []  # its et_wrenches
 
 
 def driver():
@@ -699,6 +755,11 @@ def driver():
                 d, i = ctypes.c_double, ctypes.c_int
                 fn.argtypes = [ctypes.c_int64, i, i] + [ctypes.c_void_p] * 7 + [d, d, d] + [ctypes.c_void_p] * 6
                 fn.restype = ctypes.c_int
+                lib.et_wrenches.argtypes = [ctypes.c_int64, i, i, i, ctypes.c_void_p, ctypes.c_void_p, d] + [
+                    ctypes.c_void_p
+                ] * 3
+                lib.et_wrenches.restype = ctypes.c_int
+                _WRENCHES.append(lib.et_wrenches)
                 break
         except (BuildError, OSError):
             fn = None
@@ -745,3 +806,20 @@ def solve(M, K, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguou
         if rc != 0:
             raise RuntimeError(f"C damped modes returned {rc}")
     return wn, zeta, wd, poles, stable.astype(bool), status != 0
+
+
+def wrenches(Je, Cq, rigid: float):
+    """``(K, W, h)`` of :func:`eigentwist.runtime.damped.actuator_wrenches` without a loss
+    factor, by the driver's ``et_wrenches`` (one call for the batch): Je (N, legs, e, c),
+    Cq (N, legs, e, e); an eigenvalue of Cq within ``rigid`` times the largest magnitude is
+    a rigid direction. None where the driver is not built or e > MAX_MODES."""
+    N, L, e, c = np.shape(Je)
+    if driver() is None or e > MAX_MODES or c > 64:
+        return None
+    Je = np.ascontiguousarray(Je, dtype=np.float64)
+    Cq = np.ascontiguousarray(Cq, dtype=np.float64)
+    K, W, h = np.empty((N, c, c)), np.empty((N, L, c)), np.empty((N, L))
+    rc = _WRENCHES[0](N, L, e, c, Je.ctypes.data, Cq.ctypes.data, rigid, K.ctypes.data, W.ctypes.data, h.ctypes.data)
+    if rc != 0:
+        raise RuntimeError(f"C actuator wrenches returned {rc}")
+    return K, W, h

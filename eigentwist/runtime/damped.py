@@ -76,7 +76,11 @@ class Damping:
     stable: np.ndarray
 
 
-def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None):
+#: an eigenvalue of a leg's joint compliance within RIGID times its largest is a rigid direction
+RIGID = 1e-10
+
+
+def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None, solver: str = "numpy"):
     """Each leg's platform stiffness, actuator wrench and actuated-joint stiffness.
 
     Je : (N, legs, e, 6) elastic-joint rows (the actuated joint first), Cq : (N, legs, e, e)
@@ -86,9 +90,17 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None)
     Returns ``(K, W, h)``: K (N, 6, 6) the legs' undamped stiffness sum J_e^T C_q^+ J_e
     (complex with a loss factor), W (N, legs, 6) w_i = J_e^T K_q0 e_0 and h (N, legs)
     e_0^T K_q0 e_0 (N m/rad). Rigid joint combinations (C_q u = 0; never along e_0) stay
-    rigid: the pseudo-inverse on the compliant ones.
+    rigid: the pseudo-inverse on the compliant ones (an eigenvalue of C_q within RIGID times
+    the largest is rigid). ``solver="c"``: one call of the compiled driver
+    (:func:`.c_damped.wrenches`) where there is no loss factor and it is built.
     """
     Cq = np.asarray(Cq, dtype=float)
+    if solver == "c" and loss is None:
+        from . import c_damped
+
+        out = c_damped.wrenches(Je, Cq, RIGID)
+        if out is not None:
+            return out
     if loss is not None:
         E = np.zeros(Cq.shape[-2:])
         E[0, 0] = 1.0
@@ -97,7 +109,7 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None)
         Cq = (Cq - act) / (1 + 1j * eta) + act
     s, U = np.linalg.eigh(Cq) if loss is None else _eig_symmetric(Cq)
     scale = np.abs(s).max(axis=-1, keepdims=True)
-    rigid = np.abs(s) <= 1e-10 * scale
+    rigid = np.abs(s) <= RIGID * scale
     inv = np.where(rigid, 0.0, 1.0 / np.where(rigid, 1.0, s))
     Ut = np.swapaxes(U, -1, -2)
     Kq = U @ (inv[..., None] * (Ut if loss is None else np.linalg.inv(U)))
@@ -238,7 +250,7 @@ def damped_modes(
             pencil[:, 2 * n :, 2 * n :] = E
     A[~ok] = 0.0
     if pencil is not None:
-        s, V = _pencil_eig(A, pencil, big[:, 0] / ELIMINATE)
+        s, V = _pencil_eig(A, pencil, big[:, 0] / ELIMINATE, ok)
     if elim.all():  # no internal coordinate: the 2n mechanical states alone
         A = A[:, : 2 * n, : 2 * n]
     fast = None if shapes or pencil is not None else _by_order(np.linalg.eigvals(A), om, n)
@@ -319,20 +331,18 @@ def _distinct(key: np.ndarray):
 AMBIGUOUS = 0.5
 
 
-def _pencil_eig(A: np.ndarray, B: np.ndarray, limit: np.ndarray):
-    """``A v = s B v`` pose by pose (QZ, ``scipy.linalg.eig``); the infinite eigenvalues of a
+def _pencil_eig(A: np.ndarray, B: np.ndarray, limit: np.ndarray, ok: np.ndarray):
+    """``A v = s B v`` for the batch, by the standard problem ``A^-1 B v = (1/s) v`` (one
+    batched ``numpy.linalg.eig``; A is regular where the undamped model is stable, ``ok``
+    (N,): its omega and the legs' alpha are positive). The infinite eigenvalues of a
     singular B (algebraic internal coordinates; round-off leaves them finite but beyond
     ``limit`` (N,) rad/s, 1/ELIMINATE times the highest undamped omega) are no poles: set
-    far into the left half-plane."""
-    from scipy.linalg import eig
-
-    N, m = A.shape[:2]
-    s = np.empty((N, m), dtype=complex)
-    V = np.empty((N, m, m), dtype=complex)
-    for k in range(N):
-        w, v = eig(A[k], B[k])
-        w[~np.isfinite(w) | (np.abs(w) > limit[k])] = -NO_POLE
-        s[k], V[k] = w, v
+    far into the left half-plane. Rows not ``ok`` give undefined values."""
+    A = np.where(ok[:, None, None], A, np.eye(A.shape[-1]))
+    mu, V = np.linalg.eig(np.linalg.solve(A, B))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = 1.0 / mu
+    s[~np.isfinite(s) | (np.abs(s) > limit[:, None])] = -NO_POLE
     return s, V
 
 

@@ -89,7 +89,7 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         Kr, K_loss = Kc.real, (Kc.imag if loss is not None else None)
     else:
         G = None
-        K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss)
+        K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss, solver=solver_of(ev))
         if K_model is None or loss is not None:  # rigid directions (the legs' finite springs on B), a loss factor
             K_model = K_legs.real + (np.asarray(legs["K_ground"], dtype=float) if not rigid else 0.0)
         Bt = np.swapaxes(B, -1, -2)
