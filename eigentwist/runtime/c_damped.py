@@ -651,6 +651,7 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
                     other = k;
                 }
             double s1 = re, s2 = wr[other];
+            poles[2 * j] = fmax(s1, s2); /* the slower of the pair */
             wn[j] = sqrt(fabs(s1 * s2));
             zeta[j] = wn[j] > 0.0 ? -(s1 + s2) / (2.0 * wn[j]) : 1.0;
             wd[j] = 0.0;

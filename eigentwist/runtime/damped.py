@@ -370,7 +370,8 @@ def _assign(s: np.ndarray, share: np.ndarray, n: int):
 
     Poles of positive frequency are matched to the modes by their modal-energy share (a
     one-to-one assignment); a mode left without one is overdamped: the two real poles with
-    the largest share in it, omega_n^2 = s1 s2, 2 zeta omega_n = -(s1 + s2), omega_d = 0.
+    the largest share in it, omega_n^2 = s1 s2, 2 zeta omega_n = -(s1 + s2), omega_d = 0, its
+    pole the slower of the two.
     """
     upper = s.imag > 0
     score = np.where(upper[:, None, :], share, -1.0)  # (N, modes, poles)
@@ -388,6 +389,7 @@ def _assign(s: np.ndarray, share: np.ndarray, n: int):
             k, j = np.nonzero(real)
             for a, b in zip(k, j):
                 s1, s2 = _pair(s[a], share[a], b, cols[a, b])
+                poles[a, b] = max(s1, s2)  # the slower of the pair
                 wn[a, b] = np.sqrt(abs(s1 * s2))
                 zeta[a, b] = -(s1 + s2) / (2 * wn[a, b]) if wn[a, b] > 0 else 1.0
                 wd[a, b] = 0.0

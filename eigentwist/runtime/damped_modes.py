@@ -100,7 +100,18 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         Wr = W @ B
         K_loss = (Bt @ K_legs.imag @ B) if loss is not None else None
     d = damped_modes(
-        Mr, Kr, Wr, h, k_d, c_d, t_d, shapes=shapes, K_loss=K_loss, G=G, solver=solver_of(ev), threads=resolve_threads(ev.threads)
+        Mr,
+        Kr,
+        Wr,
+        h,
+        k_d,
+        c_d,
+        t_d,
+        shapes=shapes,
+        K_loss=K_loss,
+        G=G,
+        solver=solver_of(ev),
+        threads=resolve_threads(ev.threads),
     )
     m = B.shape[-1]
     finite = np.zeros(size, dtype=bool)
