@@ -307,8 +307,37 @@ static int et_francis(int m, double *H, double *wr, double *wi)
             double vv = et_householder(len, u, v);
             if (vv == 0.0)
                 continue;
-            et_reflect_rows(m, H, k, len, v, vv, k > l ? k - 1 : l, hi);
-            et_reflect_cols(m, H, k, len, v, vv, l, k + 3 < hi ? k + 3 : hi);
+            /* the reflector I - tau w w^T with w = v / v0 (w0 = 1), applied in place */
+            double tau = 2.0 * v[0] * v[0] / vv, w1 = v[1] / v[0], w2 = len == 3 ? v[2] / v[0] : 0.0;
+            int c0 = k > l ? k - 1 : l, r1 = k + 3 < hi ? k + 3 : hi;
+            double *r0p = H + k * m, *r1p = r0p + m, *r2p = r1p + m;
+            if (len == 3) {
+                for (int j = c0; j <= hi; ++j) {
+                    double t = tau * (r0p[j] + w1 * r1p[j] + w2 * r2p[j]);
+                    r0p[j] -= t;
+                    r1p[j] -= t * w1;
+                    r2p[j] -= t * w2;
+                }
+                for (int i = l; i <= r1; ++i) {
+                    double *row = H + i * m + k;
+                    double t = tau * (row[0] + w1 * row[1] + w2 * row[2]);
+                    row[0] -= t;
+                    row[1] -= t * w1;
+                    row[2] -= t * w2;
+                }
+            } else {
+                for (int j = c0; j <= hi; ++j) {
+                    double t = tau * (r0p[j] + w1 * r1p[j]);
+                    r0p[j] -= t;
+                    r1p[j] -= t * w1;
+                }
+                for (int i = l; i <= r1; ++i) {
+                    double *row = H + i * m + k;
+                    double t = tau * (row[0] + w1 * row[1]);
+                    row[0] -= t;
+                    row[1] -= t * w1;
+                }
+            }
             if (k > l) {
                 H[(k + 1) * m + k - 1] = 0.0;
                 if (len == 3)
