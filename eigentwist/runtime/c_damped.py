@@ -350,7 +350,7 @@ static int et_francis(int m, double *H, double *wr, double *wi)
 
 /* an eigenvector x of A (m x m) for the eigenvalue s: inverse iteration on A - s I in complex
    arithmetic (LU with partial pivoting, a zero pivot replaced by eps times the norm) */
-static void et_vector(int m, const double *A, double complex s, double complex *x)
+static __attribute__((noinline)) void et_vector(int m, const double *A, double complex s, double complex *x)
 {
     double complex L[MAXM * MAXM];
     int piv[MAXM];
@@ -418,7 +418,7 @@ static void et_vector(int m, const double *A, double complex s, double complex *
    largest total weight w (n x u): min(n, u) pairs (every row assigned where u >= n, every
    column where u < n), by dynamic programming over the subsets of used columns; best[j]
    the column of row j, -1 for none */
-static void et_assign(int n, int u, const double *w, int *best)
+static __attribute__((noinline)) void et_assign(int n, int u, const double *w, int *best)
 {
     static const double NONE = -1e300;
     int size = 1 << u;
