@@ -331,3 +331,25 @@ def test_workspace_map_of_a_damped_model(ev):
     assert m["f1_damped"][0, 0] == pytest.approx(np.min(lowest.damped_hz), rel=1e-12)
     assert np.all(m["f1_damped"] < m["f1"]) and np.all(m["zeta_min"] <= lowest.damping_ratio[0, 0])
     assert "f1_damped" not in lowest_frequency_map(ev, "paper", X_REF, 125.0, {}, grid=2)
+
+
+def test_pencil_against_qz():
+    """The legs' coupled internal equations with an algebraic coordinate (singular E): the
+    pencil A v = s B v by scipy's QZ pose by pose; its infinite eigenvalue is no pole."""
+    from scipy.linalg import eig
+
+    from eigentwist.runtime.damped import NO_POLE, _pencil_eig
+
+    rng = np.random.default_rng(5)
+    N, m = 4, 6
+    A = rng.normal(size=(N, m, m)) + 3 * np.eye(m)
+    B = np.broadcast_to(np.diag([1.0, 1.0, 1.0, 1.0, 1.0, 0.0]), (N, m, m))
+    s, V = _pencil_eig(A, B, np.full(N, 1e9), np.ones(N, dtype=bool))
+    for k in range(N):
+        w = eig(A[k], B[k], right=False)
+        finite = np.sort_complex(w[np.isfinite(w)])
+        np.testing.assert_allclose(np.sort_complex(s[k][s[k] != -NO_POLE]), finite, rtol=1e-10)
+        assert np.sum(s[k] == -NO_POLE) == 1
+        inf = s[k] == -NO_POLE  # its vector: B v = 0; the others A v = s B v
+        np.testing.assert_allclose((A[k] @ V[k])[:, ~inf], (B[k] @ V[k] * s[k])[:, ~inf], atol=1e-9)
+        np.testing.assert_allclose((B[k] @ V[k])[:, inf], 0.0, atol=1e-9)
