@@ -160,3 +160,11 @@ def test_wrenches_rigid_threshold(driver, factor):
         K, W, h = actuator_wrenches(Je[None, None], Cq[None, None], None, solver=solver)
         np.testing.assert_allclose(K[0], Je.T @ Cp @ Je, rtol=1e-6)
         np.testing.assert_allclose(h[0, 0], Cp[0, 0], rtol=1e-6)
+
+
+def test_threads_give_the_same_poles(driver):
+    """Ranges of whole blocks on two threads: each pose solved alone, the same bits."""
+    args = _problem(np.random.default_rng(7), 40 * c_damped.BLOCK, 2, 1, 1.0, 0.0)
+    one, two = (damped_modes(*args, solver="c", threads=t) for t in (1, 2))
+    np.testing.assert_array_equal(one.poles, two.poles)
+    np.testing.assert_array_equal(one.stable, two.stable)

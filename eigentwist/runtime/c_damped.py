@@ -150,7 +150,7 @@ static void et_balance(int m, double *A)
                     c += fabs(A[j * m + i]);
                     r += fabs(A[i * m + j]);
                 }
-            if (c == 0.0 || r == 0.0)
+            if (c == 0.0 || r == 0.0 || !isfinite(c + r))
                 continue;
             double total = c + r, f = 1.0, g = r / 2.0;
             while (c < g) {
