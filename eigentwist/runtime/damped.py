@@ -183,7 +183,7 @@ def damped_modes(
     N, n = K.shape[:2]
     W = np.asarray(W)
     L = W.shape[1]
-    args = [np.broadcast_to(np.asarray(v), (N, L)) for v in (h, k_d, c_d, t_d)]
+    args = [_legs_array(v, N, L) for v in (h, k_d, c_d, t_d)]
     if solver == "c" and _compiled(n, L, W, args, shapes, K_loss, G):
         return _damped_c(M, K, W, args, threads)
     parts = [M, K, W, *args] + ([] if K_loss is None else [K_loss]) + ([] if G is None else [G])
@@ -283,6 +283,12 @@ def damped_modes(
         X[~ok] = np.nan
         out_shapes = X
     return Damping(natural, damped, zeta, poles, out_shapes, stable)
+
+
+def _legs_array(v, N: int, L: int) -> np.ndarray:
+    """``v`` as an (N, legs) array (a view where it is broadcast)."""
+    v = np.asarray(v)
+    return v if v.shape == (N, L) else np.broadcast_to(v, (N, L))
 
 
 def _compiled(n: int, L: int, W, args, shapes: bool, K_loss, G) -> bool:

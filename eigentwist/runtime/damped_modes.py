@@ -19,17 +19,16 @@ def actuator_values(ev, p: dict, effects, n: int):
     (:meth:`Evaluator.parameter_values`) and the effects that are on."""
     on = set(effects)
     legs = ev.n_legs
-    one = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,))  # noqa: E731
-    k_a = one(p["k_a"])
+    col = lambda v: np.reshape(np.asarray(v, dtype=float), (-1, 1))  # noqa: E731  (n, 1) or (1, 1)
     eta = np.ones((n, legs))
     if "actuator_loss" in ev.effects:
         for i in range(legs):
-            switch = one(p[leg_switch_name("actuator_loss", i + 1)])
-            eta[:, i] = np.where(switch > 0, one(p[leg_input_name("eta_a", i + 1)]), 1.0)
-    k_d = eta * k_a[:, None]
-    c_d = eta * (one(p["c_a"])[:, None] if "servo_damping" in on else 0.0)
-    t_d = np.broadcast_to(one(p["t_d"])[:, None] if "servo_delay" in on else 0.0, (n, legs))
-    loss = one(p["eta_s"]) if "structural_loss" in on else None
+            switch = np.asarray(p[leg_switch_name("actuator_loss", i + 1)], dtype=float)
+            eta[:, i] = np.where(switch > 0, np.asarray(p[leg_input_name("eta_a", i + 1)], dtype=float), 1.0)
+    k_d = eta * col(p["k_a"])
+    c_d = eta * col(p["c_a"]) if "servo_damping" in on else np.zeros((n, legs))
+    t_d = np.zeros((n, legs)) + (col(p["t_d"]) if "servo_delay" in on else 0.0)
+    loss = np.broadcast_to(np.asarray(p["eta_s"], dtype=float), (n,)) if "structural_loss" in on else None
     return k_d, c_d, t_d, loss
 
 
