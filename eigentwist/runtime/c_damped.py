@@ -176,11 +176,12 @@ static void et_balance(int m, double *A)
 /* apply the reflector I - 2 v v^T / (v^T v) of length len at rows/columns k.. */
 static void et_reflect_rows(int m, double *A, int k, int len, const double *v, double vv, int c0, int c1)
 {
+    double f = 2.0 / vv;
     for (int j = c0; j <= c1; ++j) {
         double s = 0.0;
         for (int i = 0; i < len; ++i)
             s += v[i] * A[(k + i) * m + j];
-        s *= 2.0 / vv;
+        s *= f;
         for (int i = 0; i < len; ++i)
             A[(k + i) * m + j] -= s * v[i];
     }
@@ -188,11 +189,12 @@ static void et_reflect_rows(int m, double *A, int k, int len, const double *v, d
 
 static void et_reflect_cols(int m, double *A, int k, int len, const double *v, double vv, int r0, int r1)
 {
+    double f = 2.0 / vv;
     for (int i = r0; i <= r1; ++i) {
         double s = 0.0;
         for (int j = 0; j < len; ++j)
             s += A[i * m + k + j] * v[j];
-        s *= 2.0 / vv;
+        s *= f;
         for (int j = 0; j < len; ++j)
             A[i * m + k + j] -= s * v[j];
     }
