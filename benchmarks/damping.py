@@ -3,6 +3,7 @@ effects' seeded study and the damped modes' throughput.
 
     PYTHONPATH=. python benchmarks/damping.py                   # everything
     PYTHONPATH=. python benchmarks/damping.py --skip-seeds      # without the seeded study (~minutes)
+    PYTHONPATH=. python benchmarks/damping.py --throughput-only # section 4 alone (~1 minute)
 
 1. ``diagnose paper`` with the embedded data as the paper took them (``kind`` = damped: counted
    from camera frames of step responses) and the same values read as undamped natural
@@ -12,7 +13,8 @@ effects' seeded study and the damped modes' throughput.
    with both fitted: chi2/nu, RMS, the values and where the model is stable.
 3. The seeded study of the damping effects (tests/test_diagnose.py's scenarios, seeds 4, 5, 6).
 4. Poses/s of ``Evaluator.modes`` with and without servo damping, same run, same poses (each
-   pose its own k_a, so no two rows share a condition), NumPy and C backends.
+   pose its own k_a, so no two rows share a condition), NumPy and C backends (the C backend
+   solves the damped modes by its compiled driver, :mod:`eigentwist.runtime.c_damped`).
 """
 
 from __future__ import annotations
@@ -125,7 +127,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-seeds", action="store_true")
     ap.add_argument("--skip-throughput", action="store_true")
+    ap.add_argument("--throughput-only", action="store_true")
     args = ap.parse_args()
+    if args.throughput_only:
+        throughput()
+        return
     ev = eigentwist.load("heli4", backend="auto")
     paper_before_after(ev)
     servo_alternatives(ev)

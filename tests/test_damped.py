@@ -14,19 +14,40 @@ POSES = np.array([X_REF, [0.05, -0.03, -0.6]])
 ETA = 0.82  # the Heli4's eta_a (App. B)
 
 
+_EVALUATORS: dict = {}
+
+
+@pytest.fixture(params=["numpy", "c"])
+def backend(request):
+    """The Heli4 evaluator of each damped solver: the NumPy backend's (:mod:`.damped` in
+    NumPy) and the C backend's (the compiled driver, :mod:`.c_damped`)."""
+    if request.param == "c":
+        from eigentwist.runtime.ccompile import CompilerNotFoundError, find_compiler
+
+        from .conftest import skip_tier
+
+        try:
+            find_compiler()
+        except CompilerNotFoundError as exc:
+            skip_tier("compiled", str(exc))
+    if request.param not in _EVALUATORS:
+        _EVALUATORS[request.param] = __import__("eigentwist").load("heli4", backend=request.param)
+    return _EVALUATORS[request.param]
+
+
 def _upper(s):
     """The poles of positive frequency, ascending, as frequencies in Hz."""
     return np.sort(s[s.imag > 0].imag) / (2 * np.pi)
 
 
-def test_against_a_state_space_model_written_here(ev):
+def test_against_a_state_space_model_written_here(backend):
     """Each leg: structure (stiffness K_s = C_s^-1 on its elastic joints) in series with a
     PD servo of lagged torque (t tau' + tau = k_d th + c_d th'), its internal angle th a
     massless coordinate; state [x, v, th] (16) solved by numpy.linalg.eigvals."""
     p = dict(k_a=125.0, c_a=3.0, t_d=0.002)
-    legs = ev.run_kernel("legs", POSES, "paper", **p)
-    M = ev.matrices(POSES, "paper", **p)["M"]
-    modes = ev.modes(POSES, "damped,servo_delay", **p)
+    legs = backend.run_kernel("legs", POSES, "paper", **p)
+    M = backend.matrices(POSES, "paper", **p)["M"]
+    modes = backend.modes(POSES, "damped,servo_delay", **p)
     kd, cd, t = ETA * 125.0, ETA * 3.0, 0.002
     for k in range(len(POSES)):
         A = np.zeros((16, 16))
@@ -47,42 +68,45 @@ def test_against_a_state_space_model_written_here(ev):
         np.testing.assert_allclose(np.sort(modes.damped_hz[k]), _upper(np.linalg.eigvals(A)), rtol=1e-9)
 
 
-def test_rigid_model_is_a_damping_matrix(ev):
+def test_rigid_model_is_a_damping_matrix(backend):
     """The rigid model (K_R on the translations, Eq. 14): M x'' + C x' + K x = 0 with
     C = sum_i eta c_a J_a,i^T J_a,i, by the companion matrix."""
-    rows = ev.jacobians(X_REF)["J_rows"][0, :, 0, 3:]  # actuated rows, translational part
-    M3 = ev.matrices(X_REF, "rigid")["M"][0, 3:, 3:]
+    rows = backend.jacobians(X_REF)["J_rows"][0, :, 0, 3:]  # actuated rows, translational part
+    M3 = backend.matrices(X_REF, "rigid")["M"][0, 3:, 3:]
     K = ETA * 500.0 * rows.T @ rows
     C = ETA * 3.0 * rows.T @ rows
     A = np.block([[np.zeros((3, 3)), np.eye(3)], [-np.linalg.solve(M3, K), -np.linalg.solve(M3, C)]])
-    modes = ev.modes(X_REF, "rigid,servo_damping", k_a=500.0)
+    modes = backend.modes(X_REF, "rigid,servo_damping", k_a=500.0)
     np.testing.assert_allclose(np.sort(modes.damped_hz[0]), _upper(np.linalg.eigvals(A)), rtol=1e-9)
 
 
 @pytest.mark.parametrize("model", ["damped", "rigid,servo_damping", "damped,servo_delay"])
-def test_undamped_limit(ev, model):
+def test_undamped_limit(backend, model):
     """c_a = 0 and t_d = 0: every pole is +/- i omega of today's frequencies (1e-12)."""
-    undamped = ev.frequencies(
+    undamped = backend.frequencies(
         POSES, model.replace(",servo_delay", "").replace("damped", "paper").replace(",servo_damping", ""), k_a=125.0
     )
-    modes = ev.modes(POSES, model, k_a=125.0, c_a=0.0, t_d=0.0, complex_shapes=True)
+    modes = backend.modes(POSES, model, k_a=125.0, c_a=0.0, t_d=0.0, complex_shapes=True)
     np.testing.assert_allclose(modes.freq_hz, undamped, rtol=1e-12)
     np.testing.assert_allclose(modes.damped_hz, undamped, rtol=1e-12)
     np.testing.assert_allclose(modes.natural_hz, undamped, rtol=1e-12)
     np.testing.assert_allclose(modes.damping_ratio, 0.0, atol=1e-12)
     real = modes.complex_eigentwists  # undamped shapes are real: today's eigentwists
     np.testing.assert_allclose(real.imag, 0.0, atol=1e-9)
+    poles = backend.modes(POSES, model, k_a=125.0, c_a=0.0, t_d=0.0, vectors=False)  # the solver's own route
+    np.testing.assert_allclose(poles.damped_hz, undamped, rtol=1e-12)
+    np.testing.assert_allclose(poles.damping_ratio, 0.0, atol=1e-12)
 
 
-def test_paper_numbers_do_not_move(ev):
+def test_paper_numbers_do_not_move(backend):
     """The 'damped' preset (c_a = 3, the paper's servos) keeps the undamped frequencies of
     'paper' (Eq. 65) in freq_hz; the damping lowers the damped ones, most at low k_a."""
-    paper = ev.modes(X_REF, "paper", k_a=2000.0)
-    damped = ev.modes(X_REF, "damped", k_a=2000.0)
+    paper = backend.modes(X_REF, "paper", k_a=2000.0)
+    damped = backend.modes(X_REF, "damped", k_a=2000.0)
     np.testing.assert_array_equal(damped.freq_hz, paper.freq_hz)
     np.testing.assert_allclose(paper.freq_hz[0, :2], [20.723, 23.932], atol=5e-4)  # facts file
     assert paper.damping is None and np.all(paper.damping_ratio == 0)
-    low = ev.modes(X_REF, "damped", k_a=125.0)
+    low = backend.modes(X_REF, "damped", k_a=125.0)
     drop = 1 - low.damped_hz[0, :2] / low.freq_hz[0, :2]
     assert np.all((drop > 0.09) & (drop < 0.13))  # 9-12 % at k_a = 125
     assert np.all((low.damping_ratio[0, :2] > 0.4) & (low.damping_ratio[0, :2] < 0.5))
@@ -111,42 +135,46 @@ def test_structural_loss_against_a_complex_stiffness(ev):
     assert modes.damping_ratio[0, 5] == pytest.approx(eta_s / 2, rel=0.02)  # a purely structural mode
 
 
-def _one_mode(beta_factor=None, zeta=None):
+def _one_mode(beta_factor=None, zeta=None, solver="numpy"):
     """One mode (M = 1, omega = 2 pi 10 Hz) and one actuator leg (w = 1, k_d = 1000)."""
     om, kd, c = 2 * np.pi * 10.0, 1000.0, 1.0
     if zeta is not None:  # an eliminated leg, c chosen for this zeta
         c, h = 2 * zeta * om * kd**2, kd
     else:  # beta = c (k_d - h) at beta_factor x the threshold
         h = kd - beta_factor * ELIMINATE * kd**2 / (c * om)
-    d = damped_modes(np.ones((1, 1, 1)), np.full((1, 1, 1), om**2), np.ones((1, 1, 1)), np.array([[h]]), kd, c, 0.0)
+    d = damped_modes(
+        np.ones((1, 1, 1)), np.full((1, 1, 1), om**2), np.ones((1, 1, 1)), np.array([[h]]), kd, c, 0.0, solver=solver
+    )
     return d, om, kd, c
 
 
+@pytest.mark.parametrize("backend", ["numpy", "c"])  # the solver (a string here, not the fixture)
 @pytest.mark.parametrize("factor", [0.5, 2.0])
-def test_elimination_threshold(factor):
+def test_elimination_threshold(factor, backend):
     """A leg's internal pole just beyond (0.5) or inside (2) the ELIMINATE bound: the same
     pole as s^2 + (c w^2/k_d^2) s + omega^2 = 0 (the leg eliminated), to 1e-6."""
-    d, om, kd, c = _one_mode(beta_factor=factor)
+    d, om, kd, c = _one_mode(beta_factor=factor, solver=backend)
     exact = np.roots([1.0, c / kd**2, om**2])
     assert d.poles[0, 0] == pytest.approx(exact[exact.imag > 0][0], rel=1e-6)
 
 
+@pytest.mark.parametrize("backend", ["numpy", "c"])  # the solver
 @pytest.mark.parametrize("zeta, stable", [(-2 * UNSTABLE_ZETA, False), (-0.5 * UNSTABLE_ZETA, True)])
-def test_unstable_threshold(zeta, stable):
-    d, *_ = _one_mode(zeta=zeta)
+def test_unstable_threshold(zeta, stable, backend):
+    d, *_ = _one_mode(zeta=zeta, solver=backend)
     assert d.damping_ratio[0, 0] == pytest.approx(zeta, rel=1e-3)
     assert bool(d.stable[0]) is stable
 
 
-def test_torque_lag_destabilises_above_c_over_t(ev):
+def test_torque_lag_destabilises_above_c_over_t(backend):
     """c_a = 3 with a 1.3 ms lag: negative damping above k_a ~ c_a / t_d = 2300 N m/rad, where
     the paper measured decaying oscillations."""
     ka = np.array([2200.0, 2400.0])
-    modes = ev.modes(np.tile(X_REF, (2, 1)), "damped,servo_delay", k_a=ka, t_d=1.3e-3, vectors=False)
+    modes = backend.modes(np.tile(X_REF, (2, 1)), "damped,servo_delay", k_a=ka, t_d=1.3e-3, vectors=False)
     assert modes.stable.tolist() == [True, False]
     assert modes.damping_ratio[1, 0] < 0 < modes.damping_ratio[0, 0]
     with pytest.raises(UnstablePoseError, match="damping ratio"):
-        ev.modes(X_REF, "damped,servo_delay", k_a=4000.0, t_d=1.3e-3, unstable="raise")
+        backend.modes(X_REF, "damped,servo_delay", k_a=4000.0, t_d=1.3e-3, unstable="raise")
 
 
 def test_damping_parameters_closed_at_zero(ev):
@@ -303,3 +331,25 @@ def test_workspace_map_of_a_damped_model(ev):
     assert m["f1_damped"][0, 0] == pytest.approx(np.min(lowest.damped_hz), rel=1e-12)
     assert np.all(m["f1_damped"] < m["f1"]) and np.all(m["zeta_min"] <= lowest.damping_ratio[0, 0])
     assert "f1_damped" not in lowest_frequency_map(ev, "paper", X_REF, 125.0, {}, grid=2)
+
+
+def test_pencil_against_qz():
+    """The legs' coupled internal equations with an algebraic coordinate (singular E): the
+    pencil A v = s B v by scipy's QZ pose by pose; its infinite eigenvalue is no pole."""
+    from scipy.linalg import eig
+
+    from eigentwist.runtime.damped import NO_POLE, _pencil_eig
+
+    rng = np.random.default_rng(5)
+    N, m = 4, 6
+    A = rng.normal(size=(N, m, m)) + 3 * np.eye(m)
+    B = np.broadcast_to(np.diag([1.0, 1.0, 1.0, 1.0, 1.0, 0.0]), (N, m, m))
+    s, V = _pencil_eig(A, B, np.full(N, 1e9), np.ones(N, dtype=bool))
+    for k in range(N):
+        w = eig(A[k], B[k], right=False)
+        finite = np.sort_complex(w[np.isfinite(w)])
+        np.testing.assert_allclose(np.sort_complex(s[k][s[k] != -NO_POLE]), finite, rtol=1e-10)
+        assert np.sum(s[k] == -NO_POLE) == 1
+        inf = s[k] == -NO_POLE  # its vector: B v = 0; the others A v = s B v
+        np.testing.assert_allclose((A[k] @ V[k])[:, ~inf], (B[k] @ V[k] * s[k])[:, ~inf], atol=1e-9)
+        np.testing.assert_allclose((B[k] @ V[k])[:, inf], 0.0, atol=1e-9)

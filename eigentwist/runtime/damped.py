@@ -27,6 +27,10 @@ frequency; the state matrix is complex then).
 
 Each damped mode is matched to the undamped mode it grows from (the largest share of
 its modal energy), so column j of the result is mode j of the undamped model.
+
+On the C backend the real, uncoupled problem (no loss factor, no couplings, no complex
+shapes) is solved by a compiled driver, the same state matrix and rules in one C call per
+batch (:mod:`.c_damped`); the rest, and any pose the driver leaves undecided, here.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .eigen import generalized_eigh
+from .errors import InputError
 
 __all__ = ["Damping", "damped_modes", "actuator_wrenches", "coupled_wrenches", "ELIMINATE", "UNSTABLE_ZETA"]
 
@@ -75,7 +80,11 @@ class Damping:
     stable: np.ndarray
 
 
-def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None):
+#: an eigenvalue of a leg's joint compliance within RIGID times its largest is a rigid direction
+RIGID = 1e-10
+
+
+def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None, solver: str = "numpy"):
     """Each leg's platform stiffness, actuator wrench and actuated-joint stiffness.
 
     Je : (N, legs, e, 6) elastic-joint rows (the actuated joint first), Cq : (N, legs, e, e)
@@ -85,9 +94,17 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None)
     Returns ``(K, W, h)``: K (N, 6, 6) the legs' undamped stiffness sum J_e^T C_q^+ J_e
     (complex with a loss factor), W (N, legs, 6) w_i = J_e^T K_q0 e_0 and h (N, legs)
     e_0^T K_q0 e_0 (N m/rad). Rigid joint combinations (C_q u = 0; never along e_0) stay
-    rigid: the pseudo-inverse on the compliant ones.
+    rigid: the pseudo-inverse on the compliant ones (an eigenvalue of C_q within RIGID times
+    the largest is rigid). ``solver="c"``: one call of the compiled driver
+    (:func:`.c_damped.wrenches`) where there is no loss factor and it is built.
     """
     Cq = np.asarray(Cq, dtype=float)
+    if solver == "c" and loss is None:
+        from . import c_damped
+
+        out = c_damped.wrenches(Je, Cq, RIGID)
+        if out is not None:
+            return out
     if loss is not None:
         E = np.zeros(Cq.shape[-2:])
         E[0, 0] = 1.0
@@ -96,14 +113,14 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None)
         Cq = (Cq - act) / (1 + 1j * eta) + act
     s, U = np.linalg.eigh(Cq) if loss is None else _eig_symmetric(Cq)
     scale = np.abs(s).max(axis=-1, keepdims=True)
-    rigid = np.abs(s) <= 1e-10 * scale
+    rigid = np.abs(s) <= RIGID * scale
     inv = np.where(rigid, 0.0, 1.0 / np.where(rigid, 1.0, s))
     Ut = np.swapaxes(U, -1, -2)
     Kq = U @ (inv[..., None] * (Ut if loss is None else np.linalg.inv(U)))
     g = Kq[..., :, 0]  # (N, legs, e)
     h = g[..., 0]
-    W = np.einsum("nlej,nle->nlj", Je, g)
-    K = np.einsum("nlei,nlef,nlfj->nij", Je, Kq, Je)
+    W = (g[..., None, :] @ Je)[..., 0, :]
+    K = (np.swapaxes(Je, -1, -2) @ Kq @ Je).sum(axis=1)
     return K, W, h
 
 
@@ -138,6 +155,8 @@ def damped_modes(
     shapes: bool = False,
     K_loss: np.ndarray | None = None,
     G: np.ndarray | None = None,
+    solver: str = "numpy",
+    threads: int = 1,
 ) -> Damping:
     """The damped modes of ``(s^2 M + K(s)) x = 0`` for a batch of poses (module docstring).
 
@@ -151,13 +170,22 @@ def damped_modes(
         compliant couplings (massless coordinates condensed: :func:`coupled_wrenches`); then
         ``(beta_i + ...)`` couples the legs' internal coordinates: ``E s y = -alpha y + D W^T v``
         with ``E = diag(beta) - diag(D) G`` (no leg is eliminated).
+    solver : ``"numpy"`` or ``"c"``: the compiled driver (:mod:`.c_damped`, the same state
+        matrix and rules, one C call for the batch on ``threads`` threads) where the problem
+        is real and uncoupled (no ``K_loss``, no ``G``) and no ``shapes`` are asked, it fits
+        the driver's sizes and a compiler built it; NumPy otherwise and for the poses the
+        driver leaves undecided.
     """
+    if solver not in ("numpy", "c"):
+        raise InputError(f"solver={solver!r}: expected 'numpy' or 'c'")
     M = np.asarray(M, dtype=float)
     K = np.asarray(K, dtype=float)
     N, n = K.shape[:2]
     W = np.asarray(W)
     L = W.shape[1]
-    args = [np.broadcast_to(np.asarray(v), (N, L)) for v in (h, k_d, c_d, t_d)]
+    args = [_legs_array(v, N, L) for v in (h, k_d, c_d, t_d)]
+    if solver == "c" and _compiled(n, L, W, args, shapes, K_loss, G):
+        return _damped_c(M, K, W, args, threads)
     parts = [M, K, W, *args] + ([] if K_loss is None else [K_loss]) + ([] if G is None else [G])
     key = np.concatenate(
         [
@@ -168,13 +196,12 @@ def damped_modes(
         ],
         axis=1,
     )
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    if len(first) < N:  # rows of one condition (modes of one pose and k_a): solved once
+    first, inverse = _distinct(key)
+    if first is not None:  # rows of one condition (modes of one pose and k_a): solved once
         pick = lambda v: None if v is None else np.asarray(v)[first]  # noqa: E731
         d = damped_modes(
             M[first], K[first], W[first], *(a[first] for a in args), shapes=shapes, K_loss=pick(K_loss), G=pick(G)
         )
-        inverse = np.asarray(inverse).reshape(-1)
         return Damping(
             d.natural_hz[inverse],
             d.damped_hz[inverse],
@@ -227,7 +254,7 @@ def damped_modes(
             pencil[:, 2 * n :, 2 * n :] = E
     A[~ok] = 0.0
     if pencil is not None:
-        s, V = _pencil_eig(A, pencil, big[:, 0] / ELIMINATE)
+        s, V = _pencil_eig(A, pencil, big[:, 0] / ELIMINATE, ok)
     if elim.all():  # no internal coordinate: the 2n mechanical states alone
         A = A[:, : 2 * n, : 2 * n]
     fast = None if shapes or pencil is not None else _by_order(np.linalg.eigvals(A), om, n)
@@ -258,26 +285,74 @@ def damped_modes(
     return Damping(natural, damped, zeta, poles, out_shapes, stable)
 
 
+def _legs_array(v, N: int, L: int) -> np.ndarray:
+    """``v`` as an (N, legs) array (a view where it is broadcast)."""
+    v = np.asarray(v)
+    return v if v.shape == (N, L) else np.broadcast_to(v, (N, L))
+
+
+def _compiled(n: int, L: int, W, args, shapes: bool, K_loss, G) -> bool:
+    """Whether the compiled driver takes this problem (:func:`damped_modes`' ``solver``)."""
+    from . import c_damped
+
+    if shapes or K_loss is not None or G is not None or n > c_damped.MAX_MODES or L > c_damped.MAX_LEGS:
+        return False
+    if np.iscomplexobj(W) or any(np.iscomplexobj(a) for a in args):
+        return False
+    return c_damped.driver() is not None
+
+
+def _damped_c(M, K, W, args, threads: int) -> Damping:
+    """:func:`damped_modes` by the compiled driver, each distinct row once (rows of one
+    condition: the modes of one pose and k_a); the poses it leaves undecided in NumPy."""
+    from . import c_damped
+
+    first, inverse = _distinct(np.concatenate([np.reshape(v, (len(K), -1)) for v in (M, K, W, *args)], axis=1))
+    if first is not None:
+        M, K, W, args = M[first], K[first], W[first], [a[first] for a in args]
+    wn, zeta, wd, poles, stable, redo = c_damped.solve(
+        M, K, W, *args, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS, threads=threads
+    )
+    out = [wn / (2 * np.pi), wd / (2 * np.pi), zeta, poles, stable]
+    if redo.any():
+        d = damped_modes(M[redo], K[redo], W[redo], *(a[redo] for a in args))
+        for arr, name in zip(out, ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable")):
+            arr[redo] = getattr(d, name)
+    if first is not None:
+        out = [arr[inverse] for arr in out]
+    return Damping(*out[:4], None, out[4])
+
+
+def _distinct(key: np.ndarray):
+    """``(first, inverse)`` of the distinct rows of ``key`` (N, width) (``key[first][inverse]
+    == key``), or ``(None, None)`` where every row is distinct (or a row holds a NaN). The
+    rows are grouped by one weighted sum each, then checked equal entry by entry."""
+    N = len(key)
+    weights = 1.0 + np.arange(key.shape[1]) / key.shape[1]
+    _, first, inverse = np.unique(key @ weights, return_index=True, return_inverse=True)
+    if len(first) == N or not np.array_equal(key[first][inverse], key):
+        return None, None
+    return first, inverse
+
+
 #: the poles of positive frequency, sorted by |s|, belong to the undamped modes in order
 #: where each |s| lies closer to its own mode's omega than AMBIGUOUS times the distance to
 #: a neighbour's; elsewhere the eigenvectors decide (:func:`_assign`)
 AMBIGUOUS = 0.5
 
 
-def _pencil_eig(A: np.ndarray, B: np.ndarray, limit: np.ndarray):
-    """``A v = s B v`` pose by pose (QZ, ``scipy.linalg.eig``); the infinite eigenvalues of a
+def _pencil_eig(A: np.ndarray, B: np.ndarray, limit: np.ndarray, ok: np.ndarray):
+    """``A v = s B v`` for the batch, by the standard problem ``A^-1 B v = (1/s) v`` (one
+    batched ``numpy.linalg.eig``; A is regular where the undamped model is stable, ``ok``
+    (N,): its omega and the legs' alpha are positive). The infinite eigenvalues of a
     singular B (algebraic internal coordinates; round-off leaves them finite but beyond
     ``limit`` (N,) rad/s, 1/ELIMINATE times the highest undamped omega) are no poles: set
-    far into the left half-plane."""
-    from scipy.linalg import eig
-
-    N, m = A.shape[:2]
-    s = np.empty((N, m), dtype=complex)
-    V = np.empty((N, m, m), dtype=complex)
-    for k in range(N):
-        w, v = eig(A[k], B[k])
-        w[~np.isfinite(w) | (np.abs(w) > limit[k])] = -NO_POLE
-        s[k], V[k] = w, v
+    far into the left half-plane. Rows not ``ok`` give undefined values."""
+    A = np.where(ok[:, None, None], A, np.eye(A.shape[-1]))
+    mu, V = np.linalg.eig(np.linalg.solve(A, B))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = 1.0 / mu
+    s[~np.isfinite(s) | (np.abs(s) > limit[:, None])] = -NO_POLE
     return s, V
 
 
@@ -305,7 +380,8 @@ def _assign(s: np.ndarray, share: np.ndarray, n: int):
 
     Poles of positive frequency are matched to the modes by their modal-energy share (a
     one-to-one assignment); a mode left without one is overdamped: the two real poles with
-    the largest share in it, omega_n^2 = s1 s2, 2 zeta omega_n = -(s1 + s2), omega_d = 0.
+    the largest share in it, omega_n^2 = s1 s2, 2 zeta omega_n = -(s1 + s2), omega_d = 0, its
+    pole the slower of the two.
     """
     upper = s.imag > 0
     score = np.where(upper[:, None, :], share, -1.0)  # (N, modes, poles)
@@ -323,6 +399,7 @@ def _assign(s: np.ndarray, share: np.ndarray, n: int):
             k, j = np.nonzero(real)
             for a, b in zip(k, j):
                 s1, s2 = _pair(s[a], share[a], b, cols[a, b])
+                poles[a, b] = max(s1, s2)  # the slower of the pair
                 wn[a, b] = np.sqrt(abs(s1 * s2))
                 zeta[a, b] = -(s1 + s2) / (2 * wn[a, b]) if wn[a, b] > 0 else 1.0
                 wd[a, b] = 0.0

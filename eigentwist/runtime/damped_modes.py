@@ -7,8 +7,9 @@ import numpy as np
 from ..description.effects import leg_input_name, leg_switch_name
 from .damped import Damping, actuator_wrenches, coupled_wrenches, damped_modes
 from .errors import InputError
+from .threads import resolve_threads
 
-__all__ = ["damped_of", "actuator_values"]
+__all__ = ["damped_of", "actuator_values", "solver_of"]
 
 
 def actuator_values(ev, p: dict, effects, n: int):
@@ -18,18 +19,23 @@ def actuator_values(ev, p: dict, effects, n: int):
     (:meth:`Evaluator.parameter_values`) and the effects that are on."""
     on = set(effects)
     legs = ev.n_legs
-    one = lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,))  # noqa: E731
-    k_a = one(p["k_a"])
+    col = lambda v: np.reshape(np.asarray(v, dtype=float), (-1, 1))  # noqa: E731  (n, 1) or (1, 1)
     eta = np.ones((n, legs))
     if "actuator_loss" in ev.effects:
         for i in range(legs):
-            switch = one(p[leg_switch_name("actuator_loss", i + 1)])
-            eta[:, i] = np.where(switch > 0, one(p[leg_input_name("eta_a", i + 1)]), 1.0)
-    k_d = eta * k_a[:, None]
-    c_d = eta * (one(p["c_a"])[:, None] if "servo_damping" in on else 0.0)
-    t_d = np.broadcast_to(one(p["t_d"])[:, None] if "servo_delay" in on else 0.0, (n, legs))
-    loss = one(p["eta_s"]) if "structural_loss" in on else None
+            switch = np.asarray(p[leg_switch_name("actuator_loss", i + 1)], dtype=float)
+            eta[:, i] = np.where(switch > 0, np.asarray(p[leg_input_name("eta_a", i + 1)], dtype=float), 1.0)
+    k_d = eta * col(p["k_a"])
+    c_d = eta * col(p["c_a"]) if "servo_damping" in on else np.zeros((n, legs))
+    t_d = np.zeros((n, legs)) + (col(p["t_d"]) if "servo_delay" in on else 0.0)
+    loss = np.broadcast_to(np.asarray(p["eta_s"], dtype=float), (n,)) if "structural_loss" in on else None
     return k_d, c_d, t_d, loss
+
+
+def solver_of(ev) -> str:
+    """The damped solver for ``ev`` (:func:`.damped.damped_modes`' ``solver``): ``"c"`` on
+    the C backend (where its driver builds), ``"numpy"`` on the NumPy one."""
+    return "c" if ev.backend == "c" else "numpy"
 
 
 def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
@@ -82,7 +88,7 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         Kr, K_loss = Kc.real, (Kc.imag if loss is not None else None)
     else:
         G = None
-        K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss)
+        K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss, solver=solver_of(ev))
         if K_model is None or loss is not None:  # rigid directions (the legs' finite springs on B), a loss factor
             K_model = K_legs.real + (np.asarray(legs["K_ground"], dtype=float) if not rigid else 0.0)
         Bt = np.swapaxes(B, -1, -2)
@@ -92,7 +98,20 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         Mr = Bt @ M @ B
         Wr = W @ B
         K_loss = (Bt @ K_legs.imag @ B) if loss is not None else None
-    d = damped_modes(Mr, Kr, Wr, h, k_d, c_d, t_d, shapes=shapes, K_loss=K_loss, G=G)
+    d = damped_modes(
+        Mr,
+        Kr,
+        Wr,
+        h,
+        k_d,
+        c_d,
+        t_d,
+        shapes=shapes,
+        K_loss=K_loss,
+        G=G,
+        solver=solver_of(ev),
+        threads=resolve_threads(ev.threads),
+    )
     m = B.shape[-1]
     finite = np.zeros(size, dtype=bool)
     finite[:m] = True

@@ -1,0 +1,857 @@
+"""The damped modes of :func:`eigentwist.runtime.damped.damped_modes` in C, for a batch of poses.
+
+:func:`solve` runs, pose by pose in one C call (ranges of whole blocks of poses on the
+evaluator's threads), what the NumPy function does for real stiffness without couplings
+between the legs' internal coordinates:
+
+1. the undamped modes ``K Phi = M Phi Omega^2`` (Cholesky reduction, cyclic Jacobi);
+2. the first-order state matrix on ``[Omega q; dq/dt; y]`` with the same elimination rule
+   (:data:`~eigentwist.runtime.damped.ELIMINATE`: a leg whose internal pole lies beyond
+   1/ELIMINATE times the highest undamped omega becomes a damping matrix);
+3. its eigenvalues: balancing by powers of two, Householder reduction to Hessenberg form
+   and Francis double-shift QR in real arithmetic (Golub and Van Loan, Algorithms 7.4.2,
+   7.5.1 and 7.5.2);
+4. each undamped mode's pole: by order of ``|s|`` where every pole lies closer to its own
+   mode's omega than ``AMBIGUOUS`` times the distance to a neighbour's, else by modal-energy
+   share, with the eigenvectors from inverse iteration in complex arithmetic (the
+   one-to-one assignment of largest total share, then the overdamped modes' real pole
+   pairs), as :func:`~eigentwist.runtime.damped._assign` does.
+
+A pose the C code cannot decide (the QR iteration without convergence, an inertia that is
+not positive definite, more than ``MAX_ASSIGN`` (10) poles of positive frequency to assign
+by share) is marked, and
+:func:`~eigentwist.runtime.damped.damped_modes` solves it in NumPy. The driver is plain
+C99 compiled once into the cache (:mod:`.ccompile`: loaded only after its recorded
+SHA-256 matches); where it cannot be built, :func:`driver` is None and NumPy runs.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+__all__ = ["driver", "solve", "wrenches", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
+
+#: the largest problem the C driver takes (modes, legs); a larger one is solved in NumPy
+MAX_MODES = 12
+MAX_LEGS = 16
+#: poses per block of the thread ranges
+BLOCK = 16
+
+SOURCE = r"""
+#include <complex.h>
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#define MAXN 12
+#define MAXL 16
+#define MAXM (2 * MAXN + MAXL)
+#define MAX_ASSIGN 10
+#define NO_POLE 1e300
+
+/* M = C C^T (C lower, n x n row-major); 0 where M is not positive definite */
+static int et_cholesky(int n, const double *M, double *C)
+{
+    memset(C, 0, sizeof(double) * n * n);
+    for (int j = 0; j < n; ++j) {
+        double d = M[j * n + j];
+        for (int k = 0; k < j; ++k)
+            d -= C[j * n + k] * C[j * n + k];
+        if (!(d > 0.0))
+            return 0;
+        C[j * n + j] = sqrt(d);
+        for (int i = j + 1; i < n; ++i) {
+            double v = M[i * n + j];
+            for (int k = 0; k < j; ++k)
+                v -= C[i * n + k] * C[j * n + k];
+            C[i * n + j] = v / C[j * n + j];
+        }
+    }
+    return 1;
+}
+
+/* X := C^-1 X for the n x n matrix X (forward substitution, column by column) */
+static void et_lower_solve(int n, const double *C, double *X)
+{
+    for (int c = 0; c < n; ++c)
+        for (int i = 0; i < n; ++i) {
+            double v = X[i * n + c];
+            for (int k = 0; k < i; ++k)
+                v -= C[i * n + k] * X[k * n + c];
+            X[i * n + c] = v / C[i * n + i];
+        }
+}
+
+/* symmetric S (n x n) = V diag(lam) V^T by cyclic Jacobi rotations; lam ascending */
+static void et_jacobi(int n, double *S, double *lam, double *V)
+{
+    for (int i = 0; i < n * n; ++i)
+        V[i] = 0.0;
+    for (int i = 0; i < n; ++i)
+        V[i * n + i] = 1.0;
+    for (int sweep = 0; sweep < 100; ++sweep) {
+        int rotated = 0;
+        for (int p = 0; p < n - 1; ++p)
+            for (int q = p + 1; q < n; ++q) {
+                double apq = S[p * n + q], app = S[p * n + p], aqq = S[q * n + q];
+                if (fabs(apq) <= 1e-18 * sqrt(fabs(app * aqq)) || apq == 0.0)
+                    continue;
+                rotated = 1;
+                double theta = (aqq - app) / (2.0 * apq);
+                double t = (theta >= 0.0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+                double c = 1.0 / sqrt(t * t + 1.0), s = t * c;
+                for (int k = 0; k < n; ++k) {
+                    double a = S[k * n + p], b = S[k * n + q];
+                    S[k * n + p] = c * a - s * b;
+                    S[k * n + q] = s * a + c * b;
+                }
+                for (int k = 0; k < n; ++k) {
+                    double a = S[p * n + k], b = S[q * n + k];
+                    S[p * n + k] = c * a - s * b;
+                    S[q * n + k] = s * a + c * b;
+                }
+                for (int k = 0; k < n; ++k) {
+                    double a = V[k * n + p], b = V[k * n + q];
+                    V[k * n + p] = c * a - s * b;
+                    V[k * n + q] = s * a + c * b;
+                }
+            }
+        if (!rotated)
+            break;
+    }
+    for (int i = 0; i < n; ++i)
+        lam[i] = S[i * n + i];
+    for (int i = 1; i < n; ++i) /* insertion sort of the pairs */
+        for (int j = i; j > 0 && lam[j] < lam[j - 1]; --j) {
+            double t = lam[j];
+            lam[j] = lam[j - 1];
+            lam[j - 1] = t;
+            for (int k = 0; k < n; ++k) {
+                t = V[k * n + j];
+                V[k * n + j] = V[k * n + j - 1];
+                V[k * n + j - 1] = t;
+            }
+        }
+}
+
+/* diagonal similarity by powers of two that evens each row's and column's 1-norms */
+static void et_balance(int m, double *A)
+{
+    int done = 0;
+    while (!done) {
+        done = 1;
+        for (int i = 0; i < m; ++i) {
+            double c = 0.0, r = 0.0;
+            for (int j = 0; j < m; ++j)
+                if (j != i) {
+                    c += fabs(A[j * m + i]);
+                    r += fabs(A[i * m + j]);
+                }
+            if (c == 0.0 || r == 0.0 || !isfinite(c + r))
+                continue;
+            double total = c + r, f = 1.0, g = r / 2.0;
+            while (c < g) {
+                f *= 2.0;
+                c *= 4.0;
+            }
+            g = r * 2.0;
+            while (c > g) {
+                f /= 2.0;
+                c /= 4.0;
+            }
+            if ((c + r) / f < 0.95 * total) {
+                done = 0;
+                for (int j = 0; j < m; ++j) {
+                    A[i * m + j] /= f;
+                    A[j * m + i] *= f;
+                }
+            }
+        }
+    }
+}
+
+/* apply the reflector I - 2 v v^T / (v^T v) of length len at rows/columns k.. */
+static void et_reflect_rows(int m, double *A, int k, int len, const double *v, double vv, int c0, int c1)
+{
+    double f = 2.0 / vv;
+    for (int j = c0; j <= c1; ++j) {
+        double s = 0.0;
+        for (int i = 0; i < len; ++i)
+            s += v[i] * A[(k + i) * m + j];
+        s *= f;
+        for (int i = 0; i < len; ++i)
+            A[(k + i) * m + j] -= s * v[i];
+    }
+}
+
+static void et_reflect_cols(int m, double *A, int k, int len, const double *v, double vv, int r0, int r1)
+{
+    double f = 2.0 / vv;
+    for (int i = r0; i <= r1; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < len; ++j)
+            s += A[i * m + k + j] * v[j];
+        s *= f;
+        for (int j = 0; j < len; ++j)
+            A[i * m + k + j] -= s * v[j];
+    }
+}
+
+/* v with (I - 2 v v^T / v^T v) u = (beta, 0, ...); returns v^T v (0: nothing to do) */
+static double et_householder(int len, const double *u, double *v)
+{
+    double nrm = 0.0;
+    for (int i = 0; i < len; ++i)
+        nrm += u[i] * u[i];
+    nrm = sqrt(nrm);
+    if (nrm == 0.0)
+        return 0.0;
+    for (int i = 0; i < len; ++i)
+        v[i] = u[i];
+    v[0] += u[0] >= 0.0 ? nrm : -nrm;
+    double vv = 0.0;
+    for (int i = 0; i < len; ++i)
+        vv += v[i] * v[i];
+    return vv;
+}
+
+static void et_hessenberg(int m, double *A)
+{
+    double u[MAXM], v[MAXM];
+    for (int k = 0; k < m - 2; ++k) {
+        int len = m - k - 1;
+        for (int i = 0; i < len; ++i)
+            u[i] = A[(k + 1 + i) * m + k];
+        double vv = et_householder(len, u, v);
+        if (vv == 0.0)
+            continue;
+        et_reflect_rows(m, A, k + 1, len, v, vv, k, m - 1);
+        et_reflect_cols(m, A, k + 1, len, v, vv, 0, m - 1);
+        for (int i = k + 2; i < m; ++i)
+            A[i * m + k] = 0.0;
+    }
+}
+
+/* the eigenvalues of [a b; c d] */
+static void et_two(double a, double b, double c, double d, double *re, double *im)
+{
+    double p = 0.5 * (a - d), q = p * p + b * c;
+    if (q >= 0.0) {
+        double z = p + (p >= 0.0 ? sqrt(q) : -sqrt(q));
+        re[0] = d + z;
+        re[1] = z != 0.0 ? d - b * c / z : d;
+        im[0] = im[1] = 0.0;
+    } else {
+        re[0] = re[1] = d + p;
+        im[0] = sqrt(-q);
+        im[1] = -im[0];
+    }
+}
+
+/* eigenvalues of the upper Hessenberg H (m x m, overwritten) by Francis double-shift QR;
+   0 where it does not converge */
+static int et_francis(int m, double *H, double *wr, double *wi)
+{
+    int hi = m - 1, its = 0, total = 0;
+    while (hi >= 0) {
+        int l;
+        for (l = hi; l > 0; --l) {
+            double s = fabs(H[(l - 1) * m + l - 1]) + fabs(H[l * m + l]);
+            if (s == 0.0)
+                for (int i = l - 1; i <= hi; ++i)
+                    for (int j = l - 1; j <= hi; ++j)
+                        s += fabs(H[i * m + j]);
+            if (fabs(H[l * m + l - 1]) <= DBL_EPSILON * s) {
+                H[l * m + l - 1] = 0.0;
+                break;
+            }
+        }
+        if (l == hi) {
+            wr[hi] = H[hi * m + hi];
+            wi[hi] = 0.0;
+            hi -= 1;
+            its = 0;
+            continue;
+        }
+        if (l == hi - 1) {
+            et_two(H[(hi - 1) * m + hi - 1], H[(hi - 1) * m + hi], H[hi * m + hi - 1], H[hi * m + hi], wr + hi - 1,
+                   wi + hi - 1);
+            hi -= 2;
+            its = 0;
+            continue;
+        }
+        if (++total > 60 * m)
+            return 0;
+        ++its;
+        /* the shifts: the roots of (x - a)(x - d) - bc, the trailing 2 x 2 block's eigenvalues */
+        double a = H[(hi - 1) * m + hi - 1], d = H[hi * m + hi], bc = H[(hi - 1) * m + hi] * H[hi * m + hi - 1];
+        if (its % 11 == 0) { /* an exceptional shift pair, off the stalled one */
+            a = d = d + 0.75 * (fabs(H[hi * m + hi - 1]) + fabs(H[(hi - 1) * m + hi - 2]));
+            bc = 0.0;
+        }
+        /* first column of (H - s1)(H - s2), from differences to the shifts (no cancellation
+           of the diagonal's size where the eigenvalues cluster) */
+        double u[3], v[3];
+        double h00 = H[l * m + l], h10 = H[(l + 1) * m + l];
+        u[0] = (h00 - a) * (h00 - d) - bc + H[l * m + l + 1] * h10;
+        u[1] = h10 * ((h00 - a) + (H[(l + 1) * m + l + 1] - d));
+        u[2] = h10 * H[(l + 2) * m + l + 1];
+        for (int k = l; k < hi; ++k) {
+            int len = k + 2 <= hi ? 3 : 2;
+            if (k > l) {
+                u[0] = H[k * m + k - 1];
+                u[1] = H[(k + 1) * m + k - 1];
+                u[2] = len == 3 ? H[(k + 2) * m + k - 1] : 0.0;
+            }
+            double vv = et_householder(len, u, v);
+            if (vv == 0.0)
+                continue;
+            /* the reflector I - tau w w^T with w = v / v0 (w0 = 1), applied in place */
+            double tau = 2.0 * v[0] * v[0] / vv, w1 = v[1] / v[0], w2 = len == 3 ? v[2] / v[0] : 0.0;
+            int c0 = k > l ? k - 1 : l, r1 = k + 3 < hi ? k + 3 : hi;
+            double *r0p = H + k * m, *r1p = r0p + m, *r2p = r1p + m;
+            if (len == 3) {
+                for (int j = c0; j <= hi; ++j) {
+                    double t = tau * (r0p[j] + w1 * r1p[j] + w2 * r2p[j]);
+                    r0p[j] -= t;
+                    r1p[j] -= t * w1;
+                    r2p[j] -= t * w2;
+                }
+                for (int i = l; i <= r1; ++i) {
+                    double *row = H + i * m + k;
+                    double t = tau * (row[0] + w1 * row[1] + w2 * row[2]);
+                    row[0] -= t;
+                    row[1] -= t * w1;
+                    row[2] -= t * w2;
+                }
+            } else {
+                for (int j = c0; j <= hi; ++j) {
+                    double t = tau * (r0p[j] + w1 * r1p[j]);
+                    r0p[j] -= t;
+                    r1p[j] -= t * w1;
+                }
+                for (int i = l; i <= r1; ++i) {
+                    double *row = H + i * m + k;
+                    double t = tau * (row[0] + w1 * row[1]);
+                    row[0] -= t;
+                    row[1] -= t * w1;
+                }
+            }
+            if (k > l) {
+                H[(k + 1) * m + k - 1] = 0.0;
+                if (len == 3)
+                    H[(k + 2) * m + k - 1] = 0.0;
+            }
+        }
+    }
+    return 1;
+}
+
+/* an eigenvector x of A (m x m) for the eigenvalue s: inverse iteration on A - s I in complex
+   arithmetic (LU with partial pivoting, a zero pivot replaced by eps times the norm) */
+static __attribute__((noinline)) void et_vector(int m, const double *A, double complex s, double complex *x)
+{
+    double complex L[MAXM * MAXM];
+    int piv[MAXM];
+    double norm = 0.0;
+    for (int i = 0; i < m * m; ++i) {
+        L[i] = A[i];
+        norm = fmax(norm, fabs(A[i]));
+    }
+    for (int i = 0; i < m; ++i)
+        L[i * m + i] -= s;
+    double tiny = DBL_EPSILON * (norm > 0.0 ? norm : 1.0);
+    for (int k = 0; k < m; ++k) {
+        int p = k;
+        double best = fabs(creal(L[k * m + k])) + fabs(cimag(L[k * m + k]));
+        for (int i = k + 1; i < m; ++i) {
+            double a = fabs(creal(L[i * m + k])) + fabs(cimag(L[i * m + k]));
+            if (a > best) {
+                best = a;
+                p = i;
+            }
+        }
+        piv[k] = p;
+        if (p != k)
+            for (int j = 0; j < m; ++j) {
+                double complex t = L[k * m + j];
+                L[k * m + j] = L[p * m + j];
+                L[p * m + j] = t;
+            }
+        if (best < tiny)
+            L[k * m + k] = tiny;
+        for (int i = k + 1; i < m; ++i) {
+            double complex f = L[i * m + k] / L[k * m + k];
+            L[i * m + k] = f;
+            for (int j = k + 1; j < m; ++j)
+                L[i * m + j] -= f * L[k * m + j];
+        }
+    }
+    for (int i = 0; i < m; ++i)
+        x[i] = 1.0 + 0.1 * i;
+    for (int it = 0; it < 2; ++it) {
+        for (int k = 0; k < m; ++k) {
+            double complex t = x[k];
+            x[k] = x[piv[k]];
+            x[piv[k]] = t;
+            for (int i = k + 1; i < m; ++i)
+                x[i] -= L[i * m + k] * x[k];
+        }
+        for (int i = m - 1; i >= 0; --i) {
+            double complex v = x[i];
+            for (int j = i + 1; j < m; ++j)
+                v -= L[i * m + j] * x[j];
+            x[i] = v / L[i * m + i];
+        }
+        double big = 0.0;
+        for (int i = 0; i < m; ++i)
+            big = fmax(big, fabs(creal(x[i])) + fabs(cimag(x[i])));
+        if (!(big > 0.0) || !isfinite(big))
+            return;
+        for (int i = 0; i < m; ++i)
+            x[i] /= big;
+    }
+}
+
+/* the one-to-one assignment of rows (modes) to columns (poles of positive frequency) of
+   largest total weight w (n x u): min(n, u) pairs (every row assigned where u >= n, every
+   column where u < n), by dynamic programming over the subsets of used columns; best[j]
+   the column of row j, -1 for none */
+static __attribute__((noinline)) void et_assign(int n, int u, const double *w, int *best)
+{
+    static const double NONE = -1e300;
+    int size = 1 << u;
+    double value[(MAXN + 1) << MAX_ASSIGN];
+    signed char choice[(MAXN + 1) << MAX_ASSIGN];
+    for (int mask = 0; mask < size; ++mask)
+        value[mask] = mask ? NONE : 0.0;
+    for (int j = 0; j < n; ++j) {
+        double *prev = value + j * size, *next = value + (j + 1) * size;
+        signed char *ch = choice + (j + 1) * size;
+        for (int mask = 0; mask < size; ++mask) {
+            next[mask] = NONE;
+            ch[mask] = -2;
+        }
+        for (int mask = 0; mask < size; ++mask) {
+            if (prev[mask] == NONE)
+                continue;
+            int used = __builtin_popcount(mask), skipped = j - used;
+            if (skipped + 1 <= (n > u ? n - u : 0) && prev[mask] > next[mask]) {
+                next[mask] = prev[mask];
+                ch[mask] = -1;
+            }
+            for (int c = 0; c < u; ++c)
+                if (!(mask >> c & 1)) {
+                    double v = prev[mask] + w[j * u + c];
+                    int to = mask | 1 << c;
+                    if (v > next[to]) {
+                        next[to] = v;
+                        ch[to] = (signed char)c;
+                    }
+                }
+        }
+    }
+    int mask = 0;
+    double top = NONE;
+    for (int k = 0; k < size; ++k)
+        if (__builtin_popcount(k) == (u < n ? u : n) && value[n * size + k] > top) {
+            top = value[n * size + k];
+            mask = k;
+        }
+    for (int j = n; j > 0; --j) {
+        int c = choice[j * size + mask];
+        best[j - 1] = c;
+        if (c >= 0)
+            mask &= ~(1 << c);
+    }
+}
+
+/* one pose; returns 0 when solved, 1 where NumPy must solve it */
+static int et_pose(int n, int L, const double *M, const double *K, const double *W, const double *h,
+                   const double *kd, const double *cd, const double *td, double eliminate, double unstable,
+                   double ambiguous, double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double C[MAXN * MAXN], S[MAXN * MAXN], V[MAXN * MAXN], lam[MAXN], om[MAXN], Bw[MAXL * MAXN];
+    double A[MAXM * MAXM], H[MAXM * MAXM], wr[MAXM], wi[MAXM];
+    if (!et_cholesky(n, M, C))
+        return 1;
+    for (int i = 0; i < n; ++i) /* S = C^-1 sym(K) C^-T */
+        for (int j = 0; j < n; ++j)
+            S[i * n + j] = 0.5 * (K[i * n + j] + K[j * n + i]);
+    et_lower_solve(n, C, S);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < i; ++j) {
+            double t = S[i * n + j];
+            S[i * n + j] = S[j * n + i];
+            S[j * n + i] = t;
+        }
+    et_lower_solve(n, C, S);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < i; ++j)
+            S[i * n + j] = S[j * n + i] = 0.5 * (S[i * n + j] + S[j * n + i]);
+    et_jacobi(n, S, lam, V);
+    int ok = 1;
+    for (int i = 0; i < n; ++i)
+        ok &= lam[i] > 0.0;
+    if (!ok) {
+        for (int j = 0; j < n; ++j) {
+            wn[j] = zeta[j] = wd[j] = NAN;
+            poles[2 * j] = NAN;
+            poles[2 * j + 1] = 0.0;
+        }
+        *stable = 0;
+        return 0;
+    }
+    for (int c = 0; c < n; ++c) /* Phi = C^-T V, in place in V */
+        for (int i = n - 1; i >= 0; --i) {
+            double v = V[i * n + c];
+            for (int k = i + 1; k < n; ++k)
+                v -= C[k * n + i] * V[k * n + c];
+            V[i * n + c] = v / C[i * n + i];
+        }
+    double big = 0.0;
+    for (int i = 0; i < n; ++i) {
+        om[i] = sqrt(lam[i]);
+        big = fmax(big, om[i]);
+    }
+    for (int l = 0; l < L; ++l)
+        for (int j = 0; j < n; ++j) {
+            double v = 0.0;
+            for (int i = 0; i < n; ++i)
+                v += V[i * n + j] * W[l * n + i];
+            Bw[l * n + j] = v;
+        }
+    double alpha[MAXL], D[MAXL], beta[MAXL];
+    int elim[MAXL], live = 0;
+    for (int l = 0; l < L; ++l) {
+        alpha[l] = kd[l] * kd[l];
+        D[l] = kd[l] * td[l] - cd[l];
+        beta[l] = cd[l] * (kd[l] - h[l]) + h[l] * kd[l] * td[l];
+        elim[l] = fabs(beta[l]) * big <= eliminate * fabs(alpha[l]);
+        live += !elim[l];
+    }
+    int m = live ? 2 * n + L : 2 * n;
+    memset(A, 0, sizeof(double) * m * m);
+    for (int i = 0; i < n; ++i) {
+        A[i * m + n + i] = om[i];
+        A[(n + i) * m + i] = -om[i];
+    }
+    for (int l = 0; l < L; ++l) {
+        const double *b = Bw + l * n;
+        if (elim[l]) {
+            double r = D[l] / alpha[l];
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j)
+                    A[(n + i) * m + n + j] += r * b[i] * b[j];
+        } else {
+            double safe = beta[l] != 0.0 ? beta[l] : 1.0;
+            for (int i = 0; i < n; ++i) {
+                A[(n + i) * m + 2 * n + l] = b[i];
+                A[(2 * n + l) * m + n + i] = D[l] / safe * b[i];
+            }
+            A[(2 * n + l) * m + 2 * n + l] = -alpha[l] / safe;
+        }
+        if (live && elim[l])
+            A[(2 * n + l) * m + 2 * n + l] = -1.0;
+    }
+    memcpy(H, A, sizeof(double) * m * m);
+    et_balance(m, H);
+    et_hessenberg(m, H);
+    if (!et_francis(m, H, wr, wi))
+        return 1;
+    int grows = 0, u = 0, up[MAXM];
+    for (int k = 0; k < m; ++k) {
+        grows |= wr[k] > unstable * hypot(wr[k], wi[k]);
+        if (wi[k] > 0.0)
+            up[u++] = k;
+    }
+    *stable = !grows;
+    double complex pole[MAXN];
+    int col[MAXN];
+    int by_order = u == n;
+    if (by_order) { /* the poles of positive frequency by |s|, each beside its own mode */
+        for (int i = 1; i < u; ++i)
+            for (int j = i; j > 0 && hypot(wr[up[j]], wi[up[j]]) < hypot(wr[up[j - 1]], wi[up[j - 1]]); --j) {
+                int t = up[j];
+                up[j] = up[j - 1];
+                up[j - 1] = t;
+            }
+        for (int j = 0; j < n && by_order; ++j) {
+            double left = j > 0 ? om[j] - om[j - 1] : INFINITY, right = j < n - 1 ? om[j + 1] - om[j] : INFINITY;
+            by_order = fabs(hypot(wr[up[j]], wi[up[j]]) - om[j]) < ambiguous * fmin(left, right);
+        }
+        for (int j = 0; j < n; ++j)
+            col[j] = up[j];
+    }
+    double share[MAXN * MAXM];
+    if (!by_order) { /* modal-energy shares of every pole */
+        double complex x[MAXM];
+        for (int k = 0; k < m; ++k) {
+            if (wi[k] < 0.0 && k > 0 && wr[k - 1] == wr[k] && wi[k - 1] == -wi[k]) {
+                for (int j = 0; j < n; ++j)
+                    share[j * m + k] = share[j * m + k - 1];
+                continue;
+            }
+            et_vector(m, A, wr[k] + wi[k] * I, x);
+            double total = 0.0;
+            for (int j = 0; j < n; ++j) {
+                double e = creal(x[j] * conj(x[j])) + creal(x[n + j] * conj(x[n + j]));
+                share[j * m + k] = e;
+                total += e;
+            }
+            for (int j = 0; j < n; ++j)
+                share[j * m + k] = total > 0.0 ? share[j * m + k] / total : 0.0;
+        }
+        int unique = u >= n;
+        for (int j = 0; j < n; ++j) {
+            int pick = 0;
+            double best = -2.0;
+            for (int k = 0; k < m; ++k) {
+                double score = wi[k] > 0.0 ? share[j * m + k] : -1.0;
+                if (score > best) {
+                    best = score;
+                    pick = k;
+                }
+            }
+            col[j] = pick;
+            for (int i = 0; i < j; ++i)
+                unique &= col[i] != pick;
+        }
+        if (!unique) {
+            int done[MAXN] = {0};
+            for (int j = 0; j < n; ++j)
+                col[j] = -1;
+            if (u > 0) {
+                if (u > MAX_ASSIGN)
+                    return 1;
+                double w[MAXN * MAXM];
+                int best[MAXN];
+                for (int j = 0; j < n; ++j)
+                    for (int c = 0; c < u; ++c)
+                        w[j * u + c] = share[j * m + up[c]];
+                et_assign(n, u, w, best);
+                for (int j = 0; j < n; ++j)
+                    if (best[j] >= 0 && w[j * u + best[j]] > 0.0) {
+                        col[j] = up[best[j]];
+                        done[j] = 1;
+                    }
+            }
+            int real[MAXM], nr = 0;
+            for (int k = 0; k < m; ++k)
+                if (wi[k] == 0.0 && fabs(wr[k]) < NO_POLE)
+                    real[nr++] = k;
+            for (int j = 0; j < n; ++j) {
+                if (done[j])
+                    continue;
+                if (!nr)
+                    break;
+                int b = 0;
+                for (int r = 1; r < nr; ++r)
+                    if (share[j * m + real[r]] > share[j * m + real[b]])
+                        b = r;
+                col[j] = real[b];
+                for (int r = b; r < nr - 1; ++r) /* the remaining poles keep their order */
+                    real[r] = real[r + 1];
+                --nr;
+            }
+        }
+    }
+    for (int j = 0; j < n; ++j) {
+        if (col[j] < 0) { /* no pole left for this mode */
+            wn[j] = zeta[j] = NAN;
+            wd[j] = 0.0;
+            poles[2 * j] = NAN;
+            poles[2 * j + 1] = 0.0;
+            continue;
+        }
+        double re = wr[col[j]], im = wi[col[j]], r = hypot(re, im);
+        poles[2 * j] = re;
+        poles[2 * j + 1] = im;
+        wn[j] = r;
+        zeta[j] = -re / (r > 0.0 ? r : 1.0);
+        wd[j] = fabs(im);
+        if (im == 0.0) { /* overdamped: this real pole and the real one of next largest share */
+            int other = col[j];
+            double best = -1.0;
+            for (int k = 0; k < m; ++k)
+                if (k != col[j] && wi[k] == 0.0 && fabs(wr[k]) < NO_POLE && share[j * m + k] > best) {
+                    best = share[j * m + k];
+                    other = k;
+                }
+            double s1 = re, s2 = wr[other];
+            poles[2 * j] = fmax(s1, s2); /* the slower of the pair */
+            wn[j] = sqrt(fabs(s1 * s2));
+            zeta[j] = wn[j] > 0.0 ? -(s1 + s2) / (2.0 * wn[j]) : 1.0;
+            wd[j] = 0.0;
+        }
+    }
+    return 0;
+}
+
+/* per pose: K (c x c) = sum_i Je_i^T Kq_i Je_i, W (L x c) rows g_i^T Je_i, h_i = g_i[0], with
+   Kq_i = pinv(Cq_i) on the compliant eigen-directions (an eigenvalue within rtol of the
+   largest magnitude: rigid, left out) and g_i = Kq_i e_0; Je (L x e x c), Cq (L x e x e) */
+int et_wrenches(int64_t count, int L, int e, int c, const double *Je, const double *Cq, double rtol, double *K,
+                double *W, double *h)
+{
+    if (e < 1 || e > MAXN || L < 1)
+        return -1;
+    for (int64_t p = 0; p < count; ++p) {
+        double *Kp = K + p * c * c;
+        memset(Kp, 0, sizeof(double) * c * c);
+        for (int l = 0; l < L; ++l) {
+            const double *J = Je + (p * L + l) * e * c, *C = Cq + (p * L + l) * e * e;
+            double S[MAXN * MAXN], U[MAXN * MAXN], lam[MAXN], Kq[MAXN * MAXN], KJ[MAXN * 64];
+            memcpy(S, C, sizeof(double) * e * e);
+            et_jacobi(e, S, lam, U);
+            double scale = 0.0;
+            for (int i = 0; i < e; ++i)
+                scale = fmax(scale, fabs(lam[i]));
+            for (int i = 0; i < e; ++i)
+                lam[i] = fabs(lam[i]) <= rtol * scale ? 0.0 : 1.0 / lam[i];
+            for (int a = 0; a < e; ++a)
+                for (int b = 0; b < e; ++b) {
+                    double v = 0.0;
+                    for (int k = 0; k < e; ++k)
+                        v += U[a * e + k] * lam[k] * U[b * e + k];
+                    Kq[a * e + b] = v;
+                }
+            h[p * L + l] = Kq[0];
+            for (int j = 0; j < c; ++j) {
+                double v = 0.0;
+                for (int a = 0; a < e; ++a)
+                    v += Kq[a * e] * J[a * c + j];
+                W[(p * L + l) * c + j] = v;
+            }
+            for (int a = 0; a < e; ++a) /* KJ = Kq Je (e x c) */
+                for (int j = 0; j < c; ++j) {
+                    double v = 0.0;
+                    for (int b = 0; b < e; ++b)
+                        v += Kq[a * e + b] * J[b * c + j];
+                    KJ[a * c + j] = v;
+                }
+            for (int i = 0; i < c; ++i)
+                for (int j = 0; j < c; ++j) {
+                    double v = 0.0;
+                    for (int a = 0; a < e; ++a)
+                        v += J[a * c + i] * KJ[a * c + j];
+                    Kp[i * c + j] += v;
+                }
+        }
+    }
+    return 0;
+}
+
+int et_damped(int64_t count, int n, int L, const double *M, const double *K, const double *W, const double *h,
+              const double *kd, const double *cd, const double *td, double eliminate, double unstable,
+              double ambiguous, double *wn, double *zeta, double *wd, double *poles, int8_t *stable,
+              int8_t *status)
+{
+    if (n < 1 || n > MAXN || L < 0 || L > MAXL)
+        return -1;
+    for (int64_t p = 0; p < count; ++p) {
+        status[p] = (int8_t)et_pose(n, L, M + p * n * n, K + p * n * n, W + p * L * n, h + p * L, kd + p * L,
+                                    cd + p * L, td + p * L, eliminate, unstable, ambiguous, wn + p * n,
+                                    zeta + p * n, wd + p * n, poles + 2 * p * n, stable + p);
+    }
+    return 0;
+}
+"""
+
+_DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
+_LIBRARIES: list = []  # the loaded driver library, kept for the process
+_WRENCHES: list = []  # its et_wrenches
+
+
+def driver():
+    """The compiled driver ``et_damped`` (built on first use into the cache, loaded after its
+    SHA-256 is checked), or None where it cannot be built (no compiler)."""
+    if not _DRIVER:
+        import subprocess
+
+        from .ccompile import BuildError, build_library, find_compiler, flag_sets
+
+        fn = None
+        try:
+            cc = find_compiler()
+            for _, flags in flag_sets():
+                try:
+                    lib = ctypes.CDLL(str(build_library(SOURCE, "damped", cc, flags)))
+                except (subprocess.CalledProcessError, OSError):
+                    continue
+                _LIBRARIES.append(lib)
+                fn = lib.et_damped
+                d, i = ctypes.c_double, ctypes.c_int
+                fn.argtypes = [ctypes.c_int64, i, i] + [ctypes.c_void_p] * 7 + [d, d, d] + [ctypes.c_void_p] * 6
+                fn.restype = ctypes.c_int
+                lib.et_wrenches.argtypes = [ctypes.c_int64, i, i, i, ctypes.c_void_p, ctypes.c_void_p, d] + [
+                    ctypes.c_void_p
+                ] * 3
+                lib.et_wrenches.restype = ctypes.c_int
+                _WRENCHES.append(lib.et_wrenches)
+                break
+        except (BuildError, OSError):
+            fn = None
+        _DRIVER.append(fn)
+    return _DRIVER[0]
+
+
+def solve(M, K, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguous: float, threads: int = 1):
+    """Run the driver on N poses: ``(wn, zeta, wd, poles, stable, redo)``, each (N, n) (stable,
+    redo (N,)): omega_n (rad/s), zeta, omega_d (rad/s), the complex poles (rad/s), whether no
+    pole grows, and the poses the driver left to NumPy (their other values are undefined).
+    M, K (N, n, n), W (N, legs, n), h, k_d, c_d, t_d (N, legs), real; the rules' constants as
+    in :mod:`.damped`. ``threads`` > 1 runs ranges of whole blocks of poses on threads."""
+    from .threads import run_ranges, threads_for
+
+    fn = driver()
+    N, n = np.shape(K)[:2]
+    L = np.shape(W)[1]
+    arrays = [np.ascontiguousarray(v, dtype=np.float64) for v in (M, K, W, h, k_d, c_d, t_d)]
+    wn, zeta, wd = (np.empty((N, n)) for _ in range(3))
+    poles = np.empty((N, n), dtype=complex)
+    stable = np.empty(N, dtype=np.int8)
+    status = np.empty(N, dtype=np.int8)
+    sizes = (n * n, n * n, L * n, L, L, L, L)
+
+    def call(a: int, b: int) -> int:
+        ins = [v.ctypes.data + 8 * a * s for v, s in zip(arrays, sizes)]
+        outs = [x.ctypes.data + 8 * a * n for x in (wn, zeta, wd)]
+        return fn(
+            b - a,
+            n,
+            L,
+            *ins,
+            eliminate,
+            unstable,
+            ambiguous,
+            *outs,
+            poles.ctypes.data + 16 * a * n,
+            stable.ctypes.data + a,
+            status.ctypes.data + a,
+        )
+
+    for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C damped modes returned {rc}")
+    return wn, zeta, wd, poles, stable.astype(bool), status != 0
+
+
+def wrenches(Je, Cq, rigid: float):
+    """``(K, W, h)`` of :func:`eigentwist.runtime.damped.actuator_wrenches` without a loss
+    factor, by the driver's ``et_wrenches`` (one call for the batch): Je (N, legs, e, c),
+    Cq (N, legs, e, e); an eigenvalue of Cq within ``rigid`` times the largest magnitude is
+    a rigid direction. None where the driver is not built or e > MAX_MODES."""
+    N, L, e, c = np.shape(Je)
+    if driver() is None or e > MAX_MODES or c > 64:
+        return None
+    Je = np.ascontiguousarray(Je, dtype=np.float64)
+    Cq = np.ascontiguousarray(Cq, dtype=np.float64)
+    K, W, h = np.empty((N, c, c)), np.empty((N, L, c)), np.empty((N, L))
+    rc = _WRENCHES[0](N, L, e, c, Je.ctypes.data, Cq.ctypes.data, rigid, K.ctypes.data, W.ctypes.data, h.ctypes.data)
+    if rc != 0:
+        raise RuntimeError(f"C actuator wrenches returned {rc}")
+    return K, W, h

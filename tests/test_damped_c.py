@@ -1,0 +1,170 @@
+"""The compiled damped solver (:mod:`eigentwist.runtime.c_damped`) against the NumPy one
+(:func:`eigentwist.runtime.damped.damped_modes`, itself tested against independent models in
+tests/test_damped.py): random well-conditioned problems and the Heli4's paper poses, with
+overdamped modes, eliminated legs and growing modes; its size guards and the dispatch."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import eigentwist
+from eigentwist.runtime import c_damped
+from eigentwist.runtime.damped import RIGID, actuator_wrenches, damped_modes
+
+from .conftest import skip_tier
+
+pytestmark = pytest.mark.compiled
+
+#: both solvers are backward stable on the same state matrix (~1e-15 |s| apart, seen ~2e-14
+#: on these cases): poles, omega_n and omega_d agree to RTOL of |s|, zeta (a ratio) to RTOL
+RTOL = 1e-10
+X_REF = np.array([0.0, 0.0, -0.625])
+
+
+@pytest.fixture(scope="module")
+def driver():
+    from eigentwist.runtime.ccompile import CompilerNotFoundError, find_compiler
+
+    try:
+        find_compiler()
+    except CompilerNotFoundError as exc:
+        skip_tier("compiled", str(exc))
+    assert c_damped.driver() is not None
+    return c_damped.driver()
+
+
+def _agree(c, numpy):
+    """The two solvers' results for the same problem, to RTOL."""
+    scale = np.abs(numpy.poles)
+    assert np.array_equal(np.isnan(c.natural_hz), np.isnan(numpy.natural_hz))
+    ok = ~np.isnan(numpy.natural_hz)
+    assert np.all(np.abs(c.poles - numpy.poles)[ok] <= RTOL * scale[ok])
+    for name in ("natural_hz", "damped_hz"):
+        a, b = getattr(c, name)[ok], getattr(numpy, name)[ok]
+        assert np.all(np.abs(a - b) <= RTOL * scale[ok] / (2 * np.pi)), name
+    assert np.all(np.abs(c.damping_ratio - numpy.damping_ratio)[ok] <= RTOL)
+    assert np.array_equal(c.stable, numpy.stable)
+
+
+def _problem(rng, N, n, L, c_scale, t_d, rigid_legs=0):
+    """N poses: SPD M and K (omega ~ 100 rad/s), L legs of random wrenches; ``rigid_legs``
+    legs without series compliance (h = k_d: beta = 0, eliminated)."""
+    A = rng.normal(size=(N, n, n))
+    M = A @ np.swapaxes(A, -1, -2) + n * np.eye(n)
+    B = rng.normal(size=(N, n, n))
+    K = 1e4 * (B @ np.swapaxes(B, -1, -2) + n * np.eye(n))
+    W = 50.0 * rng.normal(size=(N, L, n))
+    kd = rng.uniform(100.0, 4000.0, (N, L))
+    h = kd * rng.uniform(0.3, 0.95, (N, L))
+    h[:, :rigid_legs] = kd[:, :rigid_legs]
+    return M, K, W, h, kd, c_scale * rng.uniform(0.5, 4.0, (N, L)), np.full((N, L), t_d)
+
+
+@pytest.mark.parametrize(
+    "n, L, c_scale, t_d, rigid_legs",
+    [(4, 4, 1.0, 0.0, 0), (6, 4, 10.0, 0.0, 2), (6, 6, 1.0, 2e-3, 0), (3, 2, 3000.0, 0.0, 2), (2, 1, 0.0, 0.0, 0)],
+)
+def test_random_problems_agree(driver, n, L, c_scale, t_d, rigid_legs):
+    rng = np.random.default_rng(n * 10 + L)
+    args = _problem(rng, 30, n, L, c_scale, t_d, rigid_legs)
+    numpy = damped_modes(*args)
+    _agree(damped_modes(*args, solver="c"), numpy)
+    if c_scale == 3000.0:  # strong damping through eliminated legs: overdamped modes
+        assert np.any(numpy.damped_hz == 0) and np.all(numpy.damping_ratio[numpy.damped_hz == 0] > 1)
+    if t_d:  # a lag above c/t: growing modes
+        assert not numpy.stable.all() and numpy.stable.any()
+
+
+@pytest.fixture(scope="module")
+def backends(driver):
+    return {b: eigentwist.load("heli4", backend=b) for b in ("numpy", "c")}
+
+
+@pytest.mark.parametrize(
+    "model, params",
+    [
+        ("damped", {"k_a": np.array([125.0, 500.0, 2000.0, 4000.0])}),  # zeta 0.45 ... 0.03
+        ("rigid,servo_damping", {"k_a": np.array([125.0, 4000.0]), "c_a": 3.0}),  # every leg eliminated
+        ("rigid,servo_damping", {"k_a": np.array([125.0, 300.0]), "c_a": 20.0}),  # overdamped modes
+        ("damped,servo_delay", {"k_a": np.array([2200.0, 4000.0]), "t_d": 1.3e-3}),  # growing above c/t
+    ],
+)
+def test_heli4_paper_poses_agree(backends, model, params):
+    """The Heli4's paper poses (the reference pose and the campaign's), each k_a: the C
+    backend (compiled solver) and the NumPy backend (NumPy solver) give the same poles."""
+    poses = np.array([X_REF, [0.0, 0.1, -0.55], [0.1, 0.0, -0.55], [0.05, -0.03, -0.6]])
+    ka = params["k_a"]
+    P = np.repeat(poses, len(ka), axis=0)
+    kw = dict(params, k_a=np.tile(ka, len(poses)))
+    c, numpy = (backends[b].modes(P, model, vectors=False, unstable="nan", **kw).damping for b in ("c", "numpy"))
+    _agree(c, numpy)
+    if params.get("c_a") == 20.0:
+        assert np.any(numpy.damped_hz == 0)
+    if "t_d" in params:
+        assert not numpy.stable.all() and numpy.stable.any()
+
+
+def test_dispatch(backends, monkeypatch):
+    """The C backend's evaluator solves by the driver, the NumPy one does not; complex shapes
+    and a loss factor stay in NumPy."""
+    calls = []
+    solve = c_damped.solve
+    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(len(a[1])) or solve(*a, **k))
+    backends["numpy"].modes(X_REF, "damped", k_a=125.0)
+    backends["c"].modes(X_REF, "damped", k_a=125.0, complex_shapes=True)
+    backends["c"].modes(X_REF, "paper,structural_loss", k_a=125.0, eta_s=0.05)
+    assert calls == []
+    backends["c"].modes(np.tile(X_REF, (3, 1)), "damped", k_a=[125.0, 125.0, 500.0])
+    assert calls == [2]  # rows of one condition solved once
+
+
+@pytest.mark.parametrize("n, decided", [(10, True), (11, False)])
+def test_assignment_guard(driver, n, decided):
+    """Modes of one frequency (no order decides, every share alike) go to the one-to-one
+    assignment by share, which the driver does for up to MAX_ASSIGN (10) poles of positive
+    frequency; the 11th pose goes to NumPy. Both routes give every mode omega."""
+    om = 2 * np.pi * 10.0
+    M, K = np.eye(n)[None], om**2 * np.eye(n)[None]
+    W, h, kd, zero = np.ones((1, 1, n)), np.array([[1e3]]), np.array([[1e3]]), np.zeros((1, 1))
+    *_, redo = c_damped.solve(M, K, W, h, kd, zero, zero, 1e-9, 1e-9, 0.5)
+    assert bool(redo[0]) is not decided
+    d = damped_modes(M, K, W, h, kd, 0.0, 0.0, solver="c")
+    np.testing.assert_allclose(d.natural_hz, 10.0, rtol=1e-12)
+    np.testing.assert_allclose(d.damping_ratio, 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("n, compiled", [(c_damped.MAX_MODES, True), (c_damped.MAX_MODES + 1, False)])
+def test_size_guard(driver, monkeypatch, n, compiled):
+    """Up to MAX_MODES modes the driver solves; one more goes to NumPy; both agree."""
+    calls = []
+    solve = c_damped.solve
+    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(1) or solve(*a, **k))
+    args = _problem(np.random.default_rng(n), 3, n, 2, 1.0, 0.0)
+    _agree(damped_modes(*args, solver="c"), damped_modes(*args))
+    assert bool(calls) is compiled
+
+
+@pytest.mark.parametrize("factor", [0.5, 2.0])
+def test_wrenches_rigid_threshold(driver, factor):
+    """A joint-compliance eigenvalue just inside (0.5) or outside (2) RIGID times the largest:
+    rigid (left out of the pseudo-inverse) or a stiff spring; both routes alike, and J_e^T C_q^+ J_e
+    computed here."""
+    rng = np.random.default_rng(3)
+    U = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    lam = np.array([1e-3, 2e-3, factor * RIGID * 2e-3])
+    Cq = (U * lam) @ U.T
+    Je = rng.normal(size=(3, 6))
+    Cp = (U[:, :2] / lam[:2]) @ U[:, :2].T if factor < 1 else np.linalg.inv(Cq)
+    for solver in ("numpy", "c"):
+        K, W, h = actuator_wrenches(Je[None, None], Cq[None, None], None, solver=solver)
+        np.testing.assert_allclose(K[0], Je.T @ Cp @ Je, rtol=1e-6)
+        np.testing.assert_allclose(h[0, 0], Cp[0, 0], rtol=1e-6)
+
+
+def test_threads_give_the_same_poles(driver):
+    """Ranges of whole blocks on two threads: each pose solved alone, the same bits."""
+    args = _problem(np.random.default_rng(7), 40 * c_damped.BLOCK, 2, 1, 1.0, 0.0)
+    one, two = (damped_modes(*args, solver="c", threads=t) for t in (1, 2))
+    np.testing.assert_array_equal(one.poles, two.poles)
+    np.testing.assert_array_equal(one.stable, two.stable)
