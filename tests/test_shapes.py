@@ -71,3 +71,18 @@ def test_shape_columns_round_trip_through_csv(ev):
     again = parse_csv(meas.to_csv(), "again.csv", ev)
     assert np.array_equal(again.shapes, meas.shapes, equal_nan=True)
     assert np.isnan(compare(meas, "paper", ev).mac[1])
+
+
+def test_settings_are_rows_with_equal_keys_whatever_a_shared_column_holds():
+    from eigentwist.diagnose.shapes import _groups
+
+    rng = np.random.default_rng(8)
+    keys = np.array([[0.0, 1.0, 5.0], [0.0, 2.0, 5.0], [-0.0, 1.0, 5.0], [0.0, 2.0 + 1e-14, 5.0]])
+    expected = [[0, 2], [1, 3]]  # -0.0 is 0.0; keys equal to 12 decimals share a setting
+    for shared in (5.0, rng.standard_normal()):  # a column every row shares, at any value
+        keys[:, 2] = shared
+        assert [list(g) for g in _groups(keys)] == expected
+    keys[3, 1] = 2.0 + 1e-9  # beyond 12 decimals: a setting of its own
+    assert [list(g) for g in _groups(keys)] == [[0, 2], [1], [3]]
+    keys[1, 2] = 6.0  # the column now tells rows apart
+    assert sorted(list(g) for g in _groups(keys)) == [[0, 2], [1], [3]]

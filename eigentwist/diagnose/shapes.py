@@ -107,8 +107,11 @@ def mac(a, b) -> np.ndarray:
 
 def _groups(keys: np.ndarray) -> tuple:
     """The rows of each setting from a (N, k) array of setting keys (rows with keys equal
-    to 12 decimals share one): a tuple of index arrays, in the order of their first key."""
-    rounded = np.ascontiguousarray(np.round(np.asarray(keys, dtype=float), 12) + 0.0)  # -0.0 -> 0.0
+    to 12 decimals share one): a tuple of index arrays, one per setting."""
+    rounded = np.round(np.asarray(keys, dtype=float), 12) + 0.0  # -0.0 -> 0.0
+    # a column with one value for every row (a fitted parameter at this evaluation) tells no
+    # settings apart: left out, so that a fit's evaluations share one key
+    rounded = np.ascontiguousarray(rounded[:, (rounded != rounded[:1]).any(axis=0)]) if len(rounded) else rounded
     return _groups_of(rounded.tobytes(), rounded.shape)
 
 
