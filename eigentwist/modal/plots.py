@@ -25,6 +25,8 @@ MAX_PANELS = 12
 def plot_stabilisation(res, path) -> None:
     """Stabilisation diagram of one setting's :class:`~eigentwist.modal.identify.SettingModes`."""
     plt = pyplot("modal")
+    from matplotlib.ticker import NullLocator
+
     fig, ax = plt.subplots(figsize=(8, 4.5))
     stab = res.stabilisation
     for order, f, st in zip(stab.orders, stab.freq_hz, stab.stable):
@@ -50,6 +52,7 @@ def plot_stabilisation(res, path) -> None:
         ax2 = ax.twinx()
         ax2.semilogy(res.frfs.freq_hz[band], np.sum(np.abs(res.frfs.H[band]), axis=1), color="0.3", lw=0.8)
         ax2.set_ylabel(f"sum |{res.frfs.form}|")
+        ax2.yaxis.set_minor_locator(NullLocator())
     ax.set_title(
         f"{Path(res.source).name}: stabilisation (grey: pole not yet stable, blue: stable pole, red: identified mode)",
         fontsize=9,
@@ -63,6 +66,8 @@ def plot_stabilisation(res, path) -> None:
 def plot_frfs(res, path) -> None:
     """Measured FRF magnitudes and their LSFD re-synthesis on the band, one panel per pair."""
     plt = pyplot("modal")
+    from matplotlib.ticker import NullLocator
+
     frfs = res.frfs
     n_p = min(frfs.H.shape[1], MAX_PANELS)
     n_c = min(n_p, 3)
@@ -78,6 +83,7 @@ def plot_frfs(res, path) -> None:
         ax.semilogy(f[band], np.abs(res.resynthesised[:, p]), "--", color="tab:red", lw=0.9, label="re-synthesised")
         ax.set_title(frfs.pair_label(p), fontsize=8)
         ax.tick_params(labelsize=7)
+        ax.yaxis.set_minor_locator(NullLocator())  # decades are enough: minor ticks cost most of the drawing
     axes[0, 0].legend(fontsize=7)
     for ax in axes[-1]:
         ax.set_xlabel("frequency [Hz]")
