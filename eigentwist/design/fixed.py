@@ -54,12 +54,13 @@ def held_fixed_line(ev, moving, model=(), values=None) -> str | None:
 
 def inertias_of(ev, mass: str) -> list[str]:
     """The inertia parameters (kg m^2) of the body whose mass is ``mass``, matched by name
-    (``m_1`` -> ``I1_xx, I1_yy, I1_zz``; ``m_e`` -> ``I_e_xx, ...``); every inertia
-    parameter where no name matches."""
-    key = mass.partition("@")[0]
-    key = key[2:] if key.startswith("m_") else key[1:]
+    (``m_1`` -> ``I1_xx, I1_yy, I1_zz``; ``m_e`` -> ``I_e_xx, ...``; ``m_cyl_hub`` ->
+    ``I_cyl_hub``); every inertia parameter where no name matches."""
+    name = mass.partition("@")[0]
+    key = name[2:] if name.startswith("m_") else name[1:]
     inertias = [n for n, p in ev.parameters.items() if p.unit == "kg m^2"]
-    return [n for n in inertias if key and key in n[1:].split("_")] or inertias
+    named = [n for n in inertias if key and (key in n[1:].split("_") or f"{n[1:]}_".startswith(f"{name[1:]}_"))]
+    return named or inertias
 
 
 def zero_mass_lines(ev, rows) -> list[str]:

@@ -16,9 +16,10 @@ from __future__ import annotations
 import sympy as sp
 
 from ..description import Parameter
-from ..description.chain import ChainBody, ChainJoint, ChainLeg, ChainRobot
+from ..description.chain import ChainJoint, ChainLeg, ChainRobot
 from ..description.effects import Effect, effect_parameters
 from ..description.screw import cross, spatial_inertia
+from . import strut_bodies
 
 BASE_ANGLES = (-10, 10, 110, 130, 230, 250)
 PLATFORM_ANGLES = (-50, 50, 70, 170, 190, 290)
@@ -129,40 +130,35 @@ def _geometry(base_deg, platform_deg):
     return geometry
 
 
-def _strut_body(name, mass, distance, inertia, after, origin):
-    """A slender strut body in a frame at its joint, x along the strut (no axial inertia)."""
-    transverse = inertia + mass * distance**2
-    return ChainBody(
-        name,
-        after,
-        spatial_inertia(mass, sp.Matrix([distance, 0, 0]), sp.diag(0, transverse, transverse)),
-        ("s", "e2", "u2"),
-        origin,
+def describe(bodies: str = "measured") -> ChainRobot:
+    """The hexapod with its specified values as defaults.
+
+    bodies : ``"measured"`` (each strut's cylinder and piston: ``m_*``, ``d_*``, ``I_*``,
+        parameters of their own) or ``"shapes"``: each a hub at its joint and a uniform rod
+        along the strut (``l_cyl`` = 0.32 m, ``l_pis`` = 0.21 m), fitted to be the measured
+        bodies at those lengths, so that their masses and inertias follow ``l_cyl`` and
+        ``l_pis`` (robot ``hexapod_shapes``, generated on first use; :mod:`.strut_bodies`).
+        The platform's stays measured in both.
+    """
+    parameters = strut_bodies.parameters(PARAMETERS, bodies) + effect_parameters(
+        ("actuator_loss", "payload_mass", "gravity_preload"), EFFECT_VALUES
     )
-
-
-def describe() -> ChainRobot:
-    """The hexapod with its specified values as defaults."""
-    parameters = PARAMETERS + effect_parameters(("actuator_loss", "payload_mass", "gravity_preload"), EFFECT_VALUES)
     p = {q.name: q.symbol for q in parameters}
     joints = (
         ChainJoint("U", ("u1", "u2"), "b", doc="base universal joint"),
         ChainJoint("P", ("s",), actuated=True, doc="prismatic actuator along the strut"),
         ChainJoint("S", (), "top", doc="platform spherical joint"),
     )
-    bodies = (
-        _strut_body("cylinder", p["m_cyl"], p["d_cyl"], p["I_cyl"], 1, "b"),
-        _strut_body("piston", p["m_pis"], -p["d_pis"], p["I_pis"], 2, "top"),
-    )
+    struts = strut_bodies.bodies(p, bodies)
     legs = tuple(
-        ChainLeg(f"leg {i + 1}", joints, bodies, _geometry(b, a), checks=("cos_u",))
+        ChainLeg(f"leg {i + 1}", joints, struts, _geometry(b, a), checks=("cos_u",))
         for i, (b, a) in enumerate(zip(BASE_ANGLES, PLATFORM_ANGLES))
     )
     com = sp.Matrix([0, 0, p["c_pl"]])
     at_com = sp.diag(p["I_pl_xx"], p["I_pl_yy"], p["I_pl_zz"])
     platform = spatial_inertia(p["m_pl"], com, at_com + p["m_pl"] * (com.dot(com) * sp.eye(3) - com * com.T))
     return ChainRobot(
-        name="hexapod",
+        name="hexapod" if bodies == "measured" else "hexapod_shapes",
         title="Gough-Stewart hexapod (6-UPS)",
         parameters=parameters,
         legs=legs,
