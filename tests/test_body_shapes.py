@@ -190,3 +190,20 @@ def test_hexapod_shape_form_names_its_hubs_held_fixed():
     assert inertias_of(shapes, "m_cyl_hub") == ["I_cyl_hub"] and inertias_of(shapes, "m_pis_hub") == ["I_pis_hub"]
     assert inertias_of(shapes, "m_pl") == ["I_pl_xx", "I_pl_yy", "I_pl_zz"]
     assert inertias_of(measured, "m_cyl") == ["I_cyl"]
+
+
+@pytest.mark.parametrize("module", [heli4, delta, hexapod], ids=["heli4", "delta", "hexapod"])
+@pytest.mark.parametrize("bodies", ["measured", "shapes"])
+def test_every_default_is_inside_its_hard_bounds(module, bodies):
+    # a description whose own defaults its bounds refuse could not be evaluated as shipped
+    robot = module.describe(bodies=bodies)
+    refused = [(q.name, q.default, q.bounds) for q in robot.parameters if not q.admits(q.default)]
+    assert not refused
+
+
+def test_a_hub_may_be_empty_but_not_negative():
+    # the Delta's arm is all rod: its fitted hub is exactly zero, and zero is a hub
+    hubs = [q for q in delta.describe(bodies="shapes").parameters if "hub" in q.name]
+    assert hubs and any(q.default == 0.0 for q in hubs)
+    for q in hubs:
+        assert q.admits(0.0) and not q.admits(-1e-12 * max(q.default, 1e-6))

@@ -47,10 +47,10 @@ def parameters(base: tuple, bodies: str, link: str) -> tuple:
             "kg/m",
             f"mass per length of the {link}'s uniform part, a slender rod along l1{why}",
         ),
-        Parameter("m_hub", float(fit["hub_mass"]), "kg", f"the {link}'s hub at the actuated joint{why}"),
-        Parameter("I_hub_xx", float(hub[0]), "kg m^2", f"the hub's inertia about x of frame J_i1{why}"),
-        Parameter("I_hub_yy", float(hub[1]), "kg m^2", f"the hub's inertia about the actuated axis{why}"),
-        Parameter("I_hub_zz", float(hub[2]), "kg m^2", f"the hub's inertia about z of frame J_i1{why}"),
+        Parameter("m_hub", float(fit["hub_mass"]), "kg", f"the {link}'s hub at the actuated joint{why}", closed=True),
+        Parameter("I_hub_xx", float(hub[0]), "kg m^2", f"the hub's inertia about x of frame J_i1{why}", closed=True),
+        Parameter("I_hub_yy", float(hub[1]), "kg m^2", f"the hub's inertia about the actuated axis{why}", closed=True),
+        Parameter("I_hub_zz", float(hub[2]), "kg m^2", f"the hub's inertia about z of frame J_i1{why}", closed=True),
     )
     return tuple(q for q in base if q.name not in MEASURED) + shapes
 

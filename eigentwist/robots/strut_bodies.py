@@ -62,12 +62,15 @@ def parameters(base: tuple, bodies: str, lengths: dict = LENGTHS) -> tuple:
                 "kg/m",
                 f"mass per length of the {body}'s tube, a slender rod from the {joint} towards the {towards}{why}",
             ),
-            Parameter(f"m_{part}_hub", float(fit["hub_mass"]), "kg", f"the {body}'s hub at the {joint}{why}"),
+            Parameter(
+                f"m_{part}_hub", float(fit["hub_mass"]), "kg", f"the {body}'s hub at the {joint}{why}", closed=True
+            ),
             Parameter(
                 f"I_{part}_hub",
                 float(fit["hub_inertia"][1]),
                 "kg m^2",
                 f"the {body}'s hub's transverse inertia about the {joint}{why}",
+                closed=True,
             ),
         ]
     return tuple(q for q in base if q.name not in MEASURED) + tuple(shapes)
