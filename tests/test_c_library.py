@@ -207,7 +207,7 @@ def _library_frequencies(ev, poses, model, values):
     from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh
 
     want = ev.frequencies(poses, model, **values)
-    if ev.kind(resolve_model(model, ev.robot)) != "flexible" or not ev.constraint_route(model, **values)[1]:
+    if ev.stiffness_model(resolve_model(model, ev.robot)) != "flexible" or not ev.constraint_route(model, **values)[1]:
         return want
     mats = ev.matrices(poses, model, **values)
     penalty = frequencies_hz(generalized_eigh(mats["K_F"], mats["M"])[0])

@@ -42,7 +42,7 @@ def test_outputs_equal_the_pinned_ones(evaluators, case):
     poses = PIN[f"{robot}/poses"]
     mats = ev.matrices(poses, model, **PARAMS)
     freq = ev.frequencies(poses, model, **PARAMS)
-    if ev.kind(resolve_model(model, ev.robot)) == "flexible":
+    if ev.stiffness_model(resolve_model(model, ev.robot)) == "flexible":
         # the evaluator's finite modes are the exact condensation's, the pins K_F's
         # (c_rigid = 1e-12 rad/(N m)): they differ by the penalty, < 1e-5 relative; the
         # pinned frequencies are those of the pinned matrices (strictly, below)

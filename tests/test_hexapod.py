@@ -202,7 +202,7 @@ def test_frequencies_are_the_rigid_6x6_eigenproblem(ev, evaluate):
     """The rigid model of a 6-DoF robot is the full 6x6 M and K_R."""
     on = ("actuator_loss", "payload_mass")
     m = ev.modes(np.stack([HOME, TILTED]), "actuator_loss,payload_mass", k_a=1.0e7)
-    assert m.kind == "rigid" and m.axes == ("rx", "ry", "rz", "x", "y", "z") and m.freq_hz.shape == (2, 6)
+    assert m.stiffness_model == "rigid" and m.axes == ("rx", "ry", "rz", "x", "y", "z") and m.freq_hz.shape == (2, 6)
     np.testing.assert_allclose(m.freq_hz[1], _frequencies(evaluate(TILTED, on, k_a=1.0e7)), rtol=1e-10)
     assert ev.frequencies(HOME, "rigid").shape == (1, 6)
 

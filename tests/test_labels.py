@@ -104,7 +104,7 @@ def _rotated_pair(m: Modes, turn_deg: float) -> Modes:
         c * m.eigentwists[:, :, 0] + s * m.eigentwists[:, :, 1],
         -s * m.eigentwists[:, :, 0] + c * m.eigentwists[:, :, 1],
     )
-    return Modes(m.freq_hz, v, m.axes, m.kind)
+    return Modes(m.freq_hz, v, m.axes, m.stiffness_model)
 
 
 @pytest.mark.parametrize("model", ["rigid", "paper"])
@@ -164,3 +164,13 @@ def test_delta_diagnosis_is_the_same_1mm_off_axis(delta):
         selections.append((d.selected, d.ranking[0].effect, d.explained))
     assert all(s == selections[0] for s in selections), selections
     assert "payload_mass" in selections[0][0]
+
+
+def test_the_old_names_of_the_stiffness_model_still_answer_with_a_warning():
+    ev = eigentwist.load("heli4", backend="numpy")
+    m = ev.modes(np.array([0.0, 0.0, -0.625]), "paper")
+    assert ev.stiffness_model("paper") == m.stiffness_model == "flexible" and ev.stiffness_model("rigid") == "rigid"
+    with pytest.warns(DeprecationWarning, match="stiffness_model"):
+        assert ev.kind("rigid") == "rigid"
+    with pytest.warns(DeprecationWarning, match="stiffness_model"):
+        assert m.kind == "flexible"

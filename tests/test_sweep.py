@@ -122,6 +122,10 @@ def test_spec_round_trips_through_json():
     again = sw.SweepSpec.from_dict(json.loads(json.dumps(spec.to_dict())))
     assert again == spec
     assert spec.n_rows == 16 * 2 * 8 * 50 and spec.n_chunks == -(-spec.n_rows // 100)
+    d = json.loads(json.dumps(spec.to_dict()))
+    assert d["poses"]["sampling"] == "random"
+    d["poses"]["kind"] = d["poses"].pop("sampling")  # the alias a manifest may hold
+    assert sw.SweepSpec.from_dict(d) == spec
 
 
 # --------------------------------------------------------------------- chunking

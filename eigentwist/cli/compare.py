@@ -171,7 +171,7 @@ def run(args) -> int:
         return 0
     say(
         f"{meas.robot}: {len(meas)} measured frequencies from {meas.source}; model: "
-        f"{', '.join(cmp.effects) or '(no effect)'} ({ev.kind(cmp.effects)})"
+        f"{', '.join(cmp.effects) or '(no effect)'} ({ev.stiffness_model(cmp.effects)})"
     )
     say(changed_text(parameters, meas.robot) + "\n")
     say(comparison_table(cmp))

@@ -104,7 +104,7 @@ def compute(args) -> dict:
     )
     f_flex, v_flex = _modes_of(mats["M"], mats["K_F"])
     C_F, f_exact = _exact(ev, pose, effects, params)
-    kind = ev.kind(effects)
+    kind = ev.stiffness_model(effects)
     # the actuator stiffness's parameter (k_a; a robot of legs that differ names its shared one)
     k_a = "k_a" if "k_a" in ev.defaults else str(ev.robot.actuator_stiffness)
     fixed = getattr(ev.space, "basis", None) is not None

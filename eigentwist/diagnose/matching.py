@@ -98,14 +98,14 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
             rank = int(label)
             if rank > n_modes:
                 raise ModeMatchError(
-                    f"{_where(first, lines)}mode rank {rank} does not exist: the {modes.kind} "
+                    f"{_where(first, lines)}mode rank {rank} does not exist: the {modes.stiffness_model} "
                     f"model has {n_modes} modes (ranks 1..{n_modes})"
                 )
             code[label] = rank - 1
             continue
         if label not in modes.axes:
             raise ModeMatchError(
-                f"{_where(first, lines)}mode {label!r}: the {modes.kind} model has no mode along "
+                f"{_where(first, lines)}mode {label!r}: the {modes.stiffness_model} model has no mode along "
                 f"{label} (its modes are along {', '.join(modes.axes)}); use a flexible model "
                 "(a structural compliance effect, e.g. --model paper) or a rank"
             )
@@ -152,7 +152,7 @@ def _match_axes(modes, shares, groups, axis, rows, labels, strict, lines):
             k = min(np.flatnonzero(missing), key=lambda i: (labels[rows[i]], i))  # as the labels sort
             direction = modes.direction[rows[k]]
             raise ModeMatchError(
-                f"{_where(rows[k], lines)}no mode of the {modes.kind} model points along "
+                f"{_where(rows[k], lines)}no mode of the {modes.stiffness_model} model points along "
                 f"{labels[rows[k]]} at this row (mode directions: "
                 f"{', '.join(DIRECTIONS[d] for d in direction)}); use a rank instead"
             )

@@ -65,7 +65,7 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
     k_d, c_d, t_d, loss = actuator_values(ev, p, effects, n)
     Je = np.broadcast_to(legs["Je"], (n,) + np.shape(legs["Je"])[-3:])
     Cq = np.broadcast_to(legs["Cq"], (n,) + np.shape(legs["Cq"])[-3:])
-    rigid = ev.kind(effects) == "rigid"
+    rigid = ev.stiffness_model(effects) == "rigid"
     if rigid:  # the allowed twists and the actuated joints alone (K_R, Eq. 14)
         B = ev.allowed_twists(pr, **sub)
         Je, Cq = Je[:, :, :1, :], Cq[:, :, :1, :1]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from types import ModuleType
 
@@ -11,14 +12,14 @@ from ..description import RobotDescription
 from ..description.effects import base_name, leg_input_name, leg_switch_name, resolve_model, split_scope, switch_name
 from ..description.joints import joint_kind
 from ..description.names import did_you_mean
+from ..description.pose import FULL, TWIST_AXIS, twist_order
+from ..description.serial import padded_references, padded_units
 from . import condense
+from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .constraints import check_constraints, compile_constraints
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
-from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .labels import directions, energy_shares
-from ..description.pose import FULL, TWIST_AXIS, twist_order
-from ..description.serial import padded_references, padded_units
 from .threads import resolve_threads
 from .validity import (
     CONDITIONING_TOL,
@@ -76,8 +77,8 @@ class Modes:
     axes : names of the n coordinates (``("x", "y", "z")`` for a 3-DoF robot's rigid
         model, ``("rx", "ry", "rz", "x", "y", "z")`` for the flexible one and for every
         model of a 6-DoF robot).
-    kind : ``"rigid"`` (K_R: the 3x3 translational subsets for a 3-DoF robot, the full
-        6x6 for a 6-DoF one) or ``"flexible"`` (K_F).
+    stiffness_model : ``"rigid"`` (K_R, Eq. 14: the 3x3 translational subsets for a 3-DoF
+        robot, the full 6x6 for a 6-DoF one) or ``"flexible"`` (K_F, Eq. 13).
     valid : (N,) bool, which poses were evaluated (reachable, not singular); the others
         hold NaN. Set by ``modes(..., invalid="nan")``; None when every pose is valid.
     stable : (N,) bool, False where a mode is unstable (its frequency is NaN); all True
@@ -97,7 +98,7 @@ class Modes:
     freq_hz: np.ndarray
     eigentwists: np.ndarray | None
     axes: tuple
-    kind: str
+    stiffness_model: str
     valid: np.ndarray | None = None
     stable: np.ndarray | None = None
     constrained: np.ndarray | None = None
@@ -110,6 +111,12 @@ class Modes:
     def __post_init__(self):
         if self.stable is None:
             self.stable = np.ones(self.freq_hz.shape[:1], dtype=bool)
+
+    @property
+    def kind(self) -> str:
+        """Deprecated name of :attr:`stiffness_model`."""
+        warnings.warn("Modes.kind is deprecated: use Modes.stiffness_model", DeprecationWarning, stacklevel=2)
+        return self.stiffness_model
 
     @property
     def natural_hz(self) -> np.ndarray:
@@ -196,7 +203,7 @@ class Evaluator:
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
-        self._kinds: dict = {}  # (question, effects) -> answer (_remembered: kind, preloaded)
+        self._kinds: dict = {}  # (question, effects) -> answer (_remembered: stiffness model, preloaded)
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -473,11 +480,11 @@ class Evaluator:
         the hexapod)."""
         return self.dof
 
-    def axes(self, kind: str) -> tuple:
-        """Names of the modes' coordinates for model ``kind`` (``"rigid"``/``"flexible"``):
+    def axes(self, stiffness_model: str) -> tuple:
+        """Names of the modes' coordinates for a ``"rigid"`` or ``"flexible"`` stiffness model:
         the rigid model's are the allowed twists (:mod:`.allowed`), named by the pose
         coordinates they start from (``rot_z`` -> ``rz``)."""
-        if kind != "rigid":
+        if stiffness_model != "rigid":
             return AXES
         return tuple(AXES[TWIST_AXIS[c]] for c in twist_order(self.pose_names))
 
@@ -637,13 +644,19 @@ class Evaluator:
         p = self._params(max(sizes, default=1), given, model)
         return {k: float(v) if np.ndim(v) == 0 else np.asarray(v, dtype=float) for k, v in p.items()}
 
-    def kind(self, model) -> str:
-        """``"flexible"`` when the model has a structural compliance, else ``"rigid"``."""
+    def stiffness_model(self, model) -> str:
+        """``"flexible"`` (K_F, Eq. 13) when the model has a structural compliance, else
+        ``"rigid"`` (K_R, Eq. 14)."""
         effects = self._resolve(model)
         return self._remembered(
-            ("kind", effects),
+            ("stiffness_model", effects),
             lambda: "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid",
         )
+
+    def kind(self, model) -> str:
+        """Deprecated name of :meth:`stiffness_model`."""
+        warnings.warn("Evaluator.kind is deprecated: use Evaluator.stiffness_model", DeprecationWarning, stacklevel=2)
+        return self.stiffness_model(model)
 
     def _remembered(self, key, compute):
         """``compute()``, remembered per (hashable) ``key`` of the model's effects."""
@@ -1059,7 +1072,7 @@ class Evaluator:
         ``M`` of the NumPy path (for :meth:`_exact_modes`)."""
         poses_arr = self._poses(poses, params)
         effects = self._resolve(model)
-        rigid = self.kind(effects) == "rigid"
+        rigid = self.stiffness_model(effects) == "rigid"
         if (
             rigid
             and self._fused
@@ -1183,7 +1196,7 @@ class Evaluator:
         poses = self._poses(poses, params)
         effects = self._resolve(model)
         params, exact = self._route(effects, params)
-        fixed = self._c_rigid or self.kind(effects) == "flexible"
+        fixed = self._c_rigid or self.stiffness_model(effects) == "flexible"
         if self._fused and fixed and not self._preloaded(effects):
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact)
         else:
@@ -1227,7 +1240,7 @@ class Evaluator:
             legs = self._kernels.legs(q, self._with_pose(pr, p))
         else:
             p, q, legs = known["p"], known["q"], known["out"]
-        reuse = known is not None and "B" in known and self.kind(effects) != "rigid"
+        reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
         mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
         return {
             "rows": rows,
@@ -1258,7 +1271,7 @@ class Evaluator:
         * else ``(params, True)``: the finite modes come from :meth:`_exact_modes`.
         """
         outputs = getattr(self._kernels, "OUTPUTS", {})
-        if self.kind(effects) != "flexible" or "legs" not in outputs or outputs["legs"]["Je"][1] < 2:
+        if self.stiffness_model(effects) != "flexible" or "legs" not in outputs or outputs["legs"]["Je"][1] < 2:
             return params, False
         default = self.parameters["c_rigid"].default if "c_rigid" in self.parameters else None
         if "c_rigid" in params and default is not None and np.any(np.asarray(params["c_rigid"]) != default):
@@ -1341,8 +1354,8 @@ class Evaluator:
         q, poses = self.joint_coordinates(joints, poses)
         params, exact = self._route(effects, params)
         mats = self.joint_matrices(poses, q, effects, **params)
-        kind = self.kind(effects)
-        if kind == "rigid":
+        stiffness = self.stiffness_model(effects)
+        if stiffness == "rigid":
             if getattr(self.space, "basis", None) is None:
                 raise InputError(
                     f"joints= with {self.robot.name}'s rigid model (allowed twists that turn with the "
@@ -1352,7 +1365,7 @@ class Evaluator:
             M, K = reduce(mats["M"], B), reduce(mats["K_R"], B)
         else:
             M, K = mats["M"], mats["K_F"]
-        modes = self._solve(M, K, vectors, kind)
+        modes = self._solve(M, K, vectors, stiffness)
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=q, M=M)
             modes.legs = None
@@ -1364,39 +1377,39 @@ class Evaluator:
         """Matrices (and the gravity preload), then the batched eigen-solver; ``stash``
         receives ``q`` and ``M`` of every row (NaN where invalid) on the NumPy path."""
         if check:
-            return self._solve(*self._stiffness(poses, effects, params, stash), vectors, self.kind(effects))
+            return self._solve(*self._stiffness(poses, effects, params, stash), vectors, self.stiffness_model(effects))
         ok = self.valid(poses, effects, **params)
         n = len(poses)
-        kind = self.kind(effects)
-        size = self.rigid_size() if kind == "rigid" else 6
+        stiffness = self.stiffness_model(effects)
+        size = self.rigid_size() if stiffness == "rigid" else 6
         freq = np.full((n, size), np.nan)
         vec = np.full((n, size, size), np.nan) if vectors else None
         stable = np.ones(n, dtype=bool)
         if ok.any():
             part = {} if stash is not None else None
-            m = self._solve(*self._stiffness(poses[ok], effects, self._rows(params, ok, n), part), vectors, kind)
+            m = self._solve(*self._stiffness(poses[ok], effects, self._rows(params, ok, n), part), vectors, stiffness)
             freq[ok], stable[ok] = m.freq_hz, m.stable
             if vectors:
                 vec[ok] = m.eigentwists
             for key, val in (part or {}).items():
                 stash[key] = np.full((n,) + val.shape[1:], np.nan)
                 stash[key][ok] = val
-        return Modes(freq, vec, self.axes(kind), kind, ok, stable)
+        return Modes(freq, vec, self.axes(stiffness), stiffness, ok, stable)
 
-    def _solve(self, M, K, vectors: bool = True, kind: str | None = None) -> Modes:
+    def _solve(self, M, K, vectors: bool = True, stiffness: str | None = None) -> Modes:
         if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:  # the C solver's sizes
             lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
         else:
             # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
             # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
             lam, V = generalized_eigh(K, M)
-        if kind is None:
-            kind = "rigid" if M.shape[-1] == 3 else "flexible"
+        if stiffness is None:
+            stiffness = "rigid" if M.shape[-1] == 3 else "flexible"
         return Modes(
             frequencies_hz(lam),
             normalize_eigentwists(V) if vectors else None,
-            self.axes(kind),
-            kind,
+            self.axes(stiffness),
+            stiffness,
             stable=~unstable_modes(lam).any(axis=-1),
         )
 
@@ -1405,15 +1418,15 @@ class Evaluator:
         written straight into the result arrays; with ``exact`` the pass also returns the
         joint coordinates and M for :meth:`_exact_modes`."""
         p = self._params(len(poses), params, effects)
-        kind = self.kind(effects)
+        stiffness = self.stiffness_model(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
-        shares = vectors and not exact and kind == "flexible"
+        shares = vectors and not exact and stiffness == "flexible"
         out = self._c_pass(
             poses,
             p,
             matrices=("M",) if exact or shares else (),
             ik=("q",) if exact else (),
-            model=kind,
+            model=stiffness,
             vectors=vectors,
             normalize=True,
         )
@@ -1436,8 +1449,8 @@ class Evaluator:
         modes = Modes(
             out["freq_hz"],
             out.get("eigentwists"),
-            self.axes(kind),
-            kind,
+            self.axes(stiffness),
+            stiffness,
             None if check else valid,
             st != STATUS["unstable"],
         )
@@ -1520,7 +1533,7 @@ class Evaluator:
         effects = self._resolve(model)
         check_model(effects)
         wrt = check_wrt(self, wrt)
-        rigid = self.kind(effects) == "rigid"
+        rigid = self.stiffness_model(effects) == "rigid"
         if rigid and getattr(self.space, "basis", 0) is None:
             from .implicit import reduced_derivatives
             from .sensitivity import eigenvalue_derivatives
@@ -1555,8 +1568,8 @@ class Evaluator:
             freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
             if own:
                 dfdp = shared_columns(dfdp, wrt, full, own)
-        kind = "rigid" if rigid else "flexible"
-        modes = Modes(freq, vec, self.axes(kind), kind)
+        stiffness = "rigid" if rigid else "flexible"
+        modes = Modes(freq, vec, self.axes(stiffness), stiffness)
         if exact:  # K_F's penalty: the finite modes exact
             modes = self._exact_modes(poses, effects, params, modes, True)
             modes.legs = None

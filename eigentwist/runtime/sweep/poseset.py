@@ -21,14 +21,14 @@ class PoseSet:
     """End-effector positions in a box ``((xlo, xhi), (ylo, yhi), (zlo, zhi))`` (m); for a
     6-DoF robot six ranges, the rotation vector's three in rad (poses (n, 6)).
 
-    ``kind="grid"``: ``shape = (nx, ny, nz)`` points per axis (six counts for a 6-DoF
+    ``sampling="grid"``: ``shape = (nx, ny, nz)`` points per axis (six counts for a 6-DoF
     box), ends included (an axis with one point sits at the middle of its interval),
     the first axis slowest, the last fastest.
-    ``kind="random"``: ``n`` uniform samples, reproducible from ``seed`` and
+    ``sampling="random"``: ``n`` uniform samples, reproducible from ``seed`` and
     independent of the chunk size (drawn in blocks of :data:`POSE_BLOCK`).
     """
 
-    kind: str
+    sampling: str
     box: tuple
     shape: tuple = ()
     n: int = 0
@@ -36,7 +36,7 @@ class PoseSet:
 
     @property
     def count(self) -> int:
-        return int(np.prod(self.shape)) if self.kind == "grid" else int(self.n)
+        return int(np.prod(self.shape)) if self.sampling == "grid" else int(self.n)
 
     def axis(self, k: int) -> np.ndarray:
         """Grid coordinates (m) along axis ``k`` (0: x, 1: y, 2: z)."""
@@ -47,7 +47,7 @@ class PoseSet:
         """Poses, shape (len(index), len(box)), of the poses numbered ``index``."""
         index = np.asarray(index, dtype=np.int64)
         dim = len(self.box)
-        if self.kind == "grid":
+        if self.sampling == "grid":
             ijk = np.unravel_index(index, self.shape)
             return np.column_stack([self.axis(k)[ijk[k]] for k in range(dim)])
         lo = np.array([b[0] for b in self.box])

@@ -92,7 +92,7 @@ class SweepSpec:
     def n_modes(self) -> int:
         """3 for a 3-DoF robot's rigid model (translational subset), else 6."""
         ev = sweep_evaluator(self.robot, self.backend)
-        return ev.rigid_size() if ev.kind(self.model) == "rigid" else 6
+        return ev.rigid_size() if ev.stiffness_model(self.model) == "rigid" else 6
 
     # ------------------------------------------------------------ arithmetic
     def chunk_rows(self, chunk: int) -> range:
@@ -115,10 +115,10 @@ class SweepSpec:
 
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict:
-        poses = {"kind": self.poses.kind, "box": [list(b) for b in self.poses.box]}
+        poses = {"sampling": self.poses.sampling, "box": [list(b) for b in self.poses.box]}
         poses.update(
             {"shape": list(self.poses.shape)}
-            if self.poses.kind == "grid"
+            if self.poses.sampling == "grid"
             else {"n": self.poses.n, "seed": self.poses.seed}
         )
         return {
@@ -136,7 +136,7 @@ class SweepSpec:
     def from_dict(cls, d: dict) -> "SweepSpec":
         p = d["poses"]
         poses = PoseSet(
-            p["kind"],
+            p["sampling"] if "sampling" in p else p["kind"],  # "kind": accepted as an alias
             tuple(tuple(b) for b in p["box"]),
             tuple(p.get("shape", ())),
             int(p.get("n", 0)),
