@@ -90,7 +90,7 @@ def _found(d, effect) -> bool:
 
 @pytest.mark.slow  # a seeded study (three diagnoses per effect): make test, not make test-fast
 # the damping effects' seeds (damped modes in every fit) run in benchmarks/damping.py
-@pytest.mark.parametrize("effect", [e for e in HELI4_EFFECTS if "damping" not in EFFECTS[e].kinds])
+@pytest.mark.parametrize("effect", [e for e in HELI4_EFFECTS if "damping" not in EFFECTS[e].primitives])
 def test_hidden_effect_is_selected_in_several_seeds(ev_fast, effect):
     truth, baseline, _, k_a = SCENARIOS[effect]
     for seed in (4, 5, 6):

@@ -6,14 +6,14 @@ import math
 
 import pytest
 
-from eigentwist.description.effects import EFFECTS, KINDS, effect_parameters
+from eigentwist.description.effects import EFFECTS, PRIMITIVES, effect_parameters
 from eigentwist.robots import NAMES, get
 
 
 @pytest.mark.parametrize("effect", list(EFFECTS))
 def test_every_effect_parameter_is_documented_with_a_plausible_range(effect):
     e = EFFECTS[effect]
-    assert e.kind in KINDS
+    assert e.primitive in PRIMITIVES
     assert set(e.fit) <= set(e.parameters)
     for p in e.params:
         assert p.unit and p.doc, p.name

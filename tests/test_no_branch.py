@@ -11,8 +11,7 @@ in ``eigentwist/symbolic/`` (an ``ast`` scan, docstrings excluded) and asserts:
 * no robot name (``heli4``, ``delta``, ``hexapod``) in code, as a string or an identifier;
 * no joint kind (``R``, ``P``, ``Pi``, ``U``, ``S``, ``virtual``) as a string except as a
   key of the table ``TWISTS`` that maps a joint kind to its unit twists, and no
-  ``.kind`` read outside the function that looks that table up (``joint_twists``) and the
-  effects' ``of_kind`` (effect kinds, not joints).
+  ``.kind`` read outside the function that looks that table up (``joint_twists``).
 
 The scanner is shown to catch each kind of branch on small sources written here.
 """
@@ -29,7 +28,7 @@ from eigentwist.description.chain import JOINT_FREEDOMS
 SYMBOLIC = Path(__file__).resolve().parent.parent / "eigentwist" / "symbolic"
 ROBOT_NAMES = ("heli4", "delta", "hexapod")
 JOINT_KINDS = set(JOINT_FREEDOMS)
-KIND_READERS = {"joint_twists", "of_kind"}  # the table look-up; effect kinds
+KIND_READERS = {"joint_twists"}  # the table look-up
 
 
 def _docstrings(tree: ast.AST) -> set[int]:

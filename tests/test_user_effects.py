@@ -120,11 +120,19 @@ def test_bad_description_files_fail_with_one_line(tmp_path, capsys, text, messag
     assert err.count("\n") == 0 and re.search(message, err)
 
 
-def test_effect_names_and_kinds_are_checked():
-    from eigentwist.description import Effect
+def test_effect_names_and_primitives_are_checked():
+    from eigentwist.description import Effect, Term
 
-    with pytest.raises(ValueError, match="kind 'spring'"):
-        Effect("hose", "", (), (), kind="spring")
+    with pytest.raises(ValueError, match="primitive 'spring'"):
+        Effect("hose", "", (), (), primitive="spring")
     with pytest.raises(ValueError, match="no '@'"):
-        Effect("hose@2", "", (), (), kind="ground_spring")
+        Effect("hose@2", "", (), (), primitive="ground_spring")
+    # the primitive's old name still works, with a warning, and never beside the new one
+    with pytest.warns(DeprecationWarning, match="primitive='ground_spring'"):
+        old = Effect("hose", "", (), (), kind="ground_spring")
+    assert old == Effect("hose", "", (), (), primitive="ground_spring")
+    with pytest.warns(DeprecationWarning, match=r"\.primitive"):
+        assert old.kind == "ground_spring"
+    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="not both"):
+        Term(primitive="preload", kind="preload")
     assert sys.modules["eigentwist"].load is eigentwist.load

@@ -73,7 +73,7 @@ def test_one_switch_adds_the_mass_and_the_spring(robots):
     dM, dK = on["M"][0] - off["M"][0], on["K_F"][0] - off["K_F"][0]
     np.testing.assert_allclose(dM, np.diag([0, 0, 0, M_TRUE, M_TRUE, M_TRUE]), atol=1e-12)
     np.testing.assert_allclose(dK, np.diag([0, 0, 0, 0, K_TRUE, 0]), atol=1e-8 * K_TRUE)
-    assert chain.robot.effect("cable_chain").kinds == ("added_inertia", "ground_spring")
+    assert chain.robot.effect("cable_chain").primitives == ("added_inertia", "ground_spring")
 
 
 def test_cable_chain_found_as_one_effect_with_both_values(robots, chain_data):

@@ -197,7 +197,7 @@ def library_context(robot, kernels, prefix: str) -> dict:
         sources=sources,
         n_fused=len(names),
         structural=switches(lambda e: e.structural),
-        preload=switches(lambda e: e.kind == "preload"),
+        preload=switches(lambda e: e.primitive == "preload"),
         rigid_dim=rigid_dim,
         modes=MAX_MODES,
         scale=names.index(LEVER_SCALE) if LEVER_SCALE in names else -1,

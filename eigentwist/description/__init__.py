@@ -4,7 +4,7 @@ from .parameters import Parameter, sym
 from .robot import Coupling, Leg, RobotDescription, EECompliance
 from .chain import ChainJoint as Joint
 from .rrpirr import RRPIRR_CHAIN
-from .effects import EFFECTS, KINDS, PRESETS, Effect, EffectContext, Term, effect_parameters, resolve_model
+from .effects import EFFECTS, KINDS, PRESETS, PRIMITIVES, Effect, EffectContext, Term, effect_parameters, resolve_model
 from .constraints import Constraint, tube, triangle_inequality
 
 __all__ = [
@@ -18,6 +18,7 @@ __all__ = [
     "RRPIRR_CHAIN",
     "EFFECTS",
     "KINDS",
+    "PRIMITIVES",
     "PRESETS",
     "Effect",
     "EffectContext",

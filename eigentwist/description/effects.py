@@ -1,7 +1,7 @@
 """The catalogue of named physical effects and the model presets.
 
 Every effect is a documented term of the closed-form model, an instance of one of a few
-primitive :data:`KINDS` that the derivation handles generically: the effect carries
+primitive (:data:`PRIMITIVES`) that the derivation handles generically: the effect carries
 its parameters, the body or frame it acts on and a ``build`` function that returns its
 term (a compliance, an inertia, a stiffness, a load) from an :class:`EffectContext`.
 Its terms are multiplied by a switch symbol ``on_<effect>`` (0 or 1) in the derivation,
@@ -13,6 +13,9 @@ interface (CLI, JSON, CSV): keep them stable.
 """
 
 from __future__ import annotations
+
+import functools
+import warnings
 
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -31,6 +34,7 @@ __all__ = [
     "EFFECTS",
     "PRESETS",
     "STRUCTURAL",
+    "PRIMITIVES",
     "KINDS",
     "resolve_model",
     "switch_name",
@@ -44,9 +48,9 @@ __all__ = [
 
 INF = float("inf")
 
-#: The primitive kinds every effect is an instance of: the derivation handles
-#: each kind generically.
-KINDS = {
+#: The primitives every effect is an instance of: the derivation handles each
+#: generically.
+PRIMITIVES = {
     "joint_series": "a compliance in series with a leg's actuated joint (actuator loss, transmission)",
     "body_compliance": "a 6x6 compliance of a body of a leg's chain, in that body's frame (rods, lower-link tubes, "
     "the paper's per-leg share of the end-effector assembly)",
@@ -58,24 +62,52 @@ KINDS = {
     "damping": "a dissipation (servo damping, a torque lag, a structural loss factor): no term of M or K; each "
     "mode's pole from the damped problem (eigentwist.runtime.damped)",
 }
+KINDS = PRIMITIVES  # the name user files may import
 
 
+def _kind_alias(cls):
+    """Let ``cls`` (a frozen dataclass with a ``primitive`` field) take ``kind=`` and answer
+    ``.kind`` with a DeprecationWarning: user files written with that name keep working."""
+    init = cls.__init__
+
+    @functools.wraps(init)
+    def __init__(self, *args, kind=None, **kwargs):
+        if kind is not None:
+            warnings.warn(
+                f"{cls.__name__}(kind=...) is deprecated: use primitive={kind!r}", DeprecationWarning, stacklevel=2
+            )
+            if "primitive" in kwargs:
+                raise DescriptionError(f"{cls.__name__}: give primitive or kind (its old name), not both")
+            kwargs["primitive"] = kind
+        init(self, *args, **kwargs)
+
+    def kind(self) -> str:
+        warnings.warn(f"{cls.__name__}.kind is deprecated: use .primitive", DeprecationWarning, stacklevel=2)
+        return self.primitive
+
+    cls.__init__ = __init__
+    cls.kind = property(kind, doc="Deprecated name of ``primitive``.")
+    return cls
+
+
+@_kind_alias
 @dataclass(frozen=True)
 class Term:
-    """One part of an effect of several parts: a term of one of :data:`KINDS`,
+    """One part of an effect of several parts: a term of one of the :data:`PRIMITIVES`,
     the body or frame it acts on and its ``build`` function (as :class:`Effect`'s
-    ``kind``, ``body`` and ``build``). A cable chain is a mass on the tool
+    ``primitive``, ``body`` and ``build``). A cable chain is a mass on the tool
     (``added_inertia``) and a spring to ground (``ground_spring``) under one switch."""
 
-    kind: str
+    primitive: str
     build: Callable[["EffectContext"], Any] | None = None
     body: str = ""
 
     def __post_init__(self):
-        if self.kind not in KINDS:
-            raise DescriptionError(f"term kind {self.kind!r} is not one of {', '.join(KINDS)}")
+        if self.primitive not in PRIMITIVES:
+            raise DescriptionError(f"term primitive {self.primitive!r} is not one of {', '.join(PRIMITIVES)}")
 
 
+@_kind_alias
 @dataclass(frozen=True)
 class Effect:
     """A named physical effect that owns its parameters.
@@ -91,7 +123,7 @@ class Effect:
     structural : True when it adds compliance in the legs' constrained directions, so
         that the model needs the full-rank flexible stiffness K_F (Eq. 13) instead of
         the 3x3 rigid-body K_R (Eq. 14).
-    kind : one of :data:`KINDS`.
+    primitive : one of :data:`PRIMITIVES`.
     leg_level : True when the effect acts on each leg separately, so that it can be
         scoped to one leg (``EFFECT@N``).
     equation : the paper equation or appendix it implements.
@@ -99,7 +131,7 @@ class Effect:
         lower link tip, ``"C3"`` parallelogram centre, ``"L2"`` rod tips at a_i) for
         ``body_compliance`` and ``added_inertia`` of a leg's chain, ``"platform"`` for a
         term already at the EE origin in EE axes.
-    build : ``build(ctx: EffectContext)`` returns the effect's term in symbols, by kind:
+    build : ``build(ctx: EffectContext)`` returns the effect's term in symbols, by primitive:
         ``joint_series``: the compliance (rad/(N m)) in series with the actuated joint;
         ``body_compliance``: a 6x6 compliance in ``body``'s frame (or None: not on this leg);
         ``added_inertia``: a 6x6 spatial inertia in ``body``'s frame (or ``{body: 6x6}``
@@ -114,9 +146,9 @@ class Effect:
         (``"delivers {eta_a:.2f} of its commanded stiffness"``); "" lists the values.
     constraints : conditions its parameters must meet together (:mod:`.constraints`).
     terms : an effect of several parts: its :class:`Term` objects, each with
-        its own kind, body and build, all under the effect's one switch (``on_<effect>``)
-        and fitted jointly (``fit``); ``kind``, ``body`` and ``build`` are then taken from
-        the first term. Empty: the effect is the one term ``kind``/``body``/``build``.
+        its own primitive, body and build, all under the effect's one switch (``on_<effect>``)
+        and fitted jointly (``fit``); ``primitive``, ``body`` and ``build`` are then taken from
+        the first term. Empty: the effect is the one term ``primitive``/``body``/``build``.
     """
 
     name: str
@@ -124,7 +156,7 @@ class Effect:
     params: tuple[Parameter, ...]
     fit: tuple[str, ...]
     structural: bool = False
-    kind: str = "body_compliance"
+    primitive: str = "body_compliance"
     leg_level: bool = False
     equation: str = ""
     body: str = ""
@@ -135,13 +167,15 @@ class Effect:
     def __post_init__(self):
         if self.terms:
             if not all(isinstance(t, Term) for t in self.terms):
-                raise DescriptionError(f"effect {self.name!r}: terms must be Term objects (kind, build, body)")
+                raise DescriptionError(f"effect {self.name!r}: terms must be Term objects (primitive, build, body)")
             first = self.terms[0]
-            object.__setattr__(self, "kind", first.kind)
+            object.__setattr__(self, "primitive", first.primitive)
             object.__setattr__(self, "body", first.body)
             object.__setattr__(self, "build", first.build)
-        if self.kind not in KINDS:
-            raise DescriptionError(f"effect {self.name!r}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
+        if self.primitive not in PRIMITIVES:
+            raise DescriptionError(
+                f"effect {self.name!r}: primitive {self.primitive!r} is not one of {', '.join(PRIMITIVES)}"
+            )
         if "@" in self.name or not self.name.isidentifier():
             raise DescriptionError(f"effect name {self.name!r}: expected a Python identifier (no '@')")
 
@@ -149,18 +183,18 @@ class Effect:
     terms: tuple[Term, ...] = ()
 
     def parts(self) -> tuple["Effect", ...]:
-        """The effect's terms, each as an :class:`Effect` of one kind with this effect's name,
-        parameters and switch (the derivation handles each by its kind)."""
+        """The effect's terms, each as an :class:`Effect` of one primitive with this effect's
+        name, parameters and switch (the derivation handles each by its primitive)."""
         if not self.terms:
             return (self,)
         from dataclasses import replace
 
-        return tuple(replace(self, kind=t.kind, body=t.body, build=t.build, terms=()) for t in self.terms)
+        return tuple(replace(self, primitive=t.primitive, body=t.body, build=t.build, terms=()) for t in self.terms)
 
     @property
-    def kinds(self) -> tuple[str, ...]:
-        """The kinds of its terms (one for a single-term effect)."""
-        return tuple(t.kind for t in self.terms) or (self.kind,)
+    def primitives(self) -> tuple[str, ...]:
+        """The primitives of its terms (one for a single-term effect)."""
+        return tuple(t.primitive for t in self.terms) or (self.primitive,)
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -308,7 +342,7 @@ EFFECTS: dict[str, Effect] = {
                 ),
             ),
             ("eta_a",),
-            kind="joint_series",
+            primitive="joint_series",
             leg_level=True,
             equation="Eq. 34, App. B",
             build=_actuator_loss,
@@ -341,7 +375,7 @@ EFFECTS: dict[str, Effect] = {
             ),
             ("E_rod",),
             structural=True,
-            kind="body_compliance",
+            primitive="body_compliance",
             leg_level=True,
             equation="App. C, Eqs. 44, C.10",
             body="L2",
@@ -355,7 +389,7 @@ EFFECTS: dict[str, Effect] = {
             _K_E,
             ("k_E_rot", "k_E_lin"),
             structural=True,
-            kind="body_compliance",
+            primitive="body_compliance",
             equation="App. D, Eqs. 45-49",
             body="platform",
             build=_ee_split,
@@ -368,7 +402,7 @@ EFFECTS: dict[str, Effect] = {
             _K_E,
             ("k_E_rot", "k_E_lin"),
             structural=True,
-            kind="platform_coupling",
+            primitive="platform_coupling",
             equation="App. D",
         ),
         Effect(
@@ -405,7 +439,7 @@ EFFECTS: dict[str, Effect] = {
             ),
             ("E_l1",),
             structural=True,
-            kind="body_compliance",
+            primitive="body_compliance",
             leg_level=True,
             body="E1",
             build=_lower_link_tube,
@@ -427,7 +461,7 @@ EFFECTS: dict[str, Effect] = {
                 ),
             ),
             ("k_t",),
-            kind="joint_series",
+            primitive="joint_series",
             leg_level=True,
             build=_transmission,
             component="transmission",
@@ -468,7 +502,7 @@ EFFECTS: dict[str, Effect] = {
                 ),
             ),
             ("m_p",),
-            kind="added_inertia",
+            primitive="added_inertia",
             body="platform",
             build=_payload,
         ),
@@ -488,7 +522,7 @@ EFFECTS: dict[str, Effect] = {
                 ),
             ),
             ("I_add",),
-            kind="added_inertia",
+            primitive="added_inertia",
             leg_level=True,
             equation="Eq. 22",
             body="J1",
@@ -502,7 +536,7 @@ EFFECTS: dict[str, Effect] = {
             "their ends' velocities), instead of the paper's fictitious rod riding on the far bar (Eqs. 26-29)",
             (),
             (),
-            kind="added_inertia",
+            primitive="added_inertia",
             equation="replaces Eqs. 26-29",
             body="C3",
             build=_swinging_rods,
@@ -525,7 +559,7 @@ EFFECTS: dict[str, Effect] = {
                 ),
             ),
             (),
-            kind="preload",
+            primitive="preload",
             equation="Eq. 13",
             build=_gravity,
         ),  # switched, not fitted: g is known
@@ -549,7 +583,7 @@ EFFECTS: dict[str, Effect] = {
                 ),
             ),
             ("c_a",),
-            kind="damping",
+            primitive="damping",
             equation="Sec. 4, Eq. 34",
             component="actuator",
             phrase="delivers a damping of {c_a:.3g} N m s/rad",
@@ -570,7 +604,7 @@ EFFECTS: dict[str, Effect] = {
                 ),
             ),
             ("t_d",),
-            kind="damping",
+            primitive="damping",
             component="actuator",
             phrase="lags its torque by {t_d:.3g} s",
         ),
@@ -592,7 +626,7 @@ EFFECTS: dict[str, Effect] = {
                 ),
             ),
             ("eta_s",),
-            kind="damping",
+            primitive="damping",
             component="compliant bodies",
             phrase="has a loss factor of {eta_s:.3g}",
         ),

@@ -1,6 +1,6 @@
 """Which damping effects the data support, and the measurement that separates two that fit alike.
 
-When a diagnosis selected or tested a damping effect (catalogue kind ``damping``: servo
+When a diagnosis selected or tested a damping effect (catalogue primitive ``damping``: servo
 damping, a torque lag, a structural loss factor; offered only for data that carry damping,
 :func:`~.damping.carries_damping`), its answer states for each of them
 
@@ -28,15 +28,15 @@ from . import scope
 from .separate import damping_measurement
 from .stats import DELTA_AICC
 
-__all__ = ["is_damping", "damping_support", "damping_sentence", "KIND"]
+__all__ = ["is_damping", "damping_support", "damping_sentence", "PRIMITIVE"]
 
-KIND = "damping"  # the catalogue kind of the damping effects
+PRIMITIVE = "damping"  # the catalogue primitive of the damping effects
 
 
 def is_damping(ev, effect: str) -> bool:
     """Whether ``effect`` (``EFFECT`` or ``EFFECT@N``) is a damping effect of the catalogue."""
     try:
-        return getattr(ev.robot.effect(split_scope(effect)[0]), "kind", None) == KIND
+        return getattr(ev.robot.effect(split_scope(effect)[0]), "primitive", None) == PRIMITIVE
     except KeyError:  # not an effect of the catalogue nor of the robot: not a damping effect
         return False
 

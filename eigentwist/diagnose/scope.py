@@ -53,7 +53,7 @@ def candidates(ev, effects, per_leg: bool = True, damping: bool = True) -> list[
     have = taken(ev, effects)
     out = []
     for e in ev.effects:
-        if not damping and "damping" in ev.robot.effect(e).kinds:
+        if not damping and "damping" in ev.robot.effect(e).primitives:
             continue
         items = [e]
         if per_leg and ev.robot.effect(e).leg_level:

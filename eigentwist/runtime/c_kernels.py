@@ -582,7 +582,7 @@ class CKernels:
         from ..description.effects import EFFECTS, switch_name
         from .errors import InputError
 
-        preloads = [switch_name(n) for n, e in EFFECTS.items() if e.kind == "preload"]
+        preloads = [switch_name(n) for n, e in EFFECTS.items() if e.primitive == "preload"]
         if any(np.any(np.asarray(p.get(s, 0.0)) != 0) for s in preloads):
             raise InputError("the fused C path has no gravity preload: switch it off or use Evaluator.frequencies")
         out = self.fused(

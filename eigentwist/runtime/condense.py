@@ -386,7 +386,7 @@ def platform_compliance(ev, poses, model="paper", **params):
     out = ev.run_kernel("legs", poses, effects, **params)
     mats = ev.matrices(poses, effects, **params)
     K_G = None
-    if any("preload" in ev.robot.effect(base_name(e)).kinds for e in effects):
+    if any("preload" in ev.robot.effect(base_name(e)).primitives for e in effects):
         from .gravity import gravity_stiffness
 
         K_G = gravity_stiffness(ev, poses, effects, params, mats, False)

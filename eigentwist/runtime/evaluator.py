@@ -1144,7 +1144,8 @@ class Evaluator:
 
     def _preloaded(self, effects) -> bool:
         return self._remembered(
-            ("preloaded", effects), lambda: any("preload" in self.robot.effect(base_name(e)).kinds for e in effects)
+            ("preloaded", effects),
+            lambda: any("preload" in self.robot.effect(base_name(e)).primitives for e in effects),
         )
 
     def modes(
@@ -1256,7 +1257,7 @@ class Evaluator:
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
-        return any("damping" in self.robot.effect(base_name(e)).kinds for e in self._resolve(model))
+        return any("damping" in self.robot.effect(base_name(e)).primitives for e in self._resolve(model))
 
     # ------------------------------------------- rigid constraints exact
     def _route(self, effects, params: dict) -> tuple[dict, bool]:

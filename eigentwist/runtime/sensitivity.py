@@ -349,7 +349,7 @@ def check_model(effects) -> None:
         )
     from ..description.effects import EFFECTS, base_name
 
-    damping = [e for e in effects if base_name(e) in EFFECTS and EFFECTS[base_name(e)].kind == "damping"]
+    damping = [e for e in effects if base_name(e) in EFFECTS and EFFECTS[base_name(e)].primitive == "damping"]
     if damping:
         raise InputError(
             f"sensitivities of a model with {', '.join(damping)} are not available: its damped modes are "

@@ -125,9 +125,9 @@ class EffectSymbols:
         self.robot = robot
         self.effects = [robot.effect(e) for e in robot.effects]
 
-    def of_kind(self, kind: str) -> list:
-        """The terms of ``kind`` (an effect of several parts gives one per term, each under its switch)."""
-        return [t for e in self.effects for t in e.parts() if t.kind == kind]
+    def of_primitive(self, primitive: str) -> list:
+        """The terms of ``primitive`` (an effect of several parts gives one per term, each under its switch)."""
+        return [t for e in self.effects for t in e.parts() if t.primitive == primitive]
 
     def switch(self, effect, leg: int | None = None) -> sp.Symbol:
         if effect.leg_level:
@@ -203,7 +203,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
     K_groups: dict = {}  # platform body -> Cartesian stiffness of its legs
     screws, J_rows, levers, Je_all, Kqe_all, k_acts, G = [], [], [], [], [], [], []
     Cq_phys = []  # each leg's joint compliance without rigid_compliance
-    preloaded = bool(fx.of_kind("preload"))
+    preloaded = bool(fx.of_primitive("preload"))
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         tag = str(i + 1)
         q = q[: len(leg.kinematics.coordinates)]  # without a numeric leg's padded coordinates
@@ -354,7 +354,7 @@ def _platform_inertia(robot: RobotDescription, fx: EffectSymbols) -> sp.Matrix:
     """Inertia of the platform at its origin (Eq. 31) plus added inertia on it (payload),
     given in platform axes, in base axes (``pose_space.inertia_in_base``)."""
     M = robot.platform_inertia
-    for e in fx.of_kind("added_inertia"):
+    for e in fx.of_primitive("added_inertia"):
         if e.body == "platform":
             on, inertia = fx.term(e)
             M = M + on * inertia
@@ -365,7 +365,7 @@ def _leg_inertia(prog: Program, fx: EffectSymbols, leg, ls: LegScrews, i: int) -
     """Eq. 32 for one leg: the sum of Eq. 12's term over the leg's bodies (each with any
     inertia an effect adds to it, e.g. the rotor on the lower link J1)."""
     inertia = {b.name: b.inertia for b in leg.bodies}
-    for e in fx.of_kind("added_inertia"):
+    for e in fx.of_primitive("added_inertia"):
         if e.body != "platform":
             if e.body not in inertia:
                 raise DescriptionError(
@@ -392,7 +392,7 @@ def _joint_series(robot: RobotDescription, fx: EffectSymbols, i: int):
     """Compliance of leg ``i``'s actuated joint: 1/k plus every joint-series effect (Eq. 34),
     k the leg's own actuator stiffness (``leg.stiffness``) or the robot's k_a."""
     c = 1 / actuator_stiffness(robot, robot.legs[i])
-    for e in fx.of_kind("joint_series"):
+    for e in fx.of_primitive("joint_series"):
         on, ce = fx.term(e, i)
         c = c + on * ce
     return c
@@ -402,7 +402,7 @@ def _body_compliance(fx: EffectSymbols, ls, i: int) -> sp.Matrix:
     """Leg ``i``'s compliance at the EE origin: each body compliance moved from its
     body's frame (Eqs. 44, 49)."""
     Cs = sp.zeros(6, 6)
-    for e in fx.of_kind("body_compliance"):
+    for e in fx.of_primitive("body_compliance"):
         on, C = fx.term(e, i, ls)
         if C is None:
             continue
@@ -419,7 +419,7 @@ def _body_compliance(fx: EffectSymbols, ls, i: int) -> sp.Matrix:
 def _ground_springs(fx: EffectSymbols) -> sp.Matrix:
     """Springs between the tool and the ground, moved to the EE origin (K = A^T K_local A)."""
     K = sp.zeros(6, 6)
-    for e in fx.of_kind("ground_spring"):
+    for e in fx.of_primitive("ground_spring"):
         on, (K_local, rotation, origin) = fx.term(e)
         K += on * stiffness_to_frame(sp.Matrix(K_local), sp.Matrix(rotation), sp.Matrix(origin))
     return K
@@ -462,7 +462,7 @@ def _preload_wrench(S: sp.Matrix, fx: EffectSymbols) -> sp.Matrix:
     mass = S[3, 3]
     first_moment = sp.Matrix([S[2, 4], S[0, 5], S[1, 3]])  # m c, from m [c]x
     W = sp.zeros(6, 1)
-    for e in fx.of_kind("preload"):
+    for e in fx.of_primitive("preload"):
         on, g = fx.term(e)
         g = sp.Matrix(g)
         W += on * sp.Matrix.vstack(first_moment.cross(g), mass * g)

@@ -12,7 +12,7 @@ MASS = Effect(
     "cable chain mass carried by the tool (a point mass at the EE origin)",
     params=(Parameter("m_chain", 0.2, "kg", "chain mass", effect="chain_mass", plausible=(0.0, 5.0)),),
     fit=("m_chain",),
-    kind="added_inertia",
+    primitive="added_inertia",
     body="platform",
     build=lambda ctx: sp.diag(0, 0, 0, *[ctx.p["m_chain"]] * 3),
 )
@@ -23,7 +23,7 @@ SPRING = Effect(
         Parameter("k_chain", 1000.0, "N/m", "chain stiffness along y", effect="chain_spring", plausible=(10.0, 1e5)),
     ),
     fit=("k_chain",),
-    kind="ground_spring",
+    primitive="ground_spring",
     build=lambda ctx: (sp.diag(0, 0, 0, 0, ctx.p["k_chain"], 0), sp.eye(3), (0, 0, 0)),
 )
 
