@@ -81,7 +81,6 @@ CRITERIA = {
 }
 
 
-
 # The distribution functions the diagnosis needs, from scipy.special (the functions that
 # scipy.stats' chi2, f and t call for these), so that a diagnosis does not import scipy.stats.
 def chi2_sf(x: float, dof: float) -> float:
@@ -108,6 +107,7 @@ def f_sf(x: float, dfn: float, dfd: float) -> float:
 def t_isf(q: float, dof: float) -> float:
     """The t value exceeded with probability q by Student's t with ``dof`` degrees of freedom."""
     return float(-special.stdtrit(dof, q))
+
 
 def chi2_value(predicted, measured, sigma) -> float:
     """sum(((predicted - measured)/sigma)^2)."""
