@@ -18,6 +18,7 @@ from .errors import InputError, UnstablePoseError
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .labels import directions, energy_shares
 from ..description.pose import FULL, TWIST_AXIS, twist_order
+from .memo import BoundedMemo, content_key
 from .threads import resolve_threads
 from .validity import (
     CONDITIONING_TOL,
@@ -195,6 +196,7 @@ class Evaluator:
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
+        self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
         self._kinds: dict = {}  # (question, effects) -> answer (_remembered: kind, preloaded)
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
@@ -697,28 +699,48 @@ class Evaluator:
             ok[ok] = lever_mask(lever) & parallel_mask(rows)
         return q, jac, ok
 
-    def _platform_rows(self, poses: np.ndarray, p: dict) -> np.ndarray:
+    def _platform_rows(self, poses: np.ndarray, pp: dict) -> np.ndarray:
         """(n, r, 6) the platform's actuation and constraint rows at reachable poses
-        (:func:`~.validity.platform_rows`; the IK and jacobians kernels of either backend)."""
-        pp = self._with_pose(poses, p)
+        (:func:`~.validity.platform_rows`; the IK and jacobians kernels of either backend);
+        ``pp`` the kernels' inputs with the pose (:meth:`_with_pose`)."""
         with np.errstate(invalid="ignore", divide="ignore"):
             q = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], pp)["q"]
             return platform_rows(self._kernels.jacobians(q, pp)["J_rows"], self.robot.legs, self._freedoms)
 
+    def _geometry_names(self):
+        """The inputs the inverse-kinematics and jacobians kernels read (the C library's
+        signature); None for kernels that do not declare them (no memo)."""
+        spec = getattr(self._kernels, "_spec", None)
+        if spec is None:
+            return None
+        return sorted(
+            {name for k in ("inverse_kinematics", "jacobians") for group, name, _ in spec[k]["inputs"] if group != "q"}
+        )
+
     def _parallel_ok(self, poses: np.ndarray, p: dict, rows: np.ndarray, strict: bool) -> np.ndarray:
         """(len(rows),) bool: the poses ``rows`` (indices) are not parallel singular; with
-        ``strict`` the first that is raises :class:`SingularPoseError`."""
+        ``strict`` the first that is raises :class:`SingularPoseError`. Remembered per content
+        of the poses and every input of the kernels it runs (:mod:`.memo`): the stiffnesses a
+        fit varies leave it unchanged, a geometric parameter or a pose computes it anew."""
         if not len(rows):
             return np.ones(0, dtype=bool)
         n = len(poses)
         mask = np.zeros(n, dtype=bool)
         mask[rows] = True
         sub = p if mask.all() else self._mask(p, mask, n)
-        W = self._platform_rows(poses[mask], sub)
-        ok = parallel_mask(W)
+        at = poses[mask]
+        pp = self._with_pose(at, sub)
+        names = self._geometry_names()
+        key = None if names is None else content_key(at, pp, names)
+        ok = None if key is None else self._parallel_memo.get(key)
+        if ok is None:
+            ok = parallel_mask(self._platform_rows(at, pp))
+            if key is not None:
+                ok.flags.writeable = False
+                self._parallel_memo.put(key, ok)
         if strict and not ok.all():
-            raise_parallel(poses[mask], W)
-        return ok
+            raise_parallel(at, self._platform_rows(at, pp))
+        return ok.copy()
 
     def _raise_unfollowed(self, poses: np.ndarray) -> None:
         """Raise :class:`UnreachablePoseError` for the first pose whose followers did not
