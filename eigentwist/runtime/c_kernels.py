@@ -277,6 +277,7 @@ class CKernels:
         self.FUSED_MATRICES = {o: tuple(s) for o, s in signature["fused"]["matrices"]}
         self._fused_names = [name for _, name in signature["fused"]["inputs"]]
         self._packed: _Packed | None = None
+        self._kernel_packed: dict = {}  # kernel -> the _Packed scalars of its last call (_run)
         self._scale_index = self._fused_names.index(LEVER_SCALE) if LEVER_SCALE in self._fused_names else -1
         self._opts: dict = {}  # the fused pass's option arrays (read only by C)
         if signature["fused"]["status"] != STATUS:
@@ -297,7 +298,7 @@ class CKernels:
             return outs
         keep: list = []
         params = [name for group, name, _ in spec["inputs"] if group != "q"]
-        found = iter(zip(*_inputs((values[name] for name in params), lead, keep))) if params else iter(())
+        found = iter(zip(*self._kernel_inputs(kernel, [values[name] for name in params], lead, keep)))
         if q is not None:
             legs, nq = self.N_LEGS, self.JOINTS_PER_LEG
             qa = np.ascontiguousarray(np.broadcast_to(np.asarray(q, dtype=np.float64), lead + (legs, nq)))
@@ -311,6 +312,23 @@ class CKernels:
         out_ptrs = _ptrs([o.ctypes.data for o in outs.values()])
         _check_rc(self._fn[kernel](n, _ptrs(addresses), _strides(strides), out_ptrs), kernel)
         return outs
+
+    def _kernel_inputs(self, kernel: str, values: list, lead: tuple, keep: list) -> tuple[list, list]:
+        """(addresses, strides) of one kernel's non-joint inputs, as :func:`_inputs` gives
+        them: the scalars packed by the kernel's previous call are reused when the very same
+        immutable objects come again (:class:`_Packed`), only the per-pose arrays marshalled."""
+        if not values:
+            return [], []
+        packed = self._kernel_packed.get(kernel)
+        if packed is None or not packed.matches(values):
+            packed = self._kernel_packed[kernel] = _Packed(values)
+        keep.append(packed)
+        addresses, strides = list(packed.addresses[: packed.size]), [0] * packed.size
+        if packed.others:
+            a, st = _inputs([values[i] for i in packed.others], lead, keep)
+            for i, ai, si in zip(packed.others, a, st):
+                addresses[i], strides[i] = ai, si
+        return addresses, strides
 
     @staticmethod
     def _lead(shapes) -> tuple:

@@ -49,6 +49,9 @@ PARALLEL_SCREEN = 1e-3
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 _NUMBERS = (float, int, np.float64, np.float32, np.int64, np.int32)
+#: an effect's switch on and off (read-only: the C pass packs them once)
+_ON, _OFF = np.array(1.0), np.array(0.0)
+_ON.flags.writeable = _OFF.flags.writeable = False
 CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
 MATRIX_CHUNK = 65536  # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
@@ -196,6 +199,7 @@ class Evaluator:
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
+        self._defaults: dict = {}  # parameter -> (default, read-only 0-d array): _default
         self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
         self._kinds: dict = {}  # (question, effects) -> answer (_remembered: kind, preloaded)
         if self.numeric_ik:
@@ -586,19 +590,20 @@ class Evaluator:
         out = {}
         for name, p in self.parameters.items():
             if name in params:
-                check = params[name] is not condense.EXACT
-            else:  # a default is checked once (where it is first used)
-                check = (p.effect is None or p.effect in on) and name not in self._checked_defaults
-            out[name] = self._array(name, params.get(name, p.default), n, check)
-            if check and name not in params:
+                out[name] = self._array(name, params[name], n, params[name] is not condense.EXACT)
+                continue
+            # a default is checked once (where it is first used)
+            check = (p.effect is None or p.effect in on) and name not in self._checked_defaults
+            out[name] = self._default(name, p.default, n, check)
+            if check:
                 self._checked_defaults.add(name)
         for e in self.effects:
             effect = self._effect[e]
             if not effect.leg_level:
-                out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
+                out[switch_name(e)] = _ON if e in effects else _OFF
                 continue
             for k in range(1, self.n_legs + 1):
-                out[leg_switch_name(e, k)] = np.asarray(1.0 if e in effects or f"{e}@{k}" in effects else 0.0)
+                out[leg_switch_name(e, k)] = _ON if e in effects or f"{e}@{k}" in effects else _OFF
                 for q in effect.params:
                     own = (q.name, k) in scoped
                     value = self._array(f"{q.name}@{k}", scoped[(q.name, k)], n, True) if own else out[q.name]
@@ -606,6 +611,19 @@ class Evaluator:
         check_constraints(self.constraints, out, on)
         self._check_leg_constraints(out, effects, scoped)
         return out
+
+    def _default(self, name: str, value, n: int, check: bool) -> np.ndarray:
+        """The default ``value`` of parameter ``name`` as a read-only 0-d array, the same
+        object while the default stays the same (the C pass packs such scalars once,
+        :mod:`.c_kernels`); checked where ``check``."""
+        if check or np.ndim(value):
+            return self._array(name, value, n, check)
+        known = self._defaults.get(name)
+        if known is None or known[0] != value:
+            arr = np.array(value, dtype=float)
+            arr.flags.writeable = False
+            known = self._defaults[name] = (value, arr)
+        return known[1]
 
     def _check_leg_constraints(self, out: dict, effects, scoped: dict) -> None:
         """A leg's own values meet its effect's constraints (``r_i_l1@2 < r_o_l1@2``)."""
