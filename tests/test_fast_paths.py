@@ -331,3 +331,24 @@ def test_distinct_rows_evaluated_once_give_every_rows_numbers(ev_c):
     nan = poses.copy()
     nan[2:4] = np.nan
     assert distinct_rows([nan, k_a], 5) is None  # NaN is never equal to itself
+
+
+@compiled
+def test_kernel_scalars_packed_once_follow_the_values(ev_c):
+    """A kernel's scalar inputs are packed once and reused only for the very same read-only
+    objects (the evaluator's defaults and switches): a writeable 0-d array changed in place
+    between calls is read anew."""
+    poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6]])
+    ev_c._params(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # the defaults' first use checks them
+    frozen = ev_c._params(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # arrays: not memoised
+    assert frozen["l1"] is ev_c._params(2, {"k_a": np.array([1.0, 2.0])}, "paper")["l1"]  # same default object
+    q = ev_c._ik(poses, frozen)
+    a = ev_c.kernels.matrices(q, ev_c._with_pose(poses, frozen))["K_F"]
+    packed = ev_c.kernels._kernel_packed["matrices"]
+    b = ev_c.kernels.matrices(q, ev_c._with_pose(poses, frozen))["K_F"]
+    assert ev_c.kernels._kernel_packed["matrices"] is packed and np.array_equal(a, b)
+    p = {k: np.array(v) for k, v in frozen.items()}  # writeable copies: packed anew
+    c = ev_c.kernels.matrices(q, ev_c._with_pose(poses, p))["K_F"]
+    p["l1"][...] = 1.5 * p["l1"]  # in place: the next call reads the new value
+    d = ev_c.kernels.matrices(q, ev_c._with_pose(poses, p))["K_F"]
+    assert np.array_equal(a, c) and not np.allclose(c, d, rtol=1e-3)
