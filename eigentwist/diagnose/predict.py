@@ -13,6 +13,7 @@ import dataclasses
 import numpy as np
 
 from ..runtime import InputError
+from ..runtime.memo import BoundedMemo, content_key
 from .matching import match_frequencies
 from .shapes import has_shape, match_by_shape
 
@@ -191,6 +192,7 @@ def _numerical_failure(ev, effects, poses, params, lines, exc, row: int | None =
 
 
 _DISTINCT_UNSET = object()
+_DISTINCT = BoundedMemo(8)  # content of the rows' poses, per-row parameters, joints -> distinct_rows
 
 
 class Predictor:
@@ -214,9 +216,15 @@ class Predictor:
         rows of one setting share it); None where every row is distinct."""
         if self._distinct is _DISTINCT_UNSET:
             n = len(self.meas)
-            columns = [self.meas.poses, *(v for v in self.meas.evaluation_params().values() if np.ndim(v) >= 1)]
+            per_row = {k: v for k, v in self.meas.evaluation_params().items() if np.ndim(v) >= 1}
             joints = getattr(self.meas, "joints", None)
-            self._distinct = distinct_rows(columns + ([] if joints is None else [joints]), n)
+            if joints is not None:
+                per_row[" joints"] = joints
+            key = content_key(self.meas.poses, per_row, sorted(per_row))  # each fit's Predictor: found once
+            self._distinct = _DISTINCT.get(key, _DISTINCT_UNSET)
+            if self._distinct is _DISTINCT_UNSET:
+                self._distinct = distinct_rows([self.meas.poses, *per_row.values()], n)
+                _DISTINCT.put(key, self._distinct)
         if self._distinct is None:
             return None
         first, inverse = self._distinct

@@ -34,8 +34,8 @@ class BoundedMemo:
         self.size = size
         self._data: dict = {}
 
-    def get(self, key):
-        return self._data.get(key)
+    def get(self, key, default=None):
+        return self._data.get(key, default)
 
     def put(self, key, value) -> None:
         if len(self._data) >= self.size:
