@@ -616,7 +616,7 @@ class Evaluator:
         """The default ``value`` of parameter ``name`` as a read-only 0-d array, the same
         object while the default stays the same (the C pass packs such scalars once,
         :mod:`.c_kernels`); checked where ``check``."""
-        if check or np.ndim(value):
+        if check or not isinstance(value, (float, int)):  # an array default: as given
             return self._array(name, value, n, check)
         known = self._defaults.get(name)
         if known is None or known[0] != value:
