@@ -197,7 +197,7 @@ def _series_pair(d, legs) -> bool:
     )
 
 
-def hexapod_struts(ev, seed):
+def hexapod_struts(ev, seed, progress=None):
     """Hexapod, struts 2 and 5 at k_s = 3e7 N/m (0.5 % noise, 54 rows): a series compliance on legs
     2 and 5 (strut, joints and actuator loss are one model on a leg), the data explained."""
     meas = synth(
@@ -209,7 +209,7 @@ def hexapod_struts(ev, seed):
         seed=seed,
         ev=ev,
     )
-    d = diagnose(meas, "paper", ev=ev)
+    d = diagnose(meas, "paper", ev=ev, progress=progress)
     ok = _series_pair(d, (2, 5)) and d.explained
     return (
         d,

@@ -21,8 +21,17 @@ pytestmark = [pytest.mark.slow, pytest.mark.compiled]
 
 def test_two_softer_struts_are_found_off_the_greedy_path():
     ev = eigentwist.load("hexapod", backend="c")
-    d, ok, why = cases.hexapod_struts(ev, 0)
+    shown = []
+
+    def progress(items, desc, **kw):  # stands in for tqdm: records each bar
+        shown.append((desc, len(items)))
+        return items
+
+    d, ok, why = cases.hexapod_struts(ev, 0, progress)
     assert ok, why
+    # the search's pairs are shown as progress, like the stepwise candidates
+    assert any(desc == "searching subsets of 2" and n > 0 for desc, n in shown), shown
+    assert any(desc == "fitting effects" for desc, _ in shown), shown
     assert d.search is not None and d.search.changed and set(d.search.greedy) != set(d.selected)
     assert not d.implausible  # every fitted value inside its plausible range
     lines = answer(d, ev)["lines"]

@@ -253,3 +253,102 @@ def test_packed_scalars_follow_the_values(ev_c):
     fresh = {k: np.array(v) for k, v in frozen.items()}  # writeable copies: packed anew
     c = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], fresh, **kw)["freq_hz"]
     assert np.array_equal(a, b) and np.array_equal(a, c)
+
+
+@compiled
+def test_parallel_screen_is_remembered_per_geometry(ev_c, monkeypatch):
+    """The parallel-singularity screen is computed once per content of the poses and the
+    inputs of the kernels it runs: a stiffness leaves it, a geometric parameter (l1) or a
+    pose computes it anew, and the answer is always the one computed afresh."""
+    import eigentwist.runtime.evaluator as evaluator
+
+    ev_c._parallel_memo = evaluator.BoundedMemo()
+    calls = []
+    rows_of = ev_c._platform_rows
+    monkeypatch.setattr(ev_c, "_platform_rows", lambda at, pp: calls.append(1) or rows_of(at, pp))
+    # a screen that depends on the rows' values: a stale answer would differ from a fresh one
+    monkeypatch.setattr(evaluator, "parallel_mask", lambda W: W[:, 0, 3] > -0.47)
+    poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6], [0.0, 0.0, -0.625]])
+    idx = np.arange(3)
+
+    def screen(poses=poses, **params):
+        p = ev_c._params(len(poses), params, "paper")
+        return ev_c._parallel_ok(poses, p, idx, strict=False)
+
+    def fresh(poses=poses, **params):
+        p = ev_c._params(len(poses), params, "paper")
+        return evaluator.parallel_mask(rows_of(poses, ev_c._with_pose(poses, p)))
+
+    assert "l1" in ev_c._geometry_names() and "k_a" not in ev_c._geometry_names()
+    first = screen()
+    assert len(calls) == 1 and np.array_equal(first, fresh())
+    assert np.array_equal(screen(), first) and np.array_equal(screen(k_a=2000.0), first)
+    assert len(calls) == 1  # same poses and geometry, another stiffness: remembered
+    l1 = ev_c.parameter("l1").default
+    longer = screen(l1=1.3 * l1)
+    assert len(calls) == 2 and np.array_equal(longer, fresh(l1=1.3 * l1))
+    assert list(first) == [False, True, False] and not longer.any()  # the geometry changes the answer
+    moved = poses + [0.0, 0.0, 0.01]
+    assert np.array_equal(screen(moved), fresh(moved)) and len(calls) == 3
+
+
+def test_bounded_memo_empties_when_full():
+    from eigentwist.runtime.memo import BoundedMemo, content_key
+
+    memo = BoundedMemo(3)
+    for k in range(3):
+        memo.put(k, k)
+    assert len(memo) == 3 and memo.get(0) == 0
+    memo.put(3, 3)  # the fourth: the first three forgotten
+    assert len(memo) == 1 and memo.get(0) is None and memo.get(3) == 3
+    p = np.zeros((2, 3))
+    assert content_key(p, {"a": 1.0}, ["a"]) == content_key(p.copy(), {"a": np.float64(1.0)}, ["a"])
+    assert content_key(p, {"a": 1.0}, ["a"]) != content_key(p, {"a": 1.0 + 1e-15}, ["a"])
+    assert content_key(p, {"a": np.ones(2)}, ["a"]) != content_key(p, {"a": np.array([1.0, 1.0 + 2e-16])}, ["a"])
+    assert content_key(p, {}, ["a"]) != content_key(p, {"a": 0.0}, ["a"])
+
+
+@compiled
+def test_distinct_rows_evaluated_once_give_every_rows_numbers(ev_c):
+    """Rows that share a pose and k_a are evaluated once: frequencies, matched modes and the
+    damped modes equal those of every row evaluated (a damped model, labels x and y)."""
+    from eigentwist.diagnose.predict import distinct_rows, evaluate
+
+    poses = np.array([[0.0, 0.0, -0.625], [0.02, 0.0, -0.6], [0.0, 0.0, -0.625], [0.02, 0.0, -0.6], [0, 0, -0.625]])
+    k_a = np.array([1000.0, 1000.0, 1000.0, 1000.0, 2000.0])
+    labels = ["x", "x", "y", "y", "x"]
+    unique = distinct_rows([poses, k_a], 5)
+    assert [list(v) for v in unique] == [[0, 1, 4], [0, 1, 0, 1, 2]]
+    model = ("actuator_loss", "ee_compliance", "servo_damping")
+    params = {"k_a": k_a, "c_a": 2.0}
+    damped = np.ones(5, dtype=bool)
+    f, i, m = evaluate(ev_c, model, poses, labels, params, return_modes=True, damped=damped, unique=unique)
+    g, j, n = evaluate(ev_c, model, poses, labels, params, return_modes=True, damped=damped)
+    assert np.array_equal(f, g) and np.array_equal(i, j)
+    assert np.array_equal(m.freq_hz, n.freq_hz) and np.array_equal(m.eigentwists, n.eigentwists)
+    assert np.array_equal(m.damped_hz, n.damped_hz) and np.array_equal(m.damping_ratio, n.damping_ratio)
+    assert distinct_rows([poses[:2], k_a[:2]], 2) is None  # all distinct
+    nan = poses.copy()
+    nan[2:4] = np.nan
+    assert distinct_rows([nan, k_a], 5) is None  # NaN is never equal to itself
+
+
+@compiled
+def test_kernel_scalars_packed_once_follow_the_values(ev_c):
+    """A kernel's scalar inputs are packed once and reused only for the very same read-only
+    objects (the evaluator's defaults and switches): a writeable 0-d array changed in place
+    between calls is read anew."""
+    poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6]])
+    ev_c._params(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # the defaults' first use checks them
+    frozen = ev_c._params(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # arrays: not memoised
+    assert frozen["l1"] is ev_c._params(2, {"k_a": np.array([1.0, 2.0])}, "paper")["l1"]  # same default object
+    q = ev_c._ik(poses, frozen)
+    a = ev_c.kernels.matrices(q, ev_c._with_pose(poses, frozen))["K_F"]
+    packed = ev_c.kernels._kernel_packed["matrices"]
+    b = ev_c.kernels.matrices(q, ev_c._with_pose(poses, frozen))["K_F"]
+    assert ev_c.kernels._kernel_packed["matrices"] is packed and np.array_equal(a, b)
+    p = {k: np.array(v) for k, v in frozen.items()}  # writeable copies: packed anew
+    c = ev_c.kernels.matrices(q, ev_c._with_pose(poses, p))["K_F"]
+    p["l1"][...] = 1.5 * p["l1"]  # in place: the next call reads the new value
+    d = ev_c.kernels.matrices(q, ev_c._with_pose(poses, p))["K_F"]
+    assert np.array_equal(a, c) and not np.allclose(c, d, rtol=1e-3)

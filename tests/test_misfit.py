@@ -146,3 +146,24 @@ def test_paper_measurements_are_damped_unless_read_otherwise(ev_fast):
     assert set(paper_measurements(ev_fast, kind="undamped").kind) == {"undamped"}
     with pytest.raises(MeasurementError, match="'natural': expected one of undamped, damped"):
         paper_measurements(ev_fast, kind="natural")
+
+
+def test_pose_spread_is_the_per_pose_weighted_mean_spread():
+    """pose_spread against its definition computed pose by pose: the largest difference of the
+    per-pose weighted mean log-error in its standard errors, and the pose of the largest |mean|."""
+    from types import SimpleNamespace
+
+    from eigentwist.diagnose.patterns import pose_spread
+
+    rng = np.random.default_rng(3)
+    base = rng.uniform(-0.03, 0.03, (7, 3)) + [0.0, 0.0, -0.6]
+    rows = rng.integers(0, 7, 60)
+    meas = SimpleNamespace(poses=base[rows])
+    rho, w = rng.normal(0.0, 0.02, 60), rng.uniform(1e3, 4e3, 60)
+    means = np.array([np.sum(w[rows == k] * rho[rows == k]) / np.sum(w[rows == k]) for k in range(7)])
+    errs = np.array([1.0 / np.sqrt(np.sum(w[rows == k])) for k in range(7)])
+    hi, lo = np.argmax(means), np.argmin(means)
+    spread, where = pose_spread(meas, rho, w)
+    assert spread == pytest.approx((means[hi] - means[lo]) / np.hypot(errs[hi], errs[lo]), rel=1e-12)
+    np.testing.assert_allclose(where, base[np.argmax(np.abs(means))], atol=1e-6)
+    assert pose_spread(SimpleNamespace(poses=base[[0, 0, 0]]), rho[:3], w[:3]) == (0.0, None)  # one pose

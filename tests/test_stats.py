@@ -194,3 +194,28 @@ def test_switch_test_false_positive_rate_under_the_null_is_alpha():
     chi2_1 = chi2_0 - (e @ d) ** 2  # the switched model removes one direction
     p = np.array([stats.switch_test(c0, c1, n, 0) for c0, c1 in zip(chi2_0, chi2_1)])
     assert abs(np.mean(p < alpha) - alpha) < 4 * math.sqrt(alpha * (1 - alpha) / reps)
+
+
+@pytest.mark.parametrize("x", [-1.0, -1e-300, 0.0, 0.3, 4.2, 61.0])
+def test_distribution_functions_equal_scipy_stats(x):
+    """The diagnosis' chi2, F and t functions are scipy.stats' (x < 0 on both sides of 0)."""
+    from scipy import stats as st
+
+    from eigentwist.diagnose.stats import chi2_cdf, chi2_sf, f_sf, t_isf
+
+    for dof in (1, 3, 52):
+        assert chi2_sf(x, dof) == pytest.approx(float(st.chi2.sf(x, dof)), rel=1e-14, abs=1e-300)
+        assert chi2_cdf(x, dof) == pytest.approx(float(st.chi2.cdf(x, dof)), rel=1e-14, abs=1e-300)
+        assert f_sf(x, 2, dof) == pytest.approx(float(st.f.sf(x, 2, dof)), rel=1e-14, abs=1e-300)
+    q = min(max(abs(x) / 100, 1e-4), 0.9)
+    assert t_isf(q, 7) == pytest.approx(float(st.t.isf(q, 7)), rel=1e-14)
+
+
+def test_diagnosis_does_not_import_scipy_stats():
+    """The diagnosis' statistics come from scipy.special: importing it leaves scipy.stats out."""
+    import subprocess
+    import sys
+
+    code = "import sys, eigentwist.diagnose, eigentwist.diagnose.select; print('scipy.stats' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"

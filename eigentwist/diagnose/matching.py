@@ -87,13 +87,13 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
     freq : (N,) Hz: the matched mode's, or for a group of near-equal modes the
         share-weighted mean (module doc); index : (N,) int.
     """
-    labels = [str(label) for label in labels]
+    labels = np.asarray(labels).astype(str)  # whole-array conversion: no per-row Python
     n_rows, n_modes = modes.freq_hz.shape
     idx = np.zeros(n_rows, dtype=int)
     freq = np.full(n_rows, np.nan)
+    distinct, firsts, inverse = np.unique(labels, return_index=True, return_inverse=True)
     code = {}  # label -> rank - 1 (>= 0), or -1 - local axis (< 0)
-    for label in sorted(set(labels)):  # errors in label order, as the labels sort
-        first = labels.index(label)
+    for label, first in zip(map(str, distinct), firsts):  # errors in label order, as the labels sort
         if label.isdigit():
             rank = int(label)
             if rank > n_modes:
@@ -110,7 +110,7 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
                 "(a structural compliance effect, e.g. --model paper) or a rank"
             )
         code[label] = -1 - modes.axes.index(label)
-    codes = np.array([code[label] for label in labels], dtype=int)
+    codes = np.array([code[str(label)] for label in distinct], dtype=int)[np.reshape(inverse, -1)]
     ranked = codes >= 0
     if ranked.any():
         rows = np.flatnonzero(ranked)

@@ -32,10 +32,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from .compare import FAIL_SIGMA
 from .patterns import systematic
+from .stats import chi2_cdf, chi2_sf, t_isf
 
 __all__ = ["Uncertainty", "Outlier", "untestable", "judge_uncertainty", "find_outliers", "VERDICTS"]
 
@@ -81,7 +81,7 @@ def judge_uncertainty(final, untestable_effects: dict, effect_significant: bool,
     birge = math.sqrt(final.chi2 / nu) if nu > 0 else math.nan
     if untestable_effects or nu <= 2:
         return Uncertainty("too few rows", birge, final.chi2, nu, effect_significant=effect_significant)
-    p_low, p_high = float(stats.chi2.cdf(final.chi2, nu)), float(stats.chi2.sf(final.chi2, nu))
+    p_low, p_high = chi2_cdf(final.chi2, nu), chi2_sf(final.chi2, nu)
     out = Uncertainty("consistent", birge, final.chi2, nu, p_low, p_high, effect_significant=effect_significant)
     if p_low < alpha:
         out.verdict = "overstated"
@@ -142,7 +142,7 @@ def find_outliers(comparison, k: int, alpha: float) -> list[Outlier]:
     if nu < 3:
         return []
     z = studentized(comparison, k)
-    threshold = float(stats.t.isf(alpha / (2 * n), nu - 1))
+    threshold = t_isf(alpha / (2 * n), nu - 1)
     out = []
     for i in np.flatnonzero(np.abs(z) > threshold):
         near = _neighbours(meas, i)

@@ -126,15 +126,13 @@ def log_ratio(comparison):
 
 def pose_spread(meas, rho, w):
     """(largest difference of the per-pose mean error in its standard errors, pose where |mean| is largest)."""
-    poses = np.unique(np.round(meas.poses, 6), axis=0)
+    poses, pose_of = np.unique(np.round(meas.poses, 6), axis=0, return_inverse=True)
     if len(poses) < 2:
         return 0.0, None
-    means, errs = [], []
-    for p in poses:
-        rows = np.all(np.isclose(meas.poses, p, atol=1e-6), axis=1)
-        means.append(np.sum(w[rows] * rho[rows]) / np.sum(w[rows]))
-        errs.append(1.0 / np.sqrt(np.sum(w[rows])))
-    means, errs = np.array(means), np.array(errs)
+    pose_of = np.reshape(pose_of, -1)  # each row's pose (to the micrometre): one pass, no loop over poses
+    weight = np.bincount(pose_of, weights=w, minlength=len(poses))
+    means = np.bincount(pose_of, weights=w * rho, minlength=len(poses)) / weight
+    errs = 1.0 / np.sqrt(weight)
     spread = (means.max() - means.min()) / np.hypot(errs[np.argmax(means)], errs[np.argmin(means)])
     return float(spread), poses[np.argmax(np.abs(means))]
 

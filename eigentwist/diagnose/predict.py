@@ -8,13 +8,16 @@ evaluator's 0/1 switches; nothing is re-derived.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..runtime import InputError
+from ..runtime.memo import BoundedMemo, content_key
 from .matching import match_frequencies
 from .shapes import has_shape, match_by_shape
 
-__all__ = ["evaluate", "Predictor", "EVAL_BLOCK"]
+__all__ = ["evaluate", "Predictor", "EVAL_BLOCK", "distinct_rows", "take_rows"]
 
 #: rows evaluated per call when no modes are returned and no row has a shape: the memory
 #: of a comparison stays that of one block (the model's matrices and modes of every row
@@ -35,6 +38,7 @@ def evaluate(
     return_modes: bool = False,
     joints=None,
     damped=None,
+    unique=None,
 ):
     """Frequency (Hz) of the mode each row's label names.
 
@@ -53,6 +57,10 @@ def evaluate(
     damped : optional (N,) bool: rows whose measured value is a damped frequency; a model
         with a damping effect predicts omega_d / 2 pi there and omega_n / 2 pi (its poles'
         modulus) on the other rows (like with like).
+    unique : optional ``(first, inverse)`` index arrays: rows ``first`` hold every distinct
+        (pose, per-row parameters, joints) and row i's model is row ``first[inverse[i]]``'s
+        (:func:`distinct_rows`): the model is evaluated on rows ``first`` only (each row is
+        evaluated on its own, so the numbers are those of every row evaluated).
 
     Returns
     -------
@@ -81,11 +89,13 @@ def evaluate(
         return freq, idx
     try:
         with np.errstate(all="ignore"):  # overflow is detected below and named
-            modes = (
-                ev.modes(poses, tuple(effects), **params)
-                if joints is None
-                else ev.modes(poses, tuple(effects), joints=joints, **params)
-            )
+            if unique is None:
+                modes = _modes(ev, effects, poses, params, joints)
+            else:
+                first, inverse = unique
+                at = {k: (v[first] if np.ndim(v) >= 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
+                modes = _modes(ev, effects, poses[first], at, None if joints is None else joints[first])
+                modes = take_rows(modes, inverse)
     except np.linalg.LinAlgError as exc:
         raise InputError(_numerical_failure(ev, effects, poses, params, lines, exc)) from None
     freq, idx = match_frequencies(modes, labels, strict=strict, lines=lines)
@@ -115,6 +125,49 @@ def evaluate(
     return (freq, idx, modes) if return_modes else (freq, idx)
 
 
+def _modes(ev, effects, poses, params: dict, joints):
+    if joints is None:
+        return ev.modes(poses, tuple(effects), **params)
+    return ev.modes(poses, tuple(effects), joints=joints, **params)
+
+
+def distinct_rows(columns: list, n: int):
+    """``(first, inverse)`` of the rows of ``columns`` ((n,) or (n, ...) arrays, compared by
+    their exact values): ``first`` the first row of each distinct row in order of appearance,
+    ``inverse`` (n,) each row's position in ``first``; None where every row is distinct or a
+    value is NaN (never equal to itself: nothing is merged)."""
+    key = np.column_stack([np.reshape(np.asarray(c, dtype=float), (n, -1)) for c in columns])
+    if np.isnan(key).any():
+        return None
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    if len(first) == n:
+        return None
+    order = np.argsort(first, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return first[order], rank[np.reshape(inverse, -1)]
+
+
+def take_rows(modes, index: np.ndarray):
+    """``modes`` (:class:`~eigentwist.runtime.Modes`) at rows ``index``: every per-row array
+    (frequencies, eigentwists, validity, shares, the damped modes' arrays) indexed, the
+    rest kept; the exact condensation's arrays (``legs``) dropped."""
+    n = len(modes.freq_hz)
+
+    def rows(obj):
+        if isinstance(obj, np.ndarray) and obj.ndim >= 1 and obj.shape[0] == n:
+            return obj[index]
+        if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+            return dataclasses.replace(obj, **{f.name: rows(getattr(obj, f.name)) for f in dataclasses.fields(obj)})
+        return obj
+
+    out = dataclasses.replace(
+        modes, **{f.name: rows(getattr(modes, f.name)) for f in dataclasses.fields(modes) if f.name != "legs"}
+    )
+    out.legs = None
+    return out
+
+
 def _numerical_failure(ev, effects, poses, params, lines, exc, row: int | None = None) -> str:
     """One line naming the first row whose model cannot be evaluated, and its values."""
     n = len(poses)
@@ -138,6 +191,10 @@ def _numerical_failure(ev, effects, poses, params, lines, exc, row: int | None =
     return f"the model cannot be evaluated for these inputs ({exc}): check them for extreme values"
 
 
+_DISTINCT_UNSET = object()
+_DISTINCT = BoundedMemo(8)  # content of the rows' poses, per-row parameters, joints -> distinct_rows
+
+
 class Predictor:
     """Predictions of one model (a set of effects) for one set of measurements.
 
@@ -151,6 +208,29 @@ class Predictor:
         self.effects = tuple(effects)
         self.ev = ev
         self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in meas.params}
+        self._distinct = _DISTINCT_UNSET
+
+    def _unique(self, repeat: int = 1):
+        """``(first, inverse)`` of the measured rows tiled ``repeat`` times (the model is
+        evaluated once per distinct pose, per-row parameters and joints: the paper's x and y
+        rows of one setting share it); None where every row is distinct."""
+        if self._distinct is _DISTINCT_UNSET:
+            n = len(self.meas)
+            per_row = {k: v for k, v in self.meas.evaluation_params().items() if np.ndim(v) >= 1}
+            joints = getattr(self.meas, "joints", None)
+            if joints is not None:
+                per_row[" joints"] = joints
+            key = content_key(self.meas.poses, per_row, sorted(per_row))  # each fit's Predictor: found once
+            self._distinct = _DISTINCT.get(key, _DISTINCT_UNSET)
+            if self._distinct is _DISTINCT_UNSET:
+                self._distinct = distinct_rows([self.meas.poses, *per_row.values()], n)
+                _DISTINCT.put(key, self._distinct)
+        if self._distinct is None:
+            return None
+        first, inverse = self._distinct
+        n, u = len(self.meas), len(first)
+        sets = np.arange(repeat)[:, None]
+        return (sets * n + first).reshape(-1), (sets * u + inverse).reshape(-1)
 
     def _params(self, values: dict, repeat: int = 1) -> dict:
         n = len(self.meas)
@@ -187,6 +267,7 @@ class Predictor:
             return_modes=return_modes,
             joints=self._joints(),
             damped=self._damped(),
+            unique=self._unique(),
             **self._shapes(),
         )
 
@@ -216,6 +297,7 @@ class Predictor:
             joints=self._joints(b),
             damped=self._damped(b),
             return_modes=True,
+            unique=self._unique(b),
             **self._shapes(b),
         )
         if zeta:

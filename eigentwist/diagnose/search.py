@@ -198,13 +198,22 @@ def replaces(best: Subset | None, greedy_effects, greedy_aicc: float) -> bool:
 
 
 def search_subsets(
-    meas, ev, base: FitResult, ranking, greedy: FitResult, greedy_effects: tuple, m: int, alpha: float
+    meas,
+    ev,
+    base: FitResult,
+    ranking,
+    greedy: FitResult,
+    greedy_effects: tuple,
+    m: int,
+    alpha: float,
+    progress=None,
 ) -> SearchResult:
     """A beam search over subsets of the plausible single candidates ``ranking`` (fitted on
     ``base``): each of the BEAM best distinct singles with every other distinct single, then
     (when no pair explains the data) each of the BEAM best pairs with every other single; each
     subset judged (module doc) and the best compared with the stepwise result ``greedy`` (its
-    effects beyond the baseline: ``greedy_effects``)."""
+    effects beyond the baseline: ``greedy_effects``). ``progress``: a tqdm-like wrapper shown
+    over each level's subsets (pairs, triples)."""
     singles, same = _distinct(meas, ranking)
     singles = [c for c in singles if c.fit.aicc < base.aicc]  # a member must help on its own
     fits = _Fits(meas, ev, base, singles)
@@ -219,7 +228,10 @@ def search_subsets(
     level = [judge((c.effect,)) for c in singles]
     for _ in range(MAX_SIZE - 1):
         beam = sorted((s for s in level if s is not None and s.plausible), key=lambda s: s.fit.aicc)[:BEAM]
-        level = [judge(set(s.effects) | {c.effect}) for s in beam for c in singles if c.effect not in s.effects]
+        keys = [set(s.effects) | {c.effect} for s in beam for c in singles if c.effect not in s.effects]
+        size = len(beam[0].effects) + 1 if beam else 0
+        shown = progress(keys, desc=f"searching subsets of {size}", leave=False) if progress and keys else keys
+        level = [judge(key) for key in shown]
         best_level = min((s for s in level if s is not None and s.counts), key=lambda s: s.fit.aicc, default=None)
         if best_level is None or explained(best_level.fit.chi2, best_level.fit.n, best_level.fit.k, alpha):
             break

@@ -496,14 +496,14 @@ def _stepwise(meas, ev, current: FitResult, alpha: float, progress) -> tuple[lis
     return steps, removals
 
 
-def _search(meas, ev, base: FitResult, steps: list[Step], m: int, alpha: float) -> SearchResult | None:
+def _search(meas, ev, base: FitResult, steps: list[Step], m: int, alpha: float, progress=None) -> SearchResult | None:
     """The subset search (:mod:`.search`) when the stepwise result misfits or holds two or more
     effects; None when it is not run."""
     final = steps[-1].fit
     chosen = tuple(e for e in final.effects if e not in base.effects)
     if explained(final.chi2, final.n, final.k, alpha) and len(chosen) < 2:
         return None
-    return search_subsets(meas, ev, base, steps[0].ranking, final, chosen, m, alpha)
+    return search_subsets(meas, ev, base, steps[0].ranking, final, chosen, m, alpha, progress)
 
 
 def _path(meas, ev, first: Step, found: SearchResult) -> list[Step]:
@@ -649,7 +649,7 @@ def _searched(d: Diagnosis, ev, progress, values=None) -> Diagnosis:
     subset when it beats the stepwise result (rows set aside carried over), else ``d`` with
     the search's findings (ties) attached."""
     base = d.steps[0].fit
-    found = _search(d.meas, ev, base, d.steps, len(candidates_for(ev, base.effects)), d.alpha)
+    found = _search(d.meas, ev, base, d.steps, len(candidates_for(ev, base.effects)), d.alpha, progress)
     if found is None or not found.changed:
         d.search = found
         return d

@@ -28,11 +28,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 from ..runtime.errors import InputError
 from .measurements import Measurements
 from .predict import Predictor
+from .stats import chi2_sf
 
 __all__ = [
     "SettingAnomaly",
@@ -198,14 +198,14 @@ def deviates(own: float, scale: float, n_rows: int, alpha: float, n_settings: in
     """p-value of a setting's chi-square ``own`` over ``n_rows`` rows (scaled by ``scale``, the
     other rows' squared Birge ratio) when it is below alpha/n_settings (Bonferroni over the
     settings checked), else None."""
-    p = float(stats.chi2.sf(own / scale, n_rows))
+    p = chi2_sf(own / scale, n_rows)
     return p if p < alpha / max(n_settings, 1) else None
 
 
 def relabelled_fits(best: float, own: float, scale: float, dof: int, alpha: float) -> bool:
     """Whether a setting relabelled (chi-square ``best``) fits within the noise (chi2_dof test at
     alpha, dof at least 1) and ``FAR`` times better than as written (``own``)."""
-    return bool(stats.chi2.sf(best / scale, max(dof, 1)) > alpha and best * FAR < own)
+    return bool(chi2_sf(best / scale, max(dof, 1)) > alpha and best * FAR < own)
 
 
 def _left_out(meas, ev, final, g: np.ndarray, alpha: float, n_settings: int) -> SettingAnomaly | None:

@@ -10,6 +10,7 @@ import numpy as np
 
 from .predict import Predictor
 from .shapes import SHAPE_CRITERION, has_shape, row_mac, shape_residuals
+from .stats import chi2_sf
 
 __all__ = ["shape_term"]
 
@@ -22,8 +23,6 @@ def shape_term(meas, effects, ev, values: dict | None = None) -> dict | None:
     rows, p_value = P(chi2_n >= chi2) (the shapes' goodness of fit, nothing fitted to
     them). A fit may append ``residuals`` (finite entries) to its frequency residuals.
     """
-    from scipy import stats
-
     shapes = getattr(meas, "shapes", None)
     if shapes is None or not has_shape(shapes).any():
         return None
@@ -35,7 +34,7 @@ def shape_term(meas, effects, ev, values: dict | None = None) -> dict | None:
     return {
         "chi2": chi2,
         "n": int(ok.sum()),
-        "p_value": float(stats.chi2.sf(chi2, int(ok.sum()))),
+        "p_value": chi2_sf(chi2, int(ok.sum())),
         "mac_min": float(np.nanmin(macs)),
         "mac_mean": float(np.nanmean(macs)),
         "residuals": res.tolist(),

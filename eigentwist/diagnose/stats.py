@@ -31,10 +31,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 __all__ = [
     "ALPHA",
+    "chi2_sf",
+    "chi2_cdf",
+    "f_sf",
+    "t_isf",
     "chi2_value",
     "aicc",
     "f_test",
@@ -85,6 +89,34 @@ CRITERIA = {
 }
 
 
+# The distribution functions the diagnosis needs, from scipy.special (the functions that
+# scipy.stats' chi2, f and t call for these), so that a diagnosis does not import scipy.stats.
+def chi2_sf(x: float, dof: float) -> float:
+    """P(chi2_dof >= x), the chi-square survival function (1 for x < 0; NaN for dof <= 0)."""
+    if x < 0:
+        return 1.0 if dof > 0 else math.nan
+    return float(special.chdtrc(dof, x))
+
+
+def chi2_cdf(x: float, dof: float) -> float:
+    """P(chi2_dof <= x), the chi-square distribution function (0 for x < 0; NaN for dof <= 0)."""
+    if x < 0:
+        return 0.0 if dof > 0 else math.nan
+    return float(special.chdtr(dof, x))
+
+
+def f_sf(x: float, dfn: float, dfd: float) -> float:
+    """P(F_{dfn, dfd} >= x), the F distribution's survival function (1 for x < 0)."""
+    if x < 0:
+        return 1.0 if dfn > 0 and dfd > 0 else math.nan
+    return float(special.fdtrc(dfn, dfd, x))
+
+
+def t_isf(q: float, dof: float) -> float:
+    """The t value exceeded with probability q by Student's t with ``dof`` degrees of freedom."""
+    return float(-special.stdtrit(dof, q))
+
+
 def chi2_value(predicted, measured, sigma) -> float:
     """sum(((predicted - measured)/sigma)^2)."""
     r = (np.asarray(predicted) - np.asarray(measured)) / np.asarray(sigma)
@@ -107,7 +139,7 @@ def f_test(chi2_0: float, k_0: int, chi2_1: float, k_1: int, n: int) -> float:
     if chi2_1 <= 0:
         return 0.0 if chi2_0 > 0 else 1.0
     f = max(chi2_0 - chi2_1, 0.0) / dk / (chi2_1 / dof)
-    return float(stats.f.sf(f, dk, dof))
+    return f_sf(f, dk, dof)
 
 
 def gof_p_value(chi2: float, n: int, k: int) -> float:
@@ -115,7 +147,7 @@ def gof_p_value(chi2: float, n: int, k: int) -> float:
     dof = n - k
     if dof <= 0:
         return math.nan
-    return float(stats.chi2.sf(chi2, dof))
+    return chi2_sf(chi2, dof)
 
 
 def explained(chi2: float, n: int, k: int, alpha: float = ALPHA) -> bool:
@@ -153,4 +185,4 @@ def switch_test(chi2_0: float, chi2_1: float, n: int, k: int) -> float:
     if dof <= 0:
         return math.nan
     scale = max(1.0, chi2_1 / dof)
-    return float(stats.chi2.sf(max(chi2_0 - chi2_1, 0.0) / scale, 1))
+    return chi2_sf(max(chi2_0 - chi2_1, 0.0) / scale, 1)

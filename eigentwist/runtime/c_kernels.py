@@ -218,7 +218,7 @@ class _Packed:
     strides: reused by a later call that passes the very same (immutable, :func:`_fixed`)
     objects at the same positions, which then fills in only its per-pose arrays."""
 
-    __slots__ = ("size", "fixed", "ids", "refs", "packed", "addresses", "strides", "others")
+    __slots__ = ("size", "fixed", "ids", "refs", "packed", "addresses", "strides", "others", "array", "at")
 
     def __init__(self, values: list):
         self.size = len(values)
@@ -234,6 +234,8 @@ class _Packed:
         self.strides = _strides([0] * self.size)
         fixed = set(self.fixed)
         self.others = [i for i in range(self.size) if i not in fixed]
+        self.array = np.array(addresses, dtype=np.uint64)  # the addresses, for a kernel's call (_run)
+        self.at = np.array(self.others, dtype=np.intp)
 
     def matches(self, values: list) -> bool:
         return len(values) == self.size and tuple(map(id, map(values.__getitem__, self.fixed))) == self.ids
@@ -277,6 +279,8 @@ class CKernels:
         self.FUSED_MATRICES = {o: tuple(s) for o, s in signature["fused"]["matrices"]}
         self._fused_names = [name for _, name in signature["fused"]["inputs"]]
         self._packed: _Packed | None = None
+        self._kernel_packed: dict = {}  # kernel -> the _Packed scalars of its last call (_run)
+        self._layouts: dict = {}  # kernel -> its inputs' layout (_layout)
         self._scale_index = self._fused_names.index(LEVER_SCALE) if LEVER_SCALE in self._fused_names else -1
         self._opts: dict = {}  # the fused pass's option arrays (read only by C)
         if signature["fused"]["status"] != STATUS:
@@ -289,28 +293,62 @@ class CKernels:
         return f"<eigentwist C kernels {self.ROBOT!r} ({self.build.flags_name}) {self.build.path}>"
 
     # ------------------------------------------------------------ plumbing
+    def _layout(self, kernel: str) -> tuple:
+        """``(params, at_params, at_q, q_offsets, outputs, count)`` of a kernel's inputs: the
+        non-joint input names and their positions, the joint inputs' positions and byte
+        offsets in a row of q, the outputs' (name, shape) and the number of inputs."""
+        layout = self._layouts.get(kernel)
+        if layout is None:
+            spec, nq = self._spec[kernel], self.JOINTS_PER_LEG
+            inputs = spec["inputs"]
+            layout = self._layouts[kernel] = (
+                [name for group, name, _ in inputs if group != "q"],
+                np.array([i for i, (group, _, _) in enumerate(inputs) if group != "q"], dtype=np.intp),
+                np.array([i for i, (group, _, _) in enumerate(inputs) if group == "q"], dtype=np.intp),
+                np.array([8 * (j[0] * nq + j[1]) for group, _, j in inputs if group == "q"], dtype=np.uint64),
+                [(name, tuple(shape)) for name, shape in spec["outputs"]],
+                len(inputs),
+            )
+        return layout
+
     def _run(self, kernel: str, lead: tuple, values: dict, q=None) -> dict:
-        spec = self._spec[kernel]
+        params, at_params, at_q, q_offsets, outputs, count = self._layout(kernel)
         n = int(np.prod(lead, dtype=np.int64))
-        outs = {name: np.empty(lead + tuple(shape)) for name, shape in spec["outputs"]}
+        outs = {name: np.empty(lead + shape) for name, shape in outputs}
         if n == 0:
             return outs
         keep: list = []
-        params = [name for group, name, _ in spec["inputs"] if group != "q"]
-        found = iter(zip(*_inputs((values[name] for name in params), lead, keep))) if params else iter(())
+        addresses, strides = np.zeros(count, dtype=np.uint64), np.zeros(count, dtype=np.int64)
+        addresses[at_params], strides[at_params] = self._kernel_inputs(kernel, [values[k] for k in params], lead, keep)
         if q is not None:
             legs, nq = self.N_LEGS, self.JOINTS_PER_LEG
             qa = np.ascontiguousarray(np.broadcast_to(np.asarray(q, dtype=np.float64), lead + (legs, nq)))
             qa = qa.reshape(n, legs * nq)
             keep.append(qa)
-        addresses, strides = [], []
-        for group, name, joint in spec["inputs"]:
-            a, st = (qa.ctypes.data + 8 * (joint[0] * nq + joint[1]), qa.shape[1]) if group == "q" else next(found)
-            addresses.append(a)
-            strides.append(st)
-        out_ptrs = _ptrs([o.ctypes.data for o in outs.values()])
-        _check_rc(self._fn[kernel](n, _ptrs(addresses), _strides(strides), out_ptrs), kernel)
+            addresses[at_q] = np.uint64(qa.ctypes.data) + q_offsets
+            strides[at_q] = qa.shape[1]
+        out_ptrs = np.array([o.ctypes.data for o in outs.values()], dtype=np.uint64)
+        rc = self._fn[kernel](
+            n, addresses.ctypes.data_as(_PTRS), strides.ctypes.data_as(_I64P), out_ptrs.ctypes.data_as(_PTRS)
+        )
+        _check_rc(rc, kernel)
         return outs
+
+    def _kernel_inputs(self, kernel: str, values: list, lead: tuple, keep: list) -> tuple:
+        """(addresses, strides) arrays of one kernel's non-joint inputs, as :func:`_inputs`
+        gives them: the scalars packed by the kernel's previous call are reused when the very
+        same immutable objects come again (:class:`_Packed`), only the per-pose arrays marshalled."""
+        if not values:
+            return np.zeros(0, dtype=np.uint64), np.zeros(0, dtype=np.int64)
+        packed = self._kernel_packed.get(kernel)
+        if packed is None or not packed.matches(values):
+            packed = self._kernel_packed[kernel] = _Packed(values)
+        keep.append(packed)
+        addresses, strides = packed.array.copy(), np.zeros(packed.size, dtype=np.int64)
+        if packed.others:
+            a, st = _inputs([values[i] for i in packed.others], lead, keep)
+            addresses[packed.at], strides[packed.at] = a, st
+        return addresses, strides
 
     @staticmethod
     def _lead(shapes) -> tuple:

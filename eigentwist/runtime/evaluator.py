@@ -20,6 +20,7 @@ from .constraints import check_constraints, compile_constraints
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
 from .labels import directions, energy_shares
+from .memo import BoundedMemo, content_key
 from .threads import resolve_threads
 from .validity import (
     CONDITIONING_TOL,
@@ -50,6 +51,9 @@ PARALLEL_SCREEN = 1e-3
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 _NUMBERS = (float, int, np.float64, np.float32, np.int64, np.int32)
+#: an effect's switch on and off (read-only: the C pass packs them once)
+_ON, _OFF = np.array(1.0), np.array(0.0)
+_ON.flags.writeable = _OFF.flags.writeable = False
 CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
 MATRIX_CHUNK = 65536  # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
@@ -203,6 +207,8 @@ class Evaluator:
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
+        self._defaults: dict = {}  # parameter -> (default, read-only 0-d array): _default
+        self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
         self._kinds: dict = {}  # (question, effects) -> answer (_remembered: stiffness model, preloaded)
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
@@ -592,19 +598,20 @@ class Evaluator:
         out = {}
         for name, p in self.parameters.items():
             if name in params:
-                check = params[name] is not condense.EXACT
-            else:  # a default is checked once (where it is first used)
-                check = (p.effect is None or p.effect in on) and name not in self._checked_defaults
-            out[name] = self._array(name, params.get(name, p.default), n, check)
-            if check and name not in params:
+                out[name] = self._array(name, params[name], n, params[name] is not condense.EXACT)
+                continue
+            # a default is checked once (where it is first used)
+            check = (p.effect is None or p.effect in on) and name not in self._checked_defaults
+            out[name] = self._default(name, p.default, n, check)
+            if check:
                 self._checked_defaults.add(name)
         for e in self.effects:
             effect = self._effect[e]
             if not effect.leg_level:
-                out[switch_name(e)] = np.asarray(1.0 if e in effects else 0.0)
+                out[switch_name(e)] = _ON if e in effects else _OFF
                 continue
             for k in range(1, self.n_legs + 1):
-                out[leg_switch_name(e, k)] = np.asarray(1.0 if e in effects or f"{e}@{k}" in effects else 0.0)
+                out[leg_switch_name(e, k)] = _ON if e in effects or f"{e}@{k}" in effects else _OFF
                 for q in effect.params:
                     own = (q.name, k) in scoped
                     value = self._array(f"{q.name}@{k}", scoped[(q.name, k)], n, True) if own else out[q.name]
@@ -612,6 +619,19 @@ class Evaluator:
         check_constraints(self.constraints, out, on)
         self._check_leg_constraints(out, effects, scoped)
         return out
+
+    def _default(self, name: str, value, n: int, check: bool) -> np.ndarray:
+        """The default ``value`` of parameter ``name`` as a read-only 0-d array, the same
+        object while the default stays the same (the C pass packs such scalars once,
+        :mod:`.c_kernels`); checked where ``check``."""
+        if check or not isinstance(value, (float, int)):  # an array default: as given
+            return self._array(name, value, n, check)
+        known = self._defaults.get(name)
+        if known is None or known[0] != value:
+            arr = np.array(value, dtype=float)
+            arr.flags.writeable = False
+            known = self._defaults[name] = (value, arr)
+        return known[1]
 
     def _check_leg_constraints(self, out: dict, effects, scoped: dict) -> None:
         """A leg's own values meet its effect's constraints (``r_i_l1@2 < r_o_l1@2``)."""
@@ -711,28 +731,48 @@ class Evaluator:
             ok[ok] = lever_mask(lever) & parallel_mask(rows)
         return q, jac, ok
 
-    def _platform_rows(self, poses: np.ndarray, p: dict) -> np.ndarray:
+    def _platform_rows(self, poses: np.ndarray, pp: dict) -> np.ndarray:
         """(n, r, 6) the platform's actuation and constraint rows at reachable poses
-        (:func:`~.validity.platform_rows`; the IK and jacobians kernels of either backend)."""
-        pp = self._with_pose(poses, p)
+        (:func:`~.validity.platform_rows`; the IK and jacobians kernels of either backend);
+        ``pp`` the kernels' inputs with the pose (:meth:`_with_pose`)."""
         with np.errstate(invalid="ignore", divide="ignore"):
             q = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], pp)["q"]
             return platform_rows(self._kernels.jacobians(q, pp)["J_rows"], self.robot.legs, self._freedoms)
 
+    def _geometry_names(self):
+        """The inputs the inverse-kinematics and jacobians kernels read (the C library's
+        signature); None for kernels that do not declare them (no memo)."""
+        spec = getattr(self._kernels, "_spec", None)
+        if spec is None:
+            return None
+        return sorted(
+            {name for k in ("inverse_kinematics", "jacobians") for group, name, _ in spec[k]["inputs"] if group != "q"}
+        )
+
     def _parallel_ok(self, poses: np.ndarray, p: dict, rows: np.ndarray, strict: bool) -> np.ndarray:
         """(len(rows),) bool: the poses ``rows`` (indices) are not parallel singular; with
-        ``strict`` the first that is raises :class:`SingularPoseError`."""
+        ``strict`` the first that is raises :class:`SingularPoseError`. Remembered per content
+        of the poses and every input of the kernels it runs (:mod:`.memo`): the stiffnesses a
+        fit varies leave it unchanged, a geometric parameter or a pose computes it anew."""
         if not len(rows):
             return np.ones(0, dtype=bool)
         n = len(poses)
         mask = np.zeros(n, dtype=bool)
         mask[rows] = True
         sub = p if mask.all() else self._mask(p, mask, n)
-        W = self._platform_rows(poses[mask], sub)
-        ok = parallel_mask(W)
+        at = poses[mask]
+        pp = self._with_pose(at, sub)
+        names = self._geometry_names()
+        key = None if names is None else content_key(at, pp, names)
+        ok = None if key is None else self._parallel_memo.get(key)
+        if ok is None:
+            ok = parallel_mask(self._platform_rows(at, pp))
+            if key is not None:
+                ok.flags.writeable = False
+                self._parallel_memo.put(key, ok)
         if strict and not ok.all():
-            raise_parallel(poses[mask], W)
-        return ok
+            raise_parallel(at, self._platform_rows(at, pp))
+        return ok.copy()
 
     def _raise_unfollowed(self, poses: np.ndarray) -> None:
         """Raise :class:`UnreachablePoseError` for the first pose whose followers did not
