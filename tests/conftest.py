@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 
 import numpy as np
 import pytest
@@ -107,6 +108,7 @@ TEST_BACKEND_ENV = "EIGENTWIST_TEST_BACKEND"
 
 
 def pytest_configure(config):
+    _bytecode_cache_for_commands()
     if os.environ.get(TEST_BACKEND_ENV, "").strip() != "numpy":
         return
     # the CLI's --backend default in the commands the tests start (subprocesses inherit it)
@@ -122,6 +124,16 @@ def pytest_configure(config):
         return original(robot, use, *args, **kwargs)
 
     loader.load = runtime.load = load_numpy
+
+
+def _bytecode_cache_for_commands() -> None:
+    """The commands the tests start import eigentwist afresh; where byte-code writing is off
+    (``PYTHONDONTWRITEBYTECODE``) each would compile every eigentwist module again (~1.7 s of
+    CPU a command). They share a byte-code cache outside the tree instead
+    (``PYTHONPYCACHEPREFIX``, a temporary directory of this run), so the tree stays unwritten."""
+    if os.environ.get("PYTHONDONTWRITEBYTECODE") and not os.environ.get("PYTHONPYCACHEPREFIX"):
+        os.environ.pop("PYTHONDONTWRITEBYTECODE")
+        os.environ["PYTHONPYCACHEPREFIX"] = tempfile.mkdtemp(prefix="eigentwist-bytecode-")
 
 
 #: modules whose tests generate sensitivity kernels with SymPy (their session fixtures)
