@@ -56,34 +56,42 @@ class World:
             at_bound=tuple(self.at_bound.get(key, ())),
         )
 
-    def candidates(self, ev, effects, per_leg=True):
-        assert per_leg is True
+    def candidates(self, ev, effects, *, per_leg):
+        assert ev is self.ev and per_leg is True
         return [e for e in "abcdefgh" if e not in effects and not any({e, x} in self.conflicts for x in effects)]
 
     def order(self, ev, effects):
+        assert ev is self.ev
         return ("ordered",) + tuple(effects)
 
     def fit(self, meas, effects, ev, names, *, start, fixed, explore, max_nfev):
-        assert effects[:2] == ("ordered", "base")
+        assert effects[:2] == ("ordered", "base") and meas is self.meas and ev is self.ev
         members = effects[2:]
-        self.calls.append(NS(members=members, names=names, start=dict(start), fixed=fixed, explore=explore, nfev=max_nfev))
+        self.calls.append(
+            NS(members=members, names=names, start=dict(start), fixed=fixed, explore=explore, nfev=max_nfev)
+        )
         return self.result(members, JOINT_VALUE)
 
     def single(self, e, i, plausible=True):
         return NS(effect=e, plausible=plausible, fit=self.result((e,), SINGLE_VALUE), names=(f"k_{e}",), order=i)
 
 
+def _parameter(name):
+    assert name.startswith("k_"), name
+    return NS(plausible_range=(1.0, 10.0))
+
+
 @pytest.fixture
 def ev():
-    return NS(parameter=lambda name: NS(plausible_range=(1.0, 10.0)))
+    return NS(parameter=_parameter)
 
 
-def _run(monkeypatch, world, ev, singles, greedy, m=1):
+def _run(monkeypatch, world, ev, singles, greedy, m=1, alpha=ALPHA):
     monkeypatch.setattr(search, "fit", world.fit)
     monkeypatch.setattr(search, "scope", world)
-    meas = NS(sigma_hz=np.ones(3))
+    world.ev, world.meas = ev, NS(sigma_hz=np.ones(3))
     base = world.result((), BASE_VALUE)
-    return search.search_subsets(meas, ev, base, singles, world.result(greedy, JOINT_VALUE), greedy, m, ALPHA)
+    return search.search_subsets(world.meas, ev, base, singles, world.result(greedy, JOINT_VALUE), greedy, m, alpha)
 
 
 def _p(chi2_0, chi2_1, k_1):
@@ -94,8 +102,8 @@ def _p(chi2_0, chi2_1, k_1):
 def _explained_pair_world():
     chi2 = {
         frozenset(): 500.0,
-        **{frozenset(e): c for e, c in zip("abcdefgh", (300, 320, 340, 400, 405, 600, 350, math.nan))},
-        frozenset("ab"): 200.0,
+        **{frozenset(e): c for e, c in zip("abcdefgh", (300, 320, 340, 400, 405, 498, 350, math.nan))},
+        frozenset("ab"): 25.0 + DELTA_AICC,  # explained, AICc exactly DELTA_AICC from bc's: no tie
         frozenset("ac"): 25.0 + DELTA_AICC * 1.01,  # explained, AICc just outside a tie with bc
         frozenset("ad"): 280.0,  # not needed beside a
         frozenset("bc"): 25.0,  # explained: the best
@@ -109,17 +117,19 @@ def _explained_pair_world():
 
 def test_an_explained_pair_replaces_the_stepwise_path_and_stops_the_search(monkeypatch, ev):
     w = _explained_pair_world()
-    singles = [w.single(e, i) for i, e in enumerate("abcdef")] + [w.single("g", 6, plausible=False), w.single("h", 7)]
+    # ranked by AICc; an implausible single or one without an AICc may come first
+    singles = [w.single("g", 6, plausible=False), w.single("h", 7)] + [w.single(e, i) for i, e in enumerate("abcdef")]
     r = _run(monkeypatch, w, ev, singles, ("a", "d"), m=4)
 
-    # e repeats d's predictions (within SAME): one entry; f is worse than the baseline alone,
-    # g implausible, h without an AICc: none searched
+    # e repeats d's predictions (within SAME): one entry; f's AICc is the baseline's (it must
+    # be lower), g implausible, h without an AICc: none searched
     assert r.same == {"d": ["e"]}
     fitted = {frozenset(c.members) for c in w.calls}
     assert fitted == {frozenset(p) for p in ("ab", "ac", "ad", "bc", "bd")}  # cd shares a part; no triple
     assert r.fitted == len(w.calls) == 5
     assert r.best.effects == ("b", "c") and r.best.counts
-    assert r.best.p_values == pytest.approx({"b": _p(320, 25, 3), "c": _p(340, 25, 3)}, rel=1e-9)
+    # each member against the subset without it
+    assert r.best.p_values == pytest.approx({"b": _p(340, 25, 3), "c": _p(320, 25, 3)}, rel=1e-9, abs=0)
     assert r.changed and r.greedy == ("a", "d") and r.greedy_aicc == 280.0 + 6
     assert [t.effects for t in r.ties] == [("b", "d")]
     assert r.to_json() == {
@@ -209,11 +219,11 @@ def test_a_joint_fit_is_plausible_only_with_every_value_plausible(ev):
     def f(values, std, at_bound=()):
         return NS(values=values, std=std, at_bound=at_bound)
 
-    assert search._plausible_fit(ev, f({"x": 5.0, "y": 10.0}, {"x": 0.1, "y": 0.1}))
-    assert not search._plausible_fit(ev, f({"x": 5.0, "y": 20.0}, {"x": 0.1, "y": 0.1}))
-    assert search._plausible_fit(ev, f({"x": 5.0, "y": 10.5}, {"x": 0.1, "y": 1.0}))  # within 3 sigma
-    assert not search._plausible_fit(ev, f({"x": 5.0, "y": 10.5}, {"x": 0.1}))  # no std: infinite
-    assert not search._plausible_fit(ev, f({"x": 5.0}, {"x": 0.1}, ("x",)))  # at a bound
+    assert search._plausible_fit(ev, f({"k_x": 5.0, "k_y": 10.0}, {"k_x": 0.1, "k_y": 0.1}))
+    assert not search._plausible_fit(ev, f({"k_x": 5.0, "k_y": 20.0}, {"k_x": 0.1, "k_y": 0.1}))
+    assert search._plausible_fit(ev, f({"k_x": 5.0, "k_y": 10.5}, {"k_x": 0.1, "k_y": 1.0}))  # within 3 sigma
+    assert not search._plausible_fit(ev, f({"k_x": 5.0, "k_y": 10.5}, {"k_x": 0.1}))  # no std: infinite
+    assert not search._plausible_fit(ev, f({"k_x": 5.0}, {"k_x": 0.1}, ("k_x",)))  # at a bound
 
 
 def test_equal_single_aiccs_are_ordered_by_the_catalogue(monkeypatch, ev):
@@ -221,3 +231,42 @@ def test_equal_single_aiccs_are_ordered_by_the_catalogue(monkeypatch, ev):
     w = World(chi2, {frozenset("a"): [0, 0, 0], frozenset("b"): [1, 0, 0]})
     singles = [w.single("a", 2), w.single("b", 1)]
     assert _run(monkeypatch, w, ev, singles, ("a",)).best.effects == ("b", "a")
+
+
+def test_joint_fits_take_members_in_the_order_of_their_single_aicc(monkeypatch, ev):
+    chi2 = {frozenset(): 500.0, frozenset("a"): 300.0, frozenset("b"): 200.0, frozenset("ab"): 25.0}
+    w = World(chi2, {frozenset("a"): [0, 0, 0], frozenset("b"): [1, 0, 0]})
+    _run(monkeypatch, w, ev, [w.single("b", 0), w.single("a", 1)], ("b",))
+    assert [c.members for c in w.calls] == [("b", "a")] and w.calls[0].names == ("k_base", "k_b", "k_a")
+
+
+@pytest.mark.parametrize("factor, triples", [(0.99, False), (1.01, True)])
+def test_the_search_stops_at_a_size_whose_best_subset_explains_the_data(monkeypatch, ev, factor, triples):
+    """Both sides of the goodness-of-fit test of the best pair (N - 3 degrees of freedom, alpha = 0.05)."""
+    alpha = 0.05
+    edge = stats.chi2.isf(alpha, N - 3)
+    chi2 = {frozenset(): 500.0, **{frozenset(e): c for e, c in zip("abc", (300.0, 320.0, 340.0))}}
+    chi2.update({frozenset(p): edge * factor + i for i, p in enumerate(("ab", "ac", "bc"))})
+    chi2[frozenset("abc")] = 10.0
+    w = World(chi2, {frozenset(e): [10.0 * i, 0, 0] for i, e in enumerate("abc")})
+    _run(monkeypatch, w, ev, [w.single(e, i) for i, e in enumerate("abc")], ("a",), alpha=alpha)
+    assert any(len(c.members) == 3 for c in w.calls) == triples
+
+
+def test_a_member_needed_at_alpha_when_m_is_one():
+    n = 30
+    smaller = NS(chi2=100.0, k=1, n=n, aicc=0.0)
+    chi2 = 100.0 / (1 + stats.f.isf(0.75 * ALPHA, 1, n - 2) / (n - 2))  # p = 0.75 alpha
+    ok, p = search._needed(NS(chi2=chi2, k=2, n=n, aicc=-1.0), smaller, 1, ALPHA)
+    assert ok and p == pytest.approx(0.75 * ALPHA, rel=1e-6)
+
+
+def test_boundaries_of_better_and_same_are_outside():
+    sub = search.Subset(("a",), NS(aicc=0.99), True, True)
+    assert 1.0 - search.BETTER == 0.99 and not search.replaces(sub, ("b",), 1.0)
+    meas = NS(sigma_hz=np.ones(3))
+    ranking = [
+        NS(effect=e, plausible=True, fit=NS(aicc=1.0, comparison=NS(predicted=np.array(p))))
+        for e, p in (("a", [0.0, 0, 0]), ("b", [search.SAME, 0, 0]))
+    ]
+    assert search._distinct(meas, ranking) == (ranking, {})  # exactly SAME apart: two entries
