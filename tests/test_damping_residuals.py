@@ -82,6 +82,7 @@ def test_least_damping_leaves_out_nan_modes():
         ({}, 0, False),
         ({"damped": np.zeros(4, bool), "damping_ratio": np.full(4, NAN)}, 0, False),
         ({"damped": np.array([0, 0, 0, 1])}, 0, True),
+        ({"damping_ratio": np.array([NAN, 0.01, NAN, NAN])}, 1, True),
         ({"damping_ratio": np.array([NAN, 0.01, 0.02, NAN])}, 2, True),
     ],
 )
