@@ -69,14 +69,16 @@ class Ev:
     parameters = {"a": NS(bounds=(0.0, math.inf)), "b": NS(bounds=(0.5, 1.0))}
 
     def __init__(self):
-        self.models, self.checked = [], []
+        self.models, self.checked, self.values = [], [], []
         self.kernels = NS(loop_closure=self._closure, matrices=self._kernel_matrices)
 
-    def parameter_values(self, n, model="paper", **params):
+    def parameter_values(self, n, model, **params):
         self.models.append(model)
+        self.values.append({k: np.asarray(params.get(k, v), float) for k, v in DEFAULTS.items()})
         return {k: np.broadcast_to(np.asarray(params.get(k, v), float), (n,)).copy() for k, v in DEFAULTS.items()}
 
     def joint_angles(self, poses, **params):
+        assert poses is POSES
         self.checked.append(dict(params))
 
     def pose_inputs(self, poses):
@@ -146,6 +148,19 @@ def test_joint_derivatives_by_the_implicit_function_theorem():
     assert dq == pytest.approx(_dh(p, POSES), rel=1e-7, abs=1e-9)
     assert ev.checked == [{}]  # the pose checked once (one line for a bad pose)
     assert set(ev.models) == {"paper"}
+    _never_below_b_bound_and_central_in_a(ev)
+
+
+def _never_below_b_bound_and_central_in_a(ev):
+    """b sits on its lower bound: never evaluated below it; a is stepped to either side."""
+    assert min(float(np.min(v["b"])) for v in ev.values) == 0.5
+    assert min(float(np.min(v["a"])) for v in ev.values) < DEFAULTS["a"] < max(float(np.max(v["a"])) for v in ev.values)
+
+
+def test_a_one_sided_parameter_first():
+    ev = Ev()
+    q, dq = implicit.joint_derivatives(ev, POSES, ["b", "a"], {})
+    assert dq == pytest.approx(_dh(DEFAULTS, POSES)[..., ::-1], rel=1e-7, abs=1e-9)
 
 
 def test_joint_derivatives_at_other_values():
@@ -156,18 +171,21 @@ def test_joint_derivatives_at_other_values():
     assert dq == pytest.approx(_dh(params, POSES)[..., ::-1], rel=1e-7, abs=1e-9)
 
 
-@pytest.mark.parametrize("params", [{}, {"a": 1.5, "b": 0.75}])
+@pytest.mark.parametrize("params", [{}, {"a": 1.5, "b": 0.75}, {"a": np.array([1.5, 2.5])}])
 def test_matrix_derivatives_along_the_solution_path(params):
+    """At the defaults, elsewhere, and with a value per pose (a step per pose)."""
     ev = Ev()
     out = implicit.numeric_matrix_derivatives(ev, POSES, ["a", "b"], "flexible", params)
     p = {**DEFAULTS, **params}
     q, dq = _h(p, POSES), _dh(p, POSES)
-    p = {k: np.full(2, v) for k, v in p.items()}
+    p = {k: np.broadcast_to(v, (2,)) for k, v in p.items()}
     for k, v in _matrices(q, p).items():
         assert out[k] == pytest.approx(v, rel=1e-12)
     for k, v in _total(q, dq, p).items():
         assert out["d" + k] == pytest.approx(v, rel=1e-6, abs=1e-8)
     assert "flexible" in ev.models  # the matrices of the model asked for
+    if not params:
+        _never_below_b_bound_and_central_in_a(ev)
 
 
 @pytest.mark.parametrize("params", [{}, {"a": 1.5, "b": 0.75}])
@@ -177,12 +195,12 @@ def test_reduced_derivatives_of_the_pencil(params):
     out = implicit.reduced_derivatives(ev, given, ["a", "b"], "rigid", params)
     a, b = ({**DEFAULTS, **params}[k] for k in ("a", "b"))
     x = given[:, 0, None, None]
-    assert out["M"] == pytest.approx((a**2 + x) * E[0][:3, :3]) and out["K"] == pytest.approx(
-        (b**3 * x + a * b) * E[1][:3, :3]
-    )
+    assert out["M"] == pytest.approx((a**2 + x) * E[0][:3, :3])
+    assert out["K"] == pytest.approx((b**3 * x + a * b) * E[1][:3, :3])
     dM = np.stack([2 * a * E[0][:3, :3] + 0 * x, 0 * x * E[0][:3, :3]], axis=1)
     dK = np.stack([b * E[1][:3, :3] + 0 * x, (3 * b**2 * x + a) * E[1][:3, :3]], axis=1)
     assert out["dM"] == pytest.approx(dM, rel=1e-6, abs=1e-9) and out["dK"] == pytest.approx(dK, rel=1e-6, abs=1e-9)
-    assert (
-        set(ev.models) == {"rigid", "paper"} and ev.models.count("rigid") == 1 + 2 * 2
-    )  # the pencil, then two per parameter
+    assert set(ev.models) == {"rigid", "paper"}
+    assert ev.models.count("rigid") == 1 + 2 * 2  # the pencil, then two per parameter
+    if not params:
+        _never_below_b_bound_and_central_in_a(ev)
