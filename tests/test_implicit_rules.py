@@ -69,7 +69,7 @@ class Ev:
     parameters = {"a": NS(bounds=(0.0, math.inf)), "b": NS(bounds=(0.5, 1.0))}
 
     def __init__(self):
-        self.models, self.checked, self.values = [], [], []
+        self.models, self.checked, self.values, self.matrix_a = [], [], [], []
         self.kernels = NS(loop_closure=self._closure, matrices=self._kernel_matrices)
 
     def parameter_values(self, n, model, **params):
@@ -100,6 +100,7 @@ class Ev:
 
     def _kernel_matrices(self, q, inputs):
         assert np.array_equal(inputs["x"], POSES[:, 0])
+        self.matrix_a.append(float(np.min(inputs["a"])))
         return _matrices(q, inputs)
 
     def stiffness(self, given, model="paper", **params):
@@ -186,6 +187,7 @@ def test_matrix_derivatives_along_the_solution_path(params):
     assert "flexible" in ev.models  # the matrices of the model asked for
     if not params:
         _never_below_b_bound_and_central_in_a(ev)
+        assert min(ev.matrix_a) < DEFAULTS["a"]  # the matrices' difference in a is central too
 
 
 @pytest.mark.parametrize("params", [{}, {"a": 1.5, "b": 0.75}])
