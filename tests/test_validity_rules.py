@@ -191,7 +191,7 @@ def test_conditioning_is_the_smallest_over_the_largest_singular_value():
 
 @pytest.mark.parametrize("factor, ok", [(0.98, False), (1.02, True)])
 def test_parallel_mask_on_both_sides_of_the_conditioning_tolerance(factor, ok):
-    rows = _rows([1.0, 0.5, 0.5, 0.5, 0.5, TOL * factor])
+    rows = _rows([2.0, 1.0, 1.0, 1.0, 1.0, 2 * TOL * factor])  # the ratio counts, not the scale
     # the squared singular value carries an error of eps times the largest: relative eps / (2 TOL^2) ~ 5e-5
     assert v.conditioning(rows)[0] == pytest.approx(TOL * factor, rel=1e-3)
     assert v.parallel_mask(rows).tolist() == [ok]
