@@ -156,3 +156,52 @@ def test_same_configuration_of_several_legs():
     b[1, 2] = 2 * lm.BRANCH_GAP
     assert lm.same_configuration(a, b, np.array([True, True, False])).tolist() == [True, False]
     assert lm.same_configuration(np.array([1, 2]), np.array([1, 2]), False).tolist() is True  # integers too
+
+
+def test_the_homotopy_at_dependent_columns_is_nan():
+    """r = q1 + q2 - 0.4: A^T A = [[1, 1], [1, 1]] is singular even with its 1e-300 shift."""
+
+    def closure(q, p):
+        return {"residual": q.sum(-1, keepdims=True) - 0.4, "dresidual": np.ones(q.shape[:-1] + (1, 2))}
+
+    q, _ = lm.continuation(closure, np.array([[1.3, 0.2]]), {})
+    assert np.isnan(q).all()
+
+
+def test_two_poses_warm_started_and_one_converging_later():
+    q = lm.solve(_one, np.zeros((1, 1)), {"t": np.array([1.0, 2.0])}, 2, iterations=6)
+    assert np.abs(q[:, 0, 0] - [1.0, 2.0]).max() < 1e-12
+    q = lm.solve(_one, np.zeros((1, 1)), {"t": np.array([0.1, 3.0])}, 2)  # the second needs more iterations alone
+    assert np.abs(q[:, 0, 0] - [0.1, 3.0]).max() < 1e-12
+
+
+@pytest.mark.parametrize("systems", [1, 64])
+def test_a_damping_that_is_not_finite_takes_the_gradient_step(systems):
+    """H not finite (an infinite damping) with A^T r finite: the step is -A^T r, by either solver."""
+    A = np.random.default_rng(2).normal(size=(systems, 4, 3))
+    r = np.random.default_rng(3).normal(size=(systems, 4))
+    scale = np.ones(systems)
+    scale[0] = np.inf
+    step = lm.normal_solve(A, r, scale, 0.0)
+    assert np.allclose(step[0], -A[0].T @ r[0], rtol=1e-14)
+    if systems > 1:
+        assert np.isfinite(step[1:]).all()
+
+
+def test_a_singular_normal_matrix_takes_the_least_squares_step():
+    """A = [1, 1], r = 1, no damping: A^T A is singular; the minimum-norm step is -(0.5, 0.5)."""
+    step = lm.normal_solve(np.ones((1, 1, 2)), np.ones((1, 1)), 0.0, 0.0)
+    assert np.allclose(step, [[-0.5, -0.5]], rtol=1e-14)
+
+
+def test_no_floating_point_warning_leaves_the_solver():
+    def closure(q, p):
+        out = linear(q, p)
+        x = np.broadcast_to(p["x"], q.shape[:1])
+        out["residual"][x == 0.2, 1] = np.nan  # a leg whose closure is not finite
+        return out
+
+    with np.errstate(all="raise"):
+        q = lm.solve(closure, np.zeros((2, 3)), _p([-0.4, 0.2, 0.5]), 3)
+        lm.continuation(closure, np.zeros((2, 3)), _p([0.2]))
+    assert np.isnan(q[1, 1]).all() and np.isfinite(q[[0, 2]]).all()
