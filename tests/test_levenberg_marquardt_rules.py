@@ -205,3 +205,13 @@ def test_no_floating_point_warning_leaves_the_solver():
         q = lm.solve(closure, np.zeros((2, 3)), _p([-0.4, 0.2, 0.5]), 3)
         lm.continuation(closure, np.zeros((2, 3)), _p([0.2]))
     assert np.isnan(q[1, 1]).all() and np.isfinite(q[[0, 2]]).all()
+
+
+def test_a_solution_past_a_singularity_of_the_branch_is_rejected():
+    """The branch's determinant q - 0.9 vanishes between the reference 0.8 and the solution 1:
+    the solution lies on another assembly branch (NaN, reported); without a branch nothing is
+    reported."""
+    q, off = lm.solve(_circle, np.array([[0.8]]), {}, 1, branch=lambda q: q[..., 0] - 0.9, report=True)
+    assert np.isnan(q).all() and off.tolist() == [[True]]
+    q, off = lm.solve(_circle, np.array([[0.8]]), {}, 1, report=True)
+    assert q.tolist() == [[[1.0]]] and off.dtype == bool and off.tolist() == [[False]]
