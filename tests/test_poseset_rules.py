@@ -57,3 +57,10 @@ def test_the_cached_block_cannot_be_written():
     with pytest.raises(ValueError):
         _random_block(0, 0)[0, 0] = 1.0
     assert _random_block(0, 0).shape == (POSE_BLOCK, 3)
+
+
+@pytest.mark.parametrize("kind", ["grid", "random"])
+def test_indices_as_floats_or_none_at_all(kind):
+    s = PoseSet(kind, BOX, shape=(2, 1, 3), n=6, seed=2)
+    assert np.array_equal(s.take(np.array([5.0, 0.0])), s.take([5, 0]))
+    assert s.take([]).shape == (0, 3)
