@@ -46,12 +46,16 @@ def test_the_held_fixed_line_names_the_lengths_and_the_values():
     two = fixed.held_fixed_line(EV, ["l1", "l2@3"])
     assert two.startswith("held fixed while l1, l2@3 move: m_1 = 0.25 kg, ")
     assert fixed.held_fixed_line(EV, ["k_a"]) is None
+    assert fixed.held_fixed_line(EV, ["l1"], ("payload",)).endswith(
+        ", m_p = 0.35 kg (parameters of their own, not functions of the lengths; vary them too or set them with --set)"
+    )
 
 
 def test_a_bodys_inertias_by_name_else_every_inertia():
     assert fixed.inertias_of(EV, "m_1") == ["I1_xx", "I1_yy"]
     assert fixed.inertias_of(EV, "m_1@2") == ["I1_xx", "I1_yy"]
     assert fixed.inertias_of(EV, "m_e") == ["I_e_xx"]
+    assert fixed.inertias_of(EV, "m1") == ["I1_xx", "I1_yy"]  # a mass named without the underscore
     assert fixed.inertias_of(EV, "m_q") == ["I1_xx", "I1_yy", "I_e_xx"]
     assert fixed.inertias_of(EV, "m") == ["I1_xx", "I1_yy", "I_e_xx"]  # no body name: every inertia
 
