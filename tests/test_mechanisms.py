@@ -79,6 +79,7 @@ def _integrated(inside, lo, hi, density, n=60):
             3e-2,
         ),
     ],
+    ids=["box", "sphere", "cylinder", "tube"],
 )
 def test_shapes_integrate(shape, density, inside, lo, hi, rtol):
     """Mass, centre of mass and inertia of each shape against the midpoint rule over its

@@ -215,7 +215,9 @@ def search_subsets(
     for _ in range(MAX_SIZE - 1):
         beam = sorted((s for s in level if s is not None and s.plausible), key=lambda s: s.fit.aicc)[:BEAM]
         # each subset once (a pair is reached from either member): the beam holds distinct subsets
-        keys = dict.fromkeys(frozenset(s.effects) | {c.effect} for s in beam for c in singles if c.effect not in s.effects)
+        keys = dict.fromkeys(
+            frozenset(s.effects) | {c.effect} for s in beam for c in singles if c.effect not in s.effects
+        )
         level = [judge(key) for key in keys]
         best_level = min((s for s in level if s is not None and s.counts), key=lambda s: s.fit.aicc, default=None)
         if best_level is None or explained(best_level.fit.chi2, best_level.fit.n, best_level.fit.k, alpha):
