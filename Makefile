@@ -54,7 +54,7 @@ $(VENV)/.installed-dev: pyproject.toml | $(BIN)/python
 
 mutate: $(VENV)/.installed-dev
 	rm -rf mutants
-	nice $(BIN)/mutmut run --max-children 1 $(MUTANTS)
+	EIGENTWIST_TEST_BACKEND=numpy nice $(BIN)/mutmut run --max-children 1 $(MUTANTS)
 	$(BIN)/mutmut results
 
 clean:

@@ -228,7 +228,10 @@ def search_subsets(
     level = [judge((c.effect,)) for c in singles]
     for _ in range(MAX_SIZE - 1):
         beam = sorted((s for s in level if s is not None and s.plausible), key=lambda s: s.fit.aicc)[:BEAM]
-        keys = [set(s.effects) | {c.effect} for s in beam for c in singles if c.effect not in s.effects]
+        # each subset once (a pair is reached from either member): the beam holds distinct subsets
+        keys = list(
+            dict.fromkeys(frozenset(s.effects) | {c.effect} for s in beam for c in singles if c.effect not in s.effects)
+        )
         size = len(beam[0].effects) + 1 if beam else 0
         shown = progress(keys, desc=f"searching subsets of {size}", leave=False) if progress and keys else keys
         level = [judge(key) for key in shown]
