@@ -56,7 +56,7 @@ import eigentwist  # noqa: E402
 from eigentwist.runtime.c_kernels import CKernels, compile_and_load, source_path  # noqa: E402
 from gallery import fresh_batches  # noqa: E402
 
-ROBOTS = (("heli4", "paper"), ("hexapod", "none"), ("hexapod", "paper"), ("delta", "paper"))
+ROBOTS = (("heli4", "paper"), ("hexapod", "none"), ("delta", "paper"))
 CALLS = ("sqrt", "fabs", "sin", "cos", "asin", "acos", "atan2", "pow", "exp", "log")
 INT_TARGETS = {"et_left", "unreachable", "singular"}
 _TOKEN = re.compile(r"\s*(\d+\.\d*(?:[eE][-+]?\d+)?|\d+(?:[eE][-+]?\d+)?|[A-Za-z_]\w*|\+=|-=|\*=|/=|\|=|&=|==|!=|<=|>=|&&|\|\||\S)")
