@@ -59,7 +59,9 @@ from gallery import fresh_batches  # noqa: E402
 ROBOTS = (("heli4", "paper"), ("hexapod", "none"), ("delta", "paper"))
 CALLS = ("sqrt", "fabs", "sin", "cos", "asin", "acos", "atan2", "pow", "exp", "log")
 INT_TARGETS = {"et_left", "unreachable", "singular"}
-_TOKEN = re.compile(r"\s*(\d+\.\d*(?:[eE][-+]?\d+)?|\d+(?:[eE][-+]?\d+)?|[A-Za-z_]\w*|\+=|-=|\*=|/=|\|=|&=|==|!=|<=|>=|&&|\|\||\S)")
+_TOKEN = re.compile(
+    r"\s*(\d+\.\d*(?:[eE][-+]?\d+)?|\d+(?:[eE][-+]?\d+)?|[A-Za-z_]\w*|\+=|-=|\*=|/=|\|=|&=|==|!=|<=|>=|&&|\|\||\S)"
+)
 _LOOP = re.compile(r"#pragma omp simd[^\n]*\n\s*for \(int et_i = 0; et_i < ET_BLOCK; \+\+et_i\) \{\n")
 _FUNC = re.compile(r"^(?:static )?(?:void|int|double) (\w+)\(", re.M)
 
@@ -113,8 +115,9 @@ def fused_parts(source: str) -> dict:
 
 
 # --------------------------------------------------------- sweeps actually taken
-def counting_kernels(robot: str, source: str) -> tuple[CKernels, ctypes.CFUNCTYPE]:
-    """The robot's C library built with a counter of Jacobi sweeps (all else the same)."""
+def counting_kernels(robot: str, source: str) -> tuple:
+    """``(kernels, taken)``: the robot's C library built with a counter of Jacobi sweeps
+    (all else the same) and a function returning the sweeps counted so far."""
     src = source.replace(
         "typedef double et_block[ET_BLOCK];",
         "typedef double et_block[ET_BLOCK];\nstatic long et_peak_sweeps = 0;\n"
@@ -240,7 +243,8 @@ def cpu_rate(fn, batches, n: int) -> float:
     return n / best
 
 
-def robot_figures(name: str, model: str, n: int, repeat: int, transcendental: float, log) -> dict:
+def robot_figures(name: str, model: str, n: int, repeat: int, transcendental: float) -> dict:
+    """Flop counts, sweeps taken and CPU rates of the raw kernel and the public path of one robot."""
     ev = eigentwist.load(name, backend="c", threads=1)
     ck = ev._kernels
     stiffness = ev.stiffness_model(model)
@@ -295,7 +299,6 @@ def robot_figures(name: str, model: str, n: int, repeat: int, transcendental: fl
         mk_rate=mk_only,
         public_rate=public,
     )
-    log(out)
     return out
 
 
@@ -352,7 +355,7 @@ def main(argv=None) -> None:
     for name, model in ROBOTS:
         if only and name not in only:
             continue
-        r = robot_figures(name, model, args.n, args.repeat, args.transcendental, lambda _: None)
+        r = robot_figures(name, model, args.n, args.repeat, args.transcendental)
         rows.append(r)
         c = r["counts"]
         print(
