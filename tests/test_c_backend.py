@@ -257,6 +257,25 @@ def test_c_eigen_solver_equals_scipy(c_kernels, n):
 
 
 @compiled
+@pytest.mark.parametrize("e", [0.0, 1e-3, 0.5])
+def test_c_jacobi_rotation_at_equal_diagonal(c_kernels, e):
+    """Equal diagonal entries (d = 0): a_pq = 0 takes the no-rotation branch (den = 0:
+    identity, exact); a_pq != 0 the 45-degree rotation, eigenvalues 1 -+ e of [[1, e], [e, 1]]."""
+    K = np.eye(6)[None].repeat(2, axis=0)
+    K[:, 0, 1] = K[:, 1, 0] = e
+    K[1] *= 2.0
+    M = np.eye(6)[None].repeat(2, axis=0)
+    lam, V = c_kernels["heli4"].generalized_eigh(K, M)
+    want = np.array([1 - e] + [1.0] * 4 + [1 + e])
+    np.testing.assert_allclose(lam, np.stack([want, 2 * want]), rtol=0, atol=4e-16)
+    assert np.all(np.isfinite(V))
+    if e == 0.0:
+        assert np.array_equal(np.abs(V[0]), np.eye(6))
+    else:
+        np.testing.assert_allclose(np.abs(V[0][:2, [0, 5]]), np.full((2, 2), 0.5**0.5), rtol=1e-15)
+
+
+@compiled
 def test_c_eigen_solver_on_model_matrices(c_kernels, ev):
     M, K = ev.stiffness(random_poses(ev.robot, 70, seed=21), "paper")
     lam, V = c_kernels["heli4"].generalized_eigh(K, M)

@@ -92,17 +92,23 @@ def _rotation(n: int, p: int, q: int, vectors: bool) -> list[str]:
     """One Jacobi rotation annihilating ``a_pq`` (Numerical Recipes' sign convention).
 
     ``t = tan(theta)`` is the smaller root of ``t^2 + 2 t (a_qq - a_pp) / (2 a_pq) - 1 = 0``,
-    written without division by a_pq so that ``a_pq = 0`` gives ``t = 0`` exactly.
+    ``t = 2 sgn(d) a_pq / (|d| + r)`` with ``d = a_qq - a_pp``, ``r = sqrt(d^2 + 4 a_pq^2)``,
+    written without division by a_pq so that ``a_pq = 0`` gives ``t = 0`` exactly. With
+    ``den = |d| + r``, ``1 + t^2 = 2 r / den``, so one reciprocal square root
+    ``u = 1 / sqrt(2 r den)`` gives ``c = den u``, ``s = 2 sgn(d) a_pq u`` and
+    ``t = s / c = 2 r u s``: one division per rotation.
     """
     apq, app, aqq = _a(p, q), _a(p, p), _a(q, q)
     lines = [
         "{",
         f"    const double d = {aqq} - {app};",
-        f"    const double den = fabs(d) + sqrt(d * d + 4.0 * {apq} * {apq});",
+        f"    const double r = sqrt(d * d + 4.0 * {apq} * {apq});",
+        "    const double den = fabs(d) + r;",
         "    const double sd = d < 0.0 ? -1.0 : 1.0;",
-        f"    const double t = den > 0.0 ? sd * 2.0 * {apq} / den : 0.0;",
-        "    const double c = 1.0 / sqrt(1.0 + t * t);",
-        "    const double s = t * c;",
+        "    const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;",
+        "    const double c = den > 0.0 ? den * u : 1.0;",
+        f"    const double s = 2.0 * sd * {apq} * u;",
+        "    const double t = 2.0 * r * u * s;",
         f"    {app} = {app} - t * {apq};",
         f"    {aqq} = {aqq} + t * {apq};",
         f"    {apq} = 0.0;",

@@ -10285,11 +10285,13 @@ static int et_sweep6(double *const *et_ap)
         double a55 = ap20[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -10300,11 +10302,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -10315,11 +10319,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a03 * a03);
+            const double r = sqrt(d * d + 4.0 * a03 * a03);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a03 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a03 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a03;
             a33 = a33 + t * a03;
             a03 = 0.0;
@@ -10330,11 +10336,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a04 * a04);
+            const double r = sqrt(d * d + 4.0 * a04 * a04);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a04 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a04 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a04;
             a44 = a44 + t * a04;
             a04 = 0.0;
@@ -10345,11 +10353,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a05 * a05);
+            const double r = sqrt(d * d + 4.0 * a05 * a05);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a05 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a05 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a05;
             a55 = a55 + t * a05;
             a05 = 0.0;
@@ -10360,11 +10370,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -10375,11 +10387,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a13 * a13);
+            const double r = sqrt(d * d + 4.0 * a13 * a13);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a13 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a13 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a13;
             a33 = a33 + t * a13;
             a13 = 0.0;
@@ -10390,11 +10404,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a14 * a14);
+            const double r = sqrt(d * d + 4.0 * a14 * a14);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a14 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a14 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a14;
             a44 = a44 + t * a14;
             a14 = 0.0;
@@ -10405,11 +10421,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a15 * a15);
+            const double r = sqrt(d * d + 4.0 * a15 * a15);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a15 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a15 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a15;
             a55 = a55 + t * a15;
             a15 = 0.0;
@@ -10420,11 +10438,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a23 * a23);
+            const double r = sqrt(d * d + 4.0 * a23 * a23);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a23 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a23 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a23;
             a33 = a33 + t * a23;
             a23 = 0.0;
@@ -10435,11 +10455,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a24 * a24);
+            const double r = sqrt(d * d + 4.0 * a24 * a24);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a24 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a24 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a24;
             a44 = a44 + t * a24;
             a24 = 0.0;
@@ -10450,11 +10472,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a25 * a25);
+            const double r = sqrt(d * d + 4.0 * a25 * a25);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a25 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a25 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a25;
             a55 = a55 + t * a25;
             a25 = 0.0;
@@ -10465,11 +10489,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a34 * a34);
+            const double r = sqrt(d * d + 4.0 * a34 * a34);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a34 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a34 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a34;
             a44 = a44 + t * a34;
             a34 = 0.0;
@@ -10480,11 +10506,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a35 * a35);
+            const double r = sqrt(d * d + 4.0 * a35 * a35);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a35 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a35 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a35;
             a55 = a55 + t * a35;
             a35 = 0.0;
@@ -10495,11 +10523,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a44;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a45 * a45);
+            const double r = sqrt(d * d + 4.0 * a45 * a45);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a45 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a45 * u;
+            const double t = 2.0 * r * u * s;
             a44 = a44 - t * a45;
             a55 = a55 + t * a45;
             a45 = 0.0;
@@ -10656,11 +10686,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         double w55 = wp35[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -10677,11 +10709,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -10698,11 +10732,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a03 * a03);
+            const double r = sqrt(d * d + 4.0 * a03 * a03);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a03 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a03 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a03;
             a33 = a33 + t * a03;
             a03 = 0.0;
@@ -10719,11 +10755,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a04 * a04);
+            const double r = sqrt(d * d + 4.0 * a04 * a04);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a04 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a04 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a04;
             a44 = a44 + t * a04;
             a04 = 0.0;
@@ -10740,11 +10778,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a05 * a05);
+            const double r = sqrt(d * d + 4.0 * a05 * a05);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a05 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a05 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a05;
             a55 = a55 + t * a05;
             a05 = 0.0;
@@ -10761,11 +10801,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -10782,11 +10824,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a13 * a13);
+            const double r = sqrt(d * d + 4.0 * a13 * a13);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a13 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a13 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a13;
             a33 = a33 + t * a13;
             a13 = 0.0;
@@ -10803,11 +10847,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a14 * a14);
+            const double r = sqrt(d * d + 4.0 * a14 * a14);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a14 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a14 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a14;
             a44 = a44 + t * a14;
             a14 = 0.0;
@@ -10824,11 +10870,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a15 * a15);
+            const double r = sqrt(d * d + 4.0 * a15 * a15);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a15 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a15 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a15;
             a55 = a55 + t * a15;
             a15 = 0.0;
@@ -10845,11 +10893,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a23 * a23);
+            const double r = sqrt(d * d + 4.0 * a23 * a23);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a23 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a23 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a23;
             a33 = a33 + t * a23;
             a23 = 0.0;
@@ -10866,11 +10916,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a24 * a24);
+            const double r = sqrt(d * d + 4.0 * a24 * a24);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a24 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a24 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a24;
             a44 = a44 + t * a24;
             a24 = 0.0;
@@ -10887,11 +10939,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a25 * a25);
+            const double r = sqrt(d * d + 4.0 * a25 * a25);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a25 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a25 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a25;
             a55 = a55 + t * a25;
             a25 = 0.0;
@@ -10908,11 +10962,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a34 * a34);
+            const double r = sqrt(d * d + 4.0 * a34 * a34);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a34 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a34 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a34;
             a44 = a44 + t * a34;
             a34 = 0.0;
@@ -10929,11 +10985,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a35 * a35);
+            const double r = sqrt(d * d + 4.0 * a35 * a35);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a35 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a35 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a35;
             a55 = a55 + t * a35;
             a35 = 0.0;
@@ -10950,11 +11008,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a44;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a45 * a45);
+            const double r = sqrt(d * d + 4.0 * a45 * a45);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a45 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a45 * u;
+            const double t = 2.0 * r * u * s;
             a44 = a44 - t * a45;
             a55 = a55 + t * a45;
             a45 = 0.0;
@@ -11732,11 +11792,13 @@ static int et_sweep3(double *const *et_ap)
         double a22 = ap5[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -11744,11 +11806,13 @@ static int et_sweep3(double *const *et_ap)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -11756,11 +11820,13 @@ static int et_sweep3(double *const *et_ap)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -11815,11 +11881,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         double w22 = wp8[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -11830,11 +11898,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -11845,11 +11915,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;

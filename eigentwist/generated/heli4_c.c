@@ -11399,11 +11399,13 @@ static int et_sweep6(double *const *et_ap)
         double a55 = ap20[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -11414,11 +11416,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -11429,11 +11433,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a03 * a03);
+            const double r = sqrt(d * d + 4.0 * a03 * a03);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a03 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a03 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a03;
             a33 = a33 + t * a03;
             a03 = 0.0;
@@ -11444,11 +11450,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a04 * a04);
+            const double r = sqrt(d * d + 4.0 * a04 * a04);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a04 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a04 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a04;
             a44 = a44 + t * a04;
             a04 = 0.0;
@@ -11459,11 +11467,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a05 * a05);
+            const double r = sqrt(d * d + 4.0 * a05 * a05);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a05 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a05 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a05;
             a55 = a55 + t * a05;
             a05 = 0.0;
@@ -11474,11 +11484,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -11489,11 +11501,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a13 * a13);
+            const double r = sqrt(d * d + 4.0 * a13 * a13);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a13 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a13 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a13;
             a33 = a33 + t * a13;
             a13 = 0.0;
@@ -11504,11 +11518,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a14 * a14);
+            const double r = sqrt(d * d + 4.0 * a14 * a14);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a14 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a14 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a14;
             a44 = a44 + t * a14;
             a14 = 0.0;
@@ -11519,11 +11535,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a15 * a15);
+            const double r = sqrt(d * d + 4.0 * a15 * a15);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a15 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a15 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a15;
             a55 = a55 + t * a15;
             a15 = 0.0;
@@ -11534,11 +11552,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a23 * a23);
+            const double r = sqrt(d * d + 4.0 * a23 * a23);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a23 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a23 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a23;
             a33 = a33 + t * a23;
             a23 = 0.0;
@@ -11549,11 +11569,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a24 * a24);
+            const double r = sqrt(d * d + 4.0 * a24 * a24);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a24 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a24 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a24;
             a44 = a44 + t * a24;
             a24 = 0.0;
@@ -11564,11 +11586,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a25 * a25);
+            const double r = sqrt(d * d + 4.0 * a25 * a25);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a25 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a25 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a25;
             a55 = a55 + t * a25;
             a25 = 0.0;
@@ -11579,11 +11603,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a34 * a34);
+            const double r = sqrt(d * d + 4.0 * a34 * a34);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a34 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a34 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a34;
             a44 = a44 + t * a34;
             a34 = 0.0;
@@ -11594,11 +11620,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a35 * a35);
+            const double r = sqrt(d * d + 4.0 * a35 * a35);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a35 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a35 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a35;
             a55 = a55 + t * a35;
             a35 = 0.0;
@@ -11609,11 +11637,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a44;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a45 * a45);
+            const double r = sqrt(d * d + 4.0 * a45 * a45);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a45 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a45 * u;
+            const double t = 2.0 * r * u * s;
             a44 = a44 - t * a45;
             a55 = a55 + t * a45;
             a45 = 0.0;
@@ -11770,11 +11800,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         double w55 = wp35[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -11791,11 +11823,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -11812,11 +11846,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a03 * a03);
+            const double r = sqrt(d * d + 4.0 * a03 * a03);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a03 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a03 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a03;
             a33 = a33 + t * a03;
             a03 = 0.0;
@@ -11833,11 +11869,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a04 * a04);
+            const double r = sqrt(d * d + 4.0 * a04 * a04);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a04 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a04 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a04;
             a44 = a44 + t * a04;
             a04 = 0.0;
@@ -11854,11 +11892,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a05 * a05);
+            const double r = sqrt(d * d + 4.0 * a05 * a05);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a05 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a05 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a05;
             a55 = a55 + t * a05;
             a05 = 0.0;
@@ -11875,11 +11915,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -11896,11 +11938,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a13 * a13);
+            const double r = sqrt(d * d + 4.0 * a13 * a13);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a13 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a13 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a13;
             a33 = a33 + t * a13;
             a13 = 0.0;
@@ -11917,11 +11961,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a14 * a14);
+            const double r = sqrt(d * d + 4.0 * a14 * a14);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a14 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a14 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a14;
             a44 = a44 + t * a14;
             a14 = 0.0;
@@ -11938,11 +11984,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a15 * a15);
+            const double r = sqrt(d * d + 4.0 * a15 * a15);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a15 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a15 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a15;
             a55 = a55 + t * a15;
             a15 = 0.0;
@@ -11959,11 +12007,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a23 * a23);
+            const double r = sqrt(d * d + 4.0 * a23 * a23);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a23 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a23 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a23;
             a33 = a33 + t * a23;
             a23 = 0.0;
@@ -11980,11 +12030,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a24 * a24);
+            const double r = sqrt(d * d + 4.0 * a24 * a24);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a24 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a24 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a24;
             a44 = a44 + t * a24;
             a24 = 0.0;
@@ -12001,11 +12053,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a25 * a25);
+            const double r = sqrt(d * d + 4.0 * a25 * a25);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a25 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a25 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a25;
             a55 = a55 + t * a25;
             a25 = 0.0;
@@ -12022,11 +12076,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a34 * a34);
+            const double r = sqrt(d * d + 4.0 * a34 * a34);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a34 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a34 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a34;
             a44 = a44 + t * a34;
             a34 = 0.0;
@@ -12043,11 +12099,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a35 * a35);
+            const double r = sqrt(d * d + 4.0 * a35 * a35);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a35 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a35 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a35;
             a55 = a55 + t * a35;
             a35 = 0.0;
@@ -12064,11 +12122,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a44;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a45 * a45);
+            const double r = sqrt(d * d + 4.0 * a45 * a45);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a45 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a45 * u;
+            const double t = 2.0 * r * u * s;
             a44 = a44 - t * a45;
             a55 = a55 + t * a45;
             a45 = 0.0;
@@ -12846,11 +12906,13 @@ static int et_sweep3(double *const *et_ap)
         double a22 = ap5[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -12858,11 +12920,13 @@ static int et_sweep3(double *const *et_ap)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -12870,11 +12934,13 @@ static int et_sweep3(double *const *et_ap)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -12929,11 +12995,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         double w22 = wp8[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -12944,11 +13012,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -12959,11 +13029,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;

@@ -11342,11 +11342,13 @@ static int et_sweep6(double *const *et_ap)
         double a55 = ap20[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -11357,11 +11359,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -11372,11 +11376,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a03 * a03);
+            const double r = sqrt(d * d + 4.0 * a03 * a03);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a03 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a03 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a03;
             a33 = a33 + t * a03;
             a03 = 0.0;
@@ -11387,11 +11393,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a04 * a04);
+            const double r = sqrt(d * d + 4.0 * a04 * a04);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a04 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a04 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a04;
             a44 = a44 + t * a04;
             a04 = 0.0;
@@ -11402,11 +11410,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a05 * a05);
+            const double r = sqrt(d * d + 4.0 * a05 * a05);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a05 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a05 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a05;
             a55 = a55 + t * a05;
             a05 = 0.0;
@@ -11417,11 +11427,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -11432,11 +11444,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a13 * a13);
+            const double r = sqrt(d * d + 4.0 * a13 * a13);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a13 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a13 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a13;
             a33 = a33 + t * a13;
             a13 = 0.0;
@@ -11447,11 +11461,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a14 * a14);
+            const double r = sqrt(d * d + 4.0 * a14 * a14);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a14 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a14 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a14;
             a44 = a44 + t * a14;
             a14 = 0.0;
@@ -11462,11 +11478,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a15 * a15);
+            const double r = sqrt(d * d + 4.0 * a15 * a15);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a15 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a15 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a15;
             a55 = a55 + t * a15;
             a15 = 0.0;
@@ -11477,11 +11495,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a33 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a23 * a23);
+            const double r = sqrt(d * d + 4.0 * a23 * a23);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a23 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a23 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a23;
             a33 = a33 + t * a23;
             a23 = 0.0;
@@ -11492,11 +11512,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a24 * a24);
+            const double r = sqrt(d * d + 4.0 * a24 * a24);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a24 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a24 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a24;
             a44 = a44 + t * a24;
             a24 = 0.0;
@@ -11507,11 +11529,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a25 * a25);
+            const double r = sqrt(d * d + 4.0 * a25 * a25);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a25 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a25 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a25;
             a55 = a55 + t * a25;
             a25 = 0.0;
@@ -11522,11 +11546,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a44 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a34 * a34);
+            const double r = sqrt(d * d + 4.0 * a34 * a34);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a34 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a34 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a34;
             a44 = a44 + t * a34;
             a34 = 0.0;
@@ -11537,11 +11563,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a35 * a35);
+            const double r = sqrt(d * d + 4.0 * a35 * a35);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a35 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a35 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a35;
             a55 = a55 + t * a35;
             a35 = 0.0;
@@ -11552,11 +11580,13 @@ static int et_sweep6(double *const *et_ap)
         }
         {
             const double d = a55 - a44;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a45 * a45);
+            const double r = sqrt(d * d + 4.0 * a45 * a45);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a45 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a45 * u;
+            const double t = 2.0 * r * u * s;
             a44 = a44 - t * a45;
             a55 = a55 + t * a45;
             a45 = 0.0;
@@ -11713,11 +11743,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         double w55 = wp35[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -11734,11 +11766,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -11755,11 +11789,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a03 * a03);
+            const double r = sqrt(d * d + 4.0 * a03 * a03);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a03 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a03 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a03;
             a33 = a33 + t * a03;
             a03 = 0.0;
@@ -11776,11 +11812,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a04 * a04);
+            const double r = sqrt(d * d + 4.0 * a04 * a04);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a04 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a04 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a04;
             a44 = a44 + t * a04;
             a04 = 0.0;
@@ -11797,11 +11835,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a05 * a05);
+            const double r = sqrt(d * d + 4.0 * a05 * a05);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a05 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a05 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a05;
             a55 = a55 + t * a05;
             a05 = 0.0;
@@ -11818,11 +11858,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -11839,11 +11881,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a13 * a13);
+            const double r = sqrt(d * d + 4.0 * a13 * a13);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a13 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a13 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a13;
             a33 = a33 + t * a13;
             a13 = 0.0;
@@ -11860,11 +11904,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a14 * a14);
+            const double r = sqrt(d * d + 4.0 * a14 * a14);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a14 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a14 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a14;
             a44 = a44 + t * a14;
             a14 = 0.0;
@@ -11881,11 +11927,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a15 * a15);
+            const double r = sqrt(d * d + 4.0 * a15 * a15);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a15 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a15 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a15;
             a55 = a55 + t * a15;
             a15 = 0.0;
@@ -11902,11 +11950,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a33 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a23 * a23);
+            const double r = sqrt(d * d + 4.0 * a23 * a23);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a23 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a23 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a23;
             a33 = a33 + t * a23;
             a23 = 0.0;
@@ -11923,11 +11973,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a24 * a24);
+            const double r = sqrt(d * d + 4.0 * a24 * a24);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a24 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a24 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a24;
             a44 = a44 + t * a24;
             a24 = 0.0;
@@ -11944,11 +11996,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a22;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a25 * a25);
+            const double r = sqrt(d * d + 4.0 * a25 * a25);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a25 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a25 * u;
+            const double t = 2.0 * r * u * s;
             a22 = a22 - t * a25;
             a55 = a55 + t * a25;
             a25 = 0.0;
@@ -11965,11 +12019,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a44 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a34 * a34);
+            const double r = sqrt(d * d + 4.0 * a34 * a34);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a34 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a34 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a34;
             a44 = a44 + t * a34;
             a34 = 0.0;
@@ -11986,11 +12042,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a33;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a35 * a35);
+            const double r = sqrt(d * d + 4.0 * a35 * a35);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a35 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a35 * u;
+            const double t = 2.0 * r * u * s;
             a33 = a33 - t * a35;
             a55 = a55 + t * a35;
             a35 = 0.0;
@@ -12007,11 +12065,13 @@ static int et_sweepv6(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a55 - a44;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a45 * a45);
+            const double r = sqrt(d * d + 4.0 * a45 * a45);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a45 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a45 * u;
+            const double t = 2.0 * r * u * s;
             a44 = a44 - t * a45;
             a55 = a55 + t * a45;
             a45 = 0.0;
@@ -12789,11 +12849,13 @@ static int et_sweep3(double *const *et_ap)
         double a22 = ap5[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -12801,11 +12863,13 @@ static int et_sweep3(double *const *et_ap)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -12813,11 +12877,13 @@ static int et_sweep3(double *const *et_ap)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
@@ -12872,11 +12938,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         double w22 = wp8[et_i];
         {
             const double d = a11 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a01 * a01);
+            const double r = sqrt(d * d + 4.0 * a01 * a01);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a01 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a01 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a01;
             a11 = a11 + t * a01;
             a01 = 0.0;
@@ -12887,11 +12955,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a00;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a02 * a02);
+            const double r = sqrt(d * d + 4.0 * a02 * a02);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a02 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a02 * u;
+            const double t = 2.0 * r * u * s;
             a00 = a00 - t * a02;
             a22 = a22 + t * a02;
             a02 = 0.0;
@@ -12902,11 +12972,13 @@ static int et_sweepv3(double *const *et_ap, double *const *et_wp)
         }
         {
             const double d = a22 - a11;
-            const double den = fabs(d) + sqrt(d * d + 4.0 * a12 * a12);
+            const double r = sqrt(d * d + 4.0 * a12 * a12);
+            const double den = fabs(d) + r;
             const double sd = d < 0.0 ? -1.0 : 1.0;
-            const double t = den > 0.0 ? sd * 2.0 * a12 / den : 0.0;
-            const double c = 1.0 / sqrt(1.0 + t * t);
-            const double s = t * c;
+            const double u = den > 0.0 ? 1.0 / sqrt(2.0 * r * den) : 0.0;
+            const double c = den > 0.0 ? den * u : 1.0;
+            const double s = 2.0 * sd * a12 * u;
+            const double t = 2.0 * r * u * s;
             a11 = a11 - t * a12;
             a22 = a22 + t * a12;
             a12 = 0.0;
