@@ -352,3 +352,25 @@ def test_kernel_scalars_packed_once_follow_the_values(ev_c):
     p["l1"][...] = 1.5 * p["l1"]  # in place: the next call reads the new value
     d = ev_c.kernels.matrices(q, ev_c._with_pose(poses, p))["K_F"]
     assert np.array_equal(a, c) and not np.allclose(c, d, rtol=1e-3)
+
+
+@pytest.mark.parametrize(
+    "pose, fused",
+    [
+        (("x", "y", "z"), True),  # a translational robot: the C pass's 3x3 blocks
+        (("z", "x", "y"), True),  # in any order
+        (("x", "y", "z", "rot_x", "rot_y", "rot_z"), True),  # a free platform: its six twists
+        (("rot_z", "rot_y", "rot_x", "z", "y", "x"), True),
+        (("x", "y", "rot_z"), False),  # planar: reduced in Python on its allowed twists
+        (("z", "rot_x", "rot_y"), False),  # lower mobility
+        (("x", "y"), False),  # a point in a plane
+    ],
+)
+def test_the_rigid_model_takes_the_c_pass_for_translations_or_all_six_twists(pose, fused):
+    from types import SimpleNamespace
+
+    from eigentwist.runtime.evaluator import Evaluator
+
+    stub = SimpleNamespace(space=SimpleNamespace(basis=(tuple(range(len(pose))),)), pose_names=pose)
+    assert Evaluator._c_rigid.fget(stub) is fused
+    assert Evaluator._c_rigid.fget(SimpleNamespace(space=SimpleNamespace(), pose_names=pose)) is False

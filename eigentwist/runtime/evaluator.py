@@ -1180,7 +1180,7 @@ class Evaluator:
         if basis is None:
             return False
         names = twist_order(self.pose_names)
-        return names in (("x", "y", "z"), FULL) and len(basis[0]) == len(names)
+        return names in (twist_order(("x", "y", "z")), twist_order(FULL)) and len(basis[0]) == len(names)
 
     def _preloaded(self, effects) -> bool:
         return self._remembered(
