@@ -314,6 +314,16 @@ def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth, monkey
     obj.residuals(theta + 0.1)
     obj.jacobian(theta + 0.1)
     assert obj.nfev == 3  # one more call, cached for both
+    # the last two points are kept (an accepted point, then a rejected trial): the first
+    # needs no new call; a third point forgets the oldest
+    obj.jacobian(theta)
+    assert obj.nfev == 3
+    obj.residuals(theta - 0.1)
+    assert obj.nfev == 4
+    obj.residuals(theta)
+    assert obj.nfev == 4
+    obj.residuals(theta + 0.1)
+    assert obj.nfev == 5
 
 
 def test_fit_result_carries_its_model_covariance_and_message(ev_fast, truth):

@@ -220,7 +220,7 @@ class _Objective:
         key = theta.tobytes()
         if key not in self.cache and self.exact:
             try:
-                self.cache = {key: self._exact(theta)}
+                self._remember(key, self._exact(theta))
             except InputError as exc:  # no generated sensitivities (gravity preload): differences
                 self.exact = False
                 self.fallback = str(exc)
@@ -233,8 +233,15 @@ class _Objective:
             # noise there would send the Gauss-Newton step to a search bound
             flat = np.abs(f[2::2] - f[1::2]) <= ROUNDOFF * np.abs(f[0])
             jac = np.where(flat, 0.0, (r[2::2] - r[1::2]) / (2 * STEP)).T
-            self.cache = {key: (r[0], jac)}
+            self._remember(key, (r[0], jac))
+        self._remember(key, self.cache[key])
         return self.cache[key]
+
+    def _remember(self, key: bytes, value) -> None:
+        """Keep the two points asked for last: the solver's accepted point survives a rejected
+        trial step after it, so the covariance at the solution needs no evaluation of its own."""
+        rest = {k: v for k, v in self.cache.items() if k != key}
+        self.cache = {**dict(list(rest.items())[-1:]), key: value}
 
     def _residuals(self, values: np.ndarray):
         """``(f, r)`` for B parameter sets: frequencies (B, N) and whitened residuals (B, N [+ Z])."""
