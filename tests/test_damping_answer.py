@@ -24,7 +24,7 @@ from eigentwist.diagnose.stats import DELTA_AICC, SEPARATION
 
 IN, OUT = 0.99, 1.01  # just inside / just outside a threshold (relative)
 
-EFFECTS = {  # name -> (kind, parameters)
+EFFECTS = {  # name -> (primitive, parameters)
     "stiff": ("compliance", ("k",)),
     "servo_damping": ("damping", ("c_a",)),
     "servo_delay": ("damping", ("t_d",)),
@@ -35,7 +35,7 @@ EFFECTS = {  # name -> (kind, parameters)
 class _Ev:
     """A stand-in evaluator: the effects above, units of seconds."""
 
-    robot = NS(effect=lambda n: NS(kind=EFFECTS[n][0], parameters=EFFECTS[n][1], fit=EFFECTS[n][1]))
+    robot = NS(effect=lambda n: NS(primitive=EFFECTS[n][0], parameters=EFFECTS[n][1], fit=EFFECTS[n][1]))
 
     def parameter(self, name):
         return NS(unit="s", plausible_range=(0.0, 1.0))
