@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import contextlib
 import io
 import re
 import shutil
@@ -70,10 +71,30 @@ def _parse(html: str) -> _Collector:
 
 
 @pytest.fixture(scope="module")
-def report_path(tmp_path_factory):
+def default_report(tmp_path_factory):
+    """``eigentwist report -o report.html`` run once: its file, the ReportData it rendered and
+    what it printed."""
+    import eigentwist.report as report
+
+    built = []
+
+    def recording(*args, **kwargs):
+        built.append(original(*args, **kwargs))
+        return built[-1]
+
+    original = report.build_report
     path = tmp_path_factory.mktemp("report") / "report.html"
-    assert main(["report", "-o", str(path)]) == 0
-    return path
+    out = io.StringIO()
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(out):
+        mp.setattr(report, "build_report", recording)
+        assert main(["report", "-o", str(path)]) == 0
+    assert len(built) == 1
+    return path, built[0], out.getvalue()
+
+
+@pytest.fixture(scope="module")
+def report_path(default_report):
+    return default_report[0]
 
 
 @pytest.fixture(scope="module")
@@ -119,9 +140,8 @@ def test_report_numbers_match_the_paper_comparison(parsed):
     assert "RMS error 4.17 %" in text and "max 8.96 %" in text
 
 
-def test_make_run_summary_printed(capsys, tmp_path):
-    assert main(["report", "-o", str(tmp_path / "r.html")]) == 0
-    out = capsys.readouterr().out
+def test_make_run_summary_printed(default_report):
+    out = default_report[2]
     assert "report written to" in out and "RMS error" in out
 
 
@@ -290,10 +310,8 @@ def test_next_measurement_text_follows_the_indistinguishable_flag():
 
 
 @pytest.fixture(scope="module")
-def report_data():
-    from eigentwist.report import build_report
-
-    return build_report()
+def report_data(default_report):
+    return default_report[1]
 
 
 def test_keys_the_diagnosis_gains_are_rendered_as_text(report_data):
