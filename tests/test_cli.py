@@ -125,14 +125,18 @@ def test_matrices_flexible_prints_its_own_frequencies():
 
 @pytest.mark.slow  # > ~8 s: make test, not make test-fast
 def test_piping_into_head_is_no_error():
-    """``eigentwist diagnose paper | head -1``: the reader has gone when the output comes."""
+    """``eigentwist compare paper | head -1``: the reader has gone when the output comes
+    (the command's output goes through the CLI's one writer, whichever command it is)."""
     import os
 
     read, write = os.pipe()
     os.close(read)  # deterministic: every write meets a closed pipe
     try:
         r = subprocess.run(
-            [sys.executable, "-m", "eigentwist", "diagnose", "paper"], stdout=write, stderr=subprocess.PIPE, text=True
+            [sys.executable, "-m", "eigentwist", "compare", "paper", "--model", "rigid"],
+            stdout=write,
+            stderr=subprocess.PIPE,
+            text=True,
         )
     finally:
         os.close(write)
