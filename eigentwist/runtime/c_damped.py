@@ -770,31 +770,21 @@ def driver():
     """The compiled driver ``et_damped`` (built on first use into the cache, loaded after its
     SHA-256 is checked), or None where it cannot be built (no compiler)."""
     if not _DRIVER:
-        import subprocess
+        from .ccompile import load_library
 
-        from .ccompile import BuildError, build_library, find_compiler, flag_sets
-
+        lib = load_library(SOURCE, "damped")
         fn = None
-        try:
-            cc = find_compiler()
-            for _, flags in flag_sets():
-                try:
-                    lib = ctypes.CDLL(str(build_library(SOURCE, "damped", cc, flags)))
-                except (subprocess.CalledProcessError, OSError):
-                    continue
-                _LIBRARIES.append(lib)
-                fn = lib.et_damped
-                d, i = ctypes.c_double, ctypes.c_int
-                fn.argtypes = [ctypes.c_int64, i, i] + [ctypes.c_void_p] * 7 + [d, d, d] + [ctypes.c_void_p] * 6
-                fn.restype = ctypes.c_int
-                lib.et_wrenches.argtypes = [ctypes.c_int64, i, i, i, ctypes.c_void_p, ctypes.c_void_p, d] + [
-                    ctypes.c_void_p
-                ] * 3
-                lib.et_wrenches.restype = ctypes.c_int
-                _WRENCHES.append(lib.et_wrenches)
-                break
-        except (BuildError, OSError):
-            fn = None
+        if lib is not None:
+            _LIBRARIES.append(lib)
+            fn = lib.et_damped
+            d, i = ctypes.c_double, ctypes.c_int
+            fn.argtypes = [ctypes.c_int64, i, i] + [ctypes.c_void_p] * 7 + [d, d, d] + [ctypes.c_void_p] * 6
+            fn.restype = ctypes.c_int
+            lib.et_wrenches.argtypes = [ctypes.c_int64, i, i, i, ctypes.c_void_p, ctypes.c_void_p, d] + [
+                ctypes.c_void_p
+            ] * 3
+            lib.et_wrenches.restype = ctypes.c_int
+            _WRENCHES.append(lib.et_wrenches)
         _DRIVER.append(fn)
     return _DRIVER[0]
 

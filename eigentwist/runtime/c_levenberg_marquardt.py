@@ -310,42 +310,32 @@ def driver():
     """The compiled driver ``et_newton_lm`` (built on first use into the cache), or None
     where it cannot be built (no compiler)."""
     if not _DRIVER:
-        import subprocess
+        from .ccompile import load_library
 
-        from .ccompile import BuildError, build_library, find_compiler, flag_sets
-
+        lib = load_library(SOURCE, "newton")
         fn = None
-        try:
-            cc = find_compiler()
-            for _, flags in flag_sets():
-                try:
-                    lib = ctypes.CDLL(str(build_library(SOURCE, "newton", cc, flags)))
-                except (subprocess.CalledProcessError, OSError):
-                    continue
-                _LIBRARIES.append(lib)
-                fn = lib.et_newton_lm
-                P = ctypes.POINTER
-                fn.argtypes = [
-                    ctypes.c_int64,
-                    ctypes.c_void_p,
-                    ctypes.c_int,
-                    P(ctypes.c_void_p),
-                    P(ctypes.c_int64),
-                    P(ctypes.c_int),
-                    ctypes.c_int,
-                    ctypes.c_int,
-                    ctypes.c_int,
-                    ctypes.c_void_p,
-                    ctypes.c_void_p,
-                    ctypes.c_int,
-                    ctypes.c_double,
-                    ctypes.c_double,
-                    ctypes.c_double,
-                ]
-                fn.restype = ctypes.c_int
-                break
-        except (BuildError, OSError):
-            fn = None
+        if lib is not None:
+            _LIBRARIES.append(lib)
+            fn = lib.et_newton_lm
+            P = ctypes.POINTER
+            fn.argtypes = [
+                ctypes.c_int64,
+                ctypes.c_void_p,
+                ctypes.c_int,
+                P(ctypes.c_void_p),
+                P(ctypes.c_int64),
+                P(ctypes.c_int),
+                ctypes.c_int,
+                ctypes.c_int,
+                ctypes.c_int,
+                ctypes.c_void_p,
+                ctypes.c_void_p,
+                ctypes.c_int,
+                ctypes.c_double,
+                ctypes.c_double,
+                ctypes.c_double,
+            ]
+            fn.restype = ctypes.c_int
         _DRIVER.append(fn)
     return _DRIVER[0]
 

@@ -317,6 +317,24 @@ def _compile(source: str, name: str, cc: str, flags: list[str], target: Path) ->
                 os.unlink(path)
 
 
+def load_library(source: str, name: str):
+    """The library compiled from ``source`` (:func:`build_library`, on the first flag set of
+    :func:`flag_sets` that builds it) and loaded with ctypes, or None where no compiler or no
+    flag set builds it (the caller falls back to NumPy)."""
+    import ctypes
+
+    try:
+        cc = find_compiler()
+        for _, flags in flag_sets():
+            try:
+                return ctypes.CDLL(str(build_library(source, name, cc, flags)))
+            except (subprocess.CalledProcessError, OSError):
+                continue
+    except (BuildError, OSError):
+        pass
+    return None
+
+
 def build_library(source: str, name: str, cc: str, flags: list[str], directory: Path | None = None) -> Path:
     """Compile ``source`` into ``<directory>/<name>_<key>.so``, or reuse it if intact.
 
