@@ -174,14 +174,8 @@ def damping_measurement(ev, meas, fit_a, fit_b, names: tuple | None = None, grid
     lo, hi = float(meas.k_a.min()), float(meas.k_a.max())
     k_a = np.unique(np.concatenate([np.geomspace(lo, hi, N_KA), meas.k_a]))
     poses = workspace_poses(ev, meas, grid)
-    pose_rows = np.repeat(poses, len(k_a), axis=0)
-    ka_rows = np.tile(k_a, len(poses))
-    base = _constant_columns(meas)
-    try:
-        modes_of = [
-            ev.modes(pose_rows, f.effects, k_a=ka_rows, invalid="nan", **{**base, **f.fixed}) for f in (fit_a, fit_b)
-        ]
-    except EigentwistError:
+    pose_rows, ka_rows, modes_of = _grid_modes(ev, meas, (fit_a, fit_b), poses, k_a)
+    if modes_of is None:
         return None
     labels = [a for a in modes_of[0].axes if a in modes_of[1].axes and a in set(meas.mode)]
     rel_sigma = float(np.median(meas.relative_sigma))
@@ -253,14 +247,8 @@ def equivalent(ev, meas, fit_a, fit_b, tol: float = EQUIVALENT_SIGMA) -> dict | 
     lo, hi = float(meas.k_a.min()) / KA_SPAN, float(meas.k_a.max()) * KA_SPAN
     k_a = np.unique(np.round(np.concatenate([np.geomspace(lo, hi, N_KA), meas.k_a]), 9))
     poses = np.unique(np.round(np.concatenate([workspace_poses(ev, meas), _random_poses(ev, N_RANDOM)]), 9), axis=0)
-    pose_rows = np.repeat(poses, len(k_a), axis=0)
-    ka_rows = np.tile(k_a, len(poses))
-    base = _constant_columns(meas)
-    try:
-        modes_of = [
-            ev.modes(pose_rows, f.effects, k_a=ka_rows, invalid="nan", **{**base, **f.fixed}) for f in (fit_a, fit_b)
-        ]
-    except EigentwistError:
+    pose_rows, ka_rows, modes_of = _grid_modes(ev, meas, (fit_a, fit_b), poses, k_a)
+    if modes_of is None:
         return None
     fa, fb = (np.asarray(m.freq_hz, dtype=float) for m in modes_of)
     if fa.shape != fb.shape:
@@ -311,3 +299,17 @@ def _damping_apart(modes_of, keep: np.ndarray, rel_sigma: float) -> float:
 def _label(f, other) -> str:
     extra = [e for e in f.effects if e not in other.effects]
     return ",".join(extra) if extra else ",".join(f.effects)
+
+
+def _grid_modes(ev, meas, fits, poses: np.ndarray, k_a: np.ndarray):
+    """``(pose_rows, ka_rows, modes)``: every pose at every k_a (N m/rad), and each fit's
+    :class:`~eigentwist.runtime.Modes` there (the data's constant columns and the fit's
+    values set; invalid poses NaN); ``modes`` None where a model cannot be evaluated."""
+    pose_rows = np.repeat(poses, len(k_a), axis=0)
+    ka_rows = np.tile(k_a, len(poses))
+    base = _constant_columns(meas)
+    try:
+        modes = [ev.modes(pose_rows, f.effects, k_a=ka_rows, invalid="nan", **{**base, **f.fixed}) for f in fits]
+    except EigentwistError:
+        return pose_rows, ka_rows, None
+    return pose_rows, ka_rows, modes
