@@ -33,10 +33,10 @@ its MAC, and a row has a shape when at least two of its DOFs are measured.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+
+from ..runtime.memo import BoundedMemo, content_key
 
 __all__ = [
     "transport_matrix",
@@ -105,25 +105,25 @@ def mac(a, b) -> np.ndarray:
         return np.where((na > 0) & (nb > 0), cross / (na * nb), 0.0)
 
 
+_SETTINGS = BoundedMemo(64)  # content of the setting keys -> their rows (_groups)
+
+
 def _groups(keys: np.ndarray) -> tuple:
     """The rows of each setting from a (N, k) array of setting keys (rows with keys equal
-    to 12 decimals share one): a tuple of index arrays, one per setting."""
+    to 12 decimals share one): a tuple of index arrays, one per setting. Remembered per
+    content of the keys (a fit asks for the same settings at every evaluation)."""
     rounded = np.round(np.asarray(keys, dtype=float), 12) + 0.0  # -0.0 -> 0.0
     # a column with one value for every row (a fitted parameter at this evaluation) tells no
     # settings apart: left out, so that a fit's evaluations share one key
-    rounded = np.ascontiguousarray(rounded[:, (rounded != rounded[:1]).any(axis=0)]) if len(rounded) else rounded
-    return _groups_of(rounded.tobytes(), rounded.shape)
-
-
-@functools.lru_cache(maxsize=256)
-def _groups_of(data: bytes, shape: tuple) -> tuple:
-    """:func:`_groups` keyed on the keys' content (a fit asks for the same settings at every
-    evaluation)."""
-    keys = np.frombuffer(data, dtype=float).reshape(shape)
-    group = np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1)
-    members = tuple(np.flatnonzero(group == g) for g in range(int(group.max()) + 1 if len(group) else 0))
-    for m in members:
-        m.setflags(write=False)
+    rounded = rounded[:, (rounded != rounded[:1]).any(axis=0)] if len(rounded) else rounded
+    key = content_key(rounded, {}, ())
+    members = _SETTINGS.get(key)
+    if members is None:
+        group = np.unique(rounded, axis=0, return_inverse=True)[1].reshape(-1)
+        members = tuple(np.flatnonzero(group == g) for g in range(int(group.max()) + 1 if len(group) else 0))
+        for m in members:
+            m.setflags(write=False)
+        _SETTINGS.put(key, members)
     return members
 
 
