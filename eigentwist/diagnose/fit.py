@@ -218,13 +218,14 @@ class _Objective:
 
     def _eval(self, theta: np.ndarray):
         key = theta.tobytes()
-        if key not in self.cache and self.exact:
+        value = self.cache.get(key)
+        if value is None and self.exact:
             try:
-                self._remember(key, self._exact(theta))
+                value = self._exact(theta)
             except InputError as exc:  # no generated sensitivities (gravity preload): differences
                 self.exact = False
                 self.fallback = str(exc)
-        if key not in self.cache:
+        if value is None:
             thetas = self._sets(theta)
             values = np.column_stack([t.value(thetas[:, j]) for j, t in enumerate(self.tr)])
             f, r = self._residuals(values)
@@ -233,15 +234,12 @@ class _Objective:
             # noise there would send the Gauss-Newton step to a search bound
             flat = np.abs(f[2::2] - f[1::2]) <= ROUNDOFF * np.abs(f[0])
             jac = np.where(flat, 0.0, (r[2::2] - r[1::2]) / (2 * STEP)).T
-            self._remember(key, (r[0], jac))
-        self._remember(key, self.cache[key])
-        return self.cache[key]
-
-    def _remember(self, key: bytes, value) -> None:
-        """Keep the two points asked for last: the solver's accepted point survives a rejected
-        trial step after it, so the covariance at the solution needs no evaluation of its own."""
-        rest = {k: v for k, v in self.cache.items() if k != key}
-        self.cache = {**dict(list(rest.items())[-1:]), key: value}
+            value = (r[0], jac)
+        # the two points asked for last are kept: the solver's accepted point survives a
+        # rejected trial step after it, so the covariance at the solution costs no evaluation
+        older = [k for k in self.cache if k != key][-1:]
+        self.cache = {**{k: self.cache[k] for k in older}, key: value}
+        return value
 
     def _residuals(self, values: np.ndarray):
         """``(f, r)`` for B parameter sets: frequencies (B, N) and whitened residuals (B, N [+ Z])."""
