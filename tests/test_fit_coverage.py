@@ -393,3 +393,49 @@ def test_given_start_values_replace_the_grid_for_their_parameter(ev_fast):
     assert sorted(set(table[:, 0])) == pytest.approx([-1.0, -0.05, 0.05, 1.0])  # clipped to the search range
     assert sorted(set(table[:, 1])) == pytest.approx([0.03, 0.09, 0.3, 0.9, 3.0])  # the others keep their grid
     assert _starts(tr, {"m_p": 0.3, "p_z": 0.0}, set(), None).shape == (1, 2)
+
+
+def _bare_objective():
+    from eigentwist.diagnose.fit import _Objective
+
+    obj = object.__new__(_Objective)
+    obj.best, obj.since, obj.stall = (math.inf, None), 0, True
+    return obj
+
+
+def test_a_fit_stalls_after_its_points_stop_lowering_chi2_by_the_stated_amount():
+    from eigentwist.diagnose.fit import STALL_CHI2, STALL_EVALS, _Stalled
+
+    theta = np.zeros(1)
+    obj = _bare_objective()
+    obj._progress(theta, 10.0)
+    chi2 = 10.0
+    for _ in range(STALL_EVALS - 1):  # each new point lowers chi2 by just under STALL_CHI2: no progress
+        chi2 -= 0.9 * STALL_CHI2
+        obj._progress(theta + chi2, chi2)
+    assert obj.since == STALL_EVALS - 1
+    assert obj.best[0] == chi2 and obj.best[1][0] == chi2  # the best point is kept, though it is no progress
+    obj._progress(theta, chi2 - 1.1 * STALL_CHI2)  # just more than STALL_CHI2: progress, the count restarts
+    assert obj.since == 0
+    for _ in range(STALL_EVALS - 1):
+        obj._progress(theta, 99.0)  # rejected trial points count as no progress
+    with pytest.raises(_Stalled):
+        obj._progress(theta, 99.0)
+    quiet = _bare_objective()
+    quiet.stall = False  # outside the solver's run (the covariance's evaluation) nothing is raised
+    for _ in range(2 * STALL_EVALS):
+        quiet._progress(theta, 1.0)
+
+
+def test_a_stalled_fit_returns_its_best_point_and_says_so(ev_fast, truth, monkeypatch):
+    import importlib
+
+    fit_module = importlib.import_module("eigentwist.diagnose.fit")
+    full = fit(truth, MODEL, ev_fast, ["m_p"], start={"m_p": 0.05}, explore=())
+    monkeypatch.setattr(fit_module, "STALL_EVALS", 1)
+    monkeypatch.setattr(fit_module, "STALL_CHI2", 1e300)  # the first point after the start stalls
+    short = fit(truth, MODEL, ev_fast, ["m_p"], start={"m_p": 0.05}, explore=())
+    assert short.message.startswith("stalled") and short.success
+    assert short.nfev < full.nfev
+    assert short.chi2 >= full.chi2  # the best of fewer points, no better than the converged fit
+    assert full.values["m_p"] == pytest.approx(TRUTH_MP, rel=1e-6)

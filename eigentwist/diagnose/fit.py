@@ -50,6 +50,10 @@ STEP = 1e-2  # central-difference step in theta (1 % in p): K_F carries ~1e-7 re
 # round-off (the 1e-12 rad/(N m) "rigid" compliances), so smaller steps give noise
 START_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
 ROUNDOFF = 1e-9  # relative frequency change per central-difference pair treated as none
+STALL_CHI2 = 1e-3  # a fit whose chi2 has fallen by less than this (a tenth of the AICc resolution of
+STALL_EVALS = 8  # the selection, select.AICC_DIGITS) over its last STALL_EVALS new points has stalled:
+# it stops at its best point (a parameter the data do not want crawls towards its "switched off"
+# limit, stiffness -> inf, without meeting the solver's own tolerances)
 # The Jacobian kinds: "differences" (central, in the residuals' evaluator call) and "exact"
 # (the generated sensitivities: one kernel for every fitted parameter of the
 # catalogue and each leg's own copy, generated and compiled once per cache). Measured
@@ -186,8 +190,13 @@ class FitResult:
         return gof_p_value(self.chi2, self.n, self.k)
 
 
+class _Stalled(Exception):
+    """Raised by :class:`_Objective` when the fit has stalled (``STALL_CHI2``, ``STALL_EVALS``)."""
+
+
 class _Objective:
-    """Residuals and their Jacobian from one batched evaluation per point."""
+    """Residuals and their Jacobian from one batched evaluation per point; it records the best
+    point seen and raises :class:`_Stalled` once chi2 has stopped falling."""
 
     def __init__(self, predictor: Predictor, transforms: list[Transform], jacobian: str | None = None):
         self.pred = predictor
@@ -196,6 +205,9 @@ class _Objective:
         self.meas = predictor.meas
         self.cache: dict = {}
         self.nfev = 0
+        self.best: tuple = (math.inf, None)  # (chi2, theta) of the best point evaluated
+        self.since = 0  # new points since chi2 last fell by more than STALL_CHI2
+        self.stall = False  # whether _Stalled is raised (only inside the solver's run)
         self.exact = _exact_wanted(jacobian)
         self.fallback = ""
         # measured damping ratios are residuals too, and a damped row's decay bounds zeta >= 0
@@ -238,8 +250,23 @@ class _Objective:
         # the two points asked for last are kept: the solver's accepted point survives a
         # rejected trial step after it, so the covariance at the solution costs no evaluation
         older = [k for k in self.cache if k != key][-1:]
+        fresh = key not in self.cache
         self.cache = {**{k: self.cache[k] for k in older}, key: value}
+        if fresh:
+            self._progress(theta, float(value[0] @ value[0]))
         return value
+
+    def _progress(self, theta: np.ndarray, chi2: float) -> None:
+        """Record a new point; raise :class:`_Stalled` when chi2 has not fallen by more than
+        STALL_CHI2 over the last STALL_EVALS new points."""
+        if chi2 < self.best[0] - STALL_CHI2:
+            self.since = 0
+        else:
+            self.since += 1
+        if chi2 < self.best[0]:
+            self.best = (chi2, theta.copy())
+        if self.stall and self.since >= STALL_EVALS:
+            raise _Stalled
 
     def _residuals(self, values: np.ndarray):
         """``(f, r)`` for B parameter sets: frequencies (B, N) and whitened residuals (B, N [+ Z])."""
@@ -386,19 +413,25 @@ def fit(
     lo = np.array([t.bounds[0] for t in transforms])
     hi = np.array([t.bounds[1] for t in transforms])
     theta0 = np.clip(theta0, lo + 1e-12, hi - 1e-12)
-    res = least_squares(
-        obj.residuals,
-        theta0,
-        jac=obj.jacobian,
-        bounds=(lo, hi),
-        method="trf",
-        x_scale=1.0,
-        xtol=1e-8,
-        ftol=1e-9,
-        gtol=1e-9,
-        max_nfev=max_nfev,
-    )
-    theta = res.x
+    obj.stall = True
+    try:
+        res = least_squares(
+            obj.residuals,
+            theta0,
+            jac=obj.jacobian,
+            bounds=(lo, hi),
+            method="trf",
+            x_scale=1.0,
+            xtol=1e-8,
+            ftol=1e-9,
+            gtol=1e-9,
+            max_nfev=max_nfev,
+        )
+        theta, success, message = res.x, bool(res.success), str(res.message)
+    except _Stalled:
+        theta = obj.best[1]
+        success, message = True, f"stalled: chi2 fell by less than {STALL_CHI2:g} over {STALL_EVALS} new points"
+    obj.stall = False
     values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}
     all_values = {**fixed, **values}
     comp = _comparison(meas, effects, ev, all_values)
@@ -422,8 +455,8 @@ def fit(
         n,
         k,
         aicc(chi2, n, k),
-        bool(res.success),
-        str(res.message),
+        success,
+        message,
         obj.nfev,
         at_bound,
         cov,
