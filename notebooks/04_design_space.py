@@ -20,7 +20,7 @@
 # (Hoevenaars, Krut & Herder 2020, DOI 10.1016/j.mechmachtheory.2019.103775). Because eigentwist's
 # evaluators are generated closed forms with every design quantity as an input, mapping $\omega_1$ over
 # the workspace and over design parameters is a matter of large batched calls — here about 0.7 million
-# pose-and-design rows in total, on the NumPy backend (`backend="c"` is faster where a C compiler exists).
+# pose-and-design rows in total, on the C backend where a compiler exists (NumPy otherwise: `backend="auto"`).
 #
 # Model: the Heli4 with the **coupled** end-effector model (preset `coupled`: actuator loss, rod compliance
 # and the traveling plates joined to the tool by compliant couplings), because it holds at every
@@ -38,7 +38,7 @@ import eigentwist
 
 t_start = time.perf_counter()
 MODEL = "coupled"
-ev = eigentwist.load("heli4", backend="numpy")
+ev = eigentwist.load("heli4")                   # C where a compiler exists, NumPy otherwise
 box = np.array(ev.robot.workspace)                      # (3, 2): [lo, hi] per axis, m
 x_ref = np.array(ev.robot.x_ref)
 print("workspace box [m]:", box.tolist(), "  reference pose [m]:", x_ref.tolist())
@@ -203,7 +203,7 @@ print(f"best on the l2 x r_o map: {map_ro[i, j]:.2f} Hz at l2 = {l2[i]:.3f} m, r
 # reference height and its worst case over its box against $l_2$ and $k_a$.
 
 # %%
-delta = eigentwist.load("delta", backend="numpy")
+delta = eigentwist.load("delta")
 dbox = np.array(delta.robot.workspace)
 dxy, (dgx, dgy, _) = grid([dbox[0], dbox[1], (0, 0)], (101, 101, 1))
 dposes = dxy + [0, 0, delta.robot.x_ref[2]]

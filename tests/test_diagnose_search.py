@@ -1,5 +1,5 @@
 """The subset search off the stepwise path: one two-fault case (the 10-seed campaigns are
-``benchmarks/diagnosis_two_faults.py``, figures in benchmarks/README.md).
+``benchmarks/diagnosis_campaigns.py``, figures in benchmarks/README.md).
 
 Hexapod, struts 2 and 5 at k_s = 3e7 N/m (a third of the default), 0.5 % noise, 54 rows: forward
 selection starts with a leg that stands for both and ends on the wrong pair; the search finds

@@ -1,8 +1,10 @@
-"""Two faults at once, the clean campaigns and the diagnosis' CPU time (recorded in benchmarks/README.md).
+"""The diagnosis over noise seeds, and its CPU time (recorded in benchmarks/README.md).
 
-    nice python benchmarks/diagnosis_two_faults.py                 # everything (about 20 min of CPU)
-    python benchmarks/diagnosis_two_faults.py --seeds 3 --no-clean --no-timing
+    nice python benchmarks/diagnosis_campaigns.py                 # everything (about 30 min of CPU)
+    python benchmarks/diagnosis_campaigns.py --seeds 3 --no-cases --no-clean --no-timing
 
+* the single-fault cases (``tests/diagnosis_cases.py``: ``CASES``), 10 noise seeds each: right
+  in n of 10 (``tests/test_diagnose_seeds.py`` runs the first few seeds of each);
 * two-fault campaigns (``tests/diagnosis_cases.py``: ``hexapod_struts``,
   ``heli4_actuator_transmission``), 10 noise seeds each: right in n of 10, the CPU time of
   each diagnosis and whether the subset search changed the stepwise result;
@@ -53,6 +55,14 @@ def two_faults(n: int) -> None:
         )
 
 
+def single_faults(n: int) -> None:
+    ev = eigentwist.load("heli4", backend="auto")
+    for name, case in cases.CASES.items():
+        results = cases.run(case, ev, range(n))
+        wrong = [(seed, why) for seed, ok, why in results if not ok]
+        print(f"{name}: right in {n - len(wrong)}/{n} seeds" + (f"; wrong: {wrong}" if wrong else ""), flush=True)
+
+
 def clean(n: int) -> None:
     ev = eigentwist.load("heli4", backend="auto")
     for noise, offset in ((0.005, 0), (0.02, 1000)):
@@ -80,11 +90,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--clean-seeds", type=int, default=20)
+    ap.add_argument("--no-cases", action="store_true")
     ap.add_argument("--no-clean", action="store_true")
     ap.add_argument("--no-timing", action="store_true")
     args = ap.parse_args()
     if not args.no_timing:
         timing()
+    if not args.no_cases:
+        single_faults(args.seeds)
     two_faults(args.seeds)
     if not args.no_clean:
         clean(args.clean_seeds)
