@@ -21,7 +21,7 @@ from ..description import RobotDescription
 from ..description.pose import POSE
 from .program import Program, derivative
 
-__all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures", "padding_symbols"]
+__all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures", "padding_symbols", "pose_closure"]
 
 
 def _numeric(leg) -> bool:
@@ -98,10 +98,12 @@ def closures(robot):
     the platform can be; legs may name different ones, or none, one per follower in all),
     and ``closure_rate`` (n_c, 6), their exact derivatives along
     the platform's six unit twists ``[omega; v]`` at its origin (``pose_space.motion``:
-    ``dr/dt_k = sum_s dr/ds . ds/dt_k``), for the runtime's Newton steps.
+    ``dr/dt_k = sum_s dr/ds . ds/dt_k``), for the runtime's Newton steps. Legs solved
+    numerically name no closures: their loop closures fix the followers
+    (:func:`pose_closure`), and this gives None.
     """
     pose = robot.pose_space
-    if not getattr(pose, "followers", ()):
+    if not getattr(pose, "followers", ()) or any(_numeric(leg) for leg in robot.legs):
         return None
     count = sum(len(leg.closures) for leg in robot.legs)
     if count != len(pose.followers):
@@ -171,3 +173,28 @@ def loop_closure(robot, q_all: list):
         "dresidual": ((n, rows, nq), [e for J in jac for e in J]),
     }
     return prog, outputs
+
+
+def pose_closure(robot, prog, outputs: dict):
+    """``(program, outputs)`` of the legs' loop closures as the equations of a
+    lower-mobility platform's followers (:class:`~eigentwist.description.pose.LowerMobilityPose`
+    with legs solved numerically), else None (no followers).
+
+    ``prog`` and ``outputs`` are :func:`loop_closure`'s; the outputs gain ``dresidual_pose``
+    (legs, rows, 6): the residual's exact derivatives along the platform's six unit twists
+    ``[omega; v]`` at its origin (``pose_space.motion``), so that the runtime solves the
+    followers and every leg's coordinates together by one damped Newton method
+    (:func:`eigentwist.runtime.platform.follow_legs`): rows from every leg, unknowns the
+    followers and every leg's coordinates.
+    """
+    pose = robot.pose_space
+    if not getattr(pose, "followers", ()):
+        return None
+    (n, rows), flat = outputs["residual"]
+    motion = pose.motion()
+    rates = []
+    for e in flat:
+        d = {s_: derivative(prog, e, s_) for s_, _ in motion}
+        rate = sum((d[s_] * row for s_, row in motion if d[s_] != 0), sp.zeros(1, 6))
+        rates += list(rate)
+    return prog, {**outputs, "dresidual_pose": ((n, rows, 6), rates)}
