@@ -118,9 +118,9 @@ def _legs_closure(kernel, followers: list, shape: tuple):
         r = out["residual"].reshape(n, legs, -1)
         rows = r.shape[-1]
         J = np.zeros((n, legs * rows, nf + legs * nq))
-        J[:, :, :nf] = (out["dresidual_pose"].reshape(n, legs, rows, 6) @ _follower_twists(full, followers)[:, None]).reshape(
-            n, legs * rows, nf
-        )
+        J[:, :, :nf] = (
+            out["dresidual_pose"].reshape(n, legs, rows, 6) @ _follower_twists(full, followers)[:, None]
+        ).reshape(n, legs * rows, nf)
         A = out["dresidual"].reshape(n, legs, rows, nq)
         for i in range(legs):
             J[:, i * rows : (i + 1) * rows, nf + i * nq : nf + (i + 1) * nq] = A[:, i]
