@@ -63,6 +63,22 @@ def test_urdf_legs_give_the_followers_of_the_closed_form_twin(pair):
 
 
 @pytest.mark.derives
+def test_a_closed_form_leg_beside_urdf_legs(pair):
+    """Leg 1 in closed form (its IK and its closure named), legs 2 and 3 in URDF form: the
+    twin's followers, joints and frequencies."""
+    from .descriptions import prs3_urdf
+
+    ev, twin, poses = pair
+    mixed = eigentwist.load(prs3_urdf.describe("prs3_mixed", closed_form=(0,)), backend="numpy", progress=None)
+    np.testing.assert_allclose(np.asarray(mixed._poses(poses)), np.asarray(twin._poses(poses)), rtol=0, atol=1e-12)
+    q = mixed.joint_angles(poses)  # (N, legs, 2): leg 1's slider height and its padded 0
+    np.testing.assert_allclose(q[:, 0], np.c_[twin.joint_angles(poses)[:, 0, 0], 0 * poses[:, 0]], atol=1e-12)
+    np.testing.assert_allclose(q[:, 1:], ev.joint_angles(poses)[:, 1:], atol=1e-12)
+    f, ft = mixed.frequencies(poses, "none"), twin.frequencies(poses, "none")
+    assert np.max(np.abs(f / ft - 1)) < 1e-10
+
+
+@pytest.mark.derives
 def test_urdf_lower_mobility_equals_pinocchio(pair):
     ev, _, poses = pair
     p = dict(ev.defaults)
@@ -105,3 +121,26 @@ def test_a_pose_the_rods_cannot_reach_is_unreachable(pair):
     assert np.isnan(np.asarray(ev._poses(np.array([far])))[0, [0, 1, 5]]).all()  # no closed loop: no followers
     with pytest.raises(UnreachablePoseError, match=r"x, y, rot_z did not converge"):
         ev.frequencies(far, "none")
+
+
+@pytest.mark.parametrize("commanded, refused", [(("z", "rot_x", "rot_y"), False), (("z", "rot_x"), True)])
+def test_loop_closures_must_fix_every_follower(commanded, refused):
+    """Each PRS leg's closure has one row more than its coordinates (3 position rows, slider
+    and revolute joint): three legs fix three followers, not four."""
+    import dataclasses
+
+    from eigentwist.description.pose import LowerMobilityPose
+    from eigentwist.errors import DescriptionError
+    from eigentwist.symbolic.kinematics import inverse_kinematics, loop_closure
+
+    from .descriptions import prs3_urdf
+
+    robot = dataclasses.replace(prs3_urdf.describe(), pose=commanded, pose_space=LowerMobilityPose(commanded))
+    q_all = inverse_kinematics(robot)[2]
+    if refused:
+        with pytest.raises(
+            DescriptionError, match=r"has 4 followers \(x, y, rot_y, rot_z\) and the legs' loop closures fix 3"
+        ):
+            loop_closure(robot, q_all)
+    else:
+        assert loop_closure(robot, q_all)[1]["residual"][0] == (3, 3)

@@ -43,8 +43,9 @@ def inverse_kinematics(robot: RobotDescription):
     coordinate symbols. Legs may name different checks (legs that differ): a check a leg
     does not name is 0 there (within [-1, 1]: it says nothing). Legs solved numerically
     may have different numbers of coordinates: each is padded to the largest leg's with
-    inputs the loop closure holds at zero (:func:`padding_symbols`). Raises
-    ``DescriptionError`` when legs in closed form differ in their numbers of coordinates."""
+    inputs the loop closure holds at zero (:func:`padding_symbols`), and so may a closed-form
+    leg beside them. Raises ``DescriptionError`` when legs, all in closed form, differ in their
+    numbers of coordinates."""
     ik = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
@@ -60,14 +61,15 @@ def inverse_kinematics(robot: RobotDescription):
         q_all.append(tuple(q))
         per_leg.append(dict(c))
     width = max(len(q) for q in q_all)
+    mixed = any(_numeric(leg) for leg in robot.legs)  # a loop closure holds padded coordinates
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         if len(q) == width:
             continue
-        if not _numeric(leg):
+        if not mixed:
             raise DescriptionError(
                 f"{robot.name}: {leg.name} has {len(q)} joint coordinates in closed form; "
                 f"expected {width} like the others (legs with fewer coordinates are written in URDF form, "
-                "eigentwist.description.serial.SerialLeg)"
+                "eigentwist.description.serial.SerialLeg, or beside one)"
             )
         # a leg solved numerically with fewer coordinates than the largest: padded coordinates,
         # inputs of the IK held at zero by the loop closure (:func:`loop_closure`)
@@ -132,9 +134,13 @@ def closures(robot):
 
 
 def loop_closure(robot, q_all: list):
-    """``(program, outputs)`` of the legs' loop-closure equations for a robot whose legs'
-    kinematics are solved numerically (each ``leg.kinematics`` with a ``residual``), else
+    """``(program, outputs)`` of the legs' loop-closure equations for a robot with legs whose
+    kinematics is solved numerically (a ``leg.kinematics`` with a ``residual``), else
     ``(None, {})``.
+
+    A leg in closed form beside them (legs that differ) closes its loop by its closed form,
+    ``q - q(pose) = 0`` (rows linear in its coordinates: Newton lands there in a step or
+    a few bounded ones), followed on a lower-mobility platform by its ``closures``.
 
     The program reads the pose inputs, the parameters and every leg's coordinates ``q_all``
     (the IK program's inputs); its outputs are ``residual`` (legs, rows): the chain end
@@ -149,21 +155,35 @@ def loop_closure(robot, q_all: list):
     numeric = [_numeric(leg) for leg in robot.legs]
     if not any(numeric):
         return None, {}
-    if not all(numeric):
-        raise DescriptionError(
-            f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
-            f"{robot.legs[numeric.index(True)].name} is solved numerically: expected alike legs"
-        )
     prog = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters] + [qq for q in q_all for qq in q]:
         prog.declare(s_)
-    res = []
-    for i, (leg, q) in enumerate(zip(robot.legs, q_all), start=1):
+    res, constraints = [], 0
+    followers = getattr(pose, "followers", ())
+    for i, (leg, q, own) in enumerate(zip(robot.legs, q_all, numeric), start=1):
         real = len(leg.kinematics.coordinates)
-        r = leg.kinematics.residual(prog, pose, q[:real], str(i))
+        if own:
+            r = leg.kinematics.residual(prog, pose, q[:real], str(i))
+            constraints += r.rows - real
+        else:
+            # a closed-form leg beside legs solved numerically: its closed form is its loop
+            # closure (linear in its coordinates), then its closures of a lower-mobility pose
+            given, _ = leg.kinematics.inverse_kinematics(prog, leg, pose, f"cf{i}")
+            r = sp.Matrix([q[m] - given[m] for m in range(real)])
+            named = getattr(leg, "closures", ()) if followers else ()
+            if named:
+                g = leg.geometry(pose.position, pose.rotation, _Symbols())
+                r = sp.Matrix.vstack(r, sp.Matrix([sp.sympify(g[name]) for name in named]))
+                constraints += len(named)
         # legs that differ: a padded coordinate's equation holds it at zero
         res.append(prog.let_matrix(f"r_{i}", sp.Matrix.vstack(r, sp.Matrix(len(q) - real, 1, list(q[real:])))))
+    if followers and constraints < len(followers):
+        raise DescriptionError(
+            f"{robot.name}: pose space {pose!r} has {len(followers)} followers ({', '.join(followers)}) and the "
+            f"legs' loop closures fix {constraints} (each leg solved numerically: its closure rows less its "
+            "coordinates; each closed-form leg: its closures): expected at least one per follower"
+        )
     rows = max(r.rows for r in res)
     res = [sp.Matrix.vstack(r, sp.zeros(rows - r.rows, 1)) for r in res]  # zero rows: no equation
     jac = [sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]) for r, q in zip(res, q_all)]

@@ -7,6 +7,8 @@ leg's twist of restriction (a rotation about the rod frame's x axis through the 
 joint). The platform commands z, rot_x, rot_y; its x, y, rot_z follow from the legs' loop
 closures, solved with the joint coordinates. Parameters, platform and defaults: the
 gallery file's (its effects left out). Newton starts from the home pose's legs.
+``describe(closed_form=(0,))`` takes leg 1 in closed form from the gallery file, beside two
+URDF-form legs.
 """
 
 from pathlib import Path
@@ -22,7 +24,9 @@ from eigentwist.runtime.userfile import describe_file
 GALLERY = Path(__file__).resolve().parents[2] / "examples" / "robots" / "prs3.py"
 
 
-def describe(name="prs3_urdf"):
+def describe(name="prs3_urdf", closed_form=()):
+    """The robot; the legs of 0-based indices ``closed_form`` taken in closed form from the
+    gallery file instead (with their closures: legs that differ)."""
     twin = describe_file(GALLERY)
     p = {q.name: q.symbol for q in twin.parameters}
     d = twin.defaults
@@ -57,6 +61,8 @@ def describe(name="prs3_urdf"):
                 attachment=tuple(p["R_p"] * er),
                 reference=reference,
             )
+            if i not in closed_form
+            else twin.legs[i]
         )
     return ChainRobot(
         name=name,
