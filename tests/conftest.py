@@ -205,7 +205,7 @@ SPLIT = {"test_diagnose_seeds.py", "test_notebooks.py"}
 #: the order matters: the most expensive units first, so the last ones are short.
 COST = {
     "test_readme.py": 210,
-    "derive": 135,
+    "derive": 139,
     "paper_diagnosis": 110,
     "sensitivity": 100,
     "test_diagnose_seeds.py::test_right_in_nine_of_ten_seeds[payload_offset]": 56,
