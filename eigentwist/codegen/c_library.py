@@ -106,13 +106,16 @@ def _model_inputs(robot) -> dict:
             unit, _, doc = out[name]
             out[name] = (unit, value, f"{doc}; 0 in the defaults: the default model is exact")
     numeric = [getattr(getattr(leg, "kinematics", None), "reference", None) is not None for leg in robot.legs]
-    if any(numeric) and all(numeric):
+    if any(numeric):
         # legs in URDF form (numeric IK): the kernels read the joint coordinates solved by
         # Newton's method in the runtime; a C caller passes them (default: the reference;
-        # legs that differ: padded to the largest leg's count, a padded one held at 0)
-        for k, (leg, row) in enumerate(zip(robot.legs, padded_references(robot.legs)), start=1):
+        # legs that differ: padded to the largest leg's count, a padded one held at 0; a
+        # closed-form leg among them computes its own)
+        for k, (leg, row, own) in enumerate(zip(robot.legs, padded_references(robot.legs), numeric), start=1):
             for m, value in enumerate(row, start=1):
-                real = m <= len(leg.kinematics.reference)
+                real = m <= len(leg.kinematics.coordinates)
+                if real and not own:
+                    continue
                 out[f"q{m}_{k}"] = (
                     "rad or m",
                     float(value),

@@ -54,6 +54,11 @@ KERNEL_DOCS = {
         "Each leg's closure equations (m, zero where the platform can be) and their rates along the platform's six "
         "unit twists, for the followers of a lower-mobility pose space."
     ),
+    "followers_legs": (
+        "Loop-closure residual of every leg (orientation error, rad, then position, m), its exact Jacobian with "
+        "respect to the leg's coordinates and its rates along the platform's six unit twists, for the followers of "
+        "a lower-mobility pose space solved with the legs' coordinates."
+    ),
     "loop_closure": (
         "Loop-closure residual of every leg at its joint coordinates and the pose (orientation error, rad, then "
         "position, m) and its exact Jacobian with respect to the leg's coordinates, for the damped Newton inverse "
@@ -126,17 +131,17 @@ def kernels_for(model, progress=None) -> list[Kernel]:
         )
     if getattr(model, "followers", None) is not None:  # NumPy only: the runtime's Newton steps
         prog, closure = model.followers
-        kernels.append(
-            build_kernel(
-                "followers",
-                KERNEL_DOCS["followers"],
-                prog,
-                [Output(k, sh, ex) for k, (sh, ex) in closure.items()],
-                position,
-                [],
-                params + rotation,
+        outs = [Output(k, sh, ex) for k, (sh, ex) in closure.items()]
+        if model.closure is not None:  # legs solved numerically: their loop closures, read at (q, p)
+            kernels.append(
+                build_kernel(
+                    "followers", KERNEL_DOCS["followers_legs"], prog, outs, [], model.joints, program_params, nq
+                )
             )
-        )
+        else:
+            kernels.append(
+                build_kernel("followers", KERNEL_DOCS["followers"], prog, outs, position, [], params + rotation)
+            )
     return kernels
 
 

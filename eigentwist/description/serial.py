@@ -155,8 +155,12 @@ def _padded(rows: list, fill) -> tuple:
 def padded_references(legs) -> tuple:
     """Each numerically solved leg's reference configuration (rad; m for P), padded with
     zeros to the largest leg's number of coordinates (legs that differ: the loop closure
-    holds a padded coordinate at zero, :func:`eigentwist.symbolic.kinematics.loop_closure`)."""
-    return _padded([leg.kinematics.reference for leg in legs], 0.0)
+    holds a padded coordinate at zero, :func:`eigentwist.symbolic.kinematics.loop_closure`).
+    A closed-form leg among them starts from zeros: its loop closure is its closed form,
+    ``q - q(pose) = 0``, linear in its coordinates."""
+    return _padded(
+        [getattr(leg.kinematics, "reference", (0.0,) * len(leg.kinematics.coordinates)) for leg in legs], 0.0
+    )
 
 
 def padded_units(legs) -> tuple:

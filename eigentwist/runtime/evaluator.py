@@ -241,7 +241,15 @@ class Evaluator:
 
         p = self._params(len(arr), params or {}, "rigid") if self.space.followers else None
         closure = getattr(self.module, "followers", None)
-        return full_poses(self.space, arr, closure, p).view(_Full)
+        return full_poses(self.space, arr, closure, p, self._follower_reference()).view(_Full)
+
+    def _follower_reference(self):
+        """The legs' reference configuration (legs, n_q) from which a lower-mobility
+        platform's followers are solved with legs solved numerically (:func:`.platform.follow_legs`);
+        None for legs in closed form (their closures give the followers)."""
+        if not self.numeric_ik:
+            return None
+        return np.array(padded_references(self.robot.legs), dtype=float)
 
     def _given(self, poses) -> np.ndarray:
         arr = np.asarray(poses, dtype=float)

@@ -20,7 +20,7 @@ from .poses import rotation_entries
 
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 
-__all__ = ["full_poses", "follow", "left_jacobian", "TOL_M", "MAX_STEPS"]
+__all__ = ["full_poses", "follow", "follow_legs", "left_jacobian", "TOL_M", "MAX_STEPS"]
 
 TOL_M = 1e-12  # a closure below this (m) counts as met
 MAX_STEPS = 40  # Newton steps per attempt
@@ -79,16 +79,74 @@ def _follower_closure(closure, followers: list):
             out = closure(full[:, 0], full[:, 1], full[:, 2], _kernel_inputs(full, p))
         r = out["closure"].reshape(n, -1)
         rate = out["closure_rate"].reshape(n, -1, 6)
-        T = np.zeros((n, 6, len(followers)))  # twist [omega; v] per unit follower rate
-        Jl = left_jacobian(full[:, 3:6])
-        for c, k in enumerate(followers):
-            if k < 3:
-                T[:, 3 + k, c] = 1.0
-            else:
-                T[:, :3, c] = Jl[:, :, k - 3]
-        return {"residual": r[:, None, :], "dresidual": (rate @ T)[:, None]}
+        return {"residual": r[:, None, :], "dresidual": (rate @ _follower_twists(full, followers))[:, None]}
 
     return evaluate
+
+
+def _follower_twists(full: np.ndarray, followers: list) -> np.ndarray:
+    """(n, 6, followers): the platform twist ``[omega; v]`` per unit rate of each follower
+    at the full poses ``full`` (a position follower: a translation; a rotation-vector
+    follower: the left Jacobian's column)."""
+    T = np.zeros((len(full), 6, len(followers)))
+    Jl = left_jacobian(full[:, 3:6])
+    for c, k in enumerate(followers):
+        if k < 3:
+            T[:, 3 + k, c] = 1.0
+        else:
+            T[:, :3, c] = Jl[:, :, k - 3]
+    return T
+
+
+def _legs_closure(kernel, followers: list, shape: tuple):
+    """The legs' loop closures (the generated ``followers`` kernel of legs solved
+    numerically) as :func:`eigentwist.runtime.levenberg_marquardt.solve` takes a closure:
+    one system per pose whose unknowns (n, 1, followers + legs * n_q) are the followers,
+    then every leg's coordinates (``shape`` = (legs, n_q)); residual (n, 1, legs * rows),
+    every leg's rows, and its Jacobian: the rows' rates along the followers' twists
+    (``dresidual_pose``), and each leg's own block ``dresidual`` on its coordinates."""
+    legs, nq = shape
+    nf = len(followers)
+
+    def evaluate(z, p):
+        full = np.array(p["_full"], dtype=float)
+        full[:, followers] = z[:, 0, :nf]
+        n = len(full)
+        q = z[:, 0, nf:].reshape(n, legs, nq)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            out = kernel(q, _kernel_inputs(full, p))
+        r = out["residual"].reshape(n, legs, -1)
+        rows = r.shape[-1]
+        J = np.zeros((n, legs * rows, nf + legs * nq))
+        J[:, :, :nf] = (
+            out["dresidual_pose"].reshape(n, legs, rows, 6) @ _follower_twists(full, followers)[:, None]
+        ).reshape(n, legs * rows, nf)
+        A = out["dresidual"].reshape(n, legs, rows, nq)
+        for i in range(legs):
+            J[:, i * rows : (i + 1) * rows, nf + i * nq : nf + (i + 1) * nq] = A[:, i]
+        return {"residual": r.reshape(n, 1, legs * rows), "dresidual": J[:, None]}
+
+    return evaluate
+
+
+def follow_legs(kernel, full: np.ndarray, followers: list, p: dict, reference: np.ndarray) -> np.ndarray:
+    """:func:`follow` for legs solved numerically, which name no closures: the followers
+    and every leg's joint coordinates solved together from the legs' loop closures (the
+    generated ``followers`` kernel: residual, its Jacobian on the coordinates and its rates
+    along the platform's twists) by the damped Newton method of the legs' IK
+    (:func:`eigentwist.runtime.levenberg_marquardt.solve`), started from the followers 0 and
+    the legs' ``reference`` (legs, n_q; rad, m for P). Returns the completed (N, 6) poses,
+    NaN followers where Newton does not converge; the legs' coordinates are solved again,
+    on their assembly branches, from the completed poses."""
+    from .levenberg_marquardt import solve
+
+    full = np.array(full, dtype=float)
+    reference = np.asarray(reference, dtype=float)
+    z0 = np.concatenate([np.zeros(len(followers)), reference.ravel()])[None]
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        z = solve(_legs_closure(kernel, followers, reference.shape), z0, {**p, "_full": full}, len(full))
+    full[:, followers] = z[:, 0, : len(followers)]
+    return full
 
 
 def follow(closure, full: np.ndarray, followers: list, p: dict) -> np.ndarray:
@@ -113,14 +171,18 @@ def follow(closure, full: np.ndarray, followers: list, p: dict) -> np.ndarray:
     return full
 
 
-def full_poses(space, given: np.ndarray, closure=None, p: dict | None = None) -> np.ndarray:
+def full_poses(space, given: np.ndarray, closure=None, p: dict | None = None, reference=None) -> np.ndarray:
     """The (N, 6) full poses (x, y, z m; rotation vector rad) of the user's poses
     ``given`` (N, len(space.coordinates)) in pose space ``space``: the given coordinates,
-    the followers solved (:func:`follow`, NaN rows where they do not converge), 0 else."""
+    the followers solved (:func:`follow`; legs solved numerically, their ``reference``
+    configuration (legs, n_q) given: :func:`follow_legs`; NaN rows where they do not
+    converge), 0 else."""
     full = np.zeros((len(given), 6))
     for c, name in enumerate(space.coordinates):
         full[:, FULL.index(name)] = given[:, c]
     followers = [FULL.index(c) for c in getattr(space, "followers", ())]
-    if followers:
+    if followers and reference is not None:
+        full = follow_legs(closure, full, followers, p or {}, reference)
+    elif followers:
         full = follow(closure, full, followers, p or {})
     return full

@@ -21,7 +21,7 @@ from ..description import RobotDescription
 from ..description.pose import POSE
 from .program import Program, derivative
 
-__all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures", "padding_symbols"]
+__all__ = ["POSE", "inverse_kinematics", "loop_closure", "closures", "padding_symbols", "pose_closure"]
 
 
 def _numeric(leg) -> bool:
@@ -43,8 +43,9 @@ def inverse_kinematics(robot: RobotDescription):
     coordinate symbols. Legs may name different checks (legs that differ): a check a leg
     does not name is 0 there (within [-1, 1]: it says nothing). Legs solved numerically
     may have different numbers of coordinates: each is padded to the largest leg's with
-    inputs the loop closure holds at zero (:func:`padding_symbols`). Raises
-    ``DescriptionError`` when legs in closed form differ in their numbers of coordinates."""
+    inputs the loop closure holds at zero (:func:`padding_symbols`), and so may a closed-form
+    leg beside them. Raises ``DescriptionError`` when legs, all in closed form, differ in their
+    numbers of coordinates."""
     ik = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters]:
@@ -60,14 +61,15 @@ def inverse_kinematics(robot: RobotDescription):
         q_all.append(tuple(q))
         per_leg.append(dict(c))
     width = max(len(q) for q in q_all)
+    mixed = any(_numeric(leg) for leg in robot.legs)  # a loop closure holds padded coordinates
     for i, (leg, q) in enumerate(zip(robot.legs, q_all)):
         if len(q) == width:
             continue
-        if not _numeric(leg):
+        if not mixed:
             raise DescriptionError(
                 f"{robot.name}: {leg.name} has {len(q)} joint coordinates in closed form; "
                 f"expected {width} like the others (legs with fewer coordinates are written in URDF form, "
-                "eigentwist.description.serial.SerialLeg)"
+                "eigentwist.description.serial.SerialLeg, or beside one)"
             )
         # a leg solved numerically with fewer coordinates than the largest: padded coordinates,
         # inputs of the IK held at zero by the loop closure (:func:`loop_closure`)
@@ -98,10 +100,12 @@ def closures(robot):
     the platform can be; legs may name different ones, or none, one per follower in all),
     and ``closure_rate`` (n_c, 6), their exact derivatives along
     the platform's six unit twists ``[omega; v]`` at its origin (``pose_space.motion``:
-    ``dr/dt_k = sum_s dr/ds . ds/dt_k``), for the runtime's Newton steps.
+    ``dr/dt_k = sum_s dr/ds . ds/dt_k``), for the runtime's Newton steps. Legs solved
+    numerically name no closures: their loop closures fix the followers
+    (:func:`pose_closure`), and this gives None.
     """
     pose = robot.pose_space
-    if not getattr(pose, "followers", ()):
+    if not getattr(pose, "followers", ()) or any(_numeric(leg) for leg in robot.legs):
         return None
     count = sum(len(leg.closures) for leg in robot.legs)
     if count != len(pose.followers):
@@ -130,9 +134,13 @@ def closures(robot):
 
 
 def loop_closure(robot, q_all: list):
-    """``(program, outputs)`` of the legs' loop-closure equations for a robot whose legs'
-    kinematics are solved numerically (each ``leg.kinematics`` with a ``residual``), else
+    """``(program, outputs)`` of the legs' loop-closure equations for a robot with legs whose
+    kinematics is solved numerically (a ``leg.kinematics`` with a ``residual``), else
     ``(None, {})``.
+
+    A leg in closed form beside them (legs that differ) closes its loop by its closed form,
+    ``q - q(pose) = 0`` (rows linear in its coordinates: Newton lands there in a step or
+    a few bounded ones), followed on a lower-mobility platform by its ``closures``.
 
     The program reads the pose inputs, the parameters and every leg's coordinates ``q_all``
     (the IK program's inputs); its outputs are ``residual`` (legs, rows): the chain end
@@ -147,21 +155,35 @@ def loop_closure(robot, q_all: list):
     numeric = [_numeric(leg) for leg in robot.legs]
     if not any(numeric):
         return None, {}
-    if not all(numeric):
-        raise DescriptionError(
-            f"{robot.name}: {robot.legs[numeric.index(False)].name} has a closed-form IK and "
-            f"{robot.legs[numeric.index(True)].name} is solved numerically: expected alike legs"
-        )
     prog = Program()
     pose = robot.pose_space
     for s_ in list(pose.inputs) + [p.symbol for p in robot.parameters] + [qq for q in q_all for qq in q]:
         prog.declare(s_)
-    res = []
-    for i, (leg, q) in enumerate(zip(robot.legs, q_all), start=1):
+    res, constraints = [], 0
+    followers = getattr(pose, "followers", ())
+    for i, (leg, q, own) in enumerate(zip(robot.legs, q_all, numeric), start=1):
         real = len(leg.kinematics.coordinates)
-        r = leg.kinematics.residual(prog, pose, q[:real], str(i))
+        if own:
+            r = leg.kinematics.residual(prog, pose, q[:real], str(i))
+            constraints += r.rows - real
+        else:
+            # a closed-form leg beside legs solved numerically: its closed form is its loop
+            # closure (linear in its coordinates), then its closures of a lower-mobility pose
+            given, _ = leg.kinematics.inverse_kinematics(prog, leg, pose, f"cf{i}")
+            r = sp.Matrix([q[m] - given[m] for m in range(real)])
+            named = getattr(leg, "closures", ()) if followers else ()
+            if named:
+                g = leg.geometry(pose.position, pose.rotation, _Symbols())
+                r = sp.Matrix.vstack(r, sp.Matrix([sp.sympify(g[name]) for name in named]))
+                constraints += len(named)
         # legs that differ: a padded coordinate's equation holds it at zero
         res.append(prog.let_matrix(f"r_{i}", sp.Matrix.vstack(r, sp.Matrix(len(q) - real, 1, list(q[real:])))))
+    if followers and constraints < len(followers):
+        raise DescriptionError(
+            f"{robot.name}: pose space {pose!r} has {len(followers)} followers ({', '.join(followers)}) and the "
+            f"legs' loop closures fix {constraints} (each leg solved numerically: its closure rows less its "
+            "coordinates; each closed-form leg: its closures): expected at least one per follower"
+        )
     rows = max(r.rows for r in res)
     res = [sp.Matrix.vstack(r, sp.zeros(rows - r.rows, 1)) for r in res]  # zero rows: no equation
     jac = [sp.Matrix.hstack(*[derivative(prog, r, qq) for qq in q]) for r, q in zip(res, q_all)]
@@ -171,3 +193,28 @@ def loop_closure(robot, q_all: list):
         "dresidual": ((n, rows, nq), [e for J in jac for e in J]),
     }
     return prog, outputs
+
+
+def pose_closure(robot, prog, outputs: dict):
+    """``(program, outputs)`` of the legs' loop closures as the equations of a
+    lower-mobility platform's followers (:class:`~eigentwist.description.pose.LowerMobilityPose`
+    with legs solved numerically), else None (no followers).
+
+    ``prog`` and ``outputs`` are :func:`loop_closure`'s; the outputs gain ``dresidual_pose``
+    (legs, rows, 6): the residual's exact derivatives along the platform's six unit twists
+    ``[omega; v]`` at its origin (``pose_space.motion``), so that the runtime solves the
+    followers and every leg's coordinates together by one damped Newton method
+    (:func:`eigentwist.runtime.platform.follow_legs`): rows from every leg, unknowns the
+    followers and every leg's coordinates.
+    """
+    pose = robot.pose_space
+    if not getattr(pose, "followers", ()):
+        return None
+    (n, rows), flat = outputs["residual"]
+    motion = pose.motion()
+    rates = []
+    for e in flat:
+        d = {s_: derivative(prog, e, s_) for s_, _ in motion}
+        rate = sum((d[s_] * row for s_, row in motion if d[s_] != 0), sp.zeros(1, 6))
+        rates += list(rate)
+    return prog, {**outputs, "dresidual_pose": ((n, rows, 6), rates)}

@@ -28,7 +28,7 @@ from ..errors import DescriptionError
 from ..description import RobotDescription, sym
 from ..description.effects import EffectContext, leg_input_name, leg_switch_name, switch_name
 from .inertia import body_inertia_contribution
-from .kinematics import POSE, closures, inverse_kinematics, loop_closure
+from .kinematics import POSE, closures, inverse_kinematics, loop_closure, pose_closure
 from .leg import LegScrews, leg_screws
 from .program import Program, derivative
 from ..description.screw import adjoint, compliance_to_frame, stiffness_to_frame
@@ -84,7 +84,9 @@ class DerivedModel:
         return tuple(s.name for s in self.joints if s.name in declared)
 
     #: ``(program, outputs)`` of the pose space's closure equations, whose followers the
-    #: runtime solves (:func:`~eigentwist.symbolic.kinematics.closures`), else None
+    #: runtime solves (:func:`~eigentwist.symbolic.kinematics.closures`; legs solved
+    #: numerically: their loop closures with the rates along the platform's twists,
+    #: :func:`~eigentwist.symbolic.kinematics.pose_closure`), else None
     followers: tuple | None = None
 
     @property
@@ -280,7 +282,7 @@ def derive(robot: RobotDescription) -> DerivedModel:
         pose_inputs=tuple(pose.inputs),
         closure=closure,
         closure_outputs=closure_outputs,
-        followers=closures(robot),
+        followers=closures(robot) if closure is None else pose_closure(robot, closure, closure_outputs),
     )
 
 
