@@ -9,7 +9,7 @@ from .damped import Damping, actuator_wrenches, coupled_wrenches, damped_modes
 from .errors import InputError
 from .threads import resolve_threads
 
-__all__ = ["damped_of", "actuator_values", "solver_of"]
+__all__ = ["damped_of", "actuator_values", "solver_of", "one_pass_takes", "fused_damped", "pass_damping"]
 
 
 def actuator_values(ev, p: dict, effects, n: int):
@@ -131,6 +131,109 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
             X[:, :, m:] = np.asarray(modes.eigentwists)[rows][:, :, m:]
         out.shapes[rows] = X
     out.stable[rows] &= d.stable
+    return out
+
+
+def one_pass_takes(ev, effects) -> bool:
+    """Whether the fused C pass of ``ev`` can solve the damped modes of ``effects`` in the same
+    call (:func:`fused_damped`): the C backend with a generated ``legs`` kernel of at most
+    :data:`.c_damped.MAX_LEGS` legs and :data:`.c_damped.MAX_MODES` elastic joints each, real
+    and uncoupled (no structural loss factor, no couplings of platform bodies on) and the
+    damped driver built. The caller also checks the model's route (``Evaluator._one_pass``)."""
+    from . import c_damped
+
+    on = set(effects)
+    if "structural_loss" in on or any(c.effect in on for c in ev.robot.couplings):
+        return False
+    legs = getattr(ev.kernels, "OUTPUTS", {}).get("legs", {})
+    if "Je" not in legs or "Cq" not in legs or not hasattr(ev.kernels, "fused_arguments"):
+        return False
+    L, e, c = legs["Je"]
+    if L > c_damped.MAX_LEGS or e > c_damped.MAX_MODES or c != 6:
+        return False
+    return c_damped.driver() is not None
+
+
+def fused_damped(ev, effects, poses, p: dict, pk: dict, vectors: bool, basis, threads: int):
+    """The fused pass of the C kernels and the damped modes of ``effects`` in one C call per
+    range of blocks (:func:`.c_damped.one_pass`): ``(out, solved)``, ``out`` as
+    ``CKernels.fused`` gives it (``q``, ``M``, the model's stiffness, ``freq_hz``, the
+    eigentwists with ``vectors``, ``status``) and ``solved`` the damped poles on the model's
+    coordinates with what :func:`pass_damping` needs. ``p``: the validated inputs of every
+    pose (``Evaluator.parameter_values``), ``pk`` with the pose; ``basis``: the rigid model's
+    fixed allowed twists (6, r) (the flexible model: the six twists, unused)."""
+    from . import c_damped
+
+    kernels = ev.kernels
+    rigid = ev.stiffness_model(effects) == "rigid"
+    k_name = "K_R" if rigid else "K_F"
+    out, n, keep, args = kernels.fused_arguments(
+        poses[:, 0],
+        poses[:, 1],
+        poses[:, 2],
+        pk,
+        matrices=("M", k_name),
+        ik=("q",),
+        model="rigid" if rigid else "flexible",
+        vectors=vectors,
+        normalize=True,
+        status=True,
+    )
+    legs = kernels.kernel_arguments("legs", pk, n)
+    k_d, c_d, t_d, _ = actuator_values(ev, p, effects, n)
+    B = np.asarray(basis, dtype=float) if rigid else None
+    Je, Cq = legs[4]["Je"], legs[4]["Cq"]
+    result = c_damped.one_pass(
+        (kernels.address("fused"), args),
+        legs,
+        kernels.BLOCK,
+        n,
+        out["q"],
+        out["M"],
+        out[k_name],
+        Je,
+        Cq,
+        1 if rigid else Je.shape[2],
+        B,
+        k_d,
+        c_d,
+        t_d,
+        threads,
+    )
+    del keep
+    return out, {"poles": result, "legs": legs[4], "stiffness": k_name, "M": out["M"], "K": out[k_name]}
+
+
+def pass_damping(ev, effects, poses, params: dict, p: dict, solved: dict, modes) -> Damping:
+    """The :class:`~.damped.Damping` of the fused pass's damped poles (:func:`fused_damped`)
+    for ``modes``, its undamped modes with the evaluator's checks done: the rows not valid
+    NaN as :func:`damped_of` leaves them, and the poses the C driver left undecided solved by
+    :func:`damped_of` from the pass's kernel outputs (no kernel runs again)."""
+    wn, zeta, wd, poles, stable, redo = solved["poles"]
+    N = len(modes.freq_hz)
+    valid = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+    bad = ~valid
+    natural, damped = wn / (2 * np.pi), wd / (2 * np.pi)
+    natural[bad], damped[bad] = modes.freq_hz[bad], modes.freq_hz[bad]
+    zeta[bad], poles[bad] = np.nan, np.nan
+    out = Damping(natural, damped, zeta, poles, None, np.asarray(modes.stable, dtype=bool) & (stable | bad))
+    rows = valid & redo
+    if rows.any():  # the driver's undecided poses: NumPy, on the pass's outputs
+        take = lambda d: {k: (v[rows] if np.ndim(v) and np.shape(v)[0] == N > 1 else v) for k, v in d.items()}  # noqa: E731
+        inputs = {
+            "rows": rows,
+            "poses": np.asarray(poses, dtype=float)[rows],
+            "params": take(params),
+            "p": take(p),
+            "legs": take(solved["legs"]),
+            "mats": take({"M": solved["M"], solved["stiffness"]: solved["K"]}),
+            "B": None,
+            "exact": False,
+            "preloaded": False,
+        }
+        d = damped_of(ev, effects, inputs, modes, False)
+        for name in ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable"):
+            getattr(out, name)[rows] = getattr(d, name)[rows]
     return out
 
 

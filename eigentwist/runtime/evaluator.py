@@ -1238,19 +1238,22 @@ class Evaluator:
         effects = self._resolve(model)
         params, exact = self._route(effects, params)
         fixed = self._c_rigid or self.stiffness_model(effects) == "flexible"
+        damped = complex_shapes or self.damped_model(effects)
         if self._fused and fixed and not self._preloaded(effects):
-            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact)
+            one_pass = damped and not (exact or complex_shapes) and self._one_pass(effects)
+            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, one_pass)
         else:
             stash = {} if exact else None
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
                 modes = self._exact_modes(poses, effects, params, modes, vectors, **stash)
-        if complex_shapes or self.damped_model(effects):
-            from .damped_modes import damped_of
+        if damped:
+            if modes.damping is None:  # not solved in the fused pass
+                from .damped_modes import damped_of
 
-            modes.damping = damped_of(
-                self, effects, self._damping_inputs(poses, effects, params, modes), modes, complex_shapes
-            )
+                modes.damping = damped_of(
+                    self, effects, self._damping_inputs(poses, effects, params, modes), modes, complex_shapes
+                )
             modes.stable = modes.stable & modes.damping.stable
         modes.legs = None  # the exact condensation's arrays: not kept with the result
         if unstable == "raise" and not modes.stable.all():
@@ -1294,6 +1297,18 @@ class Evaluator:
             "exact": self._rigid_models.get(tuple(effects), True),
             "preloaded": self._preloaded(effects),
         }
+
+    def _one_pass(self, effects) -> bool:
+        """Whether the fused C pass solves the damped modes of ``effects`` itself
+        (:func:`.damped_modes.one_pass_takes`): the rigid model on its fixed allowed twists,
+        or a flexible one whose legs have no rigid direction (K_F exact, the six twists)."""
+        if self.numeric_ik:
+            return False
+        if self.stiffness_model(effects) == "flexible" and self._rigid_models.get(tuple(effects)) is not False:
+            return False
+        from .damped_modes import one_pass_takes
+
+        return one_pass_takes(self, effects)
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
@@ -1454,23 +1469,33 @@ class Evaluator:
             stable=~unstable_modes(lam).any(axis=-1),
         )
 
-    def _fused_modes(self, poses, effects, params, check: bool, vectors: bool, exact: bool = False) -> Modes:
+    def _fused_modes(
+        self, poses, effects, params, check: bool, vectors: bool, exact: bool = False, damped: bool = False
+    ) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
         written straight into the result arrays; with ``exact`` the pass also returns the
-        joint coordinates and M for :meth:`_exact_modes`."""
+        joint coordinates and M for :meth:`_exact_modes`; with ``damped`` the same C call
+        also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`_one_pass`)."""
         p = self._params(len(poses), params, effects)
         stiffness = self.stiffness_model(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
         shares = vectors and not exact and stiffness == "flexible"
-        out = self._c_pass(
-            poses,
-            p,
-            matrices=("M",) if exact or shares else (),
-            ik=("q",) if exact else (),
-            model=stiffness,
-            vectors=vectors,
-            normalize=True,
-        )
+        if damped:
+            from .damped_modes import fused_damped, pass_damping
+
+            basis = getattr(self.space, "basis", None)
+            pk = self._with_pose(poses, p)
+            out, solved = fused_damped(self, effects, poses, p, pk, vectors, basis, self._nthreads())
+        else:
+            out = self._c_pass(
+                poses,
+                p,
+                matrices=("M",) if exact or shares else (),
+                ik=("q",) if exact else (),
+                model=stiffness,
+                vectors=vectors,
+                normalize=True,
+            )
         st = out["status"]
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
@@ -1498,6 +1523,8 @@ class Evaluator:
         if shares and out["eigentwists"].shape[-1] == 6:
             with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
                 modes.shares = energy_shares(out["eigentwists"], out["M"])
+        if damped:
+            modes.damping = pass_damping(self, effects, poses, params, p, solved, modes)
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
         return modes
