@@ -107,16 +107,95 @@ def test_heli4_paper_poses_agree(backends, model, params):
 
 def test_dispatch(backends, monkeypatch):
     """The C backend's evaluator solves by the driver, the NumPy one does not; complex shapes
-    and a loss factor stay in NumPy."""
-    calls = []
-    solve = c_damped.solve
+    and a loss factor stay in NumPy; the fused pass solves its routes itself."""
+    calls, passes = [], []
+    solve, one_pass = c_damped.solve, c_damped.one_pass
     monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(len(a[1])) or solve(*a, **k))
+    monkeypatch.setattr(c_damped, "one_pass", lambda *a, **k: passes.append(a[3]) or one_pass(*a, **k))
     backends["numpy"].modes(X_REF, "damped", k_a=125.0)
     backends["c"].modes(X_REF, "damped", k_a=125.0, complex_shapes=True)
     backends["c"].modes(X_REF, "paper,structural_loss", k_a=125.0, eta_s=0.05)
-    assert calls == []
+    assert calls == [] and passes == []
+    backends["c"].modes(np.tile(X_REF, (3, 1)), EXACT, k_a=[125.0, 125.0, 500.0])
+    assert calls == [2] and passes == []  # rows of one condition solved once
     backends["c"].modes(np.tile(X_REF, (3, 1)), "damped", k_a=[125.0, 125.0, 500.0])
-    assert calls == [2]  # rows of one condition solved once
+    backends["c"].modes(X_REF, "rigid,servo_damping", k_a=125.0)
+    assert calls == [2] and passes == [3, 1]
+
+
+#: a flexible model whose legs have rigid directions (the exact condensation: not in the fused pass)
+EXACT = "actuator_loss,ee_compliance,servo_damping"
+ONE_PASS = [
+    ("damped", {"k_a": np.array([125.0, 4000.0])}),
+    ("damped,servo_delay", {"k_a": np.array([125.0, 2000.0]), "t_d": 5e-4}),
+    ("rigid,servo_damping", {"k_a": np.array([125.0, 4000.0]), "c_a": 20.0}),
+]
+
+
+def _poses_and_kw(params, unreachable: bool = False):
+    """The paper poses × k_a (and, where asked, an unreachable pose), with the kwargs."""
+    poses = np.array([X_REF, [0.0, 0.1, -0.55], [0.1, 0.0, -0.55], [0.05, -0.03, -0.6]])
+    if unreachable:
+        poses = np.vstack([poses, [0.0, 0.0, -2.0]])
+    ka = params["k_a"]
+    return np.repeat(poses, len(ka), axis=0), dict(params, k_a=np.tile(ka, len(poses)))
+
+
+def _same(a, b, rtol):
+    """Two Damping results equal to rtol of |s| (NaN where the other is NaN)."""
+    assert np.array_equal(np.isnan(a.natural_hz), np.isnan(b.natural_hz))
+    ok = ~np.isnan(b.natural_hz)
+    scale = np.abs(b.poles[ok])
+    assert np.all(np.abs(a.poles - b.poles)[ok] <= rtol * scale)
+    for name in ("natural_hz", "damped_hz"):
+        assert np.all(np.abs(getattr(a, name) - getattr(b, name))[ok] <= rtol * scale / (2 * np.pi)), name
+    assert np.all(np.abs(a.damping_ratio - b.damping_ratio)[ok] <= rtol)
+    assert np.array_equal(a.stable, b.stable)
+
+
+@pytest.mark.parametrize("model, params", ONE_PASS)
+def test_one_pass_against_two_steps_and_numpy(backends, monkeypatch, model, params):
+    """The fused pass's damped modes (kernels and solve in one C call) equal, to 1e-12 of |s|,
+    the two-step route (kernels, then the driver) and the NumPy solver (stacked eig) on the
+    same kernels' outputs, with an unreachable pose among them (invalid="nan": NaN on every
+    route). (The NumPy backend's own kernels round differently: its undamped frequencies of
+    the flexible model already differ by ~1e-12, K_F's condition; test_heli4_paper_poses_agree.)"""
+    from eigentwist.runtime import damped_modes as dm
+
+    P, kw = _poses_and_kw(params, unreachable=True)
+    ev = backends["c"]
+    one = ev.modes(P, model, vectors=False, invalid="nan", **kw)
+    monkeypatch.setattr(dm, "one_pass_takes", lambda *a: False)
+    two = ev.modes(P, model, vectors=False, invalid="nan", **kw)
+    monkeypatch.setattr(dm, "solver_of", lambda ev: "numpy")
+    numpy = ev.modes(P, model, vectors=False, invalid="nan", **kw)
+    bad = len(params["k_a"])  # the unreachable pose's rows, last
+    assert np.isnan(one.damping.natural_hz[-bad:]).all() and not one.valid[-bad:].any() and one.valid[:-bad].all()
+    _same(one.damping, two.damping, 1e-12)
+    _same(one.damping, numpy.damping, 1e-12)
+    np.testing.assert_array_equal(one.freq_hz, two.freq_hz)
+    np.testing.assert_array_equal(one.stable, two.stable)
+
+
+def test_one_pass_leaves_undecided_poses_to_the_two_step_route(backends, monkeypatch):
+    """Poses the driver marks undecided are solved from the pass's own kernel outputs by the
+    two-step route: the same poles as where the pass decided them."""
+    P, kw = _poses_and_kw(ONE_PASS[0][1])
+    ev = backends["c"]
+    decided = ev.modes(P, "damped", vectors=False, **kw).damping
+    one_pass = c_damped.one_pass
+
+    def undecided(*a, **k):
+        out = one_pass(*a, **k)
+        out[-1][::2] = True
+        return out
+
+    calls = []
+    solve = c_damped.solve
+    monkeypatch.setattr(c_damped, "one_pass", undecided)
+    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(len(a[1])) or solve(*a, **k))
+    _same(ev.modes(P, "damped", vectors=False, **kw).damping, decided, 1e-12)
+    assert calls == [len(P[::2])]
 
 
 @pytest.mark.parametrize("n, decided", [(10, True), (11, False)])
