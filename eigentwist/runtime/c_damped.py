@@ -973,7 +973,7 @@ def wrenches(Je, Cq, rigid: float):
     return K, W, h
 
 
-def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k_d, c_d, t_d, threads: int = 1):
+def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, threads: int = 1):
     """The robot's fused pass, its legs kernel and the damped modes of n poses in one C call
     per range of whole blocks (``et_damped_pass``: no Python between the kernels and the
     solve): ``(wn, zeta, wd, poles, stable, redo)`` as :func:`solve` gives them, on the model's
@@ -985,9 +985,9 @@ def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k
     :meth:`~.c_kernels.CKernels.kernel_arguments`; ``block``: the kernels' block of poses;
     q (n, legs, n_q), M, K (n, 6, 6), Je (n, legs, e, 6), Cq (n, legs, e, e): the arrays those
     calls fill (the actuated joint's first ``e_used`` rows are the leg's compliance), B (6, r)
-    the model's coordinates or None (the six twists), k_d, c_d, t_d (n, legs). Raises
+    the model's coordinates or None (the six twists), k_d, c_d, t_d (n, legs); ``rules``: the
+    constants ``(RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)`` of :mod:`.damped`. Raises
     RuntimeError when a kernel or the driver fails."""
-    from .damped import AMBIGUOUS, ELIMINATE, RIGID, UNSTABLE_ZETA
     from .threads import run_ranges, threads_for
 
     driver()
@@ -1035,10 +1035,7 @@ def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k
             kd.ctypes.data,
             cd.ctypes.data,
             td.ctypes.data,
-            RIGID,
-            ELIMINATE,
-            UNSTABLE_ZETA,
-            AMBIGUOUS,
+            *rules,
             wn.ctypes.data,
             zeta.ctypes.data,
             wd.ctypes.data,

@@ -5,7 +5,16 @@ from __future__ import annotations
 import numpy as np
 
 from ..description.effects import leg_input_name, leg_switch_name
-from .damped import Damping, actuator_wrenches, coupled_wrenches, damped_modes
+from .damped import (
+    AMBIGUOUS,
+    ELIMINATE,
+    RIGID,
+    UNSTABLE_ZETA,
+    Damping,
+    actuator_wrenches,
+    coupled_wrenches,
+    damped_modes,
+)
 from .errors import InputError
 from .threads import resolve_threads
 
@@ -198,6 +207,7 @@ def fused_damped(ev, effects, poses, p: dict, pk: dict, vectors: bool, basis, th
         k_d,
         c_d,
         t_d,
+        (RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS),
         threads,
     )
     del keep
