@@ -107,20 +107,22 @@ def test_heli4_paper_poses_agree(backends, model, params):
 
 def test_dispatch(backends, monkeypatch):
     """The C backend's evaluator solves by the driver, the NumPy one does not; complex shapes
-    and a loss factor stay in NumPy; the fused pass solves its routes itself."""
-    calls, passes = [], []
-    solve, one_pass = c_damped.solve, c_damped.one_pass
-    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(len(a[1])) or solve(*a, **k))
-    monkeypatch.setattr(c_damped, "one_pass", lambda *a, **k: passes.append(a[3]) or one_pass(*a, **k))
+    and a loss factor stay in NumPy; the fused pass solves its routes itself, the exact
+    condensation's route from the legs' outputs in one call."""
+    calls = []
+    solve, one_pass, solve_legs = c_damped.solve, c_damped.one_pass, c_damped.solve_legs
+    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(("solve", len(a[1]))) or solve(*a, **k))
+    monkeypatch.setattr(c_damped, "one_pass", lambda *a, **k: calls.append(("pass", a[3])) or one_pass(*a, **k))
+    monkeypatch.setattr(c_damped, "solve_legs", lambda *a: calls.append(("legs", len(a[3]))) or solve_legs(*a))
     backends["numpy"].modes(X_REF, "damped", k_a=125.0)
     backends["c"].modes(X_REF, "damped", k_a=125.0, complex_shapes=True)
     backends["c"].modes(X_REF, "paper,structural_loss", k_a=125.0, eta_s=0.05)
-    assert calls == [] and passes == []
+    assert calls == []
     backends["c"].modes(np.tile(X_REF, (3, 1)), EXACT, k_a=[125.0, 125.0, 500.0])
-    assert calls == [2] and passes == []  # rows of one condition solved once
+    assert calls == [("legs", 2)]  # rows of one condition solved once
     backends["c"].modes(np.tile(X_REF, (3, 1)), "damped", k_a=[125.0, 125.0, 500.0])
     backends["c"].modes(X_REF, "rigid,servo_damping", k_a=125.0)
-    assert calls == [2] and passes == [3, 1]
+    assert calls == [("legs", 2), ("pass", 3), ("pass", 1)]
 
 
 #: a flexible model whose legs have rigid directions (the exact condensation: not in the fused pass)
@@ -142,9 +144,11 @@ def _poses_and_kw(params, unreachable: bool = False):
 
 
 def _same(a, b, rtol):
-    """Two Damping results equal to rtol of |s| (NaN where the other is NaN)."""
-    assert np.array_equal(np.isnan(a.natural_hz), np.isnan(b.natural_hz))
-    ok = ~np.isnan(b.natural_hz)
+    """Two Damping results equal to rtol of |s| (NaN where the other is NaN; a column without
+    a pole, a rigid constraint's mode, keeps the undamped frequency on both)."""
+    assert np.array_equal(np.isnan(a.poles), np.isnan(b.poles))
+    ok = ~np.isnan(b.poles)
+    np.testing.assert_array_equal(a.natural_hz[~ok], b.natural_hz[~ok])
     scale = np.abs(b.poles[ok])
     assert np.all(np.abs(a.poles - b.poles)[ok] <= rtol * scale)
     for name in ("natural_hz", "damped_hz"):
@@ -191,9 +195,9 @@ def test_one_pass_leaves_undecided_poses_to_the_two_step_route(backends, monkeyp
         return out
 
     calls = []
-    solve = c_damped.solve
+    solve_legs = c_damped.solve_legs
     monkeypatch.setattr(c_damped, "one_pass", undecided)
-    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(len(a[1])) or solve(*a, **k))
+    monkeypatch.setattr(c_damped, "solve_legs", lambda *a: calls.append(len(a[3])) or solve_legs(*a))
     _same(ev.modes(P, "damped", vectors=False, **kw).damping, decided, 1e-12)
     assert calls == [len(P[::2])]
 
@@ -247,3 +251,36 @@ def test_threads_give_the_same_poles(driver):
     one, two = (damped_modes(*args, solver="c", threads=t) for t in (1, 2))
     np.testing.assert_array_equal(one.poles, two.poles)
     np.testing.assert_array_equal(one.stable, two.stable)
+
+
+def test_exact_route_from_the_legs_in_one_call(backends, monkeypatch):
+    """The exact condensation's route (not in the fused pass) solves from the legs' outputs in
+    one C call (wrenches, projection, solve); to 1e-12 of |s| it equals the NumPy route of a
+    problem beyond the driver's legs (NumPy glue and stacked eig), the NumPy solver, and the
+    NumPy route of the poses the call leaves undecided."""
+    from eigentwist.runtime import damped_modes as dm
+
+    P, kw = _poses_and_kw({"k_a": np.array([125.0, 4000.0]), "c_a": 8.0})  # overdamped modes at 125
+    ev = backends["c"]
+    calls = []
+    solve_legs, solve = c_damped.solve_legs, c_damped.solve
+    monkeypatch.setattr(c_damped, "solve_legs", lambda *a: calls.append("legs") or solve_legs(*a))
+    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append("solve") or solve(*a, **k))
+    one = ev.modes(P, EXACT, vectors=False, **kw).damping
+    assert calls == ["legs"] and np.any(one.damped_hz == 0)
+    with monkeypatch.context() as m:
+        m.setattr(c_damped, "MAX_LEGS", ev.n_legs - 1)
+        _same(one, ev.modes(P, EXACT, vectors=False, **kw).damping, 1e-12)
+    assert calls == ["legs"]
+
+    def undecided(*a):
+        out = solve_legs(*a)
+        out[-1][::2] = True
+        return out
+
+    with monkeypatch.context() as m:
+        m.setattr(c_damped, "solve_legs", undecided)
+        _same(one, ev.modes(P, EXACT, vectors=False, **kw).damping, 1e-12)
+    monkeypatch.setattr(dm, "solver_of", lambda ev: "numpy")
+    _same(one, ev.modes(P, EXACT, vectors=False, **kw).damping, 1e-12)
+    assert calls == ["legs"]

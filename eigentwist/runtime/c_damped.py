@@ -31,7 +31,7 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["driver", "solve", "wrenches", "one_pass", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
+__all__ = ["driver", "solve", "wrenches", "one_pass", "solve_legs", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
 
 #: the largest problem the C driver takes (modes, legs); a larger one is solved in NumPy
 MAX_MODES = 12
@@ -770,6 +770,91 @@ int et_damped(int64_t count, int n, int L, const double *M, const double *K, con
     return 0;
 }
 
+/* one pose from its legs' kernel outputs: each leg's actuator wrench from the first e_used rows
+   of its Je (L x e x 6) and Cq (L x e x e) (et_wrench_leg), the stiffness K (6 x 6), or where K
+   is NULL the legs' J_e^T C_q^+ J_e plus Kg (6 x 6, NULL: none), then B^T M B, B^T K B and
+   W B on the model's coordinates B (6 x r, row-major; NULL: the six twists) into et_pose */
+static int et_pose_legs(int L, int e, int e_used, int r, const double *M, const double *K, const double *Kg,
+                        const double *Je, const double *Cq, const double *B, const double *kd, const double *cd,
+                        const double *td, double rtol, double eliminate, double unstable, double ambiguous,
+                        double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double W6[MAXL * 6], W[MAXL * 6], h[MAXL], Mr[36], Kr[36], J[MAXN * 6], C[MAXN * MAXN], Ks[36];
+    if (!K)
+        memset(Ks, 0, sizeof(Ks));
+    for (int l = 0; l < L; ++l) {
+        const double *Jl = Je + l * e * 6, *Cl = Cq + l * e * e;
+        for (int a = 0; a < e_used; ++a) {
+            for (int j = 0; j < 6; ++j)
+                J[a * 6 + j] = Jl[a * 6 + j];
+            for (int c = 0; c < e_used; ++c)
+                C[a * e_used + c] = Cl[a * e + c];
+        }
+        et_wrench_leg(e_used, 6, J, C, rtol, K ? NULL : Ks, W6 + l * 6, h + l);
+    }
+    if (!K) {
+        if (Kg)
+            for (int i = 0; i < 36; ++i)
+                Ks[i] += Kg[i];
+        K = Ks;
+    }
+    if (B) { /* B^T M B, B^T K B, W B */
+        double BM[36], BK[36];
+        for (int i = 0; i < r; ++i)
+            for (int j = 0; j < 6; ++j) {
+                double vm = 0.0, vk = 0.0;
+                for (int k = 0; k < 6; ++k) {
+                    vm += B[k * r + i] * M[k * 6 + j];
+                    vk += B[k * r + i] * K[k * 6 + j];
+                }
+                BM[i * 6 + j] = vm;
+                BK[i * 6 + j] = vk;
+            }
+        for (int i = 0; i < r; ++i)
+            for (int j = 0; j < r; ++j) {
+                double vm = 0.0, vk = 0.0;
+                for (int k = 0; k < 6; ++k) {
+                    vm += BM[i * 6 + k] * B[k * r + j];
+                    vk += BK[i * 6 + k] * B[k * r + j];
+                }
+                Mr[i * r + j] = vm;
+                Kr[i * r + j] = vk;
+            }
+        for (int l = 0; l < L; ++l)
+            for (int j = 0; j < r; ++j) {
+                double v = 0.0;
+                for (int k = 0; k < 6; ++k)
+                    v += W6[l * 6 + k] * B[k * r + j];
+                W[l * r + j] = v;
+            }
+    } else {
+        memcpy(Mr, M, sizeof(Mr));
+        memcpy(Kr, K, sizeof(Kr));
+        memcpy(W, W6, sizeof(double) * L * 6);
+    }
+    return et_pose(r, L, Mr, Kr, W, h, kd, cd, td, eliminate, unstable, ambiguous, wn, zeta, wd, poles, stable);
+}
+
+/* et_pose_legs for count poses: M (6 x 6), K (6 x 6, or NULL), Kg (6 x 6, or NULL), Je, Cq,
+   B (6 x r, or NULL) and kd, cd, td (L) per pose, a NULL-free input of stride 0 shared (its
+   *_shared flag 1); status 1 where NumPy must solve the pose */
+int et_damped_legs(int64_t count, int L, int e, int e_used, int r, const double *M, const double *K, int K_shared,
+                   const double *Kg, int Kg_shared, const double *Je, const double *Cq, const double *B, int B_shared,
+                   const double *kd, const double *cd, const double *td, double rtol, double eliminate,
+                   double unstable, double ambiguous, double *wn, double *zeta, double *wd, double *poles,
+                   int8_t *stable, int8_t *status)
+{
+    if (r < 1 || r > 6 || L < 1 || L > MAXL || e_used < 1 || e_used > e || e > MAXN)
+        return -1;
+    for (int64_t p = 0; p < count; ++p)
+        status[p] = (int8_t)et_pose_legs(L, e, e_used, r, M + p * 36, K ? K + (K_shared ? 0 : p * 36) : NULL,
+                                         Kg ? Kg + (Kg_shared ? 0 : p * 36) : NULL, Je + p * L * e * 6,
+                                         Cq + p * L * e * e, B ? B + (B_shared ? 0 : p * 6 * r) : NULL,
+                                         kd + p * L, cd + p * L, td + p * L, rtol, eliminate, unstable, ambiguous,
+                                         wn + p * r, zeta + p * r, wd + p * r, poles + 2 * p * r, stable + p);
+    return 0;
+}
+
 /* the robot's generated fused pass and one of its kernels (eigentwist/generated/<robot>_c.c) */
 typedef int (*et_fused_fn)(int64_t, int64_t, const double *const *, const int64_t *, int, double *const *,
                            double *const *, double *const *, double *, double *, int8_t *, const double *);
@@ -815,62 +900,18 @@ int et_damped_pass(int64_t begin, int64_t end, int64_t block, et_fused_fn fused,
         if (rc != 0)
             return rc;
         for (int64_t p = b; p < b2; ++p) {
-            double *pw = wn + p * r, *pz = zeta + p * r, *pd = wd + p * r, *pp = poles + 2 * p * r;
-            redo[p] = 0;
-            stable[p] = 1;
             if (f_status[p] != 0 && f_status[p] != 4) {
                 for (int j = 0; j < r; ++j)
-                    pw[j] = pz[j] = pd[j] = pp[2 * j] = pp[2 * j + 1] = NAN;
+                    wn[p * r + j] = zeta[p * r + j] = wd[p * r + j] = poles[2 * (p * r + j)] =
+                        poles[2 * (p * r + j) + 1] = NAN;
+                stable[p] = 1;
+                redo[p] = 0;
                 continue;
             }
-            double W6[MAXL * 6], W[MAXL * 6], h[MAXL], Mr[36], Kr[36], J[MAXN * 6], C[MAXN * MAXN];
-            for (int l = 0; l < L; ++l) {
-                const double *Jl = Je + (p * L + l) * e * 6, *Cl = Cq + (p * L + l) * e * e;
-                for (int a = 0; a < e_used; ++a) {
-                    for (int j = 0; j < 6; ++j)
-                        J[a * 6 + j] = Jl[a * 6 + j];
-                    for (int c = 0; c < e_used; ++c)
-                        C[a * e_used + c] = Cl[a * e + c];
-                }
-                et_wrench_leg(e_used, 6, J, C, rtol, NULL, W6 + l * 6, h + l);
-            }
-            const double *M = Mall + p * 36, *K = Kall + p * 36;
-            if (B) { /* B^T M B, B^T K B, W B */
-                double BM[36], BK[36];
-                for (int i = 0; i < r; ++i)
-                    for (int j = 0; j < 6; ++j) {
-                        double vm = 0.0, vk = 0.0;
-                        for (int k = 0; k < 6; ++k) {
-                            vm += B[k * r + i] * M[k * 6 + j];
-                            vk += B[k * r + i] * K[k * 6 + j];
-                        }
-                        BM[i * 6 + j] = vm;
-                        BK[i * 6 + j] = vk;
-                    }
-                for (int i = 0; i < r; ++i)
-                    for (int j = 0; j < r; ++j) {
-                        double vm = 0.0, vk = 0.0;
-                        for (int k = 0; k < 6; ++k) {
-                            vm += BM[i * 6 + k] * B[k * r + j];
-                            vk += BK[i * 6 + k] * B[k * r + j];
-                        }
-                        Mr[i * r + j] = vm;
-                        Kr[i * r + j] = vk;
-                    }
-                for (int l = 0; l < L; ++l)
-                    for (int j = 0; j < r; ++j) {
-                        double v = 0.0;
-                        for (int k = 0; k < 6; ++k)
-                            v += W6[l * 6 + k] * B[k * r + j];
-                        W[l * r + j] = v;
-                    }
-            } else {
-                memcpy(Mr, M, sizeof(Mr));
-                memcpy(Kr, K, sizeof(Kr));
-                memcpy(W, W6, sizeof(double) * L * 6);
-            }
-            redo[p] = (int8_t)et_pose(r, L, Mr, Kr, W, h, kd + p * L, cd + p * L, td + p * L, eliminate, unstable,
-                                      ambiguous, pw, pz, pd, pp, stable + p);
+            redo[p] = (int8_t)et_pose_legs(L, e, e_used, r, Mall + p * 36, Kall + p * 36, NULL,
+                                           Je + p * L * e * 6, Cq + p * L * e * e, B, kd + p * L, cd + p * L,
+                                           td + p * L, rtol, eliminate, unstable, ambiguous, wn + p * r,
+                                           zeta + p * r, wd + p * r, poles + 2 * p * r, stable + p);
         }
     }
     return 0;
@@ -881,6 +922,7 @@ _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []  # the loaded driver library, kept for the process
 _WRENCHES: list = []  # its et_wrenches
 _PASS: list = []  # its et_damped_pass
+_LEGS: list = []  # its et_damped_legs
 
 
 def driver():
@@ -911,6 +953,9 @@ def driver():
             )
             lib.et_damped_pass.restype = ctypes.c_int
             _PASS.append(lib.et_damped_pass)
+            lib.et_damped_legs.argtypes = [i64, i, i, i, i, v, v, i, v, i, v, v, v, i, v, v, v, d, d, d, d] + [v] * 6
+            lib.et_damped_legs.restype = ctypes.c_int
+            _LEGS.append(lib.et_damped_legs)
         _DRIVER.append(fn)
     return _DRIVER[0]
 
@@ -1048,3 +1093,62 @@ def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k
         if rc != 0:
             raise RuntimeError(f"C damped pass returned {rc}")
     return wn, zeta, wd, poles, stable.astype(bool), redo != 0
+
+
+def solve_legs(M, K, K_ground, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, threads: int = 1):
+    """The damped modes of N poses from their legs' kernel outputs in one C call
+    (``et_damped_legs``: the actuator wrenches, the stiffness, the projection on the model's
+    coordinates and :func:`solve`'s solve, pose by pose): ``(wn, zeta, wd, poles, stable,
+    redo)`` as :func:`solve` gives them, on the r coordinates of B.
+
+    M (N, 6, 6); K (N, 6, 6) the model's stiffness, or None for the legs' own
+    ``J_e^T C_q^+ J_e`` plus K_ground ((6, 6) or (N, 6, 6), or None); Je (N, legs, e, 6),
+    Cq (N, legs, e, e) (the first ``e_used`` rows: the legs' compliance the model keeps);
+    B (6, r) or (N, 6, r) the model's coordinates, or None (the six twists); k_d, c_d, t_d
+    (N, legs); ``rules``: ``(RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)`` of :mod:`.damped`.
+    ``threads`` > 1 runs ranges of whole blocks of poses on threads."""
+    from .threads import run_ranges, threads_for
+
+    driver()
+    fn = _LEGS[0]
+    f64 = lambda v: None if v is None else np.ascontiguousarray(v, dtype=np.float64)  # noqa: E731
+    M, K, Kg, Je, Cq, Bc = (f64(v) for v in (M, K, K_ground, Je, Cq, B))
+    N, L, e = Je.shape[:3]
+    r = 6 if Bc is None else Bc.shape[-1]
+    kd, cd, td = (np.ascontiguousarray(np.broadcast_to(v, (N, L)), dtype=np.float64) for v in (k_d, c_d, t_d))
+    wn, zeta, wd = (np.empty((N, r)) for _ in range(3))
+    poles = np.empty((N, r), dtype=complex)
+    stable = np.empty(N, dtype=np.int8)
+    status = np.empty(N, dtype=np.int8)
+
+    def at(v, a: int, size: int):
+        return None if v is None else v.ctypes.data + (0 if v.ndim == 2 else 8 * a * size)
+
+    def call(a: int, b: int) -> int:
+        return fn(
+            b - a,
+            L,
+            e,
+            e_used,
+            r,
+            M.ctypes.data + 8 * a * 36,
+            at(K, a, 36),
+            int(K is not None and K.ndim == 2),
+            at(Kg, a, 36),
+            int(Kg is not None and Kg.ndim == 2),
+            Je.ctypes.data + 8 * a * L * e * 6,
+            Cq.ctypes.data + 8 * a * L * e * e,
+            at(Bc, a, 6 * r),
+            int(Bc is not None and Bc.ndim == 2),
+            *(x.ctypes.data + 8 * a * L for x in (kd, cd, td)),
+            *rules,
+            *(x.ctypes.data + 8 * a * r for x in (wn, zeta, wd)),
+            poles.ctypes.data + 16 * a * r,
+            stable.ctypes.data + a,
+            status.ctypes.data + a,
+        )
+
+    for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C damped modes from the legs returned {rc}")
+    return wn, zeta, wd, poles, stable.astype(bool), status != 0

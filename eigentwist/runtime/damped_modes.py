@@ -11,6 +11,7 @@ from .damped import (
     RIGID,
     UNSTABLE_ZETA,
     Damping,
+    distinct_rows,
     actuator_wrenches,
     coupled_wrenches,
     damped_modes,
@@ -92,7 +93,13 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
 
         full = {k: np.broadcast_to(mats[k], (n, 6, 6)) for k in ("M", "K_R", "K_F")}
         K_G = gravity_stiffness(ev, pr, effects, sub, full, rigid, B if rigid else None)
-    if coupled is not None:  # legs on platform bodies: condense the couplings
+    d = None
+    if coupled is None and loss is None and K_G is None and not shapes and solver_of(ev) == "c":
+        K_ground = None if rigid else legs["K_ground"]
+        d = _from_legs(M, K_model, K_ground, Je, Cq, B, k_d, c_d, t_d, resolve_threads(ev.threads))
+    if d is not None:  # solved in one C call from the legs' outputs
+        pass
+    elif coupled is not None:  # legs on platform bodies: condense the couplings
         Mr, Kc, Wr, h, G, B = _coupled_reduction(Je, Cq, k_d, M, K_G, *coupled, condense, loss)
         Kr, K_loss = Kc.real, (Kc.imag if loss is not None else None)
     else:
@@ -107,20 +114,21 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         Mr = Bt @ M @ B
         Wr = W @ B
         K_loss = (Bt @ K_legs.imag @ B) if loss is not None else None
-    d = damped_modes(
-        Mr,
-        Kr,
-        Wr,
-        h,
-        k_d,
-        c_d,
-        t_d,
-        shapes=shapes,
-        K_loss=K_loss,
-        G=G,
-        solver=solver_of(ev),
-        threads=resolve_threads(ev.threads),
-    )
+    if d is None:
+        d = damped_modes(
+            Mr,
+            Kr,
+            Wr,
+            h,
+            k_d,
+            c_d,
+            t_d,
+            shapes=shapes,
+            K_loss=K_loss,
+            G=G,
+            solver=solver_of(ev),
+            threads=resolve_threads(ev.threads),
+        )
     m = B.shape[-1]
     finite = np.zeros(size, dtype=bool)
     finite[:m] = True
@@ -141,6 +149,49 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         out.shapes[rows] = X
     out.stable[rows] &= d.stable
     return out
+
+
+def _shared(v, n: int):
+    """``v`` (n, ...) as one array where its rows are one broadcast row (stride 0), else as is."""
+    v = np.asarray(v, dtype=float)
+    return v[0] if v.ndim == 3 and (v.strides[0] == 0 or len(v) == 1) and n >= 1 else v
+
+
+def _from_legs(M, K, K_ground, Je, Cq, B, k_d, c_d, t_d, threads: int) -> Damping | None:
+    """The damped modes of n poses from the legs' kernel outputs in one C call
+    (:func:`.c_damped.solve_legs`), each distinct row once: M (n, 6, 6), K (n, 6, 6) the
+    model's stiffness or None (the legs' J_e^T C_q^+ J_e plus ``K_ground``), Je, Cq (n, legs,
+    e, ...), B (n, 6, r), k_d, c_d, t_d (n, legs); the poses the driver leaves undecided by
+    the NumPy route. None where the driver does not take the problem (size, no compiler)."""
+    from . import c_damped
+
+    n, L, e = np.shape(Je)[:3]
+    r = np.shape(B)[-1]
+    if L > c_damped.MAX_LEGS or e > c_damped.MAX_MODES or r > 6 or c_damped.driver() is None:
+        return None
+    M, K, Kg, B = (None if v is None else _shared(v, n) for v in (M, K, K_ground, B))
+    M = np.broadcast_to(M, (n, 6, 6))
+    k_d, c_d, t_d = (np.broadcast_to(np.asarray(v, dtype=float), (n, L)) for v in (k_d, c_d, t_d))
+    rows = [M, Je, Cq, k_d, c_d, t_d] + [v for v in (K, Kg, B) if v is not None and v.ndim == 3]
+    first, inverse = distinct_rows(np.concatenate([np.reshape(v, (n, -1)) for v in rows], axis=1))
+    pick = (lambda v: v) if first is None else (lambda v: v if v is None or v.ndim < 3 else v[first])  # noqa: E731
+    M, K, Kg, Je, Cq, B = (pick(v) for v in (M, K, Kg, np.asarray(Je), np.asarray(Cq), B))
+    k_d, c_d, t_d = ((v if first is None else v[first]) for v in (k_d, c_d, t_d))
+    rules = (RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)
+    wn, zeta, wd, poles, stable, redo = c_damped.solve_legs(M, K, Kg, Je, Cq, e, B, k_d, c_d, t_d, rules, threads)
+    out = [wn / (2 * np.pi), wd / (2 * np.pi), zeta, poles, stable]
+    if redo.any():  # the NumPy route for the driver's undecided poses
+        sel = lambda v: v if v is None or v.ndim < 3 else v[redo]  # noqa: E731
+        K_legs, W, h = actuator_wrenches(Je[redo], Cq[redo], None)
+        Km = sel(K) if K is not None else K_legs + (0.0 if Kg is None else sel(Kg))
+        Bs = np.broadcast_to(np.eye(6) if B is None else sel(B), (int(redo.sum()), 6, r))
+        Bt = np.swapaxes(Bs, -1, -2)
+        dn = damped_modes(Bt @ M[redo] @ Bs, Bt @ Km @ Bs, W @ Bs, h, k_d[redo], c_d[redo], t_d[redo])
+        for arr, name in zip(out, ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable")):
+            arr[redo] = getattr(dn, name)
+    if first is not None:
+        out = [arr[inverse] for arr in out]
+    return Damping(*out[:4], None, out[4])
 
 
 def one_pass_takes(ev, effects) -> bool:
