@@ -95,14 +95,13 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         K_G = gravity_stiffness(ev, pr, effects, sub, full, rigid, B if rigid else None)
     d = None
     if coupled is None and loss is None and K_G is None and not shapes and solver_of(ev) == "c":
+        # in one C call from the legs' outputs (None where it does not take the problem)
         K_ground = None if rigid else legs["K_ground"]
         d = _from_legs(M, K_model, K_ground, Je, Cq, B, k_d, c_d, t_d, resolve_threads(ev.threads))
-    if d is not None:  # solved in one C call from the legs' outputs
-        pass
-    elif coupled is not None:  # legs on platform bodies: condense the couplings
+    if d is None and coupled is not None:  # legs on platform bodies: condense the couplings
         Mr, Kc, Wr, h, G, B = _coupled_reduction(Je, Cq, k_d, M, K_G, *coupled, condense, loss)
         Kr, K_loss = Kc.real, (Kc.imag if loss is not None else None)
-    else:
+    elif d is None:
         G = None
         K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss, solver=solver_of(ev))
         if K_model is None or loss is not None:  # rigid directions (the legs' finite springs on B), a loss factor

@@ -1241,7 +1241,8 @@ class Evaluator:
         damped = complex_shapes or self.damped_model(effects)
         if self._fused and fixed and not self._preloaded(effects):
             one_pass = damped and not (exact or complex_shapes) and self._one_pass(effects)
-            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, one_pass)
+            how = "pass" if one_pass else ("keep" if damped and not exact else None)
+            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, how)
         else:
             stash = {} if exact else None
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
@@ -1282,10 +1283,14 @@ class Evaluator:
             p = self._params(len(pr), sub, effects)
             q = self._ik(pr, p)
             legs = self._kernels.legs(q, self._with_pose(pr, p))
-        else:
-            p, q, legs = known["p"], known["q"], known["out"]
+        else:  # the fused pass's or the exact condensation's (the legs kernel where it did not run)
+            p, q = known["p"], known["q"]
+            legs = known["out"] if "out" in known else self._kernels.legs(q, self._with_pose(pr, p))
         reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
-        mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
+        if known is not None and ("K_F" in known or "K_R" in known):
+            mats = {k: known[k] for k in ("M", "K_F", "K_R") if k in known}
+        else:
+            mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
         return {
             "rows": rows,
             "poses": pr,
@@ -1470,17 +1475,20 @@ class Evaluator:
         )
 
     def _fused_modes(
-        self, poses, effects, params, check: bool, vectors: bool, exact: bool = False, damped: bool = False
+        self, poses, effects, params, check: bool, vectors: bool, exact: bool = False, damped: str | None = None
     ) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
         written straight into the result arrays; with ``exact`` the pass also returns the
-        joint coordinates and M for :meth:`_exact_modes`; with ``damped`` the same C call
-        also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`_one_pass`)."""
+        joint coordinates and M for :meth:`_exact_modes`; ``damped="pass"``: the same C call
+        also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`_one_pass`);
+        ``"keep"``: the pass also returns the joint coordinates, M and the model's stiffness,
+        kept in ``Modes.legs`` for :meth:`_damping_inputs` (no kernel runs twice)."""
         p = self._params(len(poses), params, effects)
         stiffness = self.stiffness_model(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
         shares = vectors and not exact and stiffness == "flexible"
-        if damped:
+        keep = ("K_R" if stiffness == "rigid" else "K_F",) if damped == "keep" else ()
+        if damped == "pass":
             from .damped_modes import fused_damped, pass_damping
 
             basis = getattr(self.space, "basis", None)
@@ -1490,8 +1498,8 @@ class Evaluator:
             out = self._c_pass(
                 poses,
                 p,
-                matrices=("M",) if exact or shares else (),
-                ik=("q",) if exact else (),
+                matrices=("M",) + keep if exact or shares or keep else (),
+                ik=("q",) if exact or keep else (),
                 model=stiffness,
                 vectors=vectors,
                 normalize=True,
@@ -1523,8 +1531,13 @@ class Evaluator:
         if shares and out["eigentwists"].shape[-1] == 6:
             with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
                 modes.shares = energy_shares(out["eigentwists"], out["M"])
-        if damped:
+        if damped == "pass":
             modes.damping = pass_damping(self, effects, poses, params, p, solved, modes)
+        elif keep:  # the damped modes' inputs, on the valid rows (_damping_inputs)
+            rows = np.ones(len(poses), dtype=bool) if modes.valid is None else modes.valid
+            n = len(poses)
+            mats = {k: out[k][rows] for k in ("M",) + keep}
+            modes.legs = {"rows": rows, "q": out["q"][rows], "p": p if rows.all() else self._mask(p, rows, n), **mats}
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
         return modes
