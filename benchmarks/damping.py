@@ -14,7 +14,9 @@ effects' seeded study and the damped modes' throughput.
 3. The seeded study of the damping effects (tests/test_diagnose.py's scenarios, seeds 4, 5, 6).
 4. Poses/s of ``Evaluator.modes`` with and without servo damping, same run, CPU time
    (``time.process_time``), fresh random poses for every repetition (each pose its own k_a,
-   so no two rows share a condition), best of 3 interleaved repetitions, NumPy and C backends (the C backend
+   so no two rows share a condition), best of 3 interleaved repetitions, NumPy and C backends;
+   models ``rigid``, ``paper`` (no rigid direction: the fused C pass solves the damped modes
+   itself) and the paper's final ``actuator_loss,ee_compliance`` (the exact condensation) (the C backend
    solves the damped modes by its compiled driver, :mod:`eigentwist.runtime.c_damped`).
 """
 
@@ -116,7 +118,7 @@ def throughput(reps: int = 3):
 
     for backend in ("numpy", "c"):
         ev = eigentwist.load("heli4", backend=backend, threads=1)
-        for base in ("rigid", "paper"):
+        for base in ("rigid", "paper", ",".join(PAPER)):  # the fused pass's two routes, the exact condensation
             best = {}
             for _ in range(reps):  # the two models interleaved, best CPU time of each
                 for model in (base, base + ",servo_damping"):

@@ -30,7 +30,8 @@ its modal energy), so column j of the result is mode j of the undamped model.
 
 On the C backend the real, uncoupled problem (no loss factor, no couplings, no complex
 shapes) is solved by a compiled driver, the same state matrix and rules in one C call per
-batch (:mod:`.c_damped`); the rest, and any pose the driver leaves undecided, here.
+batch (:mod:`.c_damped`: within the fused pass itself, or from the legs kernel's outputs); the
+rest, and any pose the driver leaves undecided, here.
 """
 
 from __future__ import annotations
