@@ -290,3 +290,20 @@ def test_exact_route_from_the_legs_in_one_call(backends, monkeypatch):
     monkeypatch.setattr(dm, "solver_of", lambda ev: "numpy")
     _same(one, ev.modes(P, EXACT, vectors=False, **kw).damping, 1e-12)
     assert calls == ["legs"]
+
+
+def test_one_pass_threads_give_the_same_poles(driver):
+    """The fused pass's damped modes on ranges of whole blocks on two threads: the same bits
+    as one thread (each block's kernels and poses its own)."""
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    n = 2 * MIN_BLOCKS_PER_THREAD * 64 + 5  # two threads' worth of blocks of 64 poses, a partial block
+    rng = np.random.default_rng(11)
+    P = np.column_stack([rng.uniform(-0.08, 0.08, n), rng.uniform(-0.08, 0.08, n), rng.uniform(-0.68, -0.58, n)])
+    ka = rng.uniform(125.0, 4000.0, n)
+    one, two = (
+        eigentwist.load("heli4", backend="c", threads=t).modes(P, "rigid,servo_damping", k_a=ka, vectors=False)
+        for t in (1, 2)
+    )
+    np.testing.assert_array_equal(one.damping.poles, two.damping.poles)
+    np.testing.assert_array_equal(one.freq_hz, two.freq_hz)
