@@ -1108,8 +1108,9 @@ class Evaluator:
         return self._stiffness(poses, model, params)
 
     def _stiffness(self, poses, model, params: dict, stash: dict | None = None):
-        """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and
-        ``M`` of the NumPy path (for :meth:`_exact_modes`)."""
+        """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and the
+        matrices ``M``, ``K_R``, ``K_F`` of the NumPy path (for :meth:`_exact_modes` and the
+        damped modes, :meth:`_damping_inputs`)."""
         poses_arr = self._poses(poses, params)
         effects = self._resolve(model)
         rigid = self.stiffness_model(effects) == "rigid"
@@ -1130,7 +1131,7 @@ class Evaluator:
             return reduce(res["M"], B), reduce(res["K_R"], B)
         if stash is not None and not self._fused:
             mats, stash["q"] = self._matrices_q(poses_arr, self._params(len(poses_arr), params, effects))
-            stash["M"] = mats["M"]
+            stash.update((k, mats[k]) for k in MATRICES)
         else:
             mats = self.matrices(poses_arr, effects, **params)
         B = self.allowed_twists(poses_arr, **params) if rigid else None
@@ -1244,10 +1245,13 @@ class Evaluator:
             how = "pass" if one_pass else ("keep" if damped and not exact else None)
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, how)
         else:
-            stash = {} if exact else None
+            stash = {} if exact or (damped and not self._fused) else None
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
-                modes = self._exact_modes(poses, effects, params, modes, vectors, **stash)
+                modes = self._exact_modes(poses, effects, params, modes, vectors, q=stash.get("q"), M=stash.get("M"))
+            elif stash and stash.get("q") is not None:  # the NumPy path's kernel outputs, for _damping_inputs
+                rows = np.ones(len(poses), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+                modes.legs = {"rows": rows, **{k: v[rows] for k, v in stash.items()}}
         if damped:
             if modes.damping is None:  # not solved in the fused pass
                 from .damped_modes import damped_of
@@ -1283,12 +1287,15 @@ class Evaluator:
             p = self._params(len(pr), sub, effects)
             q = self._ik(pr, p)
             legs = self._kernels.legs(q, self._with_pose(pr, p))
-        else:  # the fused pass's or the exact condensation's (the legs kernel where it did not run)
-            p, q = known["p"], known["q"]
+        else:  # the kernels' outputs of modes' own pass (the legs kernel where it did not run)
+            q = known["q"]
+            p = known["p"] if "p" in known else self._params(len(pr), sub, effects)
             legs = known["out"] if "out" in known else self._kernels.legs(q, self._with_pose(pr, p))
         reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
-        if known is not None and ("K_F" in known or "K_R" in known):
-            mats = {k: known[k] for k in ("M", "K_F", "K_R") if k in known}
+        rigid = self.stiffness_model(effects) == "rigid"
+        need = MATRICES if self._preloaded(effects) else ("M", "K_R" if rigid else "K_F")
+        if known is not None and all(k in known for k in need):
+            mats = {k: known[k] for k in need}
         else:
             mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
         return {
