@@ -114,14 +114,18 @@ def test_dispatch(backends, monkeypatch):
     monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(("solve", len(a[1]))) or solve(*a, **k))
     monkeypatch.setattr(c_damped, "one_pass", lambda *a, **k: calls.append(("pass", a[3])) or one_pass(*a, **k))
     monkeypatch.setattr(c_damped, "solve_legs", lambda *a: calls.append(("legs", len(a[3]))) or solve_legs(*a))
-    backends["numpy"].modes(X_REF, "damped", k_a=125.0)
     for model in ("damped", "paper,structural_loss", EXACT):  # each route probed once (IK, legs at x_ref)
-        backends["c"].modes(X_REF, model, k_a=125.0, eta_s=0.05)
+        for b in ("numpy", "c"):
+            backends[b].modes(X_REF, model, k_a=125.0, eta_s=0.05)
     calls.clear()
-    kernels, ran = backends["c"].kernels, []
-    for name in ("inverse_kinematics", "matrices", "legs"):  # the fused pass's outputs reused: legs alone
-        monkeypatch.setattr(kernels, name, lambda *a, f=getattr(kernels, name), k=name: ran.append(k) or f(*a))
-    backends["c"].modes(X_REF, "damped", k_a=125.0, complex_shapes=True)
+    ran = []
+    for kernels in (backends["numpy"].kernels, backends["c"].kernels):  # no kernel runs twice: the legs after
+        for name in ("inverse_kinematics", "matrices", "legs"):
+            monkeypatch.setattr(kernels, name, lambda *a, f=getattr(kernels, name), k=name: ran.append(k) or f(*a))
+    backends["numpy"].modes(X_REF, "damped", k_a=125.0)
+    assert ran == ["inverse_kinematics", "matrices", "legs"]
+    ran.clear()
+    backends["c"].modes(X_REF, "damped", k_a=125.0, complex_shapes=True)  # the fused pass, then the legs
     backends["c"].modes(X_REF, "paper,structural_loss", k_a=125.0, eta_s=0.05)
     assert calls == [] and ran == ["legs", "legs"]
     backends["c"].modes(np.tile(X_REF, (3, 1)), EXACT, k_a=[125.0, 125.0, 500.0])
