@@ -133,6 +133,9 @@ def test_dispatch(backends, monkeypatch):
     backends["c"].modes(np.tile(X_REF, (3, 1)), "damped", k_a=[125.0, 125.0, 500.0])
     backends["c"].modes(X_REF, "rigid,servo_damping", k_a=125.0)
     assert calls == [("legs", 2), ("pass", 3), ("pass", 1)]
+    # legs with rigid directions and the user's finite c_rigid: K_F not exact, not the pass's route
+    backends["c"].modes(X_REF, EXACT, k_a=125.0, c_rigid=1e-7)
+    assert calls[3:] == [("legs", 1)]
 
 
 #: a flexible model whose legs have rigid directions (the exact condensation: not in the fused pass)
