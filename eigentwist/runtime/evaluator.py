@@ -108,8 +108,8 @@ class Modes:
     constrained: np.ndarray | None = None
     shares: np.ndarray | None = None
     damping: object = None
-    #: the valid rows' joint coordinates, inputs and legs-kernel outputs where the exact
-    #: condensation computed them (reused by the damped modes); None otherwise
+    #: the valid rows' joint coordinates, matrices, inputs and legs-kernel outputs where the
+    #: pass computed them (reused by the damped modes, then dropped); None otherwise
     legs: dict | None = field(default=None, repr=False)
 
     def __post_init__(self):
