@@ -14,7 +14,7 @@ effects' seeded study and the damped modes' throughput.
 3. The seeded study of the damping effects (tests/test_diagnose.py's scenarios, seeds 4, 5, 6).
 4. Poses/s of ``Evaluator.modes`` with and without servo damping, same run, CPU time
    (``time.process_time``), fresh random poses for every repetition (each pose its own k_a,
-   so no two rows share a condition), best of 3 interleaved repetitions, NumPy and C backends;
+   so no two rows share a condition), best of 5 interleaved repetitions, NumPy and C backends;
    models ``rigid``, ``paper`` (no rigid direction: the fused C pass solves the damped modes
    itself) and the paper's final ``actuator_loss,ee_compliance`` (the exact condensation) (the C backend
    solves the damped modes by its compiled driver, :mod:`eigentwist.runtime.c_damped`).
@@ -104,7 +104,7 @@ def seeded_study(ev):
         print(f"| {effect} | {found}/3 | {time.process_time() - t:.1f} |")
 
 
-def throughput(reps: int = 3):
+def throughput(reps: int = 5):
     print("\n## 4. Poses/s of Evaluator.modes, one thread, CPU time (each pose its own k_a)\n")
     print("| backend | model | undamped | damped | ratio |\n|---|---|---|---|---|")
     rng = np.random.default_rng(1)
