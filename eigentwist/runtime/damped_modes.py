@@ -268,7 +268,8 @@ def pass_damping(ev, effects, poses, params: dict, p: dict, solved: dict, modes)
     """The :class:`~.damped.Damping` of the fused pass's damped poles (:func:`fused_damped`)
     for ``modes``, its undamped modes with the evaluator's checks done: the rows not valid
     NaN as :func:`damped_of` leaves them, and the poses the C driver left undecided solved by
-    :func:`damped_of` from the pass's kernel outputs (no kernel runs again)."""
+    :func:`damped_of` from the pass's kernel outputs (no kernel runs again; the driver's
+    undecided poses go on to NumPy there)."""
     wn, zeta, wd, poles, stable, redo = solved["poles"]
     N = len(modes.freq_hz)
     valid = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
@@ -278,7 +279,7 @@ def pass_damping(ev, effects, poses, params: dict, p: dict, solved: dict, modes)
     zeta[bad], poles[bad] = np.nan, np.nan
     out = Damping(natural, damped, zeta, poles, None, np.asarray(modes.stable, dtype=bool) & (stable | bad))
     rows = valid & redo
-    if rows.any():  # the driver's undecided poses: NumPy, on the pass's outputs
+    if rows.any():  # the driver's undecided poses, on the pass's outputs
         take = lambda d: {k: (v[rows] if np.ndim(v) and np.shape(v)[0] == N > 1 else v) for k, v in d.items()}  # noqa: E731
         inputs = {
             "rows": rows,
