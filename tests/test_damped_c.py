@@ -107,16 +107,112 @@ def test_heli4_paper_poses_agree(backends, model, params):
 
 def test_dispatch(backends, monkeypatch):
     """The C backend's evaluator solves by the driver, the NumPy one does not; complex shapes
-    and a loss factor stay in NumPy."""
+    and a loss factor stay in NumPy; the fused pass solves its routes itself, the exact
+    condensation's route from the legs' outputs in one call."""
     calls = []
-    solve = c_damped.solve
-    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(len(a[1])) or solve(*a, **k))
+    solve, one_pass, solve_legs = c_damped.solve, c_damped.one_pass, c_damped.solve_legs
+    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(("solve", len(a[1]))) or solve(*a, **k))
+    monkeypatch.setattr(c_damped, "one_pass", lambda *a, **k: calls.append(("pass", a[3])) or one_pass(*a, **k))
+    monkeypatch.setattr(c_damped, "solve_legs", lambda *a: calls.append(("legs", len(a[3]))) or solve_legs(*a))
+    for model in ("damped", "paper,structural_loss", EXACT):  # each route probed once (IK, legs at x_ref)
+        for b in ("numpy", "c"):
+            backends[b].modes(X_REF, model, k_a=125.0, eta_s=0.05)
+    calls.clear()
+    ran = []
+    for kernels in (backends["numpy"].kernels, backends["c"].kernels):  # no kernel runs twice: the legs after
+        for name in ("inverse_kinematics", "matrices", "legs"):
+            monkeypatch.setattr(kernels, name, lambda *a, f=getattr(kernels, name), k=name: ran.append(k) or f(*a))
     backends["numpy"].modes(X_REF, "damped", k_a=125.0)
-    backends["c"].modes(X_REF, "damped", k_a=125.0, complex_shapes=True)
+    assert ran == ["inverse_kinematics", "matrices", "legs"]
+    ran.clear()
+    backends["c"].modes(X_REF, "damped", k_a=125.0, complex_shapes=True)  # the fused pass, then the legs
     backends["c"].modes(X_REF, "paper,structural_loss", k_a=125.0, eta_s=0.05)
-    assert calls == []
+    assert calls == [] and ran == ["legs", "legs"]
+    backends["c"].modes(np.tile(X_REF, (3, 1)), EXACT, k_a=[125.0, 125.0, 500.0])
+    assert calls == [("legs", 2)]  # rows of one condition solved once
     backends["c"].modes(np.tile(X_REF, (3, 1)), "damped", k_a=[125.0, 125.0, 500.0])
-    assert calls == [2]  # rows of one condition solved once
+    backends["c"].modes(X_REF, "rigid,servo_damping", k_a=125.0)
+    assert calls == [("legs", 2), ("pass", 3), ("pass", 1)]
+    # legs with rigid directions and the user's finite c_rigid: K_F not exact, not the pass's route
+    backends["c"].modes(X_REF, EXACT, k_a=125.0, c_rigid=1e-7)
+    assert calls[3:] == [("legs", 1)]
+
+
+#: a flexible model whose legs have rigid directions (the exact condensation: not in the fused pass)
+EXACT = "actuator_loss,ee_compliance,servo_damping"
+ONE_PASS = [
+    ("damped", {"k_a": np.array([125.0, 4000.0])}),
+    ("damped,servo_delay", {"k_a": np.array([125.0, 2000.0]), "t_d": 5e-4}),
+    ("rigid,servo_damping", {"k_a": np.array([125.0, 4000.0]), "c_a": 20.0}),
+]
+
+
+def _poses_and_kw(params, unreachable: bool = False):
+    """The paper poses × k_a (and, where asked, an unreachable pose), with the kwargs."""
+    poses = np.array([X_REF, [0.0, 0.1, -0.55], [0.1, 0.0, -0.55], [0.05, -0.03, -0.6]])
+    if unreachable:
+        poses = np.vstack([poses, [0.0, 0.0, -2.0]])
+    ka = params["k_a"]
+    return np.repeat(poses, len(ka), axis=0), dict(params, k_a=np.tile(ka, len(poses)))
+
+
+def _same(a, b, rtol):
+    """Two Damping results equal to rtol of |s| (NaN where the other is NaN; a column without
+    a pole, a rigid constraint's mode, keeps the undamped frequency on both)."""
+    assert np.array_equal(np.isnan(a.poles), np.isnan(b.poles))
+    ok = ~np.isnan(b.poles)
+    np.testing.assert_array_equal(a.natural_hz[~ok], b.natural_hz[~ok])
+    scale = np.abs(b.poles[ok])
+    assert np.all(np.abs(a.poles - b.poles)[ok] <= rtol * scale)
+    for name in ("natural_hz", "damped_hz"):
+        assert np.all(np.abs(getattr(a, name) - getattr(b, name))[ok] <= rtol * scale / (2 * np.pi)), name
+    assert np.all(np.abs(a.damping_ratio - b.damping_ratio)[ok] <= rtol)
+    assert np.array_equal(a.stable, b.stable)
+
+
+@pytest.mark.parametrize("model, params", ONE_PASS)
+def test_one_pass_against_two_steps_and_numpy(backends, monkeypatch, model, params):
+    """The fused pass's damped modes (kernels and solve in one C call) equal, to 1e-12 of |s|,
+    the two-step route (kernels, then the driver) and the NumPy solver (stacked eig) on the
+    same kernels' outputs, with an unreachable pose among them (invalid="nan": NaN on every
+    route). (The NumPy backend's own kernels round differently: its undamped frequencies of
+    the flexible model already differ by ~1e-12, K_F's condition; test_heli4_paper_poses_agree.)"""
+    from eigentwist.runtime import damped_modes as dm
+
+    P, kw = _poses_and_kw(params, unreachable=True)
+    ev = backends["c"]
+    one = ev.modes(P, model, vectors=False, invalid="nan", **kw)
+    monkeypatch.setattr(dm, "one_pass_takes", lambda *a: False)
+    two = ev.modes(P, model, vectors=False, invalid="nan", **kw)
+    monkeypatch.setattr(dm, "solver_of", lambda ev: "numpy")
+    numpy = ev.modes(P, model, vectors=False, invalid="nan", **kw)
+    bad = len(params["k_a"])  # the unreachable pose's rows, last
+    assert np.isnan(one.damping.natural_hz[-bad:]).all() and not one.valid[-bad:].any() and one.valid[:-bad].all()
+    _same(one.damping, two.damping, 1e-12)
+    _same(one.damping, numpy.damping, 1e-12)
+    np.testing.assert_array_equal(one.freq_hz, two.freq_hz)
+    np.testing.assert_array_equal(one.stable, two.stable)
+
+
+def test_one_pass_leaves_undecided_poses_to_the_two_step_route(backends, monkeypatch):
+    """Poses the driver marks undecided are solved from the pass's own kernel outputs by the
+    two-step route: the same poles as where the pass decided them."""
+    P, kw = _poses_and_kw(ONE_PASS[0][1])
+    ev = backends["c"]
+    decided = ev.modes(P, "damped", vectors=False, **kw).damping
+    one_pass = c_damped.one_pass
+
+    def undecided(*a, **k):
+        out = one_pass(*a, **k)
+        out[-1][::2] = True
+        return out
+
+    calls = []
+    solve_legs = c_damped.solve_legs
+    monkeypatch.setattr(c_damped, "one_pass", undecided)
+    monkeypatch.setattr(c_damped, "solve_legs", lambda *a: calls.append(len(a[3])) or solve_legs(*a))
+    _same(ev.modes(P, "damped", vectors=False, **kw).damping, decided, 1e-12)
+    assert calls == [len(P[::2])]
 
 
 @pytest.mark.parametrize("n, decided", [(10, True), (11, False)])
@@ -168,3 +264,53 @@ def test_threads_give_the_same_poles(driver):
     one, two = (damped_modes(*args, solver="c", threads=t) for t in (1, 2))
     np.testing.assert_array_equal(one.poles, two.poles)
     np.testing.assert_array_equal(one.stable, two.stable)
+
+
+def test_exact_route_from_the_legs_in_one_call(backends, monkeypatch):
+    """The exact condensation's route (not in the fused pass) solves from the legs' outputs in
+    one C call (wrenches, projection, solve); to 1e-12 of |s| it equals the NumPy route of a
+    problem beyond the driver's legs (NumPy glue and stacked eig), the NumPy solver, and the
+    NumPy route of the poses the call leaves undecided."""
+    from eigentwist.runtime import damped_modes as dm
+
+    P, kw = _poses_and_kw({"k_a": np.array([125.0, 4000.0]), "c_a": 8.0})  # overdamped modes at 125
+    ev = backends["c"]
+    calls = []
+    solve_legs, solve = c_damped.solve_legs, c_damped.solve
+    monkeypatch.setattr(c_damped, "solve_legs", lambda *a: calls.append("legs") or solve_legs(*a))
+    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append("solve") or solve(*a, **k))
+    one = ev.modes(P, EXACT, vectors=False, **kw).damping
+    assert calls == ["legs"] and np.any(one.damped_hz == 0)
+    with monkeypatch.context() as m:
+        m.setattr(c_damped, "MAX_LEGS", ev.n_legs - 1)
+        _same(one, ev.modes(P, EXACT, vectors=False, **kw).damping, 1e-12)
+    assert calls == ["legs"]
+
+    def undecided(*a):
+        out = solve_legs(*a)
+        out[-1][::2] = True
+        return out
+
+    with monkeypatch.context() as m:
+        m.setattr(c_damped, "solve_legs", undecided)
+        _same(one, ev.modes(P, EXACT, vectors=False, **kw).damping, 1e-12)
+    monkeypatch.setattr(dm, "solver_of", lambda ev: "numpy")
+    _same(one, ev.modes(P, EXACT, vectors=False, **kw).damping, 1e-12)
+    assert calls == ["legs"]
+
+
+def test_one_pass_threads_give_the_same_poles(driver):
+    """The fused pass's damped modes on ranges of whole blocks on two threads: the same bits
+    as one thread (each block's kernels and poses its own)."""
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    n = 2 * MIN_BLOCKS_PER_THREAD * 64 + 5  # two threads' worth of blocks of 64 poses, a partial block
+    rng = np.random.default_rng(11)
+    P = np.column_stack([rng.uniform(-0.08, 0.08, n), rng.uniform(-0.08, 0.08, n), rng.uniform(-0.68, -0.58, n)])
+    ka = rng.uniform(125.0, 4000.0, n)
+    one, two = (
+        eigentwist.load("heli4", backend="c", threads=t).modes(P, "rigid,servo_damping", k_a=ka, vectors=False)
+        for t in (1, 2)
+    )
+    np.testing.assert_array_equal(one.damping.poles, two.damping.poles)
+    np.testing.assert_array_equal(one.freq_hz, two.freq_hz)

@@ -17,6 +17,15 @@ between the legs' internal coordinates:
    one-to-one assignment of largest total share, then the overdamped modes' real pole
    pairs), as :func:`~eigentwist.runtime.damped._assign` does.
 
+Three entry points run these steps: :func:`solve` on given M, K and actuator wrenches;
+:func:`solve_legs` from the legs kernel's outputs (the actuator wrenches, the stiffness and
+the projection on the model's coordinates in C too); :func:`one_pass` inside the robot's
+fused pass: per block of poses the generated fused pass (inverse kinematics, M and the
+model's stiffness, the undamped modes), the generated ``legs`` kernel on the block's joint
+coordinates, then the damped modes, with no Python between them (the robot's library and
+this one each loaded only after their SHA-256 check; the driver calls the robot's functions
+by address).
+
 A pose the C code cannot decide (the QR iteration without convergence, an inertia that is
 not positive definite, more than ``MAX_ASSIGN`` (10) poles of positive frequency to assign
 by share) is marked, and
@@ -31,7 +40,7 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["driver", "solve", "wrenches", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
+__all__ = ["driver", "solve", "wrenches", "one_pass", "solve_legs", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
 
 #: the largest problem the C driver takes (modes, legs); a larger one is solved in NumPy
 MAX_MODES = 12
@@ -691,56 +700,66 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
     return 0;
 }
 
-/* per pose: K (c x c) = sum_i Je_i^T Kq_i Je_i, W (L x c) rows g_i^T Je_i, h_i = g_i[0], with
-   Kq_i = pinv(Cq_i) on the compliant eigen-directions (an eigenvalue within rtol of the
-   largest magnitude: rigid, left out) and g_i = Kq_i e_0; Je (L x e x c), Cq (L x e x e) */
+/* one leg: Kq = pinv(C) on the compliant eigen-directions of its joint compliance C (e x e; an
+   eigenvalue within rtol of the largest magnitude: rigid, left out), g = Kq e_0: the
+   actuator wrench W (c) = g^T J (J: e x c), h = g[0], and, where K is not NULL,
+   K (c x c) += J^T Kq J */
+static void et_wrench_leg(int e, int c, const double *J, const double *C, double rtol, double *K, double *W,
+                          double *h)
+{
+    double S[MAXN * MAXN], U[MAXN * MAXN], lam[MAXN], Kq[MAXN * MAXN], KJ[MAXN * 64];
+    memcpy(S, C, sizeof(double) * e * e);
+    et_jacobi(e, S, lam, U);
+    double scale = 0.0;
+    for (int i = 0; i < e; ++i)
+        scale = fmax(scale, fabs(lam[i]));
+    for (int i = 0; i < e; ++i)
+        lam[i] = fabs(lam[i]) <= rtol * scale ? 0.0 : 1.0 / lam[i];
+    for (int a = 0; a < e; ++a)
+        for (int b = 0; b < e; ++b) {
+            double v = 0.0;
+            for (int k = 0; k < e; ++k)
+                v += U[a * e + k] * lam[k] * U[b * e + k];
+            Kq[a * e + b] = v;
+        }
+    *h = Kq[0];
+    for (int j = 0; j < c; ++j) {
+        double v = 0.0;
+        for (int a = 0; a < e; ++a)
+            v += Kq[a * e] * J[a * c + j];
+        W[j] = v;
+    }
+    if (!K)
+        return;
+    for (int a = 0; a < e; ++a) /* KJ = Kq Je (e x c) */
+        for (int j = 0; j < c; ++j) {
+            double v = 0.0;
+            for (int b = 0; b < e; ++b)
+                v += Kq[a * e + b] * J[b * c + j];
+            KJ[a * c + j] = v;
+        }
+    for (int i = 0; i < c; ++i)
+        for (int j = 0; j < c; ++j) {
+            double v = 0.0;
+            for (int a = 0; a < e; ++a)
+                v += J[a * c + i] * KJ[a * c + j];
+            K[i * c + j] += v;
+        }
+}
+
+/* per pose: K (c x c) = sum_i Je_i^T Kq_i Je_i, W (L x c) rows g_i^T Je_i, h_i = g_i[0]
+   (et_wrench_leg); Je (L x e x c), Cq (L x e x e) */
 int et_wrenches(int64_t count, int L, int e, int c, const double *Je, const double *Cq, double rtol, double *K,
                 double *W, double *h)
 {
-    if (e < 1 || e > MAXN || L < 1)
+    if (e < 1 || e > MAXN || L < 1 || c > 64)
         return -1;
     for (int64_t p = 0; p < count; ++p) {
         double *Kp = K + p * c * c;
         memset(Kp, 0, sizeof(double) * c * c);
-        for (int l = 0; l < L; ++l) {
-            const double *J = Je + (p * L + l) * e * c, *C = Cq + (p * L + l) * e * e;
-            double S[MAXN * MAXN], U[MAXN * MAXN], lam[MAXN], Kq[MAXN * MAXN], KJ[MAXN * 64];
-            memcpy(S, C, sizeof(double) * e * e);
-            et_jacobi(e, S, lam, U);
-            double scale = 0.0;
-            for (int i = 0; i < e; ++i)
-                scale = fmax(scale, fabs(lam[i]));
-            for (int i = 0; i < e; ++i)
-                lam[i] = fabs(lam[i]) <= rtol * scale ? 0.0 : 1.0 / lam[i];
-            for (int a = 0; a < e; ++a)
-                for (int b = 0; b < e; ++b) {
-                    double v = 0.0;
-                    for (int k = 0; k < e; ++k)
-                        v += U[a * e + k] * lam[k] * U[b * e + k];
-                    Kq[a * e + b] = v;
-                }
-            h[p * L + l] = Kq[0];
-            for (int j = 0; j < c; ++j) {
-                double v = 0.0;
-                for (int a = 0; a < e; ++a)
-                    v += Kq[a * e] * J[a * c + j];
-                W[(p * L + l) * c + j] = v;
-            }
-            for (int a = 0; a < e; ++a) /* KJ = Kq Je (e x c) */
-                for (int j = 0; j < c; ++j) {
-                    double v = 0.0;
-                    for (int b = 0; b < e; ++b)
-                        v += Kq[a * e + b] * J[b * c + j];
-                    KJ[a * c + j] = v;
-                }
-            for (int i = 0; i < c; ++i)
-                for (int j = 0; j < c; ++j) {
-                    double v = 0.0;
-                    for (int a = 0; a < e; ++a)
-                        v += J[a * c + i] * KJ[a * c + j];
-                    Kp[i * c + j] += v;
-                }
-        }
+        for (int l = 0; l < L; ++l)
+            et_wrench_leg(e, c, Je + (p * L + l) * e * c, Cq + (p * L + l) * e * e, rtol, Kp, W + (p * L + l) * c,
+                          h + p * L + l);
     }
     return 0;
 }
@@ -759,11 +778,160 @@ int et_damped(int64_t count, int n, int L, const double *M, const double *K, con
     }
     return 0;
 }
+
+/* one pose from its legs' kernel outputs: each leg's actuator wrench from the first e_used rows
+   of its Je (L x e x 6) and Cq (L x e x e) (et_wrench_leg), the stiffness K (6 x 6), or where K
+   is NULL the legs' J_e^T C_q^+ J_e plus Kg (6 x 6, NULL: none), then B^T M B, B^T K B and
+   W B on the model's coordinates B (6 x r, row-major; NULL: the six twists) into et_pose */
+static int et_pose_legs(int L, int e, int e_used, int r, const double *M, const double *K, const double *Kg,
+                        const double *Je, const double *Cq, const double *B, const double *kd, const double *cd,
+                        const double *td, double rtol, double eliminate, double unstable, double ambiguous,
+                        double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double W6[MAXL * 6], W[MAXL * 6], h[MAXL], Mr[36], Kr[36], J[MAXN * 6], C[MAXN * MAXN], Ks[36];
+    if (!K)
+        memset(Ks, 0, sizeof(Ks));
+    for (int l = 0; l < L; ++l) {
+        const double *Jl = Je + l * e * 6, *Cl = Cq + l * e * e;
+        for (int a = 0; a < e_used; ++a) {
+            for (int j = 0; j < 6; ++j)
+                J[a * 6 + j] = Jl[a * 6 + j];
+            for (int c = 0; c < e_used; ++c)
+                C[a * e_used + c] = Cl[a * e + c];
+        }
+        et_wrench_leg(e_used, 6, J, C, rtol, K ? NULL : Ks, W6 + l * 6, h + l);
+    }
+    if (!K) {
+        if (Kg)
+            for (int i = 0; i < 36; ++i)
+                Ks[i] += Kg[i];
+        K = Ks;
+    }
+    if (B) { /* B^T M B, B^T K B, W B */
+        double BM[36], BK[36];
+        for (int i = 0; i < r; ++i)
+            for (int j = 0; j < 6; ++j) {
+                double vm = 0.0, vk = 0.0;
+                for (int k = 0; k < 6; ++k) {
+                    vm += B[k * r + i] * M[k * 6 + j];
+                    vk += B[k * r + i] * K[k * 6 + j];
+                }
+                BM[i * 6 + j] = vm;
+                BK[i * 6 + j] = vk;
+            }
+        for (int i = 0; i < r; ++i)
+            for (int j = 0; j < r; ++j) {
+                double vm = 0.0, vk = 0.0;
+                for (int k = 0; k < 6; ++k) {
+                    vm += BM[i * 6 + k] * B[k * r + j];
+                    vk += BK[i * 6 + k] * B[k * r + j];
+                }
+                Mr[i * r + j] = vm;
+                Kr[i * r + j] = vk;
+            }
+        for (int l = 0; l < L; ++l)
+            for (int j = 0; j < r; ++j) {
+                double v = 0.0;
+                for (int k = 0; k < 6; ++k)
+                    v += W6[l * 6 + k] * B[k * r + j];
+                W[l * r + j] = v;
+            }
+    } else {
+        memcpy(Mr, M, sizeof(Mr));
+        memcpy(Kr, K, sizeof(Kr));
+        memcpy(W, W6, sizeof(double) * L * 6);
+    }
+    return et_pose(r, L, Mr, Kr, W, h, kd, cd, td, eliminate, unstable, ambiguous, wn, zeta, wd, poles, stable);
+}
+
+/* et_pose_legs for count poses: M (6 x 6), K (6 x 6, or NULL), Kg (6 x 6, or NULL), Je, Cq,
+   B (6 x r, or NULL) and kd, cd, td (L) per pose, a NULL-free input of stride 0 shared (its
+   *_shared flag 1); status 1 where NumPy must solve the pose */
+int et_damped_legs(int64_t count, int L, int e, int e_used, int r, const double *M, const double *K, int K_shared,
+                   const double *Kg, int Kg_shared, const double *Je, const double *Cq, const double *B, int B_shared,
+                   const double *kd, const double *cd, const double *td, double rtol, double eliminate,
+                   double unstable, double ambiguous, double *wn, double *zeta, double *wd, double *poles,
+                   int8_t *stable, int8_t *status)
+{
+    if (r < 1 || r > 6 || L < 1 || L > MAXL || e_used < 1 || e_used > e || e > MAXN)
+        return -1;
+    for (int64_t p = 0; p < count; ++p)
+        status[p] = (int8_t)et_pose_legs(L, e, e_used, r, M + p * 36, K ? K + (K_shared ? 0 : p * 36) : NULL,
+                                         Kg ? Kg + (Kg_shared ? 0 : p * 36) : NULL, Je + p * L * e * 6,
+                                         Cq + p * L * e * e, B ? B + (B_shared ? 0 : p * 6 * r) : NULL,
+                                         kd + p * L, cd + p * L, td + p * L, rtol, eliminate, unstable, ambiguous,
+                                         wn + p * r, zeta + p * r, wd + p * r, poles + 2 * p * r, stable + p);
+    return 0;
+}
+
+/* the robot's generated fused pass and one of its kernels (eigentwist/generated/<robot>_c.c) */
+typedef int (*et_fused_fn)(int64_t, int64_t, const double *const *, const int64_t *, int, double *const *,
+                           double *const *, double *const *, double *, double *, int8_t *, const double *);
+typedef int (*et_kernel_fn)(int64_t, const double *const *, const int64_t *, double *const *);
+
+/* The damped modes of poses [begin, end) in one pass, `block` poses at a time (begin a multiple
+   of it): the robot's fused pass (its f_* arguments: inverse kinematics, the 6 x 6 M and the
+   model's stiffness, the undamped modes and the status), its legs kernel on the block's joint
+   coordinates (input k read at l_in[k] with stride l_stride[k], or, where q_of[k] >= 0, entry
+   q_of[k] of the pose's row of q (q_row doubles); output k of l_size[k] doubles per pose to
+   l_out[k]), then per pose of status 0 or 4 (undamped unstable) each leg's actuator wrench from
+   the first e_used rows of its Je (L x e x 6) and Cq (L x e x e) (et_wrench_leg), the problem
+   on the model's coordinates B (6 x r; NULL: the six twists) and et_pose. Other poses: NaN,
+   redo 0. Returns the kernels' nonzero code, -1 for bad sizes. */
+int et_damped_pass(int64_t begin, int64_t end, int64_t block, et_fused_fn fused, const double *const *f_in,
+                   const int64_t *f_stride, int f_model, double *const *f_ik, double *const *f_mat,
+                   double *const *f_jac, double *f_freq, double *f_vec, int8_t *f_status, const double *f_opts,
+                   et_kernel_fn legs, int n_in, const double *const *l_in, const int64_t *l_stride, const int *q_of,
+                   int n_out, double *const *l_out, const int64_t *l_size, const double *q, int q_row,
+                   const double *Mall, const double *Kall, const double *Je, const double *Cq, int L, int e,
+                   int e_used, const double *B, int r, const double *kd, const double *cd, const double *td,
+                   double rtol, double eliminate, double unstable, double ambiguous, double *wn, double *zeta,
+                   double *wd, double *poles, int8_t *stable, int8_t *redo)
+{
+    if (r < 1 || r > 6 || r > MAXN || L < 1 || L > MAXL || e_used < 1 || e_used > e || e > MAXN || n_in > 256 ||
+        n_out > 64 || block < 1 || begin % block != 0)
+        return -1;
+    const double *ins[256];
+    int64_t strides[256];
+    double *outs[64];
+    for (int64_t b = begin; b < end; b += block) {
+        const int64_t b2 = end - b < block ? end : b + block;
+        int rc = fused(b, b2, f_in, f_stride, f_model, f_ik, f_mat, f_jac, f_freq, f_vec, f_status, f_opts);
+        if (rc != 0)
+            return rc;
+        for (int k = 0; k < n_in; ++k) {
+            ins[k] = q_of[k] >= 0 ? q + b * q_row + q_of[k] : l_in[k] + b * l_stride[k];
+            strides[k] = q_of[k] >= 0 ? q_row : l_stride[k];
+        }
+        for (int k = 0; k < n_out; ++k)
+            outs[k] = l_out[k] + b * l_size[k];
+        rc = legs(b2 - b, ins, strides, outs);
+        if (rc != 0)
+            return rc;
+        for (int64_t p = b; p < b2; ++p) {
+            if (f_status[p] != 0 && f_status[p] != 4) {
+                for (int j = 0; j < r; ++j)
+                    wn[p * r + j] = zeta[p * r + j] = wd[p * r + j] = poles[2 * (p * r + j)] =
+                        poles[2 * (p * r + j) + 1] = NAN;
+                stable[p] = 1;
+                redo[p] = 0;
+                continue;
+            }
+            redo[p] = (int8_t)et_pose_legs(L, e, e_used, r, Mall + p * 36, Kall + p * 36, NULL,
+                                           Je + p * L * e * 6, Cq + p * L * e * e, B, kd + p * L, cd + p * L,
+                                           td + p * L, rtol, eliminate, unstable, ambiguous, wn + p * r,
+                                           zeta + p * r, wd + p * r, poles + 2 * p * r, stable + p);
+        }
+    }
+    return 0;
+}
 """
 
 _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []  # the loaded driver library, kept for the process
 _WRENCHES: list = []  # its et_wrenches
+_PASS: list = []  # its et_damped_pass
+_LEGS: list = []  # its et_damped_legs
 
 
 def driver():
@@ -785,6 +953,18 @@ def driver():
             ] * 3
             lib.et_wrenches.restype = ctypes.c_int
             _WRENCHES.append(lib.et_wrenches)
+            v, i64 = ctypes.c_void_p, ctypes.c_int64
+            lib.et_damped_pass.argtypes = (
+                [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
+                + [v, i, v, v, v, i, v, v, v, i]
+                + [v, v, v, v, i, i, i, v, i, v, v, v, d, d, d, d]
+                + [v] * 6
+            )
+            lib.et_damped_pass.restype = ctypes.c_int
+            _PASS.append(lib.et_damped_pass)
+            lib.et_damped_legs.argtypes = [i64, i, i, i, i, v, v, i, v, i, v, v, v, i, v, v, v, d, d, d, d] + [v] * 6
+            lib.et_damped_legs.restype = ctypes.c_int
+            _LEGS.append(lib.et_damped_legs)
         _DRIVER.append(fn)
     return _DRIVER[0]
 
@@ -845,3 +1025,139 @@ def wrenches(Je, Cq, rigid: float):
     if rc != 0:
         raise RuntimeError(f"C actuator wrenches returned {rc}")
     return K, W, h
+
+
+def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, threads: int = 1):
+    """The robot's fused pass, its legs kernel and the damped modes of n poses in one C call
+    per range of whole blocks (``et_damped_pass``: no Python between the kernels and the
+    solve): ``(wn, zeta, wd, poles, stable, redo)`` as :func:`solve` gives them, on the model's
+    r coordinates (the poses the pass marks invalid: NaN).
+
+    ``fused``: ``(address, args)`` of the fused pass (:meth:`.c_kernels.CKernels.address`,
+    :meth:`~.c_kernels.CKernels.fused_arguments`'s C arguments, which must ask for the
+    status, ``q``, ``M`` and the model's stiffness); ``legs``: the legs kernel's
+    :meth:`~.c_kernels.CKernels.kernel_arguments`; ``block``: the kernels' block of poses;
+    q (n, legs, n_q), M, K (n, 6, 6), Je (n, legs, e, 6), Cq (n, legs, e, e): the arrays those
+    calls fill (the actuated joint's first ``e_used`` rows are the leg's compliance), B (6, r)
+    the model's coordinates or None (the six twists), k_d, c_d, t_d (n, legs); ``rules``: the
+    constants ``(RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)`` of :mod:`.damped`. Raises
+    RuntimeError when a kernel or the driver fails."""
+    from .threads import run_ranges, threads_for
+
+    driver()
+    fn = _PASS[0]
+    address, args = fused
+    l_address, l_in, l_stride, q_of, l_outs, _ = legs
+    L, e = np.shape(Je)[1:3]
+    r = 6 if B is None else np.shape(B)[1]
+    Bc = None if B is None else np.ascontiguousarray(B, dtype=np.float64)
+    kd, cd, td = (np.ascontiguousarray(np.broadcast_to(v, (n, L)), dtype=np.float64) for v in (k_d, c_d, t_d))
+    out_ptrs = np.array([a.ctypes.data for a in l_outs.values()], dtype=np.uint64)
+    sizes = np.array([a[0].size if n else 0 for a in l_outs.values()], dtype=np.int64)
+    wn, zeta, wd = (np.empty((n, r)) for _ in range(3))
+    poles = np.empty((n, r), dtype=complex)
+    stable = np.empty(n, dtype=np.int8)
+    redo = np.empty(n, dtype=np.int8)
+    q_row = int(np.prod(np.shape(q)[1:]))
+
+    def call(a: int, b: int) -> int:
+        return fn(
+            a,
+            b,
+            block,
+            address,
+            *args,
+            l_address,
+            len(q_of),
+            l_in.ctypes.data,
+            l_stride.ctypes.data,
+            q_of.ctypes.data,
+            len(out_ptrs),
+            out_ptrs.ctypes.data,
+            sizes.ctypes.data,
+            q.ctypes.data,
+            q_row,
+            M.ctypes.data,
+            K.ctypes.data,
+            Je.ctypes.data,
+            Cq.ctypes.data,
+            L,
+            e,
+            e_used,
+            None if Bc is None else Bc.ctypes.data,
+            r,
+            kd.ctypes.data,
+            cd.ctypes.data,
+            td.ctypes.data,
+            *rules,
+            wn.ctypes.data,
+            zeta.ctypes.data,
+            wd.ctypes.data,
+            poles.ctypes.data,
+            stable.ctypes.data,
+            redo.ctypes.data,
+        )
+
+    for rc in run_ranges(call, n, block, threads_for(n, block, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C damped pass returned {rc}")
+    return wn, zeta, wd, poles, stable.astype(bool), redo != 0
+
+
+def solve_legs(M, K, K_ground, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, threads: int = 1):
+    """The damped modes of N poses from their legs' kernel outputs in one C call
+    (``et_damped_legs``: the actuator wrenches, the stiffness, the projection on the model's
+    coordinates and :func:`solve`'s solve, pose by pose): ``(wn, zeta, wd, poles, stable,
+    redo)`` as :func:`solve` gives them, on the r coordinates of B.
+
+    M (N, 6, 6); K (N, 6, 6) the model's stiffness, or None for the legs' own
+    ``J_e^T C_q^+ J_e`` plus K_ground ((6, 6) or (N, 6, 6), or None); Je (N, legs, e, 6),
+    Cq (N, legs, e, e) (the first ``e_used`` rows: the legs' compliance the model keeps);
+    B (6, r) or (N, 6, r) the model's coordinates, or None (the six twists); k_d, c_d, t_d
+    (N, legs); ``rules``: ``(RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)`` of :mod:`.damped`.
+    ``threads`` > 1 runs ranges of whole blocks of poses on threads."""
+    from .threads import run_ranges, threads_for
+
+    driver()
+    fn = _LEGS[0]
+    f64 = lambda v: None if v is None else np.ascontiguousarray(v, dtype=np.float64)  # noqa: E731
+    M, K, Kg, Je, Cq, Bc = (f64(v) for v in (M, K, K_ground, Je, Cq, B))
+    N, L, e = Je.shape[:3]
+    r = 6 if Bc is None else Bc.shape[-1]
+    kd, cd, td = (np.ascontiguousarray(np.broadcast_to(v, (N, L)), dtype=np.float64) for v in (k_d, c_d, t_d))
+    wn, zeta, wd = (np.empty((N, r)) for _ in range(3))
+    poles = np.empty((N, r), dtype=complex)
+    stable = np.empty(N, dtype=np.int8)
+    status = np.empty(N, dtype=np.int8)
+
+    def at(v, a: int, size: int):
+        return None if v is None else v.ctypes.data + (0 if v.ndim == 2 else 8 * a * size)
+
+    def call(a: int, b: int) -> int:
+        return fn(
+            b - a,
+            L,
+            e,
+            e_used,
+            r,
+            M.ctypes.data + 8 * a * 36,
+            at(K, a, 36),
+            int(K is not None and K.ndim == 2),
+            at(Kg, a, 36),
+            int(Kg is not None and Kg.ndim == 2),
+            Je.ctypes.data + 8 * a * L * e * 6,
+            Cq.ctypes.data + 8 * a * L * e * e,
+            at(Bc, a, 6 * r),
+            int(Bc is not None and Bc.ndim == 2),
+            *(x.ctypes.data + 8 * a * L for x in (kd, cd, td)),
+            *rules,
+            *(x.ctypes.data + 8 * a * r for x in (wn, zeta, wd)),
+            poles.ctypes.data + 16 * a * r,
+            stable.ctypes.data + a,
+            status.ctypes.data + a,
+        )
+
+    for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C damped modes from the legs returned {rc}")
+    return wn, zeta, wd, poles, stable.astype(bool), status != 0

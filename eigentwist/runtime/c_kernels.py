@@ -538,6 +538,49 @@ class CKernels:
         of whole blocks on that many threads (bounded by :func:`threads_for`); the results
         are bit-identical to one thread.
         """
+        result, n, keep, args = self.fused_arguments(
+            x,
+            y,
+            z,
+            p,
+            matrices=matrices,
+            ik=ik,
+            jacobians=jacobians,
+            model=model,
+            vectors=vectors,
+            status=status,
+            normalize=normalize,
+            out=out,
+        )
+        fn = self._fn["fused"]
+
+        def call(begin: int, end: int) -> int:
+            return fn(begin, end, *args)
+
+        for rc in run_ranges(call, n, self.BLOCK, threads_for(n, self.BLOCK, threads)):
+            _check_rc(rc, "fused")
+        return result
+
+    def fused_arguments(
+        self,
+        x,
+        y,
+        z,
+        p: dict,
+        *,
+        matrices=("M", "K_F"),
+        ik=(),
+        jacobians=(),
+        model=None,
+        vectors: bool = False,
+        status: bool = False,
+        normalize: bool = False,
+        out: dict | None = None,
+    ) -> tuple:
+        """:meth:`fused`'s call prepared, not run: ``(result, n, keep, args)``, the output
+        arrays it fills (uninitialised), the number of poses, the objects the arguments point
+        into (held while they are used) and the C arguments after ``(begin, end)`` (for a
+        driver that runs the pass block by block itself, :mod:`.c_damped`)."""
         spec = self.signature["fused"]
         values = list(map({**p, "x": x, "y": y, "z": z}.__getitem__, self._fused_names))
         keep, ins, ins_stride, lead = self._pack(values)
@@ -594,14 +637,28 @@ class CKernels:
         opts = self._opts.get(key)
         if opts is None:
             opts = self._opts[key] = (ctypes.c_double * 4)(key[0], self._scale_index, key[1], 1.0 if normalize else 0.0)
-        fn = self._fn["fused"]
+        keep += [ins, ins_stride, ik_p, mat_p, jac_p]
+        return result, n, keep, (ins, ins_stride, model_id, ik_p, mat_p, jac_p, freq, vec, st_p, opts)
 
-        def call(begin: int, end: int) -> int:
-            return fn(begin, end, ins, ins_stride, model_id, ik_p, mat_p, jac_p, freq, vec, st_p, opts)
+    def kernel_arguments(self, kernel: str, p: dict, n: int) -> tuple:
+        """One kernel's call on n poses prepared for a C driver that reads the joint
+        coordinates from its own array: ``(address, inputs, strides, q_of, outputs, keep)``,
+        the kernel's function address, its inputs' addresses and strides (doubles; a joint
+        coordinate's entry 0), ``q_of`` (the entry ``leg * n_q + coordinate`` of a pose's row
+        of q each joint input reads, -1 for the others), the outputs allocated ((n,) + shape,
+        uninitialised) and the objects the addresses point into."""
+        params, at_params, at_q, q_offsets, outputs, count = self._layout(kernel)
+        keep: list = []
+        addresses, strides = np.zeros(count, dtype=np.uint64), np.zeros(count, dtype=np.int64)
+        addresses[at_params], strides[at_params] = self._kernel_inputs(kernel, [p[k] for k in params], (n,), keep)
+        q_of = np.full(count, -1, dtype=np.intc)
+        q_of[at_q] = (q_offsets // 8).astype(np.intc)
+        outs = {name: np.empty((n,) + shape) for name, shape in outputs}
+        return self.address(kernel), addresses, strides, q_of, outs, keep
 
-        for rc in run_ranges(call, n, self.BLOCK, threads_for(n, self.BLOCK, threads)):
-            _check_rc(rc, "fused")
-        return result
+    def address(self, function: str) -> int:
+        """The C address of a kernel (its name) or of ``"fused"``, the fused pass."""
+        return ctypes.cast(self._fn[function], ctypes.c_void_p).value
 
     def fused_frequencies(
         self, x, y, z, p: dict, model: str = "flexible", vectors: bool = False, check: bool = True, threads: int = 1

@@ -30,7 +30,8 @@ its modal energy), so column j of the result is mode j of the undamped model.
 
 On the C backend the real, uncoupled problem (no loss factor, no couplings, no complex
 shapes) is solved by a compiled driver, the same state matrix and rules in one C call per
-batch (:mod:`.c_damped`); the rest, and any pose the driver leaves undecided, here.
+batch (:mod:`.c_damped`: within the fused pass itself, or from the legs kernel's outputs); the
+rest, and any pose the driver leaves undecided, here.
 """
 
 from __future__ import annotations
@@ -42,7 +43,15 @@ import numpy as np
 from .eigen import generalized_eigh
 from .errors import InputError
 
-__all__ = ["Damping", "damped_modes", "actuator_wrenches", "coupled_wrenches", "ELIMINATE", "UNSTABLE_ZETA"]
+__all__ = [
+    "Damping",
+    "damped_modes",
+    "actuator_wrenches",
+    "coupled_wrenches",
+    "distinct_rows",
+    "ELIMINATE",
+    "UNSTABLE_ZETA",
+]
 
 #: a leg's internal pole beyond 1/ELIMINATE times the highest undamped omega is eliminated
 #: statically (relative error of that leg's damping term: ~ELIMINATE)
@@ -196,7 +205,7 @@ def damped_modes(
         ],
         axis=1,
     )
-    first, inverse = _distinct(key)
+    first, inverse = distinct_rows(key)
     if first is not None:  # rows of one condition (modes of one pose and k_a): solved once
         pick = lambda v: None if v is None else np.asarray(v)[first]  # noqa: E731
         d = damped_modes(
@@ -307,7 +316,7 @@ def _damped_c(M, K, W, args, threads: int) -> Damping:
     condition: the modes of one pose and k_a); the poses it leaves undecided in NumPy."""
     from . import c_damped
 
-    first, inverse = _distinct(np.concatenate([np.reshape(v, (len(K), -1)) for v in (M, K, W, *args)], axis=1))
+    first, inverse = distinct_rows(np.concatenate([np.reshape(v, (len(K), -1)) for v in (M, K, W, *args)], axis=1))
     if first is not None:
         M, K, W, args = M[first], K[first], W[first], [a[first] for a in args]
     wn, zeta, wd, poles, stable, redo = c_damped.solve(
@@ -323,13 +332,14 @@ def _damped_c(M, K, W, args, threads: int) -> Damping:
     return Damping(*out[:4], None, out[4])
 
 
-def _distinct(key: np.ndarray):
+def distinct_rows(key: np.ndarray):
     """``(first, inverse)`` of the distinct rows of ``key`` (N, width) (``key[first][inverse]
     == key``), or ``(None, None)`` where every row is distinct (or a row holds a NaN). The
-    rows are grouped by one weighted sum each, then checked equal entry by entry."""
+    rows are grouped by one weighted sum each (einsum's own loop: a BLAS call here would wake
+    its threads, whose spinning costs more CPU than the sum), then checked equal entry by entry."""
     N = len(key)
     weights = 1.0 + np.arange(key.shape[1]) / key.shape[1]
-    _, first, inverse = np.unique(key @ weights, return_index=True, return_inverse=True)
+    _, first, inverse = np.unique(np.einsum("ij,j->i", key, weights), return_index=True, return_inverse=True)
     if len(first) == N or not np.array_equal(key[first][inverse], key):
         return None, None
     return first, inverse

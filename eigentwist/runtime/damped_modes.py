@@ -5,11 +5,21 @@ from __future__ import annotations
 import numpy as np
 
 from ..description.effects import leg_input_name, leg_switch_name
-from .damped import Damping, actuator_wrenches, coupled_wrenches, damped_modes
+from .damped import (
+    AMBIGUOUS,
+    ELIMINATE,
+    RIGID,
+    UNSTABLE_ZETA,
+    Damping,
+    distinct_rows,
+    actuator_wrenches,
+    coupled_wrenches,
+    damped_modes,
+)
 from .errors import InputError
 from .threads import resolve_threads
 
-__all__ = ["damped_of", "actuator_values", "solver_of"]
+__all__ = ["damped_of", "actuator_values", "solver_of", "one_pass_takes", "fused_damped", "pass_damping"]
 
 
 def actuator_values(ev, p: dict, effects, n: int):
@@ -83,10 +93,15 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
 
         full = {k: np.broadcast_to(mats[k], (n, 6, 6)) for k in ("M", "K_R", "K_F")}
         K_G = gravity_stiffness(ev, pr, effects, sub, full, rigid, B if rigid else None)
-    if coupled is not None:  # legs on platform bodies: condense the couplings
+    d = None
+    if coupled is None and loss is None and K_G is None and not shapes and solver_of(ev) == "c":
+        # in one C call from the legs' outputs (None where it does not take the problem)
+        K_ground = None if rigid else legs["K_ground"]
+        d = _from_legs(M, K_model, K_ground, Je, Cq, B, k_d, c_d, t_d, resolve_threads(ev.threads))
+    if d is None and coupled is not None:  # legs on platform bodies: condense the couplings
         Mr, Kc, Wr, h, G, B = _coupled_reduction(Je, Cq, k_d, M, K_G, *coupled, condense, loss)
         Kr, K_loss = Kc.real, (Kc.imag if loss is not None else None)
-    else:
+    elif d is None:
         G = None
         K_legs, W, h = actuator_wrenches(Je, Cq, 1.0 / k_d, loss, solver=solver_of(ev))
         if K_model is None or loss is not None:  # rigid directions (the legs' finite springs on B), a loss factor
@@ -98,20 +113,21 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         Mr = Bt @ M @ B
         Wr = W @ B
         K_loss = (Bt @ K_legs.imag @ B) if loss is not None else None
-    d = damped_modes(
-        Mr,
-        Kr,
-        Wr,
-        h,
-        k_d,
-        c_d,
-        t_d,
-        shapes=shapes,
-        K_loss=K_loss,
-        G=G,
-        solver=solver_of(ev),
-        threads=resolve_threads(ev.threads),
-    )
+    if d is None:
+        d = damped_modes(
+            Mr,
+            Kr,
+            Wr,
+            h,
+            k_d,
+            c_d,
+            t_d,
+            shapes=shapes,
+            K_loss=K_loss,
+            G=G,
+            solver=solver_of(ev),
+            threads=resolve_threads(ev.threads),
+        )
     m = B.shape[-1]
     finite = np.zeros(size, dtype=bool)
     finite[:m] = True
@@ -131,6 +147,154 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
             X[:, :, m:] = np.asarray(modes.eigentwists)[rows][:, :, m:]
         out.shapes[rows] = X
     out.stable[rows] &= d.stable
+    return out
+
+
+def _shared(v, n: int):
+    """``v`` (n, ...) as one array where its rows are one broadcast row (stride 0), else as is."""
+    v = np.asarray(v, dtype=float)
+    return v[0] if v.ndim == 3 and (v.strides[0] == 0 or len(v) == 1) and n >= 1 else v
+
+
+def _from_legs(M, K, K_ground, Je, Cq, B, k_d, c_d, t_d, threads: int) -> Damping | None:
+    """The damped modes of n poses from the legs' kernel outputs in one C call
+    (:func:`.c_damped.solve_legs`), each distinct row once: M (n, 6, 6), K (n, 6, 6) the
+    model's stiffness or None (the legs' J_e^T C_q^+ J_e plus ``K_ground``), Je, Cq (n, legs,
+    e, ...), B (n, 6, r), k_d, c_d, t_d (n, legs); the poses the driver leaves undecided by
+    the NumPy route. None where the driver does not take the problem (size, no compiler)."""
+    from . import c_damped
+
+    n, L, e = np.shape(Je)[:3]
+    r = np.shape(B)[-1]
+    if L > c_damped.MAX_LEGS or e > c_damped.MAX_MODES or r > 6 or c_damped.driver() is None:
+        return None
+    M, K, Kg, B = (None if v is None else _shared(v, n) for v in (M, K, K_ground, B))
+    M = np.broadcast_to(M, (n, 6, 6))
+    k_d, c_d, t_d = (np.broadcast_to(np.asarray(v, dtype=float), (n, L)) for v in (k_d, c_d, t_d))
+    rows = [M, Je, Cq, k_d, c_d, t_d] + [v for v in (K, Kg, B) if v is not None and v.ndim == 3]
+    first, inverse = distinct_rows(np.concatenate([np.reshape(v, (n, -1)) for v in rows], axis=1))
+    pick = (lambda v: v) if first is None else (lambda v: v if v is None or v.ndim < 3 else v[first])  # noqa: E731
+    M, K, Kg, Je, Cq, B = (pick(v) for v in (M, K, Kg, np.asarray(Je), np.asarray(Cq), B))
+    k_d, c_d, t_d = ((v if first is None else v[first]) for v in (k_d, c_d, t_d))
+    rules = (RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)
+    wn, zeta, wd, poles, stable, redo = c_damped.solve_legs(M, K, Kg, Je, Cq, e, B, k_d, c_d, t_d, rules, threads)
+    out = [wn / (2 * np.pi), wd / (2 * np.pi), zeta, poles, stable]
+    if redo.any():  # the NumPy route for the driver's undecided poses
+        sel = lambda v: v if v is None or v.ndim < 3 else v[redo]  # noqa: E731
+        K_legs, W, h = actuator_wrenches(Je[redo], Cq[redo], None)
+        Km = sel(K) if K is not None else K_legs + (0.0 if Kg is None else sel(Kg))
+        Bs = np.broadcast_to(np.eye(6) if B is None else sel(B), (int(redo.sum()), 6, r))
+        Bt = np.swapaxes(Bs, -1, -2)
+        dn = damped_modes(Bt @ M[redo] @ Bs, Bt @ Km @ Bs, W @ Bs, h, k_d[redo], c_d[redo], t_d[redo])
+        for arr, name in zip(out, ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable")):
+            arr[redo] = getattr(dn, name)
+    if first is not None:
+        out = [arr[inverse] for arr in out]
+    return Damping(*out[:4], None, out[4])
+
+
+def one_pass_takes(ev, effects) -> bool:
+    """Whether the fused C pass of ``ev`` can solve the damped modes of ``effects`` in the same
+    call (:func:`fused_damped`): the C backend with a generated ``legs`` kernel of at most
+    :data:`.c_damped.MAX_LEGS` legs and :data:`.c_damped.MAX_MODES` elastic joints each, real
+    and uncoupled (no structural loss factor, no couplings of platform bodies on) and the
+    damped driver built. The caller also checks the model's route (``Evaluator._one_pass``)."""
+    from . import c_damped
+
+    on = set(effects)
+    if "structural_loss" in on or any(c.effect in on for c in ev.robot.couplings):
+        return False
+    legs = getattr(ev.kernels, "OUTPUTS", {}).get("legs", {})
+    if "Je" not in legs or "Cq" not in legs or not hasattr(ev.kernels, "fused_arguments"):
+        return False
+    L, e, c = legs["Je"]
+    if L > c_damped.MAX_LEGS or e > c_damped.MAX_MODES or c != 6:
+        return False
+    return c_damped.driver() is not None
+
+
+def fused_damped(ev, effects, poses, p: dict, pk: dict, vectors: bool, basis, threads: int):
+    """The fused pass of the C kernels and the damped modes of ``effects`` in one C call per
+    range of blocks (:func:`.c_damped.one_pass`): ``(out, solved)``, ``out`` as
+    ``CKernels.fused`` gives it (``q``, ``M``, the model's stiffness, ``freq_hz``, the
+    eigentwists with ``vectors``, ``status``) and ``solved`` the damped poles on the model's
+    coordinates with what :func:`pass_damping` needs. ``p``: the validated inputs of every
+    pose (``Evaluator.parameter_values``), ``pk`` with the pose; ``basis``: the rigid model's
+    fixed allowed twists (6, r) (the flexible model: the six twists, unused)."""
+    from . import c_damped
+
+    kernels = ev.kernels
+    rigid = ev.stiffness_model(effects) == "rigid"
+    k_name = "K_R" if rigid else "K_F"
+    out, n, keep, args = kernels.fused_arguments(
+        poses[:, 0],
+        poses[:, 1],
+        poses[:, 2],
+        pk,
+        matrices=("M", k_name),
+        ik=("q",),
+        model="rigid" if rigid else "flexible",
+        vectors=vectors,
+        normalize=True,
+        status=True,
+    )
+    legs = kernels.kernel_arguments("legs", pk, n)
+    k_d, c_d, t_d, _ = actuator_values(ev, p, effects, n)
+    B = np.asarray(basis, dtype=float) if rigid else None
+    Je, Cq = legs[4]["Je"], legs[4]["Cq"]
+    result = c_damped.one_pass(
+        (kernels.address("fused"), args),
+        legs,
+        kernels.BLOCK,
+        n,
+        out["q"],
+        out["M"],
+        out[k_name],
+        Je,
+        Cq,
+        1 if rigid else Je.shape[2],
+        B,
+        k_d,
+        c_d,
+        t_d,
+        (RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS),
+        threads,
+    )
+    del keep
+    return out, {"poles": result, "legs": legs[4], "stiffness": k_name, "M": out["M"], "K": out[k_name]}
+
+
+def pass_damping(ev, effects, poses, params: dict, p: dict, solved: dict, modes) -> Damping:
+    """The :class:`~.damped.Damping` of the fused pass's damped poles (:func:`fused_damped`)
+    for ``modes``, its undamped modes with the evaluator's checks done: the rows not valid
+    NaN as :func:`damped_of` leaves them, and the poses the C driver left undecided solved by
+    :func:`damped_of` from the pass's kernel outputs (no kernel runs again; the driver's
+    undecided poses go on to NumPy there)."""
+    wn, zeta, wd, poles, stable, redo = solved["poles"]
+    N = len(modes.freq_hz)
+    valid = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+    bad = ~valid
+    natural, damped = wn / (2 * np.pi), wd / (2 * np.pi)
+    natural[bad], damped[bad] = modes.freq_hz[bad], modes.freq_hz[bad]
+    zeta[bad], poles[bad] = np.nan, np.nan
+    out = Damping(natural, damped, zeta, poles, None, np.asarray(modes.stable, dtype=bool) & (stable | bad))
+    rows = valid & redo
+    if rows.any():  # the driver's undecided poses, on the pass's outputs
+        take = lambda d: {k: (v[rows] if np.ndim(v) and np.shape(v)[0] == N > 1 else v) for k, v in d.items()}  # noqa: E731
+        inputs = {
+            "rows": rows,
+            "poses": np.asarray(poses, dtype=float)[rows],
+            "params": take(params),
+            "p": take(p),
+            "legs": take(solved["legs"]),
+            "mats": take({"M": solved["M"], solved["stiffness"]: solved["K"]}),
+            "B": None,
+            "exact": False,
+            "preloaded": False,
+        }
+        d = damped_of(ev, effects, inputs, modes, False)
+        for name in ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable"):
+            getattr(out, name)[rows] = getattr(d, name)[rows]
     return out
 
 

@@ -108,8 +108,8 @@ class Modes:
     constrained: np.ndarray | None = None
     shares: np.ndarray | None = None
     damping: object = None
-    #: the valid rows' joint coordinates, inputs and legs-kernel outputs where the exact
-    #: condensation computed them (reused by the damped modes); None otherwise
+    #: the valid rows' joint coordinates, matrices, inputs and legs-kernel outputs where the
+    #: pass computed them (reused by the damped modes, then dropped); None otherwise
     legs: dict | None = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -1116,8 +1116,9 @@ class Evaluator:
         return self._stiffness(poses, model, params)
 
     def _stiffness(self, poses, model, params: dict, stash: dict | None = None):
-        """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and
-        ``M`` of the NumPy path (for :meth:`_exact_modes`)."""
+        """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and the
+        matrices ``M``, ``K_R``, ``K_F`` of the NumPy path (for :meth:`_exact_modes` and the
+        damped modes, :meth:`_damping_inputs`)."""
         poses_arr = self._poses(poses, params)
         effects = self._resolve(model)
         rigid = self.stiffness_model(effects) == "rigid"
@@ -1138,7 +1139,7 @@ class Evaluator:
             return reduce(res["M"], B), reduce(res["K_R"], B)
         if stash is not None and not self._fused:
             mats, stash["q"] = self._matrices_q(poses_arr, self._params(len(poses_arr), params, effects))
-            stash["M"] = mats["M"]
+            stash.update((k, mats[k]) for k in MATRICES)
         else:
             mats = self.matrices(poses_arr, effects, **params)
         B = self.allowed_twists(poses_arr, **params) if rigid else None
@@ -1246,19 +1247,26 @@ class Evaluator:
         effects = self._resolve(model)
         params, exact = self._route(effects, params)
         fixed = self._c_rigid or self.stiffness_model(effects) == "flexible"
+        damped = complex_shapes or self.damped_model(effects)
         if self._fused and fixed and not self._preloaded(effects):
-            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact)
+            one_pass = damped and not (exact or complex_shapes) and self._one_pass(effects)
+            how = "pass" if one_pass else ("keep" if damped and not exact else None)
+            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, how)
         else:
-            stash = {} if exact else None
+            stash = {} if exact or (damped and not self._fused) else None
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
-                modes = self._exact_modes(poses, effects, params, modes, vectors, **stash)
-        if complex_shapes or self.damped_model(effects):
-            from .damped_modes import damped_of
+                modes = self._exact_modes(poses, effects, params, modes, vectors, q=stash.get("q"), M=stash.get("M"))
+            elif stash and stash.get("q") is not None:  # the NumPy path's kernel outputs, for _damping_inputs
+                rows = np.ones(len(poses), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+                modes.legs = {"rows": rows, **{k: v[rows] for k, v in stash.items()}}
+        if damped:
+            if modes.damping is None:  # not solved in the fused pass
+                from .damped_modes import damped_of
 
-            modes.damping = damped_of(
-                self, effects, self._damping_inputs(poses, effects, params, modes), modes, complex_shapes
-            )
+                modes.damping = damped_of(
+                    self, effects, self._damping_inputs(poses, effects, params, modes), modes, complex_shapes
+                )
             modes.stable = modes.stable & modes.damping.stable
         modes.legs = None  # the exact condensation's arrays: not kept with the result
         if unstable == "raise" and not modes.stable.all():
@@ -1287,10 +1295,17 @@ class Evaluator:
             p = self._params(len(pr), sub, effects)
             q = self._ik(pr, p)
             legs = self._kernels.legs(q, self._with_pose(pr, p))
-        else:
-            p, q, legs = known["p"], known["q"], known["out"]
+        else:  # the kernels' outputs of modes' own pass (the legs kernel where it did not run)
+            q = known["q"]
+            p = known["p"] if "p" in known else self._params(len(pr), sub, effects)
+            legs = known["out"] if "out" in known else self._kernels.legs(q, self._with_pose(pr, p))
         reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
-        mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
+        rigid = self.stiffness_model(effects) == "rigid"
+        need = MATRICES if self._preloaded(effects) else ("M", "K_R" if rigid else "K_F")
+        if known is not None and all(k in known for k in need):
+            mats = {k: known[k] for k in need}
+        else:
+            mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
         return {
             "rows": rows,
             "poses": pr,
@@ -1302,6 +1317,18 @@ class Evaluator:
             "exact": self._rigid_models.get(tuple(effects), True),
             "preloaded": self._preloaded(effects),
         }
+
+    def _one_pass(self, effects) -> bool:
+        """Whether the fused C pass solves the damped modes of ``effects`` itself
+        (:func:`.damped_modes.one_pass_takes`): the rigid model on its fixed allowed twists,
+        or a flexible one whose legs have no rigid direction (K_F exact, the six twists)."""
+        if self.numeric_ik:
+            return False
+        if self.stiffness_model(effects) == "flexible" and self._rigid_models.get(tuple(effects)) is not False:
+            return False
+        from .damped_modes import one_pass_takes
+
+        return one_pass_takes(self, effects)
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
@@ -1462,23 +1489,36 @@ class Evaluator:
             stable=~unstable_modes(lam).any(axis=-1),
         )
 
-    def _fused_modes(self, poses, effects, params, check: bool, vectors: bool, exact: bool = False) -> Modes:
+    def _fused_modes(
+        self, poses, effects, params, check: bool, vectors: bool, exact: bool = False, damped: str | None = None
+    ) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
         written straight into the result arrays; with ``exact`` the pass also returns the
-        joint coordinates and M for :meth:`_exact_modes`."""
+        joint coordinates and M for :meth:`_exact_modes`; ``damped="pass"``: the same C call
+        also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`_one_pass`);
+        ``"keep"``: the pass also returns the joint coordinates, M and the model's stiffness,
+        kept in ``Modes.legs`` for :meth:`_damping_inputs` (no kernel runs twice)."""
         p = self._params(len(poses), params, effects)
         stiffness = self.stiffness_model(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
         shares = vectors and not exact and stiffness == "flexible"
-        out = self._c_pass(
-            poses,
-            p,
-            matrices=("M",) if exact or shares else (),
-            ik=("q",) if exact else (),
-            model=stiffness,
-            vectors=vectors,
-            normalize=True,
-        )
+        keep = ("K_R" if stiffness == "rigid" else "K_F",) if damped == "keep" else ()
+        if damped == "pass":
+            from .damped_modes import fused_damped, pass_damping
+
+            basis = getattr(self.space, "basis", None)
+            pk = self._with_pose(poses, p)
+            out, solved = fused_damped(self, effects, poses, p, pk, vectors, basis, self._nthreads())
+        else:
+            out = self._c_pass(
+                poses,
+                p,
+                matrices=("M",) + keep if exact or shares or keep else (),
+                ik=("q",) if exact or keep else (),
+                model=stiffness,
+                vectors=vectors,
+                normalize=True,
+            )
         st = out["status"]
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
@@ -1506,6 +1546,13 @@ class Evaluator:
         if shares and out["eigentwists"].shape[-1] == 6:
             with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
                 modes.shares = energy_shares(out["eigentwists"], out["M"])
+        if damped == "pass":
+            modes.damping = pass_damping(self, effects, poses, params, p, solved, modes)
+        elif keep:  # the damped modes' inputs, on the valid rows (_damping_inputs)
+            rows = np.ones(len(poses), dtype=bool) if modes.valid is None else modes.valid
+            n = len(poses)
+            mats = {k: out[k][rows] for k in ("M",) + keep}
+            modes.legs = {"rows": rows, "q": out["q"][rows], "p": p if rows.all() else self._mask(p, rows, n), **mats}
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
         return modes
