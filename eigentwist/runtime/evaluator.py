@@ -210,6 +210,7 @@ class Evaluator:
         self._defaults: dict = {}  # parameter -> (default, read-only 0-d array): _default
         self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
         self._kinds: dict = {}  # (question, effects) -> answer (_remembered: stiffness model, preloaded)
+        self._plans: dict = {}  # (values key, invalid, unstable, vectors) -> prepared C pass (_plan)
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -1227,6 +1228,11 @@ class Evaluator:
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
+        if joints is None and not complex_shapes:
+            plan = self._plan(model, params, invalid, unstable, vectors)
+            modes = plan and self._planned_modes(plan, poses)
+            if modes is not None:
+                return modes
         if joints is not None:
             if complex_shapes or self.damped_model(model):
                 raise InputError(
@@ -1454,23 +1460,27 @@ class Evaluator:
             stable=~unstable_modes(lam).any(axis=-1),
         )
 
-    def _fused_modes(self, poses, effects, params, check: bool, vectors: bool, exact: bool = False) -> Modes:
+    def _fused_modes(
+        self, poses, effects, params, check: bool, vectors: bool, exact: bool = False, out: dict | None = None
+    ) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
         written straight into the result arrays; with ``exact`` the pass also returns the
-        joint coordinates and M for :meth:`_exact_modes`."""
+        joint coordinates and M for :meth:`_exact_modes`. ``out``: the pass's outputs where
+        they are computed already (:meth:`_planned_modes`)."""
         p = self._params(len(poses), params, effects)
         stiffness = self.stiffness_model(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
         shares = vectors and not exact and stiffness == "flexible"
-        out = self._c_pass(
-            poses,
-            p,
-            matrices=("M",) if exact or shares else (),
-            ik=("q",) if exact else (),
-            model=stiffness,
-            vectors=vectors,
-            normalize=True,
-        )
+        if out is None:
+            out = self._c_pass(
+                poses,
+                p,
+                matrices=("M",) if exact or shares else (),
+                ik=("q",) if exact else (),
+                model=stiffness,
+                vectors=vectors,
+                normalize=True,
+            )
         st = out["status"]
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
@@ -1500,6 +1510,101 @@ class Evaluator:
                 modes.shares = energy_shares(out["eigentwists"], out["M"])
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
+        return modes
+
+    def _plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
+        """The prepared C pass of :meth:`modes` for ``model`` and these scalar ``params``
+        (:class:`.fused_call.FusedCall`, with what the result needs), remembered per (model,
+        values, options); None where :meth:`modes` takes another route (values per pose, the
+        NumPy backend, numeric IK, a completed pose, the exact condensation, the gravity
+        preload, damping) or where the values are refused (:meth:`modes` raises)."""
+        if self._plans.get("kernels") is not self._kernels:
+            self._plans = {"kernels": self._kernels}
+        values = self._params_key(params, model)
+        if values is None:
+            return None
+        key = (values, invalid, unstable, vectors)
+        plan = self._plans.get(key)
+        if plan is None:
+            plan = self._make_plan(model, params, invalid, unstable, vectors)
+            if plan is None:
+                return None
+            if len(self._plans) > 64:
+                self._plans = {"kernels": self._kernels}
+            self._plans[key] = plan
+        return plan or None
+
+    def _make_plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
+        """:meth:`_plan`'s answer computed: a tuple, False (another route) or None (refused)."""
+        if (
+            not hasattr(self._kernels, "prepare_fused")
+            or self.numeric_ik
+            or (self._six and self.pose_names != FULL)
+            or invalid not in ("raise", "nan")
+            or unstable not in ("raise", "nan")
+        ):
+            return False
+        try:
+            effects = self._resolve(model)
+            routed, exact = self._route(effects, params)
+            stiffness = self.stiffness_model(effects)
+            fixed = self._c_rigid or stiffness == "flexible"
+            if exact or not fixed or self._preloaded(effects) or self.damped_model(effects):
+                return False
+            p = self._params(1, routed, effects)
+        except Exception:  # refused values: the general route raises
+            return None
+        # the poses' columns (a row of dof doubles apart) and the rotation's rows (_planned_modes)
+        names = {n: self.dof for n in ("x", "y", "z")}
+        if self._six:
+            names.update((n, 1) for n in _ROTATION_NAMES)
+        shares = vectors and stiffness == "flexible"
+        try:
+            call = self._kernels.prepare_fused(
+                p, names, model=stiffness, vectors=vectors, matrices=("M",) if shares else ()
+            )
+        except ValueError:  # an input per pose (an array default): the general route
+            return False
+        if call.pose_inputs[:3] != ("x", "y", "z"):
+            return False
+        names = tuple(_ROTATION_NAMES.index(n) for n in call.pose_inputs[3:])
+        return (call, names, effects, routed, stiffness, self.axes(stiffness), invalid == "raise", vectors, unstable)
+
+    def _planned_modes(self, plan: tuple, poses) -> Modes | None:
+        """:meth:`modes` by the prepared pass ``plan`` (:meth:`_plan`); None for poses that
+        :meth:`modes` refuses (it names them). A pose flagged by the pass (unreachable,
+        singular, unstable) or by the parallel screen goes on to :meth:`_fused_modes` with
+        the pass's outputs, which checks it as :meth:`modes` does."""
+        call, names, effects, routed, stiffness, axes, check, vectors, unstable = plan
+        arr = np.asarray(poses, dtype=float)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] != self.dof or not arr.shape[0] or not np.isfinite(arr).all():
+            return None
+        if not arr.flags.c_contiguous:
+            arr = np.ascontiguousarray(arr)
+        n = len(arr)
+        base = arr.ctypes.data
+        addresses = [base, base + 8, base + 16]
+        if names:  # the rotation matrix's entries that the kernels read, row by row
+            from .poses import rotation_rows
+
+            rows = rotation_rows(arr[:, 3:6], names)
+            base = rows.ctypes.data
+            addresses += [base + 8 * n * k for k in range(len(names))]
+        out = call(addresses, n, self._nthreads())
+        st, freq = out["status"], out["freq_hz"]
+        if st.any() or not (freq.min(axis=1) > PARALLEL_SCREEN * freq.max(axis=1)).all():
+            arr = arr.view(_Full)
+            modes = self._fused_modes(arr, effects, routed, check, vectors, out=out)
+        else:
+            valid = None if check else np.ones(n, dtype=bool)
+            modes = Modes(freq, out.get("eigentwists"), axes, stiffness, valid, np.ones(n, dtype=bool))
+            if "M" in out and out["eigentwists"].shape[-1] == 6:
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    modes.shares = energy_shares(out["eigentwists"], out["M"])
+        if unstable == "raise" and not modes.stable.all():
+            self._raise_unstable(arr, modes, effects)
         return modes
 
     def _raise_unstable(self, poses, modes: Modes, effects) -> None:
