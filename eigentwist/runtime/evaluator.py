@@ -207,6 +207,8 @@ class Evaluator:
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
+        #: (model, names given) -> where the defaults and values go (_laid_out); a diagnosis tries a few hundred models
+        self._layouts = BoundedMemo(512)
         self._defaults: dict = {}  # parameter -> (default, read-only 0-d array): _default
         self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
         self._kinds: dict = {}  # (question, effects) -> answer (_remembered: stiffness model, preloaded)
@@ -563,7 +565,7 @@ class Evaluator:
             hit = self._params_memo.get(key)
             if hit is not None:
                 return dict(hit)
-        out = self._resolve_params(n, params, model)
+        out = self._laid_out(n, params, model)
         if key is not None:
             frozen = {}
             for k, v in out.items():
@@ -620,6 +622,87 @@ class Evaluator:
         check_constraints(self.constraints, out, on)
         self._check_leg_constraints(out, effects, scoped)
         return out
+
+    def _laid_out(self, n: int, params: dict, model) -> dict:
+        """:meth:`_resolve_params` by a layout remembered per (model, names given): the
+        defaults and switches placed once, each given value checked and placed at every input
+        it feeds (a leg-level parameter's copies), the constraints checked on the result.
+        The first call of a layout, or one whose layout cannot be remembered (an array
+        default, an unhashable model), resolves in full."""
+        try:
+            key = (
+                model if isinstance(model, str) else tuple(self._resolve(model)),
+                tuple(sorted((k, v is condense.EXACT) for k, v in params.items())),
+            )
+            layout = self._layouts.get(key)
+        except TypeError:
+            return self._resolve_params(n, params, model)
+        if layout is None:
+            out = self._resolve_params(n, params, model)  # checks the names and the defaults in use
+            self._layouts.put(key, self._layout(params, model) or False)
+            return out
+        if layout is False:
+            return self._resolve_params(n, params, model)
+        template, given, live, on, effects, legs = layout
+        out = dict(template)
+        for key, name, targets, check in given:
+            value = self._array(name, params[key], n, check)
+            for target in targets:
+                out[target] = value
+        check_constraints(live, out, on)
+        if legs:
+            self._check_leg_constraints(out, effects, legs)
+        return out
+
+    def _layout(self, params: dict, model):
+        """``(template, given, live, on, effects, legs)`` of :meth:`_laid_out`: the inputs in
+        :meth:`_resolve_params`'s order with the defaults and switches (None where a given
+        value goes), each given name (as spelled, as shown) with the inputs it feeds and
+        whether it is checked, the constraints that read a given value (the others hold: the
+        first resolution checked them), the effects' base names, the effects and the legs
+        with values of their own; None when a default is an array."""
+        scoped = self._scoped(params)
+        spelled = {split_scope(k, self.n_legs, "parameter"): k for k in params if k not in self.parameters}
+        effects = self._resolve(model)
+        on = {base_name(e) for e in effects}
+        template: dict = {}
+        feeds: dict = {}  # given name (NAME@N: a leg's own value) -> the inputs it feeds
+        for name, p in self.parameters.items():
+            if name in params:
+                template[name] = None
+                feeds[name] = [name]
+            elif isinstance(p.default, (float, int)):
+                template[name] = self._default(name, p.default, 1, False)
+            else:
+                return None
+        for e in self.effects:
+            effect = self._effect[e]
+            if not effect.leg_level:
+                template[switch_name(e)] = _ON if e in effects else _OFF
+                continue
+            for k in range(1, self.n_legs + 1):
+                template[leg_switch_name(e, k)] = _ON if e in effects or f"{e}@{k}" in effects else _OFF
+                for q in effect.params:
+                    target = leg_input_name(q.name, k)
+                    if (q.name, k) in scoped:
+                        template[target] = None
+                        feeds.setdefault(f"{q.name}@{k}", []).append(target)
+                    elif q.name in params:
+                        template[target] = None
+                        feeds[q.name].append(target)
+                    else:
+                        template[target] = template[q.name]
+        # the order of _resolve_params's checks: the parameters, then the legs' own values
+        given = [
+            (name, name, tuple(t), params[name] is not condense.EXACT) for name, t in feeds.items() if "@" not in name
+        ]
+        for name, t in feeds.items():
+            if "@" in name:
+                base, _, leg = name.partition("@")
+                given.append((spelled[(base, int(leg))], name, tuple(t), True))
+        fed = {target for _, _, targets, _ in given for target in targets}
+        live = [c for c in self.constraints if fed.intersection(c.names)]
+        return template, given, live, on, effects, {k: None for k in scoped}
 
     def _default(self, name: str, value, n: int, check: bool) -> np.ndarray:
         """The default ``value`` of parameter ``name`` as a read-only 0-d array, the same
