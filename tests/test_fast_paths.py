@@ -468,3 +468,22 @@ def test_rotation_rows_are_rotation_entries_bit_for_bit():
         assert [want[k].tobytes() for k in (0, 1, 3, 4, 6, 7)] == [row.tobytes() for row in rows]
     R = np.array(rotation_entries([0.0, 0.0, np.pi / 2])).reshape(3, 3)  # a quarter turn about z
     np.testing.assert_allclose(R, [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-15)
+
+
+@compiled
+def test_an_array_default_takes_the_general_route(monkeypatch):
+    """A parameter whose default is an array (a value per pose) cannot be packed once: no
+    prepared pass, the general route's answer; a scalar default is prepared."""
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    fast, general = (eigentwist.load("heli4", backend="c", threads=1) for _ in range(2))
+    monkeypatch.setattr(general, "_plan", lambda *args: None)
+    poses = random_poses(fast.robot, 4, seed=48)
+    m_e = fast.parameters["m_e"]
+    for ev in (fast, general):
+        monkeypatch.setitem(ev.parameters, "m_e", m_e.with_values(default=np.full(4, m_e.default)))
+    got, want = fast.modes(poses, "rigid", vectors=False), general.modes(poses, "rigid", vectors=False)
+    assert fast._plan("rigid", {}, "raise", "raise", False) is None
+    assert got.freq_hz.tobytes() == want.freq_hz.tobytes()
+    scalar = eigentwist.load("heli4", backend="c", threads=1)
+    assert scalar._plan("rigid", {}, "raise", "raise", False) is not None
+    assert scalar.modes(poses, "rigid", vectors=False).freq_hz.tobytes() == got.freq_hz.tobytes()

@@ -1646,7 +1646,7 @@ class Evaluator:
             call = self._kernels.prepare_fused(
                 p, names, model=stiffness, vectors=vectors, matrices=("M",) if shares else ()
             )
-        except ValueError:  # an input per pose (an array default): the general route
+        except (KeyError, ValueError):  # an input per pose (an array default) or not in p: the general route
             return False
         if call.pose_inputs[:3] != ("x", "y", "z"):
             return False
