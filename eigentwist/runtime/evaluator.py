@@ -1677,7 +1677,11 @@ class Evaluator:
             addresses += [base + 8 * n * k for k in range(len(names))]
         out = call(addresses, n, self._nthreads())
         st, freq = out["status"], out["freq_hz"]
-        if st.any() or not (freq.min(axis=1) > PARALLEL_SCREEN * freq.max(axis=1)).all():
+        # a flagged pose, or one below the parallel screen (ndarray.min and max without their wrappers)
+        if (
+            np.count_nonzero(st)
+            or np.count_nonzero(np.minimum.reduce(freq, 1) > PARALLEL_SCREEN * np.maximum.reduce(freq, 1)) != n
+        ):
             arr = arr.view(_Full)
             modes = self._fused_modes(arr, effects, routed, check, vectors, out=out)
         else:
