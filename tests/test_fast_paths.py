@@ -430,7 +430,11 @@ def test_prepared_pass_gives_the_general_routes_bits(robot, bad, monkeypatch):
             got, want = _outcome(fast, P, model, **kw), _outcome(general, P, model, **kw)
             assert type(got) is type(want), (model, kw, got, want)
             assert got == want if isinstance(got, str) else _same_modes(got, want), (model, kw)
-    assert sum(1 for k, v in fast._plans.items() if k != "kernels" and v) == 5  # no plan for k_a per pose
+    assert len(fast._plans) == 5  # one per (model, options); none for k_a per pose
+    assert all(
+        fast._plan(m, {}, inv, "nan", vec) for m, inv, vec in [("paper", "raise", True), ("rigid", "raise", False)]
+    )
+    assert fast._plan("paper", {"k_a": np.ones(5)}, "raise", "nan", True) is None
     if robot == "hexapod":
         clean = poses[4:9]
         assert _same_modes(fast.modes(clean, "paper"), general.modes(clean, "paper"))

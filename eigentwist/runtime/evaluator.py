@@ -212,7 +212,8 @@ class Evaluator:
         self._defaults: dict = {}  # parameter -> (default, read-only 0-d array): _default
         self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
         self._kinds: dict = {}  # (question, effects) -> answer (_remembered: stiffness model, preloaded)
-        self._plans: dict = {}  # (values key, invalid, unstable, vectors) -> prepared C pass (_plan)
+        self._plans = BoundedMemo(64)  # (values key, invalid, unstable, vectors) -> prepared C pass (_plan)
+        self._planned_for = self._kernels  # the kernels the plans were prepared for
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -1601,8 +1602,8 @@ class Evaluator:
         values, options); None where :meth:`modes` takes another route (values per pose, the
         NumPy backend, numeric IK, a completed pose, the exact condensation, the gravity
         preload, damping) or where the values are refused (:meth:`modes` raises)."""
-        if self._plans.get("kernels") is not self._kernels:
-            self._plans = {"kernels": self._kernels}
+        if self._planned_for is not self._kernels:
+            self._plans, self._planned_for = BoundedMemo(64), self._kernels
         values = self._params_key(params, model)
         if values is None:
             return None
@@ -1612,9 +1613,7 @@ class Evaluator:
             plan = self._make_plan(model, params, invalid, unstable, vectors)
             if plan is None:
                 return None
-            if len(self._plans) > 64:
-                self._plans = {"kernels": self._kernels}
-            self._plans[key] = plan
+            self._plans.put(key, plan)
         return plan or None
 
     def _make_plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
