@@ -38,6 +38,8 @@ def test_right_in_three_of_four_seeds(ev_fast, case):
 def test_nothing_added_when_the_truth_is_the_baseline(ev_fast, noise):
     # independent noise draws per level: the seeds of the two levels differ
     offset = {0.005: 0, 0.02: 1000}[noise]
-    results = run(lambda ev, seed: baseline_truth(ev, offset + seed, noise), ev_fast, range(CLEAN_SEEDS), allowed_wrong=1)
+    results = run(
+        lambda ev, seed: baseline_truth(ev, offset + seed, noise), ev_fast, range(CLEAN_SEEDS), allowed_wrong=1
+    )
     wrong = [why for _, ok, why in results if not ok]
     assert len(wrong) <= 1, wrong

@@ -374,3 +374,120 @@ def test_the_rigid_model_takes_the_c_pass_for_translations_or_all_six_twists(pos
     stub = SimpleNamespace(space=SimpleNamespace(basis=(tuple(range(len(pose))),)), pose_names=pose)
     assert Evaluator._c_rigid.fget(stub) is fused
     assert Evaluator._c_rigid.fget(SimpleNamespace(space=SimpleNamespace(), pose_names=pose)) is False
+
+
+# ------------------------------------------------- the prepared pass of small calls
+def _same_modes(a, b) -> bool:
+    fields = ("freq_hz", "eigentwists", "valid", "stable", "shares", "constrained")
+    return (a.axes, a.stiffness_model) == (b.axes, b.stiffness_model) and all(
+        (getattr(a, f) is None) == (getattr(b, f) is None)
+        and (getattr(a, f) is None or np.asarray(getattr(a, f)).tobytes() == np.asarray(getattr(b, f)).tobytes())
+        for f in fields
+    )
+
+
+def _outcome(ev, poses, model, **kw):
+    try:
+        return ev.modes(poses, model, **kw)
+    except Exception as exc:  # the same error, word for word
+        return f"{type(exc).__name__}: {exc}"
+
+
+@compiled
+@pytest.mark.parametrize("robot, bad", [("heli4", (0.0, 0.0, 0.0)), ("hexapod", (0.0,) * 6)])
+def test_prepared_pass_gives_the_general_routes_bits(robot, bad, monkeypatch):
+    """``modes`` of scalar values by the prepared C pass (``Evaluator._plan``) equals the
+    general route bit for bit, on both sides of each of its guards: a clean batch and one
+    with an unreachable or singular pose (``invalid`` raise and nan), every pose through the
+    parallel screen or none, a pose not finite, values per pose (no plan), a strided batch,
+    one pose, several threads, a rotation vector below and above the series' threshold."""
+    import eigentwist.runtime.evaluator as evaluator
+
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    fast, many = (eigentwist.load(robot, backend="c", threads=t) for t in (1, 2))
+    general = eigentwist.load(robot, backend="c", threads=1)
+    monkeypatch.setattr(general, "_plan", lambda *args: None)
+    poses = random_poses(fast.robot, 2085, seed=46)  # > 16 blocks a thread on two threads
+    poses = poses[fast.valid(poses, "paper") & fast.valid(poses, "rigid")]
+    if robot == "hexapod":
+        poses[3, 3:] = (1e-7, 0.0, 0.0)  # t^2 = 1e-14 < 1e-12: the series of sin(t)/t
+    few, flagged = poses[:5], np.vstack([poses[:3], bad])
+    strided = np.asfortranarray(poses[:9])
+    cases = [
+        (few, "paper", {}),
+        (few, "rigid", dict(vectors=False)),
+        (poses[7], "paper", dict(vectors=False)),
+        (strided, "paper", dict(invalid="nan")),
+        (flagged, "paper", dict(invalid="nan")),
+        (flagged, "rigid", {}),
+        (flagged[:, ::-1], "paper", {}),
+        (np.where(few == few[0, 0], np.nan, few), "paper", {}),
+        (few, "paper", dict(k_a=np.linspace(1500.0, 2500.0, 5))),
+    ]
+    for screen in (evaluator.PARALLEL_SCREEN, 1.0):  # 1.0: every pose goes to the exact check
+        monkeypatch.setattr(evaluator, "PARALLEL_SCREEN", screen)
+        for P, model, kw in cases:
+            got, want = _outcome(fast, P, model, **kw), _outcome(general, P, model, **kw)
+            assert type(got) is type(want), (model, kw, got, want)
+            assert got == want if isinstance(got, str) else _same_modes(got, want), (model, kw)
+    assert len(fast._plans) == 5  # one per (model, options); none for k_a per pose
+    assert all(
+        fast._plan(m, {}, inv, "nan", vec) for m, inv, vec in [("paper", "raise", True), ("rigid", "raise", False)]
+    )
+    assert fast._plan("paper", {"k_a": np.ones(5)}, "raise", "nan", True) is None
+    if robot == "hexapod":
+        clean = poses[4:9]
+        assert _same_modes(fast.modes(clean, "paper"), general.modes(clean, "paper"))
+    big = many.modes(poses, "paper", vectors=False)
+    assert big.freq_hz.tobytes() == general.modes(poses, "paper", vectors=False).freq_hz.tobytes()
+
+
+def test_rotation_rows_are_rotation_entries_bit_for_bit():
+    """``rotation_rows`` (one array, the entries asked for) and ``rotation_entries`` give the
+    bits of Rodrigues' formula as written here, with its series selected below t^2 = 1e-12
+    (batches with and without such a vector, just below and just above the threshold)."""
+    from eigentwist.runtime.poses import rotation_entries, rotation_rows
+
+    def reference(r):
+        x, y, z = r[:, 0], r[:, 1], r[:, 2]
+        xx, yy, zz = x * x, y * y, z * z
+        t2 = xx + yy + zz
+        small = t2 < 1e-12
+        safe = np.where(small, 1.0, np.sqrt(t2))
+        a = np.where(small, 1 - t2 / 6, np.sin(safe) / safe)
+        b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
+        ax, ay, az, bxy, bxz, byz = a * x, a * y, a * z, b * (x * y), b * (x * z), b * (y * z)
+        return [
+            1 + b * (-zz - yy), -az + bxy, ay + bxz, az + bxy, 1 + b * (-zz - xx),
+            -ax + byz, -ay + bxz, ax + byz, 1 + b * (-yy - xx),
+        ]  # fmt: skip
+
+    r = np.random.default_rng(47).normal(size=(40, 3))
+    inside, outside = np.array([0.999e-6, 0.0, 0.0]), np.array([1.001e-6, 0.0, 0.0])  # t^2 vs 1e-12
+    for batch in (r, np.vstack([r, inside]), np.vstack([r, outside])):
+        want = reference(batch)
+        rows = rotation_rows(batch, (0, 1, 3, 4, 6, 7))
+        assert rows.flags.c_contiguous and rows.shape == (6, len(batch))
+        assert [w.tobytes() for w in want] == [e.tobytes() for e in rotation_entries(batch)]
+        assert [want[k].tobytes() for k in (0, 1, 3, 4, 6, 7)] == [row.tobytes() for row in rows]
+    R = np.array(rotation_entries([0.0, 0.0, np.pi / 2])).reshape(3, 3)  # a quarter turn about z
+    np.testing.assert_allclose(R, [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-15)
+
+
+@compiled
+def test_an_array_default_takes_the_general_route(monkeypatch):
+    """A parameter whose default is an array (a value per pose) cannot be packed once: no
+    prepared pass, the general route's answer; a scalar default is prepared."""
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    fast, general = (eigentwist.load("heli4", backend="c", threads=1) for _ in range(2))
+    monkeypatch.setattr(general, "_plan", lambda *args: None)
+    poses = random_poses(fast.robot, 4, seed=48)
+    m_e = fast.parameters["m_e"]
+    for ev in (fast, general):
+        monkeypatch.setitem(ev.parameters, "m_e", m_e.with_values(default=np.full(4, m_e.default)))
+    got, want = fast.modes(poses, "rigid", vectors=False), general.modes(poses, "rigid", vectors=False)
+    assert fast._plan("rigid", {}, "raise", "raise", False) is None
+    assert got.freq_hz.tobytes() == want.freq_hz.tobytes()
+    scalar = eigentwist.load("heli4", backend="c", threads=1)
+    assert scalar._plan("rigid", {}, "raise", "raise", False) is not None
+    assert scalar.modes(poses, "rigid", vectors=False).freq_hz.tobytes() == got.freq_hz.tobytes()

@@ -86,3 +86,53 @@ def test_resolved_inputs_are_remembered_but_not_shared():
     arr[0] = 2200.0
     assert ev._params_key({"k_a": arr}, "paper") is None
     assert ev._params(2, {"k_a": arr}, "paper")["k_a"][0] == 2200.0 and first[0] == 2000.0
+
+
+def test_a_remembered_layout_resolves_as_in_full():
+    """The inputs are laid out once per (model, names given), then each call checks and places
+    its values: the same inputs, in the same order, as a full resolution, and the same error
+    for a value out of bounds (just outside; just inside passes), a wrong shape, a constraint
+    that a value per pose or a leg's own value breaks; an array default is never laid out."""
+    ev = eigentwist.load("heli4", backend="numpy")
+    r_o = ev.parameter("r_o_l1").default
+    ok = dict(k_a=np.linspace(1500.0, 2500.0, 3), eta_a=0.9, r_o_l1=r_o)
+    legs = dict(ok, **{"eta_a@2": np.full(3, 0.8), "eta_a@03": 0.7})
+    own = dict(ok, **{"r_i_l1@2": 0.5 * r_o, "r_o_l1@2": r_o})
+    model = ("paper", "lower_link_compliance@2")
+    # (values that lay the names out, values then resolved by that layout, refused?)
+    cases = [
+        ({}, {}, False),
+        (legs, legs, False),
+        (own, own, False),
+        (ok, dict(ok, k_a=np.array([1500.0, 1e-300, 2500.0])), False),  # k_a > 0: just inside
+        (ok, dict(ok, k_a=np.array([1500.0, 0.0, 2500.0])), True),  # just outside
+        (ok, dict(ok, k_a=np.ones(4)), True),
+        (ok, dict(ok, r_o_l1=np.array([r_o, 1e-9, r_o])), True),  # below r_i_l1 on row 1
+        (legs, dict(legs, **{"eta_a@03": np.nan}), True),
+        (own, dict(own, **{"r_i_l1@2": 2.0 * r_o}), True),  # leg 2's own r_i >= r_o
+    ]
+
+    def outcome(resolve, params):
+        try:
+            return resolve(3, params, model)
+        except InputError as exc:
+            return str(exc)
+
+    def same(a, b):
+        if isinstance(a, str) or isinstance(b, str):
+            return a == b
+        return list(a) == list(b) and all(np.asarray(a[k]).tobytes() == np.asarray(b[k]).tobytes() for k in a)
+
+    for first, params, refused in cases:
+        assert not isinstance(outcome(ev._laid_out, first), str)  # lays the names out
+        want, got = outcome(ev._resolve_params, params), outcome(ev._laid_out, params)
+        assert isinstance(want, str) is refused and same(got, want), (params, got, want)
+    assert len(ev._layouts) == 4
+    monkey = pytest.MonkeyPatch()
+    monkey.setitem(ev.parameters, "m_e", ev.parameters["m_e"].with_values(default=np.full(3, 0.1)))
+    try:
+        first, second = ev._laid_out(3, {"k_a": 2000.0}, "rigid"), ev._laid_out(3, {"k_a": 2000.0}, "rigid")
+        assert ev._layouts.get(("rigid", (("k_a", False),))) is False
+        assert same(second, first) and same(first, ev._resolve_params(3, {"k_a": 2000.0}, "rigid"))
+    finally:
+        monkey.undo()

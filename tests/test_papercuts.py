@@ -113,19 +113,30 @@ def test_version(capsys):
     assert capsys.readouterr().out.strip() == f"eigentwist {eigentwist.__version__}"
 
 
-def test_version_imports_neither_sympy_nor_numpy():
-    """``eigentwist --version`` answers before the subcommands (and SymPy) are imported."""
+def test_version_and_help_import_no_sympy():
+    """``eigentwist --version`` answers before the subcommands, SymPy or NumPy are imported;
+    ``--help`` and ``COMMAND --help`` list the commands without SymPy, SciPy or matplotlib."""
     import subprocess
     import sys
 
     code = (
-        "import sys; from eigentwist.cli.main import main\n"
-        "try:\n    main(['--debug', '--version'])\nexcept SystemExit as e:\n    assert e.code == 0\n"
-        "print(sorted(m for m in ('sympy', 'numpy') if m in sys.modules))"
+        "import contextlib, io, sys; from eigentwist.cli.main import main\n"
+        "heavy = ('sympy', 'scipy', 'matplotlib', 'numpy')\n"
+        "def loaded(): return sorted(m for m in heavy if m in sys.modules)\n"
+        "for argv in (['--debug', '--version'], ['--help'], ['diagnose', '--help']):\n"
+        "    text = io.StringIO()\n"
+        "    with contextlib.redirect_stdout(text):\n"
+        "        try:\n            main(argv)\n"
+        "        except SystemExit as e:\n            assert e.code == 0\n"
+        "    print(argv[-1], text.getvalue().count('diagnose') > 0, loaded())\n"
     )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0, run.stderr
-    assert run.stdout.splitlines() == [f"eigentwist {eigentwist.__version__}", "[]"]
+    assert run.stdout.splitlines() == [
+        "--version False []",
+        "--help True ['numpy']",
+        "--help True ['numpy']",
+    ]
 
 
 def test_version_only_before_a_command():

@@ -9,7 +9,6 @@ from __future__ import annotations
 from importlib import import_module
 
 from ..errors import InputError
-from ..description.names import did_you_mean
 
 __all__ = ["get", "NAMES", "heli4", "delta", "hexapod"]
 
@@ -21,6 +20,8 @@ def get(name: str):
     :class:`~eigentwist.description.RobotDescription`, or a joint-list
     :class:`~eigentwist.description.chain.ChainRobot` (the hexapod)."""
     if name not in NAMES:
+        from ..description.names import did_you_mean  # SymPy: not imported by ``eigentwist --help``
+
         raise InputError(f"unknown robot {name!r}{did_you_mean(name, NAMES)}: expected one of {', '.join(NAMES)}")
     return import_module(f".{name}", __name__).describe()
 

@@ -660,6 +660,45 @@ class CKernels:
         """The C address of a kernel (its name) or of ``"fused"``, the fused pass."""
         return ctypes.cast(self._fn[function], ctypes.c_void_p).value
 
+    def fused_options(self, normalize: bool) -> ctypes.Array:
+        """The fused pass's option array (lever tolerance, scale input, round-off bound,
+        normalize), read from :mod:`.validity` and :mod:`.eigen` when called (they may be set)."""
+        key = (validity.LEVER_TOL, eigen.ROUNDOFF_EPS, bool(normalize))
+        opts = self._opts.get(key)
+        if opts is None:
+            opts = self._opts[key] = (ctypes.c_double * 4)(key[0], self._scale_index, key[1], 1.0 if normalize else 0.0)
+        return opts
+
+    def prepare_fused(self, p: dict, pose_inputs: dict, *, model: str, vectors: bool = False, matrices=()):
+        """:meth:`fused` with ``status=True, normalize=True`` for the scalar inputs ``p``,
+        prepared once for calls on new poses (:class:`~.fused_call.FusedCall`: the same C
+        function, inputs and options, so the same bits). ``pose_inputs`` maps the inputs
+        taken from the poses to their stride in doubles; ``model``, ``vectors`` and
+        ``matrices`` as in :meth:`fused`. Raises ``ValueError`` for an input per pose in ``p``."""
+        from .fused_call import FusedCall
+
+        spec = self.signature["fused"]
+        model_id = spec["models"].index(model)
+        unknown = sorted(set(matrices) - set(self.FUSED_MATRICES))
+        if unknown:
+            raise KeyError(f"matrices has no output(s) {unknown}: expected {list(self.FUSED_MATRICES)}")
+        return FusedCall(
+            self._lib[spec["function"]],  # a function object of its own (FusedCall sets its argtypes)
+            self._fused_names,
+            p,
+            pose_inputs,
+            model_id=model_id,
+            dim=spec.get("dims", self.signature["eigh"]["dims"])[model_id],
+            vectors=vectors,
+            matrices=(
+                len(self.FUSED_MATRICES),
+                tuple((k, n, s) for k, (n, s) in enumerate(self.FUSED_MATRICES.items()) if n in matrices),
+            ),
+            options=lambda: self.fused_options(True),
+            block=self.BLOCK,
+            check=_check_rc,
+        )
+
     def fused_frequencies(
         self, x, y, z, p: dict, model: str = "flexible", vectors: bool = False, check: bool = True, threads: int = 1
     ) -> dict:

@@ -207,9 +207,13 @@ class Evaluator:
         #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
+        #: (model, names given) -> where the defaults and values go (_laid_out); a diagnosis tries a few hundred models
+        self._layouts = BoundedMemo(512)
         self._defaults: dict = {}  # parameter -> (default, read-only 0-d array): _default
         self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
         self._kinds: dict = {}  # (question, effects) -> answer (_remembered: stiffness model, preloaded)
+        self._plans = BoundedMemo(64)  # (values key, invalid, unstable, vectors) -> prepared C pass (_plan)
+        self._planned_for = self._kernels  # the kernels the plans were prepared for
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -570,7 +574,7 @@ class Evaluator:
             hit = self._params_memo.get(key)
             if hit is not None:
                 return dict(hit)
-        out = self._resolve_params(n, params, model)
+        out = self._laid_out(n, params, model)
         if key is not None:
             frozen = {}
             for k, v in out.items():
@@ -627,6 +631,87 @@ class Evaluator:
         check_constraints(self.constraints, out, on)
         self._check_leg_constraints(out, effects, scoped)
         return out
+
+    def _laid_out(self, n: int, params: dict, model) -> dict:
+        """:meth:`_resolve_params` by a layout remembered per (model, names given): the
+        defaults and switches placed once, each given value checked and placed at every input
+        it feeds (a leg-level parameter's copies), the constraints checked on the result.
+        The first call of a layout, or one whose layout cannot be remembered (an array
+        default, an unhashable model), resolves in full."""
+        try:
+            key = (
+                model if isinstance(model, str) else tuple(self._resolve(model)),
+                tuple(sorted((k, v is condense.EXACT) for k, v in params.items())),
+            )
+            layout = self._layouts.get(key)
+        except TypeError:
+            return self._resolve_params(n, params, model)
+        if layout is None:
+            out = self._resolve_params(n, params, model)  # checks the names and the defaults in use
+            self._layouts.put(key, self._layout(params, model) or False)
+            return out
+        if layout is False:
+            return self._resolve_params(n, params, model)
+        template, given, live, on, effects, legs = layout
+        out = dict(template)
+        for key, name, targets, check in given:
+            value = self._array(name, params[key], n, check)
+            for target in targets:
+                out[target] = value
+        check_constraints(live, out, on)
+        if legs:
+            self._check_leg_constraints(out, effects, legs)
+        return out
+
+    def _layout(self, params: dict, model):
+        """``(template, given, live, on, effects, legs)`` of :meth:`_laid_out`: the inputs in
+        :meth:`_resolve_params`'s order with the defaults and switches (None where a given
+        value goes), each given name (as spelled, as shown) with the inputs it feeds and
+        whether it is checked, the constraints that read a given value (the others hold: the
+        first resolution checked them), the effects' base names, the effects and the legs
+        with values of their own; None when a default is an array."""
+        scoped = self._scoped(params)
+        spelled = {split_scope(k, self.n_legs, "parameter"): k for k in params if k not in self.parameters}
+        effects = self._resolve(model)
+        on = {base_name(e) for e in effects}
+        template: dict = {}
+        feeds: dict = {}  # given name (NAME@N: a leg's own value) -> the inputs it feeds
+        for name, p in self.parameters.items():
+            if name in params:
+                template[name] = None
+                feeds[name] = [name]
+            elif isinstance(p.default, (float, int)):
+                template[name] = self._default(name, p.default, 1, False)
+            else:
+                return None
+        for e in self.effects:
+            effect = self._effect[e]
+            if not effect.leg_level:
+                template[switch_name(e)] = _ON if e in effects else _OFF
+                continue
+            for k in range(1, self.n_legs + 1):
+                template[leg_switch_name(e, k)] = _ON if e in effects or f"{e}@{k}" in effects else _OFF
+                for q in effect.params:
+                    target = leg_input_name(q.name, k)
+                    if (q.name, k) in scoped:
+                        template[target] = None
+                        feeds.setdefault(f"{q.name}@{k}", []).append(target)
+                    elif q.name in params:
+                        template[target] = None
+                        feeds[q.name].append(target)
+                    else:
+                        template[target] = template[q.name]
+        # the order of _resolve_params's checks: the parameters, then the legs' own values
+        given = [
+            (name, name, tuple(t), params[name] is not condense.EXACT) for name, t in feeds.items() if "@" not in name
+        ]
+        for name, t in feeds.items():
+            if "@" in name:
+                base, _, leg = name.partition("@")
+                given.append((spelled[(base, int(leg))], name, tuple(t), True))
+        fed = {target for _, _, targets, _ in given for target in targets}
+        live = [c for c in self.constraints if fed.intersection(c.names)]
+        return template, given, live, on, effects, {k: None for k in scoped}
 
     def _default(self, name: str, value, n: int, check: bool) -> np.ndarray:
         """The default ``value`` of parameter ``name`` as a read-only 0-d array, the same
@@ -1236,6 +1321,11 @@ class Evaluator:
             raise InputError(f"invalid={invalid!r}: expected 'raise' or 'nan'")
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
+        if joints is None and not complex_shapes:
+            plan = self._plan(model, params, invalid, unstable, vectors)
+            modes = plan and self._planned_modes(plan, poses)
+            if modes is not None:
+                return modes
         if joints is not None:
             if complex_shapes or self.damped_model(model):
                 raise InputError(
@@ -1490,26 +1580,35 @@ class Evaluator:
         )
 
     def _fused_modes(
-        self, poses, effects, params, check: bool, vectors: bool, exact: bool = False, damped: str | None = None
+        self,
+        poses,
+        effects,
+        params,
+        check: bool,
+        vectors: bool,
+        exact: bool = False,
+        damped: str | None = None,
+        out: dict | None = None,
     ) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
         written straight into the result arrays; with ``exact`` the pass also returns the
         joint coordinates and M for :meth:`_exact_modes`; ``damped="pass"``: the same C call
         also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`_one_pass`);
         ``"keep"``: the pass also returns the joint coordinates, M and the model's stiffness,
-        kept in ``Modes.legs`` for :meth:`_damping_inputs` (no kernel runs twice)."""
+        kept in ``Modes.legs`` for :meth:`_damping_inputs` (no kernel runs twice). ``out``:
+        the pass's outputs where they are computed already (:meth:`_planned_modes`, undamped)."""
         p = self._params(len(poses), params, effects)
         stiffness = self.stiffness_model(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
         shares = vectors and not exact and stiffness == "flexible"
         keep = ("K_R" if stiffness == "rigid" else "K_F",) if damped == "keep" else ()
-        if damped == "pass":
+        if out is None and damped == "pass":
             from .damped_modes import fused_damped, pass_damping
 
             basis = getattr(self.space, "basis", None)
             pk = self._with_pose(poses, p)
             out, solved = fused_damped(self, effects, poses, p, pk, vectors, basis, self._nthreads())
-        else:
+        elif out is None:
             out = self._c_pass(
                 poses,
                 p,
@@ -1555,6 +1654,103 @@ class Evaluator:
             modes.legs = {"rows": rows, "q": out["q"][rows], "p": p if rows.all() else self._mask(p, rows, n), **mats}
         if exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
+        return modes
+
+    def _plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
+        """The prepared C pass of :meth:`modes` for ``model`` and these scalar ``params``
+        (:class:`.fused_call.FusedCall`, with what the result needs), remembered per (model,
+        values, options); None where :meth:`modes` takes another route (values per pose, the
+        NumPy backend, numeric IK, a completed pose, the exact condensation, the gravity
+        preload, damping) or where the values are refused (:meth:`modes` raises)."""
+        if self._planned_for is not self._kernels:
+            self._plans, self._planned_for = BoundedMemo(64), self._kernels
+        values = self._params_key(params, model)
+        if values is None:
+            return None
+        key = (values, invalid, unstable, vectors)
+        plan = self._plans.get(key)
+        if plan is None:
+            plan = self._make_plan(model, params, invalid, unstable, vectors)
+            if plan is None:
+                return None
+            self._plans.put(key, plan)
+        return plan or None
+
+    def _make_plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
+        """:meth:`_plan`'s answer computed: a tuple, False (another route) or None (refused)."""
+        if (
+            not hasattr(self._kernels, "prepare_fused")
+            or self.numeric_ik
+            or (self._six and self.pose_names != FULL)
+            or invalid not in ("raise", "nan")
+            or unstable not in ("raise", "nan")
+        ):
+            return False
+        try:
+            effects = self._resolve(model)
+            routed, exact = self._route(effects, params)
+            stiffness = self.stiffness_model(effects)
+            fixed = self._c_rigid or stiffness == "flexible"
+            if exact or not fixed or self._preloaded(effects) or self.damped_model(effects):
+                return False
+            p = self._params(1, routed, effects)
+        except Exception:  # refused values: the general route raises
+            return None
+        # the poses' columns (a row of dof doubles apart) and the rotation's rows (_planned_modes)
+        names = {n: self.dof for n in ("x", "y", "z")}
+        if self._six:
+            names.update((n, 1) for n in _ROTATION_NAMES)
+        shares = vectors and stiffness == "flexible"
+        try:
+            call = self._kernels.prepare_fused(
+                p, names, model=stiffness, vectors=vectors, matrices=("M",) if shares else ()
+            )
+        except (KeyError, ValueError):  # an input per pose (an array default) or not in p: the general route
+            return False
+        if call.pose_inputs[:3] != ("x", "y", "z"):
+            return False
+        names = tuple(_ROTATION_NAMES.index(n) for n in call.pose_inputs[3:])
+        return (call, names, effects, routed, stiffness, self.axes(stiffness), invalid == "raise", vectors, unstable)
+
+    def _planned_modes(self, plan: tuple, poses) -> Modes | None:
+        """:meth:`modes` by the prepared pass ``plan`` (:meth:`_plan`); None for poses that
+        :meth:`modes` refuses (it names them). A pose flagged by the pass (unreachable,
+        singular, unstable) or by the parallel screen goes on to :meth:`_fused_modes` with
+        the pass's outputs, which checks it as :meth:`modes` does."""
+        call, names, effects, routed, stiffness, axes, check, vectors, unstable = plan
+        arr = np.asarray(poses, dtype=float)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] != self.dof or not arr.shape[0] or not np.isfinite(arr).all():
+            return None
+        if not arr.flags.c_contiguous:
+            arr = np.ascontiguousarray(arr)
+        n = len(arr)
+        base = arr.ctypes.data
+        addresses = [base, base + 8, base + 16]
+        if names:  # the rotation matrix's entries that the kernels read, row by row
+            from .poses import rotation_rows
+
+            rows = rotation_rows(arr[:, 3:6], names)
+            base = rows.ctypes.data
+            addresses += [base + 8 * n * k for k in range(len(names))]
+        out = call(addresses, n, self._nthreads())
+        st, freq = out["status"], out["freq_hz"]
+        # a flagged pose, or one below the parallel screen (ndarray.min and max without their wrappers)
+        if (
+            np.count_nonzero(st)
+            or np.count_nonzero(np.minimum.reduce(freq, 1) > PARALLEL_SCREEN * np.maximum.reduce(freq, 1)) != n
+        ):
+            arr = arr.view(_Full)
+            modes = self._fused_modes(arr, effects, routed, check, vectors, out=out)
+        else:
+            valid = None if check else np.ones(n, dtype=bool)
+            modes = Modes(freq, out.get("eigentwists"), axes, stiffness, valid, np.ones(n, dtype=bool))
+            if "M" in out and out["eigentwists"].shape[-1] == 6:
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    modes.shares = energy_shares(out["eigentwists"], out["M"])
+        if unstable == "raise" and not modes.stable.all():
+            self._raise_unstable(arr, modes, effects)
         return modes
 
     def _raise_unstable(self, poses, modes: Modes, effects) -> None:

@@ -4,7 +4,40 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rotation_matrix", "rotation_entries", "rotation_vector", "exp_twist"]
+__all__ = ["rotation_matrix", "rotation_entries", "rotation_rows", "rotation_vector", "exp_twist"]
+
+
+def _rodrigues(r: np.ndarray) -> tuple:
+    """``x, y, z, xx, yy, zz, a, b`` of rotation vectors ``r`` (..., 3): the components,
+    their squares and Rodrigues' ``a = sin(t)/t``, ``b = (1 - cos t)/t^2`` (their series
+    below t^2 = 1e-12)."""
+    x, y, z = r[..., 0], r[..., 1], r[..., 2]
+    xx, yy, zz = x * x, y * y, z * z
+    t2 = xx + yy + zz
+    small = t2 < 1e-12
+    if np.any(small):
+        safe = np.where(small, 1.0, np.sqrt(t2))
+        a = np.where(small, 1 - t2 / 6, np.sin(safe) / safe)
+        b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
+    else:  # no series term selected: the same values
+        safe = np.sqrt(t2)
+        a = np.sin(safe) / safe
+        b = (1 - np.cos(safe)) / safe**2
+    return x, y, z, xx, yy, zz, a, b
+
+
+#: entry k = 3 i + j of R = I + a [r]x + b [r]x^2 from :func:`_rodrigues`'s terms, into ``out``
+_ENTRIES = (
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(1, b * (-zz - yy), out=out),
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(-(a * z), b * (x * y), out=out),
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(a * y, b * (x * z), out=out),
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(a * z, b * (x * y), out=out),
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(1, b * (-zz - xx), out=out),
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(-(a * x), b * (y * z), out=out),
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(-(a * y), b * (x * z), out=out),
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(a * x, b * (y * z), out=out),
+    lambda x, y, z, xx, yy, zz, a, b, out: np.add(1, b * (-yy - xx), out=out),
+)
 
 
 def rotation_entries(rotvec) -> list:
@@ -12,27 +45,19 @@ def rotation_entries(rotvec) -> list:
     vectors (..., 3) (rad), each an array of shape (...): Rodrigues' formula
     ``R = I + a [r]x + b [r]x^2``, ``a = sin(t)/t``, ``b = (1 - cos t)/t^2``, with their
     series near t = 0 (the arithmetic of :func:`rotation_matrix`, element by element)."""
-    r = np.asarray(rotvec, dtype=float)
-    x, y, z = r[..., 0], r[..., 1], r[..., 2]
-    xx, yy, zz = x * x, y * y, z * z
-    t2 = xx + yy + zz
-    small = t2 < 1e-12
-    safe = np.where(small, 1.0, np.sqrt(t2))
-    a = np.where(small, 1 - t2 / 6, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
-    ax, ay, az = a * x, a * y, a * z
-    bxy, bxz, byz = b * (x * y), b * (x * z), b * (y * z)
-    return [
-        1 + b * (-zz - yy),
-        -az + bxy,
-        ay + bxz,
-        az + bxy,
-        1 + b * (-zz - xx),
-        -ax + byz,
-        -ay + bxz,
-        ax + byz,
-        1 + b * (-yy - xx),
-    ]
+    terms = _rodrigues(np.asarray(rotvec, dtype=float))
+    return [entry(*terms, None) for entry in _ENTRIES]
+
+
+def rotation_rows(rotvec, entries) -> np.ndarray:
+    """(len(entries), N) C-contiguous: the entries ``k = 3 i + j`` of the rotation matrices
+    of rotation vectors (N, 3) (rad), row by row; the same values as
+    :func:`rotation_entries`, bit for bit."""
+    terms = _rodrigues(np.asarray(rotvec, dtype=float))
+    out = np.empty((len(entries), len(terms[0])))
+    for row, k in zip(out, entries):
+        _ENTRIES[k](*terms, row)
+    return out
 
 
 def rotation_matrix(rotvec) -> np.ndarray:

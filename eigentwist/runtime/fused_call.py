@@ -1,0 +1,117 @@
+"""The fused C pass of one model and one set of scalar parameter values, prepared once.
+
+What a call of :meth:`CKernels.fused <eigentwist.runtime.c_kernels.CKernels.fused>` works out
+from the parameters alone (the packed scalar inputs, the table of input addresses and
+strides, the output tables, the function's signature) does not change while the model and
+the values stay the same: :class:`FusedCall` holds it, so that a call on new poses only
+points the table at the poses' coordinates and at fresh output arrays. The C function, its
+inputs and its options are those of ``CKernels.fused``: the results are the same, bit for
+bit (``tests/test_fast_paths.py``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from .threads import run_ranges, threads_for
+
+__all__ = ["FusedCall"]
+
+_VOID = ctypes.c_void_p
+
+
+class FusedCall:
+    """``CKernels.fused(x, y, z, p, status=True, normalize=True, ...)`` for fixed scalar
+    inputs ``p`` (SI units; 0-d arrays or numbers) and new poses at every call: made by
+    :meth:`CKernels.prepare_fused <eigentwist.runtime.c_kernels.CKernels.prepare_fused>`.
+
+    ``fn`` is the library's fused function (a function object of its own: its argument
+    types are set here), ``names`` its inputs in order, ``pose_inputs`` the inputs that come
+    from the pose (``x, y, z``, and a 6-DoF platform's ``R_ij``; those the pass does not
+    read are dropped: :attr:`pose_inputs` keeps the others, in the order :meth:`__call__`
+    receives their addresses) mapped to the distance between two poses' values in doubles;
+    ``dim`` the model's number of modes, ``matrices`` the size of the pass's table of
+    matrix pointers and (index in it, name, shape) of each matrix asked for, ``options`` a
+    function returning the pass's option array, ``block`` its block of poses and ``check``
+    the function raising for a nonzero return code. Raises ``ValueError`` when another input of
+    ``p`` is not a scalar (values per pose are left to ``fused``).
+    """
+
+    __slots__ = (
+        "fn", "scalars", "addresses", "strides", "at", "pose_inputs", "model_id", "dim",
+        "vectors", "matrices", "options", "block", "check",
+    )  # fmt: skip
+
+    def __init__(
+        self,
+        fn,
+        names: list,
+        p: dict,
+        pose_inputs: dict,
+        *,
+        model_id: int,
+        dim: int,
+        vectors: bool,
+        matrices: tuple,
+        options,
+        block: int,
+        check,
+    ):
+        pose_inputs = {k: v for k, v in pose_inputs.items() if k in names}
+        self.pose_inputs = tuple(pose_inputs)
+        self.at = [names.index(n) for n in pose_inputs]
+        scalars = np.zeros(len(names), dtype=np.float64)
+        for k, name in enumerate(names):
+            if name in pose_inputs:
+                continue
+            value = np.asarray(p[name], dtype=np.float64)
+            if value.size != 1:
+                raise ValueError(f"input {name!r} is not a scalar")
+            scalars[k] = value.reshape(-1)[0]
+        scalars.flags.writeable = False
+        self.scalars = scalars  # the addresses point into it: kept as long as this object
+        base = scalars.ctypes.data
+        self.addresses = (ctypes.c_void_p * len(names))(*(base + 8 * k for k in range(len(names))))
+        strides = [0] * len(names)
+        for k, step in zip(self.at, pose_inputs.values()):
+            strides[k] = step
+        self.strides = (ctypes.c_int64 * len(names))(*strides)  # read only by C
+        self.model_id, self.dim, self.vectors, self.matrices = model_id, dim, vectors, matrices
+        self.options, self.block, self.check = options, block, check
+        self.fn = fn
+        fn.argtypes = [ctypes.c_int64, ctypes.c_int64, _VOID, _VOID, ctypes.c_int] + [_VOID] * 7
+        fn.restype = ctypes.c_int
+
+    def __call__(self, addresses: list, n: int, threads: int) -> dict:
+        """The pass over ``n`` poses whose pose inputs are read at ``addresses`` (bytes), one
+        each, in :attr:`pose_inputs` order. Returns ``freq_hz`` (n, dim), ``status`` (n,)
+        int8, with ``vectors`` ``eigentwists`` (n, dim, dim), and the ``matrices`` asked for."""
+        ins = type(self.addresses).from_buffer_copy(self.addresses)
+        for k, address in zip(self.at, addresses):
+            ins[k] = address
+        result = {}
+        mat_p = None
+        size, wanted = self.matrices
+        if wanted:
+            mat_p = (ctypes.c_void_p * size)()
+            for k, name, shape in wanted:
+                arr = result[name] = np.empty((n,) + shape)
+                mat_p[k] = arr.ctypes.data
+        freq = result["freq_hz"] = np.empty((n, self.dim))
+        vec = None
+        if self.vectors:
+            vec = result["eigentwists"] = np.empty((n, self.dim, self.dim))
+            vec = vec.ctypes.data
+        status = result["status"] = np.empty(n, dtype=np.int8)
+        fn, model_id, strides, opts = self.fn, self.model_id, self.strides, self.options()
+        a_freq, a_status = freq.ctypes.data, status.ctypes.data
+
+        def call(begin: int, end: int) -> int:
+            return fn(begin, end, ins, strides, model_id, None, mat_p, None, a_freq, vec, a_status, opts)
+
+        block = self.block
+        for rc in run_ranges(call, n, block, threads_for(n, block, threads)) if n > block else (call(0, n),):
+            self.check(rc, "fused")
+        return result
