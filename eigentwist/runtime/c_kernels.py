@@ -674,7 +674,7 @@ class CKernels:
         prepared once for calls on new poses (:class:`~.fused_call.FusedCall`: the same C
         function, inputs and options, so the same bits). ``pose_inputs`` maps the inputs
         taken from the poses to their stride in doubles; ``model``, ``vectors`` and
-        ``matrices`` as in :meth:`fused`. Raises ``ValueError`` for an input per pose in ``p``."""
+        ``matrices`` as in :meth:`fused`. Raises ``InputError`` for an input per pose in ``p``."""
         from .fused_call import FusedCall
 
         spec = self.signature["fused"]

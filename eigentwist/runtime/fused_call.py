@@ -15,6 +15,7 @@ import ctypes
 
 import numpy as np
 
+from .errors import InputError
 from .threads import run_ranges, threads_for
 
 __all__ = ["FusedCall"]
@@ -35,7 +36,7 @@ class FusedCall:
     ``dim`` the model's number of modes, ``matrices`` the size of the pass's table of
     matrix pointers and (index in it, name, shape) of each matrix asked for, ``options`` a
     function returning the pass's option array, ``block`` its block of poses and ``check``
-    the function raising for a nonzero return code. Raises ``ValueError`` when another input of
+    the function raising for a nonzero return code. Raises ``InputError`` when another input of
     ``p`` is not a scalar (values per pose are left to ``fused``).
     """
 
@@ -68,7 +69,7 @@ class FusedCall:
                 continue
             value = np.asarray(p[name], dtype=np.float64)
             if value.size != 1:
-                raise ValueError(f"input {name!r} is not a scalar")
+                raise InputError(f"input {name!r}: expected one value for a prepared pass, got {value.size}")
             scalars[k] = value.reshape(-1)[0]
         scalars.flags.writeable = False
         self.scalars = scalars  # the addresses point into it: kept as long as this object
