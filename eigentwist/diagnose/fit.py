@@ -35,7 +35,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..runtime.errors import InputError
 from .compare import Comparison
@@ -392,6 +391,8 @@ def fit(
     -------
     :class:`FitResult`.
     """
+    from scipy.optimize import least_squares  # on first use: commands without it start faster
+
     names = tuple(n for n in names if n not in meas.params)
     given = dict(fixed or {})
     fixed = {k: v for k, v in given.items() if k not in names}

@@ -34,7 +34,6 @@ its MAC, and a row has a shape when at least two of its DOFs are measured.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from ..runtime.memo import BoundedMemo, content_key
 
@@ -142,6 +141,8 @@ def match_by_shape(modes, shapes, keys, fallback, sensor=None) -> np.ndarray:
     -------
     (N,) int model mode index per row.
     """
+    from scipy.optimize import linear_sum_assignment  # on first use: commands without it start faster
+
     shapes = np.asarray(shapes, dtype=float)
     has = has_shape(shapes)
     idx = np.array(fallback, dtype=int, copy=True)

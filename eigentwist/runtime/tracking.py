@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from ..errors import InputError
-from scipy.optimize import linear_sum_assignment
 
 __all__ = ["mac", "track_modes", "TrackedModes"]
 
@@ -76,6 +75,8 @@ def track_modes(freqs, eigentwists, M=None) -> TrackedModes:
     the sum of MACs, so a mode keeps its label when its frequency crosses another's,
     provided the steps are fine enough that eigentwists change little between them.
     """
+    from scipy.optimize import linear_sum_assignment  # on first use: commands without it start faster
+
     freqs = np.asarray(freqs, dtype=float)
     V = np.asarray(eigentwists, dtype=float)
     S, n = freqs.shape
