@@ -407,3 +407,63 @@ def test_c_backend_sweep_agrees_with_numpy(monkeypatch):
         np.testing.assert_array_equal(a["reachable"], b["reachable"])
         np.testing.assert_array_equal(a["direction"], b["direction"])
         np.testing.assert_allclose(b["freq_hz"], a["freq_hz"], rtol=1e-10)  # NaN where unreachable, in both
+
+
+# ------------------------------------------------------------------------ damping
+def test_a_damped_sweep_maps_the_damped_frequencies_and_the_least_damped_mode(tmp_path):
+    import eigentwist
+
+    model = "paper,servo_damping"
+    spec = sw.make_spec(grid=(3, 1, 3), box=MIXED_BOX, k_a=parse_values("125,4000"), model=model, chunk_size=7)
+    summary = sw.run_sweep(spec, sw.open_writer(tmp_path / "d", spec))
+    cols = concat(spec)
+    ok = cols["reachable"]
+    assert ok.any() and (~ok).any()
+    assert np.isnan(cols["damped_hz"][~ok]).all() and np.isnan(cols["damping_ratio"][~ok]).all()
+    # the public API on the same rows
+    ev = eigentwist.load("heli4", backend="numpy")
+    m = ev.modes(cols["pose"][ok], model, k_a=cols["k_a"][ok])
+    np.testing.assert_array_equal(cols["damped_hz"][ok], m.damped_hz)
+    np.testing.assert_array_equal(cols["damping_ratio"][ok], m.damping_ratio)
+    # physics: no mode grows (zeta >= 0 to round-off; a mode the actuators barely move is ~0), a
+    # damped mode oscillates below its natural frequency, and c_a = 3 damps k_a = 125 far more
+    zeta = cols["damping_ratio"][ok]
+    assert (zeta > -1e-12).all() and (cols["damped_hz"][ok] <= m.natural_hz * (1 + 1e-12)).all()
+    soft = cols["k_a"][ok] == 125.0
+    assert zeta[soft].max(axis=1).min() > zeta[~soft].max(axis=1).max()
+    # the lowest table, against a brute force over rows and modes
+    low = summary.lowest
+    for case in range(spec.n_cases):
+        rows = np.flatnonzero((cols["case"] == case) & ok)
+        for key in ("damped_hz", "damping_ratio"):
+            values = cols[key][rows]
+            r, k = np.unravel_index(np.argmin(values), values.shape)
+            assert low[key][case] == values.min()
+            assert low[f"{key}_mode"][case] == k and low[f"{key}_pose_index"][case] == cols["pose_index"][rows[r]]
+            np.testing.assert_array_equal(low[f"{key}_pose"][case], cols["pose"][rows[r]])
+    data = sw.load_sweep(tmp_path / "d")
+    for key in sw.DAMPED_COLUMNS:
+        np.testing.assert_array_equal(data.columns[key], cols[key])
+    for key in low:
+        np.testing.assert_array_equal(data.lowest[key], low[key])
+
+
+def test_an_undamped_sweep_has_no_damped_columns():
+    spec = sw.make_spec(grid=(2, 1, 2), box=MIXED_BOX, chunk_size=3)
+    assert not set(sw.DAMPED_COLUMNS) & set(sw.evaluate_chunk(spec, 0))
+    assert not any(k.startswith(("damped", "damping")) for k in sw.run_sweep(spec).lowest)
+
+
+def test_damped_sweep_parquet_round_trip_and_cli_table(tmp_path, capsys):
+    pytest.importorskip("pyarrow", reason="the parquet extra (pyarrow) is not installed")
+    spec = sw.make_spec(grid=(2, 1, 2), box=MIXED_BOX, k_a=parse_values("250"), model="paper,servo_damping")
+    summary = sw.run_sweep(spec, sw.open_writer(tmp_path / "d.parquet", spec))
+    data = sw.load_sweep(tmp_path / "d.parquet")
+    for key in sw.DAMPED_COLUMNS:
+        np.testing.assert_array_equal(data.columns[key], concat(spec)[key])
+    for key in summary.lowest:
+        np.testing.assert_array_equal(data.lowest[key], summary.lowest[key])
+    argv = ["sweep", "--grid", "2", "1", "2", "--box", *map(str, MIXED_BOX), "--k-a", "250"]
+    assert main([*argv, "--model", "paper,servo_damping", "-o", str(tmp_path / "c"), "--lowest"]) == 0
+    out = capsys.readouterr().out
+    assert "lowest damped Hz" in out and "least zeta" in out and "(mode " in out

@@ -163,7 +163,9 @@ def spec_from_args(args):
 
 
 def lowest_table(low: dict, spec, top: int) -> str:
-    """Designs sorted by worst-case lowest frequency, best first, at most ``top`` rows."""
+    """Designs sorted by worst-case lowest frequency, best first, at most ``top`` rows; a
+    model with damping adds the lowest damped frequency and the least damped mode (its
+    damping ratio and mode number) over the poses."""
     import numpy as np
 
     from ..runtime.evaluator import AXES
@@ -184,8 +186,14 @@ def lowest_table(low: dict, spec, top: int) -> str:
                 f"{low['n_reachable'][c] / spec.n_poses:.1%}",
             ]
         )
+        if "damped_hz" in low:
+            found = low["damping_ratio_mode"][c] >= 0
+            least = f"{low['damping_ratio'][c]:.3g} (mode {low['damping_ratio_mode'][c] + 1})" if found else "-"
+            rows[-1][-1:-1] = [low["damped_hz"][c], least]
     unit = "m, rad" if any(c.startswith("rot") for c in pose_columns(spec)) else "m"
     headers = [*spec.design_names, "k_a", "lowest Hz", "mode 1", f"at pose ({unit})", "reachable"]
+    if "damped_hz" in low:
+        headers[-1:-1] = ["lowest damped Hz", "least zeta"]
     return format_table(headers, rows)
 
 

@@ -17,7 +17,7 @@ Pure functions on numbers, no command line: parsing text such as ``l2=0.45:0.60:
 
 from .columns import lowest_path
 from .engines import ENGINES, SweepSummary, run_sweep
-from .evaluate import COLUMNS, evaluate_chunk, reachable_rows
+from .evaluate import COLUMNS, DAMPED_COLUMNS, evaluate_chunk, reachable_rows
 from .lowest import LowestTracker, lowest
 from .readers import SweepData, iter_chunks, load_sweep
 from .spec import DEFAULT_CHUNK_SIZE, POSE_BLOCK, PoseSet, SweepSpec, make_spec
@@ -43,6 +43,7 @@ __all__ = [
     "OutputExistsError",
     "ENGINES",
     "COLUMNS",
+    "DAMPED_COLUMNS",
     "DEFAULT_CHUNK_SIZE",
     "POSE_BLOCK",
 ]

@@ -48,6 +48,8 @@ def manifest(spec: SweepSpec, complete: bool, backend: str = "", lowest_file: st
             "freq_hz": "Hz",
             "direction": "index into axes, -1: unreachable",
             "status": "0 reachable, 1 unreachable, 2 serial singular, 3 parallel singular",
+            "damped_hz": "Hz (a model with damping only)",
+            "damping_ratio": "1 (a model with damping only)",
         },
     }
 
@@ -67,7 +69,8 @@ def chunk_file(index: int) -> str:
     return f"chunk-{index:06d}.npz"
 
 
-WIDE = {"freq_hz": "f{}_hz", "direction": "dir{}"}  # (n, modes) arrays as one column per mode
+# (n, modes) arrays as one column per mode; the damped ones only where the model has damping
+WIDE = {"freq_hz": "f{}_hz", "direction": "dir{}", "damped_hz": "fd{}_hz", "damping_ratio": "zeta{}"}
 
 
 def flat_columns(columns: dict, spec: SweepSpec) -> dict:
@@ -78,7 +81,9 @@ def flat_columns(columns: dict, spec: SweepSpec) -> dict:
     for key, val in columns.items():
         if key in ("pose", "k_a", "design"):
             continue
-        if np.ndim(val) == 2:
+        if np.ndim(val) == 2 and key.endswith("_pose"):  # a pose per row (the lowest table's damped keys)
+            out.update({f"{key}_{a}": val[:, k] for k, a in enumerate(pose_columns(spec))})
+        elif np.ndim(val) == 2:
             out.update({WIDE[key].format(j + 1): val[:, j] for j in range(val.shape[1])})
         else:
             out[key] = val
@@ -100,6 +105,11 @@ def unflat_columns(table: dict, spec: SweepSpec) -> dict:
         if names[0] in table:
             out[key] = np.column_stack([table[c] for c in names])
             used.update(names)
+    axes = pose_columns(spec)
+    for key in sorted({k[: -len(axes[0]) - 1] for k in table if k.endswith("_pose_" + axes[0])}):
+        cols = [f"{key}_{a}" for a in axes]
+        out[key] = np.column_stack([table[c] for c in cols])
+        used.update(cols)
     out.update({k: np.asarray(v) for k, v in table.items() if k not in used})
     return out
 

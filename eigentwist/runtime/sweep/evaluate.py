@@ -7,9 +7,11 @@ import numpy as np
 from ..evaluator import Evaluator
 from .spec import SweepSpec, stiffness_parameter, sweep_evaluator
 
-__all__ = ["reachable_rows", "evaluate_chunk", "COLUMNS"]
+__all__ = ["reachable_rows", "evaluate_chunk", "COLUMNS", "DAMPED_COLUMNS"]
 
 COLUMNS = ("pose", "k_a", "design", "freq_hz", "direction", "reachable", "status", "pose_index", "case")
+#: the columns a sweep of a model with damping adds (:attr:`Modes.damped_hz`, :attr:`Modes.damping_ratio`)
+DAMPED_COLUMNS = ("damped_hz", "damping_ratio")
 
 
 def reachable_rows(ev: Evaluator, poses: np.ndarray, params: dict, model) -> np.ndarray:
@@ -25,8 +27,12 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
     int8, index into ``AXES`` of the axis carrying the largest share of each mode's energy; reachable (n,)
     bool; status (n,) int8, the position in :data:`~eigentwist.runtime.validity.POSE_STATUS`
     (0 reachable, 1 unreachable, 2 serial singular, 3 parallel singular: the singular
-    region mapped); pose_index (n,), case (n,) int64. Unreachable or singular rows have NaN
-    frequencies, direction -1 and ``reachable=False``: they never stop the sweep.
+    region mapped); pose_index (n,), case (n,) int64. A model with damping (servo damping,
+    a torque lag, a loss factor) adds damped_hz (n, n_modes), the damped frequency omega_d/2pi
+    of each mode in Hz, and damping_ratio (n, n_modes), its zeta (:attr:`Modes.damped_hz`,
+    :attr:`Modes.damping_ratio`, mode k the undamped model's mode k). Unreachable or
+    singular rows have NaN frequencies (and damping), direction -1 and ``reachable=False``:
+    they never stop the sweep.
     Deterministic: the same spec and chunk give the same bits in any process.
     """
     span = spec.chunk_rows(chunk)
@@ -53,7 +59,7 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
         n = len(rows)
         sub = {k: (np.asarray(v)[bad] if np.ndim(v) == 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
         status[bad] = ev.pose_status(poses[bad], spec.model, **sub)["code"]
-    return {
+    out = {
         "pose": poses,
         "k_a": k_a,
         "design": design,
@@ -64,3 +70,9 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
         "pose_index": pose_index,
         "case": case,
     }
+    if modes.damping is not None:
+        for key in DAMPED_COLUMNS:
+            values = np.array(getattr(modes, key), dtype=float)
+            values[~reachable] = np.nan
+            out[key] = values
+    return out

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 from .columns import FORMAT, MANIFEST, chunk_file, lowest_path, pyarrow_modules, unflat_columns
-from .evaluate import COLUMNS
+from .evaluate import COLUMNS, DAMPED_COLUMNS
 from .spec import SweepSpec
 
 __all__ = ["SweepData", "iter_chunks", "load_sweep"]
@@ -62,7 +62,8 @@ def load_sweep(path) -> SweepData:
     manifest = _read_manifest(path)
     spec = SweepSpec.from_dict(manifest["spec"])
     parts = [columns for _, columns in iter_chunks(path)]
-    columns = {k: np.concatenate([p[k] for p in parts]) for k in COLUMNS}
+    keys = COLUMNS + tuple(k for k in DAMPED_COLUMNS if parts and all(k in p for p in parts))
+    columns = {k: np.concatenate([p[k] for p in parts]) for k in keys}
     low = None
     if manifest.get("lowest") and (path / manifest["lowest"]).exists():
         with np.load(path / manifest["lowest"]) as data:
