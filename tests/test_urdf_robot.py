@@ -162,3 +162,21 @@ def test_matrices_command_gives_each_legs_coordinates_in_its_units(ev, capsys):
     assert q["leg 3 (passive strut)"][2] == pytest.approx(0.5, abs=1e-12)  # |P - C|: the strut's length
     assert main(args) == 0
     assert "leg 2 (PR) (m, rad): 0.090000, 2.214297" in " ".join(capsys.readouterr().out.split())  # lines wrap
+
+
+@pytest.mark.derives
+def test_a_robot_of_urdf_legs_is_drawn_from_its_joints_to_its_attachment(ev, tmp_path):
+    from eigentwist.plots.robot import plot_modes, robot_geometry
+
+    home = np.array([0.0, 0.25])
+    g = robot_geometry(ev, home)
+    d = ev.defaults["d"]
+    # the example's docstring: the RR arm's shoulder at A1 = (-d/2, 0, 0), the slider at x = +d/2 in
+    # the base plane, the strut's base joint at C = (0, 0.55, 0.40) m
+    np.testing.assert_allclose(g.base[0], [-d / 2, 0.0, 0.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(g.base[1][[0, 2]], [d / 2, 0.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(g.base[2], [0.0, 0.55, 0.40], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(g.attachment, np.tile([0.0, 0.25, 0.0], (3, 1)), rtol=0, atol=1e-12)  # all meet at P
+    path = tmp_path / "modes.png"
+    plot_modes(ev, home, path, model="none", k_a=None, n_modes=2)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -103,7 +103,8 @@ def robot_geometry(ev, pose, **params) -> RobotGeometry:
 def _chain_geometry(ev, pose, **params) -> RobotGeometry:
     """A joint-list robot (the hexapod, a planar, point or lower-mobility platform): each leg
     drawn as a straight strut from its first joint's location (base) to its last joint's
-    (platform), at ``pose`` (the robot's coordinates, m and rad) completed to the six of a
+    (platform; a leg in URDF form: its first joint's origin to its attachment), at ``pose``
+    (the robot's coordinates, m and rad) completed to the six of a
     rigid platform (followers solved, :func:`eigentwist.runtime.platform.full_poses`)."""
     from ..runtime.platform import full_poses
     from ..runtime.poses import rotation_matrix
@@ -121,7 +122,14 @@ def _chain_geometry(ev, pose, **params) -> RobotGeometry:
     position = sp.Matrix(full[:3])
     rotation = sp.Matrix(rotation_matrix(full[3:6]))
     base, attach = [], []
+    subs = {q.symbol: values[q.name] for q in ev.robot.parameters}
     for leg in ev.robot.legs:
+        serial = getattr(getattr(leg, "numeric", None), "leg", None)
+        if serial is not None:  # a leg in URDF form: from its first joint to its attachment
+            base.append(np.array(sp.Matrix(serial.joints[0].origin).subs(subs).evalf(), dtype=float).ravel())
+            end = position + rotation * sp.Matrix(serial.attachment).subs(subs)
+            attach.append(np.array(end.evalf(), dtype=float).ravel())
+            continue
         g = leg.geometry(position, rotation, p)
         located = [j.location for j in leg.joints if j.location is not None]  # a prismatic joint has none
 
