@@ -72,22 +72,17 @@ def test_needed_effects_stay(ev_cd):
 
 @pytest.mark.slow
 def test_removal_is_a_step_of_the_path_in_json(ev_cd):
-    # the catalogue cannot describe a spring to ground: the path takes back what the final model does not need
-    shipped = ev_cd
-    meas = synth(
-        "paper+payload_mass:m_p=0.3",
-        KA,
-        POSES,
-        ("x", "y", "z"),
-        0.005,
-        seed=0,
-        ev=shipped,
-        extra_stiffness={"y": 2500.0},
-    )
-    d = diagnose(meas, "paper", ev=shipped)
+    # a softer lower link and a payload: the transmission compliance, which mimics the lower
+    # link's compliance alone, is added first and taken back once the lower link's is in
+    truth = "paper+lower_link_compliance:E_l1=2e10+payload_mass:m_p=0.3"
+    meas = synth(truth, KA, POSES, ("x", "y", "z"), 0.005, seed=0, ev=ev_cd)
+    d = diagnose(meas, "paper", ev=ev_cd)
+    assert [r.effect for r in d.removed] == ["transmission_compliance"]
+    assert set(d.selected) == {"lower_link_compliance", "payload_mass"}  # the truth's effects
     j = d.to_json()
     for r in d.removed:
         assert r.effect not in d.final.effects and r.effect not in d.selected
+        assert r.p_value > ALPHA  # not needed once the lower link's compliance is in
         assert any(s["removed"] == r.effect for s in j["steps"])
     assert [x["effect"] for x in j["removed"]] == [r.effect for r in d.removed]
     assert j["selected"] == [e for e in j["selected"] if e in j["final"]["effects"]]
