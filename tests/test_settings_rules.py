@@ -149,9 +149,7 @@ def test_chi2_table_sums_each_label_and_a_missing_mode_is_infinite():
     k = np.array([1000.0, 4000.0])
     p = np.array([POSE_A, POSE_B])
     got = st._chi2_table(sub, EV, final, k, p)
-    want = [
-        np.sum(((toy([kk] * 2, "xy", [pp] * 2) - sub.freq_hz) / SIGMA) ** 2) for kk, pp in zip(k, p)
-    ]
+    want = [np.sum(((toy([kk] * 2, "xy", [pp] * 2) - sub.freq_hz) / SIGMA) ** 2) for kk, pp in zip(k, p)]
     assert got == pytest.approx(want, rel=1e-12) and got[0] == pytest.approx(1.25)
     tiled = ToyPredictor.calls[0]  # sub's rows once per label tried, with their lines, file and robot
     assert tiled.lines.tolist() == [2, 3, 2, 3] and tiled.mode == ("x", "y", "x", "y")
@@ -170,7 +168,9 @@ def test_chi2_table_sums_each_label_and_a_missing_mode_is_infinite():
 
 
 def campaign(extra=()):
-    return meas_of([r for k in LEVELS for r in setting(k)] + [r for k in LEVELS for r in setting(k, pose=POSE_B)] + list(extra))
+    return meas_of(
+        [r for k in LEVELS for r in setting(k)] + [r for k in LEVELS for r in setting(k, pose=POSE_B)] + list(extra)
+    )
 
 
 def test_best_label_searches_the_widened_log_grid_and_the_measured_levels():

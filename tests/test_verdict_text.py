@@ -147,7 +147,7 @@ def comparison(n=3, failing=(False, True, False), mac=None, poses=None):
 def test_comparison_table_cells(tables):
     cmp = comparison(mac=np.array([0.98765, np.nan, 0.5]))
     assert vd.comparison_table(cmp) == "<table 0>"
-    (headers, rows, _), = tables
+    ((headers, rows, _),) = tables
     assert headers == [
         "line",
         "k_a [N m/rad]",
@@ -169,7 +169,7 @@ def test_comparison_table_cells(tables):
 def test_comparison_table_of_a_6_dof_robot_without_shapes(tables):
     cmp = comparison(poses=np.zeros((3, 6)))
     vd.comparison_table(cmp)
-    (headers, rows, _), = tables
+    ((headers, rows, _),) = tables
     assert headers[2] == "pose [m, rad]" and "MAC" not in headers and len(rows[0]) == 11
 
 
@@ -185,7 +185,10 @@ def test_comparison_table_beyond_its_limit_lists_the_failing_rows(tables):
     assert text.startswith("5 rows, more than 2: listed are the first 2 of the 3 failing rows (")
     assert [r[0] for r in tables[3][1]] == [2, 4]
     none = comparison(n=3, failing=(False, False, False))
-    assert vd.comparison_table(none, limit=2) == "3 rows, more than 2: listed are the 0 failing rows (--json prints every row)"
+    assert (
+        vd.comparison_table(none, limit=2)
+        == "3 rows, more than 2: listed are the 0 failing rows (--json prints every row)"
+    )
 
 
 def test_comparison_table_of_no_rows_has_a_position_column(tables):
@@ -206,10 +209,24 @@ def test_failing_text_cuts_poses_at_four_and_lines_at_twelve():
     cmp = NS(
         meas=NS(k_a_unit="N m/rad"),
         where_it_fails=lambda: [
-            dict(mode="x", rows=2, of=10, k_a_range=[1000.0, 1000.0], poses=five[:4], predicted="too high",
-                 lines=list(range(2, 14))),
-            dict(mode="y", rows=13, of=13, k_a_range=[250.0, 4000.0], poses=five, predicted="both ways",
-                 lines=list(range(2, 15))),
+            dict(
+                mode="x",
+                rows=2,
+                of=10,
+                k_a_range=[1000.0, 1000.0],
+                poses=five[:4],
+                predicted="too high",
+                lines=list(range(2, 14)),
+            ),
+            dict(
+                mode="y",
+                rows=13,
+                of=13,
+                k_a_range=[250.0, 4000.0],
+                poses=five,
+                predicted="both ways",
+                lines=list(range(2, 15)),
+            ),
         ],
     )
     x, y = vd.failing_text(cmp)
@@ -221,9 +238,15 @@ def test_failing_text_cuts_poses_at_four_and_lines_at_twelve():
         "mode y: 13 of 13 rows, k_a 250-4000 N m/rad, pose(s) [0, 0, -0.6]; [0.1, 0, -0.6]; [0.2, 0, -0.6]; "
         "[0.3, 0, -0.6] ... m, model both ways (lines 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13 ...)"
     )
-    six = NS(meas=NS(k_a_unit="N/m"), where_it_fails=lambda: [
-        dict(mode="1", rows=1, of=1, k_a_range=[5.0, 5.0], poses=[[0.0] * 6], predicted="too low", lines=[7])])
-    assert vd.failing_text(six) == ["mode 1: 1 of 1 rows, k_a = 5 N/m, pose(s) [0, 0, 0, 0, 0, 0] m, rad, model too low (lines 7)"]
+    six = NS(
+        meas=NS(k_a_unit="N/m"),
+        where_it_fails=lambda: [
+            dict(mode="1", rows=1, of=1, k_a_range=[5.0, 5.0], poses=[[0.0] * 6], predicted="too low", lines=[7])
+        ],
+    )
+    assert vd.failing_text(six) == [
+        "mode 1: 1 of 1 rows, k_a = 5 N/m, pose(s) [0, 0, 0, 0, 0, 0] m, rad, model too low (lines 7)"
+    ]
     assert vd.failing_text(NS(meas=None, where_it_fails=lambda: [])) == ["nowhere: every row is within 2 sigma"]
 
 
@@ -362,8 +385,14 @@ def test_alternatives_sentence():
         "payload_mass or tool_mass: these data cannot tell them apart; measure mode z at [0.1235, 0, -0.6] m with "
         "k_a = 1235 N m/rad, where they differ by 3.1 sigma"
     )
-    same = Alternative(("b",), "payload_mass", "tool_mass", None, equivalent={"max": 0.0},
-                       next_measurement=dict(nm2, k_a_unit="N/m", pose=[0.0] * 6))
+    same = Alternative(
+        ("b",),
+        "payload_mass",
+        "tool_mass",
+        None,
+        equivalent={"max": 0.0},
+        next_measurement=dict(nm2, k_a_unit="N/m", pose=[0.0] * 6),
+    )
     d.alternatives = [Alternative(("a",), None, "hose", None), same]
     assert vd._alternatives_sentence(d) == (
         "hose would explain the data, but not significantly with 20 rows; measure more. payload_mass and tool_mass "
@@ -430,16 +459,31 @@ def test_needs_of_an_unknown_parameter():
 
 def test_ranking_table_cells(tables):
     a = candidate("payload_mass", 1.234e-5, aicc=1.04, values={"m_p": 0.3}, std={"m_p": 0.01}, ties=["hose", "x@1"])
-    b = candidate("hose", math.nan, aicc=2.0, delta_aicc=0.96, values={"k_E_rot": 100.0}, std={"k_E_rot": 5.0},
-                  at_bound=("k_E_rot",))
+    b = candidate(
+        "hose",
+        math.nan,
+        aicc=2.0,
+        delta_aicc=0.96,
+        values={"k_E_rot": 100.0},
+        std={"k_E_rot": 5.0},
+        at_bound=("k_E_rot",),
+    )
     c = candidate("tube_modulus", None, delta_aicc=-0.04, implausible={"E_l1": 3.3e12})
     vd._ranking_table([a, b, c], EV)
-    (headers, rows, kw), = tables
-    assert headers == ["rank", "effect", "fitted (± std)", "RMS [%]", "max [%]", "AICc", "dAICc", "p-value",
-                       "notes (~: tied)"]
+    ((headers, rows, kw),) = tables
+    assert headers == [
+        "rank",
+        "effect",
+        "fitted (± std)",
+        "RMS [%]",
+        "max [%]",
+        "AICc",
+        "dAICc",
+        "p-value",
+        "notes (~: tied)",
+    ]
     assert kw == {"footnote": (8,)}
-    assert rows[0] == [1, "payload_mass", "m_p = 0.3 ± 0.01 kg", "1.50", "3.00", "1.0", "0.0", "1.2e-05",
-                       "~ hose, x@1"]
+    assert rows[0] == [1, "payload_mass", "m_p = 0.3 ± 0.01 kg", "1.50", "3.00", "1.0", "0.0", "1.2e-05", "~ hose, x@1"]
     assert rows[1][0] == 2 and rows[1][6:] == ["1.0", "-", "at search bound: k_E_rot"]
     assert rows[2][6:] == ["0.0", "-", "IMPLAUSIBLE: needs E_l1 = 3.3e+12 Pa, plausible 4e+10 ... 2.5e+11 Pa"]
     tables.clear()
@@ -457,7 +501,7 @@ def test_ranking_table_groups_mirror_images(tables):
     a = candidate("transmission_compliance@1", 1e-4, values={"m_p": 1.0})
     b = candidate("transmission_compliance@2", 1e-4, values={"m_p": 1.0})
     vd._ranking_table([a, b], EV)
-    (_, rows, _), = tables
+    ((_, rows, _),) = tables
     assert len(rows) == 1 and rows[0][1] == "transmission_compliance@1 or @2"
     assert rows[0][8] == "mirror images (the same fit)"
 
@@ -469,7 +513,7 @@ def test_steps_table_cells(tables):
         Step(fit_of(effects=("b",)), removed="a", p_value=math.inf),
     ]
     vd._steps_table(steps, EV)
-    (headers, rows, _), = tables
+    ((headers, rows, _),) = tables
     assert headers == ["step", "change", "effects", "RMS [%]", "max [%]", "chi2", "p-value", "equally good instead"]
     assert rows == [
         [0, "baseline", "(none)", "4.00", "9.00", "123.5", "-", "-"],
@@ -540,8 +584,9 @@ def full_diagnosis(**kw):
     meas = Rows(freq_hz=np.zeros(30), source="lab.csv", k_a_unit="N m/rad")
     baseline = comparison()
     baseline.effects = ("rigid_a", "rigid_b")
-    final = fit_of(effects=("rigid_a", "rigid_b", "payload_mass"), values={"m_p": 0.3}, std={"m_p": 0.01},
-                   rms=0.5, mx=1.25)
+    final = fit_of(
+        effects=("rigid_a", "rigid_b", "payload_mass"), values={"m_p": 0.3}, std={"m_p": 0.01}, rms=0.5, mx=1.25
+    )
     final.comparison = comparison(failing=(False, False, False))
     top = candidate("payload_mass", 1e-6, values={"m_p": 0.3}, std={"m_p": 0.01}, ties=["tool_mass"])
     d = diag(
@@ -550,8 +595,10 @@ def full_diagnosis(**kw):
         parameters=[],
         hints=[],
         ranking=[top],
-        steps=[Step(fit_of(effects=("rigid_a", "rigid_b")), ranking=[top]),
-               Step(final, added="payload_mass", p_value=1e-6)],
+        steps=[
+            Step(fit_of(effects=("rigid_a", "rigid_b")), ranking=[top]),
+            Step(final, added="payload_mass", p_value=1e-6),
+        ],
         removed=[],
         final=final,
         setting_anomalies=[],
@@ -600,8 +647,9 @@ def test_diagnosis_text_sections(tables):
 
 
 def test_diagnosis_text_with_rows_and_without_candidates(tables):
-    d = full_diagnosis(ranking=[], hints=["mode x: error grows with k_a"], manual=True, explained=False,
-                       final_hints=["mode z too low"])
+    d = full_diagnosis(
+        ranking=[], hints=["mode x: error grows with k_a"], manual=True, explained=False, final_hints=["mode z too low"]
+    )
     d.steps = [Step(fit_of(effects=("rigid_a", "rigid_b")), ranking=[])]
     d.final.values = {}
     out = lines_of(d, show_rows=True)
@@ -673,9 +721,13 @@ def test_diagnosis_text_removals_bounds_anomalies_outliers(tables, monkeypatch):
         NS(what="pose", best_k_a=1500.0, best_pose=[0.06, -0.04, -0.6], lines=[8, 9], k_a=1500.0),
     ]
     outliers = [Outlier(17, 1000.0, "x", 23.456, 5.04)]
-    d = full_diagnosis(removed=[removal], setting_anomalies=anomalies, outliers=outliers,
-                       all_rows=NS(selected=[], final=fit_of()),
-                       uncertainty=Uncertainty("consistent", 1.23456, 29.0, 29))
+    d = full_diagnosis(
+        removed=[removal],
+        setting_anomalies=anomalies,
+        outliers=outliers,
+        all_rows=NS(selected=[], final=fit_of()),
+        uncertainty=Uncertainty("consistent", 1.23456, 29.0, 29),
+    )
     d.final.at_bound = ("m_p", "k_E_rot")
     monkeypatch.setattr(vd, "damping_support", lambda d, ev: {"x": 1})
     monkeypatch.setattr(vd, "damping_sentence", lambda s: "Damping supported: " + "word " * 40 + "end.")

@@ -151,7 +151,8 @@ def added_effects(d, ev) -> list[dict]:
             bounds = _ranges(ev, (n,)).get(n)
             plausible = is_plausible(value, std, bounds, n in d.final.at_bound)
             if not plausible and bounds:
-                text += f" (IMPLAUSIBLE: plausible {bounds[0]:.2g} ... {bounds[1]:.2g} {unit})".replace(" )", ")")
+                shown = "" if unit in ("-", "") else f" {unit}"  # a ratio's "-" is dropped, as in its value
+                text += f" (IMPLAUSIBLE: plausible {bounds[0]:.2g} ... {bounds[1]:.2g}{shown})"
             params.append(
                 {
                     "name": n,
