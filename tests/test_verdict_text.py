@@ -757,3 +757,140 @@ def test_diagnosis_text_without_a_damping_sentence(tables, monkeypatch):
     monkeypatch.setattr(vd, "damping_sentence", lambda s: "")
     out = lines_of(full_diagnosis())
     assert out[21] == ""
+
+
+# -- the survivors of a first mutation run ----------------------------------------------------------------------
+
+
+def test_a_comparison_without_shapes_or_with_one_row(tables):
+    cmp = comparison(n=1, failing=(True,))
+    del cmp.mac  # a comparison that never had mode shapes
+    vd.comparison_table(cmp)
+    ((headers, rows, _),) = tables
+    assert "MAC" not in headers and headers[2] == "pose [m]" and rows[0][0] == 2
+
+
+def test_lists_are_joined_with_their_separators(tables):
+    c = candidate("tube_modulus", 1e-4, implausible={"E_l1": 3.3e12, "free": 2.0}, at_bound=("E_l1", "m_p"))
+    c.plausible_range = {"E_l1": RANGES["E_l1"], "free": (0.0, 1.0)}
+    assert vd._needs(c, EV) == (
+        "needs E_l1 = 3.3e+12 Pa (at the search bound), plausible 4e+10 ... 2.5e+11 Pa; needs free = 2 , "
+        "plausible 0 ... 1 "
+    )
+    b = candidate("hose", 0.1, values={"k_E_rot": 1.0}, at_bound=("k_E_rot", "m_p"), ties=["a", "b"])
+    vd._ranking_table([b], EV)
+    assert tables[0][1][0][8] == "at search bound: k_E_rot, m_p; ~ a, b"
+    d = diag(final=fit_of(chi2=10.0), explained=False, implausible={"E_l1": (1.0, (0, 1)), "m_p": (1.0, (0, 1))})
+    assert "only with E_l1, m_p outside the plausible range" in vd._head(d)
+    final = fit_of(aicc=10.0)
+    bad = [candidate(e, 1e-6, implausible={"E_l1": 1e13}) for e in ("tube_a", "tube_b")]
+    d = diag(final=final, steps=[Step(final, ranking=bad)])
+    assert vd._implausible_sentence(d, EV) == (
+        "Only implausible fits would explain more: tube_a needs E_l1 = 1e+13 Pa, plausible 4e+10 ... 2.5e+11 Pa; "
+        "tube_b needs E_l1 = 1e+13 Pa, plausible 4e+10 ... 2.5e+11 Pa"
+    )
+
+
+def test_why_sentences_in_full():
+    d = diag(explained=False, manual=True)
+    assert vd._why(d) == (
+        "The effects added by hand are not enough; run without --add to let the catalogue be searched, or an effect "
+        "outside the catalogue is missing (or the stated uncertainties are too small)"
+    )
+    d = diag(explained=False, alternatives=[Alternative(("a",), None, "hose", None)])
+    assert vd._why(d) == (
+        "Catalogue effects would explain it, but these rows cannot show it significantly (below), or the stated "
+        "uncertainties are too small"
+    )
+
+
+def test_an_unproven_effect_takes_only_its_own_next_measurement():
+    swap = Alternative(("b",), "payload_mass", "tool_mass", None, next_measurement={"message": "theirs"} | NM)
+    d = diag(alternatives=[Alternative(("a",), None, "hose", None), swap], meas=Rows(freq_hz=np.zeros(20)))
+    assert vd._alternatives_sentence(d).startswith(
+        "hose would explain the data, but not significantly with 20 rows; measure more. payload_mass or tool_mass"
+    )
+
+
+NM = {"mode": "z", "pose": [0.0, 0.0, -0.6], "k_a": 1000.0, "separation_sigma": 3.0}
+
+
+@pytest.fixture
+def no_default_evaluator(monkeypatch):
+    """The robot's evaluator, where the text loads it itself: EV, and the robots asked for."""
+    import eigentwist.diagnose.evaluators as evaluators
+
+    asked = []
+
+    def evaluator(robot):
+        asked.append(robot)
+        return EV
+
+    monkeypatch.setattr(evaluators, "evaluator", evaluator)
+    return asked
+
+
+def test_verdict_text_loads_the_robots_evaluator_only_without_one(no_default_evaluator, monkeypatch):
+    import eigentwist.diagnose.scope as scope
+
+    evs = []
+    monkeypatch.setattr(scope, "sentence", lambda ev, item, values, model: evs.append(ev))
+    d = diag(robot="delta", final=fit_of(chi2=10.0, effects=("a",)))
+    assert vd.verdict_text(d) == vd._head(d) and no_default_evaluator == ["delta"] and evs == [EV]
+    other = FakeEv()
+    vd.verdict_text(d, other)
+    assert no_default_evaluator == ["delta"] and evs == [EV, other]
+
+
+def test_the_reason_at_one_degree_of_freedom_and_at_none():
+    d = diag(final=fit_of(chi2=100.0, n=2, k=1), explained=False)
+    assert vd.verdict_text(d, EV).startswith(vd._head(d) + ". Every catalogue effect this robot has is already")
+    d = diag(final=fit_of(chi2=100.0, n=1, k=1), explained=False)
+    assert vd.verdict_text(d, EV) == vd._head(d)
+
+
+def test_verdict_text_formats_the_all_rows_values_with_its_evaluator():
+    d = diag(
+        final=fit_of(chi2=10.0),
+        outliers=[Outlier(17, 1000.0, "x", 23.5, 5.0)],
+        all_rows=NS(selected=["payload_mass"], final=fit_of(values={"m_p": 0.31}, std={"m_p": 0.012})),
+    )
+    assert vd.verdict_text(d, EV).endswith("(with every row the selection is payload_mass (m_p = 0.31 ± 0.012 kg))")
+
+
+def test_diagnosis_text_of_models_without_effects_and_changed_parameters(tables, no_default_evaluator, monkeypatch):
+    import eigentwist.diagnose.scope as scope
+
+    evs = []
+    monkeypatch.setattr(scope, "sentence", lambda ev, item, values, model: evs.append(ev))
+    d = full_diagnosis()
+    d.baseline.effects = ()
+    d.final.effects = ()
+    d.parameters = [
+        dict(name="m_p", value=0.3, unit="kg", default=0.0, source="fitted", differs=True, active=True, effect="p"),
+        dict(name="l2", value=0.5, unit="m", default=0.4, source="column", differs=True, active=False, effect="q"),
+    ]
+    out = lines_of(d)
+    assert out[0] == "heli4: 30 measured frequencies from lab.csv; baseline: (no effect)"
+    assert out[1] == "parameters changed from heli4's defaults: l2 = 0.5 m (default 0.4, column, q is off)"
+    assert "   final model: (no effect); RMS 0.50 %, max 1.25 %" in out
+    assert no_default_evaluator == [] and evs == []
+    d.final.effects = ("a@1",)
+    lines_of(d)
+    assert no_default_evaluator == [] and evs == [EV, EV]  # the model's sentences and the verdict's
+
+
+def test_diagnosis_text_ties_joined(tables):
+    d = full_diagnosis()
+    d.ranking[0].indistinguishable_from = ["tool_mass", "hose"]
+    assert "   payload_mass and tool_mass, hose explain these data equally well" in " ".join(lines_of(d))
+
+
+def test_diagnosis_text_damping_of_this_diagnosis_kept_whole(tables, monkeypatch):
+    support = {"x": 1}
+    monkeypatch.setattr(vd, "damping_support", lambda d, ev: support if ev is EV else None)
+    long = "u" * 120
+    monkeypatch.setattr(vd, "damping_sentence", lambda s: f"Damping supported: {long} end." if s is support else "")
+    out = lines_of(full_diagnosis())
+    k = out.index("   Damping supported:")
+    assert out[k + 1 : k + 3] == [f"     {long}", "     end."]  # a word longer than a line is not broken
