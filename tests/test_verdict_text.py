@@ -268,6 +268,12 @@ def test_head_without_degrees_of_freedom():
     assert vd._head(diag(final=fit_of(n=4, k=3, chi2=1.0))).startswith("the final model explains")
 
 
+def test_head_of_a_diagnosis_without_implausible_values():
+    d = diag(final=fit_of(chi2=chi2_at(0.5, 29)), explained=False)
+    del d.implausible
+    assert vd._head(d).startswith("the final model does NOT explain the data within the measurement uncertainty")
+
+
 def test_head_explained_and_not():
     chi2 = chi2_at(0.5, 29)
     stat = f"chi2 = {chi2:.1f} for 29 degrees of freedom (reduced {chi2 / 29:.2f}, p = 0.5)"
@@ -806,7 +812,7 @@ def test_why_sentences_in_full():
 
 def test_an_unproven_effect_takes_only_its_own_next_measurement():
     swap = Alternative(("b",), "payload_mass", "tool_mass", None, next_measurement={"message": "theirs"} | NM)
-    d = diag(alternatives=[Alternative(("a",), None, "hose", None), swap], meas=Rows(freq_hz=np.zeros(20)))
+    d = diag(alternatives=[swap, Alternative(("a",), None, "hose", None)], meas=Rows(freq_hz=np.zeros(20)))
     assert vd._alternatives_sentence(d).startswith(
         "hose would explain the data, but not significantly with 20 rows; measure more. payload_mass or tool_mass"
     )
