@@ -154,6 +154,8 @@ def test_removed_damping_is_not_supported_and_its_test_not_repeated(measured):
         {"effect": "servo_delay", "p_value": 0.2345, "params": [], "delta_aicc": None, "fits_alike": False},
         {"effect": "structural_loss", "p_value": 0.5, "params": [], "delta_aicc": 4.0, "fits_alike": False},
     ]
+    assert set(s) == {"given", "by_hand", "supported", "not_supported", "alike", "measurement"}
+    assert s["alike"] is None and s["measurement"] is None and measured == []
     d = diag(final, [[]], removed=[removal])
     assert ds.damping_support(d, EV)["not_supported"][0]["effect"] == "servo_delay"  # removed alone is enough
     d = diag(final, [[]])
