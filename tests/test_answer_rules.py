@@ -38,6 +38,7 @@ EFFECTS = {
     ),
     "hose": NS(parameters=("k_h", "c_h"), fit=("k_h",), component="", leg_level=False, primitive=None),
     "switch": NS(parameters=(), fit=(), component="", leg_level=True, primitive=None),
+    "valve": NS(parameters=("k_h", "v_free"), fit=("k_h",)),  # no component, no leg level; v_free unknown
 }
 
 
@@ -678,3 +679,138 @@ def test_answer_keeps_the_check_however_long(quiet):
     d = diag(final=final, explained=False, implausible={"m_p": (9.0, (0.0, 5.0))}, notes=["n" * 95] * 6)
     out = an.answer(d, EV)
     assert out["why"].startswith("Check the inputs") and out["lines"][-1] == "  ... (the rest: --details)"
+
+
+# -- the survivors of a first mutation run ------------------------------------------------------------------
+
+
+def test_one_degree_of_freedom_is_judged(quiet):
+    d = diag(final=fit_of(n=2, k=1, chi2=100.0), explained=False)
+    assert an._verdict(d).startswith("NOT explained within the stated sigma (chi2/nu = 100/1 = 100")
+    assert an.answer(d, EV)["why"].startswith("Why: ")
+
+
+def test_a_diagnosis_without_the_optional_parts(quiet):
+    """A diagnosis object without implausible values, removals, setting anomalies, a search or notes."""
+    d = diag(explained=False, final=fit_of(chi2=100.0))
+    for name in ("implausible", "removed", "setting_anomalies", "search", "notes"):
+        delattr(d, name)
+    out = an.answer(d, EV)
+    assert out["search"] == "" and out["notes"] == "" and out["rows"].startswith("No outliers.")
+    assert out["why"].startswith("Why: an effect outside") and an._allowed(d) == set()
+
+
+def test_an_effect_without_component_leg_level_or_a_known_parameter():
+    final = fit_of(effects=("valve",), values={"k_h": 5e4, "v_free": 3.0}, std={"k_h": 1e3})
+    d = diag(final=final, explained=False, implausible={"k_h": (5e4, (0.0, 1e4))})
+    assert an.check_inputs(d, EV) == (
+        "Check the inputs: valve needs k_h = 5e+04 N/m (plausible 0 ... 1e+04 N/m): check the valve's values."
+    )
+    (item,) = an.added_effects(diag(final=final), EV)
+    assert item["leg_level"] is False
+    k_h, free = item["params"]
+    assert k_h["text"] == "k_h = (5.00 ± 0.10)·10⁴ N/m (IMPLAUSIBLE: plausible 0 ... 1e+04 N/m)"
+    assert free == {
+        "name": "v_free",
+        "value": 3.0,
+        "std": math.inf,
+        "unit": "",
+        "plausible": True,
+        "plausible_range": None,
+        "text": "v_free = 3 (± undetermined)",
+    }
+
+
+def test_a_value_at_its_search_bound_is_implausible_inside_its_range():
+    final = fit_of(effects=("payload_mass",), values={"m_p": 0.35}, std={"m_p": 0.01}, at_bound=("m_p",))
+    (item,) = an.added_effects(diag(final=final), EV)
+    assert item["params"][0]["plausible"] is False
+    assert item["params"][0]["text"] == "m_p = 0.350 ± 0.010 kg (IMPLAUSIBLE: plausible 0 ... 5 kg)"
+
+
+def mirror_ranking(*effects):
+    same = NS(predicted=np.zeros(3))
+    return [NS(effect=e, fit=NS(comparison=same)) for e in effects]
+
+
+def test_added_groups_from_the_ranking_each_effect_was_chosen_in():
+    steps = [
+        Step(fit_of(), ranking=mirror_ranking("actuator_loss@3", "actuator_loss@4", "payload_mass")),
+        Step(fit_of(), added="actuator_loss@3", ranking=mirror_ranking("switch@1", "switch@2")),
+        Step(fit_of(), added="switch@2", ranking=[]),
+    ]
+    groups = an._added_groups(diag(steps=steps))
+    assert [[c.effect for c in g] for g in groups] == [["actuator_loss@3", "actuator_loss@4"], ["switch@1", "switch@2"]]
+
+
+def test_apart_of_alternatives_mirror_images_and_order():
+    ranking = mirror_ranking("actuator_loss@3", "actuator_loss@4")
+    steps = [Step(fit_of(), ranking=ranking), Step(fit_of(), added="payload_mass", ranking=[])]
+    mirror = Alternative(("x",), "actuator_loss@3", "actuator_loss@4", None)
+    unproven = Alternative(("y",), None, "hose", None)
+    d = diag(steps=steps, alternatives=[unproven, mirror])
+    assert an._apart(d) == (["actuator_loss@3 or @4 (mirror images at the measured poses)"], False)
+    # the same pair as a step's tie is said once
+    steps = [Step(fit_of(), ranking=[]), Step(fit_of(), added="a", alternatives=["b"])]
+    d = diag(steps=steps, alternatives=[Alternative(("x",), "a", "b", None)])
+    assert an._apart(d) == (["a or b"], False)
+    # one model only when every set is
+    same = {"max": 0.0}
+    d = diag(alternatives=[Alternative(("x",), "p", "q", None), Alternative(("y",), "r", "s", None, equivalent=same)])
+    assert an._apart(d) == (["p or q", "r or s"], False)
+
+
+def test_apart_of_unproven_mirror_images_in_the_last_ranking():
+    ranking = mirror_ranking("actuator_loss@3", "actuator_loss@4")
+    steps = [Step(fit_of(), ranking=[]), Step(fit_of(), added="payload_mass", ranking=ranking)]
+    alts = [Alternative(("x",), None, "actuator_loss@3", None), Alternative(("y",), None, "actuator_loss@4", None)]
+    d = diag(steps=steps, alternatives=alts)
+    assert an._apart(d) == (["actuator_loss@3 or @4 (mirror images at the measured poses)"], False)
+    # a later step without a ranking has no groups (the diagnosis's ranking is the first step's)
+    steps = [Step(fit_of(), ranking=[]), Step(fit_of(), added="payload_mass", ranking=[])]
+    d = diag(steps=steps, alternatives=alts, ranking=ranking)
+    assert an._apart(d) == (["actuator_loss@3 or actuator_loss@4"], False)
+
+
+def test_allowed_holds_an_alternatives_effects_and_its_replacement():
+    d = diag(alternatives=[Alternative(("x", "y"), "w", "z", None)])
+    assert an._allowed(d) == {"x", "y", "z"}
+
+
+def test_gap_without_the_added_effect_in_its_ranking():
+    steps = [Step(fit_of(), ranking=[candidate("other", aicc=1.0)]), Step(fit_of(), added="a")]
+    assert math.isnan(an._gap(diag(steps=steps), "a", candidate("b", aicc=2.0)))
+
+
+def test_answer_with_an_added_effect_and_its_evaluator(monkeypatch):
+    support = {"given": []}
+    seen = []
+
+    def damping_support(d, ev):
+        seen.append((d, ev))
+        return support
+
+    monkeypatch.setattr(an, "damping_support", damping_support)
+    monkeypatch.setattr(an, "damping_sentence", lambda s: "Damping: x." if s is support else "")
+    nm = nm_between("payload_mass", "tool_mass")  # no k_a unit: the evaluator's
+    final = fit_of(effects=("payload_mass",), values={"m_p": 0.35}, std={"m_p": 0.01})
+    d = diag(
+        final=final,
+        selected=["payload_mass", "tool_mass"],
+        next_measurement=nm,
+        uncertainty=Uncertainty("consistent", 1.1, 29.0, 29),
+    )
+    out = an.answer(d, EV)
+    assert out["added"] == "Added: payload_mass: m_p = 0.350 ± 0.010 kg."
+    assert out["next"].startswith("Next: measure mode z at [0.1, 0, -0.6] m, k_a = 1235 N m/rad: payload_mass")
+    assert out["rows"] == "No outliers. The stated uncertainty is consistent with the fit (Birge ratio 1.1)."
+    assert out["damping"] == "Damping: x." and seen == [(d, EV)]
+    assert an.answer_text(d, EV, 40) == "\n".join(an.answer(d, EV, 40)["lines"])
+    assert max(map(len, an.answer(d, EV, 40)["lines"])) <= 40 < max(map(len, out["lines"]))
+
+
+def test_answer_one_model_under_two_names_joined(quiet):
+    same = {"max": 0.0}
+    alts = [Alternative(("x",), "p", "q", None, equivalent=same), Alternative(("y",), "r", "s", None, equivalent=same)]
+    out = an.answer(diag(alternatives=alts), EV)
+    assert out["apart"] == "One model under two names (equal frequencies everywhere): p or q; r or s."

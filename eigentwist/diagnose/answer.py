@@ -41,10 +41,6 @@ DAMPING_LINES = 4  # further lines where the answer has a damping part
 MAX_TIES = 2  # subsets of the search named beside the selected one (the rest: the JSON's search.ties)
 
 
-def _num(v: float, fmt: str = ".3g") -> str:
-    return format(float(v), fmt)
-
-
 def _pose(p) -> str:
     unit = "m" if len(p) == 3 else "m, rad"
     return "[" + ", ".join(f"{v:g}" for v in np.round(p, 4)) + f"] {unit}"
