@@ -692,17 +692,19 @@ def test_one_degree_of_freedom_is_judged(quiet):
 
 def test_a_diagnosis_without_the_optional_parts(quiet):
     """A diagnosis object without implausible values, removals, setting anomalies, a search or notes."""
-    d = diag(explained=False, final=fit_of(chi2=100.0))
+    d = diag(explained=False, final=fit_of(effects=("payload_mass",), chi2=100.0, values={"m_p": 0.3}))
     for name in ("implausible", "removed", "setting_anomalies", "search", "notes"):
         delattr(d, name)
     out = an.answer(d, EV)
     assert out["search"] == "" and out["notes"] == "" and out["rows"].startswith("No outliers.")
     assert out["why"].startswith("Why: an effect outside") and an._allowed(d) == set()
+    assert out["added"] == "Added: payload_mass: m_p = 0.3 (± undetermined) kg."
 
 
 def test_an_effect_without_component_leg_level_or_a_known_parameter():
     final = fit_of(effects=("valve",), values={"k_h": 5e4, "v_free": 3.0}, std={"k_h": 1e3})
-    d = diag(final=final, explained=False, implausible={"k_h": (5e4, (0.0, 1e4))})
+    alone = fit_of(effects=("valve",), values={"k_h": 5e4})  # v_free given, unknown to the evaluator
+    d = diag(final=alone, explained=False, implausible={"k_h": (5e4, (0.0, 1e4))})
     assert an.check_inputs(d, EV) == (
         "Check the inputs: valve needs k_h = 5e+04 N/m (plausible 0 ... 1e+04 N/m): check the valve's values."
     )
