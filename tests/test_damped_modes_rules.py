@@ -202,3 +202,64 @@ def test_coupled_reduction_refuses_a_change_in_massive_coordinates():
         "damped modes: the platform's massive coordinates change in number across the poses; evaluate the poses "
         "in groups"
     )
+
+
+def test_coupled_reduction_without_loss_is_real():
+    args, _ = coupled_case()
+    Mr, K, W, h, G, P = dm._coupled_reduction(*args)
+    assert not np.iscomplexobj(K)
+    assert h[0, 0] == pytest.approx(1.0 / 2e-4, rel=1e-12)  # e_0^T C_q^+ e_0: the joint's own stiffness
+
+
+def test_thresholds_are_relative_to_each_poses_largest_value():
+    """Poses 1e12 (rows) or 1e14 (masses) apart in scale have the same rank and massive count."""
+    A = np.zeros((2, 2, 4))
+    A[:, 0, 0], A[:, 1, 1] = 1.0, 0.5
+    A[0] *= 1e12
+    assert dm._null_space(A, 4, condense).shape == (2, 4, 2)
+    e = np.eye(6)
+    Je, Cq = legs_of([e[0], e[1]], [])
+    Je[0] *= 1e12
+    assert dm._admissible(Je, Cq, condense).shape == (2, 6, 4)
+    M = np.broadcast_to(np.diag([2.0, 2.0, 2.0, 0.01, 0.02, 0.03]), (2, 6, 6)).copy()
+    M[0] *= 1e14
+    args, _ = coupled_case(n=2, M=M)
+    Mr, *_ = dm._coupled_reduction(*args)
+    assert Mr.shape == (2, 6, 6)
+
+
+def test_admissible_twists_ignore_a_rigid_row_below_rigid_rtol():
+    e = np.eye(6)
+    Je, Cq = legs_of([1e6 * e[0], 1e-6 * e[1]], [])  # the second 1e-12 of the first: no constraint
+    B = dm._admissible(Je, Cq, condense)
+    assert B.shape == (2, 6, 5)
+
+
+def test_solver_of_the_backend():
+    assert dm.solver_of(NS(backend="c")) == "c" and dm.solver_of(NS(backend="numpy")) == "numpy"
+
+
+def test_actuator_values_of_the_effects_on():
+    """eta_a of a leg whose actuator_loss switch is on, 1 where it is off (switch 0), whatever the
+    effects named; c_a, t_d and eta_s only with their effects on."""
+    ev = NS(n_legs=2, effects=("actuator_loss", "servo_damping"))
+    p = {
+        "on_actuator_loss__1": np.array([1.0, 0.0]),
+        "on_actuator_loss__2": 0.0,
+        "eta_a__1": np.array([0.5, 0.6]),
+        "eta_a__2": 0.7,
+        "k_a": np.array([1000.0, 2000.0]),
+        "c_a": 3.0,
+        "t_d": 1e-3,
+        "eta_s": 0.02,
+    }
+    k_d, c_d, t_d, loss = dm.actuator_values(ev, p, ("servo_damping", "servo_delay", "structural_loss"), 2)
+    assert np.array_equal(k_d, [[500.0, 1000.0], [2000.0, 2000.0]])
+    assert np.array_equal(c_d, [[1.5, 3.0], [3.0, 3.0]]) and np.array_equal(t_d, np.full((2, 2), 1e-3))
+    assert np.array_equal(loss, [0.02, 0.02])
+    k_d, c_d, t_d, loss = dm.actuator_values(ev, p, (), 2)
+    assert np.array_equal(k_d, [[500.0, 1000.0], [2000.0, 2000.0]])  # the switches say where eta_a acts
+    assert not np.any(c_d) and not np.any(t_d) and loss is None
+    plain = NS(n_legs=2, effects=("servo_damping",))  # a robot without actuator_loss: no switch read
+    k_d, *_ = dm.actuator_values(plain, {"k_a": 1000.0, "c_a": 1.0, "t_d": 0.0, "eta_s": 0.0}, (), 3)
+    assert np.array_equal(k_d, np.full((3, 2), 1000.0))
