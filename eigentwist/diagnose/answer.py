@@ -41,10 +41,6 @@ DAMPING_LINES = 4  # further lines where the answer has a damping part
 MAX_TIES = 2  # subsets of the search named beside the selected one (the rest: the JSON's search.ties)
 
 
-def _num(v: float, fmt: str = ".3g") -> str:
-    return format(float(v), fmt)
-
-
 def _pose(p) -> str:
     unit = "m" if len(p) == 3 else "m, rad"
     return "[" + ", ".join(f"{v:g}" for v in np.round(p, 4)) + f"] {unit}"
@@ -151,7 +147,8 @@ def added_effects(d, ev) -> list[dict]:
             bounds = _ranges(ev, (n,)).get(n)
             plausible = is_plausible(value, std, bounds, n in d.final.at_bound)
             if not plausible and bounds:
-                text += f" (IMPLAUSIBLE: plausible {bounds[0]:.2g} ... {bounds[1]:.2g} {unit})".replace(" )", ")")
+                shown = "" if unit in ("-", "") else f" {unit}"  # a ratio's "-" is dropped, as in its value
+                text += f" (IMPLAUSIBLE: plausible {bounds[0]:.2g} ... {bounds[1]:.2g}{shown})"
             params.append(
                 {
                     "name": n,
