@@ -17,7 +17,10 @@ back to differences, with the reason in ``FitResult.jacobian``, where no sensiti
 generated (gravity preload) or a row has no single mode (shape-matched rows, groups of
 near-equal modes). A coarse grid of starts (the new
 parameters at 1/10 ... 10 times their start value) is screened in one batch first, so
-a fit does not hinge on the default being close.
+a fit does not hinge on the default being close. A fit whose chi2 has fallen by less than
+``STALL_CHI2`` over its last ``STALL_EVALS`` new points stops at its best point (its message
+says so): a parameter the data do not want otherwise crawls towards its bound for dozens of
+evaluations without meeting the solver's tolerances.
 
 Standard errors: cov_theta = (J^T J)^-1 * max(1, chi2/(n-k)) with J the whitened
 Jacobian at the optimum (absolute sigma, inflated by the Birge ratio when the fit is
