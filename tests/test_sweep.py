@@ -448,6 +448,15 @@ def test_a_damped_sweep_maps_the_damped_frequencies_and_the_least_damped_mode(tm
         np.testing.assert_array_equal(data.lowest[key], low[key])
 
 
+def test_a_damped_sweep_of_unreachable_poses_has_nan_damping():
+    spec = sw.make_spec(grid=(2, 1, 2), box=(0.0, 0.1, 0, 0, -0.35, -0.3), chunk_size=3, model="paper,servo_damping")
+    chunk = sw.evaluate_chunk(spec, 0)
+    assert not chunk["reachable"].any()
+    assert all(np.isnan(chunk[k]).all() for k in sw.DAMPED_COLUMNS)
+    low = sw.run_sweep(spec).lowest
+    assert np.isnan(low["damped_hz"]).all() and (low["damping_ratio_mode"] == -1).all()
+
+
 def test_an_undamped_sweep_has_no_damped_columns():
     spec = sw.make_spec(grid=(2, 1, 2), box=MIXED_BOX, chunk_size=3)
     assert not set(sw.DAMPED_COLUMNS) & set(sw.evaluate_chunk(spec, 0))

@@ -501,24 +501,9 @@ class CKernels:
                 addresses[i], strides[i] = ai, si
         return keep, addresses, strides, lead
 
-    def fused(
-        self,
-        x,
-        y,
-        z,
-        p: dict,
-        *,
-        matrices=("M", "K_F"),
-        ik=(),
-        jacobians=(),
-        model=None,
-        vectors: bool = False,
-        status: bool = False,
-        normalize: bool = False,
-        out: dict | None = None,
-        threads: int = 1,
-    ) -> dict:
-        """Poses (m) and parameters to the requested outputs in one C pass.
+    def fused(self, x, y, z, p: dict, *, threads: int = 1, **options) -> dict:
+        """Poses (m) and parameters to the requested outputs in one C pass; ``options`` are
+        :meth:`fused_arguments`' keywords (defaults: ``matrices=("M", "K_F")``, nothing else).
 
         ``matrices``, ``ik`` and ``jacobians`` name the kernel outputs to return (shapes as
         in :attr:`OUTPUTS`; ``matrices`` may also name ``lever``); ``model`` (``"flexible"``:
@@ -538,20 +523,7 @@ class CKernels:
         of whole blocks on that many threads (bounded by :func:`threads_for`); the results
         are bit-identical to one thread.
         """
-        result, n, keep, args = self.fused_arguments(
-            x,
-            y,
-            z,
-            p,
-            matrices=matrices,
-            ik=ik,
-            jacobians=jacobians,
-            model=model,
-            vectors=vectors,
-            status=status,
-            normalize=normalize,
-            out=out,
-        )
+        result, n, keep, args = self.fused_arguments(x, y, z, p, **options)
         fn = self._fn["fused"]
 
         def call(begin: int, end: int) -> int:

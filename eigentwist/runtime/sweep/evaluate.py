@@ -70,7 +70,7 @@ def evaluate_chunk(spec: SweepSpec, chunk: int) -> dict:
         "pose_index": pose_index,
         "case": case,
     }
-    if modes.damping is not None:
+    if ev.damped_model(spec.model):  # the decision LowestTracker makes too
         for key in DAMPED_COLUMNS:
             values = np.array(getattr(modes, key), dtype=float)
             values[~reachable] = np.nan
