@@ -1,12 +1,14 @@
 """The README's commands run as written and print the figures it states.
 
 Every ```sh and ```python block of README.md runs, block after block, in one temporary
-directory (later blocks may use files earlier ones wrote) with an ``eigentwist`` shim on
-PATH that runs ``sys.executable -m eigentwist`` from this checkout. Each command must exit
-0, and every figure in its trailing comment -- a number (or a list ``a, b, c``, ``a +- b``,
-or a range ``a-b``) followed by a unit, e.g. ``# RMS 14.8 %`` -- must appear in its output
-within the stated rounding (a range: some output number inside it). Durations (unit ``s``)
-depend on the machine and are not checked.
+directory (later blocks may use files earlier ones wrote) with an ``eigentwist`` executable
+on PATH that runs the console script's ``main`` from this checkout (and each python block
+as ``python block.py`` runs it) in a process forked from one that has imported the package
+(``tests/command_server.py``: a fresh process without the second of imports each command
+would repeat). Each command must exit 0, and every figure in its trailing comment -- a
+number (or a list ``a, b, c``, ``a +- b``, or a range ``a-b``) followed by a unit, e.g.
+``# RMS 14.8 %`` -- must appear in its output within the stated rounding (a range: some output
+number inside it). Durations (unit ``s``) depend on the machine and are not checked.
 
 Markers, HTML comments just above a block (between it and the previous block):
 
@@ -29,6 +31,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+
+from . import command_server
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
@@ -149,20 +153,35 @@ BLOCKS = parse_blocks(README.read_text(encoding="utf-8"))
 
 @pytest.fixture(scope="session")
 def workdir(tmp_path_factory):
-    """A temporary directory, and an environment with the ``eigentwist`` shim first on PATH."""
+    """A temporary directory, and an environment with the ``eigentwist`` executable first on
+    PATH and ``python-script`` beside it (clients of ``tests/command_server.py``, started here
+    with that environment)."""
     work = tmp_path_factory.mktemp("readme")
     bin_dir = work / ".bin"
     bin_dir.mkdir()
-    shim = bin_dir / "eigentwist"
-    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m eigentwist "$@"\n')
-    shim.chmod(shim.stat().st_mode | stat.S_IXUSR)
     env = {
         **os.environ,
         "PATH": f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}",
         "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
         "MPLBACKEND": "Agg",
     }
-    return work, env
+    socket_path = str(bin_dir / "eigentwist.sock")
+    server = subprocess.Popen(
+        [sys.executable, str(ROOT / "tests" / "command_server.py"), socket_path],
+        cwd=work,
+        env=env,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert server.stdout.readline().strip() == "ready", "tests/command_server.py did not start"
+    for program, name in (("eigentwist", "eigentwist"), ("python", "python-script")):
+        client = bin_dir / name
+        client.write_text(command_server.client_script(sys.executable, socket_path, program))
+        client.chmod(client.stat().st_mode | stat.S_IXUSR)
+    yield work, env
+    server.stdin.close()
+    server.wait(timeout=30)
 
 
 @pytest.fixture(scope="session")
@@ -182,7 +201,7 @@ def _run_blocks(work, env) -> dict:
         if block.lang == "python":
             script = work / f"block_{block.line}.py"
             script.write_text(text)
-            runs = [(f"python {script.name}", "", [sys.executable, script.name])]
+            runs = [(f"python {script.name}", "", [str(work / ".bin" / "python-script"), script.name])]
         else:
             runs = [(cmd, comment, ["bash", "-c", cmd]) for cmd, comment in commands(text)]
         out[block.id] = [
