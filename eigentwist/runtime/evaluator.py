@@ -1807,7 +1807,9 @@ class Evaluator:
         dq/dp from the implicit function theorem on their loop closure and the matrices'
         central differences along that tangent (no Newton solve repeated); the rigid model
         of a lower-mobility platform (allowed twists that turn with the pose) takes central
-        differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved."""
+        differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved; its
+        flexible models add the followers' motion with each parameter to every route
+        (:func:`.implicit.follower_terms`)."""
         from .sensitivity import (
             check_model,
             check_wrt,
@@ -1838,13 +1840,26 @@ class Evaluator:
             return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.axes("rigid"), "rigid"), dfdp
         solved, exact = self._route(effects, params)
         basis = None if self._c_rigid else getattr(self.space, "basis", None)  # a point's translations
+        # a flexible model on a lower-mobility platform: the followers move with the parameters
+        follow = not rigid and bool(getattr(self.space, "followers", ()))
+
+        def total(out: dict, names, sl=slice(None)) -> dict:
+            if follow:
+                from .implicit import follower_terms
+
+                terms = follower_terms(self, np.asarray(given, dtype=float)[sl], poses[sl], names, effects, solved)
+                for k, d in terms.items():
+                    if k in out:
+                        out[k] = out[k] + d
+            return out
+
         if method == "exact" and self.numeric_ik:
             from .implicit import numeric_matrix_derivatives
 
-            out = numeric_matrix_derivatives(self, poses, wrt, effects, solved)
+            out = total(numeric_matrix_derivatives(self, poses, wrt, effects, solved), wrt)
             freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
         elif method == "differences":
-            out = self.matrix_derivatives(poses, wrt, effects, **solved)
+            out = total(self.matrix_derivatives(poses, wrt, effects, **solved), wrt)
             freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
         else:
             own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
@@ -1856,6 +1871,7 @@ class Evaluator:
                 pc = self._take(p, sl)
                 self._check_rows(poses[sl], pc, strict=True)
                 out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self._with_pose(poses[sl], pc))
+                out = total(dict(out), full, sl)
                 parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis))
             freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
             if own:

@@ -17,13 +17,25 @@ A lower-mobility platform's rigid model lives on allowed twists ``B(p)`` that tu
 the pose and the parameters; its pencil ``(B^T K_R B, B^T M B)`` is differentiated by
 central differences with the followers re-solved; the eigenvalue derivatives
 ``v^T (dK - lambda dM) v`` hold for any smooth choice of ``B`` (:mod:`.sensitivity`).
+Its flexible models' matrices depend on the parameters also through the followers (the
+pose coordinates the legs' closures fix): the total derivative adds ``(dX/dx) dx/dp`` to
+the one at fixed pose (:func:`follower_terms`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["difference_steps", "joint_derivatives", "numeric_matrix_derivatives", "reduced_derivatives"]
+__all__ = [
+    "difference_steps",
+    "follower_terms",
+    "joint_derivatives",
+    "numeric_matrix_derivatives",
+    "reduced_derivatives",
+]
+
+#: pose step (m, rad) of the central differences along the followers' tangent
+POSE_STEP = 1e-6
 
 
 def difference_steps(ev, wrt, params: dict):
@@ -134,3 +146,31 @@ def reduced_derivatives(ev, given, wrt, model, params: dict) -> dict:
         step = _difference(pencil, name, value, h, central, params, {"M": M, "K": K})
         out["dM"][:, j], out["dK"][:, j] = step["M"], step["K"]
     return out
+
+
+def follower_terms(ev, given, poses, wrt, model, params: dict) -> dict:
+    """``dM, dK_R, dK_F`` (N, len(wrt), 6, 6): what a lower-mobility platform's followers add
+    to the matrices' derivatives as they move with the parameters, ``(dX/dx) dx/dp``.
+    ``dx/dp`` (N, 6) by central differences of the follower solution at the commanded
+    ``given`` poses (the commanded coordinates do not move); ``(dX/dx) dx/dp`` by central
+    differences at fixed parameters along that tangent from the completed ``poses``, a step
+    of :data:`POSE_STEP` in its largest coordinate. Zero for a parameter the followers do not
+    depend on (masses, stiffnesses)."""
+    names = ("M", "K_R", "K_F")
+    base = np.asarray(poses, dtype=float)
+    d = {"d" + k: np.zeros((len(base), len(wrt), 6, 6)) for k in names}
+
+    def completed(pp: dict) -> np.ndarray:
+        return np.asarray(ev._poses(given, pp), dtype=float)
+
+    for j, (name, value, h, central) in enumerate(difference_steps(ev, wrt, params)):
+        dx = _difference(completed, name, value, h, central, params, base)
+        size = np.max(np.abs(dx), axis=1)
+        moving = size > 0
+        if not moving.any():
+            continue
+        t = (POSE_STEP / size[moving])[:, None]
+        hi, lo = (ev.matrices((base[moving] + s * t * dx[moving]).view(type(poses)), model, **params) for s in (1, -1))
+        for k in names:
+            d["d" + k][moving, j] = (hi[k] - lo[k]) / (2 * t[:, :, None])
+    return d
