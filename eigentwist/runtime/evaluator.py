@@ -1810,15 +1810,7 @@ class Evaluator:
         differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved; its
         flexible models add the followers' motion with each parameter to every route
         (:func:`.implicit.follower_terms`)."""
-        from .sensitivity import (
-            check_model,
-            check_wrt,
-            frequency_derivatives,
-            kernel_wrt,
-            own_legs,
-            sensitivity_kernels,
-            shared_columns,
-        )
+        from .sensitivity import check_model, check_wrt
 
         if method not in ("exact", "differences"):
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
@@ -1839,6 +1831,32 @@ class Evaluator:
                 dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
             return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.axes("rigid"), "rigid"), dfdp
         solved, exact = self._route(effects, params)
+        args = (given, poses, wrt, effects, params, method, rigid, rtol, progress)
+        freq, vec, dfdp = self._derivatives_at(solved, *args)
+        if exact and "c_rigid" in self.parameters:
+            # the finite modes come from the exact condensation, their derivatives from K_F with
+            # the penalty c_rigid: its first-order error removed (Richardson: 2 f'(c/2) - f'(c))
+            c = np.asarray(solved.get("c_rigid", self.parameters["c_rigid"].default), dtype=float)
+            dfdp = 2 * self._derivatives_at({**solved, "c_rigid": c / 2}, *args)[2] - dfdp
+        stiffness = "rigid" if rigid else "flexible"
+        modes = Modes(freq, vec, self.axes(stiffness), stiffness)
+        if exact:  # K_F's penalty: the finite modes exact
+            modes = self._exact_modes(poses, effects, params, modes, True)
+            modes.legs = None
+        return modes, dfdp
+
+    def _derivatives_at(self, solved: dict, given, poses, wrt, effects, params, method, rigid, rtol, progress):
+        """``(freq_hz, eigentwists, dfdp)`` of :meth:`modes_and_sensitivities` with the
+        parameters ``solved`` (the route's, or a penalty's other value), other than the
+        rigid model on turning allowed twists."""
+        from .sensitivity import (
+            frequency_derivatives,
+            kernel_wrt,
+            own_legs,
+            sensitivity_kernels,
+            shared_columns,
+        )
+
         basis = None if self._c_rigid else getattr(self.space, "basis", None)  # a point's translations
         # a flexible model on a lower-mobility platform: the followers move with the parameters
         follow = not rigid and bool(getattr(self.space, "followers", ()))
@@ -1876,12 +1894,7 @@ class Evaluator:
             freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
             if own:
                 dfdp = shared_columns(dfdp, wrt, full, own)
-        stiffness = "rigid" if rigid else "flexible"
-        modes = Modes(freq, vec, self.axes(stiffness), stiffness)
-        if exact:  # K_F's penalty: the finite modes exact
-            modes = self._exact_modes(poses, effects, params, modes, True)
-            modes.legs = None
-        return modes, dfdp
+        return freq, vec, dfdp
 
     def matrix_derivatives(self, poses, wrt, model="paper", **params) -> dict:
         """``M``, ``K_R``, ``K_F`` (N, 6, 6) and their derivatives ``dM``, ``dK_R``, ``dK_F``
