@@ -298,9 +298,9 @@ def test_added_effects_values_legs_and_plausibility():
 
 def test_added_sentence():
     d = diag(baseline=fit_of(effects=()))
-    assert an._added(d, EV, [], []) == "Added: nothing (no catalogue effect improves the baseline significantly)."
+    assert an._added(d, [], []) == "Added: nothing (no catalogue effect improves the baseline significantly)."
     d.manual = True
-    assert an._added(d, EV, [], []) == "Added: nothing by hand."
+    assert an._added(d, [], []) == "Added: nothing by hand."
     items = [
         {"effect": "payload_mass", "legs": [], "leg_level": False, "params": [{"text": "m_p = 0.35 ± 0.01 kg"}]},
         {"effect": "actuator_loss", "legs": [], "leg_level": True, "params": [{"text": "eta_a = 0.5"}, {"text": "b"}]},
@@ -308,25 +308,23 @@ def test_added_sentence():
     ]
     d.manual = False
     d.removed = [Removal("hose", 0.3, 1.0, 2.0, ("payload_mass",), None), Removal("x", 0.3, 1.0, 2.0, (), None)]
-    assert an._added(d, EV, items, []) == (
+    assert an._added(d, items, []) == (
         "Added: payload_mass: m_p = 0.35 ± 0.01 kg; actuator_loss (all legs): eta_a = 0.5, b; switch@2 (leg 2): "
         "switched on, nothing fitted. hose removed: not needed once payload_mass was added; x removed: not needed "
         "in the final model."
     )
     d.manual, d.removed = True, []
-    assert an._added(d, EV, items[:1], []) == "Added by hand: payload_mass: m_p = 0.35 ± 0.01 kg."
+    assert an._added(d, items[:1], []) == "Added by hand: payload_mass: m_p = 0.35 ± 0.01 kg."
 
 
 def test_added_names_mirror_images_as_one():
     g = [NS(effect="switch@2"), NS(effect="switch@4")]
     item = {"effect": "switch@2", "legs": [2], "leg_level": True, "params": []}
-    assert an._added(diag(), EV, [item], [[NS(effect="other")], g]).startswith("Added: switch@2 or @4 (leg 2 or 4): ")
+    assert an._added(diag(), [item], [[NS(effect="other")], g]).startswith("Added: switch@2 or @4 (leg 2 or 4): ")
     alone = [[NS(effect="switch@2")]]
-    assert an._added(diag(), EV, [item], alone).startswith("Added: switch@2 (leg 2): ")
+    assert an._added(diag(), [item], alone).startswith("Added: switch@2 (leg 2): ")
     shared = {"effect": "switch", "legs": [], "leg_level": True, "params": []}
-    assert an._added(diag(), EV, [shared], [[NS(effect="switch"), NS(effect="x")]]).startswith(
-        "Added: switch (all legs): "
-    )
+    assert an._added(diag(), [shared], [[NS(effect="switch"), NS(effect="x")]]).startswith("Added: switch (all legs): ")
 
 
 def test_where():

@@ -368,6 +368,8 @@ def test_outlier_sentence():
     )
     d.all_rows = NS(selected=["a", "b"], final=fit_of())
     assert vd._outlier_sentence(d, EV).endswith("(with every row the selection is a, b)")
+    d.all_rows = None  # the diagnosis with every row not run: the sentence without it
+    assert vd._outlier_sentence(d, EV).endswith("the selection and fitted values above are without them")
     assert vd._outlier_sentence(diag(outliers=[]), EV) is None
 
 
@@ -518,7 +520,7 @@ def test_steps_table_cells(tables):
         Step(fit_of(effects=("a", "b"), chi2=22.0), added="b", p_value=2.345e-7, alternatives=["c", "d"]),
         Step(fit_of(effects=("b",)), removed="a", p_value=math.inf),
     ]
-    vd._steps_table(steps, EV)
+    vd._steps_table(steps)
     ((headers, rows, _),) = tables
     assert headers == ["step", "change", "effects", "RMS [%]", "max [%]", "chi2", "p-value", "equally good instead"]
     assert rows == [

@@ -169,7 +169,7 @@ def _where(legs) -> str:
     return "all legs" if not legs else ("leg " + " or ".join(str(k) for k in legs))
 
 
-def _added(d, ev, items: list[dict], groups) -> str:
+def _added(d, items: list[dict], groups) -> str:
     if not items:
         if d.manual:
             return "Added: nothing by hand."
@@ -393,7 +393,7 @@ def answer(d, ev, width: int = WIDTH) -> dict:
     parts = {
         "verdict": _verdict(d),
         "why": "" if d.explained or d.final.dof <= 0 else (check or _why(d)),
-        "added": _added(d, ev, items, groups),
+        "added": _added(d, items, groups),
     }
     apart, equal = _apart(d)
     search = getattr(d, "search", None)

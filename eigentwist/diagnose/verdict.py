@@ -160,7 +160,7 @@ def _ranking_table(ranking, ev) -> str:
     )
 
 
-def _steps_table(steps, ev) -> str:
+def _steps_table(steps) -> str:
     rows = []
     for k, s in enumerate(steps):
         rows.append(
@@ -282,11 +282,14 @@ def _outlier_sentence(d, ev) -> str | None:
         f"{o.residual_sigma:+.1f} sigma)"
         for o in d.outliers
     )
-    a = d.all_rows
+    text = f"Isolated outlier(s) set aside: {rows}; the selection and fitted values above are without them"
+    a = getattr(d, "all_rows", None)
+    if a is None:  # the diagnosis with every row was not run
+        return text
     with_all = f"with every row the selection is {', '.join(a.selected) or 'nothing'}" + (
-        f" ({format_params(a.final.values, a.final.std, ev)})" if a and a.final.values else ""
+        f" ({format_params(a.final.values, a.final.std, ev)})" if a.final.values else ""
     )
-    return f"Isolated outlier(s) set aside: {rows}; the selection and fitted values above are without them ({with_all})"
+    return f"{text} ({with_all})"
 
 
 def _alternatives_sentence(d) -> str | None:
@@ -419,7 +422,7 @@ def diagnosis_text(d, ev, show_rows: bool = False) -> str:
                 f"({alt['separation_sigma']:.1f} sigma)"
             )
     title = "4. Effects added by hand" if d.manual else "4. Forward selection (add the best significant effect, repeat)"
-    out += ["", title, _steps_table(d.steps, ev)]
+    out += ["", title, _steps_table(d.steps)]
     out += [f"   {r.reason} (p = {r.p_value:.2g} against the model without it)" for r in d.removed]
     f = d.final
     out.append(f"   final model: {', '.join(f.effects) or '(no effect)'}; RMS {f.rms_pct:.2f} %, max {f.max_pct:.2f} %")
