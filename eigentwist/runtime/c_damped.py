@@ -40,7 +40,18 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["driver", "solve", "wrenches", "one_pass", "solve_legs", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
+__all__ = [
+    "driver",
+    "solve",
+    "wrenches",
+    "one_pass",
+    "exact_pass",
+    "solve_legs",
+    "SOURCE",
+    "MAX_MODES",
+    "MAX_LEGS",
+    "BLOCK",
+]
 
 #: the largest problem the C driver takes (modes, legs); a larger one is solved in NumPy
 MAX_MODES = 12
@@ -478,15 +489,14 @@ static __attribute__((noinline)) void et_assign(int n, int u, const double *w, i
     }
 }
 
-/* one pose; returns 0 when solved, 1 where NumPy must solve it */
-static int et_pose(int n, int L, const double *M, const double *K, const double *W, const double *h,
-                   const double *kd, const double *cd, const double *td, double eliminate, double unstable,
-                   double ambiguous, double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+/* the undamped modes K Phi = M Phi diag(lam) of the n x n pair: lam ascending (omega^2, any
+   sign), Phi (V, n x n, columns) M-orthonormal, by the Cholesky reduction C^-1 sym(K) C^-T and
+   cyclic Jacobi; 0 where M is not positive definite */
+static int et_modal(int n, const double *M, const double *K, double *lam, double *V)
 {
-    double C[MAXN * MAXN], S[MAXN * MAXN], V[MAXN * MAXN], lam[MAXN], om[MAXN], Bw[MAXL * MAXN];
-    double A[MAXM * MAXM], H[MAXM * MAXM], wr[MAXM], wi[MAXM];
+    double C[MAXN * MAXN], S[MAXN * MAXN];
     if (!et_cholesky(n, M, C))
-        return 1;
+        return 0;
     for (int i = 0; i < n; ++i) /* S = C^-1 sym(K) C^-T */
         for (int j = 0; j < n; ++j)
             S[i * n + j] = 0.5 * (K[i * n + j] + K[j * n + i]);
@@ -502,6 +512,34 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
         for (int j = 0; j < i; ++j)
             S[i * n + j] = S[j * n + i] = 0.5 * (S[i * n + j] + S[j * n + i]);
     et_jacobi(n, S, lam, V);
+    for (int c = 0; c < n; ++c) /* Phi = C^-T V, in place in V */
+        for (int i = n - 1; i >= 0; --i) {
+            double v = V[i * n + c];
+            for (int k = i + 1; k < n; ++k)
+                v -= C[k * n + i] * V[k * n + c];
+            V[i * n + c] = v / C[i * n + i];
+        }
+    return 1;
+}
+
+/* one pose; returns 0 when solved, 1 where NumPy must solve it (2: M not positive definite, the
+   undamped modes not solved either); lam_out (n) and phi_out (n x n),
+   where not NULL, receive the undamped modes (et_modal); kd NULL: those alone */
+static int et_pose(int n, int L, const double *M, const double *K, const double *W, const double *h,
+                   const double *kd, const double *cd, const double *td, double eliminate, double unstable,
+                   double ambiguous, double *wn, double *zeta, double *wd, double *poles, int8_t *stable,
+                   double *lam_out, double *phi_out)
+{
+    double V[MAXN * MAXN], lam[MAXN], om[MAXN], Bw[MAXL * MAXN];
+    double A[MAXM * MAXM], H[MAXM * MAXM], wr[MAXM], wi[MAXM];
+    if (!et_modal(n, M, K, lam, V))
+        return 2;
+    if (lam_out)
+        memcpy(lam_out, lam, sizeof(double) * n);
+    if (phi_out)
+        memcpy(phi_out, V, sizeof(double) * n * n);
+    if (!kd)
+        return 0;
     int ok = 1;
     for (int i = 0; i < n; ++i)
         ok &= lam[i] > 0.0;
@@ -514,13 +552,6 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
         *stable = 0;
         return 0;
     }
-    for (int c = 0; c < n; ++c) /* Phi = C^-T V, in place in V */
-        for (int i = n - 1; i >= 0; --i) {
-            double v = V[i * n + c];
-            for (int k = i + 1; k < n; ++k)
-                v -= C[k * n + i] * V[k * n + c];
-            V[i * n + c] = v / C[i * n + i];
-        }
     double big = 0.0;
     for (int i = 0; i < n; ++i) {
         om[i] = sqrt(lam[i]);
@@ -702,10 +733,11 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
 
 /* one leg: Kq = pinv(C) on the compliant eigen-directions of its joint compliance C (e x e; an
    eigenvalue within rtol of the largest magnitude: rigid, left out), g = Kq e_0: the
-   actuator wrench W (c) = g^T J (J: e x c), h = g[0], and, where K is not NULL,
-   K (c x c) += J^T Kq J */
+   actuator wrench W (c) = g^T J (J: e x c), h = g[0], where K is not NULL
+   K (c x c) += J^T Kq J, and where R is not NULL its rigid rows u^T J (e x c: a rigid
+   eigen-direction u's row, zeros for a compliant one) */
 static void et_wrench_leg(int e, int c, const double *J, const double *C, double rtol, double *K, double *W,
-                          double *h)
+                          double *h, double *R)
 {
     double S[MAXN * MAXN], U[MAXN * MAXN], lam[MAXN], Kq[MAXN * MAXN], KJ[MAXN * 64];
     memcpy(S, C, sizeof(double) * e * e);
@@ -715,6 +747,15 @@ static void et_wrench_leg(int e, int c, const double *J, const double *C, double
         scale = fmax(scale, fabs(lam[i]));
     for (int i = 0; i < e; ++i)
         lam[i] = fabs(lam[i]) <= rtol * scale ? 0.0 : 1.0 / lam[i];
+    if (R)
+        for (int k = 0; k < e; ++k)
+            for (int j = 0; j < c; ++j) {
+                double v = 0.0;
+                if (lam[k] == 0.0)
+                    for (int a = 0; a < e; ++a)
+                        v += U[a * e + k] * J[a * c + j];
+                R[k * c + j] = v;
+            }
     for (int a = 0; a < e; ++a)
         for (int b = 0; b < e; ++b) {
             double v = 0.0;
@@ -759,7 +800,7 @@ int et_wrenches(int64_t count, int L, int e, int c, const double *Je, const doub
         memset(Kp, 0, sizeof(double) * c * c);
         for (int l = 0; l < L; ++l)
             et_wrench_leg(e, c, Je + (p * L + l) * e * c, Cq + (p * L + l) * e * e, rtol, Kp, W + (p * L + l) * c,
-                          h + p * L + l);
+                          h + p * L + l, NULL);
     }
     return 0;
 }
@@ -774,39 +815,16 @@ int et_damped(int64_t count, int n, int L, const double *M, const double *K, con
     for (int64_t p = 0; p < count; ++p) {
         status[p] = (int8_t)et_pose(n, L, M + p * n * n, K + p * n * n, W + p * L * n, h + p * L, kd + p * L,
                                     cd + p * L, td + p * L, eliminate, unstable, ambiguous, wn + p * n,
-                                    zeta + p * n, wd + p * n, poles + 2 * p * n, stable + p);
+                                    zeta + p * n, wd + p * n, poles + 2 * p * n, stable + p, NULL, NULL);
     }
     return 0;
 }
 
-/* one pose from its legs' kernel outputs: each leg's actuator wrench from the first e_used rows
-   of its Je (L x e x 6) and Cq (L x e x e) (et_wrench_leg), the stiffness K (6 x 6), or where K
-   is NULL the legs' J_e^T C_q^+ J_e plus Kg (6 x 6, NULL: none), then B^T M B, B^T K B and
-   W B on the model's coordinates B (6 x r, row-major; NULL: the six twists) into et_pose */
-static int et_pose_legs(int L, int e, int e_used, int r, const double *M, const double *K, const double *Kg,
-                        const double *Je, const double *Cq, const double *B, const double *kd, const double *cd,
-                        const double *td, double rtol, double eliminate, double unstable, double ambiguous,
-                        double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+/* B^T M B, B^T K B (r x r) and W6 B (L x r) on the coordinates B (6 x r, row-major; NULL: the six
+   twists, copies) */
+static void et_project(int L, int r, const double *M, const double *K, const double *W6, const double *B, double *Mr,
+                       double *Kr, double *W)
 {
-    double W6[MAXL * 6], W[MAXL * 6], h[MAXL], Mr[36], Kr[36], J[MAXN * 6], C[MAXN * MAXN], Ks[36];
-    if (!K)
-        memset(Ks, 0, sizeof(Ks));
-    for (int l = 0; l < L; ++l) {
-        const double *Jl = Je + l * e * 6, *Cl = Cq + l * e * e;
-        for (int a = 0; a < e_used; ++a) {
-            for (int j = 0; j < 6; ++j)
-                J[a * 6 + j] = Jl[a * 6 + j];
-            for (int c = 0; c < e_used; ++c)
-                C[a * e_used + c] = Cl[a * e + c];
-        }
-        et_wrench_leg(e_used, 6, J, C, rtol, K ? NULL : Ks, W6 + l * 6, h + l);
-    }
-    if (!K) {
-        if (Kg)
-            for (int i = 0; i < 36; ++i)
-                Ks[i] += Kg[i];
-        K = Ks;
-    }
     if (B) { /* B^T M B, B^T K B, W B */
         double BM[36], BK[36];
         for (int i = 0; i < r; ++i)
@@ -837,11 +855,43 @@ static int et_pose_legs(int L, int e, int e_used, int r, const double *M, const 
                 W[l * r + j] = v;
             }
     } else {
-        memcpy(Mr, M, sizeof(Mr));
-        memcpy(Kr, K, sizeof(Kr));
+        memcpy(Mr, M, sizeof(double) * 36);
+        memcpy(Kr, K, sizeof(double) * 36);
         memcpy(W, W6, sizeof(double) * L * 6);
     }
-    return et_pose(r, L, Mr, Kr, W, h, kd, cd, td, eliminate, unstable, ambiguous, wn, zeta, wd, poles, stable);
+}
+
+/* one pose from its legs' kernel outputs: each leg's actuator wrench from the first e_used rows
+   of its Je (L x e x 6) and Cq (L x e x e) (et_wrench_leg), the stiffness K (6 x 6), or where K
+   is NULL the legs' J_e^T C_q^+ J_e plus Kg (6 x 6, NULL: none), then B^T M B, B^T K B and
+   W B on the model's coordinates B (6 x r, row-major; NULL: the six twists) into et_pose */
+static int et_pose_legs(int L, int e, int e_used, int r, const double *M, const double *K, const double *Kg,
+                        const double *Je, const double *Cq, const double *B, const double *kd, const double *cd,
+                        const double *td, double rtol, double eliminate, double unstable, double ambiguous,
+                        double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double W6[MAXL * 6], W[MAXL * 6], h[MAXL], Mr[36], Kr[36], J[MAXN * 6], C[MAXN * MAXN], Ks[36];
+    if (!K)
+        memset(Ks, 0, sizeof(Ks));
+    for (int l = 0; l < L; ++l) {
+        const double *Jl = Je + l * e * 6, *Cl = Cq + l * e * e;
+        for (int a = 0; a < e_used; ++a) {
+            for (int j = 0; j < 6; ++j)
+                J[a * 6 + j] = Jl[a * 6 + j];
+            for (int c = 0; c < e_used; ++c)
+                C[a * e_used + c] = Cl[a * e + c];
+        }
+        et_wrench_leg(e_used, 6, J, C, rtol, K ? NULL : Ks, W6 + l * 6, h + l, NULL);
+    }
+    if (!K) {
+        if (Kg)
+            for (int i = 0; i < 36; ++i)
+                Ks[i] += Kg[i];
+        K = Ks;
+    }
+    et_project(L, r, M, K, W6, B, Mr, Kr, W);
+    return et_pose(r, L, Mr, Kr, W, h, kd, cd, td, eliminate, unstable, ambiguous, wn, zeta, wd, poles, stable, NULL,
+                   NULL);
 }
 
 /* et_pose_legs for count poses: M (6 x 6), K (6 x 6, or NULL), Kg (6 x 6, or NULL), Je, Cq,
@@ -925,6 +975,119 @@ int et_damped_pass(int64_t begin, int64_t end, int64_t block, et_fused_fn fused,
     }
     return 0;
 }
+/* one pose of the exact condensation from its legs' kernel outputs Je (L x e x 6), Cq (L x e x e)
+   and Kg (6 x 6): each leg's springs J^T C_q^+ J, actuator wrench and rigid rows
+   (et_wrench_leg); the admissible twists B, the eigenvectors of G = sum of the rigid rows' r r^T
+   whose eigenvalue is at most null_rtol times the largest (cyclic Jacobi, ascending: the null
+   ones first), *nb of them; on B the undamped modes (lam: omega^2 of the nb finite modes, and
+   where V is not NULL their eigentwists B Phi, 6 x 6 row-major, columns nb.. NaN) and, where kd is
+   not NULL, the damped modes (et_pose). Returns 0 when solved, 1 where the damped modes are left
+   undecided, 2 where the undamped ones are not solved (no admissible twist, B^T M B not positive
+   definite). */
+static int et_exact_pose(int L, int e, const double *M, const double *Kg, const double *Je, const double *Cq,
+                         const double *kd, const double *cd, const double *td, double rtol, double null_rtol,
+                         double eliminate, double unstable, double ambiguous, int8_t *nb, double *lam, double *V,
+                         double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double W6[MAXL * 6], W[MAXL * 6], h[MAXL], K[36], G[36], g[6], Q[36], R[MAXN * 6], B[36], Mr[36], Kr[36],
+        Phi[36];
+    memcpy(K, Kg, sizeof(K));
+    memset(G, 0, sizeof(G));
+    for (int l = 0; l < L; ++l) {
+        et_wrench_leg(e, 6, Je + l * e * 6, Cq + l * e * e, rtol, K, W6 + l * 6, h + l, R);
+        for (int k = 0; k < e; ++k)
+            for (int i = 0; i < 6; ++i)
+                for (int j = 0; j < 6; ++j)
+                    G[i * 6 + j] += R[k * 6 + i] * R[k * 6 + j];
+    }
+    et_jacobi(6, G, g, Q);
+    double top = 0.0;
+    for (int i = 0; i < 6; ++i)
+        top = fmax(top, fabs(g[i]));
+    int r = 0;
+    while (r < 6 && g[r] <= null_rtol * top)
+        ++r;
+    *nb = (int8_t)r;
+    for (int j = r; j < 6; ++j) {
+        lam[j] = NAN;
+        if (kd) {
+            wn[j] = zeta[j] = wd[j] = poles[2 * j] = poles[2 * j + 1] = NAN;
+        }
+    }
+    if (V)
+        for (int i = 0; i < 36; ++i)
+            V[i] = NAN;
+    if (r == 0)
+        return 2;
+    for (int k = 0; k < 6; ++k)
+        for (int i = 0; i < r; ++i)
+            B[k * r + i] = Q[k * 6 + i];
+    et_project(L, r, M, K, W6, B, Mr, Kr, W);
+    int rc = et_pose(r, L, Mr, Kr, W, h, kd, cd, td, eliminate, unstable, ambiguous, wn, zeta, wd, poles, stable,
+                     lam, Phi);
+    if (rc == 2)
+        return 2;
+    if (V)
+        for (int k = 0; k < 6; ++k)
+            for (int j = 0; j < r; ++j) {
+                double v = 0.0;
+                for (int i = 0; i < r; ++i)
+                    v += B[k * r + i] * Phi[i * r + j];
+                V[k * 6 + j] = v;
+            }
+    return rc;
+}
+
+/* The exact condensation's modes of poses [begin, end) in one pass, `block` poses at a time
+   (begin a multiple of it): the robot's fused pass (its f_* arguments, as for et_damped_pass:
+   they must fill the status, q and M), its legs kernel on the block's joint coordinates (as
+   for et_damped_pass; Je, Cq and Kg its outputs), then per pose of status 0 or 4
+   et_exact_pose, writing 6 entries per pose of lam, wn, zeta, wd, poles (complex), 36 of V
+   (NULL: none) and nb, stable, redo (kd NULL: the undamped modes alone; wn .. stable unused).
+   Other poses: nb 0, redo 0. Returns the kernels' nonzero code, -1 for bad sizes. */
+int et_exact_pass(int64_t begin, int64_t end, int64_t block, et_fused_fn fused, const double *const *f_in,
+                  const int64_t *f_stride, int f_model, double *const *f_ik, double *const *f_mat,
+                  double *const *f_jac, double *f_freq, double *f_vec, int8_t *f_status, const double *f_opts,
+                  et_kernel_fn legs, int n_in, const double *const *l_in, const int64_t *l_stride, const int *q_of,
+                  int n_out, double *const *l_out, const int64_t *l_size, const double *q, int q_row,
+                  const double *Mall, const double *Je, const double *Cq, const double *Kg, int L, int e,
+                  const double *kd, const double *cd, const double *td, double rtol, double null_rtol,
+                  double eliminate, double unstable, double ambiguous, int8_t *nb, double *lam, double *V,
+                  double *wn, double *zeta, double *wd, double *poles, int8_t *stable, int8_t *redo)
+{
+    if (L < 1 || L > MAXL || e < 1 || e > MAXN || n_in > 256 || n_out > 64 || block < 1 || begin % block != 0)
+        return -1;
+    const double *ins[256];
+    int64_t strides[256];
+    double *outs[64];
+    for (int64_t b = begin; b < end; b += block) {
+        const int64_t b2 = end - b < block ? end : b + block;
+        int rc = fused(b, b2, f_in, f_stride, f_model, f_ik, f_mat, f_jac, f_freq, f_vec, f_status, f_opts);
+        if (rc != 0)
+            return rc;
+        for (int k = 0; k < n_in; ++k) {
+            ins[k] = q_of[k] >= 0 ? q + b * q_row + q_of[k] : l_in[k] + b * l_stride[k];
+            strides[k] = q_of[k] >= 0 ? q_row : l_stride[k];
+        }
+        for (int k = 0; k < n_out; ++k)
+            outs[k] = l_out[k] + b * l_size[k];
+        rc = legs(b2 - b, ins, strides, outs);
+        if (rc != 0)
+            return rc;
+        for (int64_t p = b; p < b2; ++p) {
+            redo[p] = 0;
+            nb[p] = 0;
+            if (f_status[p] != 0 && f_status[p] != 4)
+                continue;
+            redo[p] = (int8_t)et_exact_pose(
+                L, e, Mall + p * 36, Kg + p * 36, Je + p * L * e * 6, Cq + p * L * e * e, kd ? kd + p * L : NULL,
+                kd ? cd + p * L : NULL, kd ? td + p * L : NULL, rtol, null_rtol, eliminate, unstable, ambiguous,
+                nb + p, lam + p * 6, V ? V + p * 36 : NULL, kd ? wn + p * 6 : NULL, kd ? zeta + p * 6 : NULL,
+                kd ? wd + p * 6 : NULL, kd ? poles + 12 * p : NULL, kd ? stable + p : NULL);
+        }
+    }
+    return 0;
+}
 """
 
 _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
@@ -932,6 +1095,7 @@ _LIBRARIES: list = []  # the loaded driver library, kept for the process
 _WRENCHES: list = []  # its et_wrenches
 _PASS: list = []  # its et_damped_pass
 _LEGS: list = []  # its et_damped_legs
+_EXACT: list = []  # its et_exact_pass
 
 
 def driver():
@@ -965,6 +1129,14 @@ def driver():
             lib.et_damped_legs.argtypes = [i64, i, i, i, i, v, v, i, v, i, v, v, v, i, v, v, v, d, d, d, d] + [v] * 6
             lib.et_damped_legs.restype = ctypes.c_int
             _LEGS.append(lib.et_damped_legs)
+            lib.et_exact_pass.argtypes = (
+                [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
+                + [v, i, v, v, v, i, v, v, v, i]
+                + [v, v, v, v, i, i, v, v, v, d, d, d, d, d]
+                + [v] * 9
+            )
+            lib.et_exact_pass.restype = ctypes.c_int
+            _EXACT.append(lib.et_exact_pass)
         _DRIVER.append(fn)
     return _DRIVER[0]
 
@@ -1161,3 +1333,89 @@ def solve_legs(M, K, K_ground, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, thr
         if rc != 0:
             raise RuntimeError(f"C damped modes from the legs returned {rc}")
     return wn, zeta, wd, poles, stable.astype(bool), status != 0
+
+
+def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null_rtol: float, vectors: bool, threads=1):
+    """The robot's fused pass, its legs kernel and the exact condensation's modes of n poses in
+    one C call per range of whole blocks (``et_exact_pass``: no Python between the kernels, the
+    condensation and the damped solve). Returns a dict: ``nb`` (n,) the number of admissible
+    twists (0 where the pass marks the pose invalid), ``lam`` (n, 6) the undamped omega^2
+    ((rad/s)^2) of the nb finite modes ascending, ``V`` (n, 6, 6) their eigentwists as
+    M-orthonormal columns (with ``vectors``), ``code`` (n,) 0 solved, 1 the damped modes
+    undecided, 2 the undamped ones not solved, and, with ``k_d`` not None, ``damped``:
+    ``(wn, zeta, wd, poles, stable)`` as :func:`solve` gives them, (n, 6) on the first nb
+    columns.
+
+    ``fused``, ``legs``, ``block``, q and M as for :func:`one_pass` (the fused pass must fill
+    the status, q and M; the legs kernel's outputs ``Je``, ``Cq``, ``K_ground`` are read);
+    k_d, c_d, t_d (n, legs) or None (the undamped modes alone); ``rules``: ``(RIGID,
+    ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)`` of :mod:`.damped`; ``null_rtol``: a rigid rows'
+    Gram eigenvalue at most this times the largest is an admissible twist. Raises
+    RuntimeError when a kernel or the driver fails."""
+    from .threads import run_ranges, threads_for
+
+    driver()
+    fn = _EXACT[0]
+    address, args = fused
+    l_address, l_in, l_stride, q_of, l_outs, _ = legs
+    Je, Cq, Kg = l_outs["Je"], l_outs["Cq"], l_outs["K_ground"]
+    L, e = np.shape(Je)[1:3]
+    damped = k_d is not None
+    kd, cd, td = (
+        (np.ascontiguousarray(np.broadcast_to(v, (n, L)), dtype=np.float64) for v in (k_d, c_d, t_d))
+        if damped
+        else (None, None, None)
+    )
+    out_ptrs = np.array([a.ctypes.data for a in l_outs.values()], dtype=np.uint64)
+    sizes = np.array([a[0].size if n else 0 for a in l_outs.values()], dtype=np.int64)
+    nb, code = np.empty(n, dtype=np.int8), np.empty(n, dtype=np.int8)
+    lam = np.empty((n, 6))
+    V = np.empty((n, 6, 6)) if vectors else None
+    wn, zeta, wd = (np.empty((n, 6)) for _ in range(3))
+    poles = np.empty((n, 6), dtype=complex)
+    stable = np.empty(n, dtype=np.int8)
+    ptr = lambda a: None if a is None else a.ctypes.data  # noqa: E731
+    q_row = int(np.prod(np.shape(q)[1:]))
+
+    def call(a: int, b: int) -> int:
+        return fn(
+            a,
+            b,
+            block,
+            address,
+            *args,
+            l_address,
+            len(q_of),
+            l_in.ctypes.data,
+            l_stride.ctypes.data,
+            q_of.ctypes.data,
+            len(out_ptrs),
+            out_ptrs.ctypes.data,
+            sizes.ctypes.data,
+            q.ctypes.data,
+            q_row,
+            M.ctypes.data,
+            Je.ctypes.data,
+            Cq.ctypes.data,
+            Kg.ctypes.data,
+            L,
+            e,
+            ptr(kd),
+            ptr(cd),
+            ptr(td),
+            *rules[:1],
+            null_rtol,
+            *rules[1:],
+            nb.ctypes.data,
+            lam.ctypes.data,
+            ptr(V),
+            *(x.ctypes.data for x in (wn, zeta, wd, poles, stable, code)),
+        )
+
+    for rc in run_ranges(call, n, block, threads_for(n, block, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C exact pass returned {rc}")
+    out = {"nb": nb.astype(int), "lam": lam, "V": V, "code": code}
+    if damped:
+        out["damped"] = (wn, zeta, wd, poles, stable.astype(bool))
+    return out
