@@ -17,14 +17,17 @@ between the legs' internal coordinates:
    one-to-one assignment of largest total share, then the overdamped modes' real pole
    pairs), as :func:`~eigentwist.runtime.damped._assign` does.
 
-Three entry points run these steps: :func:`solve` on given M, K and actuator wrenches;
+Four entry points run these steps: :func:`solve` on given M, K and actuator wrenches;
 :func:`solve_legs` from the legs kernel's outputs (the actuator wrenches, the stiffness and
 the projection on the model's coordinates in C too); :func:`one_pass` inside the robot's
 fused pass: per block of poses the generated fused pass (inverse kinematics, M and the
 model's stiffness, the undamped modes), the generated ``legs`` kernel on the block's joint
 coordinates, then the damped modes, with no Python between them (the robot's library and
 this one each loaded only after their SHA-256 check; the driver calls the robot's functions
-by address).
+by address); :func:`exact_pass` the same for legs with rigid directions, condensed exactly
+between the kernels and the solve as :func:`.condense.condensed_modes` does (each leg's
+rigid rows, the admissible twists B from their Gram matrix, the undamped modes on B), the
+damped solve optional.
 
 A pose the C code cannot decide (the QR iteration without convergence, an inertia that is
 not positive definite, more than ``MAX_ASSIGN`` (10) poles of positive frequency to assign
