@@ -46,6 +46,7 @@ import numpy as np
 __all__ = [
     "driver",
     "solve",
+    "solve_complex",
     "wrenches",
     "one_pass",
     "exact_pass",
@@ -439,6 +440,229 @@ static __attribute__((noinline)) void et_vector(int m, const double *A, double c
     }
 }
 
+/* et_vector for a complex A (m x m) */
+static __attribute__((noinline)) void et_zvector(int m, const double complex *A, double complex s, double complex *x)
+{
+    double complex L[MAXM * MAXM];
+    int piv[MAXM];
+    double norm = 0.0;
+    for (int i = 0; i < m * m; ++i) {
+        L[i] = A[i];
+        norm = fmax(norm, cabs(A[i]));
+    }
+    for (int i = 0; i < m; ++i)
+        L[i * m + i] -= s;
+    double tiny = DBL_EPSILON * (norm > 0.0 ? norm : 1.0);
+    for (int k = 0; k < m; ++k) {
+        int p = k;
+        double best = fabs(creal(L[k * m + k])) + fabs(cimag(L[k * m + k]));
+        for (int i = k + 1; i < m; ++i) {
+            double a = fabs(creal(L[i * m + k])) + fabs(cimag(L[i * m + k]));
+            if (a > best) {
+                best = a;
+                p = i;
+            }
+        }
+        piv[k] = p;
+        if (p != k)
+            for (int j = 0; j < m; ++j) {
+                double complex t = L[k * m + j];
+                L[k * m + j] = L[p * m + j];
+                L[p * m + j] = t;
+            }
+        if (best < tiny)
+            L[k * m + k] = tiny;
+        for (int i = k + 1; i < m; ++i) {
+            double complex f = L[i * m + k] / L[k * m + k];
+            L[i * m + k] = f;
+            for (int j = k + 1; j < m; ++j)
+                L[i * m + j] -= f * L[k * m + j];
+        }
+    }
+    for (int i = 0; i < m; ++i)
+        x[i] = 1.0 + 0.1 * i;
+    for (int it = 0; it < 2; ++it) {
+        for (int k = 0; k < m; ++k) {
+            double complex t = x[k];
+            x[k] = x[piv[k]];
+            x[piv[k]] = t;
+            for (int i = k + 1; i < m; ++i)
+                x[i] -= L[i * m + k] * x[k];
+        }
+        for (int i = m - 1; i >= 0; --i) {
+            double complex v = x[i];
+            for (int j = i + 1; j < m; ++j)
+                v -= L[i * m + j] * x[j];
+            x[i] = v / L[i * m + i];
+        }
+        double big = 0.0;
+        for (int i = 0; i < m; ++i)
+            big = fmax(big, fabs(creal(x[i])) + fabs(cimag(x[i])));
+        if (!(big > 0.0) || !isfinite(big))
+            return;
+        for (int i = 0; i < m; ++i)
+            x[i] /= big;
+    }
+}
+
+static double et_cabs1(double complex z)
+{
+    return fabs(creal(z)) + fabs(cimag(z));
+}
+
+/* et_balance for a complex A (the 1-norms of |re| + |im|) */
+static void et_zbalance(int m, double complex *A)
+{
+    int done = 0;
+    while (!done) {
+        done = 1;
+        for (int i = 0; i < m; ++i) {
+            double c = 0.0, r = 0.0;
+            for (int j = 0; j < m; ++j)
+                if (j != i) {
+                    c += et_cabs1(A[j * m + i]);
+                    r += et_cabs1(A[i * m + j]);
+                }
+            if (c == 0.0 || r == 0.0 || !isfinite(c + r))
+                continue;
+            double total = c + r, f = 1.0, g = r / 2.0;
+            while (c < g) {
+                f *= 2.0;
+                c *= 4.0;
+            }
+            g = r * 2.0;
+            while (c > g) {
+                f /= 2.0;
+                c /= 4.0;
+            }
+            if ((c + r) / f < 0.95 * total) {
+                done = 0;
+                for (int j = 0; j < m; ++j) {
+                    A[i * m + j] /= f;
+                    A[j * m + i] *= f;
+                }
+            }
+        }
+    }
+}
+
+/* complex A (m x m) to upper Hessenberg form by Householder reflectors I - 2 v v^H / v^H v */
+static void et_zhessenberg(int m, double complex *A)
+{
+    double complex v[MAXM];
+    for (int k = 0; k < m - 2; ++k) {
+        int len = m - k - 1;
+        double nrm = 0.0;
+        for (int i = 0; i < len; ++i) {
+            v[i] = A[(k + 1 + i) * m + k];
+            nrm += creal(v[i] * conj(v[i]));
+        }
+        nrm = sqrt(nrm);
+        if (nrm == 0.0)
+            continue;
+        double a0 = cabs(v[0]);
+        double complex phase = a0 > 0.0 ? v[0] / a0 : 1.0;
+        v[0] += phase * nrm;
+        double vv = 0.0;
+        for (int i = 0; i < len; ++i)
+            vv += creal(v[i] * conj(v[i]));
+        double f = 2.0 / vv;
+        for (int j = k; j < m; ++j) { /* rows k+1..: A = (I - f v v^H) A */
+            double complex t = 0.0;
+            for (int i = 0; i < len; ++i)
+                t += conj(v[i]) * A[(k + 1 + i) * m + j];
+            t *= f;
+            for (int i = 0; i < len; ++i)
+                A[(k + 1 + i) * m + j] -= t * v[i];
+        }
+        for (int i = 0; i < m; ++i) { /* columns k+1..: A = A (I - f v v^H) */
+            double complex t = 0.0;
+            for (int j = 0; j < len; ++j)
+                t += A[i * m + k + 1 + j] * v[j];
+            t *= f;
+            for (int j = 0; j < len; ++j)
+                A[i * m + k + 1 + j] -= t * conj(v[j]);
+        }
+        for (int i = k + 2; i < m; ++i)
+            A[i * m + k] = 0.0;
+    }
+}
+
+/* eigenvalues of the complex upper Hessenberg H (m x m, overwritten) by single-shift QR with
+   Wilkinson shifts (Givens rotations on the active window); 0 where it does not converge */
+static int et_zqr(int m, double complex *H, double *wr, double *wi)
+{
+    int hi = m - 1, its = 0, total = 0;
+    double cs[MAXM];
+    double complex sn[MAXM];
+    while (hi >= 0) {
+        int l;
+        for (l = hi; l > 0; --l) {
+            double s = et_cabs1(H[(l - 1) * m + l - 1]) + et_cabs1(H[l * m + l]);
+            if (s == 0.0)
+                for (int i = l - 1; i <= hi; ++i)
+                    for (int j = l - 1; j <= hi; ++j)
+                        s += et_cabs1(H[i * m + j]);
+            if (et_cabs1(H[l * m + l - 1]) <= DBL_EPSILON * s) {
+                H[l * m + l - 1] = 0.0;
+                break;
+            }
+        }
+        if (l == hi) {
+            wr[hi] = creal(H[hi * m + hi]);
+            wi[hi] = cimag(H[hi * m + hi]);
+            hi -= 1;
+            its = 0;
+            continue;
+        }
+        if (++total > 60 * m)
+            return 0;
+        ++its;
+        double complex a = H[(hi - 1) * m + hi - 1], b = H[(hi - 1) * m + hi], c = H[hi * m + hi - 1],
+                       d = H[hi * m + hi], mu;
+        if (its % 11 == 0) /* an exceptional shift */
+            mu = d + 0.75 * (cabs(H[hi * m + hi - 1]) + (hi >= 2 ? cabs(H[(hi - 1) * m + hi - 2]) : 0.0));
+        else { /* the trailing 2 x 2 block's eigenvalue closer to d: d + p -/+ q */
+            double complex p = 0.5 * (a - d), q = csqrt(p * p + b * c);
+            mu = cabs(p + q) < cabs(p - q) ? d + p + q : d + p - q;
+        }
+        for (int i = l; i <= hi; ++i)
+            H[i * m + i] -= mu;
+        for (int k = l; k < hi; ++k) { /* H - mu = Q R, rotations from the left */
+            double complex x = H[k * m + k], y = H[(k + 1) * m + k];
+            double ax = cabs(x), r = hypot(ax, cabs(y));
+            double cc;
+            double complex ss;
+            if (r == 0.0) {
+                cc = 1.0;
+                ss = 0.0;
+            } else if (ax == 0.0) {
+                cc = 0.0;
+                ss = 1.0;
+            } else {
+                cc = ax / r;
+                ss = (x / ax) * conj(y) / r;
+            }
+            cs[k] = cc;
+            sn[k] = ss;
+            for (int j = k; j <= hi; ++j) {
+                double complex u = H[k * m + j], w = H[(k + 1) * m + j];
+                H[k * m + j] = cc * u + ss * w;
+                H[(k + 1) * m + j] = -conj(ss) * u + cc * w;
+            }
+        }
+        for (int k = l; k < hi; ++k) /* R Q + mu, rotations from the right */
+            for (int i = l; i <= (k + 1 < hi ? k + 1 : hi); ++i) {
+                double complex u = H[i * m + k], w = H[i * m + k + 1];
+                H[i * m + k] = u * cs[k] + w * conj(sn[k]);
+                H[i * m + k + 1] = -u * sn[k] + w * cs[k];
+            }
+        for (int i = l; i <= hi; ++i)
+            H[i * m + i] += mu;
+    }
+    return 1;
+}
+
 /* the one-to-one assignment of rows (modes) to columns (poles of positive frequency) of
    largest total weight w (n x u): min(n, u) pairs (every row assigned where u >= n, every
    column where u < n), by dynamic programming over the subsets of used columns; best[j]
@@ -525,6 +749,10 @@ static int et_modal(int n, const double *M, const double *K, double *lam, double
     return 1;
 }
 
+static int et_poles(int n, int m, const double *Ar, const double complex *Ac, const double *wr, const double *wi,
+                    const double *om, double unstable, double ambiguous, double *wn, double *zeta, double *wd,
+                    double *poles, int8_t *stable);
+
 /* one pose; returns 0 when solved, 1 where NumPy must solve it (2: M not positive definite, the
    undamped modes not solved either); lam_out (n) and phi_out (n x n),
    where not NULL, receive the undamped modes (et_modal); kd NULL: those alone */
@@ -605,14 +833,24 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
     et_hessenberg(m, H);
     if (!et_francis(m, H, wr, wi))
         return 1;
+    return et_poles(n, m, A, NULL, wr, wi, om, unstable, ambiguous, wn, zeta, wd, poles, stable);
+}
+
+/* each undamped mode's pole from the m eigenvalues wr + i wi of the state matrix (Ar, real, or
+   Ac, complex: a loss factor, whose poles are those of positive frequency) and the undamped
+   omega om (n): by order of |s| where unambiguous, else by modal-energy share (inverse
+   iteration on the state matrix); 0 when decided, 1 where NumPy must decide */
+static int et_poles(int n, int m, const double *Ar, const double complex *Ac, const double *wr, const double *wi,
+                    const double *om, double unstable, double ambiguous, double *wn, double *zeta, double *wd,
+                    double *poles, int8_t *stable)
+{
     int grows = 0, u = 0, up[MAXM];
     for (int k = 0; k < m; ++k) {
-        grows |= wr[k] > unstable * hypot(wr[k], wi[k]);
+        grows |= wr[k] > unstable * hypot(wr[k], wi[k]) && (Ar || wi[k] > 0.0);
         if (wi[k] > 0.0)
             up[u++] = k;
     }
     *stable = !grows;
-    double complex pole[MAXN];
     int col[MAXN];
     int by_order = u == n;
     if (by_order) { /* the poles of positive frequency by |s|, each beside its own mode */
@@ -633,12 +871,15 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
     if (!by_order) { /* modal-energy shares of every pole */
         double complex x[MAXM];
         for (int k = 0; k < m; ++k) {
-            if (wi[k] < 0.0 && k > 0 && wr[k - 1] == wr[k] && wi[k - 1] == -wi[k]) {
+            if (Ar && wi[k] < 0.0 && k > 0 && wr[k - 1] == wr[k] && wi[k - 1] == -wi[k]) {
                 for (int j = 0; j < n; ++j)
                     share[j * m + k] = share[j * m + k - 1];
                 continue;
             }
-            et_vector(m, A, wr[k] + wi[k] * I, x);
+            if (Ar)
+                et_vector(m, Ar, wr[k] + wi[k] * I, x);
+            else
+                et_zvector(m, Ac, wr[k] + wi[k] * I, x);
             double total = 0.0;
             for (int j = 0; j < n; ++j) {
                 double e = creal(x[j] * conj(x[j])) + creal(x[n + j] * conj(x[n + j]));
@@ -731,6 +972,120 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
             wd[j] = 0.0;
         }
     }
+    return 0;
+}
+
+/* et_pose with a structural loss factor: the stiffness K + i Kl (Kl: n x n, real, NULL: none),
+   the actuator wrenches W (L x n) and h (L) complex; the complex state matrix's eigenvalues by
+   et_zqr and the poles of positive frequency assigned as et_poles does. Returns 0 when solved,
+   1 where NumPy must solve it, 2 where M is not positive definite. */
+static int et_pose_complex(int n, int L, const double *M, const double *K, const double *Kl,
+                           const double complex *W, const double complex *h, const double *kd, const double *cd,
+                           const double *td, double eliminate, double unstable, double ambiguous, double *wn,
+                           double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double V[MAXN * MAXN], lam[MAXN], om[MAXN], wr[MAXM], wi[MAXM];
+    double complex Bw[MAXL * MAXN], A[MAXM * MAXM], H[MAXM * MAXM];
+    if (!et_modal(n, M, K, lam, V))
+        return 2;
+    int ok = 1;
+    for (int i = 0; i < n; ++i)
+        ok &= lam[i] > 0.0;
+    if (!ok) {
+        for (int j = 0; j < n; ++j) {
+            wn[j] = zeta[j] = wd[j] = NAN;
+            poles[2 * j] = NAN;
+            poles[2 * j + 1] = 0.0;
+        }
+        *stable = 0;
+        return 0;
+    }
+    double big = 0.0;
+    for (int i = 0; i < n; ++i) {
+        om[i] = sqrt(lam[i]);
+        big = fmax(big, om[i]);
+    }
+    for (int l = 0; l < L; ++l)
+        for (int j = 0; j < n; ++j) {
+            double complex v = 0.0;
+            for (int i = 0; i < n; ++i)
+                v += V[i * n + j] * W[l * n + i];
+            Bw[l * n + j] = v;
+        }
+    double alpha[MAXL], D[MAXL];
+    double complex beta[MAXL];
+    int elim[MAXL], live = 0;
+    for (int l = 0; l < L; ++l) {
+        alpha[l] = kd[l] * kd[l];
+        D[l] = kd[l] * td[l] - cd[l];
+        beta[l] = cd[l] * (kd[l] - h[l]) + h[l] * kd[l] * td[l];
+        elim[l] = cabs(beta[l]) * big <= eliminate * fabs(alpha[l]);
+        live += !elim[l];
+    }
+    int m = live ? 2 * n + L : 2 * n;
+    for (int i = 0; i < m * m; ++i)
+        A[i] = 0.0;
+    for (int i = 0; i < n; ++i) {
+        A[i * m + n + i] = om[i];
+        A[(n + i) * m + i] = -om[i];
+    }
+    if (Kl) { /* -i Phi^T Kl Phi, column j over omega_j */
+        double T[MAXN * MAXN];
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) {
+                double v = 0.0;
+                for (int k = 0; k < n; ++k)
+                    v += Kl[i * n + k] * V[k * n + j];
+                T[i * n + j] = v;
+            }
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) {
+                double v = 0.0;
+                for (int k = 0; k < n; ++k)
+                    v += V[k * n + i] * T[k * n + j];
+                A[(n + i) * m + j] -= I * (v / om[j]);
+            }
+    }
+    for (int l = 0; l < L; ++l) {
+        const double complex *b = Bw + l * n;
+        if (elim[l]) {
+            double r = D[l] / alpha[l];
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j)
+                    A[(n + i) * m + n + j] += r * b[i] * b[j];
+        } else {
+            double complex safe = beta[l] != 0.0 ? beta[l] : 1.0;
+            for (int i = 0; i < n; ++i) {
+                A[(n + i) * m + 2 * n + l] = b[i];
+                A[(2 * n + l) * m + n + i] = D[l] / safe * b[i];
+            }
+            A[(2 * n + l) * m + 2 * n + l] = -alpha[l] / safe;
+        }
+        if (live && elim[l])
+            A[(2 * n + l) * m + 2 * n + l] = -1.0;
+    }
+    memcpy(H, A, sizeof(double complex) * m * m);
+    et_zbalance(m, H);
+    et_zhessenberg(m, H);
+    if (!et_zqr(m, H, wr, wi))
+        return 1;
+    return et_poles(n, m, NULL, A, wr, wi, om, unstable, ambiguous, wn, zeta, wd, poles, stable);
+}
+
+/* et_pose_complex for count poses: M, K, Kl (n x n; Kl NULL: none), W (L x n complex), h (L
+   complex), kd, cd, td (L) per pose; status 1 where NumPy must solve the pose */
+int et_damped_complex(int64_t count, int n, int L, const double *M, const double *K, const double *Kl,
+                      const double complex *W, const double complex *h, const double *kd, const double *cd,
+                      const double *td, double eliminate, double unstable, double ambiguous, double *wn,
+                      double *zeta, double *wd, double *poles, int8_t *stable, int8_t *status)
+{
+    if (n < 1 || n > MAXN || L < 0 || L > MAXL)
+        return -1;
+    for (int64_t p = 0; p < count; ++p)
+        status[p] = (int8_t)et_pose_complex(n, L, M + p * n * n, K + p * n * n, Kl ? Kl + p * n * n : NULL,
+                                            W + p * L * n, h + p * L, kd + p * L, cd + p * L, td + p * L, eliminate,
+                                            unstable, ambiguous, wn + p * n, zeta + p * n, wd + p * n,
+                                            poles + 2 * p * n, stable + p);
     return 0;
 }
 
@@ -1099,6 +1454,7 @@ _WRENCHES: list = []  # its et_wrenches
 _PASS: list = []  # its et_damped_pass
 _LEGS: list = []  # its et_damped_legs
 _EXACT: list = []  # its et_exact_pass
+_COMPLEX: list = []  # its et_damped_complex
 
 
 def driver():
@@ -1140,6 +1496,9 @@ def driver():
             )
             lib.et_exact_pass.restype = ctypes.c_int
             _EXACT.append(lib.et_exact_pass)
+            lib.et_damped_complex.argtypes = [i64, i, i] + [v] * 8 + [d, d, d] + [v] * 6
+            lib.et_damped_complex.restype = ctypes.c_int
+            _COMPLEX.append(lib.et_damped_complex)
         _DRIVER.append(fn)
     return _DRIVER[0]
 
@@ -1422,3 +1781,49 @@ def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null
     if damped:
         out["damped"] = (wn, zeta, wd, poles, stable.astype(bool))
     return out
+
+
+def solve_complex(M, K, K_loss, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguous: float, threads=1):
+    """:func:`solve` with a structural loss factor: the stiffness ``K + i K_loss`` (K_loss
+    (N, n, n) real, or None), the actuator wrenches W (N, legs, n) and h (N, legs) complex;
+    the state matrix complex (``et_damped_complex``: complex Householder-Hessenberg and
+    single-shift QR), its poles of positive frequency assigned as :func:`solve` does. Returns
+    ``(wn, zeta, wd, poles, stable, redo)`` as :func:`solve`."""
+    from .threads import run_ranges, threads_for
+
+    driver()
+    fn = _COMPLEX[0]
+    N, n = np.shape(K)[:2]
+    L = np.shape(W)[1]
+    M, K, kd, cd, td = (np.ascontiguousarray(v, dtype=np.float64) for v in (M, K, k_d, c_d, t_d))
+    Kl = None if K_loss is None else np.ascontiguousarray(K_loss, dtype=np.float64)
+    W, h = (np.ascontiguousarray(v, dtype=np.complex128) for v in (W, h))
+    wn, zeta, wd = (np.empty((N, n)) for _ in range(3))
+    poles = np.empty((N, n), dtype=complex)
+    stable = np.empty(N, dtype=np.int8)
+    status = np.empty(N, dtype=np.int8)
+
+    def call(a: int, b: int) -> int:
+        return fn(
+            b - a,
+            n,
+            L,
+            M.ctypes.data + 8 * a * n * n,
+            K.ctypes.data + 8 * a * n * n,
+            None if Kl is None else Kl.ctypes.data + 8 * a * n * n,
+            W.ctypes.data + 16 * a * L * n,
+            h.ctypes.data + 16 * a * L,
+            *(x.ctypes.data + 8 * a * L for x in (kd, cd, td)),
+            eliminate,
+            unstable,
+            ambiguous,
+            *(x.ctypes.data + 8 * a * n for x in (wn, zeta, wd)),
+            poles.ctypes.data + 16 * a * n,
+            stable.ctypes.data + a,
+            status.ctypes.data + a,
+        )
+
+    for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C complex damped modes returned {rc}")
+    return wn, zeta, wd, poles, stable.astype(bool), status != 0
