@@ -35,10 +35,12 @@ def driver():
 
 
 def _agree(c, numpy):
-    """The two solvers' results for the same problem, to RTOL."""
+    """The two solvers' results for the same problem, to RTOL (a column without a pole, a rigid
+    constraint's mode, keeps the undamped frequency on both)."""
     scale = np.abs(numpy.poles)
-    assert np.array_equal(np.isnan(c.natural_hz), np.isnan(numpy.natural_hz))
-    ok = ~np.isnan(numpy.natural_hz)
+    assert np.array_equal(np.isnan(c.poles), np.isnan(numpy.poles))
+    ok = ~np.isnan(numpy.poles)
+    np.testing.assert_array_equal(np.isnan(c.natural_hz), np.isnan(numpy.natural_hz))
     assert np.all(np.abs(c.poles - numpy.poles)[ok] <= RTOL * scale[ok])
     for name in ("natural_hz", "damped_hz"):
         a, b = getattr(c, name)[ok], getattr(numpy, name)[ok]
@@ -76,6 +78,20 @@ def test_random_problems_agree(driver, n, L, c_scale, t_d, rigid_legs):
         assert not numpy.stable.all() and numpy.stable.any()
 
 
+@pytest.mark.parametrize(
+    "n, L, c_scale, t_d, rigid_legs", [(4, 4, 1.0, 0.0, 0), (6, 6, 1.0, 2e-3, 0), (3, 2, 3000.0, 0.0, 2)]
+)
+def test_random_problems_with_loss_agree(driver, n, L, c_scale, t_d, rigid_legs):
+    """A structural loss factor: stiffness K + i K_loss, complex wrenches (a leg's loss makes
+    its w_i and h_i complex): the complex C solver and the NumPy one (stacked eig) agree,
+    overdamped legs and a lag included."""
+    rng = np.random.default_rng(n * 10 + L + 1)
+    M, K, W, h, kd, cd, td = _problem(rng, 30, n, L, c_scale, t_d, rigid_legs)
+    args = (M, K, W * (1 + 0.03j), h * (1 + 0.01j), kd, cd, td)
+    kw = {"K_loss": 0.04 * K}
+    _agree(damped_modes(*args, solver="c", **kw), damped_modes(*args, **kw))
+
+
 @pytest.fixture(scope="module")
 def backends(driver):
     return {b: eigentwist.load("heli4", backend=b) for b in ("numpy", "c")}
@@ -88,6 +104,8 @@ def backends(driver):
         ("rigid,servo_damping", {"k_a": np.array([125.0, 4000.0]), "c_a": 3.0}),  # every leg eliminated
         ("rigid,servo_damping", {"k_a": np.array([125.0, 300.0]), "c_a": 20.0}),  # overdamped modes
         ("damped,servo_delay", {"k_a": np.array([2200.0, 4000.0]), "t_d": 1.3e-3}),  # growing above c/t
+        ("damped,structural_loss", {"k_a": np.array([125.0, 4000.0]), "eta_s": 0.05}),  # complex
+        ("actuator_loss,ee_compliance,servo_damping,structural_loss", {"k_a": np.array([125.0]), "eta_s": 0.1}),
     ],
 )
 def test_heli4_paper_poses_agree(backends, model, params):
@@ -107,12 +125,15 @@ def test_heli4_paper_poses_agree(backends, model, params):
 
 def test_dispatch(backends, monkeypatch):
     """The C backend's evaluator solves by the driver, the NumPy one does not; complex shapes
-    and a loss factor stay in NumPy; the fused pass solves its routes itself, the exact
-    condensation's too (its own pass), except with complex shapes or a loss factor (from the
-    legs' outputs in one call)."""
+    stay in NumPy, a loss factor goes to the complex driver; the fused pass solves its routes
+    itself, the exact condensation's too (its own pass), except with complex shapes (NumPy) or
+    a loss factor (the complex driver)."""
     calls = []
     solve, one_pass, solve_legs = c_damped.solve, c_damped.one_pass, c_damped.solve_legs
-    exact_pass = c_damped.exact_pass
+    exact_pass, solve_complex = c_damped.exact_pass, c_damped.solve_complex
+    monkeypatch.setattr(
+        c_damped, "solve_complex", lambda *a, **k: calls.append(("complex", len(a[1]))) or solve_complex(*a, **k)
+    )
     monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(("solve", len(a[1]))) or solve(*a, **k))
     monkeypatch.setattr(c_damped, "one_pass", lambda *a, **k: calls.append(("pass", a[3])) or one_pass(*a, **k))
     monkeypatch.setattr(c_damped, "solve_legs", lambda *a: calls.append(("legs", len(a[3]))) or solve_legs(*a))
@@ -130,7 +151,8 @@ def test_dispatch(backends, monkeypatch):
     ran.clear()
     backends["c"].modes(X_REF, "damped", k_a=125.0, complex_shapes=True)  # the fused pass, then the legs
     backends["c"].modes(X_REF, "paper,structural_loss", k_a=125.0, eta_s=0.05)
-    assert calls == [] and ran == ["legs", "legs"]
+    assert calls == [("complex", 1)] and ran == ["legs", "legs"]
+    calls.clear()
     backends["c"].modes(np.tile(X_REF, (3, 1)), EXACT, k_a=[125.0, 125.0, 500.0])
     assert ran[:2] == ["legs", "legs"] and "legs" not in ran[2:]  # its pass runs the legs kernel itself
     backends["c"].modes(np.tile(X_REF, (3, 1)), "damped", k_a=[125.0, 125.0, 500.0])
@@ -144,7 +166,9 @@ def test_dispatch(backends, monkeypatch):
     assert calls[4:] == [] and "legs" in ran  # complex shapes: the NumPy solver
     ran.clear()
     backends["c"].modes(X_REF, EXACT + ",structural_loss", k_a=125.0, eta_s=0.05)
-    assert calls[4:] == [] and "legs" in ran
+    assert calls[4:] == [("complex", 1)] and "legs" in ran
+    backends["c"].modes(X_REF, "actuator_loss,ee_coupling,servo_damping,structural_loss", k_a=125.0, eta_s=0.05)
+    assert calls[5:] == []  # legs on coupled platform bodies: NumPy
 
 
 #: a flexible model whose legs have rigid directions (the exact condensation: not in the fused pass)
@@ -225,28 +249,38 @@ def test_one_pass_leaves_undecided_poses_to_the_two_step_route(backends, monkeyp
 
 
 @pytest.mark.parametrize("n, decided", [(10, True), (11, False)])
-def test_assignment_guard(driver, n, decided):
+@pytest.mark.parametrize("eta", [0.0, 0.02])
+def test_assignment_guard(driver, n, decided, eta):
     """Modes of one frequency (no order decides, every share alike) go to the one-to-one
     assignment by share, which the driver does for up to MAX_ASSIGN (10) poles of positive
-    frequency; the 11th pose goes to NumPy. Both routes give every mode omega."""
+    frequency; the 11th pose goes to NumPy. Both routes give every mode its pole: omega, or
+    with a loss factor eta (K + i eta K) s = i omega sqrt(1 + i eta), |s| = omega (1 +
+    eta^2)^(1/4), zeta = sin(atan(eta) / 2)."""
     om = 2 * np.pi * 10.0
     M, K = np.eye(n)[None], om**2 * np.eye(n)[None]
     W, h, kd, zero = np.ones((1, 1, n)), np.array([[1e3]]), np.array([[1e3]]), np.zeros((1, 1))
-    *_, redo = c_damped.solve(M, K, W, h, kd, zero, zero, 1e-9, 1e-9, 0.5)
+    if eta:
+        *_, redo = c_damped.solve_complex(M, K, eta * K, W + 0j, h + 0j, kd, zero, zero, 1e-9, 1e-9, 0.5)
+    else:
+        *_, redo = c_damped.solve(M, K, W, h, kd, zero, zero, 1e-9, 1e-9, 0.5)
     assert bool(redo[0]) is not decided
-    d = damped_modes(M, K, W, h, kd, 0.0, 0.0, solver="c")
-    np.testing.assert_allclose(d.natural_hz, 10.0, rtol=1e-12)
-    np.testing.assert_allclose(d.damping_ratio, 0.0, atol=1e-12)
+    d = damped_modes(M, K, W, h, kd, 0.0, 0.0, K_loss=eta * K if eta else None, solver="c")
+    np.testing.assert_allclose(d.natural_hz, 10.0 * (1 + eta**2) ** 0.25, rtol=1e-12)
+    np.testing.assert_allclose(d.damping_ratio, np.sin(np.arctan(eta) / 2), atol=1e-12)
 
 
 @pytest.mark.parametrize("n, compiled", [(c_damped.MAX_MODES, True), (c_damped.MAX_MODES + 1, False)])
-def test_size_guard(driver, monkeypatch, n, compiled):
-    """Up to MAX_MODES modes the driver solves; one more goes to NumPy; both agree."""
+@pytest.mark.parametrize("loss", [False, True])
+def test_size_guard(driver, monkeypatch, n, compiled, loss):
+    """Up to MAX_MODES modes the driver (real, or complex with a loss factor) solves; one more
+    goes to NumPy; both agree."""
     calls = []
-    solve = c_damped.solve
-    monkeypatch.setattr(c_damped, "solve", lambda *a, **k: calls.append(1) or solve(*a, **k))
+    name = "solve_complex" if loss else "solve"
+    solve = getattr(c_damped, name)
+    monkeypatch.setattr(c_damped, name, lambda *a, **k: calls.append(1) or solve(*a, **k))
     args = _problem(np.random.default_rng(n), 3, n, 2, 1.0, 0.0)
-    _agree(damped_modes(*args, solver="c"), damped_modes(*args))
+    kw = {"K_loss": 0.03 * args[1]} if loss else {}
+    _agree(damped_modes(*args, solver="c", **kw), damped_modes(*args, **kw))
     assert bool(calls) is compiled
 
 
