@@ -301,6 +301,35 @@ def test_wrenches_rigid_threshold(driver, factor):
         np.testing.assert_allclose(h[0, 0], Cp[0, 0], rtol=1e-6)
 
 
+@pytest.mark.parametrize("factor", [0.5, 2.0])
+def test_wrenches_with_loss(driver, factor):
+    """A structural loss factor eta: the joint compliance (C_s / (1 + i eta) + a0 e0 e0^T),
+    complex symmetric, with a passive direction (orthogonal to the actuated joint e0) whose
+    eigenvalue lies just inside (0.5) or outside (2) RIGID times the largest: left out (the
+    inverse on the other two directions, computed here) or a stiff spring (the inverse); the
+    compiled wrenches and NumPy's (eig of the complex matrix) alike."""
+    rng = np.random.default_rng(4)
+    t = rng.uniform(0.0, np.pi)
+    plane = np.array([[1.0, 0.0], [0.0, 0.8], [0.0, -0.6]]) @ [[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]]
+    V = np.column_stack([plane, [0.0, 0.6, 0.8]])  # orthonormal; the third orthogonal to e0
+    a0, eta = 1e-3, 0.05
+    e0 = np.eye(3)[0]
+    top = np.linalg.eigvalsh((V[:, :2] * [1e-3, 2e-3]) @ V[:, :2].T + a0 * np.outer(e0, e0))[-1]
+    Cs = (V * [1e-3, 2e-3, factor * RIGID * top]) @ V.T
+    Cq = Cs + a0 * np.outer(e0, e0)
+    Cc = Cs / (1 + 1j * eta) + a0 * np.outer(e0, e0)
+    P = V[:, :2]
+    X = P @ np.linalg.inv(P.T @ Cc @ P) @ P.T if factor < 1 else np.linalg.inv(Cc)
+    Je = rng.normal(size=(3, 6))
+    # the stiff spring's inverse has condition ~1 / (2 RIGID): ~1e-6 of the largest entries
+    close = lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-6 * np.abs(b).max())  # noqa: E731
+    for solver in ("numpy", "c"):
+        K, W, h = actuator_wrenches(Je[None, None], Cq[None, None], np.array([[a0]]), np.array([eta]), solver=solver)
+        close(K[0], Je.T @ X @ Je)
+        close(W[0, 0], X[:, 0] @ Je)
+        close(h[0, 0], X[0, 0])
+
+
 def test_threads_give_the_same_poles(driver):
     """Ranges of whole blocks on two threads: each pose solved alone, the same bits."""
     args = _problem(np.random.default_rng(7), 40 * c_damped.BLOCK, 2, 1, 1.0, 0.0)

@@ -1163,6 +1163,119 @@ int et_wrenches(int64_t count, int L, int e, int c, const double *Je, const doub
     return 0;
 }
 
+/* et_wrench_leg with a structural loss factor eta: the joint compliance C_q = (C - a0 e0 e0^T) /
+   (1 + i eta) + a0 e0 e0^T (a0: the actuator's own compliance, C[0][0]'s share), complex
+   symmetric; its rigid directions are C's (real: the passive compliance's null space, never
+   along e0), so its pseudo-inverse on the compliant ones is P (P^T C_q P)^-1 P^T with P the
+   compliant eigenvectors of C (an eigenvalue within rtol of the largest magnitude: rigid).
+   K (c x c) += J^T Kq J, W (c) = g^T J, h = g[0], g = Kq e0; all complex. */
+static void et_wrench_leg_complex(int e, int c, const double *J, const double *C, double a0, double eta, double rtol,
+                                  double complex *K, double complex *W, double complex *h)
+{
+    double S[MAXN * MAXN], U[MAXN * MAXN], lam[MAXN];
+    double complex Cc[MAXN * MAXN], Ac[MAXN * MAXN], Ai[MAXN * MAXN], Kq[MAXN * MAXN], KJ[MAXN * 64];
+    int keep[MAXN], np_ = 0;
+    memcpy(S, C, sizeof(double) * e * e);
+    et_jacobi(e, S, lam, U);
+    double scale = 0.0;
+    for (int i = 0; i < e; ++i)
+        scale = fmax(scale, fabs(lam[i]));
+    for (int i = 0; i < e; ++i)
+        if (!(fabs(lam[i]) <= rtol * scale))
+            keep[np_++] = i;
+    for (int a = 0; a < e; ++a)
+        for (int b = 0; b < e; ++b) {
+            double act = a == 0 && b == 0 ? a0 : 0.0;
+            Cc[a * e + b] = (C[a * e + b] - act) / (1.0 + I * eta) + act;
+        }
+    for (int i = 0; i < np_; ++i) /* Ac = P^T C_q P */
+        for (int j = 0; j < np_; ++j) {
+            double complex v = 0.0;
+            for (int a = 0; a < e; ++a)
+                for (int b = 0; b < e; ++b)
+                    v += U[a * e + keep[i]] * Cc[a * e + b] * U[b * e + keep[j]];
+            Ac[i * np_ + j] = v;
+        }
+    for (int i = 0; i < np_; ++i) /* Ai = Ac^-1 (Gauss-Jordan, partial pivoting) */
+        for (int j = 0; j < np_; ++j)
+            Ai[i * np_ + j] = i == j ? 1.0 : 0.0;
+    for (int k = 0; k < np_; ++k) {
+        int piv = k;
+        for (int i = k + 1; i < np_; ++i)
+            if (cabs(Ac[i * np_ + k]) > cabs(Ac[piv * np_ + k]))
+                piv = i;
+        if (piv != k)
+            for (int j = 0; j < np_; ++j) {
+                double complex t = Ac[k * np_ + j];
+                Ac[k * np_ + j] = Ac[piv * np_ + j];
+                Ac[piv * np_ + j] = t;
+                t = Ai[k * np_ + j];
+                Ai[k * np_ + j] = Ai[piv * np_ + j];
+                Ai[piv * np_ + j] = t;
+            }
+        double complex d = Ac[k * np_ + k];
+        for (int j = 0; j < np_; ++j) {
+            Ac[k * np_ + j] /= d;
+            Ai[k * np_ + j] /= d;
+        }
+        for (int i = 0; i < np_; ++i)
+            if (i != k) {
+                double complex f = Ac[i * np_ + k];
+                for (int j = 0; j < np_; ++j) {
+                    Ac[i * np_ + j] -= f * Ac[k * np_ + j];
+                    Ai[i * np_ + j] -= f * Ai[k * np_ + j];
+                }
+            }
+    }
+    for (int a = 0; a < e; ++a) /* Kq = P Ai P^T */
+        for (int b = 0; b < e; ++b) {
+            double complex v = 0.0;
+            for (int i = 0; i < np_; ++i)
+                for (int j = 0; j < np_; ++j)
+                    v += U[a * e + keep[i]] * Ai[i * np_ + j] * U[b * e + keep[j]];
+            Kq[a * e + b] = v;
+        }
+    *h = Kq[0];
+    for (int j = 0; j < c; ++j) {
+        double complex v = 0.0;
+        for (int a = 0; a < e; ++a)
+            v += Kq[a * e] * J[a * c + j];
+        W[j] = v;
+    }
+    for (int a = 0; a < e; ++a)
+        for (int j = 0; j < c; ++j) {
+            double complex v = 0.0;
+            for (int b = 0; b < e; ++b)
+                v += Kq[a * e + b] * J[b * c + j];
+            KJ[a * c + j] = v;
+        }
+    for (int i = 0; i < c; ++i)
+        for (int j = 0; j < c; ++j) {
+            double complex v = 0.0;
+            for (int a = 0; a < e; ++a)
+                v += J[a * c + i] * KJ[a * c + j];
+            K[i * c + j] += v;
+        }
+}
+
+/* et_wrenches with a structural loss factor (et_wrench_leg_complex): a0 (L) the actuators'
+   compliance and eta (1) per pose; K, W, h complex */
+int et_wrenches_complex(int64_t count, int L, int e, int c, const double *Je, const double *Cq, const double *a0,
+                        const double *eta, double rtol, double complex *K, double complex *W, double complex *h)
+{
+    if (e < 1 || e > MAXN || L < 1 || c > 64)
+        return -1;
+    for (int64_t p = 0; p < count; ++p) {
+        double complex *Kp = K + p * c * c;
+        for (int i = 0; i < c * c; ++i)
+            Kp[i] = 0.0;
+        for (int l = 0; l < L; ++l)
+            et_wrench_leg_complex(e, c, Je + (p * L + l) * e * c, Cq + (p * L + l) * e * e, a0[p * L + l], eta[p],
+                                  rtol, Kp, W + (p * L + l) * c, h + p * L + l);
+    }
+    return 0;
+}
+
 int et_damped(int64_t count, int n, int L, const double *M, const double *K, const double *W, const double *h,
               const double *kd, const double *cd, const double *td, double eliminate, double unstable,
               double ambiguous, double *wn, double *zeta, double *wd, double *poles, int8_t *stable,
@@ -1476,6 +1589,11 @@ def driver():
             ] * 3
             lib.et_wrenches.restype = ctypes.c_int
             _WRENCHES.append(lib.et_wrenches)
+            lib.et_wrenches_complex.argtypes = [ctypes.c_int64, i, i, i] + [ctypes.c_void_p] * 4 + [d] + [
+                ctypes.c_void_p
+            ] * 3
+            lib.et_wrenches_complex.restype = ctypes.c_int
+            _WRENCHES.append(lib.et_wrenches_complex)
             v, i64 = ctypes.c_void_p, ctypes.c_int64
             lib.et_damped_pass.argtypes = (
                 [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
@@ -1544,18 +1662,28 @@ def solve(M, K, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguou
     return wn, zeta, wd, poles, stable.astype(bool), status != 0
 
 
-def wrenches(Je, Cq, rigid: float):
-    """``(K, W, h)`` of :func:`eigentwist.runtime.damped.actuator_wrenches` without a loss
-    factor, by the driver's ``et_wrenches`` (one call for the batch): Je (N, legs, e, c),
-    Cq (N, legs, e, e); an eigenvalue of Cq within ``rigid`` times the largest magnitude is
-    a rigid direction. None where the driver is not built or e > MAX_MODES."""
+def wrenches(Je, Cq, rigid: float, a0=None, loss=None):
+    """``(K, W, h)`` of :func:`eigentwist.runtime.damped.actuator_wrenches` by the driver's
+    ``et_wrenches`` (one call for the batch): Je (N, legs, e, c), Cq (N, legs, e, e); an
+    eigenvalue of Cq within ``rigid`` times the largest magnitude is a rigid direction. With
+    a structural loss factor ``loss`` (N,) and the actuators' compliance ``a0`` (N, legs),
+    ``et_wrenches_complex``: K, W, h complex (the passive compliance over 1 + i loss). None
+    where the driver is not built or e > MAX_MODES."""
     N, L, e, c = np.shape(Je)
     if driver() is None or e > MAX_MODES or c > 64:
         return None
     Je = np.ascontiguousarray(Je, dtype=np.float64)
     Cq = np.ascontiguousarray(Cq, dtype=np.float64)
-    K, W, h = np.empty((N, c, c)), np.empty((N, L, c)), np.empty((N, L))
-    rc = _WRENCHES[0](N, L, e, c, Je.ctypes.data, Cq.ctypes.data, rigid, K.ctypes.data, W.ctypes.data, h.ctypes.data)
+    dtype = float if loss is None else complex
+    K, W, h = np.empty((N, c, c), dtype), np.empty((N, L, c), dtype), np.empty((N, L), dtype)
+    if loss is None:
+        args = (Je.ctypes.data, Cq.ctypes.data, rigid)
+        rc = _WRENCHES[0](N, L, e, c, *args, K.ctypes.data, W.ctypes.data, h.ctypes.data)
+    else:
+        a0 = np.ascontiguousarray(np.broadcast_to(a0, (N, L)), dtype=np.float64)
+        eta = np.ascontiguousarray(np.broadcast_to(loss, (N,)), dtype=np.float64)
+        args = (Je.ctypes.data, Cq.ctypes.data, a0.ctypes.data, eta.ctypes.data, rigid)
+        rc = _WRENCHES[1](N, L, e, c, *args, K.ctypes.data, W.ctypes.data, h.ctypes.data)
     if rc != 0:
         raise RuntimeError(f"C actuator wrenches returned {rc}")
     return K, W, h

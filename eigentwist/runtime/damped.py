@@ -106,13 +106,13 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None,
     e_0^T K_q0 e_0 (N m/rad). Rigid joint combinations (C_q u = 0; never along e_0) stay
     rigid: the pseudo-inverse on the compliant ones (an eigenvalue of C_q within RIGID times
     the largest is rigid). ``solver="c"``: one call of the compiled driver
-    (:func:`.c_damped.wrenches`) where there is no loss factor and it is built.
+    (:func:`.c_damped.wrenches`) where it is built.
     """
     Cq = np.asarray(Cq, dtype=float)
-    if solver == "c" and loss is None:
+    if solver == "c":
         from . import c_damped
 
-        out = c_damped.wrenches(Je, Cq, RIGID)
+        out = c_damped.wrenches(Je, Cq, RIGID, a0, loss)
         if out is not None:
             return out
     if loss is not None:
