@@ -330,10 +330,13 @@ def test_wrenches_with_loss(driver, factor):
         close(h[0, 0], X[0, 0])
 
 
-def test_threads_give_the_same_poles(driver):
-    """Ranges of whole blocks on two threads: each pose solved alone, the same bits."""
+@pytest.mark.parametrize("loss", [False, True])
+def test_threads_give_the_same_poles(driver, loss):
+    """Ranges of whole blocks on two threads: each pose solved alone, the same bits (the real
+    driver and, with a loss factor, the complex one)."""
     args = _problem(np.random.default_rng(7), 40 * c_damped.BLOCK, 2, 1, 1.0, 0.0)
-    one, two = (damped_modes(*args, solver="c", threads=t) for t in (1, 2))
+    kw = {"K_loss": 0.05 * args[1]} if loss else {}
+    one, two = (damped_modes(*args, solver="c", threads=t, **kw) for t in (1, 2))
     np.testing.assert_array_equal(one.poles, two.poles)
     np.testing.assert_array_equal(one.stable, two.stable)
 

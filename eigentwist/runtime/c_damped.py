@@ -29,6 +29,12 @@ between the kernels and the solve as :func:`.condense.condensed_modes` does (eac
 rigid rows, the admissible twists B from their Gram matrix, the undamped modes on B), the
 damped solve optional.
 
+With a structural loss factor (stiffness ``K + i K_loss``, complex actuator wrenches:
+:func:`wrenches` with ``loss``), :func:`solve_complex` runs the same steps on the complex state
+matrix: balancing, complex Householder reduction to Hessenberg form and single-shift QR with
+Wilkinson shifts (Golub and Van Loan, Algorithm 7.5.1's complex form), the poles of positive
+frequency assigned by the same rules.
+
 A pose the C code cannot decide (the QR iteration without convergence, an inertia that is
 not positive definite, more than ``MAX_ASSIGN`` (10) poles of positive frequency to assign
 by share) is marked, and
@@ -1589,9 +1595,9 @@ def driver():
             ] * 3
             lib.et_wrenches.restype = ctypes.c_int
             _WRENCHES.append(lib.et_wrenches)
-            lib.et_wrenches_complex.argtypes = [ctypes.c_int64, i, i, i] + [ctypes.c_void_p] * 4 + [d] + [
-                ctypes.c_void_p
-            ] * 3
+            lib.et_wrenches_complex.argtypes = (
+                [ctypes.c_int64, i, i, i] + [ctypes.c_void_p] * 4 + [d] + [ctypes.c_void_p] * 3
+            )
             lib.et_wrenches_complex.restype = ctypes.c_int
             _WRENCHES.append(lib.et_wrenches_complex)
             v, i64 = ctypes.c_void_p, ctypes.c_int64
