@@ -480,6 +480,13 @@ def test_exact_pass_fallbacks(backends, monkeypatch, change):
     assert (calls, ran) == expected
 
 
+def test_exact_pass_without_a_valid_pose(backends):
+    """No valid pose (invalid="nan"): nothing to condense, the Python route's answer (its
+    early return): NaN modes and poles, no pose valid."""
+    m = backends["c"].modes(np.array([[0.0, 0.0, -2.0]] * 2), EXACT, k_a=125.0, invalid="nan")
+    assert not m.valid.any() and np.isnan(m.freq_hz).all() and np.isnan(m.damping.poles).all()
+
+
 @pytest.mark.parametrize("factor, extra", [(1 - 1e-6, 0), (1 + 1e-6, 1)])
 def test_exact_pass_admissible_threshold(backends, monkeypatch, factor, extra):
     """An admissible twist: an eigenvalue of the rigid rows' Gram matrix at most RIGID_RTOL *
