@@ -4,6 +4,8 @@ effects' seeded study and the damped modes' throughput.
     PYTHONPATH=. python benchmarks/damping.py                   # everything
     PYTHONPATH=. python benchmarks/damping.py --skip-seeds      # without the seeded study (~minutes)
     PYTHONPATH=. python benchmarks/damping.py --throughput-only # section 4 alone (~1 minute)
+    PYTHONPATH=. python benchmarks/damping.py --exact-routes    # the exact condensation's C routes
+    PYTHONPATH=. python benchmarks/damping.py --loss-routes     # a loss factor: C and NumPy solvers
 
 1. ``diagnose paper`` with the embedded data as the paper took them (``kind`` = damped: counted
    from camera frames of step responses) and the same values read as undamped natural
@@ -131,12 +133,86 @@ def throughput(reps: int = 5):
             print(f"| {backend} | {base} | {rates[0]:.3g} | {rates[1]:.3g} | {rates[1] / rates[0]:.2f} |")
 
 
+def exact_routes(reps: int = 7):
+    """The exact condensation's two C-backend routes in one process, interleaved: its own C pass
+    and the route with Python between the kernels (``one_pass_takes`` off), poses/s."""
+    from eigentwist.runtime import damped_modes as dm
+
+    print("\n## The exact condensation: its C pass against the Python route, one thread, CPU time\n")
+    print("| poses per call | model | Python route | one C pass | ratio |\n|---|---|---|---|---|")
+    ev = eigentwist.load("heli4", backend="c", threads=1)
+    rng = np.random.default_rng(1)
+    takes = dm.one_pass_takes
+    models = (",".join(PAPER), ",".join(PAPER) + ",servo_damping")
+    try:
+        for n, calls in ((4096, 1), (64, 40)):
+            best = {}
+            for _ in range(reps):
+                for model in models:
+                    for route in ("python", "pass"):
+                        dm.one_pass_takes = takes if route == "pass" else (lambda *a: False)
+                        t = time.process_time()
+                        for _ in range(calls):
+                            poses = np.column_stack(
+                                [rng.uniform(-0.08, 0.08, n), rng.uniform(-0.08, 0.08, n), rng.uniform(-0.68, -0.58, n)]
+                            )
+                            ev.modes(poses, model, k_a=rng.uniform(125.0, 4000.0, n), vectors=False)
+                        best[model, route] = min(best.get((model, route), np.inf), (time.process_time() - t) / calls)
+            for model in models:
+                a, b = best[model, "python"], best[model, "pass"]
+                rates = f"{n / a:.3g} ({a * 1e3:.2f} ms) | {n / b:.3g} ({b * 1e3:.2f} ms)"
+                print(f"| {n} | {model} | {rates} | {a / b:.2f} |")
+    finally:
+        dm.one_pass_takes = takes
+
+
+def loss_routes(reps: int = 7):
+    """A structural loss factor on the C backend: the complex C solver against the NumPy one
+    (``damped._compiled`` off for the NumPy route), interleaved in one process, poses/s."""
+    from eigentwist.runtime import damped
+
+    print("\n## A structural loss factor: the complex C solver against NumPy's, one thread, CPU time\n")
+    print("| poses per call | model | NumPy solver | C solver | ratio |\n|---|---|---|---|---|")
+    ev = eigentwist.load("heli4", backend="c", threads=1)
+    rng = np.random.default_rng(2)
+    compiled = damped._compiled
+    models = ("paper,structural_loss", "damped,structural_loss", ",".join(PAPER) + ",structural_loss")
+    try:
+        for n, calls in ((4096, 1), (64, 20)):
+            best = {}
+            for _ in range(reps):
+                for model in models:
+                    for route in ("numpy", "c"):
+                        damped._compiled = compiled if route == "c" else (lambda *a: False)
+                        t = time.process_time()
+                        for _ in range(calls):
+                            poses = np.column_stack(
+                                [rng.uniform(-0.08, 0.08, n), rng.uniform(-0.08, 0.08, n), rng.uniform(-0.68, -0.58, n)]
+                            )
+                            ev.modes(poses, model, k_a=rng.uniform(125.0, 4000.0, n), eta_s=0.05, vectors=False)
+                        best[model, route] = min(best.get((model, route), np.inf), (time.process_time() - t) / calls)
+            for model in models:
+                a, b = best[model, "numpy"], best[model, "c"]
+                rates = f"{n / a:.3g} ({a * 1e3:.2f} ms) | {n / b:.3g} ({b * 1e3:.2f} ms)"
+                print(f"| {n} | {model} | {rates} | {a / b:.2f} |")
+    finally:
+        damped._compiled = compiled
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-seeds", action="store_true")
     ap.add_argument("--skip-throughput", action="store_true")
     ap.add_argument("--throughput-only", action="store_true")
+    ap.add_argument("--exact-routes", action="store_true", help="the exact condensation's two C routes alone")
+    ap.add_argument("--loss-routes", action="store_true", help="a loss factor: the C and NumPy solvers alone")
     args = ap.parse_args()
+    if args.exact_routes or args.loss_routes:
+        if args.exact_routes:
+            exact_routes()
+        if args.loss_routes:
+            loss_routes()
+        return
     if args.throughput_only:
         throughput()
         return

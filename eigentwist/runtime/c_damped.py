@@ -17,14 +17,23 @@ between the legs' internal coordinates:
    one-to-one assignment of largest total share, then the overdamped modes' real pole
    pairs), as :func:`~eigentwist.runtime.damped._assign` does.
 
-Three entry points run these steps: :func:`solve` on given M, K and actuator wrenches;
+Four entry points run these steps: :func:`solve` on given M, K and actuator wrenches;
 :func:`solve_legs` from the legs kernel's outputs (the actuator wrenches, the stiffness and
 the projection on the model's coordinates in C too); :func:`one_pass` inside the robot's
 fused pass: per block of poses the generated fused pass (inverse kinematics, M and the
 model's stiffness, the undamped modes), the generated ``legs`` kernel on the block's joint
 coordinates, then the damped modes, with no Python between them (the robot's library and
 this one each loaded only after their SHA-256 check; the driver calls the robot's functions
-by address).
+by address); :func:`exact_pass` the same for legs with rigid directions, condensed exactly
+between the kernels and the solve as :func:`.condense.condensed_modes` does (each leg's
+rigid rows, the admissible twists B from their Gram matrix, the undamped modes on B), the
+damped solve optional.
+
+With a structural loss factor (stiffness ``K + i K_loss``, complex actuator wrenches:
+:func:`wrenches` with ``loss``), :func:`solve_complex` runs the same steps on the complex state
+matrix: balancing, complex Householder reduction to Hessenberg form and single-shift QR with
+Wilkinson shifts (Golub and Van Loan, Algorithm 7.5.1's complex form), the poles of positive
+frequency assigned by the same rules.
 
 A pose the C code cannot decide (the QR iteration without convergence, an inertia that is
 not positive definite, more than ``MAX_ASSIGN`` (10) poles of positive frequency to assign
@@ -40,7 +49,19 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["driver", "solve", "wrenches", "one_pass", "solve_legs", "SOURCE", "MAX_MODES", "MAX_LEGS", "BLOCK"]
+__all__ = [
+    "driver",
+    "solve",
+    "solve_complex",
+    "wrenches",
+    "one_pass",
+    "exact_pass",
+    "solve_legs",
+    "SOURCE",
+    "MAX_MODES",
+    "MAX_LEGS",
+    "BLOCK",
+]
 
 #: the largest problem the C driver takes (modes, legs); a larger one is solved in NumPy
 MAX_MODES = 12
@@ -425,6 +446,229 @@ static __attribute__((noinline)) void et_vector(int m, const double *A, double c
     }
 }
 
+/* et_vector for a complex A (m x m) */
+static __attribute__((noinline)) void et_zvector(int m, const double complex *A, double complex s, double complex *x)
+{
+    double complex L[MAXM * MAXM];
+    int piv[MAXM];
+    double norm = 0.0;
+    for (int i = 0; i < m * m; ++i) {
+        L[i] = A[i];
+        norm = fmax(norm, cabs(A[i]));
+    }
+    for (int i = 0; i < m; ++i)
+        L[i * m + i] -= s;
+    double tiny = DBL_EPSILON * (norm > 0.0 ? norm : 1.0);
+    for (int k = 0; k < m; ++k) {
+        int p = k;
+        double best = fabs(creal(L[k * m + k])) + fabs(cimag(L[k * m + k]));
+        for (int i = k + 1; i < m; ++i) {
+            double a = fabs(creal(L[i * m + k])) + fabs(cimag(L[i * m + k]));
+            if (a > best) {
+                best = a;
+                p = i;
+            }
+        }
+        piv[k] = p;
+        if (p != k)
+            for (int j = 0; j < m; ++j) {
+                double complex t = L[k * m + j];
+                L[k * m + j] = L[p * m + j];
+                L[p * m + j] = t;
+            }
+        if (best < tiny)
+            L[k * m + k] = tiny;
+        for (int i = k + 1; i < m; ++i) {
+            double complex f = L[i * m + k] / L[k * m + k];
+            L[i * m + k] = f;
+            for (int j = k + 1; j < m; ++j)
+                L[i * m + j] -= f * L[k * m + j];
+        }
+    }
+    for (int i = 0; i < m; ++i)
+        x[i] = 1.0 + 0.1 * i;
+    for (int it = 0; it < 2; ++it) {
+        for (int k = 0; k < m; ++k) {
+            double complex t = x[k];
+            x[k] = x[piv[k]];
+            x[piv[k]] = t;
+            for (int i = k + 1; i < m; ++i)
+                x[i] -= L[i * m + k] * x[k];
+        }
+        for (int i = m - 1; i >= 0; --i) {
+            double complex v = x[i];
+            for (int j = i + 1; j < m; ++j)
+                v -= L[i * m + j] * x[j];
+            x[i] = v / L[i * m + i];
+        }
+        double big = 0.0;
+        for (int i = 0; i < m; ++i)
+            big = fmax(big, fabs(creal(x[i])) + fabs(cimag(x[i])));
+        if (!(big > 0.0) || !isfinite(big))
+            return;
+        for (int i = 0; i < m; ++i)
+            x[i] /= big;
+    }
+}
+
+static double et_cabs1(double complex z)
+{
+    return fabs(creal(z)) + fabs(cimag(z));
+}
+
+/* et_balance for a complex A (the 1-norms of |re| + |im|) */
+static void et_zbalance(int m, double complex *A)
+{
+    int done = 0;
+    while (!done) {
+        done = 1;
+        for (int i = 0; i < m; ++i) {
+            double c = 0.0, r = 0.0;
+            for (int j = 0; j < m; ++j)
+                if (j != i) {
+                    c += et_cabs1(A[j * m + i]);
+                    r += et_cabs1(A[i * m + j]);
+                }
+            if (c == 0.0 || r == 0.0 || !isfinite(c + r))
+                continue;
+            double total = c + r, f = 1.0, g = r / 2.0;
+            while (c < g) {
+                f *= 2.0;
+                c *= 4.0;
+            }
+            g = r * 2.0;
+            while (c > g) {
+                f /= 2.0;
+                c /= 4.0;
+            }
+            if ((c + r) / f < 0.95 * total) {
+                done = 0;
+                for (int j = 0; j < m; ++j) {
+                    A[i * m + j] /= f;
+                    A[j * m + i] *= f;
+                }
+            }
+        }
+    }
+}
+
+/* complex A (m x m) to upper Hessenberg form by Householder reflectors I - 2 v v^H / v^H v */
+static void et_zhessenberg(int m, double complex *A)
+{
+    double complex v[MAXM];
+    for (int k = 0; k < m - 2; ++k) {
+        int len = m - k - 1;
+        double nrm = 0.0;
+        for (int i = 0; i < len; ++i) {
+            v[i] = A[(k + 1 + i) * m + k];
+            nrm += creal(v[i] * conj(v[i]));
+        }
+        nrm = sqrt(nrm);
+        if (nrm == 0.0)
+            continue;
+        double a0 = cabs(v[0]);
+        double complex phase = a0 > 0.0 ? v[0] / a0 : 1.0;
+        v[0] += phase * nrm;
+        double vv = 0.0;
+        for (int i = 0; i < len; ++i)
+            vv += creal(v[i] * conj(v[i]));
+        double f = 2.0 / vv;
+        for (int j = k; j < m; ++j) { /* rows k+1..: A = (I - f v v^H) A */
+            double complex t = 0.0;
+            for (int i = 0; i < len; ++i)
+                t += conj(v[i]) * A[(k + 1 + i) * m + j];
+            t *= f;
+            for (int i = 0; i < len; ++i)
+                A[(k + 1 + i) * m + j] -= t * v[i];
+        }
+        for (int i = 0; i < m; ++i) { /* columns k+1..: A = A (I - f v v^H) */
+            double complex t = 0.0;
+            for (int j = 0; j < len; ++j)
+                t += A[i * m + k + 1 + j] * v[j];
+            t *= f;
+            for (int j = 0; j < len; ++j)
+                A[i * m + k + 1 + j] -= t * conj(v[j]);
+        }
+        for (int i = k + 2; i < m; ++i)
+            A[i * m + k] = 0.0;
+    }
+}
+
+/* eigenvalues of the complex upper Hessenberg H (m x m, overwritten) by single-shift QR with
+   Wilkinson shifts (Givens rotations on the active window); 0 where it does not converge */
+static int et_zqr(int m, double complex *H, double *wr, double *wi)
+{
+    int hi = m - 1, its = 0, total = 0;
+    double cs[MAXM];
+    double complex sn[MAXM];
+    while (hi >= 0) {
+        int l;
+        for (l = hi; l > 0; --l) {
+            double s = et_cabs1(H[(l - 1) * m + l - 1]) + et_cabs1(H[l * m + l]);
+            if (s == 0.0)
+                for (int i = l - 1; i <= hi; ++i)
+                    for (int j = l - 1; j <= hi; ++j)
+                        s += et_cabs1(H[i * m + j]);
+            if (et_cabs1(H[l * m + l - 1]) <= DBL_EPSILON * s) {
+                H[l * m + l - 1] = 0.0;
+                break;
+            }
+        }
+        if (l == hi) {
+            wr[hi] = creal(H[hi * m + hi]);
+            wi[hi] = cimag(H[hi * m + hi]);
+            hi -= 1;
+            its = 0;
+            continue;
+        }
+        if (++total > 60 * m)
+            return 0;
+        ++its;
+        double complex a = H[(hi - 1) * m + hi - 1], b = H[(hi - 1) * m + hi], c = H[hi * m + hi - 1],
+                       d = H[hi * m + hi], mu;
+        if (its % 11 == 0) /* an exceptional shift */
+            mu = d + 0.75 * (cabs(H[hi * m + hi - 1]) + (hi >= 2 ? cabs(H[(hi - 1) * m + hi - 2]) : 0.0));
+        else { /* the trailing 2 x 2 block's eigenvalue closer to d: d + p -/+ q */
+            double complex p = 0.5 * (a - d), q = csqrt(p * p + b * c);
+            mu = cabs(p + q) < cabs(p - q) ? d + p + q : d + p - q;
+        }
+        for (int i = l; i <= hi; ++i)
+            H[i * m + i] -= mu;
+        for (int k = l; k < hi; ++k) { /* H - mu = Q R, rotations from the left */
+            double complex x = H[k * m + k], y = H[(k + 1) * m + k];
+            double ax = cabs(x), r = hypot(ax, cabs(y));
+            double cc;
+            double complex ss;
+            if (r == 0.0) {
+                cc = 1.0;
+                ss = 0.0;
+            } else if (ax == 0.0) {
+                cc = 0.0;
+                ss = 1.0;
+            } else {
+                cc = ax / r;
+                ss = (x / ax) * conj(y) / r;
+            }
+            cs[k] = cc;
+            sn[k] = ss;
+            for (int j = k; j <= hi; ++j) {
+                double complex u = H[k * m + j], w = H[(k + 1) * m + j];
+                H[k * m + j] = cc * u + ss * w;
+                H[(k + 1) * m + j] = -conj(ss) * u + cc * w;
+            }
+        }
+        for (int k = l; k < hi; ++k) /* R Q + mu, rotations from the right */
+            for (int i = l; i <= (k + 1 < hi ? k + 1 : hi); ++i) {
+                double complex u = H[i * m + k], w = H[i * m + k + 1];
+                H[i * m + k] = u * cs[k] + w * conj(sn[k]);
+                H[i * m + k + 1] = -u * sn[k] + w * cs[k];
+            }
+        for (int i = l; i <= hi; ++i)
+            H[i * m + i] += mu;
+    }
+    return 1;
+}
+
 /* the one-to-one assignment of rows (modes) to columns (poles of positive frequency) of
    largest total weight w (n x u): min(n, u) pairs (every row assigned where u >= n, every
    column where u < n), by dynamic programming over the subsets of used columns; best[j]
@@ -478,15 +722,14 @@ static __attribute__((noinline)) void et_assign(int n, int u, const double *w, i
     }
 }
 
-/* one pose; returns 0 when solved, 1 where NumPy must solve it */
-static int et_pose(int n, int L, const double *M, const double *K, const double *W, const double *h,
-                   const double *kd, const double *cd, const double *td, double eliminate, double unstable,
-                   double ambiguous, double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+/* the undamped modes K Phi = M Phi diag(lam) of the n x n pair: lam ascending (omega^2, any
+   sign), Phi (V, n x n, columns) M-orthonormal, by the Cholesky reduction C^-1 sym(K) C^-T and
+   cyclic Jacobi; 0 where M is not positive definite */
+static int et_modal(int n, const double *M, const double *K, double *lam, double *V)
 {
-    double C[MAXN * MAXN], S[MAXN * MAXN], V[MAXN * MAXN], lam[MAXN], om[MAXN], Bw[MAXL * MAXN];
-    double A[MAXM * MAXM], H[MAXM * MAXM], wr[MAXM], wi[MAXM];
+    double C[MAXN * MAXN], S[MAXN * MAXN];
     if (!et_cholesky(n, M, C))
-        return 1;
+        return 0;
     for (int i = 0; i < n; ++i) /* S = C^-1 sym(K) C^-T */
         for (int j = 0; j < n; ++j)
             S[i * n + j] = 0.5 * (K[i * n + j] + K[j * n + i]);
@@ -502,6 +745,38 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
         for (int j = 0; j < i; ++j)
             S[i * n + j] = S[j * n + i] = 0.5 * (S[i * n + j] + S[j * n + i]);
     et_jacobi(n, S, lam, V);
+    for (int c = 0; c < n; ++c) /* Phi = C^-T V, in place in V */
+        for (int i = n - 1; i >= 0; --i) {
+            double v = V[i * n + c];
+            for (int k = i + 1; k < n; ++k)
+                v -= C[k * n + i] * V[k * n + c];
+            V[i * n + c] = v / C[i * n + i];
+        }
+    return 1;
+}
+
+static int et_poles(int n, int m, const double *Ar, const double complex *Ac, const double *wr, const double *wi,
+                    const double *om, double unstable, double ambiguous, double *wn, double *zeta, double *wd,
+                    double *poles, int8_t *stable);
+
+/* one pose; returns 0 when solved, 1 where NumPy must solve it (2: M not positive definite, the
+   undamped modes not solved either); lam_out (n) and phi_out (n x n),
+   where not NULL, receive the undamped modes (et_modal); kd NULL: those alone */
+static int et_pose(int n, int L, const double *M, const double *K, const double *W, const double *h,
+                   const double *kd, const double *cd, const double *td, double eliminate, double unstable,
+                   double ambiguous, double *wn, double *zeta, double *wd, double *poles, int8_t *stable,
+                   double *lam_out, double *phi_out)
+{
+    double V[MAXN * MAXN], lam[MAXN], om[MAXN], Bw[MAXL * MAXN];
+    double A[MAXM * MAXM], H[MAXM * MAXM], wr[MAXM], wi[MAXM];
+    if (!et_modal(n, M, K, lam, V))
+        return 2;
+    if (lam_out)
+        memcpy(lam_out, lam, sizeof(double) * n);
+    if (phi_out)
+        memcpy(phi_out, V, sizeof(double) * n * n);
+    if (!kd)
+        return 0;
     int ok = 1;
     for (int i = 0; i < n; ++i)
         ok &= lam[i] > 0.0;
@@ -514,13 +789,6 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
         *stable = 0;
         return 0;
     }
-    for (int c = 0; c < n; ++c) /* Phi = C^-T V, in place in V */
-        for (int i = n - 1; i >= 0; --i) {
-            double v = V[i * n + c];
-            for (int k = i + 1; k < n; ++k)
-                v -= C[k * n + i] * V[k * n + c];
-            V[i * n + c] = v / C[i * n + i];
-        }
     double big = 0.0;
     for (int i = 0; i < n; ++i) {
         om[i] = sqrt(lam[i]);
@@ -571,14 +839,24 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
     et_hessenberg(m, H);
     if (!et_francis(m, H, wr, wi))
         return 1;
+    return et_poles(n, m, A, NULL, wr, wi, om, unstable, ambiguous, wn, zeta, wd, poles, stable);
+}
+
+/* each undamped mode's pole from the m eigenvalues wr + i wi of the state matrix (Ar, real, or
+   Ac, complex: a loss factor, whose poles are those of positive frequency) and the undamped
+   omega om (n): by order of |s| where unambiguous, else by modal-energy share (inverse
+   iteration on the state matrix); 0 when decided, 1 where NumPy must decide */
+static int et_poles(int n, int m, const double *Ar, const double complex *Ac, const double *wr, const double *wi,
+                    const double *om, double unstable, double ambiguous, double *wn, double *zeta, double *wd,
+                    double *poles, int8_t *stable)
+{
     int grows = 0, u = 0, up[MAXM];
     for (int k = 0; k < m; ++k) {
-        grows |= wr[k] > unstable * hypot(wr[k], wi[k]);
+        grows |= wr[k] > unstable * hypot(wr[k], wi[k]) && (Ar || wi[k] > 0.0);
         if (wi[k] > 0.0)
             up[u++] = k;
     }
     *stable = !grows;
-    double complex pole[MAXN];
     int col[MAXN];
     int by_order = u == n;
     if (by_order) { /* the poles of positive frequency by |s|, each beside its own mode */
@@ -599,12 +877,15 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
     if (!by_order) { /* modal-energy shares of every pole */
         double complex x[MAXM];
         for (int k = 0; k < m; ++k) {
-            if (wi[k] < 0.0 && k > 0 && wr[k - 1] == wr[k] && wi[k - 1] == -wi[k]) {
+            if (Ar && wi[k] < 0.0 && k > 0 && wr[k - 1] == wr[k] && wi[k - 1] == -wi[k]) {
                 for (int j = 0; j < n; ++j)
                     share[j * m + k] = share[j * m + k - 1];
                 continue;
             }
-            et_vector(m, A, wr[k] + wi[k] * I, x);
+            if (Ar)
+                et_vector(m, Ar, wr[k] + wi[k] * I, x);
+            else
+                et_zvector(m, Ac, wr[k] + wi[k] * I, x);
             double total = 0.0;
             for (int j = 0; j < n; ++j) {
                 double e = creal(x[j] * conj(x[j])) + creal(x[n + j] * conj(x[n + j]));
@@ -700,12 +981,127 @@ static int et_pose(int n, int L, const double *M, const double *K, const double 
     return 0;
 }
 
+/* et_pose with a structural loss factor: the stiffness K + i Kl (Kl: n x n, real, NULL: none),
+   the actuator wrenches W (L x n) and h (L) complex; the complex state matrix's eigenvalues by
+   et_zqr and the poles of positive frequency assigned as et_poles does. Returns 0 when solved,
+   1 where NumPy must solve it, 2 where M is not positive definite. */
+static int et_pose_complex(int n, int L, const double *M, const double *K, const double *Kl,
+                           const double complex *W, const double complex *h, const double *kd, const double *cd,
+                           const double *td, double eliminate, double unstable, double ambiguous, double *wn,
+                           double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double V[MAXN * MAXN], lam[MAXN], om[MAXN], wr[MAXM], wi[MAXM];
+    double complex Bw[MAXL * MAXN], A[MAXM * MAXM], H[MAXM * MAXM];
+    if (!et_modal(n, M, K, lam, V))
+        return 2;
+    int ok = 1;
+    for (int i = 0; i < n; ++i)
+        ok &= lam[i] > 0.0;
+    if (!ok) {
+        for (int j = 0; j < n; ++j) {
+            wn[j] = zeta[j] = wd[j] = NAN;
+            poles[2 * j] = NAN;
+            poles[2 * j + 1] = 0.0;
+        }
+        *stable = 0;
+        return 0;
+    }
+    double big = 0.0;
+    for (int i = 0; i < n; ++i) {
+        om[i] = sqrt(lam[i]);
+        big = fmax(big, om[i]);
+    }
+    for (int l = 0; l < L; ++l)
+        for (int j = 0; j < n; ++j) {
+            double complex v = 0.0;
+            for (int i = 0; i < n; ++i)
+                v += V[i * n + j] * W[l * n + i];
+            Bw[l * n + j] = v;
+        }
+    double alpha[MAXL], D[MAXL];
+    double complex beta[MAXL];
+    int elim[MAXL], live = 0;
+    for (int l = 0; l < L; ++l) {
+        alpha[l] = kd[l] * kd[l];
+        D[l] = kd[l] * td[l] - cd[l];
+        beta[l] = cd[l] * (kd[l] - h[l]) + h[l] * kd[l] * td[l];
+        elim[l] = cabs(beta[l]) * big <= eliminate * fabs(alpha[l]);
+        live += !elim[l];
+    }
+    int m = live ? 2 * n + L : 2 * n;
+    for (int i = 0; i < m * m; ++i)
+        A[i] = 0.0;
+    for (int i = 0; i < n; ++i) {
+        A[i * m + n + i] = om[i];
+        A[(n + i) * m + i] = -om[i];
+    }
+    if (Kl) { /* -i Phi^T Kl Phi, column j over omega_j */
+        double T[MAXN * MAXN];
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) {
+                double v = 0.0;
+                for (int k = 0; k < n; ++k)
+                    v += Kl[i * n + k] * V[k * n + j];
+                T[i * n + j] = v;
+            }
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) {
+                double v = 0.0;
+                for (int k = 0; k < n; ++k)
+                    v += V[k * n + i] * T[k * n + j];
+                A[(n + i) * m + j] -= I * (v / om[j]);
+            }
+    }
+    for (int l = 0; l < L; ++l) {
+        const double complex *b = Bw + l * n;
+        if (elim[l]) {
+            double r = D[l] / alpha[l];
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j)
+                    A[(n + i) * m + n + j] += r * b[i] * b[j];
+        } else {
+            double complex safe = beta[l] != 0.0 ? beta[l] : 1.0;
+            for (int i = 0; i < n; ++i) {
+                A[(n + i) * m + 2 * n + l] = b[i];
+                A[(2 * n + l) * m + n + i] = D[l] / safe * b[i];
+            }
+            A[(2 * n + l) * m + 2 * n + l] = -alpha[l] / safe;
+        }
+        if (live && elim[l])
+            A[(2 * n + l) * m + 2 * n + l] = -1.0;
+    }
+    memcpy(H, A, sizeof(double complex) * m * m);
+    et_zbalance(m, H);
+    et_zhessenberg(m, H);
+    if (!et_zqr(m, H, wr, wi))
+        return 1;
+    return et_poles(n, m, NULL, A, wr, wi, om, unstable, ambiguous, wn, zeta, wd, poles, stable);
+}
+
+/* et_pose_complex for count poses: M, K, Kl (n x n; Kl NULL: none), W (L x n complex), h (L
+   complex), kd, cd, td (L) per pose; status 1 where NumPy must solve the pose */
+int et_damped_complex(int64_t count, int n, int L, const double *M, const double *K, const double *Kl,
+                      const double complex *W, const double complex *h, const double *kd, const double *cd,
+                      const double *td, double eliminate, double unstable, double ambiguous, double *wn,
+                      double *zeta, double *wd, double *poles, int8_t *stable, int8_t *status)
+{
+    if (n < 1 || n > MAXN || L < 0 || L > MAXL)
+        return -1;
+    for (int64_t p = 0; p < count; ++p)
+        status[p] = (int8_t)et_pose_complex(n, L, M + p * n * n, K + p * n * n, Kl ? Kl + p * n * n : NULL,
+                                            W + p * L * n, h + p * L, kd + p * L, cd + p * L, td + p * L, eliminate,
+                                            unstable, ambiguous, wn + p * n, zeta + p * n, wd + p * n,
+                                            poles + 2 * p * n, stable + p);
+    return 0;
+}
+
 /* one leg: Kq = pinv(C) on the compliant eigen-directions of its joint compliance C (e x e; an
    eigenvalue within rtol of the largest magnitude: rigid, left out), g = Kq e_0: the
-   actuator wrench W (c) = g^T J (J: e x c), h = g[0], and, where K is not NULL,
-   K (c x c) += J^T Kq J */
+   actuator wrench W (c) = g^T J (J: e x c), h = g[0], where K is not NULL
+   K (c x c) += J^T Kq J, and where R is not NULL its rigid rows u^T J (e x c: a rigid
+   eigen-direction u's row, zeros for a compliant one) */
 static void et_wrench_leg(int e, int c, const double *J, const double *C, double rtol, double *K, double *W,
-                          double *h)
+                          double *h, double *R)
 {
     double S[MAXN * MAXN], U[MAXN * MAXN], lam[MAXN], Kq[MAXN * MAXN], KJ[MAXN * 64];
     memcpy(S, C, sizeof(double) * e * e);
@@ -715,6 +1111,15 @@ static void et_wrench_leg(int e, int c, const double *J, const double *C, double
         scale = fmax(scale, fabs(lam[i]));
     for (int i = 0; i < e; ++i)
         lam[i] = fabs(lam[i]) <= rtol * scale ? 0.0 : 1.0 / lam[i];
+    if (R)
+        for (int k = 0; k < e; ++k)
+            for (int j = 0; j < c; ++j) {
+                double v = 0.0;
+                if (lam[k] == 0.0)
+                    for (int a = 0; a < e; ++a)
+                        v += U[a * e + k] * J[a * c + j];
+                R[k * c + j] = v;
+            }
     for (int a = 0; a < e; ++a)
         for (int b = 0; b < e; ++b) {
             double v = 0.0;
@@ -759,7 +1164,120 @@ int et_wrenches(int64_t count, int L, int e, int c, const double *Je, const doub
         memset(Kp, 0, sizeof(double) * c * c);
         for (int l = 0; l < L; ++l)
             et_wrench_leg(e, c, Je + (p * L + l) * e * c, Cq + (p * L + l) * e * e, rtol, Kp, W + (p * L + l) * c,
-                          h + p * L + l);
+                          h + p * L + l, NULL);
+    }
+    return 0;
+}
+
+/* et_wrench_leg with a structural loss factor eta: the joint compliance C_q = (C - a0 e0 e0^T) /
+   (1 + i eta) + a0 e0 e0^T (a0: the actuator's own compliance, C[0][0]'s share), complex
+   symmetric; its rigid directions are C's (real: the passive compliance's null space, never
+   along e0), so its pseudo-inverse on the compliant ones is P (P^T C_q P)^-1 P^T with P the
+   compliant eigenvectors of C (an eigenvalue within rtol of the largest magnitude: rigid).
+   K (c x c) += J^T Kq J, W (c) = g^T J, h = g[0], g = Kq e0; all complex. */
+static void et_wrench_leg_complex(int e, int c, const double *J, const double *C, double a0, double eta, double rtol,
+                                  double complex *K, double complex *W, double complex *h)
+{
+    double S[MAXN * MAXN], U[MAXN * MAXN], lam[MAXN];
+    double complex Cc[MAXN * MAXN], Ac[MAXN * MAXN], Ai[MAXN * MAXN], Kq[MAXN * MAXN], KJ[MAXN * 64];
+    int keep[MAXN], np_ = 0;
+    memcpy(S, C, sizeof(double) * e * e);
+    et_jacobi(e, S, lam, U);
+    double scale = 0.0;
+    for (int i = 0; i < e; ++i)
+        scale = fmax(scale, fabs(lam[i]));
+    for (int i = 0; i < e; ++i)
+        if (!(fabs(lam[i]) <= rtol * scale))
+            keep[np_++] = i;
+    for (int a = 0; a < e; ++a)
+        for (int b = 0; b < e; ++b) {
+            double act = a == 0 && b == 0 ? a0 : 0.0;
+            Cc[a * e + b] = (C[a * e + b] - act) / (1.0 + I * eta) + act;
+        }
+    for (int i = 0; i < np_; ++i) /* Ac = P^T C_q P */
+        for (int j = 0; j < np_; ++j) {
+            double complex v = 0.0;
+            for (int a = 0; a < e; ++a)
+                for (int b = 0; b < e; ++b)
+                    v += U[a * e + keep[i]] * Cc[a * e + b] * U[b * e + keep[j]];
+            Ac[i * np_ + j] = v;
+        }
+    for (int i = 0; i < np_; ++i) /* Ai = Ac^-1 (Gauss-Jordan, partial pivoting) */
+        for (int j = 0; j < np_; ++j)
+            Ai[i * np_ + j] = i == j ? 1.0 : 0.0;
+    for (int k = 0; k < np_; ++k) {
+        int piv = k;
+        for (int i = k + 1; i < np_; ++i)
+            if (cabs(Ac[i * np_ + k]) > cabs(Ac[piv * np_ + k]))
+                piv = i;
+        if (piv != k)
+            for (int j = 0; j < np_; ++j) {
+                double complex t = Ac[k * np_ + j];
+                Ac[k * np_ + j] = Ac[piv * np_ + j];
+                Ac[piv * np_ + j] = t;
+                t = Ai[k * np_ + j];
+                Ai[k * np_ + j] = Ai[piv * np_ + j];
+                Ai[piv * np_ + j] = t;
+            }
+        double complex d = Ac[k * np_ + k];
+        for (int j = 0; j < np_; ++j) {
+            Ac[k * np_ + j] /= d;
+            Ai[k * np_ + j] /= d;
+        }
+        for (int i = 0; i < np_; ++i)
+            if (i != k) {
+                double complex f = Ac[i * np_ + k];
+                for (int j = 0; j < np_; ++j) {
+                    Ac[i * np_ + j] -= f * Ac[k * np_ + j];
+                    Ai[i * np_ + j] -= f * Ai[k * np_ + j];
+                }
+            }
+    }
+    for (int a = 0; a < e; ++a) /* Kq = P Ai P^T */
+        for (int b = 0; b < e; ++b) {
+            double complex v = 0.0;
+            for (int i = 0; i < np_; ++i)
+                for (int j = 0; j < np_; ++j)
+                    v += U[a * e + keep[i]] * Ai[i * np_ + j] * U[b * e + keep[j]];
+            Kq[a * e + b] = v;
+        }
+    *h = Kq[0];
+    for (int j = 0; j < c; ++j) {
+        double complex v = 0.0;
+        for (int a = 0; a < e; ++a)
+            v += Kq[a * e] * J[a * c + j];
+        W[j] = v;
+    }
+    for (int a = 0; a < e; ++a)
+        for (int j = 0; j < c; ++j) {
+            double complex v = 0.0;
+            for (int b = 0; b < e; ++b)
+                v += Kq[a * e + b] * J[b * c + j];
+            KJ[a * c + j] = v;
+        }
+    for (int i = 0; i < c; ++i)
+        for (int j = 0; j < c; ++j) {
+            double complex v = 0.0;
+            for (int a = 0; a < e; ++a)
+                v += J[a * c + i] * KJ[a * c + j];
+            K[i * c + j] += v;
+        }
+}
+
+/* et_wrenches with a structural loss factor (et_wrench_leg_complex): a0 (L) the actuators'
+   compliance and eta (1) per pose; K, W, h complex */
+int et_wrenches_complex(int64_t count, int L, int e, int c, const double *Je, const double *Cq, const double *a0,
+                        const double *eta, double rtol, double complex *K, double complex *W, double complex *h)
+{
+    if (e < 1 || e > MAXN || L < 1 || c > 64)
+        return -1;
+    for (int64_t p = 0; p < count; ++p) {
+        double complex *Kp = K + p * c * c;
+        for (int i = 0; i < c * c; ++i)
+            Kp[i] = 0.0;
+        for (int l = 0; l < L; ++l)
+            et_wrench_leg_complex(e, c, Je + (p * L + l) * e * c, Cq + (p * L + l) * e * e, a0[p * L + l], eta[p],
+                                  rtol, Kp, W + (p * L + l) * c, h + p * L + l);
     }
     return 0;
 }
@@ -774,39 +1292,16 @@ int et_damped(int64_t count, int n, int L, const double *M, const double *K, con
     for (int64_t p = 0; p < count; ++p) {
         status[p] = (int8_t)et_pose(n, L, M + p * n * n, K + p * n * n, W + p * L * n, h + p * L, kd + p * L,
                                     cd + p * L, td + p * L, eliminate, unstable, ambiguous, wn + p * n,
-                                    zeta + p * n, wd + p * n, poles + 2 * p * n, stable + p);
+                                    zeta + p * n, wd + p * n, poles + 2 * p * n, stable + p, NULL, NULL);
     }
     return 0;
 }
 
-/* one pose from its legs' kernel outputs: each leg's actuator wrench from the first e_used rows
-   of its Je (L x e x 6) and Cq (L x e x e) (et_wrench_leg), the stiffness K (6 x 6), or where K
-   is NULL the legs' J_e^T C_q^+ J_e plus Kg (6 x 6, NULL: none), then B^T M B, B^T K B and
-   W B on the model's coordinates B (6 x r, row-major; NULL: the six twists) into et_pose */
-static int et_pose_legs(int L, int e, int e_used, int r, const double *M, const double *K, const double *Kg,
-                        const double *Je, const double *Cq, const double *B, const double *kd, const double *cd,
-                        const double *td, double rtol, double eliminate, double unstable, double ambiguous,
-                        double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+/* B^T M B, B^T K B (r x r) and W6 B (L x r) on the coordinates B (6 x r, row-major; NULL: the six
+   twists, copies) */
+static void et_project(int L, int r, const double *M, const double *K, const double *W6, const double *B, double *Mr,
+                       double *Kr, double *W)
 {
-    double W6[MAXL * 6], W[MAXL * 6], h[MAXL], Mr[36], Kr[36], J[MAXN * 6], C[MAXN * MAXN], Ks[36];
-    if (!K)
-        memset(Ks, 0, sizeof(Ks));
-    for (int l = 0; l < L; ++l) {
-        const double *Jl = Je + l * e * 6, *Cl = Cq + l * e * e;
-        for (int a = 0; a < e_used; ++a) {
-            for (int j = 0; j < 6; ++j)
-                J[a * 6 + j] = Jl[a * 6 + j];
-            for (int c = 0; c < e_used; ++c)
-                C[a * e_used + c] = Cl[a * e + c];
-        }
-        et_wrench_leg(e_used, 6, J, C, rtol, K ? NULL : Ks, W6 + l * 6, h + l);
-    }
-    if (!K) {
-        if (Kg)
-            for (int i = 0; i < 36; ++i)
-                Ks[i] += Kg[i];
-        K = Ks;
-    }
     if (B) { /* B^T M B, B^T K B, W B */
         double BM[36], BK[36];
         for (int i = 0; i < r; ++i)
@@ -837,11 +1332,43 @@ static int et_pose_legs(int L, int e, int e_used, int r, const double *M, const 
                 W[l * r + j] = v;
             }
     } else {
-        memcpy(Mr, M, sizeof(Mr));
-        memcpy(Kr, K, sizeof(Kr));
+        memcpy(Mr, M, sizeof(double) * 36);
+        memcpy(Kr, K, sizeof(double) * 36);
         memcpy(W, W6, sizeof(double) * L * 6);
     }
-    return et_pose(r, L, Mr, Kr, W, h, kd, cd, td, eliminate, unstable, ambiguous, wn, zeta, wd, poles, stable);
+}
+
+/* one pose from its legs' kernel outputs: each leg's actuator wrench from the first e_used rows
+   of its Je (L x e x 6) and Cq (L x e x e) (et_wrench_leg), the stiffness K (6 x 6), or where K
+   is NULL the legs' J_e^T C_q^+ J_e plus Kg (6 x 6, NULL: none), then B^T M B, B^T K B and
+   W B on the model's coordinates B (6 x r, row-major; NULL: the six twists) into et_pose */
+static int et_pose_legs(int L, int e, int e_used, int r, const double *M, const double *K, const double *Kg,
+                        const double *Je, const double *Cq, const double *B, const double *kd, const double *cd,
+                        const double *td, double rtol, double eliminate, double unstable, double ambiguous,
+                        double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double W6[MAXL * 6], W[MAXL * 6], h[MAXL], Mr[36], Kr[36], J[MAXN * 6], C[MAXN * MAXN], Ks[36];
+    if (!K)
+        memset(Ks, 0, sizeof(Ks));
+    for (int l = 0; l < L; ++l) {
+        const double *Jl = Je + l * e * 6, *Cl = Cq + l * e * e;
+        for (int a = 0; a < e_used; ++a) {
+            for (int j = 0; j < 6; ++j)
+                J[a * 6 + j] = Jl[a * 6 + j];
+            for (int c = 0; c < e_used; ++c)
+                C[a * e_used + c] = Cl[a * e + c];
+        }
+        et_wrench_leg(e_used, 6, J, C, rtol, K ? NULL : Ks, W6 + l * 6, h + l, NULL);
+    }
+    if (!K) {
+        if (Kg)
+            for (int i = 0; i < 36; ++i)
+                Ks[i] += Kg[i];
+        K = Ks;
+    }
+    et_project(L, r, M, K, W6, B, Mr, Kr, W);
+    return et_pose(r, L, Mr, Kr, W, h, kd, cd, td, eliminate, unstable, ambiguous, wn, zeta, wd, poles, stable, NULL,
+                   NULL);
 }
 
 /* et_pose_legs for count poses: M (6 x 6), K (6 x 6, or NULL), Kg (6 x 6, or NULL), Je, Cq,
@@ -925,6 +1452,119 @@ int et_damped_pass(int64_t begin, int64_t end, int64_t block, et_fused_fn fused,
     }
     return 0;
 }
+/* one pose of the exact condensation from its legs' kernel outputs Je (L x e x 6), Cq (L x e x e)
+   and Kg (6 x 6): each leg's springs J^T C_q^+ J, actuator wrench and rigid rows
+   (et_wrench_leg); the admissible twists B, the eigenvectors of G = sum of the rigid rows' r r^T
+   whose eigenvalue is at most null_rtol times the largest (cyclic Jacobi, ascending: the null
+   ones first), *nb of them; on B the undamped modes (lam: omega^2 of the nb finite modes, and
+   where V is not NULL their eigentwists B Phi, 6 x 6 row-major, columns nb.. NaN) and, where kd is
+   not NULL, the damped modes (et_pose). Returns 0 when solved, 1 where the damped modes are left
+   undecided, 2 where the undamped ones are not solved (no admissible twist, B^T M B not positive
+   definite). */
+static int et_exact_pose(int L, int e, const double *M, const double *Kg, const double *Je, const double *Cq,
+                         const double *kd, const double *cd, const double *td, double rtol, double null_rtol,
+                         double eliminate, double unstable, double ambiguous, int8_t *nb, double *lam, double *V,
+                         double *wn, double *zeta, double *wd, double *poles, int8_t *stable)
+{
+    double W6[MAXL * 6], W[MAXL * 6], h[MAXL], K[36], G[36], g[6], Q[36], R[MAXN * 6], B[36], Mr[36], Kr[36],
+        Phi[36];
+    memcpy(K, Kg, sizeof(K));
+    memset(G, 0, sizeof(G));
+    for (int l = 0; l < L; ++l) {
+        et_wrench_leg(e, 6, Je + l * e * 6, Cq + l * e * e, rtol, K, W6 + l * 6, h + l, R);
+        for (int k = 0; k < e; ++k)
+            for (int i = 0; i < 6; ++i)
+                for (int j = 0; j < 6; ++j)
+                    G[i * 6 + j] += R[k * 6 + i] * R[k * 6 + j];
+    }
+    et_jacobi(6, G, g, Q);
+    double top = 0.0;
+    for (int i = 0; i < 6; ++i)
+        top = fmax(top, fabs(g[i]));
+    int r = 0;
+    while (r < 6 && g[r] <= null_rtol * top)
+        ++r;
+    *nb = (int8_t)r;
+    for (int j = r; j < 6; ++j) {
+        lam[j] = NAN;
+        if (kd) {
+            wn[j] = zeta[j] = wd[j] = poles[2 * j] = poles[2 * j + 1] = NAN;
+        }
+    }
+    if (V)
+        for (int i = 0; i < 36; ++i)
+            V[i] = NAN;
+    if (r == 0)
+        return 2;
+    for (int k = 0; k < 6; ++k)
+        for (int i = 0; i < r; ++i)
+            B[k * r + i] = Q[k * 6 + i];
+    et_project(L, r, M, K, W6, B, Mr, Kr, W);
+    int rc = et_pose(r, L, Mr, Kr, W, h, kd, cd, td, eliminate, unstable, ambiguous, wn, zeta, wd, poles, stable,
+                     lam, Phi);
+    if (rc == 2)
+        return 2;
+    if (V)
+        for (int k = 0; k < 6; ++k)
+            for (int j = 0; j < r; ++j) {
+                double v = 0.0;
+                for (int i = 0; i < r; ++i)
+                    v += B[k * r + i] * Phi[i * r + j];
+                V[k * 6 + j] = v;
+            }
+    return rc;
+}
+
+/* The exact condensation's modes of poses [begin, end) in one pass, `block` poses at a time
+   (begin a multiple of it): the robot's fused pass (its f_* arguments, as for et_damped_pass:
+   they must fill the status, q and M), its legs kernel on the block's joint coordinates (as
+   for et_damped_pass; Je, Cq and Kg its outputs), then per pose of status 0 or 4
+   et_exact_pose, writing 6 entries per pose of lam, wn, zeta, wd, poles (complex), 36 of V
+   (NULL: none) and nb, stable, redo (kd NULL: the undamped modes alone; wn .. stable unused).
+   Other poses: nb 0, redo 0. Returns the kernels' nonzero code, -1 for bad sizes. */
+int et_exact_pass(int64_t begin, int64_t end, int64_t block, et_fused_fn fused, const double *const *f_in,
+                  const int64_t *f_stride, int f_model, double *const *f_ik, double *const *f_mat,
+                  double *const *f_jac, double *f_freq, double *f_vec, int8_t *f_status, const double *f_opts,
+                  et_kernel_fn legs, int n_in, const double *const *l_in, const int64_t *l_stride, const int *q_of,
+                  int n_out, double *const *l_out, const int64_t *l_size, const double *q, int q_row,
+                  const double *Mall, const double *Je, const double *Cq, const double *Kg, int L, int e,
+                  const double *kd, const double *cd, const double *td, double rtol, double null_rtol,
+                  double eliminate, double unstable, double ambiguous, int8_t *nb, double *lam, double *V,
+                  double *wn, double *zeta, double *wd, double *poles, int8_t *stable, int8_t *redo)
+{
+    if (L < 1 || L > MAXL || e < 1 || e > MAXN || n_in > 256 || n_out > 64 || block < 1 || begin % block != 0)
+        return -1;
+    const double *ins[256];
+    int64_t strides[256];
+    double *outs[64];
+    for (int64_t b = begin; b < end; b += block) {
+        const int64_t b2 = end - b < block ? end : b + block;
+        int rc = fused(b, b2, f_in, f_stride, f_model, f_ik, f_mat, f_jac, f_freq, f_vec, f_status, f_opts);
+        if (rc != 0)
+            return rc;
+        for (int k = 0; k < n_in; ++k) {
+            ins[k] = q_of[k] >= 0 ? q + b * q_row + q_of[k] : l_in[k] + b * l_stride[k];
+            strides[k] = q_of[k] >= 0 ? q_row : l_stride[k];
+        }
+        for (int k = 0; k < n_out; ++k)
+            outs[k] = l_out[k] + b * l_size[k];
+        rc = legs(b2 - b, ins, strides, outs);
+        if (rc != 0)
+            return rc;
+        for (int64_t p = b; p < b2; ++p) {
+            redo[p] = 0;
+            nb[p] = 0;
+            if (f_status[p] != 0 && f_status[p] != 4)
+                continue;
+            redo[p] = (int8_t)et_exact_pose(
+                L, e, Mall + p * 36, Kg + p * 36, Je + p * L * e * 6, Cq + p * L * e * e, kd ? kd + p * L : NULL,
+                kd ? cd + p * L : NULL, kd ? td + p * L : NULL, rtol, null_rtol, eliminate, unstable, ambiguous,
+                nb + p, lam + p * 6, V ? V + p * 36 : NULL, kd ? wn + p * 6 : NULL, kd ? zeta + p * 6 : NULL,
+                kd ? wd + p * 6 : NULL, kd ? poles + 12 * p : NULL, kd ? stable + p : NULL);
+        }
+    }
+    return 0;
+}
 """
 
 _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
@@ -932,6 +1572,8 @@ _LIBRARIES: list = []  # the loaded driver library, kept for the process
 _WRENCHES: list = []  # its et_wrenches
 _PASS: list = []  # its et_damped_pass
 _LEGS: list = []  # its et_damped_legs
+_EXACT: list = []  # its et_exact_pass
+_COMPLEX: list = []  # its et_damped_complex
 
 
 def driver():
@@ -953,6 +1595,11 @@ def driver():
             ] * 3
             lib.et_wrenches.restype = ctypes.c_int
             _WRENCHES.append(lib.et_wrenches)
+            lib.et_wrenches_complex.argtypes = (
+                [ctypes.c_int64, i, i, i] + [ctypes.c_void_p] * 4 + [d] + [ctypes.c_void_p] * 3
+            )
+            lib.et_wrenches_complex.restype = ctypes.c_int
+            _WRENCHES.append(lib.et_wrenches_complex)
             v, i64 = ctypes.c_void_p, ctypes.c_int64
             lib.et_damped_pass.argtypes = (
                 [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
@@ -965,6 +1612,17 @@ def driver():
             lib.et_damped_legs.argtypes = [i64, i, i, i, i, v, v, i, v, i, v, v, v, i, v, v, v, d, d, d, d] + [v] * 6
             lib.et_damped_legs.restype = ctypes.c_int
             _LEGS.append(lib.et_damped_legs)
+            lib.et_exact_pass.argtypes = (
+                [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
+                + [v, i, v, v, v, i, v, v, v, i]
+                + [v, v, v, v, i, i, v, v, v, d, d, d, d, d]
+                + [v] * 9
+            )
+            lib.et_exact_pass.restype = ctypes.c_int
+            _EXACT.append(lib.et_exact_pass)
+            lib.et_damped_complex.argtypes = [i64, i, i] + [v] * 8 + [d, d, d] + [v] * 6
+            lib.et_damped_complex.restype = ctypes.c_int
+            _COMPLEX.append(lib.et_damped_complex)
         _DRIVER.append(fn)
     return _DRIVER[0]
 
@@ -1010,18 +1668,28 @@ def solve(M, K, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguou
     return wn, zeta, wd, poles, stable.astype(bool), status != 0
 
 
-def wrenches(Je, Cq, rigid: float):
-    """``(K, W, h)`` of :func:`eigentwist.runtime.damped.actuator_wrenches` without a loss
-    factor, by the driver's ``et_wrenches`` (one call for the batch): Je (N, legs, e, c),
-    Cq (N, legs, e, e); an eigenvalue of Cq within ``rigid`` times the largest magnitude is
-    a rigid direction. None where the driver is not built or e > MAX_MODES."""
+def wrenches(Je, Cq, rigid: float, a0=None, loss=None):
+    """``(K, W, h)`` of :func:`eigentwist.runtime.damped.actuator_wrenches` by the driver's
+    ``et_wrenches`` (one call for the batch): Je (N, legs, e, c), Cq (N, legs, e, e); an
+    eigenvalue of Cq within ``rigid`` times the largest magnitude is a rigid direction. With
+    a structural loss factor ``loss`` (N,) and the actuators' compliance ``a0`` (N, legs),
+    ``et_wrenches_complex``: K, W, h complex (the passive compliance over 1 + i loss). None
+    where the driver is not built or e > MAX_MODES."""
     N, L, e, c = np.shape(Je)
     if driver() is None or e > MAX_MODES or c > 64:
         return None
     Je = np.ascontiguousarray(Je, dtype=np.float64)
     Cq = np.ascontiguousarray(Cq, dtype=np.float64)
-    K, W, h = np.empty((N, c, c)), np.empty((N, L, c)), np.empty((N, L))
-    rc = _WRENCHES[0](N, L, e, c, Je.ctypes.data, Cq.ctypes.data, rigid, K.ctypes.data, W.ctypes.data, h.ctypes.data)
+    dtype = float if loss is None else complex
+    K, W, h = np.empty((N, c, c), dtype), np.empty((N, L, c), dtype), np.empty((N, L), dtype)
+    if loss is None:
+        args = (Je.ctypes.data, Cq.ctypes.data, rigid)
+        rc = _WRENCHES[0](N, L, e, c, *args, K.ctypes.data, W.ctypes.data, h.ctypes.data)
+    else:
+        a0 = np.ascontiguousarray(np.broadcast_to(a0, (N, L)), dtype=np.float64)
+        eta = np.ascontiguousarray(np.broadcast_to(loss, (N,)), dtype=np.float64)
+        args = (Je.ctypes.data, Cq.ctypes.data, a0.ctypes.data, eta.ctypes.data, rigid)
+        rc = _WRENCHES[1](N, L, e, c, *args, K.ctypes.data, W.ctypes.data, h.ctypes.data)
     if rc != 0:
         raise RuntimeError(f"C actuator wrenches returned {rc}")
     return K, W, h
@@ -1160,4 +1828,136 @@ def solve_legs(M, K, K_ground, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, thr
     for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
         if rc != 0:
             raise RuntimeError(f"C damped modes from the legs returned {rc}")
+    return wn, zeta, wd, poles, stable.astype(bool), status != 0
+
+
+def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null_rtol: float, vectors: bool, threads=1):
+    """The robot's fused pass, its legs kernel and the exact condensation's modes of n poses in
+    one C call per range of whole blocks (``et_exact_pass``: no Python between the kernels, the
+    condensation and the damped solve). Returns a dict: ``nb`` (n,) the number of admissible
+    twists (0 where the pass marks the pose invalid), ``lam`` (n, 6) the undamped omega^2
+    ((rad/s)^2) of the nb finite modes ascending, ``V`` (n, 6, 6) their eigentwists as
+    M-orthonormal columns (with ``vectors``), ``code`` (n,) 0 solved, 1 the damped modes
+    undecided, 2 the undamped ones not solved, and, with ``k_d`` not None, ``damped``:
+    ``(wn, zeta, wd, poles, stable)`` as :func:`solve` gives them, (n, 6) on the first nb
+    columns.
+
+    ``fused``, ``legs``, ``block``, q and M as for :func:`one_pass` (the fused pass must fill
+    the status, q and M; the legs kernel's outputs ``Je``, ``Cq``, ``K_ground`` are read);
+    k_d, c_d, t_d (n, legs) or None (the undamped modes alone); ``rules``: ``(RIGID,
+    ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)`` of :mod:`.damped`; ``null_rtol``: a rigid rows'
+    Gram eigenvalue at most this times the largest is an admissible twist. Raises
+    RuntimeError when a kernel or the driver fails."""
+    from .threads import run_ranges, threads_for
+
+    driver()
+    fn = _EXACT[0]
+    address, args = fused
+    l_address, l_in, l_stride, q_of, l_outs, _ = legs
+    Je, Cq, Kg = l_outs["Je"], l_outs["Cq"], l_outs["K_ground"]
+    L, e = np.shape(Je)[1:3]
+    damped = k_d is not None
+    kd, cd, td = (
+        (np.ascontiguousarray(np.broadcast_to(v, (n, L)), dtype=np.float64) for v in (k_d, c_d, t_d))
+        if damped
+        else (None, None, None)
+    )
+    out_ptrs = np.array([a.ctypes.data for a in l_outs.values()], dtype=np.uint64)
+    sizes = np.array([a[0].size if n else 0 for a in l_outs.values()], dtype=np.int64)
+    nb, code = np.empty(n, dtype=np.int8), np.empty(n, dtype=np.int8)
+    lam = np.empty((n, 6))
+    V = np.empty((n, 6, 6)) if vectors else None
+    wn, zeta, wd = (np.empty((n, 6)) for _ in range(3))
+    poles = np.empty((n, 6), dtype=complex)
+    stable = np.empty(n, dtype=np.int8)
+    ptr = lambda a: None if a is None else a.ctypes.data  # noqa: E731
+    q_row = int(np.prod(np.shape(q)[1:]))
+
+    def call(a: int, b: int) -> int:
+        return fn(
+            a,
+            b,
+            block,
+            address,
+            *args,
+            l_address,
+            len(q_of),
+            l_in.ctypes.data,
+            l_stride.ctypes.data,
+            q_of.ctypes.data,
+            len(out_ptrs),
+            out_ptrs.ctypes.data,
+            sizes.ctypes.data,
+            q.ctypes.data,
+            q_row,
+            M.ctypes.data,
+            Je.ctypes.data,
+            Cq.ctypes.data,
+            Kg.ctypes.data,
+            L,
+            e,
+            ptr(kd),
+            ptr(cd),
+            ptr(td),
+            *rules[:1],
+            null_rtol,
+            *rules[1:],
+            nb.ctypes.data,
+            lam.ctypes.data,
+            ptr(V),
+            *(x.ctypes.data for x in (wn, zeta, wd, poles, stable, code)),
+        )
+
+    for rc in run_ranges(call, n, block, threads_for(n, block, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C exact pass returned {rc}")
+    out = {"nb": nb.astype(int), "lam": lam, "V": V, "code": code}
+    if damped:
+        out["damped"] = (wn, zeta, wd, poles, stable.astype(bool))
+    return out
+
+
+def solve_complex(M, K, K_loss, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguous: float, threads=1):
+    """:func:`solve` with a structural loss factor: the stiffness ``K + i K_loss`` (K_loss
+    (N, n, n) real, or None), the actuator wrenches W (N, legs, n) and h (N, legs) complex;
+    the state matrix complex (``et_damped_complex``: complex Householder-Hessenberg and
+    single-shift QR), its poles of positive frequency assigned as :func:`solve` does. Returns
+    ``(wn, zeta, wd, poles, stable, redo)`` as :func:`solve`."""
+    from .threads import run_ranges, threads_for
+
+    driver()
+    fn = _COMPLEX[0]
+    N, n = np.shape(K)[:2]
+    L = np.shape(W)[1]
+    M, K, kd, cd, td = (np.ascontiguousarray(v, dtype=np.float64) for v in (M, K, k_d, c_d, t_d))
+    Kl = None if K_loss is None else np.ascontiguousarray(K_loss, dtype=np.float64)
+    W, h = (np.ascontiguousarray(v, dtype=np.complex128) for v in (W, h))
+    wn, zeta, wd = (np.empty((N, n)) for _ in range(3))
+    poles = np.empty((N, n), dtype=complex)
+    stable = np.empty(N, dtype=np.int8)
+    status = np.empty(N, dtype=np.int8)
+
+    def call(a: int, b: int) -> int:
+        return fn(
+            b - a,
+            n,
+            L,
+            M.ctypes.data + 8 * a * n * n,
+            K.ctypes.data + 8 * a * n * n,
+            None if Kl is None else Kl.ctypes.data + 8 * a * n * n,
+            W.ctypes.data + 16 * a * L * n,
+            h.ctypes.data + 16 * a * L,
+            *(x.ctypes.data + 8 * a * L for x in (kd, cd, td)),
+            eliminate,
+            unstable,
+            ambiguous,
+            *(x.ctypes.data + 8 * a * n for x in (wn, zeta, wd)),
+            poles.ctypes.data + 16 * a * n,
+            stable.ctypes.data + a,
+            status.ctypes.data + a,
+        )
+
+    for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C complex damped modes returned {rc}")
     return wn, zeta, wd, poles, stable.astype(bool), status != 0

@@ -40,6 +40,7 @@ __all__ = [
     "compliance_from_legs",
     "merge_modes",
     "RIGID_RTOL",
+    "NULL_FACTOR",
     "EXACT",
 ]
 
@@ -48,6 +49,9 @@ __all__ = [
 # (a dependent constraint): the compliances of a model are either exact zeros (rigid) or
 # physical values many orders above round-off.
 RIGID_RTOL = 1e-10
+#: an eigenvalue of the stacked rigid rows' Gram matrix A^T A at most NULL_FACTOR * rtol times the
+#: largest is an admissible twist (a squared singular value: rtol on the rows, with margin)
+NULL_FACTOR = 1e-2
 #: ``c_rigid`` as ``Evaluator._route`` passes it when no leg direction of the model is rigid: zero
 #: (K_F exact), the one value the parameter's bounds refuse from a user (the evaluator
 #: knows this object and does not check it)
@@ -128,7 +132,7 @@ def condensed_modes(
     A = _assemble(Je, Cq, K_x, [None] * Je.shape[1], rtol)
     G = np.swapaxes(A, -1, -2) @ A  # (N, 6, 6): null space = admissible twists
     g, Q = eigh(G, np.broadcast_to(np.eye(6), G.shape))
-    null = g <= (rtol * 1e-2) * np.abs(g).max(axis=-1, keepdims=True, initial=0.0)
+    null = g <= (rtol * NULL_FACTOR) * np.abs(g).max(axis=-1, keepdims=True, initial=0.0)
     freq = np.full((N, 6), np.inf)
     V = np.full((N, 6, 6), np.nan)
     for n in np.unique(null.sum(axis=-1)):

@@ -28,10 +28,11 @@ frequency; the state matrix is complex then).
 Each damped mode is matched to the undamped mode it grows from (the largest share of
 its modal energy), so column j of the result is mode j of the undamped model.
 
-On the C backend the real, uncoupled problem (no loss factor, no couplings, no complex
-shapes) is solved by a compiled driver, the same state matrix and rules in one C call per
-batch (:mod:`.c_damped`: within the fused pass itself, or from the legs kernel's outputs); the
-rest, and any pose the driver leaves undecided, here.
+On the C backend the uncoupled problem (no couplings, no complex shapes) is solved by a
+compiled driver, the same state matrix and rules in one C call per batch (:mod:`.c_damped`:
+within the fused pass itself, or from the legs kernel's outputs; with a loss factor, the
+complex state matrix from the wrenches computed here); the rest, and any pose the driver
+leaves undecided, here.
 """
 
 from __future__ import annotations
@@ -105,13 +106,13 @@ def actuator_wrenches(Je: np.ndarray, Cq: np.ndarray, a0: np.ndarray, loss=None,
     e_0^T K_q0 e_0 (N m/rad). Rigid joint combinations (C_q u = 0; never along e_0) stay
     rigid: the pseudo-inverse on the compliant ones (an eigenvalue of C_q within RIGID times
     the largest is rigid). ``solver="c"``: one call of the compiled driver
-    (:func:`.c_damped.wrenches`) where there is no loss factor and it is built.
+    (:func:`.c_damped.wrenches`) where it is built.
     """
     Cq = np.asarray(Cq, dtype=float)
-    if solver == "c" and loss is None:
+    if solver == "c":
         from . import c_damped
 
-        out = c_damped.wrenches(Je, Cq, RIGID)
+        out = c_damped.wrenches(Je, Cq, RIGID, a0, loss)
         if out is not None:
             return out
     if loss is not None:
@@ -180,10 +181,10 @@ def damped_modes(
         ``(beta_i + ...)`` couples the legs' internal coordinates: ``E s y = -alpha y + D W^T v``
         with ``E = diag(beta) - diag(D) G`` (no leg is eliminated).
     solver : ``"numpy"`` or ``"c"``: the compiled driver (:mod:`.c_damped`, the same state
-        matrix and rules, one C call for the batch on ``threads`` threads) where the problem
-        is real and uncoupled (no ``K_loss``, no ``G``) and no ``shapes`` are asked, it fits
-        the driver's sizes and a compiler built it; NumPy otherwise and for the poses the
-        driver leaves undecided.
+        matrix and rules, one C call for the batch on ``threads`` threads; complex with a
+        loss factor) where the legs are uncoupled (no ``G``) and no ``shapes`` are asked, it
+        fits the driver's sizes and a compiler built it; NumPy otherwise and for the poses
+        the driver leaves undecided.
     """
     if solver not in ("numpy", "c"):
         raise InputError(f"solver={solver!r}: expected 'numpy' or 'c'")
@@ -193,8 +194,8 @@ def damped_modes(
     W = np.asarray(W)
     L = W.shape[1]
     args = [_legs_array(v, N, L) for v in (h, k_d, c_d, t_d)]
-    if solver == "c" and _compiled(n, L, W, args, shapes, K_loss, G):
-        return _damped_c(M, K, W, args, threads)
+    if solver == "c" and _compiled(n, L, args, shapes, G):
+        return _damped_c(M, K, W, args, threads, K_loss)
     parts = [M, K, W, *args] + ([] if K_loss is None else [K_loss]) + ([] if G is None else [G])
     key = np.concatenate(
         [
@@ -300,31 +301,42 @@ def _legs_array(v, N: int, L: int) -> np.ndarray:
     return v if v.shape == (N, L) else np.broadcast_to(v, (N, L))
 
 
-def _compiled(n: int, L: int, W, args, shapes: bool, K_loss, G) -> bool:
-    """Whether the compiled driver takes this problem (:func:`damped_modes`' ``solver``)."""
+def _compiled(n: int, L: int, args, shapes: bool, G) -> bool:
+    """Whether the compiled driver takes this problem (:func:`damped_modes`' ``solver``): no
+    shapes, no coupled legs, real k_d, c_d, t_d, sizes within the driver's, a compiler."""
     from . import c_damped
 
-    if shapes or K_loss is not None or G is not None or n > c_damped.MAX_MODES or L > c_damped.MAX_LEGS:
+    if shapes or G is not None or n > c_damped.MAX_MODES or L > c_damped.MAX_LEGS:
         return False
-    if np.iscomplexobj(W) or any(np.iscomplexobj(a) for a in args):
+    if any(np.iscomplexobj(a) for a in args[1:]):
         return False
     return c_damped.driver() is not None
 
 
-def _damped_c(M, K, W, args, threads: int) -> Damping:
-    """:func:`damped_modes` by the compiled driver, each distinct row once (rows of one
-    condition: the modes of one pose and k_a); the poses it leaves undecided in NumPy."""
+def _damped_c(M, K, W, args, threads: int, K_loss=None) -> Damping:
+    """:func:`damped_modes` by the compiled driver (:func:`.c_damped.solve`; with a loss
+    factor, ``K_loss`` or complex wrenches, :func:`.c_damped.solve_complex`), each distinct
+    row once (rows of one condition: the modes of one pose and k_a); the poses it leaves
+    undecided in NumPy."""
     from . import c_damped
 
-    first, inverse = distinct_rows(np.concatenate([np.reshape(v, (len(K), -1)) for v in (M, K, W, *args)], axis=1))
+    complex_ = K_loss is not None or np.iscomplexobj(W) or np.iscomplexobj(args[0])
+    parts = (M, K, W, *args) + (() if K_loss is None else (K_loss,))
+    flat = [np.reshape(v, (len(K), -1)) for v in parts]
+    flat = [np.concatenate([v.real, v.imag], axis=1) if np.iscomplexobj(v) else v for v in flat]
+    first, inverse = distinct_rows(np.concatenate(flat, axis=1))
     if first is not None:
         M, K, W, args = M[first], K[first], W[first], [a[first] for a in args]
-    wn, zeta, wd, poles, stable, redo = c_damped.solve(
-        M, K, W, *args, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS, threads=threads
-    )
+        K_loss = None if K_loss is None else np.asarray(K_loss)[first]
+    rules = (ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS)
+    if complex_:
+        wn, zeta, wd, poles, stable, redo = c_damped.solve_complex(M, K, K_loss, W, *args, *rules, threads=threads)
+    else:
+        wn, zeta, wd, poles, stable, redo = c_damped.solve(M, K, W, *args, *rules, threads=threads)
     out = [wn / (2 * np.pi), wd / (2 * np.pi), zeta, poles, stable]
     if redo.any():
-        d = damped_modes(M[redo], K[redo], W[redo], *(a[redo] for a in args))
+        kl = None if K_loss is None else np.asarray(K_loss)[redo]
+        d = damped_modes(M[redo], K[redo], W[redo], *(a[redo] for a in args), K_loss=kl)
         for arr, name in zip(out, ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable")):
             arr[redo] = getattr(d, name)
     if first is not None:

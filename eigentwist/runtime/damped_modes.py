@@ -19,7 +19,16 @@ from .damped import (
 from .errors import InputError
 from .threads import resolve_threads
 
-__all__ = ["damped_of", "actuator_values", "solver_of", "one_pass_takes", "fused_damped", "pass_damping"]
+__all__ = [
+    "damped_of",
+    "actuator_values",
+    "solver_of",
+    "one_pass_takes",
+    "fused_damped",
+    "pass_damping",
+    "fused_exact",
+    "exact_merge",
+]
 
 
 def actuator_values(ev, p: dict, effects, n: int):
@@ -296,6 +305,115 @@ def pass_damping(ev, effects, poses, params: dict, p: dict, solved: dict, modes)
         for name in ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable"):
             getattr(out, name)[rows] = getattr(d, name)[rows]
     return out
+
+
+def fused_exact(ev, effects, poses, p: dict, pk: dict, vectors: bool, damped: bool, threads: int):
+    """The fused pass of the C kernels, the legs kernel, the exact condensation of the legs'
+    rigid directions and, with ``damped``, the damped modes of ``effects`` in one C call per
+    range of blocks (:func:`.c_damped.exact_pass`): ``(out, solved)``, ``out`` as
+    ``CKernels.fused`` gives it (``q``, ``M``, K_F's ``freq_hz``, the eigentwists with
+    ``vectors``, ``status``) and ``solved`` what :func:`exact_merge` needs. ``p``: the
+    validated inputs of every pose (``Evaluator.parameter_values``), ``pk`` with the pose."""
+    from . import c_damped, condense
+
+    kernels = ev.kernels
+    out, n, keep, args = kernels.fused_arguments(
+        poses[:, 0],
+        poses[:, 1],
+        poses[:, 2],
+        pk,
+        matrices=("M",),
+        ik=("q",),
+        model="flexible",
+        vectors=vectors,
+        normalize=True,
+        status=True,
+    )
+    legs = kernels.kernel_arguments("legs", pk, n)
+    k_d = c_d = t_d = None
+    if damped:
+        k_d, c_d, t_d, _ = actuator_values(ev, p, effects, n)
+    solved = c_damped.exact_pass(
+        (kernels.address("fused"), args),
+        legs,
+        kernels.BLOCK,
+        n,
+        out["q"],
+        out["M"],
+        k_d,
+        c_d,
+        t_d,
+        (RIGID, ELIMINATE, UNSTABLE_ZETA, AMBIGUOUS),
+        condense.RIGID_RTOL * condense.NULL_FACTOR,
+        vectors,
+        threads,
+    )
+    del keep
+    solved["legs"], solved["M"] = legs[4], out["M"]
+    return out, solved
+
+
+def exact_merge(ev, effects, poses, params: dict, p: dict, solved: dict, modes, vectors: bool):
+    """``modes`` (the fused pass's K_F modes, the evaluator's checks done) with the exact
+    condensation's finite modes of :func:`fused_exact` on its valid rows
+    (:func:`.condense.merge_modes`, as ``Evaluator._exact_modes`` does) and, where the pass
+    solved them, ``modes.damping`` (:class:`~.damped.Damping` as :func:`damped_of` gives it;
+    the poses the driver leaves undecided solved by :func:`damped_of` from the pass's kernel
+    outputs). None, with ``modes`` untouched, where the pass does not stand for the
+    condensation: no valid row, valid rows with different numbers of admissible twists (the
+    damped modes take one for the batch) or a row whose undamped modes it did not solve."""
+    from . import condense
+    from .eigen import frequencies_hz
+
+    N = len(modes.freq_hz)
+    rows = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+    nb, code = solved["nb"][rows], solved["code"][rows]
+    if not rows.any() or np.any(nb != nb[0]) or np.any(code == 2):
+        return None
+    r = int(nb[0])
+    f = np.full((len(nb), 6), np.inf)
+    f[:, :r] = frequencies_hz(solved["lam"][rows][:, :r])
+    modes = condense.merge_modes(modes, rows, f, solved["V"][rows] if vectors else None, vectors)
+    if "damped" not in solved:
+        return modes
+    wn, zeta, wd, poles, stable = solved["damped"]
+    freq = np.array(modes.freq_hz, dtype=float)
+    out = Damping(
+        freq.copy(),
+        freq.copy(),
+        np.full((N, 6), np.nan),
+        np.full((N, 6), np.nan + 0j),
+        None,
+        np.array(modes.stable, dtype=bool),
+    )
+    block = (slice(None), slice(0, r))
+    for name, value in (("natural_hz", wn / (2 * np.pi)), ("damped_hz", wd / (2 * np.pi)), ("damping_ratio", zeta)):
+        arr = getattr(out, name)
+        arr[rows] = np.where(np.arange(6) < r, value[rows], 0.0 if name == "damping_ratio" else arr[rows])
+    sub = poles[rows]
+    pr = out.poles[rows]
+    pr[block] = sub[block]
+    out.poles[rows] = pr
+    out.stable[rows] &= stable[rows]
+    redo = rows & (solved["code"] == 1)
+    if redo.any():  # the driver's undecided poses, on the pass's outputs
+        take = lambda d: {k: (v[redo] if np.ndim(v) and np.shape(v)[0] == N > 1 else v) for k, v in d.items()}  # noqa: E731
+        inputs = {
+            "rows": redo,
+            "poses": np.asarray(poses, dtype=float)[redo],
+            "params": take(params),
+            "p": take(p),
+            "legs": take(solved["legs"]),
+            "mats": {"M": solved["M"][redo]},
+            "B": None,
+            "exact": True,
+            "preloaded": False,
+        }
+        d = damped_of(ev, effects, inputs, modes, False)
+        for name in ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable"):
+            getattr(out, name)[redo] = getattr(d, name)[redo]
+    modes.damping = out
+    return modes
 
 
 def _couplings(ev, effects, legs: dict, n: int):

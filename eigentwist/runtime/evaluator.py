@@ -1339,8 +1339,11 @@ class Evaluator:
         fixed = self._c_rigid or self.stiffness_model(effects) == "flexible"
         damped = complex_shapes or self.damped_model(effects)
         if self._fused and fixed and not self._preloaded(effects):
-            one_pass = damped and not (exact or complex_shapes) and self._one_pass(effects)
-            how = "pass" if one_pass else ("keep" if damped and not exact else None)
+            if exact:  # the exact condensation (and the damped modes) in the C pass where it takes them
+                how = "exact" if not complex_shapes and self._one_pass(effects, exact) else None
+            else:
+                one_pass = damped and not complex_shapes and self._one_pass(effects)
+                how = "pass" if one_pass else ("keep" if damped else None)
             modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, how)
         else:
             stash = {} if exact or (damped and not self._fused) else None
@@ -1408,13 +1411,17 @@ class Evaluator:
             "preloaded": self._preloaded(effects),
         }
 
-    def _one_pass(self, effects) -> bool:
+    def _one_pass(self, effects, exact: bool = False) -> bool:
         """Whether the fused C pass solves the damped modes of ``effects`` itself
         (:func:`.damped_modes.one_pass_takes`): the rigid model on its fixed allowed twists,
-        or a flexible one whose legs have no rigid direction (K_F exact, the six twists)."""
+        a flexible one whose legs have no rigid direction (K_F exact, the six twists), or with
+        ``exact`` (the route condenses rigid directions, :meth:`_route`) the exact
+        condensation of legs on the tool body and its damped modes
+        (:func:`.damped_modes.fused_exact`)."""
         if self.numeric_ik:
             return False
-        if self.stiffness_model(effects) == "flexible" and self._rigid_models.get(tuple(effects)) is not False:
+        flexible = self.stiffness_model(effects) == "flexible"
+        if not exact and flexible and self._rigid_models.get(tuple(effects)) is not False:
             return False
         from .damped_modes import one_pass_takes
 
@@ -1595,14 +1602,25 @@ class Evaluator:
         joint coordinates and M for :meth:`_exact_modes`; ``damped="pass"``: the same C call
         also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`_one_pass`);
         ``"keep"``: the pass also returns the joint coordinates, M and the model's stiffness,
-        kept in ``Modes.legs`` for :meth:`_damping_inputs` (no kernel runs twice). ``out``:
+        kept in ``Modes.legs`` for :meth:`_damping_inputs` (no kernel runs twice); ``"exact"``
+        (with ``exact``): the same C call also runs the legs kernel, the exact condensation and
+        a damped model's damped modes (:func:`.damped_modes.fused_exact`,
+        :func:`.damped_modes.exact_merge`; where that does not stand for the condensation,
+        :meth:`_exact_modes` on the pass's q and M). ``out``:
         the pass's outputs where they are computed already (:meth:`_planned_modes`, undamped)."""
         p = self._params(len(poses), params, effects)
         stiffness = self.stiffness_model(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
         shares = vectors and not exact and stiffness == "flexible"
         keep = ("K_R" if stiffness == "rigid" else "K_F",) if damped == "keep" else ()
-        if out is None and damped == "pass":
+        if out is None and damped == "exact":
+            from .damped_modes import exact_merge, fused_exact
+
+            pk = self._with_pose(poses, p)
+            out, solved = fused_exact(
+                self, effects, poses, p, pk, vectors, self.damped_model(effects), self._nthreads()
+            )
+        elif out is None and damped == "pass":
             from .damped_modes import fused_damped, pass_damping
 
             basis = getattr(self.space, "basis", None)
@@ -1652,7 +1670,10 @@ class Evaluator:
             n = len(poses)
             mats = {k: out[k][rows] for k in ("M",) + keep}
             modes.legs = {"rows": rows, "q": out["q"][rows], "p": p if rows.all() else self._mask(p, rows, n), **mats}
-        if exact:
+        merged = exact_merge(self, effects, poses, params, p, solved, modes, vectors) if damped == "exact" else None
+        if merged is not None:
+            modes = merged
+        elif exact:
             modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
         return modes
 
