@@ -5,11 +5,14 @@
 
 For each robot: the time to generate (SymPy forward mode, CSE, render) and compile (gcc,
 the kernel split into functions of ``CHUNK`` statements) the C sensitivity kernel for
-every parameter of the description, then, best of 3 on ``--n`` random workspace poses:
+every parameter of the description, then, best of 3 repetitions, each on its own ``--n``
+random workspace poses:
 
 - ``Evaluator.frequencies`` (the baseline: IK, M, K_F, eigen-solve, C backend),
 - the raw sensitivity kernel (M, K and dM/dp, dK/dp for every parameter),
 - ``Evaluator.sensitivities`` (checks, kernel, eigen-solve and cluster-aware dω/dp),
+- ``Evaluator.sensitivities(method="differences")`` (central differences of the matrices,
+  the same eigenvalue perturbation; nothing generated),
 
 as poses/s and as the ratio to the baseline of the same run. One thread (BLAS and OpenMP
 on one thread; the C code is single-threaded), so CPU time (``time.process_time``) is the
@@ -40,13 +43,14 @@ def _children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def _best(fn, repeat: int = 3) -> float:
-    """Best CPU time of ``repeat`` calls (one thread: CPU time is the time a core spent)."""
+def _best(fn, pose_sets) -> float:
+    """Best CPU time per pose of ``fn(poses)`` over the pose sets, one call each (one thread:
+    CPU time is the time a core spent)."""
     best = float("inf")
-    for _ in range(repeat):
+    for poses in pose_sets:
         t = time.process_time()
-        fn()
-        best = min(best, time.process_time() - t)
+        fn(poses)
+        best = min(best, (time.process_time() - t) / len(poses))
     return best
 
 
@@ -64,28 +68,40 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
     rng = np.random.default_rng(16)
     lo = np.array([a for a, _ in ev.robot.workspace])
     hi = np.array([b for _, b in ev.robot.workspace])
-    poses = lo + (hi - lo) * rng.random((n, 3))
-    ok = ev.valid(poses)
-    poses = poses[ok]
+    sets = []
+    for _ in range(4):  # the first set warms the kernels; each repetition gets new poses
+        poses = lo + (hi - lo) * rng.random((n, 3))
+        sets.append(poses[ev.valid(poses)])
+    poses = sets[0]
 
     t, c, k = time.perf_counter(), time.process_time(), _children_cpu()
     kern = sensitivity_kernels(ev, wrt, progress=lambda m: print("   ", m, file=sys.stderr, flush=True))
     gen = dict(wall_s=time.perf_counter() - t, python_cpu_s=time.process_time() - c, compiler_cpu_s=_children_cpu() - k)
 
-    p = ev._params(len(poses), {}, "paper")
-    t_freq = _best(lambda: ev.frequencies(poses))
-    t_kern = _best(lambda: kern(poses[:, 0], poses[:, 1], poses[:, 2], p))
-    t_sens = _best(lambda: ev.sensitivities(poses, wrt))
-    m = len(poses)
+    def raw(x):
+        kern(x[:, 0], x[:, 1], x[:, 2], ev._params(len(x), {}, "paper"))
+
+    for fn in (
+        ev.frequencies,
+        raw,
+        lambda x: ev.sensitivities(x, wrt),
+        lambda x: ev.sensitivities(x, wrt, method="differences"),
+    ):
+        fn(sets[0])
+    t_freq = _best(ev.frequencies, sets[1:])
+    t_kern = _best(raw, sets[1:])
+    t_sens = _best(lambda x: ev.sensitivities(x, wrt), sets[1:])
+    t_diff = _best(lambda x: ev.sensitivities(x, wrt, method="differences"), sets[1:])
     return dict(
         robot=robot,
         wrt=len(wrt),
         chunk=CHUNK,
-        poses=m,
+        poses=len(poses),
         generate_and_compile=gen,
-        frequencies=m / t_freq,
-        kernel=m / t_kern,
-        sensitivities=m / t_sens,
+        frequencies=1 / t_freq,
+        kernel=1 / t_kern,
+        sensitivities=1 / t_sens,
+        differences=1 / t_diff,
     )
 
 
@@ -117,6 +133,10 @@ def main() -> None:
         print(
             f"  Evaluator.sensitivities     {r['sensitivities']:10.4g} poses/s  "
             f"({r['sensitivities'] / r['frequencies']:.3f}x)"
+        )
+        print(
+            f"  ... method='differences'    {r['differences']:10.4g} poses/s  "
+            f"({r['differences'] / r['frequencies']:.3f}x)"
         )
 
 
