@@ -39,7 +39,7 @@ def frequency_differences(ev, name: str, params: dict, rel: float = 1e-5) -> np.
 
 def test_the_followers_move_with_the_platform_radius_when_tilted(ev):
     v, h = ev.defaults["R_p"], 1e-6
-    dx = (np.asarray(ev._poses(POSES, {"R_p": v + h})) - np.asarray(ev._poses(POSES, {"R_p": v - h}))) / (2 * h)
+    dx = (np.asarray(ev.completed_poses(POSES, R_p=v + h)) - np.asarray(ev.completed_poses(POSES, R_p=v - h))) / (2 * h)
     assert np.abs(dx[0, [0, 1]]).min() > 1e-3  # m/m: x and y of the tilted pose
     assert np.abs(dx[1]).max() < 1e-9 and np.abs(dx[:, 2:5]).max() < 1e-9  # untilted; commanded fixed
 
@@ -63,7 +63,7 @@ def test_follower_terms_vanish_where_the_followers_stay(ev):
     from eigentwist.runtime.implicit import follower_terms
 
     params = {"c_rigid": C_RIGID}
-    full = ev._poses(POSES, params)
+    full = ev.completed_poses(POSES, **params)
     terms = follower_terms(ev, POSES, full, ("R_p", "m_pl"), MODEL, params)
     dK = terms["dK_F"]
     assert np.abs(dK[0, 0]).max() > 1e-3 * np.abs(ev.matrices(full, MODEL, **params)["K_F"][0]).max()

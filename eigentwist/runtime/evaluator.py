@@ -247,6 +247,13 @@ class Evaluator:
         closure = getattr(self.module, "followers", None)
         return full_poses(self.space, arr, closure, p, self._follower_reference()).view(_Full)
 
+    def completed_poses(self, poses, **params) -> np.ndarray:
+        """The poses completed to the kernels' six coordinates (x, y, z in m, rot_x, rot_y,
+        rot_z in rad): a lower-mobility platform's followers solved from its commanded
+        coordinates with ``params`` (:mod:`.platform`), a planar robot's missing ones zero.
+        An array this returns is taken as complete when given back (no follower solved)."""
+        return self._poses(poses, params)
+
     def _follower_reference(self):
         """The legs' reference configuration (legs, n_q) from which a lower-mobility
         platform's followers are solved with legs solved numerically (:func:`.platform.follow_legs`);

@@ -161,7 +161,7 @@ def follower_terms(ev, given, poses, wrt, model, params: dict) -> dict:
     d = {"d" + k: np.zeros((len(base), len(wrt), 6, 6)) for k in names}
 
     def completed(pp: dict) -> np.ndarray:
-        return np.asarray(ev._poses(given, pp), dtype=float)
+        return np.asarray(ev.completed_poses(given, **pp), dtype=float)
 
     for j, (name, value, h, central) in enumerate(difference_steps(ev, wrt, params)):
         dx = _difference(completed, name, value, h, central, params, base)
