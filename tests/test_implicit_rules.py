@@ -206,3 +206,61 @@ def test_reduced_derivatives_of_the_pencil(params):
     assert ev.models.count("rigid") == 1 + 2 * 2  # the pencil, then two per parameter
     if not params:
         _never_below_b_bound_and_central_in_a(ev)
+
+
+# -- followers that move with the parameters ----------------------------------------------------------------------
+class Full(np.ndarray):
+    """The stand-in's completed poses (taken as complete when given back)."""
+
+
+GIVEN = np.array([[0.5, 0.2, -0.1], [0.0, 0.0, 0.3]])  # commanded (z, rot_x, rot_y); row 1: no follower moves
+
+
+class FollowerEv:
+    """A lower-mobility stand-in: followers x = 1000 a z^2 and y = b^2 rot_x (rot_z = 0); M, K_R,
+    K_F cubic in the completed pose (so a pose step too long shows) and linear in a and m."""
+
+    defaults = {"a": 2.0, "b": 0.5, "m": 1.0}
+    parameters = {"a": NS(bounds=(0.0, math.inf)), "b": NS(bounds=(0.5, 1.0)), "m": NS(bounds=(0.0, math.inf))}
+
+    def completed_poses(self, given, **pp):
+        a, b = (pp.get(k, self.defaults[k]) for k in ("a", "b"))
+        z, rx, ry = np.asarray(given, dtype=float).T
+        return np.stack([1000 * a * z**2, b**2 * rx, z, rx, ry, 0 * z], axis=1).view(Full)
+
+    def matrices(self, full, model, **params):
+        assert isinstance(full, Full) and model == "flexible model"
+        a, m = (params.get(k, self.defaults[k]) for k in ("a", "m"))
+        x, y = (np.asarray(full)[:, k, None, None] for k in (0, 1))
+        return {"M": (1 + x**3 + m) * E[0], "K_R": (y**3 + 2 * y) * E[1], "K_F": (a * x + x**3 + a * y) * E[2]}
+
+
+def test_follower_terms_are_the_chain_rule_through_the_followers():
+    """``(dX/dx) dx/dp`` written out: a moves x (central differences), b on its lower bound moves
+    y (one-sided), m moves none (zero, and the parameters after it still counted); the
+    matrices are asked with the caller's values (a = 1.5, not the default)."""
+    ev, params = FollowerEv(), {"a": 1.5}
+    full = ev.completed_poses(GIVEN, **params)
+    got = implicit.follower_terms(ev, GIVEN, full, ("m", "a", "b"), "flexible model", params)
+    x, y = np.asarray(full)[:, 0], np.asarray(full)[:, 1]
+    z, rx = GIVEN[:, 0], GIVEN[:, 1]
+    dx_da, dy_db = 1000 * z**2, 2 * 0.5 * rx
+
+    def pattern(c, k):
+        return c[:, None, None] * E[k]
+
+    want = {
+        "dM": np.stack([0 * E[0][None].repeat(2, 0), pattern(3 * x**2 * dx_da, 0), 0 * pattern(x, 0)], axis=1),
+        "dK_R": np.stack([0 * pattern(x, 1), 0 * pattern(x, 1), pattern((3 * y**2 + 2) * dy_db, 1)], axis=1),
+        "dK_F": np.stack([0 * pattern(x, 2), pattern((1.5 + 3 * x**2) * dx_da, 2), pattern(1.5 * dy_db, 2)], axis=1),
+    }
+    assert set(got) == set(want)
+    for k in want:
+        np.testing.assert_allclose(got[k], want[k], rtol=1e-7, atol=1e-7 * np.abs(want[k]).max(), err_msg=k)
+    assert not got["dK_F"][1].any()  # row 1: no follower moves
+
+
+def test_follower_terms_without_moving_followers_are_zero():
+    ev = FollowerEv()
+    got = implicit.follower_terms(ev, GIVEN[1:], ev.completed_poses(GIVEN[1:]), ("a", "b", "m"), "flexible model", {})
+    assert all(not v.any() for v in got.values()) and got["dM"].shape == (1, 3, 6, 6)
