@@ -217,8 +217,9 @@ GIVEN = np.array([[0.5, 0.2, -0.1], [0.0, 0.0, 0.3]])  # commanded (z, rot_x, ro
 
 
 class FollowerEv:
-    """A lower-mobility stand-in: followers x = 1000 a z^2 and y = b^2 rot_x (rot_z = 0); M, K_R,
-    K_F cubic in the completed pose (so a pose step too long shows) and linear in a and m."""
+    """A lower-mobility stand-in: followers x = 1000 (a - 1.5) z^2 + z / 10 and y = b^2 rot_x
+    (rot_z = 0); M, K_R, K_F cubic in the completed pose and linear in a and m. At a = 1.5, x is
+    small and moves fast with a: a pose step longer than POSE_STEP shows in the cubic term."""
 
     defaults = {"a": 2.0, "b": 0.5, "m": 1.0}
     parameters = {"a": NS(bounds=(0.0, math.inf)), "b": NS(bounds=(0.5, 1.0)), "m": NS(bounds=(0.0, math.inf))}
@@ -226,7 +227,7 @@ class FollowerEv:
     def completed_poses(self, given, **pp):
         a, b = (pp.get(k, self.defaults[k]) for k in ("a", "b"))
         z, rx, ry = np.asarray(given, dtype=float).T
-        return np.stack([1000 * a * z**2, b**2 * rx, z, rx, ry, 0 * z], axis=1).view(Full)
+        return np.stack([1000 * (a - 1.5) * z**2 + z / 10, b**2 * rx, z, rx, ry, 0 * z], axis=1).view(Full)
 
     def matrices(self, full, model, **params):
         assert isinstance(full, Full) and model == "flexible model"
