@@ -520,3 +520,31 @@ def test_an_array_default_takes_the_general_route(monkeypatch):
     scalar = eigentwist.load("heli4", backend="c", threads=1)
     assert scalar._plan("rigid", {}, "raise", "raise", False) is not None
     assert scalar.modes(poses, "rigid", vectors=False).freq_hz.tobytes() == got.freq_hz.tobytes()
+
+
+@compiled
+@pytest.mark.parametrize("robot", ["heli4", "hexapod"])
+def test_a_short_block_gives_the_padded_full_blocks_bits(robot, monkeypatch):
+    """The C pass's loops over a last block of m < 64 poses run over m rounded up to a
+    multiple of 8 (the block padded with copies of its last pose): a batch of 1, 7, 8 (a
+    multiple), 9 (just past one), 63 or 65 poses gives, bit for bit, the frequencies,
+    eigentwists and matrices of its poses in a batch padded to whole blocks of 64 with copies
+    of its last pose (the same block mates: the Jacobi sweeps of a block run until all its
+    poses converge)."""
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    ev = eigentwist.load(robot, backend="c", threads=1)
+    poses = random_poses(ev.robot, 200, seed=49)
+    poses = poses[ev.valid(poses, "paper")][:70]
+    p = ev.parameter_values(1, "paper")
+
+    def matrices(P):
+        return ev.kernels.fused(P[:, 0], P[:, 1], P[:, 2], {**p, **ev.kernel_pose_inputs(P)}, matrices=("M", "K_F"))
+
+    for m in (1, 7, 8, 9, 63, 65):
+        P = poses[:m]
+        padded = np.vstack([P, np.repeat(P[-1:], -m % 64, axis=0)])
+        got, want = ev.modes(P, "paper"), ev.modes(padded, "paper")
+        assert got.freq_hz.tobytes() == want.freq_hz[:m].tobytes(), m
+        assert got.eigentwists.tobytes() == want.eigentwists[:m].tobytes(), m
+        got, want = matrices(P), matrices(padded)
+        assert all(got[k].tobytes() == want[k][:m].tobytes() for k in ("M", "K_F")), m
