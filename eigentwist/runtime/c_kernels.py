@@ -526,6 +526,10 @@ class CKernels:
         its eigenvalues are not finite (these three get NaN frequencies and eigentwists),
         4 when a mode is unstable, else 0. Without ``status`` nothing is checked.
 
+        A 6-DoF robot's pass reads its rotation from ``p``'s rotation vector ``rot_x, rot_y,
+        rot_z`` (rad; :data:`ROTATION_VECTOR`) where ``p`` has it, computing the rotation
+        matrix entries ``R_ij`` per block; otherwise it reads ``p``'s ``R_ij``.
+
         ``out`` maps output names to preallocated C-contiguous arrays of the result's shape
         and dtype, written in place (no other copy is made). ``threads`` > 1 runs ranges
         of whole blocks on that many threads (bounded by :func:`threads_for`); the results
