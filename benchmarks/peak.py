@@ -62,7 +62,7 @@ INT_TARGETS = {"et_left", "unreachable", "singular"}
 _TOKEN = re.compile(
     r"\s*(\d+\.\d*(?:[eE][-+]?\d+)?|\d+(?:[eE][-+]?\d+)?|[A-Za-z_]\w*|\+=|-=|\*=|/=|\|=|&=|==|!=|<=|>=|&&|\|\||\S)"
 )
-_LOOP = re.compile(r"#pragma omp simd[^\n]*\n\s*for \(int et_i = 0; et_i < ET_BLOCK; \+\+et_i\) \{\n")
+_LOOP = re.compile(r"#pragma omp simd[^\n]*\n\s*for \(int et_i = 0; et_i < (?:ET_BLOCK|et_nb); \+\+et_i\) \{\n")
 _FUNC = re.compile(r"^(?:static )?(?:void|int|double) (\w+)\(", re.M)
 
 
@@ -109,8 +109,8 @@ def loop_bodies(source: str) -> dict:
 def fused_parts(source: str) -> dict:
     """The block functions the fused pass calls: ``{"ik": name, "mk": name}``."""
     return {
-        "ik": re.search(r"(\w+)_block\(et_x_ik", source).group(1) + "_block",
-        "mk": re.search(r"(\w+)_block\(et_x_m\b", source).group(1) + "_block",
+        "ik": re.search(r"(\w+)_block\((?:nb, )?et_x_ik", source).group(1) + "_block",
+        "mk": re.search(r"(\w+)_block\((?:nb, )?et_x_m\b", source).group(1) + "_block",
     }
 
 
@@ -124,7 +124,7 @@ def counting_kernels(robot: str, source: str) -> tuple:
         "long et_peak_sweeps_taken(void) { return et_peak_sweeps; }",
         1,
     )
-    src = re.sub(r"if \(!(et_sweep\d+)\(ap\)\)", r"if ((++et_peak_sweeps, !\1(ap)))", src)
+    src = re.sub(r"if \(!(et_sweep\d+)\((et_nb, )?ap\)\)", r"if ((++et_peak_sweeps, !\1(\2ap)))", src)
     lib, sig, build = compile_and_load(robot, src)
     fn = lib.et_peak_sweeps_taken
     fn.restype = ctypes.c_long

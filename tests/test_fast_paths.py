@@ -442,36 +442,65 @@ def test_prepared_pass_gives_the_general_routes_bits(robot, bad, monkeypatch):
     assert big.freq_hz.tobytes() == general.modes(poses, "paper", vectors=False).freq_hz.tobytes()
 
 
-def test_rotation_rows_are_rotation_entries_bit_for_bit():
-    """``rotation_rows`` (one array, the entries asked for) and ``rotation_entries`` give the
-    bits of Rodrigues' formula as written here, with its series selected below t^2 = 1e-12
-    (batches with and without such a vector, just below and just above the threshold)."""
-    from eigentwist.runtime.poses import rotation_entries, rotation_rows
+def _rodrigues_reference(r):
+    """The nine entries of R = I + a [r]x + b [r]x^2 of rotation vectors r (N, 3), written
+    out here, with the series of a = sin(t)/t and b = (1 - cos t)/t^2 below t^2 = 1e-12."""
+    x, y, z = r[:, 0], r[:, 1], r[:, 2]
+    xx, yy, zz = x * x, y * y, z * z
+    t2 = xx + yy + zz
+    small = t2 < 1e-12
+    safe = np.where(small, 1.0, np.sqrt(t2))
+    a = np.where(small, 1 - t2 / 6, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
+    ax, ay, az, bxy, bxz, byz = a * x, a * y, a * z, b * (x * y), b * (x * z), b * (y * z)
+    return [
+        1 + b * (-zz - yy), -az + bxy, ay + bxz, az + bxy, 1 + b * (-zz - xx),
+        -ax + byz, -ay + bxz, ax + byz, 1 + b * (-yy - xx),
+    ]  # fmt: skip
 
-    def reference(r):
-        x, y, z = r[:, 0], r[:, 1], r[:, 2]
-        xx, yy, zz = x * x, y * y, z * z
-        t2 = xx + yy + zz
-        small = t2 < 1e-12
-        safe = np.where(small, 1.0, np.sqrt(t2))
-        a = np.where(small, 1 - t2 / 6, np.sin(safe) / safe)
-        b = np.where(small, 0.5 - t2 / 24, (1 - np.cos(safe)) / safe**2)
-        ax, ay, az, bxy, bxz, byz = a * x, a * y, a * z, b * (x * y), b * (x * z), b * (y * z)
-        return [
-            1 + b * (-zz - yy), -az + bxy, ay + bxz, az + bxy, 1 + b * (-zz - xx),
-            -ax + byz, -ay + bxz, ax + byz, 1 + b * (-yy - xx),
-        ]  # fmt: skip
+
+#: rotation vectors just inside and just outside the series' threshold t^2 = 1e-12, and zero
+_NEAR_ZERO = np.array([[0.999e-6, 0.0, 0.0], [1.001e-6, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, -5e-7, 5e-7]])
+
+
+def test_rotation_entries_are_rodrigues_bit_for_bit():
+    """``rotation_entries`` gives the bits of Rodrigues' formula as written here, with its
+    series selected below t^2 = 1e-12 (batches with and without such a vector, just below
+    and just above the threshold)."""
+    from eigentwist.runtime.poses import rotation_entries
 
     r = np.random.default_rng(47).normal(size=(40, 3))
-    inside, outside = np.array([0.999e-6, 0.0, 0.0]), np.array([1.001e-6, 0.0, 0.0])  # t^2 vs 1e-12
-    for batch in (r, np.vstack([r, inside]), np.vstack([r, outside])):
-        want = reference(batch)
-        rows = rotation_rows(batch, (0, 1, 3, 4, 6, 7))
-        assert rows.flags.c_contiguous and rows.shape == (6, len(batch))
-        assert [w.tobytes() for w in want] == [e.tobytes() for e in rotation_entries(batch)]
-        assert [want[k].tobytes() for k in (0, 1, 3, 4, 6, 7)] == [row.tobytes() for row in rows]
+    for batch in (r, np.vstack([r, _NEAR_ZERO[0]]), np.vstack([r, _NEAR_ZERO[1]])):
+        assert [w.tobytes() for w in _rodrigues_reference(batch)] == [e.tobytes() for e in rotation_entries(batch)]
     R = np.array(rotation_entries([0.0, 0.0, np.pi / 2])).reshape(3, 3)  # a quarter turn about z
     np.testing.assert_allclose(R, [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-15)
+
+
+@compiled
+def test_the_pass_computes_the_rotation_from_the_rotation_vector(monkeypatch):
+    """The hexapod's C pass given the rotation vector (``rot_x, rot_y, rot_z``; it computes
+    the R_ij it reads, per block) equals the pass given R_ij from Rodrigues' formula written
+    here (every R_ij input read), on random poses and rotation vectors just inside and
+    outside the series' threshold and zero: joint coordinates, M, K_F and frequencies to
+    1e-13 relative (a rotation entry's round-off is ~1e-16); a partial block and a full one."""
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    ev = eigentwist.load("hexapod", backend="c", threads=1)
+    poses = random_poses(ev.robot, 80, seed=48)
+    poses[[5, 17, 66, 79], 3:] = _NEAR_ZERO
+    p = ev.parameter_values(1, "paper")
+    x, y, z = poses[:, :3].T
+    by_matrix = {
+        **p,
+        **dict(zip([f"R_{i}{j}" for i in range(3) for j in range(3)], _rodrigues_reference(poses[:, 3:]))),
+    }
+    by_vector = {**p, "rot_x": poses[:, 3], "rot_y": poses[:, 4], "rot_z": poses[:, 5]}
+    opts = dict(ik=("q",), matrices=("M", "K_F"), model="flexible", status=True)
+    want = ev.kernels.fused(x, y, z, by_matrix, **opts)
+    got = ev.kernels.fused(x, y, z, by_vector, **opts)
+    assert (got["status"] == want["status"]).all() and (want["status"][[5, 17, 66, 79]] == 0).all()
+    for key in ("q", "M", "K_F", "freq_hz"):
+        scale = np.abs(want[key]).max(axis=tuple(range(1, want[key].ndim)), keepdims=True)
+        assert np.all(np.abs(got[key] - want[key]) <= 1e-13 * scale), key
 
 
 @compiled
@@ -491,3 +520,31 @@ def test_an_array_default_takes_the_general_route(monkeypatch):
     scalar = eigentwist.load("heli4", backend="c", threads=1)
     assert scalar._plan("rigid", {}, "raise", "raise", False) is not None
     assert scalar.modes(poses, "rigid", vectors=False).freq_hz.tobytes() == got.freq_hz.tobytes()
+
+
+@compiled
+@pytest.mark.parametrize("robot", ["heli4", "hexapod"])
+def test_a_short_block_gives_the_padded_full_blocks_bits(robot, monkeypatch):
+    """The C pass's loops over a last block of m < 64 poses run over m rounded up to a
+    multiple of 8 (the block padded with copies of its last pose): a batch of 1, 7, 8 (a
+    multiple), 9 (just past one), 63 or 65 poses gives, bit for bit, the frequencies,
+    eigentwists and matrices of its poses in a batch padded to whole blocks of 64 with copies
+    of its last pose (the same block mates: the Jacobi sweeps of a block run until all its
+    poses converge)."""
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    ev = eigentwist.load(robot, backend="c", threads=1)
+    poses = random_poses(ev.robot, 200, seed=49)
+    poses = poses[ev.valid(poses, "paper")][:70]
+    p = ev.parameter_values(1, "paper")
+
+    def matrices(P):
+        return ev.kernels.fused(P[:, 0], P[:, 1], P[:, 2], {**p, **ev.kernel_pose_inputs(P)}, matrices=("M", "K_F"))
+
+    for m in (1, 7, 8, 9, 63, 65):
+        P = poses[:m]
+        padded = np.vstack([P, np.repeat(P[-1:], -m % 64, axis=0)])
+        got, want = ev.modes(P, "paper"), ev.modes(padded, "paper")
+        assert got.freq_hz.tobytes() == want.freq_hz[:m].tobytes(), m
+        assert got.eigentwists.tobytes() == want.eigentwists[:m].tobytes(), m
+        got, want = matrices(P), matrices(padded)
+        assert all(got[k].tobytes() == want[k][:m].tobytes() for k in ("M", "K_F")), m

@@ -165,11 +165,13 @@ def library_context(robot, kernels, prefix: str) -> dict:
     for n in names:
         if n in POSITION:
             sources.append((f"et_poses + {POSITION.index(n)}", "ET_POSE_WIDTH"))
-        elif n in ROTATION:
-            i, j = ROTATION[n]
-            sources.append((f"et_rot + {3 * i + j}", "9"))
+        elif n in ROTATION:  # computed by the pass from the rotation vector (below): not read
+            sources.append(("0", "0"))
         else:
             sources.append((f"et_inputs + {index[n]}", "0"))
+    rotation = any(n in ROTATION for n in names)
+    if rotation:  # the fused pass's inputs after its named ones: the rotation vector
+        sources += [(f"et_poses + {3 + k}", "ET_POSE_WIDTH") for k in range(3)]
     effects = [robot.effect(e) for e in robot.effects]
 
     def switches(pick) -> list[int]:
@@ -194,11 +196,11 @@ def library_context(robot, kernels, prefix: str) -> dict:
         pose=pose,
         pose_width=len(pose),
         pose_units=", ".join(f"{p} ({'m' if p in POSITION else 'rad'})" for p in pose),
-        rotation=any(n in ROTATION for n in names),
+        rotation=rotation,
         inputs=inputs,
         n_inputs=len(inputs),
         sources=sources,
-        n_fused=len(names),
+        n_fused=len(sources),
         structural=switches(lambda e: e.structural),
         preload=switches(lambda e: e.primitive == "preload"),
         rigid_dim=rigid_dim,

@@ -30,13 +30,13 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE
 
 from . import c_eigen
-from .c_library import fused_input_names, library_context
+from .c_library import ROTATION, fused_input_names, library_context
 from .kernel import Kernel, UndeclaredSymbolError
 from .render import environment, header
 
 __all__ = ["render_c", "CCodePrinter", "c_identifiers", "ABI_VERSION", "BLOCK", "EIGEN_MODELS"]
 
-ABI_VERSION = 2
+ABI_VERSION = 3
 BLOCK = 64  # poses per block: inputs, outputs and temporaries stay in L1/L2
 # eigenproblems of the fused pipeline: (model, dimension, first index, inertia, stiffness).
 # The flexible model uses the full 6x6 M and K_F (Eq. 13); the rigid one the lower-right
@@ -260,6 +260,13 @@ def _fused_context(kctx: dict, models=EIGEN_MODELS) -> dict:
     n = max(EIGEN_DIMS)
     work = max(_eigen_work(d) for d in EIGEN_DIMS)
     blocks = len(inputs) + ik["n_ent"] + mats["n_ent"] + jac["n_ent"] + n + n * n + work + 2
+    # a 6-DoF robot's rotation matrix entries R_ij among the inputs: (input, entry 3 i + j),
+    # computed from the rotation vector per block when the caller passes it (et_rotation)
+    rotation = [
+        (k, 3 * ROTATION[i["name"]][0] + ROTATION[i["name"]][1]) for k, i in enumerate(inputs) if i["name"] in ROTATION
+    ]
+    if rotation:
+        blocks += 3
     reach = [f"et_ikb[{r}]" for r, e in enumerate(ik["entries"]) if e["name"] != "q"]
     lever = [f"et_mb[{r}]" for r, e in enumerate(mats["entries"]) if e["name"] == "lever"]
     return dict(
@@ -274,6 +281,7 @@ def _fused_context(kctx: dict, models=EIGEN_MODELS) -> dict:
         mats=mats["name"],
         reach=reach,
         lever=lever,
+        rotation=rotation,
         mat_outputs=[[o["name"], o["shape"]] for o in mats["outputs"]],
         status=STATUS,
     )
@@ -322,6 +330,8 @@ def _signature(robot, prefix: str, kernels: list[dict], fused: dict, digest: str
             matrices=fused["mat_outputs"],
             status=fused["status"],
             lever_check=bool(fused["lever"]),
+            # inputs n_in .. n_in + 2: the rotation vector, read where the first is not NULL
+            rotation=bool(fused["rotation"]),
             # each model's dimension, where it differs from eigh's dims (a 6-DoF robot)
             **({"dims": [e["n"] for e in fused["eigen"]]} if eigen_models(robot) is not EIGEN_MODELS else {}),
         ),

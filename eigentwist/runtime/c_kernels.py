@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import ctypes
 import json
+import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +38,9 @@ from . import eigen, validity
 from .threads import run_ranges, threads_for
 from .validity import LEVER_SCALE, STATUS
 
+#: the names under which a 6-DoF robot's rotation vector (rad) reaches the fused pass
+ROTATION_VECTOR = ("rot_x", "rot_y", "rot_z")
+
 __all__ = [
     "load_c_kernels",
     "CKernels",
@@ -49,7 +53,7 @@ __all__ = [
     "source_path",
 ]
 
-ABI_VERSION = 2
+ABI_VERSION = 3
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
 
@@ -278,6 +282,10 @@ class CKernels:
         self.BLOCK = int(signature["block"])
         self.FUSED_MATRICES = {o: tuple(s) for o, s in signature["fused"]["matrices"]}
         self._fused_names = [name for _, name in signature["fused"]["inputs"]]
+        # a 6-DoF robot's pass computes its R_ij inputs from the rotation vector (given by
+        # the pose coordinates' names ROTATION_VECTOR) after its named inputs
+        self._rotation = bool(signature["fused"].get("rotation"))
+        self._unread = {n for n in self._fused_names if re.fullmatch(r"R_[0-2][0-2]", n)} if self._rotation else set()
         self._packed: _Packed | None = None
         self._kernel_packed: dict = {}  # kernel -> the _Packed scalars of its last call (_run)
         self._layouts: dict = {}  # kernel -> its inputs' layout (_layout)
@@ -518,6 +526,10 @@ class CKernels:
         its eigenvalues are not finite (these three get NaN frequencies and eigentwists),
         4 when a mode is unstable, else 0. Without ``status`` nothing is checked.
 
+        A 6-DoF robot's pass reads its rotation from ``p``'s rotation vector ``rot_x, rot_y,
+        rot_z`` (rad; :data:`ROTATION_VECTOR`) where ``p`` has it, computing the rotation
+        matrix entries ``R_ij`` per block; otherwise it reads ``p``'s ``R_ij``.
+
         ``out`` maps output names to preallocated C-contiguous arrays of the result's shape
         and dtype, written in place (no other copy is made). ``threads`` > 1 runs ranges
         of whole blocks on that many threads (bounded by :func:`threads_for`); the results
@@ -554,8 +566,17 @@ class CKernels:
         into (held while they are used) and the C arguments after ``(begin, end)`` (for a
         driver that runs the pass block by block itself, :mod:`.c_damped`)."""
         spec = self.signature["fused"]
-        values = list(map({**p, "x": x, "y": y, "z": z}.__getitem__, self._fused_names))
+        given = {**p, "x": x, "y": y, "z": z}
+        by_vector = self._rotation and all(k in given for k in ROTATION_VECTOR)
+        if by_vector:  # R_ij come from the rotation vector in C: not read, placeholders
+            values = [0.0 if n in self._unread else given[n] for n in self._fused_names]
+            values += [given[k] for k in ROTATION_VECTOR]
+        else:
+            values = list(map(given.__getitem__, self._fused_names))
+            values += [0.0] * (3 if self._rotation else 0)
         keep, ins, ins_stride, lead = self._pack(values)
+        if self._rotation and not by_vector:
+            ins[len(self._fused_names)] = None  # the pass reads R_ij
         n = lead[0] if len(lead) == 1 else int(np.prod(lead, dtype=np.int64))
         result: dict = {}
         given = dict(out or {})
@@ -654,11 +675,19 @@ class CKernels:
         unknown = sorted(set(matrices) - set(self.FUSED_MATRICES))
         if unknown:
             raise KeyError(f"matrices has no output(s) {unknown}: expected {list(self.FUSED_MATRICES)}")
+        names = self._fused_names + (list(ROTATION_VECTOR) if self._rotation else [])
         return FusedCall(
             self._lib[spec["function"]],  # a function object of its own (FusedCall sets its argtypes)
-            self._fused_names,
+            names,
             p,
             pose_inputs,
+            unread=(
+                self._unread
+                if all(k in pose_inputs for k in ROTATION_VECTOR)
+                else set(ROTATION_VECTOR)
+                if self._rotation
+                else set()
+            ),
             model_id=model_id,
             dim=spec.get("dims", self.signature["eigh"]["dims"])[model_id],
             vectors=vectors,

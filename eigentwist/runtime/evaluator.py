@@ -287,13 +287,16 @@ class Evaluator:
         """The pose inputs the generated kernels read from their parameter dict, (N,)
         arrays by name: none for a 3-DoF robot (its kernels take x, y, z as arguments);
         for a 6-DoF robot the position ``x, y, z`` (m) and the rotation matrix entries
-        ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`)."""
+        ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`),
+        and the rotation vector itself ``rot_x, rot_y, rot_z`` (rad), from which the C pass
+        computes the ``R_ij`` it reads."""
         if not self._six:
             return {}
         from .poses import rotation_entries
 
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
         out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        out.update(rot_x=poses[:, 3], rot_y=poses[:, 4], rot_z=poses[:, 5])
         out.update(zip(_ROTATION_NAMES, rotation_entries(poses[:, 3:6])))
         return out
 
@@ -1724,10 +1727,8 @@ class Evaluator:
             p = self._params(1, routed, effects)
         except Exception:  # refused values: the general route raises
             return None
-        # the poses' columns (a row of dof doubles apart) and the rotation's rows (_planned_modes)
-        names = {n: self.dof for n in ("x", "y", "z")}
-        if self._six:
-            names.update((n, 1) for n in _ROTATION_NAMES)
+        # the poses' columns (a row of dof doubles apart): the position and the rotation vector
+        names = {n: self.dof for n in FULL[: self.dof]}
         shares = vectors and stiffness == "flexible"
         try:
             call = self._kernels.prepare_fused(
@@ -1735,17 +1736,26 @@ class Evaluator:
             )
         except (KeyError, ValueError):  # an input per pose (an array default) or not in p: the general route
             return False
-        if call.pose_inputs[:3] != ("x", "y", "z"):
+        if call.pose_inputs != tuple(names)[: len(call.pose_inputs)] or len(call.pose_inputs) not in (3, self.dof):
             return False
-        names = tuple(_ROTATION_NAMES.index(n) for n in call.pose_inputs[3:])
-        return (call, names, effects, routed, stiffness, self.axes(stiffness), invalid == "raise", vectors, unstable)
+        return (
+            call,
+            len(call.pose_inputs),
+            effects,
+            routed,
+            stiffness,
+            self.axes(stiffness),
+            invalid == "raise",
+            vectors,
+            unstable,
+        )
 
     def _planned_modes(self, plan: tuple, poses) -> Modes | None:
         """:meth:`modes` by the prepared pass ``plan`` (:meth:`_plan`); None for poses that
         :meth:`modes` refuses (it names them). A pose flagged by the pass (unreachable,
         singular, unstable) or by the parallel screen goes on to :meth:`_fused_modes` with
         the pass's outputs, which checks it as :meth:`modes` does."""
-        call, names, effects, routed, stiffness, axes, check, vectors, unstable = plan
+        call, columns, effects, routed, stiffness, axes, check, vectors, unstable = plan
         arr = np.asarray(poses, dtype=float)
         if arr.ndim == 1:
             arr = arr[None, :]
@@ -1755,14 +1765,7 @@ class Evaluator:
             arr = np.ascontiguousarray(arr)
         n = len(arr)
         base = arr.ctypes.data
-        addresses = [base, base + 8, base + 16]
-        if names:  # the rotation matrix's entries that the kernels read, row by row
-            from .poses import rotation_rows
-
-            rows = rotation_rows(arr[:, 3:6], names)
-            base = rows.ctypes.data
-            addresses += [base + 8 * n * k for k in range(len(names))]
-        out = call(addresses, n, self._nthreads())
+        out = call([base + 8 * k for k in range(columns)], n, self._nthreads())
         st, freq = out["status"], out["freq_hz"]
         # a flagged pose, or one below the parallel screen (ndarray.min and max without their wrappers)
         if (

@@ -30,10 +30,12 @@ class FusedCall:
 
     ``fn`` is the library's fused function (a function object of its own: its argument
     types are set here), ``names`` its inputs in order, ``pose_inputs`` the inputs that come
-    from the pose (``x, y, z``, and a 6-DoF platform's ``R_ij``; those the pass does not
+    from the pose (``x, y, z``, and a 6-DoF platform's rotation vector; those the pass does not
     read are dropped: :attr:`pose_inputs` keeps the others, in the order :meth:`__call__`
     receives their addresses) mapped to the distance between two poses' values in doubles;
-    ``dim`` the model's number of modes, ``matrices`` the size of the pass's table of
+    ``unread`` the inputs the pass does not read (a NULL address: a 6-DoF platform's ``R_ij``
+    where the rotation vector is among the pose inputs, else the rotation vector); ``dim``
+    the model's number of modes, ``matrices`` the size of the pass's table of
     matrix pointers and (index in it, name, shape) of each matrix asked for, ``options`` a
     function returning the pass's option array, ``block`` its block of poses and ``check``
     the function raising for a nonzero return code. Raises ``InputError`` when another input of
@@ -59,13 +61,14 @@ class FusedCall:
         options,
         block: int,
         check,
+        unread=frozenset(),
     ):
-        pose_inputs = {k: v for k, v in pose_inputs.items() if k in names}
+        pose_inputs = {k: v for k, v in pose_inputs.items() if k in names and k not in unread}
         self.pose_inputs = tuple(pose_inputs)
         self.at = [names.index(n) for n in pose_inputs]
         scalars = np.zeros(len(names), dtype=np.float64)
         for k, name in enumerate(names):
-            if name in pose_inputs:
+            if name in pose_inputs or name in unread:
                 continue
             value = np.asarray(p[name], dtype=np.float64)
             if value.size != 1:
@@ -74,7 +77,9 @@ class FusedCall:
         scalars.flags.writeable = False
         self.scalars = scalars  # the addresses point into it: kept as long as this object
         base = scalars.ctypes.data
-        self.addresses = (ctypes.c_void_p * len(names))(*(base + 8 * k for k in range(len(names))))
+        self.addresses = (ctypes.c_void_p * len(names))(
+            *(None if name in unread else base + 8 * k for k, name in enumerate(names))
+        )
         strides = [0] * len(names)
         for k, step in zip(self.at, pose_inputs.values()):
             strides[k] = step

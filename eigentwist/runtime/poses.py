@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rotation_matrix", "rotation_entries", "rotation_rows", "rotation_vector", "exp_twist"]
+__all__ = ["rotation_matrix", "rotation_entries", "rotation_vector", "exp_twist"]
 
 
 def _rodrigues(r: np.ndarray) -> tuple:
@@ -47,17 +47,6 @@ def rotation_entries(rotvec) -> list:
     series near t = 0 (the arithmetic of :func:`rotation_matrix`, element by element)."""
     terms = _rodrigues(np.asarray(rotvec, dtype=float))
     return [entry(*terms, None) for entry in _ENTRIES]
-
-
-def rotation_rows(rotvec, entries) -> np.ndarray:
-    """(len(entries), N) C-contiguous: the entries ``k = 3 i + j`` of the rotation matrices
-    of rotation vectors (N, 3) (rad), row by row; the same values as
-    :func:`rotation_entries`, bit for bit."""
-    terms = _rodrigues(np.asarray(rotvec, dtype=float))
-    out = np.empty((len(entries), len(terms[0])))
-    for row, k in zip(out, entries):
-        _ENTRIES[k](*terms, row)
-    return out
 
 
 def rotation_matrix(rotvec) -> np.ndarray:
