@@ -479,7 +479,12 @@ def test_one_c_call_from_the_legs_where_the_driver_takes_the_problem(driver):
         and np.allclose(d.damped_hz[rows], damped)
     )
     assert np.allclose(d.damping_ratio[rows], zeta) and np.all(np.isnan(d.poles[1]))
-    assert call["rules"] == (damped_module.RIGID, damped_module.ELIMINATE, damped_module.UNSTABLE_ZETA, 0.5)
+    assert call["rules"] == (
+        damped_module.RIGID,
+        damped_module.ELIMINATE,
+        damped_module.UNSTABLE_ZETA,
+        damped_module.AMBIGUOUS,
+    )
     assert call["threads"] == 3 and call["e"] == JOINTS and np.array_equal(call["K"], K_F)
     assert np.array_equal(call["Kg"], K_ground) and np.allclose(call["B"], np.eye(6))
     assert np.array_equal(call["k_d"], np.full((2, LEGS), K_A)) and np.array_equal(call["c_d"], np.full((2, LEGS), C_A))
@@ -688,3 +693,68 @@ def test_pass_damping_keeps_the_decided_poses_and_solves_the_undecided():
     )
     d = dm.pass_damping(StandIn(), ("servo_damping",), np.zeros((3, 3)), {}, params(), solved, modes)
     assert np.allclose(d.poles, poles) and d.stable.all()
+
+
+class Kernels:
+    """The C kernels' side :func:`fused_damped` reads: the fused pass's arguments and the legs
+    kernel's, recorded."""
+
+    BLOCK = 32
+
+    def __init__(self, n, Je, Cq):
+        self.n, self.Je, self.Cq = n, Je, Cq
+        self.asked = {}
+
+    def fused_arguments(self, x, y, z, pk, **options):
+        self.asked["fused"] = (np.array([x, y, z]).T, pk, options)
+        out = {"q": "q", "M": "M", "K_R": "K_R", "K_F": "K_F"}
+        return out, self.n, "keep", "fused args"
+
+    def kernel_arguments(self, name, pk, n):
+        self.asked["legs"] = (name, pk, n)
+        return ("legs", 0, 0, 0, {"Je": self.Je, "Cq": self.Cq})
+
+    def address(self, name):
+        return f"address of {name}"
+
+
+@pytest.mark.parametrize("rigid", [False, True])
+def test_fused_damped_hands_the_pass_and_the_legs_to_one_call(monkeypatch, rigid):
+    from eigentwist.runtime import c_damped
+    from eigentwist.runtime import damped as damped_module
+
+    Je, Cq, M, K_ground = structure(4)
+    kernels = Kernels(4, Je, Cq)
+    got = {}
+
+    def one_pass(fused, legs, block, n, q, M_, K, Je_, Cq_, e_used, B, k_d, c_d, t_d, rules, threads):
+        got.update(locals())
+        return "poles"
+
+    monkeypatch.setattr(c_damped, "one_pass", one_pass)
+    ev = StandIn(rigid=rigid)
+    ev.kernels = kernels
+    P = np.arange(12.0).reshape(4, 3)
+    basis = np.eye(6)[:, 3:].tolist()
+    out, solved = dm.fused_damped(ev, ("servo_damping", "servo_delay"), P, params(), {"pk": 1}, True, basis, 5)
+    k = "K_R" if rigid else "K_F"
+    poses, pk, options = kernels.asked["fused"]
+    assert np.array_equal(poses, P) and pk == {"pk": 1}
+    assert options == dict(
+        matrices=("M", k), ik=("q",), model="rigid" if rigid else "flexible", vectors=True, normalize=True, status=True
+    )
+    assert kernels.asked["legs"] == ("legs", {"pk": 1}, 4)
+    assert got["fused"] == ("address of fused", "fused args") and got["legs"] == ("legs", 0, 0, 0, {"Je": Je, "Cq": Cq})
+    assert (got["block"], got["n"], got["q"], got["M_"], got["K"]) == (32, 4, "q", "M", k)
+    assert got["Je_"] is Je and got["Cq_"] is Cq and got["e_used"] == (1 if rigid else JOINTS) and got["threads"] == 5
+    assert (got["B"] is None) is not rigid and (not rigid or np.array_equal(got["B"], np.eye(6)[:, 3:]))
+    assert np.array_equal(got["k_d"], np.full((4, LEGS), K_A)) and np.array_equal(got["c_d"], np.full((4, LEGS), C_A))
+    assert np.array_equal(got["t_d"], np.full((4, LEGS), T_D))
+    assert got["rules"] == (
+        damped_module.RIGID,
+        damped_module.ELIMINATE,
+        damped_module.UNSTABLE_ZETA,
+        damped_module.AMBIGUOUS,
+    )
+    assert out == {"q": "q", "M": "M", "K_R": "K_R", "K_F": "K_F"}
+    assert solved == {"poles": "poles", "legs": {"Je": Je, "Cq": Cq}, "stiffness": k, "M": "M", "K": k}
