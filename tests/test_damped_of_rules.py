@@ -38,8 +38,10 @@ class StandIn:
         self.rigid = rigid
         self.basis = basis
         self.asked = []
+        self.models = []
 
     def stiffness_model(self, effects):
+        self.models.append(tuple(effects))  # the effects' model, asked with the effects
         return "rigid" if self.rigid else "flexible"
 
     def allowed_twists(self, poses, **params):
@@ -735,8 +737,9 @@ def test_fused_damped_hands_the_pass_and_the_legs_to_one_call(monkeypatch, rigid
     ev = StandIn(rigid=rigid)
     ev.kernels = kernels
     P = np.arange(12.0).reshape(4, 3)
-    basis = np.eye(6)[:, 3:].tolist()
+    basis = np.eye(6, dtype=int)[:, 3:].tolist()  # read as doubles
     out, solved = dm.fused_damped(ev, ("servo_damping", "servo_delay"), P, params(), {"pk": 1}, True, basis, 5)
+    assert ev.models == [("servo_damping", "servo_delay")]
     k = "K_R" if rigid else "K_F"
     poses, pk, options = kernels.asked["fused"]
     assert np.array_equal(poses, P) and pk == {"pk": 1}
@@ -747,7 +750,8 @@ def test_fused_damped_hands_the_pass_and_the_legs_to_one_call(monkeypatch, rigid
     assert got["fused"] == ("address of fused", "fused args") and got["legs"] == ("legs", 0, 0, 0, {"Je": Je, "Cq": Cq})
     assert (got["block"], got["n"], got["q"], got["M_"], got["K"]) == (32, 4, "q", "M", k)
     assert got["Je_"] is Je and got["Cq_"] is Cq and got["e_used"] == (1 if rigid else JOINTS) and got["threads"] == 5
-    assert (got["B"] is None) is not rigid and (not rigid or np.array_equal(got["B"], np.eye(6)[:, 3:]))
+    assert (got["B"] is None) is not rigid
+    assert not rigid or (np.array_equal(got["B"], np.eye(6)[:, 3:]) and got["B"].dtype == np.float64)
     assert np.array_equal(got["k_d"], np.full((4, LEGS), K_A)) and np.array_equal(got["c_d"], np.full((4, LEGS), C_A))
     assert np.array_equal(got["t_d"], np.full((4, LEGS), T_D))
     assert got["rules"] == (
