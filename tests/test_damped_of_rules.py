@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
+from eigentwist.runtime import condense
 from eigentwist.runtime import damped_modes as dm
 from eigentwist.runtime import gravity
 
@@ -762,3 +763,100 @@ def test_fused_damped_hands_the_pass_and_the_legs_to_one_call(monkeypatch, rigid
     )
     assert out == {"q": "q", "M": "M", "K_R": "K_R", "K_F": "K_F"}
     assert solved == {"poles": "poles", "legs": {"Je": Je, "Cq": Cq}, "stiffness": k, "M": "M", "K": k}
+
+
+def rotation6(seed=5):
+    """An orthonormal 6x6 basis that is not symmetric (twists in turned coordinates)."""
+    Q, _ = np.linalg.qr(np.random.default_rng(seed).normal(size=(6, 6)))
+    assert not np.allclose(Q, Q.T)
+    return Q
+
+
+def test_from_legs_keys_and_undecided_poses_in_other_coordinates(driver):
+    """Poses whose legs agree but whose model stiffness differs are two problems; the undecided
+    ones are solved on the driver's coordinates B (turned twists: the same poles), with the legs'
+    springs alone where neither a model stiffness nor a ground is given; the driver reads doubles."""
+    Je2, Cq2, M, K_ground, K_F, _, _ = flexible_case(invalid=None, n_rows=2)
+    Je, Cq = Je2[[0, 0]], Cq2[[0, 0]]
+    K_model = np.stack([K_F[0], K_F[0] + np.diag([40.0, 0, 0, 0, 0, 4.0])])
+    Q = rotation6()
+    k_d, c_d = np.full((2, LEGS), K_A), np.full((2, LEGS), C_A)
+    t_d = np.zeros((2, LEGS), dtype=int)
+    driver.decide = lambda n: np.zeros(n, dtype=bool)
+    d = dm._from_legs(M[None], K_model, None, Je, Cq, np.broadcast_to(Q, (2, 6, 6)), k_d, c_d, t_d, 1)
+    (call,) = driver.calls
+    assert len(call["Je"]) == 2 and call["t_d"].dtype == np.float64
+    for k in range(2):
+        check_poles(
+            d, np.eye(2, dtype=bool)[k], lambda _: lambda s: dynamic(s, 0, Je, Cq, M, K_model[k], np.eye(6), t_d=0.0)
+        )
+    # neither a model stiffness nor a ground: the legs' springs J_e^T C_q^+ J_e alone
+    K_legs = K_F[0] - K_ground
+    d = dm._from_legs(M[None], None, None, Je[:1], Cq[:1], Q[None], k_d[:1], c_d[:1], t_d[:1], 1)
+    check_poles(d, np.array([True]), lambda _: lambda s: dynamic(s, 0, Je, Cq, M, K_legs, np.eye(6), t_d=0.0))
+    # five turned twists (a rigid direction's complement): the poles of the problem on them
+    B5 = Q[:, :5]
+    d = dm._from_legs(M[None], K_F[:1], None, Je[:1], Cq[:1], B5[None], k_d[:1], c_d[:1], t_d[:1], 1)
+    check_poles(d, np.array([True]), lambda _: lambda s: dynamic(s, 0, Je, Cq, M, K_F[0], B5, t_d=0.0))
+
+
+def test_shared_reads_doubles():
+    assert dm._shared(np.ones((1, 2, 2), dtype=int), 1).dtype == np.float64
+
+
+def test_pass_damping_of_two_poses():
+    """Two poses, the second undecided: the pass's per-pose arrays are taken at that pose."""
+    Je, Cq, M, K_ground, K_F, rows, freq = flexible_case(invalid=None, n_rows=2)
+    s, *_ = made_up(6)
+    poles = np.broadcast_to(s, (2, 6)).copy()
+    solved = {
+        "poles": (np.abs(poles), np.ones((2, 6)), poles.imag, poles, np.ones(2, dtype=bool), np.array([False, True])),
+        "legs": {"Je": Je, "Cq": Cq, "K_ground": K_ground},
+        "stiffness": "K_F",
+        "M": np.broadcast_to(M, (2, 6, 6)),
+        "K": K_F,
+    }
+    modes = NS(freq_hz=freq, valid=None, stable=np.ones(2, dtype=bool), eigentwists=None)
+    d = dm.pass_damping(StandIn(), ("servo_damping",), np.zeros((2, 3)), {}, params(), solved, modes)
+    assert np.allclose(d.poles[0], s)
+    check_poles(d, np.array([False, True]), lambda _: lambda s: dynamic(s, 1, Je, Cq, M, K_F[1], np.eye(6), t_d=0.0))
+
+
+def test_coupled_body_with_a_loss_factor():
+    """The hysteretic passive compliance on a coupled body's leg too (the actuator's own 1/k_d not)."""
+    Je, Cq, M, K_ground, K_F, rows, freq = flexible_case(invalid=None, n_rows=1)
+    g = np.array([0.1, 0.0, -0.2, 1.0, 0.3, 0.0])
+    k_c = 5e3
+    ev = StandIn(couplings=[NS(body="arm", effect="arm_coupling")], bodies=["platform", "arm", "arm"])
+    T = [np.eye(6, 7), np.hstack([np.eye(6), -g[:, None]]), np.hstack([np.eye(6), -g[:, None]])]
+
+    def D(k):
+        def f(s):
+            Dx = np.zeros((7, 7), dtype=complex)
+            Dx[:6, :6] = s * s * M + K_ground
+            Dx[6, 6] = k_c
+            for i in range(LEGS):
+                Dx += T[i].T @ leg_stiffness(Je[k, i], Cq[k, i], s, C_A, T_D, loss=0.05) @ T[i]
+            return Dx
+
+        return f
+
+    inp = inputs_of(rows, Je, Cq, M, K_ground, {"M": M, "K_F": K_F}, p=params(eta_s=0.05))
+    inp["legs"].update({"G_c": g[None, :, None], "K_c": np.array([[k_c]])})
+    effects = ("servo_damping", "servo_delay", "arm_coupling", "structural_loss")
+    d = dm.damped_of(ev, effects, inp, modes_of(freq), False)
+    check_poles(d, rows, D, m=6)
+
+
+def test_a_light_platform_keeps_its_massive_coordinates():
+    """Inertia of a few grams (1e-6 of the case's): every platform coordinate stays massive; the
+    threshold is relative to the largest (1e-12 of it), not absolute."""
+    Je, Cq, M, K_ground = structure(1)
+    g = np.array([0.1, 0.0, -0.2, 1.0, 0.3, 0.0])[:, None]
+    K_x = np.zeros((1, 7, 7))
+    K_x[:, :6, :6] = K_ground
+    K_x[:, 6, 6] = 5e3
+    T = [np.eye(6, 7)[None], np.hstack([np.eye(6), -g])[None], np.eye(6, 7)[None]]
+    light = 1e-6 * M
+    Mr, K, W, h, G, P = dm._coupled_reduction(Je, Cq, np.full((1, LEGS), K_A), light[None], None, T, K_x, condense)
+    assert Mr.shape == (1, 6, 6) and np.allclose(np.sort(np.diag(Mr[0])), np.sort(np.linalg.eigvalsh(light)), rtol=1e-9)
