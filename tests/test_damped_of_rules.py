@@ -250,7 +250,7 @@ def test_rigid_directions_restrict_the_twists_where_the_route_is_exact():
     d2 = dm.damped_of(
         StandIn(),
         ("servo_damping", "servo_delay"),
-        inputs_of(rows, Je, Cq, M, K_ground, {"M": M}, B=given),
+        inputs_of(rows, Je, Cq, M, K_ground, {"M": M}, B=given, exact=False),
         modes,
         False,
     )
@@ -313,9 +313,10 @@ def test_rigid_model_on_its_allowed_twists():
     rows = np.array([True, True, False])
     freq = np.full((3, 3), np.nan)
     freq[:2] = [undamped_hz(basis.T @ K @ basis, basis.T @ M @ basis) for K in K_R]
-    ev = StandIn(rigid=True, basis=basis)
+    # a coupling of platform bodies that is on: the rigid model's bodies are rigid (no couplings read)
+    ev = StandIn(rigid=True, basis=basis, couplings=[NS(body="arm", effect="arm_coupling")], bodies=["arm"] * LEGS)
     inp = inputs_of(rows, Je, Cq, M, K_ground, {"M": M, "K_R": K_R})
-    d = dm.damped_of(ev, ("servo_damping", "servo_delay"), inp, modes_of(freq), True)
+    d = dm.damped_of(ev, ("servo_damping", "servo_delay", "arm_coupling"), inp, modes_of(freq), True)
     assert len(ev.asked) == 1 and np.array_equal(ev.asked[0][0], inp["poses"]) and ev.asked[0][1] == {"k_a": K_A}
 
     def D(k):
@@ -345,6 +346,9 @@ def test_gravity_preload_in_parallel(monkeypatch):
     seen = []
 
     def stand_in(ev, poses, effects, params, mats, rigid, basis=None):
+        assert isinstance(ev, StandIn) and effects == ("servo_damping",) and params == {"k_a": K_A}
+        assert np.array_equal(mats["M"], np.broadcast_to(M, (2, 6, 6))) and np.array_equal(mats["K_F"], K_F)
+        assert np.array_equal(poses, inputs_of(rows, Je, Cq, M, K_ground, {})["poses"])
         seen.append((rigid, basis is None, sorted(mats), mats["M"].shape))
         return np.broadcast_to(K_G6[3:, 3:] if rigid else K_G6, (len(poses),) + ((3, 3) if rigid else (6, 6)))
 
@@ -860,3 +864,29 @@ def test_a_light_platform_keeps_its_massive_coordinates():
     light = 1e-6 * M
     Mr, K, W, h, G, P = dm._coupled_reduction(Je, Cq, np.full((1, LEGS), K_A), light[None], None, T, K_x, condense)
     assert Mr.shape == (1, 6, 6) and np.allclose(np.sort(np.diag(Mr[0])), np.sort(np.linalg.eigvalsh(light)), rtol=1e-9)
+
+
+def test_coupled_body_under_a_gravity_preload(monkeypatch):
+    """The preload's stiffness (a stand-in) on the platform's twist t, with a leg on a coupled body."""
+    K_G6 = np.diag([-20.0, -30.0, 5.0, -1.0, 2.0, -3.0])
+    monkeypatch.setattr(gravity, "gravity_stiffness", lambda *a, **k: np.broadcast_to(K_G6, (1, 6, 6)))
+    Je, Cq, M, K_ground, K_F, rows, freq = flexible_case(invalid=None, n_rows=1)
+    g = np.array([0.1, 0.0, -0.2, 1.0, 0.3, 0.0])
+    ev = StandIn(couplings=[NS(body="arm", effect="arm_coupling")], bodies=["platform", "arm", "platform"])
+    T = [np.eye(6, 7), np.hstack([np.eye(6), -g[:, None]]), np.eye(6, 7)]
+
+    def D(k):
+        def f(s):
+            Dx = np.zeros((7, 7), dtype=complex)
+            Dx[:6, :6] = s * s * M + K_ground + K_G6
+            Dx[6, 6] = 5e3
+            for i in range(LEGS):
+                Dx += T[i].T @ leg_stiffness(Je[k, i], Cq[k, i], s, C_A, 0.0) @ T[i]
+            return Dx
+
+        return f
+
+    inp = inputs_of(rows, Je, Cq, M, K_ground, {"M": M, "K_R": K_F, "K_F": K_F}, preloaded=True)
+    inp["legs"].update({"G_c": g[None, :, None], "K_c": np.array([[5e3]])})
+    d = dm.damped_of(ev, ("servo_damping", "arm_coupling"), inp, modes_of(freq), False)
+    check_poles(d, rows, D, m=6)
