@@ -160,6 +160,12 @@ def test_flexible_model_poles_are_the_dynamic_stiffness_roots():
     # the invalid row keeps the undamped frequencies (NaN) and NaN damping; its stability as given
     assert np.all(np.isnan(d.natural_hz[1])) and np.all(np.isnan(d.damping_ratio[1])) and np.all(np.isnan(d.poles[1]))
     assert d.stable.tolist() == [True, False, True] and d.shapes is None
+    # an undamped model unstable at a valid pose stays unstable, however the damped poles lie
+    modes.stable = np.array([False, True, True])
+    d = dm.damped_of(
+        ev, ("servo_damping", "servo_delay"), inputs_of(rows, Je, Cq, M, K_ground, {"M": M, "K_F": K_F}), modes, False
+    )
+    assert d.stable.tolist() == [False, True, True]
     assert np.array_equal(modes.freq_hz, freq, equal_nan=True)  # the undamped modes are not written
 
 
@@ -890,3 +896,45 @@ def test_coupled_body_under_a_gravity_preload(monkeypatch):
     inp["legs"].update({"G_c": g[None, :, None], "K_c": np.array([[5e3]])})
     d = dm.damped_of(ev, ("servo_damping", "arm_coupling"), inp, modes_of(freq), False)
     check_poles(d, rows, D, m=6)
+
+
+def test_rigid_model_with_a_loss_factor():
+    """The rigid model's actuated joints, hysteretic: each leg's a a^T / c(s) with
+    c(s) = (c_0 - 1/k_d) / (1 + i eta_s) + 1/Z(s); K_R = sum a a^T / c_0 (Eq. 14), no ground."""
+    Je, Cq, M, K_ground = structure(2)
+    basis = np.eye(6)[:, 3:]
+    a, c0 = Je[:, :, 0, :], Cq[:, :, 0, 0]
+    K_R = np.einsum("nl,nli,nlj->nij", 1.0 / c0, a, a)
+    rows = np.array([True, True])
+    freq = np.array([undamped_hz(basis.T @ K @ basis, basis.T @ M @ basis) for K in K_R])
+    inp = inputs_of(rows, Je, Cq, M, K_ground, {"M": M, "K_R": K_R}, p=params(eta_s=0.05))
+    d = dm.damped_of(StandIn(rigid=True, basis=basis), ("servo_damping", "structural_loss"), inp, modes_of(freq), False)
+
+    def D(k):
+        def f(s):
+            c = (c0[k] - 1 / K_A) / (1 + 0.05j) + 1.0 / (K_A + C_A * s)
+            K = sum(np.outer(a[k, i], a[k, i]) / c[i] for i in range(LEGS))
+            return basis.T @ (s * s * M + K) @ basis
+
+        return f
+
+    check_poles(d, rows, D)
+
+
+def test_preload_on_the_admissible_twists(monkeypatch):
+    """A rigid passive joint and a gravity preload (a stand-in): B^T K_G B added on the five twists."""
+    K_G6 = np.diag([-20.0, -30.0, 5.0, -1.0, 2.0, -3.0])
+    K_G6[0, 5] = K_G6[5, 0] = 2.0
+    monkeypatch.setattr(gravity, "gravity_stiffness", lambda *a, **k: np.broadcast_to(K_G6, (2, 6, 6)))
+    Je, Cq, M, K_ground, K_F, rows, freq = flexible_case(rigid_joint=True, invalid=None, n_rows=2)
+    rigid_row = Je[:, 2, 1, :]
+    Bs = [scipy.linalg.null_space(rigid_row[k][None, :]) for k in range(2)]
+    mats = {"M": M, "K_R": K_F, "K_F": K_F}
+    d = dm.damped_of(
+        StandIn(), ("servo_damping",), inputs_of(rows, Je, Cq, M, K_ground, mats, preloaded=True), modes_of(freq), True
+    )
+    check_poles(d, rows, lambda k: lambda s: dynamic(s, k, Je, Cq, M, K_F[k] + K_G6, Bs[k], t_d=0.0))
+    # without the model's eigentwists the columns beyond the five twists are NaN
+    assert (
+        d.shapes.shape == (2, 6, 6) and np.all(np.isnan(d.shapes[:, :, 5])) and not np.any(np.isnan(d.shapes[:, :, :5]))
+    )
