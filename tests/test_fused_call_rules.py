@@ -37,7 +37,9 @@ class CPass:
 
     def __call__(self, begin, end, ins, strides, model, unused1, mats, unused2, freq, vecs, status, opts):
         assert unused1 is None and unused2 is None
+        assert mats is None or isinstance(mats, ctypes.Array)  # NULL where no matrix is asked for
         self.ranges.append((begin, end))
+        self.addresses = (freq, vecs, status)
         self.opts = opts
         for i in range(begin, end):
             v = {name: read(ins[k] + 8 * strides[k] * i)[0] for k, name in enumerate(NAMES)}
@@ -111,6 +113,7 @@ def test_a_call_reads_each_poses_coordinates():
     assert np.allclose(out["freq_hz"], expected_freq(P), rtol=1e-15)
     assert out["status"].dtype == np.int8 and out["status"].tolist() == [0, 1, 2]
     assert fn.ranges == [(0, 3)] and checked == [(0, "fused")] and fn.opts == "the options"
+    assert fn.addresses == (out["freq_hz"].ctypes.data, None, out["status"].ctypes.data)  # no eigentwists: NULL
     # another call on other poses: the prepared table is not changed by the first
     Q = poses(2)[::-1].copy()
     out = call([Q.ctypes.data + 8 * k for k in range(3)], 2, 1)
@@ -128,6 +131,7 @@ def test_vectors_and_matrices_asked_for():
     assert np.array_equal(out["M"], np.arange(3)[:, None, None] + np.ones((3, 2, 2)))  # table slot 1
     assert np.array_equal(out["K_F"], np.arange(3)[:, None] + np.full((3, 4), 3.0))  # table slot 3
     assert np.array_equal(out["eigentwists"], np.arange(3)[:, None, None] * np.eye(DIM))
+    assert fn.addresses == tuple(out[k].ctypes.data for k in ("freq_hz", "eigentwists", "status"))
 
 
 def test_ranges_of_blocks_on_threads_and_every_return_code_checked():
