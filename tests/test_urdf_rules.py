@@ -233,3 +233,20 @@ def test_refusals_name_the_problem():
     with pytest.raises(DescriptionError) as err:
         leg_of(platform_joint="U")
     assert str(err.value) == "leg 1: platform_joint 'U': expected 'S' or None (rigid)"
+
+
+def test_numbers_are_the_files_doubles_bit_for_bit():
+    """17 significant digits: a double such as 0.1 + 0.2 = 0.30000000000000004 is kept as it is."""
+    x = 0.1 + 0.2
+    text = urdf([link("a"), link("b", x, f"{x!r} 0 0"), joint("q", "revolute", "a", "b", "0 0 1", f"{x!r} 0 0")])
+    leg = urdf_leg(text, "one", actuated="q", attachment=(0, 0, 0), reference=(0.0,))
+    assert float(leg.joints[0].origin[0]) == x and float(leg.bodies[0].inertia[5, 5]) == x
+
+
+def test_without_pinocchio_the_message_says_what_to_install(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "pinocchio", None)  # import pinocchio raises ImportError
+    with pytest.raises(ImportError) as err:
+        leg_of()
+    assert str(err.value).startswith('URDF legs need Pinocchio\'s URDF parser: pip install "pin>=3.0" (')
