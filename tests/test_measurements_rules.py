@@ -1,0 +1,198 @@
+"""The measurements' own rules (``eigentwist/diagnose/measurements.py``) on the Heli4's
+evaluator (the suite's) and a few rows written here: measurements built from arrays (the CSV format's
+defaults), subsets, the CSV written back, the text decoding, parameter columns per leg and per
+effect, the shipped paper data. No model is evaluated beyond the poses' reachability.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from eigentwist.diagnose.measurements import (
+    DEFAULT_SIGMA_REL,
+    MeasurementError,
+    Measurements,
+    _decode,
+    _parameter,
+    check_columns,
+    load_measurements,
+    paper_csv,
+    paper_measurements,
+    parse_csv,
+)
+from eigentwist.runtime.errors import InputError
+
+X_REF = [0.0, 0.0, -0.625]
+
+
+def test_from_arrays_applies_the_csv_formats_defaults(ev):
+    m = Measurements.from_arrays(1000.0, ["X", "2"], [15.0, 20.0], source="lab", ev=ev)
+    assert m.k_a.tolist() == [1000.0, 1000.0] and m.mode == ("x", "2") and m.freq_hz.tolist() == [15.0, 20.0]
+    assert np.allclose(m.sigma_hz, [DEFAULT_SIGMA_REL * 15.0, DEFAULT_SIGMA_REL * 20.0])  # 2 %
+    assert np.array_equal(m.poses, [X_REF, X_REF]) and m.params == {} and m.modal == {}
+    assert m.lines.tolist() == [2, 3] and m.source == "lab" and m.robot == "heli4"  # row i: line i + 2
+    assert m.kind == ("undamped", "undamped") and m.k_a_unit == "N m/rad" and m.joints is None
+    assert m.where(1) == "lab, line 3"
+
+
+def test_from_arrays_per_row_values(ev):
+    poses = [[0.01, 0.0, -0.6], [0.0, -0.02, -0.62], X_REF]
+    m = Measurements.from_arrays(
+        [500.0, 1000.0, 2000.0],
+        "y",
+        [10.0, 12.0, 14.0],
+        poses=poses,
+        sigma_hz=[0.1, 0.2, 0.3],
+        params={"m_e": [0.5, 0.6, 0.7]},
+        modal={"damping_ratio": [0.02, np.nan, 0.04]},
+        kind=["damped", "undamped", "damped"],
+        ev=ev,
+    )
+    assert m.k_a.tolist() == [500.0, 1000.0, 2000.0] and m.mode == ("y",) * 3
+    assert np.array_equal(m.poses, poses) and m.sigma_hz.tolist() == [0.1, 0.2, 0.3]
+    assert m.params["m_e"].tolist() == [0.5, 0.6, 0.7]
+    assert m.modal["damping_ratio"][0] == 0.02 and np.isnan(m.modal["damping_ratio"][1])  # NaN: a blank cell
+    assert m.kind == ("damped", "undamped", "damped") and m.damped.tolist() == [True, False, True]
+    one = Measurements.from_arrays(1000.0, ["x", "y"], [15.0, 16.0], poses=[0.0, 0.0, -0.6], kind="damped", ev=ev)
+    assert np.array_equal(one.poses, [[0.0, 0.0, -0.6]] * 2) and one.kind == ("damped", "damped")
+    with pytest.raises(MeasurementError) as err:  # the file's checks apply: line 3 is row 1
+        Measurements.from_arrays(1000.0, "x", [15.0, -1.0], source="arrays", ev=ev)
+    assert str(err.value).startswith("arrays, line 3, column 'freq_hz': negative value -1")
+
+
+def test_subset_keeps_every_column(ev):
+    m = Measurements.from_arrays(
+        [500.0, 1000.0, 2000.0],
+        ["x", "y", "x"],
+        [10.0, 12.0, 14.0],
+        sigma_hz=[0.1, 0.2, 0.3],
+        params={"m_e": [0.5, 0.6, 0.7]},
+        modal={"damping_ratio": [0.02, 0.03, 0.04]},
+        kind=["damped", "undamped", "damped"],
+        source="lab",
+        ev=ev,
+    )
+    s = m.subset([2, 0])
+    assert s.k_a.tolist() == [2000.0, 500.0] and s.mode == ("x", "x") and s.freq_hz.tolist() == [14.0, 10.0]
+    assert s.sigma_hz.tolist() == [0.3, 0.1] and s.lines.tolist() == [4, 2] and s.params["m_e"].tolist() == [0.7, 0.5]
+    assert s.modal["damping_ratio"].tolist() == [0.04, 0.02] and s.kind == ("damped", "damped")
+    assert (s.source, s.robot, s.k_a_unit, s.joints) == ("lab", "heli4", "N m/rad", None)
+    assert np.array_equal(s.poses, m.poses[[2, 0]])
+    t = m.subset(np.array([False, True, True]))  # a mask
+    assert t.freq_hz.tolist() == [12.0, 14.0] and t.kind == ("undamped", "damped") and t.mode == ("y", "x")
+    joints = Measurements(m.k_a, m.mode, m.freq_hz, m.sigma_hz, m.poses, joints=np.arange(12.0).reshape(3, 4, 1))
+    assert joints.subset([1]).joints.tolist() == [[[4.0], [5.0], [6.0], [7.0]]]
+
+
+def test_to_csv_columns_and_numbers(ev, tmp_path):
+    m = Measurements.from_arrays(
+        1000.0,
+        ["x", "y"],
+        [15.123456789012, 20.0],
+        poses=[[0.01, 0.0, -0.6], X_REF],
+        params={"m_e": [0.5, 0.6]},
+        modal={"damping_ratio": [0.02, np.nan]},
+        ev=ev,
+    )
+    text = m.to_csv()
+    lines = text.splitlines()
+    assert lines[0] == "k_a,mode,freq_hz,sigma_hz,x,y,z,damping_ratio,m_e"  # no kind column: all undamped
+    assert lines[1] == "1000,x,15.12345679,0.3024691358,0.01,0,-0.6,0.02,0.5"  # 10 significant digits
+    assert lines[2] == "1000,y,20,0.4,0,0,-0.625,,0.6" and len(lines) == 3 and text.endswith("\n")
+    damped = Measurements.from_arrays(1000.0, "x", [15.0], kind="damped", ev=ev)
+    assert damped.to_csv().splitlines() == ["k_a,mode,freq_hz,sigma_hz,kind,x,y,z", "1000,x,15,0.3,damped,0,0,-0.625"]
+    path = tmp_path / "out.csv"
+    assert m.to_csv(path) == text and path.read_text() == text
+    six = Measurements(np.ones(1), ("x",), np.ones(1), np.ones(1), np.array([[0.0, 0.0, -0.6, 0.1, 0.0, 0.0]]))
+    assert six.to_csv().splitlines()[0] == "k_a,mode,freq_hz,sigma_hz,x,y,z,rot_x,rot_y,rot_z"
+
+
+@pytest.mark.parametrize(
+    "data, text",
+    [
+        ("k_a,mode\n".encode("utf-16"), "k_a,mode\n"),  # a BOM and the machine's order
+        ("k_a,µ\n".encode("utf-16-be").join([b"\xfe\xff", b""]), "k_a,µ\n"),
+        ("k_a,µ\n".encode("utf-16-le").join([b"\xff\xfe", b""]), "k_a,µ\n"),
+        (b"\xef\xbb\xbfk_a,mode\n", "k_a,mode\n"),  # UTF-8's BOM dropped
+        ("k_a,µ\n".encode("utf-8"), "k_a,µ\n"),
+    ],
+)
+def test_decode(data, text):
+    assert _decode(data, "f.csv") == text
+
+
+def test_decode_refuses_what_is_not_utf8(tmp_path):
+    with pytest.raises(MeasurementError) as err:
+        _decode(b"k_a,mode\n\xe9t\xe9\n", "f.csv")
+    assert str(err.value) == "f.csv: not a UTF-8 text file (invalid continuation byte at byte 9): save it as UTF-8 CSV"
+    path = tmp_path / "latin.csv"
+    path.write_bytes(b"k_a,mode,freq_hz\n1000,x,1\xe9\n")
+    with pytest.raises(MeasurementError) as err:
+        load_measurements(path)
+    assert str(err.value).startswith(f"{path}: not a UTF-8 text file")
+
+
+def test_load_measurements_reads_the_file(ev, tmp_path):
+    path = tmp_path / "lab.csv"
+    path.write_bytes("\ufeffk_a,mode,freq_hz,m_e\n1000,x,15,\n".encode("utf-16"))
+    m = load_measurements(path, ev=ev, values={"m_e": 0.9})
+    assert m.source == str(path) and m.freq_hz.tolist() == [15.0] and m.params["m_e"].tolist() == [0.9]
+    seen = []
+
+    class Bar:
+        def __init__(self, **kw):
+            seen.append(kw)
+
+        def update(self, n):
+            seen.append(n)
+
+        def close(self):
+            seen.append("closed")
+
+    load_measurements(str(path), robot="heli4", progress=Bar)
+    assert seen[1:] == [1, "closed"] and seen[0]["desc"] == "reading lab.csv" and seen[0]["total"] == 1
+
+
+def test_parameter_columns_by_name_and_leg(ev):
+    assert _parameter("m_e", ev) is ev.parameters["m_e"]
+    assert _parameter("eta_a@3", ev) is ev.parameters["eta_a"] and _parameter("eta_a@1", ev) is ev.parameters["eta_a"]
+    for name in ("eta_a@0", "eta_a@x", "eta_a@", "eta_a@-1", "nothing", "nothing@2"):
+        assert _parameter(name, ev) is None, name
+
+
+def test_check_columns_names_the_effect_a_column_needs(ev):
+    m = parse_csv("k_a,mode,freq_hz,c_a,m_e\n1000,x,15,2,0.5\n", "lab.csv", ev)
+    check_columns(m, ("servo_damping",), ev)  # the column's effect is on; m_e belongs to none
+    with pytest.raises(MeasurementError) as err:
+        check_columns(m, ("rod_compliance", "ee_compliance"), ev, what="the model 'flex'")
+    assert str(err.value) == (
+        "lab.csv, line 1, column 'c_a': parameter column of effect servo_damping, which the model 'flex' "
+        "(rod_compliance, ee_compliance) does not have: add servo_damping to the model or drop the column"
+    )
+    with pytest.raises(MeasurementError) as err:
+        check_columns(m, (), ev)
+    assert "which the model (no effect) does not have" in str(err.value)
+    legs = parse_csv("k_a,mode,freq_hz,eta_a@2\n1000,x,15,0.8\n", "lab.csv", ev)
+    check_columns(legs, ("actuator_loss",), ev)
+    with pytest.raises(MeasurementError) as err:
+        check_columns(legs, (), ev)
+    assert err.value.column == "eta_a@2" and err.value.line == 1
+
+
+def test_shipped_paper_data():
+    with pytest.raises(InputError) as err:
+        paper_csv("nobody")
+    assert str(err.value) == "no shipped measurements for robot 'nobody' (expected eigentwist/data/nobody_paper.csv)"
+    assert paper_csv() == paper_csv("heli4") and paper_csv().startswith("k_a,mode,freq_hz")
+
+
+def test_paper_measurements_read_as_damped_or_undamped(ev):
+    m = paper_measurements(ev)
+    assert m.kind == ("damped",) * 16 and m.source == "heli4_paper.csv" and len(m) == 16
+    u = paper_measurements(ev, kind="undamped")
+    assert u.kind == ("undamped",) * 16 and np.array_equal(u.freq_hz, m.freq_hz) and u.source == m.source
+    assert paper_measurements(kind="damped").kind == ("damped",) * 16
+    with pytest.raises(MeasurementError) as err:
+        paper_measurements(ev, kind="natural")
+    assert str(err.value) == "heli4_paper.csv: kind 'natural': expected one of undamped, damped"
