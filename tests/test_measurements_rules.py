@@ -100,6 +100,9 @@ def test_to_csv_columns_and_numbers(ev, tmp_path):
     assert lines[0] == "k_a,mode,freq_hz,sigma_hz,x,y,z,damping_ratio,m_e"  # no kind column: all undamped
     assert lines[1] == "1000,x,15.12345679,0.3024691358,0.01,0,-0.6,0.02,0.5"  # 10 significant digits
     assert lines[2] == "1000,y,20,0.4,0,0,-0.625,,0.6" and len(lines) == 3 and text.endswith("\n")
+    assert "\r" not in text
+    tiny = Measurements.from_arrays(1000.0, "x", [15.0], params={"m_e": 2.5e-12}, ev=ev)
+    assert tiny.to_csv().splitlines()[1].endswith(",2.5e-12")
     damped = Measurements.from_arrays(1000.0, "x", [15.0], kind="damped", ev=ev)
     assert damped.to_csv().splitlines() == ["k_a,mode,freq_hz,sigma_hz,kind,x,y,z", "1000,x,15,0.3,damped,0,0,-0.625"]
     path = tmp_path / "out.csv"
@@ -196,3 +199,35 @@ def test_paper_measurements_read_as_damped_or_undamped(ev):
     with pytest.raises(MeasurementError) as err:
         paper_measurements(ev, kind="natural")
     assert str(err.value) == "heli4_paper.csv: kind 'natural': expected one of undamped, damped"
+
+
+def deepest_reported(message):
+    """The lowest height of the reachable spans the message's hint gives (m)."""
+    return float(message.split("heights are z in [")[1].split(",")[0])
+
+
+def test_poses_are_checked_with_the_runs_values(ev):
+    """A rod of 0.3 m (``values``, as ``--set`` gives it) cannot reach x_ref (0.625 m below the
+    base): the line is named and the hint's heights are those of the short rod (x_ref outside
+    them); a column of the rod's length wins over the run's value."""
+    with pytest.raises(MeasurementError) as err:
+        parse_csv("k_a,mode,freq_hz\n1000,x,15\n", "lab.csv", ev, values={"l2": 0.3})
+    assert str(err.value).startswith("lab.csv, line 2, column 'x, y, z': pose [0.0, 0.0, -0.625] m is unreachable")
+    assert -0.625 < deepest_reported(str(err.value)) < -0.5  # the 0.2 + 0.3 m links reach below -0.5 m
+    m = parse_csv("k_a,mode,freq_hz,l2\n1000,x,15,0.53\n", "lab.csv", ev, values={"l2": 0.3})
+    assert m.params["l2"].tolist() == [0.53]
+
+
+@pytest.mark.parametrize("bad", [0, 3])
+def test_poses_are_checked_block_by_block(ev, monkeypatch, bad):
+    """Blocks of two rows: the first unreachable row is named, its rod length from its own cell."""
+    from eigentwist.diagnose import measurements
+
+    monkeypatch.setattr(measurements, "BLOCK_ROWS", 2)
+    rows = [f"1000,{mode},15,{0.3 if k == bad else ''}" for k, mode in enumerate("xyz12")]
+    with pytest.raises(MeasurementError) as err:
+        parse_csv("k_a,mode,freq_hz,l2\n" + "\n".join(rows) + "\n", "lab.csv", ev)
+    assert str(err.value).startswith(
+        f"lab.csv, line {bad + 2}, column 'x, y, z': pose [0.0, 0.0, -0.625] m is unreachable"
+    )
+    assert -0.625 < deepest_reported(str(err.value)) < -0.5
