@@ -231,3 +231,61 @@ def test_poses_are_checked_block_by_block(ev, monkeypatch, bad):
         f"lab.csv, line {bad + 2}, column 'x, y, z': pose [0.0, 0.0, -0.625] m is unreachable"
     )
     assert -0.625 < deepest_reported(str(err.value)) < -0.5
+
+
+@pytest.mark.parametrize(
+    "header, cell, column, message",
+    [
+        ("mode", "", "mode", "empty cell: expected a mode label"),
+        ("kind", "natural", "kind", "kind 'natural': expected undamped or damped (blank: undamped)"),
+        ("freq_hz", "", "freq_hz", "empty cell: a value is required"),
+        ("k_a", "-5", "k_a", "negative value -5: expected a value > 0"),
+        ("phi_x", "abc", "phi_x", "value 'abc' is not a number"),
+        ("damping_ratio", "-0.1", "damping_ratio", "negative value -0.1: expected a value > 0"),
+        ("sigma_damping_ratio", "0", "sigma_damping_ratio", "value 0: expected a value > 0"),
+        ("sigma_damping_ratio", "-0.01", "sigma_damping_ratio", "negative value -0.01: expected a value > 0"),
+        ("m_e", "-1", "m_e", "negative value -1: expected a value > 0"),
+        ("q1@2", "inf", "q1@2", "value 'inf' is not finite: expected a number"),
+    ],
+)
+def test_a_bad_cell_is_named(ev, header, cell, column, message):
+    """The second row's cell in the named column is bad; the first row is good."""
+    good = {"k_a": "1000", "mode": "y", "freq_hz": "15", "kind": "damped", "phi_x": "0.5", "damping_ratio": "0.02"}
+    good.update({"sigma_damping_ratio": "0.01", "m_e": "0.5", "q1@2": "0.1"})
+    names = ["k_a", "mode", "freq_hz"] + ([header] if header not in ("k_a", "mode", "freq_hz") else [])
+    if header == "phi_x":
+        names += ["sensor_x"]
+    if header.startswith("q"):
+        names = names[:3] + [f"q{m}@{leg}" for leg in range(1, 5) for m in (1, 2, 3)]
+    first = ",".join(good.get(n, "0.1") for n in names)
+    second = ",".join(cell if n == header else {"mode": "x"}.get(n, good.get(n, "0.1")) for n in names)
+    with pytest.raises(MeasurementError) as err:
+        parse_csv(",".join(names) + "\n" + first + "\n" + second + "\n", "lab.csv", ev)
+    assert str(err.value) == f"lab.csv, line 3, column {column!r}: {message}"
+
+
+def test_cells_signed_where_their_quantity_is(ev):
+    """Sensor offsets, shape entries, joint coordinates and a parameter whose range is signed take
+    negative values; a kind is read in any case."""
+    text = "k_a,mode,freq_hz,kind,sensor_x,phi_x,phi_y,phi_z,p_x\n1000,x,15,DAMPED,-0.1,-0.5,0.2,0.1,-0.5\n"
+    m = parse_csv(text, "lab.csv", ev)
+    assert m.kind == ("damped",) and m.modal["sensor_x"].tolist() == [-0.1] and m.modal["phi_x"].tolist() == [-0.5]
+    assert m.params["p_x"].tolist() == [-0.5]
+    with pytest.raises(MeasurementError) as err:
+        parse_csv("k_a,mode,freq_hz,eta_a\n1000,x,15,0.5\n1000,y,15,1.5\n", "lab.csv", ev)
+    assert str(err.value).startswith("lab.csv, line 3, column 'eta_a': ") and "1.5" in str(err.value)
+
+
+def test_a_duplicate_row_names_both_lines(ev):
+    with pytest.raises(MeasurementError) as err:
+        parse_csv("k_a,mode,freq_hz\n1000,x,15\n2000,x,16\n1000,x,15.5\n", "lab.csv", ev)
+    assert str(err.value) == (
+        "lab.csv, line 4: duplicate of line 2 (same pose [0.0, 0.0, -0.625], k_a = 1000 N m/rad, mode x): give one "
+        "row per condition (average repeated measurements and state their sigma_hz)"
+    )
+
+
+def test_measurements_built_directly_number_their_lines_from_two():
+    m = Measurements(np.ones(3), ("x", "y", "z"), np.ones(3), np.ones(3), np.zeros((3, 3)))
+    assert m.lines.tolist() == [2, 3, 4] and m.kind == ("undamped",) * 3 and len(m) == 3
+    assert np.array_equal(m.relative_sigma, np.ones(3)) and m.where(2) == "<data>, line 4"
