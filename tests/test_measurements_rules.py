@@ -289,3 +289,151 @@ def test_measurements_built_directly_number_their_lines_from_two():
     m = Measurements(np.ones(3), ("x", "y", "z"), np.ones(3), np.ones(3), np.zeros((3, 3)))
     assert m.lines.tolist() == [2, 3, 4] and m.kind == ("undamped",) * 3 and len(m) == 3
     assert np.array_equal(m.relative_sigma, np.ones(3)) and m.where(2) == "<data>, line 4"
+
+
+JOINTS = ", ".join(f"q{m}@{leg}" for leg in range(1, 5) for m in (1, 2, 3))  # the Heli4: 4 legs of 3 coordinates
+
+
+def refusal(ev, text, source="lab.csv", **kw):
+    with pytest.raises(MeasurementError) as err:
+        parse_csv(text, source, ev, **kw)
+    return str(err.value)
+
+
+def test_header_refusals(ev):
+    assert refusal(ev, "k_a,,freq_hz\n1,x,2\n") == "lab.csv, line 1: column 2 has an empty name"
+    assert refusal(ev, "k_a,mode,freq_hz,k_a\n1,x,2,1\n") == (
+        "lab.csv, line 1, column 'k_a': column 'k_a' appears twice (columns 1 and 4)"
+    )
+    unknown = refusal(ev, "k_a,mode,freq_hz,m_ee\n1000,x,15\n")
+    assert unknown.startswith(
+        "lab.csv, line 1, column 'm_ee': unknown column (column 4) (did you mean m_e?): not one of "
+    )
+    assert (
+        "not one of k_a, mode, freq_hz, x, y, z, sigma_hz, kind, damping_ratio, phi_x, phi_y, phi_z, sensor_x, "
+        f"sensor_y, sensor_z, sigma_damping_ratio, {JOINTS} and not a parameter of heli4 (NAME or NAME@LEG; "
+        "parameters: R, l1, l2, r, d, h," in unknown
+    )
+    assert unknown.endswith(", c_a, t_d, eta_s)")
+    assert refusal(ev, "k_a,mode,sigma_hz\n1000,x,1\n") == (
+        "lab.csv, line 1, column 'freq_hz': missing required column 'freq_hz' (header: k_a, mode, sigma_hz); "
+        "required: k_a, mode, freq_hz"
+    )
+    assert refusal(ev, "k_a,mode,freq_hz,phi_2_x,node2_x,node2_y\n1000,x,15,1,0,0\n") == (
+        "lab.csv, line 1, column 'phi_2_x': shape column phi_2_x needs node 2's position: columns node2_x, node2_y, "
+        "node2_z (m)"
+    )
+    m = parse_csv("k_a,mode,freq_hz,phi_2_x,node2_x,node2_y,node2_z\n1000,x,15,1,0.1,0,0\n", "lab.csv", ev)
+    assert m.modal["phi_2_x"].tolist() == [1.0] and m.modal["node2_x"].tolist() == [0.1]
+    assert refusal(ev, "k_a,mode,freq_hz,q1@1,q2@1\n1000,x,15,0.1,0.2\n") == (
+        "lab.csv, line 1, column 'q3@1': joint-coordinate column 'q3@1' is missing: give every coordinate of every "
+        f"leg ({JOINTS}) or none"
+    )
+
+
+def test_joint_coordinates_on_every_row(ev):
+    cols = JOINTS.split(", ")
+    header = "k_a,mode,freq_hz," + ",".join(cols)
+    values = ",".join(str(0.01 * k) for k in range(12))
+    m = parse_csv(f"{header}\n1000,x,15,{values}\n", "lab.csv", ev)
+    assert m.joints.shape == (1, 4, 3) and m.joints[0, 1].tolist() == [0.03, 0.04, 0.05]  # leg 2's q1..q3
+    blank = ",".join("" if c == "q2@3" else "0.1" for c in cols)
+    assert refusal(ev, f"{header}\n1000,x,15,{values}\n1000,y,15,{blank}\n") == (
+        "lab.csv, line 3, column 'q2@3': empty cell: a joint coordinate is required on every row when the file has "
+        "joint-coordinate columns"
+    )
+
+
+def test_pose_columns_of_a_six_dof_robot():
+    from types import SimpleNamespace as NS
+
+    from eigentwist.diagnose.measurements import _header, pose_columns
+
+    six = ("x", "y", "z", "rot_x", "rot_y", "rot_z")
+    assert pose_columns(NS()) == ("x", "y", "z") and pose_columns(NS(pose_names=list(six))) == six
+    ev = NS(
+        pose_names=six,
+        accepts=lambda name: False,
+        parameters={},
+        robot=NS(name="hexa", legs=[NS(kinematics=NS(coordinates=("q",)))]),
+    )
+    assert _header(["k_a", "mode", "freq_hz", "rot_x", " q1@1 "], "lab.csv", ev) == [
+        "k_a",
+        "mode",
+        "freq_hz",
+        "rot_x",
+        "q1@1",
+    ]
+
+
+def test_separator_and_what_is_not_a_measurement_csv(ev):
+    from eigentwist.diagnose.measurements import _separator
+
+    assert _separator("k_a;mode,freq_hz\n", "s") == ","  # a tie: the comma
+    assert _separator("k_a\tmode\tfreq_hz;x\n", "s") == "\t"
+    assert _separator("  # a;b;c;d\nk_a,mode,freq_hz\n", "s") == ","  # an indented comment is skipped
+    assert refusal(ev, "    -1\n   151\n") == (
+        "lab.csv, line 1: a UFF file (universal file format), not a measurement CSV: identify its modes first, "
+        "`eigentwist identify MANIFEST.csv -o modes.csv` on the campaign's manifest, and compare modes.csv"
+    )
+    long = "k_a mode freq_hz " * 5
+    assert refusal(ev, long + "\n1 x 2\n") == (
+        f"lab.csv, line 1: header {long.strip()[:60]!r} has a single column: expected the columns k_a, mode, "
+        "freq_hz, ... separated by ',', ';' or a tab"
+    )
+
+
+def test_records_decimal_commas_blank_rows_and_unreadable_csv(ev):
+    m = parse_csv("k_a;mode;freq_hz\n\n;;\n1000;x;15,5\n", "lab.csv", ev)
+    assert m.freq_hz.tolist() == [15.5] and m.lines.tolist() == [4]  # blank rows skipped, a decimal comma read
+    m = parse_csv("k_a\tmode\tfreq_hz\n1000\tx\t15,25\n", "lab.csv", ev)
+    assert m.freq_hz.tolist() == [15.25]
+    assert refusal(ev, "k_a;mode;freq_hz;m,e\n1000;x;15;1\n").startswith(
+        "lab.csv, line 1, column 'm,e': unknown column"
+    )
+    assert refusal(ev, "k_a,mode,freq_hz\n1000,x," + "1" * 140000 + "\n") == (
+        "lab.csv, line 2: not readable as CSV (field larger than field limit (131072)): expected text with one row "
+        "per line"
+    )
+
+
+def test_parse_csv_whole_file_rules(ev):
+    assert refusal(ev, "k_a,mode,freq_hz\n1000,x,-15\n", source="<data>").startswith("<data>, line 2")
+    with pytest.raises(MeasurementError) as err:
+        parse_csv("k_a,mode,freq_hz\n1000,x,-15\n", ev=ev)  # the default name
+    assert str(err.value).startswith("<data>, line 2, column 'freq_hz'")
+    assert parse_csv("k_a,mode,freq_hz\n1000,x,15\n").robot == "heli4"  # the default robot
+    assert (
+        refusal(ev, "k_a,mode,freq_hz\n1000,x\x00,15\n")
+        == "lab.csv: contains NUL characters: expected a text file (CSV)"
+    )
+    assert parse_csv("\ufeffk_a,mode,freq_hz\n1000,x,15\n", "lab.csv", ev).freq_hz.tolist() == [15.0]  # a BOM dropped
+    assert refusal(ev, "\n# only a comment\n") == (
+        "lab.csv: empty file: expected a header line with the columns k_a, mode, freq_hz and one row per measured "
+        "frequency"
+    )
+    assert refusal(ev, "# c\nk_a,mode,freq_hz\n\n") == (
+        "lab.csv, line 2: no data rows after the header: expected one row per measured frequency"
+    )
+    seen = []
+
+    class Bar:
+        def __init__(self, **kw):
+            seen.append(kw)
+
+        def update(self, n):
+            seen.append(n)
+
+        def close(self):
+            seen.append("closed")
+
+    parse_csv("# c\nk_a,mode,freq_hz\n1000,x,15\n2000,x,15\n", "dir/lab.csv", ev, progress=Bar)
+    assert seen == [dict(total=2, unit="row", unit_scale=True, desc="reading lab.csv", leave=False), 2, "closed"]
+
+
+def test_blank_parameter_cells_take_the_runs_values(ev):
+    text = "k_a,mode,freq_hz,eta_a@2,m_e\n1000,x,15,,\n1000,y,15,0.5,0.4\n"
+    m = parse_csv(text, "lab.csv", ev, values={"eta_a": 0.7, "m_e": 0.9})
+    assert m.params["eta_a@2"].tolist() == [0.7, 0.5] and m.params["m_e"].tolist() == [0.9, 0.4]
+    m = parse_csv(text, "lab.csv", ev, values={"eta_a@2": 0.6, "eta_a": 0.7})  # the leg's own value first
+    assert m.params["eta_a@2"].tolist() == [0.6, 0.5] and m.params["m_e"][0] == ev.parameters["m_e"].default
