@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import eigentwist
+
 from eigentwist.diagnose.measurements import (
     DEFAULT_SIGMA_REL,
     MeasurementError,
@@ -437,3 +439,21 @@ def test_blank_parameter_cells_take_the_runs_values(ev):
     assert m.params["eta_a@2"].tolist() == [0.7, 0.5] and m.params["m_e"].tolist() == [0.9, 0.4]
     m = parse_csv(text, "lab.csv", ev, values={"eta_a@2": 0.6, "eta_a": 0.7})  # the leg's own value first
     assert m.params["eta_a@2"].tolist() == [0.6, 0.5] and m.params["m_e"][0] == ev.parameters["m_e"].default
+
+
+def test_a_six_dof_robots_measurements(tmp_path):
+    """The hexapod's poses have six columns (the rotation vector last): from arrays, from a file
+    (blank rotation cells: x_ref's) and back to CSV, each read with the evaluator given."""
+    hexapod = eigentwist.load("hexapod", backend="numpy")
+    x_ref = np.asarray(hexapod.robot.x_ref, dtype=float)
+    pose = x_ref + [0.0, 0.0, 0.01, 0.02, 0.0, 0.0]
+    m = Measurements.from_arrays(1000.0, ["x", "y"], [15.0, 16.0], poses=pose, robot="hexapod", ev=hexapod)
+    assert m.poses.shape == (2, 6) and np.allclose(m.poses[1], pose) and m.robot == "hexapod"
+    assert m.k_a_unit == hexapod.parameter("k_a").unit
+    text = m.to_csv()
+    assert text.splitlines()[0] == "k_a,mode,freq_hz,sigma_hz,x,y,z,rot_x,rot_y,rot_z"
+    path = tmp_path / "hexapod.csv"
+    path.write_text("k_a,mode,freq_hz,z,rot_x\n1000,x,15,,0.02\n")
+    read = load_measurements(path, robot="hexapod", ev=hexapod)
+    assert np.allclose(read.poses, [[*x_ref[:3], 0.02, *x_ref[4:]]]) and read.robot == "hexapod"
+    assert np.allclose(parse_csv(text, "back.csv", hexapod).poses, m.poses)
