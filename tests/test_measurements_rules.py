@@ -457,3 +457,44 @@ def test_a_six_dof_robots_measurements(tmp_path):
     read = load_measurements(path, robot="hexapod", ev=hexapod)
     assert np.allclose(read.poses, [[*x_ref[:3], 0.02, *x_ref[4:]]]) and read.robot == "hexapod"
     assert np.allclose(parse_csv(text, "back.csv", hexapod).poses, m.poses)
+
+
+def test_defaults_of_the_readers(ev, tmp_path):
+    """Without a robot: the Heli4's; without a name: ``<data>``; no rows: the file's error."""
+    m = Measurements.from_arrays(1000.0, "x", [15.0], ev=ev)
+    assert m.source == "<data>" and m.lines.tolist() == [2]
+    assert Measurements.from_arrays(1000.0, "x", [15.0]).robot == "heli4"
+    path = tmp_path / "lab.csv"
+    path.write_text("k_a,mode,freq_hz\n1000,x,15\n")
+    assert load_measurements(path).robot == "heli4"
+    with pytest.raises(MeasurementError) as err:
+        Measurements.from_arrays(1000.0, "x", [], ev=ev)
+    assert str(err.value) == "<data>, line 1: no data rows after the header: expected one row per measured frequency"
+
+
+def test_modal_columns_are_arrays_whichever_reader(ev):
+    """A block read at once and a block read row by row (a short row follows) give the same
+    columns: signed sensor offsets and a signed parameter accepted, each modal column an array."""
+    header = "k_a,mode,freq_hz,sensor_z,sigma_damping_ratio,damping_ratio,p_x\n"
+    good = "1000,x,15,-0.1,0.01,0.02,-0.5\n"
+    m = parse_csv(header + good, "lab.csv", ev)
+    for name in ("sensor_z", "sigma_damping_ratio", "damping_ratio"):
+        assert isinstance(m.modal[name], np.ndarray) and m.modal[name].dtype == float, name
+    assert m.modal["sensor_z"].tolist() == [-0.1] and m.params["p_x"].tolist() == [-0.5]
+    with pytest.raises(MeasurementError) as err:  # row by row: the first row's cells read, then the short row
+        parse_csv(header + good + "1000,y,15\n", "lab.csv", ev)
+    assert str(err.value) == "lab.csv, line 3: 3 cells where the header has 7 columns"
+
+
+def test_a_quoted_decimal_comma_in_a_comma_separated_file_is_refused(ev):
+    with pytest.raises(MeasurementError) as err:
+        parse_csv('k_a,mode,freq_hz\n1000,x,"15,5"\n', "lab.csv", ev)
+    assert str(err.value) == "lab.csv, line 2, column 'freq_hz': value '15,5' is not a number"
+
+
+def test_an_unreachable_pose_without_a_hint(ev, monkeypatch):
+    from eigentwist.runtime import reach
+
+    monkeypatch.setattr(reach, "reach_hint", lambda *a, **k: "")
+    message = refusal(ev, "k_a,mode,freq_hz\n1000,x,15\n", values={"l2": 0.3})
+    assert "; " not in message and message.endswith("expected within [-1, 1])")  # the pose's own reason alone
