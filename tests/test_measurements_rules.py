@@ -410,6 +410,8 @@ def test_parse_csv_whole_file_rules(ev):
         == "lab.csv: contains NUL characters: expected a text file (CSV)"
     )
     assert parse_csv("\ufeffk_a,mode,freq_hz\n1000,x,15\n", "lab.csv", ev).freq_hz.tolist() == [15.0]  # a BOM dropped
+    last = parse_csv("k_a,mode,freq_hz\n1000,x,15\n2000,x,16", "lab.csv", ev)  # no line end after the last row
+    assert last.freq_hz.tolist() == [15.0, 16.0] and last.lines.tolist() == [2, 3]
     assert refusal(ev, "\n# only a comment\n") == (
         "lab.csv: empty file: expected a header line with the columns k_a, mode, freq_hz and one row per measured "
         "frequency"
@@ -447,14 +449,14 @@ def test_a_six_dof_robots_measurements(tmp_path):
     hexapod = eigentwist.load("hexapod", backend="numpy")
     x_ref = np.asarray(hexapod.robot.x_ref, dtype=float)
     pose = x_ref + [0.0, 0.0, 0.01, 0.02, 0.0, 0.0]
-    m = Measurements.from_arrays(1000.0, ["x", "y"], [15.0, 16.0], poses=pose, robot="hexapod", ev=hexapod)
+    m = Measurements.from_arrays(1000.0, ["x", "y"], [15.0, 16.0], poses=pose, ev=hexapod)  # the robot: ev's
     assert m.poses.shape == (2, 6) and np.allclose(m.poses[1], pose) and m.robot == "hexapod"
     assert m.k_a_unit == hexapod.parameter("k_a").unit
     text = m.to_csv()
     assert text.splitlines()[0] == "k_a,mode,freq_hz,sigma_hz,x,y,z,rot_x,rot_y,rot_z"
     path = tmp_path / "hexapod.csv"
     path.write_text("k_a,mode,freq_hz,z,rot_x\n1000,x,15,,0.02\n")
-    read = load_measurements(path, robot="hexapod", ev=hexapod)
+    read = load_measurements(path, ev=hexapod)
     assert np.allclose(read.poses, [[*x_ref[:3], 0.02, *x_ref[4:]]]) and read.robot == "hexapod"
     assert np.allclose(parse_csv(text, "back.csv", hexapod).poses, m.poses)
 
