@@ -51,7 +51,10 @@ def _kind_axis(joint, name: str) -> tuple[str, tuple]:
         if short.startswith(prefix) and rest in _AXIS:
             return kind, _AXIS[rest]
     if short in ("JointModelRevoluteUnaligned", "JointModelRevoluteUnboundedUnaligned", "JointModelPrismaticUnaligned"):
-        axis = tuple(float(a) for a in joint.extract().axis)
+        axis = getattr(joint.extract(), "axis", None)
+        if axis is None:  # the unbounded one has no axis in Pinocchio's bindings: its motion subspace [v; omega]
+            axis = list(joint.createData().S.reshape(-1))[3:]
+        axis = tuple(float(a) for a in axis)
         return ("P" if "Prismatic" in short else "R"), axis
     raise DescriptionError(
         f"URDF joint {name!r} is {short}: expected revolute, continuous or prismatic joints "

@@ -596,12 +596,12 @@ def _numeric(name: str, ev):
     if (
         name in ("x", "y", "z")
         or name in ROTATION_COLUMNS
-        or name in MODAL[1:]
+        or name in MODAL[1:-1]
         or DOF_COLUMN.match(name)
         or name in joint_columns(ev)
     ):
         return False, None
-    if name in ("damping_ratio", "k_a", "freq_hz", "sigma_hz"):
+    if name in ("damping_ratio", "sigma_damping_ratio", "k_a", "freq_hz", "sigma_hz"):
         return True, None
     p = _parameter(name, ev)
     return (p.bounds[0] >= 0, p) if p is not None else None

@@ -138,8 +138,6 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
             threads=resolve_threads(ev.threads),
         )
     m = B.shape[-1]
-    finite = np.zeros(size, dtype=bool)
-    finite[:m] = True
     for name in ("natural_hz", "damped_hz", "damping_ratio", "poles"):
         arr = getattr(out, name)
         block = arr[rows]
