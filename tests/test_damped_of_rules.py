@@ -526,7 +526,20 @@ def test_one_c_call_from_the_legs_where_the_driver_takes_the_problem(driver):
 
 
 @pytest.mark.parametrize("effects, shapes", [(("servo_damping", "structural_loss"), False), (("servo_damping",), True)])
-def test_the_driver_does_not_take_a_loss_factor_or_shapes(driver, effects, shapes):
+def test_the_legs_driver_does_not_take_a_loss_factor_or_shapes(driver, monkeypatch, effects, shapes):
+    """Neither goes to the one C call from the legs; a loss factor goes to the complex C solver
+    (here a stand-in that solves in NumPy), complex shapes to NumPy."""
+    from eigentwist.runtime import c_damped, damped
+
+    complex_calls = []
+
+    def solve_complex(M, K, K_loss, W, h, k_d, c_d, t_d, *rules, threads=1):
+        complex_calls.append(K_loss is not None)
+        d = damped.damped_modes(M, K, W, h, k_d, c_d, t_d, K_loss=K_loss)
+        two_pi = 2 * np.pi
+        return d.natural_hz * two_pi, d.damping_ratio, d.damped_hz * two_pi, d.poles, d.stable, np.zeros(len(K), bool)
+
+    monkeypatch.setattr(c_damped, "solve_complex", solve_complex)
     Je, Cq, M, K_ground, K_F, rows, freq = flexible_case(invalid=None, n_rows=1)
     ev = StandIn()
     ev.backend = "c"
@@ -535,6 +548,7 @@ def test_the_driver_does_not_take_a_loss_factor_or_shapes(driver, effects, shape
         ev, effects, inputs_of(rows, Je, Cq, M, K_ground, {"M": M, "K_F": K_F}, p=p), modes_of(freq), shapes
     )
     assert driver.calls == []
+    assert complex_calls == ([True] if "structural_loss" in effects else [])
     loss = 0.02 if "structural_loss" in effects else 0.0
     check_poles(d, rows, lambda k: lambda s: dynamic(s, k, Je, Cq, M, K_F[k], np.eye(6), loss=loss, t_d=0.0))
 
