@@ -380,73 +380,8 @@ static int et_francis(int m, double *H, double *wr, double *wi)
     return 1;
 }
 
-/* an eigenvector x of A (m x m) for the eigenvalue s: inverse iteration on A - s I in complex
-   arithmetic (LU with partial pivoting, a zero pivot replaced by eps times the norm) */
-static __attribute__((noinline)) void et_vector(int m, const double *A, double complex s, double complex *x)
-{
-    double complex L[MAXM * MAXM];
-    int piv[MAXM];
-    double norm = 0.0;
-    for (int i = 0; i < m * m; ++i) {
-        L[i] = A[i];
-        norm = fmax(norm, fabs(A[i]));
-    }
-    for (int i = 0; i < m; ++i)
-        L[i * m + i] -= s;
-    double tiny = DBL_EPSILON * (norm > 0.0 ? norm : 1.0);
-    for (int k = 0; k < m; ++k) {
-        int p = k;
-        double best = fabs(creal(L[k * m + k])) + fabs(cimag(L[k * m + k]));
-        for (int i = k + 1; i < m; ++i) {
-            double a = fabs(creal(L[i * m + k])) + fabs(cimag(L[i * m + k]));
-            if (a > best) {
-                best = a;
-                p = i;
-            }
-        }
-        piv[k] = p;
-        if (p != k)
-            for (int j = 0; j < m; ++j) {
-                double complex t = L[k * m + j];
-                L[k * m + j] = L[p * m + j];
-                L[p * m + j] = t;
-            }
-        if (best < tiny)
-            L[k * m + k] = tiny;
-        for (int i = k + 1; i < m; ++i) {
-            double complex f = L[i * m + k] / L[k * m + k];
-            L[i * m + k] = f;
-            for (int j = k + 1; j < m; ++j)
-                L[i * m + j] -= f * L[k * m + j];
-        }
-    }
-    for (int i = 0; i < m; ++i)
-        x[i] = 1.0 + 0.1 * i;
-    for (int it = 0; it < 2; ++it) {
-        for (int k = 0; k < m; ++k) {
-            double complex t = x[k];
-            x[k] = x[piv[k]];
-            x[piv[k]] = t;
-            for (int i = k + 1; i < m; ++i)
-                x[i] -= L[i * m + k] * x[k];
-        }
-        for (int i = m - 1; i >= 0; --i) {
-            double complex v = x[i];
-            for (int j = i + 1; j < m; ++j)
-                v -= L[i * m + j] * x[j];
-            x[i] = v / L[i * m + i];
-        }
-        double big = 0.0;
-        for (int i = 0; i < m; ++i)
-            big = fmax(big, fabs(creal(x[i])) + fabs(cimag(x[i])));
-        if (!(big > 0.0) || !isfinite(big))
-            return;
-        for (int i = 0; i < m; ++i)
-            x[i] /= big;
-    }
-}
-
-/* et_vector for a complex A (m x m) */
+/* an eigenvector x of a complex A (m x m) for the eigenvalue s: inverse iteration on A - s I
+   (LU with partial pivoting, a zero pivot replaced by eps times the norm) */
 static __attribute__((noinline)) void et_zvector(int m, const double complex *A, double complex s, double complex *x)
 {
     double complex L[MAXM * MAXM];
@@ -509,6 +444,15 @@ static __attribute__((noinline)) void et_zvector(int m, const double complex *A,
         for (int i = 0; i < m; ++i)
             x[i] /= big;
     }
+}
+
+/* et_zvector for a real A (m x m): the same arithmetic (|a| = cabs(a + 0i) exactly) */
+static __attribute__((noinline)) void et_vector(int m, const double *A, double complex s, double complex *x)
+{
+    double complex Z[MAXM * MAXM];
+    for (int i = 0; i < m * m; ++i)
+        Z[i] = A[i];
+    et_zvector(m, Z, s, x);
 }
 
 static double et_cabs1(double complex z)
