@@ -287,22 +287,34 @@ def pass_damping(ev, effects, poses, params: dict, p: dict, solved: dict, modes)
     out = Damping(natural, damped, zeta, poles, None, np.asarray(modes.stable, dtype=bool) & (stable | bad))
     rows = valid & redo
     if rows.any():  # the driver's undecided poses, on the pass's outputs
-        take = lambda d: {k: (v[rows] if np.ndim(v) and np.shape(v)[0] == N > 1 else v) for k, v in d.items()}  # noqa: E731
-        inputs = {
-            "rows": rows,
-            "poses": np.asarray(poses, dtype=float)[rows],
-            "params": take(params),
-            "p": take(p),
-            "legs": take(solved["legs"]),
-            "mats": take({"M": solved["M"], solved["stiffness"]: solved["K"]}),
-            "B": None,
-            "exact": False,
-            "preloaded": False,
-        }
-        d = damped_of(ev, effects, inputs, modes, False)
-        for name in ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable"):
-            getattr(out, name)[rows] = getattr(d, name)[rows]
+        mats = {"M": solved["M"], solved["stiffness"]: solved["K"]}
+        _undecided(ev, effects, rows, poses, params, p, solved, mats, False, modes, out)
     return out
+
+
+def _undecided(ev, effects, rows, poses, params: dict, p: dict, solved: dict, mats: dict, exact: bool, modes, out):
+    """The damped modes of the poses ``rows`` (N,) a C pass left undecided, by
+    :func:`damped_of` from the pass's outputs (``solved["legs"]``, ``mats``), written into
+    ``out`` (a :class:`.damped.Damping` of all N poses)."""
+    N = len(rows)
+
+    def take(d: dict) -> dict:
+        return {k: (v[rows] if np.ndim(v) and np.shape(v)[0] == N > 1 else v) for k, v in d.items()}
+
+    inputs = {
+        "rows": rows,
+        "poses": np.asarray(poses, dtype=float)[rows],
+        "params": take(params),
+        "p": take(p),
+        "legs": take(solved["legs"]),
+        "mats": take(mats),
+        "B": None,
+        "exact": exact,
+        "preloaded": False,
+    }
+    d = damped_of(ev, effects, inputs, modes, False)
+    for name in ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable"):
+        getattr(out, name)[rows] = getattr(d, name)[rows]
 
 
 def fused_exact(ev, effects, poses, p: dict, pk: dict, vectors: bool, damped: bool, threads: int):
@@ -395,21 +407,7 @@ def exact_merge(ev, effects, poses, params: dict, p: dict, solved: dict, modes, 
     out.stable[rows] &= stable[rows]
     redo = rows & (solved["code"] == 1)
     if redo.any():  # the driver's undecided poses, on the pass's outputs
-        take = lambda d: {k: (v[redo] if np.ndim(v) and np.shape(v)[0] == N > 1 else v) for k, v in d.items()}  # noqa: E731
-        inputs = {
-            "rows": redo,
-            "poses": np.asarray(poses, dtype=float)[redo],
-            "params": take(params),
-            "p": take(p),
-            "legs": take(solved["legs"]),
-            "mats": {"M": solved["M"][redo]},
-            "B": None,
-            "exact": True,
-            "preloaded": False,
-        }
-        d = damped_of(ev, effects, inputs, modes, False)
-        for name in ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable"):
-            getattr(out, name)[redo] = getattr(d, name)[redo]
+        _undecided(ev, effects, redo, poses, params, p, solved, {"M": solved["M"]}, True, modes, out)
     modes.damping = out
     return modes
 
