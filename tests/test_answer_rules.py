@@ -20,6 +20,8 @@ from eigentwist.diagnose.backward import Removal
 from eigentwist.diagnose.misfit import Outlier, Uncertainty
 from eigentwist.diagnose.select import Alternative, Step
 
+from .standin_diagnosis import Rows, diag, fit_of
+
 PARAMS = {
     "m_p": ("kg", (0.0, 5.0), 0.0),
     "eta_a": ("-", (0.3, 1.0), 0.82),
@@ -56,59 +58,6 @@ class FakeEv:
 
 
 EV = FakeEv()
-
-
-def fit_of(
-    effects=(), chi2=20.0, n=30, k=1, values=None, std=None, at_bound=(), rms=1.5, aicc=10.0, fixed=None, names=None
-):
-    values = dict(values or {})
-    return NS(
-        effects=tuple(effects),
-        chi2=chi2,
-        n=n,
-        k=k,
-        dof=n - k,
-        values=values,
-        std=dict(std or {}),
-        at_bound=tuple(at_bound),
-        rms_pct=rms,
-        aicc=aicc,
-        fixed=dict(fixed or {}),
-        names=tuple(values) if names is None else tuple(names),
-        comparison=NS(predicted=np.zeros(3), where_it_fails=lambda: []),
-    )
-
-
-class Rows(NS):
-    def __len__(self):
-        return self.n
-
-
-def diag(**kw):
-    base = dict(
-        robot="heli4",
-        baseline=fit_of(rms=4.56),
-        final=fit_of(),
-        explained=True,
-        alpha=0.01,
-        implausible={},
-        manual=False,
-        uncertainty=None,
-        steps=[Step(fit_of(), ranking=[])],
-        alternatives=[],
-        untestable={},
-        next_measurement=None,
-        outliers=[],
-        removed=[],
-        meas=Rows(n=30, k_a_unit="N m/rad", sigma_hz=np.ones(3)),
-        ranking=[],
-        selected=[],
-        setting_anomalies=[],
-        notes=[],
-        search=None,
-    )
-    base.update(kw)
-    return NS(**base)
 
 
 def candidate(effect, p=1e-4, aicc=5.0, implausible=None, values=None, plausible=None, names=None, fit=None):

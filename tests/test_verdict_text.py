@@ -20,6 +20,8 @@ from eigentwist.diagnose.compare import Comparison
 from eigentwist.diagnose.misfit import Outlier, Uncertainty
 from eigentwist.diagnose.select import Alternative, Step
 
+from .standin_diagnosis import Rows, diag, fit_of
+
 UNITS = {"k_E_rot": "N m/rad", "m_p": "kg", "E_l1": "Pa", "k_a": "N m/rad"}
 RANGES = {"E_l1": (4e10, 2.5e11)}
 
@@ -50,54 +52,6 @@ def tables(monkeypatch):
 
     monkeypatch.setattr(vd, "format_table", record)
     return got
-
-
-def fit_of(effects=(), chi2=20.0, n=30, k=1, values=None, std=None, at_bound=(), rms=1.5, mx=3.0, aicc=10.0):
-    return NS(
-        effects=tuple(effects),
-        chi2=chi2,
-        n=n,
-        k=k,
-        dof=n - k,
-        reduced_chi2=chi2 / (n - k) if n > k else math.nan,
-        values=dict(values or {}),
-        std=dict(std or {}),
-        at_bound=tuple(at_bound),
-        rms_pct=rms,
-        max_pct=mx,
-        aicc=aicc,
-        names=tuple(values or {}),
-        comparison=NS(predicted=np.zeros(3), meas=NS(sigma_hz=np.ones(3))),
-    )
-
-
-def diag(**kw):
-    base = dict(
-        robot="heli4",
-        final=fit_of(),
-        explained=True,
-        alpha=0.01,
-        implausible={},
-        manual=False,
-        uncertainty=None,
-        steps=[Step(fit_of(), ranking=[])],
-        alternatives=[],
-        untestable={},
-        next_measurement=None,
-        outliers=[],
-        all_rows=None,
-        meas=NS(k_a_unit="N m/rad", __len__=None),
-        ranking=[],
-    )
-    base.update(kw)
-    return NS(**base)
-
-
-class Rows(NS):
-    """Measurements stand-in with a length."""
-
-    def __len__(self):
-        return len(self.freq_hz)
 
 
 # -- small formatters ------------------------------------------------------------------------------------
