@@ -133,6 +133,30 @@ def throughput(reps: int = 5):
             print(f"| {backend} | {base} | {rates[0]:.3g} | {rates[1]:.3g} | {rates[1] / rates[0]:.2f} |")
 
 
+def _two_routes(ev, rng, models, sizes, route_names, use, params: dict, reps: int):
+    """Best CPU seconds per call of ``ev.modes`` on new poses and k_a for each model and of two
+    routes, interleaved: ``use(True)`` switches to the second route of ``route_names``,
+    ``use(False)`` to the first; ``sizes`` are (poses per call, calls) pairs. Prints a row per
+    size and model."""
+    for n, calls in sizes:
+        best = {}
+        for _ in range(reps):
+            for model in models:
+                for route in route_names:
+                    use(route == route_names[1])
+                    t = time.process_time()
+                    for _ in range(calls):
+                        poses = np.column_stack(
+                            [rng.uniform(-0.08, 0.08, n), rng.uniform(-0.08, 0.08, n), rng.uniform(-0.68, -0.58, n)]
+                        )
+                        ev.modes(poses, model, k_a=rng.uniform(125.0, 4000.0, n), vectors=False, **params)
+                    best[model, route] = min(best.get((model, route), np.inf), (time.process_time() - t) / calls)
+        for model in models:
+            a, b = (best[model, route] for route in route_names)
+            rates = f"{n / a:.3g} ({a * 1e3:.2f} ms) | {n / b:.3g} ({b * 1e3:.2f} ms)"
+            print(f"| {n} | {model} | {rates} | {a / b:.2f} |")
+
+
 def exact_routes(reps: int = 7):
     """The exact condensation's two C-backend routes in one process, interleaved: its own C pass
     and the route with Python between the kernels (``one_pass_takes`` off), poses/s."""
@@ -141,27 +165,14 @@ def exact_routes(reps: int = 7):
     print("\n## The exact condensation: its C pass against the Python route, one thread, CPU time\n")
     print("| poses per call | model | Python route | one C pass | ratio |\n|---|---|---|---|---|")
     ev = eigentwist.load("heli4", backend="c", threads=1)
-    rng = np.random.default_rng(1)
     takes = dm.one_pass_takes
+
+    def use(on: bool):
+        dm.one_pass_takes = takes if on else (lambda *a: False)
+
     models = (",".join(PAPER), ",".join(PAPER) + ",servo_damping")
     try:
-        for n, calls in ((4096, 1), (64, 40)):
-            best = {}
-            for _ in range(reps):
-                for model in models:
-                    for route in ("python", "pass"):
-                        dm.one_pass_takes = takes if route == "pass" else (lambda *a: False)
-                        t = time.process_time()
-                        for _ in range(calls):
-                            poses = np.column_stack(
-                                [rng.uniform(-0.08, 0.08, n), rng.uniform(-0.08, 0.08, n), rng.uniform(-0.68, -0.58, n)]
-                            )
-                            ev.modes(poses, model, k_a=rng.uniform(125.0, 4000.0, n), vectors=False)
-                        best[model, route] = min(best.get((model, route), np.inf), (time.process_time() - t) / calls)
-            for model in models:
-                a, b = best[model, "python"], best[model, "pass"]
-                rates = f"{n / a:.3g} ({a * 1e3:.2f} ms) | {n / b:.3g} ({b * 1e3:.2f} ms)"
-                print(f"| {n} | {model} | {rates} | {a / b:.2f} |")
+        _two_routes(ev, np.random.default_rng(1), models, ((4096, 1), (64, 40)), ("python", "pass"), use, {}, reps)
     finally:
         dm.one_pass_takes = takes
 
@@ -174,27 +185,16 @@ def loss_routes(reps: int = 7):
     print("\n## A structural loss factor: the complex C solver against NumPy's, one thread, CPU time\n")
     print("| poses per call | model | NumPy solver | C solver | ratio |\n|---|---|---|---|---|")
     ev = eigentwist.load("heli4", backend="c", threads=1)
-    rng = np.random.default_rng(2)
     compiled = damped._compiled
+
+    def use(on: bool):
+        damped._compiled = compiled if on else (lambda *a: False)
+
     models = ("paper,structural_loss", "damped,structural_loss", ",".join(PAPER) + ",structural_loss")
     try:
-        for n, calls in ((4096, 1), (64, 20)):
-            best = {}
-            for _ in range(reps):
-                for model in models:
-                    for route in ("numpy", "c"):
-                        damped._compiled = compiled if route == "c" else (lambda *a: False)
-                        t = time.process_time()
-                        for _ in range(calls):
-                            poses = np.column_stack(
-                                [rng.uniform(-0.08, 0.08, n), rng.uniform(-0.08, 0.08, n), rng.uniform(-0.68, -0.58, n)]
-                            )
-                            ev.modes(poses, model, k_a=rng.uniform(125.0, 4000.0, n), eta_s=0.05, vectors=False)
-                        best[model, route] = min(best.get((model, route), np.inf), (time.process_time() - t) / calls)
-            for model in models:
-                a, b = best[model, "numpy"], best[model, "c"]
-                rates = f"{n / a:.3g} ({a * 1e3:.2f} ms) | {n / b:.3g} ({b * 1e3:.2f} ms)"
-                print(f"| {n} | {model} | {rates} | {a / b:.2f} |")
+        _two_routes(
+            ev, np.random.default_rng(2), models, ((4096, 1), (64, 20)), ("numpy", "c"), use, {"eta_s": 0.05}, reps
+        )
     finally:
         damped._compiled = compiled
 
