@@ -1577,30 +1577,36 @@ def solve(M, K, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguou
     pole grows, and the poses the driver left to NumPy (their other values are undefined).
     M, K (N, n, n), W (N, legs, n), h, k_d, c_d, t_d (N, legs), real; the rules' constants as
     in :mod:`.damped`. ``threads`` > 1 runs ranges of whole blocks of poses on threads."""
-    from .threads import run_ranges, threads_for
-
     fn = driver()
     N, n = np.shape(K)[:2]
     L = np.shape(W)[1]
     arrays = [np.ascontiguousarray(v, dtype=np.float64) for v in (M, K, W, h, k_d, c_d, t_d)]
+    sizes = (n * n, n * n, L * n, L, L, L, L)
+    inputs = [(v, 8 * size) for v, size in zip(arrays, sizes)]
+    return _run_poles(fn, N, n, L, inputs, (eliminate, unstable, ambiguous), threads, "C damped modes")
+
+
+def _run_poles(fn, N: int, n: int, L: int, inputs, rules, threads: int, what: str):
+    """Call the damped-modes entry ``fn`` on ranges of whole blocks of the N poses (threads):
+    its arguments are the range's count, n, L, each input's address at the range's first pose
+    (``inputs``: (array or None, bytes per pose) in the entry's order), ``rules`` and the
+    outputs' addresses; ``(wn, zeta, wd, poles, stable, redo)`` as :func:`solve` returns them.
+    A non-zero return code raises, naming ``what``."""
+    from .threads import run_ranges, threads_for
+
     wn, zeta, wd = (np.empty((N, n)) for _ in range(3))
     poles = np.empty((N, n), dtype=complex)
     stable = np.empty(N, dtype=np.int8)
     status = np.empty(N, dtype=np.int8)
-    sizes = (n * n, n * n, L * n, L, L, L, L)
 
     def call(a: int, b: int) -> int:
-        ins = [v.ctypes.data + 8 * a * s for v, s in zip(arrays, sizes)]
-        outs = [x.ctypes.data + 8 * a * n for x in (wn, zeta, wd)]
         return fn(
             b - a,
             n,
             L,
-            *ins,
-            eliminate,
-            unstable,
-            ambiguous,
-            *outs,
+            *(None if v is None else v.ctypes.data + a * size for v, size in inputs),
+            *rules,
+            *(x.ctypes.data + 8 * a * n for x in (wn, zeta, wd)),
             poles.ctypes.data + 16 * a * n,
             stable.ctypes.data + a,
             status.ctypes.data + a,
@@ -1608,7 +1614,7 @@ def solve(M, K, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguou
 
     for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
         if rc != 0:
-            raise RuntimeError(f"C damped modes returned {rc}")
+            raise RuntimeError(f"{what} returned {rc}")
     return wn, zeta, wd, poles, stable.astype(bool), status != 0
 
 
@@ -1867,8 +1873,6 @@ def solve_complex(M, K, K_loss, W, h, k_d, c_d, t_d, eliminate: float, unstable:
     the state matrix complex (``et_damped_complex``: complex Householder-Hessenberg and
     single-shift QR), its poles of positive frequency assigned as :func:`solve` does. Returns
     ``(wn, zeta, wd, poles, stable, redo)`` as :func:`solve`."""
-    from .threads import run_ranges, threads_for
-
     driver()
     fn = _COMPLEX[0]
     N, n = np.shape(K)[:2]
@@ -1876,32 +1880,6 @@ def solve_complex(M, K, K_loss, W, h, k_d, c_d, t_d, eliminate: float, unstable:
     M, K, kd, cd, td = (np.ascontiguousarray(v, dtype=np.float64) for v in (M, K, k_d, c_d, t_d))
     Kl = None if K_loss is None else np.ascontiguousarray(K_loss, dtype=np.float64)
     W, h = (np.ascontiguousarray(v, dtype=np.complex128) for v in (W, h))
-    wn, zeta, wd = (np.empty((N, n)) for _ in range(3))
-    poles = np.empty((N, n), dtype=complex)
-    stable = np.empty(N, dtype=np.int8)
-    status = np.empty(N, dtype=np.int8)
-
-    def call(a: int, b: int) -> int:
-        return fn(
-            b - a,
-            n,
-            L,
-            M.ctypes.data + 8 * a * n * n,
-            K.ctypes.data + 8 * a * n * n,
-            None if Kl is None else Kl.ctypes.data + 8 * a * n * n,
-            W.ctypes.data + 16 * a * L * n,
-            h.ctypes.data + 16 * a * L,
-            *(x.ctypes.data + 8 * a * L for x in (kd, cd, td)),
-            eliminate,
-            unstable,
-            ambiguous,
-            *(x.ctypes.data + 8 * a * n for x in (wn, zeta, wd)),
-            poles.ctypes.data + 16 * a * n,
-            stable.ctypes.data + a,
-            status.ctypes.data + a,
-        )
-
-    for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
-        if rc != 0:
-            raise RuntimeError(f"C complex damped modes returned {rc}")
-    return wn, zeta, wd, poles, stable.astype(bool), status != 0
+    inputs = [(M, 8 * n * n), (K, 8 * n * n), (Kl, 8 * n * n), (W, 16 * L * n), (h, 16 * L)]
+    inputs += [(x, 8 * L) for x in (kd, cd, td)]
+    return _run_poles(fn, N, n, L, inputs, (eliminate, unstable, ambiguous), threads, "C complex damped modes")
