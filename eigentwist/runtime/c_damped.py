@@ -1645,6 +1645,28 @@ def wrenches(Je, Cq, rigid: float, a0=None, loss=None):
     return K, W, h
 
 
+def _legs_arguments(legs, n: int):
+    """The legs kernel's part of a pass's C arguments: its address, the number of inputs
+    read from the joint coordinates, the input and stride tables, which inputs are the
+    joint coordinates, the number of outputs and their addresses and sizes per pose; and the
+    arrays those addresses point into (keep them alive for the call). ``legs``: the kernel's
+    :meth:`~.c_kernels.CKernels.kernel_arguments`; n poses."""
+    address, inputs, strides, q_of, outs, _ = legs
+    out_ptrs = np.array([a.ctypes.data for a in outs.values()], dtype=np.uint64)
+    sizes = np.array([a[0].size if n else 0 for a in outs.values()], dtype=np.int64)
+    args = (
+        address,
+        len(q_of),
+        inputs.ctypes.data,
+        strides.ctypes.data,
+        q_of.ctypes.data,
+        len(out_ptrs),
+        out_ptrs.ctypes.data,
+        sizes.ctypes.data,
+    )
+    return args, (out_ptrs, sizes)
+
+
 def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, threads: int = 1):
     """The robot's fused pass, its legs kernel and the damped modes of n poses in one C call
     per range of whole blocks (``et_damped_pass``: no Python between the kernels and the
@@ -1665,13 +1687,11 @@ def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k
     driver()
     fn = _PASS[0]
     address, args = fused
-    l_address, l_in, l_stride, q_of, l_outs, _ = legs
     L, e = np.shape(Je)[1:3]
     r = 6 if B is None else np.shape(B)[1]
     Bc = None if B is None else np.ascontiguousarray(B, dtype=np.float64)
     kd, cd, td = (np.ascontiguousarray(np.broadcast_to(v, (n, L)), dtype=np.float64) for v in (k_d, c_d, t_d))
-    out_ptrs = np.array([a.ctypes.data for a in l_outs.values()], dtype=np.uint64)
-    sizes = np.array([a[0].size if n else 0 for a in l_outs.values()], dtype=np.int64)
+    legs_args, _keep = _legs_arguments(legs, n)
     wn, zeta, wd = (np.empty((n, r)) for _ in range(3))
     poles = np.empty((n, r), dtype=complex)
     stable = np.empty(n, dtype=np.int8)
@@ -1685,14 +1705,7 @@ def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k
             block,
             address,
             *args,
-            l_address,
-            len(q_of),
-            l_in.ctypes.data,
-            l_stride.ctypes.data,
-            q_of.ctypes.data,
-            len(out_ptrs),
-            out_ptrs.ctypes.data,
-            sizes.ctypes.data,
+            *legs_args,
             q.ctypes.data,
             q_row,
             M.ctypes.data,
@@ -1803,7 +1816,7 @@ def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null
     driver()
     fn = _EXACT[0]
     address, args = fused
-    l_address, l_in, l_stride, q_of, l_outs, _ = legs
+    l_outs = legs[4]
     Je, Cq, Kg = l_outs["Je"], l_outs["Cq"], l_outs["K_ground"]
     L, e = np.shape(Je)[1:3]
     damped = k_d is not None
@@ -1812,8 +1825,7 @@ def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null
         if damped
         else (None, None, None)
     )
-    out_ptrs = np.array([a.ctypes.data for a in l_outs.values()], dtype=np.uint64)
-    sizes = np.array([a[0].size if n else 0 for a in l_outs.values()], dtype=np.int64)
+    legs_args, _keep = _legs_arguments(legs, n)
     nb, code = np.empty(n, dtype=np.int8), np.empty(n, dtype=np.int8)
     lam = np.empty((n, 6))
     V = np.empty((n, 6, 6)) if vectors else None
@@ -1830,14 +1842,7 @@ def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null
             block,
             address,
             *args,
-            l_address,
-            len(q_of),
-            l_in.ctypes.data,
-            l_stride.ctypes.data,
-            q_of.ctypes.data,
-            len(out_ptrs),
-            out_ptrs.ctypes.data,
-            sizes.ctypes.data,
+            *legs_args,
             q.ctypes.data,
             q_row,
             M.ctypes.data,
