@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import inspect
 import itertools
 import json
+import logging
+import types
 
 import numpy as np
 import pytest
@@ -366,15 +369,52 @@ def test_dask_two_workers_equal_in_process(tmp_path):
         np.testing.assert_array_equal(local.lowest[key], remote.lowest[key])
 
 
-def test_cli_dask_local_cluster(tmp_path, capsys):
-    pytest.importorskip("dask.distributed", reason="the dask extra is not installed")
+def test_cli_dask_local_cluster(tmp_path, capsys, monkeypatch):
+    distributed = pytest.importorskip("dask.distributed", reason="the dask extra is not installed")
+    registered = []
+    register = distributed.Client.register_plugin
+    monkeypatch.setattr(
+        distributed.Client,
+        "register_plugin",
+        lambda self, plugin, **kw: registered.append(plugin) or register(self, plugin, **kw),
+    )
     args = ["sweep", "--grid", "2", "2", "2", "--vary", "l2=0.5,0.55", "--chunk-size", "5"]
     assert main([*args, "-o", str(tmp_path / "a")]) == 0
     assert main([*args, "--engine", "dask", "--workers", "2", "-o", str(tmp_path / "b")]) == 0
-    assert "engine dask" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "engine dask" in err
+    assert [type(p).__name__ for p in registered] == ["QuietShutdown"]
     a, b = sw.load_sweep(tmp_path / "a"), sw.load_sweep(tmp_path / "b")
     for key in sw.COLUMNS:
         np.testing.assert_array_equal(a.columns[key], b.columns[key])
+
+
+def test_only_a_closing_workers_heartbeat_failure_is_dropped():
+    distributed = pytest.importorskip("dask.distributed", reason="the dask extra is not installed")
+    from distributed.core import Status
+
+    from eigentwist.runtime.sweep.dask_quiet import HEARTBEAT_FAILURE, ClosingHeartbeatFilter, QuietShutdown
+
+    # the record the filter matches is the one distributed's worker writes
+    assert f'"{HEARTBEAT_FAILURE}.' in inspect.getsource(distributed.Worker.heartbeat)
+    worker = types.SimpleNamespace(status=Status.running)
+    logger = logging.getLogger("distributed.worker")
+    before = list(logger.filters)
+    try:
+        QuietShutdown().setup(worker)
+        (added,) = [f for f in logger.filters if f not in before]
+    finally:
+        logger.filters[:] = before
+
+    def record(message):
+        return logging.LogRecord("distributed.worker", logging.ERROR, __file__, 1, message, (), None)
+
+    heartbeat = "Failed to communicate with scheduler during heartbeat."
+    assert isinstance(added, ClosingHeartbeatFilter) and added.filter(record(heartbeat))
+    for status in (Status.closing, Status.closing_gracefully, Status.closed):
+        worker.status = status
+        assert not added.filter(record(heartbeat)), status
+        assert added.filter(record("Worker stream died during communication")), status
 
 
 @pytest.mark.parametrize("robot", NAMES)

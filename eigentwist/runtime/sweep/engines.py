@@ -30,6 +30,8 @@ def _dask(spec: SweepSpec, scheduler: str | None = None, workers: int | None = N
     A sliding window of ``2 x workers`` chunks in flight keeps memory bounded. The
     workers of a remote cluster need eigentwist installed (and a C compiler for
     ``backend="c"``); the spec travels with each task, each worker loads its evaluator once.
+    The workers of a local cluster drop the heartbeat failure of their own shutdown
+    (:class:`~eigentwist.runtime.sweep.dask_quiet.QuietShutdown`).
     """
     try:
         from dask.distributed import Client, LocalCluster
@@ -50,6 +52,9 @@ def _dask(spec: SweepSpec, scheduler: str | None = None, workers: int | None = N
                 )
             )
             client = stack.enter_context(Client(cluster))
+            from .dask_quiet import QuietShutdown
+
+            client.register_plugin(QuietShutdown())
         window = 2 * max(1, len(client.scheduler_info().get("workers", {})))
         pending: deque = deque()
         submitted = 0
