@@ -12,6 +12,7 @@ import pytest
 import eigentwist.codegen.generate as generate
 from eigentwist.robots import get
 from eigentwist.runtime import ccompile
+from eigentwist.runtime import userfile
 from eigentwist.runtime.userfile import generated_modules, import_numpy_module
 
 NUMPY = "VALUE = 42\n"
@@ -19,17 +20,57 @@ C_SOURCE = "int et_value(void) { return 42; }\n"
 
 
 @pytest.fixture
-def cache(tmp_path, monkeypatch):
+def renders():
+    """(backends, stages) of each stand-in render, in order."""
+    return []
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch, renders):
     root = tmp_path / "fresh" / "cache"
     monkeypatch.setenv("EIGENTWIST_CACHE", str(root))
     calls = []
 
-    def render(description, progress=None, **kw):  # stands in for the SymPy derivation
+    def render(description, progress=None, backends=None, stages=None, **kw):  # stands in for the SymPy derivation
         calls.append(description.name)
-        return {f"{description.name}_numpy.py": NUMPY, f"{description.name}_c.c": C_SOURCE}
+        renders.append((tuple(backends), stages))
+        if stages is not None:
+            stages.setdefault("model", object())
+            if "c" in backends:
+                stages["fused"] = object()
+        texts = {"numpy": NUMPY, "c": C_SOURCE}
+        return {f"{description.name}_{FILES[b]}": texts[b] for b in backends}
 
     monkeypatch.setattr(generate, "render_robot", render)
+    monkeypatch.setattr(userfile, "_STAGES", {})
     return root, calls
+
+
+FILES = {"numpy": "numpy.py", "c": "c.c"}
+
+
+def test_each_backend_rendered_when_first_asked_for_from_one_derivation(cache, renders):
+    directory, texts = generated_modules(get("heli4"), "k4", backends=("numpy",))
+    assert texts == {"heli4_numpy.py": NUMPY} and not (directory / "heli4_c.c").exists()
+    ((backends, stages),) = renders
+    assert backends == ("numpy",) and "model" in stages
+    _, texts = generated_modules(get("heli4"), "k4")  # the C source: rendered from the kept stages
+    assert texts == {"heli4_numpy.py": NUMPY, "heli4_c.c": C_SOURCE}
+    assert renders[1][0] == ("c",) and renders[1][1] is stages
+    generated_modules(get("heli4"), "k4")
+    assert len(renders) == 2  # both cached now
+    assert "k4" not in userfile._STAGES  # the C source rendered: nothing more to keep
+
+
+def test_stages_kept_for_the_newest_descriptions_only(cache, renders):
+    keys = [f"s{k}" for k in range(userfile.STAGES_KEPT + 1)]
+    for key in keys:
+        generated_modules(get("heli4"), key, backends=("numpy",))
+    assert list(userfile._STAGES) == keys[1:]
+    first, last = renders[0][1], renders[-1][1]
+    generated_modules(get("heli4"), keys[0], backends=("c",))  # dropped: derived again
+    generated_modules(get("heli4"), keys[-1], backends=("c",))  # kept: reused
+    assert renders[-2][1] is not first and renders[-1][1] is last
 
 
 def _mode(path):

@@ -191,34 +191,46 @@ TEMPLATE_DIR = {"c_header": "c"}
 PROGRESS_STEPS = 6 + len(TARGETS)
 
 
-def render_robot(robot, progress=None, timings: dict | None = None, backends=None) -> dict[str, str]:
-    """Derive, CSE and render every backend: ``{filename: text}`` (nothing written).
+def render_robot(
+    robot, progress=None, timings: dict | None = None, backends=None, stages: dict | None = None
+) -> dict[str, str]:
+    """Derive, CSE and render every backend (or those in ``backends``): ``{filename: text}``
+    (nothing written).
 
     ``robot`` is a robot name or a :class:`~eigentwist.description.RobotDescription`
-    (e.g. a modified copy of a shipped one, for design studies in memory).
+    (e.g. a modified copy of a shipped one, for design studies in memory). ``stages``: a
+    dict owned by the caller that keeps the derived model and its CSE'd kernels between
+    calls on the same description, so a backend rendered later derives nothing again.
     """
     description = get(robot) if isinstance(robot, str) else robot
     name = description.name
     timings = {} if timings is None else timings
+    stages = {} if stages is None else stages
+    say = (lambda m: progress(f"{name}: {m}")) if progress else None
     t0 = time.perf_counter()
-    if progress:
-        progress(f"{name}: derive")
-    model = derive(description)
+    if "model" not in stages:
+        if say:
+            say("derive")
+        stages["model"] = derive(description)
+    model = stages["model"]
     t1 = time.perf_counter()
-    kernels = kernels_for(model, progress=(lambda m: progress(f"{name}: {m}")) if progress else None)
+    if "kernels" not in stages:
+        stages["kernels"] = kernels_for(model, progress=say)
+    kernels = stages["kernels"]
     t2 = time.perf_counter()
     files = {}
-    fused = None
     for backend, (pattern, render) in TARGETS.items():
         if backends is not None and backend not in backends:
             continue
-        if backend in ("c", "c_header") and fused is None:
-            if progress:
-                progress(f"{name}: CSE matrices_lever")
-            fused = fused_kernels_for(model)
-        ks = [k for k in kernels if k.name != "followers"] + fused if backend in ("c", "c_header") else kernels
-        if progress:
-            progress(f"{name}: emit {pattern.format(robot=name)}")
+        if backend in ("c", "c_header") and "fused" not in stages:
+            if say:
+                say("CSE matrices_lever")
+            stages["fused"] = fused_kernels_for(model)
+        ks = (
+            [k for k in kernels if k.name != "followers"] + stages["fused"] if backend in ("c", "c_header") else kernels
+        )
+        if say:
+            say(f"emit {pattern.format(robot=name)}")
         digest = source_hash(ks, _template_text(TEMPLATE_DIR.get(backend, backend)))
         files[pattern.format(robot=name)] = render(model.robot, ks, digest)
     t3 = time.perf_counter()

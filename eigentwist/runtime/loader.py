@@ -107,10 +107,12 @@ def _load_user(robot, backend: str, threads, progress) -> Evaluator:
         description = describe_file(robot)
         extra, spec = Path(robot).read_bytes(), str(robot)
     key = description_key(description, extra)
-    directory, texts = generated_modules(description, key, progress)
+    directory, texts = generated_modules(
+        description, key, progress, ("numpy",) if backend == "numpy" else ("numpy", "c")
+    )
     name = f"{description.name}_numpy.py"
     module = import_numpy_module(texts[name], directory / name)
-    source = texts[f"{description.name}_c.c"]
+    source = texts.get(f"{description.name}_c.c")
     ev = _with_backend(description, module, backend, description.name, threads, source)
     ev.spec = spec
     return ev

@@ -2,11 +2,11 @@
 
 ``describe_file(path)`` imports a file that defines ``describe()`` and returns its
 :class:`~eigentwist.description.RobotDescription`; ``generated_modules(description)``
-renders its evaluators (NumPy module and C source) on first use into
+renders its evaluators (the NumPy module, and the C source when a C backend asks) on first use into
 ``<cache>/descriptions/<name>_<key>/``, where ``key`` hashes the description's content
 (its data, its effects' ``build`` functions by their code: :mod:`eigentwist.hashing`) and eigentwist's
-derivation and code generation, so an unchanged description is never derived twice
-and a changed one (or a new eigentwist) regenerates. The cache is the C library's
+derivation and code generation, so an unchanged description is not derived again for a backend
+already rendered, and a changed one (or a new eigentwist) regenerates. The cache is the C library's
 (``$EIGENTWIST_CACHE``, see :mod:`eigentwist.runtime.ccompile`) and may be deleted; its
 files are trusted as the library is (:func:`~eigentwist.runtime.ccompile.read_verified`):
 created private, each checked against its recorded SHA-256 before it is imported or
@@ -25,6 +25,13 @@ from pathlib import Path
 from ..hashing import canonical, content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
 from .errors import InputError
+
+# the generated file of each backend of a user's description, in its cache directory
+GENERATED_FILES = {"numpy": "{name}_numpy.py", "c": "{name}_c.c"}
+# render_robot's stages (derived model, CSE'd kernels) of the descriptions whose C source
+# is not rendered yet, by description key, the newest last
+_STAGES: dict[str, dict] = {}
+STAGES_KEPT = 4
 
 __all__ = [
     "describe_file",
@@ -111,25 +118,36 @@ def description_key(description, extra: bytes = b"") -> str:
     return content_hash(canonical(description), extra, package_digest())
 
 
-def generated_modules(description, key: str, progress=None) -> tuple[Path, dict[str, str]]:
-    """The directory and the verified texts ``{file name: text}`` of ``<name>_numpy.py`` and
-    ``<name>_c.c`` of ``description``, rendered on first use, or again when a cached file is
-    missing, truncated or altered (``progress(message)`` is told each step)."""
+def generated_modules(description, key: str, progress=None, backends=("numpy", "c")) -> tuple[Path, dict[str, str]]:
+    """The directory and the verified texts ``{file name: text}`` of ``description``'s
+    evaluators of ``backends`` (``"numpy"``: ``<name>_numpy.py``, ``"c"``: ``<name>_c.c``),
+    each rendered on first use, or again when its cached file is missing, truncated or
+    altered (``progress(message)`` is told each step).
+
+    A C source asked for after the NumPy module in the same process reuses that render's
+    derivation and CSE (kept for the last :data:`STAGES_KEPT` descriptions).
+    """
     from ..codegen.generate import render_robot
 
-    names = [f"{description.name}_numpy.py", f"{description.name}_c.c"]
+    names = {b: GENERATED_FILES[b].format(name=description.name) for b in backends}
     directory = private_directory("descriptions", f"{description.name}_{key}")
-    found = {name: read_verified(directory / name) for name in names}
-    if all(data is not None for data in found.values()):
-        return directory, {name: data.decode("utf-8") for name, data in found.items()}
-    say = progress or (lambda message: None)
-    t0 = time.perf_counter()
-    say(f"generating the evaluators of {description.name!r} (first use; cached in {directory})")
-    files = render_robot(description, progress=lambda m: say(f"  {m}"))
-    for name in names:
-        write_verified(directory / name, files[name].encode("utf-8"))
-    say(f"generated {description.name!r} in {time.perf_counter() - t0:.1f} s")
-    return directory, {name: files[name] for name in names}
+    found = {b: read_verified(directory / name) for b, name in names.items()}
+    missing = tuple(b for b, data in found.items() if data is None)
+    if missing:
+        say = progress or (lambda message: None)
+        t0 = time.perf_counter()
+        say(f"generating the evaluators of {description.name!r} (first use; cached in {directory})")
+        stages = _STAGES.pop(key, {})
+        files = render_robot(description, progress=lambda m: say(f"  {m}"), backends=missing, stages=stages)
+        for b in missing:
+            found[b] = files[names[b]].encode("utf-8")
+            write_verified(directory / names[b], found[b])
+        if "fused" not in stages:  # the C source not rendered yet: keep the stages for it
+            _STAGES[key] = stages
+            for old in list(_STAGES)[:-STAGES_KEPT]:
+                del _STAGES[old]
+        say(f"generated {description.name!r} in {time.perf_counter() - t0:.1f} s")
+    return directory, {names[b]: data.decode("utf-8") for b, data in found.items()}
 
 
 def import_numpy_module(text: str, path: Path) -> types.ModuleType:
