@@ -189,3 +189,39 @@ def test_difference_method_equals_the_generated_kernel(evs, robot):
         j = WRT[robot].index("h")
         assert abs(exact[0, 1, j] - exact[0, 0, j]) > 10.0  # split, not averaged
         np.testing.assert_allclose(diff[0, :, j], exact[0, :, j], rtol=1e-6, atol=1e-8 * np.abs(exact[0, :, j]).max())
+
+
+def test_each_backend_text_rendered_when_first_asked_for_from_one_kernel(monkeypatch, tmp_path):
+    """Stand-ins for the derivation and the renderers: what is generated, and when."""
+    from eigentwist import symbolic
+    from eigentwist.codegen import sensitivity as cgs
+    from eigentwist.runtime import sensitivity as sens
+    from eigentwist.runtime.ccompile import private_directory
+
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(sens, "_KERNELS", {})
+    built = []
+    monkeypatch.setattr(symbolic, "derive", lambda robot: "model")
+    monkeypatch.setattr(cgs, "sensitivity_kernel", lambda model, wrt, progress=None: built.append(wrt) or object())
+    monkeypatch.setattr(cgs, "render_numpy_sensitivity", lambda robot, kernel, wrt: f"# numpy {wrt}\n")
+    monkeypatch.setattr(cgs, "render_c_sensitivity", lambda robot, kernel, wrt: f"/* c {wrt} */\n")
+    ev = eigentwist.load("heli4", backend="numpy")
+    directory = private_directory("sensitivities")
+
+    def texts():
+        return sorted(p.suffix for p in directory.iterdir() if p.suffix != ".sha256")
+
+    assert sens._source(ev, ("l1",), "numpy", None) == "# numpy ('l1',)\n" and texts() == [".py"]
+    assert sens._source(ev, ("l1",), "c", None) == "/* c ('l1',) */\n" and texts() == [".c", ".py"]
+    assert built == [("l1",)]  # the C text from the kernel built for the NumPy one
+    assert sens._source(ev, ("l1",), "c", None) == "/* c ('l1',) */\n" and built == [("l1",)]  # from the cache
+    others = [(f"p{k}",) for k in range(sens.KERNELS_KEPT)]
+    for wrt in others:
+        sens._source(ev, wrt, "numpy", None)
+    sens._source(ev, others[0], "c", None)  # kept
+    sens._source(ev, ("l1",), "c", None)  # on disk
+    assert built == [("l1",), *others]
+    for path in directory.glob("*.c*"):
+        path.unlink()
+    sens._source(ev, ("l1",), "c", None)  # neither on disk nor kept (two newer kernels): built again
+    assert built == [("l1",), *others, ("l1",)]

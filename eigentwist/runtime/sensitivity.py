@@ -51,6 +51,10 @@ CLUSTER_RTOL = 1e-6  # frequencies closer than this (relative) form one cluster
 #: ~1e-10 and round-off ~1e-11 of the matrices' derivatives
 DIFFERENCE_STEP = 1e-5
 _MEMORY: dict = {}
+# the generated sensitivity kernels (before rendering) by cache key, the newest last: the
+# other backend's text is rendered from them without deriving again
+_KERNELS: dict = {}
+KERNELS_KEPT = 2  # a robot's NumPy and C kernels are usually asked for in turn, not interleaved with many others
 _ROBOTS: dict = {}
 
 
@@ -74,27 +78,35 @@ def cache_key(ev, wrt) -> str:
     )
 
 
-def _sources(ev, wrt, progress) -> dict:
-    """``{"numpy": text, "c": text}`` from the cache, or generated and cached."""
+def _source(ev, wrt, backend: str, progress) -> str:
+    """The ``backend`` (``"numpy"`` or ``"c"``) text of the kernel from the cache, or
+    generated and cached; the other backend's text is rendered when first asked for,
+    from the same process's derivation where it is kept (:data:`KERNELS_KEPT`)."""
     key = cache_key(ev, wrt)
-    directory = private_directory("sensitivities")
-    paths = {"numpy": directory / f"{ev.robot.name}_sens_{key}.py", "c": directory / f"{ev.robot.name}_sens_{key}.c"}
-    found = {b: read_verified(p) for b, p in paths.items()}
-    if all(data is not None for data in found.values()):
-        return {b: data.decode("utf-8") for b, data in found.items()}
+    suffix = {"numpy": "py", "c": "c"}[backend]
+    path = private_directory("sensitivities") / f"{ev.robot.name}_sens_{key}.{suffix}"
+    found = read_verified(path)
+    if found is not None:
+        return found.decode("utf-8")
     from ..codegen.sensitivity import render_c_sensitivity, render_numpy_sensitivity, sensitivity_kernel
-    from ..symbolic import derive
 
     say = progress or (lambda msg: None)
-    say(f"{ev.robot.name}: generating sensitivity code for {', '.join(wrt)} (once; cached in {directory})")
-    say(f"{ev.robot.name}: derive")
-    model = derive(ev.robot)
-    kernel = sensitivity_kernel(model, wrt, progress=lambda m: say(f"{ev.robot.name}: {m}"))
+    kernel = _KERNELS.pop(key, None)
+    if kernel is None:
+        from ..symbolic import derive
+
+        say(f"{ev.robot.name}: generating sensitivity code for {', '.join(wrt)} (once; cached in {path.parent})")
+        say(f"{ev.robot.name}: derive")
+        model = derive(ev.robot)
+        kernel = sensitivity_kernel(model, wrt, progress=lambda m: say(f"{ev.robot.name}: {m}"))
     say(f"{ev.robot.name}: render")
-    texts = {"numpy": render_numpy_sensitivity(ev.robot, kernel, wrt), "c": render_c_sensitivity(ev.robot, kernel, wrt)}
-    for b, p in paths.items():
-        write_verified(p, texts[b].encode("utf-8"))
-    return texts
+    render = {"numpy": render_numpy_sensitivity, "c": render_c_sensitivity}[backend]
+    text = render(ev.robot, kernel, wrt)
+    write_verified(path, text.encode("utf-8"))
+    _KERNELS[key] = kernel
+    for old in list(_KERNELS)[:-KERNELS_KEPT]:
+        del _KERNELS[old]
+    return text
 
 
 def _numpy_kernel(text: str, name: str):
@@ -224,13 +236,13 @@ def sensitivity_kernels(ev, wrt, progress=None):
             _MEMORY[base, wrt] = _select(kern, [w.index(name) for name in wrt])
             return _MEMORY[base, wrt]
     key = cache_key(ev, wrt)
-    texts = _sources(ev, wrt, progress)
+    text = _source(ev, wrt, "c" if ev.backend == "c" else "numpy", progress)
     if ev.backend == "c":
         if progress:
             progress(f"{ev.robot.name}: compile (cached by content hash)")
-        kern = _c_kernel(texts["c"], ev.robot.name)
+        kern = _c_kernel(text, ev.robot.name)
     else:
-        kern = _numpy_kernel(texts["numpy"], f"eigentwist_sens_{ev.robot.name}_{key}")
+        kern = _numpy_kernel(text, f"eigentwist_sens_{ev.robot.name}_{key}")
     _MEMORY[base, wrt] = kern
     return kern
 
