@@ -129,7 +129,16 @@ def test_cli_synth_identify_compare(tmp_path, capsys):
     assert "MAC" in text and "1.0000" in text
 
 
-def test_plots_and_report_section(campaign, tmp_path):
+def _inside(fig) -> None:
+    """Every title, tick label and axis label of ``fig`` within the figure (1 px)."""
+    renderer = fig.canvas.get_renderer()
+    for artist in [*fig.axes, *fig.texts]:
+        b = artist.get_tightbbox(renderer)
+        assert b.x0 >= -1 and b.y0 >= -1 and b.x1 <= fig.bbox.x1 + 1 and b.y1 <= fig.bbox.y1 + 1, artist
+
+
+def test_plots_and_report_section(campaign, tmp_path, monkeypatch):
+    from eigentwist.matplotlib_agg import pyplot
     from eigentwist.modal.plots import plot_frfs, plot_stabilisation
     from eigentwist.modal.report import is_manifest, render_section
 
@@ -138,9 +147,35 @@ def test_plots_and_report_section(campaign, tmp_path):
     html = render_section(res, figures=False)
     assert html.startswith('<section id="campaign">') and "setting_08.uff" in html and html.count("<tr>") == 1 + 24
     if dataset == 58:
+        plt = pyplot("modal")
+        drawn = []
+        monkeypatch.setattr(plt, "close", drawn.append)  # keep the figures to look inside
         plot_stabilisation(res.results[0], tmp_path / "stab.png")
         plot_frfs(res.results[0], tmp_path / "frf.png")
         assert (tmp_path / "stab.png").read_bytes()[:4] == b"\x89PNG" and (tmp_path / "frf.png").stat().st_size > 0
+        monkeypatch.undo()
+        for fig in drawn:
+            _inside(fig)  # fixed margins, sized for these labels
+            plt.close(fig)
+
+
+def test_fixed_margins_in_inches_and_no_room_refused():
+    from eigentwist.matplotlib_agg import margins, pyplot
+
+    plt = pyplot("modal")
+    fig, axes = plt.subplots(2, 3, figsize=(9.0, 5.0))
+    margins(fig, left=0.5, right=0.25, bottom=0.4, top=0.6, wspace=0.3, hspace=0.5)
+    box = [[ax.get_position().bounds for ax in row] for row in axes]  # figure fractions
+    panel_w, panel_h = (9.0 - 0.75 - 2 * 0.3) / 3, (5.0 - 1.0 - 0.5) / 2
+    x0, y0, w, h = box[1][0]  # lower left panel
+    assert np.allclose([x0 * 9, y0 * 5, w * 9, h * 5], [0.5, 0.4, panel_w, panel_h])
+    x2, y2, _, _ = box[0][2]  # upper right panel
+    assert np.isclose(x2 * 9, 0.5 + 2 * (panel_w + 0.3)) and np.isclose(y2 * 5, 0.4 + panel_h + 0.5)
+    assert np.isclose((x2 + w) * 9, 9.0 - 0.25) and np.isclose((y2 + h) * 5, 5.0 - 0.6)
+    with pytest.raises(ValueError, match="leave no room"):
+        margins(fig, left=4.5, right=4.5, bottom=0.4, top=0.6)
+    margins(fig, left=0.1, right=0.1, bottom=0.1, top=0.1)  # just fits
+    plt.close(fig)
 
 
 # ---------------------------------------------------------------------------------------------

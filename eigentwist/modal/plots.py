@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..outputs import atomic_path
-from ..matplotlib_agg import pyplot
+from ..matplotlib_agg import margins, pyplot
 
 __all__ = ["plot_stabilisation", "plot_frfs", "plot_campaign", "figure_bytes", "MAX_PANELS"]
 
@@ -57,7 +57,7 @@ def plot_stabilisation(res, path) -> None:
         f"{Path(res.source).name}: stabilisation (grey: pole not yet stable, blue: stable pole, red: identified mode)",
         fontsize=9,
     )
-    fig.tight_layout()
+    margins(fig, left=0.75, right=0.85, bottom=0.55, top=0.35)  # right: the FRF sum's axis
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110)
     plt.close(fig)
@@ -92,7 +92,7 @@ def plot_frfs(res, path) -> None:
         f"{Path(res.source).name}: {frfs.form} (LSFD with residuals on {res.band[0]:.3g}..{res.band[1]:.3g} Hz)" + more,
         fontsize=9,
     )
-    fig.tight_layout()
+    margins(fig, left=0.55, right=0.15, bottom=0.5, top=0.5, wspace=0.45, hspace=0.4)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=100)
     plt.close(fig)
