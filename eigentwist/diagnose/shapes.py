@@ -119,9 +119,10 @@ def _groups(keys: np.ndarray) -> tuple:
     members = _SETTINGS.get(key)
     if members is None:
         group = np.unique(rounded, axis=0, return_inverse=True)[1].reshape(-1)
-        members = tuple(np.flatnonzero(group == g) for g in range(int(group.max()) + 1 if len(group) else 0))
-        for m in members:
-            m.setflags(write=False)
+        # the rows of each group in ascending order, groups in the order of their keys
+        order = np.argsort(group, kind="stable")
+        members = tuple(np.split(order, np.cumsum(np.bincount(group))[:-1])) if len(group) else ()
+        order.setflags(write=False)  # the members are views of it
         _SETTINGS.put(key, members)
     return members
 
