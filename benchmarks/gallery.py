@@ -80,7 +80,10 @@ def main(argv=None) -> None:
 
             t0, c0 = time.perf_counter(), time.process_time()
             render_robot(robot)
-            gen = f"generation {time.perf_counter() - t0:.1f} s wall, {time.process_time() - c0:.1f} s CPU; "
+            gen = f"generation {time.perf_counter() - t0:.1f} s wall, {time.process_time() - c0:.1f} s CPU"
+            c0 = time.process_time()
+            render_robot(robot, backends=("numpy",))
+            gen += f" (NumPy module alone {time.process_time() - c0:.1f} s CPU); "
         ev = eigentwist.load(str(path), backend=args.backend, threads=1, progress=None)
         home = ev.frequencies(np.array([robot.x_ref]), "none")[0]
         rate = fresh_rate(ev, np.array(robot.workspace), args.n, args.repeat)
