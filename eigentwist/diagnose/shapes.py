@@ -118,10 +118,12 @@ def _groups(keys: np.ndarray) -> tuple:
     key = content_key(rounded, {}, ())
     members = _SETTINGS.get(key)
     if members is None:
-        group = np.unique(rounded, axis=0, return_inverse=True)[1].reshape(-1)
-        # the rows of each group in ascending order, groups in the order of their keys
-        order = np.argsort(group, kind="stable")
-        members = tuple(np.split(order, np.cumsum(np.bincount(group))[:-1])) if len(group) else ()
+        # rows sorted by their keys, first column first (a stable sort: each setting's rows
+        # stay in ascending order); a setting starts where a key differs from the row before
+        order = np.lexsort(rounded.T[::-1]) if rounded.shape[1] else np.arange(len(rounded))
+        ordered = rounded[order]
+        starts = np.flatnonzero((ordered[1:] != ordered[:-1]).any(axis=1)) + 1
+        members = tuple(np.split(order, starts)) if len(order) else ()
         order.setflags(write=False)  # the members are views of it
         _SETTINGS.put(key, members)
     return members
