@@ -86,3 +86,7 @@ def test_settings_are_rows_with_equal_keys_whatever_a_shared_column_holds():
     assert [list(g) for g in _groups(keys)] == [[0, 2], [1], [3]]
     keys[1, 2] = 6.0  # the column now tells rows apart
     assert sorted(list(g) for g in _groups(keys)) == [[0, 2], [1], [3]]
+    # settings in the order of their keys, first column first; every key alike: one setting
+    keys = np.array([[2.0, 0.0], [1.0, 9.0], [2.0, 0.0], [1.0, 3.0], [np.nan, 0.0], [np.nan, 0.0]])
+    assert [list(g) for g in _groups(keys)] == [[3], [1], [0, 2], [4], [5]]  # NaN: never equal
+    assert [list(g) for g in _groups(np.ones((3, 2)))] == [[0, 1, 2]] and _groups(np.ones((0, 2))) == ()
