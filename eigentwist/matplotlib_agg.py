@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from .errors import InputError
+
 __all__ = ["pyplot", "margins"]
 
 
@@ -35,7 +37,7 @@ def margins(fig, left: float, right: float, bottom: float, top: float, wspace: f
     panel_w = (width - left - right - wspace * (n_cols - 1)) / n_cols
     panel_h = (height - bottom - top - hspace * (n_rows - 1)) / n_rows
     if panel_w <= 0 or panel_h <= 0:
-        raise ValueError(
+        raise InputError(
             f"margins of {left + right} x {bottom + top} in leave no room in a {width} x {height} in figure"
         )
     fig.subplots_adjust(

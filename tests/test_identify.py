@@ -172,7 +172,7 @@ def test_fixed_margins_in_inches_and_no_room_refused():
     x2, y2, _, _ = box[0][2]  # upper right panel
     assert np.isclose(x2 * 9, 0.5 + 2 * (panel_w + 0.3)) and np.isclose(y2 * 5, 0.4 + panel_h + 0.5)
     assert np.isclose((x2 + w) * 9, 9.0 - 0.25) and np.isclose((y2 + h) * 5, 5.0 - 0.6)
-    with pytest.raises(ValueError, match="leave no room"):
+    with pytest.raises(InputError, match="leave no room"):
         margins(fig, left=4.5, right=4.5, bottom=0.4, top=0.6)
     margins(fig, left=0.1, right=0.1, bottom=0.1, top=0.1)  # just fits
     plt.close(fig)
