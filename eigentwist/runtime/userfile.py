@@ -31,7 +31,7 @@ GENERATED_FILES = {"numpy": "{name}_numpy.py", "c": "{name}_c.c"}
 # render_robot's stages (derived model, CSE'd kernels) of the descriptions whose C source
 # is not rendered yet, by description key, the newest last
 _STAGES: dict[str, dict] = {}
-STAGES_KEPT = 4
+STAGES_KEPT = 16  # 4-8 MB each (the gallery's 6-RUS 7.7 MB): a test session's or a study's robots
 
 __all__ = [
     "describe_file",
