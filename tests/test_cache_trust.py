@@ -50,11 +50,14 @@ FILES = {"numpy": "numpy.py", "c": "c.c"}
 
 
 def test_each_backend_rendered_when_first_asked_for_from_one_derivation(cache, renders):
-    directory, texts = generated_modules(get("heli4"), "k4", backends=("numpy",))
+    said = []
+    directory, texts = generated_modules(get("heli4"), "k4", said.append, backends=("numpy",))
     assert texts == {"heli4_numpy.py": NUMPY} and not (directory / "heli4_c.c").exists()
+    assert said[0] == f"generating the evaluators of 'heli4' (first use; cached in {directory})"
     ((backends, stages),) = renders
     assert backends == ("numpy",) and "model" in stages
-    _, texts = generated_modules(get("heli4"), "k4")  # the C source: rendered from the kept stages
+    _, texts = generated_modules(get("heli4"), "k4", said.append)  # the C source: from the kept stages
+    assert said[2] == f"generating the C source of 'heli4' (first use; cached in {directory})"
     assert texts == {"heli4_numpy.py": NUMPY, "heli4_c.c": C_SOURCE}
     assert renders[1][0] == ("c",) and renders[1][1] is stages
     generated_modules(get("heli4"), "k4")

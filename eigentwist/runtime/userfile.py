@@ -136,7 +136,8 @@ def generated_modules(description, key: str, progress=None, backends=("numpy", "
     if missing:
         say = progress or (lambda message: None)
         t0 = time.perf_counter()
-        say(f"generating the evaluators of {description.name!r} (first use; cached in {directory})")
+        what = "the evaluators" if "numpy" in missing else "the C source"
+        say(f"generating {what} of {description.name!r} (first use; cached in {directory})")
         stages = _STAGES.pop(key, {})
         files = render_robot(description, progress=lambda m: say(f"  {m}"), backends=missing, stages=stages)
         for b in missing:
