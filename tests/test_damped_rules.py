@@ -228,15 +228,15 @@ def test_an_unstable_undamped_model_gives_nan_and_is_unstable():
     assert d.stable.tolist() == [False, True] and np.all(np.isnan(d.natural_hz[0]))
 
 
-def one_mode(beta, c_d=1e-3):
-    """One mode of omega = 2 exactly (M = 1, K = 4), one leg with k_d = 1 (alpha = 1), h = 0,
-    t_d = 0: beta = c_d (k_d - h) = c_d, D = -c_d."""
+def one_mode(beta, c_d=1e-3, k_d=1.0):
+    """One mode of omega = 2 exactly (M = 1, K = 4), one leg with w = 1, t_d = 0 and h chosen
+    for ``beta = c_d (k_d - h)``; alpha = k_d^2, D = -c_d."""
     return dict(
         M=np.ones((1, 1, 1)),
         K=np.full((1, 1, 1), 4.0),
         W=np.ones((1, 1, 1)),
-        h=np.array([[1.0 - beta / c_d]]),
-        k_d=1.0,
+        h=np.array([[k_d - beta / c_d]]),
+        k_d=k_d,
         c_d=c_d,
         t_d=0.0,
     )
@@ -245,20 +245,20 @@ def one_mode(beta, c_d=1e-3):
 @pytest.mark.parametrize("shapes", [False, True])
 def test_elimination_at_its_bound(monkeypatch, shapes):
     """|beta| omega_max <= ELIMINATE alpha: the leg eliminated (the 2n mechanical states alone);
-    one ulp above: its internal coordinate kept (2n + 1 states)."""
+    one ulp above: its internal coordinate kept (2n + 1 states). k_d = 2: alpha = 4, h = 0."""
     sizes = []
     for name in ("eig", "eigvals"):
         original = getattr(np.linalg, name)
         monkeypatch.setattr(np.linalg, name, lambda A, f=original: sizes.append(A.shape[-1]) or f(A))
-    at = ELIMINATE / 2  # beta * 2 == ELIMINATE * 1 exactly
-    for beta, states in ((at, 2), (np.nextafter(at, 1.0), 3)):
-        inputs = one_mode(beta, c_d=beta)
+    c_at = ELIMINATE  # beta = 2 c_d, beta * 2 == ELIMINATE * 4 exactly
+    for c_d, states in ((c_at, 2), (np.nextafter(c_at, 1.0), 3)):
+        inputs = one_mode(2 * c_d, c_d=c_d, k_d=2.0)
         assert inputs["h"][0, 0] == 0.0
         sizes.clear()
         d = damped_modes(**inputs, shapes=shapes)
         assert sizes == [states]
         # the eliminated leg: s^2 + (c_d w^2 / k_d^2) s + omega^2 = 0
-        exact = upper(np.roots([1.0, beta, 4.0]))[0]
+        exact = upper(np.roots([1.0, c_d / 4.0, 4.0]))[0]
         assert d.poles[0, 0] == pytest.approx(exact, rel=1e-12)
 
 
@@ -266,6 +266,7 @@ def test_a_leg_with_a_zero_internal_pole_coefficient():
     """beta = 0 (no series compliance along the actuator, c_d > 0): eliminated however small
     omega, its damping term D / alpha; with no leg live the states are the mechanical ones."""
     inputs = one_mode(0.0, c_d=0.5)
+    inputs["h"] = np.array([[1.0]])
     d = damped_modes(**inputs)
     exact = upper(np.roots([1.0, 0.5, 4.0]))[0]
     assert d.poles[0, 0] == pytest.approx(exact, rel=1e-12)
@@ -320,6 +321,29 @@ def test_wrenches_of_two_joints_and_a_rigid_direction():
         assert np.allclose(W[0, 0], J.T @ Kq[:, 0], rtol=1e-14) and h[0, 0] == pytest.approx(2.0, rel=1e-14)
 
 
+def test_rigid_is_relative_to_each_legs_largest_compliance():
+    """Two legs, one a thousand times stiffer: its compliances (1e-12) are far below RIGID times
+    the other leg's (1) but not its own: both its joints compliant. An exactly zero compliance
+    is rigid without a division by zero."""
+    Je = np.broadcast_to(np.eye(2), (1, 2, 2, 2))
+    Cq = np.array([[np.diag([1.0, 0.0]), np.diag([1e-12, 2e-12])]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        K, W, h = actuator_wrenches(Je, Cq, np.full((1, 2), 0.5))
+    assert np.allclose(K[0], np.diag([1.0 + 1e12, 0.5e12]), rtol=1e-14)
+    assert h[0].tolist() == pytest.approx([1.0, 1e12], rel=1e-14)
+
+
+def test_wrenches_of_three_coupled_joints():
+    """A full 3x3 compliance (eigenvectors not symmetric): K_q = C^-1."""
+    C = np.array([[0.5, 0.1, 0.05], [0.1, 0.3, -0.02], [0.05, -0.02, 0.2]])
+    Je = np.array([[[[1.0, 0.0], [0.5, 1.0], [0.0, 2.0]]]])
+    K, W, h = actuator_wrenches(Je, C[None, None], np.full((1, 1), 0.1))
+    Kq = np.linalg.inv(C)
+    assert np.allclose(K[0], Je[0, 0].T @ Kq @ Je[0, 0], rtol=1e-12)
+    assert np.allclose(W[0, 0], Je[0, 0].T @ Kq[:, 0], rtol=1e-12) and h[0, 0] == pytest.approx(Kq[0, 0], rel=1e-12)
+
+
 def test_wrenches_of_coupled_joints():
     """A full 2x2 compliance: K_q = C^-1 (by hand), two legs summed in K."""
     C = np.array([[0.5, 0.1], [0.1, 0.3]])
@@ -338,8 +362,11 @@ def test_wrenches_by_the_driver_where_it_is_built(monkeypatch):
     seen = []
     monkeypatch.setattr(c_damped, "wrenches", lambda *a: seen.append(a) or "from C")
     assert actuator_wrenches(Je, Cq, a0, solver="c") == "from C"
-    assert seen[0][2] == RIGID and seen[0][3] is a0 and seen[0][4] is None
-    assert actuator_wrenches(Je, Cq, a0) != "from C" and len(seen) == 1  # numpy: never asked
+    assert seen[0][1] is Cq and seen[0][2] == RIGID and seen[0][3] is a0 and seen[0][4] is None
+    loss = np.array([0.1])
+    actuator_wrenches(Je, Cq, a0, loss=loss, solver="c")
+    assert seen[1][4] is loss
+    assert actuator_wrenches(Je, Cq, a0) != "from C" and len(seen) == 2  # numpy: never asked
     monkeypatch.setattr(c_damped, "wrenches", lambda *a: None)  # not built: NumPy
     K, W, h = actuator_wrenches(Je, Cq, a0, solver="c")
     assert K[0, 0, 0] == 1.0 and W[0, 0, 0] == 1.0 and h[0, 0] == 1.0
@@ -620,3 +647,110 @@ def test_the_drivers_sizes(monkeypatch):
     assert damped._compiled(1, 1, complex_h, False, None)  # a complex h: the complex driver
     monkeypatch.setattr(c_damped, "driver", lambda: None)
     assert not damped._compiled(1, 1, args, False, None)
+
+
+def test_a_growing_internal_pole_is_unstable():
+    """h > k_d (beta < 0): the actuator's internal coordinate grows, a real pole of the cubic
+    (s^2 + 4)(alpha + beta s) - D s = 0 in the right half-plane: unstable, the mode itself not."""
+    inputs = one_mode(-0.1, c_d=0.1)
+    roots = np.roots([-0.1, 1.0, -0.4 + 0.1, 4.0])  # beta s^3 + alpha s^2 + (4 beta - D) s + 4 alpha
+    assert np.any((roots.real > 0) & (np.abs(roots.imag) < 1e-12))
+    d = damped_modes(**inputs)
+    assert d.stable.tolist() == [False] and d.damping_ratio[0, 0] > 0
+    assert d.poles[0, 0] == pytest.approx(upper(roots)[0], rel=1e-12)
+
+
+def test_a_zero_undamped_frequency_is_no_stable_model():
+    """lam = 0 (a mechanism, K singular): NaN and unstable, as a negative one."""
+    inputs = one_mode(1.0, c_d=0.1)
+    inputs["K"] = np.zeros((1, 1, 1))
+    d = damped_modes(**inputs)
+    assert d.stable.tolist() == [False] and np.isnan(d.natural_hz[0, 0])
+
+
+def test_an_asymmetric_stiffness_is_read_as_its_symmetric_part():
+    inputs, dynamic = two_masses()
+    K = np.array(inputs["K"])
+    K[0, 0, 1] += 1e-3
+    K[0, 1, 0] -= 1e-3
+    d = damped_modes(**{**inputs, "K": K})
+    assert np.allclose(d.poles, damped_modes(**inputs).poles, rtol=1e-14)
+
+
+def test_one_leg_eliminated_and_one_live():
+    """Leg 0 rigid along its actuator (beta = 0: eliminated), leg 1 live: the eliminated leg's
+    internal coordinate decoupled (no pole of it, nothing growing), the poles those of the
+    dynamic stiffness."""
+    m, k_d, c_d = np.array([1.0, 2.0]), np.array([5.0, 8.0]), np.array([0.3, 0.1])
+    k_s1 = 150.0
+    k1 = k_s1 * k_d[1] / (k_s1 + k_d[1])
+    K = np.diag([k_d[0], k1]) + 3.0 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    W = np.diag([k_d[0], k1])
+    inputs = dict(M=np.diag(m)[None], K=K[None], W=W[None], h=np.array([[k_d[0], k1]]), k_d=k_d, c_d=c_d, t_d=0.0)
+
+    def dynamic(s):  # leg 0: the actuator alone (Z); leg 1: k_s in series with Z
+        Z = k_d + c_d * s
+        legs = np.array([Z[0], 1 / (1 / k_s1 + 1 / Z[1])])
+        return s * s * np.diag(m) + np.diag(legs) + 3.0 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+
+    for shapes in (False, True):
+        d = damped_modes(**inputs, shapes=shapes)
+        assert d.stable.tolist() == [True]
+        for j in range(2):
+            assert singular(dynamic(d.poles[0, j])) < 1e-10
+
+
+@pytest.mark.parametrize("complex_part", ["W", "h", "K_loss"])
+def test_any_complex_input_makes_the_state_matrix_complex(complex_part):
+    """A loss factor reaches the solver as K_loss, complex wrenches or a complex h: each alone
+    is kept (the result differs from the real problem's as the cubic says)."""
+    inputs, dynamic = two_masses()
+    inputs = {k: (np.array(v) if isinstance(v, np.ndarray) else v) for k, v in inputs.items()}
+    real = damped_modes(**inputs)
+    if complex_part == "K_loss":
+        inputs["K_loss"] = 0.05 * inputs["K"]
+    else:
+        inputs[complex_part] = inputs[complex_part] * (1 + 0.05j)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d = damped_modes(**inputs)
+    assert not np.allclose(d.poles, real.poles, rtol=1e-6)
+    assert np.all(d.poles.imag > 0) and np.all(np.isfinite(d.poles))
+
+
+def coupled(D0=True):
+    """Two legs on coupled bodies (G given), leg 1 undamped (c_d = t_d = 0: D = 0, y = 0): the
+    same poles as leg 0 alone with G's first entry."""
+    inputs, _ = two_masses(c_d=(0.3, 0.0), t_d=(0.0, 0.0))
+    inputs["G"] = np.array([[[0.2, 0.05], [0.05, 0.1]]])
+    return inputs
+
+
+def test_an_undamped_leg_on_coupled_bodies_drops_out():
+    inputs = coupled()
+    d = damped_modes(**inputs)
+    alone = {k: inputs[k] for k in ("M", "K")}
+    alone.update(W=inputs["W"][:, :1], h=inputs["h"][:, :1], k_d=inputs["k_d"][:1], c_d=0.3, t_d=0.0)
+    one = damped_modes(**alone, G=inputs["G"][:, :1, :1])
+    assert np.allclose(d.poles, one.poles, rtol=1e-12) and d.stable.tolist() == [True]
+    assert not np.allclose(one.poles, damped_modes(**alone).poles, rtol=1e-6)  # G counts
+
+
+def test_repeated_rows_with_couplings():
+    """Rows of one condition with G solved once: each as alone; rows that differ only in G are
+    not one condition."""
+    inputs = coupled()
+    two = {k: (np.concatenate([v, v]) if isinstance(v, np.ndarray) and v.ndim == 3 else v) for k, v in inputs.items()}
+    two["h"] = np.concatenate([inputs["h"], inputs["h"]])
+    d = damped_modes(**two)
+    one = damped_modes(**inputs)
+    assert np.allclose(d.poles, np.concatenate([one.poles, one.poles]), rtol=1e-13)
+    two["G"] = two["G"] * np.array([1.0, 3.0])[:, None, None]
+    d = damped_modes(**two)
+    assert np.allclose(d.poles[0], one.poles[0], rtol=1e-13) and not np.allclose(d.poles[1], one.poles[0], rtol=1e-6)
+
+
+def test_the_driver_runs_on_one_thread_by_default(driver):
+    inputs, _ = two_masses()
+    damped_modes(**inputs, solver="c")
+    assert driver.calls[0]["threads"] == 1
