@@ -88,9 +88,19 @@ def test_ranges_of_blocks_on_threads(newton):
     starts = sorted((c["q"] - q_out.ctypes.data) // 8 for c in newton.calls)
     assert starts[0] == 0 and all(s % clm.BLOCK == 0 for s in starts)
     assert sorted((c["norm"] - norm.ctypes.data) // 8 for c in newton.calls) == starts
-    newton.calls.clear()
-    run(n, threads=1, legs=1, nq=1)
-    assert [c["n"] for c in newton.calls] == [n]
+    for threads in (1, None):  # one thread unless asked: one call
+        newton.calls.clear()
+        per_pose = np.zeros(n)
+        clm.iterate(1, [-1], [per_pose.ctypes.data], [1], np.zeros((n, 1, 1)), 1, 1, 1.0, *[threads][: threads or 0])
+        assert [c["n"] for c in newton.calls] == [n]
+
+
+@pytest.mark.parametrize("q", [np.arange(6).reshape(2, 1, 3), np.asfortranarray(np.arange(6.0).reshape(2, 3, 1))])
+def test_the_start_is_copied_to_c_ordered_doubles(newton, q):
+    """Integer or Fortran-ordered starting coordinates: the driver reads C-ordered doubles."""
+    q_out, _ = clm.iterate(1, [], [], [], q, 2, 1, 1.0)
+    assert q_out.dtype == np.float64 and q_out.flags.c_contiguous
+    assert np.array_equal(q_out, q + 2.0)
 
 
 def test_no_inputs_but_the_coordinates(newton):
