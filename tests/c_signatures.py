@@ -42,3 +42,29 @@ def check(source: str, function: str, argtypes, restype) -> None:
     assert len(argtypes) == len(types), (function, len(argtypes), len(types))
     for k, (c_type, declared) in enumerate(zip(types, argtypes)):
         assert accepts(c_type, declared), (function, k, c_type, declared)
+
+
+def names(source: str, function: str) -> list[str]:
+    """The parameter names of ``int function(...)`` in ``source``, in order."""
+    match = re.search(r"\bint\s+" + function + r"\s*\(([^)]*)\)\s*\{", source)
+    assert match, function
+    return [re.search(r"\w+$", " ".join(p.split())).group(0) for p in match.group(1).split(",")]
+
+
+class Recorder:
+    """A stand-in of a C function: each call's arguments by their C parameter names (a list of
+    dicts in ``calls``); returns ``rc``."""
+
+    def __init__(self, source: str, function: str, rc: int = 0, effect=None):
+        self.names = names(source, function)
+        self.calls = []
+        self.rc = rc
+        self.effect = effect
+
+    def __call__(self, *args):
+        assert len(args) == len(self.names), (len(args), self.names)
+        call = dict(zip(self.names, args))
+        self.calls.append(call)
+        if self.effect is not None:
+            self.effect(call)
+        return self.rc
