@@ -1,0 +1,235 @@
+"""The Python side of the C kernels (:mod:`eigentwist.runtime.c_kernels`) on a stand-in library
+written here: its kernels read each pose's inputs through the tables of addresses and strides they
+are given (input k of pose i at ``address_k + 8 stride_k i``, as the generated C does) and write a
+known function of them, so each pose's results say which values reached it. No compile.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+import pytest
+
+from eigentwist.errors import InputError
+from eigentwist.runtime import c_kernels as ck
+from eigentwist.runtime.validity import STATUS
+
+
+def doubles(address, count=1):
+    return np.ctypeslib.as_array((ctypes.c_double * count).from_address(address))
+
+
+SIGNATURE = {
+    "robot": "toy",
+    "source_hash": "abc",
+    "block": 4,
+    "kernels": {
+        "inverse_kinematics": {"function": "et_toy_ik", "inputs": [], "outputs": [["q", [2, 3]]]},
+        "matrices": {
+            "function": "et_toy_matrices",
+            "inputs": [["param", "a", None], ["q", "q_1_2", [1, 2]], ["param", "b", None], ["q", "q_0_1", [0, 1]]],
+            "outputs": [["M", [2, 2]], ["s", []]],
+        },
+        "jacobians": {"function": "et_toy_jac", "inputs": [], "outputs": [["J_rows", [2]]]},
+    },
+    "fused": {"function": "et_toy_fused", "matrices": [["M", [2, 2]]], "inputs": [], "status": STATUS, "models": []},
+    "eigh": {"function": "et_toy_eigh", "dims": [2, 3]},
+}
+
+
+class Matrices:
+    """M[i] = [[a, q_1_2], [b, q_0_1]], s[i] = a + b + q_1_2 + q_0_1, pose i's values."""
+
+    def __init__(self, rc=0):
+        self.rc = rc
+        self.calls = []
+
+    def __call__(self, n, addresses, strides, outs):
+        self.calls.append((n, [addresses[k] for k in range(4)], [strides[k] for k in range(4)]))
+        for i in range(n):
+            a, q12, b, q01 = (doubles(addresses[k] + 8 * strides[k] * i)[0] for k in range(4))
+            doubles(outs[0] + 32 * i, 4)[:] = [a, q12, b, q01]
+            doubles(outs[1] + 8 * i)[0] = a + b + q12 + q01
+        return self.rc
+
+
+class Library:
+    def __init__(self, matrices):
+        for name in ("et_toy_ik", "et_toy_jac", "et_toy_fused", "et_toy_eigh"):
+            setattr(self, name, type("CFunction", (), {})())
+        self.et_toy_matrices = matrices
+
+
+def kernels(matrices=None, signature=SIGNATURE):
+    return ck.CKernels(Library(matrices or Matrices()), signature, ck.Build("lib.so", "portable", []))
+
+
+def test_a_kernel_reads_each_poses_parameters_and_joint_coordinates():
+    fn = Matrices()
+    kern = kernels(fn)
+    q = np.arange(2 * 2 * 3, dtype=float).reshape(2, 2, 3)
+    out = kern.matrices(q, {"a": np.array([1.0, 2.0]), "b": 7.0, "c": "unused"})
+    assert sorted(out) == ["M", "s"] and out["M"].shape == (2, 2, 2) and out["s"].shape == (2,)
+    want_M = np.array([[[1.0, q[0, 1, 2]], [7.0, q[0, 0, 1]]], [[2.0, q[1, 1, 2]], [7.0, q[1, 0, 1]]]])
+    assert np.array_equal(out["M"], want_M)
+    assert np.array_equal(out["s"], want_M.reshape(2, 4).sum(axis=1))
+    n, addresses, strides = fn.calls[0]
+    assert n == 2 and strides == [1, 6, 0, 6]  # a per pose, q rows of 6, b a scalar
+    # broadcasting: q of one pose, a per pose
+    out = kern.matrices(q[0], {"a": np.array([[1.0], [3.0]]), "b": 7.0})
+    assert out["M"].shape == (2, 1, 2, 2) and np.array_equal(out["M"][1, 0, 0], [3.0, q[0, 1, 2]])
+    assert kern.matrices(np.zeros((0, 2, 3)), {"a": 1.0, "b": 2.0})["M"].shape == (0, 2, 2)
+    assert len(fn.calls) == 2  # no call for no pose
+
+
+@pytest.mark.parametrize("shape", [(3, 2), (4, 3, 3), (2, 2, 4), (6,)])
+def test_joint_coordinates_of_another_shape_are_refused(shape):
+    with pytest.raises(InputError) as err:
+        kernels().matrices(np.zeros(shape), {"a": 1.0, "b": 2.0})
+    if len(shape) >= 2:
+        assert str(err.value) == f"q has shape {shape}: expected (..., 2, 3) joint coordinates"
+
+
+def test_the_scalars_of_a_call_are_packed_once_for_the_same_objects():
+    fn = Matrices()
+    kern = kernels(fn)
+    a, b = 1.5, np.float64(2.5)
+    q = np.zeros((3, 2, 3))
+    kern.matrices(q, {"a": a, "b": b})
+    packed = kern._kernel_packed["matrices"]
+    out = kern.matrices(q, {"a": a, "b": b})
+    assert kern._kernel_packed["matrices"] is packed and np.array_equal(out["s"], np.full(3, 4.0))
+    out = kern.matrices(q, {"a": 3.0, "b": b})  # another object: packed again, its value read
+    assert kern._kernel_packed["matrices"] is not packed and np.array_equal(out["s"], np.full(3, 5.5))
+
+
+def test_a_failing_kernel_raises():
+    with pytest.raises(RuntimeError) as err:
+        kernels(Matrices(rc=3)).matrices(np.zeros((1, 2, 3)), {"a": 1.0, "b": 2.0})
+    assert str(err.value) == "C matrices returned 3"
+    with pytest.raises(MemoryError) as err:
+        kernels(Matrices(rc=-2)).matrices(np.zeros((1, 2, 3)), {"a": 1.0, "b": 2.0})
+    assert str(err.value) == "C matrices: out of memory for its block buffers"
+
+
+def test_inputs_scalars_share_one_array_and_columns_are_read_in_place():
+    keep = []
+    table = np.arange(12.0).reshape(4, 3)
+    per_pose = np.arange(4.0) + 0.5
+    values = [2.0, table[:, 1], per_pose, np.array([1, 2, 3, 4]), table[::-1, 0], np.int64(3)]
+    addresses, strides = ck._inputs(values, (4,), keep)
+    assert strides == [0, 3, 1, 1, 1, 0]
+    assert addresses[1] == table.ctypes.data + 8 and addresses[2] == per_pose.ctypes.data
+    assert addresses[5] - addresses[0] == 8 * 5  # the scalars side by side in one array
+    for k, v in enumerate(values):
+        want = np.broadcast_to(np.asarray(v, dtype=float), (4,))
+        got = [doubles(addresses[k] + 8 * strides[k] * i)[0] for i in range(4)]
+        assert np.array_equal(got, want), k
+
+
+def test_fixed_values_are_immutable_scalars():
+    frozen = np.array(2.0)
+    frozen.flags.writeable = False
+    assert ck._fixed(1.0) and ck._fixed(3) and ck._fixed(np.float64(1.0)) and ck._fixed(frozen)
+    writeable = np.array(2.0)
+    view = np.array([2.0])[0:1].reshape(())
+    view.flags.writeable = False
+    f32 = np.array(2.0, dtype=np.float32)
+    f32.flags.writeable = False
+    assert not any(map(ck._fixed, [writeable, view, f32, np.float32(1.0), [1.0], np.ones(2), True]))
+
+
+def test_packed_matches_the_same_objects_at_the_same_positions():
+    a, b = 1.0, 2.5
+    arr = np.ones(3)
+    p = ck._Packed([a, arr, b])
+    assert p.fixed == [0, 2] and p.others == [1] and p.at.tolist() == [1]
+    assert list(p.packed) == [1.0, 2.5] and p.addresses[0] == p.packed.ctypes.data and p.addresses[1] is None
+    assert p.addresses[2] == p.packed.ctypes.data + 8 and list(p.strides) == [0, 0, 0]
+    assert p.array.tolist() == [p.packed.ctypes.data, 0, p.packed.ctypes.data + 8]
+    assert p.matches([a, np.zeros(3), b]) and not p.matches([2.0, arr, b]) and not p.matches([a, arr, b, b])
+
+
+def test_the_c_tables_have_at_least_one_entry():
+    assert len(ck._ptrs([])) == 1 and len(ck._strides([])) == 1
+    assert list(ck._strides([3, 0])) == [3, 0] and ck._ptrs([5, 0])[0] == 5
+
+
+def test_generalized_eigh_refuses_other_shapes():
+    kern = kernels()
+    for K, M in ((np.zeros((1, 4, 4)), np.zeros((1, 4, 4))), (np.zeros((1, 2, 2)), np.zeros((1, 3, 3)))):
+        with pytest.raises(InputError) as err:
+            kern.generalized_eigh(K, M)
+        assert str(err.value) == (f"K {K.shape} and M {M.shape}: expected equal shapes (N, n, n) with n in [2, 3]")
+    with pytest.raises(InputError):
+        kern.generalized_eigh(np.zeros((2, 3)), np.zeros((2, 3)))
+    with pytest.raises(InputError):
+        kern.generalized_eigh(np.zeros((1, 2, 3)), np.zeros((1, 2, 3)))
+
+
+class Eigh:
+    """lam[i] = diag(K[i]) / diag(M[i]), sorted; V = identity; NaN where M's diagonal is 0."""
+
+    def __init__(self):
+        self.calls = []
+
+    def __call__(self, n, dim, K, M, lam, V):
+        self.calls.append((n, dim, V is None))
+        for i in range(n):
+            k = doubles(K + 8 * dim * dim * i, dim * dim).reshape(dim, dim)
+            m = doubles(M + 8 * dim * dim * i, dim * dim).reshape(dim, dim)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                doubles(lam + 8 * dim * i, dim)[:] = np.sort(np.diag(k) / np.diag(m))
+            if V is not None:
+                doubles(V + 8 * dim * dim * i, dim * dim)[:] = np.eye(dim).ravel()
+        return 0
+
+
+def test_generalized_eigh_on_blocks_and_a_bad_pair():
+    kern = kernels()
+    fn = Eigh()
+    kern._fn["eigh"] = fn
+    K = np.stack([np.diag([3.0, 1.0, 2.0]) * (k + 1) for k in range(5)])
+    M = np.broadcast_to(np.eye(3), (5, 3, 3))
+    lam, V = kern.generalized_eigh(K, M)
+    assert np.array_equal(lam, np.stack([np.array([1.0, 2.0, 3.0]) * (k + 1) for k in range(5)]))
+    assert V.shape == (5, 3, 3) and np.array_equal(V[4], np.eye(3)) and fn.calls == [(5, 3, False)]
+    lam, V = kern.generalized_eigh(K, M, vectors=False)
+    assert V is None and fn.calls[-1] == (5, 3, True)
+    M = np.array(M)
+    M[3] = 0.0
+    with pytest.raises(np.linalg.LinAlgError) as err:
+        kern.generalized_eigh(K, M)
+    assert str(err.value) == "pair 3: M is not positive definite (or K, M are not finite)"
+
+
+def test_the_librarys_status_codes_must_be_pythons():
+    sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], status={"ok": 0}))
+    with pytest.raises(RuntimeError) as err:
+        kernels(signature=sig)
+    assert "has status codes {'ok': 0}" in str(err.value) and "run `eigentwist generate`" in str(err.value)
+
+
+def test_fused_options_read_the_tolerances_when_asked(monkeypatch):
+    from eigentwist.runtime import eigen, validity
+
+    kern = kernels()
+    opts = kern.fused_options(True)
+    assert list(opts) == [validity.LEVER_TOL, -1.0, eigen.ROUNDOFF_EPS, 1.0] and kern.fused_options(True) is opts
+    assert list(kern.fused_options(False))[3] == 0.0
+    monkeypatch.setattr(validity, "LEVER_TOL", 0.25)
+    assert list(kern.fused_options(True))[0] == 0.25
+    sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], inputs=[["param", "x"], ["param", validity.LEVER_SCALE]]))
+    assert list(kernels(signature=sig).fused_options(False))[1] == 1.0  # the lever scale's input
+
+
+def test_kernel_arguments_for_a_driver(monkeypatch):
+    kern = kernels()
+    monkeypatch.setattr(ck.CKernels, "address", lambda self, name: ("address of", name))
+    address, inputs, strides, q_of, outs, keep = kern.kernel_arguments("matrices", {"a": 2.0, "b": np.ones(5)}, 5)
+    assert address == ("address of", "matrices")
+    assert q_of.tolist() == [-1, 5, -1, 1] and q_of.dtype == np.intc  # leg * 3 + joint
+    assert strides.tolist() == [0, 0, 1, 0] and inputs[1] == 0 and inputs[3] == 0
+    assert doubles(int(inputs[0]))[0] == 2.0 and np.array_equal(doubles(int(inputs[2]), 5), np.ones(5))
+    assert {k: v.shape for k, v in outs.items()} == {"M": (5, 2, 2), "s": (5,)}
