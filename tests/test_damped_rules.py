@@ -405,7 +405,7 @@ def test_order_decides_within_ambiguous():
     AMBIGUOUS times the gap (1) decides by order; one at exactly that distance does not."""
     om = np.array([[1.0, 2.0]])
     for d, decided in ((0.5 * AMBIGUOUS, True), (AMBIGUOUS, False)):
-        p = np.array([-0.01 + 1j * (1.0 + d), -0.02 + 1.9j])
+        p = np.array([(0.0 if d == AMBIGUOUS else -0.01) + 1j * (1.0 + d), -0.02 + 1.9j])  # |s| - 1 = d exactly
         s = np.concatenate([p, p.conj(), [-5.0]])[None, :]
         got = damped._by_order(s, om, 2)
         if not decided:
@@ -457,7 +457,10 @@ def test_assign_by_share_and_the_overdamped_pair():
     share = np.array([[[0.6, 0.3, 0.1, 0.0]], [[0.3, 0.6, 0.0, 0.1]]])
     wn, zeta, wd, poles, cols = damped._assign(s, share, 1)
     assert cols.tolist() == [[1], [0]] and np.array_equal(poles[:, 0], [-0.1 + 0.5j, -0.1 + 0.5j])
-    assert np.array_equal(wd[:, 0], [0.5, 0.5])
+    assert np.array_equal(wd[:, 0], [0.5, 0.5]) and np.allclose(zeta[:, 0], 0.1 / abs(-0.1 + 0.5j), rtol=1e-15)
+    # an overdamped pair slower than 1 rad/s: omega_n^2 = 0.1, 2 zeta omega_n = 0.7
+    wn, zeta, wd, poles, _ = damped._assign(np.array([[-0.5 + 0j, -0.2 + 0j]]), np.array([[[0.6, 0.4]]]), 1)
+    assert wn[0, 0] == pytest.approx(np.sqrt(0.1), rel=1e-15) and zeta[0, 0] == pytest.approx(0.7 / (2 * np.sqrt(0.1)))
 
 
 def test_assign_one_leaves_a_mode_without_a_pole_nan():
@@ -606,11 +609,15 @@ def test_the_driver_with_a_loss_factor_and_complex_wrenches(driver):
     assert np.allclose(d.poles, damped_modes(**{**two, "K_loss": None}).poles, rtol=1e-13)
 
 
-def test_the_driver_with_complex_h_alone(driver):
+@pytest.mark.parametrize("complex_part", ["W", "h", "K_loss"])
+def test_the_driver_with_one_complex_input_alone(driver, complex_part):
     inputs, _ = series(1.5, 100.0, 3.0, 0.2, 1e-3)
-    inputs["h"] = inputs["h"].astype(complex)
+    if complex_part == "K_loss":
+        inputs["K_loss"] = 0.01 * inputs["K"]
+    else:
+        inputs[complex_part] = inputs[complex_part].astype(complex)
     damped_modes(**inputs, solver="c")
-    assert driver.calls[0]["entry"] == "complex" and np.iscomplexobj(driver.calls[0]["h"])
+    assert driver.calls[0]["entry"] == "complex"
 
 
 @pytest.mark.parametrize(
@@ -754,3 +761,42 @@ def test_the_driver_runs_on_one_thread_by_default(driver):
     inputs, _ = two_masses()
     damped_modes(**inputs, solver="c")
     assert driver.calls[0]["threads"] == 1
+
+
+def test_a_slow_growing_mode_with_a_loss_factor_is_unstable():
+    """A complex problem (a loss factor) whose mode of 0.5 rad/s grows (an eliminated leg of
+    negative damping): its pole of positive frequency counts, however slow."""
+    inputs = one_mode(0.0, c_d=-0.05)
+    inputs.update(K=np.full((1, 1, 1), 0.25), h=np.array([[1.0]]), K_loss=np.full((1, 1, 1), 1e-4))
+    d = damped_modes(**inputs)
+    assert 0 < d.poles[0, 0].imag < 1 and d.poles[0, 0].real > 0 and d.stable.tolist() == [False]
+
+
+def test_zero_couplings_are_no_couplings():
+    """G = 0: E = diag(beta), the legs' own internal equations: the poles of the uncoupled problem
+    (leg 1 with D = k_d t_d - c_d = 1 exactly)."""
+    inputs, dynamic = two_masses(c_d=(0.3, 1.0), t_d=(0.0, 0.25))
+    d = damped_modes(**inputs, G=np.zeros((1, 2, 2)))
+    want = damped_modes(**inputs)
+    assert np.allclose(d.poles, want.poles, rtol=1e-12)
+    for j in range(2):
+        assert singular(dynamic(d.poles[0, j])) < 1e-10
+
+
+def test_three_masses_shapes_are_the_null_vectors():
+    """A chain of three masses, a leg on each: every shape the null vector of the dynamic
+    stiffness at its pole, its entry of largest magnitude 1."""
+    m = np.array([1.0, 0.3, 2.0])
+    k_s, k_d, c_d = np.array([200.0, 150.0, 90.0]), np.array([5.0, 8.0, 4.0]), np.array([0.3, 0.1, 0.2])
+    k0 = k_s * k_d / (k_s + k_d)
+    chain = np.array([[4.0, -4.0, 0.0], [-4.0, 10.0, -6.0], [0.0, -6.0, 6.0]])
+    inputs = dict(M=np.diag(m)[None], K=(np.diag(k0) + chain)[None], W=np.diag(k0)[None], h=k0[None])
+    d = damped_modes(**inputs, k_d=k_d, c_d=c_d, t_d=0.0, shapes=True)
+
+    def dynamic(s):
+        return s * s * np.diag(m) + np.diag(1 / (1 / k_s + 1 / (k_d + c_d * s))) + chain
+
+    for j in range(3):
+        x = d.shapes[0, :, j]
+        assert x[np.argmax(np.abs(x))] == pytest.approx(1.0, abs=1e-15)
+        assert np.linalg.norm(dynamic(d.poles[0, j]) @ x) < 1e-9 * np.linalg.norm(dynamic(d.poles[0, j]))
