@@ -77,7 +77,7 @@ def poles_effect(call, inputs, n, L, complex_h=False):
     """Write, per pose i of the range: wn = sum(M) + 10 sum(K); zeta = sum(W) + 100 sum(h);
     wd = sum(kd) + 2 sum(cd) + 3 sum(td); poles = i + i (eliminate + unstable + ambiguous);
     stable = i odd; status = i % 3 == 0 (i: the range's own index)."""
-    count = call["count"]
+    count, n, L = call["count"], call["n"], call["L"]
     sizes = {"M": n * n, "K": n * n, "Kl": n * n, "W": L * n, "h": L, "kd": L, "cd": L, "td": L}
     for i in range(count):
         v = {}
@@ -123,21 +123,42 @@ def test_solve_reads_each_poses_inputs(monkeypatch, threads):
     assert redo.dtype == bool and np.array_equal(redo, first % 3 == 0)
 
 
-def test_solve_complex_reads_the_complex_wrenches_and_a_missing_k_loss(monkeypatch):
-    n, L, N = 2, 3, 4
+@pytest.mark.parametrize("threads", [None, 2])
+def test_solve_complex_reads_the_complex_wrenches_and_a_missing_k_loss(monkeypatch, threads):
+    """Two threads' worth of poses (each range's inputs at its first pose) or one call by
+    default; integer M, K and K_loss read as doubles."""
+    n, L, N = 2, 3, 2 * MIN_BLOCKS_PER_THREAD * cd.BLOCK
     inputs = ("M", "K", "Kl", "W", "h", "kd", "cd", "td")
     fn = Recorder(cd.SOURCE, "et_damped_complex", effect=lambda c: poles_effect(c, inputs, n, L, complex_h=True))
     monkeypatch.setattr(cd, "driver", lambda: None)
     monkeypatch.setattr(cd, "_COMPLEX", [fn])
     M, K, W, h, kd, c_d, td = poses_inputs(N, n, L)
-    Kl = np.full((N, n, n), 0.5)
+    M, K = np.round(M * 10).astype(int), np.round(K * 10).astype(int)
+    Kl = np.full((N, n, n), 2, dtype=int)
     Wc, hc = W * (1 + 2j), h * (1 - 1j)
-    wn, zeta, _, _, _, _ = cd.solve_complex(M, K, Kl, Wc, hc, kd, c_d, td, 1.0, 2.0, 4.0)
-    assert np.allclose(wn, (M.sum(axis=(1, 2)) + 10 * K.sum(axis=(1, 2)) + 1000 * 2.0)[:, None], rtol=1e-14)
-    assert np.allclose(zeta, (3 * W.sum(axis=(1, 2)) + 100 * 0 * h.sum(axis=1))[:, None], rtol=1e-13)
+    more = {} if threads is None else {"threads": threads}
+    wn, zeta, wd, _, _, _ = cd.solve_complex(M, K, Kl, Wc, hc, kd, c_d, td, 1.0, 2.0, 4.0, **more)
+    assert (len(fn.calls) == 1) is (threads is None) and all((c["n"], c["L"]) == (n, L) for c in fn.calls)
+    assert np.allclose(wn, (M.sum(axis=(1, 2)) + 10 * K.sum(axis=(1, 2)) + 1000 * 8.0)[:, None], rtol=1e-14)
+    assert np.allclose(zeta, (3 * W.sum(axis=(1, 2)) + 100 * 0 * h.sum(axis=1))[:, None], rtol=1e-12)
+    assert np.allclose(wd, (kd.sum(axis=1) + 2 * c_d.sum(axis=1) + 3 * td.sum(axis=1))[:, None], rtol=1e-14)
     wn, *_ = cd.solve_complex(M, K, None, Wc, hc, kd, c_d, td, 1.0, 2.0, 4.0)
     assert fn.calls[-1]["Kl"] is None
     assert np.allclose(wn, (M.sum(axis=(1, 2)) + 10 * K.sum(axis=(1, 2)))[:, None], rtol=1e-14)
+
+
+def test_solve_reads_integer_inputs_as_doubles_on_one_thread_by_default(monkeypatch):
+    n, L, N = 2, 3, 2 * MIN_BLOCKS_PER_THREAD * cd.BLOCK
+    fn = Recorder(
+        cd.SOURCE, "et_damped", effect=lambda c: poles_effect(c, ("M", "K", "W", "h", "kd", "cd", "td"), n, L)
+    )
+    monkeypatch.setattr(cd, "driver", lambda: fn)
+    M, K, W, h, kd, c_d, td = (np.round(10 * v).astype(int) for v in poses_inputs(N, n, L))
+    wn, zeta, wd, *_ = cd.solve(M, K, W, h, kd, c_d, td, 1.0, 2.0, 4.0)
+    assert len(fn.calls) == 1
+    assert np.array_equal(wn[:, 0], M.sum(axis=(1, 2)) + 10 * K.sum(axis=(1, 2)))
+    assert np.array_equal(zeta[:, 0], W.sum(axis=(1, 2)) + 100 * h.sum(axis=1))
+    assert np.array_equal(wd[:, 0], kd.sum(axis=1) + 2 * c_d.sum(axis=1) + 3 * td.sum(axis=1))
 
 
 @pytest.mark.parametrize("entry, what", [("solve", "C damped modes"), ("solve_complex", "C complex damped modes")])
@@ -175,9 +196,16 @@ def test_wrenches_marshal_the_legs_arrays(monkeypatch, loss):
     rng = np.random.default_rng(1)
     Je = np.asfortranarray(rng.normal(size=(3, 2, 2, 6)))  # copied to C order for the driver
     A = rng.normal(size=(3, 2, 2, 2))
-    Cq = (A @ np.swapaxes(A, -1, -2) + np.eye(2)).astype(np.float32).astype(float)
-    got = cd.wrenches(Je, Cq, RIGID, np.full(2, 0.2), loss)  # a0 per leg, broadcast over poses
-    want = actuator_wrenches(Je, Cq, np.full((3, 2), 0.2), None if loss is None else np.full(3, loss))
+    Je = np.asfortranarray(np.round(10 * Je).astype(int))  # integers: read as doubles
+    Cq = np.round(10 * (A @ np.swapaxes(A, -1, -2) + np.eye(2))).astype(int)
+    a0 = np.array([2, 1])  # per leg, broadcast over the poses
+    got = cd.wrenches(Je, Cq, RIGID, a0, None if loss is None else 1)
+    want = actuator_wrenches(
+        Je.astype(float),
+        Cq.astype(float),
+        np.broadcast_to(a0, (3, 2)).astype(float),
+        None if loss is None else np.full(3, 1.0),
+    )
     for g, w in zip(got, want):
         assert g.dtype == w.dtype and np.allclose(g, w, rtol=1e-13)
     assert len((lossy if loss else plain).calls) == 1 and not (plain if loss else lossy).calls
@@ -215,6 +243,8 @@ def test_legs_arguments():
     assert keep[1].tolist() == [36, 18, 36] and keep[1].dtype == np.int64
     _, keep = cd._legs_arguments(legs_kernel(0), 0)
     assert keep[1].tolist() == [0, 0, 0]
+    _, keep = cd._legs_arguments(legs_kernel(1), 1)
+    assert keep[1].tolist() == [36, 18, 36]
 
 
 def fused(n):
@@ -236,16 +266,22 @@ def test_one_pass_hands_each_array_to_its_parameter(monkeypatch, B):
     n, block = 3 * MIN_BLOCKS_PER_THREAD * 4, 4
     seen = {}
 
-    def read(c):  # the servo arrays of the range, read while the call runs
-        m = c["end"] - c["begin"]
+    def read(c):  # the servo arrays and B of the range, read while the call runs; flags written
+        m, a = c["end"] - c["begin"], c["begin"]
         for name in ("kd", "cd", "td"):
-            seen.setdefault(name, []).append(doubles(c[name] + 8 * 2 * c["begin"], 2 * m).copy())
+            seen.setdefault(name, []).append(doubles(c[name] + 8 * 2 * a, 2 * m).copy())
+        seen.setdefault("sizes", []).append(doubles(c["l_size"], 3, ctypes.c_int64).tolist())
+        if c["B"] is not None:
+            seen.setdefault("B", []).append(doubles(c["B"], 6 * c["r"]).copy())
+        doubles(c["stable"] + a, m, ctypes.c_int8)[:] = np.arange(a, a + m) % 2
+        doubles(c["redo"] + a, m, ctypes.c_int8)[:] = np.arange(a, a + m) % 3
 
     fn = Recorder(cd.SOURCE, "et_damped_pass", effect=read)
     monkeypatch.setattr(cd, "driver", lambda: None)
     monkeypatch.setattr(cd, "_PASS", [fn])
     a = pass_arrays(n)
     rules = (1.0, 2.0, 3.0, 4.0)
+    B = None if B is None else B.astype(int)  # integers: read as doubles
     wn, zeta, wd, poles, stable, redo = cd.one_pass(
         fused(n),
         legs_kernel(n),
@@ -292,8 +328,15 @@ def test_one_pass_hands_each_array_to_its_parameter(monkeypatch, B):
     assert (c["rtol"], c["eliminate"], c["unstable"], c["ambiguous"]) == rules
     for name, value in (("kd", 5.0), ("cd", 1.0), ("td", 0.1)):
         assert np.array_equal(np.concatenate(seen[name]), np.full(2 * n, value)), name
+    assert all(sizes == [36, 18, 36] for sizes in seen["sizes"])
+    if B is not None:
+        assert all(np.array_equal(b, B.ravel()) for b in seen["B"])
+    assert np.array_equal(stable, np.arange(n) % 2 == 1) and np.array_equal(redo, np.arange(n) % 3 != 0)
     outputs = (wn, zeta, wd, poles, stable, redo)
     assert [c[k] for k in ("wn", "zeta", "wd", "poles")] == [x.ctypes.data for x in outputs[:4]]
+    calls = len(fn.calls)
+    cd.one_pass(fused(n), legs_kernel(n), block, n, a["q"], a["M"], a["K"], a["Je"], a["Cq"], 2, B, 5, 1.0, 0.1, rules)
+    assert len(fn.calls) == calls + 1  # one thread unless asked
     fn.rc = 3
     with pytest.raises(RuntimeError) as err:
         cd.one_pass(
@@ -397,3 +440,58 @@ def test_exact_pass_hands_each_array_to_its_parameter(monkeypatch, damped, vecto
     with pytest.raises(RuntimeError) as err:
         cd.exact_pass(fused(n), legs, block, n, q, M, *servo, (1.0, 2.0, 3.0, 4.0), 1e-7, vectors)
     assert str(err.value) == "C exact pass returned 4"
+
+
+def test_solve_legs_of_the_six_twists_on_one_thread_by_default(monkeypatch):
+    N, L, e = 2 * MIN_BLOCKS_PER_THREAD * cd.BLOCK, 1, 1
+
+    def write(c):
+        doubles(c["stable"], c["count"], ctypes.c_int8)[:] = 1
+        doubles(c["status"], c["count"], ctypes.c_int8)[:] = 0
+
+    fn = Recorder(cd.SOURCE, "et_damped_legs", effect=write)
+    monkeypatch.setattr(cd, "driver", lambda: None)
+    monkeypatch.setattr(cd, "_LEGS", [fn])
+    z = np.zeros
+    wn, zeta, wd, poles, stable, redo = cd.solve_legs(
+        z((N, 6, 6)), None, None, z((N, L, e, 6)), z((N, L, e, e)), 1, None, 1.0, 1.0, 0.0, (1, 2, 3, 4)
+    )
+    assert len(fn.calls) == 1 and fn.calls[0]["r"] == 6 and fn.calls[0]["B"] is None and fn.calls[0]["Kg"] is None
+    assert wn.shape == (N, 6) and stable.dtype == bool and stable.all() and redo.dtype == bool and not redo.any()
+
+
+@pytest.mark.parametrize("threads", [None, 2])
+def test_exact_pass_flags_and_ranges(monkeypatch, threads):
+    n, block = 2 * MIN_BLOCKS_PER_THREAD * 4, 4
+
+    def write(c):
+        a, m = c["begin"], c["end"] - c["begin"]
+        for name in ("nb", "redo", "stable"):  # redo: the pose's code
+            doubles(c[name] + a, m, ctypes.c_int8)[:] = np.arange(a, a + m) % 3
+        doubles(c["lam"] + 8 * 6 * a, 6 * m)[:] = np.repeat(np.arange(a, a + m), 6)
+
+    fn = Recorder(cd.SOURCE, "et_exact_pass", effect=write)
+    monkeypatch.setattr(cd, "driver", lambda: None)
+    monkeypatch.setattr(cd, "_EXACT", [fn])
+    more = {} if threads is None else {"threads": threads}
+    out = cd.exact_pass(
+        fused(n),
+        legs_kernel(n),
+        block,
+        n,
+        np.zeros((n, 2, 3)),
+        np.zeros((n, 6, 6)),
+        1.0,
+        1.0,
+        0.0,
+        (1, 2, 3, 4),
+        1e-7,
+        False,
+        **more,
+    )
+    assert (len(fn.calls) == 1) is (threads is None)
+    assert all(c["begin"] % block == 0 for c in fn.calls)
+    flags = np.arange(n) % 3
+    assert np.array_equal(out["nb"], flags) and np.array_equal(out["code"], flags)
+    assert np.array_equal(out["damped"][4], flags != 0) and out["damped"][3].shape == (n, 6)
+    assert np.array_equal(out["lam"], np.repeat(np.arange(n), 6).reshape(n, 6).astype(float))
