@@ -32,6 +32,19 @@ SIGNATURE = {
             "outputs": [["M", [2, 2]], ["s", []]],
         },
         "jacobians": {"function": "et_toy_jac", "inputs": [], "outputs": [["J_rows", [2]]]},
+        **{
+            kernel: {
+                "function": f"et_toy_{kernel}",
+                "inputs": [["param", "a", None], ["q", "q_1_2", [1, 2]], ["param", "b", None], ["q", "q_0_1", [0, 1]]],
+                "outputs": [["M", [2, 2]], ["s", []]],
+            }
+            for kernel in ("gravity", "legs", "loop_closure", "more")
+        },
+        "ik": {
+            "function": "et_toy_ik2",
+            "inputs": [["param", "a", None], ["pose", "x", None], ["pose", "y", None], ["pose", "z", None]],
+            "outputs": [["M", [2, 2]], ["s", []], ["q", [2, 3]]],
+        },
     },
     "fused": {"function": "et_toy_fused", "matrices": [["M", [2, 2]]], "inputs": [], "status": STATUS, "models": []},
     "eigh": {"function": "et_toy_eigh", "dims": [2, 3]},
@@ -59,6 +72,8 @@ class Library:
         for name in ("et_toy_ik", "et_toy_jac", "et_toy_fused", "et_toy_eigh"):
             setattr(self, name, type("CFunction", (), {})())
         self.et_toy_matrices = matrices
+        for kernel in ("gravity", "legs", "loop_closure", "more", "ik2"):
+            setattr(self, f"et_toy_{kernel}", Matrices())
 
 
 def kernels(matrices=None, signature=SIGNATURE):
@@ -233,3 +248,65 @@ def test_kernel_arguments_for_a_driver(monkeypatch):
     assert strides.tolist() == [0, 0, 1, 0] and inputs[1] == 0 and inputs[3] == 0
     assert doubles(int(inputs[0]))[0] == 2.0 and np.array_equal(doubles(int(inputs[2]), 5), np.ones(5))
     assert {k: v.shape for k, v in outs.items()} == {"M": (5, 2, 2), "s": (5,)}
+
+
+@pytest.mark.parametrize("kernel", ["gravity", "legs", "loop_closure"])
+def test_the_joint_coordinate_kernels(kernel):
+    """gravity, legs and loop_closure: the kernel of that name on q and the parameters."""
+    kern = kernels()
+    q = np.arange(6.0).reshape(2, 3) + 1
+    out = getattr(kern, kernel)(q, {"a": 2.0, "b": 3.0})
+    assert np.array_equal(out["M"], [[2.0, q[1, 2]], [3.0, q[0, 1]]]) and out["s"] == 2.0 + 3.0 + q[1, 2] + q[0, 1]
+    assert len(kern._lib.__dict__[f"et_toy_{kernel}"].calls) == 1
+
+
+def test_no_loop_closure_kernel_no_method():
+    sig = dict(SIGNATURE, kernels={k: v for k, v in SIGNATURE["kernels"].items() if k != "loop_closure"})
+    with pytest.raises(AttributeError):
+        kernels(signature=sig).loop_closure(np.zeros((2, 3)), {})
+
+
+def test_inverse_kinematics_broadcasts_the_pose_and_the_parameters():
+    """The inputs of the "inverse_kinematics" kernel by name; here the ik2 layout (a, x, y, z)
+    read as M = [[a, x], [y, z]]."""
+    sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], inverse_kinematics=SIGNATURE["kernels"]["ik"]))
+    kern = kernels(signature=sig)
+    out = kern.inverse_kinematics(np.array([1.0, 2.0, 3.0]), 5.0, np.array([[7.0], [8.0]]), {"a": 0.5, "b": 9.0})
+    assert out["M"].shape == (2, 3, 2, 2)
+    assert np.array_equal(out["M"][1, 2], [[0.5, 3.0], [5.0, 8.0]]) and out["s"][0, 0] == 0.5 + 1.0 + 5.0 + 7.0
+
+
+def test_newton_hands_the_closure_and_its_inputs_to_the_driver(monkeypatch):
+    from eigentwist.runtime import c_levenberg_marquardt as clm
+
+    closure = dict(SIGNATURE["kernels"]["loop_closure"], outputs=[["residual", [2, 4]], ["dresidual", [2, 4, 3]]])
+    sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], loop_closure=closure))
+    lib = Library(Matrices())
+    proto = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ck._PTRS, ck._I64P, ck._PTRS)
+    lib.et_toy_loop_closure = proto(lambda *a: 0)  # a C function pointer: the driver gets its address
+    kern = ck.CKernels(lib, sig, ck.Build("lib.so", "portable", []))
+    seen = []
+
+    def iterate(address, q_of, addresses, strides, q, rows, iterations, tol, threads):
+        values = [
+            doubles(a + 8 * s * i)[0] if k < 0 else None for a, s, k in zip(addresses, strides, q_of) for i in (2,)
+        ]
+        seen.append((address, q_of, strides, q, rows, iterations, tol, threads, values))
+        return "the driver's result"
+
+    monkeypatch.setattr(clm, "driver", lambda: object())
+    monkeypatch.setattr(clm, "iterate", iterate)
+    q = np.zeros((3, 2, 3), dtype=int)
+    assert kern.newton(q, {"a": np.array([1.0, 2.0, 4.0]), "b": 7.0}, 30, 1e-9, threads=2) == "the driver's result"
+    address, q_of, strides, q_given, rows, iterations, tol, threads, values = seen[0]
+    assert address == ctypes.cast(lib.et_toy_loop_closure, ctypes.c_void_p).value
+    assert q_of == [-1, 5, -1, 1] and strides == [1, 0, 0, 0] and rows == 4
+    assert values == [4.0, None, 7.0, None]  # pose 2's a, b
+    assert q_given.dtype == np.float64 and (iterations, tol, threads) == (30, 1e-9, 2)
+    kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9)
+    assert seen[1][7] == 1
+    monkeypatch.setattr(clm, "driver", lambda: None)
+    assert kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9) is None
+    monkeypatch.setattr(clm, "driver", lambda: object())
+    sig = dict(SIGNATURE, kernels={k: v for k, v in SIGNATURE["kernels"].items() if k != "loop_closure"})
+    assert kernels(signature=sig).newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9) is None  # no closure kernel
