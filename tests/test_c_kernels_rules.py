@@ -310,3 +310,38 @@ def test_newton_hands_the_closure_and_its_inputs_to_the_driver(monkeypatch):
     monkeypatch.setattr(clm, "driver", lambda: object())
     sig = dict(SIGNATURE, kernels={k: v for k, v in SIGNATURE["kernels"].items() if k != "loop_closure"})
     assert kernels(signature=sig).newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9) is None  # no closure kernel
+
+
+def test_bind_declares_the_generated_c_signatures():
+    """The argument types _bind declares are those of the checked-in C source's kernel, fused
+    pass and eigen-solver (tests/c_signatures.py reads them from the declarations)."""
+    from .c_signatures import check
+
+    source = ck.source_path("heli4").read_text()
+    kern = kernels()
+    check(source, "et_heli4_matrices", kern._fn["matrices"].argtypes, kern._fn["matrices"].restype)
+    check(source, "et_heli4_fused", kern._fn["fused"].argtypes, kern._fn["fused"].restype)
+    check(source, "et_heli4_eigh", kern._fn["eigh"].argtypes, kern._fn["eigh"].restype)
+    assert kern._fn["fused"] is kern._lib.et_toy_fused and kern._fn["eigh"] is kern._lib.et_toy_eigh
+
+
+def test_the_librarys_description():
+    kern = kernels()
+    assert (kern.ROBOT, kern.SOURCE_HASH, kern.BLOCK, kern.N_LEGS, kern.JOINTS_PER_LEG) == ("toy", "abc", 4, 2, 3)
+    assert kern.FUSED_MATRICES == {"M": (2, 2)} and kern.OUTPUTS["matrices"] == {"M": (2, 2), "s": ()}
+    assert repr(kern) == "<eigentwist C kernels 'toy' (portable) lib.so>"
+    assert kern._rotation is False and kern._unread == set()
+    names = [["param", n] for n in ("x", "R_00", "R_12", "R_3", "RR_00")]
+    sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], inputs=names, rotation=True))
+    kern = kernels(signature=sig)
+    assert kern._rotation is True and kern._unread == {"R_00", "R_12"}  # computed from the rotation vector
+
+
+def test_a_kernel_of_joint_coordinates_alone():
+    only_q = {"function": "et_toy_more", "inputs": [["q", "q_0_0", [0, 0]]], "outputs": [["M", [2, 2]], ["s", []]]}
+    sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], more=only_q))
+    kern = kernels(signature=sig)
+    fn = kern._lib.et_toy_more = kern._fn["more"] = Matrices()
+    fn.calls = []
+    addresses, strides = kern._kernel_inputs("more", [], (3,), [])
+    assert addresses.dtype == np.uint64 and strides.dtype == np.int64 and addresses.size == strides.size == 0
