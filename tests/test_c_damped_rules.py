@@ -142,8 +142,10 @@ def test_solve_complex_reads_the_complex_wrenches_and_a_missing_k_loss(monkeypat
     assert np.allclose(wn, (M.sum(axis=(1, 2)) + 10 * K.sum(axis=(1, 2)) + 1000 * 8.0)[:, None], rtol=1e-14)
     assert np.allclose(zeta, (3 * W.sum(axis=(1, 2)) + 100 * 0 * h.sum(axis=1))[:, None], rtol=1e-12)
     assert np.allclose(wd, (kd.sum(axis=1) + 2 * c_d.sum(axis=1) + 3 * td.sum(axis=1))[:, None], rtol=1e-14)
-    wn, *_ = cd.solve_complex(M, K, None, Wc, hc, kd, c_d, td, 1.0, 2.0, 4.0)
+    Wi = np.round(10 * W).astype(int)  # real integer wrenches: read as complex doubles
+    wn, zeta, *_ = cd.solve_complex(M, K, None, Wi, hc, kd, c_d, td, 1.0, 2.0, 4.0)
     assert fn.calls[-1]["Kl"] is None
+    assert np.allclose(zeta, (Wi.sum(axis=(1, 2)) + 100 * 0 * h.sum(axis=1))[:, None], rtol=1e-12)
     assert np.allclose(wn, (M.sum(axis=(1, 2)) + 10 * K.sum(axis=(1, 2)))[:, None], rtol=1e-14)
 
 
@@ -294,7 +296,7 @@ def test_one_pass_hands_each_array_to_its_parameter(monkeypatch, B):
         a["Cq"],
         2,
         B,
-        5.0,
+        5,
         np.ones(2),
         0.1,
         rules,
@@ -364,18 +366,18 @@ def test_solve_legs_hands_each_array_to_its_parameter(monkeypatch, shared):
     fn = Recorder(cd.SOURCE, "et_damped_legs", effect=read)
     monkeypatch.setattr(cd, "driver", lambda: None)
     monkeypatch.setattr(cd, "_LEGS", [fn])
-    M = np.arange(N * 36, dtype=float).reshape(N, 6, 6)
-    Je = np.arange(N * L * e * 6, dtype=float).reshape(N, L, e, 6)
+    M = np.arange(N * 36).reshape(N, 6, 6)  # integers: read as doubles
+    Je = np.arange(N * L * e * 6).reshape(N, L, e, 6)
     Cq = np.zeros((N, L, e, e))
     Kg = np.ones((6, 6)) if shared else np.ones((N, 6, 6))
     B = np.eye(6)[:, :r] if shared else np.broadcast_to(np.eye(6)[:, :r], (N, 6, r))
     K = None if shared else np.zeros((N, 6, 6))
-    wn, zeta, wd, poles, stable, redo = cd.solve_legs(M, K, Kg, Je, Cq, 2, B, 5.0, np.ones(L), 0.1, (1, 2, 3, 4), 2)
+    wn, zeta, wd, poles, stable, redo = cd.solve_legs(M, K, Kg, Je, Cq, 2, B, 5, np.ones(L), 0.1, (1, 2, 3, 4), 2)
     assert len(seen) > 1 and sum(c["count"] for c, *_ in seen) == N
     assert np.array_equal(wn, M.reshape(N, 36)[:, :r]) and redo.all() and not stable.any()
     assert wn.shape == (N, r) and poles.shape == (N, r) and poles.dtype == complex
     for c, servo, m, je, b in seen:
-        start = (c["M"] - M.ctypes.data) // (8 * 36)
+        start = int(m[0]) // 36  # M[i] holds 36 i, 36 i + 1, ...
         assert np.array_equal(m, M[start : start + c["count"]].ravel())
         assert np.array_equal(je, Je[start : start + c["count"]].ravel())
         assert np.array_equal(b, (B if shared else B[start : start + c["count"]]).ravel())
@@ -406,6 +408,7 @@ def test_exact_pass_hands_each_array_to_its_parameter(monkeypatch, damped, vecto
     def write(c):
         seen.append(c)
         m = c["end"] - c["begin"]
+        assert doubles(c["l_size"], 3, ctypes.c_int64).tolist() == [36, 18, 36]
         if c["kd"] is not None:
             seen.append(doubles(c["kd"] + 8 * L * c["begin"], L * m).copy())
         doubles(c["nb"] + c["begin"], m, ctypes.c_int8)[:] = 5
@@ -416,7 +419,7 @@ def test_exact_pass_hands_each_array_to_its_parameter(monkeypatch, damped, vecto
     monkeypatch.setattr(cd, "_EXACT", [fn])
     legs = legs_kernel(n)
     q, M = np.zeros((n, L, 3)), np.zeros((n, 6, 6))
-    servo = (7.0, 1.0, 0.1) if damped else (None, None, None)
+    servo = (7, 1.0, 0.1) if damped else (None, None, None)  # an integer k_d: read as doubles
     out = cd.exact_pass(fused(n), legs, block, n, q, M, *servo, (1.0, 2.0, 3.0, 4.0), 1e-7, vectors)
     c = seen[0]
     assert (c["rtol"], c["null_rtol"], c["eliminate"], c["unstable"], c["ambiguous"]) == (1.0, 1e-7, 2.0, 3.0, 4.0)
