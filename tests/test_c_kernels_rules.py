@@ -302,7 +302,7 @@ def test_newton_hands_the_closure_and_its_inputs_to_the_driver(monkeypatch):
     assert address == ctypes.cast(lib.et_toy_loop_closure, ctypes.c_void_p).value
     assert q_of == [-1, 5, -1, 1] and strides == [1, 0, 0, 0] and rows == 4
     assert values == [4.0, None, 7.0, None]  # pose 2's a, b
-    assert q_given.dtype == np.float64 and (iterations, tol, threads) == (30, 1e-9, 2)
+    assert q_given.dtype == np.float64 and q_given.shape == (3, 2, 3) and (iterations, tol, threads) == (30, 1e-9, 2)
     kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9)
     assert seen[1][7] == 1
     monkeypatch.setattr(clm, "driver", lambda: None)
