@@ -345,3 +345,176 @@ def test_a_kernel_of_joint_coordinates_alone():
     fn.calls = []
     addresses, strides = kern._kernel_inputs("more", [], (3,), [])
     assert addresses.dtype == np.uint64 and strides.dtype == np.int64 and addresses.size == strides.size == 0
+
+
+FUSED = {
+    "function": "et_toy_fused",
+    "matrices": [["M", [2, 2]], ["K_F", [2, 2]]],
+    "inputs": [["pose", "x"], ["param", "a"], ["pose", "y"], ["pose", "z"]],
+    "status": STATUS,
+    "models": ["flexible", "rigid"],
+    "dims": [2, 1],
+}
+
+
+class Fused:
+    """The fused pass: freq[i] = x + 10 a + 100 y + 1000 z (each mode) of pose i, read by
+    address and stride; status[i] = i % 5; returns rc."""
+
+    def __init__(self, rc=0):
+        self.rc = rc
+        self.calls = []
+
+    def __call__(self, begin, end, ins, strides, model, ik, mat, jac, freq, vec, status, opts):
+        self.calls.append((begin, end, model))
+        for i in range(begin, end):
+            x, a, y, z = (doubles(ins[k] + 8 * strides[k] * i)[0] for k in range(4))
+            if freq is not None:
+                dim = 2 - model
+                doubles(freq + 8 * dim * i, dim)[:] = x + 10 * a + 100 * y + 1000 * z
+            if status is not None:
+                np.ctypeslib.as_array((ctypes.c_int8 * 1).from_address(status + i))[0] = i % 5
+        return self.rc
+
+
+def fused_kernels(fn=None, **fused):
+    kern = kernels(signature=dict(SIGNATURE, fused=dict(FUSED, **fused)))
+    kern._fn["fused"] = fn or Fused()
+    return kern
+
+
+def test_fused_arguments_tables():
+    kern = fused_kernels()
+    x, z = np.array([1.0, 2.0, 3.0]), np.array([[0.5], [0.25], [0.125]])[:, 0]
+    result, n, keep, args = kern.fused_arguments(
+        x,
+        2.0,
+        z,
+        {"a": 4.0},
+        matrices=("M",),
+        ik=("q",),
+        jacobians=("J_rows",),
+        model="rigid",
+        vectors=True,
+        status=True,
+        normalize=True,
+    )
+    assert n == 3 and sorted(result) == ["J_rows", "M", "eigentwists", "freq_hz", "q", "status"]
+    shapes = {k: v.shape for k, v in result.items()}
+    assert shapes == {
+        "M": (3, 2, 2),
+        "q": (3, 2, 3),
+        "J_rows": (3, 2),
+        "freq_hz": (3, 1),
+        "eigentwists": (3, 1, 1),
+        "status": (3,),
+    }
+    assert result["status"].dtype == np.int8 and result["freq_hz"].dtype == np.float64
+    ins, strides, model_id, ik_p, mat_p, jac_p, freq, vec, st_p, opts = args
+    assert model_id == 1 and freq == result["freq_hz"].ctypes.data and vec == result["eigentwists"].ctypes.data
+    assert st_p == result["status"].ctypes.data and opts is kern.fused_options(True)
+    assert ik_p[0] == result["q"].ctypes.data and jac_p[0] == result["J_rows"].ctypes.data
+    assert mat_p[0] == result["M"].ctypes.data and mat_p[1] is None and len(mat_p) == 2  # K_F not asked
+    for i in range(3):  # x, a, y, z of pose i through the tables
+        got = [doubles(ins[k] + 8 * strides[k] * i)[0] for k in range(4)]
+        assert got == [x[i], 4.0, 2.0, z[i]]
+
+
+def test_fused_arguments_defaults_and_a_grid_of_poses():
+    kern = fused_kernels()
+    x = np.zeros((2, 3))
+    result, n, _, args = kern.fused_arguments(x, 0.0, 0.0, {"a": 1.0})
+    assert n == 6 and sorted(result) == ["K_F", "M"] and result["M"].shape == (2, 3, 2, 2)
+    assert args[2] == 0 and args[3] is None and args[5] is None and args[6:9] == (None, None, None)
+    result, _, _, args = kern.fused_arguments(x, 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible", vectors=True)
+    assert sorted(result) == ["V", "freq_hz"] and result["V"].shape == (2, 3, 2, 2) and args[4] is None
+    assert list(args[9])[3] == 0.0  # not normalized
+
+
+def test_fused_arguments_refusals():
+    kern = fused_kernels()
+    p = {"a": 1.0}
+    with pytest.raises(InputError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, p, model="stiff")
+    assert str(err.value) == "model 'stiff': expected one of ['flexible', 'rigid']"
+    with pytest.raises(KeyError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, p, matrices=("M", "K_R"))
+    assert err.value.args[0] == "matrices has no output(s) ['K_R']: expected ['M', 'K_F']"
+    with pytest.raises(KeyError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, p, ik=("r",))
+    assert err.value.args[0] == "inverse_kinematics has no output(s) ['r']: expected ['q']"
+    with pytest.raises(KeyError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, p, out={"V": np.zeros((2, 2, 2))})
+    assert err.value.args[0] == "out has arrays for ['V'], which this call does not compute"
+
+
+@pytest.mark.parametrize(
+    "arr, got",
+    [
+        (np.zeros((3, 2)), "(3, 2) float64"),
+        (np.zeros((2, 2), dtype=np.float32), "(2, 2) float32"),
+        (np.zeros((2, 2), order="F"), None),
+        ("read-only", None),
+        ([[0.0, 0.0], [0.0, 0.0]], "None list"),
+    ],
+)
+def test_fused_out_arrays_are_checked(arr, got):
+    kern = fused_kernels()
+    if isinstance(arr, str):
+        arr = np.zeros((2, 2))
+        arr.flags.writeable = False
+    elif isinstance(arr, np.ndarray) and arr.flags.f_contiguous and arr.ndim == 2 and arr.shape == (2, 2):
+        arr = np.zeros((2, 4))[:, ::2]  # not C-contiguous
+    with pytest.raises(InputError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible", out={"freq_hz": arr})
+    head = "out['freq_hz']: expected a writeable C-contiguous float64 array of shape (2, 2), got "
+    assert str(err.value).startswith(head) and (got is None or str(err.value) == head + got)
+    out = np.zeros((2, 2))
+    result, *_ = kern.fused_arguments(
+        np.zeros(2), 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible", out={"freq_hz": out}
+    )
+    assert result["freq_hz"] is out
+
+
+def test_rotation_from_the_rotation_vector_or_the_matrix():
+    inputs = [["pose", "x"], ["param", "a"], ["pose", "y"], ["pose", "z"], ["param", "R_00"], ["param", "R_01"]]
+    kern = fused_kernels(inputs=inputs, rotation=True)
+    p = {"a": 1.0, "R_00": 0.5, "R_01": 0.25}
+    _, _, _, args = kern.fused_arguments(1.0, 2.0, 3.0, dict(p, rot_x=0.1, rot_y=0.2, rot_z=0.3))
+    ins = args[0]
+    got = [doubles(ins[k])[0] for k in range(9)]
+    assert got == [1.0, 1.0, 2.0, 3.0, 0.0, 0.0, 0.1, 0.2, 0.3]  # R_ij placeholders, the vector after them
+    _, _, _, args = kern.fused_arguments(1.0, 2.0, 3.0, p)
+    assert [doubles(args[0][k])[0] for k in range(6)] == [1.0, 1.0, 2.0, 3.0, 0.5, 0.25]
+    assert args[0][6] is None  # no rotation vector: the pass reads R_ij
+
+
+@pytest.mark.parametrize("threads", [None, 2])
+def test_fused_runs_ranges_of_blocks(threads):
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    fn = Fused()
+    kern = fused_kernels(fn)
+    n = 2 * MIN_BLOCKS_PER_THREAD * kern.BLOCK
+    x = np.arange(n) * 1.0
+    more = {} if threads is None else {"threads": threads}
+    out = kern.fused(x, 0.5, 0.25, {"a": 2.0}, matrices=(), model="flexible", status=True, **more)
+    assert np.array_equal(out["freq_hz"], np.repeat((x + 20.0 + 50.0 + 250.0)[:, None], 2, axis=1))
+    assert np.array_equal(out["status"], np.arange(n) % 5)
+    assert (len(fn.calls) == 1) is (threads is None) and all(c[0] % kern.BLOCK == 0 for c in fn.calls)
+    with pytest.raises(RuntimeError) as err:
+        fused_kernels(Fused(rc=9)).fused(x[:2], 0.5, 0.25, {"a": 2.0}, matrices=(), model="flexible")
+    assert str(err.value) == "C fused returned 9"
+
+
+def test_pack_reuses_the_scalars_of_the_same_objects():
+    kern = fused_kernels()
+    a = 2.0
+    kern.fused_arguments(np.zeros(3), 1.0, 0.0, {"a": a})
+    packed = kern._packed
+    _, n, _, args = kern.fused_arguments(np.ones(4), 1.0, 0.0, {"a": a})
+    assert kern._packed is packed and n == 4 and doubles(args[0][0] + 8 * args[1][0] * 3)[0] == 1.0
+    _, n, _, args = kern.fused_arguments(np.ones(4), 1.0, 0.0, {"a": 3.0})
+    assert kern._packed is not packed and doubles(args[0][1])[0] == 3.0
+    _, n, _, _ = kern.fused_arguments(1.0, 1.0, 0.0, {"a": 3.0})  # every input a scalar: one pose
+    assert n == 1
