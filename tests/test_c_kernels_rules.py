@@ -518,3 +518,28 @@ def test_pack_reuses_the_scalars_of_the_same_objects():
     assert kern._packed is not packed and doubles(args[0][1])[0] == 3.0
     _, n, _, _ = kern.fused_arguments(1.0, 1.0, 0.0, {"a": 3.0})  # every input a scalar: one pose
     assert n == 1
+
+
+def test_fused_frequencies_valid_and_stable_from_the_status(monkeypatch):
+    """Status i % 5 of pose i: valid where ok (0) or unstable (4), stable where not unstable;
+    with ``check`` the first invalid pose is raised (by raise_invalid, recorded here)."""
+    kern = fused_kernels()
+    raised = []
+    monkeypatch.setattr(ck.CKernels, "raise_invalid", lambda self, k, x, y, z, p, lead: raised.append((k, lead)))
+    x = np.arange(6) * 1.0
+    res = kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, check=False)
+    assert sorted(res) == ["freq_hz", "stable", "valid"] and raised == []
+    assert res["valid"].tolist() == [True, False, False, False, True, True]
+    assert res["stable"].tolist() == [True, True, True, True, False, True]
+    assert np.array_equal(res["freq_hz"], np.repeat((x + 10.0)[:, None], 2, axis=1))
+    res = kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, model="rigid", vectors=True)
+    assert raised == [(1, (6,))] and res["freq_hz"].shape == (6, 1) and res["eigentwists"].shape == (6, 1, 1)
+    raised.clear()
+    kern.fused_frequencies(x[[0, 4]], 0.0, 0.0, {"a": 1.0})  # statuses 0 and 1: pose 1
+    assert raised == [(1, (2,))]
+    raised.clear()
+    kern.fused_frequencies(x[:1], 0.0, 0.0, {"a": 1.0, "on_gravity_preload": 0.0})  # a switch off is no preload
+    assert raised == []
+    with pytest.raises(InputError) as err:
+        kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0, "on_gravity_preload": np.array([0.0, 1.0])})
+    assert str(err.value) == "the fused C path has no gravity preload: switch it off or use Evaluator.frequencies"
