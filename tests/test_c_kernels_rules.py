@@ -75,6 +75,9 @@ class Library:
         for kernel in ("gravity", "legs", "loop_closure", "more", "ik2"):
             setattr(self, f"et_toy_{kernel}", Matrices())
 
+    def __getitem__(self, name):  # ctypes: a new function object of that name
+        return ("a new function object", name)
+
 
 def kernels(matrices=None, signature=SIGNATURE):
     return ck.CKernels(Library(matrices or Matrices()), signature, ck.Build("lib.so", "portable", []))
@@ -543,3 +546,42 @@ def test_fused_frequencies_valid_and_stable_from_the_status(monkeypatch):
     with pytest.raises(InputError) as err:
         kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0, "on_gravity_preload": np.array([0.0, 1.0])})
     assert str(err.value) == "the fused C path has no gravity preload: switch it off or use Evaluator.frequencies"
+
+
+@pytest.mark.parametrize("rotation", [False, True])
+def test_prepare_fused_hands_the_pass_to_a_prepared_call(monkeypatch, rotation):
+    from eigentwist.runtime import fused_call
+
+    made = []
+    monkeypatch.setattr(fused_call, "FusedCall", lambda *a, **k: made.append((a, k)) or "prepared")
+    inputs = FUSED["inputs"] + ([["param", "R_00"]] if rotation else [])
+    kern = fused_kernels(inputs=inputs, rotation=rotation)
+    p = {"a": 1.0}
+    assert kern.prepare_fused(p, {"x": 3, "y": 3, "z": 3}, model="rigid", vectors=True, matrices=("K_F",)) == "prepared"
+    (args, kw) = made[0]
+    names = ["x", "a", "y", "z"] + (["R_00", "rot_x", "rot_y", "rot_z"] if rotation else [])
+    assert args == (("a new function object", "et_toy_fused"), names, p, {"x": 3, "y": 3, "z": 3})
+    assert kw["unread"] == ({"rot_x", "rot_y", "rot_z"} if rotation else set())  # no rotation vector among the poses
+    assert (kw["model_id"], kw["dim"], kw["vectors"], kw["block"]) == (1, 1, True, 4)
+    assert kw["matrices"] == (2, ((1, "K_F", (2, 2)),)) and kw["check"] is ck._check_rc
+    assert kw["options"]() is kern.fused_options(True)
+    kern.prepare_fused(p, {"x": 3, "rot_x": 6, "rot_y": 6, "rot_z": 6}, model="flexible")
+    assert made[1][1]["unread"] == ({"R_00"} if rotation else set()) and made[1][1]["matrices"] == (2, ())
+    assert made[1][1]["model_id"] == 0 and made[1][1]["dim"] == 2 and made[1][1]["vectors"] is False
+    with pytest.raises(KeyError) as err:
+        kern.prepare_fused(p, {}, model="rigid", matrices=("M", "K_R", "G"))
+    assert err.value.args[0] == "matrices has no output(s) ['G', 'K_R']: expected ['M', 'K_F']"
+
+
+def test_prepared_dimension_from_the_eigen_solver_without_dims():
+    from eigentwist.runtime import fused_call
+
+    made = []
+    fused = {k: v for k, v in FUSED.items() if k != "dims"}
+    kern = kernels(signature=dict(SIGNATURE, fused=fused))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(fused_call, "FusedCall", lambda *a, **k: made.append(k))
+        kern.prepare_fused({"a": 1.0}, {}, model="rigid")
+    assert made[0]["dim"] == 3  # the eigen-solver's dims [2, 3], the model's entry
+    result, *_ = kern.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0}, matrices=(), model="rigid")
+    assert result["freq_hz"].shape == (3,)  # one pose of scalars: no leading axis
