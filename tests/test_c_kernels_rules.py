@@ -415,6 +415,9 @@ def test_fused_arguments_tables():
     assert result["status"].dtype == np.int8 and result["freq_hz"].dtype == np.float64
     ins, strides, model_id, ik_p, mat_p, jac_p, freq, vec, st_p, opts = args
     assert model_id == 1 and freq == result["freq_hz"].ctypes.data and vec == result["eigentwists"].ctypes.data
+    from eigentwist.runtime import eigen, validity
+
+    assert list(opts) == [validity.LEVER_TOL, -1.0, eigen.ROUNDOFF_EPS, 1.0]  # built here, then kept
     assert st_p == result["status"].ctypes.data and opts is kern.fused_options(True)
     assert ik_p[0] == result["q"].ctypes.data and jac_p[0] == result["J_rows"].ctypes.data
     assert mat_p[0] == result["M"].ctypes.data and mat_p[1] is None and len(mat_p) == 2  # K_F not asked
@@ -527,8 +530,13 @@ def test_fused_frequencies_valid_and_stable_from_the_status(monkeypatch):
     """Status i % 5 of pose i: valid where ok (0) or unstable (4), stable where not unstable;
     with ``check`` the first invalid pose is raised (by raise_invalid, recorded here)."""
     kern = fused_kernels()
-    raised = []
-    monkeypatch.setattr(ck.CKernels, "raise_invalid", lambda self, k, x, y, z, p, lead: raised.append((k, lead)))
+    raised, given = [], []
+
+    def record(self, k, x, y, z, p, lead):
+        raised.append((k, lead))
+        given.append((x, y, z, p))
+
+    monkeypatch.setattr(ck.CKernels, "raise_invalid", record)
     x = np.arange(6) * 1.0
     res = kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, check=False)
     assert sorted(res) == ["freq_hz", "stable", "valid"] and raised == []
@@ -537,6 +545,7 @@ def test_fused_frequencies_valid_and_stable_from_the_status(monkeypatch):
     assert np.array_equal(res["freq_hz"], np.repeat((x + 10.0)[:, None], 2, axis=1))
     res = kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, model="rigid", vectors=True)
     assert raised == [(1, (6,))] and res["freq_hz"].shape == (6, 1) and res["eigentwists"].shape == (6, 1, 1)
+    assert given[0][0] is x and given[0][1:3] == (0.0, 0.0) and given[0][3] == {"a": 1.0}
     raised.clear()
     kern.fused_frequencies(x[[0, 4]], 0.0, 0.0, {"a": 1.0})  # statuses 0 and 1: pose 1
     assert raised == [(1, (2,))]
@@ -585,3 +594,37 @@ def test_prepared_dimension_from_the_eigen_solver_without_dims():
     assert made[0]["dim"] == 3  # the eigen-solver's dims [2, 3], the model's entry
     result, *_ = kern.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0}, matrices=(), model="rigid")
     assert result["freq_hz"].shape == (3,)  # one pose of scalars: no leading axis
+
+
+def test_fused_frequencies_on_one_thread_unless_asked():
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    fn = Fused()
+    kern = fused_kernels(fn)
+    x = np.zeros(2 * MIN_BLOCKS_PER_THREAD * kern.BLOCK)
+    kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, check=False)
+    assert len(fn.calls) == 1
+    kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, check=False, threads=2)
+    assert len(fn.calls) > 2
+
+
+def test_generalized_eigh_on_threads_and_integer_matrices():
+    """Two threads' worth of pairs: each range's K, M, lam and V at its first pair; integer K and
+    M read as doubles; a failing return code names the eigen-solver."""
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    kern = kernels()
+    fn = Eigh()
+    kern._fn["eigh"] = fn
+    N = 2 * MIN_BLOCKS_PER_THREAD * kern.BLOCK
+    K = np.stack([np.diag([k + 2, k + 1]) for k in range(N)])
+    M = np.broadcast_to(np.eye(2, dtype=int), (N, 2, 2))
+    lam, V = kern.generalized_eigh(K, M, threads=2)
+    assert len(fn.calls) > 1 and np.array_equal(lam, np.stack([[k + 1.0, k + 2.0] for k in range(N)]))
+    assert np.array_equal(V, np.broadcast_to(np.eye(2), (N, 2, 2)))
+    lam, _ = kern.generalized_eigh(K, M)
+    assert fn.calls[-1][0] == N  # one call unless asked
+    kern._fn["eigh"] = lambda *a: 6
+    with pytest.raises(RuntimeError) as err:
+        kern.generalized_eigh(K, M)
+    assert str(err.value) == "C eigh returned 6"
