@@ -1,0 +1,630 @@
+"""The Python side of the C kernels (:mod:`eigentwist.runtime.c_kernels`) on a stand-in library
+written here: its kernels read each pose's inputs through the tables of addresses and strides they
+are given (input k of pose i at ``address_k + 8 stride_k i``, as the generated C does) and write a
+known function of them, so each pose's results say which values reached it. No compile.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+import pytest
+
+from eigentwist.errors import InputError
+from eigentwist.runtime import c_kernels as ck
+from eigentwist.runtime.validity import STATUS
+
+
+def doubles(address, count=1):
+    return np.ctypeslib.as_array((ctypes.c_double * count).from_address(address))
+
+
+SIGNATURE = {
+    "robot": "toy",
+    "source_hash": "abc",
+    "block": 4,
+    "kernels": {
+        "inverse_kinematics": {"function": "et_toy_ik", "inputs": [], "outputs": [["q", [2, 3]]]},
+        "matrices": {
+            "function": "et_toy_matrices",
+            "inputs": [["param", "a", None], ["q", "q_1_2", [1, 2]], ["param", "b", None], ["q", "q_0_1", [0, 1]]],
+            "outputs": [["M", [2, 2]], ["s", []]],
+        },
+        "jacobians": {"function": "et_toy_jac", "inputs": [], "outputs": [["J_rows", [2]]]},
+        **{
+            kernel: {
+                "function": f"et_toy_{kernel}",
+                "inputs": [["param", "a", None], ["q", "q_1_2", [1, 2]], ["param", "b", None], ["q", "q_0_1", [0, 1]]],
+                "outputs": [["M", [2, 2]], ["s", []]],
+            }
+            for kernel in ("gravity", "legs", "loop_closure", "more")
+        },
+        "ik": {
+            "function": "et_toy_ik2",
+            "inputs": [["param", "a", None], ["pose", "x", None], ["pose", "y", None], ["pose", "z", None]],
+            "outputs": [["M", [2, 2]], ["s", []], ["q", [2, 3]]],
+        },
+    },
+    "fused": {"function": "et_toy_fused", "matrices": [["M", [2, 2]]], "inputs": [], "status": STATUS, "models": []},
+    "eigh": {"function": "et_toy_eigh", "dims": [2, 3]},
+}
+
+
+class Matrices:
+    """M[i] = [[a, q_1_2], [b, q_0_1]], s[i] = a + b + q_1_2 + q_0_1, pose i's values."""
+
+    def __init__(self, rc=0):
+        self.rc = rc
+        self.calls = []
+
+    def __call__(self, n, addresses, strides, outs):
+        self.calls.append((n, [addresses[k] for k in range(4)], [strides[k] for k in range(4)]))
+        for i in range(n):
+            a, q12, b, q01 = (doubles(addresses[k] + 8 * strides[k] * i)[0] for k in range(4))
+            doubles(outs[0] + 32 * i, 4)[:] = [a, q12, b, q01]
+            doubles(outs[1] + 8 * i)[0] = a + b + q12 + q01
+        return self.rc
+
+
+class Library:
+    def __init__(self, matrices):
+        for name in ("et_toy_ik", "et_toy_jac", "et_toy_fused", "et_toy_eigh"):
+            setattr(self, name, type("CFunction", (), {})())
+        self.et_toy_matrices = matrices
+        for kernel in ("gravity", "legs", "loop_closure", "more", "ik2"):
+            setattr(self, f"et_toy_{kernel}", Matrices())
+
+    def __getitem__(self, name):  # ctypes: a new function object of that name
+        return ("a new function object", name)
+
+
+def kernels(matrices=None, signature=SIGNATURE):
+    return ck.CKernels(Library(matrices or Matrices()), signature, ck.Build("lib.so", "portable", []))
+
+
+def test_a_kernel_reads_each_poses_parameters_and_joint_coordinates():
+    fn = Matrices()
+    kern = kernels(fn)
+    q = np.arange(2 * 2 * 3, dtype=float).reshape(2, 2, 3)
+    out = kern.matrices(q, {"a": np.array([1.0, 2.0]), "b": 7.0, "c": "unused"})
+    assert sorted(out) == ["M", "s"] and out["M"].shape == (2, 2, 2) and out["s"].shape == (2,)
+    want_M = np.array([[[1.0, q[0, 1, 2]], [7.0, q[0, 0, 1]]], [[2.0, q[1, 1, 2]], [7.0, q[1, 0, 1]]]])
+    assert np.array_equal(out["M"], want_M)
+    assert np.array_equal(out["s"], want_M.reshape(2, 4).sum(axis=1))
+    n, addresses, strides = fn.calls[0]
+    assert n == 2 and strides == [1, 6, 0, 6]  # a per pose, q rows of 6, b a scalar
+    # broadcasting: q of one pose, a per pose
+    out = kern.matrices(q[0], {"a": np.array([[1.0], [3.0]]), "b": 7.0})
+    assert out["M"].shape == (2, 1, 2, 2) and np.array_equal(out["M"][1, 0, 0], [3.0, q[0, 1, 2]])
+    assert kern.matrices(np.zeros((0, 2, 3)), {"a": 1.0, "b": 2.0})["M"].shape == (0, 2, 2)
+    assert len(fn.calls) == 2  # no call for no pose
+
+
+@pytest.mark.parametrize("shape", [(3, 2), (4, 3, 3), (2, 2, 4), (6,)])
+def test_joint_coordinates_of_another_shape_are_refused(shape):
+    with pytest.raises(InputError) as err:
+        kernels().matrices(np.zeros(shape), {"a": 1.0, "b": 2.0})
+    if len(shape) >= 2:
+        assert str(err.value) == f"q has shape {shape}: expected (..., 2, 3) joint coordinates"
+
+
+def test_the_scalars_of_a_call_are_packed_once_for_the_same_objects():
+    fn = Matrices()
+    kern = kernels(fn)
+    a, b = 1.5, np.float64(2.5)
+    q = np.zeros((3, 2, 3))
+    kern.matrices(q, {"a": a, "b": b})
+    packed = kern._kernel_packed["matrices"]
+    out = kern.matrices(q, {"a": a, "b": b})
+    assert kern._kernel_packed["matrices"] is packed and np.array_equal(out["s"], np.full(3, 4.0))
+    out = kern.matrices(q, {"a": 3.0, "b": b})  # another object: packed again, its value read
+    assert kern._kernel_packed["matrices"] is not packed and np.array_equal(out["s"], np.full(3, 5.5))
+
+
+def test_a_failing_kernel_raises():
+    with pytest.raises(RuntimeError) as err:
+        kernels(Matrices(rc=3)).matrices(np.zeros((1, 2, 3)), {"a": 1.0, "b": 2.0})
+    assert str(err.value) == "C matrices returned 3"
+    with pytest.raises(MemoryError) as err:
+        kernels(Matrices(rc=-2)).matrices(np.zeros((1, 2, 3)), {"a": 1.0, "b": 2.0})
+    assert str(err.value) == "C matrices: out of memory for its block buffers"
+
+
+def test_inputs_scalars_share_one_array_and_columns_are_read_in_place():
+    keep = []
+    table = np.arange(12.0).reshape(4, 3)
+    per_pose = np.arange(4.0) + 0.5
+    values = [2.0, table[:, 1], per_pose, np.array([1, 2, 3, 4]), table[::-1, 0], np.int64(3)]
+    addresses, strides = ck._inputs(values, (4,), keep)
+    assert strides == [0, 3, 1, 1, 1, 0]
+    assert addresses[1] == table.ctypes.data + 8 and addresses[2] == per_pose.ctypes.data
+    assert addresses[5] - addresses[0] == 8 * 5  # the scalars side by side in one array
+    for k, v in enumerate(values):
+        want = np.broadcast_to(np.asarray(v, dtype=float), (4,))
+        got = [doubles(addresses[k] + 8 * strides[k] * i)[0] for i in range(4)]
+        assert np.array_equal(got, want), k
+
+
+def test_fixed_values_are_immutable_scalars():
+    frozen = np.array(2.0)
+    frozen.flags.writeable = False
+    assert ck._fixed(1.0) and ck._fixed(3) and ck._fixed(np.float64(1.0)) and ck._fixed(frozen)
+    writeable = np.array(2.0)
+    view = np.array([2.0])[0:1].reshape(())
+    view.flags.writeable = False
+    f32 = np.array(2.0, dtype=np.float32)
+    f32.flags.writeable = False
+    assert not any(map(ck._fixed, [writeable, view, f32, np.float32(1.0), [1.0], np.ones(2), True]))
+
+
+def test_packed_matches_the_same_objects_at_the_same_positions():
+    a, b = 1.0, 2.5
+    arr = np.ones(3)
+    p = ck._Packed([a, arr, b])
+    assert p.fixed == [0, 2] and p.others == [1] and p.at.tolist() == [1]
+    assert list(p.packed) == [1.0, 2.5] and p.addresses[0] == p.packed.ctypes.data and p.addresses[1] is None
+    assert p.addresses[2] == p.packed.ctypes.data + 8 and list(p.strides) == [0, 0, 0]
+    assert p.array.tolist() == [p.packed.ctypes.data, 0, p.packed.ctypes.data + 8]
+    assert p.matches([a, np.zeros(3), b]) and not p.matches([2.0, arr, b]) and not p.matches([a, arr, b, b])
+
+
+def test_the_c_tables_have_at_least_one_entry():
+    assert len(ck._ptrs([])) == 1 and len(ck._strides([])) == 1
+    assert list(ck._strides([3, 0])) == [3, 0] and ck._ptrs([5, 0])[0] == 5
+
+
+def test_generalized_eigh_refuses_other_shapes():
+    kern = kernels()
+    for K, M in ((np.zeros((1, 4, 4)), np.zeros((1, 4, 4))), (np.zeros((1, 2, 2)), np.zeros((1, 3, 3)))):
+        with pytest.raises(InputError) as err:
+            kern.generalized_eigh(K, M)
+        assert str(err.value) == (f"K {K.shape} and M {M.shape}: expected equal shapes (N, n, n) with n in [2, 3]")
+    with pytest.raises(InputError):
+        kern.generalized_eigh(np.zeros((2, 3)), np.zeros((2, 3)))
+    with pytest.raises(InputError):
+        kern.generalized_eigh(np.zeros((1, 2, 3)), np.zeros((1, 2, 3)))
+
+
+class Eigh:
+    """lam[i] = diag(K[i]) / diag(M[i]), sorted; V = identity; NaN where M's diagonal is 0."""
+
+    def __init__(self):
+        self.calls = []
+
+    def __call__(self, n, dim, K, M, lam, V):
+        self.calls.append((n, dim, V is None))
+        for i in range(n):
+            k = doubles(K + 8 * dim * dim * i, dim * dim).reshape(dim, dim)
+            m = doubles(M + 8 * dim * dim * i, dim * dim).reshape(dim, dim)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                doubles(lam + 8 * dim * i, dim)[:] = np.sort(np.diag(k) / np.diag(m))
+            if V is not None:
+                doubles(V + 8 * dim * dim * i, dim * dim)[:] = np.eye(dim).ravel()
+        return 0
+
+
+def test_generalized_eigh_on_blocks_and_a_bad_pair():
+    kern = kernels()
+    fn = Eigh()
+    kern._fn["eigh"] = fn
+    K = np.stack([np.diag([3.0, 1.0, 2.0]) * (k + 1) for k in range(5)])
+    M = np.broadcast_to(np.eye(3), (5, 3, 3))
+    lam, V = kern.generalized_eigh(K, M)
+    assert np.array_equal(lam, np.stack([np.array([1.0, 2.0, 3.0]) * (k + 1) for k in range(5)]))
+    assert V.shape == (5, 3, 3) and np.array_equal(V[4], np.eye(3)) and fn.calls == [(5, 3, False)]
+    lam, V = kern.generalized_eigh(K, M, vectors=False)
+    assert V is None and fn.calls[-1] == (5, 3, True)
+    M = np.array(M)
+    M[3] = 0.0
+    with pytest.raises(np.linalg.LinAlgError) as err:
+        kern.generalized_eigh(K, M)
+    assert str(err.value) == "pair 3: M is not positive definite (or K, M are not finite)"
+
+
+def test_the_librarys_status_codes_must_be_pythons():
+    sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], status={"ok": 0}))
+    with pytest.raises(RuntimeError) as err:
+        kernels(signature=sig)
+    assert "has status codes {'ok': 0}" in str(err.value) and "run `eigentwist generate`" in str(err.value)
+
+
+def test_fused_options_read_the_tolerances_when_asked(monkeypatch):
+    from eigentwist.runtime import eigen, validity
+
+    kern = kernels()
+    opts = kern.fused_options(True)
+    assert list(opts) == [validity.LEVER_TOL, -1.0, eigen.ROUNDOFF_EPS, 1.0] and kern.fused_options(True) is opts
+    assert list(kern.fused_options(False))[3] == 0.0
+    monkeypatch.setattr(validity, "LEVER_TOL", 0.25)
+    assert list(kern.fused_options(True))[0] == 0.25
+    sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], inputs=[["param", "x"], ["param", validity.LEVER_SCALE]]))
+    assert list(kernels(signature=sig).fused_options(False))[1] == 1.0  # the lever scale's input
+
+
+def test_kernel_arguments_for_a_driver(monkeypatch):
+    kern = kernels()
+    monkeypatch.setattr(ck.CKernels, "address", lambda self, name: ("address of", name))
+    address, inputs, strides, q_of, outs, keep = kern.kernel_arguments("matrices", {"a": 2.0, "b": np.ones(5)}, 5)
+    assert address == ("address of", "matrices")
+    assert q_of.tolist() == [-1, 5, -1, 1] and q_of.dtype == np.intc  # leg * 3 + joint
+    assert strides.tolist() == [0, 0, 1, 0] and inputs[1] == 0 and inputs[3] == 0
+    assert doubles(int(inputs[0]))[0] == 2.0 and np.array_equal(doubles(int(inputs[2]), 5), np.ones(5))
+    assert {k: v.shape for k, v in outs.items()} == {"M": (5, 2, 2), "s": (5,)}
+
+
+@pytest.mark.parametrize("kernel", ["gravity", "legs", "loop_closure"])
+def test_the_joint_coordinate_kernels(kernel):
+    """gravity, legs and loop_closure: the kernel of that name on q and the parameters."""
+    kern = kernels()
+    q = np.arange(6.0).reshape(2, 3) + 1
+    out = getattr(kern, kernel)(q, {"a": 2.0, "b": 3.0})
+    assert np.array_equal(out["M"], [[2.0, q[1, 2]], [3.0, q[0, 1]]]) and out["s"] == 2.0 + 3.0 + q[1, 2] + q[0, 1]
+    assert len(kern._lib.__dict__[f"et_toy_{kernel}"].calls) == 1
+
+
+def test_no_loop_closure_kernel_no_method():
+    sig = dict(SIGNATURE, kernels={k: v for k, v in SIGNATURE["kernels"].items() if k != "loop_closure"})
+    with pytest.raises(AttributeError):
+        kernels(signature=sig).loop_closure(np.zeros((2, 3)), {})
+
+
+def test_inverse_kinematics_broadcasts_the_pose_and_the_parameters():
+    """The inputs of the "inverse_kinematics" kernel by name; here the ik2 layout (a, x, y, z)
+    read as M = [[a, x], [y, z]]."""
+    sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], inverse_kinematics=SIGNATURE["kernels"]["ik"]))
+    kern = kernels(signature=sig)
+    out = kern.inverse_kinematics(np.array([1.0, 2.0, 3.0]), 5.0, np.array([[7.0], [8.0]]), {"a": 0.5, "b": 9.0})
+    assert out["M"].shape == (2, 3, 2, 2)
+    assert np.array_equal(out["M"][1, 2], [[0.5, 3.0], [5.0, 8.0]]) and out["s"][0, 0] == 0.5 + 1.0 + 5.0 + 7.0
+
+
+def test_newton_hands_the_closure_and_its_inputs_to_the_driver(monkeypatch):
+    from eigentwist.runtime import c_levenberg_marquardt as clm
+
+    closure = dict(SIGNATURE["kernels"]["loop_closure"], outputs=[["residual", [2, 4]], ["dresidual", [2, 4, 3]]])
+    sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], loop_closure=closure))
+    lib = Library(Matrices())
+    proto = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ck._PTRS, ck._I64P, ck._PTRS)
+    lib.et_toy_loop_closure = proto(lambda *a: 0)  # a C function pointer: the driver gets its address
+    kern = ck.CKernels(lib, sig, ck.Build("lib.so", "portable", []))
+    seen = []
+
+    def iterate(address, q_of, addresses, strides, q, rows, iterations, tol, threads):
+        values = [
+            doubles(a + 8 * s * i)[0] if k < 0 else None for a, s, k in zip(addresses, strides, q_of) for i in (2,)
+        ]
+        seen.append((address, q_of, strides, q, rows, iterations, tol, threads, values))
+        return "the driver's result"
+
+    monkeypatch.setattr(clm, "driver", lambda: object())
+    monkeypatch.setattr(clm, "iterate", iterate)
+    q = np.zeros((3, 2, 3), dtype=int)
+    assert kern.newton(q, {"a": np.array([1.0, 2.0, 4.0]), "b": 7.0}, 30, 1e-9, threads=2) == "the driver's result"
+    address, q_of, strides, q_given, rows, iterations, tol, threads, values = seen[0]
+    assert address == ctypes.cast(lib.et_toy_loop_closure, ctypes.c_void_p).value
+    assert q_of == [-1, 5, -1, 1] and strides == [1, 0, 0, 0] and rows == 4
+    assert values == [4.0, None, 7.0, None]  # pose 2's a, b
+    assert q_given.dtype == np.float64 and q_given.shape == (3, 2, 3) and (iterations, tol, threads) == (30, 1e-9, 2)
+    kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9)
+    assert seen[1][7] == 1
+    monkeypatch.setattr(clm, "driver", lambda: None)
+    assert kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9) is None
+    monkeypatch.setattr(clm, "driver", lambda: object())
+    sig = dict(SIGNATURE, kernels={k: v for k, v in SIGNATURE["kernels"].items() if k != "loop_closure"})
+    assert kernels(signature=sig).newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9) is None  # no closure kernel
+
+
+def test_bind_declares_the_generated_c_signatures():
+    """The argument types _bind declares are those of the checked-in C source's kernel, fused
+    pass and eigen-solver (tests/c_signatures.py reads them from the declarations)."""
+    from .c_signatures import check
+
+    source = ck.source_path("heli4").read_text()
+    kern = kernels()
+    check(source, "et_heli4_matrices", kern._fn["matrices"].argtypes, kern._fn["matrices"].restype)
+    check(source, "et_heli4_fused", kern._fn["fused"].argtypes, kern._fn["fused"].restype)
+    check(source, "et_heli4_eigh", kern._fn["eigh"].argtypes, kern._fn["eigh"].restype)
+    assert kern._fn["fused"] is kern._lib.et_toy_fused and kern._fn["eigh"] is kern._lib.et_toy_eigh
+
+
+def test_the_librarys_description():
+    kern = kernels()
+    assert (kern.ROBOT, kern.SOURCE_HASH, kern.BLOCK, kern.N_LEGS, kern.JOINTS_PER_LEG) == ("toy", "abc", 4, 2, 3)
+    assert kern.FUSED_MATRICES == {"M": (2, 2)} and kern.OUTPUTS["matrices"] == {"M": (2, 2), "s": ()}
+    assert repr(kern) == "<eigentwist C kernels 'toy' (portable) lib.so>"
+    assert kern._rotation is False and kern._unread == set()
+    names = [["param", n] for n in ("x", "R_00", "R_12", "R_3", "RR_00")]
+    sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], inputs=names, rotation=True))
+    kern = kernels(signature=sig)
+    assert kern._rotation is True and kern._unread == {"R_00", "R_12"}  # computed from the rotation vector
+
+
+def test_a_kernel_of_joint_coordinates_alone():
+    only_q = {"function": "et_toy_more", "inputs": [["q", "q_0_0", [0, 0]]], "outputs": [["M", [2, 2]], ["s", []]]}
+    sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], more=only_q))
+    kern = kernels(signature=sig)
+    fn = kern._lib.et_toy_more = kern._fn["more"] = Matrices()
+    fn.calls = []
+    addresses, strides = kern._kernel_inputs("more", [], (3,), [])
+    assert addresses.dtype == np.uint64 and strides.dtype == np.int64 and addresses.size == strides.size == 0
+
+
+FUSED = {
+    "function": "et_toy_fused",
+    "matrices": [["M", [2, 2]], ["K_F", [2, 2]]],
+    "inputs": [["pose", "x"], ["param", "a"], ["pose", "y"], ["pose", "z"]],
+    "status": STATUS,
+    "models": ["flexible", "rigid"],
+    "dims": [2, 1],
+}
+
+
+class Fused:
+    """The fused pass: freq[i] = x + 10 a + 100 y + 1000 z (each mode) of pose i, read by
+    address and stride; status[i] = i % 5; returns rc."""
+
+    def __init__(self, rc=0):
+        self.rc = rc
+        self.calls = []
+
+    def __call__(self, begin, end, ins, strides, model, ik, mat, jac, freq, vec, status, opts):
+        self.calls.append((begin, end, model))
+        for i in range(begin, end):
+            x, a, y, z = (doubles(ins[k] + 8 * strides[k] * i)[0] for k in range(4))
+            if freq is not None:
+                dim = 2 - model
+                doubles(freq + 8 * dim * i, dim)[:] = x + 10 * a + 100 * y + 1000 * z
+            if status is not None:
+                np.ctypeslib.as_array((ctypes.c_int8 * 1).from_address(status + i))[0] = i % 5
+        return self.rc
+
+
+def fused_kernels(fn=None, **fused):
+    kern = kernels(signature=dict(SIGNATURE, fused=dict(FUSED, **fused)))
+    kern._fn["fused"] = fn or Fused()
+    return kern
+
+
+def test_fused_arguments_tables():
+    kern = fused_kernels()
+    x, z = np.array([1.0, 2.0, 3.0]), np.array([[0.5], [0.25], [0.125]])[:, 0]
+    result, n, keep, args = kern.fused_arguments(
+        x,
+        2.0,
+        z,
+        {"a": 4.0},
+        matrices=("M",),
+        ik=("q",),
+        jacobians=("J_rows",),
+        model="rigid",
+        vectors=True,
+        status=True,
+        normalize=True,
+    )
+    assert n == 3 and sorted(result) == ["J_rows", "M", "eigentwists", "freq_hz", "q", "status"]
+    shapes = {k: v.shape for k, v in result.items()}
+    assert shapes == {
+        "M": (3, 2, 2),
+        "q": (3, 2, 3),
+        "J_rows": (3, 2),
+        "freq_hz": (3, 1),
+        "eigentwists": (3, 1, 1),
+        "status": (3,),
+    }
+    assert result["status"].dtype == np.int8 and result["freq_hz"].dtype == np.float64
+    ins, strides, model_id, ik_p, mat_p, jac_p, freq, vec, st_p, opts = args
+    assert model_id == 1 and freq == result["freq_hz"].ctypes.data and vec == result["eigentwists"].ctypes.data
+    from eigentwist.runtime import eigen, validity
+
+    assert list(opts) == [validity.LEVER_TOL, -1.0, eigen.ROUNDOFF_EPS, 1.0]  # built here, then kept
+    assert st_p == result["status"].ctypes.data and opts is kern.fused_options(True)
+    assert ik_p[0] == result["q"].ctypes.data and jac_p[0] == result["J_rows"].ctypes.data
+    assert mat_p[0] == result["M"].ctypes.data and mat_p[1] is None and len(mat_p) == 2  # K_F not asked
+    for i in range(3):  # x, a, y, z of pose i through the tables
+        got = [doubles(ins[k] + 8 * strides[k] * i)[0] for k in range(4)]
+        assert got == [x[i], 4.0, 2.0, z[i]]
+
+
+def test_fused_arguments_defaults_and_a_grid_of_poses():
+    kern = fused_kernels()
+    x = np.zeros((2, 3))
+    result, n, _, args = kern.fused_arguments(x, 0.0, 0.0, {"a": 1.0})
+    assert n == 6 and sorted(result) == ["K_F", "M"] and result["M"].shape == (2, 3, 2, 2)
+    assert args[2] == 0 and args[3] is None and args[5] is None and args[6:9] == (None, None, None)
+    result, _, _, args = kern.fused_arguments(x, 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible", vectors=True)
+    assert sorted(result) == ["V", "freq_hz"] and result["V"].shape == (2, 3, 2, 2) and args[4] is None
+    assert list(args[9])[3] == 0.0  # not normalized
+
+
+def test_fused_arguments_refusals():
+    kern = fused_kernels()
+    p = {"a": 1.0}
+    with pytest.raises(InputError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, p, model="stiff")
+    assert str(err.value) == "model 'stiff': expected one of ['flexible', 'rigid']"
+    with pytest.raises(KeyError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, p, matrices=("M", "K_R"))
+    assert err.value.args[0] == "matrices has no output(s) ['K_R']: expected ['M', 'K_F']"
+    with pytest.raises(KeyError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, p, ik=("r",))
+    assert err.value.args[0] == "inverse_kinematics has no output(s) ['r']: expected ['q']"
+    with pytest.raises(KeyError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, p, out={"V": np.zeros((2, 2, 2))})
+    assert err.value.args[0] == "out has arrays for ['V'], which this call does not compute"
+
+
+@pytest.mark.parametrize(
+    "arr, got",
+    [
+        (np.zeros((3, 2)), "(3, 2) float64"),
+        (np.zeros((2, 2), dtype=np.float32), "(2, 2) float32"),
+        (np.zeros((2, 2), order="F"), None),
+        ("read-only", None),
+        ([[0.0, 0.0], [0.0, 0.0]], "None list"),
+    ],
+)
+def test_fused_out_arrays_are_checked(arr, got):
+    kern = fused_kernels()
+    if isinstance(arr, str):
+        arr = np.zeros((2, 2))
+        arr.flags.writeable = False
+    elif isinstance(arr, np.ndarray) and arr.flags.f_contiguous and arr.ndim == 2 and arr.shape == (2, 2):
+        arr = np.zeros((2, 4))[:, ::2]  # not C-contiguous
+    with pytest.raises(InputError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible", out={"freq_hz": arr})
+    head = "out['freq_hz']: expected a writeable C-contiguous float64 array of shape (2, 2), got "
+    assert str(err.value).startswith(head) and (got is None or str(err.value) == head + got)
+    out = np.zeros((2, 2))
+    result, *_ = kern.fused_arguments(
+        np.zeros(2), 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible", out={"freq_hz": out}
+    )
+    assert result["freq_hz"] is out
+
+
+def test_rotation_from_the_rotation_vector_or_the_matrix():
+    inputs = [["pose", "x"], ["param", "a"], ["pose", "y"], ["pose", "z"], ["param", "R_00"], ["param", "R_01"]]
+    kern = fused_kernels(inputs=inputs, rotation=True)
+    p = {"a": 1.0, "R_00": 0.5, "R_01": 0.25}
+    _, _, _, args = kern.fused_arguments(1.0, 2.0, 3.0, dict(p, rot_x=0.1, rot_y=0.2, rot_z=0.3))
+    ins = args[0]
+    got = [doubles(ins[k])[0] for k in range(9)]
+    assert got == [1.0, 1.0, 2.0, 3.0, 0.0, 0.0, 0.1, 0.2, 0.3]  # R_ij placeholders, the vector after them
+    _, _, _, args = kern.fused_arguments(1.0, 2.0, 3.0, p)
+    assert [doubles(args[0][k])[0] for k in range(6)] == [1.0, 1.0, 2.0, 3.0, 0.5, 0.25]
+    assert args[0][6] is None  # no rotation vector: the pass reads R_ij
+
+
+@pytest.mark.parametrize("threads", [None, 2])
+def test_fused_runs_ranges_of_blocks(threads):
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    fn = Fused()
+    kern = fused_kernels(fn)
+    n = 2 * MIN_BLOCKS_PER_THREAD * kern.BLOCK
+    x = np.arange(n) * 1.0
+    more = {} if threads is None else {"threads": threads}
+    out = kern.fused(x, 0.5, 0.25, {"a": 2.0}, matrices=(), model="flexible", status=True, **more)
+    assert np.array_equal(out["freq_hz"], np.repeat((x + 20.0 + 50.0 + 250.0)[:, None], 2, axis=1))
+    assert np.array_equal(out["status"], np.arange(n) % 5)
+    assert (len(fn.calls) == 1) is (threads is None) and all(c[0] % kern.BLOCK == 0 for c in fn.calls)
+    with pytest.raises(RuntimeError) as err:
+        fused_kernels(Fused(rc=9)).fused(x[:2], 0.5, 0.25, {"a": 2.0}, matrices=(), model="flexible")
+    assert str(err.value) == "C fused returned 9"
+
+
+def test_pack_reuses_the_scalars_of_the_same_objects():
+    kern = fused_kernels()
+    a = 2.0
+    kern.fused_arguments(np.zeros(3), 1.0, 0.0, {"a": a})
+    packed = kern._packed
+    _, n, _, args = kern.fused_arguments(np.ones(4), 1.0, 0.0, {"a": a})
+    assert kern._packed is packed and n == 4 and doubles(args[0][0] + 8 * args[1][0] * 3)[0] == 1.0
+    _, n, _, args = kern.fused_arguments(np.ones(4), 1.0, 0.0, {"a": 3.0})
+    assert kern._packed is not packed and doubles(args[0][1])[0] == 3.0
+    _, n, _, _ = kern.fused_arguments(1.0, 1.0, 0.0, {"a": 3.0})  # every input a scalar: one pose
+    assert n == 1
+
+
+def test_fused_frequencies_valid_and_stable_from_the_status(monkeypatch):
+    """Status i % 5 of pose i: valid where ok (0) or unstable (4), stable where not unstable;
+    with ``check`` the first invalid pose is raised (by raise_invalid, recorded here)."""
+    kern = fused_kernels()
+    raised, given = [], []
+
+    def record(self, k, x, y, z, p, lead):
+        raised.append((k, lead))
+        given.append((x, y, z, p))
+
+    monkeypatch.setattr(ck.CKernels, "raise_invalid", record)
+    x = np.arange(6) * 1.0
+    res = kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, check=False)
+    assert sorted(res) == ["freq_hz", "stable", "valid"] and raised == []
+    assert res["valid"].tolist() == [True, False, False, False, True, True]
+    assert res["stable"].tolist() == [True, True, True, True, False, True]
+    assert np.array_equal(res["freq_hz"], np.repeat((x + 10.0)[:, None], 2, axis=1))
+    res = kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, model="rigid", vectors=True)
+    assert raised == [(1, (6,))] and res["freq_hz"].shape == (6, 1) and res["eigentwists"].shape == (6, 1, 1)
+    assert given[0][0] is x and given[0][1:3] == (0.0, 0.0) and given[0][3] == {"a": 1.0}
+    raised.clear()
+    kern.fused_frequencies(x[[0, 4]], 0.0, 0.0, {"a": 1.0})  # statuses 0 and 1: pose 1
+    assert raised == [(1, (2,))]
+    raised.clear()
+    kern.fused_frequencies(x[:1], 0.0, 0.0, {"a": 1.0, "on_gravity_preload": 0.0})  # a switch off is no preload
+    assert raised == []
+    with pytest.raises(InputError) as err:
+        kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0, "on_gravity_preload": np.array([0.0, 1.0])})
+    assert str(err.value) == "the fused C path has no gravity preload: switch it off or use Evaluator.frequencies"
+
+
+@pytest.mark.parametrize("rotation", [False, True])
+def test_prepare_fused_hands_the_pass_to_a_prepared_call(monkeypatch, rotation):
+    from eigentwist.runtime import fused_call
+
+    made = []
+    monkeypatch.setattr(fused_call, "FusedCall", lambda *a, **k: made.append((a, k)) or "prepared")
+    inputs = FUSED["inputs"] + ([["param", "R_00"]] if rotation else [])
+    kern = fused_kernels(inputs=inputs, rotation=rotation)
+    p = {"a": 1.0}
+    assert kern.prepare_fused(p, {"x": 3, "y": 3, "z": 3}, model="rigid", vectors=True, matrices=("K_F",)) == "prepared"
+    (args, kw) = made[0]
+    names = ["x", "a", "y", "z"] + (["R_00", "rot_x", "rot_y", "rot_z"] if rotation else [])
+    assert args == (("a new function object", "et_toy_fused"), names, p, {"x": 3, "y": 3, "z": 3})
+    assert kw["unread"] == ({"rot_x", "rot_y", "rot_z"} if rotation else set())  # no rotation vector among the poses
+    assert (kw["model_id"], kw["dim"], kw["vectors"], kw["block"]) == (1, 1, True, 4)
+    assert kw["matrices"] == (2, ((1, "K_F", (2, 2)),)) and kw["check"] is ck._check_rc
+    assert kw["options"]() is kern.fused_options(True)
+    kern.prepare_fused(p, {"x": 3, "rot_x": 6, "rot_y": 6, "rot_z": 6}, model="flexible")
+    assert made[1][1]["unread"] == ({"R_00"} if rotation else set()) and made[1][1]["matrices"] == (2, ())
+    assert made[1][1]["model_id"] == 0 and made[1][1]["dim"] == 2 and made[1][1]["vectors"] is False
+    with pytest.raises(KeyError) as err:
+        kern.prepare_fused(p, {}, model="rigid", matrices=("M", "K_R", "G"))
+    assert err.value.args[0] == "matrices has no output(s) ['G', 'K_R']: expected ['M', 'K_F']"
+
+
+def test_prepared_dimension_from_the_eigen_solver_without_dims():
+    from eigentwist.runtime import fused_call
+
+    made = []
+    fused = {k: v for k, v in FUSED.items() if k != "dims"}
+    kern = kernels(signature=dict(SIGNATURE, fused=fused))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(fused_call, "FusedCall", lambda *a, **k: made.append(k))
+        kern.prepare_fused({"a": 1.0}, {}, model="rigid")
+    assert made[0]["dim"] == 3  # the eigen-solver's dims [2, 3], the model's entry
+    result, *_ = kern.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0}, matrices=(), model="rigid")
+    assert result["freq_hz"].shape == (3,)  # one pose of scalars: no leading axis
+
+
+def test_fused_frequencies_on_one_thread_unless_asked():
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    fn = Fused()
+    kern = fused_kernels(fn)
+    x = np.zeros(2 * MIN_BLOCKS_PER_THREAD * kern.BLOCK)
+    kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, check=False)
+    assert len(fn.calls) == 1
+    kern.fused_frequencies(x, 0.0, 0.0, {"a": 1.0}, check=False, threads=2)
+    assert len(fn.calls) > 2
+
+
+def test_generalized_eigh_on_threads_and_integer_matrices():
+    """Two threads' worth of pairs: each range's K, M, lam and V at its first pair; integer K and
+    M read as doubles; a failing return code names the eigen-solver."""
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    kern = kernels()
+    fn = Eigh()
+    kern._fn["eigh"] = fn
+    N = 2 * MIN_BLOCKS_PER_THREAD * kern.BLOCK
+    K = np.stack([np.diag([k + 2, k + 1]) for k in range(N)])
+    M = np.broadcast_to(np.eye(2, dtype=int), (N, 2, 2))
+    lam, V = kern.generalized_eigh(K, M, threads=2)
+    assert len(fn.calls) > 1 and np.array_equal(lam, np.stack([[k + 1.0, k + 2.0] for k in range(N)]))
+    assert np.array_equal(V, np.broadcast_to(np.eye(2), (N, 2, 2)))
+    lam, _ = kern.generalized_eigh(K, M)
+    assert fn.calls[-1][0] == N  # one call unless asked
+    kern._fn["eigh"] = lambda *a: 6
+    with pytest.raises(RuntimeError) as err:
+        kern.generalized_eigh(K, M)
+    assert str(err.value) == "C eigh returned 6"
