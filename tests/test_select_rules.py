@@ -63,24 +63,30 @@ class Fits:
 
 
 class Scope:
-    """A stand-in of :mod:`eigentwist.diagnose.scope`: effect -> its parameters (and fitted ones)."""
+    """A stand-in of :mod:`eigentwist.diagnose.scope`: effect -> its parameters (and fitted ones);
+    every call must be handed an evaluator."""
 
     def __init__(self, params, fits=None):
         self.params, self.fits = params, fits or params
 
     def order(self, ev, effects):
+        assert ev is not None
         return tuple(sorted(effects))
 
     def fit_names(self, ev, e):
+        assert ev is not None
         return tuple(self.fits[e])
 
     def parameter_names(self, ev, e):
+        assert ev is not None
         return tuple(self.params[e])
 
     def taken(self, ev, effects):
+        assert ev is not None
         return {p for e in effects for p in self.params[e]}
 
     def sentence(self, ev, e, values, model):
+        assert ev is not None
         return f"{e} with {sorted(values)} in {tuple(model)}"
 
     where = staticmethod(sel.scope.where)
@@ -202,9 +208,11 @@ def _fit_world(monkeypatch, results, extra=(), determined=True, implausible=None
     monkeypatch.setattr(sel, "extra_parameters", extra_parameters)
     monkeypatch.setattr(sel, "trial_value", lambda p: 0.5)
     monkeypatch.setattr(sel, "sign_free", lambda p: p.name == "off")
-    monkeypatch.setattr(sel, "_determined", lambda ev, g, f, names: determined)
+    judged = []
+    monkeypatch.setattr(sel, "_determined", lambda ev, g, f, names: judged.append((ev, g, f, names)) or determined)
     implausible = implausible or {}
-    monkeypatch.setattr(sel, "_implausible", lambda ev, f: implausible.get(id(f), False))
+    monkeypatch.setattr(sel, "_implausible", lambda ev, f: ev is not None and implausible.get(id(f), False))
+    fits.judged = judged
     current = fr(("a",), ("ka",), {"ka": 2.0}, fixed={"ka": 2.0, "q": 1.0})
     meas = NS(params=("p",))
     return fits, seen, current, meas
@@ -224,13 +232,18 @@ def _with_extra(monkeypatch, chi2_f=10.0, chi2_g=9.0, **kw):
     f = fr(("a", "b"), ("ka", "kb"), {"ka": 2.1, "kb": 4.0}, fixed={"kb": 4.0}, chi2=chi2_f)
     g = fr(("a", "b"), ("ka", "kb", "off", "m"), {"ka": 2.1, "kb": 4.0, "off": 0.1, "m": 1.0}, chi2=chi2_g)
     fits, _, current, meas = _fit_world(monkeypatch, [f, g], extra=("off", "m"), **kw)
-    return sel._fit_effect(meas, _ev(), current, "b"), f, g, fits
+    return sel._fit_effect(meas, EV, current, "b"), f, g, fits
+
+
+EV = _ev()
 
 
 def test_identifiable_extra_parameters_are_fitted_from_both_signs_and_kept(monkeypatch):
     (out, own), f, g, fits = _with_extra(monkeypatch)
     assert out is g and own == ("kb", "off", "m")
+    assert fits.judged == [(EV, g, f, ("off", "m"))]
     call = fits.calls[1]
+    assert (call.meas.params, call.ev) == (("p",), EV)
     assert call.names == ("ka", "kb", "off", "m") and call.effects == ("a", "b")
     assert call.kw == dict(
         start={"ka": 2.1, "kb": 4.0, "off": 0.5, "m": 0.5},
@@ -309,9 +322,14 @@ def test_a_candidate_with_parameters_is_f_tested_and_one_without_is_switch_teste
     test of the chi2 drop, scaled by a Birge ratio above 1, when it only switches the effect on."""
     current = fr(("a",), chi2=40.0, k=k_current, n=20)
     f = fr(("a", "b"), ("ka", "kb"), {"ka": 1.0, "kb": 2.0, "c": 3.0}, chi2=30.0, k=k, n=20)
-    monkeypatch.setattr(sel, "_fit_effect", lambda meas, ev, cur, e: (f, ("kb",)) if cur is current else None)
+    ev = _ev({"ka": (1.0, 2.0)})
+    monkeypatch.setattr(
+        sel,
+        "_fit_effect",
+        lambda meas, e_, cur, e: (f, ("kb",)) if (meas, e_, cur, e) == ("meas", ev, current, "b") else None,
+    )
     monkeypatch.setattr(sel, "scope", Scope({}))
-    c = sel._candidate("meas", _ev({"ka": (1.0, 2.0)}), current, "b")
+    c = sel._candidate("meas", ev, current, "b")
     if k > k_current:
         dk, dof = k - k_current, 20 - k
         expected = stats.f.sf((40.0 - 30.0) / dk / (30.0 / dof), dk, dof)
@@ -348,7 +366,13 @@ def test_the_ranking_sorts_measures_delta_aicc_and_names_every_tie(monkeypatch):
     where = {"a": [0.0, 0.0], "b": [0.1, 0.0], "c": [100.0, 0.0], "d": [-100.0, 0.0]}
     for e, f in fits.items():
         f.comparison = NS(white=np.array(where[e]))
-    monkeypatch.setattr(sel, "_candidate", lambda meas, ev, cur, e: cand(e, fit=fits[e], plausible=e != "d"))
+    monkeypatch.setattr(
+        sel,
+        "_candidate",
+        lambda meas, ev, cur, e: (
+            cand(e, fit=fits[e], plausible=e != "d") if (meas, ev, cur) == ("m", "ev", "cur") else None
+        ),
+    )
     monkeypatch.setattr(sel, "whitened_predictions", lambda cmp: cmp.white)
     monkeypatch.setattr(sel, "_signature", lambda meas, ev, cur, e: f"sig {e} {meas} {ev} {cur}")
     seen = []
@@ -365,6 +389,18 @@ def test_the_ranking_sorts_measures_delta_aicc_and_names_every_tie(monkeypatch):
     assert out[2].signature == "sig c m ev cur"
     assert sel.rank_candidates("m", "ev", "cur", []) == []
     assert [c.effect for c in sel.rank_candidates("m", "ev", "cur", ["b", "a"])] == ["a", "b"]
+
+
+def test_ties_are_judged_on_whitened_predictions_at_unit_sigma(monkeypatch):
+    """Two candidates 1.5 SEPARATION apart in whitened units and far apart in AICc: distinguishable."""
+    from eigentwist.diagnose.stats import SEPARATION
+
+    fits = {"a": fr(("a",), aicc=0.0), "b": fr(("b",), aicc=10 * DELTA_AICC)}
+    fits["a"].comparison, fits["b"].comparison = NS(white=np.zeros(1)), NS(white=np.array([1.5 * SEPARATION]))
+    monkeypatch.setattr(sel, "_candidate", lambda meas, ev, cur, e: cand(e, fit=fits[e]))
+    monkeypatch.setattr(sel, "whitened_predictions", lambda cmp: cmp.white)
+    monkeypatch.setattr(sel, "_signature", lambda *a: None)
+    assert [c.indistinguishable_from for c in sel.rank_candidates("m", "ev", "cur", ["a", "b"])] == [[], []]
 
 
 class _Predictor:
@@ -415,11 +451,13 @@ def test_an_effect_changing_its_mode_by_no_more_than_1e_7_has_no_signature(monke
     assert (out == "rises") is shaped and (out is None) is not shaped
 
 
+@pytest.mark.filterwarnings("error")
 def test_an_effect_whose_frequencies_vanish_has_no_signature(monkeypatch):
+    """No mode (0 Hz) or an unstable one (a negative stand-in) gives no signature and no warning."""
     _signature(monkeypatch, [0.1, 0.2], ["x", "y"])  # the stand-ins in place
     _Predictor.freq = np.array([10.0, 0.0])
     assert sel._signature(NS(mode=("x", "y"), k_a=np.ones(2)), "ev", _current_of(10.0), "a") is None
-    _Predictor.freq = np.array([10.0, math.nan])
+    _Predictor.freq = np.array([10.0, -10.0])
     assert sel._signature(NS(mode=("x", "y"), k_a=np.ones(2)), "ev", _current_of(10.0), "a") is None
 
 
@@ -444,6 +482,9 @@ def test_the_next_measurement_tries_ties_first_and_at_most_max_rivals(monkeypatc
     ]
     assert [c[3] for c in calls] == [c.fit for c in expected] and sel.MAX_RIVALS == 4
     assert sel._separation("ev", "m", [top]) is None and sel._separation("ev", "m", []) is None
+    calls.clear()
+    sel._separation("ev", "m", [top, rivals[0]])  # two candidates: one rival
+    assert len(calls) == 1
 
 
 def test_the_next_measurement_is_the_first_rival_that_gives_one(monkeypatch):
@@ -464,7 +505,11 @@ def test_between_writes_the_next_measurement_unless_the_models_are_one(monkeypat
     }
     same = {}
     monkeypatch.setattr(sel, "equivalent", lambda ev, meas, a, b: same.get((ev, meas, a, b)))
-    monkeypatch.setattr(sel, "next_measurement", lambda ev, meas, a, b: dict(found) if (a, b) == ("A", "B") else None)
+    monkeypatch.setattr(
+        sel,
+        "next_measurement",
+        lambda ev, meas, a, b: dict(found) if (ev, meas, a, b) == ("ev", "m", "A", "B") else None,
+    )
     out = sel._between("ev", "m", "A", "B", True)
     assert out["indistinguishable"] is True and sel._between("ev", "m", "A", "B", False)["indistinguishable"] is False
     assert out["message"] == (
@@ -483,8 +528,12 @@ def test_effects_added_by_hand_are_read_in_order_and_checked_against_the_robot(m
     resolved = []
     monkeypatch.setattr(sel, "resolve_model", lambda name, robot: resolved.append((name, robot)))
     ev = NS(effects=("payload_mass", "own_effect"), robot="R")
-    assert sel._effect_list(" payload_mass , ,own_effect@2,", ev) == ["payload_mass", "own_effect@2"]
-    assert resolved == [("payload_mass", "R"), ("own_effect@2", "R")]
+    assert sel._effect_list(" payload_mass , ,own_effect@2,own_effect", ev) == [
+        "payload_mass",
+        "own_effect@2",
+        "own_effect",
+    ]
+    assert resolved == [("payload_mass", "R"), ("own_effect@2", "R"), ("own_effect", "R")]
     with pytest.raises(InputError) as err:
         sel._effect_list(["rod_compliance", "own_efect@3"], ev)
     assert str(err.value) == (
@@ -498,6 +547,11 @@ def test_an_unknown_list_item_is_refused_after_the_known_ones(monkeypatch):
     assert sel._effect_list(["rod_compliance@1", " "], ev) == ["rod_compliance@1"]
     with pytest.raises(InputError, match="^add '7': not an effect; expected one of own_effect$"):
         sel._effect_list(["rod_compliance", 7], ev)
+    with pytest.raises(InputError, match=r"^add 'own_efect': not an effect \(did you mean own_effect\?\)"):
+        sel._effect_list("own_efect", ev)
+    long = "own_efect@12345678901234567890"  # the suggestion is read from the name before "@"
+    with pytest.raises(InputError, match=r"not an effect \(did you mean own_effect\?\)"):
+        sel._effect_list(long, ev)
 
 
 def test_effects_added_by_hand_must_be_new_and_describe_another_part(monkeypatch):
@@ -545,6 +599,7 @@ def _forward_world(monkeypatch, rankings, significant=lambda c, cur, m, alpha: c
     queue = list(rankings)
 
     def candidates_for(ev, effects, meas=None):
+        assert ev == "ev"
         seen.append(("cands", effects, meas))
         return [c.effect for c in queue[0]] if queue else []
 
@@ -620,7 +675,7 @@ def test_stepwise_removes_what_backward_elimination_finds_and_selects_forward_ag
     monkeypatch.setattr(sel, "_forward", forward)
     monkeypatch.setattr(sel, "eliminate", eliminate)
     steps, removals = sel._stepwise("m", "ev", f0, ALPHA, "bar")
-    assert [s.change for s in steps] == ["baseline", "+a", "+b", "-a"]
+    assert [s.change for s in steps] == ["baseline", "+a", "+b", "-a"] and steps[0].fit is f0
     assert (steps[3].fit, steps[3].p_value, steps[3].added) == (f3, 0.5, None)
     assert [r.effect for r in removals] == ["a"]
     assert eliminate_calls[0] == ("m", "ev", f2, [("a", 3), ("b", 2)], ALPHA)
@@ -661,7 +716,7 @@ def test_the_subset_search_runs_when_the_result_misfits_or_holds_two_effects(mon
     base = fr(("z",))
     final = fr(("z",) + chosen, k=1, n=30, chi2=chi2)  # chi2 10 on 29 dof explains; 80 does not
     first = sel.Step(base, ranking=["r"])
-    steps = [first, sel.Step(final, "a")]
+    steps = [first, sel.Step(fr(("z", "q"), chi2=80.0, k=1), "q"), sel.Step(final, "a")]  # the last step decides
     out = sel._search("m", "ev", base, steps, 7, ALPHA, "bar")
     assert (out == "found") is runs and (out is None) is not runs
     if runs:
@@ -683,9 +738,17 @@ def test_the_path_to_the_searched_subset_adds_its_members_in_the_order_of_their_
     singles[1].indistinguishable_from = ["c", "x"]
     first = sel.Step(fr(), ranking=singles)
     found = NS(best=NS(effects=("a", "b")), same={"a": ["c", "d", "e"], "b": ["c"]})
-    second = [cand("a", fit=fr(("a", "b")), ties=("c", "e")), cand("c"), cand("e"), cand("d", plausible=False)]
+    second = [
+        cand("a", fit=fr(("a", "b")), ties=("c", "e", "d", "g")),
+        cand("c"),
+        cand("e"),
+        cand("d", plausible=False),
+    ]
+    second.append(cand("g"))  # a tie that is not equivalent to "a" alone
     calls = []
-    monkeypatch.setattr(sel, "candidates_for", lambda ev, effects: ["a", "c", "e", "q"] if effects == ("b",) else [])
+    monkeypatch.setattr(
+        sel, "candidates_for", lambda ev, effects: ["a", "c", "e", "q"] if (ev, effects) == ("ev", ("b",)) else []
+    )
     monkeypatch.setattr(sel, "rank_candidates", lambda m, ev, cur, names: calls.append((m, ev, cur, names)) or second)
     steps = sel._path("m", "ev", first, found)
     assert [s.change for s in steps] == ["baseline", "+b", "+a"]
@@ -695,6 +758,20 @@ def test_the_path_to_the_searched_subset_adds_its_members_in_the_order_of_their_
     assert steps[2].alternatives == ["c", "e"]
     assert calls == [("m", "ev", singles[1].fit, ["a", "c", "e"])]
     assert steps[0].ranking is singles and steps[1].ranking is second and steps[0].fit is first.fit
+
+
+def test_the_path_ranks_each_later_member_on_top_of_the_one_before(monkeypatch):
+    singles = [cand("a", aicc=1.0), cand("b", aicc=2.0), cand("c", aicc=3.0)]
+    rankings = {"b": [cand("b", fit=fr(("a", "b")))], "c": [cand("c", fit=fr(("a", "b", "c")))]}
+    seen = []
+    monkeypatch.setattr(sel, "candidates_for", lambda ev, effects: ["b", "c"])
+    monkeypatch.setattr(
+        sel, "rank_candidates", lambda m, ev, cur, names: seen.append(cur.effects) or rankings[names[0]]
+    )
+    found = NS(best=NS(effects=("c", "a", "b")), same={})
+    steps = sel._path("m", "ev", sel.Step(fr(), ranking=singles), found)
+    assert [s.change for s in steps] == ["baseline", "+a", "+b", "+c"] and seen == [("a",), ("a", "b")]
+    assert steps[1].ranking is rankings["b"] and steps[2].ranking is rankings["c"] and steps[3].ranking == []
 
 
 def test_the_path_orders_members_of_equal_aicc_by_the_catalogue(monkeypatch):
@@ -746,7 +823,8 @@ def test_final_alternatives_are_the_path_ties_that_fit_as_well(monkeypatch):
         "f": fr(("f",), aicc=10.0),
         "h": fr(("h",), aicc=10.0),
     }
-    where = {"c": [10.0, 0.0], "d": [0.0, 0.0], "e": [0.0, 10.0], "f": [0.0, 0.0], "h": [0.0, 0.0]}
+    # whitened predictions (unit sigma): "e" 1.5 SEPARATION from the final model
+    where = {"c": [10.0, 0.0], "d": [0.0, 0.0], "e": [0.0, 4.5], "f": [0.0, 0.0], "h": [0.0, 0.0]}
     for e, g in swapped.items():
         g.comparison = NS(white=np.array(where[e]))
     ranking = [cand(e) for e in "acdefgh"]
@@ -763,9 +841,14 @@ def test_final_alternatives_are_the_path_ties_that_fit_as_well(monkeypatch):
         return swapped.get(rival.effect)
 
     monkeypatch.setattr(sel, "_swap", swap)
-    monkeypatch.setattr(sel, "_implausible", lambda ev, g: g is swapped["f"])
+    monkeypatch.setattr(sel, "_implausible", lambda ev, g: ev == "ev" and g is swapped["f"])
     monkeypatch.setattr(sel, "whitened_predictions", lambda cmp: cmp.white)
-    monkeypatch.setattr(sel, "equivalent", lambda ev, meas, a, b: {"one": b.effects} if b is swapped["d"] else None)
+
+    def equivalent(ev, meas, a, b):
+        assert (ev, meas, a) == ("ev", "m", final)
+        return {"one": b.effects} if b is swapped["d"] else None
+
+    monkeypatch.setattr(sel, "equivalent", equivalent)
     monkeypatch.setattr(sel, "_between", lambda ev, meas, a, b, tied: {"between": (a, b, tied, ev, meas)})
     out = sel.final_alternatives("m", "ev", steps)
     assert [s[4] for s in swaps] == ["c", "d", "e", "f", "g"] and swaps[0][:4] == ("m", "ev", final, "a")
@@ -789,11 +872,11 @@ def test_final_alternatives_take_each_rival_from_the_ranking_of_its_step(monkeyp
 
 
 def _unproven_world(monkeypatch, same=()):
-    monkeypatch.setattr(
-        sel,
-        "equivalent",
-        lambda ev, meas, a, b: {"one": (a.effects, b.effects)} if {a.effects[0], b.effects[0]} == set(same) else None,
-    )
+    def equivalent(ev, meas, a, b):
+        assert (ev, meas) == ("ev", "m")
+        return {"one": (a.effects, b.effects)} if {a.effects[0], b.effects[0]} == set(same) else None
+
+    monkeypatch.setattr(sel, "equivalent", equivalent)
     monkeypatch.setattr(sel, "_between", lambda ev, meas, a, b, tied: (a.effects, b.effects, tied, ev, meas))
 
 
@@ -822,7 +905,7 @@ def test_unproven_alternatives_would_explain_a_misfit_and_are_compared_with_the_
 
 
 def test_one_unproven_alternative_is_compared_with_nothing(monkeypatch):
-    _unproven_world(monkeypatch)
+    _unproven_world(monkeypatch, same=("b",))  # "b" would be one model with itself: never asked
     last = [cand("b", fit=fr(("b",), chi2=20.0, k=1))]
     (alt,) = sel.unproven("m", "ev", [sel.Step(fr(("a",), chi2=80.0, k=1), ranking=last)], ALPHA)
     assert alt.by == "b" and alt.next_measurement is None and alt.equivalent is None
@@ -833,6 +916,13 @@ def test_the_second_unproven_alternative_is_compared_with_the_first_and_the_firs
     last = [cand(e, fit=fr((e,), chi2=20.0, k=1)) for e in "bcd"]
     out = sel.unproven("m", "ev", [sel.Step(fr(("a",), chi2=80.0, k=1), ranking=last)], ALPHA)
     assert [a.next_measurement[:2] for a in out] == [(("b",), ("c",)), (("c",), ("b",)), (("d",), ("b",))]
+
+
+def test_two_unproven_alternatives_are_compared_with_each_other(monkeypatch):
+    _unproven_world(monkeypatch)
+    last = [cand(e, fit=fr((e,), chi2=20.0, k=1)) for e in "bc"]
+    out = sel.unproven("m", "ev", [sel.Step(fr(("a",), chi2=80.0, k=1), ranking=last)], ALPHA)
+    assert [a.next_measurement[:2] for a in out] == [(("b",), ("c",)), (("c",), ("b",))]
 
 
 def test_no_unproven_alternative_when_the_final_model_explains_the_rows(monkeypatch):
@@ -850,35 +940,25 @@ def test_no_unproven_alternative_when_the_final_model_explains_the_rows(monkeypa
 # ------------------------------------------------------------------ one selection and its diagnosis
 
 
+def _recorder(log, name, value):
+    """A stand-in that logs its name and every argument it is handed, and returns ``value``."""
+    return lambda *a, **kw: log.append((name,) + a + tuple(sorted(kw.items()))) or value
+
+
 def _select_world(monkeypatch):
     log = []
     base = fr(("z",))
-    monkeypatch.setattr(
-        sel,
-        "_baseline",
-        lambda meas, ev, effects, values: log.append(("baseline", effects, values)) or ("cmp", ["note"]),
-    )
-    monkeypatch.setattr(
-        sel, "fit", lambda meas, effects, ev, names, fixed: log.append(("fit", effects, names, fixed)) or base
-    )
-    monkeypatch.setattr(
-        sel, "candidates_for", lambda ev, effects, meas: log.append(("cands", effects, meas)) or ["a", "b"]
-    )
-    monkeypatch.setattr(sel, "_check_manual", lambda ev, add, model: log.append(("check", add, model)))
-    monkeypatch.setattr(
-        sel, "_manual_steps", lambda meas, ev, cur, add: log.append(("manual", cur, add)) or ["manual steps"]
-    )
-    monkeypatch.setattr(
-        sel,
-        "rank_candidates",
-        lambda meas, ev, cur, cands, progress: log.append(("rank", cur, cands, progress)) or ["ranked"],
-    )
     first = sel.Step(base, ranking=["first"])
-    monkeypatch.setattr(
-        sel,
-        "_stepwise",
-        lambda meas, ev, cur, alpha, progress: log.append(("stepwise", cur, alpha, progress)) or ([first], ["removed"]),
-    )
+    for name, value in [
+        ("_baseline", ("cmp", ["note"])),
+        ("fit", base),
+        ("candidates_for", ["a", "b"]),
+        ("_check_manual", None),
+        ("_manual_steps", ["manual steps"]),
+        ("rank_candidates", ["ranked"]),
+        ("_stepwise", ([first], ["removed"])),
+    ]:
+        monkeypatch.setattr(sel, name, _recorder(log, name, value))
     monkeypatch.setattr(sel, "_diagnosis", lambda *a: ("diagnosis",) + a)
     monkeypatch.setattr(sel, "_searched", lambda d, ev, progress, values: ("searched", d, ev, progress, values))
     return log, base, first
@@ -889,26 +969,27 @@ def test_a_selection_by_hand_fits_the_given_effects_and_ranks_the_candidates_bes
     out = sel._select("m", "ev", ("z",), ["a"], 0.05, "bar", {"v": 1.0}, search=True)
     assert out == ("diagnosis", "m", "ev", "cmp", ["ranked"], ["manual steps"], [], True, 0.05, {"v": 1.0}, ["note"])
     assert log == [
-        ("baseline", ("z",), {"v": 1.0}),
-        ("fit", ("z",), (), {"v": 1.0}),
-        ("cands", ("z",), "m"),
-        ("check", ["a"], ("z",)),
-        ("manual", base, ["a"]),
-        ("rank", base, ["a", "b"], "bar"),
+        ("_baseline", "m", "ev", ("z",), {"v": 1.0}),
+        ("fit", "m", ("z",), "ev", (), ("fixed", {"v": 1.0})),
+        ("candidates_for", "ev", ("z",), "m"),
+        ("_check_manual", "ev", ["a"], ("z",)),
+        ("_manual_steps", "m", "ev", base, ["a"]),
+        ("rank_candidates", "m", "ev", base, ["a", "b"], "bar"),
     ]
 
 
 @pytest.mark.parametrize("search", [False, True])
 def test_an_automatic_selection_is_stepwise_and_searched_when_asked(monkeypatch, search):
     log, base, first = _select_world(monkeypatch)
-    out = sel._select("m", "ev", ("z",), None, 0.05, "bar", None, search)
-    d = ("diagnosis", "m", "ev", "cmp", ["first"], [first], ["removed"], False, 0.05, None, ["note"])
-    assert out == (("searched", d, "ev", "bar", None) if search else d)
-    assert log[-1] == ("stepwise", base, 0.05, "bar") and len(log) == 4
-    assert sel._select("m", "ev", ("z",), None, 0.05, "bar") == d  # no search by default
+    out = sel._select("m", "ev", ("z",), None, 0.05, "bar", {"v": 2}, search)
+    d = ("diagnosis", "m", "ev", "cmp", ["first"], [first], ["removed"], False, 0.05, {"v": 2}, ["note"])
+    assert out == (("searched", d, "ev", "bar", {"v": 2}) if search else d)
+    assert log[-1] == ("_stepwise", "m", "ev", base, 0.05, "bar") and len(log) == 4
+    assert sel._select("m", "ev", ("z",), None, 0.05, "bar", {"v": 2}) == d  # no search by default
 
 
 def test_the_diagnosis_holds_the_final_model_and_what_the_path_found(monkeypatch):
+    ev = NS(spec="heli4-spec")
     final = fr(("z", "a", "b"), chi2=10.0, k=2)
     steps = [
         sel.Step(fr(("z",))),
@@ -923,14 +1004,13 @@ def test_the_diagnosis_holds_the_final_model_and_what_the_path_found(monkeypatch
     def rec(name, value):
         return lambda *a: calls.setdefault(name, a) and value
 
-    monkeypatch.setattr(sel, "outside_plausible", lambda ev, f: {} if f is final else pytest.fail())
+    monkeypatch.setattr(sel, "outside_plausible", lambda e, f: {} if (e, f) == (ev, final) else pytest.fail())
     monkeypatch.setattr(sel, "_separation", rec("separation", {"next": 1}))
     monkeypatch.setattr(sel, "hints", rec("hints", ["h"]))
     monkeypatch.setattr(sel, "final_alternatives", rec("final", ["alt"]))
     monkeypatch.setattr(sel, "unproven", rec("unproven", ["unproven"]))
     monkeypatch.setattr(sel, "_untestable", rec("untestable", {"u": 5}))
     monkeypatch.setattr(sel, "used_parameters", rec("used", ["p"]))
-    ev = NS(spec="heli4-spec")
     d = sel._diagnosis("m", ev, "cmp", first, steps, ["rm"], False, 0.05, {"v": 1}, ["note"], "search")
     assert (d.robot, d.meas, d.baseline, d.ranking, d.steps, d.final) == ("heli4-spec", "m", "cmp", first, steps, final)
     assert d.selected == ["a", "b"] and d.removed == ["rm"] and d.explained is True and d.implausible == {}
@@ -951,6 +1031,8 @@ def test_a_diagnosis_by_hand_has_no_alternatives_and_judges_only_the_baseline_ca
     monkeypatch.setattr(sel, "hints", lambda *a: [])
     monkeypatch.setattr(sel, "_untestable", lambda meas, ev, s: seen.setdefault("steps", s) and {})
     monkeypatch.setattr(sel, "used_parameters", lambda *a: [])
+    monkeypatch.setattr(sel, "final_alternatives", lambda *a: ["alt"])
+    monkeypatch.setattr(sel, "unproven", lambda *a: ["unproven"])
     d = sel._diagnosis("m", NS(spec="r"), "cmp", [], steps, [], True, ALPHA, None, [])
     assert d.alternatives == [] and d.manual is True and seen["steps"] == steps[:1]
     assert d.explained is False and d.search is None  # chi2 100 on 29 dof misfits
@@ -966,6 +1048,16 @@ def test_a_diagnosis_explains_the_rows_only_with_a_fit_inside_the_plausible_rang
     steps = [sel.Step(fr(("z",), chi2=chi2, k=1))]
     d = sel._diagnosis("m", NS(spec="r"), "cmp", [], steps, [], False, ALPHA, None, [])
     assert d.explained is explained and d.implausible == outside
+
+
+def test_a_diagnosis_judges_the_final_fit_on_its_degrees_of_freedom_at_alpha(monkeypatch):
+    """chi2 with p = 0.03 on 10 - 7 = 3 degrees of freedom: explained at alpha 0.01, not at 0.05."""
+    for name in ("_separation", "hints", "final_alternatives", "unproven", "_untestable", "used_parameters"):
+        monkeypatch.setattr(sel, name, lambda *a: [])
+    monkeypatch.setattr(sel, "outside_plausible", lambda ev, f: {})
+    steps = [sel.Step(fr(("z",), chi2=stats.chi2.isf(0.03, 3), n=10, k=7))]
+    assert sel._diagnosis("m", NS(spec="r"), "cmp", [], steps, [], False, 0.01, None, []).explained is True
+    assert sel._diagnosis("m", NS(spec="r"), "cmp", [], steps, [], False, 0.05, None, []).explained is False
 
 
 def _searched_world(monkeypatch, found):
@@ -1019,14 +1111,14 @@ def test_the_baseline_matches_ambiguous_labels_by_order_with_a_note_and_the_unit
     def compare(meas, effects, ev, values, check, strict=True):
         calls.append((meas, effects, ev, values, check, strict))
         if strict:
-            raise ModeMatchError("pose 3: no model mode points along x")
+            raise ModeMatchError("pose 3: row 7: no model mode points along x")
         return NS(predicted="pred")
 
     monkeypatch.setattr(sel, "compare", compare)
     monkeypatch.setattr(sel, "unit_note", lambda f, p: f"unit of {f} {p}")
     cmp, notes = sel._baseline(NS(freq_hz="f"), "ev", ("z",), {"v": 1})
     assert cmp.predicted == "pred" and [c[5] for c in calls] == [True, False]
-    assert calls[1][:5] == (calls[0][0], ("z",), "ev", {"v": 1}, False)
+    assert calls[0][1:5] == calls[1][1:5] == (("z",), "ev", {"v": 1}, False) and calls[0][0] is calls[1][0]
     assert notes == [
         "unit of f pred",
         "Mode labels: at some poses no model mode points along a measured direction (pose 3 first); "
@@ -1051,7 +1143,12 @@ def test_untestable_candidates_keep_the_rows_the_first_step_needs(monkeypatch):
     """Candidates "a" (one own parameter) and "b" (two): untestable on n <= k + own + 2 rows, which
     need k + own + 3; an effect untestable at two steps keeps the first step's need."""
     monkeypatch.setattr(sel, "scope", Scope({"a": ("x",), "b": ("y", "w")}))
-    monkeypatch.setattr(sel, "candidates_for", lambda ev, effects, meas: ["a", "b"] if not effects else ["b"])
+
+    def candidates_for(ev, effects, meas):
+        assert ev == "ev" and len(meas) in (7, 8)
+        return ["a", "b"] if not effects else ["b"]
+
+    monkeypatch.setattr(sel, "candidates_for", candidates_for)
     steps = [sel.Step(fr((), k=3)), sel.Step(fr(("a",), k=4), "a")]
     assert sel._untestable(list(range(8)), "ev", steps) == {"b": 9}  # at the second step: 4 + 2 + 3
     assert sel._untestable(list(range(7)), "ev", steps) == {"b": 8}  # from the first step: 3 + 2 + 3
@@ -1111,7 +1208,7 @@ def test_outliers_are_set_aside_worst_first_one_at_a_time_and_the_selection_reru
 
     def select(rows, ev, base, add, alpha, progress, values, search):
         selected.append((rows.lines.tolist(), ev, base, add, alpha, progress, values, search))
-        return NS(final=finals[len(selected)], outliers=[], all_rows=None)
+        return NS(final=finals[len(selected) % 4], outliers=[], all_rows=None)
 
     monkeypatch.setattr(sel, "find_outliers", find_outliers)
     monkeypatch.setattr(sel, "_select", select)
@@ -1123,6 +1220,9 @@ def test_outliers_are_set_aside_worst_first_one_at_a_time_and_the_selection_reru
     rows = [x for x in range(2, 32)]
     assert selected[0] == ([x for x in rows if x != 7], "ev", ("z",), None, ALPHA, "bar", {"v": 1}, True)
     assert selected[1][0] == [x for x in rows if x not in (3, 7)] and out.final is finals[2]
+    looked.clear()
+    sel._without_outliers(meas, "ev", d_all, ("z",), ALPHA, "bar")
+    assert selected[-1][-2:] == (None, False)  # no values, no search by default
 
 
 def test_nothing_set_aside_leaves_the_diagnosis_as_it_was(monkeypatch):
@@ -1161,6 +1261,11 @@ def test_whole_settings_are_set_aside_worst_first_and_rescored_under_the_final_m
     assert looked[0] == (list(range(2, 42)), "ev", "final0", ALPHA) and len(looked) == 3
     assert selected[0] == (list(range(7, 42)), "ev", ("z",), None, ALPHA, "bar", {"v": 1}, True)
     assert selected[1][0] == [x for x in range(7, 42) if x not in (10, 11, 12, 13)]
+    looked.clear()
+    sel._without_settings(
+        meas, "ev", NS(meas=meas, final="f", outliers=[], all_rows=None, uncertainty=None), (), ALPHA, None
+    )
+    assert selected[-1][-2:] == (None, False)  # no values, no search by default
 
 
 def test_settings_keep_the_all_rows_diagnosis_of_the_outliers(monkeypatch):
@@ -1193,38 +1298,21 @@ def _diagnose_world(monkeypatch):
     from eigentwist.diagnose import measurements
 
     log = []
-    monkeypatch.setattr(
-        measurements,
-        "load_measurements",
-        lambda path, robot, ev, values: log.append(("load", path, robot, ev, values)) or NS(freq_hz=1, robot="delta"),
-    )
-    monkeypatch.setattr(
-        measurements, "check_columns", lambda meas, effects, ev, what: log.append(("columns", effects, what))
-    )
+    read = NS(freq_hz=1, robot="delta")
+    monkeypatch.setattr(measurements, "load_measurements", _recorder(log, "load", read))
+    monkeypatch.setattr(measurements, "check_columns", _recorder(log, "columns", None))
     ev = NS(robot="R")
-    monkeypatch.setattr(sel, "resolve", lambda e, robot, backend: log.append(("resolve", e, robot, backend)) or ev)
-    monkeypatch.setattr(sel, "resolve_model", lambda baseline, robot: log.append(("model", baseline, robot)) or ("z",))
-    monkeypatch.setattr(sel, "_effect_list", lambda add, e: ["a", "b"])
-    monkeypatch.setattr(
-        sel,
-        "_select",
-        lambda meas, e, base, order, alpha, progress, values: (
-            log.append(("select", base, order, alpha, progress, values)) or "selected"
-        ),
-    )
-    monkeypatch.setattr(
-        sel,
-        "_rows_and_search",
-        lambda meas, e, d, base, alpha, progress, values: (
-            log.append(("rows", d, base, alpha, progress, values)) or "searched"
-        ),
-    )
+    monkeypatch.setattr(sel, "resolve", _recorder(log, "resolve", ev))
+    monkeypatch.setattr(sel, "resolve_model", _recorder(log, "model", ("z",)))
+    monkeypatch.setattr(sel, "_effect_list", _recorder(log, "effects", ["a", "b"]))
+    monkeypatch.setattr(sel, "_select", _recorder(log, "select", "selected"))
+    monkeypatch.setattr(sel, "_rows_and_search", _recorder(log, "rows", "searched"))
     monkeypatch.setattr(sel, "_judge", lambda d: ("judged", d))
-    return log, ev
+    return log, ev, read
 
 
 def test_diagnose_reads_a_file_selects_and_sets_rows_aside(monkeypatch):
-    log, ev = _diagnose_world(monkeypatch)
+    log, ev, read = _diagnose_world(monkeypatch)
     values = {"v": 1}
     out = sel.diagnose("rows.csv", "paper", alpha=0.05, progress="bar", backend="c", values=values)
     assert out == ("judged", "searched")
@@ -1232,42 +1320,43 @@ def test_diagnose_reads_a_file_selects_and_sets_rows_aside(monkeypatch):
         ("load", "rows.csv", "heli4", None, {"v": 1}),
         ("resolve", None, "delta", "c"),
         ("model", "paper", "R"),
-        ("columns", ("z",), "the baseline"),
-        ("select", ("z",), None, 0.05, "bar", {"v": 1}),
-        ("rows", "selected", ("z",), 0.05, "bar", {"v": 1}),
+        ("columns", read, ("z",), ev, "the baseline"),
+        ("select", read, ev, ("z",), None, 0.05, "bar", {"v": 1}),
+        ("rows", read, ev, "selected", ("z",), 0.05, "bar", {"v": 1}),
     ]
     assert log[0][4] is not values  # the caller's dict is not changed
 
 
 def test_diagnose_by_hand_checks_the_added_columns_and_sets_nothing_aside(monkeypatch):
-    log, ev = _diagnose_world(monkeypatch)
+    log, ev, _ = _diagnose_world(monkeypatch)
     meas = NS(freq_hz=[1.0], robot="heli4")
     assert sel.diagnose(meas, robot="delta", ev="given", add="a,b") == ("judged", "selected")
     assert log == [
         ("resolve", "given", "delta", "numpy"),
         ("model", "rigid", "R"),
-        ("columns", ("z", "a", "b"), "the baseline with the added effects"),
-        ("select", ("z",), ["a", "b"], sel.ALPHA, None, {}),
+        ("effects", "a,b", ev),
+        ("columns", meas, ("z", "a", "b"), ev, "the baseline with the added effects"),
+        ("select", meas, ev, ("z",), ["a", "b"], sel.ALPHA, None, {}),
     ]
     log.clear()
-    sel.diagnose("x.csv", robot="delta")
-    assert log[0] == ("load", "x.csv", "delta", None, {}) and log[1] == ("resolve", None, "delta", "numpy")
+    sel.diagnose("x.csv", robot="delta", ev="given")
+    assert log[0] == ("load", "x.csv", "delta", "given", {}) and log[1] == ("resolve", "given", "delta", "numpy")
 
 
 def _rows_world(monkeypatch, checked, found_changes, d0_rows=True):
     log = []
-    monkeypatch.setattr(sel, "rows_checked", lambda d: checked)
+    monkeypatch.setattr(sel, "rows_checked", lambda d: d is not None and checked)
 
     def outliers(meas, ev, d, base, alpha, progress, values, search=False):
-        log.append(("outliers", d.name, search))
+        log.append(("outliers", d.name, search, meas, ev, base, alpha, progress, values))
         return NS(name=d.name + "+o", outliers=["o"] if d0_rows else [], setting_anomalies=[], search=d.search)
 
     def settings(meas, ev, d, base, alpha, progress, values, search=False):
-        log.append(("settings", d.name, search))
+        log.append(("settings", d.name, search, meas, ev, base, alpha, progress, values))
         return NS(name=d.name + "+s", outliers=d.outliers, setting_anomalies=[], search=d.search)
 
     def searched(d, ev, progress, values):
-        log.append(("searched", d.name, progress, values))
+        log.append(("searched", d.name, ev, progress, values))
         return NS(name=d.name + "+search", outliers=d.outliers, setting_anomalies=[], search=NS(changed=found_changes))
 
     monkeypatch.setattr(sel, "_without_outliers", outliers)
@@ -1276,20 +1365,31 @@ def _rows_world(monkeypatch, checked, found_changes, d0_rows=True):
     return log
 
 
+ARGS = ("m", "ev", ("z",), ALPHA, "bar", {"v": 1})  # meas, ev, base, alpha, progress, values
+
+
 def test_rows_are_set_aside_before_a_search_that_keeps_the_stepwise_result(monkeypatch):
     log = _rows_world(monkeypatch, True, False)
     d = NS(name="d", search=None, outliers=[], setting_anomalies=[])
     out = sel._rows_and_search("m", "ev", d, ("z",), ALPHA, "bar", {"v": 1})
     assert out.name == "d+o+s+search"
-    assert log == [("outliers", "d", False), ("settings", "d+o", False), ("searched", "d+o+s", "bar", {"v": 1})]
+    assert log == [
+        ("outliers", "d", False) + ARGS,
+        ("settings", "d+o", False) + ARGS,
+        ("searched", "d+o+s", "ev", "bar", {"v": 1}),
+    ]
 
 
 def test_a_search_that_changes_the_result_redoes_the_rows_under_its_model(monkeypatch):
     log = _rows_world(monkeypatch, True, True)
     d = NS(name="d", search=None, outliers=[], setting_anomalies=[])
-    out = sel._rows_and_search("m", "ev", d, ("z",), ALPHA, None, None)
+    out = sel._rows_and_search("m", "ev", d, ("z",), ALPHA, "bar", {"v": 1})
     assert out.name == "d+search+o+s"
-    assert log[3:] == [("searched", "d", None, None), ("outliers", "d+search", True), ("settings", "d+search+o", True)]
+    assert log[3:] == [
+        ("searched", "d", "ev", "bar", {"v": 1}),
+        ("outliers", "d+search", True) + ARGS,
+        ("settings", "d+search+o", True) + ARGS,
+    ]
 
 
 def test_a_search_that_changes_the_result_with_no_rows_set_aside_is_kept(monkeypatch):
@@ -1303,4 +1403,4 @@ def test_without_enough_rows_nothing_is_set_aside_around_the_search(monkeypatch)
     log = _rows_world(monkeypatch, False, True)
     d = NS(name="d", search=None, outliers=[], setting_anomalies=["s"])
     assert sel._rows_and_search("m", "ev", d, ("z",), ALPHA, None, None).name == "d+search"
-    assert log == [("searched", "d", None, None)] * 2
+    assert log == [("searched", "d", "ev", None, None)] * 2

@@ -738,8 +738,8 @@ def _without_settings(
     if found:
         found = [rescored(a, meas, ev, d.final) for a in found]
         d.setting_anomalies, d.outliers, d.all_rows = found, outliers, d_all
-        if d.all_rows is not None and d.all_rows.uncertainty is None:
-            _judge(d.all_rows)
+        if d_all.uncertainty is None:
+            _judge(d_all)
     return d
 
 
