@@ -116,8 +116,6 @@ class Linear:
 
     def predict_with_jacobian(self, names, values, strict=True):
         assert tuple(names) == self.names and strict is False
-        if isinstance(self.A, Exception):
-            raise self.A
         return self.f0 + self.A @ np.asarray(values), self.A.copy()
 
 
@@ -298,3 +296,105 @@ def test_an_undetermined_direction_adds_nothing_to_the_determined_parameters():
     J = np.outer([2.0, 0.0, 0.0], c)
     cov = fm._covariance(J, 0.0, 1)
     assert cov[0, 0] == pytest.approx(c[0] ** 2 / 4.0, rel=1e-13) and np.isinf(cov[1, 1])
+
+
+# ------------------------------------------------------------------ a whole fit of a linear stand-in
+
+F0 = np.array([9.0, 19.0, 29.0, 4.0])
+A4 = np.array([[1.0, 0.5], [2.0, -1.0], [0.0, 3.0], [1.5, 1.5]])
+SIGMA = np.array([0.5, 1.0, 2.0, 0.4])
+TRUTH = np.array([2.0, 0.5])
+NOISE = np.array([0.3, -0.4, 0.5, 0.2])  # in sigma: a fit worse than sigma, chi2 / dof > 1
+
+
+class FitRows(Rows):
+    params: tuple = ()
+
+
+def _fit_world(monkeypatch, jacobian_error=None, zeta=False):
+    meas = FitRows(F0 + A4 @ TRUTH + NOISE * SIGMA * 3, SIGMA)
+    if zeta:
+        meas.damping_ratio, meas.sigma_damping_ratio = np.array([0.02, np.nan, np.nan, np.nan]), np.full(4, 0.01)
+    made = []
+
+    def predictor(m, effects, ev, fixed):
+        z0, Z = (np.full(4, 0.02), np.zeros((4, 2))) if zeta else (None, None)
+        p = Linear(m, F0, A4, z0=z0, Z=Z)
+        if jacobian_error is not None:
+            p.predict_with_jacobian = lambda names, values, strict=True: (_ for _ in ()).throw(jacobian_error)
+        made.append((m, effects, ev, fixed))
+        return p
+
+    def comparison(m, effects, ev, values):
+        r = (F0 + A4 @ np.array([values["a"], values["b"]]) - m.freq_hz) / m.sigma_hz
+        return NS(chi2=float(r @ r), values=dict(values), effects=tuple(effects))
+
+    monkeypatch.setattr(fm, "Predictor", predictor)
+    monkeypatch.setattr(fm, "_comparison", comparison)
+    params = {"a": _param(1.0, (0.0, math.inf), "a"), "b": _param(0.0, (-math.inf, math.inf), "b")}
+    ev = NS(parameter=lambda n: params[n], damped_model=lambda effects: False)
+    return meas, ev, made
+
+
+def _least_squares(meas):
+    """The weighted linear least-squares solution and its covariance, Birge-scaled (n - k = 2)."""
+    Aw, yw = A4 / SIGMA[:, None], (meas.freq_hz - F0) / SIGMA
+    p, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
+    r = Aw @ p - yw
+    return p, np.linalg.inv(Aw.T @ Aw) * max(1.0, float(r @ r) / 2)
+
+
+@pytest.mark.parametrize("jacobian", ["differences", "exact"])
+def test_a_fit_of_a_linear_model_is_its_least_squares_solution(monkeypatch, jacobian):
+    meas, ev, made = _fit_world(monkeypatch)
+    out = fm.fit(meas, ("e",), ev, ("a", "b"), fixed={"c": 7.0}, jacobian=jacobian)
+    p, cov = _least_squares(meas)
+    assert [out.values["a"], out.values["b"]] == pytest.approx(p, rel=1e-6)
+    assert [out.std["a"], out.std["b"]] == pytest.approx(np.sqrt(np.diag(cov)), rel=1e-4)
+    assert (out.n, out.k, out.at_bound, out.jacobian) == (
+        4,
+        2,
+        (),
+        "exact" if jacobian == "exact" else "central differences",
+    )
+    assert out.fixed == {"c": 7.0, "a": out.values["a"], "b": out.values["b"]} and made[0][3] == {"c": 7.0}
+
+
+def test_a_fit_without_sensitivities_says_why_it_used_differences(monkeypatch):
+    meas, ev, _ = _fit_world(monkeypatch, jacobian_error=InputError("no kernel for gravity"))
+    out = fm.fit(meas, ("e",), ev, ("a", "b"), jacobian="exact")
+    assert out.jacobian == "central differences: no kernel for gravity"
+
+
+def test_measured_damping_ratios_count_as_rows(monkeypatch):
+    meas, ev, _ = _fit_world(monkeypatch, zeta=True)
+    assert fm.fit(meas, ("e",), ev, ("a", "b")).n == 5
+
+
+def test_given_start_values_are_screened_for_their_parameter(monkeypatch):
+    meas, ev, made = _fit_world(monkeypatch)
+    calls = []
+    monkeypatch.setattr(
+        fm._Objective, "chi2_of", lambda self, table: calls.append(table.copy()) or np.zeros(len(table))
+    )
+    fm.fit(meas, ("e",), ev, ("a", "b"), starts={"a": (0.5, 3.0)}, explore=("b",))
+    assert sorted(set(calls[0][:, 0])) == [0.5, 3.0] and sorted(set(calls[0][:, 1])) == [0.0]
+
+
+def test_a_constraint_cuts_the_fits_search_range(monkeypatch):
+    from eigentwist.runtime import constraints
+
+    meas, ev, _ = _fit_world(monkeypatch)
+    ev.constraints = [NS(names=("a", "c"))]
+    ev.parameter("a").default = 1.0
+    seen = []
+    monkeypatch.setattr(
+        constraints,
+        "interval",
+        lambda compiled, name, values, effects: seen.append((name, values, effects)) or (0.5, 1.5),
+    )
+    defaults = {"a": ev.parameter("a"), "b": ev.parameter("b"), "c": NS(default=4.0)}
+    ev.parameter = lambda n: defaults[n]
+    out = fm.fit(meas, ("e@2",), ev, ("a", "b"), start={"a": 1.2}, fixed={"c": 3.0})
+    assert seen == [("a", {"a": 1.2, "c": 3.0}, {"e"})]
+    assert out.values["a"] == pytest.approx(1.5, rel=1e-6) and out.at_bound == ("a",)  # the optimum (2) is beyond
