@@ -152,11 +152,12 @@ def test_the_objective_residuals_and_jacobian_in_theta(jacobian):
     theta = np.array([0.3, 0.2])
     r, J = _expected(theta)
     assert obj.residuals(theta) == pytest.approx(r, rel=1e-12)
+    assert obj.best[0] == pytest.approx(float(r @ r))  # a new point is recorded when first evaluated
     tol = 1e-12 if jacobian == "exact" else 1e-4  # a 1 % central difference of exp: relative error STEP^2 / 6
     assert obj.jacobian(theta) == pytest.approx(J, rel=tol, abs=1e-12)
     assert obj.nfev == 1  # one evaluation gives both
     assert obj.best[0] == pytest.approx(float(r @ r)) and obj.best[1].tolist() == [0.3, 0.2]
-    assert obj.jacobian([0, 0]) == pytest.approx(obj.jacobian([0.0, 0.0]))  # integer points read as float
+    assert obj.jacobian([1, 0]) == pytest.approx(_expected([1.0, 0.0])[1], rel=tol)  # integer points read as float
 
 
 def test_without_generated_sensitivities_the_objective_falls_back_to_differences():
@@ -182,8 +183,9 @@ def test_a_change_within_roundoff_is_no_influence():
     f0 = 1000.0
     for factor, flat in ((1.3, False), (0.7, True)):
         slope = factor * fm.ROUNDOFF * f0 / (2 * fm.STEP * 2.0)  # dp_b / dtheta_b = scale 2
-        A2 = np.array([[-400.0, slope]] * 3)
-        obj = _objective(Linear(Rows([f0] * 3, [1.0] * 3), [f0 + 400.0] * 3, A2))
+        A2 = np.array([[-1e5, slope]] * 3)  # a's lower difference point doubles f: f[1] = 2 f[0]
+        linear = [fm.Transform("a", False, -5, 5, 0.0, 1.0), fm.Transform("b", False, -5, 5, 0.0, 2.0)]
+        obj = _objective(Linear(Rows([f0] * 3, [1.0] * 3), [f0] * 3, A2), linear)
         J = obj.jacobian(np.array([0.0, 0.0]))
         assert bool((J[:, 1] == 0).all()) is flat
         if not flat:
@@ -208,16 +210,21 @@ def test_the_stall_count_restarts_only_below_best_minus_stall_chi2():
 
 
 def test_measured_damping_ratios_are_whitened_residuals_beside_the_frequencies():
+    from eigentwist.diagnose.damping import DECAY_SIGMA
+
     meas = Rows([10.0, 20.0], [0.5, 1.0], zeta=[0.02, np.nan], sigma_zeta=[0.005, 1.0])
+    meas.damped = np.array([False, True])  # row 2: a decay seen, no ratio measured
     A1 = np.array([[1.0], [2.0]])
     Z = np.array([[0.01], [0.0]])
-    pred = Linear(meas, [9.5, 18.0], A1, z0=np.array([0.03, 0.03]), Z=Z, names=("a",))
+    ev = NS(damped_model=lambda effects: True)
+    pred = Linear(meas, [9.5, 18.0], A1, z0=np.array([0.03, 0.005]), Z=Z, names=("a",), ev=ev)
     obj = fm._Objective(pred, [fm.Transform("a", False, -5, 5, 0.0, 1.0)], "exact")
-    assert obj.exact is False and obj.zeta[0].tolist() == [0]  # damping ratios: differences only
+    assert obj.exact is False and obj.zeta[0].tolist() == [0, 1]  # damping ratios: differences only
     f, r = obj._residuals(np.array([[1.0]]))
-    zeta = 0.03 + 0.01 * 1.0  # row 1's predicted damping ratio; row 2 measured none
-    assert r[0].tolist() == pytest.approx([(10.5 - 10.0) / 0.5, 0.0, (zeta - 0.02) / 0.005])
-    assert f[0].tolist() == pytest.approx([10.5, 20.0, zeta - 0.02])  # the residual's zeta difference
+    zeta = 0.03 + 0.01 * 1.0  # row 1's predicted damping ratio
+    least = 0.005 - 0.01  # row 2: the least damped of its modes (the stand-in's zeta - 0.01) grows
+    assert r[0].tolist() == pytest.approx([(10.5 - 10.0) / 0.5, 0.0, (zeta - 0.02) / 0.005, least / DECAY_SIGMA])
+    assert f[0].tolist() == pytest.approx([10.5, 20.0, zeta - 0.02, least])  # the residuals times their sigma
 
 
 def test_a_damped_model_adds_the_decay_rows_of_its_predictor(monkeypatch):
