@@ -10,6 +10,7 @@ the pinned derivations.
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from types import SimpleNamespace as NS
 
 import pytest
@@ -39,6 +40,23 @@ def test_the_old_kind_spelling_warns_and_means_the_primitive():
         assert fx.Term("damping").primitive == "damping"  # the new spelling: no warning
     with pytest.warns(DeprecationWarning, match=r"^Effect\(kind=\.\.\.\) is deprecated: use primitive='damping'$"):
         assert fx.Effect("e", "doc", (), (), kind="damping").primitive == "damping"
+
+
+def test_the_kind_alias_applies_to_any_dataclass_with_a_primitive():
+    @fx._kind_alias
+    @dataclass(frozen=True)
+    class Part:
+        primitive: str = "x"
+        size: int = 0
+
+    with pytest.warns(DeprecationWarning, match=r"^Part\(kind=\.\.\.\) is deprecated: use primitive='y'$") as w:
+        part = Part(kind="y", size=2)
+    assert (part.primitive, part.size) == ("y", 2) and w[0].filename == __file__
+    with pytest.warns(DeprecationWarning, match=r"^Part\.kind is deprecated: use \.primitive$") as w:
+        assert part.kind == "y"
+    assert w[0].filename == __file__ and w[0].category is DeprecationWarning
+    assert Part.kind.__doc__ == "Deprecated name of ``primitive``." and Part.__init__.__name__ == "__init__"
+    assert Part().primitive == "x"
 
 
 def test_a_term_of_an_unknown_primitive_is_refused():
@@ -169,6 +187,9 @@ def test_a_robot_changes_a_parameters_default_or_fields_and_shares_it_once():
         fx.EFFECTS["actuator_loss"].params[0].default,
     ]
     assert fx.effect_parameters(["actuator_loss"]) == fx.EFFECTS["actuator_loss"].params
+    eta = fx.EFFECTS["actuator_loss"].params[0]
+    after = fx.Effect("after", "doc", (eta, fx._p("w", 1.0, "-", "W", "after", (0, 2))), ("w",))
+    assert [p.name for p in fx.effect_parameters(["actuator_loss", after])] == ["eta_a", "w"]  # a shared one skipped
     with pytest.raises(InputError) as err:
         fx.effect_parameters([own, "actuator_loss"], {"z": 1, "m_p": 2, "q": 1})
     assert str(err.value) == "values for m_p, z: no effect among own, actuator_loss has them"
@@ -196,6 +217,13 @@ def test_the_generated_names_of_switches_and_leg_inputs():
 )
 def test_a_scope_names_a_leg_from_1(item, n_legs, expected):
     assert fx.split_scope(item, n_legs) == expected
+
+
+def test_a_scope_of_two_legs_is_refused_and_the_default_word_is_effect():
+    with pytest.raises(
+        InputError, match=r"^effect 'a@b@3': 'b@3' is not a leg number; expected a@N with N in 1, 2, \.\.\."
+    ):
+        fx.split_scope("a@b@3")
 
 
 @pytest.mark.parametrize(
@@ -232,6 +260,7 @@ def test_a_robot_offers_its_own_presets_and_every_other_name_as_the_bare_model()
     assert fx.presets_of(_robot()) == {"rigid": (), "paper": (), "coupled": ()}
     own = fx.presets_of(_robot(presets={"rigid": ("own",), "mine": ("payload_mass",)}))
     assert own == {"rigid": ("own",), "paper": (), "coupled": (), "mine": ("payload_mass",)}
+    assert fx.presets_of(NS(legs=[None])) == {"rigid": (), "paper": (), "coupled": ()}  # no presets attribute
 
 
 def test_the_lookup_of_a_robot_a_list_of_names_or_nothing():
@@ -257,6 +286,7 @@ def test_a_model_spec_reads_presets_effects_and_legs_in_the_robots_order():
     )  # the preset keeps only what the robot has
     assert fx.resolve_model(["own", "own@2", "rod_compliance@2"], robot) == ("rod_compliance@2", "own", "own@2")
     assert fx.resolve_model("None", robot) == () and fx.resolve_model("  ", robot) == ()
+    assert fx.resolve_model("mine", _robot(presets={"mine": ("own",)})) == ("own",)  # the robot's own preset
     assert fx.resolve_model("paper") == fx.PRESETS["paper"]  # the catalogue's order without a robot
     assert fx.resolve_model("rod_compliance,actuator_loss", ("rod_compliance", "actuator_loss")) == (
         "rod_compliance",
