@@ -386,6 +386,9 @@ def test_given_start_values_are_screened_for_their_parameter(monkeypatch):
     )
     fm.fit(meas, ("e",), ev, ("a", "b"), starts={"a": (0.5, 3.0)}, explore=("b",))
     assert sorted(set(calls[0][:, 0])) == [0.5, 3.0] and sorted(set(calls[0][:, 1])) == [0.0]
+    calls.clear()
+    fm.fit(meas, ("e",), ev, ("a", "b"), fixed={"b": 0.7}, explore=())  # a fitted name's fixed value: its start
+    assert calls[0].tolist() == [[1.0, 0.7]]
 
 
 def test_a_constraint_cuts_the_fits_search_range(monkeypatch):
