@@ -346,6 +346,10 @@ def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.n
 
 
 def _covariance(jac: np.ndarray, chi2: float, dof: int) -> np.ndarray:
+    """(J^T J)^-1 scaled by the Birge ratio squared when above 1; infinite in the rows and columns
+    of parameters along an undetermined direction (fewer rows than parameters included)."""
+    if jac.shape[0] < jac.shape[1]:  # the SVD of a wide J would leave its null space out
+        jac = np.vstack([jac, np.zeros((jac.shape[1] - jac.shape[0], jac.shape[1]))])
     u, s, vt = np.linalg.svd(jac, full_matrices=False)
     tol = s.max() * 1e-9 if s.size and s.max() > 0 else 1.0
     inv = np.where(s > tol, 1.0 / np.where(s > tol, s, 1.0) ** 2, np.inf)

@@ -737,9 +737,9 @@ def _without_settings(
         d = _select(d.meas.subset(keep), ev, base_effects, None, alpha, progress, values, search)
     if found:
         found = [rescored(a, meas, ev, d.final) for a in found]
-        d.setting_anomalies, d.outliers, d.all_rows = found, outliers, d_all if d_all.all_rows is None else d_all
-        if d.all_rows is not None and d.all_rows.uncertainty is None:
-            _judge(d.all_rows)
+        d.setting_anomalies, d.outliers, d.all_rows = found, outliers, d_all
+        if d_all.uncertainty is None:
+            _judge(d_all)
     return d
 
 
