@@ -692,7 +692,7 @@ def scoped_name(name: str, leg: int | None) -> str:
 def split_scope(item: str, n_legs: int | None = None, what: str = "effect") -> tuple[str, int | None]:
     """``"actuator_loss@3"`` -> ``("actuator_loss", 3)``; ``"paper"`` -> ``("paper", None)``.
 
-    Raises ``ValueError`` (one line) when N is not a leg number 1..``n_legs``.
+    Raises ``InputError`` (one line) when N is not a leg number 1..``n_legs``.
     """
     name, at, leg = item.partition("@")
     if not at:
