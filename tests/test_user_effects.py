@@ -40,7 +40,7 @@ def test_the_readme_file_uses_public_imports_only():
 
 
 @pytest.fixture(scope="module")
-def user_robot(tmp_path_factory):
+def user_robot(tmp_path_factory, ev):  # ``ev`` first: the session's Heli4 is loaded from the run's cache
     directory = tmp_path_factory.mktemp("user")
     path = directory / "my_heli4.py"
     path.write_text(readme_user_file())
@@ -74,9 +74,10 @@ def test_generated_on_first_use_and_cached(user_robot):
 
 @pytest.mark.compiled
 @pytest.mark.slow
-def test_diagnose_finds_the_users_hose(user_robot):
-    _, ev, _, _ = user_robot
-    shipped = eigentwist.load("heli4", backend="c")
+def test_diagnose_finds_the_users_hose(user_robot, ev):
+    # the session's Heli4 (C where a compiler is; ``user_robot`` asks for it before it points
+    # the cache at its own directory, where a load would compile the shipped library again)
+    shipped, (_, ev, _, _) = ev, user_robot
     poses = [[0, 0, -0.625], [0.08, 0, -0.6], [0, 0.08, -0.65]]
     meas = synth(
         "paper", [250, 500, 1000, 2000], poses, ["x", "y", "z"], 0.005, 1, ev=shipped, extra_stiffness={"x": K_HOSE}

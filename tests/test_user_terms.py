@@ -38,7 +38,7 @@ def readme_chain_file() -> str:
 
 
 @pytest.fixture(scope="module")
-def robots(tmp_path_factory):
+def robots(tmp_path_factory, ev):  # ``ev`` first: the session's Heli4 is loaded from the run's cache
     directory = tmp_path_factory.mktemp("terms")
     (directory / "my_chain.py").write_text(readme_chain_file())
     mp = pytest.MonkeyPatch()
@@ -51,8 +51,8 @@ def robots(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def chain_data():
-    shipped = eigentwist.load("heli4", backend="auto")
+def chain_data(ev):
+    # the session's Heli4 (``robots`` asks for it before it points the cache at its own directory)
     return synth(
         f"paper+payload_mass:m_p={M_TRUE}",
         KA,
@@ -60,7 +60,7 @@ def chain_data():
         ("x", "y", "z"),
         0.005,
         seed=2,
-        ev=shipped,
+        ev=ev,
         extra_stiffness={"y": K_TRUE},
     )
 
