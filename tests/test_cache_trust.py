@@ -13,6 +13,7 @@ import eigentwist.codegen.generate as generate
 from eigentwist.robots import get
 from eigentwist.runtime import ccompile
 from eigentwist.runtime import userfile
+from eigentwist.runtime.memo import NewestKept
 from eigentwist.runtime.userfile import generated_modules, import_numpy_module
 
 NUMPY = "VALUE = 42\n"
@@ -42,7 +43,7 @@ def cache(tmp_path, monkeypatch, renders):
         return {f"{description.name}_{FILES[b]}": texts[b] for b in backends}
 
     monkeypatch.setattr(generate, "render_robot", render)
-    monkeypatch.setattr(userfile, "_STAGES", {})
+    monkeypatch.setattr(userfile, "_STAGES", NewestKept(userfile.STAGES_KEPT))
     return root, calls
 
 

@@ -548,3 +548,15 @@ def test_a_short_block_gives_the_padded_full_blocks_bits(robot, monkeypatch):
         assert got.eigentwists.tobytes() == want.eigentwists[:m].tobytes(), m
         got, want = matrices(P), matrices(padded)
         assert all(got[k].tobytes() == want[k][:m].tobytes() for k in ("M", "K_F")), m
+
+
+def test_newest_kept_drops_the_oldest():
+    from eigentwist.runtime.memo import NewestKept
+
+    kept = NewestKept(2)
+    for k in range(3):
+        kept.put(k, k)
+    assert list(kept) == [1, 2]  # the oldest dropped, the newest two kept
+    kept.put(1, "again")  # put again: the newest now
+    kept.put(3, 3)
+    assert list(kept) == [1, 3] and kept[1] == "again"

@@ -197,9 +197,10 @@ def test_each_backend_text_rendered_when_first_asked_for_from_one_kernel(monkeyp
     from eigentwist.codegen import sensitivity as cgs
     from eigentwist.runtime import sensitivity as sens
     from eigentwist.runtime.ccompile import private_directory
+    from eigentwist.runtime.memo import NewestKept
 
     monkeypatch.setenv("EIGENTWIST_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setattr(sens, "_KERNELS", {})
+    monkeypatch.setattr(sens, "_KERNELS", NewestKept(sens.KERNELS_KEPT))
     built = []
     monkeypatch.setattr(symbolic, "derive", lambda robot: "model")
     monkeypatch.setattr(cgs, "sensitivity_kernel", lambda model, wrt, progress=None: built.append(wrt) or object())

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["content_key", "BoundedMemo"]
+__all__ = ["content_key", "BoundedMemo", "NewestKept"]
 
 
 def content_key(poses: np.ndarray, values: dict, names) -> tuple:
@@ -44,3 +44,19 @@ class BoundedMemo:
 
     def __len__(self) -> int:
         return len(self._data)
+
+
+class NewestKept(dict):
+    """A dict that keeps its ``size`` newest entries: :meth:`put` drops the oldest beyond
+    that (for work held between two calls that usually follow each other, e.g. a derivation
+    kept for a second backend's code)."""
+
+    def __init__(self, size: int):
+        super().__init__()
+        self.size = size
+
+    def put(self, key, value) -> None:
+        self.pop(key, None)
+        self[key] = value
+        for old in list(self)[: -self.size]:
+            del self[old]

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..hashing import canonical, content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
+from .memo import NewestKept
 
 __all__ = [
     "sensitivity_kernels",
@@ -53,8 +54,8 @@ DIFFERENCE_STEP = 1e-5
 _MEMORY: dict = {}
 # the generated sensitivity kernels (before rendering) by cache key, the newest last: the
 # other backend's text is rendered from them without deriving again
-_KERNELS: dict = {}
 KERNELS_KEPT = 2  # a robot's NumPy and C kernels are usually asked for in turn, not interleaved with many others
+_KERNELS = NewestKept(KERNELS_KEPT)
 _ROBOTS: dict = {}
 
 
@@ -103,9 +104,7 @@ def _source(ev, wrt, backend: str, progress) -> str:
     render = {"numpy": render_numpy_sensitivity, "c": render_c_sensitivity}[backend]
     text = render(ev.robot, kernel, wrt)
     write_verified(path, text.encode("utf-8"))
-    _KERNELS[key] = kernel
-    for old in list(_KERNELS)[:-KERNELS_KEPT]:
-        del _KERNELS[old]
+    _KERNELS.put(key, kernel)
     return text
 
 

@@ -25,13 +25,14 @@ from pathlib import Path
 from ..hashing import canonical, content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
 from .errors import InputError
+from .memo import NewestKept
 
 # the generated file of each backend of a user's description, in its cache directory
 GENERATED_FILES = {"numpy": "{name}_numpy.py", "c": "{name}_c.c"}
 # render_robot's stages (derived model, CSE'd kernels) of the descriptions whose C source
 # is not rendered yet, by description key, the newest last
-_STAGES: dict[str, dict] = {}
 STAGES_KEPT = 16  # 4-8 MB each (the gallery's 6-RUS 7.7 MB): a test session's or a study's robots
+_STAGES = NewestKept(STAGES_KEPT)
 
 __all__ = [
     "describe_file",
@@ -144,9 +145,7 @@ def generated_modules(description, key: str, progress=None, backends=("numpy", "
             found[b] = files[names[b]].encode("utf-8")
             write_verified(directory / names[b], found[b])
         if "fused" not in stages:  # the C source not rendered yet: keep the stages for it
-            _STAGES[key] = stages
-            for old in list(_STAGES)[:-STAGES_KEPT]:
-                del _STAGES[old]
+            _STAGES.put(key, stages)
         say(f"generated {description.name!r} in {time.perf_counter() - t0:.1f} s")
     return directory, {names[b]: data.decode("utf-8") for b, data in found.items()}
 
