@@ -74,7 +74,7 @@ def test_shape_columns_round_trip_through_csv(ev):
 
 
 def test_settings_are_rows_with_equal_keys_whatever_a_shared_column_holds():
-    from eigentwist.diagnose.shapes import _groups
+    from eigentwist.diagnose.shapes import setting_rows as _groups
 
     rng = np.random.default_rng(8)
     keys = np.array([[0.0, 1.0, 5.0], [0.0, 2.0, 5.0], [-0.0, 1.0, 5.0], [0.0, 2.0 + 1e-14, 5.0]])
@@ -90,3 +90,59 @@ def test_settings_are_rows_with_equal_keys_whatever_a_shared_column_holds():
     keys = np.array([[2.0, 0.0], [1.0, 9.0], [2.0, 0.0], [1.0, 3.0], [np.nan, 0.0], [np.nan, 0.0]])
     assert [list(g) for g in _groups(keys)] == [[3], [1], [0, 2], [4], [5]]  # NaN: never equal
     assert [list(g) for g in _groups(np.ones((3, 2)))] == [[0, 1, 2]] and _groups(np.ones((0, 2))) == ()
+
+
+def _hungarian_total(S):
+    from scipy.optimize import linear_sum_assignment
+
+    r, c = linear_sum_assignment(-S)
+    return S[r, c].sum()
+
+
+def test_enumerated_assignment_is_the_best_total_and_ties_go_to_the_hungarian_method():
+    from eigentwist.diagnose.shapes import ENUMERATED, TIE, _best_assignments
+
+    rng = np.random.default_rng(11)
+    for k, n in [(1, 6), (2, 3), (3, 6), (3, 3)]:
+        S = rng.random((40, k, n))
+        cols, unique = _best_assignments(S)
+        assert unique.all()
+        for s, c in zip(S, cols):
+            assert len(set(c)) == k  # injective
+            assert s[np.arange(k), c].sum() == pytest.approx(_hungarian_total(s), abs=1e-14)
+    # two assignments apart by just over the tie margin: decided; just under: left to the Hungarian method
+    base = np.array([[[0.9, 0.5, 0.0], [0.5, 0.9, 0.0]]])  # diagonal 1.8 against swapped 1.0
+    for gap, decided in [(3 * TIE, True), (TIE / 3, False)]:
+        S = base.copy()
+        S[0, 0, 1] = S[0, 1, 0] = 0.9 + gap / 2  # swapped total 1.8 + gap
+        cols, unique = _best_assignments(S)
+        assert unique[0] == decided
+        if decided:
+            assert list(cols[0]) == [1, 0]
+    # more rows than modes, or too many assignments to enumerate: the Hungarian method
+    assert not _best_assignments(rng.random((2, 4, 3)))[1].any()
+    k, n = 5, 8  # 6720 assignments
+    assert np.prod(np.arange(n - k + 1, n + 1)) > ENUMERATED
+    assert not _best_assignments(rng.random((2, k, n)))[1].any()
+    assert not _best_assignments(np.full((1, 2, 3), np.nan))[1].any()
+
+
+def test_equal_parameter_sets_are_matched_alike(ev):
+    """Two parameter sets with the same values in one batched prediction are two settings:
+    each set's rows take their own modes (merged, the second set's rows would be pushed onto
+    modes the first set's rows had taken)."""
+    from eigentwist.diagnose.predict import Predictor
+
+    sensor = np.array([0.05, 0.02, -0.03])
+    pose = np.array([[0.06, -0.04, -0.6]])
+    m = ev.modes(pose, "paper", k_a=1000.0)
+    U = sensor_shapes(m.eigentwists, sensor)[0][:, :3].T
+    meas, _ = _measured(ev, ["x", "y", "z"], U / np.linalg.norm(U, axis=1)[:, None], sensor)
+    pred = Predictor(meas, ("paper", "payload_mass"), ev)
+    table = np.array([[0.2], [0.2], [0.3]])
+    freq = pred.predict_sets(["m_p"], table)
+    assert np.array_equal(freq[0], freq[1])
+    for row, value in zip(freq, table[:, 0]):
+        one, _ = pred.predict({"m_p": value})
+        assert np.allclose(row, one, rtol=1e-13)
+    assert np.all(np.diff(freq[0]) > 0)  # three distinct modes, in ascending order

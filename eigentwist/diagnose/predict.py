@@ -15,9 +15,9 @@ import numpy as np
 from ..runtime import InputError
 from ..runtime.memo import BoundedMemo, content_key
 from .matching import match_frequencies
-from .shapes import has_shape, match_by_shape
+from .shapes import has_shape, match_by_shape, setting_rows
 
-__all__ = ["evaluate", "Predictor", "EVAL_BLOCK", "distinct_rows", "take_rows"]
+__all__ = ["evaluate", "Predictor", "EVAL_BLOCK", "distinct_rows", "take_rows", "setting_keys", "setting_groups"]
 
 #: rows evaluated per call when no modes are returned and no row has a shape: the memory
 #: of a comparison stays that of one block (the model's matrices and modes of every row
@@ -39,6 +39,7 @@ def evaluate(
     joints=None,
     damped=None,
     unique=None,
+    groups=None,
 ):
     """Frequency (Hz) of the mode each row's label names.
 
@@ -61,6 +62,9 @@ def evaluate(
         (pose, per-row parameters, joints) and row i's model is row ``first[inverse[i]]``'s
         (:func:`distinct_rows`): the model is evaluated on rows ``first`` only (each row is
         evaluated on its own, so the numbers are those of every row evaluated).
+    groups : optional settings of the rows with a shape, for matching by shape (a tuple of
+        row-index arrays, :func:`setting_groups`); None: from the rows' poses, sensors and
+        parameters (:func:`setting_keys`).
 
     Returns
     -------
@@ -101,15 +105,10 @@ def evaluate(
     freq, idx = match_frequencies(modes, labels, strict=strict, lines=lines)
     if shapes is not None:
         n = len(idx)
-        keys = np.column_stack(
-            [
-                poses,
-                np.reshape(sensor, (n, -1)) if sensor is not None else np.zeros((n, 3)),
-                *(np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in params.values()),
-            ]
-        )
+        if groups is None:
+            groups = setting_groups(shapes, setting_keys(poses, sensor, list(params.values())))
         by_label = idx
-        idx = match_by_shape(modes, shapes, keys, idx, sensor)
+        idx = match_by_shape(modes, shapes, groups, idx, sensor)
         shaped = has_shape(shapes) | (idx != by_label)
         freq = np.where(shaped, modes.freq_hz[np.arange(n), idx], freq)
     if modes.damping is not None:
@@ -123,6 +122,28 @@ def evaluate(
             )
         )
     return (freq, idx, modes) if return_modes else (freq, idx)
+
+
+def setting_keys(poses, sensor, values) -> np.ndarray:
+    """(N, k) what defines each row's setting for matching by shape: its pose, its sensor
+    offsets (N, 3) m or shape projection (N, D, 6) (None: the end-effector origin) and
+    the parameter ``values`` (scalars or (N,) arrays, SI units)."""
+    poses = np.asarray(poses, dtype=float)
+    n = len(poses)
+    return np.column_stack(
+        [
+            poses,
+            np.reshape(sensor, (n, -1)) if sensor is not None else np.zeros((n, 3)),
+            *(np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in values),
+        ]
+    )
+
+
+def setting_groups(shapes, keys) -> tuple:
+    """The settings of the rows with a measured shape (:func:`.shapes.has_shape`): a
+    tuple of row-index arrays, rows whose ``keys`` agree to 12 decimals together."""
+    rows = np.flatnonzero(has_shape(shapes))
+    return tuple(rows[g] for g in setting_rows(np.asarray(keys, dtype=float)[rows]))
 
 
 def _modes(ev, effects, poses, params: dict, joints):
@@ -209,6 +230,7 @@ class Predictor:
         self.ev = ev
         self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in meas.params}
         self._distinct = _DISTINCT_UNSET
+        self._measured_shapes = None  # (shapes, projection) or () without shapes: _shapes
 
     def _unique(self, repeat: int = 1):
         """``(first, inverse)`` of the measured rows tiled ``repeat`` times (the model is
@@ -248,10 +270,30 @@ class Predictor:
         return None if joints is None else np.tile(joints, (repeat, 1, 1))
 
     def _shapes(self, repeat: int = 1):
-        shapes = getattr(self.meas, "shapes", None)
-        if shapes is None:
+        """The measured shapes and their projections (:mod:`.shapes`), tiled ``repeat``
+        times; {} without shape columns. Built once per predictor (every evaluation of a
+        fit asks for the same)."""
+        if self._measured_shapes is None:
+            shapes = getattr(self.meas, "shapes", None)
+            if shapes is None:
+                self._measured_shapes = ()
+            else:
+                projection = self.meas.shape_projection
+                per_row = [
+                    np.asarray(v, dtype=float) for v in self.meas.evaluation_params().values() if np.ndim(v) >= 1
+                ]
+                keys = setting_keys(self.meas.poses, projection, per_row)
+                self._measured_shapes = (shapes, projection, setting_groups(shapes, keys))
+        if not self._measured_shapes:
             return {}
-        return {"shapes": np.tile(shapes, (repeat, 1)), "sensor": np.tile(self.meas.shape_projection, (repeat, 1, 1))}
+        shapes, projection, groups = self._measured_shapes
+        n = len(self.meas)
+        return {
+            "shapes": np.tile(shapes, (repeat, 1)),
+            "sensor": np.tile(projection, (repeat, 1, 1)),
+            # each parameter set's settings on their own (two sets of equal values stay apart)
+            "groups": tuple(g + k * n for k in range(repeat) for g in groups),
+        }
 
     def predict(self, values: dict | None = None, strict: bool = True, return_modes: bool = False):
         """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar);

@@ -33,6 +33,8 @@ its MAC, and a row has a shape when at least two of its DOFs are measured.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ..runtime.memo import BoundedMemo, content_key
@@ -42,6 +44,7 @@ __all__ = [
     "sensor_shapes",
     "mac",
     "match_by_shape",
+    "setting_rows",
     "has_shape",
     "shape_residuals",
     "row_mac",
@@ -104,10 +107,10 @@ def mac(a, b) -> np.ndarray:
         return np.where((na > 0) & (nb > 0), cross / (na * nb), 0.0)
 
 
-_SETTINGS = BoundedMemo(64)  # content of the setting keys -> their rows (_groups)
+_SETTINGS = BoundedMemo(64)  # content of the setting keys -> their rows (setting_rows)
 
 
-def _groups(keys: np.ndarray) -> tuple:
+def setting_rows(keys: np.ndarray) -> tuple:
     """The rows of each setting from a (N, k) array of setting keys (rows with keys equal
     to 12 decimals share one): a tuple of index arrays, one per setting. Remembered per
     content of the keys (a fit asks for the same settings at every evaluation)."""
@@ -129,14 +132,16 @@ def _groups(keys: np.ndarray) -> tuple:
     return members
 
 
-def match_by_shape(modes, shapes, keys, fallback, sensor=None) -> np.ndarray:
+def match_by_shape(modes, shapes, groups, fallback, sensor=None) -> np.ndarray:
     """Model mode of each row with a measured shape, by MAC; ``fallback`` for the others.
 
     Parameters
     ----------
     modes : :class:`eigentwist.runtime.Modes` of N rows.
     shapes : (N, 3) measured shapes (NaN rows: none measured).
-    keys : (N, k) what defines a row's setting (pose, k_a, parameters, sensor).
+    groups : the settings (same pose, k_a, parameters, sensor) of the rows with a shape:
+        row-index arrays (:func:`eigentwist.diagnose.predict.setting_groups`); each
+        setting's rows take distinct modes.
     fallback : (N,) indices from the labels (used for rows without a shape).
     sensor : (N, 3) sensor offsets, m (None: the end-effector origin).
 
@@ -155,12 +160,59 @@ def match_by_shape(modes, shapes, keys, fallback, sensor=None) -> np.ndarray:
     score = mac(np.swapaxes(U, -1, -2), np.nan_to_num(shapes)[:, None, :])  # (N, n)
     seen = modes.direction >= 3  # x, y, z (AXES index)
     score = np.where(seen, score, score - 2.0)  # rotations only if nothing else fits
-    rows = np.flatnonzero(has)
-    for local in _groups(np.asarray(keys, dtype=float)[rows]):
-        members = rows[local]
-        r, c = linear_sum_assignment(-score[members])
-        idx[members[r]] = c
+    for size in sorted({len(g) for g in groups}):
+        members = np.stack([g for g in groups if len(g) == size])  # (G, size)
+        S = score[members]  # (G, size, n)
+        cols, unique = _best_assignments(S)
+        idx[members[unique]] = cols[unique]
+        for m in members[~unique]:  # a (near) tie, or too many rows to enumerate: the Hungarian method
+            r, c = linear_sum_assignment(-score[m])
+            idx[m[r]] = c
     return idx
+
+
+#: the most injective assignments of a setting's rows to the modes enumerated at once
+#: (6 modes: 3 rows give 120, 4 rows 360); larger settings go to the Hungarian method
+ENUMERATED = 400
+#: two assignments whose total scores (sums of MAC, each in [0, 1], or MAC - 2) differ by
+#: less than this are a tie, left to the Hungarian method: far above the sums' round-off
+#: (~1e-15), far below any difference a shape can measure
+TIE = 1e-9
+
+
+@lru_cache(maxsize=64)
+def _assignments(k: int, n: int) -> np.ndarray:
+    """(m, k) every injective assignment of k rows to n columns, in lexicographic order
+    (read-only)."""
+    from itertools import permutations
+
+    out = np.array(list(permutations(range(n), k)), dtype=int).reshape(-1, k)
+    out.setflags(write=False)
+    return out
+
+
+def _best_assignments(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For G equal-sized score matrices ``S`` (G, k, n): each one's column per row
+    maximising the total score over injective assignments (k <= n), found by enumeration,
+    and whether that maximum is unique (ahead of every other assignment by more than
+    :data:`TIE`): ``(cols (G, k) int, unique (G,) bool)``. Where it is not unique, or
+    the assignments are too many (:data:`ENUMERATED`) or the rows outnumber the columns,
+    ``unique`` is False and the caller solves that matrix by the Hungarian method."""
+    G, k, n = S.shape
+    cols = np.zeros((G, k), dtype=int)
+    count = np.prod(np.arange(n - k + 1, n + 1), dtype=float) if k <= n else np.inf
+    if count > ENUMERATED or G == 0:
+        return cols, np.zeros(G, dtype=bool)
+    P = _assignments(k, n)  # (m, k)
+    total = S[:, np.arange(k), P].sum(axis=-1)  # (G, m)
+    best = np.argmax(total, axis=1)
+    top = total[np.arange(G), best]
+    if len(P) > 1:
+        runner = np.partition(total, -2, axis=1)[:, -2]
+        unique = np.isfinite(top) & (top - runner > TIE)
+    else:
+        unique = np.isfinite(top)
+    return P[best], unique
 
 
 def shape_residuals(meas_shapes, modes, idx, sensor=None, sigma: float = SIGMA_SHAPE_RAD) -> np.ndarray:
