@@ -21,7 +21,7 @@ import numpy as np
 
 from ..description.pose import TWIST_AXIS
 
-__all__ = ["constraint_positions", "allowed_twists", "coordinate_twists", "reduce"]
+__all__ = ["constraint_positions", "allowed_twists", "coordinate_twists", "reduce", "DEPENDENT_RTOL", "VANISHING"]
 
 
 def constraint_positions(leg) -> list[int]:
@@ -71,19 +71,43 @@ def _orthonormal_rows(A: np.ndarray, rtol: float) -> list:
     return Q
 
 
-def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+#: a constraint row within this of the span of the rows before it (relative to its norm) is dependent
+DEPENDENT_RTOL = 1e-9
+#: a candidate whose projection is shorter than this (relative to its norm) cannot move: a NaN column
+VANISHING = 1e-8
+
+
+def allowed_twists(
+    rows: np.ndarray,
+    candidates: np.ndarray,
+    rtol: float = DEPENDENT_RTOL,
+    compiled: bool = False,
+    threads: int = 1,
+    picks=None,
+) -> np.ndarray:
     """(N, 6, n) orthonormal bases of the allowed twists.
 
-    rows : (N, c, 6) constraint rows ``j_c`` (any scale); c may be 0.
+    rows : (N, c, 6) constraint rows ``j_c`` (any scale); c may be 0. With ``picks``
+        (indices), the constraint rows are rows ``picks`` of each pose's ``rows`` (N, ..., 6).
     candidates : (6, n) or (N, 6, n) twists to project (the coordinates' unit twists).
+    compiled : compute them in C (:mod:`.c_allowed`, on ``threads`` threads) where its
+        driver builds; NumPy otherwise. The two agree to round-off.
 
     ``P e = e - sum_q q (q . e)`` over an orthonormal basis q of the rows' span (a
     dependent row, within ``rtol`` of the others', is dropped), then modified
-    Gram-Schmidt of the projections in order. A candidate whose projection vanishes (the
-    coordinate cannot move there) gives a NaN column. A candidate the rows already
+    Gram-Schmidt of the projections in order. A candidate whose projection vanishes
+    (shorter than :data:`VANISHING` of it: the coordinate cannot move there) gives a NaN
+    column, and so does every later candidate at that pose. A candidate the rows already
     annihilate exactly is kept exactly (``q . e = 0``).
     """
+    if compiled:
+        from . import c_allowed
+
+        if c_allowed.driver() is not None:
+            return c_allowed.allowed_twists(rows, candidates, rtol, VANISHING, picks, threads)
     A = np.asarray(rows, dtype=float)
+    if picks is not None:
+        A = A.reshape(len(A), -1, 6)[:, np.asarray(picks, dtype=int)]
     n = A.shape[0]
     E = np.broadcast_to(np.asarray(candidates, dtype=float), (n,) + np.shape(candidates)[-2:])
     Et = np.moveaxis(E, 0, -1)  # (6, m, N)
@@ -107,7 +131,7 @@ def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rtol: float = 1e-9)
             for i in range(6):
                 v[i] -= d * b[i]
         norm = np.sqrt(_dot(v, v))
-        ok = norm > 1e-8 * np.sqrt(_dot(Et[:, k], Et[:, k]))
+        ok = norm > VANISHING * np.sqrt(_dot(Et[:, k], Et[:, k]))
         inv = 1.0 / np.where(ok, norm, 1.0)
         col = [np.where(ok, c * inv, np.nan) for c in v]
         cols.append(col)

@@ -1270,9 +1270,10 @@ class Evaluator:
     def _basis(self, rows: np.ndarray) -> np.ndarray:
         """The allowed twists (N, 6, n) from the legs' inverse-Jacobian rows (N, legs, r, 6):
         the null space of their virtual joints' rows (:func:`.allowed.allowed_twists`)."""
-        picks = [(i, r) for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
-        A = np.stack([rows[:, i, r, :] for i, r in picks], axis=1) if picks else np.zeros((len(rows), 0, 6))
-        return allowed_twists(A, coordinate_twists(twist_order(self.pose_names)))
+        per_leg = rows.shape[2]
+        picks = [i * per_leg + r for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
+        candidates = coordinate_twists(twist_order(self.pose_names))
+        return allowed_twists(rows, candidates, compiled=self._fused, threads=self._nthreads(), picks=picks)
 
     @property
     def _c_rigid(self) -> bool:

@@ -1,0 +1,206 @@
+"""The allowed-twist bases of :mod:`.allowed` in C, for the C backend.
+
+:func:`allowed_twists` computes what :func:`eigentwist.runtime.allowed.allowed_twists`
+computes, in one C call over blocks of 64 poses (the pose index innermost: vector code): the
+constraint rows orthonormalised by Gram-Schmidt (twice per row; a row within ``rtol`` of
+the span so far is a zero vector at that pose), the candidates projected onto their null
+space, then orthonormalised in order (a candidate whose projection vanishes gives a NaN
+column, and so does every later one at that pose). The arithmetic is NumPy's, in the same
+order; the compiler may fuse a multiply and an add, so the two agree to round-off, not bit
+for bit (``tests/test_c_allowed.py``).
+
+The driver is plain C99, compiled once into the cache (:mod:`.ccompile`); where it cannot
+be built, :func:`driver` is None and the evaluator keeps the NumPy basis.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+__all__ = ["driver", "allowed_twists", "SOURCE", "BLOCK"]
+
+SOURCE = r"""
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#define B 64
+#define FOR_L for (int l = 0; l < B; ++l)
+
+/* d[l] = a[l] . b[l] over the six components of twists held as 6 x B arrays */
+static void et_dot(const double *a, const double *b, double *d)
+{
+    FOR_L d[l] = a[l] * b[l];
+    for (int i = 1; i < 6; ++i)
+        FOR_L d[l] += a[i * B + l] * b[i * B + l];
+}
+
+/* For poses [0, n), B at a time (the pose innermost: vector code): the constraint rows of
+   pose p are rows[p * stride + 6 * pick[k] + i], k < c; cand (6, m), or (n, 6, m) when
+   cand_per_pose; out (n, 6, m) the orthonormal bases of the allowed twists. A row within
+   rtol of the span of the rows before it is a zero vector at that pose (a row dependent at
+   every pose of the block is left out); a candidate whose projection's norm is not above
+   tol_col times its own gives a NaN column, and so does every later one at that pose.
+   Returns 0, or 1 when out of memory. */
+int et_allowed_twists(int64_t n, const double *rows, int64_t stride, int c, const int *pick, int m,
+                      const double *cand, int cand_per_pose, double rtol, double tol_col, double *out)
+{
+    double *Q = malloc(sizeof(double) * (size_t)(c + m + 2) * 6 * B);
+    double *a = malloc(sizeof(double) * (size_t)(c > 0 ? c : 1) * 6 * B);
+    if (!Q || !a) {
+        free(Q); free(a);
+        return 1;
+    }
+    double *cols = Q + (size_t)c * 6 * B, *v = cols + (size_t)m * 6 * B, *e = v + 6 * B;
+    double d[B], norm[B], ref[B];
+    for (int64_t b0 = 0; b0 < n; b0 += B) {
+        int nb = n - b0 < B ? (int)(n - b0) : B;
+        for (int k = 0; k < c; ++k)
+            for (int i = 0; i < 6; ++i)
+                FOR_L a[(k * 6 + i) * B + l] = l < nb ? rows[(b0 + l) * stride + 6 * pick[k] + i] : 0.0;
+        int nq = 0;
+        for (int k = 0; k < c; ++k) {
+            const double *ak = a + k * 6 * B;
+            for (int i = 0; i < 6 * B; ++i)
+                v[i] = ak[i];
+            for (int pass = 0; pass < 2; ++pass)
+                for (int j = 0; j < nq; ++j) {
+                    const double *q = Q + j * 6 * B;
+                    et_dot(q, v, d);
+                    for (int i = 0; i < 6; ++i)
+                        FOR_L v[i * B + l] -= d[l] * q[i * B + l];
+                }
+            et_dot(v, v, norm);
+            et_dot(ak, ak, ref);
+            int any = 0;
+            FOR_L {
+                norm[l] = sqrt(norm[l]);
+                ref[l] = norm[l] > rtol * sqrt(ref[l]);
+                any |= l < nb && ref[l] != 0.0;
+            }
+            if (!any)
+                continue;
+            double *q = Q + nq * 6 * B;
+            FOR_L d[l] = ref[l] != 0.0 ? 1.0 / norm[l] : 0.0;
+            for (int i = 0; i < 6; ++i)
+                FOR_L q[i * B + l] = ref[l] != 0.0 ? v[i * B + l] * d[l] : 0.0;
+            ++nq;
+        }
+        for (int k = 0; k < m; ++k) {
+            for (int i = 0; i < 6; ++i)
+                FOR_L e[i * B + l] = !cand_per_pose ? cand[i * m + k]
+                                     : l < nb ? cand[((b0 + l) * 6 + i) * m + k] : 0.0;
+            for (int i = 0; i < 6 * B; ++i)
+                v[i] = e[i];
+            for (int j = 0; j < nq; ++j) {
+                const double *q = Q + j * 6 * B;
+                et_dot(q, e, d);
+                for (int i = 0; i < 6; ++i)
+                    FOR_L v[i * B + l] -= q[i * B + l] * d[l];
+            }
+            for (int j = 0; j < k; ++j) {
+                const double *q = cols + j * 6 * B;
+                et_dot(q, v, d);
+                for (int i = 0; i < 6; ++i)
+                    FOR_L v[i * B + l] -= d[l] * q[i * B + l];
+            }
+            et_dot(v, v, norm);
+            et_dot(e, e, ref);
+            double *col = cols + k * 6 * B;
+            FOR_L {
+                norm[l] = sqrt(norm[l]);
+                int ok = norm[l] > tol_col * sqrt(ref[l]);
+                d[l] = 1.0 / (ok ? norm[l] : 1.0);
+                ref[l] = ok;
+            }
+            for (int i = 0; i < 6; ++i)
+                FOR_L col[i * B + l] = ref[l] != 0.0 ? v[i * B + l] * d[l] : NAN;
+            for (int i = 0; i < 6; ++i)
+                for (int l = 0; l < nb; ++l)
+                    out[((b0 + l) * 6 + i) * m + k] = col[i * B + l];
+        }
+    }
+    free(Q); free(a);
+    return 0;
+}
+"""
+
+BLOCK = 64  # poses per block (B in the source): ranges split over threads on its multiples
+_DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
+_LIBRARIES: list = []  # the loaded driver library, kept for the process
+
+
+def driver():
+    """The compiled driver ``et_allowed_twists`` (built on first use into the cache), or
+    None where it cannot be built (no compiler)."""
+    if not _DRIVER:
+        from .ccompile import load_library
+
+        lib = load_library(SOURCE, "allowed")
+        fn = None
+        if lib is not None:
+            _LIBRARIES.append(lib)
+            fn = lib.et_allowed_twists
+            fn.argtypes = [
+                ctypes.c_int64,
+                ctypes.c_void_p,
+                ctypes.c_int64,
+                ctypes.c_int,
+                ctypes.c_void_p,
+                ctypes.c_int,
+                ctypes.c_void_p,
+                ctypes.c_int,
+                ctypes.c_double,
+                ctypes.c_double,
+                ctypes.c_void_p,
+            ]
+            fn.restype = ctypes.c_int
+        _DRIVER.append(fn)
+    return _DRIVER[0]
+
+
+def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rtol: float, tol_col: float, picks=None, threads: int = 1):
+    """(N, 6, m) orthonormal bases of the allowed twists ``[omega; v]``, computed in C:
+    :func:`eigentwist.runtime.allowed.allowed_twists`'s rule (``rows`` (N, c, 6) constraint
+    rows, ``candidates`` (6, m) or (N, 6, m), ``rtol`` for dependent rows, ``tol_col`` for a
+    vanishing projection). With ``picks`` (indices), the constraint rows are rows ``picks``
+    of each pose's ``rows`` (N, ..., 6) read in place (a leg's inverse-Jacobian rows, its
+    virtual joints picked). ``threads`` > 1 splits the poses over that many threads, on
+    block boundaries (the results do not depend on it). Raises RuntimeError where the driver
+    cannot be built or runs out of memory."""
+    from .threads import run_ranges, threads_for
+
+    fn = driver()
+    if fn is None:
+        raise RuntimeError("the C allowed-twist driver could not be built (no compiler)")
+    n = len(rows)
+    A = np.ascontiguousarray(rows, dtype=np.float64).reshape(n, -1)
+    stride = A.shape[1]
+    picks = np.arange(stride // 6) if picks is None else np.asarray(picks)
+    pick = (ctypes.c_int * max(len(picks), 1))(*(int(k) for k in picks))
+    E = np.ascontiguousarray(candidates, dtype=np.float64)
+    per_pose = E.ndim == 3
+    m = E.shape[-1]
+    out = np.empty((n, 6, m))
+
+    def call(a: int, b: int) -> int:
+        return fn(
+            b - a,
+            A.ctypes.data + 8 * a * stride,
+            stride,
+            len(picks),
+            pick,
+            m,
+            E.ctypes.data + (8 * a * 6 * m if per_pose else 0),
+            int(per_pose),
+            float(rtol),
+            float(tol_col),
+            out.ctypes.data + 8 * a * 6 * m,
+        )
+
+    for rc in run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads)):
+        if rc != 0:
+            raise RuntimeError("the C allowed-twist driver ran out of memory")
+    return out

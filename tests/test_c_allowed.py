@@ -1,0 +1,107 @@
+"""The allowed-twist bases in C (:mod:`eigentwist.runtime.c_allowed`) against NumPy's
+(:func:`eigentwist.runtime.allowed.allowed_twists`), and against the rule itself: every
+column orthonormal and annihilated by every constraint row."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from eigentwist.runtime import c_allowed
+from eigentwist.runtime.allowed import VANISHING, allowed_twists, coordinate_twists
+from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+from .conftest import skip_tier
+
+pytestmark = pytest.mark.compiled
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _driver():
+    if c_allowed.driver() is None:
+        skip_tier("compiled", "the C allowed-twist driver cannot be built here (no C compiler)")
+
+
+def _rows(rng, n, c, dependent=()):
+    """(n, c, 6) random constraint rows; row k of ``dependent`` (k, (i, j)) is row i + 2 row j."""
+    A = rng.standard_normal((n, c, 6))
+    for k, (i, j) in dependent:
+        A[:, k] = A[:, i] + 2.0 * A[:, j]
+    return A
+
+
+def _both(A, E, **kw):
+    return allowed_twists(A, E, compiled=True, **kw), allowed_twists(A, E, compiled=False, **kw)
+
+
+@pytest.mark.parametrize("n", [1, 63, 64, 65, 150])
+def test_c_basis_equals_numpy_and_the_rule(n):
+    rng = np.random.default_rng(n)
+    A = _rows(rng, n, 4, dependent=[(3, (0, 1))])  # three independent constraints
+    E = coordinate_twists(["x", "y", "z", "rot_z"])[:, :3]
+    c, py = _both(A, E)
+    # round-off grows as the projected candidates near dependence: 1 / their least singular
+    # value (the null space's basis from an SVD written here)
+    _, _, Vt = np.linalg.svd(A)
+    least = np.linalg.svd(Vt[:, 3:] @ E, compute_uv=False)[:, -1]
+    assert (np.abs(c - py).max(axis=(1, 2)) <= 1e-14 / least).all()
+    # the rule: orthonormal columns that every constraint row annihilates
+    # (Gram-Schmidt loses orthogonality in proportion to that conditioning)
+    assert (np.abs(np.swapaxes(c, 1, 2) @ c - np.eye(3)).max(axis=(1, 2)) <= 1e-14 / least).all()
+    assert np.abs(A @ c).max() < 1e-12 * np.abs(A).max()
+
+
+def test_no_rows_per_pose_candidates_and_picks():
+    rng = np.random.default_rng(7)
+    n = 70
+    E = rng.standard_normal((n, 6, 2))
+    c, py = _both(np.zeros((n, 0, 6)), E)
+    assert np.allclose(c, py, atol=1e-14)
+    assert np.allclose(c[:, :, 0] * np.linalg.norm(E[:, :, 0], axis=1)[:, None], E[:, :, 0], atol=1e-13)
+    # rows picked in place from a leg-shaped array (n, legs, rows, 6): the same as stacking them
+    J = rng.standard_normal((n, 3, 4, 6))
+    picks = [1, 5, 11]
+    stacked = J.reshape(n, 12, 6)[:, picks]
+    got = allowed_twists(J, E, compiled=True, picks=picks)
+    assert np.allclose(got, allowed_twists(stacked, E), atol=1e-13)
+    assert np.allclose(allowed_twists(J, E, picks=picks), allowed_twists(stacked, E), atol=0)
+
+
+def test_a_row_dependent_at_some_poses_only_and_at_every_pose():
+    rng = np.random.default_rng(3)
+    n = 100
+    A = _rows(rng, n, 3)
+    A[::3, 2] = A[::3, 0] - A[::3, 1]  # dependent at every third pose only
+    E = coordinate_twists(["x", "y", "z"])
+    c, py = _both(A, E)
+    assert np.allclose(c, py, atol=1e-13)
+    # a row dependent at every pose adds nothing: the same bases without it
+    A[:, 2] = 3.0 * A[:, 0]
+    assert np.allclose(allowed_twists(A, E, compiled=True), allowed_twists(A[:, :2], E, compiled=True), atol=1e-14)
+
+
+def test_a_vanishing_projection_is_nan_from_that_column_on():
+    """A coordinate the rows fix (its unit twist in their span) gives a NaN column, and so do
+    the later columns at that pose; just above the threshold the column is kept."""
+    n = 64
+    E = coordinate_twists(["x", "y", "z"])
+    A = np.zeros((n, 1, 6))
+    A[:, 0, 3] = 1.0  # v_x fixed: x cannot move
+    A[1, 0, 3:5] = [1.0, 0.5 * VANISHING]  # projection of x: ~0.5 VANISHING, below
+    A[2, 0, 3:5] = [1.0, 2.0 * VANISHING]  # ~2 VANISHING: above
+    c, py = _both(A, E)
+    assert np.array_equal(np.isnan(c), np.isnan(py))
+    assert np.isnan(c[0]).all() and np.isnan(c[1]).all()
+    assert not np.isnan(c[2][:, 0]).any()  # x kept (nearly v_y: y's projection then vanishes)
+    A[3, 0] = np.nan  # a pose whose rows are not finite: NaN, as NumPy
+    c, py = _both(A, E)
+    assert np.array_equal(np.isnan(c), np.isnan(py))
+
+
+def test_threads_split_on_blocks_give_the_same_bits():
+    rng = np.random.default_rng(5)
+    n = 2 * MIN_BLOCKS_PER_THREAD * c_allowed.BLOCK + 17
+    A = _rows(rng, n, 3)
+    E = coordinate_twists(["x", "y", "rot_z"])
+    one = allowed_twists(A, E, compiled=True, threads=1)
+    assert np.array_equal(allowed_twists(A, E, compiled=True, threads=2), one)
