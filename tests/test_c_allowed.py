@@ -105,3 +105,10 @@ def test_threads_split_on_blocks_give_the_same_bits():
     E = coordinate_twists(["x", "y", "rot_z"])
     one = allowed_twists(A, E, compiled=True, threads=1)
     assert np.array_equal(allowed_twists(A, E, compiled=True, threads=2), one)
+
+
+def test_declared_argument_types_are_the_c_declaration():
+    from .c_signatures import check
+
+    fn = c_allowed.driver()
+    check(c_allowed.SOURCE, "et_allowed_twists", fn.argtypes, fn.restype)
