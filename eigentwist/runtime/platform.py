@@ -20,7 +20,7 @@ from .poses import rotation_entries
 
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 
-__all__ = ["full_poses", "follow", "follow_legs", "left_jacobian", "TOL_M", "MAX_STEPS"]
+__all__ = ["full_poses", "follow", "follow_legs", "left_jacobian", "along_followers", "TOL_M", "MAX_STEPS"]
 
 TOL_M = 1e-12  # a closure below this (m) counts as met
 MAX_STEPS = 40  # Newton steps per attempt
@@ -33,11 +33,7 @@ def left_jacobian(rotvec: np.ndarray) -> np.ndarray:
     r = np.asarray(rotvec, dtype=float)
     x, y, z = r[..., 0], r[..., 1], r[..., 2]
     xx, yy, zz = x * x, y * y, z * z
-    t2 = xx + yy + zz
-    small = t2 < 1e-10
-    t = np.sqrt(np.where(small, 1.0, t2))
-    a = np.where(small, 0.5 - t2 / 24, (1 - np.cos(t)) / t**2)
-    b = np.where(small, 1 / 6 - t2 / 120, (t - np.sin(t)) / t**3)
+    a, b, _ = _left_jacobian_factors(r)
     ax, ay, az = a * x, a * y, a * z
     bxy, bxz, byz = b * (x * y), b * (x * z), b * (y * z)
     # I + a [r]x + b [r]x^2, entry by entry ([r]x^2 = r r^T - |r|^2 I)
@@ -55,6 +51,44 @@ def left_jacobian(rotvec: np.ndarray) -> np.ndarray:
         ],
         axis=-1,
     ).reshape(r.shape[:-1] + (3, 3))
+
+
+def _left_jacobian_factors(rotvec: np.ndarray):
+    """``(a, b, t^2)`` (...) of ``J_l = I + a [phi]x + b [phi]x^2`` at rotation vectors
+    (..., 3) rad, with the series below t^2 = 1e-10 (:func:`left_jacobian`)."""
+    x, y, z = rotvec[..., 0], rotvec[..., 1], rotvec[..., 2]
+    t2 = x * x + y * y + z * z
+    small = t2 < 1e-10
+    t = np.sqrt(np.where(small, 1.0, t2))
+    a = np.where(small, 0.5 - t2 / 24, (1 - np.cos(t)) / t**2)
+    b = np.where(small, 1 / 6 - t2 / 120, (t - np.sin(t)) / t**3)
+    return a, b, t2
+
+
+def along_followers(rate: np.ndarray, full: np.ndarray, followers: list) -> np.ndarray:
+    """``rate @ T``: rates (N, ..., 6) along the platform's unit twists ``[omega; v]``
+    turned into rates (N, ..., followers) along each follower at the full poses ``full``
+    (N, 6): a position follower's is the rate along its translation; a rotation-vector
+    follower's, along the left Jacobian's column (``J_l e_c = e_c + a phi x e_c + b (phi
+    phi_c - t^2 e_c)``, :func:`left_jacobian`). Only the followers' columns are formed."""
+    out = np.empty(rate.shape[:-1] + (len(followers),))
+    rot = [k - 3 for k in followers if k >= 3]
+    if rot:
+        phi = full[:, 3:6]
+        a, b, t2 = _left_jacobian_factors(phi)
+        shape = (len(full),) + (1,) * (rate.ndim - 2)
+    for c, k in enumerate(followers):
+        if k < 3:
+            out[..., c] = rate[..., 3 + k]
+            continue
+        e = k - 3
+        # column e of J_l: e_e + a (phi x e_e) + b (phi phi_e - t^2 e_e)
+        col = [b * phi[:, i] * phi[:, e] for i in range(3)]
+        col[e] = col[e] + 1.0 - b * t2
+        col[(e + 1) % 3] = col[(e + 1) % 3] + a * phi[:, (e + 2) % 3]
+        col[(e + 2) % 3] = col[(e + 2) % 3] - a * phi[:, (e + 1) % 3]
+        out[..., c] = sum(rate[..., i] * col[i].reshape(shape) for i in range(3))
+    return out
 
 
 def _kernel_inputs(full: np.ndarray, p: dict) -> dict:
@@ -79,23 +113,9 @@ def _follower_closure(closure, followers: list):
             out = closure(full[:, 0], full[:, 1], full[:, 2], _kernel_inputs(full, p))
         r = out["closure"].reshape(n, -1)
         rate = out["closure_rate"].reshape(n, -1, 6)
-        return {"residual": r[:, None, :], "dresidual": (rate @ _follower_twists(full, followers))[:, None]}
+        return {"residual": r[:, None, :], "dresidual": along_followers(rate, full, followers)[:, None]}
 
     return evaluate
-
-
-def _follower_twists(full: np.ndarray, followers: list) -> np.ndarray:
-    """(n, 6, followers): the platform twist ``[omega; v]`` per unit rate of each follower
-    at the full poses ``full`` (a position follower: a translation; a rotation-vector
-    follower: the left Jacobian's column)."""
-    T = np.zeros((len(full), 6, len(followers)))
-    Jl = left_jacobian(full[:, 3:6])
-    for c, k in enumerate(followers):
-        if k < 3:
-            T[:, 3 + k, c] = 1.0
-        else:
-            T[:, :3, c] = Jl[:, :, k - 3]
-    return T
 
 
 def _legs_closure(kernel, followers: list, shape: tuple):
@@ -118,9 +138,9 @@ def _legs_closure(kernel, followers: list, shape: tuple):
         r = out["residual"].reshape(n, legs, -1)
         rows = r.shape[-1]
         J = np.zeros((n, legs * rows, nf + legs * nq))
-        J[:, :, :nf] = (
-            out["dresidual_pose"].reshape(n, legs, rows, 6) @ _follower_twists(full, followers)[:, None]
-        ).reshape(n, legs * rows, nf)
+        J[:, :, :nf] = (along_followers(out["dresidual_pose"].reshape(n, legs, rows, 6), full, followers)).reshape(
+            n, legs * rows, nf
+        )
         A = out["dresidual"].reshape(n, legs, rows, nq)
         for i in range(legs):
             J[:, i * rows : (i + 1) * rows, nf + i * nq : nf + (i + 1) * nq] = A[:, i]

@@ -1,0 +1,47 @@
+"""The followers' rates: the SO(3) left Jacobian against differences of rotations, and the
+rates along the followers against the full twist Jacobian written out here."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from eigentwist.runtime.platform import along_followers, left_jacobian
+
+
+def _omega_by_differences(phi, d, h=1e-6):
+    """Angular velocity (base axes) of R(phi + s d) at s = 0: the axial vector of
+    dR/ds R^T by central differences (SciPy's rotation vectors, not eigentwist's)."""
+    Rp = Rotation.from_rotvec(phi + h * d).as_matrix()
+    Rm = Rotation.from_rotvec(phi - h * d).as_matrix()
+    W = (Rp - Rm) / (2 * h) @ Rotation.from_rotvec(phi).as_matrix().T
+    return np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]]) / 2
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.3, 2e-5, 0.5e-5, 1e-9])  # t^2 around the series' 1e-10
+def test_left_jacobian_maps_rotation_vector_rates_to_angular_velocity(scale):
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        phi = scale * rng.standard_normal(3)
+        d = rng.standard_normal(3)
+        assert np.allclose(left_jacobian(phi) @ d, _omega_by_differences(phi, d), rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("followers", [[0, 1, 5], [3, 4, 5], [2], [4, 0]])
+def test_rates_along_followers_are_the_rates_along_their_twists(followers):
+    rng = np.random.default_rng(len(followers))
+    n = 40
+    full = rng.standard_normal((n, 6))
+    full[::4, 3:] *= 1e-6  # small rotations: the series
+    full[1::4, 3:] = 0.0
+    rate = rng.standard_normal((n, 2, 3, 6))  # (poses, legs, rows, twist)
+    T = np.zeros((n, 6, len(followers)))  # the twist [omega; v] per unit rate of each follower
+    for c, k in enumerate(followers):
+        if k < 3:
+            T[:, 3 + k, c] = 1.0
+        else:
+            T[:, :3, c] = left_jacobian(full[:, 3:])[:, :, k - 3]
+    want = rate @ T[:, None]
+    assert np.allclose(along_followers(rate, full, followers), want, rtol=0, atol=1e-14)
+    assert np.allclose(along_followers(rate[:, 0], full, followers), want[:, 0], rtol=0, atol=1e-14)
