@@ -68,27 +68,27 @@ def _left_jacobian_factors(rotvec: np.ndarray):
 def along_followers(rate: np.ndarray, full: np.ndarray, followers: list) -> np.ndarray:
     """``rate @ T``: rates (N, ..., 6) along the platform's unit twists ``[omega; v]``
     turned into rates (N, ..., followers) along each follower at the full poses ``full``
-    (N, 6): a position follower's is the rate along its translation; a rotation-vector
-    follower's, along the left Jacobian's column (``J_l e_c = e_c + a phi x e_c + b (phi
-    phi_c - t^2 e_c)``, :func:`left_jacobian`). Only the followers' columns are formed."""
-    out = np.empty(rate.shape[:-1] + (len(followers),))
-    rot = [k - 3 for k in followers if k >= 3]
-    if rot:
+    (N, 6). Column c of ``T`` (N, 6, followers) is the twist per unit rate of follower c: a
+    position follower's translation; a rotation-vector follower's left-Jacobian column
+    ``J_l e_e = e_e + a phi x e_e + b (phi phi_e - t^2 e_e)`` (:func:`left_jacobian`; only
+    the followers' columns are formed)."""
+    n = len(full)
+    T = np.zeros((n, 6, len(followers)))
+    if any(k >= 3 for k in followers):
         phi = full[:, 3:6]
         a, b, t2 = _left_jacobian_factors(phi)
-        shape = (len(full),) + (1,) * (rate.ndim - 2)
     for c, k in enumerate(followers):
         if k < 3:
-            out[..., c] = rate[..., 3 + k]
+            T[:, 3 + k, c] = 1.0
             continue
         e = k - 3
-        # column e of J_l: e_e + a (phi x e_e) + b (phi phi_e - t^2 e_e)
-        col = [b * phi[:, i] * phi[:, e] for i in range(3)]
-        col[e] = col[e] + 1.0 - b * t2
-        col[(e + 1) % 3] = col[(e + 1) % 3] + a * phi[:, (e + 2) % 3]
-        col[(e + 2) % 3] = col[(e + 2) % 3] - a * phi[:, (e + 1) % 3]
-        out[..., c] = sum(rate[..., i] * col[i].reshape(shape) for i in range(3))
-    return out
+        bp = b * phi[:, e]
+        for i in range(3):
+            T[:, i, c] = bp * phi[:, i]
+        T[:, e, c] += 1.0 - b * t2
+        T[:, (e + 1) % 3, c] += a * phi[:, (e + 2) % 3]
+        T[:, (e + 2) % 3, c] -= a * phi[:, (e + 1) % 3]
+    return rate @ T.reshape((n,) + (1,) * (rate.ndim - 3) + T.shape[1:])
 
 
 def _kernel_inputs(full: np.ndarray, p: dict) -> dict:
