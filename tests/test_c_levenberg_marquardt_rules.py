@@ -148,3 +148,12 @@ def test_driver_declares_the_c_signature_and_is_built_once(monkeypatch):
 
 def test_the_block_is_the_sources():
     assert f"#define B {clm.BLOCK}\n" in clm.SOURCE
+
+
+def test_followers_driver_declares_its_c_signature():
+    from .conftest import skip_tier
+
+    fn = clm.followers_driver()
+    if fn is None:
+        skip_tier("compiled", "no C compiler: the driver is not built")
+    check(clm.SOURCE, "et_followers_lm", fn.argtypes, fn.restype)

@@ -543,3 +543,34 @@ def test_joint_sensitivities_need_a_loop_closure():
 
     with pytest.raises(InputError, match="closed-form inverse kinematics"):
         eigentwist.load("delta", backend="numpy").joint_sensitivities([0.0, 0.0, -0.8], ["l1"])
+
+
+@pytest.mark.compiled
+def test_followers_solved_in_c_equal_numpy(gallery, monkeypatch):
+    """The 3-PRS's followers (x, y, rot_z) iterated by the C driver on the compiled followers
+    kernel equal the NumPy iterations: at the home pose (zero rotation: the series of
+    Rodrigues and of the left Jacobian), near it and over the workspace, on one thread and
+    on two (ranges of whole blocks: the same bits)."""
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    ev = gallery["prs3"]
+    evc = eigentwist.load(str(GALLERY / "prs3.py"), backend="c", threads=1, progress=None)
+    assert "followers" in evc._kernels.OUTPUTS
+    x = _poses(ev, 2 * MIN_BLOCKS_PER_THREAD * 64 + 40, seed=4)
+    x[:3] = ev.robot.x_ref
+    x[1, 1:] += 1e-7  # rotations near zero
+    x[2, 1:] += 3e-6
+    want = ev.completed_poses(x)
+    got = evc.completed_poses(x)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    two = eigentwist.load(str(GALLERY / "prs3.py"), backend="c", threads=2, progress=None)
+    assert np.array_equal(two.completed_poses(x), got)
+    evc.c_newton = False  # the NumPy iterations around the same evaluator: the same poses
+    np.testing.assert_allclose(evc.completed_poses(x[:50]), want[:50], rtol=0, atol=1e-12)
+    evc.c_newton = True  # a follower that does not converge: unreachable, named, in C too
+    from eigentwist.runtime import platform
+
+    monkeypatch.setattr(platform, "MAX_STEPS", 1)
+    with pytest.raises(UnreachablePoseError) as err:
+        evc.frequencies(np.array([[0.60, 0.1, -0.1]]), "rigid")
+    assert "rot_x = 0.1" in str(err.value) and "did not converge" in str(err.value)

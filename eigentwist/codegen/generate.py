@@ -129,7 +129,7 @@ def kernels_for(model, progress=None) -> list[Kernel]:
         kernels.append(
             build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints, program_params, nq)
         )
-    if getattr(model, "followers", None) is not None:  # NumPy only: the runtime's Newton steps
+    if getattr(model, "followers", None) is not None:  # the runtime's Newton steps
         prog, closure = model.followers
         outs = [Output(k, sh, ex) for k, (sh, ex) in closure.items()]
         if model.closure is not None:  # legs solved numerically: their loop closures, read at (q, p)
@@ -143,6 +143,14 @@ def kernels_for(model, progress=None) -> list[Kernel]:
                 build_kernel("followers", KERNEL_DOCS["followers"], prog, outs, position, [], params + rotation)
             )
     return kernels
+
+
+def _compiled(kernel: Kernel) -> bool:
+    """Whether the C backend compiles ``kernel``: all but the followers kernel of legs
+    solved numerically (its Newton steps, on every leg's coordinates at once, run in NumPy);
+    the followers kernel of closed-form legs is iterated by the C driver
+    (:mod:`eigentwist.runtime.c_levenberg_marquardt`)."""
+    return kernel.name != "followers" or not any(names for group, names in kernel.inputs if group == "q")
 
 
 def fused_kernels_for(model) -> list[Kernel]:
@@ -226,9 +234,7 @@ def render_robot(
             if say:
                 say("CSE matrices_lever")
             stages["fused"] = fused_kernels_for(model)
-        ks = (
-            [k for k in kernels if k.name != "followers"] + stages["fused"] if backend in ("c", "c_header") else kernels
-        )
+        ks = [k for k in kernels if _compiled(k)] + stages["fused"] if backend in ("c", "c_header") else kernels
         if say:
             say(f"emit {pattern.format(robot=name)}")
         digest = source_hash(ks, _template_text(TEMPLATE_DIR.get(backend, backend)))

@@ -166,11 +166,11 @@ def load_c_kernels(robot: str, numpy_module=None, source: str | None = None) -> 
     lib, sig, build = compile_and_load(robot, source)
     kernels = CKernels(lib, sig, build)
     if numpy_module is not None:
-        # the followers kernel of a lower-mobility pose space is NumPy's alone
+        # the followers kernel of legs solved numerically is NumPy's alone
         want = {
             k: {o: tuple(s) for o, s in v.items()}
             for k, v in getattr(numpy_module, "OUTPUTS", {}).items()
-            if k != "followers"
+            if k != "followers" or k in kernels.OUTPUTS
         }
         if want and want != kernels.OUTPUTS:
             raise RuntimeError(
@@ -430,6 +430,52 @@ class CKernels:
             q_of,
             addresses,
             strides,
+            np.asarray(q, dtype=np.float64),
+            rows,
+            iterations,
+            tol,
+            threads,
+        )
+
+    def follow(self, q, p: dict, followers: list, iterations: int, tol: float, threads: int = 1):
+        """``(q, |r|)``: the damped Newton iterations of :mod:`.levenberg_marquardt` on a
+        platform's followers (``followers``: indices into x, y, z, rot_x, rot_y, rot_z), run in
+        C on this library's ``followers`` kernel (:func:`.c_levenberg_marquardt.follow`);
+        ``q`` (n, 1, followers) their starting values, ``p`` the kernel's parameters ((n,)
+        arrays or scalars) and ``p["_full"]`` the commanded full poses (n, 6). None where the
+        library has no such kernel (legs solved numerically) or the C driver cannot be built."""
+        from . import c_levenberg_marquardt
+
+        spec = self._spec.get("followers")
+        if spec is None or any(g == "q" for g, _, _ in spec["inputs"]):
+            return None
+        shapes = dict((o, tuple(s)) for o, s in spec["outputs"])
+        if [o for o, _ in spec["outputs"]] != ["closure", "closure_rate"]:
+            raise RuntimeError(
+                f"the followers kernel of {self.ROBOT!r} has outputs {list(shapes)}: run `eigentwist generate`"
+            )
+        if c_levenberg_marquardt.followers_driver() is None:
+            return None
+        n = len(q)
+        keep: list = []
+        pose_role = {"x": 0, "y": 1, "z": 2}
+        rotation = {f"R_{i}{j}": 3 + 3 * i + j for i in range(3) for j in range(3)}
+        roles = [pose_role.get(name, rotation.get(name, -1)) for _, name, _ in spec["inputs"]]
+        external = [name for (_, name, _), r in zip(spec["inputs"], roles) if r < 0]
+        found = iter(zip(*_inputs((p[name] for name in external), (n,), keep))) if external else iter(())
+        addresses, strides = [], []
+        for r in roles:
+            a, st = next(found) if r < 0 else (0, 0)
+            addresses.append(a)
+            strides.append(st)
+        rows = int(np.prod(shapes["closure"], dtype=np.int64))
+        return c_levenberg_marquardt.follow(
+            ctypes.cast(self._fn["followers"], ctypes.c_void_p).value,
+            roles,
+            addresses,
+            strides,
+            list(followers),
+            p["_full"],
             np.asarray(q, dtype=np.float64),
             rows,
             iterations,

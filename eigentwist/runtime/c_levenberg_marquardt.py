@@ -22,7 +22,7 @@ import numpy as np
 
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
-__all__ = ["driver", "iterate", "SOURCE"]
+__all__ = ["driver", "iterate", "followers_driver", "follow", "SOURCE"]
 
 SOURCE = r"""
 #include <math.h>
@@ -171,132 +171,337 @@ static void et_point(int n_in, const int *q_of, const double *const *in, const i
     }
 }
 
+/* The residual rs (legs * rows of B) and Jacobian As (legs * rows * nq of B) of the m poses
+   of the block at b0 with coordinates qs (SoA); returns the kernel's code. */
+typedef int (*et_eval)(void *ctx, int m, int64_t b0, const double *qs, double *rs, double *As);
+
+/* The work buffers of one block's iterations */
+typedef struct {
+    double *qt, *rts, *Ats, *lam, *nn, *x, *w;
+    int *act;
+} et_work;
+
+/* The iterations of one block: qs (legs * nq rows of B) the starting coordinates, on return
+   the iterated ones; nrm (legs rows of B) their |r|; rs, As hold the residual and Jacobian at qs. */
+static int et_lm_block(et_eval eval, void *ctx, int m, int64_t b0, int legs, int rows, int nq, double *qs,
+                       double *rs, double *As, double *nrm, const et_work *wk, int iterations, double tol,
+                       double lambda0, double max_step)
+{
+    double *qt = wk->qt, *rts = wk->rts, *Ats = wk->Ats, *lam = wk->lam, *nn = wk->nn, *x = wk->x, *w = wk->w;
+    int *act = wk->act;
+    int rc;
+    if ((rc = eval(ctx, m, b0, qs, rs, As)) != 0)
+        return rc;
+    et_norms(legs, rows, rs, nrm);
+    for (int e = 0; e < legs * B; ++e)
+        lam[e] = lambda0;
+    for (int pass = 0; pass <= iterations; ++pass) {
+        const int polish = pass == iterations;     /* the last pass: one undamped step */
+        int any = 0;
+        for (int l = 0; l < legs; ++l) {
+            int *a = act + l * B;
+            const double *nl = nrm + l * B;
+            if (polish)
+                FOR_I a[i] = nl[i] < tol;
+            else
+                FOR_I a[i] = !(nl[i] < tol) && isfinite(nl[i]);
+            for (int i = 0; i < m; ++i)
+                any |= a[i];
+        }
+        if (!any) {
+            if (!polish) {                           /* converged: go straight to the polish */
+                pass = iterations - 1;
+                continue;
+            }
+            break;
+        }
+        for (int l = 0; l < legs; ++l) {
+            const int *a = act + l * B;
+            et_steps(rows, nq, As + (l * rows * nq) * B, rs + (l * rows) * B, polish ? 0 : lam + l * B,
+                     polish ? 1e-300 : 1e-12, x, w);
+            if (!polish) {
+                double *big = w;
+                FOR_I big[i] = 0.0;
+                for (int j = 0; j < nq; ++j) {
+                    const double *xj = x + j * B;
+                    FOR_I big[i] = fabs(xj[i]) > big[i] ? fabs(xj[i]) : big[i];
+                }
+                for (int j = 0; j < nq; ++j) {
+                    double *xj = x + j * B;
+                    FOR_I xj[i] = big[i] > max_step ? xj[i] * (max_step / big[i]) : xj[i];
+                }
+            }
+            for (int j = 0; j < nq; ++j) {
+                const double *xj = x + j * B, *qj = qs + (l * nq + j) * B;
+                double *tj = qt + (l * nq + j) * B;
+                FOR_I tj[i] = qj[i] + (a[i] ? xj[i] : 0.0);
+            }
+        }
+        if ((rc = eval(ctx, m, b0, qt, rts, Ats)) != 0)
+            return rc;
+        et_norms(legs, rows, rts, nn);
+        for (int l = 0; l < legs; ++l) {
+            const int *a = act + l * B;
+            double *nl = nrm + l * B, *ll = lam + l * B;
+            const double *nnl = nn + l * B;
+            int better[B];
+            if (polish)
+                FOR_I better[i] = a[i] && nnl[i] <= nl[i];
+            else
+                FOR_I better[i] = a[i] && nnl[i] < nl[i];
+            for (int j = 0; j < nq; ++j) {
+                double *qj = qs + (l * nq + j) * B;
+                const double *tj = qt + (l * nq + j) * B;
+                FOR_I qj[i] = better[i] ? tj[i] : qj[i];
+            }
+            if (!polish) {
+                for (int k = 0; k < rows; ++k) {
+                    double *rk = rs + (l * rows + k) * B;
+                    const double *tk = rts + (l * rows + k) * B;
+                    FOR_I rk[i] = better[i] ? tk[i] : rk[i];
+                }
+                for (int k = 0; k < rows * nq; ++k) {
+                    double *ak = As + (l * rows * nq + k) * B;
+                    const double *tk = Ats + (l * rows * nq + k) * B;
+                    FOR_I ak[i] = better[i] ? tk[i] : ak[i];
+                }
+                FOR_I ll[i] = better[i] ? (ll[i] / 4 > 1e-12 ? ll[i] / 4 : 1e-12)
+                                        : (a[i] ? (ll[i] * 4 < 1e12 ? ll[i] * 4 : 1e12) : ll[i]);
+            }
+            FOR_I nl[i] = better[i] ? nnl[i] : nl[i];
+        }
+    }
+    return 0;
+}
+
+/* A closure of the legs' coordinates: the generated loop_closure kernel */
+typedef struct {
+    et_kernel closure;
+    int n_in, legs, rows, nq;
+    const double *const *in;
+    const int64_t *stride;
+    const int *q_of;
+    const double **ptr;
+    int64_t *st;
+    double *outs[2];
+} et_legs;
+
+static int et_legs_eval(void *ctx, int m, int64_t b0, const double *qs, double *rs, double *As)
+{
+    et_legs *c = ctx;
+    int rc;
+    et_point(c->n_in, c->q_of, c->in, c->stride, b0, qs, c->ptr, c->st);
+    if ((rc = c->closure(m, c->ptr, c->st, c->outs)) != 0)
+        return rc;
+    et_soa(m, c->legs, c->rows, c->nq, c->outs[0], c->outs[1], rs, As);
+    return 0;
+}
+
+/* Work buffers for legs * rows residuals of nq coordinates; NULL when out of memory */
+static double *et_alloc_work(int legs, int rows, int nq, et_work *wk, double **qs, double **rs, double **As,
+                             double **nrm)
+{
+    const int lq = legs * nq, lr = legs * rows;
+    const size_t soa = (size_t)B * (size_t)(lr * (1 + nq));
+    double *buf = malloc(sizeof(double) * (2 * (size_t)lq * B + 2 * soa + 3 * (size_t)legs * B
+                                           + (size_t)(nq * nq + 4 * nq) * B));
+    wk->act = malloc(sizeof(int) * (size_t)legs * B);
+    if (!buf || !wk->act) {
+        free(buf); free(wk->act);
+        return NULL;
+    }
+    *qs = buf;
+    wk->qt = *qs + lq * B;
+    *rs = wk->qt + lq * B;
+    *As = *rs + B * lr;
+    wk->rts = *rs + soa;
+    wk->Ats = wk->rts + B * lr;
+    wk->lam = wk->rts + soa;
+    *nrm = wk->lam + legs * B;
+    wk->nn = *nrm + legs * B;
+    wk->x = wk->nn + legs * B;
+    wk->w = wk->x + nq * B;
+    return buf;
+}
+
 int et_newton_lm(int64_t n, void *closure_address, int n_in, const double *const *in, const int64_t *stride,
                  const int *q_of, int legs, int rows, int nq, double *q, double *norm, int iterations,
                  double tol, double lambda0, double max_step)
 {
-    et_kernel closure = (et_kernel)closure_address;
     if (nq < 1 || nq > 8 || rows < 1)
         return -1;
     const int lq = legs * nq, lr = legs * rows;
-    const size_t soa = (size_t)B * (size_t)(lr * (1 + nq));
-    double *buf = malloc(sizeof(double) * (2 * (size_t)lq * B + 4 * soa + 3 * (size_t)legs * B
-                                           + (size_t)(nq * nq + 4 * nq) * B));
-    const double **ptr = malloc(sizeof(double *) * (size_t)(n_in > 0 ? n_in : 1));
-    int64_t *st = malloc(sizeof(int64_t) * (size_t)(n_in > 0 ? n_in : 1));
-    int *act = malloc(sizeof(int) * (size_t)legs * B);
-    if (!buf || !ptr || !st || !act) {
-        free(buf); free(ptr); free(st); free(act);
-        return -2;
-    }
-    double *qs = buf, *qt = qs + lq * B;          /* coordinates and trial coordinates (SoA) */
-    double *r = qt + lq * B, *A = r + B * lr;     /* kernel outputs (AoS) */
-    double *rs = r + soa, *As = rs + B * lr;      /* current residual and Jacobian (SoA) */
-    double *rts = rs + soa, *Ats = rts + B * lr;  /* at the trial (SoA) */
-    double *lam = rts + soa, *nrm = lam + legs * B, *nn = nrm + legs * B;
-    double *x = nn + legs * B, *w = x + nq * B;
-    double *outs[2] = {r, A};
+    et_work wk;
+    double *qs, *rs, *As, *nrm;
+    double *buf = et_alloc_work(legs, rows, nq, &wk, &qs, &rs, &As, &nrm);
+    double *out = malloc(sizeof(double) * (size_t)B * (size_t)(lr * (1 + nq)));
+    et_legs c = {(et_kernel)closure_address, n_in, legs, rows, nq, in, stride, q_of,
+                 malloc(sizeof(double *) * (size_t)(n_in > 0 ? n_in : 1)),
+                 malloc(sizeof(int64_t) * (size_t)(n_in > 0 ? n_in : 1)), {out, out + B * lr}};
     int rc = 0;
+    if (!buf || !out || !c.ptr || !c.st)
+        rc = -2;
     for (int64_t b0 = 0; b0 < n && rc == 0; b0 += B) {
         const int m = n - b0 < B ? (int)(n - b0) : B;
-        for (int c = 0; c < lq; ++c)
+        for (int k = 0; k < lq; ++k)
             for (int i = 0; i < B; ++i)
-                qs[c * B + i] = q[(b0 + (i < m ? i : m - 1)) * lq + c];
-        et_point(n_in, q_of, in, stride, b0, qs, ptr, st);
-        if ((rc = closure(m, ptr, st, outs)) != 0)
-            break;
-        et_soa(m, legs, rows, nq, r, A, rs, As);
-        et_norms(legs, rows, rs, nrm);
-        for (int e = 0; e < legs * B; ++e)
-            lam[e] = lambda0;
-        for (int pass = 0; pass <= iterations; ++pass) {
-            const int polish = pass == iterations;     /* the last pass: one undamped step */
-            int any = 0;
-            for (int l = 0; l < legs; ++l) {
-                int *a = act + l * B;
-                const double *nl = nrm + l * B;
-                if (polish)
-                    FOR_I a[i] = nl[i] < tol;
-                else
-                    FOR_I a[i] = !(nl[i] < tol) && isfinite(nl[i]);
-                for (int i = 0; i < m; ++i)
-                    any |= a[i];
-            }
-            if (!any) {
-                if (!polish) {                           /* converged: go straight to the polish */
-                    pass = iterations - 1;
-                    continue;
-                }
-                break;
-            }
-            for (int l = 0; l < legs; ++l) {
-                const int *a = act + l * B;
-                et_steps(rows, nq, As + (l * rows * nq) * B, rs + (l * rows) * B, polish ? 0 : lam + l * B,
-                         polish ? 1e-300 : 1e-12, x, w);
-                if (!polish) {
-                    double *big = w;
-                    FOR_I big[i] = 0.0;
-                    for (int j = 0; j < nq; ++j) {
-                        const double *xj = x + j * B;
-                        FOR_I big[i] = fabs(xj[i]) > big[i] ? fabs(xj[i]) : big[i];
-                    }
-                    for (int j = 0; j < nq; ++j) {
-                        double *xj = x + j * B;
-                        FOR_I xj[i] = big[i] > max_step ? xj[i] * (max_step / big[i]) : xj[i];
-                    }
-                }
-                for (int j = 0; j < nq; ++j) {
-                    const double *xj = x + j * B, *qj = qs + (l * nq + j) * B;
-                    double *tj = qt + (l * nq + j) * B;
-                    FOR_I tj[i] = qj[i] + (a[i] ? xj[i] : 0.0);
-                }
-            }
-            et_point(n_in, q_of, in, stride, b0, qt, ptr, st);
-            if ((rc = closure(m, ptr, st, outs)) != 0)
-                break;
-            et_soa(m, legs, rows, nq, r, A, rts, Ats);
-            et_norms(legs, rows, rts, nn);
-            for (int l = 0; l < legs; ++l) {
-                const int *a = act + l * B;
-                double *nl = nrm + l * B, *ll = lam + l * B;
-                const double *nnl = nn + l * B;
-                int better[B];
-                if (polish)
-                    FOR_I better[i] = a[i] && nnl[i] <= nl[i];
-                else
-                    FOR_I better[i] = a[i] && nnl[i] < nl[i];
-                for (int j = 0; j < nq; ++j) {
-                    double *qj = qs + (l * nq + j) * B;
-                    const double *tj = qt + (l * nq + j) * B;
-                    FOR_I qj[i] = better[i] ? tj[i] : qj[i];
-                }
-                if (!polish) {
-                    for (int k = 0; k < rows; ++k) {
-                        double *rk = rs + (l * rows + k) * B;
-                        const double *tk = rts + (l * rows + k) * B;
-                        FOR_I rk[i] = better[i] ? tk[i] : rk[i];
-                    }
-                    for (int k = 0; k < rows * nq; ++k) {
-                        double *ak = As + (l * rows * nq + k) * B;
-                        const double *tk = Ats + (l * rows * nq + k) * B;
-                        FOR_I ak[i] = better[i] ? tk[i] : ak[i];
-                    }
-                    FOR_I ll[i] = better[i] ? (ll[i] / 4 > 1e-12 ? ll[i] / 4 : 1e-12)
-                                            : (a[i] ? (ll[i] * 4 < 1e12 ? ll[i] * 4 : 1e12) : ll[i]);
-                }
-                FOR_I nl[i] = better[i] ? nnl[i] : nl[i];
-            }
-        }
-        if (rc != 0)
+                qs[k * B + i] = q[(b0 + (i < m ? i : m - 1)) * lq + k];
+        if ((rc = et_lm_block(et_legs_eval, &c, m, b0, legs, rows, nq, qs, rs, As, nrm, &wk, iterations, tol,
+                              lambda0, max_step)) != 0)
             break;
         for (int i = 0; i < m; ++i) {
-            for (int c = 0; c < lq; ++c)
-                q[(b0 + i) * lq + c] = qs[c * B + i];
+            for (int k = 0; k < lq; ++k)
+                q[(b0 + i) * lq + k] = qs[k * B + i];
             for (int l = 0; l < legs; ++l)
                 norm[(b0 + i) * legs + l] = nrm[l * B + i];
         }
     }
-    free(buf); free(ptr); free(st); free(act);
+    free(buf); free(wk.act); free(out); free(c.ptr); free(c.st);
+    return rc;
+}
+
+/* A platform's followers: the generated followers kernel of closed-form legs, read at the
+   full pose (x, y, z; rotation vector) whose follower coordinates are the unknowns. */
+typedef struct {
+    et_kernel kernel;
+    int n_in, rows, nf;
+    const double *const *in;
+    const int64_t *stride;
+    const int *role;          /* per input: -1 the caller's array; 0-2 x, y, z; 3 + 3 i + j R_ij */
+    const int *followers;     /* indices into (x, y, z, rot_x, rot_y, rot_z) */
+    const double *full;       /* (n, 6) the commanded full poses */
+    double *pose, *R;         /* 6 and 9 rows of B */
+    const double **ptr;
+    int64_t *st;
+    double *outs[2];          /* closure (m, rows), closure_rate (m, rows, 6) */
+} et_followers;
+
+static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, double *rs, double *As)
+{
+    et_followers *c = ctx;
+    double *P = c->pose, *R = c->R;
+    for (int k = 0; k < 6; ++k)
+        FOR_I P[k * B + i] = c->full[(b0 + (i < m ? i : m - 1)) * 6 + k];
+    for (int f = 0; f < c->nf; ++f)
+        FOR_I P[c->followers[f] * B + i] = qs[f * B + i];
+    /* R = I + a [r]x + b [r]x^2, Rodrigues' a = sin(t)/t, b = (1 - cos t)/t^2 (series below t^2 = 1e-12) */
+    FOR_I {
+        const double x = P[3 * B + i], y = P[4 * B + i], z = P[5 * B + i];
+        const double xx = x * x, yy = y * y, zz = z * z, t2 = xx + yy + zz;
+        double a, b;
+        if (t2 < 1e-12) {
+            a = 1 - t2 / 6;
+            b = 0.5 - t2 / 24;
+        } else {
+            const double t = sqrt(t2);
+            a = sin(t) / t;
+            b = (1 - cos(t)) / (t * t);
+        }
+        R[0 * B + i] = 1 + b * (-zz - yy);
+        R[1 * B + i] = -(a * z) + b * (x * y);
+        R[2 * B + i] = a * y + b * (x * z);
+        R[3 * B + i] = a * z + b * (x * y);
+        R[4 * B + i] = 1 + b * (-zz - xx);
+        R[5 * B + i] = -(a * x) + b * (y * z);
+        R[6 * B + i] = -(a * y) + b * (x * z);
+        R[7 * B + i] = a * x + b * (y * z);
+        R[8 * B + i] = 1 + b * (-yy - xx);
+    }
+    for (int k = 0; k < c->n_in; ++k) {
+        const int r = c->role[k];
+        if (r < 0) {
+            c->ptr[k] = c->in[k] + b0 * c->stride[k];
+            c->st[k] = c->stride[k];
+        } else {
+            c->ptr[k] = r < 3 ? P + r * B : R + (r - 3) * B;
+            c->st[k] = 1;
+        }
+    }
+    int rc = c->kernel(m, c->ptr, c->st, c->outs);
+    if (rc != 0)
+        return rc;
+    const int rows = c->rows, nf = c->nf;
+    const double *r = c->outs[0], *rate = c->outs[1];
+    for (int i = 0; i < B; ++i) {
+        const int s = i < m ? i : m - 1;   /* padding lanes: copies of the last pose */
+        const double x = P[3 * B + s], y = P[4 * B + s], z = P[5 * B + s], phi[3] = {x, y, z};
+        const double t2 = x * x + y * y + z * z;
+        double a, b;
+        /* the left Jacobian J_l = I + a [phi]x + b [phi]x^2 (series below t^2 = 1e-10) */
+        if (t2 < 1e-10) {
+            a = 0.5 - t2 / 24;
+            b = 1.0 / 6 - t2 / 120;
+        } else {
+            const double t = sqrt(t2);
+            a = (1 - cos(t)) / (t * t);
+            b = (t - sin(t)) / (t * t * t);
+        }
+        double T[6][8];
+        for (int f = 0; f < nf; ++f) {
+            const int k = c->followers[f];
+            for (int j = 0; j < 6; ++j)
+                T[j][f] = 0.0;
+            if (k < 3) {
+                T[3 + k][f] = 1.0;
+                continue;
+            }
+            const int e = k - 3;
+            for (int j = 0; j < 3; ++j)
+                T[j][f] = b * phi[e] * phi[j];
+            T[e][f] += 1.0 - b * t2;
+            T[(e + 1) % 3][f] += a * phi[(e + 2) % 3];
+            T[(e + 2) % 3][f] -= a * phi[(e + 1) % 3];
+        }
+        for (int k = 0; k < rows; ++k) {
+            rs[k * B + i] = r[(int64_t)s * rows + k];
+            const double *g = rate + ((int64_t)s * rows + k) * 6;
+            for (int f = 0; f < nf; ++f) {
+                double d = g[0] * T[0][f];
+                for (int j = 1; j < 6; ++j)
+                    d += g[j] * T[j][f];
+                As[(k * nf + f) * B + i] = d;
+            }
+        }
+    }
+    return 0;
+}
+
+/* et_newton_lm's iterations on a platform's followers: q (n, nf) their starting values,
+   on return the iterated ones; norm (n,) their |r|. Returns 0, -1 for sizes it does not
+   take, -2 when out of memory, or the kernel's code. */
+int et_followers_lm(int64_t n, void *kernel_address, int n_in, const double *const *in, const int64_t *stride,
+                    const int *role, int nf, const int *followers, int rows, const double *full, double *q,
+                    double *norm, int iterations, double tol, double lambda0, double max_step)
+{
+    if (nf < 1 || nf > 6 || rows < 1)
+        return -1;
+    et_work wk;
+    double *qs, *rs, *As, *nrm;
+    double *buf = et_alloc_work(1, rows, nf, &wk, &qs, &rs, &As, &nrm);
+    double *more = malloc(sizeof(double) * (size_t)B * (size_t)(15 + 7 * rows));
+    et_followers c = {(et_kernel)kernel_address, n_in, rows, nf, in, stride, role, followers, full,
+                      more, more ? more + 6 * B : NULL,
+                      malloc(sizeof(double *) * (size_t)(n_in > 0 ? n_in : 1)),
+                      malloc(sizeof(int64_t) * (size_t)(n_in > 0 ? n_in : 1)),
+                      {more ? more + 15 * B : NULL, more ? more + (15 + rows) * B : NULL}};
+    int rc = 0;
+    if (!buf || !more || !c.ptr || !c.st)
+        rc = -2;
+    for (int64_t b0 = 0; b0 < n && rc == 0; b0 += B) {
+        const int m = n - b0 < B ? (int)(n - b0) : B;
+        for (int f = 0; f < nf; ++f)
+            for (int i = 0; i < B; ++i)
+                qs[f * B + i] = q[(b0 + (i < m ? i : m - 1)) * nf + f];
+        if ((rc = et_lm_block(et_followers_eval, &c, m, b0, 1, rows, nf, qs, rs, As, nrm, &wk, iterations, tol,
+                              lambda0, max_step)) != 0)
+            break;
+        for (int i = 0; i < m; ++i) {
+            for (int f = 0; f < nf; ++f)
+                q[(b0 + i) * nf + f] = qs[f * B + i];
+            norm[b0 + i] = nrm[i];
+        }
+    }
+    free(buf); free(wk.act); free(more); free(c.ptr); free(c.st);
     return rc;
 }
 """
@@ -304,6 +509,7 @@ int et_newton_lm(int64_t n, void *closure_address, int n_in, const double *const
 BLOCK = 64  # poses per block (B in the source)
 _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []  # the loaded driver library, kept for the process
+_FOLLOWERS: list = []  # [ctypes function et_followers_lm] once bound, [None] when it cannot be
 
 
 def driver():
@@ -389,4 +595,97 @@ def iterate(
     for rc in run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads)):
         if rc != 0:
             raise RuntimeError(f"C Newton iterations returned {rc}")
+    return qq, norm
+
+
+def followers_driver():
+    """The compiled ``et_followers_lm`` (:func:`driver`'s library), or None where that
+    cannot be built."""
+    if not _FOLLOWERS:
+        fn = None
+        if driver() is not None and _LIBRARIES:
+            fn = _LIBRARIES[0].et_followers_lm
+            P = ctypes.POINTER
+            fn.argtypes = [
+                ctypes.c_int64,
+                ctypes.c_void_p,
+                ctypes.c_int,
+                P(ctypes.c_void_p),
+                P(ctypes.c_int64),
+                P(ctypes.c_int),
+                ctypes.c_int,
+                P(ctypes.c_int),
+                ctypes.c_int,
+                ctypes.c_void_p,
+                ctypes.c_void_p,
+                ctypes.c_void_p,
+                ctypes.c_int,
+                ctypes.c_double,
+                ctypes.c_double,
+                ctypes.c_double,
+            ]
+            fn.restype = ctypes.c_int
+        _FOLLOWERS.append(fn)
+    return _FOLLOWERS[0]
+
+
+def follow(
+    kernel_address: int,
+    roles: list,
+    addresses: list,
+    strides: list,
+    followers: list,
+    full: np.ndarray,
+    q: np.ndarray,
+    rows: int,
+    iterations: int,
+    tol: float,
+    threads: int = 1,
+):
+    """The iterations of :func:`iterate` on a platform's followers, in C: ``(q, |r|)``
+    ((n, 1, followers) and (n, 1)) from the starting values ``q`` (n, 1, followers) of the
+    followers (indices into x, y, z, rot_x, rot_y, rot_z) at the commanded full poses
+    ``full`` (n, 6; m, rad), for the followers kernel at ``kernel_address`` (closed-form
+    legs: its ``closure`` (rows,) and ``closure_rate`` (rows, 6) at a full pose). The
+    kernel's input k is the pose's x, y, z (``roles[k]`` 0-2), its rotation entry R_ij
+    (3 + 3 i + j, from the rotation vector by Rodrigues' formula), or else (-1) read at
+    ``addresses[k]`` with ``strides[k]`` (doubles). The Jacobian on the followers is the
+    closure's rates along their twists (:func:`eigentwist.runtime.platform.along_followers`).
+    ``threads`` > 1 runs ranges of whole blocks on threads (the same results). Raises
+    RuntimeError when the driver fails."""
+    from .threads import run_ranges, threads_for
+
+    n, _, nf = q.shape
+    qq = np.array(q, dtype=np.float64, order="C").reshape(n, 1, nf)
+    norm = np.empty((n, 1))
+    poses = np.ascontiguousarray(full, dtype=np.float64)
+    size = max(len(addresses), 1)
+    role = (ctypes.c_int * size)(*roles)
+    which = (ctypes.c_int * max(nf, 1))(*followers)
+    fn = followers_driver()
+
+    def call(a: int, b: int) -> int:
+        moved = [x + 8 * a * st for x, st in zip(addresses, strides)]
+        return fn(
+            b - a,
+            kernel_address,
+            len(addresses),
+            (ctypes.c_void_p * size)(*moved),
+            (ctypes.c_int64 * size)(*strides),
+            role,
+            nf,
+            which,
+            rows,
+            poses.ctypes.data + 8 * a * 6,
+            qq.ctypes.data + 8 * a * nf,
+            norm.ctypes.data + 8 * a,
+            int(iterations),
+            float(tol),
+            LAMBDA0,
+            MAX_STEP,
+        )
+
+    for rc in run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads)):
+        if rc != 0:
+            raise RuntimeError(f"C follower iterations returned {rc}")
     return qq, norm

@@ -245,7 +245,18 @@ class Evaluator:
 
         p = self._params(len(arr), params or {}, "rigid") if self.space.followers else None
         closure = getattr(self.module, "followers", None)
-        return full_poses(self.space, arr, closure, p, self._follower_reference()).view(_Full)
+        reference = self._follower_reference()
+        iterate = None
+        if self._fused and self.c_newton and reference is None and "followers" in self._kernels.OUTPUTS:
+            from .c_levenberg_marquardt import followers_driver
+
+            followers = [FULL.index(c) for c in self.space.followers]
+            if followers_driver() is not None:  # the followers' Newton iterations in C
+
+                def iterate(q, pp, its, tl):
+                    return self._kernels.follow(q, pp, followers, its, tl, threads=self._nthreads())
+
+        return full_poses(self.space, arr, closure, p, reference, iterate).view(_Full)
 
     def completed_poses(self, poses, **params) -> np.ndarray:
         """The poses completed to the kernels' six coordinates (x, y, z in m, rot_x, rot_y,

@@ -169,13 +169,16 @@ def follow_legs(kernel, full: np.ndarray, followers: list, p: dict, reference: n
     return full
 
 
-def follow(closure, full: np.ndarray, followers: list, p: dict) -> np.ndarray:
+def follow(closure, full: np.ndarray, followers: list, p: dict, iterate=None) -> np.ndarray:
     """Solve the followers (indices into ``FULL``) of the poses ``full`` (N, 6; the
     commanded coordinates set, the followers' starting values 0) so that every leg's
     closure vanishes; returns the completed (N, 6) poses, NaN followers where Newton did not
     converge (:func:`eigentwist.runtime.levenberg_marquardt.solve`: batched from the reference, then
     warm-started from the previous pose). ``closure(x, y, z, p)`` is the generated
-    ``followers`` kernel; ``p`` holds the parameters as the kernels take them."""
+    ``followers`` kernel; ``p`` holds the parameters as the kernels take them.
+    ``iterate``: the same iterations by other means (the C driver:
+    :meth:`eigentwist.runtime.c_kernels.CKernels.follow`), as
+    :func:`~eigentwist.runtime.levenberg_marquardt.solve` takes it."""
     from .levenberg_marquardt import solve
 
     full = np.array(full, dtype=float)
@@ -186,17 +189,20 @@ def follow(closure, full: np.ndarray, followers: list, p: dict) -> np.ndarray:
         len(full),
         iterations=MAX_STEPS,
         tol=TOL_M,
+        iterate=iterate,
     )
     full[:, followers] = q[:, 0, :]
     return full
 
 
-def full_poses(space, given: np.ndarray, closure=None, p: dict | None = None, reference=None) -> np.ndarray:
+def full_poses(
+    space, given: np.ndarray, closure=None, p: dict | None = None, reference=None, iterate=None
+) -> np.ndarray:
     """The (N, 6) full poses (x, y, z m; rotation vector rad) of the user's poses
     ``given`` (N, len(space.coordinates)) in pose space ``space``: the given coordinates,
     the followers solved (:func:`follow`; legs solved numerically, their ``reference``
     configuration (legs, n_q) given: :func:`follow_legs`; NaN rows where they do not
-    converge), 0 else."""
+    converge), 0 else; ``iterate``: :func:`follow`'s."""
     full = np.zeros((len(given), 6))
     for c, name in enumerate(space.coordinates):
         full[:, FULL.index(name)] = given[:, c]
@@ -204,5 +210,5 @@ def full_poses(space, given: np.ndarray, closure=None, p: dict | None = None, re
     if followers and reference is not None:
         full = follow_legs(closure, full, followers, p or {}, reference)
     elif followers:
-        full = follow(closure, full, followers, p or {})
+        full = follow(closure, full, followers, p or {}, iterate)
     return full
