@@ -45,3 +45,19 @@ def test_rates_along_followers_are_the_rates_along_their_twists(followers):
     want = rate @ T[:, None]
     assert np.allclose(along_followers(rate, full, followers), want, rtol=0, atol=1e-14)
     assert np.allclose(along_followers(rate[:, 0], full, followers), want[:, 0], rtol=0, atol=1e-14)
+
+
+def test_c_follow_takes_only_a_closed_form_followers_kernel_with_its_two_outputs():
+    from eigentwist.runtime.c_kernels import CKernels
+
+    kernels = CKernels.__new__(CKernels)  # the spec alone: no library is called
+    kernels.ROBOT = "stand_in"
+    kernels._spec = {
+        "followers": {"inputs": [["pose", "x", None]], "outputs": [["closure_rate", [3, 6]], ["closure", [3]]]}
+    }
+    with pytest.raises(RuntimeError, match="expected closure and closure_rate"):
+        kernels.follow(np.zeros((1, 1, 3)), {}, [0, 1, 5], 1, 1e-12)
+    kernels._spec["followers"]["inputs"].append(["q", "q_1", [0, 0]])  # legs solved numerically: NumPy's
+    assert kernels.follow(np.zeros((1, 1, 3)), {}, [0, 1, 5], 1, 1e-12) is None
+    kernels._spec = {}  # no followers kernel
+    assert kernels.follow(np.zeros((1, 1, 3)), {}, [0, 1, 5], 1, 1e-12) is None
