@@ -452,7 +452,8 @@ class CKernels:
         shapes = dict((o, tuple(s)) for o, s in spec["outputs"])
         if [o for o, _ in spec["outputs"]] != ["closure", "closure_rate"]:
             raise RuntimeError(
-                f"the followers kernel of {self.ROBOT!r} has outputs {list(shapes)}: run `eigentwist generate`"
+                f"the followers kernel of {self.ROBOT!r} has outputs {list(shapes)}, expected closure and "
+                "closure_rate: run `eigentwist generate`"
             )
         if c_levenberg_marquardt.followers_driver() is None:
             return None
