@@ -650,7 +650,9 @@ class Kernel:
         self.count, self.f, self.calls = count, f, []
 
     def __call__(self, n, addresses, strides, outs):
-        values = np.array([[doubles(addresses[k] + 8 * strides[k] * i)[0] for k in range(self.count)] for i in range(n)])
+        values = np.array(
+            [[doubles(addresses[k] + 8 * strides[k] * i)[0] for k in range(self.count)] for i in range(n)]
+        )
         self.calls.append(values)
         for o, arr in enumerate(self.f(values)):
             arr = np.ascontiguousarray(arr, dtype=np.float64).reshape(-1)
