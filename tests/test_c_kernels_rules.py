@@ -276,8 +276,9 @@ def test_the_joint_coordinate_kernels(kernel):
 
 def test_no_loop_closure_kernel_no_method():
     sig = dict(SIGNATURE, kernels={k: v for k, v in SIGNATURE["kernels"].items() if k != "loop_closure"})
-    with pytest.raises(AttributeError):
+    with pytest.raises(AttributeError) as err:
         kernels(signature=sig).loop_closure(np.zeros((2, 3)), {})
+    assert str(err.value) == "loop_closure"
 
 
 def test_inverse_kinematics_broadcasts_the_pose_and_the_parameters():
@@ -306,6 +307,7 @@ def test_newton_hands_the_closure_and_its_inputs_to_the_driver(monkeypatch):
             doubles(a + 8 * s * i)[0] if k < 0 else None for a, s, k in zip(addresses, strides, q_of) for i in (2,)
         ]
         seen.append((address, q_of, strides, q, rows, iterations, tol, threads, values))
+        assert [a for a, k in zip(addresses, q_of) if k >= 0] == [0, 0]  # the driver's own q: no address
         return "the driver's result"
 
     monkeypatch.setattr(clm, "driver", lambda: object())
@@ -319,6 +321,10 @@ def test_newton_hands_the_closure_and_its_inputs_to_the_driver(monkeypatch):
     assert q_given.dtype == np.float64 and q_given.shape == (3, 2, 3) and (iterations, tol, threads) == (30, 1e-9, 2)
     kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9)
     assert seen[1][7] == 1
+    only_q = dict(closure, inputs=[["q", "q_1_2", [1, 2]], ["q", "q_0_1", [0, 1]]])
+    kern = ck.CKernels(lib, dict(sig, kernels=dict(sig["kernels"], loop_closure=only_q)), kern.build)
+    kern.newton(q, {}, 30, 1e-9)  # no input but the joint coordinates
+    assert seen[2][1] == [5, 1] and seen[2][2] == [0, 0] and seen[2][8] == [None, None]
     monkeypatch.setattr(clm, "driver", lambda: None)
     assert kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9) is None
     monkeypatch.setattr(clm, "driver", lambda: object())
@@ -345,6 +351,8 @@ def test_the_librarys_description():
     assert kern.FUSED_MATRICES == {"M": (2, 2)} and kern.OUTPUTS["matrices"] == {"M": (2, 2), "s": ()}
     assert repr(kern) == "<eigentwist C kernels 'toy' (portable) lib.so>"
     assert kern._rotation is False and kern._unread == set()
+    names = [["param", n] for n in ("x", "R_00", "R_12")]
+    assert kernels(signature=dict(SIGNATURE, fused=dict(SIGNATURE["fused"], inputs=names)))._unread == set()
     names = [["param", n] for n in ("x", "R_00", "R_12", "R_3", "RR_00")]
     sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], inputs=names, rotation=True))
     kern = kernels(signature=sig)
@@ -355,10 +363,30 @@ def test_a_kernel_of_joint_coordinates_alone():
     only_q = {"function": "et_toy_more", "inputs": [["q", "q_0_0", [0, 0]]], "outputs": [["M", [2, 2]], ["s", []]]}
     sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], more=only_q))
     kern = kernels(signature=sig)
-    fn = kern._lib.et_toy_more = kern._fn["more"] = Matrices()
-    fn.calls = []
     addresses, strides = kern._kernel_inputs("more", [], (3,), [])
     assert addresses.dtype == np.uint64 and strides.dtype == np.int64 and addresses.size == strides.size == 0
+    kern._fn["more"] = Kernel(1, lambda v: (np.repeat(v, 4, axis=1), 2 * v[:, 0]))
+    q = np.arange(12.0).reshape(2, 2, 3)
+    out = kern._q_kernel("more", q, {})
+    assert np.array_equal(out["M"], [[[0.0, 0.0], [0.0, 0.0]], [[6.0, 6.0], [6.0, 6.0]]]) and out["s"].tolist() == [
+        0,
+        12,
+    ]
+    assert kern._layout("more") is kern._layout("more")  # worked out once per kernel
+
+
+def test_kernel_arguments_of_a_kernel_without_joint_coordinates(monkeypatch):
+    """The ik layout (a, x, y, z): no entry reads q; the tables are the uint64 addresses and
+    int64 strides a C driver reads as they are."""
+    kern = kernels()
+    monkeypatch.setattr(ck.CKernels, "address", lambda self, name: ("address of", name))
+    address, inputs, strides, q_of, outs, keep = kern.kernel_arguments(
+        "ik", {"a": 1.0, "x": np.arange(3.0), "y": 2.0, "z": np.ones(3)}, 3
+    )
+    assert address == ("address of", "ik") and q_of.tolist() == [-1, -1, -1, -1] and strides.tolist() == [0, 1, 0, 1]
+    assert inputs.dtype == np.uint64 and strides.dtype == np.int64 and "ik" in kern._kernel_packed
+    assert np.array_equal(doubles(int(inputs[1]), 3), [0.0, 1.0, 2.0]) and doubles(int(inputs[2]))[0] == 2.0
+    assert {k: v.shape for k, v in outs.items()} == {"M": (3, 2, 2), "s": (3,), "q": (3, 2, 3)}
 
 
 FUSED = {
@@ -661,9 +689,10 @@ class Kernel:
 
 
 def toy_ik(v):
-    """Leg A at q = (x, y, z), leg B at (x + 1, y, z); sin_q3 = (x, y) / r, cos_q2 = (z, z) / r."""
+    """Leg A at q = (x, y, z), leg B at (x + 1, y, z) (y NaN below -1); sin_q3 = (x, y) / r,
+    cos_q2 = (z, z) / r."""
     r, x, y, z = v.T
-    q = np.stack([np.stack([x, y, z], -1), np.stack([x + 1, y, z], -1)], 1)
+    q = np.stack([np.stack([x, y, z], -1), np.stack([x + 1, np.where(y < -1, np.nan, y), z], -1)], 1)
     return q, np.stack([x / r, y / r], -1), np.stack([z / r, z / r], -1)
 
 
@@ -726,6 +755,17 @@ def test_an_unreachable_pose_names_its_leg_and_check():
     with pytest.raises(UnreachablePoseError) as err:  # cos_q2 = z / r of both legs
         kern.raise_invalid(0, x, y, np.array([[-3.0], [0.0]]), p, (2, 2), legs=LEGS)
     assert str(err.value).startswith("pose [0.1, 0.0, -3.0] m is unreachable for leg A: the lower link")
+
+
+def test_a_pose_without_joint_coordinates_is_unreachable():
+    """Leg B's checks pass at y = -1.5, r = 2 (sin_q3 = -0.75) but its IK gives NaN: the pose is
+    unreachable, as the evaluator says, not singular (leg A's lever g x = 0 vanishes too)."""
+    with pytest.raises(UnreachablePoseError) as err:
+        pose_kernels().raise_invalid(0, 0.0, -1.5, 0.0, {"r": 2.0, "g": 1.0}, (), legs=LEGS)
+    assert str(err.value) == (
+        "pose [0.0, -1.5, 0.0] m is unreachable for leg B: its inverse kinematics gives no finite joint "
+        "coordinates (expected a pose the leg can span)"
+    )
 
 
 def test_a_reachable_pose_with_a_vanishing_lever_is_singular():
@@ -860,14 +900,14 @@ def test_compile_and_load_falls_through_to_the_next_flag_set(monkeypatch, tmp_pa
 
 def test_compile_and_load_reports_every_flag_sets_failure(monkeypatch, tmp_path):
     """The compiler's command and the last 2000 characters of its output (none: nothing),
-    a build that raises OSError, a library that does not load."""
+    a library that does not load, a build that raises OSError."""
     long = "A" + "b" * 2000 + "\n"
     build = Builder(
         tmp_path,
         {
             "-a": subprocess.CalledProcessError(1, ["/opt/cc", "-a", "x.c"], stderr=long),
             "-b": subprocess.CalledProcessError(1, ["/opt/cc", "-b", "x.c"]),
-            "-c": PermissionError("cache is read-only"),
+            "-d": PermissionError("cache is read-only"),
         },
     )
     monkeypatch.setattr(ck, "find_compiler", lambda: "/opt/cc")
@@ -884,8 +924,8 @@ def test_compile_and_load_reports_every_flag_sets_failure(monkeypatch, tmp_path)
         "could not build the C backend of 'toy' with /opt/cc:\n"
         f"[a] /opt/cc -a x.c\n{'b' * 2000}\n"
         "[b] /opt/cc -b x.c\n\n"
-        "[c] building failed: cache is read-only\n"
-        f"[d] loading {tmp_path / 'toy_c-d.so'} failed: undefined symbol: _ZGVdN4v_sin"
+        f"[c] loading {tmp_path / 'toy_c-c.so'} failed: undefined symbol: _ZGVdN4v_sin\n"
+        "[d] building failed: cache is read-only"
     )
     assert [c[3] for c in build.calls] == [["-a"], ["-b"], ["-c"], ["-d"]] and build.calls[0][4] is None
 
@@ -931,3 +971,71 @@ def test_load_c_kernels_checks_the_numpy_modules_outputs(monkeypatch):
     assert str(err.value) == (
         "the C library of 'toy' and the NumPy module disagree on their outputs: run `eigentwist generate`"
     )
+
+
+# ------------------------------------------------------------ the arguments' lifetime and shapes
+def fill_freed_blocks(*sizes):
+    """Arrays of these sizes filled with -7: NumPy hands freed blocks of a size to the next
+    arrays of that size, so an address into a freed block then reads -7."""
+    return [np.full(size, -7.0) for size in sizes for _ in range(20)]
+
+
+def test_the_inputs_stay_while_keep_holds_them():
+    """The packed scalars and an input converted to doubles (a list) live as long as ``keep``."""
+    keep = []
+    addresses, strides = ck._inputs([2.0, 3.0, [1.0, 2.0, 4.0]], (3,), keep)
+    junk = fill_freed_blocks(3)
+    assert strides == [0, 0, 1] and [doubles(addresses[k])[0] for k in range(2)] == [2.0, 3.0]
+    assert doubles(addresses[2], 3).tolist() == [1.0, 2.0, 4.0] and len(junk) == 20
+
+
+def test_the_fused_arguments_stay_while_keep_holds_them():
+    kern = fused_kernels()
+    result, n, keep, args = kern.fused_arguments([1.0, 2.0, 4.0], [0.5, 0.25, 0.125], 0.0, {"a": 3.0})
+    junk = fill_freed_blocks(3, 4)
+    ins, strides = args[0], args[1]
+    got = [[doubles(ins[k] + 8 * strides[k] * i)[0] for k in range(4)] for i in range(3)]
+    assert got == [[1.0, 3.0, 0.5, 0.0], [2.0, 3.0, 0.25, 0.0], [4.0, 3.0, 0.125, 0.0]] and len(junk) == 40
+
+
+def test_fused_on_no_pose():
+    out = fused_kernels().fused(np.zeros(0), 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible", status=True)
+    assert out["freq_hz"].shape == (0, 2) and out["status"].shape == (0,)
+
+
+@pytest.mark.parametrize("y", [np.array(0.5), np.array([0.5])])
+def test_the_poses_are_the_broadcast_of_every_per_pose_input(y):
+    """x per pose (3,) and y a writeable array of one value (not packed): three poses."""
+    kern = fused_kernels()
+    result, n, _, args = kern.fused_arguments(np.arange(3.0), y, 0.0, {"a": 1.0}, matrices=(), model="rigid")
+    assert n == 3 and result["freq_hz"].shape == (3, 1)
+    assert doubles(args[0][2] + 8 * args[1][2] * 2)[0] == 0.5 and doubles(args[0][0] + 8 * args[1][0] * 2)[0] == 2.0
+
+
+def test_fused_arguments_tables_sizes_and_options():
+    """One table entry per C input (the rotation vector's three after the names); no
+    eigentwists unless asked; the option array made once; an out array of the status int8."""
+    kern = fused_kernels()
+    result, _, _, args = kern.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible")
+    assert sorted(result) == ["freq_hz"] and args[7] is None and len(args[0]) == len(args[1]) == 4
+    assert kern.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0}, matrices=())[3][9] is args[9]
+    rot = fused_kernels(inputs=FUSED["inputs"] + [["param", "R_00"]], rotation=True)
+    _, _, _, args = rot.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0, "R_00": 1.0}, matrices=())
+    assert len(args[0]) == len(args[1]) == 5 + 3
+    with pytest.raises(InputError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, {"a": 1.0}, matrices=(), status=True, out={"status": np.zeros(2)})
+    assert str(err.value) == (
+        "out['status']: expected a writeable C-contiguous int8 array of shape (2,), got (2,) float64"
+    )
+    with pytest.raises(KeyError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, {"a": 1.0}, jacobians=("J_rows", "lever"))
+    assert err.value.args[0] == "jacobians has no output(s) ['lever']: expected ['J_rows']"
+
+
+def test_fused_frequencies_asks_no_matrix():
+    kern = fused_kernels()
+    seen = []
+    fn = kern._fn["fused"]
+    kern._fn["fused"] = lambda *a: seen.append(a[6]) or fn(*a)  # the matrices' pointers
+    kern.fused_frequencies(np.zeros(2), 0.0, 0.0, {"a": 1.0}, check=False)
+    assert seen == [None]
