@@ -900,7 +900,7 @@ def test_compile_and_load_falls_through_to_the_next_flag_set(monkeypatch, tmp_pa
 
 def test_compile_and_load_reports_every_flag_sets_failure(monkeypatch, tmp_path):
     """The compiler's command and the last 2000 characters of its output (none: nothing),
-    a library that does not load, a build that raises OSError."""
+    a library that does not load, a build that raises OSError, then the next flag set."""
     long = "A" + "b" * 2000 + "\n"
     build = Builder(
         tmp_path,
@@ -911,7 +911,7 @@ def test_compile_and_load_reports_every_flag_sets_failure(monkeypatch, tmp_path)
         },
     )
     monkeypatch.setattr(ck, "find_compiler", lambda: "/opt/cc")
-    monkeypatch.setattr(ck, "flag_sets", lambda: [(n, ["-" + n]) for n in "abcd"])
+    monkeypatch.setattr(ck, "flag_sets", lambda: [(n, ["-" + n]) for n in "abcde"])
     monkeypatch.setattr(ck, "build_library", build)
 
     def load(path, robot):
@@ -925,9 +925,10 @@ def test_compile_and_load_reports_every_flag_sets_failure(monkeypatch, tmp_path)
         f"[a] /opt/cc -a x.c\n{'b' * 2000}\n"
         "[b] /opt/cc -b x.c\n\n"
         f"[c] loading {tmp_path / 'toy_c-c.so'} failed: undefined symbol: _ZGVdN4v_sin\n"
-        "[d] building failed: cache is read-only"
+        "[d] building failed: cache is read-only\n"
+        f"[e] loading {tmp_path / 'toy_c-e.so'} failed: undefined symbol: _ZGVdN4v_sin"
     )
-    assert [c[3] for c in build.calls] == [["-a"], ["-b"], ["-c"], ["-d"]] and build.calls[0][4] is None
+    assert [c[3] for c in build.calls] == [["-a"], ["-b"], ["-c"], ["-d"], ["-e"]] and build.calls[0][4] is None
 
 
 def test_compile_and_load_reads_the_checked_in_source(monkeypatch, tmp_path):
