@@ -7,13 +7,24 @@ known function of them, so each pose's results say which values reached it. No c
 from __future__ import annotations
 
 import ctypes
+import functools
+import json
+import re
+import subprocess
+import types
 
 import numpy as np
 import pytest
 
 from eigentwist.errors import InputError
 from eigentwist.runtime import c_kernels as ck
+from eigentwist.runtime.errors import SingularPoseError, UnreachablePoseError
 from eigentwist.runtime.validity import STATUS
+
+
+@functools.cache
+def heli4_source() -> str:
+    return ck.source_path("heli4").read_text()
 
 
 def doubles(address, count=1):
@@ -265,8 +276,9 @@ def test_the_joint_coordinate_kernels(kernel):
 
 def test_no_loop_closure_kernel_no_method():
     sig = dict(SIGNATURE, kernels={k: v for k, v in SIGNATURE["kernels"].items() if k != "loop_closure"})
-    with pytest.raises(AttributeError):
+    with pytest.raises(AttributeError) as err:
         kernels(signature=sig).loop_closure(np.zeros((2, 3)), {})
+    assert str(err.value) == "loop_closure"
 
 
 def test_inverse_kinematics_broadcasts_the_pose_and_the_parameters():
@@ -295,6 +307,7 @@ def test_newton_hands_the_closure_and_its_inputs_to_the_driver(monkeypatch):
             doubles(a + 8 * s * i)[0] if k < 0 else None for a, s, k in zip(addresses, strides, q_of) for i in (2,)
         ]
         seen.append((address, q_of, strides, q, rows, iterations, tol, threads, values))
+        assert [a for a, k in zip(addresses, q_of) if k >= 0] == [0, 0]  # the driver's own q: no address
         return "the driver's result"
 
     monkeypatch.setattr(clm, "driver", lambda: object())
@@ -308,6 +321,10 @@ def test_newton_hands_the_closure_and_its_inputs_to_the_driver(monkeypatch):
     assert q_given.dtype == np.float64 and q_given.shape == (3, 2, 3) and (iterations, tol, threads) == (30, 1e-9, 2)
     kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9)
     assert seen[1][7] == 1
+    only_q = dict(closure, inputs=[["q", "q_1_2", [1, 2]], ["q", "q_0_1", [0, 1]]])
+    kern = ck.CKernels(lib, dict(sig, kernels=dict(sig["kernels"], loop_closure=only_q)), kern.build)
+    kern.newton(q, {}, 30, 1e-9)  # no input but the joint coordinates
+    assert seen[2][1] == [5, 1] and seen[2][2] == [0, 0] and seen[2][8] == [None, None]
     monkeypatch.setattr(clm, "driver", lambda: None)
     assert kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9) is None
     monkeypatch.setattr(clm, "driver", lambda: object())
@@ -320,7 +337,7 @@ def test_bind_declares_the_generated_c_signatures():
     pass and eigen-solver (tests/c_signatures.py reads them from the declarations)."""
     from .c_signatures import check
 
-    source = ck.source_path("heli4").read_text()
+    source = heli4_source()
     kern = kernels()
     check(source, "et_heli4_matrices", kern._fn["matrices"].argtypes, kern._fn["matrices"].restype)
     check(source, "et_heli4_fused", kern._fn["fused"].argtypes, kern._fn["fused"].restype)
@@ -334,6 +351,8 @@ def test_the_librarys_description():
     assert kern.FUSED_MATRICES == {"M": (2, 2)} and kern.OUTPUTS["matrices"] == {"M": (2, 2), "s": ()}
     assert repr(kern) == "<eigentwist C kernels 'toy' (portable) lib.so>"
     assert kern._rotation is False and kern._unread == set()
+    names = [["param", n] for n in ("x", "R_00", "R_12")]
+    assert kernels(signature=dict(SIGNATURE, fused=dict(SIGNATURE["fused"], inputs=names)))._unread == set()
     names = [["param", n] for n in ("x", "R_00", "R_12", "R_3", "RR_00")]
     sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], inputs=names, rotation=True))
     kern = kernels(signature=sig)
@@ -344,10 +363,30 @@ def test_a_kernel_of_joint_coordinates_alone():
     only_q = {"function": "et_toy_more", "inputs": [["q", "q_0_0", [0, 0]]], "outputs": [["M", [2, 2]], ["s", []]]}
     sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], more=only_q))
     kern = kernels(signature=sig)
-    fn = kern._lib.et_toy_more = kern._fn["more"] = Matrices()
-    fn.calls = []
     addresses, strides = kern._kernel_inputs("more", [], (3,), [])
     assert addresses.dtype == np.uint64 and strides.dtype == np.int64 and addresses.size == strides.size == 0
+    kern._fn["more"] = Kernel(1, lambda v: (np.repeat(v, 4, axis=1), 2 * v[:, 0]))
+    q = np.arange(12.0).reshape(2, 2, 3)
+    out = kern._q_kernel("more", q, {})
+    assert np.array_equal(out["M"], [[[0.0, 0.0], [0.0, 0.0]], [[6.0, 6.0], [6.0, 6.0]]]) and out["s"].tolist() == [
+        0,
+        12,
+    ]
+    assert kern._layout("more") is kern._layout("more")  # worked out once per kernel
+
+
+def test_kernel_arguments_of_a_kernel_without_joint_coordinates(monkeypatch):
+    """The ik layout (a, x, y, z): no entry reads q; the tables are the uint64 addresses and
+    int64 strides a C driver reads as they are."""
+    kern = kernels()
+    monkeypatch.setattr(ck.CKernels, "address", lambda self, name: ("address of", name))
+    address, inputs, strides, q_of, outs, keep = kern.kernel_arguments(
+        "ik", {"a": 1.0, "x": np.arange(3.0), "y": 2.0, "z": np.ones(3)}, 3
+    )
+    assert address == ("address of", "ik") and q_of.tolist() == [-1, -1, -1, -1] and strides.tolist() == [0, 1, 0, 1]
+    assert inputs.dtype == np.uint64 and strides.dtype == np.int64 and "ik" in kern._kernel_packed
+    assert np.array_equal(doubles(int(inputs[1]), 3), [0.0, 1.0, 2.0]) and doubles(int(inputs[2]))[0] == 2.0
+    assert {k: v.shape for k, v in outs.items()} == {"M": (3, 2, 2), "s": (3,), "q": (3, 2, 3)}
 
 
 FUSED = {
@@ -628,3 +667,376 @@ def test_generalized_eigh_on_threads_and_integer_matrices():
     with pytest.raises(RuntimeError) as err:
         kern.generalized_eigh(K, M)
     assert str(err.value) == "C eigh returned 6"
+
+
+# ------------------------------------------------------------ raise_invalid
+class Kernel:
+    """A stand-in kernel of ``count`` inputs: ``f`` maps the (n, count) values read by
+    address and stride to the outputs' (n, ...) arrays, written in the output order."""
+
+    def __init__(self, count, f):
+        self.count, self.f, self.calls = count, f, []
+
+    def __call__(self, n, addresses, strides, outs):
+        values = np.array(
+            [[doubles(addresses[k] + 8 * strides[k] * i)[0] for k in range(self.count)] for i in range(n)]
+        )
+        self.calls.append(values)
+        for o, arr in enumerate(self.f(values)):
+            arr = np.ascontiguousarray(arr, dtype=np.float64).reshape(-1)
+            doubles(outs[o], arr.size)[:] = arr
+        return 0
+
+
+def toy_ik(v):
+    """Leg A at q = (x, y, z), leg B at (x + 1, y, z) (y NaN below -1); sin_q3 = (x, y) / r,
+    cos_q2 = (z, z) / r."""
+    r, x, y, z = v.T
+    q = np.stack([np.stack([x, y, z], -1), np.stack([x + 1, np.where(y < -1, np.nan, y), z], -1)], 1)
+    return q, np.stack([x / r, y / r], -1), np.stack([z / r, z / r], -1)
+
+
+def toy_jacobians(v):
+    """lever = g (q_A0, q_B0): g x and g (x + 1); J_rows zero."""
+    g, qa, qb = v.T
+    return np.zeros((len(g), 2)), np.stack([g * qa, g * qb], -1)
+
+
+def pose_kernels(lever=True):
+    outputs = [["J_rows", [2]]] + ([["lever", [2]]] if lever else [])
+    sig = dict(
+        SIGNATURE,
+        kernels={
+            "inverse_kinematics": {
+                "function": "et_toy_ik",
+                "inputs": [["param", "r", None], ["pose", "x", None], ["pose", "y", None], ["pose", "z", None]],
+                "outputs": [["q", [2, 3]], ["sin_q3", [2]], ["cos_q2", [2]]],
+            },
+            "jacobians": {
+                "function": "et_toy_jac",
+                "inputs": [["param", "g", None], ["q", "q_0_0", [0, 0]], ["q", "q_1_0", [1, 0]]],
+                "outputs": outputs,
+            },
+        },
+    )
+    lib = types.SimpleNamespace(
+        et_toy_ik=Kernel(4, toy_ik),
+        et_toy_jac=Kernel(3, toy_jacobians if lever else lambda v: toy_jacobians(v)[:1]),
+        et_toy_fused=types.SimpleNamespace(),
+        et_toy_eigh=types.SimpleNamespace(),
+    )
+    return ck.CKernels(lib, sig, ck.Build("lib.so", "portable", []))
+
+
+LEGS = [types.SimpleNamespace(name="leg A"), types.SimpleNamespace(name="leg B")]
+
+
+def test_the_jacobians_kernel_reads_its_parameters_and_joint_coordinates():
+    kern = pose_kernels()
+    q = np.array([[[0.5, 9.0, 9.0], [1.5, 9.0, 9.0]], [[2.0, 9.0, 9.0], [3.0, 9.0, 9.0]]])
+    out = kern.jacobians(q, {"g": np.array([2.0, 4.0]), "r": 1.0})
+    assert np.array_equal(out["lever"], [[1.0, 3.0], [8.0, 12.0]]) and out["J_rows"].shape == (2, 2)
+    assert len(kern._lib.et_toy_jac.calls) == 1 and kern._lib.et_toy_ik.calls == []
+
+
+def test_an_unreachable_pose_names_its_leg_and_check():
+    """Pose 3 of a (2, 2) batch (x broadcast down, y across): (0.5, 2, 0) m, where leg B's
+    sin_q3 = y / r = 2 lies outside [-1, 1]; only that pose is recomputed."""
+    kern = pose_kernels()
+    x, y, p = np.array([[0.1], [0.5]]), np.array([0.0, 2.0]), {"r": np.array([[1.0], [1.0]]), "g": 1.0}
+    with pytest.raises(UnreachablePoseError) as err:
+        kern.raise_invalid(3, x, y, 0.0, p, (2, 2), legs=LEGS)
+    assert str(err.value) == (
+        "pose [0.5, 2.0, 0.0] m is unreachable for leg B: the parallelogram cannot tilt that far "
+        "(sin_q3 = 2, expected within [-1, 1])"
+    )
+    (values,) = kern._lib.et_toy_ik.calls  # r, x, y, z of the one pose
+    assert values.tolist() == [[1.0, 0.5, 2.0, 0.0]] and kern._lib.et_toy_jac.calls == []
+    with pytest.raises(UnreachablePoseError) as err:  # cos_q2 = z / r of both legs
+        kern.raise_invalid(0, x, y, np.array([[-3.0], [0.0]]), p, (2, 2), legs=LEGS)
+    assert str(err.value).startswith("pose [0.1, 0.0, -3.0] m is unreachable for leg A: the lower link")
+
+
+def test_a_pose_without_joint_coordinates_is_unreachable():
+    """Leg B's checks pass at y = -1.5, r = 2 (sin_q3 = -0.75) but its IK gives NaN: the pose is
+    unreachable, as the evaluator says, not singular (leg A's lever g x = 0 vanishes too)."""
+    with pytest.raises(UnreachablePoseError) as err:
+        pose_kernels().raise_invalid(0, 0.0, -1.5, 0.0, {"r": 2.0, "g": 1.0}, (), legs=LEGS)
+    assert str(err.value) == (
+        "pose [0.0, -1.5, 0.0] m is unreachable for leg B: its inverse kinematics gives no finite joint "
+        "coordinates (expected a pose the leg can span)"
+    )
+
+
+def test_a_reachable_pose_with_a_vanishing_lever_is_singular():
+    """lever = g x for leg A: 0.25 x 0.002 = 0.0005, at or below LEVER_TOL = 0.001 alone or
+    divided by l1 = 0.5 (the ratio 0.001 is not above it), above it divided by l1 = 0.25."""
+    kern = pose_kernels()
+    x = np.array([0.3, 0.002])
+    with pytest.raises(SingularPoseError) as err:
+        kern.raise_invalid(1, x, 0.0, 0.0, {"r": 1.0, "g": 0.25}, (2,), legs=LEGS)
+    assert str(err.value) == (
+        "pose [0.002, 0.0, 0.0] m is serial singular for leg A: actuation lever w_a.t_a "
+        "(the leg's unit twists are dependent) = 0.0005 (expected |.| > 0.001)"
+    )
+    (values,) = kern._lib.et_toy_jac.calls  # g and leg A's, leg B's first joint coordinates
+    assert values.tolist() == [[0.25, 0.002, 1.002]]
+    with pytest.raises(SingularPoseError) as err:
+        kern.raise_invalid(1, x, 0.0, 0.0, {"r": 1.0, "g": 0.25, "l1": np.array([1.0, 0.5])}, (2,), legs=LEGS)
+    assert "for leg A: actuation lever w_a1.t_a1/l1 = 0.001 (expected |.| > 0.001)" in str(err.value)
+    with pytest.raises(UnreachablePoseError) as err:
+        kern.raise_invalid(1, x, 0.0, 0.0, {"r": 1.0, "g": 0.25, "l1": np.array([1.0, 0.25])}, (2,), legs=LEGS)
+    assert str(err.value) == (
+        "pose [0.002, 0.0, 0.0] m gives non-finite frequencies (the inertia matrix is not positive definite there)"
+    )
+
+
+def test_a_pose_neither_unreachable_nor_singular_has_non_finite_frequencies():
+    """Integer coordinates are named as the floats they are read as; a robot without a lever
+    output is not checked for one (leg A's lever 0 would be singular)."""
+    with pytest.raises(UnreachablePoseError) as err:
+        pose_kernels().raise_invalid(0, np.array([1]), 0, 0, {"r": 2, "g": 1}, (1,), legs=LEGS)
+    assert str(err.value).startswith("pose [1.0, 0.0, 0.0] m gives non-finite frequencies (")
+    with pytest.raises(UnreachablePoseError) as err:
+        pose_kernels(lever=False).raise_invalid(0, 0.0, 0.0, 0.0, {"r": 1.0, "g": 1.0}, (), legs=LEGS)
+    assert str(err.value).startswith("pose [0.0, 0.0, 0.0] m gives non-finite frequencies (")
+
+
+def test_a_shipped_robots_legs_by_default(monkeypatch):
+    import eigentwist.robots as robots
+
+    asked = []
+    monkeypatch.setattr(robots, "get", lambda name: asked.append(name) or types.SimpleNamespace(legs=LEGS))
+    with pytest.raises(UnreachablePoseError) as err:
+        pose_kernels().raise_invalid(0, 0.5, 2.0, 0.0, {"r": 1.0, "g": 1.0}, ())
+    assert asked == ["toy"] and "unreachable for leg B:" in str(err.value)
+
+
+def test_a_six_dof_pose_is_named_with_its_rotation_vector():
+    """R_ij of a quarter turn about z: rotation vector (0, 0, pi/2) rad; the IK gets x, y, z."""
+    R = {"R_00": 0.0, "R_01": -1.0, "R_02": 0.0, "R_10": 1.0, "R_11": 0.0, "R_12": 0.0, "R_20": 0.0, "R_21": 0.0}
+    p = dict(R, R_22=1.0, r=1.0, g=1.0)
+    kern = pose_kernels()
+    with pytest.raises(UnreachablePoseError) as err:
+        kern.raise_invalid(1, np.array([0.0, 0.5]), 2.0, 0.0, p, (2,), legs=LEGS)
+    assert str(err.value).startswith(f"pose [0.5, 2.0, 0.0, 0.0, 0.0, {np.pi / 2!r}] (m, rad) is unreachable for leg B")
+    assert kern._lib.et_toy_ik.calls[0].tolist() == [[1.0, 0.5, 2.0, 0.0]]
+
+
+# ------------------------------------------------------- building and loading
+def test_address_is_the_functions_entry_point():
+    """The address, turned back into a C function, calls the same function."""
+    kern = kernels()
+    proto = ctypes.CFUNCTYPE(ctypes.c_int)
+    kern._fn["matrices"] = proto(lambda: 42)
+    assert proto(kern.address("matrices"))() == 42
+
+
+def stand_in_library(robot_prefix, abi, signature):
+    """A library whose ``<prefix>_abi_version`` and ``<prefix>_signature`` are C functions
+    (ctypes callbacks) returning ``abi`` and the address of the signature's JSON text."""
+    text = ctypes.create_string_buffer(json.dumps(signature).encode())
+    return types.SimpleNamespace(
+        **{
+            f"{robot_prefix}_abi_version": ctypes.CFUNCTYPE(ctypes.c_int)(lambda: abi),
+            f"{robot_prefix}_signature": ctypes.CFUNCTYPE(ctypes.c_void_p)(lambda: ctypes.addressof(text)),
+            "text": text,
+        }
+    )
+
+
+def test_load_reads_the_abi_and_the_signature(monkeypatch, tmp_path):
+    """The robot's functions are ``et_<name>`` with every character that is not a letter or
+    digit replaced by ``_``; the signature is a ``const char *`` (NUL-terminated JSON)."""
+    opened = []
+    lib = stand_in_library("et_my_robot_2", ck.ABI_VERSION, {"robot": "my-robot.2", "block": 4})
+    monkeypatch.setattr(ctypes, "CDLL", lambda name: opened.append(name) or lib)
+    got, sig = ck._load(tmp_path / "lib.so", "my-robot.2")
+    assert got is lib and sig == {"robot": "my-robot.2", "block": 4} and opened == [str(tmp_path / "lib.so")]
+    old = stand_in_library("et_toy", ck.ABI_VERSION - 1, {})
+    monkeypatch.setattr(ctypes, "CDLL", lambda name: old)
+    with pytest.raises(OSError) as err:
+        ck._load(tmp_path / "old.so", "toy")
+    assert str(err.value) == (
+        f"{tmp_path / 'old.so'}: ABI version {ck.ABI_VERSION - 1} (expected {ck.ABI_VERSION}): "
+        "regenerate with `eigentwist generate`"
+    )
+
+
+def test_the_generated_sources_abi_is_the_loaders():
+    source = heli4_source()
+    assert re.search(r"int et_heli4_abi_version\(void\)\s*\{\s*return (\d+);", source).group(1) == str(ck.ABI_VERSION)
+    assert re.search(r"const char \*et_heli4_signature\(void\)", source)
+
+
+class Builder:
+    """A stand-in of build_library (same parameters): the flag sets in ``fail`` raise."""
+
+    def __init__(self, tmp_path, fail):
+        self.tmp_path, self.fail, self.calls = tmp_path, fail, []
+
+    def __call__(self, source, name, cc, flags, directory=None):
+        self.calls.append((source, name, cc, flags, directory))
+        if flags[0] in self.fail:
+            raise self.fail[flags[0]]
+        return self.tmp_path / f"{name}{flags[0]}.so"
+
+
+def test_compile_and_load_falls_through_to_the_next_flag_set(monkeypatch, tmp_path):
+    loaded = []
+    build = Builder(tmp_path, {"-fast": subprocess.CalledProcessError(1, ["/opt/cc", "-fast"], stderr="bad flag")})
+    monkeypatch.setattr(ck, "find_compiler", lambda: "/opt/cc")
+    monkeypatch.setattr(ck, "flag_sets", lambda: [("fast", ["-fast"]), ("plain", ["-O0", "-shared"])])
+    monkeypatch.setattr(ck, "build_library", build)
+    monkeypatch.setattr(ck, "_load", lambda path, robot: loaded.append((path, robot)) or ("lib", {"robot": robot}))
+    lib, sig, built = ck.compile_and_load("toy", source="int x;", directory=tmp_path / "cache")
+    assert build.calls == [
+        ("int x;", "toy_c", "/opt/cc", ["-fast"], tmp_path / "cache"),
+        ("int x;", "toy_c", "/opt/cc", ["-O0", "-shared"], tmp_path / "cache"),
+    ]
+    assert loaded == [(tmp_path / "toy_c-O0.so", "toy")] and (lib, sig) == ("lib", {"robot": "toy"})
+    assert built == ck.Build(tmp_path / "toy_c-O0.so", "plain", ["-O0", "-shared"])
+
+
+def test_compile_and_load_reports_every_flag_sets_failure(monkeypatch, tmp_path):
+    """The compiler's command and the last 2000 characters of its output (none: nothing),
+    a library that does not load, a build that raises OSError, then the next flag set."""
+    long = "A" + "b" * 2000 + "\n"
+    build = Builder(
+        tmp_path,
+        {
+            "-a": subprocess.CalledProcessError(1, ["/opt/cc", "-a", "x.c"], stderr=long),
+            "-b": subprocess.CalledProcessError(1, ["/opt/cc", "-b", "x.c"]),
+            "-d": PermissionError("cache is read-only"),
+        },
+    )
+    monkeypatch.setattr(ck, "find_compiler", lambda: "/opt/cc")
+    monkeypatch.setattr(ck, "flag_sets", lambda: [(n, ["-" + n]) for n in "abcde"])
+    monkeypatch.setattr(ck, "build_library", build)
+
+    def load(path, robot):
+        raise OSError("undefined symbol: _ZGVdN4v_sin")
+
+    monkeypatch.setattr(ck, "_load", load)
+    with pytest.raises(ck.CompileError) as err:
+        ck.compile_and_load("toy", source="int x;")
+    assert str(err.value) == (
+        "could not build the C backend of 'toy' with /opt/cc:\n"
+        f"[a] /opt/cc -a x.c\n{'b' * 2000}\n"
+        "[b] /opt/cc -b x.c\n\n"
+        f"[c] loading {tmp_path / 'toy_c-c.so'} failed: undefined symbol: _ZGVdN4v_sin\n"
+        "[d] building failed: cache is read-only\n"
+        f"[e] loading {tmp_path / 'toy_c-e.so'} failed: undefined symbol: _ZGVdN4v_sin"
+    )
+    assert [c[3] for c in build.calls] == [["-a"], ["-b"], ["-c"], ["-d"], ["-e"]] and build.calls[0][4] is None
+
+
+def test_compile_and_load_reads_the_checked_in_source(monkeypatch, tmp_path):
+    """Without ``source``: ``<robot>_c.c`` beside the generated modules, checked against its
+    recorded SHA-256 and decoded as UTF-8; a missing one says to generate it."""
+    import hashlib
+
+    build = Builder(tmp_path, {})
+    monkeypatch.setattr(ck, "GENERATED", tmp_path)
+    monkeypatch.setattr(ck, "find_compiler", lambda: "/opt/cc")
+    monkeypatch.setattr(ck, "flag_sets", lambda: [("plain", ["-O0"])])
+    monkeypatch.setattr(ck, "build_library", build)
+    monkeypatch.setattr(ck, "_load", lambda path, robot: ("lib", {}))
+    with pytest.raises(FileNotFoundError) as err:
+        ck.compile_and_load("toy")
+    assert str(err.value) == f"{tmp_path / 'toy_c.c'} does not exist: run `eigentwist generate`" and not build.calls
+    text = "/* \u00e9l\u00e9ment */ int x;\n"
+    (tmp_path / "toy_c.c").write_bytes(text.encode("utf-8"))
+    (tmp_path / "toy.sha256").write_text(f"{hashlib.sha256(text.encode('utf-8')).hexdigest()}  toy_c.c\n")
+    ck.compile_and_load("toy")
+    assert build.calls == [(text, "toy_c", "/opt/cc", ["-O0"], None)]
+
+
+def test_load_c_kernels_checks_the_numpy_modules_outputs(monkeypatch):
+    """The NumPy module's OUTPUTS (lists, as generated) must be the library's, but for the
+    followers kernel, which only NumPy has; a module without OUTPUTS is not compared."""
+    asked, build = [], ck.Build("lib.so", "plain", [])
+    lib = Library(Matrices())
+    monkeypatch.setattr(ck, "compile_and_load", lambda *a, **k: asked.append((a, k)) or (lib, SIGNATURE, build))
+    outputs = {k: {o: list(s) for o, s in v["outputs"]} for k, v in SIGNATURE["kernels"].items()}
+    same = types.SimpleNamespace(OUTPUTS=dict(outputs, followers={"q_f": [2]}))
+    kern = ck.load_c_kernels("toy", same, source="int x;")
+    assert asked == [(("toy", "int x;"), {})] and kern._lib is lib and kern.signature is SIGNATURE
+    assert kern.build is build and isinstance(kern, ck.CKernels)
+    assert ck.load_c_kernels("toy").ROBOT == "toy" and asked[1] == (("toy", None), {})
+    ck.load_c_kernels("toy", types.SimpleNamespace())  # no OUTPUTS
+    ck.load_c_kernels("toy", types.SimpleNamespace(OUTPUTS={"followers": {"q_f": [2]}}))  # nothing to compare
+    other = types.SimpleNamespace(OUTPUTS=dict(outputs, matrices={"M": [2, 2], "s": [1]}))
+    with pytest.raises(RuntimeError) as err:
+        ck.load_c_kernels("toy", other)
+    assert str(err.value) == (
+        "the C library of 'toy' and the NumPy module disagree on their outputs: run `eigentwist generate`"
+    )
+
+
+# ------------------------------------------------------------ the arguments' lifetime and shapes
+def fill_freed_blocks(*sizes):
+    """Arrays of these sizes filled with -7: NumPy hands freed blocks of a size to the next
+    arrays of that size, so an address into a freed block then reads -7."""
+    return [np.full(size, -7.0) for size in sizes for _ in range(20)]
+
+
+def test_the_inputs_stay_while_keep_holds_them():
+    """The packed scalars and an input converted to doubles (a list) live as long as ``keep``."""
+    keep = []
+    addresses, strides = ck._inputs([2.0, 3.0, [1.0, 2.0, 4.0]], (3,), keep)
+    junk = fill_freed_blocks(3)
+    assert strides == [0, 0, 1] and [doubles(addresses[k])[0] for k in range(2)] == [2.0, 3.0]
+    assert doubles(addresses[2], 3).tolist() == [1.0, 2.0, 4.0] and len(junk) == 20
+
+
+def test_the_fused_arguments_stay_while_keep_holds_them():
+    kern = fused_kernels()
+    result, n, keep, args = kern.fused_arguments([1.0, 2.0, 4.0], [0.5, 0.25, 0.125], 0.0, {"a": 3.0})
+    junk = fill_freed_blocks(3, 4)
+    ins, strides = args[0], args[1]
+    got = [[doubles(ins[k] + 8 * strides[k] * i)[0] for k in range(4)] for i in range(3)]
+    assert got == [[1.0, 3.0, 0.5, 0.0], [2.0, 3.0, 0.25, 0.0], [4.0, 3.0, 0.125, 0.0]] and len(junk) == 40
+
+
+def test_fused_on_no_pose():
+    out = fused_kernels().fused(np.zeros(0), 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible", status=True)
+    assert out["freq_hz"].shape == (0, 2) and out["status"].shape == (0,)
+
+
+@pytest.mark.parametrize("y", [np.array(0.5), np.array([0.5])])
+def test_the_poses_are_the_broadcast_of_every_per_pose_input(y):
+    """x per pose (3,) and y a writeable array of one value (not packed): three poses."""
+    kern = fused_kernels()
+    result, n, _, args = kern.fused_arguments(np.arange(3.0), y, 0.0, {"a": 1.0}, matrices=(), model="rigid")
+    assert n == 3 and result["freq_hz"].shape == (3, 1)
+    assert doubles(args[0][2] + 8 * args[1][2] * 2)[0] == 0.5 and doubles(args[0][0] + 8 * args[1][0] * 2)[0] == 2.0
+
+
+def test_fused_arguments_tables_sizes_and_options():
+    """One table entry per C input (the rotation vector's three after the names); no
+    eigentwists unless asked; the option array made once; an out array of the status int8."""
+    kern = fused_kernels()
+    result, _, _, args = kern.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0}, matrices=(), model="flexible")
+    assert sorted(result) == ["freq_hz"] and args[7] is None and len(args[0]) == len(args[1]) == 4
+    assert kern.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0}, matrices=())[3][9] is args[9]
+    rot = fused_kernels(inputs=FUSED["inputs"] + [["param", "R_00"]], rotation=True)
+    _, _, _, args = rot.fused_arguments(0.0, 0.0, 0.0, {"a": 1.0, "R_00": 1.0}, matrices=())
+    assert len(args[0]) == len(args[1]) == 5 + 3
+    with pytest.raises(InputError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, {"a": 1.0}, matrices=(), status=True, out={"status": np.zeros(2)})
+    assert str(err.value) == (
+        "out['status']: expected a writeable C-contiguous int8 array of shape (2,), got (2,) float64"
+    )
+    with pytest.raises(KeyError) as err:
+        kern.fused_arguments(np.zeros(2), 0.0, 0.0, {"a": 1.0}, jacobians=("J_rows", "lever"))
+    assert err.value.args[0] == "jacobians has no output(s) ['lever']: expected ['J_rows']"
+
+
+def test_fused_frequencies_asks_no_matrix():
+    kern = fused_kernels()
+    seen = []
+    fn = kern._fn["fused"]
+    kern._fn["fused"] = lambda *a: seen.append(a[6]) or fn(*a)  # the matrices' pointers
+    kern.fused_frequencies(np.zeros(2), 0.0, 0.0, {"a": 1.0}, check=False)
+    assert seen == [None]

@@ -799,7 +799,7 @@ class CKernels:
             R = np.array([[pk[f"R_{i}{j}"][0] for j in range(3)] for i in range(3)])
             pose = np.concatenate([pose, rotation_vector(R)[None, :]], axis=-1)
         ik = self.inverse_kinematics(*pose[:, :3].T, pk)
-        raise_unreachable(legs, pose, {name: v for name, v in ik.items() if name != "q"})
+        raise_unreachable(legs, pose, ik)
         if "lever" in self.OUTPUTS["jacobians"]:
             lever = self.jacobians(ik["q"], pk)["lever"]
             if LEVER_SCALE in pk:
