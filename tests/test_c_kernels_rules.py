@@ -1040,3 +1040,45 @@ def test_fused_frequencies_asks_no_matrix():
     kern._fn["fused"] = lambda *a: seen.append(a[6]) or fn(*a)  # the matrices' pointers
     kern.fused_frequencies(np.zeros(2), 0.0, 0.0, {"a": 1.0}, check=False)
     assert seen == [None]
+
+
+def test_follow_hands_the_followers_kernel_and_its_inputs_to_the_driver(monkeypatch):
+    """The followers kernel's inputs: x, y, z and R_ij named by their roles (the driver fills
+    them from the pose it iterates), the others read at their addresses (pose 2's values)."""
+    from eigentwist.runtime import c_levenberg_marquardt as clm
+
+    follow_spec = {
+        "function": "et_toy_followers",
+        "inputs": [["pose", "y", None], ["param", "a", None], ["param", "R_12", None], ["pose", "x", None]]
+        + [["param", "b", None], ["param", "R_00", None], ["pose", "z", None], ["param", "R_21", None]],
+        "outputs": [["closure", [2, 3]], ["closure_rate", [2, 3, 6]]],
+    }
+    sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], followers=follow_spec))
+    lib = Library(Matrices())
+    proto = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ck._PTRS, ck._I64P, ck._PTRS)
+    lib.et_toy_followers = proto(lambda *a: 0)
+    kern = ck.CKernels(lib, sig, ck.Build("lib.so", "portable", []))
+    seen = []
+
+    def follow(address, roles, addresses, strides, followers, full, q, rows, iterations, tol, threads):
+        values = [doubles(a + 8 * s * 2)[0] if r < 0 else None for a, s, r in zip(addresses, strides, roles)]
+        seen.append((address, roles, strides, followers, full, q, rows, iterations, tol, threads, values))
+        assert [a for a, r in zip(addresses, roles) if r >= 0] == [0] * 6  # filled by the driver: no address
+        return "the driver's result"
+
+    monkeypatch.setattr(clm, "followers_driver", lambda: object())
+    monkeypatch.setattr(clm, "follow", follow)
+    full = np.arange(18.0).reshape(3, 6)
+    q = np.zeros((3, 1, 3), dtype=int)
+    p = {"a": np.array([1.0, 2.0, 4.0]), "b": 7.0, "_full": full}
+    assert kern.follow(q, p, (0, 1, 5), 40, 1e-12, threads=2) == "the driver's result"
+    address, roles, strides, followers, full_given, q_given, rows, its, tol, threads, values = seen[0]
+    assert address == ctypes.cast(lib.et_toy_followers, ctypes.c_void_p).value
+    assert roles == [1, -1, 3 + 5, 0, -1, 3, 2, 3 + 7] and followers == [0, 1, 5]
+    assert strides == [0, 1, 0, 0, 0, 0, 0, 0] and rows == 6  # closure (2, 3): six rows
+    assert values == [None, 4.0, None, None, 7.0, None, None, None]
+    assert full_given is full and q_given.dtype == np.float64 and (its, tol, threads) == (40, 1e-12, 2)
+    kern.follow(q, {**p, "a": 1.0}, [2], 40, 1e-12)
+    assert seen[1][9] == 1 and seen[1][2] == [0] * 8 and seen[1][3] == [2]
+    monkeypatch.setattr(clm, "followers_driver", lambda: None)  # no C driver: NumPy's
+    assert kern.follow(q, p, (0, 1, 5), 40, 1e-12) is None
