@@ -81,8 +81,9 @@ def test_ranges_of_blocks_on_threads(stand_in):
     n = 2 * MIN_BLOCKS_PER_THREAD * c_allowed.BLOCK + 9
     A = rng.standard_normal((n, 2, 6))
     E = rng.standard_normal((n, 6, 3))
-    out = c_allowed.allowed_twists(A, E, 1e-9, 1.0, threads=2)  # tol_col 1: the stand-in writes 7s
-    assert np.all(out == 7.0) and len(stand_in.calls) > 1 and sum(c["n"] for c in stand_in.calls) == n
+    out = c_allowed.allowed_twists(A, E, 1e-9, allowed.VANISHING, threads=2)
+    assert np.array_equal(out, allowed.allowed_twists(A, E))  # each range reads its own rows and candidates
+    assert len(stand_in.calls) > 1 and sum(c["n"] for c in stand_in.calls) == n
     starts = sorted((c["out"] - stand_in.calls[0]["out"]) // (8 * 18) for c in stand_in.calls)
     assert starts[0] == 0 and all(s % c_allowed.BLOCK == 0 for s in starts)
     assert sorted((c["rows"] - A.ctypes.data) // (8 * 12) for c in stand_in.calls) == starts
@@ -91,13 +92,21 @@ def test_ranges_of_blocks_on_threads(stand_in):
     assert len(stand_in.calls) == 1
 
 
+def test_integer_candidates_are_read_as_doubles(stand_in):
+    A = np.random.default_rng(6).standard_normal((3, 2, 6))
+    E = np.eye(6, dtype=int)[:, [0, 3, 5]]
+    assert np.array_equal(c_allowed.allowed_twists(A, E, 1e-9, allowed.VANISHING), allowed.allowed_twists(A, E))
+
+
 def test_a_refusal_and_no_driver(monkeypatch):
     monkeypatch.setattr(c_allowed, "driver", lambda: StandIn(rc=1))
-    with pytest.raises(RuntimeError, match="ran out of memory"):
+    with pytest.raises(RuntimeError) as err:
         c_allowed.allowed_twists(np.zeros((2, 1, 6)), np.eye(6)[:, :3], 1e-9, 1e-8)
+    assert str(err.value) == "the C allowed-twist driver ran out of memory"
     monkeypatch.setattr(c_allowed, "driver", lambda: None)
-    with pytest.raises(RuntimeError, match="could not be built"):
+    with pytest.raises(RuntimeError) as err:
         c_allowed.allowed_twists(np.zeros((2, 1, 6)), np.eye(6)[:, :3], 1e-9, 1e-8)
+    assert str(err.value) == "the C allowed-twist driver could not be built (no compiler)"
     # the rule falls back to NumPy where the driver cannot be built
     A = np.random.default_rng(4).standard_normal((3, 2, 6))
     E = np.eye(6)[:, :3]

@@ -1063,7 +1063,7 @@ def test_follow_hands_the_followers_kernel_and_its_inputs_to_the_driver(monkeypa
     def follow(address, roles, addresses, strides, followers, full, q, rows, iterations, tol, threads):
         values = [doubles(a + 8 * s * 2)[0] if r < 0 else None for a, s, r in zip(addresses, strides, roles)]
         seen.append((address, roles, strides, followers, full, q, rows, iterations, tol, threads, values))
-        assert [a for a, r in zip(addresses, roles) if r >= 0] == [0] * 6  # filled by the driver: no address
+        assert all(a == 0 for a, r in zip(addresses, roles) if r >= 0)  # filled by the driver: no address
         return "the driver's result"
 
     monkeypatch.setattr(clm, "followers_driver", lambda: object())
@@ -1077,8 +1077,13 @@ def test_follow_hands_the_followers_kernel_and_its_inputs_to_the_driver(monkeypa
     assert roles == [1, -1, 3 + 5, 0, -1, 3, 2, 3 + 7] and followers == [0, 1, 5]
     assert strides == [0, 1, 0, 0, 0, 0, 0, 0] and rows == 6  # closure (2, 3): six rows
     assert values == [None, 4.0, None, None, 7.0, None, None, None]
-    assert full_given is full and q_given.dtype == np.float64 and (its, tol, threads) == (40, 1e-12, 2)
+    assert full_given is full and q_given.dtype == np.float64 and q_given.shape == (3, 1, 3)
+    assert (its, tol, threads) == (40, 1e-12, 2)
     kern.follow(q, {**p, "a": 1.0}, [2], 40, 1e-12)
     assert seen[1][9] == 1 and seen[1][2] == [0] * 8 and seen[1][3] == [2]
+    only_pose = dict(follow_spec, inputs=[["pose", "x", None], ["param", "R_22", None]])  # nothing read by address
+    kern = ck.CKernels(lib, dict(sig, kernels=dict(sig["kernels"], followers=only_pose)), kern.build)
+    kern.follow(q, p, [0], 40, 1e-12)
+    assert seen[2][1] == [0, 3 + 8] and seen[2][2] == [0, 0] and seen[2][10] == [None, None]
     monkeypatch.setattr(clm, "followers_driver", lambda: None)  # no C driver: NumPy's
     assert kern.follow(q, p, (0, 1, 5), 40, 1e-12) is None

@@ -200,3 +200,40 @@ def test_followers_driver_gets_each_poses_inputs_and_its_full_pose(monkeypatch):
         assert call["followers"] == [1, 5] and (call["its"], call["tol"]) == (9, 1e-10)
         assert (call["lam"], call["step"]) == (LAMBDA0, MAX_STEP)
     assert np.array_equal(q, np.arange(2.0 * n).reshape(n, 1, 2))  # the start is not changed
+    # one thread unless asked; integer and Fortran-ordered starts and poses: C-ordered doubles
+    fn.calls.clear()
+    qi = np.asfortranarray(np.arange(2 * n).reshape(n, 1, 2))
+    q_out, _ = clm.follow(*args, full.astype(int), qi, 3, 9, 1e-10)
+    assert len(fn.calls) == 1 and np.array_equal(q_out[:, 0], qi[:, 0] + x[:, None] + full[:, [1, 5]] + 3)
+
+
+def test_followers_driver_failure_is_named(monkeypatch):
+    def fails(*args):
+        return -2
+
+    monkeypatch.setattr(clm, "followers_driver", lambda: fails)
+    with pytest.raises(RuntimeError) as err:
+        clm.follow(1, [-1], [np.zeros(1).ctypes.data], [0], [0], np.zeros((1, 6)), np.zeros((1, 1, 1)), 1, 1, 1.0)
+    assert str(err.value) == "C follower iterations returned -2"
+
+
+def test_followers_driver_is_bound_once_from_the_newton_library(monkeypatch):
+    from eigentwist.runtime import ccompile
+
+    class Lib:
+        et_newton_lm = ctypes.CFUNCTYPE(ctypes.c_int)(lambda: 0)
+        et_followers_lm = ctypes.CFUNCTYPE(ctypes.c_int)(lambda: 0)
+
+    seen = []
+    monkeypatch.setattr(clm, "_DRIVER", [])
+    monkeypatch.setattr(clm, "_FOLLOWERS", [])
+    monkeypatch.setattr(clm, "_LIBRARIES", [])
+    monkeypatch.setattr(ccompile, "load_library", lambda source, name: seen.append(name) or Lib())
+    fn = clm.followers_driver()
+    assert fn is Lib.et_followers_lm and clm.followers_driver() is fn and seen == ["newton"]
+    check(clm.SOURCE, "et_followers_lm", fn.argtypes, fn.restype)
+    monkeypatch.setattr(clm, "_DRIVER", [])
+    monkeypatch.setattr(clm, "_FOLLOWERS", [])
+    monkeypatch.setattr(clm, "_LIBRARIES", [])
+    monkeypatch.setattr(ccompile, "load_library", lambda source, name: None)
+    assert clm.followers_driver() is None and clm._FOLLOWERS == [None]

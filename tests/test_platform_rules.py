@@ -28,7 +28,21 @@ def test_left_jacobian_maps_rotation_vector_rates_to_angular_velocity(scale):
         assert np.allclose(left_jacobian(phi) @ d, _omega_by_differences(phi, d), rtol=0, atol=1e-8)
 
 
-@pytest.mark.parametrize("followers", [[0, 1, 5], [3, 4, 5], [2], [4, 0]])
+@pytest.mark.parametrize("t2", [0.0, 1e-12, 9e-11])
+def test_left_jacobian_series_below_its_threshold(t2):
+    """Below t^2 = 1e-10 the left Jacobian's factors are their series: a = (1 - cos t)/t^2 (here
+    2 sin^2(t/2)/t^2, free of cancellation) and b = (t - sin t)/t^3 (here its series to t^4)."""
+    from eigentwist.runtime.platform import _left_jacobian_factors
+
+    phi = np.sqrt(t2 / 3) * np.ones((1, 3))
+    a, b, t2_got = _left_jacobian_factors(phi)
+    t = np.sqrt(t2)
+    a_ref = 0.5 if t2 == 0 else 2 * np.sin(t / 2) ** 2 / t2
+    assert t2_got[0] == pytest.approx(t2, rel=1e-15, abs=1e-300)
+    assert a[0] == pytest.approx(a_ref, rel=1e-15) and b[0] == pytest.approx(1 / 6 - t2 / 120 + t2**2 / 5040, rel=1e-15)
+
+
+@pytest.mark.parametrize("followers", [[0, 1, 5], [3, 4, 5], [2], [4, 0], [3], [0, 3]])
 def test_rates_along_followers_are_the_rates_along_their_twists(followers):
     rng = np.random.default_rng(len(followers))
     n = 40
