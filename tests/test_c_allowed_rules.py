@@ -87,6 +87,10 @@ def test_ranges_of_blocks_on_threads(stand_in):
     starts = sorted((c["out"] - stand_in.calls[0]["out"]) // (8 * 18) for c in stand_in.calls)
     assert starts[0] == 0 and all(s % c_allowed.BLOCK == 0 for s in starts)
     assert sorted((c["rows"] - A.ctypes.data) // (8 * 12) for c in stand_in.calls) == starts
+    shared = allowed.coordinate_twists(["x", "y", "z"])  # one (6, m) for every range
+    assert np.array_equal(
+        c_allowed.allowed_twists(A, shared, 1e-9, allowed.VANISHING, threads=2), allowed.allowed_twists(A, shared)
+    )
     stand_in.calls.clear()
     c_allowed.allowed_twists(A, E, 1e-9, 1.0)  # one thread unless asked
     assert len(stand_in.calls) == 1
