@@ -94,7 +94,8 @@ def test_c_followers_equal_numpy_and_close_the_loop(kernel, n):
     followers = [3, 0, 4, 5]  # rot_x, x, rot_y, rot_z: the unknowns in this order
     full, p, phi, x = _problem(n, seed=n)
     q0 = np.zeros((n, 1, 4))
-    want_q, want_norm = _iterate(_follower_closure(numpy_closure, followers), q0, {**p, "_full": full}, MAX_STEPS, TOL_M)
+    closure = _follower_closure(numpy_closure, followers)
+    want_q, want_norm = _iterate(closure, q0, {**p, "_full": full}, MAX_STEPS, TOL_M)
     keep = [np.ascontiguousarray(p[f"c_{k}"]) for k in range(4)]
     roles = [0, 1, 2, *range(3, 12), -1, -1, -1, -1]
     addresses = [0] * 12 + [a.ctypes.data for a in keep]
@@ -106,7 +107,7 @@ def test_c_followers_equal_numpy_and_close_the_loop(kernel, n):
     np.testing.assert_allclose(got_q[:, 0, 1], x, rtol=0, atol=1e-12)  # the position follower
     np.testing.assert_allclose(got_q[:, 0, [0, 2, 3]], phi, rtol=0, atol=1e-9)  # the rotation it was made from
     # two iterations only: the path, not just the root, is NumPy's (the same residuals and Jacobians)
-    want_q, want_norm = _iterate(_follower_closure(numpy_closure, followers), q0, {**p, "_full": full}, 2, TOL_M)
+    want_q, want_norm = _iterate(closure, q0, {**p, "_full": full}, 2, TOL_M)
     got_q, got_norm = clm.follow(address, roles, addresses, strides, followers, full, q0, 4, 2, TOL_M)
     assert (want_norm > 1e-9).any()  # not converged: the steps themselves are compared
     np.testing.assert_allclose(got_q, want_q, rtol=0, atol=1e-12)
