@@ -204,7 +204,8 @@ class Evaluator:
         self._checked_defaults: set = set()  # parameters whose default _params has checked
         self._resolved: dict = {}  # model spec -> resolve_model's effects (_resolve)
         self._effect = {e: robot.effect(e) for e in robot.effects}
-        #: C backend: run the Newton iterations of legs in URDF form in C (:mod:`.c_levenberg_marquardt`)
+        #: C backend: run the Newton iterations of legs in URDF form and of a platform's followers in C
+        #: (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
         #: (model, names given) -> where the defaults and values go (_laid_out); a diagnosis tries a few hundred models
