@@ -14,6 +14,7 @@ backward sweep once per seed (:data:`CHUNK` statements per C function).
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 from ..description.effects import switch_name
@@ -31,8 +32,8 @@ ADJOINT = "adjoint"
 CHUNK = 5000
 DOC = (
     "Cartesian inertia M (Eq. 12) and stiffness {k} at the EE origin, and the gradient with respect to the design "
-    "parameters {wrt} (per SI unit) of sum_ab S_M[a,b] M[a,b] + S_K[a,b] {k}[a,b] for symmetric seeds S (inputs "
-    "bar_<X>_<a>_<b>, a <= b): reverse mode on the straight-line program."
+    "parameters {wrt} (per SI unit) of sum over the matrices X of sum_ab S_X[a,b] X[a,b] for symmetric seeds S "
+    "(inputs bar_<X>_<a>_<b>, a <= b): reverse mode on the straight-line program."
 )
 
 
@@ -59,7 +60,7 @@ def _params(robot, am) -> list:
     return params + [s_.name for s_ in am.seeds]
 
 
-def adjoint_kernels(model, outputs=("M", "K_F"), progress=None) -> tuple[Kernel, Kernel, Kernel, tuple]:
+def adjoint_kernels(model, outputs=("M", "K_R", "K_F"), progress=None) -> tuple[Kernel, Kernel, Kernel, tuple]:
     """``(matrices, gradient, combined, targets)``: the forward kernel (outputs ``outputs``),
     the gradient kernel (output ``grad``, (G,)), both in one (for C), and the G parameter
     inputs of ``grad`` in order (``P`` and legs' copies ``P__N``)."""
@@ -70,7 +71,7 @@ def adjoint_kernels(model, outputs=("M", "K_F"), progress=None) -> tuple[Kernel,
     params = _params(model.robot, am)
     mats = [Output(k, (6, 6), am.matrices[k], symmetric=True) for k in outputs]
     g = [Output("grad", (len(targets),), list(grad))]
-    doc = DOC.format(k=outputs[1] if len(outputs) > 1 else "", wrt=", ".join(targets))
+    doc = DOC.format(k=" and ".join(outputs[1:]), wrt=", ".join(targets))
     if progress:
         progress(f"kernels ({len(am.program.assignments)} statements)")
     build = dict(pose=list(POSE), joints=[], params=params, cse=False)
@@ -99,13 +100,21 @@ def render_numpy_adjoint(robot, kernels, outputs, targets) -> str:
     return _header(robot.name, outputs, digest, "#") + text[len(old) :] + f"TARGETS = {tuple(targets)!r}\n"
 
 
-def _boundary(kernel: Kernel) -> int:
-    """Index of the first statement of the backward sweep (the first that reads a seed)."""
-    for i, item in enumerate(kernel.body):
+def _split_sweeps(kernel: Kernel) -> tuple[Kernel, int]:
+    """The kernel with its statements reordered: first those that read no seed (the forward
+    sweep, its matrices), then those that do (the backward sweep); and the number of the
+    first. The order within each stays (a forward statement never reads a backward one)."""
+    seeded: set = set()
+    forward, backward = [], []
+    for item in kernel.body:
         expr = item[2] if item[0] == "let" else item[3]
-        if any(s_.name.startswith("bar_") for s_ in expr.free_symbols):
-            return i
-    return len(kernel.body)
+        if any(s_.name.startswith("bar_") or s_ in seeded for s_ in expr.free_symbols):
+            backward.append(item)
+            if item[0] == "let":
+                seeded.add(item[1])
+        else:
+            forward.append(item)
+    return dataclasses.replace(kernel, body=forward + backward), len(forward)
 
 
 def render_c_adjoint(robot, kernel: Kernel, outputs, targets) -> str:
@@ -121,11 +130,11 @@ def render_c_adjoint(robot, kernel: Kernel, outputs, targets) -> str:
 
     from .c_source import BLOCK, c_string_literals, kernel_context
 
+    kernel, cut = _split_sweeps(kernel)
     digest = source_hash([kernel], adjoint_code_version())
     prefix = "et_" + re.sub(r"\W", "_", robot.name) + "_adj"
     units = {p.name: p.unit for p in robot.parameters}
     kctx = kernel_context(kernel, prefix, units)
-    cut = _boundary(kernel)
     starts = list(range(0, cut, CHUNK)) + list(range(cut, len(kernel.body), CHUNK))
     parts = split_parts(kernel, kctx, starts=starts)
     n_fwd_parts = sum(1 for p in parts if p["first"] < cut)

@@ -28,7 +28,7 @@ from ..hashing import content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
 from .memo import NewestKept
 
-__all__ = ["adjoint_kernel", "adjoint_cache_key", "adjoint_frequency_derivatives", "seed_matrices", "TRIU"]
+__all__ = ["OUTPUTS", "adjoint_kernel", "adjoint_cache_key", "adjoint_frequency_derivatives", "seed_matrices", "parameter_columns", "TRIU"]
 
 #: upper-triangle indices (a <= b, row-major) of a 6x6 seed, the order of the kernel's seed inputs
 TRIU = np.triu_indices(6)
@@ -182,7 +182,11 @@ def _c_adjoint(text: str, robot: str):
     raise RuntimeError(f"could not build the C adjoint kernel of {robot!r}:\n" + "\n".join(errors))
 
 
-def adjoint_kernel(ev, outputs=("M", "K_F"), progress=None):
+#: the matrices of the adjoint kernel: one kernel serves the rigid (K_R) and flexible (K_F) models
+OUTPUTS = ("M", "K_R", "K_F")
+
+
+def adjoint_kernel(ev, outputs=OUTPUTS, progress=None):
     """The adjoint kernel of evaluator ``ev`` (its backend) for the matrices ``outputs``.
 
     Generated once per content hash (``progress`` called with messages), then loaded from
@@ -207,15 +211,17 @@ def adjoint_kernel(ev, outputs=("M", "K_F"), progress=None):
     return kern
 
 
-def seed_matrices(u: np.ndarray, w: np.ndarray, lam: np.ndarray) -> np.ndarray:
-    """Seeds (..., 42) of sym(u wᵀ) contracted with ∂K − λ∂M: S_M = −λ sym(u wᵀ), then
-    S_K = sym(u wᵀ), each as its upper triangle (:data:`TRIU`). ``u``, ``w`` (..., 6)."""
+def seed_matrices(u: np.ndarray, w: np.ndarray, lam: np.ndarray, outputs, kname: str) -> np.ndarray:
+    """Seeds (..., 21 len(outputs)) of sym(u wᵀ) contracted with ∂K − λ∂M: S_M = −λ sym(u wᵀ)
+    and S_K = sym(u wᵀ) for the stiffness ``kname``, zero for the other matrices of
+    ``outputs``, each as its upper triangle (:data:`TRIU`). ``u``, ``w`` (..., 6)."""
     a, b = TRIU
     s = 0.5 * (u[..., a] * w[..., b] + w[..., a] * u[..., b])
-    return np.concatenate([-lam[..., None] * s, s], axis=-1)
+    blocks = {"M": -lam[..., None] * s, kname: s}
+    return np.concatenate([blocks.get(k, np.zeros_like(s)) for k in outputs], axis=-1)
 
 
-def _columns(targets, names) -> np.ndarray:
+def parameter_columns(targets, names) -> np.ndarray:
     """(G, len(names)) map from program-input gradients to d/dP (P and its legs' copies
     ``P__N``) or d/dP@N (the copy ``P__N`` alone)."""
     index = {t: i for i, t in enumerate(targets)}
@@ -244,7 +250,8 @@ def adjoint_frequency_derivatives(kern, x, y, z, p, names, rigid: bool, rtol: fl
     from .sensitivity import clusters
 
     out = kern.matrices(x, y, z, p)
-    M, K = out[kern.outputs[0]], out[kern.outputs[1]]
+    kname = "K_R" if rigid else "K_F"
+    M, K = out["M"], out[kname]
     if rigid and basis is not None:
         B = np.asarray(basis, dtype=float)
     elif rigid and translational:
@@ -273,7 +280,7 @@ def adjoint_frequency_derivatives(kern, x, y, z, p, names, rigid: bool, rtol: fl
     for r, pr in pairs.items():
         for k, (i, j) in enumerate(pr):
             u[r, n + k], w[r, n + k], lam_s[r, n + k] = phi[r, :, i], phi[r, :, j], lam_use[r, i]
-    g = kern.gradient(x, y, z, p, seed_matrices(u, w, lam_s)) @ _columns(kern.targets, names)  # (N, S, P)
+    g = kern.gradient(x, y, z, p, seed_matrices(u, w, lam_s, kern.outputs, kname)) @ parameter_columns(kern.targets, names)  # (N, S, P)
     dlam = g[:, :n].copy()
     for r, pr in pairs.items():
         label = np.concatenate([[0], np.cumsum(~joined[r])])

@@ -44,7 +44,7 @@ __all__ = [
     "frequency_derivatives",
     "frequency_sensitivities",
     "difference_step",
-    "DIFFERENCE_STEP",
+    "prepare_sensitivities",
 ]
 
 CLUSTER_RTOL = 1e-6  # frequencies closer than this (relative) form one cluster
@@ -244,6 +244,25 @@ def sensitivity_kernels(ev, wrt, progress=None):
         kern = _numpy_kernel(text, f"eigentwist_sens_{ev.robot.name}_{key}")
     _MEMORY[base, wrt] = kern
     return kern
+
+
+def prepare_sensitivities(ev, wrt, effects, progress=None) -> None:
+    """Load (or generate) the kernel that :meth:`Evaluator.modes_and_sensitivities` with
+    ``method="exact"`` uses for the model ``effects`` (resolved names): the adjoint kernel
+    of a closed-form robot (every parameter at once), the forward kernel for ``wrt`` (a
+    superset of the names later asked for: their rows are selected) where the followers of
+    a lower-mobility platform move with the parameters; nothing for the routes that
+    generate no code (legs solved by Newton, rigid models on turning allowed twists)."""
+    rigid = ev.stiffness_model(effects) == "rigid"
+    space = getattr(ev, "space", None)
+    if ev.numeric_ik or (rigid and getattr(space, "basis", 0) is None):
+        return
+    if not rigid and getattr(space, "followers", ()):
+        sensitivity_kernels(ev, tuple(wrt), progress)
+        return
+    from .adjoint import adjoint_kernel
+
+    adjoint_kernel(ev, progress=progress)
 
 
 # ------------------------------------------------------------ eigenvalue derivatives
