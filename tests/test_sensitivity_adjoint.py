@@ -87,3 +87,11 @@ def test_a_cluster_takes_the_seeds_of_its_pairs():
     want = (np.linalg.eigvalsh(K0 + t * A) - np.diag(K0)) / t / (2 * np.sqrt(np.diag(K0))) / (2 * np.pi)
     np.testing.assert_allclose(d[0, :, 0], want, rtol=1e-5, atol=1e-6)
     assert not np.isclose(d[0, 0, 0], d[0, 1, 0])
+
+
+def test_an_unknown_adjoint_backend_is_refused(delta):
+    from eigentwist.runtime import InputError
+
+    assert adjoint_kernel(delta[0], backend="numpy") is adjoint_kernel(delta[0])
+    with pytest.raises(InputError, match="backend='fortran'"):
+        adjoint_kernel(delta[0], backend="fortran")

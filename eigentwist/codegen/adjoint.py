@@ -21,8 +21,8 @@ from ..description.effects import switch_name
 from ..symbolic import POSE
 from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
-from .render import environment, header
-from .sensitivity import _SOURCES, split_parts
+from .render import TEMPLATES, environment, header
+from .sensitivity import split_parts
 
 __all__ = ["ADJOINT", "adjoint_kernels", "render_numpy_adjoint", "render_c_adjoint", "adjoint_code_version", "CHUNK"]
 
@@ -45,11 +45,14 @@ def adjoint_code_version() -> str:
 
     here = Path(__file__)
     return files_digest(
-        _SOURCES
-        + (
+        (
             here,
+            here.parent / "sensitivity.py",
+            here.parent.parent / "symbolic" / "sensitivity.py",
             here.parent.parent / "symbolic" / "adjoint.py",
-            here.parent / "templates" / "sensitivity" / "adjoint.c.jinja",
+            TEMPLATES / "sensitivity" / "adjoint.c.jinja",
+            TEMPLATES / "c" / "blocks.c.jinja",
+            TEMPLATES / "numpy" / "module.py.jinja",
         )
     )
 

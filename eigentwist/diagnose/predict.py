@@ -319,7 +319,8 @@ class Predictor:
         """
         from ..description.effects import EFFECTS
         from ..runtime.errors import InputError
-        from ..runtime.sensitivity import check_model, prepare_sensitivities
+        from ..runtime.adjoint import prepare_sensitivities
+        from ..runtime.sensitivity import check_model
 
         fitted = {n for e in self.ev.effects if e in EFFECTS for n in EFFECTS[e].fit} | set(names)
         wrt = tuple(n for n in self.ev.parameters if n in fitted)

@@ -9,10 +9,10 @@ per mode does not grow with the number of parameters. Clusters of (nearly) repea
 eigenvalues get the eigenvalues of V_cᵀ(∂K − λ̄∂M)V_c, its entries from the seeds
 sym(φ_i φ_jᵀ) of every pair in the cluster (as :func:`.sensitivity.eigenvalue_derivatives`).
 
-The kernel is generated once per robot and model stiffness (``M`` with ``K_F`` or
-``K_R``), for every parameter, and cached by content hash like the forward kernels
-(:func:`.sensitivity.cache_key`): C through :func:`.ccompile.build_library`, NumPy as a
-module; both verified by their SHA-256 on reading.
+The kernel is generated once per robot (``M``, ``K_R`` and ``K_F``: every model, every
+parameter) and cached by content hash like the forward kernels
+(:func:`.sensitivity.cache_key`), verified by its SHA-256 on reading: a NumPy module by
+default (no compiler), or C through :func:`.ccompile.build_library` on request.
 """
 
 from __future__ import annotations
@@ -28,7 +28,15 @@ from ..hashing import content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
 from .memo import NewestKept
 
-__all__ = ["OUTPUTS", "adjoint_kernel", "adjoint_cache_key", "adjoint_frequency_derivatives", "seed_matrices", "parameter_columns", "TRIU"]
+__all__ = [
+    "OUTPUTS",
+    "adjoint_kernel",
+    "adjoint_cache_key",
+    "adjoint_frequency_derivatives",
+    "seed_matrices",
+    "parameter_columns",
+    "TRIU",
+]
 
 #: upper-triangle indices (a <= b, row-major) of a 6x6 seed, the order of the kernel's seed inputs
 TRIU = np.triu_indices(6)
@@ -39,13 +47,13 @@ _KERNELS = NewestKept(2)
 def adjoint_cache_key(ev, outputs) -> str:
     """Content hash of what the adjoint kernel is made from: the evaluator's source hash, the
     description, the matrices ``outputs`` and the package's code."""
-    from .sensitivity import _description_text
+    from .sensitivity import description_text
 
     return content_hash(
         "adjoint",
         ev.robot.name,
         getattr(ev.module, "SOURCE_HASH", ""),
-        _description_text(ev.robot),
+        description_text(ev.robot),
         tuple(outputs),
         package_digest(),
     )
@@ -65,7 +73,7 @@ def _source(ev, outputs, backend: str, progress) -> str:
     if held is None:
         from ..symbolic import derive
 
-        say(f"{ev.robot.name}: generating the adjoint sensitivity code of {', '.join(outputs)} (once; cached in {path.parent})")
+        say(f"{ev.robot.name}: generating the adjoint sensitivity code (once; cached in {path.parent})")
         held = adjoint_kernels(derive(ev.robot), outputs, progress=lambda m: say(f"{ev.robot.name}: {m}"))
     k_m, k_g, k_c, targets = held
     say(f"{ev.robot.name}: render")
@@ -186,22 +194,31 @@ def _c_adjoint(text: str, robot: str):
 OUTPUTS = ("M", "K_R", "K_F")
 
 
-def adjoint_kernel(ev, outputs=OUTPUTS, progress=None):
-    """The adjoint kernel of evaluator ``ev`` (its backend) for the matrices ``outputs``.
+def adjoint_kernel(ev, outputs=OUTPUTS, progress=None, backend: str = "numpy"):
+    """The adjoint kernel of evaluator ``ev`` for the matrices ``outputs``.
 
     Generated once per content hash (``progress`` called with messages), then loaded from
     the cache; kept in memory for the process. ``.matrices(x, y, z, p)`` returns the
     matrices (N, 6, 6); ``.gradient(x, y, z, p, seed)`` with ``seed`` (N, S, 21 per
     matrix, :data:`TRIU` order) returns (N, S, G), G over ``.targets`` (program inputs).
+
+    ``backend="numpy"`` (the default, whatever ``ev``'s backend): the NumPy module, no
+    compiler. ``"c"`` compiles the C kernel, which gcc takes minutes to optimise (the
+    backward sweep reads most forward values through the spill buffer; see
+    benchmarks/README.md): an opt-in for long runs on one cache.
     """
-    from .sensitivity import _base
+    from .sensitivity import evaluator_key
 
     outputs = tuple(outputs)
-    mem = (_base(ev), outputs)
+    if backend not in ("numpy", "c"):
+        from .errors import InputError
+
+        raise InputError(f"backend={backend!r}: expected 'numpy' or 'c'")
+    mem = (evaluator_key(ev)[:3], outputs, backend)
     if mem in _MEMORY:
         return _MEMORY[mem]
-    text = _source(ev, outputs, "c" if ev.backend == "c" else "numpy", progress)
-    if ev.backend == "c":
+    text = _source(ev, outputs, backend, progress)
+    if backend == "c":
         if progress:
             progress(f"{ev.robot.name}: compile (cached by content hash)")
         kern = _c_adjoint(text, ev.robot.name)
@@ -209,6 +226,25 @@ def adjoint_kernel(ev, outputs=OUTPUTS, progress=None):
         kern = _NumpyAdjoint(text, f"eigentwist_adj_{ev.robot.name}_{adjoint_cache_key(ev, outputs)}", outputs)
     _MEMORY[mem] = kern
     return kern
+
+
+def prepare_sensitivities(ev, wrt, effects, progress=None) -> None:
+    """Load (or generate) the kernel that :meth:`Evaluator.modes_and_sensitivities` with
+    ``method="exact"`` uses for the model ``effects`` (resolved names): the adjoint kernel
+    of a closed-form robot (every parameter at once), the forward kernel for ``wrt`` (a
+    superset of the names later asked for: their rows are selected) where the followers of
+    a lower-mobility platform move with the parameters; nothing for the routes that
+    generate no code (legs solved by Newton, rigid models on turning allowed twists)."""
+    rigid = ev.stiffness_model(effects) == "rigid"
+    space = getattr(ev, "space", None)
+    if ev.numeric_ik or (rigid and getattr(space, "basis", 0) is None):
+        return
+    if not rigid and getattr(space, "followers", ()):
+        from .sensitivity import sensitivity_kernels
+
+        sensitivity_kernels(ev, tuple(wrt), progress)
+        return
+    adjoint_kernel(ev, progress=progress)
 
 
 def seed_matrices(u: np.ndarray, w: np.ndarray, lam: np.ndarray, outputs, kname: str) -> np.ndarray:
@@ -231,14 +267,18 @@ def parameter_columns(targets, names) -> np.ndarray:
         if at:
             rows = [index.get(f"{base}__{leg}")]
         else:
-            rows = [index.get(name)] + [i for t, i in index.items() if t.startswith(f"{name}__") and t[len(name) + 2 :].isdigit()]
+            rows = [index.get(name)] + [
+                i for t, i in index.items() if t.startswith(f"{name}__") and t[len(name) + 2 :].isdigit()
+            ]
         for r in rows:
             if r is not None:
                 A[r, j] = 1.0
     return A
 
 
-def adjoint_frequency_derivatives(kern, x, y, z, p, names, rigid: bool, rtol: float, translational: bool = True, basis=None):
+def adjoint_frequency_derivatives(
+    kern, x, y, z, p, names, rigid: bool, rtol: float, translational: bool = True, basis=None
+):
     """``(freq_hz, eigentwists, dfdp)`` as :func:`.sensitivity.frequency_derivatives`, by reverse mode.
 
     df/dp = dλ/dp / (2ω) / 2π in Hz per SI unit, (N, n_modes, len(names)); dλ/dp =
@@ -280,7 +320,9 @@ def adjoint_frequency_derivatives(kern, x, y, z, p, names, rigid: bool, rtol: fl
     for r, pr in pairs.items():
         for k, (i, j) in enumerate(pr):
             u[r, n + k], w[r, n + k], lam_s[r, n + k] = phi[r, :, i], phi[r, :, j], lam_use[r, i]
-    g = kern.gradient(x, y, z, p, seed_matrices(u, w, lam_s, kern.outputs, kname)) @ parameter_columns(kern.targets, names)  # (N, S, P)
+    g = kern.gradient(x, y, z, p, seed_matrices(u, w, lam_s, kern.outputs, kname)) @ parameter_columns(
+        kern.targets, names
+    )  # (N, S, P)
     dlam = g[:, :n].copy()
     for r, pr in pairs.items():
         label = np.concatenate([[0], np.cumsum(~joined[r])])

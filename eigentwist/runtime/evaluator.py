@@ -1827,8 +1827,9 @@ class Evaluator:
     ):
         """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call.
 
-        ``method="exact"`` (the default) uses the generated sensitivity kernel (derived and
-        cached on first use per ``wrt``); ``"differences"`` derives nothing: dM/dp and
+        ``method="exact"`` (the default) uses the generated adjoint kernel of a closed-form
+        robot (:mod:`.adjoint`: dλ = φᵀ(dK − λ dM)φ for M-orthonormal φ, one backward sweep
+        per mode for every parameter; derived and cached once per robot); ``"differences"`` derives nothing: dM/dp and
         dK/dp by central differences of :meth:`matrices` (relative step 1e-5; the matrices
         are smooth in the parameters even where frequencies cross), then the same
         eigenvalue perturbation (clusters included), ~1e-9 relative from the exact one.

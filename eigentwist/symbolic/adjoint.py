@@ -12,9 +12,9 @@ order of assignment,
 
     v̄ = sum over the intermediates u = f(..., v, ...) that read v of  ū . (df/dv),
 
-with the local partials ``df/dv`` named once in the forward sweep (``D_<u>__<v>``, from
-:func:`~eigentwist.symbolic.sensitivity.gradient`). The code is linear in the size of the
-program and independent of the number of parameters. With S_K = φ_i φ_jᵀ (symmetrised)
+each assignment first cut into operations over atoms (``<u>_<k>``, :func:`_flatten`), so
+the local partials df/dv are products of forward values. The code is linear in the size
+of the program and independent of the number of parameters. With S_K = φ_i φ_jᵀ (symmetrised)
 and S_M = −λ S_K, L's gradient is φ_iᵀ(∂K − λ∂M)φ_j: the derivative of an eigenvalue
 λ = ω² of K φ = λ M φ for M-orthonormal φ (Hoevenaars, Krut, Herder 2020, Eq. 15 with
 Eqs. 12–14 differentiated).
@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from .program import Program
-from .sensitivity import _local, _postorder, combined_program
+from .sensitivity import combined_program, local_partial, postorder
 
 __all__ = ["AdjointModel", "adjoint_program", "seed_name"]
 
@@ -80,7 +80,7 @@ def _flatten(v, rhs, taken: set) -> list:
     if rhs.is_Atom:
         return [(v, rhs)]
     out, value, k = [], {}, 0
-    for node in _postorder(rhs):
+    for node in postorder(rhs):
         if node.is_Atom:
             value[node] = node
             continue
@@ -111,7 +111,7 @@ def _backprop(rhs, vbar, active: set, contrib: dict, name, stem: str) -> None:
     adj: dict = defaultdict(list)
     adj[rhs].append(vbar)
     k = 0
-    for node in reversed(_postorder(rhs)):
+    for node in reversed(postorder(rhs)):
         terms = adj.pop(node, None)
         if not terms:
             continue
@@ -126,7 +126,7 @@ def _backprop(rhs, vbar, active: set, contrib: dict, name, stem: str) -> None:
             k += 1
             a = name(f"{stem}_{k}", a)
         for i in kids:
-            adj[node.args[i]].append(a * _local(node, i))
+            adj[node.args[i]].append(a * local_partial(node, i))
 
 
 def adjoint_program(model, outputs=("M", "K_F"), targets=None, progress=None) -> AdjointModel:
@@ -141,14 +141,16 @@ def adjoint_program(model, outputs=("M", "K_F"), targets=None, progress=None) ->
     names = set(model.robot.parameter_names)
     if targets is None:
         targets = [
-            s_ for s_ in prog.inputs if s_.name in names or s_.name.rpartition("__")[0] in names and s_.name[-1].isdigit()
+            s_
+            for s_ in prog.inputs
+            if s_.name in names or s_.name.rpartition("__")[0] in names and s_.name[-1].isdigit()
         ]
     targets = list(targets)
     fwd = Program()
     for s_ in prog.inputs:
         fwd.declare(s_)
-    fwd.assignments = list(prog.assignments)
-    fwd._names = set(prog._names)
+    for s_, rhs in prog.assignments:
+        fwd.let(s_.name, rhs)
     mats, seeds = {}, []
     contrib: dict = defaultdict(list)
     for k in outputs:
@@ -164,7 +166,7 @@ def adjoint_program(model, outputs=("M", "K_F"), targets=None, progress=None) ->
                 if o.free_symbols:
                     contrib[o].append(bar if a == b else 2 * bar)
         mats[k] = named
-    names_taken = set(fwd._names)
+    names_taken = {s_.name for s_ in fwd.inputs} | {s_.name for s_, _ in fwd.assignments}
     fwd.assignments = [a for v, rhs in fwd.assignments for a in _flatten(v, rhs, names_taken)]
     active = _active(fwd, set(targets))
     forward = list(fwd.assignments)
@@ -195,6 +197,4 @@ def adjoint_program(model, outputs=("M", "K_F"), targets=None, progress=None) ->
         out.declare(s_)
     out.assignments = forward + backward
     inputs = tuple(s_.name for s_ in prog.inputs)
-    return AdjointModel(
-        out, len(forward), mats, (tuple(t.name for t in targets), grad), tuple(seeds), inputs
-    )
+    return AdjointModel(out, len(forward), mats, (tuple(t.name for t in targets), grad), tuple(seeds), inputs)
