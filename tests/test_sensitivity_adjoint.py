@@ -95,3 +95,22 @@ def test_an_unknown_adjoint_backend_is_refused(delta):
     assert adjoint_kernel(delta[0], backend="numpy") is adjoint_kernel(delta[0])
     with pytest.raises(InputError, match="backend='fortran'"):
         adjoint_kernel(delta[0], backend="fortran")
+
+
+@pytest.mark.compiled
+def test_c_adjoint_equals_numpy(delta, monkeypatch):
+    """The C kernel (forward parts once per block, backward parts once per seed; a partial
+    last block) against the NumPy module, compiled at -O0 (seconds; -O2 takes minutes)."""
+    from eigentwist.runtime import adjoint
+
+    ev, _, _ = delta
+    monkeypatch.setattr(adjoint, "C_OPT", "-O0")
+    x = random_poses(ev.robot, 70, seed=3)
+    p = ev._with_pose(x, ev._params(len(x), {}, ev._resolve("paper")))
+    seed = np.random.default_rng(1).normal(size=(len(x), 5, 63))
+    kn, kc = adjoint_kernel(ev), adjoint_kernel(ev, backend="c")
+    a, b = kn.gradient(x[:, 0], x[:, 1], x[:, 2], p, seed), kc.gradient(x[:, 0], x[:, 1], x[:, 2], p, seed)
+    assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max()
+    ma, mc = kn.matrices(x[:, 0], x[:, 1], x[:, 2], p), kc.matrices(x[:, 0], x[:, 1], x[:, 2], p)
+    for k in ma:
+        assert np.abs(ma[k] - mc[k]).max() <= 1e-12 * np.abs(ma[k]).max(), k

@@ -42,6 +42,8 @@ __all__ = [
 TRIU = np.triu_indices(6)
 _MEMORY: dict = {}
 _KERNELS = NewestKept(2)
+#: gcc's optimisation level for the C adjoint kernel (-O3 adds time, not speed, on straight-line code)
+C_OPT = "-O2"
 
 
 def adjoint_cache_key(ev, outputs) -> str:
@@ -182,7 +184,7 @@ def _c_adjoint(text: str, robot: str):
     prefix = "et_" + re.sub(r"\W", "_", robot) + "_adj"
     errors = []
     for name, flags in flag_sets():
-        flags = ["-O2" if f == "-O3" else f for f in flags]  # straight-line code: -O3 adds time, not speed
+        flags = [C_OPT if f == "-O3" else f for f in flags]
         try:
             return _CAdjoint(build_library(text, f"{robot}_adj", cc, flags), prefix)
         except (subprocess.CalledProcessError, OSError) as exc:
