@@ -1,0 +1,330 @@
+"""The evaluator's rules on the shipped robots' NumPy modules: every refusal names the bad
+value, every threshold and fallback is tested on both sides, and every result is checked
+against an independent computation (a generalized eigenproblem solved here with SciPy, the
+blocks of the matrices, Rodrigues' formula, symmetry)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+import eigentwist
+from eigentwist.runtime import InputError, SingularPoseError, UnreachablePoseError, UnstablePoseError
+from eigentwist.runtime import condense
+from eigentwist.runtime.evaluator import AXES, CHUNK, Evaluator, Modes
+
+
+@pytest.fixture(scope="module")
+def heli4():
+    return eigentwist.load("heli4", backend="numpy")
+
+
+@pytest.fixture(scope="module")
+def hexapod():
+    return eigentwist.load("hexapod", backend="numpy")
+
+
+@pytest.fixture(scope="module")
+def delta():
+    return eigentwist.load("delta", backend="numpy")
+
+
+def fresh(name="heli4") -> Evaluator:
+    """A new evaluator (nothing remembered yet)."""
+    return eigentwist.load(name, backend="numpy")
+
+
+#: two reachable Heli4 poses off the symmetry axis (m)
+POSES = np.array([[0.02, -0.03, -0.62], [-0.05, 0.04, -0.6]])
+
+
+def hz(K, M):
+    """Natural frequencies of K v = omega^2 M v, ascending (Hz): SciPy, independent of the
+    evaluator's solver."""
+    return np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True)) / (2 * np.pi)
+
+
+# ----------------------------------------------------------------- poses
+def test_one_pose_is_a_row_and_a_batch_its_rows(heli4):
+    one = heli4.frequencies(POSES[0])
+    both = heli4.frequencies(POSES)
+    assert one.shape == (1, 6) and both.shape == (2, 6)
+    np.testing.assert_allclose(both[0], one[0], rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "poses, shape",
+    [(np.zeros((2, 2)), r"\(2, 2\)"), (np.zeros((1, 2, 3)), r"\(1, 2, 3\)"), (np.zeros(4), r"\(4,\)")],
+)
+def test_poses_of_the_wrong_shape_name_it_and_the_columns(heli4, poses, shape):
+    with pytest.raises(InputError, match=rf"poses has shape {shape}: expected \(N, 3\) poses of heli4, columns x, y, z \(m\)$"):
+        heli4.frequencies(poses)
+
+
+def test_a_six_dof_robots_poses_name_metres_and_radians(hexapod):
+    with pytest.raises(InputError, match=r"expected \(N, 6\) poses of hexapod, columns x, y, z, rot_x, rot_y, rot_z \(m and rad\)"):
+        hexapod.frequencies(np.zeros((1, 3)))
+    with pytest.raises(InputError, match=r"pose 0 = \[0.0, 0.0, nan, 0.0, 0.0, 0.0\] is not finite: expected numbers \(m and rad\)"):
+        hexapod.frequencies([0.0, 0.0, np.nan, 0.0, 0.0, 0.0])
+
+
+def test_no_pose_is_refused(heli4):
+    with pytest.raises(InputError, match=r"^poses is empty: expected at least one \(x, y, z\) pose \(m\)$"):
+        heli4.frequencies(np.zeros((0, 3)))
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_the_first_non_finite_pose_is_named(heli4, bad):
+    poses = np.array([POSES[0], POSES[1], [0.0, bad, -0.6], [bad, 0.0, -0.6]])
+    with pytest.raises(InputError, match=rf"^pose 2 = \[0.0, {bad!r}, -0.6\] is not finite: expected numbers \(m\)$"):
+        heli4.frequencies(poses)
+
+
+def test_a_six_dof_robots_kernels_read_the_pose_and_its_rotation_matrix(hexapod, heli4):
+    pose = np.array([[0.01, -0.02, 0.8, 0.1, -0.2, 0.3], [0.0, 0.0, 0.75, 0.0, 0.0, 0.0]])
+    got = hexapod.kernel_pose_inputs(pose)
+    assert set(got) == {"x", "y", "z", "rot_x", "rot_y", "rot_z"} | {f"R_{i}{j}" for i in range(3) for j in range(3)}
+    for k, name in enumerate(("x", "y", "z", "rot_x", "rot_y", "rot_z")):
+        np.testing.assert_array_equal(got[name], pose[:, k])
+    for row in range(2):  # Rodrigues: exp of the rotation vector's skew matrix
+        w = pose[row, 3:]
+        W = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+        R = scipy.linalg.expm(W)
+        for i in range(3):
+            for j in range(3):
+                assert got[f"R_{i}{j}"][row] == pytest.approx(R[i, j], abs=1e-14)
+    assert hexapod.pose_inputs(pose).keys() == got.keys()
+    assert heli4.kernel_pose_inputs(POSES) == {}
+    xyz = heli4.pose_inputs(POSES)
+    assert list(xyz) == ["x", "y", "z"] and all((xyz[c] == POSES[:, k]).all() for k, c in enumerate("xyz"))
+    assert heli4.closure_inputs(POSES, {"k_a": 1.0})["k_a"] == 1.0
+    assert (heli4.closure_inputs(POSES, {"k_a": 1.0})["z"] == POSES[:, 2]).all()
+
+
+def test_the_modes_axes_are_the_allowed_twists_of_the_rigid_model(heli4, hexapod):
+    assert heli4.axes("rigid") == ("x", "y", "z") and heli4.axes("flexible") == AXES
+    assert hexapod.axes("rigid") == AXES and hexapod.rigid_size() == 6 and heli4.rigid_size() == 3
+    assert heli4.modes(POSES, "rigid").axes == ("x", "y", "z")
+    assert repr(heli4) == "<eigentwist evaluator 'heli4' backend='numpy'>"
+    assert heli4.spec == "heli4" and heli4.dof == 3 and hexapod.dof == 6
+
+
+# ------------------------------------------------------------ parameters
+def test_a_leg_level_parameter_takes_one_value_per_leg(heli4):
+    assert heli4.accepts("k_a") and heli4.accepts("eta_a@1") and heli4.accepts("eta_a@4")
+    for name in ("eta_a@0", "eta_a@5", "eta_a@x", "k_a@1", "nope", "nope@1", "eta_a@"):
+        assert not heli4.accepts(name), name
+    p = heli4.parameter("eta_a@3")
+    assert p.name == "eta_a@3" and p.unit == heli4.parameter("eta_a").unit
+    assert heli4.parameter("k_a") is heli4.parameters["k_a"]
+    with pytest.raises(InputError, match=r"'eta_a@5': '5' is not a leg number; expected eta_a@N with N in 1..4"):
+        heli4.parameter("eta_a@5")
+    with pytest.raises(InputError, match=r"^parameter 'k_a@2': k_a belongs to no leg-level effect, so it has no per-leg value \(leg-level parameters: eta_a, E_rod"):
+        heli4.parameter("k_a@2")
+
+
+def test_an_unknown_parameter_is_named_with_a_suggestion(heli4):
+    with pytest.raises(InputError, match=r"^unknown parameter\(s\) 'k_A', 'zz@2' for heli4.*did you mean.*k_a.*expected names from R, l1, .* \(NAME@N for one leg\)$"):
+        heli4.frequencies(POSES, k_A=1.0, **{"zz@2": 1.0})
+
+
+def test_a_leg_level_parameter_of_a_robot_without_one_is_refused(hexapod):
+    assert hexapod.accepts("k_s@6") and not hexapod.accepts("k_s@7")
+
+
+@pytest.mark.parametrize("shape", [(3,), (1, 2), (2, 1)])
+def test_a_parameter_is_a_scalar_or_one_value_per_pose(heli4, shape):
+    with pytest.raises(InputError, match=rf"^parameter 'k_a' has shape \({shape[0]}, ?{shape[1] if len(shape) > 1 else ''}\): expected a scalar or \(2,\) for 2 poses$"):
+        heli4.frequencies(POSES, k_a=np.full(shape, 2000.0))
+
+
+def test_one_value_per_pose_or_one_for_all(heli4):
+    each = heli4.frequencies(POSES, "rigid", k_a=np.array([1000.0, 4000.0]))
+    one = heli4.frequencies(POSES, "rigid", k_a=np.array([1000.0]))
+    # rigid model: every stiffness is the actuators' (no structural compliance), f ~ sqrt(k_a)
+    np.testing.assert_allclose(one[1] * 2, each[1], rtol=1e-10)
+    np.testing.assert_allclose(one[0], each[0], rtol=1e-12)
+    np.testing.assert_allclose(heli4.frequencies(POSES, "rigid", k_a=1000.0), one, rtol=1e-12)
+
+
+def test_a_legs_own_value_out_of_bounds_is_named_with_its_leg(heli4):
+    with pytest.raises(InputError, match=r"^parameter 'eta_a@2' = 1.5 -: expected a finite value in \(0, 1\]$"):
+        heli4.frequencies(POSES, **{"eta_a@2": 1.5})
+    with pytest.raises(InputError, match=r"^parameter 'eta_a' = 1.5 -"):
+        heli4.frequencies(POSES, eta_a=1.5)
+
+
+def test_a_legs_own_values_meet_their_effects_constraints(heli4):
+    model = "paper,lower_link_compliance"
+    with pytest.raises(InputError, match=r"^leg 2: parameters r_i_l1 = 0.02 m, r_o_l1 = 0.012 m: .* expected r_i_l1 < r_o_l1$"):
+        heli4.frequencies(POSES, model, **{"r_i_l1@2": 0.02})
+    with pytest.raises(InputError, match=r"^leg 3: parameters r_i_l1 = 0.011 m, r_o_l1 = 0.0105 m"):
+        heli4.frequencies(POSES, model, **{"r_i_l1@3": 0.011, "r_o_l1@3": 0.0105})
+    # the effect on leg 2 only: leg 2's values are checked, another leg's are not read
+    with pytest.raises(InputError, match="^leg 2: "):
+        heli4.frequencies(POSES, "paper,lower_link_compliance@2", **{"r_i_l1@2": 0.02})
+    assert np.isfinite(heli4.frequencies(POSES, "paper,lower_link_compliance@3", **{"r_i_l1@2": 0.02})).all()
+    assert np.isfinite(heli4.frequencies(POSES, model, **{"r_i_l1@2": 0.0119})).all()  # just inside
+    # without the effect the constraint does not apply
+    assert np.isfinite(heli4.frequencies(POSES, "paper", **{"r_i_l1@2": 0.02})).all()
+
+
+def test_a_shared_constraint_is_checked_on_the_shared_values(heli4):
+    with pytest.raises(InputError, match=r"^parameters r_i = 0.005 m, r_o = 0.005 m"):
+        heli4.frequencies(POSES, r_i=0.005)
+    assert np.isfinite(heli4.frequencies(POSES, r_i=0.00499)).all()
+
+
+def test_resolved_scalars_are_read_only_copies_and_arrays_are_the_callers():
+    ev = fresh()
+    a = ev.parameter_values(2, "rigid", k_a=1500.0)
+    b = ev.parameter_values(2, "rigid", k_a=1500.0)
+    assert a["k_a"] == 1500.0 and a["k_a"] is not b["k_a"]
+    a["k_a"][...] = 1.0  # the caller's copy: the remembered value stays
+    assert ev.parameter_values(2, "rigid", k_a=1500.0)["k_a"] == 1500.0
+    p = ev._params(2, {"k_a": 1500.0}, "rigid")
+    assert not p["k_a"].flags.writeable and p["k_a"].ndim == 0
+    assert ev._params(2, {"k_a": 1500.0}, "rigid")["k_a"] is p["k_a"]  # the same remembered array
+    assert ev._params(2, {"k_a": np.float32(1500.0)}, "rigid")["k_a"] is p["k_a"]
+    assert ev._params(2, {"k_a": np.array(1500.0)}, "rigid")["k_a"] is p["k_a"]
+    k = np.array([1500.0, 1600.0])
+    arr = ev._params(2, {"k_a": k}, "rigid")["k_a"]
+    np.testing.assert_array_equal(arr, k)
+    assert ev._params_key({"k_a": k}, "rigid") is None
+    assert ev._params_key({"k_a": "1500"}, "rigid") is None
+    assert ev._params_key({"k_a": np.array(["a"])[0]}, "rigid") is None
+    assert ev._params_key({"k_a": 2}, "rigid") == ("rigid", (("k_a", 2.0),))
+    assert ev._params_key({"c_rigid": condense.EXACT}, "rigid") == ("rigid", (("c_rigid", "exact"),))
+    assert ev._params_key({"b": 1.0, "a": 2.0}, ["actuator_loss"]) == (("actuator_loss",), (("a", 2.0), ("b", 1.0)))
+
+
+def test_the_remembered_values_are_bounded():
+    ev = fresh()
+    first = ev._params(1, {"k_a": 1000.0}, "rigid")["k_a"]
+    for j in range(63):
+        ev._params(1, {"k_a": 1001.0 + j}, "rigid")
+    assert len(ev._params_memo) == 64
+    assert ev._params(1, {"k_a": 1000.0}, "rigid")["k_a"] is first  # still held at 64
+    ev._params(1, {"k_a": 999.0}, "rigid")  # the 65th: the memo starts over
+    assert len(ev._params_memo) == 1
+    assert ev._params(1, {"k_a": 1000.0}, "rigid")["k_a"] is not first
+
+
+def test_a_default_is_one_read_only_array_until_it_changes():
+    ev = fresh()
+    a = ev._default("k_a", 2000.0, 1, False)
+    assert a == 2000.0 and not a.flags.writeable and ev._default("k_a", 2000.0, 1, False) is a
+    b = ev._default("k_a", 2500.0, 1, False)
+    assert b == 2500.0 and b is not a
+    with pytest.raises(InputError, match=r"^parameter 'k_a' = -1.0"):
+        ev._default("k_a", -1.0, 1, True)
+    arr = ev._default("k_a", np.array([1.0, 2.0]), 2, False)  # an array default: as given
+    np.testing.assert_array_equal(arr, [1.0, 2.0])
+
+
+def test_a_default_out_of_bounds_is_refused_where_its_effect_is_on():
+    ev = fresh()
+    param = ev.parameters["eta_a"]
+    ev.parameters = {**ev.parameters, "eta_a": param.with_values(default=1.5)}
+    assert np.isfinite(ev.frequencies(POSES, "none")).all()  # actuator_loss off: eta_a unread
+    with pytest.raises(InputError, match=r"^parameter 'eta_a' = 1.5"):
+        ev.frequencies(POSES, "actuator_loss")
+    assert "eta_a" not in ev._checked_defaults and "k_a" in ev._checked_defaults
+    assert np.isfinite(ev.frequencies(POSES, "actuator_loss", eta_a=0.5)).all()
+
+
+def test_the_inputs_are_floats_and_per_pose_arrays(heli4):
+    p = heli4.inputs("none", {"k_a": 1500.0}, eta_a=0.7)
+    assert type(p["k_a"]) is float and p["k_a"] == 1500.0 and p["eta_a"] == 0.7
+    assert p["on_actuator_loss__1"] == 0.0 and p["on_rod_compliance__2"] == 0.0 and p["eta_a__3"] == 0.7
+    q = heli4.inputs("paper,actuator_loss@2", **{"k_a": np.array([1.0, 2.0, 3.0]), "eta_a@2": 0.5})
+    assert isinstance(q["k_a"], np.ndarray) and q["k_a"].tolist() == [1.0, 2.0, 3.0]
+    assert [q[f"on_actuator_loss__{k}"] for k in range(1, 5)] == [1.0, 1.0, 1.0, 1.0]
+    assert [q[f"eta_a__{k}"] for k in range(1, 5)] == [0.82, 0.5, 0.82, 0.82]
+    r = heli4.inputs("actuator_loss@2")
+    assert [r[f"on_actuator_loss__{k}"] for k in range(1, 5)] == [0.0, 1.0, 0.0, 0.0]
+    assert r["on_payload_mass"] == 0.0 and heli4.inputs("paper,payload_mass")["on_payload_mass"] == 1.0
+    # the batch is the longest array given
+    with pytest.raises(InputError, match=r"^parameter 'k_a' has shape \(2,\): expected a scalar or \(3,\) for 3 poses$"):
+        heli4.inputs(k_a=np.ones(2), m_e=np.ones(3))
+
+
+# ------------------------------------------------------------------ batches
+def test_a_batch_is_cut_into_chunks_that_cover_it_once(heli4):
+    assert list(heli4._chunks(10, 4)) == [slice(0, 4), slice(4, 8), slice(8, 10)]
+    assert list(heli4._chunks(8, 4)) == [slice(0, 4), slice(4, 8)]
+    assert list(heli4._chunks(3)) == [slice(0, 3)]
+    assert list(heli4._chunks(CHUNK + 1)) == [slice(0, CHUNK), slice(CHUNK, CHUNK + 1)]
+
+
+def test_rows_of_the_inputs_are_taken_where_an_input_has_one_per_pose():
+    n = 3
+    p = {"a": np.arange(3.0), "s": np.array(2.0), "one": np.array([5.0])}
+    t = Evaluator._take(p, slice(1, 3))
+    assert t["a"].tolist() == [1.0, 2.0] and t["s"] == 2.0 and t["one"].tolist() == [5.0]
+    mask = np.array([True, False, True])
+    m = Evaluator._mask(p, mask, n)
+    assert m["a"].tolist() == [0.0, 2.0] and m["one"].tolist() == [5.0] and m["s"] == 2.0
+    single = {"a": np.array([7.0])}
+    assert Evaluator._mask(single, np.array([True]), 1)["a"] is single["a"]
+    r = Evaluator._rows({"a": [1.0, 2.0, 3.0], "s": 4.0, "two": np.ones(2)}, mask, n)
+    assert r["a"].tolist() == [1.0, 3.0] and r["s"] == 4.0 and r["two"].tolist() == [1.0, 1.0]
+    assert Evaluator._rows({"a": [1.0]}, slice(0, 1), 1)["a"] == [1.0]
+
+
+def test_a_batch_longer_than_a_chunk_gives_each_poses_own_result(heli4):
+    n = CHUNK + 2
+    poses = np.tile(POSES[0], (n, 1))
+    poses[-1] = POSES[1]
+    k_a = np.full(n, 2000.0)
+    k_a[-2] = 8000.0  # the second chunk's first pose: its own value
+    f = heli4.frequencies(poses, "rigid", k_a=k_a)
+    ref = heli4.frequencies(POSES, "rigid")
+    np.testing.assert_allclose(f[0], ref[0], rtol=1e-12)
+    np.testing.assert_allclose(f[-1], ref[1], rtol=1e-12)
+    np.testing.assert_allclose(f[-2], 2 * ref[0], rtol=1e-10)  # f ~ sqrt(k_a)
+    q = heli4.joint_angles(poses[CHUNK - 1 :])
+    np.testing.assert_allclose(q[-1], heli4.joint_angles(POSES[1])[0], rtol=1e-12)
+
+
+# ------------------------------------------------------------ validity
+def singular_z(ev) -> float:
+    """z on the Heli4's axis where legs 1 and 2's lower links align with their parallelograms."""
+    l1, l2, R, r, d = (ev.defaults[k] for k in ("l1", "l2", "R", "r", "d"))
+    return -np.sqrt((l1 + l2) ** 2 - (R - r) ** 2) - d + 1e-9
+
+
+def test_each_pose_is_valid_or_not_with_its_reason(heli4):
+    P = np.array([POSES[0], [0.0, 0.0, singular_z(heli4)], [0.0, 0.0, -1.2], POSES[1]])
+    assert heli4.valid(P).tolist() == [True, False, False, True]
+    st = heli4.pose_status(P)
+    assert st["status"].tolist() == ["reachable", "serial singular", "unreachable", "reachable"]
+    assert st["code"].tolist() == [0, 2, 1, 0] and st["code"].dtype == np.int8
+    assert np.isnan(st["conditioning"][2]) and np.isnan(st["lever"][2])
+    # the lever relative to l1 (the robot's LEVER_SCALE): the smallest of the legs'
+    lever = heli4.jacobians(P[[0, 3]])["lever"]
+    np.testing.assert_allclose(st["lever"][[0, 3]], np.abs(lever).min(axis=1) / heli4.defaults["l1"], rtol=1e-12)
+    assert 0 < st["conditioning"][0] <= 1 and st["lever"][1] < 1e-3
+    m = heli4.modes(P, invalid="nan")
+    assert m.valid.tolist() == [True, False, False, True] and m.stable.all()
+    assert np.isnan(m.freq_hz[1:3]).all() and np.isnan(m.eigentwists[1:3]).all()
+    np.testing.assert_allclose(m.freq_hz[[0, 3]], heli4.frequencies(POSES), rtol=1e-12)
+    with pytest.raises(SingularPoseError, match="leg 1"):
+        heli4.modes(P[:2])
+    with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, -1.2\]"):  # before the singular one
+        heli4.modes(P)
+    with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, -1.2\]"):
+        heli4.modes(P[2:])
+    assert heli4.modes(P[:1]).valid is None
+
+
+def test_no_valid_pose_gives_nan_and_no_error(heli4):
+    m = heli4.modes([[0.0, 0.0, -1.2], [0.0, 0.0, -1.3]], invalid="nan", vectors=False)
+    assert m.valid.tolist() == [False, False] and np.isnan(m.freq_hz).all() and m.eigentwists is None
+    st = heli4.pose_status([[0.0, 0.0, -1.2]])
+    assert st["status"].tolist() == ["unreachable"] and np.isnan(st["conditioning"]).all()
+    r = heli4.modes([[0.0, 0.0, -1.2], POSES[0]], "rigid", invalid="nan")
+    assert r.freq_hz.shape == (2, 3) and r.eigentwists.shape == (2, 3, 3)
