@@ -5,7 +5,7 @@ blocks of the matrices, Rodrigues' formula, symmetry)."""
 
 from __future__ import annotations
 
-import warnings
+import types
 
 import numpy as np
 import pytest
@@ -60,14 +60,20 @@ def test_one_pose_is_a_row_and_a_batch_its_rows(heli4):
     [(np.zeros((2, 2)), r"\(2, 2\)"), (np.zeros((1, 2, 3)), r"\(1, 2, 3\)"), (np.zeros(4), r"\(4,\)")],
 )
 def test_poses_of_the_wrong_shape_name_it_and_the_columns(heli4, poses, shape):
-    with pytest.raises(InputError, match=rf"poses has shape {shape}: expected \(N, 3\) poses of heli4, columns x, y, z \(m\)$"):
+    with pytest.raises(
+        InputError, match=rf"poses has shape {shape}: expected \(N, 3\) poses of heli4, columns x, y, z \(m\)$"
+    ):
         heli4.frequencies(poses)
 
 
 def test_a_six_dof_robots_poses_name_metres_and_radians(hexapod):
-    with pytest.raises(InputError, match=r"expected \(N, 6\) poses of hexapod, columns x, y, z, rot_x, rot_y, rot_z \(m and rad\)"):
+    with pytest.raises(
+        InputError, match=r"expected \(N, 6\) poses of hexapod, columns x, y, z, rot_x, rot_y, rot_z \(m and rad\)"
+    ):
         hexapod.frequencies(np.zeros((1, 3)))
-    with pytest.raises(InputError, match=r"pose 0 = \[0.0, 0.0, nan, 0.0, 0.0, 0.0\] is not finite: expected numbers \(m and rad\)"):
+    with pytest.raises(
+        InputError, match=r"pose 0 = \[0.0, 0.0, nan, 0.0, 0.0, 0.0\] is not finite: expected numbers \(m and rad\)"
+    ):
         hexapod.frequencies([0.0, 0.0, np.nan, 0.0, 0.0, 0.0])
 
 
@@ -122,12 +128,18 @@ def test_a_leg_level_parameter_takes_one_value_per_leg(heli4):
     assert heli4.parameter("k_a") is heli4.parameters["k_a"]
     with pytest.raises(InputError, match=r"'eta_a@5': '5' is not a leg number; expected eta_a@N with N in 1..4"):
         heli4.parameter("eta_a@5")
-    with pytest.raises(InputError, match=r"^parameter 'k_a@2': k_a belongs to no leg-level effect, so it has no per-leg value \(leg-level parameters: eta_a, E_rod"):
+    with pytest.raises(
+        InputError,
+        match=r"^parameter 'k_a@2': k_a belongs to no leg-level effect, so it has no per-leg value \(leg-level parameters: eta_a, E_rod",
+    ):
         heli4.parameter("k_a@2")
 
 
 def test_an_unknown_parameter_is_named_with_a_suggestion(heli4):
-    with pytest.raises(InputError, match=r"^unknown parameter\(s\) 'k_A', 'zz@2' for heli4.*did you mean.*k_a.*expected names from R, l1, .* \(NAME@N for one leg\)$"):
+    with pytest.raises(
+        InputError,
+        match=r"^unknown parameter\(s\) 'k_A', 'zz@2' for heli4.*did you mean.*k_a.*expected names from R, l1, .* \(NAME@N for one leg\)$",
+    ):
         heli4.frequencies(POSES, k_A=1.0, **{"zz@2": 1.0})
 
 
@@ -137,7 +149,10 @@ def test_a_leg_level_parameter_of_a_robot_without_one_is_refused(hexapod):
 
 @pytest.mark.parametrize("shape", [(3,), (1, 2), (2, 1)])
 def test_a_parameter_is_a_scalar_or_one_value_per_pose(heli4, shape):
-    with pytest.raises(InputError, match=rf"^parameter 'k_a' has shape \({shape[0]}, ?{shape[1] if len(shape) > 1 else ''}\): expected a scalar or \(2,\) for 2 poses$"):
+    with pytest.raises(
+        InputError,
+        match=rf"^parameter 'k_a' has shape \({shape[0]}, ?{shape[1] if len(shape) > 1 else ''}\): expected a scalar or \(2,\) for 2 poses$",
+    ):
         heli4.frequencies(POSES, k_a=np.full(shape, 2000.0))
 
 
@@ -159,7 +174,9 @@ def test_a_legs_own_value_out_of_bounds_is_named_with_its_leg(heli4):
 
 def test_a_legs_own_values_meet_their_effects_constraints(heli4):
     model = "paper,lower_link_compliance"
-    with pytest.raises(InputError, match=r"^leg 2: parameters r_i_l1 = 0.02 m, r_o_l1 = 0.012 m: .* expected r_i_l1 < r_o_l1$"):
+    with pytest.raises(
+        InputError, match=r"^leg 2: parameters r_i_l1 = 0.02 m, r_o_l1 = 0.012 m: .* expected r_i_l1 < r_o_l1$"
+    ):
         heli4.frequencies(POSES, model, **{"r_i_l1@2": 0.02})
     with pytest.raises(InputError, match=r"^leg 3: parameters r_i_l1 = 0.011 m, r_o_l1 = 0.0105 m"):
         heli4.frequencies(POSES, model, **{"r_i_l1@3": 0.011, "r_o_l1@3": 0.0105})
@@ -248,7 +265,9 @@ def test_the_inputs_are_floats_and_per_pose_arrays(heli4):
     assert [r[f"on_actuator_loss__{k}"] for k in range(1, 5)] == [0.0, 1.0, 0.0, 0.0]
     assert r["on_payload_mass"] == 0.0 and heli4.inputs("paper,payload_mass")["on_payload_mass"] == 1.0
     # the batch is the longest array given
-    with pytest.raises(InputError, match=r"^parameter 'k_a' has shape \(2,\): expected a scalar or \(3,\) for 3 poses$"):
+    with pytest.raises(
+        InputError, match=r"^parameter 'k_a' has shape \(2,\): expected a scalar or \(3,\) for 3 poses$"
+    ):
         heli4.inputs(k_a=np.ones(2), m_e=np.ones(3))
 
 
@@ -328,3 +347,260 @@ def test_no_valid_pose_gives_nan_and_no_error(heli4):
     assert st["status"].tolist() == ["unreachable"] and np.isnan(st["conditioning"]).all()
     r = heli4.modes([[0.0, 0.0, -1.2], POSES[0]], "rigid", invalid="nan")
     assert r.freq_hz.shape == (2, 3) and r.eigentwists.shape == (2, 3, 3)
+
+
+# ------------------------------------------------------------- matrices
+def test_matrices_are_written_into_the_callers_arrays(heli4):
+    ref = heli4.matrices(POSES)
+    out = {"K_F": np.zeros((2, 6, 6)), "M": np.zeros((2, 6, 6))}
+    got = heli4.matrices(POSES, out=out)
+    assert got["K_F"] is out["K_F"] and got["M"] is out["M"] and got["K_R"] is not None
+    for k in ("M", "K_R", "K_F"):
+        np.testing.assert_array_equal(got[k], ref[k])
+        np.testing.assert_allclose(ref[k], np.swapaxes(ref[k], 1, 2), atol=1e-9 * np.abs(ref[k]).max())  # symmetric
+    q = heli4.joint_angles(POSES)
+    buf = np.zeros((2, 6, 6))
+    by_joints = heli4.matrices(None, joints=q, out={"M": buf})
+    assert by_joints["M"] is buf
+    np.testing.assert_allclose(buf, ref["M"], rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize(
+    "arr, shown",
+    [
+        (np.zeros((3, 6, 6)), r"\(3, 6, 6\) float64"),
+        (np.zeros((2, 6, 6), dtype=np.float32), r"\(2, 6, 6\) float32"),
+        (np.zeros((2, 6, 6, 2))[..., 0], r"\(2, 6, 6\) float64"),  # not contiguous
+        ([[0.0] * 6] * 6, "None list"),
+    ],
+)
+def test_an_output_array_that_cannot_be_written_in_place_is_refused(heli4, arr, shown):
+    with pytest.raises(
+        InputError,
+        match=rf"^out\['K_R'\]: expected a writeable C-contiguous float64 array of shape \(2, 6, 6\), got {shown}$",
+    ):
+        heli4.matrices(POSES, out={"K_R": arr})
+
+
+def test_a_read_only_output_array_or_an_unknown_key_is_refused(heli4):
+    ro = np.zeros((2, 6, 6))
+    ro.flags.writeable = False
+    with pytest.raises(InputError, match=r"^out\['M'\]: expected a writeable"):
+        heli4.matrices(POSES, out={"M": ro})
+    with pytest.raises(
+        InputError, match=r"^out has unknown key\(s\) \['K', 'Z'\]: expected some of \['M', 'K_R', 'K_F'\]$"
+    ):
+        heli4.matrices(POSES, out={"Z": ro, "K": ro, "M": ro})
+    with pytest.raises(InputError, match=r"^out has unknown key"):
+        heli4.matrices(None, joints=heli4.joint_angles(POSES), out={"Z": ro})
+
+
+def test_the_matrices_come_chunk_by_chunk(heli4):
+    P = np.array([POSES[0], POSES[1], [0.0, 0.0, -0.61]])
+    ref = heli4.matrices(P, k_a=np.array([1000.0, 2000.0, 3000.0]))
+    parts = list(heli4.iter_matrices(P, chunk=2, k_a=np.array([1000.0, 2000.0, 3000.0])))
+    assert [sl for sl, _ in parts] == [slice(0, 2), slice(2, 3)]
+    for k in ("M", "K_R", "K_F"):
+        np.testing.assert_array_equal(np.concatenate([m[k] for _, m in parts]), ref[k])
+    assert [sl for sl, _ in heli4.iter_matrices(P, chunk=np.int64(3))] == [slice(0, 3)]
+    assert [sl for sl, _ in heli4.iter_matrices(P, chunk=1)] == [slice(0, 1), slice(1, 2), slice(2, 3)]
+    for bad in (0, -1, 1.5, "2"):
+        with pytest.raises(
+            InputError, match=rf"^chunk = {bad!r}: expected a whole number of poses >= 1$".replace(".", r"\.")
+        ):
+            next(heli4.iter_matrices(P, chunk=bad))
+    with pytest.raises(InputError, match="k_a"):  # every input checked before the first chunk
+        next(heli4.iter_matrices(P, chunk=1, k_a=np.ones(2)))
+
+
+def test_the_rigid_models_pencil_is_the_translational_block(heli4, hexapod):
+    mats = heli4.matrices(POSES)
+    M, K = heli4.stiffness(POSES, "rigid")
+    # the Heli4's allowed twists are the three translations: the (x, y, z) block of M and K_R
+    np.testing.assert_allclose(M, mats["M"][:, 3:, 3:], rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(K, mats["K_R"][:, 3:, 3:], rtol=1e-12)
+    f = heli4.frequencies(POSES, "rigid")
+    for i in range(2):
+        np.testing.assert_allclose(f[i], hz(K[i], M[i]), rtol=1e-10)
+    Mf, Kf = heli4.stiffness(POSES, "paper")
+    np.testing.assert_array_equal(Mf, mats["M"])
+    np.testing.assert_array_equal(Kf, mats["K_F"])
+    B = heli4.allowed_twists(POSES)
+    assert B.shape == (2, 6, 3)
+    np.testing.assert_array_equal(B[0], np.eye(6)[:, 3:])
+    x = np.array([hexapod.robot.x_ref, [0.01, 0.0, 0.8, 0.0, 0.05, 0.0]])
+    np.testing.assert_array_equal(hexapod.allowed_twists(x), np.broadcast_to(np.eye(6), (2, 6, 6)))
+    Mh, Kh = hexapod.stiffness(x, "rigid")
+    np.testing.assert_allclose(Kh, hexapod.matrices(x)["K_R"], rtol=1e-12)
+
+
+def test_measured_joints_give_the_poses_model(heli4, hexapod):
+    q = heli4.joint_angles(POSES)
+    for model in ("paper", "rigid"):
+        np.testing.assert_allclose(
+            heli4.frequencies(None, model, joints=q), heli4.frequencies(POSES, model), rtol=1e-12
+        )
+    np.testing.assert_allclose(heli4.frequencies(POSES[:1], joints=q[0]), heli4.frequencies(POSES[:1]), rtol=1e-12)
+    m = heli4.modes(None, "rigid", joints=q)
+    assert m.stiffness_model == "rigid" and m.axes == ("x", "y", "z")
+    x = np.array([hexapod.robot.x_ref])
+    qh = hexapod.joint_angles(x)
+    np.testing.assert_allclose(hexapod.frequencies(x, joints=qh), hexapod.frequencies(x), rtol=1e-12)
+    with pytest.raises(
+        InputError,
+        match=r"^joints without poses: the model of hexapod reads the pose too \(x, y, z, rot_x, rot_y, rot_z\): give both$",
+    ):
+        hexapod.frequencies(None, joints=qh)
+
+
+def test_measured_joints_are_checked(heli4):
+    q = heli4.joint_angles(POSES)
+    with pytest.raises(
+        InputError,
+        match=r"^joints has shape \(2, 4, 2\): expected \(N, 4, 3\) joint coordinates of heli4 \(legs x coordinates, as joint_angles returns\)$",
+    ):
+        heli4.frequencies(None, joints=q[:, :, :2])
+    with pytest.raises(InputError, match=r"^joints has shape \(1, 2, 4, 3\)"):
+        heli4.frequencies(None, joints=q[None])
+    bad = q.copy()
+    bad[1, 2, 0] = np.nan
+    with pytest.raises(
+        InputError, match=r"^joints\[1\] is not finite: expected numbers \(rad; m for a prismatic joint\)$"
+    ):
+        heli4.frequencies(None, joints=bad)
+    with pytest.raises(InputError, match=r"^joints has 2 rows and poses 1: expected one pose per row of joints$"):
+        heli4.frequencies(POSES[:1], joints=q)
+    with pytest.raises(InputError, match=r"damping effect or complex_shapes: not supported"):
+        heli4.modes(None, "paper,servo_damping", joints=q)
+    with pytest.raises(InputError, match=r"damping effect or complex_shapes: not supported"):
+        heli4.modes(None, joints=q, complex_shapes=True)
+    with pytest.raises(InputError, match=r"^joints= with a gravity preload: not supported"):
+        heli4.modes(None, "paper,gravity_preload", joints=q)
+
+
+# --------------------------------------------------------------- modes
+#: a heavy payload at low actuator stiffness: gravity softens the vertical mode below zero
+UNSTABLE = dict(g=50.0, k_a=50.0, m_p=100.0, p_z=0.3)
+
+
+def test_an_unstable_pose_is_named_with_its_mode(heli4):
+    P = np.array([POSES[0], [0.0, 0.0, -0.625]])
+    m = heli4.modes(P, "rigid,gravity_preload,payload_mass", m_p=np.array([0.2, 100.0]), g=50.0, k_a=50.0, p_z=0.3)
+    assert m.stable.tolist() == [True, False] and np.isnan(m.freq_hz[1, 0]) and np.isfinite(m.freq_hz[0]).all()
+    assert np.isnan(m.damping_ratio[1, 0]) and (m.damping_ratio[0] == 0).all()
+    with pytest.raises(
+        UnstablePoseError,
+        match=r"^pose \[0.0, 0.0, -0.625\] m is unstable in model actuator_loss,payload_mass,gravity_preload: "
+        r"mode 1 of 3 has a negative stiffness \(omega\^2 < 0, no natural frequency\); check negative or "
+        r"extreme parameters and the gravity preload$",
+    ):
+        heli4.modes(
+            P,
+            "rigid,gravity_preload,payload_mass",
+            m_p=np.array([0.2, 100.0]),
+            g=50.0,
+            k_a=50.0,
+            p_z=0.3,
+            unstable="raise",
+        )
+
+
+def test_two_unstable_modes_are_named_together(heli4):
+    freq = np.array([[1.0, 2.0, 3.0], [np.nan, 2.0, np.nan]])
+    m = Modes(freq, None, ("x", "y", "z"), "rigid", stable=np.array([True, False]))
+    with pytest.raises(
+        UnstablePoseError,
+        match=r"^pose \[0.1, 0.2, 0.3\] m is unstable in model a,b: modes 1, 3 of 3 have a negative stiffness",
+    ):
+        heli4._raise_unstable(np.array([[9.0, 9.0, 9.0], [0.1, 0.2, 0.3]]), m, ("a", "b"))
+
+
+def test_a_growing_pole_names_the_least_damped_mode(heli4):
+    X = np.array([[0.0, 0.0, -0.625], [0.01, 0.0, -0.625]])
+    kw = dict(k_a=np.array([2200.0, 4000.0]), t_d=1.3e-3)
+    m = heli4.modes(X, "damped,servo_delay", **kw)
+    assert m.stable.tolist() == [True, False]
+    j = int(np.argmin(m.damping_ratio[1]))
+    assert m.damping_ratio[1, j] < 0
+    # the damped frequency of each pole: omega_n sqrt(1 - zeta^2)
+    np.testing.assert_allclose(m.damped_hz, m.natural_hz * np.sqrt(1 - m.damping_ratio**2), rtol=1e-9)
+    with pytest.raises(
+        UnstablePoseError,
+        match=rf"^pose \[0.01, 0.0, -0.625\] m is unstable in model actuator_loss,rod_compliance,ee_compliance,"
+        rf"servo_damping,servo_delay: a pole grows \(mode {j + 1} has damping ratio {m.damping_ratio[1, j]:.3g}, or "
+        r"an actuator's internal pole\); check the torque lag t_d against c_a / k_a and negative damping$",
+    ):
+        heli4.modes(X, "damped,servo_delay", unstable="raise", **kw)
+    # no finite damping ratio: the first mode is named
+    nan = types.SimpleNamespace(damping_ratio=np.full((1, 3), np.nan))
+    lost = Modes(np.ones((1, 3)), None, ("x", "y", "z"), "rigid", stable=np.array([False]), damping=nan)
+    with pytest.raises(UnstablePoseError, match=r"a pole grows \(mode 1 has damping ratio nan"):
+        heli4._raise_unstable(X[:1], lost, ("a",))
+
+
+def test_the_modes_options_are_checked(heli4):
+    with pytest.raises(InputError, match=r"^invalid='skip': expected 'raise' or 'nan'$"):
+        heli4.modes(POSES, invalid="skip")
+    with pytest.raises(InputError, match=r"^unstable='skip': expected 'raise' or 'nan'$"):
+        heli4.modes(POSES, unstable="skip")
+    with pytest.raises(InputError, match=r"^method='exactly': expected 'exact' or 'differences'$"):
+        heli4.sensitivities(POSES, ["k_a"], method="exactly")
+
+
+def test_modes_without_damping_have_no_poles(heli4):
+    m = heli4.modes(POSES)
+    assert (
+        m.damping is None and m.complex_eigentwists is None and m.natural_hz is m.freq_hz and m.damped_hz is m.freq_hz
+    )
+    assert (m.damping_ratio == 0).all() and m.stable.all() and m.stable.shape == (2,)
+    assert m.stiffness_model == "flexible" and m.axes == AXES
+    with pytest.warns(DeprecationWarning, match=r"^Modes.kind is deprecated: use Modes.stiffness_model$"):
+        assert m.kind == "flexible"
+    with pytest.warns(
+        DeprecationWarning, match=r"^Evaluator.kind is deprecated: use Evaluator.stiffness_model$"
+    ) as rec:
+        assert heli4.kind("rigid") == "rigid"
+    assert rec[0].filename == __file__  # the caller's line
+    with pytest.warns(DeprecationWarning) as rec:
+        m.kind
+    assert rec[0].filename == __file__
+    v = heli4.modes(POSES, vectors=False)
+    assert v.eigentwists is None
+    np.testing.assert_array_equal(v.freq_hz, m.freq_hz)
+    with pytest.raises(
+        InputError, match=r"^these modes were computed without eigentwists: call modes\(..., vectors=True\)$"
+    ):
+        v.direction
+    # each eigentwist's largest entry is +1 (Eqs. 57, 65), and each solves the pencil
+    M, K = heli4.stiffness(POSES)
+    for i in range(2):
+        V = m.eigentwists[i]
+        assert np.allclose(V[np.argmax(np.abs(V), axis=0), range(6)], 1.0)
+        lam = (2 * np.pi * m.freq_hz[i]) ** 2
+        np.testing.assert_allclose(K[i] @ V, (M[i] @ V) * lam, rtol=1e-8, atol=1e-8 * np.abs(K[i] @ V).max())
+
+
+def test_the_stiffness_model_follows_the_structural_effects(heli4):
+    assert heli4.stiffness_model("rigid") == "rigid" and heli4.stiffness_model("paper") == "flexible"
+    assert heli4.stiffness_model(["actuator_loss"]) == "rigid"  # an unhashable spec: computed each time
+    assert heli4.stiffness_model(["actuator_loss", "rod_compliance"]) == "flexible"
+    assert heli4.stiffness_model("actuator_loss,rod_compliance@2") == "flexible"
+    assert heli4.damped_model("paper,servo_damping") and not heli4.damped_model("paper")
+
+
+def test_the_public_methods_default_to_the_paper_model(heli4):
+    paper = heli4.matrices(POSES, "paper")
+    for a, b in zip(heli4.stiffness(POSES), (paper["M"], paper["K_F"])):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(heli4.frequencies(POSES), heli4.modes(POSES, "paper").freq_hz)
+    assert heli4.frequencies(POSES).shape == (2, 6) and heli4.frequencies(POSES, "rigid").shape == (2, 3)
+    assert heli4.parameter_values(2)["on_ee_compliance"] == 1.0
+    assert heli4.parameter_values(2)["on_actuator_loss__1"] == 1.0
+    assert heli4.inputs()["on_ee_compliance"] == 1.0 and heli4.inputs()["on_payload_mass"] == 0.0
+    assert heli4.run_kernel("matrices", POSES)["K_F"].tolist() == paper["K_F"].tolist()
+    for sl, part in heli4.iter_matrices(POSES, chunk=1):
+        np.testing.assert_array_equal(part["K_F"], paper["K_F"][sl])
+    rigid = heli4.iter_matrices(POSES, "rigid", chunk=1, eta_a=0.5)
+    np.testing.assert_array_equal(next(rigid)[1]["K_R"], heli4.matrices(POSES[:1], "rigid", eta_a=0.5)["K_R"])
+    d = heli4.sensitivities(POSES, ["k_a"], method="differences")
+    np.testing.assert_allclose(d, heli4.sensitivities(POSES, ["k_a"], "paper", method="differences"), rtol=1e-12)
