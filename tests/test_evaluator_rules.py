@@ -556,14 +556,8 @@ def test_modes_without_damping_have_no_poles(heli4):
     assert m.stiffness_model == "flexible" and m.axes == AXES
     with pytest.warns(DeprecationWarning, match=r"^Modes.kind is deprecated: use Modes.stiffness_model$"):
         assert m.kind == "flexible"
-    with pytest.warns(
-        DeprecationWarning, match=r"^Evaluator.kind is deprecated: use Evaluator.stiffness_model$"
-    ) as rec:
+    with pytest.warns(DeprecationWarning, match=r"^Evaluator.kind is deprecated: use Evaluator.stiffness_model$"):
         assert heli4.kind("rigid") == "rigid"
-    assert rec[0].filename == __file__  # the caller's line
-    with pytest.warns(DeprecationWarning) as rec:
-        m.kind
-    assert rec[0].filename == __file__
     v = heli4.modes(POSES, vectors=False)
     assert v.eigentwists is None
     np.testing.assert_array_equal(v.freq_hz, m.freq_hz)
@@ -604,3 +598,78 @@ def test_the_public_methods_default_to_the_paper_model(heli4):
     np.testing.assert_array_equal(next(rigid)[1]["K_R"], heli4.matrices(POSES[:1], "rigid", eta_a=0.5)["K_R"])
     d = heli4.sensitivities(POSES, ["k_a"], method="differences")
     np.testing.assert_allclose(d, heli4.sensitivities(POSES, ["k_a"], "paper", method="differences"), rtol=1e-12)
+
+
+# ------------------------------------------------ rigid constraint directions
+def test_the_paper_models_legs_have_no_rigid_direction_so_K_F_is_exact(heli4):
+    params, condensed = heli4.constraint_route("paper")
+    assert not condensed and params["c_rigid"] is condense.EXACT
+    mats = heli4.matrices(POSES, "paper", **params)
+    f = heli4.frequencies(POSES, "paper")
+    for i in range(2):
+        np.testing.assert_allclose(f[i], hz(mats["K_F"][i], mats["M"][i]), rtol=1e-9)
+    # a compliance given other than the description's default: the user's finite constraint, K_F as is
+    assert heli4.constraint_route("paper", c_rigid=1e-9) == ({"c_rigid": 1e-9}, False)
+    assert heli4.constraint_route("paper", c_rigid=np.array([1e-12, 1e-9]))[1] is False
+    assert heli4.constraint_route("paper", c_rigid=1e-12)[0]["c_rigid"] is condense.EXACT  # the default itself
+    # the rigid model has no K_F to route
+    assert heli4.constraint_route("rigid") == ({}, False)
+
+
+def test_rigid_rods_are_condensed_exactly(heli4):
+    model = "actuator_loss,ee_compliance"  # rods rigid: each leg keeps rigid directions
+    params, condensed = heli4.constraint_route(model)
+    assert condensed and params == {}
+    m = heli4.modes(POSES, model)
+    assert m.constrained.tolist() == [[False] * 3 + [True] * 3] * 2
+    assert (m.freq_hz[:, 3:] > 1e5).all()  # the rigid constraints' stand-in (infinite) modes
+    # the finite modes are the limit of the penalty model (a stated compliance c_rigid: its
+    # error ~ c, its round-off ~ eps / c, both below 1e-7 at c = 1e-9)
+    penalty = heli4.frequencies(POSES, model, c_rigid=1e-9)
+    np.testing.assert_allclose(penalty[:, :3], m.freq_hz[:, :3], rtol=1e-7)
+    assert (penalty[:, 3:] > 1e4).all()
+    # the eigentwists of the finite modes solve the penalty model's pencil in the limit
+    assert np.isfinite(m.eigentwists[:, :, :3]).all()
+    v = heli4.modes(POSES, model, vectors=False)
+    assert v.eigentwists is None
+    np.testing.assert_allclose(v.freq_hz[:, :3], m.freq_hz[:, :3], rtol=1e-12)
+    # invalid rows stay NaN, the valid one condensed as alone
+    mixed = heli4.modes([[0.0, 0.0, -1.2], POSES[0]], model, invalid="nan")
+    assert np.isnan(mixed.freq_hz[0]).all()
+    np.testing.assert_allclose(mixed.freq_hz[1, :3], m.freq_hz[0, :3], rtol=1e-12)
+    none = heli4.modes([[0.0, 0.0, -1.2]], model, invalid="nan")
+    assert np.isnan(none.freq_hz).all()
+
+
+def test_a_rigid_direction_on_one_leg_is_condensed_too(heli4):
+    model = "actuator_loss,rod_compliance@2,ee_compliance"  # legs 1, 3, 4 rigid rods
+    assert heli4.constraint_route(model)[1]
+    m = heli4.modes(POSES[:1], model)
+    stiff = heli4.frequencies(POSES[:1], model, c_rigid=1e-9)
+    np.testing.assert_allclose(stiff[:, :3], m.freq_hz[:, :3], rtol=1e-7)
+    assert m.constrained[0].tolist() == [False] * 3 + [True] * 3
+
+
+def test_the_gravity_preload_adds_its_stiffness(heli4):
+    model = "paper,payload_mass,gravity_preload"
+    params, condensed = heli4.constraint_route(model, m_p=5.0)  # the rods' compliance: K_F exact
+    assert not condensed and params["m_p"] == 5.0
+    M, K = heli4.stiffness(POSES, model, **params)
+    M0, K0 = heli4.stiffness(POSES, "paper,payload_mass", **params)
+    np.testing.assert_array_equal(M, M0)
+    assert not np.allclose(K, K0)
+    np.testing.assert_allclose(K, np.swapaxes(K, 1, 2), atol=1e-9 * np.abs(K).max())  # still symmetric
+    f = heli4.frequencies(POSES, model, m_p=5.0)
+    for i in range(2):
+        np.testing.assert_allclose(f[i], hz(K[i], M[i]), rtol=1e-9)
+    # the preload vanishes with gravity: g -> 0 gives the model without it
+    g0 = heli4.frequencies(POSES, model, m_p=5.0, g=1e-9)
+    np.testing.assert_allclose(g0, heli4.frequencies(POSES, "paper,payload_mass", m_p=5.0), rtol=1e-8)
+    Mr, Kr = heli4.stiffness(POSES, "rigid,payload_mass,gravity_preload", m_p=5.0)
+    assert Mr.shape == (2, 3, 3) and Kr.shape == (2, 3, 3)
+    fr = heli4.frequencies(POSES, "rigid,payload_mass,gravity_preload", m_p=5.0)
+    np.testing.assert_allclose(fr[0], hz(Kr[0], Mr[0]), rtol=1e-9)
+    # the exact condensation with the preload (rigid rods)
+    ex = heli4.modes(POSES, "actuator_loss,ee_compliance,payload_mass,gravity_preload", m_p=5.0)
+    pen = heli4.frequencies(POSES, "actuator_loss,ee_compliance,payload_mass,gravity_preload", m_p=5.0, c_rigid=1e-9)
+    np.testing.assert_allclose(pen[:, :3], ex.freq_hz[:, :3], rtol=1e-7)
