@@ -130,7 +130,8 @@ def test_a_leg_level_parameter_takes_one_value_per_leg(heli4):
         heli4.parameter("eta_a@5")
     with pytest.raises(
         InputError,
-        match=r"^parameter 'k_a@2': k_a belongs to no leg-level effect, so it has no per-leg value \(leg-level parameters: eta_a, E_rod",
+        match=r"^parameter 'k_a@2': k_a belongs to no leg-level effect, so it has no per-leg value "
+        r"\(leg-level parameters: eta_a, E_rod",
     ):
         heli4.parameter("k_a@2")
 
@@ -138,7 +139,8 @@ def test_a_leg_level_parameter_takes_one_value_per_leg(heli4):
 def test_an_unknown_parameter_is_named_with_a_suggestion(heli4):
     with pytest.raises(
         InputError,
-        match=r"^unknown parameter\(s\) 'k_A', 'zz@2' for heli4.*did you mean.*k_a.*expected names from R, l1, .* \(NAME@N for one leg\)$",
+        match=r"^unknown parameter\(s\) 'k_A', 'zz@2' for heli4.*did you mean.*k_a.*expected names from R, l1, "
+        r".* \(NAME@N for one leg\)$",
     ):
         heli4.frequencies(POSES, k_A=1.0, **{"zz@2": 1.0})
 
@@ -151,7 +153,8 @@ def test_a_leg_level_parameter_of_a_robot_without_one_is_refused(hexapod):
 def test_a_parameter_is_a_scalar_or_one_value_per_pose(heli4, shape):
     with pytest.raises(
         InputError,
-        match=rf"^parameter 'k_a' has shape \({shape[0]}, ?{shape[1] if len(shape) > 1 else ''}\): expected a scalar or \(2,\) for 2 poses$",
+        match=rf"^parameter 'k_a' has shape \({shape[0]}, ?{shape[1] if len(shape) > 1 else ''}\): "
+        r"expected a scalar or \(2,\) for 2 poses$",
     ):
         heli4.frequencies(POSES, k_a=np.full(shape, 2000.0))
 
@@ -448,7 +451,8 @@ def test_measured_joints_give_the_poses_model(heli4, hexapod):
     np.testing.assert_allclose(hexapod.frequencies(x, joints=qh), hexapod.frequencies(x), rtol=1e-12)
     with pytest.raises(
         InputError,
-        match=r"^joints without poses: the model of hexapod reads the pose too \(x, y, z, rot_x, rot_y, rot_z\): give both$",
+        match=r"^joints without poses: the model of hexapod reads the pose too \(x, y, z, rot_x, rot_y, rot_z\): "
+        r"give both$",
     ):
         hexapod.frequencies(None, joints=qh)
 
@@ -457,7 +461,8 @@ def test_measured_joints_are_checked(heli4):
     q = heli4.joint_angles(POSES)
     with pytest.raises(
         InputError,
-        match=r"^joints has shape \(2, 4, 2\): expected \(N, 4, 3\) joint coordinates of heli4 \(legs x coordinates, as joint_angles returns\)$",
+        match=r"^joints has shape \(2, 4, 2\): expected \(N, 4, 3\) joint coordinates of heli4 \(legs x "
+        r"coordinates, as joint_angles returns\)$",
     ):
         heli4.frequencies(None, joints=q[:, :, :2])
     with pytest.raises(InputError, match=r"^joints has shape \(1, 2, 4, 3\)"):
@@ -673,3 +678,64 @@ def test_the_gravity_preload_adds_its_stiffness(heli4):
     ex = heli4.modes(POSES, "actuator_loss,ee_compliance,payload_mass,gravity_preload", m_p=5.0)
     pen = heli4.frequencies(POSES, "actuator_loss,ee_compliance,payload_mass,gravity_preload", m_p=5.0, c_rigid=1e-9)
     np.testing.assert_allclose(pen[:, :3], ex.freq_hz[:, :3], rtol=1e-7)
+
+
+# ------------------------------------------------------------ derivatives
+def test_matrix_derivatives_of_a_linear_stiffness(heli4):
+    """K_R is linear in k_a and in eta_a (the actuators' stiffness eta_a k_a), M depends on
+    neither: central differences inside the bounds, second-order one-sided at eta_a = 1 (its
+    upper bound), each pose at its own value."""
+    k_a = np.array([2000.0, 3000.0])
+    d = heli4.matrix_derivatives(POSES, ["k_a", "eta_a"], k_a=k_a, eta_a=1.0)
+    scale = np.abs(d["K_R"]).max()
+    np.testing.assert_allclose(d["dK_R"][:, 0], d["K_R"] / k_a[:, None, None], atol=1e-9 * scale / 2000)
+    np.testing.assert_allclose(d["dK_R"][:, 1], d["K_R"], atol=1e-9 * scale)
+    assert np.abs(d["dM"]).max() < 1e-9 * np.abs(d["M"]).max()
+    assert d["dK_F"].shape == (2, 2, 6, 6)
+    inside = heli4.matrix_derivatives(POSES, ["eta_a"], "paper", eta_a=0.5)
+    np.testing.assert_allclose(inside["dK_R"][:, 0], inside["K_R"] / 0.5, atol=1e-9 * scale)
+    # the model is the one asked for: the rigid model's K_F has no rod compliance
+    r = heli4.matrix_derivatives(POSES, ["k_a"], "rigid")
+    np.testing.assert_array_equal(r["K_F"], heli4.matrices(POSES, "rigid")["K_F"])
+    # the lower bound: one row at 1e-7 leaves no step either way
+    with pytest.raises(
+        InputError,
+        match=r"^parameter 'eta_a' = 1: no difference step of 1e-05 either way stays within its bounds and "
+        r"constraints; expected a value away from them$",
+    ):
+        heli4.matrix_derivatives(POSES, ["eta_a"], eta_a=np.array([1.0, 1e-7]))
+    low = heli4.matrix_derivatives(POSES, ["eta_a"], eta_a=np.array([1.0, 2e-5]))  # one-sided downwards
+    np.testing.assert_allclose(
+        low["dK_R"][:, 0], low["K_R"] / np.array([1.0, 2e-5])[:, None, None], rtol=1e-6, atol=1e-9 * scale
+    )
+
+
+def test_frequency_sensitivities_by_differences(heli4):
+    """d f / d k_a of the rigid model: f ~ sqrt(k_a), so d f / d k_a = f / (2 k_a)."""
+    m, d = heli4.modes_and_sensitivities(POSES, ["k_a"], "rigid", method="differences", k_a=2500.0)
+    np.testing.assert_allclose(d[..., 0], m.freq_hz / (2 * 2500.0), rtol=1e-7)
+    assert m.stiffness_model == "rigid" and m.axes == ("x", "y", "z")
+    np.testing.assert_allclose(m.freq_hz, heli4.frequencies(POSES, "rigid", k_a=2500.0), rtol=1e-12)
+    mf, df = heli4.modes_and_sensitivities(POSES, ["k_a"], method="differences")
+    assert mf.stiffness_model == "flexible" and df.shape == (2, 6, 1)
+    np.testing.assert_allclose(mf.freq_hz, heli4.frequencies(POSES), rtol=1e-9)
+    assert (df[:, :3, 0] > 0).all()  # the actuators stiffen the three low modes
+    with pytest.raises(
+        InputError, match=r"^joint_sensitivities of heli4: its legs have a closed-form inverse kinematics"
+    ):
+        heli4.joint_sensitivities(POSES)
+
+
+def test_sensitivities_where_rods_are_rigid_are_those_of_the_exact_modes(heli4):
+    model = "actuator_loss,ee_compliance"
+    m, d = heli4.modes_and_sensitivities(POSES[:1], ["k_a"], model, method="differences")
+    exact = heli4.modes(POSES[:1], model)
+    np.testing.assert_allclose(m.freq_hz[:, :3], exact.freq_hz[:, :3], rtol=1e-12)
+    assert m.legs is None and m.constrained[0].tolist() == [False] * 3 + [True] * 3
+    # against central differences of the exact frequencies themselves
+    h = 2500.0 * 1e-4
+    fd = (heli4.frequencies(POSES[:1], model, k_a=2500.0 + h) - heli4.frequencies(POSES[:1], model, k_a=2500.0 - h)) / (
+        2 * h
+    )
+    m2, d2 = heli4.modes_and_sensitivities(POSES[:1], ["k_a"], model, method="differences", k_a=2500.0)
+    np.testing.assert_allclose(d2[0, :3, 0], fd[0, :3], rtol=5e-5)  # the penalty's derivative, Richardson-corrected
