@@ -739,3 +739,93 @@ def test_sensitivities_where_rods_are_rigid_are_those_of_the_exact_modes(heli4):
     )
     m2, d2 = heli4.modes_and_sensitivities(POSES[:1], ["k_a"], model, method="differences", k_a=2500.0)
     np.testing.assert_allclose(d2[0, :3, 0], fd[0, :3], rtol=5e-5)  # the penalty's derivative, Richardson-corrected
+
+
+# ------------------------------------------------------- per-pose values
+def test_the_lever_is_relative_to_each_poses_own_l1(heli4, hexapod):
+    P = np.array([POSES[0], [0.0, 0.0, -1.2], POSES[1]])
+    l1 = np.array([0.2, 0.21, 0.19])
+    st = heli4.pose_status(P, l1=l1, k_a=np.array([1.0, 2.0, 3.0]))
+    assert st["status"].tolist() == ["reachable", "unreachable", "reachable"]
+    lever = heli4.jacobians(P[[0, 2]], l1=l1[[0, 2]])["lever"]
+    np.testing.assert_allclose(st["lever"][[0, 2]], np.abs(lever).min(axis=1) / l1[[0, 2]], rtol=1e-12)
+    assert heli4.valid(P, l1=l1).tolist() == [True, False, True]
+    # no l1 (the hexapod): the lever as the kernel gives it
+    x = np.array([hexapod.robot.x_ref, [0.02, 0.0, 0.8, 0.0, 0.05, 0.1]])
+    sh = hexapod.pose_status(x)
+    assert sh["status"].tolist() == ["reachable", "reachable"]
+    np.testing.assert_allclose(sh["lever"], np.abs(hexapod.jacobians(x)["lever"]).min(axis=1), rtol=1e-12)
+
+
+def test_a_long_batch_keeps_each_poses_status(heli4):
+    n = CHUNK + 3
+    P = np.tile(POSES[0], (n, 1))
+    P[1] = P[-2] = [0.0, 0.0, -1.2]
+    st = heli4.pose_status(P)
+    expected = np.zeros(n, dtype=np.int8)
+    expected[[1, n - 2]] = 1
+    np.testing.assert_array_equal(st["code"], expected)
+    np.testing.assert_array_equal(heli4.valid(P), expected == 0)
+    assert np.isnan(st["conditioning"][n - 2]) and np.isfinite(st["conditioning"][n - 1])
+
+
+def test_a_kernels_outputs_come_with_the_joints_it_was_run_at(heli4):
+    out = heli4.run_kernel("gravity", POSES, "paper,gravity_preload")
+    np.testing.assert_array_equal(out["q"], heli4.joint_angles(POSES))
+    assert {"J_rows", "lever", "G"} <= set(out) and len(out["G"]) == 2
+    jac = heli4.jacobians(POSES)
+    assert set(jac) == {"q", "J_rows", "lever"}
+    np.testing.assert_array_equal(jac["J_rows"], out["J_rows"])
+    with pytest.raises(UnreachablePoseError):
+        heli4.run_kernel("gravity", [[0.0, 0.0, -1.2]], "paper,gravity_preload")
+
+
+def test_damped_modes_of_a_batch_with_an_invalid_pose(heli4):
+    P = np.array([POSES[0], [0.0, 0.0, -1.2], POSES[1]])
+    m = heli4.modes(P, "damped", invalid="nan", k_a=np.array([2000.0, 2100.0, 2200.0]))
+    assert m.valid.tolist() == [True, False, True] and m.stable.tolist() == [True, True, True]
+    assert np.isnan(m.natural_hz[1]).all() and np.isfinite(m.natural_hz[[0, 2]]).all()
+    alone = heli4.modes(POSES[1:], "damped", k_a=2200.0)
+    np.testing.assert_allclose(m.natural_hz[2], alone.natural_hz[0], rtol=1e-9)
+    np.testing.assert_allclose(m.damping_ratio[2], alone.damping_ratio[0], rtol=1e-7, atol=1e-12)
+    assert (m.damping_ratio[[0, 2], :3] > 0).all()  # the servo damping damps the actuated modes
+    none = heli4.modes([[0.0, 0.0, -1.2]], "damped", invalid="nan")
+    assert np.isnan(none.freq_hz).all() and none.stable.all()
+
+
+def test_complex_shapes_of_an_undamped_model_are_its_eigentwists(heli4):
+    m = heli4.modes(POSES, "paper", complex_shapes=True)
+    assert m.damping is not None and m.complex_eigentwists.shape == (2, 6, 6)
+    np.testing.assert_allclose(m.natural_hz, m.freq_hz, rtol=1e-9)
+    assert np.abs(m.damping_ratio).max() < 1e-9
+    np.testing.assert_allclose(m.complex_eigentwists.real, m.eigentwists, atol=1e-7)
+    assert np.abs(m.complex_eigentwists.imag).max() < 1e-7
+    r = heli4.modes(POSES, "rigid", complex_shapes=True)
+    assert r.complex_eigentwists.shape == (2, 3, 3)
+    np.testing.assert_allclose(r.natural_hz, r.freq_hz, rtol=1e-9)
+
+
+def test_kernels_without_a_legs_kernel_keep_K_F_and_refuse_damping(heli4):
+    module = types.ModuleType("heli4_without_legs")
+    module.__dict__.update({k: v for k, v in vars(heli4.module).items() if not k.startswith("__")})
+    module.OUTPUTS = {k: v for k, v in heli4.module.OUTPUTS.items() if k != "legs"}
+    ev = Evaluator(heli4.robot, module, "numpy")
+    assert ev.constraint_route("paper") == ({}, False)
+    assert ev.constraint_route("actuator_loss,ee_compliance") == ({}, False)  # no condensation without it
+    with pytest.raises(
+        InputError,
+        match=r"^damped modes of heli4: its generated code has no legs kernel \(joint compliances\); regenerate it$",
+    ):
+        ev.modes(POSES, "paper,servo_damping")
+
+
+def test_an_unreachable_reference_is_condensed_at_every_pose(heli4):
+    """The route probes the legs at x_ref; where x_ref is out of reach (a short l2) every pose
+    is solved by the exact condensation, which gives the same finite modes."""
+    model = "actuator_loss,rod_compliance"
+    assert heli4.constraint_route(model)[1] is False
+    assert fresh().constraint_route(model, l2=0.3)[1] is True
+    P = np.array([[0.0, 0.0, -0.4]])
+    exact = fresh().frequencies(P, model, l2=0.3)
+    # the route probed at the default x_ref (reachable): K_F with c_rigid = 0, the same modes
+    np.testing.assert_allclose(exact, heli4.frequencies(P, model, l2=0.3), rtol=1e-9)
