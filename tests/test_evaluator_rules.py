@@ -829,3 +829,26 @@ def test_an_unreachable_reference_is_condensed_at_every_pose(heli4):
     exact = fresh().frequencies(P, model, l2=0.3)
     # the route probed at the default x_ref (reachable): K_F with c_rigid = 0, the same modes
     np.testing.assert_allclose(exact, heli4.frequencies(P, model, l2=0.3), rtol=1e-9)
+
+
+def test_a_new_evaluator_holds_what_it_was_given():
+    from eigentwist.robots import get
+
+    robot = get("heli4")
+    module = fresh().module
+    ev = Evaluator(robot, module, "numpy")
+    assert ev.module is module and ev.kernels is module and ev.backend == "numpy" and ev.robot is robot
+    assert ev.threads is None and ev.defaults == robot.defaults and ev.spec == "heli4"
+    assert ev.pose_names == ("x", "y", "z") and ev.n_legs == 4 and ev.effects == robot.effects
+    assert set(ev.leg_parameters) == {"eta_a", "E_rod", "G_rod", "r_o_l1", "r_i_l1", "E_l1", "nu_l1", "k_t", "I_add"}
+    assert ev.leg_parameters["k_t"] == "transmission_compliance"
+    assert Evaluator(robot, module, "numpy", threads=2).threads == 2
+    with pytest.raises(InputError, match=r"^threads = 0: expected a whole number of threads >= 1$"):
+        Evaluator(robot, module, "numpy", threads=0)
+    assert not ev.numeric_ik and ev._follower_reference() is None
+    # a six-coordinate platform: its kernels read the pose by name, rotation included
+    hx = Evaluator(get("hexapod"), eigentwist.load("hexapod", backend="numpy").module, "numpy")
+    x = np.array([[0.0, 0.0, 0.8, 0.0, 0.0, 0.0], [0.0, 0.0, 0.8, 0.0, 0.0, 0.2]])
+    f = hx.frequencies(x, "rigid")
+    assert np.isfinite(f).all() and not np.allclose(f[0], f[1])  # the rotation is read
+    assert set(hx._with_pose(x, {})) >= {"R_00", "rot_z"} and "R_00" not in ev._with_pose(POSES, {})
