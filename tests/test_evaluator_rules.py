@@ -852,3 +852,21 @@ def test_a_new_evaluator_holds_what_it_was_given():
     f = hx.frequencies(x, "rigid")
     assert np.isfinite(f).all() and not np.allclose(f[0], f[1])  # the rotation is read
     assert set(hx._with_pose(x, {})) >= {"R_00", "rot_z"} and "R_00" not in ev._with_pose(POSES, {})
+
+
+def test_two_poses_one_invalid_with_values_per_pose(heli4):
+    """Two poses are a batch: the valid one keeps its own value of each per-pose parameter."""
+    P = np.array([POSES[0], [0.0, 0.0, -1.2]])
+    st = heli4.pose_status(P, l1=np.array([0.19, 0.2]))
+    lever = heli4.jacobians(P[:1], l1=0.19)["lever"]
+    np.testing.assert_allclose(st["lever"][0], np.abs(lever).min() / 0.19, rtol=1e-12)
+    assert heli4.valid(P, l1=np.array([0.19, 0.2])).tolist() == [True, False]
+    k_a = np.array([3000.0, 2000.0])
+    m = heli4.modes(P, "rigid", invalid="nan", k_a=k_a)
+    np.testing.assert_allclose(m.freq_hz[0], heli4.frequencies(POSES[:1], "rigid", k_a=3000.0)[0], rtol=1e-12)
+    d = heli4.modes(P, "damped", invalid="nan", k_a=k_a)
+    np.testing.assert_allclose(d.natural_hz[0], heli4.modes(POSES[:1], "damped", k_a=3000.0).natural_hz[0], rtol=1e-9)
+    with pytest.raises(
+        InputError, match=r"^parameter 'k_a' has shape \(3,\): expected a scalar or \(2,\) for 2 poses$"
+    ):
+        heli4.parameter_values(2, k_a=np.ones(3))
