@@ -479,7 +479,11 @@ def test_measured_joints_are_checked(heli4):
         heli4.modes(None, "paper,servo_damping", joints=q)
     with pytest.raises(InputError, match=r"damping effect or complex_shapes: not supported"):
         heli4.modes(None, joints=q, complex_shapes=True)
-    with pytest.raises(InputError, match=r"^joints= with a gravity preload: not supported"):
+    with pytest.raises(
+        InputError,
+        match=r"^joints= with a gravity preload: not supported \(the preload's derivative needs the inverse "
+        r"kinematics\); drop gravity_preload from the model or give poses only$",
+    ):
         heli4.modes(None, "paper,gravity_preload", joints=q)
 
 
@@ -870,3 +874,46 @@ def test_two_poses_one_invalid_with_values_per_pose(heli4):
         InputError, match=r"^parameter 'k_a' has shape \(3,\): expected a scalar or \(2,\) for 2 poses$"
     ):
         heli4.parameter_values(2, k_a=np.ones(3))
+
+
+def test_measured_joints_take_the_models_route(heli4, hexapod):
+    q = heli4.joint_angles(POSES)
+    model = "actuator_loss,ee_compliance"  # rigid rods: the exact condensation
+    by_joints = heli4.modes(None, model, joints=q, unstable="raise")
+    by_poses = heli4.modes(POSES, model)
+    np.testing.assert_allclose(by_joints.freq_hz[:, :3], by_poses.freq_hz[:, :3], rtol=1e-12)
+    np.testing.assert_allclose(by_joints.eigentwists[:, :, :3], by_poses.eigentwists[:, :, :3], atol=1e-9)
+    assert by_joints.legs is None and by_joints.constrained[0].tolist() == [False] * 3 + [True] * 3
+    r = heli4.modes(None, "rigid", joints=q, vectors=False)
+    assert r.eigentwists is None and r.stiffness_model == "rigid"
+    np.testing.assert_allclose(r.freq_hz, heli4.frequencies(POSES, "rigid"), rtol=1e-12)
+    mats = heli4.joint_matrices(POSES, q)
+    np.testing.assert_allclose(mats["K_F"], heli4.matrices(POSES)["K_F"], rtol=1e-12)
+    x = np.array([hexapod.robot.x_ref])
+    h = hexapod.modes(x, "rigid", joints=hexapod.joint_angles(x))
+    assert h.stiffness_model == "rigid" and h.axes == AXES  # six allowed twists, still the rigid model
+    with pytest.raises(
+        InputError, match=r"^parameter 'k_a' has shape \(3,\): expected a scalar or \(2,\) for 2 poses$"
+    ):
+        heli4.joint_matrices(POSES, q, k_a=np.ones(3))
+
+
+def test_the_serial_singularity_threshold_on_either_side(heli4):
+    """The lever relative to l1 at the LEVER_TOL = 1e-3 edge: near the Heli4's singular z the
+    lever grows as sqrt(z - z_s) (~3.7 sqrt(dz / m)), so dz = 4e-8 m lies inside (7e-4) and
+    3e-7 m outside (2e-3), where the lever itself (l1 = 0.2 m) is still below 1e-3."""
+    inside = np.array([[0.0, 0.0, singular_z(heli4) - 1e-9 + 4e-8]])
+    outside = np.array([[0.0, 0.0, singular_z(heli4) - 1e-9 + 3e-7]])
+    st = heli4.pose_status(np.concatenate([inside, outside]))
+    assert st["status"].tolist() == ["serial singular", "reachable"]
+    assert 5e-4 < st["lever"][0] < 1e-3 < st["lever"][1] < 3e-3
+    assert heli4.valid(np.concatenate([inside, outside])).tolist() == [False, True]
+    assert np.isfinite(heli4.frequencies(outside)).all()
+    q = heli4.joint_angles(outside)
+    np.testing.assert_allclose(heli4.frequencies(None, joints=q), heli4.frequencies(outside), rtol=1e-9)
+    with pytest.raises(SingularPoseError, match="leg 1"):
+        heli4.frequencies(inside)
+    p = heli4._with_pose(inside, heli4._params(1, {}, "paper"))
+    q_in = heli4.kernels.inverse_kinematics(inside[:, 0], inside[:, 1], inside[:, 2], p)["q"]
+    with pytest.raises(SingularPoseError, match=r"leg 1.*lever"):
+        heli4.frequencies(None, joints=q_in)
