@@ -917,3 +917,38 @@ def test_the_serial_singularity_threshold_on_either_side(heli4):
     q_in = heli4.kernels.inverse_kinematics(inside[:, 0], inside[:, 1], inside[:, 2], p)["q"]
     with pytest.raises(SingularPoseError, match=r"leg 1.*lever"):
         heli4.frequencies(None, joints=q_in)
+
+
+@pytest.mark.parametrize(
+    "model, finite",
+    [
+        ("rigid,servo_damping", 3),
+        ("rigid,payload_mass,gravity_preload,servo_damping", 3),
+        ("paper,payload_mass,gravity_preload,servo_damping", 6),
+        ("actuator_loss,ee_compliance,servo_damping", 3),  # rigid rods: the exact condensation
+    ],
+)
+def test_light_damping_keeps_the_undamped_frequencies(heli4, model, finite):
+    """c_a -> 0: each pole's modulus is the undamped natural frequency, its damping ratio small
+    and positive (the damped modes solve the same M and K, preload and route included)."""
+    undamped = model.replace(",servo_damping", "")
+    d = heli4.modes(POSES, model, c_a=1e-6, m_p=2.0)
+    f = heli4.frequencies(POSES, undamped, m_p=2.0)
+    np.testing.assert_allclose(d.freq_hz[:, :finite], f[:, :finite], rtol=1e-12)
+    np.testing.assert_allclose(d.natural_hz[:, :finite], f[:, :finite], rtol=1e-8)
+    zeta = d.damping_ratio[:, :finite]
+    assert (zeta[:, :3] > 0).all() and zeta.max() < 1e-5
+
+
+def test_coupled_bodies_on_rigid_rods_are_condensed_exactly(heli4):
+    model = "actuator_loss,ee_compliance,ee_coupling"
+    assert heli4.constraint_route(model)[1]
+    m = heli4.modes(POSES[:1], model)
+    penalty = heli4.frequencies(POSES[:1], model, c_rigid=1e-9)
+    finite = ~m.constrained[0]
+    np.testing.assert_allclose(m.freq_hz[0, finite], penalty[0, : finite.sum()], rtol=1e-7)
+
+
+def test_sensitivities_refuse_the_gravity_preload(heli4):
+    with pytest.raises(InputError, match="gravity_preload"):
+        heli4.sensitivities(POSES, ["k_a"], "paper,gravity_preload", method="differences")
