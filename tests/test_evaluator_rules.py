@@ -126,7 +126,9 @@ def test_a_leg_level_parameter_takes_one_value_per_leg(heli4):
     p = heli4.parameter("eta_a@3")
     assert p.name == "eta_a@3" and p.unit == heli4.parameter("eta_a").unit
     assert heli4.parameter("k_a") is heli4.parameters["k_a"]
-    with pytest.raises(InputError, match=r"'eta_a@5': '5' is not a leg number; expected eta_a@N with N in 1..4"):
+    with pytest.raises(
+        InputError, match=r"^parameter 'eta_a@5': '5' is not a leg number; expected eta_a@N with N in 1..4"
+    ):
         heli4.parameter("eta_a@5")
     with pytest.raises(
         InputError,
@@ -952,3 +954,8 @@ def test_coupled_bodies_on_rigid_rods_are_condensed_exactly(heli4):
 def test_sensitivities_refuse_the_gravity_preload(heli4):
     with pytest.raises(InputError, match="gravity_preload"):
         heli4.sensitivities(POSES, ["k_a"], "paper,gravity_preload", method="differences")
+
+
+def test_a_model_given_as_a_list_of_effects(heli4):
+    f = heli4.frequencies(POSES, ["actuator_loss", "rod_compliance", "ee_compliance"], k_a=np.array([2000.0, 2100.0]))
+    np.testing.assert_allclose(f, heli4.frequencies(POSES, "paper", k_a=np.array([2000.0, 2100.0])), rtol=1e-12)
