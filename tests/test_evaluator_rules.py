@@ -959,3 +959,24 @@ def test_sensitivities_refuse_the_gravity_preload(heli4):
 def test_a_model_given_as_a_list_of_effects(heli4):
     f = heli4.frequencies(POSES, ["actuator_loss", "rod_compliance", "ee_compliance"], k_a=np.array([2000.0, 2100.0]))
     np.testing.assert_allclose(f, heli4.frequencies(POSES, "paper", k_a=np.array([2000.0, 2100.0])), rtol=1e-12)
+
+
+def test_one_sided_derivatives_at_the_lower_bound_and_the_results_shapes(heli4):
+    low = heli4.matrix_derivatives(POSES, ["eta_a"], eta_a=5e-6)  # eta_a - h leaves (0, 1]: one-sided upwards
+    np.testing.assert_allclose(low["dK_R"][:, 0], low["K_R"] / 5e-6, rtol=1e-6)
+    m, _ = heli4.modes_and_sensitivities(POSES, ["k_a"], method="differences")
+    assert m.stable.shape == (2,) and m.eigentwists.shape == (2, 6, 6)
+    assert heli4.constraint_route() == heli4.constraint_route("paper")
+    assert heli4.modes(POSES, "actuator_loss,ee_compliance").legs is None
+    n = heli4.modes([[0.0, 0.0, -1.2], POSES[0]], invalid="nan")
+    assert n.axes == AXES and n.stiffness_model == "flexible" and np.isfinite(n.eigentwists[1]).all()
+    # the chunks of iter_matrices and the matrices at joints follow the model and the values given
+    ((_, part),) = heli4.iter_matrices(POSES, "rigid", chunk=2, eta_a=0.5)
+    np.testing.assert_array_equal(part["K_F"], heli4.matrices(POSES, "rigid", eta_a=0.5)["K_F"])
+    q = heli4.joint_angles(POSES)
+    at_joints = heli4.matrices(None, "rigid", joints=q, eta_a=0.5)
+    np.testing.assert_allclose(at_joints["K_F"], part["K_F"], rtol=1e-12)
+    with pytest.raises(
+        InputError, match=r"not supported \(the damped modes need the pose's inverse kinematics\); give poses$"
+    ):
+        heli4.modes(None, joints=q, complex_shapes=True)
