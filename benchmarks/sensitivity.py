@@ -1,19 +1,16 @@
-"""Sensitivity throughput (all parameters, one thread) and generation/compile time.
+"""Sensitivity throughput (all parameters, C, one thread) and compile time.
 
     PYTHONPATH=. python benchmarks/sensitivity.py                  # Heli4 and Delta, warm cache
-    PYTHONPATH=. python benchmarks/sensitivity.py --cold --n 2000  # fresh cache: generation (+ compile)
-    PYTHONPATH=. python benchmarks/sensitivity.py --method compare # reverse and forward kernels
+    PYTHONPATH=. python benchmarks/sensitivity.py --cold --n 2000  # fresh cache: generation + compile
 
-For each robot: the time to generate the kernel of ``--method``: ``reverse`` (the adjoint
-kernel that ``Evaluator.sensitivities`` uses: one backward sweep per mode, every
-parameter; a NumPy module, nothing compiled) or ``forward`` (forward mode, one tangent per
-parameter, C compiled in functions of ``CHUNK`` statements), or both (``compare``); then,
-best of 3 repetitions, each on its own ``--n`` random workspace poses:
+For each robot: the time to generate (SymPy forward mode, CSE, render) and compile (gcc,
+the kernel split into functions of ``CHUNK`` statements) the C sensitivity kernel for
+every parameter of the description, then, best of 3 repetitions, each on its own ``--n``
+random workspace poses:
 
 - ``Evaluator.frequencies`` (the baseline: IK, M, K_F, eigen-solve, C backend),
-- the raw kernel (reverse: M, K and the gradients of 6 seeds per pose; forward: M, K and
-  dM/dp, dK/dp for every parameter),
-- ``Evaluator.sensitivities`` (checks, adjoint kernel, eigen-solve and cluster-aware dω/dp),
+- the raw sensitivity kernel (M, K and dM/dp, dK/dp for every parameter),
+- ``Evaluator.sensitivities`` (checks, kernel, eigen-solve and cluster-aware dω/dp),
 - ``Evaluator.sensitivities(method="differences")`` (central differences of the matrices,
   the same eigenvalue perturbation; nothing generated),
 
@@ -57,14 +54,13 @@ def _best(fn, pose_sets) -> float:
     return best
 
 
-def run(robot: str, n: int, wrt_kind: str, method: str) -> dict:
+def run(robot: str, n: int, wrt_kind: str) -> dict:
     import numpy as np
 
     import eigentwist
     from eigentwist.cli.sensitivity import default_wrt
     from eigentwist.codegen.sensitivity import CHUNK
     from eigentwist.description.effects import resolve_model
-    from eigentwist.runtime.adjoint import adjoint_kernel
     from eigentwist.runtime.sensitivity import sensitivity_kernels
 
     ev = eigentwist.load(robot, backend="c")
@@ -76,36 +72,37 @@ def run(robot: str, n: int, wrt_kind: str, method: str) -> dict:
     for _ in range(4):  # the first set warms the kernels; each repetition gets new poses
         poses = lo + (hi - lo) * rng.random((n, 3))
         sets.append(poses[ev.valid(poses)])
-    say = lambda m: print("   ", m, file=sys.stderr, flush=True)  # noqa: E731
-    gen, kern = {}, {}
-    for m in ("reverse", "forward") if method == "compare" else (method,):
-        t, c, k = time.perf_counter(), time.process_time(), _children_cpu()
-        kern[m] = adjoint_kernel(ev, progress=say) if m == "reverse" else sensitivity_kernels(ev, wrt, progress=say)
-        gen[m] = dict(
-            wall_s=time.perf_counter() - t, python_cpu_s=time.process_time() - c, compiler_cpu_s=_children_cpu() - k
-        )
+    poses = sets[0]
 
-    def raw(m):
-        def call(x):
-            p = ev._with_pose(x, ev._params(len(x), {}, "paper"))
-            if m == "forward":
-                kern[m](x[:, 0], x[:, 1], x[:, 2], p)
-            else:
-                kern[m].matrices(x[:, 0], x[:, 1], x[:, 2], p)
-                kern[m].gradient(x[:, 0], x[:, 1], x[:, 2], p, np.ones((len(x), 6, 63)))
+    t, c, k = time.perf_counter(), time.process_time(), _children_cpu()
+    kern = sensitivity_kernels(ev, wrt, progress=lambda m: print("   ", m, file=sys.stderr, flush=True))
+    gen = dict(wall_s=time.perf_counter() - t, python_cpu_s=time.process_time() - c, compiler_cpu_s=_children_cpu() - k)
 
-        return call
+    def raw(x):
+        kern(x[:, 0], x[:, 1], x[:, 2], ev._params(len(x), {}, "paper"))
 
-    fns = {
-        "frequencies": ev.frequencies,
-        **{f"kernel_{m}": raw(m) for m in kern},
-        "sensitivities": lambda x: ev.sensitivities(x, wrt),
-        "differences": lambda x: ev.sensitivities(x, wrt, method="differences"),
-    }
-    for fn in fns.values():
+    for fn in (
+        ev.frequencies,
+        raw,
+        lambda x: ev.sensitivities(x, wrt),
+        lambda x: ev.sensitivities(x, wrt, method="differences"),
+    ):
         fn(sets[0])
-    rates = {name: 1 / _best(fn, sets[1:]) for name, fn in fns.items()}
-    return dict(robot=robot, wrt=len(wrt), chunk=CHUNK, poses=len(sets[1]), generate=gen, rates=rates)
+    t_freq = _best(ev.frequencies, sets[1:])
+    t_kern = _best(raw, sets[1:])
+    t_sens = _best(lambda x: ev.sensitivities(x, wrt), sets[1:])
+    t_diff = _best(lambda x: ev.sensitivities(x, wrt, method="differences"), sets[1:])
+    return dict(
+        robot=robot,
+        wrt=len(wrt),
+        chunk=CHUNK,
+        poses=len(poses),
+        generate_and_compile=gen,
+        frequencies=1 / t_freq,
+        kernel=1 / t_kern,
+        sensitivities=1 / t_sens,
+        differences=1 / t_diff,
+    )
 
 
 def main() -> None:
@@ -118,23 +115,29 @@ def main() -> None:
         default="all",
         help="every parameter, or the CLI's default list (eigentwist sensitivity without --wrt)",
     )
-    ap.add_argument("--method", choices=("reverse", "forward", "compare"), default="reverse")
     ap.add_argument("--cold", action="store_true", help="a fresh cache directory: time generation and compile")
     args = ap.parse_args()
     if args.cold:
         os.environ["EIGENTWIST_CACHE"] = tempfile.mkdtemp(prefix="eigentwist-bench-")
     for robot in args.robots.split(","):
-        r = run(robot, args.n, args.wrt, args.method)
-        print(f"{robot}: {r['wrt']} parameters, {r['poses']} poses, one thread")
-        for m, g in r["generate"].items():
-            print(
-                f"  {m} kernel {'generated' if args.cold else 'loaded'} in {g['wall_s']:.1f} s wall "
-                f"({g['python_cpu_s']:.1f} s Python CPU, {g['compiler_cpu_s']:.1f} s compiler CPU"
-                + (f"; {r['chunk']} statements per C function)" if m == "forward" else "; NumPy, nothing compiled)")
-            )
-        base = r["rates"]["frequencies"]
-        for name, rate in r["rates"].items():
-            print(f"  {name:<28}{rate:10.4g} poses/s  ({rate / base:.4f}x)")
+        r = run(robot, args.n, args.wrt)
+        g = r["generate_and_compile"]
+        print(f"{robot}: {r['wrt']} parameters, {r['poses']} poses, C backend, one thread")
+        print(
+            f"  kernel {'generated and compiled' if args.cold else 'loaded'} in {g['wall_s']:.1f} s wall "
+            f"({g['python_cpu_s']:.1f} s Python CPU, {g['compiler_cpu_s']:.1f} s compiler CPU; "
+            f"{r['chunk']} statements per C function)"
+        )
+        print(f"  frequencies (baseline)      {r['frequencies']:10.4g} poses/s")
+        print(f"  raw sensitivity kernel      {r['kernel']:10.4g} poses/s  ({r['kernel'] / r['frequencies']:.3f}x)")
+        print(
+            f"  Evaluator.sensitivities     {r['sensitivities']:10.4g} poses/s  "
+            f"({r['sensitivities'] / r['frequencies']:.3f}x)"
+        )
+        print(
+            f"  ... method='differences'    {r['differences']:10.4g} poses/s  "
+            f"({r['differences'] / r['frequencies']:.3f}x)"
+        )
 
 
 if __name__ == "__main__":

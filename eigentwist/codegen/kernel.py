@@ -106,13 +106,8 @@ def build_kernel(
     joints: list,
     params: list,
     joints_per_leg: int = 3,
-    cse: bool = True,
 ) -> Kernel:
     """Prune ``program`` to what ``outputs`` need, run CSE and order the statements.
-
-    ``cse=False`` keeps the program's own statements (no SymPy CSE: seconds saved on
-    programs of ten thousand statements whose C compiler eliminates common
-    subexpressions anyway).
 
     Raises :class:`UndeclaredSymbolError` naming the symbol when an expression uses
     anything that is not a declared input (style: fail fast, as pydy does).
@@ -141,10 +136,7 @@ def build_kernel(
                 )
             used_inputs.add(s_.name)
 
-    if cse:
-        replacements, reduced = sp.cse([r for _, r in lets] + out_exprs, symbols=sp.numbered_symbols("t", real=True))
-    else:
-        replacements, reduced = [], [r for _, r in lets] + out_exprs
+    replacements, reduced = sp.cse([r for _, r in lets] + out_exprs, symbols=sp.numbered_symbols("t", real=True))
     stmts = {s_: e for s_, e in replacements}
     stmts.update({s_: red for (s_, _), red in zip(lets, reduced[: len(lets)])})
     order: list = []

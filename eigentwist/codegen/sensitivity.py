@@ -10,7 +10,6 @@ rendered by the same machinery as the checked-in evaluators (:func:`build_kernel
 
 from __future__ import annotations
 
-import bisect
 import re
 from pathlib import Path
 
@@ -96,10 +95,8 @@ def render_numpy_sensitivity(robot, kernel: Kernel, wrt) -> str:
     return text + f"WRT = {tuple(wrt)!r}\n"
 
 
-def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None, starts=None) -> list[dict]:
+def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None) -> list[dict]:
     """Cut the kernel's statements into parts of at most ``chunk`` statements.
-
-    ``starts``: the first statement of each part instead (ascending, from 0).
 
     Each part: ``first``/``last`` statement, ``inputs`` (indices of the inputs it reads),
     ``rows`` (output rows it writes), ``loads`` (``(C name, slot)`` of values defined by
@@ -111,12 +108,6 @@ def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None, starts=Non
 
     chunk = chunk or CHUNK
     body = kernel.body
-    starts = list(range(0, len(body), chunk)) if starts is None else list(starts)
-    ends = starts[1:] + [len(body)]
-
-    def part_of(i: int) -> int:
-        return bisect.bisect_right(starts, i) - 1
-
     names = c_identifiers(kernel.input_names + [item[1].name for item in body if item[0] == "let"])
     index = {name: i for i, name in enumerate(kernel.input_names)}
     defined_in: dict = {}
@@ -125,15 +116,16 @@ def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None, starts=Non
         expr = item[2] if item[0] == "let" else item[3]
         uses.append({s_.name for s_ in expr.free_symbols})
         if item[0] == "let":
-            defined_in[item[1].name] = part_of(i)
+            defined_in[item[1].name] = i // chunk
     slots: dict = {}
     for i, used in enumerate(uses):
         for name in sorted(used):
-            if name in defined_in and defined_in[name] != part_of(i) and name not in slots:
+            if name in defined_in and defined_in[name] != i // chunk and name not in slots:
                 slots[name] = len(slots)
     row = re.compile(r"^et_o(\d+)\[")
     parts = []
-    for n_part, (first, last) in enumerate(zip(starts, ends)):
+    for first in range(0, len(body), chunk):
+        last = min(first + chunk, len(body))
         part_uses = set().union(*uses[first:last])
         lines, rows = [], []
         for i in range(first, last):
@@ -144,7 +136,7 @@ def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None, starts=Non
             m = row.match(kctx["lines"][i])
             if m:
                 rows.append(int(m.group(1)))
-        loads = sorted((names[n], slots[n]) for n in part_uses if n in slots and defined_in[n] != n_part)
+        loads = sorted((names[n], slots[n]) for n in part_uses if n in slots and defined_in[n] != first // chunk)
         parts.append(
             dict(
                 first=first,

@@ -361,8 +361,7 @@ class Predictor:
         """
         from ..description.effects import EFFECTS
         from ..runtime.errors import InputError
-        from ..runtime.adjoint import prepare_sensitivities
-        from ..runtime.sensitivity import check_model
+        from ..runtime.sensitivity import check_model, sensitivity_kernels
 
         fitted = {n for e in self.ev.effects if e in EFFECTS for n in EFFECTS[e].fit} | set(names)
         wrt = tuple(n for n in self.ev.parameters if n in fitted)
@@ -371,7 +370,7 @@ class Predictor:
         wrt += tuple(n for n in names if n not in wrt)
         params = self._params({name: float(v) for name, v in zip(names, values)})
         check_model(self.effects)
-        prepare_sensitivities(self.ev, wrt, self.effects)  # loaded (or generated) once for the fits
+        sensitivity_kernels(self.ev, wrt)  # loaded (or generated) once; ``names`` select its rows
         modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, tuple(names), self.effects, **params)
         freq, idx = match_frequencies(modes, self.meas.mode, strict=strict, lines=self.meas.lines)
         rows = np.arange(len(idx))

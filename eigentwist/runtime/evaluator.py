@@ -1840,9 +1840,8 @@ class Evaluator:
     ):
         """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call.
 
-        ``method="exact"`` (the default) uses the generated adjoint kernel of a closed-form
-        robot (:mod:`.adjoint`: dλ = φᵀ(dK − λ dM)φ for M-orthonormal φ, one backward sweep
-        per mode for every parameter; derived and cached once per robot); ``"differences"`` derives nothing: dM/dp and
+        ``method="exact"`` (the default) uses the generated sensitivity kernel (derived and
+        cached on first use per ``wrt``); ``"differences"`` derives nothing: dM/dp and
         dK/dp by central differences of :meth:`matrices` (relative step 1e-5; the matrices
         are smooth in the parameters even where frequencies cross), then the same
         eigenvalue perturbation (clusters included), ~1e-9 relative from the exact one.
@@ -1924,26 +1923,6 @@ class Evaluator:
         elif method == "differences":
             out = total(self.matrix_derivatives(poses, wrt, effects, **solved), wrt)
             freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
-        elif not follow:  # closed form: one backward sweep per mode gives every parameter
-            from .adjoint import adjoint_frequency_derivatives, adjoint_kernel
-
-            own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
-            full = kernel_wrt(wrt, own)
-            kern = adjoint_kernel(self, progress=progress)
-            p = self._params(len(poses), solved, effects)
-            parts = []
-            for sl in self._chunks(len(poses)):
-                pc = self._take(p, sl)
-                self._check_rows(poses[sl], pc, strict=True)
-                pc = self._with_pose(poses[sl], pc)
-                parts.append(
-                    adjoint_frequency_derivatives(
-                        kern, poses[sl, 0], poses[sl, 1], poses[sl, 2], pc, full, rigid, rtol, not self._six, basis
-                    )
-                )
-            freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
-            if own:
-                dfdp = shared_columns(dfdp, wrt, full, own)
         else:
             own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)

@@ -1,8 +1,4 @@
-"""Design sensitivities of the natural frequencies: forward-mode kernels and eigenvalue derivatives.
-
-``Evaluator.sensitivities`` of a closed-form robot uses the reverse-mode kernel
-(:mod:`.adjoint`); the forward-mode kernels below serve the matrices' derivatives
-themselves (a lower-mobility platform's followers, the design optimiser's moving mass).
+"""Design sensitivities of the natural frequencies: generated kernels and eigenvalue derivatives.
 
 ``sensitivity_kernels(evaluator, wrt)`` returns a callable ``(x, y, z, p) -> dict`` with
 M, K_R, K_F and their derivatives dM, dK_R, dK_F (N, P, 6, 6) with respect to the
@@ -48,8 +44,7 @@ __all__ = [
     "frequency_derivatives",
     "frequency_sensitivities",
     "difference_step",
-    "description_text",
-    "evaluator_key",
+    "DIFFERENCE_STEP",
 ]
 
 CLUSTER_RTOL = 1e-6  # frequencies closer than this (relative) form one cluster
@@ -80,7 +75,7 @@ def cache_key(ev, wrt) -> str:
     evaluator's source hash, the robot's description (its functions by their code), ``wrt`` and the
     code that derives and renders the kernel (read from its files: no SymPy is imported)."""
     return content_hash(
-        ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), description_text(ev.robot), tuple(wrt), package_digest()
+        ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot), tuple(wrt), package_digest()
     )
 
 
@@ -211,7 +206,7 @@ def _select(kern, columns):
     return run
 
 
-def description_text(robot) -> str:
+def _description_text(robot) -> str:
     """The canonical text of a description (:func:`eigentwist.hashing.canonical`), once per robot object."""
     held = _ROBOTS.get(id(robot))
     if held is None or held[0] is not robot:
@@ -219,9 +214,9 @@ def description_text(robot) -> str:
     return held[1]
 
 
-def evaluator_key(ev) -> tuple:
+def _base(ev) -> tuple:
     """What identifies an evaluator's kernels in memory."""
-    return ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), description_text(ev.robot), ev.backend
+    return ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot), ev.backend
 
 
 def sensitivity_kernels(ev, wrt, progress=None):
@@ -232,7 +227,7 @@ def sensitivity_kernels(ev, wrt, progress=None):
     already loaded for a superset of ``wrt`` is reused (its rows selected).
     """
     wrt = tuple(wrt)
-    base = evaluator_key(ev)
+    base = _base(ev)
     if (base, wrt) in _MEMORY:
         return _MEMORY[base, wrt]
     for (b, w), kern in list(_MEMORY.items()):

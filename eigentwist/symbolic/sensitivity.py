@@ -25,15 +25,7 @@ import sympy as sp
 from ..errors import DescriptionError, InputError
 from .program import Program
 
-__all__ = [
-    "postorder",
-    "local_partial",
-    "gradient",
-    "SensitivityModel",
-    "sensitivity_program",
-    "combined_program",
-    "OUTPUTS",
-]
+__all__ = ["gradient", "SensitivityModel", "sensitivity_program", "combined_program", "OUTPUTS"]
 
 #: The matrices whose design derivatives are generated (names of ``DerivedModel.outputs["matrices"]``).
 OUTPUTS = ("M", "K_R", "K_F")
@@ -72,11 +64,6 @@ def _local(node, i: int):
     if isinstance(node, sp.Function):
         return node.fdiff(i + 1)
     raise NotImplementedError(f"no derivative rule for {type(node).__name__} in {node}")
-
-
-#: public names of the tree walk and the local derivative rule (the reverse sweep uses them)
-postorder = _postorder
-local_partial = _local
 
 
 def gradient(expr) -> dict:
