@@ -230,7 +230,7 @@ class Predictor:
         self.ev = ev
         self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in meas.params}
         self._distinct = _DISTINCT_UNSET
-        self._measured_shapes = None  # (shapes, projection) or () without shapes: _shapes
+        self._measured_shapes = None  # (shapes, projection, settings) or () without shapes: _shapes
 
     def _unique(self, repeat: int = 1):
         """``(first, inverse)`` of the measured rows tiled ``repeat`` times (the model is

@@ -37,7 +37,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..runtime.memo import BoundedMemo, content_key
 
 __all__ = [
     "transport_matrix",
@@ -107,29 +106,19 @@ def mac(a, b) -> np.ndarray:
         return np.where((na > 0) & (nb > 0), cross / (na * nb), 0.0)
 
 
-_SETTINGS = BoundedMemo(64)  # content of the setting keys -> their rows (setting_rows)
-
-
 def setting_rows(keys: np.ndarray) -> tuple:
     """The rows of each setting from a (N, k) array of setting keys (rows with keys equal
-    to 12 decimals share one): a tuple of index arrays, one per setting. Remembered per
-    content of the keys (a fit asks for the same settings at every evaluation)."""
+    to 12 decimals share one; NaN keys never equal): a tuple of index arrays, one per
+    setting, each in ascending order."""
     rounded = np.round(np.asarray(keys, dtype=float), 12) + 0.0  # -0.0 -> 0.0
-    # a column with one value for every row (a fitted parameter at this evaluation) tells no
-    # settings apart: left out, so that a fit's evaluations share one key
-    rounded = rounded[:, (rounded != rounded[:1]).any(axis=0)] if len(rounded) else rounded
-    key = content_key(rounded, {}, ())
-    members = _SETTINGS.get(key)
-    if members is None:
-        # rows sorted by their keys, first column first (a stable sort: each setting's rows
-        # stay in ascending order); a setting starts where a key differs from the row before
-        order = np.lexsort(rounded.T[::-1]) if rounded.shape[1] else np.arange(len(rounded))
-        ordered = rounded[order]
-        starts = np.flatnonzero((ordered[1:] != ordered[:-1]).any(axis=1)) + 1
-        members = tuple(np.split(order, starts)) if len(order) else ()
-        order.setflags(write=False)  # the members are views of it
-        _SETTINGS.put(key, members)
-    return members
+    if not len(rounded):
+        return ()
+    # rows sorted by their keys, first column first (a stable sort: each setting's rows stay
+    # in ascending order); a setting starts where a key differs from the row before
+    order = np.lexsort(rounded.T[::-1]) if rounded.shape[1] else np.arange(len(rounded))
+    ordered = rounded[order]
+    starts = np.flatnonzero((ordered[1:] != ordered[:-1]).any(axis=1)) + 1
+    return tuple(np.split(order, starts))
 
 
 def match_by_shape(modes, shapes, groups, fallback, sensor=None) -> np.ndarray:

@@ -207,6 +207,16 @@ def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
     return addresses, strides
 
 
+def _driver_inputs(names: list, p: dict, n: int, keep: list) -> tuple[list, list]:
+    """``(addresses, strides)`` of a C driver's kernel inputs: input k read from
+    ``p[names[k]]`` for ``n`` poses (:func:`_inputs`), or, where ``names[k]`` is None, filled
+    by the driver itself (address and stride 0)."""
+    external = [name for name in names if name is not None]
+    found = iter(zip(*_inputs((p[name] for name in external), (n,), keep))) if external else iter(())
+    pairs = [next(found) if name is not None else (0, 0) for name in names]
+    return [a for a, _ in pairs], [st for _, st in pairs]
+
+
 def _fixed(v) -> bool:
     """Whether input ``v`` is a scalar that cannot change after the call (a Python or NumPy
     number, or a 0-d float64 array that owns its data and is read-only, as the evaluator's
@@ -411,19 +421,9 @@ class CKernels:
         spec = self._spec["loop_closure"]
         n, legs, nq = np.shape(q)
         keep: list = []
-        external = [name for group, name, _ in spec["inputs"] if group != "q"]
-        found = iter(zip(*_inputs((p[name] for name in external), (n,), keep))) if external else iter(())
-        addresses, strides, q_of = [], [], []
-        for group, name, joint in spec["inputs"]:
-            if group == "q":
-                addresses.append(0)
-                strides.append(0)
-                q_of.append(joint[0] * nq + joint[1])
-            else:
-                a, st = next(found)
-                addresses.append(a)
-                strides.append(st)
-                q_of.append(-1)
+        q_of = [joint[0] * nq + joint[1] if group == "q" else -1 for group, _, joint in spec["inputs"]]
+        names = [None if group == "q" else name for group, name, _ in spec["inputs"]]
+        addresses, strides = _driver_inputs(names, p, n, keep)
         rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
         return c_levenberg_marquardt.iterate(
             ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value,
@@ -462,13 +462,8 @@ class CKernels:
         pose_role = {"x": 0, "y": 1, "z": 2}
         rotation = {f"R_{i}{j}": 3 + 3 * i + j for i in range(3) for j in range(3)}
         roles = [pose_role.get(name, rotation.get(name, -1)) for _, name, _ in spec["inputs"]]
-        external = [name for (_, name, _), r in zip(spec["inputs"], roles) if r < 0]
-        found = iter(zip(*_inputs((p[name] for name in external), (n,), keep))) if external else iter(())
-        addresses, strides = [], []
-        for r in roles:
-            a, st = next(found) if r < 0 else (0, 0)
-            addresses.append(a)
-            strides.append(st)
+        names = [name if r < 0 else None for (_, name, _), r in zip(spec["inputs"], roles)]
+        addresses, strides = _driver_inputs(names, p, n, keep)
         rows = int(np.prod(shapes["closure"], dtype=np.int64))
         return c_levenberg_marquardt.follow(
             ctypes.cast(self._fn["followers"], ctypes.c_void_p).value,

@@ -563,23 +563,18 @@ def iterate(
     ``strides[k]`` (doubles). ``threads`` > 1 runs ranges of whole blocks on that many
     threads (each pose's iterations are its own: the results do not depend on it).
     Raises RuntimeError when the driver fails."""
-    from .threads import run_ranges, threads_for
-
     n, legs, nq = q.shape
     qq = np.array(q, dtype=np.float64, order="C")
     norm = np.empty((n, legs))
-    size = max(len(addresses), 1)
     q_of = (ctypes.c_int * max(len(n_q_inputs), 1))(*n_q_inputs)
     fn = driver()
 
     def call(a: int, b: int) -> int:
-        moved = [x + 8 * a * st for x, st in zip(addresses, strides)]
         return fn(
             b - a,
             closure_address,
             len(addresses),
-            (ctypes.c_void_p * size)(*moved),
-            (ctypes.c_int64 * size)(*strides),
+            *_inputs_at(addresses, strides, a),
             q_of,
             legs,
             rows,
@@ -592,9 +587,7 @@ def iterate(
             MAX_STEP,
         )
 
-    for rc in run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads)):
-        if rc != 0:
-            raise RuntimeError(f"C Newton iterations returned {rc}")
+    _run_blocks(call, n, threads, "C Newton iterations")
     return qq, norm
 
 
@@ -653,25 +646,20 @@ def follow(
     closure's rates along their twists (:func:`eigentwist.runtime.platform.along_followers`).
     ``threads`` > 1 runs ranges of whole blocks on threads (the same results). Raises
     RuntimeError when the driver fails."""
-    from .threads import run_ranges, threads_for
-
     n, _, nf = q.shape
     qq = np.array(q, dtype=np.float64, order="C").reshape(n, 1, nf)
     norm = np.empty((n, 1))
     poses = np.ascontiguousarray(full, dtype=np.float64)
-    size = max(len(addresses), 1)
-    role = (ctypes.c_int * size)(*roles)
+    role = (ctypes.c_int * max(len(roles), 1))(*roles)
     which = (ctypes.c_int * max(nf, 1))(*followers)
     fn = followers_driver()
 
     def call(a: int, b: int) -> int:
-        moved = [x + 8 * a * st for x, st in zip(addresses, strides)]
         return fn(
             b - a,
             kernel_address,
             len(addresses),
-            (ctypes.c_void_p * size)(*moved),
-            (ctypes.c_int64 * size)(*strides),
+            *_inputs_at(addresses, strides, a),
             role,
             nf,
             which,
@@ -685,7 +673,24 @@ def follow(
             MAX_STEP,
         )
 
+    _run_blocks(call, n, threads, "C follower iterations")
+    return qq, norm
+
+
+def _inputs_at(addresses: list, strides: list, a: int) -> tuple:
+    """The ctypes arrays of the inputs' addresses moved to pose ``a`` (``strides[k]``
+    doubles a pose) and of their strides, as the drivers take them."""
+    size = max(len(addresses), 1)
+    moved = [x + 8 * a * st for x, st in zip(addresses, strides)]
+    return (ctypes.c_void_p * size)(*moved), (ctypes.c_int64 * size)(*strides)
+
+
+def _run_blocks(call, n: int, threads: int, what: str) -> None:
+    """``call(begin, end)`` over ranges of whole blocks on the threads
+    (:func:`~eigentwist.runtime.threads.run_ranges`); RuntimeError naming ``what`` and the
+    code where a range returns one."""
+    from .threads import run_ranges, threads_for
+
     for rc in run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads)):
         if rc != 0:
-            raise RuntimeError(f"C follower iterations returned {rc}")
-    return qq, norm
+            raise RuntimeError(f"{what} returned {rc}")
