@@ -79,7 +79,7 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
     gen = dict(wall_s=time.perf_counter() - t, python_cpu_s=time.process_time() - c, compiler_cpu_s=_children_cpu() - k)
 
     def raw(x):
-        kern(x[:, 0], x[:, 1], x[:, 2], ev._params(len(x), {}, "paper"))
+        kern(x[:, 0], x[:, 1], x[:, 2], ev.resolver.resolve(len(x), {}, "paper"))
 
     for fn in (
         ev.frequencies,

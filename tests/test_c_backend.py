@@ -298,7 +298,7 @@ def test_load_c_has_the_numpy_interface(c_kernels, ev, model):
 def test_fused_frequencies_checks_poses(c_kernels, ev):
     ck = c_kernels["heli4"]
     poses = random_poses(ev.robot, 9, seed=31)
-    p = ev._params(len(poses), {}, "paper")
+    p = ev.resolver.resolve(len(poses), {}, "paper")
     p["c_rigid"] = np.asarray(0.0)  # as the evaluator solves "paper": no leg direction rigid
     x, y, z = poses.T
     out = ck.fused_frequencies(x, y, z, p, vectors=True)

@@ -207,54 +207,54 @@ def test_resolved_scalars_are_read_only_copies_and_arrays_are_the_callers():
     assert a["k_a"] == 1500.0 and a["k_a"] is not b["k_a"]
     a["k_a"][...] = 1.0  # the caller's copy: the remembered value stays
     assert ev.parameter_values(2, "rigid", k_a=1500.0)["k_a"] == 1500.0
-    p = ev._params(2, {"k_a": 1500.0}, "rigid")
+    p = ev.resolver.resolve(2, {"k_a": 1500.0}, "rigid")
     assert not p["k_a"].flags.writeable and p["k_a"].ndim == 0
-    assert ev._params(2, {"k_a": 1500.0}, "rigid")["k_a"] is p["k_a"]  # the same remembered array
-    assert ev._params(2, {"k_a": np.float32(1500.0)}, "rigid")["k_a"] is p["k_a"]
-    assert ev._params(2, {"k_a": np.array(1500.0)}, "rigid")["k_a"] is p["k_a"]
+    assert ev.resolver.resolve(2, {"k_a": 1500.0}, "rigid")["k_a"] is p["k_a"]  # the same remembered array
+    assert ev.resolver.resolve(2, {"k_a": np.float32(1500.0)}, "rigid")["k_a"] is p["k_a"]
+    assert ev.resolver.resolve(2, {"k_a": np.array(1500.0)}, "rigid")["k_a"] is p["k_a"]
     k = np.array([1500.0, 1600.0])
-    arr = ev._params(2, {"k_a": k}, "rigid")["k_a"]
+    arr = ev.resolver.resolve(2, {"k_a": k}, "rigid")["k_a"]
     np.testing.assert_array_equal(arr, k)
-    assert ev._params_key({"k_a": k}, "rigid") is None
-    assert ev._params_key({"k_a": "1500"}, "rigid") is None
-    assert ev._params_key({"k_a": np.array(["a"])[0]}, "rigid") is None
-    assert ev._params_key({"k_a": 2}, "rigid") == ("rigid", (("k_a", 2.0),))
-    assert ev._params_key({"c_rigid": condense.EXACT}, "rigid") == ("rigid", (("c_rigid", "exact"),))
-    assert ev._params_key({"b": 1.0, "a": 2.0}, ["actuator_loss"]) == (("actuator_loss",), (("a", 2.0), ("b", 1.0)))
+    assert ev.resolver.key({"k_a": k}, "rigid") is None
+    assert ev.resolver.key({"k_a": "1500"}, "rigid") is None
+    assert ev.resolver.key({"k_a": np.array(["a"])[0]}, "rigid") is None
+    assert ev.resolver.key({"k_a": 2}, "rigid") == ("rigid", (("k_a", 2.0),))
+    assert ev.resolver.key({"c_rigid": condense.EXACT}, "rigid") == ("rigid", (("c_rigid", "exact"),))
+    assert ev.resolver.key({"b": 1.0, "a": 2.0}, ["actuator_loss"]) == (("actuator_loss",), (("a", 2.0), ("b", 1.0)))
 
 
 def test_the_remembered_values_are_bounded():
     ev = fresh()
-    first = ev._params(1, {"k_a": 1000.0}, "rigid")["k_a"]
+    first = ev.resolver.resolve(1, {"k_a": 1000.0}, "rigid")["k_a"]
     for j in range(63):
-        ev._params(1, {"k_a": 1001.0 + j}, "rigid")
-    assert len(ev._params_memo) == 64
-    assert ev._params(1, {"k_a": 1000.0}, "rigid")["k_a"] is first  # still held at 64
-    ev._params(1, {"k_a": 999.0}, "rigid")  # the 65th: the memo starts over
-    assert len(ev._params_memo) == 1
-    assert ev._params(1, {"k_a": 1000.0}, "rigid")["k_a"] is not first
+        ev.resolver.resolve(1, {"k_a": 1001.0 + j}, "rigid")
+    assert len(ev.resolver._memo) == 64
+    assert ev.resolver.resolve(1, {"k_a": 1000.0}, "rigid")["k_a"] is first  # still held at 64
+    ev.resolver.resolve(1, {"k_a": 999.0}, "rigid")  # the 65th: the memo starts over
+    assert len(ev.resolver._memo) == 1
+    assert ev.resolver.resolve(1, {"k_a": 1000.0}, "rigid")["k_a"] is not first
 
 
 def test_a_default_is_one_read_only_array_until_it_changes():
     ev = fresh()
-    a = ev._default("k_a", 2000.0, 1, False)
-    assert a == 2000.0 and not a.flags.writeable and ev._default("k_a", 2000.0, 1, False) is a
-    b = ev._default("k_a", 2500.0, 1, False)
+    a = ev.resolver.default("k_a", 2000.0, 1, False)
+    assert a == 2000.0 and not a.flags.writeable and ev.resolver.default("k_a", 2000.0, 1, False) is a
+    b = ev.resolver.default("k_a", 2500.0, 1, False)
     assert b == 2500.0 and b is not a
     with pytest.raises(InputError, match=r"^parameter 'k_a' = -1.0"):
-        ev._default("k_a", -1.0, 1, True)
-    arr = ev._default("k_a", np.array([1.0, 2.0]), 2, False)  # an array default: as given
+        ev.resolver.default("k_a", -1.0, 1, True)
+    arr = ev.resolver.default("k_a", np.array([1.0, 2.0]), 2, False)  # an array default: as given
     np.testing.assert_array_equal(arr, [1.0, 2.0])
 
 
 def test_a_default_out_of_bounds_is_refused_where_its_effect_is_on():
     ev = fresh()
     param = ev.parameters["eta_a"]
-    ev.parameters = {**ev.parameters, "eta_a": param.with_values(default=1.5)}
+    ev.resolver.parameters = {**ev.parameters, "eta_a": param.with_values(default=1.5)}
     assert np.isfinite(ev.frequencies(POSES, "none")).all()  # actuator_loss off: eta_a unread
     with pytest.raises(InputError, match=r"^parameter 'eta_a' = 1.5"):
         ev.frequencies(POSES, "actuator_loss")
-    assert "eta_a" not in ev._checked_defaults and "k_a" in ev._checked_defaults
+    assert "eta_a" not in ev.resolver._checked_defaults and "k_a" in ev.resolver._checked_defaults
     assert np.isfinite(ev.frequencies(POSES, "actuator_loss", eta_a=0.5)).all()
 
 
@@ -915,7 +915,7 @@ def test_the_serial_singularity_threshold_on_either_side(heli4):
     np.testing.assert_allclose(heli4.frequencies(None, joints=q), heli4.frequencies(outside), rtol=1e-9)
     with pytest.raises(SingularPoseError, match="leg 1"):
         heli4.frequencies(inside)
-    p = heli4._with_pose(inside, heli4._params(1, {}, "paper"))
+    p = heli4._with_pose(inside, heli4.resolver.resolve(1, {}, "paper"))
     q_in = heli4.kernels.inverse_kinematics(inside[:, 0], inside[:, 1], inside[:, 2], p)["q"]
     with pytest.raises(SingularPoseError, match=r"leg 1.*lever"):
         heli4.frequencies(None, joints=q_in)

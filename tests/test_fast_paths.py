@@ -247,9 +247,11 @@ def test_packed_scalars_follow_the_values(ev_c):
     p["k_a"][...] = 4.0 * p["k_a"]
     f2 = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, **kw)["freq_hz"]
     assert np.all(f2[:, 0] > f1[:, 0] * 1.05)
-    frozen = ev_c._params(2, {}, "paper")  # read-only: packed once, reused
+    frozen = ev_c.resolver.resolve(2, {}, "paper")  # read-only: packed once, reused
     a = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], frozen, **kw)["freq_hz"]
-    b = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], ev_c._params(2, {}, "paper"), **kw)["freq_hz"]
+    b = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], ev_c.resolver.resolve(2, {}, "paper"), **kw)[
+        "freq_hz"
+    ]
     fresh = {k: np.array(v) for k, v in frozen.items()}  # writeable copies: packed anew
     c = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], fresh, **kw)["freq_hz"]
     assert np.array_equal(a, b) and np.array_equal(a, c)
@@ -272,11 +274,11 @@ def test_parallel_screen_is_remembered_per_geometry(ev_c, monkeypatch):
     idx = np.arange(3)
 
     def screen(poses=poses, **params):
-        p = ev_c._params(len(poses), params, "paper")
+        p = ev_c.resolver.resolve(len(poses), params, "paper")
         return ev_c._parallel_ok(poses, p, idx, strict=False)
 
     def fresh(poses=poses, **params):
-        p = ev_c._params(len(poses), params, "paper")
+        p = ev_c.resolver.resolve(len(poses), params, "paper")
         return evaluator.parallel_mask(rows_of(poses, ev_c._with_pose(poses, p)))
 
     assert "l1" in ev_c._geometry_names() and "k_a" not in ev_c._geometry_names()
@@ -339,9 +341,9 @@ def test_kernel_scalars_packed_once_follow_the_values(ev_c):
     objects (the evaluator's defaults and switches): a writeable 0-d array changed in place
     between calls is read anew."""
     poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6]])
-    ev_c._params(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # the defaults' first use checks them
-    frozen = ev_c._params(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # arrays: not memoised
-    assert frozen["l1"] is ev_c._params(2, {"k_a": np.array([1.0, 2.0])}, "paper")["l1"]  # same default object
+    ev_c.resolver.resolve(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # the defaults' first use checks them
+    frozen = ev_c.resolver.resolve(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # arrays: not memoised
+    assert frozen["l1"] is ev_c.resolver.resolve(2, {"k_a": np.array([1.0, 2.0])}, "paper")["l1"]  # same default object
     q = ev_c._ik(poses, frozen)
     a = ev_c.kernels.matrices(q, ev_c._with_pose(poses, frozen))["K_F"]
     packed = ev_c.kernels._kernel_packed["matrices"]

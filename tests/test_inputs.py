@@ -73,19 +73,19 @@ def test_resolved_inputs_are_remembered_but_not_shared():
     the same read-only arrays (which the C pass packs once), a changed value new ones, and
     parameter_values hands out the caller's own (writable) arrays."""
     ev = eigentwist.load("heli4", backend="numpy")
-    a, b = ev._params(1, {"k_a": 2000.0}, "paper"), ev._params(1, {"k_a": 2000.0}, "paper")
+    a, b = ev.resolver.resolve(1, {"k_a": 2000.0}, "paper"), ev.resolver.resolve(1, {"k_a": 2000.0}, "paper")
     assert a is not b and a["k_a"] is b["k_a"] and not a["k_a"].flags.writeable
-    c = ev._params(1, {"k_a": 2500.0}, "paper")
+    c = ev.resolver.resolve(1, {"k_a": 2500.0}, "paper")
     assert float(c["k_a"]) == 2500.0 and float(a["k_a"]) == 2000.0
     mine = ev.parameter_values(1, k_a=2000.0)
     mine["k_a"][...] = 1.0
-    assert float(ev._params(1, {"k_a": 2000.0}, "paper")["k_a"]) == 2000.0
+    assert float(ev.resolver.resolve(1, {"k_a": 2000.0}, "paper")["k_a"]) == 2000.0
     # an array value is resolved every time (never remembered): the caller may change it in place
     arr = np.array([2000.0, 2100.0])
-    first = ev._params(2, {"k_a": arr}, "paper")["k_a"].copy()
+    first = ev.resolver.resolve(2, {"k_a": arr}, "paper")["k_a"].copy()
     arr[0] = 2200.0
-    assert ev._params_key({"k_a": arr}, "paper") is None
-    assert ev._params(2, {"k_a": arr}, "paper")["k_a"][0] == 2200.0 and first[0] == 2000.0
+    assert ev.resolver.key({"k_a": arr}, "paper") is None
+    assert ev.resolver.resolve(2, {"k_a": arr}, "paper")["k_a"][0] == 2200.0 and first[0] == 2000.0
 
 
 def test_a_remembered_layout_resolves_as_in_full():
@@ -124,15 +124,18 @@ def test_a_remembered_layout_resolves_as_in_full():
         return list(a) == list(b) and all(np.asarray(a[k]).tobytes() == np.asarray(b[k]).tobytes() for k in a)
 
     for first, params, refused in cases:
-        assert not isinstance(outcome(ev._laid_out, first), str)  # lays the names out
-        want, got = outcome(ev._resolve_params, params), outcome(ev._laid_out, params)
+        assert not isinstance(outcome(ev.resolver.laid_out, first), str)  # lays the names out
+        want, got = outcome(ev.resolver.resolve_in_full, params), outcome(ev.resolver.laid_out, params)
         assert isinstance(want, str) is refused and same(got, want), (params, got, want)
-    assert len(ev._layouts) == 4
+    assert len(ev.resolver._layouts) == 4
     monkey = pytest.MonkeyPatch()
     monkey.setitem(ev.parameters, "m_e", ev.parameters["m_e"].with_values(default=np.full(3, 0.1)))
     try:
-        first, second = ev._laid_out(3, {"k_a": 2000.0}, "rigid"), ev._laid_out(3, {"k_a": 2000.0}, "rigid")
-        assert ev._layouts.get(("rigid", (("k_a", False),))) is False
-        assert same(second, first) and same(first, ev._resolve_params(3, {"k_a": 2000.0}, "rigid"))
+        first, second = (
+            ev.resolver.laid_out(3, {"k_a": 2000.0}, "rigid"),
+            ev.resolver.laid_out(3, {"k_a": 2000.0}, "rigid"),
+        )
+        assert ev.resolver._layouts.get(("rigid", (("k_a", False),))) is False
+        assert same(second, first) and same(first, ev.resolver.resolve_in_full(3, {"k_a": 2000.0}, "rigid"))
     finally:
         monkey.undo()

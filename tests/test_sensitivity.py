@@ -157,7 +157,7 @@ def test_c_equals_numpy(evs, robot):
     ev_np = evs[robot]
     ev_c = eigentwist.load(robot, backend="c")
     poses = random_poses(ev_np.robot, 50, seed=5)
-    p = ev_np._params(len(poses), {}, "paper")
+    p = ev_np.resolver.resolve(len(poses), {}, "paper")
     wrt = WRT_C[robot]
     a = sensitivity_kernels(ev_np, wrt)(poses[:, 0], poses[:, 1], poses[:, 2], p)
     b = sensitivity_kernels(ev_c, wrt)(poses[:, 0], poses[:, 1], poses[:, 2], p)

@@ -56,7 +56,7 @@ def test_finely_split_c_kernel_equals_numpy(kernel, monkeypatch):
     c = _CKernel(build_library(text, "delta_sens_split_test", find_compiler(), flags)).bind("et_delta_sens")
     py = _numpy_kernel(codegen.render_numpy_sensitivity(ev.robot, kern, WRT), "delta_sens_split_test")
     poses = random_poses(ev.robot, 70, seed=8)  # more than one block of 64
-    p = ev._params(len(poses), {"E_rod": 1.5e11}, "paper")
+    p = ev.resolver.resolve(len(poses), {"E_rod": 1.5e11}, "paper")
     a, b = py(poses[:, 0], poses[:, 1], poses[:, 2], p), c(poses[:, 0], poses[:, 1], poses[:, 2], p)
     assert np.abs(a["dK_F"]).max() > 0 and np.abs(a["M"]).max() > 0
     for name in a:

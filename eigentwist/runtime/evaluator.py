@@ -9,16 +9,15 @@ from types import ModuleType
 import numpy as np
 
 from ..description import RobotDescription
-from ..description.effects import base_name, leg_input_name, leg_switch_name, resolve_model, split_scope, switch_name
+from ..description.effects import base_name
 from ..description.joints import joint_kind
-from ..description.names import did_you_mean
 from ..description.pose import FULL, TWIST_AXIS, twist_order
 from ..description.serial import padded_references, padded_units
 from . import condense
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
-from .constraints import check_constraints, compile_constraints
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
+from .inputs import InputResolver
 from .labels import directions, energy_shares
 from .memo import BoundedMemo, content_key
 from .threads import resolve_threads
@@ -50,10 +49,6 @@ PARALLEL_SCREEN = 1e-3
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
-_NUMBERS = (float, int, np.float64, np.float32, np.int64, np.int32)
-#: an effect's switch on and off (read-only: the C pass packs them once)
-_ON, _OFF = np.array(1.0), np.array(0.0)
-_ON.flags.writeable = _OFF.flags.writeable = False
 CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
 MATRIX_CHUNK = 65536  # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
@@ -180,17 +175,13 @@ class Evaluator:
         self.backend = backend
         self._kernels = kernels or module
         self.threads = None if threads is None else resolve_threads(threads)
-        self.parameters = {p.name: p for p in robot.parameters}
+        #: the inputs resolver (model and parameter values -> the kernels' inputs, :mod:`.inputs`)
+        self.resolver = InputResolver(robot)
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
         #: what :func:`eigentwist.load` was given: a shipped robot's name or a description file's path
         self.spec = robot.name
-        #: parameter name -> the leg-level effect that owns it (these take ``NAME@N``)
-        self.leg_parameters = {
-            q.name: e for e in robot.effects if robot.effect(e).leg_level for q in robot.effect(e).params
-        }
-        self.constraints = compile_constraints(robot)
         #: names of the pose coordinates (``x, y, z``; a 6-DoF robot adds ``rot_x, rot_y, rot_z``)
         self.pose_names = tuple(getattr(robot, "pose", ("x", "y", "z")))
         self.dof = len(self.pose_names)
@@ -201,34 +192,30 @@ class Evaluator:
         #: a point platform's translations (6 x d): the only twists its legs' rows must fix
         self._freedoms = self.space.basis if getattr(self.space, "point", False) else None
         self._rigid_models: dict = {}  # model -> whether a leg has a rigid direction (_route)
-        self._checked_defaults: set = set()  # parameters whose default _params has checked
-        self._resolved: dict = {}  # model spec -> resolve_model's effects (_resolve)
-        self._effect = {e: robot.effect(e) for e in robot.effects}
         #: C backend: run the Newton iterations of legs in URDF form and of a platform's followers in C
         #: (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
-        self._params_memo: dict = {}  # (model, scalar values) -> resolved inputs (_params)
-        #: (model, names given) -> where the defaults and values go (_laid_out); a diagnosis tries a few hundred models
-        self._layouts = BoundedMemo(512)
-        self._defaults: dict = {}  # parameter -> (default, read-only 0-d array): _default
         self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
-        self._kinds: dict = {}  # (question, effects) -> answer (_remembered: stiffness model, preloaded)
         self._plans = BoundedMemo(64)  # (values key, invalid, unstable, vectors) -> prepared C pass (_plan)
         self._planned_for = self._kernels  # the kernels the plans were prepared for
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
-    def _resolve(self, model) -> tuple:
-        """``resolve_model(model, self.robot)``, remembered per (hashable) model spec."""
-        try:
-            return self._resolved[model]
-        except (KeyError, TypeError):
-            effects = resolve_model(model, self.robot)
-        try:
-            self._resolved[model] = effects
-        except TypeError:  # an unhashable spec (a list of names)
-            pass
-        return effects
+    @property
+    def parameters(self) -> dict:
+        """Parameter name -> :class:`~eigentwist.description.parameters.Parameter` (unit, default,
+        bounds): the names a call takes (``NAME@N`` too for a leg-level one, :meth:`accepts`)."""
+        return self.resolver.parameters
+
+    @property
+    def leg_parameters(self) -> dict:
+        """Parameter name -> the leg-level effect that owns it (these take ``NAME@N``)."""
+        return self.resolver.leg_parameters
+
+    @property
+    def constraints(self) -> list:
+        """The description's constraints between parameters, compiled (checked on every call)."""
+        return self.resolver.constraints
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -244,7 +231,7 @@ class Evaluator:
             return arr.view(_Full)
         from .platform import full_poses
 
-        p = self._params(len(arr), params or {}, "rigid") if self.space.followers else None
+        p = self.resolver.resolve(len(arr), params or {}, "rigid") if self.space.followers else None
         closure = getattr(self.module, "followers", None)
         reference = self._follower_reference()
         iterate = None
@@ -355,7 +342,7 @@ class Evaluator:
 
         reference = np.array(padded_references(self.robot.legs), dtype=float)
         x = self._poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
-        kp = self.closure_inputs(x, self._params(1, {}, "none"))
+        kp = self.closure_inputs(x, self.resolver.resolve(1, {}, "none"))
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             r0 = self._kernels.loop_closure(reference[None], kp)["residual"][0]
             q_path, _ = continuation(self._kernels.loop_closure, reference, kp)
@@ -530,236 +517,11 @@ class Evaluator:
 
     def parameter(self, name: str):
         """The :class:`Parameter` ``name``; ``NAME@N`` gives leg N's copy (same unit, bounds)."""
-        if name in self.parameters:
-            return self.parameters[name]
-        if not self.accepts(name):
-            self._scoped({name: 0.0})  # raises the one-line error
-        return self.parameters[name.partition("@")[0]].with_values(name=name)
+        return self.resolver.parameter(name)
 
     def accepts(self, name: str) -> bool:
         """True when ``name`` is a parameter, or ``NAME@N`` of a leg-level one with N a leg."""
-        if name in self.parameters:
-            return True
-        try:
-            self._scoped({name: 0.0})
-        except InputError:
-            return False
-        return True
-
-    def _scoped(self, params: dict) -> dict:
-        """``{"eta_a@3": v}`` -> ``{("eta_a", 3): v}``; unknown names raise one line."""
-        scoped, unknown = {}, []
-        for key, value in params.items():
-            if key in self.parameters:
-                continue
-            name, at, _ = key.partition("@")
-            if not at or name not in self.parameters:
-                unknown.append(key)
-                continue
-            if name not in self.leg_parameters:
-                raise InputError(
-                    f"parameter {key!r}: {name} belongs to no leg-level effect, so it has no per-leg "
-                    f"value (leg-level parameters: {', '.join(self.leg_parameters) or 'none'})"
-                )
-            try:
-                scoped[split_scope(key, self.n_legs, "parameter")] = value
-            except ValueError as exc:
-                raise InputError(str(exc)) from None
-        if unknown:
-            raise InputError(
-                f"unknown parameter(s) {', '.join(map(repr, unknown))} for {self.robot.name}"
-                f"{did_you_mean(unknown[0].partition('@')[0], self.parameters)}: "
-                f"expected names from {', '.join(self.parameters)} (NAME@N for one leg)"
-            )
-        return scoped
-
-    def _array(self, name: str, value, n: int, check: bool) -> np.ndarray:
-        arr = np.asarray(value, dtype=float)
-        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in (1, n)):
-            raise InputError(f"parameter {name!r} has shape {arr.shape}: expected a scalar or ({n},) for {n} poses")
-        if check:
-            try:
-                self.parameters[name.partition("@")[0]].check(arr)
-            except ValueError as exc:
-                raise InputError(
-                    str(exc).replace(f"parameter {name.partition('@')[0]!r}", f"parameter {name!r}")
-                ) from None
-        return arr
-
-    def _params(self, n: int, params: dict, model) -> dict:
-        """The generated code's inputs: parameters, effect switches and each leg's copies.
-
-        Scalar values are resolved once per (model, values): a repeated call gets the same
-        read-only 0-d arrays (which the C pass packs once, :mod:`.c_kernels`)."""
-        key = self._params_key(params, model)
-        if key is not None:
-            hit = self._params_memo.get(key)
-            if hit is not None:
-                return dict(hit)
-        out = self._laid_out(n, params, model)
-        if key is not None:
-            frozen = {}
-            for k, v in out.items():
-                a = np.array(v, dtype=float)
-                a.flags.writeable = False
-                frozen[k] = a
-            if len(self._params_memo) >= 64:
-                self._params_memo.clear()
-            self._params_memo[key] = frozen
-            return dict(frozen)
-        return out
-
-    def _params_key(self, params: dict, model):
-        """A hashable key of (model, scalar values) for :meth:`_params`; None when a value is
-        an array (or anything but a plain number)."""
-        items = []
-        for k, v in params.items():
-            if v is condense.EXACT:
-                items.append((k, "exact"))
-            elif type(v) in _NUMBERS or (type(v) is np.ndarray and v.ndim == 0 and v.dtype.kind in "fiu"):
-                items.append((k, float(v)))
-            else:
-                return None
-        try:
-            return (model if isinstance(model, str) else tuple(self._resolve(model)), tuple(sorted(items)))
-        except TypeError:
-            return None
-
-    def _resolve_params(self, n: int, params: dict, model) -> dict:
-        scoped = self._scoped(params)
-        effects = self._resolve(model)
-        on = {base_name(e) for e in effects}
-        out = {}
-        for name, p in self.parameters.items():
-            if name in params:
-                out[name] = self._array(name, params[name], n, params[name] is not condense.EXACT)
-                continue
-            # a default is checked once (where it is first used)
-            check = (p.effect is None or p.effect in on) and name not in self._checked_defaults
-            out[name] = self._default(name, p.default, n, check)
-            if check:
-                self._checked_defaults.add(name)
-        for e in self.effects:
-            effect = self._effect[e]
-            if not effect.leg_level:
-                out[switch_name(e)] = _ON if e in effects else _OFF
-                continue
-            for k in range(1, self.n_legs + 1):
-                out[leg_switch_name(e, k)] = _ON if e in effects or f"{e}@{k}" in effects else _OFF
-                for q in effect.params:
-                    own = (q.name, k) in scoped
-                    value = self._array(f"{q.name}@{k}", scoped[(q.name, k)], n, True) if own else out[q.name]
-                    out[leg_input_name(q.name, k)] = value
-        check_constraints(self.constraints, out, on)
-        self._check_leg_constraints(out, effects, scoped)
-        return out
-
-    def _laid_out(self, n: int, params: dict, model) -> dict:
-        """:meth:`_resolve_params` by a layout remembered per (model, names given): the
-        defaults and switches placed once, each given value checked and placed at every input
-        it feeds (a leg-level parameter's copies), the constraints checked on the result.
-        The first call of a layout, or one whose layout cannot be remembered (an array
-        default, an unhashable model), resolves in full."""
-        try:
-            key = (
-                model if isinstance(model, str) else tuple(self._resolve(model)),
-                tuple(sorted((k, v is condense.EXACT) for k, v in params.items())),
-            )
-            layout = self._layouts.get(key)
-        except TypeError:
-            return self._resolve_params(n, params, model)
-        if layout is None:
-            out = self._resolve_params(n, params, model)  # checks the names and the defaults in use
-            self._layouts.put(key, self._layout(params, model) or False)
-            return out
-        if layout is False:
-            return self._resolve_params(n, params, model)
-        template, given, live, on, effects, legs = layout
-        out = dict(template)
-        for key, name, targets, check in given:
-            value = self._array(name, params[key], n, check)
-            for target in targets:
-                out[target] = value
-        check_constraints(live, out, on)
-        if legs:
-            self._check_leg_constraints(out, effects, legs)
-        return out
-
-    def _layout(self, params: dict, model):
-        """``(template, given, live, on, effects, legs)`` of :meth:`_laid_out`: the inputs in
-        :meth:`_resolve_params`'s order with the defaults and switches (None where a given
-        value goes), each given name (as spelled, as shown) with the inputs it feeds and
-        whether it is checked, the constraints that read a given value (the others hold: the
-        first resolution checked them), the effects' base names, the effects and the legs
-        with values of their own; None when a default is an array."""
-        scoped = self._scoped(params)
-        spelled = {split_scope(k, self.n_legs, "parameter"): k for k in params if k not in self.parameters}
-        effects = self._resolve(model)
-        on = {base_name(e) for e in effects}
-        template: dict = {}
-        feeds: dict = {}  # given name (NAME@N: a leg's own value) -> the inputs it feeds
-        for name, p in self.parameters.items():
-            if name in params:
-                template[name] = None
-                feeds[name] = [name]
-            elif isinstance(p.default, (float, int)):
-                template[name] = self._default(name, p.default, 1, False)
-            else:
-                return None
-        for e in self.effects:
-            effect = self._effect[e]
-            if not effect.leg_level:
-                template[switch_name(e)] = _ON if e in effects else _OFF
-                continue
-            for k in range(1, self.n_legs + 1):
-                template[leg_switch_name(e, k)] = _ON if e in effects or f"{e}@{k}" in effects else _OFF
-                for q in effect.params:
-                    target = leg_input_name(q.name, k)
-                    if (q.name, k) in scoped:
-                        template[target] = None
-                        feeds.setdefault(f"{q.name}@{k}", []).append(target)
-                    elif q.name in params:
-                        template[target] = None
-                        feeds[q.name].append(target)
-                    else:
-                        template[target] = template[q.name]
-        # the order of _resolve_params's checks: the parameters, then the legs' own values
-        given = [
-            (name, name, tuple(t), params[name] is not condense.EXACT) for name, t in feeds.items() if "@" not in name
-        ]
-        for name, t in feeds.items():
-            if "@" in name:
-                base, _, leg = name.partition("@")
-                given.append((spelled[(base, int(leg))], name, tuple(t), True))
-        fed = {target for _, _, targets, _ in given for target in targets}
-        live = [c for c in self.constraints if fed.intersection(c.names)]
-        return template, given, live, on, effects, {k: None for k in scoped}
-
-    def _default(self, name: str, value, n: int, check: bool) -> np.ndarray:
-        """The default ``value`` of parameter ``name`` as a read-only 0-d array, the same
-        object while the default stays the same (the C pass packs such scalars once,
-        :mod:`.c_kernels`); checked where ``check``."""
-        if check or not isinstance(value, (float, int)):  # an array default: as given
-            return self._array(name, value, n, check)
-        known = self._defaults.get(name)
-        if known is None or known[0] != value:
-            arr = np.array(value, dtype=float)
-            arr.flags.writeable = False
-            known = self._defaults[name] = (value, arr)
-        return known[1]
-
-    def _check_leg_constraints(self, out: dict, effects, scoped: dict) -> None:
-        """A leg's own values meet its effect's constraints (``r_i_l1@2 < r_o_l1@2``)."""
-        for c in self.constraints:
-            if c.effect is None or not self.robot.effect(c.effect).leg_level:
-                continue
-            for k in sorted({k for (_, k) in scoped}):
-                if c.effect in effects or f"{c.effect}@{k}" in effects:
-                    values = {n: out.get(leg_input_name(n, k), out.get(n)) for n in c.names}
-                    try:
-                        check_constraints([c], values, {c.effect})
-                    except InputError as exc:
-                        raise InputError(f"leg {k}: {exc}") from None
+        return self.resolver.accepts(name)
 
     def inputs(self, model="paper", values: dict | None = None, **params) -> dict:
         """The full input dict of the generated code for ``model`` and parameter ``values``.
@@ -774,36 +536,17 @@ class Evaluator:
         checks them. Scalars come back as floats, (N,) arrays as arrays. A 6-DoF robot's
         kernels also read the pose from ``p``: add :meth:`kernel_pose_inputs`.
         """
-        given = {**(values or {}), **params}
-        sizes = [np.size(v) for v in given.values() if np.ndim(v) == 1]
-        p = self._params(max(sizes, default=1), given, model)
-        return {k: float(v) if np.ndim(v) == 0 else np.asarray(v, dtype=float) for k, v in p.items()}
+        return self.resolver.inputs(model, values, **params)
 
     def stiffness_model(self, model) -> str:
         """``"flexible"`` (K_F, Eq. 13) when the model has a structural compliance, else
         ``"rigid"`` (K_R, Eq. 14)."""
-        effects = self._resolve(model)
-        return self._remembered(
-            ("stiffness_model", effects),
-            lambda: "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid",
-        )
+        return self.resolver.stiffness_model(model)
 
     def kind(self, model) -> str:
         """Deprecated name of :meth:`stiffness_model`."""
         warnings.warn("Evaluator.kind is deprecated: use Evaluator.stiffness_model", DeprecationWarning, stacklevel=2)
         return self.stiffness_model(model)
-
-    def _remembered(self, key, compute):
-        """``compute()``, remembered per (hashable) ``key`` of the model's effects."""
-        try:
-            return self._kinds[key]
-        except (KeyError, TypeError):
-            out = compute()
-        try:
-            self._kinds[key] = out
-        except TypeError:  # effects given as an unhashable spec: computed every time
-            pass
-        return out
 
     # ---------------------------------------------------------------- kernels
     def _chunks(self, n: int, size: int = CHUNK):
@@ -915,7 +658,7 @@ class Evaluator:
     def _run(self, kernel: str, poses, model, params: dict) -> dict:
         poses = self._poses(poses, params)
         n = len(poses)
-        p = self._params(n, params, model)
+        p = self.resolver.resolve(n, params, model)
         results: dict = {}
         for sl in self._chunks(n):
             pc = self._take(p, sl)
@@ -978,7 +721,7 @@ class Evaluator:
         a batch (e.g. a sweep over a workspace box) instead of catching errors.
         """
         poses = self._poses(poses, params)
-        p = self._params(len(poses), params, model)
+        p = self.resolver.resolve(len(poses), params, model)
         if self._fused:
             st = self._c_pass(poses, p, matrices=())["status"]
             ok = (st != STATUS["unreachable"]) & (st != STATUS["singular"])
@@ -1005,7 +748,7 @@ class Evaluator:
         """
         poses = self._poses(poses, params)
         n = len(poses)
-        p = self._params(n, params, model)
+        p = self.resolver.resolve(n, params, model)
         code = np.full(n, POSE_STATUS.index("unreachable"), dtype=np.int8)
         cond, lever_min = np.full(n, np.nan), np.full(n, np.nan)
         for sl in self._chunks(n):
@@ -1039,7 +782,7 @@ class Evaluator:
         """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
         leg in rad for the Heli4/Delta (k = 3); the leg length in m for the hexapod (k = 1)."""
         poses = self._poses(poses, params)
-        p = self._params(len(poses), params, "paper")
+        p = self.resolver.resolve(len(poses), params, "paper")
         return np.concatenate([self._ik(poses[sl], self._take(p, sl)) for sl in self._chunks(len(poses))])
 
     def jacobians(self, poses, **params) -> dict:
@@ -1054,7 +797,7 @@ class Evaluator:
         array that broadcasts with the poses, plus the 0/1 switch of every effect (the
         caller's own arrays: writing into them changes nothing here).
         """
-        return {k: np.array(v) for k, v in self._params(n, params, model).items()}
+        return {k: np.array(v) for k, v in self.resolver.resolve(n, params, model).items()}
 
     def run_kernel(self, kernel: str, poses, model="paper", **params) -> dict:
         """Outputs of the generated kernel ``kernel`` (e.g. ``"gravity"``) for ``poses``.
@@ -1083,7 +826,7 @@ class Evaluator:
             return mats
         poses = self._poses(poses, params)
         n = len(poses)
-        p = self._params(n, params, model)
+        p = self.resolver.resolve(n, params, model)
         out = self._check_out(out, n)
         if self._fused:
             res = self._c_pass(poses, p, matrices=MATRICES, out=out)
@@ -1183,7 +926,7 @@ class Evaluator:
         pose); where both exist, the joints of a pose give what the pose gives. A
         singular configuration raises as for a pose."""
         q, poses = self.joint_coordinates(joints, poses)
-        p = self._params(len(q), params, model)
+        p = self.resolver.resolve(len(q), params, model)
         pk = {
             **p,
             **(self.kernel_pose_inputs(poses) if self._six else {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}),
@@ -1208,7 +951,7 @@ class Evaluator:
         n = len(poses)
         if not isinstance(chunk, (int, np.integer)) or chunk < 1:
             raise InputError(f"chunk = {chunk!r}: expected a whole number of poses >= 1")
-        self._params(n, params, model)
+        self.resolver.resolve(n, params, model)
         for start in range(0, n, int(chunk)):
             sl = slice(start, min(n, start + int(chunk)))
             yield sl, self.matrices(poses[sl], model, **self._rows(params, sl, n))
@@ -1227,7 +970,7 @@ class Evaluator:
         matrices ``M``, ``K_R``, ``K_F`` of the NumPy path (for :meth:`_exact_modes` and the
         damped modes, :meth:`_damping_inputs`)."""
         poses_arr = self._poses(poses, params)
-        effects = self._resolve(model)
+        effects = self.resolver.model_effects(model)
         rigid = self.stiffness_model(effects) == "rigid"
         if (
             rigid
@@ -1237,7 +980,7 @@ class Evaluator:
             and not self._preloaded(effects)
         ):
             # allowed twists that turn with the pose: M, K_R and J_rows from one C pass
-            p = self._params(len(poses_arr), params, effects)
+            p = self.resolver.resolve(len(poses_arr), params, effects)
             res = self._c_pass(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
             bad = res["status"] != STATUS["ok"]
             if bad.any():
@@ -1245,7 +988,7 @@ class Evaluator:
             B = self._basis(res["J_rows"])
             return reduce(res["M"], B), reduce(res["K_R"], B)
         if stash is not None and not self._fused:
-            mats, stash["q"] = self._matrices_q(poses_arr, self._params(len(poses_arr), params, effects))
+            mats, stash["q"] = self._matrices_q(poses_arr, self.resolver.resolve(len(poses_arr), params, effects))
             stash.update((k, mats[k]) for k in MATRICES)
         else:
             mats = self.matrices(poses_arr, effects, **params)
@@ -1269,7 +1012,7 @@ class Evaluator:
         if fixed is not None:
             return np.broadcast_to(np.asarray(fixed, dtype=float), (len(poses), 6, len(fixed[0])))
         if self._fused:  # the C pass: IK, checks and J_rows at once
-            p = self._params(len(poses), params, "paper")
+            p = self.resolver.resolve(len(poses), params, "paper")
             res = self._c_pass(poses, p, matrices=(), jacobians=("J_rows",))
             bad = res["status"] != STATUS["ok"]
             if bad.any():
@@ -1300,7 +1043,7 @@ class Evaluator:
         return names in (twist_order(("x", "y", "z")), twist_order(FULL)) and len(basis[0]) == len(names)
 
     def _preloaded(self, effects) -> bool:
-        return self._remembered(
+        return self.resolver.remembered(
             ("preloaded", effects),
             lambda: any("preload" in self.robot.effect(base_name(e)).primitives for e in effects),
         )
@@ -1357,7 +1100,7 @@ class Evaluator:
                 )
             return self._joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self._poses(poses, params)
-        effects = self._resolve(model)
+        effects = self.resolver.model_effects(model)
         params, exact = self._route(effects, params)
         fixed = self._c_rigid or self.stiffness_model(effects) == "flexible"
         damped = complex_shapes or self.damped_model(effects)
@@ -1408,12 +1151,12 @@ class Evaluator:
         sub = self._rows(params, rows, N)
         known = modes.legs if modes.legs is not None and np.array_equal(modes.legs["rows"], rows) else None
         if known is None:
-            p = self._params(len(pr), sub, effects)
+            p = self.resolver.resolve(len(pr), sub, effects)
             q = self._ik(pr, p)
             legs = self._kernels.legs(q, self._with_pose(pr, p))
         else:  # the kernels' outputs of modes' own pass (the legs kernel where it did not run)
             q = known["q"]
-            p = known["p"] if "p" in known else self._params(len(pr), sub, effects)
+            p = known["p"] if "p" in known else self.resolver.resolve(len(pr), sub, effects)
             legs = known["out"] if "out" in known else self._kernels.legs(q, self._with_pose(pr, p))
         reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
         rigid = self.stiffness_model(effects) == "rigid"
@@ -1452,7 +1195,7 @@ class Evaluator:
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
-        return any("damping" in self.robot.effect(base_name(e)).primitives for e in self._resolve(model))
+        return any("damping" in self.robot.effect(base_name(e)).primitives for e in self.resolver.model_effects(model))
 
     # ------------------------------------------- rigid constraints exact
     def _route(self, effects, params: dict) -> tuple[dict, bool]:
@@ -1485,7 +1228,7 @@ class Evaluator:
         :meth:`matrices` with them gives the K_F of the frequencies), and whether its
         finite modes come from the exact condensation instead (rigid directions; K_F then
         keeps the ``c_rigid`` penalty); :mod:`.condense`."""
-        return self._route(self._resolve(model), params)
+        return self._route(self.resolver.model_effects(model), params)
 
     def _probe_rigid(self, effects, params: dict) -> bool:
         """Whether a leg of ``effects`` has a rigid direction: its joint compliance at the
@@ -1495,7 +1238,7 @@ class Evaluator:
         }
         x = np.array([self.robot.x_ref], dtype=float)
         try:
-            p = self._params(1, first, effects)
+            p = self.resolver.resolve(1, first, effects)
             Cq = self._kernels.legs(self._ik(x, p), self._with_pose(x, p))["Cq"]
         except Exception:  # an unreachable reference: solve exactly at every pose
             return True
@@ -1513,7 +1256,7 @@ class Evaluator:
         n = len(poses)
         sub = self._rows(params, rows, n)
         pr = poses[rows]
-        p = self._params(len(pr), sub, effects) if p is None else (p if rows.all() else self._mask(p, rows, n))
+        p = self.resolver.resolve(len(pr), sub, effects) if p is None else (p if rows.all() else self._mask(p, rows, n))
         q = self._ik(pr, p) if q is None else q[rows]
         pk = self._with_pose(pr, p)
         out = self._kernels.legs(q, pk)
@@ -1541,7 +1284,7 @@ class Evaluator:
     def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
         """:meth:`modes` at measured joint coordinates (no gravity preload: its static
         deflection needs the pose's inverse kinematics)."""
-        effects = self._resolve(model)
+        effects = self.resolver.model_effects(model)
         if self._preloaded(effects):
             raise InputError(
                 "joints= with a gravity preload: not supported (the preload's derivative needs the "
@@ -1631,7 +1374,7 @@ class Evaluator:
         :func:`.damped_modes.exact_merge`; where that does not stand for the condensation,
         :meth:`_exact_modes` on the pass's q and M). ``out``:
         the pass's outputs where they are computed already (:meth:`_planned_modes`, undamped)."""
-        p = self._params(len(poses), params, effects)
+        p = self.resolver.resolve(len(poses), params, effects)
         stiffness = self.stiffness_model(effects)
         # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
         shares = vectors and not exact and stiffness == "flexible"
@@ -1708,7 +1451,7 @@ class Evaluator:
         preload, damping) or where the values are refused (:meth:`modes` raises)."""
         if self._planned_for is not self._kernels:
             self._plans, self._planned_for = BoundedMemo(64), self._kernels
-        values = self._params_key(params, model)
+        values = self.resolver.key(params, model)
         if values is None:
             return None
         key = (values, invalid, unstable, vectors)
@@ -1731,13 +1474,13 @@ class Evaluator:
         ):
             return False
         try:
-            effects = self._resolve(model)
+            effects = self.resolver.model_effects(model)
             routed, exact = self._route(effects, params)
             stiffness = self.stiffness_model(effects)
             fixed = self._c_rigid or stiffness == "flexible"
             if exact or not fixed or self._preloaded(effects) or self.damped_model(effects):
                 return False
-            p = self._params(1, routed, effects)
+            p = self.resolver.resolve(1, routed, effects)
         except Exception:  # refused values: the general route raises
             return None
         # the poses' columns (a row of dof doubles apart): the position and the rotation vector
@@ -1860,7 +1603,7 @@ class Evaluator:
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
         given = poses
         poses = self._poses(poses, params)
-        effects = self._resolve(model)
+        effects = self.resolver.model_effects(model)
         check_model(effects)
         wrt = check_wrt(self, wrt)
         rigid = self.stiffness_model(effects) == "rigid"
@@ -1927,7 +1670,7 @@ class Evaluator:
             own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)
             kern = sensitivity_kernels(self, full, progress)
-            p = self._params(len(poses), solved, effects)
+            p = self.resolver.resolve(len(poses), solved, effects)
             parts = []
             for sl in self._chunks(len(poses)):
                 pc = self._take(p, sl)
