@@ -18,6 +18,7 @@ from .allowed import allowed_twists, constraint_positions, coordinate_twists, re
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
 from .inputs import InputResolver
+from .routes import choose_route
 from .labels import directions, energy_shares
 from .memo import BoundedMemo, content_key
 from .threads import resolve_threads
@@ -1104,15 +1105,17 @@ class Evaluator:
         params, exact = self._route(effects, params)
         fixed = self._c_rigid or self.stiffness_model(effects) == "flexible"
         damped = complex_shapes or self.damped_model(effects)
-        if self._fused and fixed and not self._preloaded(effects):
-            if exact:  # the exact condensation (and the damped modes) in the C pass where it takes them
-                how = "exact" if not complex_shapes and self._one_pass(effects, exact) else None
-            else:
-                one_pass = damped and not complex_shapes and self._one_pass(effects)
-                how = "pass" if one_pass else ("keep" if damped else None)
-            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, how)
+        route = choose_route(
+            c_pass=self._fused and fixed and not self._preloaded(effects),
+            exact=exact,
+            damped=damped,
+            pass_solves=lambda: not complex_shapes and self._one_pass(effects, exact),
+            c_backend=self._fused,
+        )
+        if route.solver == "pass":
+            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, route.how)
         else:
-            stash = {} if exact or (damped and not self._fused) else None
+            stash = {} if route.keep else None
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
                 modes = self._exact_modes(poses, effects, params, modes, vectors, q=stash.get("q"), M=stash.get("M"))
