@@ -17,6 +17,7 @@ from ..symbolic import POSE, derive
 from ..symbolic.model import EffectSymbols
 from .c_source import render_c
 from .c_library import render_c_header
+from .files import FILES
 from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
@@ -189,9 +190,9 @@ def _render_numpy(robot, kernels, digest):
 #: source's templates and hash (one library, two files). The runtime's backends that run
 #: them are :data:`eigentwist.runtime.loader.BACKENDS`.
 TARGETS = {
-    "numpy": ("{robot}_numpy.py", _render_numpy),
-    "c": ("{robot}_c.c", render_c),
-    "c_header": ("{robot}_c.h", render_c_header),
+    "numpy": (FILES["numpy"], _render_numpy),
+    "c": (FILES["c"], render_c),
+    "c_header": (FILES["c_header"], render_c_header),
 }
 TEMPLATE_DIR = {"c_header": "c"}
 # progress messages of render_robot per robot (every backend): derive, CSE of the matrices,

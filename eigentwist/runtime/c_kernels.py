@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..codegen.files import generated_name
 from ..errors import InputError
 from .ccompile import (
     BuildError,
@@ -63,7 +64,7 @@ class CompileError(BuildError):
 
 def source_path(robot: str) -> Path:
     """The checked-in C source of ``robot``: ``eigentwist/generated/<robot>_c.c``."""
-    return GENERATED / f"{robot}_c.c"
+    return GENERATED / generated_name(robot, "c")
 
 
 # ------------------------------------------------------------------- library

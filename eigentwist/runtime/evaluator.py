@@ -18,6 +18,7 @@ from .allowed import allowed_twists, constraint_positions, coordinate_twists, re
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
 from .inputs import InputResolver
+from .kernels import Kernels
 from .routes import choose_route
 from .labels import directions, energy_shares
 from .memo import BoundedMemo, content_key
@@ -170,7 +171,9 @@ class Evaluator:
     do not depend on it, bit for bit.
     """
 
-    def __init__(self, robot: RobotDescription, module: ModuleType, backend: str, kernels=None, threads=None):
+    def __init__(
+        self, robot: RobotDescription, module: ModuleType, backend: str, kernels: Kernels | None = None, threads=None
+    ):
         self.robot = robot
         self.module = module
         self.backend = backend
@@ -447,9 +450,10 @@ class Evaluator:
         return q
 
     @property
-    def kernels(self):
+    def kernels(self) -> Kernels:
         """The generated kernels of this backend: the NumPy module, or the C library's
-        :class:`~eigentwist.runtime.c_kernels.CKernels` (same functions and outputs)."""
+        :class:`~eigentwist.runtime.c_kernels.CKernels` (same functions and outputs; the
+        protocol :class:`~eigentwist.runtime.kernels.Kernels`)."""
         return self._kernels
 
     def pose_inputs(self, poses: np.ndarray) -> dict:

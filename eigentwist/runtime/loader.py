@@ -14,6 +14,7 @@ from ..description.names import did_you_mean
 import sys
 from pathlib import Path
 
+from ..codegen.files import generated_name
 from ..robots import NAMES, get
 from .ccompile import read_shipped
 from .errors import InputError
@@ -38,8 +39,9 @@ def load_module(robot: str, backend: str = "numpy"):
     first against its recorded SHA-256 (:func:`~.ccompile.read_shipped`)."""
     from .. import generated
 
-    read_shipped(Path(generated.__file__).parent / f"{robot}_{backend}.py")
-    return importlib.import_module(f"eigentwist.generated.{robot}_{backend}")
+    name = generated_name(robot, backend)
+    read_shipped(Path(generated.__file__).parent / name)
+    return importlib.import_module("eigentwist.generated." + Path(name).stem)
 
 
 class _GenerationProgress:
@@ -110,9 +112,9 @@ def _load_user(robot, backend: str, threads, progress) -> Evaluator:
     directory, texts = generated_modules(
         description, key, progress, ("numpy",) if backend == "numpy" else ("numpy", "c")
     )
-    name = f"{description.name}_numpy.py"
+    name = generated_name(description.name, "numpy")
     module = import_numpy_module(texts[name], directory / name)
-    source = texts.get(f"{description.name}_c.c")
+    source = texts.get(generated_name(description.name, "c"))
     ev = _with_backend(description, module, backend, description.name, threads, source)
     ev.spec = spec
     return ev

@@ -22,13 +22,12 @@ import time
 import types
 from pathlib import Path
 
+from ..codegen.files import generated_name
 from ..hashing import canonical, content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
 from .errors import InputError
 from .memo import NewestKept
 
-# the generated file of each backend of a user's description, in its cache directory
-GENERATED_FILES = {"numpy": "{name}_numpy.py", "c": "{name}_c.c"}
 # render_robot's stages (derived model, CSE'd kernels) of the descriptions whose C source
 # is not rendered yet, by description key, the newest last
 STAGES_KEPT = 16  # 4-8 MB each (the gallery's 6-RUS 7.7 MB): a test session's or a study's robots
@@ -130,7 +129,7 @@ def generated_modules(description, key: str, progress=None, backends=("numpy", "
     """
     from ..codegen.generate import render_robot
 
-    names = {b: GENERATED_FILES[b].format(name=description.name) for b in backends}
+    names = {b: generated_name(description.name, b) for b in backends}
     directory = private_directory("descriptions", f"{description.name}_{key}")
     found = {b: read_verified(directory / name) for b, name in names.items()}
     missing = tuple(b for b, data in found.items() if data is None)
