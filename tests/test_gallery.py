@@ -367,16 +367,32 @@ def test_tube_sensitivity_moves_mass_and_inertia_with_length(mechanisms):
 
 
 @pytest.mark.compiled
-def test_point_platform_numpy_equals_c(mechanisms):
-    """The five-bar's C backend (C matrices, its 2 x 2 rigid model solved in NumPy: the C
-    eigen-solver has the 3 x 3 and 6 x 6 sizes) equals NumPy."""
+def test_point_platform_numpy_equals_c(mechanisms, monkeypatch):
+    """The five-bar's C backend solves its 2 x 2 rigid model (the block of M and K_R at
+    [v_x, v_y]) in the fused pass: the same matrices, frequencies and mode shapes as NumPy's
+    reduction onto the point's translations; its parallel singularity refused the same way."""
+    from eigentwist.runtime import evaluator as evaluator_module
+    from eigentwist.runtime.errors import SingularPoseError
+
     ev = mechanisms["five_bar"]
     evc = eigentwist.load(str(GALLERY / "five_bar.py"), backend="c", threads=1, progress=None)
     x = _poses(ev, 10, seed=3)
     a, b = ev.matrices(x, "none"), evc.matrices(x, "none")
     for k in ("M", "K_R", "K_F"):
         np.testing.assert_allclose(b[k], a[k], rtol=1e-11, atol=1e-11 * np.abs(a[k]).max())
-    np.testing.assert_allclose(evc.frequencies(x, "none"), ev.frequencies(x, "none"), rtol=1e-9)
+    assert evc._pass_rigid and not ev._pass_rigid
+    chosen = []
+    real = evaluator_module.choose_route
+    monkeypatch.setattr(evaluator_module, "choose_route", lambda **kw: chosen.append(real(**kw)) or chosen[-1])
+    mc, mn = evc.modes(x, "none"), ev.modes(x, "none")
+    assert [r.solver for r in chosen] == ["pass", "matrices"]
+    np.testing.assert_allclose(mc.freq_hz, mn.freq_hz, rtol=1e-12)
+    np.testing.assert_allclose(mc.eigentwists, mn.eigentwists, rtol=0, atol=1e-11)
+    d, l1, l2 = (ev.robot.defaults[k] for k in ("d", "l1", "l2"))
+    y = np.sqrt(l1**2 - (l2 - d / 2) ** 2)
+    with pytest.raises(SingularPoseError, match="parallel singular"):
+        evc.frequencies([[0.0, y]], "none")
+    assert evc.modes([[0.0, y], [0.0, y + 0.02]], "none", invalid="nan").valid.tolist() == [False, True]
 
 
 def test_matrices_command_on_a_point_and_legs_that_differ(mechanisms, capsys):

@@ -216,8 +216,36 @@ def _kernel_context(kern: Kernel, prefix: str, units: dict) -> dict:
 # ------------------------------------------------------------------- fused
 def eigen_models(robot) -> tuple:
     """The fused pass's eigenproblems for ``robot``: the rigid model is the translational
-    3x3 of a 3-DoF robot, the full 6x6 of a 6-DoF one."""
-    return EIGEN_MODELS_6DOF if len(getattr(robot, "pose", "xyz")) == 6 else EIGEN_MODELS
+    3x3 of a 3-DoF robot, the full 6x6 of a 6-DoF one, and a point platform's block of its
+    translations where they are consecutive twist coordinates (``x, y`` of a planar
+    five-bar: the 2x2 at [v_x, v_y]); any other point keeps the 3x3 (its rigid model is
+    reduced outside the pass)."""
+    if len(getattr(robot, "pose", "xyz")) == 6:
+        return EIGEN_MODELS_6DOF
+    if not _point_models(robot):
+        return EIGEN_MODELS
+    n, off = point_block(robot.pose_space)
+    return (EIGEN_MODELS[0], ("rigid", n, off, "M", "K_R"))
+
+
+def point_block(space) -> tuple | None:
+    """``(n, offset)`` when the pose space ``space`` is a point whose allowed twists are the
+    unit twists of n >= 2 consecutive twist coordinates from ``offset`` ([omega; v] order:
+    v_x is 3), else None (a point on a line: its 1x1 model is solved outside the pass)."""
+    basis = getattr(space, "basis", None)
+    if basis is None or not getattr(space, "point", False):
+        return None
+    cols = [tuple(float(basis[i][j]) for i in range(6)) for j in range(len(basis[0]))]
+    offsets = [c.index(1.0) if sorted(c) == [0.0] * 5 + [1.0] else -1 for c in cols]
+    if len(cols) < 2 or offsets[0] < 0 or offsets != list(range(offsets[0], offsets[0] + len(cols))):
+        return None
+    return len(cols), offsets[0]
+
+
+def eigen_dims(robot) -> tuple:
+    """The sizes of the batched eigen-solver rendered for ``robot``: :data:`EIGEN_DIMS` and
+    any other size of its fused pass's models (a point platform's), largest first."""
+    return tuple(sorted({*EIGEN_DIMS, *(n for _, n, _, _, _ in eigen_models(robot))}, reverse=True))
 
 
 def _fused_context(kctx: dict, models=EIGEN_MODELS) -> dict:
@@ -250,6 +278,7 @@ def _fused_context(kctx: dict, models=EIGEN_MODELS) -> dict:
         eig.append(
             dict(
                 n=n,
+                off=off,
                 model=model,
                 M=mname,
                 K=kname,
@@ -332,11 +361,18 @@ def _signature(robot, prefix: str, kernels: list[dict], fused: dict, digest: str
             lever_check=bool(fused["lever"]),
             # inputs n_in .. n_in + 2: the rotation vector, read where the first is not NULL
             rotation=bool(fused["rotation"]),
-            # each model's dimension, where it differs from eigh's dims (a 6-DoF robot)
+            # each model's dimension, where it differs from eigh's dims (a 6-DoF robot, a point)
             **({"dims": [e["n"] for e in fused["eigen"]]} if eigen_models(robot) is not EIGEN_MODELS else {}),
+            # a point platform's rigid block: the twist coordinate it starts at
+            **({"offsets": [e["off"] for e in fused["eigen"]]} if _point_models(robot) else {}),
         ),
-        eigh=dict(function=f"{prefix}_eigh", dims=list(EIGEN_DIMS)),
+        eigh=dict(function=f"{prefix}_eigh", dims=list(eigen_dims(robot))),
     )
+
+
+def _point_models(robot) -> bool:
+    """Whether ``robot``'s fused pass solves a point platform's own block (:func:`eigen_models`)."""
+    return point_block(getattr(robot, "pose_space", None)) not in (None, (3, 3))
 
 
 def _c_string(text: str, width: int = 96) -> list[str]:
@@ -370,7 +406,7 @@ def render_c(robot, kernels: list[Kernel], digest: str) -> str:
         kernels=kctx,
         k=by_name,
         fused=fused,
-        eigen=[_eigen_context(n) for n in EIGEN_DIMS],
+        eigen=[_eigen_context(n) for n in eigen_dims(robot)],
         max_sweeps=JACOBI_MAX_SWEEPS,
         tol=repr(JACOBI_TOL),
         signature=_c_string(json.dumps(sig, sort_keys=True, separators=(",", ":"))),

@@ -1062,6 +1062,23 @@ class Evaluator:
         names = twist_order(self.pose_names)
         return names in (twist_order(("x", "y", "z")), twist_order(FULL)) and len(basis[0]) == len(names)
 
+    @property
+    def _pass_rigid(self) -> bool:
+        """Whether the C pass solves this robot's rigid model itself: :attr:`_c_rigid`, or a
+        point platform's translations that its generated pass takes as one block (the
+        signature's ``offsets``: the 2x2 at [v_x, v_y] of a planar five-bar)."""
+        if self._c_rigid:
+            return True
+        if not self._fused:
+            return False
+        spec = self._kernels.signature["fused"]
+        if "offsets" not in spec or "rigid" not in spec["models"]:
+            return False
+        k = spec["models"].index("rigid")
+        n, off = spec["dims"][k], spec["offsets"][k]
+        basis = np.asarray(self.space.basis, dtype=float)
+        return basis.shape == (6, n) and bool(np.array_equal(basis, np.eye(6)[:, off : off + n]))
+
     def _preloaded(self, effects) -> bool:
         return self.resolver.remembered(
             ("preloaded", effects),
@@ -1122,7 +1139,7 @@ class Evaluator:
         poses = self._poses(poses, params)
         effects = self.resolver.model_effects(model)
         params, exact = self._route(effects, params)
-        fixed = self._c_rigid or self.stiffness_model(effects) == "flexible"
+        fixed = self._pass_rigid or self.stiffness_model(effects) == "flexible"
         damped = complex_shapes or self.damped_model(effects)
         route = choose_route(
             c_pass=self._fused and fixed and not self._preloaded(effects),
@@ -1498,7 +1515,7 @@ class Evaluator:
             effects = self.resolver.model_effects(model)
             routed, exact = self._route(effects, params)
             stiffness = self.stiffness_model(effects)
-            fixed = self._c_rigid or stiffness == "flexible"
+            fixed = self._pass_rigid or stiffness == "flexible"
             if exact or not fixed or self._preloaded(effects) or self.damped_model(effects):
                 return False
             p = self.resolver.resolve(1, routed, effects)
