@@ -524,9 +524,28 @@ def test_sensitivities_equal_differences_of_the_frequencies(gallery, name):
     that turn with the pose: d f / d p equals central differences of frequencies() to 1e-6
     of f / p (poses off the symmetric home, where no two frequencies coincide)."""
     ev = gallery[name]
+    _check_sensitivities(ev, [w for w in ("R_b", "R_p", "k_a") if w in ev.parameters])
+
+
+@pytest.mark.parametrize(
+    "name, wrt",
+    [
+        ("linear_delta", ("m_pl",)),  # closed form on fixed translations: the derived kernel
+        ("five_bar", ("d", "l1", "l2")),  # a point's 2 x 2 on its translations: the derived kernel
+        ("rrr_rrr_prr", ("b_x", "r_p", "k_r")),  # legs that differ, allowed twists that turn
+        ("tricept", ("R_b", "R_p", "k_a")),  # a follower (the orientation) re-solved
+    ],
+)
+def test_the_other_gallery_robots_sensitivities_equal_differences(gallery, mechanisms, name, wrt):
+    """d f / d p of the rest of the gallery equals central differences of frequencies() to
+    1e-6 of f / p, as above."""
+    _check_sensitivities({**gallery, **mechanisms}[name], list(wrt))
+
+
+def _check_sensitivities(ev, wrt):
     x = np.array(ev.robot.x_ref) + 0.02 * np.random.default_rng(7).standard_normal((2, len(ev.robot.x_ref)))
     x = x[ev.valid(x, "none")]
-    wrt = [w for w in ("R_b", "R_p", "k_a") if w in ev.parameters]
+    assert len(x) and wrt
     modes, d = ev.modes_and_sensitivities(x, wrt, "none")
     f0 = ev.frequencies(x, "none")
     np.testing.assert_allclose(modes.freq_hz, f0, rtol=1e-9)
