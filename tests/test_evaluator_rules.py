@@ -14,7 +14,8 @@ import scipy.linalg
 import eigentwist
 from eigentwist.runtime import InputError, SingularPoseError, UnreachablePoseError, UnstablePoseError
 from eigentwist.runtime import condense
-from eigentwist.runtime.evaluator import AXES, CHUNK, Evaluator, Modes
+from eigentwist.runtime.completion import CHUNK, chunks, take
+from eigentwist.runtime.evaluator import AXES, Evaluator, Modes
 
 
 @pytest.fixture(scope="module")
@@ -278,16 +279,16 @@ def test_the_inputs_are_floats_and_per_pose_arrays(heli4):
 
 # ------------------------------------------------------------------ batches
 def test_a_batch_is_cut_into_chunks_that_cover_it_once(heli4):
-    assert list(heli4._chunks(10, 4)) == [slice(0, 4), slice(4, 8), slice(8, 10)]
-    assert list(heli4._chunks(8, 4)) == [slice(0, 4), slice(4, 8)]
-    assert list(heli4._chunks(3)) == [slice(0, 3)]
-    assert list(heli4._chunks(CHUNK + 1)) == [slice(0, CHUNK), slice(CHUNK, CHUNK + 1)]
+    assert list(chunks(10, 4)) == [slice(0, 4), slice(4, 8), slice(8, 10)]
+    assert list(chunks(8, 4)) == [slice(0, 4), slice(4, 8)]
+    assert list(chunks(3)) == [slice(0, 3)]
+    assert list(chunks(CHUNK + 1)) == [slice(0, CHUNK), slice(CHUNK, CHUNK + 1)]
 
 
 def test_rows_of_the_inputs_are_taken_where_an_input_has_one_per_pose():
     n = 3
     p = {"a": np.arange(3.0), "s": np.array(2.0), "one": np.array([5.0])}
-    t = Evaluator._take(p, slice(1, 3))
+    t = take(p, slice(1, 3))
     assert t["a"].tolist() == [1.0, 2.0] and t["s"] == 2.0 and t["one"].tolist() == [5.0]
     mask = np.array([True, False, True])
     m = Evaluator._mask(p, mask, n)
@@ -851,13 +852,13 @@ def test_a_new_evaluator_holds_what_it_was_given():
     assert Evaluator(robot, module, "numpy", threads=2).threads == 2
     with pytest.raises(InputError, match=r"^threads = 0: expected a whole number of threads >= 1$"):
         Evaluator(robot, module, "numpy", threads=0)
-    assert not ev.numeric_ik and ev._follower_reference() is None
+    assert not ev.numeric_ik and ev.completion.follower_reference() is None
     # a six-coordinate platform: its kernels read the pose by name, rotation included
     hx = Evaluator(get("hexapod"), eigentwist.load("hexapod", backend="numpy").module, "numpy")
     x = np.array([[0.0, 0.0, 0.8, 0.0, 0.0, 0.0], [0.0, 0.0, 0.8, 0.0, 0.0, 0.2]])
     f = hx.frequencies(x, "rigid")
     assert np.isfinite(f).all() and not np.allclose(f[0], f[1])  # the rotation is read
-    assert set(hx._with_pose(x, {})) >= {"R_00", "rot_z"} and "R_00" not in ev._with_pose(POSES, {})
+    assert set(hx.completion.with_pose(x, {})) >= {"R_00", "rot_z"} and "R_00" not in ev.completion.with_pose(POSES, {})
 
 
 def test_two_poses_one_invalid_with_values_per_pose(heli4):
@@ -915,7 +916,7 @@ def test_the_serial_singularity_threshold_on_either_side(heli4):
     np.testing.assert_allclose(heli4.frequencies(None, joints=q), heli4.frequencies(outside), rtol=1e-9)
     with pytest.raises(SingularPoseError, match="leg 1"):
         heli4.frequencies(inside)
-    p = heli4._with_pose(inside, heli4.resolver.resolve(1, {}, "paper"))
+    p = heli4.completion.with_pose(inside, heli4.resolver.resolve(1, {}, "paper"))
     q_in = heli4.kernels.inverse_kinematics(inside[:, 0], inside[:, 1], inside[:, 2], p)["q"]
     with pytest.raises(SingularPoseError, match=r"leg 1.*lever"):
         heli4.frequencies(None, joints=q_in)

@@ -279,7 +279,7 @@ def test_parallel_screen_is_remembered_per_geometry(ev_c, monkeypatch):
 
     def fresh(poses=poses, **params):
         p = ev_c.resolver.resolve(len(poses), params, "paper")
-        return evaluator.parallel_mask(rows_of(poses, ev_c._with_pose(poses, p)))
+        return evaluator.parallel_mask(rows_of(poses, ev_c.completion.with_pose(poses, p)))
 
     assert "l1" in ev_c._geometry_names() and "k_a" not in ev_c._geometry_names()
     first = screen()
@@ -345,14 +345,14 @@ def test_kernel_scalars_packed_once_follow_the_values(ev_c):
     frozen = ev_c.resolver.resolve(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # arrays: not memoised
     assert frozen["l1"] is ev_c.resolver.resolve(2, {"k_a": np.array([1.0, 2.0])}, "paper")["l1"]  # same default object
     q = ev_c._ik(poses, frozen)
-    a = ev_c.kernels.matrices(q, ev_c._with_pose(poses, frozen))["K_F"]
+    a = ev_c.kernels.matrices(q, ev_c.completion.with_pose(poses, frozen))["K_F"]
     packed = ev_c.kernels._kernel_packed["matrices"]
-    b = ev_c.kernels.matrices(q, ev_c._with_pose(poses, frozen))["K_F"]
+    b = ev_c.kernels.matrices(q, ev_c.completion.with_pose(poses, frozen))["K_F"]
     assert ev_c.kernels._kernel_packed["matrices"] is packed and np.array_equal(a, b)
     p = {k: np.array(v) for k, v in frozen.items()}  # writeable copies: packed anew
-    c = ev_c.kernels.matrices(q, ev_c._with_pose(poses, p))["K_F"]
+    c = ev_c.kernels.matrices(q, ev_c.completion.with_pose(poses, p))["K_F"]
     p["l1"][...] = 1.5 * p["l1"]  # in place: the next call reads the new value
-    d = ev_c.kernels.matrices(q, ev_c._with_pose(poses, p))["K_F"]
+    d = ev_c.kernels.matrices(q, ev_c.completion.with_pose(poses, p))["K_F"]
     assert np.array_equal(a, c) and not np.allclose(c, d, rtol=1e-3)
 
 

@@ -122,7 +122,7 @@ def test_followers_meet_the_closures_and_turn_the_basis(gallery):
     of NumPy), x, y, rot_z move with the tilt, and the allowed twists turn with the pose."""
     ev = gallery["prs3"]
     x = np.array([[0.60, 0.0, 0.0], [0.58, 0.1, -0.05], [0.62, -0.12, 0.12]])
-    full = np.asarray(ev._poses(x))
+    full = np.asarray(ev.completion.poses(x))
     R = rotation_matrix(full[:, 3:])
     for deg in (90, 210, 330):
         a = np.radians(deg)
@@ -209,13 +209,13 @@ def test_kinetic_energy_matches_finite_differences(gallery, name, bodies, platfo
     d = {**ev.robot.defaults, **values}
     x = _poses(ev, 6, seed=5)[:4]
     six = lambda f: np.pad(np.asarray(f), ((0, 0), (0, 6 - np.shape(f)[1])))  # noqa: E731  (rotation 0)
-    full = six(ev._poses(x))
+    full = six(ev.completion.poses(x))
     M = ev.matrices(x, "none", **values)["M"]
     rng = np.random.default_rng(7)
     for k in range(len(x)):
         dx = rng.standard_normal(3) * np.array([0.1 if c[0] != "r" else 1.0 for c in ev.pose_names])
         h = 1e-6  # followers move too: the full pose's rate
-        dfull = (six(ev._poses(x[k] + h * dx)) - six(ev._poses(x[k] - h * dx)))[0] / (2 * h)
+        dfull = (six(ev.completion.poses(x[k] + h * dx)) - six(ev.completion.poses(x[k] - h * dx)))[0] / (2 * h)
         T, twist = _energy(ev, full[k], dfull, bodies, platform, d)
         np.testing.assert_allclose(0.5 * twist @ M[k] @ twist, T, rtol=1e-6)
 
@@ -343,7 +343,7 @@ def test_tricept_orientation_follows_its_central_leg(mechanisms):
     beta = asin(e_x), alpha = atan2(-e_y, e_z), e = p/|p| (a few lines of NumPy)."""
     ev = mechanisms["tricept"]
     x = np.array([[0.0, 0.0, 0.70], [0.08, -0.05, 0.62], [-0.1, 0.1, 0.8]])
-    R = rotation_matrix(np.asarray(ev._poses(x))[:, 3:])
+    R = rotation_matrix(np.asarray(ev.completion.poses(x))[:, 3:])
     for pose, Rk in zip(x, R):
         e = pose / np.linalg.norm(pose)
         b, a = np.arcsin(e[0]), np.arctan2(-e[1], e[2])
@@ -475,7 +475,7 @@ def test_robot_geometry_of_mechanisms(mechanisms):
     g = robot_geometry(tri, p)
     np.testing.assert_allclose(g.attachment[3], p, atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(g.attachment[:3] - p, axis=1), 0.15, rtol=1e-12)
-    R = rotation_matrix(np.asarray(tri._poses(p[None]))[0, 3:])
+    R = rotation_matrix(np.asarray(tri.completion.poses(p[None]))[0, 3:])
     np.testing.assert_allclose(R[:, 2], p / np.linalg.norm(p), atol=1e-12)
     ev = mechanisms["rrr_rrr_prr"]
     g = robot_geometry(ev, [0.0, 0.0, 0.0])  # the specification's S ~ (-0.3354, 0.20) at home

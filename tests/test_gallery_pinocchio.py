@@ -70,13 +70,13 @@ def test_gallery_equals_pinocchio(name):
     ev = eigentwist.load(str(GALLERY / f"{name}.py"), backend="numpy", progress=None)
     p = dict(ev.defaults)
     six = len(ev.robot.pose_space.inputs) > 3
-    ref = np.asarray(ev._poses(np.array([ev.robot.x_ref])))[0]
+    ref = np.asarray(ev.completion.poses(np.array([ev.robot.x_ref])))[0]
     pr = PinocchioRobot(from_description(ev.robot, p, ev.joint_angles(ev.robot.x_ref)[0], ref if six else ref[:3]))
     c_act = [1 / p[k] if k else 1.0 for k in STIFFNESS.get(name, ("k_a",) * len(ev.robot.legs))]
     poses = random_poses(ev.robot, 3 * N_POSES, seed=21)
     poses = poses[ev.valid(poses, "none")][:N_POSES]
     assert len(poses) == N_POSES
-    full = np.asarray(ev._poses(poses))
+    full = np.asarray(ev.completion.poses(poses))
     mats = ev.matrices(poses, "none")
     f_et = ev.frequencies(poses, "none")
     worst = {"M": 0.0, "K_R": 0.0, "f": 0.0, "virtual_angle": 0.0, "point": 0.0}

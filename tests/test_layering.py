@@ -83,7 +83,7 @@ def test_module_respects_the_layers(path):
         ("from eigentwist import cli", "eigentwist.report.build", False),
         ("from .. import cli", "eigentwist.report", True),
         ("def f():\n    from ..diagnose.select import _clean\n", "eigentwist.cli.compare", False),
-        ("def f(ev):\n    return ev._poses([0.0, 0.0, -0.6])\n", "eigentwist.runtime.gravity", False),
+        ("def f(ev):\n    return ev._c_threads()\n", "eigentwist.runtime.gravity", False),
         ("from . import _helpers", "eigentwist.diagnose.fit", False),
     ],
 )

@@ -204,10 +204,10 @@ def test_c_loop_closure_equals_numpy(numeric):
     from eigentwist.runtime import c_levenberg_marquardt
 
     assert c_levenberg_marquardt.driver() is not None
-    full, pc = evc._poses(poses), evc.parameter_values(30)
+    full, pc = evc.completion.poses(poses), evc.parameter_values(30)
     in_c = evc.solve_joints(full, pc)
     evc.c_newton = False
-    evc._newton_memo.clear()  # solved again, in NumPy
+    evc.completion._newton_memo.clear()  # solved again, in NumPy
     in_numpy = evc.solve_joints(full, pc)
     evc.c_newton = True
     assert in_numpy is not in_c
@@ -387,8 +387,11 @@ def test_newton_memo_keys_every_input(numeric):
         def jacobians(q, p):
             return {"lever": np.ones(q.shape[:2])}
 
-    ev._kernels, ev.__dict__["_newton_memo"] = Kernels, {}
-    ev.__dict__["_assembly"] = {**ev.assembly(), "sign": np.ones(ev.n_legs)}  # the fake lever's branch
+    from eigentwist.runtime.completion import PoseCompletion
+
+    assembly = ev.assembly()
+    ev.completion = PoseCompletion(ev.robot, ev.module, ev.resolver, lambda: Kernels, lambda: None)
+    ev.completion.__dict__["_assembly"] = {**assembly, "sign": np.ones(ev.n_legs)}  # the fake lever's branch
     poses = np.zeros((3, 3))
     for rod in (0.10, 0.20, 0.20, 0.15):
         q = ev.solve_joints(poses, {"q_rod": np.asarray(rod)})

@@ -51,7 +51,7 @@ def pair():
 @pytest.mark.derives
 def test_urdf_legs_give_the_followers_of_the_closed_form_twin(pair):
     ev, twin, poses = pair
-    full, full_twin = np.asarray(ev._poses(poses)), np.asarray(twin._poses(poses))
+    full, full_twin = np.asarray(ev.completion.poses(poses)), np.asarray(twin.completion.poses(poses))
     np.testing.assert_allclose(full, full_twin, rtol=0, atol=1e-12)
     assert np.abs(full[1:, :2]).min() > 1e-4  # the followers x, y move off home (m): a real test
     (M, K), (Mt, Kt) = ev.stiffness(poses, "none"), twin.stiffness(poses, "none")
@@ -70,7 +70,8 @@ def test_a_closed_form_leg_beside_urdf_legs(pair):
 
     ev, twin, poses = pair
     mixed = eigentwist.load(prs3_urdf.describe("prs3_mixed", closed_form=(0,)), backend="numpy", progress=None)
-    np.testing.assert_allclose(np.asarray(mixed._poses(poses)), np.asarray(twin._poses(poses)), rtol=0, atol=1e-12)
+    full_mixed, full_twin = np.asarray(mixed.completion.poses(poses)), np.asarray(twin.completion.poses(poses))
+    np.testing.assert_allclose(full_mixed, full_twin, rtol=0, atol=1e-12)
     q = mixed.joint_angles(poses)  # (N, legs, 2): leg 1's slider height and its padded 0
     np.testing.assert_allclose(q[:, 0], np.c_[twin.joint_angles(poses)[:, 0, 0], 0 * poses[:, 0]], atol=1e-12)
     np.testing.assert_allclose(q[:, 1:], ev.joint_angles(poses)[:, 1:], atol=1e-12)
@@ -82,7 +83,7 @@ def test_a_closed_form_leg_beside_urdf_legs(pair):
 def test_urdf_lower_mobility_equals_pinocchio(pair):
     ev, _, poses = pair
     p = dict(ev.defaults)
-    full = np.asarray(ev._poses(poses))
+    full = np.asarray(ev.completion.poses(poses))
     pr = PinocchioRobot(from_description(ev.robot, p, ev.joint_angles(ev.robot.x_ref)[0], full[0]))
     mats, f_et = ev.matrices(poses, "none"), ev.frequencies(poses, "none")
     worst = {"M": 0.0, "K_R": 0.0, "f": 0.0}
@@ -118,7 +119,8 @@ def test_a_pose_the_rods_cannot_reach_is_unreachable(pair):
     far = [0.60, 2.5, 0.0]
     for robot in (ev, twin):
         assert robot.pose_status([poses[0], far], "none")["status"].tolist() == ["reachable", "unreachable"]
-    assert np.isnan(np.asarray(ev._poses(np.array([far])))[0, [0, 1, 5]]).all()  # no closed loop: no followers
+    full = np.asarray(ev.completion.poses(np.array([far])))
+    assert np.isnan(full[0, [0, 1, 5]]).all()  # no closed loop: no followers
     with pytest.raises(UnreachablePoseError, match=r"x, y, rot_z did not converge"):
         ev.frequencies(far, "none")
 

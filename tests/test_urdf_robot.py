@@ -98,11 +98,11 @@ def ev():
 def test_urdf_robot_equals_pinocchio(ev):
     p = dict(ev.defaults)
     assert ev.assembly()["q"][:2, 2].tolist() == [0.0, 0.0]  # the arms' padded coordinates
-    ref = np.asarray(ev._poses(np.array([ev.robot.x_ref])))[0]
+    ref = np.asarray(ev.completion.poses(np.array([ev.robot.x_ref])))[0]
     pr = PinocchioRobot(from_description(ev.robot, p, ev.joint_angles(ev.robot.x_ref)[0], ref[:3]))
     c_act = [1 / p["k_r"], 1 / p["k_p"], 1.0]  # the strut: passive (no actuated joint, never read)
     poses = random_poses(ev.robot, N_POSES, seed=30)
-    full = np.asarray(ev._poses(poses))
+    full = np.asarray(ev.completion.poses(poses))
     mats, f_et = ev.matrices(poses, "none"), ev.frequencies(poses, "none")
     E = np.eye(6)[:, 3:5]  # the point's translations x, y
     worst = {"M": 0.0, "K_R": 0.0, "f": 0.0, "point": 0.0}

@@ -12,11 +12,11 @@ from ..description import RobotDescription
 from ..description.effects import base_name
 from ..description.joints import joint_kind
 from ..description.pose import FULL, TWIST_AXIS, twist_order
-from ..description.serial import padded_references, padded_units
 from . import condense
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
+from .completion import CompletedPoses, PoseCompletion, chunks, take
 from .inputs import InputResolver
 from .kernels import Kernels
 from .routes import choose_route
@@ -65,20 +65,8 @@ def above_screen(freq: np.ndarray) -> np.ndarray:
 
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
-_ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
-CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
 MATRIX_CHUNK = 65536  # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
-
-
-class _Full(np.ndarray):
-    """Poses completed to the kernels' coordinates (:mod:`.platform`): what the public
-    methods pass on to each other, so that a pose is completed once. Slices stay
-    completed; arithmetic on them gives plain arrays."""
-
-    def __array_wrap__(self, arr, context=None, return_scalar=False):
-        arr = arr.view(np.ndarray)
-        return arr[()] if return_scalar else arr
 
 
 @dataclass
@@ -196,6 +184,8 @@ class Evaluator:
         self.threads = None if threads is None else resolve_threads(threads)
         #: the inputs resolver (model and parameter values -> the kernels' inputs, :mod:`.inputs`)
         self.resolver = InputResolver(robot)
+        #: pose completion (poses -> the kernels' coordinates, legs solved by Newton: :mod:`.completion`)
+        self.completion = PoseCompletion(robot, module, self.resolver, lambda: self._kernels, self._c_threads)
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
@@ -236,70 +226,20 @@ class Evaluator:
         """The description's constraints between parameters, compiled (checked on every call)."""
         return self.resolver.constraints
 
+    def _c_threads(self):
+        """The threads of the Newton iterations in C (the C backend with ``c_newton``), else None."""
+        return self._nthreads() if self._fused and self.c_newton else None
+
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
 
-    # ----------------------------------------------------------------- inputs
-    def _poses(self, poses, params: dict | None = None) -> np.ndarray:
-        """The user's poses validated and completed to the kernels' coordinates (a planar
-        or lower-mobility robot's six, followers solved with ``params``: :mod:`.platform`)."""
-        if isinstance(poses, _Full):
-            return poses
-        arr = self._given(poses)
-        if not self._six or self.pose_names == FULL:
-            return arr.view(_Full)
-        from .platform import full_poses
-
-        p = self.resolver.resolve(len(arr), params or {}, "rigid") if self.space.followers else None
-        closure = getattr(self.module, "followers", None)
-        reference = self._follower_reference()
-        iterate = None
-        if self._fused and self.c_newton and reference is None and "followers" in self._kernels.OUTPUTS:
-            from .c_levenberg_marquardt import followers_driver
-
-            followers = [FULL.index(c) for c in self.space.followers]
-            if followers_driver() is not None:  # the followers' Newton iterations in C
-
-                def iterate(q, pp, its, tl):
-                    return self._kernels.follow(q, pp, followers, its, tl, threads=self._nthreads())
-
-        return full_poses(self.space, arr, closure, p, reference, iterate).view(_Full)
-
+    # ------------------------------------------------- poses and inputs (the stages)
     def completed_poses(self, poses, **params) -> np.ndarray:
         """The poses completed to the kernels' six coordinates (x, y, z in m, rot_x, rot_y,
         rot_z in rad): a lower-mobility platform's followers solved from its commanded
         coordinates with ``params`` (:mod:`.platform`), a planar robot's missing ones zero.
         An array this returns is taken as complete when given back (no follower solved)."""
-        return self._poses(poses, params)
-
-    def _follower_reference(self):
-        """The legs' reference configuration (legs, n_q) from which a lower-mobility
-        platform's followers are solved with legs solved numerically (:func:`.platform.follow_legs`);
-        None for legs in closed form (their closures give the followers)."""
-        if not self.numeric_ik:
-            return None
-        return np.array(padded_references(self.robot.legs), dtype=float)
-
-    def _given(self, poses) -> np.ndarray:
-        arr = np.asarray(poses, dtype=float)
-        if arr.ndim == 1:
-            arr = arr[None, :]
-        if arr.ndim != 2 or arr.shape[1] != self.dof:
-            raise InputError(
-                f"poses has shape {np.shape(poses)}: expected (N, {self.dof}) poses of "
-                f"{self.robot.name}, columns {', '.join(self.pose_names)} ({self._pose_units()})"
-            )
-        if arr.shape[0] == 0:
-            raise InputError(
-                f"poses is empty: expected at least one ({', '.join(self.pose_names)}) pose ({self._pose_units()})"
-            )
-        if not np.isfinite(arr).all():  # one pass over the batch; per row only on failure
-            k = int(np.argmax(~np.isfinite(arr).all(axis=1)))
-            raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers ({self._pose_units()})")
-        return arr
-
-    def _pose_units(self) -> str:
-        return "m" if not any(c.startswith("rot") for c in self.pose_names) else "m and rad"
+        return self.completion.poses(poses, params)
 
     def kernel_pose_inputs(self, poses) -> dict:
         """The pose inputs the generated kernels read from their parameter dict, (N,)
@@ -308,40 +248,20 @@ class Evaluator:
         ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`),
         and the rotation vector itself ``rot_x, rot_y, rot_z`` (rad), from which the C pass
         computes the ``R_ij`` it reads."""
-        if not self._six:
-            return {}
-        from .poses import rotation_entries
-
-        poses = np.atleast_2d(np.asarray(poses, dtype=float))
-        out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
-        out.update(rot_x=poses[:, 3], rot_y=poses[:, 4], rot_z=poses[:, 5])
-        out.update(zip(_ROTATION_NAMES, rotation_entries(poses[:, 3:6])))
-        return out
-
-    def _with_pose(self, poses: np.ndarray, p: dict) -> dict:
-        """``p`` plus :meth:`kernel_pose_inputs` (a translational robot's: x, y, z), and for
-        legs solved numerically their joint coordinates by name (:meth:`numeric_joints`)."""
-        if self._six:
-            p = {**p, **self.kernel_pose_inputs(poses)}
-        else:
-            # a translational robot's legs may read the position beyond the IK (a joint-list
-            # leg's closed form): its kernels take it by name, the others ignore it
-            p = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
-        return {**p, **self.numeric_joints(poses, p)} if self.numeric_ik else p
+        return self.completion.kernel_pose_inputs(poses)
 
     @property
     def numeric_ik(self) -> bool:
         """True when the legs' IK is solved by Newton's method (legs in URDF form,
         :mod:`eigentwist.description.serial`), not in closed form."""
-        return hasattr(self.module, "loop_closure")
+        return self.completion.numeric_ik
 
     def numeric_joints(self, poses, p: dict) -> dict:
         """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.levenberg_marquardt`: damped
         Newton from the description's reference configuration, warm-started from the
         previous pose), as the IK kernel's inputs ``q<m>_<leg>`` ((N,) arrays, NaN where it
         does not converge: the IK's closure check then reports the pose unreachable)."""
-        q = self.solve_joints(poses, p)
-        return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
+        return self.completion.numeric_joints(poses, p)
 
     def assembly(self) -> dict:
         """Each leg's assembly branch, recorded at ``x_ref`` with the default parameters
@@ -354,115 +274,12 @@ class Evaluator:
         the residual when a reference closes on no branch (a singularity between) or
         Newton's method from it closes on another branch than the one it is connected to.
         """
-        if "_assembly" in self.__dict__:
-            return self.__dict__["_assembly"]
-        from .errors import AssemblyError
-        from .levenberg_marquardt import continuation, same_configuration, solve
-
-        reference = np.array(padded_references(self.robot.legs), dtype=float)
-        x = self._poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
-        kp = self.closure_inputs(x, self.resolver.resolve(1, {}, "none"))
-        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            r0 = self._kernels.loop_closure(reference[None], kp)["residual"][0]
-            q_path, _ = continuation(self._kernels.loop_closure, reference, kp)
-            q_direct = solve(self._kernels.loop_closure, reference, kp, 1)[0]
-            lever = self._kernels.jacobians(q_path[None], kp)["lever"][0]
-        residual = np.sqrt((r0 * r0).sum(-1))
-        same = same_configuration(q_direct, q_path, np.array(padded_units(self.robot.legs)) == "rad")
-        for i, leg in enumerate(self.robot.legs):
-            ref = ", ".join(f"{v:.6g}" for v in reference[i])
-            where = (
-                f"{self.robot.name}: {leg.name}'s reference ({ref}) (rad; m for P) does not close its loop at "
-                f"x_ref {list(self.robot.x_ref)}: residual {residual[i]:.3g} (m, rad)"
-            )
-            if not np.isfinite(q_path[i]).all():
-                raise AssemblyError(
-                    f"{where}, and no path of closed configurations leads from it there (a "
-                    "singularity between): expected the leg's joint coordinates at x_ref"
-                )
-            if not same[i]:
-                found = (
-                    "does not converge"
-                    if not np.isfinite(q_direct[i]).all()
-                    else ("closes on another assembly branch (" + ", ".join(f"{v:.4g}" for v in q_direct[i]) + ")")
-                )
-                raise AssemblyError(
-                    f"{where}; Newton's method from it {found}: expected a reference on its own "
-                    f"branch, e.g. ({', '.join(f'{v:.6g}' for v in q_path[i])})"
-                )
-        record = {"q": q_path, "sign": np.sign(lever), "residual": residual}
-        self.__dict__["_assembly"] = record
-        return record
-
-    def _raise_off_branch(self, poses: np.ndarray, p: dict) -> None:
-        """Raise :class:`UnreachablePoseError` for the first pose of the batch last solved
-        whose Newton solution lies on another assembly branch than the one recorded at
-        x_ref (:meth:`assembly`), naming the pose and the leg."""
-        if not self.numeric_ik:
-            return
-        hit = self.__dict__.get("_newton_memo", {}).get(self._newton_key(np.atleast_2d(poses), p))
-        if hit is None or not hit[1].any():
-            return
-        from .errors import UnreachablePoseError
-
-        k, leg = np.argwhere(hit[1])[0]
-        sign = self.assembly()["sign"][leg]
-        raise UnreachablePoseError(
-            f"pose {np.asarray(poses[k], dtype=float).tolist()} ({self._pose_units()}) is unreachable for "
-            f"{self.robot.legs[leg].name} on its assembly branch: Newton's method closes the loop there only on "
-            f"another branch (leg determinant of sign {-int(sign):+d}; {int(sign):+d} at x_ref, where the "
-            "description's reference puts the robot)"
-        )
+        return self.completion.assembly()
 
     def solve_joints(self, poses, p: dict) -> np.ndarray:
         """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.levenberg_marquardt.solve`),
         on each leg's assembly branch recorded at x_ref (:meth:`assembly`)."""
-        from .levenberg_marquardt import solve
-
-        poses = np.atleast_2d(np.asarray(poses, dtype=float))
-        key = self._newton_key(poses, p)
-        memo = self.__dict__.setdefault("_newton_memo", {})
-        if key in memo:
-            return memo[key][0]
-        n = len(poses)
-        reference = np.array(padded_references(self.robot.legs), dtype=float)
-        signs = self.assembly()["sign"]
-        iterate = None
-        if self._fused and self.c_newton:
-            from . import c_levenberg_marquardt
-
-            if c_levenberg_marquardt.driver() is not None:
-
-                def iterate(q, pp, its, tl):
-                    return self._kernels.newton(q, pp, its, tl, threads=self._nthreads())
-
-        parts, offs = [], []
-        # bounded memory: (chunk, legs, rows, n_q) Jacobians; the C iterations keep theirs per
-        # block, so their chunks are larger (enough blocks for every thread)
-        for sl in self._chunks(n, CHUNK if iterate is None else 4 * CHUNK):
-            kp = self.closure_inputs(poses[sl], self._take(p, sl) if n > 1 else p)
-
-            def branch(q, kp=kp):
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    return self._kernels.jacobians(q, kp)["lever"]
-
-            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-                q, off = solve(
-                    self._kernels.loop_closure,
-                    reference,
-                    kp,
-                    len(poses[sl]),
-                    branch=branch,
-                    signs=signs,
-                    report=True,
-                    iterate=iterate,
-                )
-            parts.append(q)
-            offs.append(off)
-        q = np.concatenate(parts)
-        memo.clear()
-        memo[key] = (q, np.concatenate(offs))
-        return q
+        return self.completion.solve_joints(poses, p)
 
     @property
     def kernels(self) -> Kernels:
@@ -474,13 +291,11 @@ class Evaluator:
     def pose_inputs(self, poses: np.ndarray) -> dict:
         """The pose as the kernels read it by name: x, y, z (m), and a 6-DoF robot's
         rotation matrix entries (:meth:`kernel_pose_inputs`)."""
-        if self._six:
-            return self.kernel_pose_inputs(poses)
-        return {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        return self.completion.pose_inputs(poses)
 
     def closure_inputs(self, poses: np.ndarray, p: dict) -> dict:
         """The ``loop_closure`` kernel's inputs at ``poses``: ``p`` and the pose by name."""
-        return {**p, **self.pose_inputs(poses)}
+        return self.completion.closure_inputs(poses, p)
 
     def joint_sensitivities(self, poses, wrt=None, **params) -> np.ndarray:
         """d q / d p of legs solved numerically: (N, legs, n_q, len(wrt)), rad (m for a
@@ -496,30 +311,8 @@ class Evaluator:
                 f"joint_sensitivities of {self.robot.name}: its legs have a closed-form inverse "
                 "kinematics (no loop closure is solved); differentiate joint_angles instead"
             )
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         return joint_derivatives(self, poses, check_wrt(self, wrt), params)[1]
-
-    def _joint_inputs(self) -> frozenset:
-        """Names of the IK kernel's joint-coordinate inputs ``q<m>_<leg>`` (what
-        :meth:`numeric_joints` adds to the inputs)."""
-        names = self.__dict__.get("_joint_input_names")
-        if names is None:
-            nq = len(padded_references(self.robot.legs)[0])
-            names = self._joint_input_names = frozenset(
-                f"q{m + 1}_{i + 1}" for i in range(self.n_legs) for m in range(nq)
-            )
-        return names
-
-    def _newton_key(self, poses: np.ndarray, p: dict) -> tuple:
-        """What a Newton solution depends on: the poses and every input (shape, dtype and
-        bytes) but the joint coordinates it produces itself. The memo keeps one solution,
-        so that a public call that reads the joints twice solves once."""
-        skip = self._joint_inputs()
-        return (poses.shape, poses.tobytes()) + tuple(
-            (k, np.shape(v), np.asarray(v).dtype.str, np.asarray(v).tobytes())
-            for k, v in sorted(p.items())
-            if k not in skip
-        )
 
     def rigid_size(self) -> int:
         """Size of the rigid model's eigenproblem: the number of the platform's allowed
@@ -569,14 +362,6 @@ class Evaluator:
         return self.stiffness_model(model)
 
     # ---------------------------------------------------------------- kernels
-    def _chunks(self, n: int, size: int = CHUNK):
-        for start in range(0, n, size):
-            yield slice(start, min(n, start + size))
-
-    @staticmethod
-    def _take(p: dict, sl: slice) -> dict:
-        return {k: (v[sl] if v.ndim == 1 and v.shape[0] > 1 else v) for k, v in p.items()}
-
     def _check_rows(self, poses: np.ndarray, p: dict, strict: bool):
         """Inverse kinematics with the reachability and singularity checks.
 
@@ -589,11 +374,11 @@ class Evaluator:
         legs = self.robot.legs
         if strict:
             self._raise_unfollowed(poses)
-        p = self._with_pose(poses, p)
+        p = self.completion.with_pose(poses, p)
         with np.errstate(invalid="ignore", divide="ignore"):
             out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
         if strict:
-            self._raise_off_branch(poses, p)
+            self.completion.raise_off_branch(poses, p)
             raise_unreachable(legs, poses, out)
         ok = reachable_mask(out)
         q, jac = out["q"], None
@@ -639,7 +424,7 @@ class Evaluator:
         mask[rows] = True
         sub = p if mask.all() else self._mask(p, mask, n)
         at = poses[mask]
-        pp = self._with_pose(at, sub)
+        pp = self.completion.with_pose(at, sub)
         names = self._geometry_names()
         key = None if names is None else content_key(at, pp, names)
         ok = None if key is None else self._parallel_memo.get(key)
@@ -663,7 +448,7 @@ class Evaluator:
             k = int(np.argmax(bad))
             given = ", ".join(f"{c} = {poses[k, FULL.index(c)]:.6g}" for c in self.pose_names)
             raise UnreachablePoseError(
-                f"pose {given} ({self._pose_units()}) is unreachable for {self.robot.name}: its "
+                f"pose {given} ({self.completion.pose_units()}) is unreachable for {self.robot.name}: its "
                 f"{', '.join(self.space.followers)} did not converge (damped Newton on the legs' closures, "
                 f"{MAX_STEPS} steps from the reference and from the previous pose)"
             )
@@ -676,18 +461,18 @@ class Evaluator:
         return self._check_rows(poses, p, strict=True)[0]
 
     def _run(self, kernel: str, poses, model, params: dict) -> dict:
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         n = len(poses)
         p = self.resolver.resolve(n, params, model)
         results: dict = {}
-        for sl in self._chunks(n):
-            pc = self._take(p, sl)
+        for sl in chunks(n):
+            pc = take(p, sl)
             q, jac, _ = self._check_rows(poses[sl], pc, strict=True)
             # the checks already evaluated the jacobians kernel: every result carries it
             out = (
                 {"q": q, **jac}
                 if kernel == "jacobians"
-                else {"q": q, **jac, **getattr(self._kernels, kernel)(q, self._with_pose(poses[sl], pc))}
+                else {"q": q, **jac, **getattr(self._kernels, kernel)(q, self.completion.with_pose(poses[sl], pc))}
             )
             for key, val in out.items():
                 results.setdefault(key, []).append(val)
@@ -708,7 +493,7 @@ class Evaluator:
             poses[:, 0],
             poses[:, 1],
             poses[:, 2],
-            self._with_pose(poses, p),
+            self.completion.with_pose(poses, p),
             status=True,
             threads=self._nthreads(),
             **kw,
@@ -718,10 +503,16 @@ class Evaluator:
         """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
         self._raise_unfollowed(poses)
         if self.numeric_ik:
-            self._raise_off_branch(poses, self._with_pose(poses, p))
+            self.completion.raise_off_branch(poses, self.completion.with_pose(poses, p))
         k = int(np.argmax(bad))
         self._kernels.raise_invalid(
-            k, poses[:, 0], poses[:, 1], poses[:, 2], self._with_pose(poses, p), (len(poses),), legs=self.robot.legs
+            k,
+            poses[:, 0],
+            poses[:, 1],
+            poses[:, 2],
+            self.completion.with_pose(poses, p),
+            (len(poses),),
+            legs=self.robot.legs,
         )
 
     @staticmethod
@@ -740,16 +531,14 @@ class Evaluator:
         The per-row form of the checks that make :meth:`modes` raise; use it to filter
         a batch (e.g. a sweep over a workspace box) instead of catching errors.
         """
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         p = self.resolver.resolve(len(poses), params, model)
         if self._fused:
             st = self._c_pass(poses, p, matrices=())["status"]
             ok = (st != STATUS["unreachable"]) & (st != STATUS["singular"])
             ok[ok] = self._parallel_ok(poses, p, np.flatnonzero(ok), strict=False)
             return ok
-        return np.concatenate(
-            [self._check_rows(poses[sl], self._take(p, sl), strict=False)[2] for sl in self._chunks(len(poses))]
-        )
+        return np.concatenate([self._check_rows(poses[sl], take(p, sl), strict=False)[2] for sl in chunks(len(poses))])
 
     def pose_status(self, poses, model="paper", **params) -> dict:
         """Each pose's status and conditioning, never an error.
@@ -766,13 +555,13 @@ class Evaluator:
         and ``lever`` are NaN where the pose is unreachable. :meth:`modes` raises
         :class:`SingularPoseError` at either singularity and :meth:`valid` is False there.
         """
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         n = len(poses)
         p = self.resolver.resolve(n, params, model)
         code = np.full(n, POSE_STATUS.index("unreachable"), dtype=np.int8)
         cond, lever_min = np.full(n, np.nan), np.full(n, np.nan)
-        for sl in self._chunks(n):
-            pc = self._with_pose(poses[sl], self._take(p, sl))
+        for sl in chunks(n):
+            pc = self.completion.with_pose(poses[sl], take(p, sl))
             with np.errstate(invalid="ignore", divide="ignore"):
                 ik = self._kernels.inverse_kinematics(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc)
             reach = reachable_mask(ik) & np.isfinite(poses[sl]).all(axis=1)
@@ -801,9 +590,9 @@ class Evaluator:
     def joint_angles(self, poses, **params) -> np.ndarray:
         """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
         leg in rad for the Heli4/Delta (k = 3); the leg length in m for the hexapod (k = 1)."""
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         p = self.resolver.resolve(len(poses), params, "paper")
-        return np.concatenate([self._ik(poses[sl], self._take(p, sl)) for sl in self._chunks(len(poses))])
+        return np.concatenate([self._ik(poses[sl], take(p, sl)) for sl in chunks(len(poses))])
 
     def jacobians(self, poses, **params) -> dict:
         """Inverse-Jacobian rows ``J_rows`` (N, legs, 4, 6), (N, legs, 6, 6) for the hexapod
@@ -844,7 +633,7 @@ class Evaluator:
                 arr[...] = mats[k]
                 mats[k] = arr
             return mats
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         n = len(poses)
         p = self.resolver.resolve(n, params, model)
         out = self._check_out(out, n)
@@ -864,11 +653,11 @@ class Evaluator:
         out = out or {}
         mats = {k: out.get(k) if k in out else np.empty((n, 6, 6)) for k in MATRICES}
         qs = []
-        for sl in self._chunks(n):
-            pc = self._take(p, sl)
+        for sl in chunks(n):
+            pc = take(p, sl)
             q = self._check_rows(poses[sl], pc, strict=True)[0]
             qs.append(q)
-            chunk = self._kernels.matrices(q, self._with_pose(poses[sl], pc))
+            chunk = self._kernels.matrices(q, self.completion.with_pose(poses[sl], pc))
             for k in MATRICES:
                 mats[k][sl] = chunk[k]
         return mats, np.concatenate(qs) if qs else None
@@ -933,7 +722,7 @@ class Evaluator:
                     f"({', '.join(self.pose_names)}): give both"
                 )
             poses = np.zeros((len(q), 3))
-        poses = self._poses(poses)
+        poses = self.completion.poses(poses)
         if len(poses) != len(q):
             raise InputError(f"joints has {len(q)} rows and poses {len(poses)}: expected one pose per row of joints")
         return q, poses
@@ -967,7 +756,7 @@ class Evaluator:
         Every input is checked before the first chunk; an unreachable or singular pose raises
         when its chunk is reached.
         """
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         n = len(poses)
         if not isinstance(chunk, (int, np.integer)) or chunk < 1:
             raise InputError(f"chunk = {chunk!r}: expected a whole number of poses >= 1")
@@ -989,7 +778,7 @@ class Evaluator:
         """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and the
         matrices ``M``, ``K_R``, ``K_F`` of the NumPy path (for :meth:`_exact_modes` and the
         damped modes, :meth:`_damping_inputs`)."""
-        poses_arr = self._poses(poses, params)
+        poses_arr = self.completion.poses(poses, params)
         effects = self.resolver.model_effects(model)
         rigid = self.stiffness_model(effects) == "rigid"
         if (
@@ -1027,7 +816,7 @@ class Evaluator:
         the pose coordinates' unit twists. A pose space that fixes them (a translational
         platform: the translations; a free one: all six) gives them without computing
         (``tests/test_pose_spaces.py`` checks they are the rule's)."""
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         fixed = getattr(self.space, "basis", None)
         if fixed is not None:
             return np.broadcast_to(np.asarray(fixed, dtype=float), (len(poses), 6, len(fixed[0])))
@@ -1136,7 +925,7 @@ class Evaluator:
                     "modes need the pose's inverse kinematics); give poses"
                 )
             return self._joint_modes(poses, joints, model, vectors, unstable, params)
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         effects = self.resolver.model_effects(model)
         params, exact = self._route(effects, params)
         fixed = self._pass_rigid or self.stiffness_model(effects) == "flexible"
@@ -1192,18 +981,18 @@ class Evaluator:
         if known is None:
             p = self.resolver.resolve(len(pr), sub, effects)
             q = self._ik(pr, p)
-            legs = self._kernels.legs(q, self._with_pose(pr, p))
+            legs = self._kernels.legs(q, self.completion.with_pose(pr, p))
         else:  # the kernels' outputs of modes' own pass (the legs kernel where it did not run)
             q = known["q"]
             p = known["p"] if "p" in known else self.resolver.resolve(len(pr), sub, effects)
-            legs = known["out"] if "out" in known else self._kernels.legs(q, self._with_pose(pr, p))
+            legs = known["out"] if "out" in known else self._kernels.legs(q, self.completion.with_pose(pr, p))
         reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
         rigid = self.stiffness_model(effects) == "rigid"
         need = MATRICES if self._preloaded(effects) else ("M", "K_R" if rigid else "K_F")
         if known is not None and all(k in known for k in need):
             mats = {k: known[k] for k in need}
         else:
-            mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self._with_pose(pr, p))
+            mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self.completion.with_pose(pr, p))
         return {
             "rows": rows,
             "poses": pr,
@@ -1278,7 +1067,7 @@ class Evaluator:
         x = np.array([self.robot.x_ref], dtype=float)
         try:
             p = self.resolver.resolve(1, first, effects)
-            Cq = self._kernels.legs(self._ik(x, p), self._with_pose(x, p))["Cq"]
+            Cq = self._kernels.legs(self._ik(x, p), self.completion.with_pose(x, p))["Cq"]
         except Exception:  # an unreachable reference: solve exactly at every pose
             return True
         return condense.has_rigid_direction(Cq)
@@ -1297,7 +1086,7 @@ class Evaluator:
         pr = poses[rows]
         p = self.resolver.resolve(len(pr), sub, effects) if p is None else (p if rows.all() else self._mask(p, rows, n))
         q = self._ik(pr, p) if q is None else q[rows]
-        pk = self._with_pose(pr, p)
+        pk = self.completion.with_pose(pr, p)
         out = self._kernels.legs(q, pk)
         M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
         modes.legs = {"rows": rows, "q": q, "p": p, "out": out, "M": M}  # the damped modes reuse them
@@ -1421,7 +1210,7 @@ class Evaluator:
         if out is None and damped == "exact":
             from .damped_modes import exact_merge, fused_exact
 
-            pk = self._with_pose(poses, p)
+            pk = self.completion.with_pose(poses, p)
             out, solved = fused_exact(
                 self, effects, poses, p, pk, vectors, self.damped_model(effects), self._nthreads()
             )
@@ -1429,7 +1218,7 @@ class Evaluator:
             from .damped_modes import fused_damped, pass_damping
 
             basis = getattr(self.space, "basis", None)
-            pk = self._with_pose(poses, p)
+            pk = self.completion.with_pose(poses, p)
             out, solved = fused_damped(self, effects, poses, p, pk, vectors, basis, self._nthreads())
         elif out is None:
             out = self._c_pass(
@@ -1563,7 +1352,7 @@ class Evaluator:
         st, freq = out["status"], out["freq_hz"]
         # a flagged pose, or one below the parallel screen
         if np.count_nonzero(st) or np.count_nonzero(above_screen(freq)) != n:
-            arr = arr.view(_Full)
+            arr = arr.view(CompletedPoses)
             modes = self._fused_modes(arr, effects, routed, check, vectors, out=out)
         else:
             valid = None if check else np.ones(n, dtype=bool)
@@ -1637,7 +1426,7 @@ class Evaluator:
         if method not in ("exact", "differences"):
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
         given = poses
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         effects = self.resolver.model_effects(model)
         check_model(effects)
         wrt = check_wrt(self, wrt)
@@ -1707,10 +1496,10 @@ class Evaluator:
             kern = sensitivity_kernels(self, full, progress)
             p = self.resolver.resolve(len(poses), solved, effects)
             parts = []
-            for sl in self._chunks(len(poses)):
-                pc = self._take(p, sl)
+            for sl in chunks(len(poses)):
+                pc = take(p, sl)
                 self._check_rows(poses[sl], pc, strict=True)
-                out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self._with_pose(poses[sl], pc))
+                out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self.completion.with_pose(poses[sl], pc))
                 out = total(dict(out), full, sl)
                 parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis))
             freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
@@ -1728,7 +1517,7 @@ class Evaluator:
         ``P@N`` a leg's own value."""
         from .sensitivity import difference_step
 
-        poses = self._poses(poses, params)
+        poses = self.completion.poses(poses, params)
         out = dict(self.matrices(poses, model, **params))
         d = {k: np.empty((len(poses), len(wrt), 6, 6)) for k in ("dM", "dK_R", "dK_F")}
         for j, name in enumerate(wrt):

@@ -1,0 +1,329 @@
+"""Pose completion: the user's poses validated and completed to the kernels' coordinates.
+
+The second stage of an evaluation (:class:`~eigentwist.runtime.evaluator.Evaluator` holds one as
+``ev.completion``, after the inputs resolver, :mod:`.inputs`): a batch of poses (the robot's own
+coordinates, ``robot.pose``: m, and rad for rotations) is checked (shape, finite values), a
+lower-mobility platform's followers are solved from its commanded coordinates
+(:mod:`.platform`), a planar robot's missing coordinates set to zero, and the joint coordinates
+of legs in URDF form solved by Newton's method on their loop closure
+(:mod:`.levenberg_marquardt`; in C on the C backend, :mod:`.c_levenberg_marquardt`), on the
+assembly branch recorded at ``x_ref``. What it gives the kernels: the pose by name
+(:meth:`PoseCompletion.with_pose`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..description.pose import FULL
+from ..description.serial import padded_references, padded_units
+from .errors import InputError
+
+__all__ = ["PoseCompletion", "CompletedPoses", "CHUNK", "chunks", "take"]
+
+CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
+_ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
+
+
+class CompletedPoses(np.ndarray):
+    """Poses completed to the kernels' coordinates (:mod:`.platform`): what the public
+    methods pass on to each other, so that a pose is completed once. Slices stay
+    completed; arithmetic on them gives plain arrays."""
+
+    def __array_wrap__(self, arr, context=None, return_scalar=False):
+        arr = arr.view(np.ndarray)
+        return arr[()] if return_scalar else arr
+
+
+def chunks(n: int, size: int = CHUNK):
+    """Slices of ``range(n)`` of at most ``size`` poses, in order."""
+    for start in range(0, n, size):
+        yield slice(start, min(n, start + size))
+
+
+def take(p: dict, sl: slice) -> dict:
+    """The rows ``sl`` of a kernel input dict: per-pose (N,) arrays sliced, scalars as they are."""
+    return {k: (v[sl] if v.ndim == 1 and v.shape[0] > 1 else v) for k, v in p.items()}
+
+
+class PoseCompletion:
+    """Poses -> the kernels' coordinates of one robot, and its numerically solved legs.
+
+    robot : the description; module : its generated NumPy module (whose ``followers`` and
+    ``loop_closure`` kernels say what is solved numerically); resolver : the robot's
+    :class:`~eigentwist.runtime.inputs.InputResolver`; kernels : ``() -> `` the backend's
+    kernels (:class:`~eigentwist.runtime.kernels.Kernels`); c_threads : ``() ->`` the threads
+    of the Newton iterations in C, or None where they run in NumPy.
+    """
+
+    def __init__(self, robot, module, resolver, kernels, c_threads):
+        self.robot = robot
+        self.module = module
+        self.resolver = resolver
+        self._kernels_of = kernels
+        self.c_threads = c_threads
+        self.n_legs = len(robot.legs)
+        #: names of the pose coordinates (``x, y, z``; a 6-DoF robot adds ``rot_x, rot_y, rot_z``)
+        self.pose_names = tuple(getattr(robot, "pose", ("x", "y", "z")))
+        self.dof = len(self.pose_names)
+        #: how the pose enters the kernels (:mod:`eigentwist.description.pose`)
+        self.space = getattr(robot, "pose_space", None)
+        #: True when the kernels take a rigid platform's six coordinates (rotation included)
+        self._six = self.space is not None and len(self.space.inputs) > 3
+
+    @property
+    def kernels(self):
+        """The backend's kernels (the NumPy module or the C library's)."""
+        return self._kernels_of()
+
+    def poses(self, poses, params: dict | None = None) -> np.ndarray:
+        """The user's poses validated and completed to the kernels' coordinates (a planar
+        or lower-mobility robot's six, followers solved with ``params``: :mod:`.platform`)."""
+        if isinstance(poses, CompletedPoses):
+            return poses
+        arr = self.given(poses)
+        if not self._six or self.pose_names == FULL:
+            return arr.view(CompletedPoses)
+        from .platform import full_poses
+
+        p = self.resolver.resolve(len(arr), params or {}, "rigid") if self.space.followers else None
+        closure = getattr(self.module, "followers", None)
+        reference = self.follower_reference()
+        iterate = None
+        threads = self.c_threads()
+        if threads is not None and reference is None and "followers" in self.kernels.OUTPUTS:
+            from .c_levenberg_marquardt import followers_driver
+
+            followers = [FULL.index(c) for c in self.space.followers]
+            if followers_driver() is not None:  # the followers' Newton iterations in C
+
+                def iterate(q, pp, its, tl):
+                    return self.kernels.follow(q, pp, followers, its, tl, threads=threads)
+
+        return full_poses(self.space, arr, closure, p, reference, iterate).view(CompletedPoses)
+
+    def follower_reference(self):
+        """The legs' reference configuration (legs, n_q) from which a lower-mobility
+        platform's followers are solved with legs solved numerically (:func:`.platform.follow_legs`);
+        None for legs in closed form (their closures give the followers)."""
+        if not self.numeric_ik:
+            return None
+        return np.array(padded_references(self.robot.legs), dtype=float)
+
+    def given(self, poses) -> np.ndarray:
+        arr = np.asarray(poses, dtype=float)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] != self.dof:
+            raise InputError(
+                f"poses has shape {np.shape(poses)}: expected (N, {self.dof}) poses of "
+                f"{self.robot.name}, columns {', '.join(self.pose_names)} ({self.pose_units()})"
+            )
+        if arr.shape[0] == 0:
+            raise InputError(
+                f"poses is empty: expected at least one ({', '.join(self.pose_names)}) pose ({self.pose_units()})"
+            )
+        if not np.isfinite(arr).all():  # one pass over the batch; per row only on failure
+            k = int(np.argmax(~np.isfinite(arr).all(axis=1)))
+            raise InputError(f"pose {k} = {arr[k].tolist()} is not finite: expected numbers ({self.pose_units()})")
+        return arr
+
+    def pose_units(self) -> str:
+        return "m" if not any(c.startswith("rot") for c in self.pose_names) else "m and rad"
+
+    def kernel_pose_inputs(self, poses) -> dict:
+        """The pose inputs the generated kernels read from their parameter dict, (N,)
+        arrays by name: none for a 3-DoF robot (its kernels take x, y, z as arguments);
+        for a 6-DoF robot the position ``x, y, z`` (m) and the rotation matrix entries
+        ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`),
+        and the rotation vector itself ``rot_x, rot_y, rot_z`` (rad), from which the C pass
+        computes the ``R_ij`` it reads."""
+        if not self._six:
+            return {}
+        from .poses import rotation_entries
+
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
+        out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        out.update(rot_x=poses[:, 3], rot_y=poses[:, 4], rot_z=poses[:, 5])
+        out.update(zip(_ROTATION_NAMES, rotation_entries(poses[:, 3:6])))
+        return out
+
+    def with_pose(self, poses: np.ndarray, p: dict) -> dict:
+        """``p`` plus :meth:`kernel_pose_inputs` (a translational robot's: x, y, z), and for
+        legs solved numerically their joint coordinates by name (:meth:`numeric_joints`)."""
+        if self._six:
+            p = {**p, **self.kernel_pose_inputs(poses)}
+        else:
+            # a translational robot's legs may read the position beyond the IK (a joint-list
+            # leg's closed form): its kernels take it by name, the others ignore it
+            p = {**p, "x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+        return {**p, **self.numeric_joints(poses, p)} if self.numeric_ik else p
+
+    @property
+    def numeric_ik(self) -> bool:
+        """True when the legs' IK is solved by Newton's method (legs in URDF form,
+        :mod:`eigentwist.description.serial`), not in closed form."""
+        return hasattr(self.module, "loop_closure")
+
+    def numeric_joints(self, poses, p: dict) -> dict:
+        """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.levenberg_marquardt`: damped
+        Newton from the description's reference configuration, warm-started from the
+        previous pose), as the IK kernel's inputs ``q<m>_<leg>`` ((N,) arrays, NaN where it
+        does not converge: the IK's closure check then reports the pose unreachable)."""
+        q = self.solve_joints(poses, p)
+        return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
+
+    def assembly(self) -> dict:
+        """Each leg's assembly branch, recorded at ``x_ref`` with the default parameters
+        (legs solved numerically, :mod:`eigentwist.description.serial`).
+
+        Returns ``{"q": (legs, n_q) the closed configuration connected to the reference
+        (:func:`~.levenberg_marquardt.continuation`), "sign": (legs,) the sign of each leg's determinant
+        there (the branch every solution must keep), "residual": (legs,) |r| of the
+        reference itself (m and rad)}``. Raises :class:`AssemblyError` naming the leg and
+        the residual when a reference closes on no branch (a singularity between) or
+        Newton's method from it closes on another branch than the one it is connected to.
+        """
+        if "_assembly" in self.__dict__:
+            return self.__dict__["_assembly"]
+        from .errors import AssemblyError
+        from .levenberg_marquardt import continuation, same_configuration, solve
+
+        reference = np.array(padded_references(self.robot.legs), dtype=float)
+        x = self.poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
+        kp = self.closure_inputs(x, self.resolver.resolve(1, {}, "none"))
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            r0 = self.kernels.loop_closure(reference[None], kp)["residual"][0]
+            q_path, _ = continuation(self.kernels.loop_closure, reference, kp)
+            q_direct = solve(self.kernels.loop_closure, reference, kp, 1)[0]
+            lever = self.kernels.jacobians(q_path[None], kp)["lever"][0]
+        residual = np.sqrt((r0 * r0).sum(-1))
+        same = same_configuration(q_direct, q_path, np.array(padded_units(self.robot.legs)) == "rad")
+        for i, leg in enumerate(self.robot.legs):
+            ref = ", ".join(f"{v:.6g}" for v in reference[i])
+            where = (
+                f"{self.robot.name}: {leg.name}'s reference ({ref}) (rad; m for P) does not close its loop at "
+                f"x_ref {list(self.robot.x_ref)}: residual {residual[i]:.3g} (m, rad)"
+            )
+            if not np.isfinite(q_path[i]).all():
+                raise AssemblyError(
+                    f"{where}, and no path of closed configurations leads from it there (a "
+                    "singularity between): expected the leg's joint coordinates at x_ref"
+                )
+            if not same[i]:
+                found = (
+                    "does not converge"
+                    if not np.isfinite(q_direct[i]).all()
+                    else ("closes on another assembly branch (" + ", ".join(f"{v:.4g}" for v in q_direct[i]) + ")")
+                )
+                raise AssemblyError(
+                    f"{where}; Newton's method from it {found}: expected a reference on its own "
+                    f"branch, e.g. ({', '.join(f'{v:.6g}' for v in q_path[i])})"
+                )
+        record = {"q": q_path, "sign": np.sign(lever), "residual": residual}
+        self.__dict__["_assembly"] = record
+        return record
+
+    def raise_off_branch(self, poses: np.ndarray, p: dict) -> None:
+        """Raise :class:`UnreachablePoseError` for the first pose of the batch last solved
+        whose Newton solution lies on another assembly branch than the one recorded at
+        x_ref (:meth:`assembly`), naming the pose and the leg."""
+        if not self.numeric_ik:
+            return
+        hit = self.__dict__.get("_newton_memo", {}).get(self.newton_key(np.atleast_2d(poses), p))
+        if hit is None or not hit[1].any():
+            return
+        from .errors import UnreachablePoseError
+
+        k, leg = np.argwhere(hit[1])[0]
+        sign = self.assembly()["sign"][leg]
+        raise UnreachablePoseError(
+            f"pose {np.asarray(poses[k], dtype=float).tolist()} ({self.pose_units()}) is unreachable for "
+            f"{self.robot.legs[leg].name} on its assembly branch: Newton's method closes the loop there only on "
+            f"another branch (leg determinant of sign {-int(sign):+d}; {int(sign):+d} at x_ref, where the "
+            "description's reference puts the robot)"
+        )
+
+    def solve_joints(self, poses, p: dict) -> np.ndarray:
+        """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.levenberg_marquardt.solve`),
+        on each leg's assembly branch recorded at x_ref (:meth:`assembly`)."""
+        from .levenberg_marquardt import solve
+
+        poses = np.atleast_2d(np.asarray(poses, dtype=float))
+        key = self.newton_key(poses, p)
+        memo = self.__dict__.setdefault("_newton_memo", {})
+        if key in memo:
+            return memo[key][0]
+        n = len(poses)
+        reference = np.array(padded_references(self.robot.legs), dtype=float)
+        signs = self.assembly()["sign"]
+        iterate = None
+        threads = self.c_threads()
+        if threads is not None:
+            from . import c_levenberg_marquardt
+
+            if c_levenberg_marquardt.driver() is not None:
+
+                def iterate(q, pp, its, tl):
+                    return self.kernels.newton(q, pp, its, tl, threads=threads)
+
+        parts, offs = [], []
+        # bounded memory: (chunk, legs, rows, n_q) Jacobians; the C iterations keep theirs per
+        # block, so their chunks are larger (enough blocks for every thread)
+        for sl in chunks(n, CHUNK if iterate is None else 4 * CHUNK):
+            kp = self.closure_inputs(poses[sl], take(p, sl) if n > 1 else p)
+
+            def branch(q, kp=kp):
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    return self.kernels.jacobians(q, kp)["lever"]
+
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                q, off = solve(
+                    self.kernels.loop_closure,
+                    reference,
+                    kp,
+                    len(poses[sl]),
+                    branch=branch,
+                    signs=signs,
+                    report=True,
+                    iterate=iterate,
+                )
+            parts.append(q)
+            offs.append(off)
+        q = np.concatenate(parts)
+        memo.clear()
+        memo[key] = (q, np.concatenate(offs))
+        return q
+
+    def pose_inputs(self, poses: np.ndarray) -> dict:
+        """The pose as the kernels read it by name: x, y, z (m), and a 6-DoF robot's
+        rotation matrix entries (:meth:`kernel_pose_inputs`)."""
+        if self._six:
+            return self.kernel_pose_inputs(poses)
+        return {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
+
+    def closure_inputs(self, poses: np.ndarray, p: dict) -> dict:
+        """The ``loop_closure`` kernel's inputs at ``poses``: ``p`` and the pose by name."""
+        return {**p, **self.pose_inputs(poses)}
+
+    def joint_inputs(self) -> frozenset:
+        """Names of the IK kernel's joint-coordinate inputs ``q<m>_<leg>`` (what
+        :meth:`numeric_joints` adds to the inputs)."""
+        names = self.__dict__.get("_joint_input_names")
+        if names is None:
+            nq = len(padded_references(self.robot.legs)[0])
+            names = self._joint_input_names = frozenset(
+                f"q{m + 1}_{i + 1}" for i in range(self.n_legs) for m in range(nq)
+            )
+        return names
+
+    def newton_key(self, poses: np.ndarray, p: dict) -> tuple:
+        """What a Newton solution depends on: the poses and every input (shape, dtype and
+        bytes) but the joint coordinates it produces itself. The memo keeps one solution,
+        so that a public call that reads the joints twice solves once."""
+        skip = self.joint_inputs()
+        return (poses.shape, poses.tobytes()) + tuple(
+            (k, np.shape(v), np.asarray(v).dtype.str, np.asarray(v).tobytes())
+            for k, v in sorted(p.items())
+            if k not in skip
+        )
