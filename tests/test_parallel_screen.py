@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from eigentwist.runtime.evaluator import PARALLEL_SCREEN, above_screen
 
@@ -23,4 +24,43 @@ def test_either_side_of_the_screen_and_nan_in_any_column():
     freq = np.array([row, inside, outside] + [np.where(np.arange(6) == j, np.nan, row) for j in range(6)])
     assert above_screen(freq).tolist() == [True, True, False] + [False] * 6
     assert above_screen(np.array([[3.0]])).tolist() == [True]  # one mode: its own highest
+    assert PARALLEL_SCREEN * 1000.0 == 1.0 and above_screen(np.array([[1.0, 1000.0]])).tolist() == [False]  # on it
     assert above_screen(np.empty((0, 6))).shape == (0,)
+
+
+def test_no_warning_where_a_row_holds_nan():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert above_screen(np.array([[np.nan, 1.0], [1.0, np.inf]])).tolist() == [False, False]
+
+
+@pytest.mark.parametrize(
+    "lowest, sent",
+    [(0.99 * PARALLEL_SCREEN, True), (1.01 * PARALLEL_SCREEN, False)],
+)
+def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monkeypatch, lowest, sent):
+    """The prepared C pass's result goes on to the exact check where a pose's lowest
+    frequency lies below the screen times its highest (not its second highest: here 0.5)."""
+    import eigentwist
+    from eigentwist.runtime.evaluator import AXES, Evaluator, Modes
+
+    ev = eigentwist.load("heli4", backend="numpy")
+    freq = np.array([[3.0, 4.0, 5.0, 6.0, 7.0, 8.0], [lowest, 0.2, 0.3, 0.4, 0.5, 1.0]])
+    checked = []
+
+    def fused_modes(self, arr, *args, **kw):
+        checked.append(len(arr))
+        return Modes(kw["out"]["freq_hz"], None, AXES, "flexible", None, np.ones(len(arr), dtype=bool))
+
+    monkeypatch.setattr(Evaluator, "_fused_modes", fused_modes)
+
+    def call(addresses, n, threads):
+        return {"status": np.zeros(n, dtype=np.int8), "freq_hz": freq[:n]}
+
+    plan = (call, 3, ("actuator_loss",), {}, "flexible", AXES, True, False, "nan")
+    modes = ev._planned_modes(plan, np.zeros((2, 3)))
+    assert checked == ([2] if sent else []) and np.array_equal(modes.freq_hz, freq)
+    ev._planned_modes(plan, np.zeros((1, 3)))  # the first row alone: above the screen
+    assert checked == ([2] if sent else [])

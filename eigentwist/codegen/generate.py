@@ -11,13 +11,13 @@ import hashlib
 import time
 from pathlib import Path
 
+from ..generated import FILES
 from ..outputs import write_atomic
 from ..robots import NAMES, get
 from ..symbolic import POSE, derive
 from ..symbolic.model import EffectSymbols
 from .c_source import render_c
 from .c_library import render_c_header
-from .files import FILES
 from .kernel import Kernel, Output, build_kernel, source_hash
 from .numpy_backend import render_numpy
 from .render import TEMPLATES

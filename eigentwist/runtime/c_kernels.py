@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..codegen.files import generated_name
+from ..generated import generated_name
 from ..errors import InputError
 from .ccompile import (
     BuildError,

@@ -54,14 +54,13 @@ def above_screen(freq: np.ndarray) -> np.ndarray:
     """(N,) whether each pose's lowest frequency (a row of ``freq``, Hz) lies above
     :data:`PARALLEL_SCREEN` times its highest; False where the row holds a NaN. One pass per
     column: NumPy's reductions along a short last axis cost about 100 ns a pose, more than
-    the C pass's checks."""
+    the C pass's checks (a NaN propagates through minimum and maximum and compares False)."""
     lo = freq[:, 0].copy()
     hi = lo.copy()
     for j in range(1, freq.shape[1]):
         np.minimum(lo, freq[:, j], out=lo)
         np.maximum(hi, freq[:, j], out=hi)
-    with np.errstate(invalid="ignore"):
-        return lo > PARALLEL_SCREEN * hi
+    return lo > PARALLEL_SCREEN * hi
 
 
 AXES = ("rx", "ry", "rz", "x", "y", "z")
@@ -1350,8 +1349,9 @@ class Evaluator:
         base = arr.ctypes.data
         out = call([base + 8 * k for k in range(columns)], n, self._nthreads())
         st, freq = out["status"], out["freq_hz"]
-        # a flagged pose, or one below the parallel screen
-        if np.count_nonzero(st) or np.count_nonzero(above_screen(freq)) != n:
+        # a flagged pose, or one below the parallel screen (the pass's frequencies ascend and
+        # are finite where no pose is flagged: the lowest is the first, the highest the last)
+        if np.count_nonzero(st) or np.count_nonzero(freq[:, 0] > PARALLEL_SCREEN * freq[:, -1]) != n:
             arr = arr.view(CompletedPoses)
             modes = self._fused_modes(arr, effects, routed, check, vectors, out=out)
         else:

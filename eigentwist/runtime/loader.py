@@ -14,7 +14,7 @@ from ..description.names import did_you_mean
 import sys
 from pathlib import Path
 
-from ..codegen.files import generated_name
+from ..generated import generated_name
 from ..robots import NAMES, get
 from .ccompile import read_shipped
 from .errors import InputError

@@ -22,7 +22,7 @@ import time
 import types
 from pathlib import Path
 
-from ..codegen.files import generated_name
+from ..generated import generated_name
 from ..hashing import canonical, content_hash, package_digest
 from .ccompile import private_directory, read_verified, write_verified
 from .errors import InputError
