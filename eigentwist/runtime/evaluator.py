@@ -171,6 +171,12 @@ class Evaluator:
     ``threads`` (C backend): threads of one C pass; None takes ``EIGENTWIST_THREADS``, else
     1 inside a Dask worker, else every core (:mod:`eigentwist.runtime.threads`). Results
     do not depend on it, bit for bit.
+
+    A call runs in stages: the inputs resolver (``ev.resolver``, :mod:`.inputs`: model and
+    values -> the kernels' inputs), pose completion (``ev.completion``, :mod:`.completion`:
+    poses -> the kernels' coordinates, legs solved by Newton), the kernels (``ev.kernels``,
+    :mod:`.kernels`: the generated NumPy module or the C library), and the route that solves
+    the modes (:mod:`.routes`).
     """
 
     def __init__(
