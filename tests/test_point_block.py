@@ -45,3 +45,31 @@ def test_the_pass_solves_a_planar_points_2x2_and_keeps_the_others_models():
     assert eigen_models(robot(TranslationPose(), ("x", "y", "z"))) is EIGEN_MODELS
     assert eigen_models(robot(None, ("x", "y", "z", "rot_x", "rot_y", "rot_z"))) is EIGEN_MODELS_6DOF
     assert eigen_dims(robot(TranslationPose(), ("x", "y", "z"))) == (6, 3)
+
+
+def columns(*cols):
+    """A (6, n) basis from its columns."""
+    return [[c[i] for c in cols] for i in range(6)]
+
+
+@pytest.mark.parametrize(
+    "basis, block",
+    [
+        (columns((0, 0, 0, 1, 0, 0), (0, 0, 0, 0, 1, 0)), (2, 3)),
+        (columns((1, 0, 0, 0, 0, 0), (0, 1, 0, 0, 0, 0)), (2, 0)),  # unit twists from the first coordinate
+        (columns((0, 0, 0, 0.6, 0.8, 0), (0, 0, 0, 0, 0, 1)), None),  # a direction that is no coordinate
+        (columns((0, 0, 0, 1, 0, 0), (0, 0, 0, 0, 0.6, 0.8)), None),  # the second one is not
+        (columns((0, 0, 0, 2, 0, 0), (0, 0, 0, 0, 1, 0)), None),  # not unit
+        (columns((0, 0, 0, 1, 1, 0), (0, 0, 0, 0, 0, 1)), None),  # two coordinates at once
+        (columns((0, 0.6, 0.8, 0, 0, 0), (1, 0, 0, 0, 0, 0)), None),  # the first not, the second the first
+        (columns((0.6, 0.8, 0, 0, 0, 0), (0, 0, 1, 0, 0, 0)), None),  # the first not, the second the third
+    ],
+)
+def test_only_unit_twists_of_consecutive_coordinates_make_a_block(basis, block):
+    assert point_block(SimpleNamespace(point=True, basis=basis)) == block
+    assert point_block(SimpleNamespace(point=False, basis=basis)) is None
+    assert point_block(SimpleNamespace(basis=basis)) is None  # no point attribute: not a point
+
+
+def test_a_description_without_a_pose_space_keeps_the_models():
+    assert eigen_models(SimpleNamespace(pose=("x", "y", "z"))) is EIGEN_MODELS
