@@ -58,3 +58,13 @@ def test_the_evaluator_asks_its_kernels_only_for_the_protocols_names():
 @pytest.mark.compiled
 def test_the_c_backends_kernels_are_compiled_kernels():
     assert isinstance(eigentwist.load("heli4", backend="c").kernels, CompiledKernels)
+
+
+@pytest.mark.compiled
+def test_the_newton_iterations_run_in_c_only_on_the_c_backend_with_c_newton():
+    numpy_ev = eigentwist.load("heli4", backend="numpy")
+    assert numpy_ev._c_threads() is None and numpy_ev.completion.c_threads() is None
+    ev = eigentwist.load("heli4", backend="c", threads=2)
+    assert ev._c_threads() == 2 and ev.completion.c_threads() == 2
+    ev.c_newton = False
+    assert ev._c_threads() is None and ev.completion.c_threads() is None
