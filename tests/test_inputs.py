@@ -139,3 +139,25 @@ def test_a_remembered_layout_resolves_as_in_full():
         assert same(second, first) and same(first, ev.resolver.resolve_in_full(3, {"k_a": 2000.0}, "rigid"))
     finally:
         monkey.undo()
+
+
+def test_a_misspelled_leg_value_is_matched_on_its_name(ev):
+    """The suggestion compares the name before ``@`` (``dx@12``: did you mean d?)."""
+    with pytest.raises(InputError, match=r"^unknown parameter\(s\) 'dx@12' for heli4 \(did you mean d\?\)"):
+        ev.inputs(values={"dx@12": 1.0})
+
+
+def test_a_robot_without_leg_level_parameters_says_so():
+    five_bar = eigentwist.load("examples/robots/five_bar.py", backend="numpy", progress=None)
+    with pytest.raises(
+        InputError,
+        match=r"^parameter 'k_a@1': k_a belongs to no leg-level effect, so it has no per-leg value "
+        r"\(leg-level parameters: none\)$",
+    ):
+        five_bar.inputs(values={"k_a@1": 2000.0})
+
+
+def test_values_given_as_integers_reach_the_kernels_as_floats(ev):
+    values = ev.parameter_values(2, "rigid", k_a=np.array([1500, 2500]))
+    assert values["k_a"].dtype == np.float64 and values["k_a"].tolist() == [1500.0, 2500.0]
+    assert ev.resolver.resolve(1, {"k_a": 2000}, "rigid")["k_a"].dtype == np.float64

@@ -309,7 +309,7 @@ class InputResolver:
                     except InputError as exc:
                         raise InputError(f"leg {k}: {exc}") from None
 
-    def inputs(self, model="paper", values: dict | None = None, **params) -> dict:
+    def inputs(self, model, values: dict | None = None, **params) -> dict:
         """The full input dict of the generated code for ``model`` and parameter ``values``.
 
         What the generated NumPy module's functions take as ``p`` (``ev.module.matrices(q,
