@@ -75,3 +75,29 @@ def test_the_c_backend_takes_the_pass_unless_the_gravity_preload_is_on(monkeypat
     ev.modes(poses, "paper", complex_shapes=True)  # complex shapes: past the prepared pass
     ev.modes(poses, "paper,gravity_preload", complex_shapes=True)
     assert [r.solver for r in chosen] == ["pass", "matrices"]
+
+
+POSES = np.array([[0.02, -0.03, -0.62], [-0.05, 0.04, -0.6]])
+
+
+@pytest.mark.parametrize("bad", [{"m_e": np.nan}, {"k_A": 1.0}, {"r_i_l1@2": 0.02}])
+def test_a_refused_call_leaves_the_models_route_as_it_was(bad):
+    """The route's probe at x_ref runs with the call's values: values refused there (they are
+    refused by the call too) decide nothing for the next calls."""
+    from eigentwist.runtime import condense
+    from eigentwist.runtime.errors import InputError
+
+    ev = eigentwist.load("heli4", backend="numpy")
+    model = "paper,lower_link_compliance"
+    with pytest.raises(InputError):
+        ev.frequencies(POSES, model, **bad)
+    params, condensed = ev.constraint_route(model)
+    assert not condensed and params["c_rigid"] is condense.EXACT
+
+
+def test_a_reference_out_of_reach_condenses_that_call_only():
+    ev = eigentwist.load("heli4", backend="numpy")
+    model = "actuator_loss,rod_compliance"
+    assert ev.constraint_route(model, l2=0.3)[1] is True  # x_ref unreachable with l2 = 0.3 m
+    assert ev.constraint_route(model)[1] is False  # the description's l2: probed, no rigid direction
+    assert ev.constraint_route(model, l2=0.3)[1] is False  # remembered per model from then on

@@ -1040,7 +1040,9 @@ class Evaluator:
         * no leg has a rigid direction in this model (e.g. every rod compliant; probed
           once per model at the reference pose ``x_ref``: which effects are on decides):
           ``({**params, "c_rigid": condense.EXACT}, False)``, K_F exact with c_rigid = 0;
-        * else ``(params, True)``: the finite modes come from :meth:`_exact_modes`.
+        * else ``(params, True)``: the finite modes come from :meth:`_exact_modes`, also
+          where the probe fails (x_ref out of reach with these values, or values refused):
+          that answer is for this call only, the next call probes again.
         """
         outputs = getattr(self._kernels, "OUTPUTS", {})
         if self.stiffness_model(effects) != "flexible" or "legs" not in outputs or outputs["legs"]["Je"][1] < 2:
@@ -1049,10 +1051,14 @@ class Evaluator:
         if "c_rigid" in params and default is not None and np.any(np.asarray(params["c_rigid"]) != default):
             return params, False
         key = tuple(effects)
-        if key not in self._rigid_models:
-            self._rigid_models[key] = self._probe_rigid(effects, params)
-        if self._rigid_models[key] or default is None:
-            return params, self._rigid_models[key]
+        rigid = self._rigid_models.get(key)
+        if rigid is None:
+            rigid = self._probe_rigid(effects, params)
+            if rigid is None:  # no answer at x_ref with these values: condense, remember nothing
+                return params, True
+            self._rigid_models[key] = rigid
+        if rigid or default is None:
+            return params, rigid
         return {**params, "c_rigid": condense.EXACT}, False
 
     def constraint_route(self, model="paper", **params) -> tuple[dict, bool]:
@@ -1063,9 +1069,10 @@ class Evaluator:
         keeps the ``c_rigid`` penalty); :mod:`.condense`."""
         return self._route(self.resolver.model_effects(model), params)
 
-    def _probe_rigid(self, effects, params: dict) -> bool:
+    def _probe_rigid(self, effects, params: dict) -> bool | None:
         """Whether a leg of ``effects`` has a rigid direction: its joint compliance at the
-        reference pose with the first pose's parameters (True when x_ref is unreachable)."""
+        reference pose with the first pose's parameters; None where that fails (x_ref out of
+        reach with these values, or the values refused)."""
         first = {
             k: (np.asarray(v).reshape(-1)[:1] if np.ndim(v) == 1 else v) for k, v in params.items() if np.ndim(v) <= 1
         }
@@ -1073,8 +1080,8 @@ class Evaluator:
         try:
             p = self.resolver.resolve(1, first, effects)
             Cq = self._kernels.legs(self._ik(x, p), self.completion.with_pose(x, p))["Cq"]
-        except Exception:  # an unreachable reference: solve exactly at every pose
-            return True
+        except Exception:  # an unreachable reference, or refused values (the call names them)
+            return None
         return condense.has_rigid_direction(Cq)
 
     def _exact_modes(self, poses, effects, params: dict, modes: Modes, vectors: bool, q=None, M=None, p=None) -> Modes:
