@@ -101,3 +101,16 @@ def test_a_reference_out_of_reach_condenses_that_call_only():
     assert ev.constraint_route(model, l2=0.3)[1] is True  # x_ref unreachable with l2 = 0.3 m
     assert ev.constraint_route(model)[1] is False  # the description's l2: probed, no rigid direction
     assert ev.constraint_route(model, l2=0.3)[1] is False  # remembered per model from then on
+
+
+def test_the_probe_takes_the_first_poses_values_of_per_pose_arrays():
+    """A model's route is probed at x_ref with the first pose's values; per-pose values (an
+    (N,) array) are not refused there (the paper model: no rigid direction, K_F exact)."""
+    from eigentwist.runtime import condense
+
+    ev = eigentwist.load("heli4", backend="numpy")
+    params, condensed = ev.constraint_route("paper", k_a=np.array([1500.0, 2500.0, 2000.0]))
+    assert not condensed and params["c_rigid"] is condense.EXACT
+    assert params["k_a"].tolist() == [1500.0, 2500.0, 2000.0]  # the call's own values, whole
+    rigid_rods = eigentwist.load("heli4", backend="numpy")  # rods 1e30 N/m2 at every pose: rigid directions
+    assert rigid_rods.constraint_route("paper", E_rod=np.array([1e30, 1e30]), G_rod=np.array([1e30, 1e30]))[1]
