@@ -1,0 +1,105 @@
+"""The evaluator's C backend on a lower-mobility platform (the 3-RPS of
+``tests/descriptions/rps3.py``: z, rot_x, rot_y commanded, x, y, rot_z following), against
+the robot's geometry written here:
+
+* the followers solved by the C driver close every leg's loop: each spherical joint
+  ``top_i = p + R(rot) R_p e_r,i`` stays in its leg's plane, ``u_i . top_i = 0`` (``u_i`` the
+  base revolute axis, tangent to the base circle), and equal the NumPy iterations;
+* the allowed twists from the C null space annihilate the legs' constraint wrenches (a force
+  along ``u_i`` through ``top_i``; the twist's ``v`` the platform origin's velocity:
+  ``u_i . (v + omega x (top_i - p)) = 0``), are orthonormal, and equal NumPy's;
+* a follower that does not converge is refused in C as in NumPy, naming the pose.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import eigentwist
+import eigentwist.runtime.ccompile as ccompile
+from eigentwist.runtime.errors import UnreachablePoseError
+
+from .conftest import c_cache_dir, skip_tier
+
+pytestmark = pytest.mark.compiled
+
+RPS3 = Path(__file__).resolve().parent / "descriptions" / "rps3.py"
+ANGLES = np.radians([90.0, 210.0, 330.0])
+R_B, R_P = 0.30, 0.15  # the description's defaults (m)
+
+
+@pytest.fixture(scope="module")
+def rps():
+    """The 3-RPS on the C backend (one thread) and on NumPy."""
+    try:
+        ccompile.find_compiler()
+    except ccompile.CompilerNotFoundError as exc:  # the only reason to skip
+        skip_tier("compiled", str(exc))
+    mp = pytest.MonkeyPatch()
+    mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    evc = eigentwist.load(str(RPS3), backend="c", threads=1, progress=None)
+    ev = eigentwist.load(str(RPS3), backend="numpy", progress=None)
+    yield evc, ev
+    mp.undo()
+
+
+def _poses():
+    """Commanded (z, rot_x, rot_y): home, near it and spread over the workspace."""
+    rng = np.random.default_rng(7)
+    spread = np.column_stack([rng.uniform(0.32, 0.48, 12), rng.uniform(-0.08, 0.08, (12, 2))])
+    return np.vstack([[0.40, 0.0, 0.0], [0.40, 1e-7, -1e-7], spread])
+
+
+def _legs(full):
+    """Each leg's plane normal u_i (3,) and spherical joint centre top_i (N, 3) at the full poses."""
+    er = np.stack([np.cos(ANGLES), np.sin(ANGLES), np.zeros(3)], -1)
+    u = np.stack([-np.sin(ANGLES), np.cos(ANGLES), np.zeros(3)], -1)
+    R = Rotation.from_rotvec(full[:, 3:6]).as_matrix()
+    top = full[:, None, :3] + np.einsum("nij,kj->nki", R, R_P * er)
+    return u, top
+
+
+def test_c_followers_close_every_legs_plane(rps):
+    evc, ev = rps
+    assert evc._fused and evc.c_newton and "followers" in evc.kernels.OUTPUTS
+    x = _poses()
+    full = evc.completed_poses(x)
+    assert full.shape == (len(x), 6)
+    np.testing.assert_array_equal(full[:, [2, 3, 4]], x)  # the commanded coordinates kept
+    u, top = _legs(full)
+    off = np.einsum("ki,nki->nk", u, top)
+    assert np.abs(off).max() < 1e-10  # m: each S joint in its leg's plane
+    assert np.abs(full[0, [0, 1, 5]]).max() < 1e-12  # home: no follower moves (symmetry)
+    np.testing.assert_allclose(full, ev.completed_poses(x), rtol=0, atol=1e-12)
+    # given back complete, nothing is solved again (the same array)
+    assert evc._poses(full) is full
+
+
+def test_c_allowed_twists_annihilate_the_constraint_wrenches(rps):
+    evc, ev = rps
+    x = _poses()
+    B = evc.allowed_twists(x)
+    assert B.shape == (len(x), 6, 3)
+    np.testing.assert_allclose(np.einsum("nji,njk->nik", B, B), np.broadcast_to(np.eye(3), (len(x), 3, 3)), atol=1e-12)
+    full = evc.completed_poses(x)
+    u, top = _legs(full)
+    arm, along = top - full[:, None, :3], np.broadcast_to(u, top.shape)
+    wrench_rows = np.concatenate([np.cross(arm, along), along], -1)
+    assert np.abs(np.einsum("nki,nij->nkj", wrench_rows, B)).max() < 1e-12
+    np.testing.assert_allclose(B, ev.allowed_twists(x), rtol=0, atol=1e-12)
+
+
+def test_c_follower_that_does_not_converge_is_named(rps, monkeypatch):
+    from eigentwist.runtime import platform
+
+    evc, _ = rps
+    monkeypatch.setattr(platform, "MAX_STEPS", 1)
+    x = np.array([[0.40, 0.09, -0.09]])
+    assert np.isnan(evc.completed_poses(x)[0, [0, 1, 5]]).all()  # the followers NaN, not a nearby pose
+    with pytest.raises(UnreachablePoseError) as err:
+        evc.frequencies(x, "rigid")
+    assert "z = 0.4, rot_x = 0.09, rot_y = -0.09 (m and rad) is unreachable for rps3_stroke" in str(err.value)
