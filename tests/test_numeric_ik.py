@@ -503,10 +503,8 @@ def test_assembly_is_the_geometry_and_each_refusal_names_the_leg(numeric, monkey
             mp.setattr(lm, "solve", solve_moved(shift))
             with pytest.raises(AssemblyError) as err:
                 Evaluator(ev.robot, ev.module, "numpy")
-        assert (
-            str(err.value)
-            == f"{where}; Newton's method from it {found}: expected a reference on its own branch, e.g. ({e_g})"
-        )
+        want = f"{where}; Newton's method from it {found}: expected a reference on its own branch, e.g. ({e_g})"
+        assert str(err.value) == want
     with monkeypatch.context() as mp:
         mp.setattr(lm, "solve", solve_moved(np.array([2 * np.pi, -2 * np.pi, 0.0])))
         assert np.array_equal(Evaluator(ev.robot, ev.module, "numpy").assembly()["q"], record["q"])
