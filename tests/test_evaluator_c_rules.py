@@ -21,9 +21,9 @@ from scipy.spatial.transform import Rotation
 
 import eigentwist
 import eigentwist.runtime.ccompile as ccompile
-from eigentwist.runtime.errors import UnreachablePoseError
+from eigentwist.runtime.errors import InputError, UnreachablePoseError
 
-from .conftest import c_cache_dir, skip_tier
+from .conftest import c_cache_dir, random_poses, skip_tier
 
 pytestmark = pytest.mark.compiled
 
@@ -103,3 +103,68 @@ def test_c_follower_that_does_not_converge_is_named(rps, monkeypatch):
     with pytest.raises(UnreachablePoseError) as err:
         evc.frequencies(x, "rigid")
     assert "z = 0.4, rot_x = 0.09, rot_y = -0.09 (m and rad) is unreachable for rps3_stroke" in str(err.value)
+
+
+def test_c_modes_of_the_lower_mobility_platform_are_numpys(rps):
+    """A lower-mobility platform's poses (z, rot_x, rot_y) are no columns of the prepared
+    pass (it reads x, y, z): the general route, the modes of NumPy's matrices."""
+    evc, ev = rps
+    x = _poses()
+    assert evc._plan("none", {}, "raise", "nan", True) is None
+    for model in ("none", "rigid"):
+        np.testing.assert_allclose(evc.frequencies(x, model), ev.frequencies(x, model), rtol=1e-9)
+
+
+# ------------------------------------------------------------- the prepared pass (Heli4)
+@pytest.fixture(scope="module")
+def heli4():
+    """The Heli4 on the C backend (one thread), a twin without the prepared pass, and poses
+    valid in every model."""
+    try:
+        ccompile.find_compiler()
+    except ccompile.CompilerNotFoundError as exc:  # the only reason to skip
+        skip_tier("compiled", str(exc))
+    mp = pytest.MonkeyPatch()
+    mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    fast, general = (eigentwist.load("heli4", backend="c", threads=1) for _ in range(2))
+    general._plan = lambda *args: None
+    poses = random_poses(fast.robot, 40, seed=50)
+    yield fast, general, poses[fast.valid(poses, "rigid") & fast.valid(poses, "paper")][:6]
+    mp.undo()
+
+
+def test_the_prepared_pass_answers_by_itself(heli4, monkeypatch):
+    """Poses as one row, rows, a list, float32 or a strided view: the prepared pass's answer
+    (the general route's bits), all stable, with ``unstable="raise"`` too, never handed to the
+    general route (its first step fails here)."""
+    fast, general, x = heli4
+
+    def general_route(*args, **kw):
+        raise AssertionError("the general route")
+
+    monkeypatch.setattr(fast, "_poses", general_route)
+    for P in (x, x[0], x.tolist(), x.astype(np.float32), np.asfortranarray(x)):
+        want = general.modes(np.asarray(P, dtype=float), "rigid")
+        for unstable in ("nan", "raise"):
+            got = fast.modes(P, "rigid", unstable=unstable)
+            assert got.freq_hz.tobytes() == want.freq_hz.tobytes()
+            assert got.eigentwists.tobytes() == want.eigentwists.tobytes()
+            assert isinstance(got.stable, np.ndarray) and got.stable.dtype == bool and got.stable.all()
+            assert got.valid is None and len(got.stable) == len(want.freq_hz)
+
+
+@pytest.mark.parametrize(
+    "poses, message",
+    [
+        (np.zeros((2, 2)), "poses has shape (2, 2): expected (N, 3) poses of heli4"),
+        (np.zeros((2, 4)), "poses has shape (2, 4): expected (N, 3) poses of heli4"),
+        (np.zeros((0, 3)), "poses is empty: expected at least one (x, y, z) pose (m)"),
+        (np.zeros((1, 2, 3)), "poses has shape (1, 2, 3): expected (N, 3) poses of heli4"),
+    ],
+)
+def test_the_prepared_pass_leaves_bad_shapes_to_the_general_route(heli4, poses, message):
+    fast, _, _ = heli4
+    assert fast._plan("rigid", {}, "raise", "nan", True)
+    with pytest.raises(InputError) as err:
+        fast.modes(poses, "rigid")
+    assert str(err.value).startswith(message)
