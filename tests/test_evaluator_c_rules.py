@@ -144,13 +144,15 @@ def test_the_prepared_pass_answers_by_itself(heli4, monkeypatch):
 
     monkeypatch.setattr(fast, "_poses", general_route)
     for P in (x, x[0], x.tolist(), x.astype(np.float32), np.asfortranarray(x)):
-        want = general.modes(np.asarray(P, dtype=float), "rigid")
-        for unstable in ("nan", "raise"):
-            got = fast.modes(P, "rigid", unstable=unstable)
-            assert got.freq_hz.tobytes() == want.freq_hz.tobytes()
-            assert got.eigentwists.tobytes() == want.eigentwists.tobytes()
-            assert isinstance(got.stable, np.ndarray) and got.stable.dtype == bool and got.stable.all()
-            assert got.valid is None and len(got.stable) == len(want.freq_hz)
+        for model in ("rigid", "paper"):
+            want = general.modes(np.asarray(P, dtype=float), model)
+            for unstable, invalid in (("nan", "raise"), ("raise", "nan")):
+                got = fast.modes(P, model, unstable=unstable, invalid=invalid)
+                assert got.freq_hz.tobytes() == want.freq_hz.tobytes()
+                assert got.eigentwists.tobytes() == want.eigentwists.tobytes()
+                assert isinstance(got.stable, np.ndarray) and got.stable.dtype == bool and got.stable.all()
+                assert len(got.stable) == len(want.freq_hz)
+                assert got.valid is None if invalid == "raise" else got.valid.tolist() == [True] * len(want.freq_hz)
 
 
 @pytest.mark.parametrize(
@@ -168,3 +170,15 @@ def test_the_prepared_pass_leaves_bad_shapes_to_the_general_route(heli4, poses, 
     with pytest.raises(InputError) as err:
         fast.modes(poses, "rigid")
     assert str(err.value).startswith(message)
+
+
+def test_damped_rigid_modes_with_complex_shapes_are_numpys(heli4):
+    """The rigid model with a damping effect and complex shapes (the pass keeps its q, M and
+    K_R for the damped modes): NumPy's poles and complex eigentwists."""
+    fast, _, x = heli4
+    ev = eigentwist.load("heli4", backend="numpy")
+    for model in ("rigid,servo_damping", "paper,servo_damping"):
+        got, want = (e.modes(x, model, complex_shapes=True) for e in (fast, ev))
+        np.testing.assert_allclose(got.natural_hz, want.natural_hz, rtol=1e-11)
+        np.testing.assert_allclose(got.damping_ratio, want.damping_ratio, rtol=1e-9, atol=1e-12)
+        assert got.complex_eigentwists.shape == want.complex_eigentwists.shape

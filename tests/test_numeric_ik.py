@@ -527,6 +527,13 @@ def test_a_pose_off_the_recorded_branch_is_named(numeric, backend, monkeypatch):
         ev = eigentwist.load(hexapod_urdf.describe(), backend="c", threads=1, progress=lambda m: None)
     flipped = Evaluator(ev.robot, ev.module, backend, kernels=ev.kernels, threads=1)
     assert flipped._fused is (backend == "c")
+    if backend == "c":  # the legs' Newton iterations run in C: at x_ref, the geometry's joints
+        iterations, newton = [], ev.kernels.newton
+        monkeypatch.setattr(ev.kernels, "newton", lambda *a, **kw: iterations.append(1) or newton(*a, **kw))
+        home = np.array([ev.robot.x_ref])
+        q = flipped.solve_joints(home, flipped.parameter_values(1))
+        np.testing.assert_allclose(q[0], _hexapod_legs_at_home()[2], rtol=0, atol=1e-9)
+        assert iterations
     flipped.assembly()["sign"][1] *= -1  # as if leg 2 had been assembled the other way
     x = np.array([[0.01, -0.02, 0.78, 0.03, 0.0, -0.05], [0.0, 0.0, 0.8, 0.0, 0.0, 0.0]])
     with pytest.raises(UnreachablePoseError) as err:
