@@ -177,8 +177,37 @@ def test_damped_rigid_modes_with_complex_shapes_are_numpys(heli4):
     K_R for the damped modes): NumPy's poles and complex eigentwists."""
     fast, _, x = heli4
     ev = eigentwist.load("heli4", backend="numpy")
+    flagged = np.vstack([x[:2], [0.0, 0.0, 0.0], x[2:4]])  # the middle pose unreachable
     for model in ("rigid,servo_damping", "paper,servo_damping"):
-        got, want = (e.modes(x, model, complex_shapes=True) for e in (fast, ev))
-        np.testing.assert_allclose(got.natural_hz, want.natural_hz, rtol=1e-11)
-        np.testing.assert_allclose(got.damping_ratio, want.damping_ratio, rtol=1e-9, atol=1e-12)
-        assert got.complex_eigentwists.shape == want.complex_eigentwists.shape
+        for P, kw in ((x, {}), (flagged, dict(invalid="nan"))):
+            got, want = (e.modes(P, model, complex_shapes=True, **kw) for e in (fast, ev))
+            np.testing.assert_allclose(got.natural_hz, want.natural_hz, rtol=1e-11)
+            np.testing.assert_allclose(got.damping_ratio, want.damping_ratio, rtol=1e-9, atol=1e-12)
+            assert got.complex_eigentwists.shape == want.complex_eigentwists.shape
+            assert np.array_equal(np.isnan(got.natural_hz), np.isnan(want.natural_hz))
+        assert np.isnan(got.natural_hz[2]).all() and np.isfinite(np.delete(got.natural_hz, 2, 0)).all()
+
+
+@pytest.mark.parametrize("model", ["paper", "rigid"])
+def test_a_parallel_singular_pose_is_nan_through_either_c_route(model, monkeypatch):
+    """The Delta with l2 = 0.4 m: at x = y = 0 its forearms lie horizontal where the elbows'
+    radius R + l1 cos q1 reaches r_p + l2, at z = -sqrt(l1^2 - (l2 - R + r_p)^2); no actuator
+    resists a vertical motion there. The C pass does not flag it (its legs are regular): the
+    parallel check after it makes its frequencies and eigentwists NaN and the pose invalid, by
+    the prepared pass (scalar values) and the general route (k_a per pose), or refuses it."""
+    from eigentwist.runtime.errors import SingularPoseError
+
+    monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    ev = eigentwist.load("delta", backend="c", threads=1)
+    d = ev.defaults
+    z = -np.sqrt(d["l1"] ** 2 - (0.4 - d["R"] + d["r_p"]) ** 2)
+    x = np.array([[0.0, 0.0, -0.25], [0.0, 0.0, z], [0.0, 0.0, -0.1]])
+    for k_a in (d["k_a"], np.full(3, d["k_a"])):
+        modes = ev.modes(x, model, invalid="nan", l2=0.4, k_a=k_a)
+        assert modes.valid.tolist() == [True, False, True]
+        assert np.isnan(modes.freq_hz[1]).all() and np.isnan(modes.eigentwists[1]).all()
+        regular = ev.modes(x[[0, 2]], model, l2=0.4, k_a=k_a if np.ndim(k_a) == 0 else k_a[:2])
+        np.testing.assert_allclose(modes.freq_hz[[0, 2]], regular.freq_hz, rtol=1e-12)
+        np.testing.assert_allclose(modes.eigentwists[[0, 2]], regular.eigentwists, rtol=0, atol=1e-9)
+        with pytest.raises(SingularPoseError, match="parallel singular"):
+            ev.modes(x, model, l2=0.4, k_a=k_a)
