@@ -194,7 +194,9 @@ def test_a_parallel_singular_pose_is_nan_through_either_c_route(model, monkeypat
     radius R + l1 cos q1 reaches r_p + l2, at z = -sqrt(l1^2 - (l2 - R + r_p)^2); no actuator
     resists a vertical motion there. The C pass does not flag it (its legs are regular): the
     parallel check after it makes its frequencies and eigentwists NaN and the pose invalid, by
-    the prepared pass (scalar values) and the general route (k_a per pose), or refuses it."""
+    the prepared pass (scalar values) and the general route (l2 per pose: the check reads the
+    suspect pose's own value), or refuses it; 10 um below, the same check finds it regular
+    (what it remembers is per pose)."""
     from eigentwist.runtime.errors import SingularPoseError
 
     monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
@@ -202,12 +204,14 @@ def test_a_parallel_singular_pose_is_nan_through_either_c_route(model, monkeypat
     d = ev.defaults
     z = -np.sqrt(d["l1"] ** 2 - (0.4 - d["R"] + d["r_p"]) ** 2)
     x = np.array([[0.0, 0.0, -0.25], [0.0, 0.0, z], [0.0, 0.0, -0.1]])
-    for k_a in (d["k_a"], np.full(3, d["k_a"])):
-        modes = ev.modes(x, model, invalid="nan", l2=0.4, k_a=k_a)
+    for l2 in (0.4, np.full(3, 0.4)):
+        modes = ev.modes(x, model, invalid="nan", l2=l2)
         assert modes.valid.tolist() == [True, False, True]
         assert np.isnan(modes.freq_hz[1]).all() and np.isnan(modes.eigentwists[1]).all()
-        regular = ev.modes(x[[0, 2]], model, l2=0.4, k_a=k_a if np.ndim(k_a) == 0 else k_a[:2])
+        regular = ev.modes(x[[0, 2]], model, l2=0.4)
         np.testing.assert_allclose(modes.freq_hz[[0, 2]], regular.freq_hz, rtol=1e-12)
         np.testing.assert_allclose(modes.eigentwists[[0, 2]], regular.eigentwists, rtol=0, atol=1e-9)
         with pytest.raises(SingularPoseError, match="parallel singular"):
-            ev.modes(x, model, l2=0.4, k_a=k_a)
+            ev.modes(x, model, l2=l2)
+        near = ev.modes(x[1] - [0.0, 0.0, 1e-5], model, invalid="nan", l2=l2 if np.ndim(l2) == 0 else l2[:1])
+        assert near.valid.tolist() == [True] and np.isfinite(near.freq_hz).all()
