@@ -56,6 +56,10 @@ def test_numeric_ik_equals_closed_form(numeric, name):
     q = ev.joint_angles(poses)
     assert np.isfinite(q).all()
     assert np.abs(_closed_coordinates(name, q) - shipped.joint_angles(poses)).max() < 1e-10
+    if name == "hexapod":  # a geometric parameter per pose: each pose solved with its own
+        r_p = np.linspace(0.95, 1.05, 60) * shipped.defaults["R_p"]
+        q = ev.joint_angles(poses, R_p=r_p)
+        assert np.abs(_closed_coordinates(name, q) - shipped.joint_angles(poses, R_p=r_p)).max() < 1e-10
 
 
 @pytest.mark.parametrize("name", ["heli4", "delta", "hexapod"])
@@ -393,10 +397,16 @@ def test_newton_memo_keys_every_input(numeric):
     for rod in (0.10, 0.20, 0.20, 0.15):
         q = ev.solve_joints(poses, {"q_rod": np.asarray(rod)})
         assert np.abs(q - rod).max() < 1e-12
-    # the joint coordinates it adds itself do not change the key
+    # the joint coordinates it adds itself (every leg's, every coordinate's) do not change the key
     p = {"q_rod": np.asarray(0.3)}
     first = ev.solve_joints(poses, p)
-    assert ev.solve_joints(poses, {**p, "q1_1": np.zeros(3)}) is first
+    joints = {f"q{m + 1}_{i + 1}": np.zeros(3) for i in range(ev.n_legs) for m in range(nq)}
+    assert ev.solve_joints(poses, {**p, **joints}) is first
+    # the same bytes as another dtype (an integer: 4.6e18, out of reach) or shape are another input
+    q = ev.solve_joints(poses, {"q_rod": np.asarray(0.3).view(np.int64)})
+    assert not (np.abs(q - 0.3) < 1e-6).any()
+    first = ev.solve_joints(poses, {"q_rod": np.full(3, 0.3)})
+    assert ev.solve_joints(poses, {"q_rod": np.full((3, 1), 0.3)}) is not first
 
 
 @pytest.mark.parametrize("systems", [1, 63, 64, 300])
