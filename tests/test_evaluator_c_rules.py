@@ -8,7 +8,14 @@ the robot's geometry written here:
 * the allowed twists from the C null space annihilate the legs' constraint wrenches (a force
   along ``u_i`` through ``top_i``; the twist's ``v`` the platform origin's velocity:
   ``u_i . (v + omega x (top_i - p)) = 0``), are orthonormal, and equal NumPy's;
-* a follower that does not converge is refused in C as in NumPy, naming the pose.
+* a follower that does not converge is refused in C as in NumPy, naming the pose; a strut
+  past its stroke is refused naming the description's leg, its check and the stroke from
+  the geometry.
+
+On the shipped robots: the Heli4's prepared pass answers rows, one row, lists, float32 and
+strided poses by itself and leaves bad shapes to the general route; damped modes with
+complex shapes equal NumPy's; the Delta's parallel singular pose (its forearms horizontal)
+is NaN and invalid through either C route.
 """
 
 from __future__ import annotations
@@ -105,6 +112,30 @@ def test_c_follower_that_does_not_converge_is_named(rps, monkeypatch):
     assert "z = 0.4, rot_x = 0.09, rot_y = -0.09 (m and rad) is unreachable for rps3_stroke" in str(err.value)
 
 
+def test_c_pass_names_the_described_legs_check(rps):
+    """A strut past its stroke at a tilted pose: the C pass's refusal names the description's
+    leg and check, the completed pose (its followers x, y as solved) and the stroke from the
+    geometry, (|top_1 - b_1| - (s_min + s_max) / 2) / ((s_max - s_min) / 2)."""
+    import re
+
+    evc, _ = rps
+    x = np.array([[0.45, 0.0, 0.0], [0.62, 0.05, -0.02]])
+    full = evc.completed_poses(x)
+    _, top = _legs(full)
+    b1 = R_B * np.array([np.cos(ANGLES[0]), np.sin(ANGLES[0]), 0.0])
+    stroke = (np.linalg.norm(top[1, 0] - b1) - 0.35) / 0.25
+    with pytest.raises(UnreachablePoseError) as err:
+        evc.frequencies(x, "none")
+    m = re.fullmatch(
+        r"pose \[(.*)\] \(m, rad\) is unreachable for leg 1: the leg's check 'stroke' left \[-1, 1\] "
+        r"\(stroke = (.*), expected within \[-1, 1\]\)",
+        str(err.value),
+    )
+    assert m is not None, str(err.value)
+    np.testing.assert_allclose([float(v) for v in m.group(1).split(", ")], full[1], rtol=0, atol=1e-12)
+    assert m.group(2) == f"{stroke:.4g}" == "1.181"
+
+
 def test_c_modes_of_the_lower_mobility_platform_are_numpys(rps):
     """A lower-mobility platform's poses (z, rot_x, rot_y) are no columns of the prepared
     pass (it reads x, y, z): the general route, the modes of NumPy's matrices."""
@@ -143,6 +174,9 @@ def test_the_prepared_pass_answers_by_itself(heli4, monkeypatch):
         raise AssertionError("the general route")
 
     monkeypatch.setattr(fast, "_poses", general_route)
+    flagged = np.vstack([x[:2], [0.0, 0.0, 0.0]])  # unreachable: checked with the pass's outputs
+    got, want = fast.modes(flagged, "rigid", invalid="nan"), general.modes(flagged, "rigid", invalid="nan")
+    assert got.valid.tolist() == [True, True, False] and got.freq_hz.tobytes() == want.freq_hz.tobytes()
     for P in (x, x[0], x.tolist(), x.astype(np.float32), np.asfortranarray(x)):
         for model in ("rigid", "paper"):
             want = general.modes(np.asarray(P, dtype=float), model)
