@@ -1,15 +1,15 @@
-"""The evaluator's C backend on a lower-mobility platform (the 3-RPS of
-``tests/descriptions/rps3.py``: z, rot_x, rot_y commanded, x, y, rot_z following), against
+"""The evaluator's C backend on a lower-mobility platform (the gallery's 3-PRS,
+``examples/robots/prs3.py``: z, rot_x, rot_y commanded, x, y, rot_z following), against
 the robot's geometry written here:
 
 * the followers solved by the C driver close every leg's loop: each spherical joint
   ``top_i = p + R(rot) R_p e_r,i`` stays in its leg's plane, ``u_i . top_i = 0`` (``u_i`` the
-  base revolute axis, tangent to the base circle), and equal the NumPy iterations;
+  revolute axis, tangent to the base circle), and equal the NumPy iterations;
 * the allowed twists from the C null space annihilate the legs' constraint wrenches (a force
   along ``u_i`` through ``top_i``; the twist's ``v`` the platform origin's velocity:
   ``u_i . (v + omega x (top_i - p)) = 0``), are orthonormal, and equal NumPy's;
-* a follower that does not converge is refused in C as in NumPy, naming the pose; a strut
-  past its stroke is refused naming the description's leg, its check and the stroke from
+* a follower that does not converge is refused in C as in NumPy, naming the pose; a rod too
+  short to reach its column is refused naming the description's leg and the reach from
   the geometry.
 
 On the shipped robots: the Heli4's prepared pass answers rows, one row, lists, float32 and
@@ -34,22 +34,23 @@ from .conftest import c_cache_dir, random_poses, skip_tier
 
 pytestmark = pytest.mark.compiled
 
-RPS3 = Path(__file__).resolve().parent / "descriptions" / "rps3.py"
+PRS3 = Path(__file__).resolve().parent.parent / "examples" / "robots" / "prs3.py"
 ANGLES = np.radians([90.0, 210.0, 330.0])
 R_B, R_P = 0.30, 0.15  # the description's defaults (m)
 
 
 @pytest.fixture(scope="module")
 def rps():
-    """The 3-RPS on the C backend (one thread) and on NumPy."""
+    """The 3-PRS on the C backend (one thread) and on NumPy (generated and compiled once into
+    the cache; the gallery's tests use the same)."""
     try:
         ccompile.find_compiler()
     except ccompile.CompilerNotFoundError as exc:  # the only reason to skip
         skip_tier("compiled", str(exc))
     mp = pytest.MonkeyPatch()
     mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
-    evc = eigentwist.load(str(RPS3), backend="c", threads=1, progress=None)
-    ev = eigentwist.load(str(RPS3), backend="numpy", progress=None)
+    evc = eigentwist.load(str(PRS3), backend="c", threads=1, progress=None)
+    ev = eigentwist.load(str(PRS3), backend="numpy", progress=None)
     yield evc, ev
     mp.undo()
 
@@ -57,8 +58,8 @@ def rps():
 def _poses():
     """Commanded (z, rot_x, rot_y): home, near it and spread over the workspace."""
     rng = np.random.default_rng(7)
-    spread = np.column_stack([rng.uniform(0.32, 0.48, 12), rng.uniform(-0.08, 0.08, (12, 2))])
-    return np.vstack([[0.40, 0.0, 0.0], [0.40, 1e-7, -1e-7], spread])
+    spread = np.column_stack([rng.uniform(0.56, 0.64, 12), rng.uniform(-0.1, 0.1, (12, 2))])
+    return np.vstack([[0.60, 0.0, 0.0], [0.60, 1e-7, -1e-7], spread])
 
 
 def _legs(full):
@@ -105,35 +106,36 @@ def test_c_follower_that_does_not_converge_is_named(rps, monkeypatch):
 
     evc, _ = rps
     monkeypatch.setattr(platform, "MAX_STEPS", 1)
-    x = np.array([[0.40, 0.09, -0.09]])
+    x = np.array([[0.60, 0.09, -0.09]])
     assert np.isnan(evc.completed_poses(x)[0, [0, 1, 5]]).all()  # the followers NaN, not a nearby pose
     with pytest.raises(UnreachablePoseError) as err:
         evc.frequencies(x, "rigid")
-    assert "z = 0.4, rot_x = 0.09, rot_y = -0.09 (m and rad) is unreachable for rps3_stroke" in str(err.value)
+    assert "z = 0.6, rot_x = 0.09, rot_y = -0.09 (m and rad) is unreachable for prs3" in str(err.value)
 
 
 def test_c_pass_names_the_described_legs_check(rps):
-    """A strut past its stroke at a tilted pose: the C pass's refusal names the description's
-    leg and check, the completed pose (its followers x, y as solved) and the stroke from the
-    geometry, (|top_1 - b_1| - (s_min + s_max) / 2) / ((s_max - s_min) / 2)."""
+    """Rods of 0.12 m, shorter than the columns' reach (the S joints 0.15 m inside them): the
+    C pass's refusal at a tilted pose names the description's leg and its reach, the completed
+    pose (its followers x, y as solved: they do not depend on L) and the reach from the
+    geometry, (e_r,1 . top_1 - R_b) / L."""
     import re
 
     evc, _ = rps
-    x = np.array([[0.45, 0.0, 0.0], [0.62, 0.05, -0.02]])
+    x = np.array([[0.60, 0.0, 0.0], [0.62, 0.05, -0.02]])
     full = evc.completed_poses(x)
     _, top = _legs(full)
-    b1 = R_B * np.array([np.cos(ANGLES[0]), np.sin(ANGLES[0]), 0.0])
-    stroke = (np.linalg.norm(top[1, 0] - b1) - 0.35) / 0.25
+    reach = (top[1, 0] @ [np.cos(ANGLES[0]), np.sin(ANGLES[0]), 0.0] - R_B) / 0.12
     with pytest.raises(UnreachablePoseError) as err:
-        evc.frequencies(x, "none")
+        evc.frequencies(x[1:], "rigid", L=0.12)
     m = re.fullmatch(
-        r"pose \[(.*)\] \(m, rad\) is unreachable for leg 1: the leg's check 'stroke' left \[-1, 1\] "
-        r"\(stroke = (.*), expected within \[-1, 1\]\)",
+        r"pose \[(.*)\] \(m, rad\) is unreachable for leg 1: the leg cannot span that distance "
+        r"\(reach = (.*), expected within \[-1, 1\]\)",
         str(err.value),
     )
     assert m is not None, str(err.value)
     np.testing.assert_allclose([float(v) for v in m.group(1).split(", ")], full[1], rtol=0, atol=1e-12)
-    assert m.group(2) == f"{stroke:.4g}" == "1.181"
+    assert m.group(2) == f"{reach:.4g}"
+    assert reach < -1
 
 
 def test_c_modes_of_the_lower_mobility_platform_are_numpys(rps):
