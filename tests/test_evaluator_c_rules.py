@@ -71,11 +71,14 @@ def _legs(full):
     return u, top
 
 
-def test_c_followers_close_every_legs_plane(rps):
+def test_c_followers_close_every_legs_plane(rps, monkeypatch):
     evc, ev = rps
     assert evc._fused and evc.c_newton and "followers" in evc.kernels.OUTPUTS
     x = _poses()
+    calls, follow = [], evc.kernels.follow  # the iterations run by the C driver
+    monkeypatch.setattr(evc.kernels, "follow", lambda *a, **kw: calls.append(a[2]) or follow(*a, **kw))
     full = evc.completed_poses(x)
+    assert calls and all(c == [0, 1, 5] for c in calls)  # x, y, rot_z of (x, y, z, rot_x, rot_y, rot_z)
     assert full.shape == (len(x), 6)
     np.testing.assert_array_equal(full[:, [2, 3, 4]], x)  # the commanded coordinates kept
     u, top = _legs(full)
@@ -87,10 +90,16 @@ def test_c_followers_close_every_legs_plane(rps):
     assert evc._poses(full) is full
 
 
-def test_c_allowed_twists_annihilate_the_constraint_wrenches(rps):
+def test_c_allowed_twists_annihilate_the_constraint_wrenches(rps, monkeypatch):
+    from eigentwist.runtime import c_allowed
+
     evc, ev = rps
     x = _poses()
+    calls, in_c = [], c_allowed.allowed_twists  # the null space computed by the C driver
+    monkeypatch.setattr(c_allowed, "allowed_twists", lambda *a: calls.append(a[4]) or in_c(*a))
     B = evc.allowed_twists(x)
+    # each leg's six joint rows (P, R, the S joint's three, the virtual one): the virtual joint's, the sixth
+    assert len(calls) == 1 and calls[0] == [5, 11, 17]
     assert B.shape == (len(x), 6, 3)
     np.testing.assert_allclose(np.einsum("nji,njk->nik", B, B), np.broadcast_to(np.eye(3), (len(x), 3, 3)), atol=1e-12)
     full = evc.completed_poses(x)
