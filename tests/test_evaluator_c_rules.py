@@ -87,7 +87,7 @@ def test_c_followers_close_every_legs_plane(rps, monkeypatch):
     assert np.abs(full[0, [0, 1, 5]]).max() < 1e-12  # home: no follower moves (symmetry)
     np.testing.assert_allclose(full, ev.completed_poses(x), rtol=0, atol=1e-12)
     # given back complete, nothing is solved again (the same array)
-    assert evc._poses(full) is full
+    assert evc.completed_poses(full) is full
 
 
 def test_c_allowed_twists_annihilate_the_constraint_wrenches(rps, monkeypatch):
@@ -180,11 +180,14 @@ def test_the_prepared_pass_answers_by_itself(heli4, monkeypatch):
     (the general route's bits), all stable, with ``unstable="raise"`` too, never handed to the
     general route (its first step fails here)."""
     fast, general, x = heli4
+    for model in ("rigid", "paper"):  # the plans prepared (and remembered) first
+        for unstable, invalid in (("nan", "raise"), ("raise", "nan"), ("nan", "nan")):
+            fast.modes(x, model, unstable=unstable, invalid=invalid)
 
     def general_route(*args, **kw):
         raise AssertionError("the general route")
 
-    monkeypatch.setattr(fast, "_poses", general_route)
+    monkeypatch.setattr(fast, "_route", general_route)
     flagged = np.vstack([x[:2], [0.0, 0.0, 0.0]])  # unreachable: checked with the pass's outputs
     got, want = fast.modes(flagged, "rigid", invalid="nan"), general.modes(flagged, "rigid", invalid="nan")
     assert got.valid.tolist() == [True, True, False] and got.freq_hz.tobytes() == want.freq_hz.tobytes()
