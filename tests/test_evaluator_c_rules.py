@@ -123,10 +123,10 @@ def test_c_follower_that_does_not_converge_is_named(rps, monkeypatch):
 
 
 def test_c_pass_names_the_described_legs_check(rps):
-    """Rods of 0.12 m, shorter than the columns' reach (the S joints 0.15 m inside them): the
-    C pass's refusal at a tilted pose names the description's leg and its reach, the completed
-    pose (its followers x, y as solved: they do not depend on L) and the reach from the
-    geometry, (e_r,1 . top_1 - R_b) / L."""
+    """A rod of 0.12 m at the second pose, shorter than the columns' reach (the S joints 0.15 m
+    inside them): the C pass's refusal (of the frequencies and of the allowed twists) names the
+    description's leg, the completed pose (its followers x, y as solved: they do not depend on
+    L) and the reach from the geometry, (e_r,1 . top_1 - R_b) / L."""
     import re
 
     evc, _ = rps
@@ -134,8 +134,12 @@ def test_c_pass_names_the_described_legs_check(rps):
     full = evc.completed_poses(x)
     _, top = _legs(full)
     reach = (top[1, 0] @ [np.cos(ANGLES[0]), np.sin(ANGLES[0]), 0.0] - R_B) / 0.12
+    rods = np.array([0.40, 0.12])  # the first pose reachable, the second not
+    with pytest.raises(UnreachablePoseError) as twists:
+        evc.allowed_twists(x, L=rods)
     with pytest.raises(UnreachablePoseError) as err:
-        evc.frequencies(x[1:], "rigid", L=0.12)
+        evc.frequencies(x, "rigid", L=rods)
+    assert str(twists.value) == str(err.value)
     m = re.fullmatch(
         r"pose \[(.*)\] \(m, rad\) is unreachable for leg 1: the leg cannot span that distance "
         r"\(reach = (.*), expected within \[-1, 1\]\)",
@@ -261,5 +265,8 @@ def test_a_parallel_singular_pose_is_nan_through_either_c_route(model, monkeypat
         np.testing.assert_allclose(modes.eigentwists[[0, 2]], regular.eigentwists, rtol=0, atol=1e-9)
         with pytest.raises(SingularPoseError, match="parallel singular"):
             ev.modes(x, model, l2=l2)
+        assert ev.valid(x, model, l2=l2).tolist() == [True, False, True]  # said, not raised
+        with pytest.raises(SingularPoseError, match="parallel singular"):
+            ev.matrices(x, model, l2=l2)
         near = ev.modes(x[1] - [0.0, 0.0, 1e-5], model, invalid="nan", l2=l2 if np.ndim(l2) == 0 else l2[:1])
         assert near.valid.tolist() == [True] and np.isfinite(near.freq_hz).all()
