@@ -188,6 +188,7 @@ GROUPS = {
         "test_gallery.py",
         "test_gallery_pinocchio.py",
         "test_urdf_lower_mobility.py",  # reads the gallery's 3-PRS from the cache
+        "test_evaluator_c_rules.py",  # the gallery's 3-PRS, generated and compiled: from the cache
         "test_physics.py",
         "test_cli.py::test_generate_check_names_stale_files",
         "test_cli.py::test_generate_check_passes_on_fresh_tree",

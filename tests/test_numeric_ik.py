@@ -56,6 +56,10 @@ def test_numeric_ik_equals_closed_form(numeric, name):
     q = ev.joint_angles(poses)
     assert np.isfinite(q).all()
     assert np.abs(_closed_coordinates(name, q) - shipped.joint_angles(poses)).max() < 1e-10
+    if name == "hexapod":  # a geometric parameter per pose: each pose solved with its own
+        r_p = np.linspace(0.95, 1.05, 60) * shipped.defaults["R_p"]
+        q = ev.joint_angles(poses, R_p=r_p)
+        assert np.abs(_closed_coordinates(name, q) - shipped.joint_angles(poses, R_p=r_p)).max() < 1e-10
 
 
 @pytest.mark.parametrize("name", ["heli4", "delta", "hexapod"])
@@ -396,10 +400,16 @@ def test_newton_memo_keys_every_input(numeric):
     for rod in (0.10, 0.20, 0.20, 0.15):
         q = ev.solve_joints(poses, {"q_rod": np.asarray(rod)})
         assert np.abs(q - rod).max() < 1e-12
-    # the joint coordinates it adds itself do not change the key
+    # the joint coordinates it adds itself (every leg's, every coordinate's) do not change the key
     p = {"q_rod": np.asarray(0.3)}
     first = ev.solve_joints(poses, p)
-    assert ev.solve_joints(poses, {**p, "q1_1": np.zeros(3)}) is first
+    joints = {f"q{m + 1}_{i + 1}": np.zeros(3) for i in range(ev.n_legs) for m in range(nq)}
+    assert ev.solve_joints(poses, {**p, **joints}) is first
+    # the same bytes as another dtype (an integer: 4.6e18, out of reach) or shape are another input
+    q = ev.solve_joints(poses, {"q_rod": np.asarray(0.3).view(np.int64)})
+    assert not (np.abs(q - 0.3) < 1e-6).any()
+    first = ev.solve_joints(poses, {"q_rod": np.full(3, 0.3)})
+    assert ev.solve_joints(poses, {"q_rod": np.full((3, 1), 0.3)}) is not first
 
 
 @pytest.mark.parametrize("systems", [1, 63, 64, 300])
@@ -425,3 +435,125 @@ def test_damped_step_solves_the_normal_equations(systems):
     again = normal_solve(bad, r, lam, 1e-12 * lam)
     assert not np.isfinite(again[0]).all()
     assert np.array_equal(again[1:], step[1:])
+
+
+# ---------------------------------------------------------------- the assembly branch at x_ref
+def _hexapod_legs_at_home():
+    """The shipped hexapod's legs at x_ref (the platform 0.8 m above the base, level), from
+    its geometry: each base point b_i, its strut vector d_i = p + a_i - b_i, and the U joint's
+    angles of d_i (joint frame: x up, y along the base circle's tangent, z = x cross y; the
+    strut e_x turned about y by q1, then about z by q2: (cos q1 cos q2, sin q2, -sin q1 cos q2))."""
+    from eigentwist.robots import hexapod
+
+    tb, ta = (np.radians(hexapod.BASE_ANGLES), np.radians(hexapod.PLATFORM_ANGLES))
+    b = 0.50 * np.stack([np.cos(tb), np.sin(tb), 0 * tb], -1)
+    d = np.array([0.0, 0.0, 0.80]) + 0.30 * np.stack([np.cos(ta), np.sin(ta), 0 * ta], -1) - b
+    up, tangent = np.broadcast_to([0.0, 0.0, 1.0], b.shape), np.stack([-np.sin(tb), np.cos(tb), 0 * tb], -1)
+    frame = np.stack([up, tangent, np.cross(up, tangent)], -1)  # columns x, y, z
+    f = np.einsum("kji,kj->ki", frame, d)
+    length = np.linalg.norm(d, axis=-1)
+    q = np.stack([np.arctan2(-f[:, 2], f[:, 0]), np.arcsin(f[:, 1] / length), length], -1)
+    return b, d, q
+
+
+def _where(residual: float) -> str:
+    return (
+        "hexapod_urdf: leg 1's reference (0, 0, 0.8) (rad; m for P) does not close its loop at "
+        f"x_ref [0.0, 0.0, 0.8, 0.0, 0.0, 0.0]: residual {residual:.3g} (m, rad)"
+    )
+
+
+def test_assembly_is_the_geometry_and_each_refusal_names_the_leg(numeric, monkeypatch):
+    """The assembly record at x_ref: the strut standing 0.8 m up misses the platform point by
+    |b_i - a_i| in the base plane (the residual), the configuration the homotopy reaches is
+    the U angles and the strut length of the geometry. A path that meets a singularity, a
+    Newton solution that does not converge or lands on another branch (a strut 2 pi longer:
+    a length is not an angle) is refused word for word; an angle 2 pi away is the same branch."""
+    from eigentwist.runtime import levenberg_marquardt as lm
+    from eigentwist.runtime.errors import AssemblyError
+    from eigentwist.runtime.evaluator import Evaluator
+
+    ev, _ = numeric["hexapod"]
+    _, d, q_home = _hexapod_legs_at_home()
+    miss = np.linalg.norm(d[:, :2], axis=-1)  # the strut's top at b_i + 0.8 e_z, the platform's at p + a_i
+    record = Evaluator(ev.robot, ev.module, "numpy").assembly()
+    np.testing.assert_allclose(record["residual"], miss, rtol=1e-12)
+    np.testing.assert_allclose(record["q"], q_home, rtol=0, atol=1e-9)
+    where = _where(miss[0])
+    e_g = ", ".join(f"{v:.6g}" for v in record["q"][0])
+    real_solve, real_path = lm.solve, lm.continuation
+
+    def path_lost(*args, **kw):
+        q, t = real_path(*args, **kw)
+        q = q.copy()
+        q[0] = np.nan
+        return q, t
+
+    def solve_moved(shift):
+        def moved(*args, **kw):
+            q = real_solve(*args, **kw).copy()
+            q[0, 0] += shift
+            return q
+
+        return moved
+
+    with monkeypatch.context() as mp:
+        mp.setattr(lm, "continuation", path_lost)
+        with pytest.raises(AssemblyError) as err:
+            Evaluator(ev.robot, ev.module, "numpy")
+    assert str(err.value) == (
+        f"{where}, and no path of closed configurations leads from it there (a singularity between): "
+        "expected the leg's joint coordinates at x_ref"
+    )
+    moved_by = {
+        "does not converge": np.array([np.nan, 0.0, 0.0]),
+        "closes on another assembly branch ({})".format(
+            ", ".join(f"{v:.4g}" for v in q_home[0] + [0.0, 0.0, 2 * np.pi])
+        ): np.array([0.0, 0.0, 2 * np.pi]),
+    }
+    for found, shift in moved_by.items():
+        with monkeypatch.context() as mp:
+            mp.setattr(lm, "solve", solve_moved(shift))
+            with pytest.raises(AssemblyError) as err:
+                Evaluator(ev.robot, ev.module, "numpy")
+        want = f"{where}; Newton's method from it {found}: expected a reference on its own branch, e.g. ({e_g})"
+        assert str(err.value) == want
+    with monkeypatch.context() as mp:
+        mp.setattr(lm, "solve", solve_moved(np.array([2 * np.pi, -2 * np.pi, 0.0])))
+        assert np.array_equal(Evaluator(ev.robot, ev.module, "numpy").assembly()["q"], record["q"])
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_a_pose_off_the_recorded_branch_is_named(numeric, backend, monkeypatch):
+    """A leg recorded on the other branch (its determinant's sign flipped): every pose is off
+    it, refused word for word (through the C pass too), and invalid in a batch."""
+    from eigentwist.runtime.evaluator import Evaluator
+
+    ev, _ = numeric["hexapod"]
+    if backend == "c":
+        from eigentwist.runtime import ccompile
+
+        try:
+            ccompile.find_compiler()
+        except ccompile.CompilerNotFoundError as exc:
+            skip_tier("compiled", str(exc))
+        ev = eigentwist.load(hexapod_urdf.describe(), backend="c", threads=1, progress=lambda m: None)
+    flipped = Evaluator(ev.robot, ev.module, backend, kernels=ev.kernels, threads=1)
+    assert flipped._fused is (backend == "c")
+    if backend == "c":  # the legs' Newton iterations run in C: at x_ref, the geometry's joints
+        iterations, newton = [], ev.kernels.newton
+        monkeypatch.setattr(ev.kernels, "newton", lambda *a, **kw: iterations.append(1) or newton(*a, **kw))
+        home = np.array([ev.robot.x_ref])
+        q = flipped.solve_joints(home, flipped.parameter_values(1))
+        np.testing.assert_allclose(q[0], _hexapod_legs_at_home()[2], rtol=0, atol=1e-9)
+        assert iterations
+    flipped.assembly()["sign"][1] *= -1  # as if leg 2 had been assembled the other way
+    x = np.array([[0.01, -0.02, 0.78, 0.03, 0.0, -0.05], [0.0, 0.0, 0.8, 0.0, 0.0, 0.0]])
+    with pytest.raises(UnreachablePoseError) as err:
+        flipped.frequencies(x, "rigid")
+    assert str(err.value) == (
+        "pose [0.01, -0.02, 0.78, 0.03, 0.0, -0.05] (m and rad) is unreachable for leg 2 on its assembly branch: "
+        "Newton's method closes the loop there only on another branch (leg determinant of sign -1; +1 at x_ref, "
+        "where the description's reference puts the robot)"
+    )
+    assert not flipped.valid(x).any()
