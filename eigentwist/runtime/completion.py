@@ -111,6 +111,8 @@ class PoseCompletion:
         return np.array(padded_references(self.robot.legs), dtype=float)
 
     def given(self, poses) -> np.ndarray:
+        """``poses`` as an (N, dof) float array in the robot's own coordinates; InputError naming
+        a wrong shape, an empty batch or a pose that is not finite."""
         arr = np.asarray(poses, dtype=float)
         if arr.ndim == 1:
             arr = arr[None, :]
@@ -129,15 +131,13 @@ class PoseCompletion:
         return arr
 
     def pose_units(self) -> str:
+        """The units of the pose coordinates, for messages: ``"m"``, or ``"m and rad"``."""
         return "m" if not any(c.startswith("rot") for c in self.pose_names) else "m and rad"
 
     def kernel_pose_inputs(self, poses) -> dict:
-        """The pose inputs the generated kernels read from their parameter dict, (N,)
-        arrays by name: none for a 3-DoF robot (its kernels take x, y, z as arguments);
-        for a 6-DoF robot the position ``x, y, z`` (m) and the rotation matrix entries
-        ``R_ij`` of the rotation vector (Rodrigues, :func:`~eigentwist.runtime.poses.rotation_matrix`),
-        and the rotation vector itself ``rot_x, rot_y, rot_z`` (rad), from which the C pass
-        computes the ``R_ij`` it reads."""
+        """The pose inputs the kernels read from their parameter dict, (N,) arrays by name
+        (``Evaluator.kernel_pose_inputs`` documents them): none for a 3-DoF robot; a 6-DoF
+        robot's position (m), rotation matrix entries ``R_ij`` and rotation vector (rad)."""
         if not self._six:
             return {}
         from .poses import rotation_entries
@@ -174,16 +174,9 @@ class PoseCompletion:
         return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
 
     def assembly(self) -> dict:
-        """Each leg's assembly branch, recorded at ``x_ref`` with the default parameters
-        (legs solved numerically, :mod:`eigentwist.description.serial`).
-
-        Returns ``{"q": (legs, n_q) the closed configuration connected to the reference
-        (:func:`~.levenberg_marquardt.continuation`), "sign": (legs,) the sign of each leg's determinant
-        there (the branch every solution must keep), "residual": (legs,) |r| of the
-        reference itself (m and rad)}``. Raises :class:`AssemblyError` naming the leg and
-        the residual when a reference closes on no branch (a singularity between) or
-        Newton's method from it closes on another branch than the one it is connected to.
-        """
+        """Each leg's assembly branch recorded at ``x_ref`` with the default parameters,
+        remembered: ``{"q", "sign", "residual"}`` (``Evaluator.assembly`` documents the record
+        and the :class:`AssemblyError` it raises)."""
         if "_assembly" in self.__dict__:
             return self.__dict__["_assembly"]
         from .errors import AssemblyError

@@ -310,18 +310,9 @@ class InputResolver:
                         raise InputError(f"leg {k}: {exc}") from None
 
     def inputs(self, model, values: dict | None = None, **params) -> dict:
-        """The full input dict of the generated code for ``model`` and parameter ``values``.
-
-        What the generated NumPy module's functions take as ``p`` (``ev.module.matrices(q,
-        ev.inputs(...))``) and what ``<robot>_c.h`` lists as the C library's inputs: every
-        parameter (SI units; the description's default unless given), each effect's switch
-        ``on_<effect>`` or, for a leg-level effect, ``on_<effect>__N`` per leg (1.0 on, 0.0
-        off), and each leg's copy ``P__N`` of a leg-level effect's parameter P (leg N's own
-        value when ``values`` has ``P@N``, else P's). ``values`` and keyword arguments are
-        parameter values by name (``P@N`` for one leg), checked as
-        ``Evaluator.frequencies`` checks them. Scalars come back as floats, (N,) arrays as arrays. A 6-DoF robot's
-        kernels also read the pose from ``p``: add ``Evaluator.kernel_pose_inputs``.
-        """
+        """The generated code's input dict for ``model`` and parameter ``values`` (and keyword
+        arguments): ``Evaluator.inputs``, which documents it. Scalars come back as floats,
+        (N,) arrays as float arrays."""
         given = {**(values or {}), **params}
         sizes = [np.size(v) for v in given.values() if np.ndim(v) == 1]
         p = self.resolve(max(sizes, default=1), given, model)
