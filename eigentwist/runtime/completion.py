@@ -69,7 +69,7 @@ class PoseCompletion:
         #: how the pose enters the kernels (:mod:`eigentwist.description.pose`)
         self.space = getattr(robot, "pose_space", None)
         #: True when the kernels take a rigid platform's six coordinates (rotation included)
-        self._six = self.space is not None and len(self.space.inputs) > 3
+        self.six = self.space is not None and len(self.space.inputs) > 3
 
     @property
     def kernels(self):
@@ -82,7 +82,7 @@ class PoseCompletion:
         if isinstance(poses, CompletedPoses):
             return poses
         arr = self.given(poses)
-        if not self._six or self.pose_names == FULL:
+        if not self.six or self.pose_names == FULL:
             return arr.view(CompletedPoses)
         from .platform import full_poses
 
@@ -138,7 +138,7 @@ class PoseCompletion:
         """The pose inputs the kernels read from their parameter dict, (N,) arrays by name
         (``Evaluator.kernel_pose_inputs`` documents them): none for a 3-DoF robot; a 6-DoF
         robot's position (m), rotation matrix entries ``R_ij`` and rotation vector (rad)."""
-        if not self._six:
+        if not self.six:
             return {}
         from .poses import rotation_entries
 
@@ -151,7 +151,7 @@ class PoseCompletion:
     def with_pose(self, poses: np.ndarray, p: dict) -> dict:
         """``p`` plus :meth:`kernel_pose_inputs` (a translational robot's: x, y, z), and for
         legs solved numerically their joint coordinates by name (:meth:`numeric_joints`)."""
-        if self._six:
+        if self.six:
             p = {**p, **self.kernel_pose_inputs(poses)}
         else:
             # a translational robot's legs may read the position beyond the IK (a joint-list
@@ -291,7 +291,7 @@ class PoseCompletion:
     def pose_inputs(self, poses: np.ndarray) -> dict:
         """The pose as the kernels read it by name: x, y, z (m), and a 6-DoF robot's
         rotation matrix entries (:meth:`kernel_pose_inputs`)."""
-        if self._six:
+        if self.six:
             return self.kernel_pose_inputs(poses)
         return {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
 

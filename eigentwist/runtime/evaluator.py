@@ -197,12 +197,12 @@ class Evaluator:
         #: what :func:`eigentwist.load` was given: a shipped robot's name or a description file's path
         self.spec = robot.name
         #: names of the pose coordinates (``x, y, z``; a 6-DoF robot adds ``rot_x, rot_y, rot_z``)
-        self.pose_names = tuple(getattr(robot, "pose", ("x", "y", "z")))
-        self.dof = len(self.pose_names)
+        self.pose_names = self.completion.pose_names
+        self.dof = self.completion.dof
         #: how the pose enters the kernels (:mod:`eigentwist.description.pose`)
-        self.space = getattr(robot, "pose_space", None)
+        self.space = self.completion.space
         #: True when the kernels take a rigid platform's six coordinates (rotation included)
-        self._six = self.space is not None and len(self.space.inputs) > 3
+        self._six = self.completion.six
         #: a point platform's translations (6 x d): the only twists its legs' rows must fix
         self._freedoms = self.space.basis if getattr(self.space, "point", False) else None
         self._rigid_models: dict = {}  # model -> whether a leg has a rigid direction (_route)
