@@ -125,8 +125,8 @@ def test_c_follower_that_does_not_converge_is_named(rps, monkeypatch):
 def test_c_pass_names_the_described_legs_check(rps):
     """A rod of 0.12 m at the second pose, shorter than the columns' reach (the S joints 0.15 m
     inside them): the C pass's refusal (of the frequencies and of the allowed twists) names the
-    description's leg, the completed pose (its followers x, y as solved: they do not depend on
-    L) and the reach from the geometry, (e_r,1 . top_1 - R_b) / L."""
+    description's leg, the pose as given (z, rot_x, rot_y: the followers solved are not the
+    user's coordinates) and the reach from the geometry, (e_r,1 . top_1 - R_b) / L."""
     import re
 
     evc, _ = rps
@@ -146,7 +146,7 @@ def test_c_pass_names_the_described_legs_check(rps):
         str(err.value),
     )
     assert m is not None, str(err.value)
-    np.testing.assert_allclose([float(v) for v in m.group(1).split(", ")], full[1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose([float(v) for v in m.group(1).split(", ")], x[1], rtol=0, atol=1e-12)
     assert m.group(2) == f"{reach:.4g}"
     assert reach < -1
 

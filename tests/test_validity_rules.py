@@ -240,3 +240,26 @@ def test_the_parallel_singular_pose_is_named_with_its_conditioning():
     with pytest.raises(SingularPoseError, match=r"^pose \[0.1, 0.0, -0.5\] m is parallel singular"):
         v.raise_parallel(POSES3, rows[:2])
     v.raise_parallel(POSES3, rows[:1])  # a fair pose: nothing
+
+
+def test_a_pose_is_named_in_the_robots_own_coordinates():
+    from eigentwist.runtime.validity import pose_text
+
+    six = [0.1, 0.2, 0.3, 0.01, 0.02, 0.03]
+    assert pose_text([0.1, 0.2, 0.3]) == "[0.1, 0.2, 0.3] m"
+    assert pose_text(six) == "[0.1, 0.2, 0.3, 0.01, 0.02, 0.03] (m, rad)"
+    assert pose_text(six, ("x", "y", "z", "rot_x", "rot_y", "rot_z")) == pose_text(six)
+    assert pose_text(six, ("x", "y")) == "[0.1, 0.2] m"  # a point in a plane, completed
+    assert pose_text([0.1, 0.2, 0.0], ("x", "y")) == "[0.1, 0.2] m"  # its position x, y, z
+    assert pose_text([0.1, 0.2], ("x", "y")) == "[0.1, 0.2] m"  # as given
+    assert pose_text(six, ("z", "rot_x", "rot_y")) == "[0.3, 0.01, 0.02] (m, rad)"  # a 3-PRS, completed
+    assert pose_text(six, ("x", "y", "rot_z")) == "[0.1, 0.2, 0.03] (m, rad)"  # planar
+
+
+def test_a_point_platforms_refusal_names_its_own_coordinates():
+    import eigentwist
+    from eigentwist.runtime.errors import UnreachablePoseError
+
+    five_bar = eigentwist.load("examples/robots/five_bar.py", backend="numpy", progress=None)
+    with pytest.raises(UnreachablePoseError, match=r"^pose \[0\.0, 0\.9\] m is unreachable for leg 1: "):
+        five_bar.frequencies([0.0, 0.9], "none")

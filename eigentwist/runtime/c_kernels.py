@@ -775,13 +775,15 @@ class CKernels:
             res["eigentwists"] = out["eigentwists"]
         return res
 
-    def raise_invalid(self, k: int, x, y, z, p: dict, lead: tuple, legs=None) -> None:
+    def raise_invalid(self, k: int, x, y, z, p: dict, lead: tuple, legs=None, names=None) -> None:
         """Raise the evaluator's error (:mod:`.validity`) for pose ``k`` of a batch of shape
         ``lead``, recomputing its check quantities (one pose, so it costs nothing).
-        ``legs``: the description's legs, named in the error (None: a shipped robot's)."""
+        ``legs``: the description's legs, named in the error (None: a shipped robot's);
+        ``names``: the robot's pose coordinates, in which the pose is named
+        (:func:`~.validity.pose_text`)."""
         from ..robots import get
         from .errors import UnreachablePoseError
-        from .validity import LEVER_SCALE, raise_singular, raise_unreachable
+        from .validity import LEVER_SCALE, pose_text, raise_singular, raise_unreachable
 
         def row(v):
             return np.broadcast_to(np.asarray(v, dtype=float), lead).reshape(-1)[k : k + 1]
@@ -795,13 +797,13 @@ class CKernels:
             R = np.array([[pk[f"R_{i}{j}"][0] for j in range(3)] for i in range(3)])
             pose = np.concatenate([pose, rotation_vector(R)[None, :]], axis=-1)
         ik = self.inverse_kinematics(*pose[:, :3].T, pk)
-        raise_unreachable(legs, pose, ik)
+        raise_unreachable(legs, pose, ik, names)
         if "lever" in self.OUTPUTS["jacobians"]:
             lever = self.jacobians(ik["q"], pk)["lever"]
             if LEVER_SCALE in pk:
                 lever = lever / pk[LEVER_SCALE][..., None]
-            raise_singular(legs, pose, lever, LEVER_SCALE if LEVER_SCALE in pk else None)
+            raise_singular(legs, pose, lever, LEVER_SCALE if LEVER_SCALE in pk else None, names)
         raise UnreachablePoseError(
-            f"pose {pose[0].tolist()} m gives non-finite frequencies "
+            f"pose {pose_text(pose[0], names)} gives non-finite frequencies "
             "(the inertia matrix is not positive definite there)"
         )

@@ -384,7 +384,7 @@ class Evaluator:
             out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
         if strict:
             self.completion.raise_off_branch(poses, p)
-            raise_unreachable(legs, poses, out)
+            raise_unreachable(legs, poses, out, self.pose_names)
         ok = reachable_mask(out)
         q, jac = out["q"], None
         if ok.any():
@@ -394,8 +394,8 @@ class Evaluator:
             lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
             rows = platform_rows(jac["J_rows"], legs, self._freedoms)
             if strict:
-                raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None)
-                raise_parallel(poses[ok], rows)
+                raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None, self.pose_names)
+                raise_parallel(poses[ok], rows, self.pose_names)
             ok[ok] = lever_mask(lever) & parallel_mask(rows)
         return q, jac, ok
 
@@ -439,7 +439,7 @@ class Evaluator:
                 ok.flags.writeable = False
                 self._parallel_memo.put(key, ok)
         if strict and not ok.all():
-            raise_parallel(at, self._platform_rows(at, pp))
+            raise_parallel(at, self._platform_rows(at, pp), self.pose_names)
         return ok.copy()
 
     def _raise_unfollowed(self, poses: np.ndarray) -> None:
@@ -518,6 +518,7 @@ class Evaluator:
             self.completion.with_pose(poses, p),
             (len(poses),),
             legs=self.robot.legs,
+            names=self.pose_names,
         )
 
     @staticmethod
@@ -748,7 +749,7 @@ class Evaluator:
         with np.errstate(invalid="ignore", divide="ignore"):
             lever = self._kernels.jacobians(q, pk)["lever"]
         lever = lever / np.asarray(pk.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
-        raise_singular(self.robot.legs, poses, lever, LEVER_SCALE if LEVER_SCALE in pk else None)
+        raise_singular(self.robot.legs, poses, lever, LEVER_SCALE if LEVER_SCALE in pk else None, self.pose_names)
         out = self._kernels.matrices(q, pk)
         return {k: out[k] for k in MATRICES}
 

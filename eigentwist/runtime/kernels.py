@@ -68,5 +68,5 @@ class CompiledKernels(Kernels, Protocol):
     def follow(self, q, p: dict, followers: list, iterations: int, tol: float, threads: int = 1):
         """A lower-mobility platform's followers solved by the same iterations."""
 
-    def raise_invalid(self, k: int, x, y, z, p: dict, lead: tuple, legs=None) -> None:
+    def raise_invalid(self, k: int, x, y, z, p: dict, lead: tuple, legs=None, names=None) -> None:
         """Raise the typed error of pose ``k`` that the pass flagged."""

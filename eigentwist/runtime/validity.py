@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..description.pose import FULL
 from .allowed import constraint_positions
 from .errors import SingularPoseError, UnreachablePoseError
 
@@ -83,16 +84,30 @@ def lever_mask(lever_ratio) -> np.ndarray:
     return (np.abs(np.asarray(lever_ratio)) > LEVER_TOL).all(axis=-1)
 
 
-def raise_unreachable(legs, poses, ik: dict) -> None:
-    """Raise :class:`UnreachablePoseError` for the first row whose IK check fails (if any)."""
+def pose_text(pose, names=None) -> str:
+    """A pose for a message, with its units: ``[x, y, z] m``, ``[...] (m, rad)`` with rotations.
+
+    ``names``: the robot's own pose coordinates (``Evaluator.pose_names``); a completed pose
+    (the six coordinates of :data:`~eigentwist.description.pose.FULL`, or the position x, y, z)
+    of a robot with fewer is shown in those, as the user gave it (a five-bar's ``[x, y] m``).
+    Without ``names`` a pose of three values is in m, any other in m and rad."""
+    values = np.asarray(pose, dtype=float)
+    if names is not None and len(names) < len(values):  # completed: the named coordinates
+        values = values[[FULL.index(c) for c in names]]
+    rotation = any(c.startswith("rot") for c in names) if names is not None else len(values) != 3
+    return f"{values.tolist()} {'(m, rad)' if rotation else 'm'}"
+
+
+def raise_unreachable(legs, poses, ik: dict, names=None) -> None:
+    """Raise :class:`UnreachablePoseError` for the first row whose IK check fails (if any),
+    naming the pose (:func:`pose_text` with the robot's pose ``names``) and the leg."""
     for key in check_names(ik):
         what = check_meaning(key)
         bad = _bad_ik(ik[key])
         if bad.any():
             k, leg = np.argwhere(bad)[0]
-            unit = "m" if len(poses[k]) == 3 else "(m, rad)"
             raise UnreachablePoseError(
-                f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is unreachable for {legs[leg].name}: "
+                f"pose {pose_text(poses[k], names)} is unreachable for {legs[leg].name}: "
                 f"{what} ({key} = {ik[key][k, leg]:.4g}, expected within [-1, 1])"
             )
     if "q" in ik:
@@ -100,26 +115,25 @@ def raise_unreachable(legs, poses, ik: dict) -> None:
         bad = ~np.isfinite(q.reshape(q.shape[0], q.shape[1], -1)).all(axis=-1)
         if bad.any():
             k, leg = np.argwhere(bad)[0]
-            unit = "m" if len(poses[k]) == 3 else "(m, rad)"
             raise UnreachablePoseError(
-                f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is unreachable for {legs[leg].name}: its "
+                f"pose {pose_text(poses[k], names)} is unreachable for {legs[leg].name}: its "
                 "inverse kinematics gives no finite joint coordinates (expected a pose the leg can span)"
             )
 
 
-def raise_singular(legs, poses, lever_ratio, scale: str | None = LEVER_SCALE) -> None:
+def raise_singular(legs, poses, lever_ratio, scale: str | None = LEVER_SCALE, names=None) -> None:
     """Raise :class:`SingularPoseError` for the first row with a vanishing lever (if any).
 
     ``scale``: the parameter the lever was divided by (None: a robot without it, the
-    hexapod, whose lever w_a.t_a is compared as it is)."""
+    hexapod, whose lever w_a.t_a is compared as it is); ``names``: the robot's pose
+    coordinates (:func:`pose_text`)."""
     lever_ratio = np.asarray(lever_ratio)
     bad = ~(np.abs(lever_ratio) > LEVER_TOL)
     if bad.any():
         k, leg = np.argwhere(bad)[0]
         what = f"w_a1.t_a1/{scale}" if scale else "w_a.t_a (the leg's unit twists are dependent)"
-        unit = "m" if len(poses[k]) == 3 else "(m, rad)"
         raise SingularPoseError(
-            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is serial singular for {legs[leg].name}: "
+            f"pose {pose_text(poses[k], names)} is serial singular for {legs[leg].name}: "
             f"actuation "
             f"lever {what} = {lever_ratio[k, leg]:.3g} (expected |.| > {LEVER_TOL:g})"
         )
@@ -227,16 +241,16 @@ def parallel_mask(rows: np.ndarray) -> np.ndarray:
     return ok
 
 
-def raise_parallel(poses, rows) -> None:
+def raise_parallel(poses, rows, names=None) -> None:
     """Raise :class:`SingularPoseError` for the first pose whose platform rows are parallel
-    singular (if any), naming the pose and its conditioning."""
+    singular (if any), naming the pose (:func:`pose_text` with the robot's pose ``names``) and
+    its conditioning."""
     bad = ~parallel_mask(rows)
     if bad.any():
         k = int(np.argmax(bad))
-        unit = "m" if len(poses[k]) == 3 else "(m, rad)"
         cond = conditioning(np.asarray(rows)[k : k + 1])[0]
         raise SingularPoseError(
-            f"pose {np.asarray(poses[k], dtype=float).tolist()} {unit} is parallel singular: the legs' actuation "
+            f"pose {pose_text(poses[k], names)} is parallel singular: the legs' actuation "
             f"and constraint wrenches leave a twist of the platform free (conditioning {cond:.3g}, expected above "
             f"{CONDITIONING_TOL:.3g})"
         )
