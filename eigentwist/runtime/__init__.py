@@ -8,8 +8,12 @@ from .errors import (
     UnreachablePoseError,
     UnstablePoseError,
 )
+from .completion import PoseCompletion
 from .evaluator import AXES, Evaluator, Modes
+from .inputs import InputResolver
+from .kernels import CompiledKernels, Kernels
 from .loader import evaluator_from_description, load
+from .routes import ROUTES, Route
 from .validity import CONDITIONING_TOL, POSE_STATUS
 
 __all__ = [
@@ -26,4 +30,10 @@ __all__ = [
     "AssemblyError",
     "CONDITIONING_TOL",
     "POSE_STATUS",
+    "InputResolver",
+    "PoseCompletion",
+    "Kernels",
+    "CompiledKernels",
+    "ROUTES",
+    "Route",
 ]
