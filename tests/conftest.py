@@ -305,6 +305,21 @@ def pytest_xdist_make_scheduler(config, log):
     return UnitScheduling(config, log)
 
 
+def compiled_tier() -> pytest.MonkeyPatch:
+    """For a module fixture of the ``compiled`` tier: skip (or fail, where CI requires the tier)
+    without a C compiler; else a MonkeyPatch that points ``EIGENTWIST_CACHE`` at the run's one
+    cache (:func:`c_cache_dir`), to ``undo()`` when the fixture ends."""
+    from eigentwist.runtime import ccompile
+
+    try:
+        ccompile.find_compiler()
+    except ccompile.CompilerNotFoundError as exc:  # the only reason to skip
+        skip_tier("compiled", str(exc))
+    mp = pytest.MonkeyPatch()
+    mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    return mp
+
+
 def c_cache_dir():
     """The run's one eigentwist cache (``$EIGENTWIST_CACHE``, ``$XDG_CACHE_HOME/eigentwist`` or
     ``~/.cache/eigentwist``), for the tests that compile into an explicit directory: the

@@ -24,7 +24,7 @@ from eigentwist.robots import NAMES
 from eigentwist.runtime import InputError, UnreachablePoseError, load
 from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 
-from .conftest import c_cache_dir, effect_inputs, random_poses, skip_tier
+from .conftest import c_cache_dir, compiled_tier, effect_inputs, random_poses, skip_tier
 from .test_eigen import assert_matches_scipy, random_spd_pairs
 
 compiled = pytest.mark.compiled
@@ -101,13 +101,8 @@ def test_missing_compiler_c_backend_raises_clear_error(monkeypatch):
 @pytest.fixture(scope="session")
 def c_cache():
     """A compiler and the run's persistent cache directory (``c_cache_dir``), also used by ``load``."""
-    try:
-        ccompile.find_compiler()
-    except ccompile.CompilerNotFoundError as exc:  # the only reason to skip: any other failure fails
-        skip_tier("compiled", str(exc))
+    mp = compiled_tier()
     directory = c_cache_dir()
-    mp = pytest.MonkeyPatch()
-    mp.setenv("EIGENTWIST_CACHE", str(directory))
     yield directory
     mp.undo()
 

@@ -27,10 +27,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import eigentwist
-import eigentwist.runtime.ccompile as ccompile
 from eigentwist.runtime.errors import InputError, UnreachablePoseError
 
-from .conftest import c_cache_dir, random_poses, skip_tier
+from .conftest import c_cache_dir, compiled_tier, random_poses
 
 pytestmark = pytest.mark.compiled
 
@@ -43,12 +42,7 @@ R_B, R_P = 0.30, 0.15  # the description's defaults (m)
 def rps():
     """The 3-PRS on the C backend (one thread) and on NumPy (generated and compiled once into
     the cache; the gallery's tests use the same)."""
-    try:
-        ccompile.find_compiler()
-    except ccompile.CompilerNotFoundError as exc:  # the only reason to skip
-        skip_tier("compiled", str(exc))
-    mp = pytest.MonkeyPatch()
-    mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    mp = compiled_tier()
     evc = eigentwist.load(str(PRS3), backend="c", threads=1, progress=None)
     ev = eigentwist.load(str(PRS3), backend="numpy", progress=None)
     yield evc, ev
@@ -166,12 +160,7 @@ def test_c_modes_of_the_lower_mobility_platform_are_numpys(rps):
 def heli4():
     """The Heli4 on the C backend (one thread), a twin without the prepared pass, and poses
     valid in every model."""
-    try:
-        ccompile.find_compiler()
-    except ccompile.CompilerNotFoundError as exc:  # the only reason to skip
-        skip_tier("compiled", str(exc))
-    mp = pytest.MonkeyPatch()
-    mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    mp = compiled_tier()
     fast, general = (eigentwist.load("heli4", backend="c", threads=1) for _ in range(2))
     general._plan = lambda *args: None
     poses = random_poses(fast.robot, 40, seed=50)

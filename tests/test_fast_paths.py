@@ -10,13 +10,12 @@ import numpy as np
 import pytest
 
 import eigentwist
-import eigentwist.runtime.ccompile as ccompile
 from eigentwist.cli.main import main
 from eigentwist.runtime import SingularPoseError, UnreachablePoseError, UnstablePoseError
 from eigentwist.runtime.eigen import ROUNDOFF_EPS, frequencies_hz, generalized_eigh, unstable_modes
 from eigentwist.runtime.validity import STATUS
 
-from .conftest import c_cache_dir, random_poses, skip_tier
+from .conftest import c_cache_dir, compiled_tier, random_poses
 
 compiled = pytest.mark.compiled
 # a heavy payload at low actuator stiffness: gravity softens the vertical mode below zero
@@ -26,12 +25,7 @@ UNSTABLE_MODEL = "paper,gravity_preload,payload_mass"
 
 @pytest.fixture(scope="module")
 def ev_c():
-    try:
-        ccompile.find_compiler()
-    except ccompile.CompilerNotFoundError as exc:  # the only reason to skip
-        skip_tier("compiled", str(exc))
-    mp = pytest.MonkeyPatch()
-    mp.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
+    mp = compiled_tier()
     yield eigentwist.load("heli4", backend="c", threads=1)
     mp.undo()
 
