@@ -274,6 +274,27 @@ def test_the_joint_coordinate_kernels(kernel):
     assert len(kern._lib.__dict__[f"et_toy_{kernel}"].calls) == 1
 
 
+def test_a_kernel_on_threads_reads_and_writes_each_range_at_its_poses():
+    """jacobians on two threads: block-aligned ranges, each call reading its poses' inputs
+    (per-pose a and q, scalar b) and writing its poses' outputs; the same values as one call."""
+    from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
+
+    sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], jacobians=SIGNATURE["kernels"]["matrices"]))
+    kern = kernels(signature=sig)
+    fn = kern._lib.__dict__["et_toy_matrices"] = Matrices()
+    kern._fn["jacobians"] = fn
+    n = 2 * MIN_BLOCKS_PER_THREAD * kern.BLOCK + 3
+    q = np.random.default_rng(0).random((n, 2, 3))
+    a = np.arange(n, dtype=float)
+    one = kern.jacobians(q, {"a": a, "b": 7.0})
+    assert len(fn.calls) == 1 and np.array_equal(one["s"], a + 7.0 + q[:, 1, 2] + q[:, 0, 1])
+    two = kern.jacobians(q, {"a": a, "b": 7.0}, threads=2)
+    calls = fn.calls[1:]
+    assert len(calls) > 2 and sum(c[0] for c in calls) == n
+    assert all(c[0] % kern.BLOCK == 0 for c in calls[:-1])  # every range but the last whole blocks
+    assert np.array_equal(two["M"], one["M"]) and np.array_equal(two["s"], one["s"])
+
+
 def test_no_loop_closure_kernel_no_method():
     sig = dict(SIGNATURE, kernels={k: v for k, v in SIGNATURE["kernels"].items() if k != "loop_closure"})
     with pytest.raises(AttributeError) as err:

@@ -225,6 +225,9 @@ def test_c_loop_closure_equals_numpy(numeric):
     start = np.broadcast_to([leg.kinematics.reference for leg in evc.robot.legs], (n, 6, 3))
     one, two = evc.kernels.newton(start, kp, 80, 1e-12), evc.kernels.newton(start, kp, 80, 1e-12, threads=2)
     assert np.array_equal(one[0], two[0], equal_nan=True) and np.array_equal(one[1], two[1], equal_nan=True)
+    # the branch check's jacobians kernel on the same ranges: the same levers, bit for bit
+    lever = evc.kernels.jacobians(one[0], kp)["lever"]
+    assert np.array_equal(evc.kernels.jacobians(one[0], kp, threads=2)["lever"], lever, equal_nan=True)
     assert np.isfinite(in_c).all() and np.abs(in_c - in_numpy).max() < 1e-12
     fa, fc = ev.frequencies(poses), evc.frequencies(poses)
     assert np.abs(fa - fc).max() / fa.max() < 1e-12

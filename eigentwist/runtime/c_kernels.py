@@ -330,7 +330,10 @@ class CKernels:
             )
         return layout
 
-    def _run(self, kernel: str, lead: tuple, values: dict, q=None) -> dict:
+    def _run(self, kernel: str, lead: tuple, values: dict, q=None, threads: int = 1) -> dict:
+        """One generated kernel over ``lead`` poses: its outputs by name. ``threads`` > 1 runs
+        block-aligned ranges of the poses on that many threads (:func:`threads_for` bounds
+        it); every pose is computed on its own, so the results are bit-identical."""
         params, at_params, at_q, q_offsets, outputs, count = self._layout(kernel)
         n = int(np.prod(lead, dtype=np.int64))
         outs = {name: np.empty(lead + shape) for name, shape in outputs}
@@ -347,10 +350,16 @@ class CKernels:
             addresses[at_q] = np.uint64(qa.ctypes.data) + q_offsets
             strides[at_q] = qa.shape[1]
         out_ptrs = np.array([o.ctypes.data for o in outs.values()], dtype=np.uint64)
-        rc = self._fn[kernel](
-            n, addresses.ctypes.data_as(_PTRS), strides.ctypes.data_as(_I64P), out_ptrs.ctypes.data_as(_PTRS)
-        )
-        _check_rc(rc, kernel)
+        out_rows = np.array([8 * int(np.prod(shape, dtype=np.int64)) for _, shape in outputs], dtype=np.uint64)
+        fn = self._fn[kernel]
+
+        def call(begin: int, end: int) -> int:
+            at = addresses + np.uint64(8 * begin) * strides.astype(np.uint64)
+            out = out_ptrs + np.uint64(begin) * out_rows
+            return fn(end - begin, at.ctypes.data_as(_PTRS), strides.ctypes.data_as(_I64P), out.ctypes.data_as(_PTRS))
+
+        for rc in run_ranges(call, n, self.BLOCK, threads_for(n, self.BLOCK, threads)):
+            _check_rc(rc, kernel)
         return outs
 
     def _kernel_inputs(self, kernel: str, values: list, lead: tuple, keep: list) -> tuple:
@@ -376,7 +385,7 @@ class CKernels:
     def _params(self, kernel: str, p: dict) -> dict:
         return {name: p[name] for group, name, _ in self._spec[kernel]["inputs"] if group == "param"}
 
-    def _q_kernel(self, kernel: str, q, p: dict) -> dict:
+    def _q_kernel(self, kernel: str, q, p: dict, threads: int = 1) -> dict:
         q = np.asarray(q, dtype=np.float64)
         if q.ndim < 2 or q.shape[-2:] != (self.N_LEGS, self.JOINTS_PER_LEG):
             raise InputError(
@@ -384,7 +393,7 @@ class CKernels:
             )
         params = self._params(kernel, p)
         lead = self._lead([q.shape[:-2]] + [np.shape(v) for v in params.values()])
-        return self._run(kernel, lead, params, q=q)
+        return self._run(kernel, lead, params, q=q, threads=threads)
 
     # ------------------------------------------------- the NumPy interface
     def inverse_kinematics(self, x, y, z, p: dict) -> dict:
@@ -398,9 +407,10 @@ class CKernels:
         """``M`` (kg, kg m, kg m^2), ``K_R``, ``K_F`` (N/m, N, N m/rad) at the EE origin, (..., 6, 6)."""
         return self._q_kernel("matrices", q, p)
 
-    def jacobians(self, q, p: dict) -> dict:
-        """Inverse-Jacobian rows ``J_rows`` (..., legs, 4, 6) and levers ``lever`` (..., legs), m."""
-        return self._q_kernel("jacobians", q, p)
+    def jacobians(self, q, p: dict, threads: int = 1) -> dict:
+        """Inverse-Jacobian rows ``J_rows`` (..., legs, 4, 6) and levers ``lever`` (..., legs), m;
+        ``threads`` > 1 splits the poses on block boundaries (bit-identical results)."""
+        return self._q_kernel("jacobians", q, p, threads)
 
     def loop_closure(self, q, p: dict) -> dict:
         """Loop-closure ``residual`` (..., legs, rows) and its Jacobian ``dresidual`` of legs

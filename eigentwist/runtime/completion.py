@@ -268,7 +268,9 @@ class PoseCompletion:
 
             def branch(q, kp=kp):
                 with np.errstate(invalid="ignore", divide="ignore"):
-                    return self.kernels.jacobians(q, kp)["lever"]
+                    if iterate is None:
+                        return self.kernels.jacobians(q, kp)["lever"]
+                    return self.kernels.jacobians(q, kp, threads=threads)["lever"]
 
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
                 q, off = solve(

@@ -62,6 +62,9 @@ class CompiledKernels(Kernels, Protocol):
     def generalized_eigh(self, K, M, vectors: bool = True, threads: int = 1):
         """Eigenvalues (and eigenvectors) of K v = lambda M v, batched."""
 
+    def jacobians(self, q, p: dict, threads: int = 1) -> dict:
+        """:meth:`Kernels.jacobians`, its poses split on ``threads`` threads."""
+
     def newton(self, q, p: dict, iterations: int, tol: float, threads: int = 1):
         """The legs' Newton (Levenberg-Marquardt) iterations on ``loop_closure``."""
 
