@@ -112,3 +112,25 @@ def test_declared_argument_types_are_the_c_declaration():
 
     fn = c_allowed.driver()
     check(c_allowed.SOURCE, "et_allowed_twists", fn.argtypes, fn.restype)
+
+
+@pytest.mark.parametrize("m", range(1, 7))
+def test_c_reduction_is_b_transpose_x_b(m):
+    """B^T X B per pose for every basis width, NaN columns (a vanishing twist) spreading as
+    in NumPy; the compiled route of ``allowed.reduce`` is this one; bad shapes refused."""
+    from eigentwist.runtime import allowed
+
+    rng = np.random.default_rng(m)
+    X, B = rng.standard_normal((70, 6, 6)), rng.standard_normal((70, 6, m))
+    B[5, :, -1] = np.nan
+    want = np.einsum("nia,nij,njb->nab", B, X, B)
+    got = c_allowed.reduce(X, B)
+    assert got.shape == (70, m, m) and np.array_equal(np.isnan(got), np.isnan(want))
+    assert np.isnan(got[5, -1]).all() and np.isnan(got[5, :, -1]).all()
+    assert np.allclose(got, want, rtol=1e-13, atol=1e-13 * np.abs(want[np.isfinite(want)]).max(), equal_nan=True)
+    assert np.array_equal(allowed.reduce(X, B, compiled=True), got, equal_nan=True)
+    assert allowed.reduce(X[:0], B[:0], compiled=True).shape == (0, m, m)
+    with pytest.raises(ValueError, match=r"reduce takes X \(N, 6, 6\) and B \(N, 6, m <= 6\): got \(70, 6, 6\)"):
+        c_allowed.reduce(X, np.zeros((70, 5, m)))
+    with pytest.raises(ValueError, match=r"got \(70, 6, 6\) and \(70, 6, 7\)"):
+        c_allowed.reduce(X, np.zeros((70, 6, 7)))

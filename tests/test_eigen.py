@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from eigentwist.runtime.eigen import frequencies_hz, generalized_eigh, generalized_eigvalsh, normalize_eigentwists
+from eigentwist.runtime.eigen import (
+    ROUNDOFF_EPS,
+    frequencies_hz,
+    generalized_eigh,
+    generalized_eigvalsh,
+    largest_magnitude,
+    normalize_eigentwists,
+    unstable_modes,
+)
 from eigentwist.runtime.tracking import mac, track_modes
 
 from .conftest import workspace_grid
@@ -61,6 +69,25 @@ def test_frequencies_and_normalisation():
     V = np.array([[[0.2, -4.0], [-0.5, 1.0]]])
     N = normalize_eigentwists(V)
     np.testing.assert_allclose(N, [[[-0.4, 1.0], [1.0, -0.25]]])
+
+
+def test_largest_magnitude_is_the_rows_max_abs():
+    lam = np.random.default_rng(3).normal(size=(50, 4)) * 10.0 ** np.arange(4)
+    lam[7, 2] = np.nan  # a pose that failed: its scale is NaN, as NumPy's max gives it
+    want = np.abs(lam).max(axis=-1, keepdims=True)
+    got = largest_magnitude(lam)
+    assert got.shape == (50, 1) and np.array_equal(got, want, equal_nan=True)
+    assert largest_magnitude(np.zeros((3, 0))).tolist() == [[0.0]] * 3
+    assert largest_magnitude(np.array([-2.0, 1.0])).tolist() == [2.0]
+
+
+def test_a_negative_eigenvalue_is_round_off_up_to_eps_of_the_largest():
+    big = 4.0e6
+    edge = -ROUNDOFF_EPS * big
+    lam = np.array([[edge * 0.99, 1.0, big], [edge * 1.01, 1.0, big], [np.nan, 1.0, big]])
+    assert unstable_modes(lam).tolist() == [[False, False, False], [True, False, False], [False, False, False]]
+    f = frequencies_hz(lam)
+    assert f[0, 0] == 0.0 and np.isnan(f[1, 0]) and f[0, 2] == np.sqrt(big) / (2 * np.pi)
 
 
 def test_mac_is_one_for_parallel_and_zero_for_m_orthogonal():

@@ -19,7 +19,7 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["driver", "allowed_twists", "SOURCE", "BLOCK"]
+__all__ = ["driver", "allowed_twists", "reduce", "SOURCE", "BLOCK"]
 
 SOURCE = r"""
 #include <math.h>
@@ -125,6 +125,49 @@ int et_allowed_twists(int64_t n, const double *rows, int64_t stride, int c, cons
     free(Q); free(a);
     return 0;
 }
+
+/* out[p] = B[p]^T (X[p] B[p]) for poses [0, n): X (n, 6, 6), B (n, 6, m), out (n, m, m),
+   each row-major and contiguous; m <= 6 (one function per m: fixed loop bounds unroll) */
+#define ET_REDUCE(M)                                                                     \
+    static void et_reduce_##M(int64_t n, const double *X, const double *Bm, double *out) \
+    {                                                                                    \
+        for (int64_t p = 0; p < n; ++p) {                                                \
+            const double *x = X + 36 * p, *b = Bm + 6 * M * p;                           \
+            double *o = out + M * M * p, xb[6][M];                                       \
+            for (int i = 0; i < 6; ++i)                                                  \
+                for (int k = 0; k < M; ++k) {                                            \
+                    double s = 0.0;                                                      \
+                    for (int j = 0; j < 6; ++j)                                          \
+                        s += x[6 * i + j] * b[M * j + k];                                \
+                    xb[i][k] = s;                                                        \
+                }                                                                        \
+            for (int a = 0; a < M; ++a)                                                  \
+                for (int k = 0; k < M; ++k) {                                            \
+                    double s = 0.0;                                                      \
+                    for (int i = 0; i < 6; ++i)                                          \
+                        s += b[M * i + a] * xb[i][k];                                    \
+                    o[M * a + k] = s;                                                    \
+                }                                                                        \
+        }                                                                                \
+    }
+ET_REDUCE(1)
+ET_REDUCE(2)
+ET_REDUCE(3)
+ET_REDUCE(4)
+ET_REDUCE(5)
+ET_REDUCE(6)
+
+void et_reduce(int64_t n, int m, const double *X, const double *Bm, double *out)
+{
+    switch (m) {
+    case 1: et_reduce_1(n, X, Bm, out); break;
+    case 2: et_reduce_2(n, X, Bm, out); break;
+    case 3: et_reduce_3(n, X, Bm, out); break;
+    case 4: et_reduce_4(n, X, Bm, out); break;
+    case 5: et_reduce_5(n, X, Bm, out); break;
+    case 6: et_reduce_6(n, X, Bm, out); break;
+    }
+}
 """
 
 BLOCK = 64  # poses per block (B in the source): ranges split over threads on its multiples
@@ -157,8 +200,27 @@ def driver():
                 ctypes.c_void_p,
             ]
             fn.restype = ctypes.c_int
+            lib.et_reduce.argtypes = [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+            lib.et_reduce.restype = None
         _DRIVER.append(fn)
     return _DRIVER[0]
+
+
+def reduce(X: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``B^T X B`` per pose in C: (N, m, m) from (N, 6, 6) and (N, 6, m), m <= 6; what
+    :func:`eigentwist.runtime.allowed.reduce` computes, to round-off. Raises RuntimeError
+    where the driver cannot be built."""
+    if driver() is None:
+        raise RuntimeError("the C allowed-twist driver could not be built (no compiler)")
+    X = np.ascontiguousarray(X, dtype=np.float64)
+    B = np.ascontiguousarray(B, dtype=np.float64)
+    n, m = len(X), B.shape[-1]
+    if X.shape != (n, 6, 6) or B.shape != (n, 6, m) or m > 6:
+        raise ValueError(f"reduce takes X (N, 6, 6) and B (N, 6, m <= 6): got {X.shape} and {B.shape}")
+    out = np.empty((n, m, m))
+    if n:
+        _LIBRARIES[0].et_reduce(n, m, X.ctypes.data, B.ctypes.data, out.ctypes.data)
+    return out
 
 
 def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rtol: float, tol_col: float, picks=None, threads: int = 1):

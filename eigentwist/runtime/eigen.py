@@ -16,6 +16,7 @@ __all__ = [
     "generalized_eigvalsh",
     "frequencies_hz",
     "unstable_modes",
+    "largest_magnitude",
     "normalize_eigentwists",
     "ROUNDOFF_EPS",
 ]
@@ -76,8 +77,17 @@ def unstable_modes(lam: np.ndarray, eps: float = ROUNDOFF_EPS) -> np.ndarray:
     negative values closer to zero are round-off and count as 0.
     """
     lam = np.asarray(lam, dtype=float)
-    scale = np.abs(lam).max(axis=-1, keepdims=True, initial=0.0) if lam.size else np.zeros(lam.shape[:-1] + (1,))
-    return lam < -eps * scale
+    return lam < -eps * largest_magnitude(lam)
+
+
+def largest_magnitude(lam: np.ndarray) -> np.ndarray:
+    """(..., 1): max |lambda| over the last axis (0 for none), one column at a time: a
+    reduction along a short last axis runs per row, and a batch has many rows."""
+    lam = np.asarray(lam, dtype=float)
+    scale = np.zeros(lam.shape[:-1] + (1,))
+    for k in range(lam.shape[-1]):
+        np.maximum(scale[..., 0], np.abs(lam[..., k]), out=scale[..., 0])
+    return scale
 
 
 def frequencies_hz(lam: np.ndarray, eps: float = ROUNDOFF_EPS) -> np.ndarray:

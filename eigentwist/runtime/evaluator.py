@@ -801,15 +801,15 @@ class Evaluator:
             if bad.any():
                 self._raise_first(poses_arr, p, bad)
             B = self._basis(res["J_rows"])
-            return reduce(res["M"], B), reduce(res["K_R"], B)
+            return reduce(res["M"], B, compiled=True), reduce(res["K_R"], B, compiled=True)
         if stash is not None and not self._fused:
             mats, stash["q"] = self._matrices_q(poses_arr, self.resolver.resolve(len(poses_arr), params, effects))
             stash.update((k, mats[k]) for k in MATRICES)
         else:
             mats = self.matrices(poses_arr, effects, **params)
         B = self.allowed_twists(poses_arr, **params) if rigid else None
-        M = reduce(mats["M"], B) if rigid else mats["M"]
-        K = reduce(mats["K_R"], B) if rigid else mats["K_F"]
+        M = reduce(mats["M"], B, self._fused) if rigid else mats["M"]
+        K = reduce(mats["K_R"], B, self._fused) if rigid else mats["K_F"]
         if self._preloaded(effects):
             from .gravity import gravity_stiffness
 
