@@ -14,7 +14,7 @@ import scipy.linalg
 import eigentwist
 from eigentwist.runtime import InputError, SingularPoseError, UnreachablePoseError, UnstablePoseError
 from eigentwist.runtime import condense
-from eigentwist.runtime.completion import CHUNK, chunks, take
+from eigentwist.runtime.completion import CHUNK, chunks, masked, take, user_rows
 from eigentwist.runtime.evaluator import AXES, Evaluator, Modes
 
 
@@ -291,13 +291,13 @@ def test_rows_of_the_inputs_are_taken_where_an_input_has_one_per_pose():
     t = take(p, slice(1, 3))
     assert t["a"].tolist() == [1.0, 2.0] and t["s"] == 2.0 and t["one"].tolist() == [5.0]
     mask = np.array([True, False, True])
-    m = Evaluator._mask(p, mask, n)
+    m = masked(p, mask, n)
     assert m["a"].tolist() == [0.0, 2.0] and m["one"].tolist() == [5.0] and m["s"] == 2.0
     single = {"a": np.array([7.0])}
-    assert Evaluator._mask(single, np.array([True]), 1)["a"] is single["a"]
-    r = Evaluator._rows({"a": [1.0, 2.0, 3.0], "s": 4.0, "two": np.ones(2)}, mask, n)
+    assert masked(single, np.array([True]), 1)["a"] is single["a"]
+    r = user_rows({"a": [1.0, 2.0, 3.0], "s": 4.0, "two": np.ones(2)}, mask, n)
     assert r["a"].tolist() == [1.0, 3.0] and r["s"] == 4.0 and r["two"].tolist() == [1.0, 1.0]
-    assert Evaluator._rows({"a": [1.0]}, slice(0, 1), 1)["a"] == [1.0]
+    assert user_rows({"a": [1.0]}, slice(0, 1), 1)["a"] == [1.0]
 
 
 def test_a_batch_longer_than_a_chunk_gives_each_poses_own_result(heli4):

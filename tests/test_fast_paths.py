@@ -256,26 +256,26 @@ def test_parallel_screen_is_remembered_per_geometry(ev_c, monkeypatch):
     """The parallel-singularity screen is computed once per content of the poses and the
     inputs of the kernels it runs: a stiffness leaves it, a geometric parameter (l1) or a
     pose computes it anew, and the answer is always the one computed afresh."""
-    import eigentwist.runtime.evaluator as evaluator
+    import eigentwist.runtime.checks as checks
 
-    ev_c._parallel_memo = evaluator.BoundedMemo()
+    ev_c.checks.parallel_memo = checks.BoundedMemo()
     calls = []
-    rows_of = ev_c._platform_rows
-    monkeypatch.setattr(ev_c, "_platform_rows", lambda at, pp: calls.append(1) or rows_of(at, pp))
+    rows_of = ev_c.checks.platform_rows
+    monkeypatch.setattr(ev_c.checks, "platform_rows", lambda at, pp: calls.append(1) or rows_of(at, pp))
     # a screen that depends on the rows' values: a stale answer would differ from a fresh one
-    monkeypatch.setattr(evaluator, "parallel_mask", lambda W: W[:, 0, 3] > -0.47)
+    monkeypatch.setattr(checks, "parallel_mask", lambda W: W[:, 0, 3] > -0.47)
     poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6], [0.0, 0.0, -0.625]])
     idx = np.arange(3)
 
     def screen(poses=poses, **params):
         p = ev_c.resolver.resolve(len(poses), params, "paper")
-        return ev_c._parallel_ok(poses, p, idx, strict=False)
+        return ev_c.checks.parallel_ok(poses, p, idx, strict=False)
 
     def fresh(poses=poses, **params):
         p = ev_c.resolver.resolve(len(poses), params, "paper")
-        return evaluator.parallel_mask(rows_of(poses, ev_c.completion.with_pose(poses, p)))
+        return checks.parallel_mask(rows_of(poses, ev_c.completion.with_pose(poses, p)))
 
-    assert "l1" in ev_c._geometry_names() and "k_a" not in ev_c._geometry_names()
+    assert "l1" in ev_c.checks.geometry_names() and "k_a" not in ev_c.checks.geometry_names()
     first = screen()
     assert len(calls) == 1 and np.array_equal(first, fresh())
     assert np.array_equal(screen(), first) and np.array_equal(screen(k_a=2000.0), first)
@@ -338,7 +338,7 @@ def test_kernel_scalars_packed_once_follow_the_values(ev_c):
     ev_c.resolver.resolve(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # the defaults' first use checks them
     frozen = ev_c.resolver.resolve(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # arrays: not memoised
     assert frozen["l1"] is ev_c.resolver.resolve(2, {"k_a": np.array([1.0, 2.0])}, "paper")["l1"]  # same default object
-    q = ev_c._ik(poses, frozen)
+    q = ev_c.checks.ik(poses, frozen)
     a = ev_c.kernels.matrices(q, ev_c.completion.with_pose(poses, frozen))["K_F"]
     packed = ev_c.kernels._kernel_packed["matrices"]
     b = ev_c.kernels.matrices(q, ev_c.completion.with_pose(poses, frozen))["K_F"]

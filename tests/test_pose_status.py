@@ -224,13 +224,15 @@ def test_the_fused_pass_checks_exactly_the_poses_below_its_screen(monkeypatch):
     k = int(np.argmax(ratio > evaluator.PARALLEL_SCREEN))
     assert ratio[k - 1] < evaluator.PARALLEL_SCREEN < ratio[k] < 1.1 * ratio[k - 1]
     checked = []
-    original = evaluator.Evaluator._parallel_ok
+    from eigentwist.runtime.checks import PoseChecks
+
+    original = PoseChecks.parallel_ok
 
     def spy(self, poses, p, rows, strict):
         checked.extend(poses[rows, 2].tolist())
         return original(self, poses, p, rows, strict)
 
-    monkeypatch.setattr(evaluator.Evaluator, "_parallel_ok", spy)
+    monkeypatch.setattr(PoseChecks, "parallel_ok", spy)
     ev = eigentwist.load("delta", backend="c", threads=1)
     x = np.array([[0.0, 0.0, z0 - dz[k - 1]], [0.0, 0.0, z0 - dz[k]]])
     assert np.isfinite(ev.frequencies(x, "paper", l2=0.4)).all()

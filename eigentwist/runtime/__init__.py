@@ -8,6 +8,7 @@ from .errors import (
     UnreachablePoseError,
     UnstablePoseError,
 )
+from .checks import PoseChecks
 from .completion import PoseCompletion
 from .evaluator import AXES, Evaluator, Modes
 from .inputs import InputResolver
@@ -32,6 +33,7 @@ __all__ = [
     "POSE_STATUS",
     "InputResolver",
     "PoseCompletion",
+    "PoseChecks",
     "Kernels",
     "CompiledKernels",
     "ROUTES",

@@ -16,12 +16,13 @@ from . import condense
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
-from .completion import CompletedPoses, PoseCompletion, chunks, take
+from .checks import PoseChecks
+from .completion import CompletedPoses, PoseCompletion, chunks, masked, take, user_rows
 from .inputs import InputResolver
 from .kernels import Kernels
 from .routes import choose_route
 from .labels import directions, energy_shares
-from .memo import BoundedMemo, content_key
+from .memo import BoundedMemo
 from .threads import resolve_threads
 from .validity import (
     CONDITIONING_TOL,
@@ -29,14 +30,7 @@ from .validity import (
     LEVER_TOL,
     POSE_STATUS,
     STATUS,
-    conditioning,
-    lever_mask,
-    parallel_mask,
-    platform_rows,
-    raise_parallel,
     raise_singular,
-    raise_unreachable,
-    reachable_mask,
 )
 
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_STATUS"]
@@ -174,7 +168,8 @@ class Evaluator:
 
     A call runs in stages: the inputs resolver (``ev.resolver``, :mod:`.inputs`: model and
     values -> the kernels' inputs), pose completion (``ev.completion``, :mod:`.completion`:
-    poses -> the kernels' coordinates, legs solved by Newton), the kernels (``ev.kernels``,
+    poses -> the kernels' coordinates, legs solved by Newton), the pose checks (``ev.checks``,
+    :mod:`.checks`: reachable, not singular), the kernels (``ev.kernels``,
     :mod:`.kernels`: the generated NumPy module or the C library), and the route that solves
     the modes (:mod:`.routes`).
     """
@@ -191,6 +186,8 @@ class Evaluator:
         self.resolver = InputResolver(robot)
         #: pose completion (poses -> the kernels' coordinates, legs solved by Newton: :mod:`.completion`)
         self.completion = PoseCompletion(robot, module, self.resolver, lambda: self._kernels, self._c_threads)
+        #: pose checks (reachability, serial and parallel singularity: :mod:`.checks`)
+        self.checks = PoseChecks(robot, self.completion, lambda: self._kernels)
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
@@ -203,13 +200,10 @@ class Evaluator:
         self.space = self.completion.space
         #: True when the kernels take a rigid platform's six coordinates (rotation included)
         self._six = self.completion.six
-        #: a point platform's translations (6 x d): the only twists its legs' rows must fix
-        self._freedoms = self.space.basis if getattr(self.space, "point", False) else None
         self._rigid_models: dict = {}  # model -> whether a leg has a rigid direction (_route)
         #: C backend: run the Newton iterations of legs in URDF form and of a platform's followers in C
         #: (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
-        self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
         self._plans = BoundedMemo(64)  # (values key, invalid, unstable, vectors) -> prepared C pass (_plan)
         self._planned_for = self._kernels  # the kernels the plans were prepared for
         if self.numeric_ik:
@@ -367,104 +361,6 @@ class Evaluator:
         return self.stiffness_model(model)
 
     # ---------------------------------------------------------------- kernels
-    def _check_rows(self, poses: np.ndarray, p: dict, strict: bool):
-        """Inverse kinematics with the reachability and singularity checks.
-
-        Returns ``(q, jacobians, ok)``: joint angles (n, legs, 3), the ``jacobians``
-        kernel output for the valid rows (None when none is valid) and the (n,) mask of
-        valid rows. With ``strict`` the first invalid row raises an error naming the
-        pose, the leg and the violated condition (:mod:`.validity`).
-        """
-        n = len(poses)
-        legs = self.robot.legs
-        if strict:
-            self._raise_unfollowed(poses)
-        p = self.completion.with_pose(poses, p)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
-        if strict:
-            self.completion.raise_off_branch(poses, p)
-            raise_unreachable(legs, poses, out, self.pose_names)
-        ok = reachable_mask(out)
-        q, jac = out["q"], None
-        if ok.any():
-            sub = p if ok.all() else self._mask(p, ok, n)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
-            lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
-            rows = platform_rows(jac["J_rows"], legs, self._freedoms)
-            if strict:
-                raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None, self.pose_names)
-                raise_parallel(poses[ok], rows, self.pose_names)
-            ok[ok] = lever_mask(lever) & parallel_mask(rows)
-        return q, jac, ok
-
-    def _platform_rows(self, poses: np.ndarray, pp: dict) -> np.ndarray:
-        """(n, r, 6) the platform's actuation and constraint rows at reachable poses
-        (:func:`~.validity.platform_rows`; the IK and jacobians kernels of either backend);
-        ``pp`` the kernels' inputs with the pose (:meth:`_with_pose`)."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            q = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], pp)["q"]
-            return platform_rows(self._kernels.jacobians(q, pp)["J_rows"], self.robot.legs, self._freedoms)
-
-    def _geometry_names(self):
-        """The inputs the inverse-kinematics and jacobians kernels read (the C library's
-        signature); None for kernels that do not declare them (no memo)."""
-        spec = getattr(self._kernels, "_spec", None)
-        if spec is None:
-            return None
-        return sorted(
-            {name for k in ("inverse_kinematics", "jacobians") for group, name, _ in spec[k]["inputs"] if group != "q"}
-        )
-
-    def _parallel_ok(self, poses: np.ndarray, p: dict, rows: np.ndarray, strict: bool) -> np.ndarray:
-        """(len(rows),) bool: the poses ``rows`` (indices) are not parallel singular; with
-        ``strict`` the first that is raises :class:`SingularPoseError`. Remembered per content
-        of the poses and every input of the kernels it runs (:mod:`.memo`): the stiffnesses a
-        fit varies leave it unchanged, a geometric parameter or a pose computes it anew."""
-        if not len(rows):
-            return np.ones(0, dtype=bool)
-        n = len(poses)
-        mask = np.zeros(n, dtype=bool)
-        mask[rows] = True
-        sub = p if mask.all() else self._mask(p, mask, n)
-        at = poses[mask]
-        pp = self.completion.with_pose(at, sub)
-        names = self._geometry_names()
-        key = None if names is None else content_key(at, pp, names)
-        ok = None if key is None else self._parallel_memo.get(key)
-        if ok is None:
-            ok = parallel_mask(self._platform_rows(at, pp))
-            if key is not None:
-                ok.flags.writeable = False
-                self._parallel_memo.put(key, ok)
-        if strict and not ok.all():
-            raise_parallel(at, self._platform_rows(at, pp), self.pose_names)
-        return ok.copy()
-
-    def _raise_unfollowed(self, poses: np.ndarray) -> None:
-        """Raise :class:`UnreachablePoseError` for the first pose whose followers did not
-        converge (NaN, :mod:`.platform`), naming its commanded coordinates."""
-        bad = np.isnan(poses).any(axis=1)
-        if bad.any():
-            from .errors import UnreachablePoseError
-            from .platform import MAX_STEPS
-
-            k = int(np.argmax(bad))
-            given = ", ".join(f"{c} = {poses[k, FULL.index(c)]:.6g}" for c in self.pose_names)
-            raise UnreachablePoseError(
-                f"pose {given} ({self.completion.pose_units()}) is unreachable for {self.robot.name}: its "
-                f"{', '.join(self.space.followers)} did not converge (damped Newton on the legs' closures, "
-                f"{MAX_STEPS} steps from the reference and from the previous pose)"
-            )
-
-    @staticmethod
-    def _mask(p: dict, mask: np.ndarray, n: int) -> dict:
-        return {k: (v[mask] if v.ndim == 1 and v.shape[0] == n and n > 1 else v) for k, v in p.items()}
-
-    def _ik(self, poses: np.ndarray, p: dict) -> np.ndarray:
-        return self._check_rows(poses, p, strict=True)[0]
-
     def _run(self, kernel: str, poses, model, params: dict) -> dict:
         poses = self.completion.poses(poses, params)
         n = len(poses)
@@ -472,7 +368,7 @@ class Evaluator:
         results: dict = {}
         for sl in chunks(n):
             pc = take(p, sl)
-            q, jac, _ = self._check_rows(poses[sl], pc, strict=True)
+            q, jac, _ = self.checks.check_rows(poses[sl], pc, strict=True)
             # the checks already evaluated the jacobians kernel: every result carries it
             out = (
                 {"q": q, **jac}
@@ -504,31 +400,6 @@ class Evaluator:
             **kw,
         )
 
-    def _raise_first(self, poses: np.ndarray, p: dict, bad: np.ndarray) -> None:
-        """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
-        self._raise_unfollowed(poses)
-        if self.numeric_ik:
-            self.completion.raise_off_branch(poses, self.completion.with_pose(poses, p))
-        k = int(np.argmax(bad))
-        self._kernels.raise_invalid(
-            k,
-            poses[:, 0],
-            poses[:, 1],
-            poses[:, 2],
-            self.completion.with_pose(poses, p),
-            (len(poses),),
-            legs=self.robot.legs,
-            names=self.pose_names,
-        )
-
-    @staticmethod
-    def _rows(params: dict, sl, n: int) -> dict:
-        """The user's parameters for rows ``sl`` of n poses ((n,) arrays sliced, the rest kept)."""
-        return {
-            k: (np.asarray(v)[sl] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
-            for k, v in params.items()
-        }
-
     # ----------------------------------------------------------------- public
     def valid(self, poses, model="paper", **params) -> np.ndarray:
         """(N,) bool: which poses are reachable and neither serial nor parallel singular
@@ -539,12 +410,7 @@ class Evaluator:
         """
         poses = self.completion.poses(poses, params)
         p = self.resolver.resolve(len(poses), params, model)
-        if self._fused:
-            st = self._c_pass(poses, p, matrices=())["status"]
-            ok = (st != STATUS["unreachable"]) & (st != STATUS["singular"])
-            ok[ok] = self._parallel_ok(poses, p, np.flatnonzero(ok), strict=False)
-            return ok
-        return np.concatenate([self._check_rows(poses[sl], take(p, sl), strict=False)[2] for sl in chunks(len(poses))])
+        return self.checks.valid(poses, p, self._c_pass(poses, p, matrices=())["status"] if self._fused else None)
 
     def pose_status(self, poses, model="paper", **params) -> dict:
         """Each pose's status and conditioning, never an error.
@@ -562,43 +428,14 @@ class Evaluator:
         :class:`SingularPoseError` at either singularity and :meth:`valid` is False there.
         """
         poses = self.completion.poses(poses, params)
-        n = len(poses)
-        p = self.resolver.resolve(n, params, model)
-        code = np.full(n, POSE_STATUS.index("unreachable"), dtype=np.int8)
-        cond, lever_min = np.full(n, np.nan), np.full(n, np.nan)
-        for sl in chunks(n):
-            pc = self.completion.with_pose(poses[sl], take(p, sl))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                ik = self._kernels.inverse_kinematics(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc)
-            reach = reachable_mask(ik) & np.isfinite(poses[sl]).all(axis=1)
-            if not reach.any():
-                continue
-            sub = self._mask(pc, reach, len(reach)) if not reach.all() else pc
-            with np.errstate(invalid="ignore", divide="ignore"):
-                jac = self._kernels.jacobians(ik["q"][reach], sub)
-            lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
-            rows = platform_rows(jac["J_rows"], self.robot.legs, self._freedoms)
-            idx = np.arange(sl.start, sl.stop)[reach]
-            cond[idx] = conditioning(rows)
-            lever_min[idx] = np.abs(lever).min(axis=-1)
-            code[idx] = np.where(
-                ~lever_mask(lever),
-                POSE_STATUS.index("serial singular"),
-                np.where(~parallel_mask(rows), POSE_STATUS.index("parallel singular"), POSE_STATUS.index("reachable")),
-            )
-        return {
-            "status": np.array(POSE_STATUS, dtype=object)[code],
-            "code": code,
-            "conditioning": cond,
-            "lever": lever_min,
-        }
+        return self.checks.pose_status(poses, self.resolver.resolve(len(poses), params, model))
 
     def joint_angles(self, poses, **params) -> np.ndarray:
         """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
         leg in rad for the Heli4/Delta (k = 3); the leg length in m for the hexapod (k = 1)."""
         poses = self.completion.poses(poses, params)
         p = self.resolver.resolve(len(poses), params, "paper")
-        return np.concatenate([self._ik(poses[sl], take(p, sl)) for sl in chunks(len(poses))])
+        return np.concatenate([self.checks.ik(poses[sl], take(p, sl)) for sl in chunks(len(poses))])
 
     def jacobians(self, poses, **params) -> dict:
         """Inverse-Jacobian rows ``J_rows`` (N, legs, 4, 6), (N, legs, 6, 6) for the hexapod
@@ -647,8 +484,8 @@ class Evaluator:
             res = self._c_pass(poses, p, matrices=MATRICES, out=out)
             bad = res["status"] != STATUS["ok"]
             if bad.any():
-                self._raise_first(poses, p, bad)
-            self._parallel_ok(poses, p, np.arange(n), strict=True)
+                self.checks.raise_first(poses, p, bad)
+            self.checks.parallel_ok(poses, p, np.arange(n), strict=True)
             return {k: res[k] for k in MATRICES}
         return self._matrices_q(poses, p, out)[0]
 
@@ -661,7 +498,7 @@ class Evaluator:
         qs = []
         for sl in chunks(n):
             pc = take(p, sl)
-            q = self._check_rows(poses[sl], pc, strict=True)[0]
+            q = self.checks.check_rows(poses[sl], pc, strict=True)[0]
             qs.append(q)
             chunk = self._kernels.matrices(q, self.completion.with_pose(poses[sl], pc))
             for k in MATRICES:
@@ -769,7 +606,7 @@ class Evaluator:
         self.resolver.resolve(n, params, model)
         for start in range(0, n, int(chunk)):
             sl = slice(start, min(n, start + int(chunk)))
-            yield sl, self.matrices(poses[sl], model, **self._rows(params, sl, n))
+            yield sl, self.matrices(poses[sl], model, **user_rows(params, sl, n))
 
     def stiffness(self, poses, model="paper", **params):
         """The (M, K) pair the model's eigenproblem uses, with the gravity preload if on.
@@ -799,7 +636,7 @@ class Evaluator:
             res = self._c_pass(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
             bad = res["status"] != STATUS["ok"]
             if bad.any():
-                self._raise_first(poses_arr, p, bad)
+                self.checks.raise_first(poses_arr, p, bad)
             B = self._basis(res["J_rows"])
             return reduce(res["M"], B), reduce(res["K_R"], B)
         if stash is not None and not self._fused:
@@ -831,7 +668,7 @@ class Evaluator:
             res = self._c_pass(poses, p, matrices=(), jacobians=("J_rows",))
             bad = res["status"] != STATUS["ok"]
             if bad.any():
-                self._raise_first(poses, p, bad)
+                self.checks.raise_first(poses, p, bad)
             rows = res["J_rows"]
         else:
             rows = self.jacobians(poses, **params)["J_rows"]
@@ -982,11 +819,11 @@ class Evaluator:
         if not rows.any():
             return None
         pr = np.asarray(poses, dtype=float)[rows]
-        sub = self._rows(params, rows, N)
+        sub = user_rows(params, rows, N)
         known = modes.legs if modes.legs is not None and np.array_equal(modes.legs["rows"], rows) else None
         if known is None:
             p = self.resolver.resolve(len(pr), sub, effects)
-            q = self._ik(pr, p)
+            q = self.checks.ik(pr, p)
             legs = self._kernels.legs(q, self.completion.with_pose(pr, p))
         else:  # the kernels' outputs of modes' own pass (the legs kernel where it did not run)
             q = known["q"]
@@ -1080,7 +917,7 @@ class Evaluator:
         x = np.array([self.robot.x_ref], dtype=float)
         try:
             p = self.resolver.resolve(1, first, effects)
-            Cq = self._kernels.legs(self._ik(x, p), self.completion.with_pose(x, p))["Cq"]
+            Cq = self._kernels.legs(self.checks.ik(x, p), self.completion.with_pose(x, p))["Cq"]
         except Exception:  # an unreachable reference, or refused values (the call names them)
             return None
         return condense.has_rigid_direction(Cq)
@@ -1095,10 +932,10 @@ class Evaluator:
             return modes
         poses = np.asarray(poses, dtype=float)
         n = len(poses)
-        sub = self._rows(params, rows, n)
+        sub = user_rows(params, rows, n)
         pr = poses[rows]
-        p = self.resolver.resolve(len(pr), sub, effects) if p is None else (p if rows.all() else self._mask(p, rows, n))
-        q = self._ik(pr, p) if q is None else q[rows]
+        p = self.resolver.resolve(len(pr), sub, effects) if p is None else (p if rows.all() else masked(p, rows, n))
+        q = self.checks.ik(pr, p) if q is None else q[rows]
         pk = self.completion.with_pose(pr, p)
         out = self._kernels.legs(q, pk)
         M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
@@ -1167,7 +1004,7 @@ class Evaluator:
         stable = np.ones(n, dtype=bool)
         if ok.any():
             part = {} if stash is not None else None
-            m = self._solve(*self._stiffness(poses[ok], effects, self._rows(params, ok, n), part), vectors, stiffness)
+            m = self._solve(*self._stiffness(poses[ok], effects, user_rows(params, ok, n), part), vectors, stiffness)
             freq[ok], stable[ok] = m.freq_hz, m.stable
             if vectors:
                 vec[ok] = m.eigentwists
@@ -1246,13 +1083,13 @@ class Evaluator:
         st = out["status"]
         valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
         if check and not valid.all():
-            self._raise_first(poses, p, ~valid)
+            self.checks.raise_first(poses, p, ~valid)
         # a parallel singularity drives the lowest frequency to 0: the poses whose lowest
         # mode is 0, NaN or below PARALLEL_SCREEN times their highest get the exact check
         freq = out["freq_hz"]
         low = valid & ~above_screen(freq)
         suspect = np.flatnonzero(low)
-        singular = suspect[~self._parallel_ok(poses, p, suspect, strict=check)]
+        singular = suspect[~self.checks.parallel_ok(poses, p, suspect, strict=check)]
         if singular.size:
             valid[singular] = False
             out["freq_hz"][singular] = np.nan
@@ -1275,7 +1112,7 @@ class Evaluator:
             rows = np.ones(len(poses), dtype=bool) if modes.valid is None else modes.valid
             n = len(poses)
             mats = {k: out[k][rows] for k in ("M",) + keep}
-            modes.legs = {"rows": rows, "q": out["q"][rows], "p": p if rows.all() else self._mask(p, rows, n), **mats}
+            modes.legs = {"rows": rows, "q": out["q"][rows], "p": p if rows.all() else masked(p, rows, n), **mats}
         merged = exact_merge(self, effects, poses, params, p, solved, modes, vectors) if damped == "exact" else None
         if merged is not None:
             modes = merged
@@ -1512,7 +1349,7 @@ class Evaluator:
             parts = []
             for sl in chunks(len(poses)):
                 pc = take(p, sl)
-                self._check_rows(poses[sl], pc, strict=True)
+                self.checks.check_rows(poses[sl], pc, strict=True)
                 out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self.completion.with_pose(poses[sl], pc))
                 out = total(dict(out), full, sl)
                 parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis))
