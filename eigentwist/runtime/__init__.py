@@ -8,6 +8,7 @@ from .errors import (
     UnreachablePoseError,
     UnstablePoseError,
 )
+from .c_route import CPassRoute
 from .checks import PoseChecks
 from .completion import PoseCompletion
 from .evaluator import AXES, Evaluator, Modes
@@ -34,6 +35,7 @@ __all__ = [
     "InputResolver",
     "PoseCompletion",
     "PoseChecks",
+    "CPassRoute",
     "Kernels",
     "CompiledKernels",
     "ROUTES",

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
 from types import ModuleType
 
 import numpy as np
@@ -11,18 +10,18 @@ import numpy as np
 from ..description import RobotDescription
 from ..description.effects import base_name
 from ..description.joints import joint_kind
-from ..description.pose import FULL, TWIST_AXIS, twist_order
+from ..description.pose import TWIST_AXIS, twist_order
 from . import condense
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
 from .errors import InputError, UnstablePoseError
+from .c_route import CPassRoute
 from .checks import PoseChecks
-from .completion import CompletedPoses, PoseCompletion, chunks, masked, take, user_rows
+from .completion import PoseCompletion, chunks, masked, take, user_rows
 from .inputs import InputResolver
 from .kernels import Kernels
 from .routes import choose_route
-from .labels import directions, energy_shares
-from .memo import BoundedMemo
+from .modes import AXES, Modes
 from .threads import resolve_threads
 from .validity import (
     CONDITIONING_TOL,
@@ -35,120 +34,8 @@ from .validity import (
 
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_STATUS"]
 
-#: the fused C pass checks a pose for a parallel singularity when its lowest frequency is
-#: 0, NaN or below this fraction of its highest: a twist escaping the legs' wrenches with a
-#: conditioning c has omega about c times the others' (the stiffness along it scales with
-#: c^2), so at CONDITIONING_TOL (1.5e-6) it lies ~700 times below this screen. A loss of every
-#: allowed twist at once keeps the ratio and is caught where the frequencies reach 0 or
-#: NaN; the other paths (NumPy, matrices, valid, pose_status) check every pose exactly.
-PARALLEL_SCREEN = 1e-3
-
-
-def above_screen(freq: np.ndarray) -> np.ndarray:
-    """(N,) whether each pose's lowest frequency (a row of ``freq``, Hz) lies above
-    :data:`PARALLEL_SCREEN` times its highest; False where the row holds a NaN. One pass per
-    column: NumPy's reductions along a short last axis cost about 100 ns a pose, more than
-    the C pass's checks (a NaN propagates through minimum and maximum and compares False)."""
-    lo = freq[:, 0].copy()
-    hi = lo.copy()
-    for j in range(1, freq.shape[1]):
-        np.minimum(lo, freq[:, j], out=lo)
-        np.maximum(hi, freq[:, j], out=hi)
-    return lo > PARALLEL_SCREEN * hi
-
-
-AXES = ("rx", "ry", "rz", "x", "y", "z")
 MATRIX_CHUNK = 65536  # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
 MATRICES = ("M", "K_R", "K_F")
-
-
-@dataclass
-class Modes:
-    """Natural frequencies and eigentwists of a batch of poses.
-
-    freq_hz : (N, n) ascending, Hz. An unstable mode (negative stiffness: an eigenvalue
-        omega^2 below round-off, see :data:`eigentwist.runtime.eigen.ROUNDOFF_EPS`) is NaN,
-        never 0 Hz.
-    eigentwists : (N, n, n), one column per mode, largest entry +1 (Eqs. 57, 65); None
-        from ``modes(..., vectors=False)``.
-    axes : names of the n coordinates (``("x", "y", "z")`` for a 3-DoF robot's rigid
-        model, ``("rx", "ry", "rz", "x", "y", "z")`` for the flexible one and for every
-        model of a 6-DoF robot).
-    stiffness_model : ``"rigid"`` (K_R, Eq. 14: the 3x3 translational subsets for a 3-DoF
-        robot, the full 6x6 for a 6-DoF one) or ``"flexible"`` (K_F, Eq. 13).
-    valid : (N,) bool, which poses were evaluated (reachable, not singular); the others
-        hold NaN. Set by ``modes(..., invalid="nan")``; None when every pose is valid.
-    stable : (N,) bool, False where a mode is unstable (its frequency is NaN); all True
-        unless the evaluator found one.
-    constrained : (N, n) bool, True where a column is a rigid constraint's mode (infinite
-        frequency: the value there is K_F's stand-in, ~1e6 Hz, not a measurable mode); None
-        when no column is (:mod:`.condense`).
-    shares : (N, n, n) each coordinate's share of each mode's energy
-        (:func:`eigentwist.runtime.labels.energy_shares`) where the evaluator had M at hand
-        (the C pass of a flexible model); None: computed from the eigentwists when needed.
-    damping : the damped modes (:class:`eigentwist.runtime.damped.Damping`: poles, complex
-        eigentwists) of a model with a damping effect (``servo_damping``, ``servo_delay``,
-        ``structural_loss``) or where ``complex_shapes`` was asked; None: no damping, and
-        :attr:`natural_hz` and :attr:`damped_hz` are :attr:`freq_hz`, :attr:`damping_ratio` 0.
-    """
-
-    freq_hz: np.ndarray
-    eigentwists: np.ndarray | None
-    axes: tuple
-    stiffness_model: str
-    valid: np.ndarray | None = None
-    stable: np.ndarray | None = None
-    constrained: np.ndarray | None = None
-    shares: np.ndarray | None = None
-    damping: object = None
-    #: the valid rows' joint coordinates, matrices, inputs and legs-kernel outputs where the
-    #: pass computed them (reused by the damped modes, then dropped); None otherwise
-    legs: dict | None = field(default=None, repr=False)
-
-    def __post_init__(self):
-        if self.stable is None:
-            self.stable = np.ones(self.freq_hz.shape[:1], dtype=bool)
-
-    @property
-    def kind(self) -> str:
-        """Deprecated name of :attr:`stiffness_model`."""
-        warnings.warn("Modes.kind is deprecated: use Modes.stiffness_model", DeprecationWarning, stacklevel=2)
-        return self.stiffness_model
-
-    @property
-    def natural_hz(self) -> np.ndarray:
-        """(N, n) undamped natural frequency omega_n / 2 pi of each damped mode, Hz: the
-        modulus of its pole (a curve fit's omega_n); :attr:`freq_hz` without damping."""
-        return self.freq_hz if self.damping is None else self.damping.natural_hz
-
-    @property
-    def damped_hz(self) -> np.ndarray:
-        """(N, n) damped frequency omega_d / 2 pi = omega_n sqrt(1 - zeta^2) / 2 pi, Hz (a
-        free decay, a step response); :attr:`freq_hz` without damping."""
-        return self.freq_hz if self.damping is None else self.damping.damped_hz
-
-    @property
-    def damping_ratio(self) -> np.ndarray:
-        """(N, n) damping ratio zeta of each mode (-); 0 without damping."""
-        if self.damping is None:
-            return np.where(np.isnan(self.freq_hz), np.nan, 0.0)
-        return self.damping.damping_ratio
-
-    @property
-    def complex_eigentwists(self) -> np.ndarray | None:
-        """(N, n, n) complex eigentwists (columns, largest entry 1 + 0j) of the damped modes,
-        from ``modes(..., complex_shapes=True)``; None otherwise."""
-        return None if self.damping is None else self.damping.shapes
-
-    @property
-    def direction(self) -> np.ndarray:
-        """(N, n) axis index (into :data:`AXES`) carrying the largest share of each mode's
-        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist);
-        a rigid model's coordinates are its allowed twists, named by :attr:`axes`."""
-        if self.eigentwists is None:
-            raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
-        local = directions(self.eigentwists, shares=self.shares)
-        return np.asarray([AXES.index(a) for a in self.axes])[local]  # the allowed twists' axes
 
 
 class Evaluator:
@@ -204,8 +91,13 @@ class Evaluator:
         #: C backend: run the Newton iterations of legs in URDF form and of a platform's followers in C
         #: (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
-        self._plans = BoundedMemo(64)  # (values key, invalid, unstable, vectors) -> prepared C pass (_plan)
-        self._planned_for = self._kernels  # the kernels the plans were prepared for
+        #: the fused C pass and its route of the modes (:mod:`.c_route`)
+        self.c_route = CPassRoute(
+            self,
+            exact_modes=lambda *a, **k: self._exact_modes(*a, **k),
+            raise_unstable=lambda *a: self._raise_unstable(*a),
+            route=lambda *a: self._route(*a),
+        )
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -227,7 +119,7 @@ class Evaluator:
 
     def _c_threads(self):
         """The threads of the Newton iterations in C (the C backend with ``c_newton``), else None."""
-        return self._nthreads() if self._fused and self.c_newton else None
+        return self.c_route.nthreads() if self.c_route.fused and self.c_newton else None
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -379,27 +271,6 @@ class Evaluator:
                 results.setdefault(key, []).append(val)
         return {k: np.concatenate(v, axis=0) for k, v in results.items()}
 
-    # ------------------------------------------------------- the C pass
-    @property
-    def _fused(self) -> bool:
-        """Whether the kernels have the C backend's fused pass."""
-        return hasattr(self._kernels, "fused")
-
-    def _nthreads(self) -> int:
-        return resolve_threads(self.threads)
-
-    def _c_pass(self, poses: np.ndarray, p: dict, **kw) -> dict:
-        """One fused C pass over the batch (status included), on the evaluator's threads."""
-        return self._kernels.fused(
-            poses[:, 0],
-            poses[:, 1],
-            poses[:, 2],
-            self.completion.with_pose(poses, p),
-            status=True,
-            threads=self._nthreads(),
-            **kw,
-        )
-
     # ----------------------------------------------------------------- public
     def valid(self, poses, model="paper", **params) -> np.ndarray:
         """(N,) bool: which poses are reachable and neither serial nor parallel singular
@@ -410,7 +281,9 @@ class Evaluator:
         """
         poses = self.completion.poses(poses, params)
         p = self.resolver.resolve(len(poses), params, model)
-        return self.checks.valid(poses, p, self._c_pass(poses, p, matrices=())["status"] if self._fused else None)
+        return self.checks.valid(
+            poses, p, self.c_route.run(poses, p, matrices=())["status"] if self.c_route.fused else None
+        )
 
     def pose_status(self, poses, model="paper", **params) -> dict:
         """Each pose's status and conditioning, never an error.
@@ -480,8 +353,8 @@ class Evaluator:
         n = len(poses)
         p = self.resolver.resolve(n, params, model)
         out = self._check_out(out, n)
-        if self._fused:
-            res = self._c_pass(poses, p, matrices=MATRICES, out=out)
+        if self.c_route.fused:
+            res = self.c_route.run(poses, p, matrices=MATRICES, out=out)
             bad = res["status"] != STATUS["ok"]
             if bad.any():
                 self.checks.raise_first(poses, p, bad)
@@ -626,20 +499,20 @@ class Evaluator:
         rigid = self.stiffness_model(effects) == "rigid"
         if (
             rigid
-            and self._fused
+            and self.c_route.fused
             and stash is None
             and getattr(self.space, "basis", 0) is None
-            and not self._preloaded(effects)
+            and not self.resolver.preloaded(effects)
         ):
             # allowed twists that turn with the pose: M, K_R and J_rows from one C pass
             p = self.resolver.resolve(len(poses_arr), params, effects)
-            res = self._c_pass(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
+            res = self.c_route.run(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
             bad = res["status"] != STATUS["ok"]
             if bad.any():
                 self.checks.raise_first(poses_arr, p, bad)
             B = self._basis(res["J_rows"])
             return reduce(res["M"], B), reduce(res["K_R"], B)
-        if stash is not None and not self._fused:
+        if stash is not None and not self.c_route.fused:
             mats, stash["q"] = self._matrices_q(poses_arr, self.resolver.resolve(len(poses_arr), params, effects))
             stash.update((k, mats[k]) for k in MATRICES)
         else:
@@ -647,7 +520,7 @@ class Evaluator:
         B = self.allowed_twists(poses_arr, **params) if rigid else None
         M = reduce(mats["M"], B) if rigid else mats["M"]
         K = reduce(mats["K_R"], B) if rigid else mats["K_F"]
-        if self._preloaded(effects):
+        if self.resolver.preloaded(effects):
             from .gravity import gravity_stiffness
 
             K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid, B)
@@ -663,9 +536,9 @@ class Evaluator:
         fixed = getattr(self.space, "basis", None)
         if fixed is not None:
             return np.broadcast_to(np.asarray(fixed, dtype=float), (len(poses), 6, len(fixed[0])))
-        if self._fused:  # the C pass: IK, checks and J_rows at once
+        if self.c_route.fused:  # the C pass: IK, checks and J_rows at once
             p = self.resolver.resolve(len(poses), params, "paper")
-            res = self._c_pass(poses, p, matrices=(), jacobians=("J_rows",))
+            res = self.c_route.run(poses, p, matrices=(), jacobians=("J_rows",))
             bad = res["status"] != STATUS["ok"]
             if bad.any():
                 self.checks.raise_first(poses, p, bad)
@@ -680,41 +553,8 @@ class Evaluator:
         per_leg = rows.shape[2]
         picks = [i * per_leg + r for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
         candidates = coordinate_twists(twist_order(self.pose_names))
-        return allowed_twists(rows, candidates, compiled=self._fused, threads=self._nthreads(), picks=picks)
-
-    @property
-    def _c_rigid(self) -> bool:
-        """Whether the rigid model's allowed twists are what the C pass reduces to: the
-        three translations of a translational robot's 3x3 blocks or a free platform's six
-        twists (a pose space's fixed basis of either). Any other pose space's rigid model
-        (a point in a plane, a planar or lower-mobility platform) is reduced here."""
-        basis = getattr(self.space, "basis", None)
-        if basis is None:
-            return False
-        names = twist_order(self.pose_names)
-        return names in (twist_order(("x", "y", "z")), twist_order(FULL)) and len(basis[0]) == len(names)
-
-    @property
-    def _pass_rigid(self) -> bool:
-        """Whether the C pass solves this robot's rigid model itself: :attr:`_c_rigid`, or a
-        point platform's translations that its generated pass takes as one block (the
-        signature's ``offsets``: the 2x2 at [v_x, v_y] of a planar five-bar)."""
-        if self._c_rigid:
-            return True
-        if not self._fused:
-            return False
-        spec = self._kernels.signature["fused"]
-        if "offsets" not in spec or "rigid" not in spec["models"]:
-            return False
-        k = spec["models"].index("rigid")
-        n, off = spec["dims"][k], spec["offsets"][k]
-        basis = np.asarray(self.space.basis, dtype=float)
-        return basis.shape == (6, n) and bool(np.array_equal(basis, np.eye(6)[:, off : off + n]))
-
-    def _preloaded(self, effects) -> bool:
-        return self.resolver.remembered(
-            ("preloaded", effects),
-            lambda: any("preload" in self.robot.effect(base_name(e)).primitives for e in effects),
+        return allowed_twists(
+            rows, candidates, compiled=self.c_route.fused, threads=self.c_route.nthreads(), picks=picks
         )
 
     def modes(
@@ -757,8 +597,8 @@ class Evaluator:
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
         if joints is None and not complex_shapes:
-            plan = self._plan(model, params, invalid, unstable, vectors)
-            modes = plan and self._planned_modes(plan, poses)
+            plan = self.c_route.plan(model, params, invalid, unstable, vectors)
+            modes = plan and self.c_route.planned_modes(plan, poses)
             if modes is not None:
                 return modes
         if joints is not None:
@@ -771,17 +611,17 @@ class Evaluator:
         poses = self.completion.poses(poses, params)
         effects = self.resolver.model_effects(model)
         params, exact = self._route(effects, params)
-        fixed = self._pass_rigid or self.stiffness_model(effects) == "flexible"
+        fixed = self.c_route.pass_rigid or self.stiffness_model(effects) == "flexible"
         damped = complex_shapes or self.damped_model(effects)
         route = choose_route(
-            c_pass=self._fused and fixed and not self._preloaded(effects),
+            c_pass=self.c_route.fused and fixed and not self.resolver.preloaded(effects),
             exact=exact,
             damped=damped,
             pass_solves=lambda: not complex_shapes and self._one_pass(effects, exact),
-            c_backend=self._fused,
+            c_backend=self.c_route.fused,
         )
         if route.solver == "pass":
-            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, route.how)
+            modes = self.c_route.modes(poses, effects, params, invalid == "raise", vectors, exact, route.how)
         else:
             stash = {} if route.keep else None
             modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
@@ -831,7 +671,7 @@ class Evaluator:
             legs = known["out"] if "out" in known else self._kernels.legs(q, self.completion.with_pose(pr, p))
         reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
         rigid = self.stiffness_model(effects) == "rigid"
-        need = MATRICES if self._preloaded(effects) else ("M", "K_R" if rigid else "K_F")
+        need = MATRICES if self.resolver.preloaded(effects) else ("M", "K_R" if rigid else "K_F")
         if known is not None and all(k in known for k in need):
             mats = {k: known[k] for k in need}
         else:
@@ -845,7 +685,7 @@ class Evaluator:
             "mats": mats,
             "B": known["B"] if reuse else None,
             "exact": self._rigid_models.get(tuple(effects), True),
-            "preloaded": self._preloaded(effects),
+            "preloaded": self.resolver.preloaded(effects),
         }
 
     def _one_pass(self, effects, exact: bool = False) -> bool:
@@ -941,11 +781,11 @@ class Evaluator:
         M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
         modes.legs = {"rows": rows, "q": q, "p": p, "out": out, "M": M}  # the damped modes reuse them
         coupled = any(c.effect in set(effects) for c in self.robot.couplings)
-        if not coupled and not self._preloaded(effects):  # legs on the tool: stiffness form, admissible twists
+        if not coupled and not self.resolver.preloaded(effects):  # legs on the tool: stiffness form, admissible twists
             f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh, basis=modes.legs)
             return condense.merge_modes(modes, rows, f, V, vectors)
         K_G = None
-        if self._preloaded(effects):
+        if self.resolver.preloaded(effects):
             from .gravity import gravity_stiffness
 
             K_G = gravity_stiffness(self, pr, effects, sub, self.matrices(pr, effects, **sub), False)
@@ -955,15 +795,15 @@ class Evaluator:
     def _eigh(self, K: np.ndarray, M: np.ndarray):
         """``K v = lambda M v`` for a batch: the C Jacobi solver where it has the size, else
         :func:`.eigen.generalized_eigh`."""
-        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"] and len(K):
-            return self._kernels.generalized_eigh(K, M, threads=self._nthreads())
+        if self.c_route.fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"] and len(K):
+            return self._kernels.generalized_eigh(K, M, threads=self.c_route.nthreads())
         return generalized_eigh(K, M)
 
     def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
         """:meth:`modes` at measured joint coordinates (no gravity preload: its static
         deflection needs the pose's inverse kinematics)."""
         effects = self.resolver.model_effects(model)
-        if self._preloaded(effects):
+        if self.resolver.preloaded(effects):
             raise InputError(
                 "joints= with a gravity preload: not supported (the preload's derivative needs the "
                 "inverse kinematics); drop gravity_preload from the model or give poses only"
@@ -1014,8 +854,8 @@ class Evaluator:
         return Modes(freq, vec, self.axes(stiffness), stiffness, ok, stable)
 
     def _solve(self, M, K, vectors: bool = True, stiffness: str | None = None) -> Modes:
-        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:  # the C solver's sizes
-            lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
+        if self.c_route.fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:  # the C solver's sizes
+            lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self.c_route.nthreads())
         else:
             # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
             # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
@@ -1029,191 +869,6 @@ class Evaluator:
             stiffness,
             stable=~unstable_modes(lam).any(axis=-1),
         )
-
-    def _fused_modes(
-        self,
-        poses,
-        effects,
-        params,
-        check: bool,
-        vectors: bool,
-        exact: bool = False,
-        damped: str | None = None,
-        out: dict | None = None,
-    ) -> Modes:
-        """The C backend's single pass from poses to checked frequencies (and eigentwists),
-        written straight into the result arrays; with ``exact`` the pass also returns the
-        joint coordinates and M for :meth:`_exact_modes`; ``damped="pass"``: the same C call
-        also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`_one_pass`);
-        ``"keep"``: the pass also returns the joint coordinates, M and the model's stiffness,
-        kept in ``Modes.legs`` for :meth:`_damping_inputs` (no kernel runs twice); ``"exact"``
-        (with ``exact``): the same C call also runs the legs kernel, the exact condensation and
-        a damped model's damped modes (:func:`.damped_modes.fused_exact`,
-        :func:`.damped_modes.exact_merge`; where that does not stand for the condensation,
-        :meth:`_exact_modes` on the pass's q and M). ``out``:
-        the pass's outputs where they are computed already (:meth:`_planned_modes`, undamped)."""
-        p = self.resolver.resolve(len(poses), params, effects)
-        stiffness = self.stiffness_model(effects)
-        # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
-        shares = vectors and not exact and stiffness == "flexible"
-        keep = ("K_R" if stiffness == "rigid" else "K_F",) if damped == "keep" else ()
-        if out is None and damped == "exact":
-            from .damped_modes import exact_merge, fused_exact
-
-            pk = self.completion.with_pose(poses, p)
-            out, solved = fused_exact(
-                self, effects, poses, p, pk, vectors, self.damped_model(effects), self._nthreads()
-            )
-        elif out is None and damped == "pass":
-            from .damped_modes import fused_damped, pass_damping
-
-            basis = getattr(self.space, "basis", None)
-            pk = self.completion.with_pose(poses, p)
-            out, solved = fused_damped(self, effects, poses, p, pk, vectors, basis, self._nthreads())
-        elif out is None:
-            out = self._c_pass(
-                poses,
-                p,
-                matrices=("M",) + keep if exact or shares or keep else (),
-                ik=("q",) if exact or keep else (),
-                model=stiffness,
-                vectors=vectors,
-                normalize=True,
-            )
-        st = out["status"]
-        valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
-        if check and not valid.all():
-            self.checks.raise_first(poses, p, ~valid)
-        # a parallel singularity drives the lowest frequency to 0: the poses whose lowest
-        # mode is 0, NaN or below PARALLEL_SCREEN times their highest get the exact check
-        freq = out["freq_hz"]
-        low = valid & ~above_screen(freq)
-        suspect = np.flatnonzero(low)
-        singular = suspect[~self.checks.parallel_ok(poses, p, suspect, strict=check)]
-        if singular.size:
-            valid[singular] = False
-            out["freq_hz"][singular] = np.nan
-            if out.get("eigentwists") is not None:
-                out["eigentwists"][singular] = np.nan
-        modes = Modes(
-            out["freq_hz"],
-            out.get("eigentwists"),
-            self.axes(stiffness),
-            stiffness,
-            None if check else valid,
-            st != STATUS["unstable"],
-        )
-        if shares and out["eigentwists"].shape[-1] == 6:
-            with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
-                modes.shares = energy_shares(out["eigentwists"], out["M"])
-        if damped == "pass":
-            modes.damping = pass_damping(self, effects, poses, params, p, solved, modes)
-        elif keep:  # the damped modes' inputs, on the valid rows (_damping_inputs)
-            rows = np.ones(len(poses), dtype=bool) if modes.valid is None else modes.valid
-            n = len(poses)
-            mats = {k: out[k][rows] for k in ("M",) + keep}
-            modes.legs = {"rows": rows, "q": out["q"][rows], "p": p if rows.all() else masked(p, rows, n), **mats}
-        merged = exact_merge(self, effects, poses, params, p, solved, modes, vectors) if damped == "exact" else None
-        if merged is not None:
-            modes = merged
-        elif exact:
-            modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
-        return modes
-
-    def _plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
-        """The prepared C pass of :meth:`modes` for ``model`` and these scalar ``params``
-        (:class:`.fused_call.FusedCall`, with what the result needs), remembered per (model,
-        values, options); None where :meth:`modes` takes another route (values per pose, the
-        NumPy backend, numeric IK, a completed pose, the exact condensation, the gravity
-        preload, damping) or where the values are refused (:meth:`modes` raises)."""
-        if self._planned_for is not self._kernels:
-            self._plans, self._planned_for = BoundedMemo(64), self._kernels
-        values = self.resolver.key(params, model)
-        if values is None:
-            return None
-        key = (values, invalid, unstable, vectors)
-        plan = self._plans.get(key)
-        if plan is None:
-            plan = self._make_plan(model, params, invalid, unstable, vectors)
-            if plan is None:
-                return None
-            self._plans.put(key, plan)
-        return plan or None
-
-    def _make_plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
-        """:meth:`_plan`'s answer computed: a tuple, False (another route) or None (refused)."""
-        if (
-            not hasattr(self._kernels, "prepare_fused")
-            or self.numeric_ik
-            or (self._six and self.pose_names != FULL)
-            or invalid not in ("raise", "nan")
-            or unstable not in ("raise", "nan")
-        ):
-            return False
-        try:
-            effects = self.resolver.model_effects(model)
-            routed, exact = self._route(effects, params)
-            stiffness = self.stiffness_model(effects)
-            fixed = self._pass_rigid or stiffness == "flexible"
-            if exact or not fixed or self._preloaded(effects) or self.damped_model(effects):
-                return False
-            p = self.resolver.resolve(1, routed, effects)
-        except Exception:  # refused values: the general route raises
-            return None
-        # the poses' columns (a row of dof doubles apart): the position and the rotation vector
-        names = {n: self.dof for n in FULL[: self.dof]}
-        shares = vectors and stiffness == "flexible"
-        try:
-            call = self._kernels.prepare_fused(
-                p, names, model=stiffness, vectors=vectors, matrices=("M",) if shares else ()
-            )
-        except (KeyError, ValueError):  # an input per pose (an array default) or not in p: the general route
-            return False
-        if call.pose_inputs != tuple(names)[: len(call.pose_inputs)] or len(call.pose_inputs) not in (3, self.dof):
-            return False
-        return (
-            call,
-            len(call.pose_inputs),
-            effects,
-            routed,
-            stiffness,
-            self.axes(stiffness),
-            invalid == "raise",
-            vectors,
-            unstable,
-        )
-
-    def _planned_modes(self, plan: tuple, poses) -> Modes | None:
-        """:meth:`modes` by the prepared pass ``plan`` (:meth:`_plan`); None for poses that
-        :meth:`modes` refuses (it names them). A pose flagged by the pass (unreachable,
-        singular, unstable) or by the parallel screen goes on to :meth:`_fused_modes` with
-        the pass's outputs, which checks it as :meth:`modes` does."""
-        call, columns, effects, routed, stiffness, axes, check, vectors, unstable = plan
-        arr = np.asarray(poses, dtype=float)
-        if arr.ndim == 1:
-            arr = arr[None, :]
-        if arr.ndim != 2 or arr.shape[1] != self.dof or not arr.shape[0] or not np.isfinite(arr).all():
-            return None
-        if not arr.flags.c_contiguous:
-            arr = np.ascontiguousarray(arr)
-        n = len(arr)
-        base = arr.ctypes.data
-        out = call([base + 8 * k for k in range(columns)], n, self._nthreads())
-        st, freq = out["status"], out["freq_hz"]
-        # a flagged pose, or one below the parallel screen (the pass's frequencies ascend and
-        # are finite where no pose is flagged: the lowest is the first, the highest the last)
-        if np.count_nonzero(st) or np.count_nonzero(freq[:, 0] > PARALLEL_SCREEN * freq[:, -1]) != n:
-            arr = arr.view(CompletedPoses)
-            modes = self._fused_modes(arr, effects, routed, check, vectors, out=out)
-        else:
-            valid = None if check else np.ones(n, dtype=bool)
-            modes = Modes(freq, out.get("eigentwists"), axes, stiffness, valid, np.ones(n, dtype=bool))
-            if "M" in out and out["eigentwists"].shape[-1] == 6:
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    modes.shares = energy_shares(out["eigentwists"], out["M"])
-        if unstable == "raise" and not modes.stable.all():
-            self._raise_unstable(arr, modes, effects)
-        return modes
 
     def _raise_unstable(self, poses, modes: Modes, effects) -> None:
         k = int(np.argmax(~modes.stable))
@@ -1319,7 +974,7 @@ class Evaluator:
             shared_columns,
         )
 
-        basis = None if self._c_rigid else getattr(self.space, "basis", None)  # a point's translations
+        basis = None if self.c_route.c_rigid else getattr(self.space, "basis", None)  # a point's translations
         # a flexible model on a lower-mobility platform: the followers move with the parameters
         follow = not rigid and bool(getattr(self.space, "followers", ()))
 
