@@ -180,7 +180,7 @@ def test_the_prepared_pass_answers_by_itself(heli4, monkeypatch):
     def general_route(*args, **kw):
         raise AssertionError("the general route")
 
-    monkeypatch.setattr(fast, "_route", general_route)
+    monkeypatch.setattr(fast.solver, "route", general_route)
     flagged = np.vstack([x[:2], [0.0, 0.0, 0.0]])  # unreachable: checked with the pass's outputs
     got, want = fast.modes(flagged, "rigid", invalid="nan"), general.modes(flagged, "rigid", invalid="nan")
     assert got.valid.tolist() == [True, True, False] and got.freq_hz.tobytes() == want.freq_hz.tobytes()

@@ -524,7 +524,7 @@ def test_two_unstable_modes_are_named_together(heli4):
         UnstablePoseError,
         match=r"^pose \[0.1, 0.2, 0.3\] m is unstable in model a,b: modes 1, 3 of 3 have a negative stiffness",
     ):
-        heli4._raise_unstable(np.array([[9.0, 9.0, 9.0], [0.1, 0.2, 0.3]]), m, ("a", "b"))
+        heli4.solver.raise_unstable(np.array([[9.0, 9.0, 9.0], [0.1, 0.2, 0.3]]), m, ("a", "b"))
 
 
 def test_a_growing_pole_names_the_least_damped_mode(heli4):
@@ -547,7 +547,7 @@ def test_a_growing_pole_names_the_least_damped_mode(heli4):
     nan = types.SimpleNamespace(damping_ratio=np.full((1, 3), np.nan))
     lost = Modes(np.ones((1, 3)), None, ("x", "y", "z"), "rigid", stable=np.array([False]), damping=nan)
     with pytest.raises(UnstablePoseError, match=r"a pole grows \(mode 1 has damping ratio nan"):
-        heli4._raise_unstable(X[:1], lost, ("a",))
+        heli4.solver.raise_unstable(X[:1], lost, ("a",))
 
 
 def test_the_modes_options_are_checked(heli4):

@@ -15,6 +15,7 @@ from .evaluator import AXES, Evaluator, Modes
 from .inputs import InputResolver
 from .kernels import CompiledKernels, Kernels
 from .loader import evaluator_from_description, load
+from .mode_solver import ModeSolver
 from .routes import ROUTES, Route
 from .validity import CONDITIONING_TOL, POSE_STATUS
 
@@ -36,6 +37,7 @@ __all__ = [
     "PoseCompletion",
     "PoseChecks",
     "CPassRoute",
+    "ModeSolver",
     "Kernels",
     "CompiledKernels",
     "ROUTES",

@@ -49,16 +49,12 @@ class CPassRoute:
     """The fused C pass of one evaluator, and the modes it solves.
 
     ev : the :class:`~eigentwist.runtime.evaluator.Evaluator` (its kernels, threads, stages and
-    models); exact_modes, raise_unstable, route : the evaluator's exact condensation of a
-    flexible model's finite modes, its error for an unstable pose and its choice of the
-    constraints' treatment, ``(effects, params) -> (params, condensed)``.
+    models; ``ev.solver``, :class:`~eigentwist.runtime.mode_solver.ModeSolver`: the constraints'
+    treatment, the exact condensation, the error of an unstable pose).
     """
 
-    def __init__(self, ev, exact_modes, raise_unstable, route):
+    def __init__(self, ev):
         self.ev = ev
-        self.exact_modes = exact_modes
-        self.raise_unstable = raise_unstable
-        self.route = route
         completion = ev.completion
         #: names of the pose coordinates, how the pose enters the kernels, their number
         self.pose_names, self.space, self.dof = completion.pose_names, completion.space, completion.dof
@@ -137,14 +133,14 @@ class CPassRoute:
     ) -> Modes:
         """The C backend's single pass from poses to checked frequencies (and eigentwists),
         written straight into the result arrays; with ``exact`` the pass also returns the
-        joint coordinates and M for :meth:`Evaluator._exact_modes`; ``damped="pass"``: the same C call
-        also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`Evaluator._one_pass`);
+        joint coordinates and M for :meth:`.ModeSolver.exact_modes`; ``damped="pass"``: the same C call
+        also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`.ModeSolver.one_pass`);
         ``"keep"``: the pass also returns the joint coordinates, M and the model's stiffness,
-        kept in ``Modes.legs`` for :meth:`Evaluator._damping_inputs` (no kernel runs twice); ``"exact"``
+        kept in ``Modes.legs`` for :meth:`.ModeSolver.damping_inputs` (no kernel runs twice); ``"exact"``
         (with ``exact``): the same C call also runs the legs kernel, the exact condensation and
         a damped model's damped modes (:func:`.damped_modes.fused_exact`,
         :func:`.damped_modes.exact_merge`; where that does not stand for the condensation,
-        :meth:`Evaluator._exact_modes` on the pass's q and M). ``out``:
+        :meth:`.ModeSolver.exact_modes` on the pass's q and M). ``out``:
         the pass's outputs where they are computed already (:meth:`planned_modes`, undamped)."""
         p = self.ev.resolver.resolve(len(poses), params, effects)
         stiffness = self.ev.stiffness_model(effects)
@@ -211,7 +207,7 @@ class CPassRoute:
         if merged is not None:
             modes = merged
         elif exact:
-            modes = self.exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
+            modes = self.ev.solver.exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
         return modes
 
     def plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
@@ -246,7 +242,7 @@ class CPassRoute:
             return False
         try:
             effects = self.ev.resolver.model_effects(model)
-            routed, exact = self.route(effects, params)
+            routed, exact = self.ev.solver.route(effects, params)
             stiffness = self.ev.stiffness_model(effects)
             fixed = self.pass_rigid or stiffness == "flexible"
             if exact or not fixed or self.ev.resolver.preloaded(effects) or self.ev.damped_model(effects):
@@ -306,5 +302,5 @@ class CPassRoute:
                 with np.errstate(invalid="ignore", divide="ignore"):
                     modes.shares = energy_shares(out["eigentwists"], out["M"])
         if unstable == "raise" and not modes.stable.all():
-            self.raise_unstable(arr, modes, effects)
+            self.ev.solver.raise_unstable(arr, modes, effects)
         return modes

@@ -8,16 +8,14 @@ from types import ModuleType
 import numpy as np
 
 from ..description import RobotDescription
-from ..description.effects import base_name
 from ..description.joints import joint_kind
 from ..description.pose import TWIST_AXIS, twist_order
-from . import condense
-from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
-from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
-from .errors import InputError, UnstablePoseError
+from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+from .errors import InputError
 from .c_route import CPassRoute
 from .checks import PoseChecks
-from .completion import PoseCompletion, chunks, masked, take, user_rows
+from .mode_solver import MATRICES, ModeSolver
+from .completion import PoseCompletion, chunks, take, user_rows
 from .inputs import InputResolver
 from .kernels import Kernels
 from .routes import choose_route
@@ -35,7 +33,6 @@ from .validity import (
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_STATUS"]
 
 MATRIX_CHUNK = 65536  # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
-MATRICES = ("M", "K_R", "K_F")
 
 
 class Evaluator:
@@ -58,7 +55,8 @@ class Evaluator:
     poses -> the kernels' coordinates, legs solved by Newton), the pose checks (``ev.checks``,
     :mod:`.checks`: reachable, not singular), the kernels (``ev.kernels``,
     :mod:`.kernels`: the generated NumPy module or the C library), and the route that solves
-    the modes (:mod:`.routes`).
+    the modes (:mod:`.routes`): the fused C pass (``ev.c_route``, :mod:`.c_route`) or the
+    matrices and the eigen-solver (``ev.solver``, :mod:`.mode_solver`).
     """
 
     def __init__(
@@ -87,17 +85,14 @@ class Evaluator:
         self.space = self.completion.space
         #: True when the kernels take a rigid platform's six coordinates (rotation included)
         self._six = self.completion.six
-        self._rigid_models: dict = {}  # model -> whether a leg has a rigid direction (_route)
         #: C backend: run the Newton iterations of legs in URDF form and of a platform's followers in C
         #: (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
         #: the fused C pass and its route of the modes (:mod:`.c_route`)
-        self.c_route = CPassRoute(
-            self,
-            exact_modes=lambda *a, **k: self._exact_modes(*a, **k),
-            raise_unstable=lambda *a: self._raise_unstable(*a),
-            route=lambda *a: self._route(*a),
-        )
+        self.c_route = CPassRoute(self)
+        #: the matrices route and what both routes share: the constraints' treatment, the
+        #: exact condensation, the damped modes' inputs, the eigen-solver (:mod:`.mode_solver`)
+        self.solver = ModeSolver(self)
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -360,23 +355,7 @@ class Evaluator:
                 self.checks.raise_first(poses, p, bad)
             self.checks.parallel_ok(poses, p, np.arange(n), strict=True)
             return {k: res[k] for k in MATRICES}
-        return self._matrices_q(poses, p, out)[0]
-
-    def _matrices_q(self, poses: np.ndarray, p: dict, out: dict | None = None):
-        """``(matrices, q)`` of the NumPy path: the joint coordinates come along (for
-        :meth:`_exact_modes`)."""
-        n = len(poses)
-        out = out or {}
-        mats = {k: out.get(k) if k in out else np.empty((n, 6, 6)) for k in MATRICES}
-        qs = []
-        for sl in chunks(n):
-            pc = take(p, sl)
-            q = self.checks.check_rows(poses[sl], pc, strict=True)[0]
-            qs.append(q)
-            chunk = self._kernels.matrices(q, self.completion.with_pose(poses[sl], pc))
-            for k in MATRICES:
-                mats[k][sl] = chunk[k]
-        return mats, np.concatenate(qs) if qs else None
+        return self.solver.matrices_q(poses, p, out)[0]
 
     @staticmethod
     def _check_out(out, n: int) -> dict:
@@ -488,43 +467,7 @@ class Evaluator:
         the paper does); a 6-DoF robot's rigid model the full 6x6 M and K_R; flexible
         models the full 6x6 M and K_F.
         """
-        return self._stiffness(poses, model, params)
-
-    def _stiffness(self, poses, model, params: dict, stash: dict | None = None):
-        """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and the
-        matrices ``M``, ``K_R``, ``K_F`` of the NumPy path (for :meth:`_exact_modes` and the
-        damped modes, :meth:`_damping_inputs`)."""
-        poses_arr = self.completion.poses(poses, params)
-        effects = self.resolver.model_effects(model)
-        rigid = self.stiffness_model(effects) == "rigid"
-        if (
-            rigid
-            and self.c_route.fused
-            and stash is None
-            and getattr(self.space, "basis", 0) is None
-            and not self.resolver.preloaded(effects)
-        ):
-            # allowed twists that turn with the pose: M, K_R and J_rows from one C pass
-            p = self.resolver.resolve(len(poses_arr), params, effects)
-            res = self.c_route.run(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
-            bad = res["status"] != STATUS["ok"]
-            if bad.any():
-                self.checks.raise_first(poses_arr, p, bad)
-            B = self._basis(res["J_rows"])
-            return reduce(res["M"], B), reduce(res["K_R"], B)
-        if stash is not None and not self.c_route.fused:
-            mats, stash["q"] = self._matrices_q(poses_arr, self.resolver.resolve(len(poses_arr), params, effects))
-            stash.update((k, mats[k]) for k in MATRICES)
-        else:
-            mats = self.matrices(poses_arr, effects, **params)
-        B = self.allowed_twists(poses_arr, **params) if rigid else None
-        M = reduce(mats["M"], B) if rigid else mats["M"]
-        K = reduce(mats["K_R"], B) if rigid else mats["K_F"]
-        if self.resolver.preloaded(effects):
-            from .gravity import gravity_stiffness
-
-            K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid, B)
-        return M, K
+        return self.solver.stiffness(poses, model, params)
 
     def allowed_twists(self, poses, **params) -> np.ndarray:
         """(N, 6, n) orthonormal bases of the platform's allowed twists ``[omega; v]`` at
@@ -545,17 +488,7 @@ class Evaluator:
             rows = res["J_rows"]
         else:
             rows = self.jacobians(poses, **params)["J_rows"]
-        return self._basis(rows)
-
-    def _basis(self, rows: np.ndarray) -> np.ndarray:
-        """The allowed twists (N, 6, n) from the legs' inverse-Jacobian rows (N, legs, r, 6):
-        the null space of their virtual joints' rows (:func:`.allowed.allowed_twists`)."""
-        per_leg = rows.shape[2]
-        picks = [i * per_leg + r for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
-        candidates = coordinate_twists(twist_order(self.pose_names))
-        return allowed_twists(
-            rows, candidates, compiled=self.c_route.fused, threads=self.c_route.nthreads(), picks=picks
-        )
+        return self.solver.basis(rows)
 
     def modes(
         self,
@@ -607,26 +540,28 @@ class Evaluator:
                     "joints= with a damping effect or complex_shapes: not supported (the damped "
                     "modes need the pose's inverse kinematics); give poses"
                 )
-            return self._joint_modes(poses, joints, model, vectors, unstable, params)
+            return self.solver.joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self.completion.poses(poses, params)
         effects = self.resolver.model_effects(model)
-        params, exact = self._route(effects, params)
+        params, exact = self.solver.route(effects, params)
         fixed = self.c_route.pass_rigid or self.stiffness_model(effects) == "flexible"
         damped = complex_shapes or self.damped_model(effects)
         route = choose_route(
             c_pass=self.c_route.fused and fixed and not self.resolver.preloaded(effects),
             exact=exact,
             damped=damped,
-            pass_solves=lambda: not complex_shapes and self._one_pass(effects, exact),
+            pass_solves=lambda: not complex_shapes and self.solver.one_pass(effects, exact),
             c_backend=self.c_route.fused,
         )
         if route.solver == "pass":
             modes = self.c_route.modes(poses, effects, params, invalid == "raise", vectors, exact, route.how)
         else:
             stash = {} if route.keep else None
-            modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
+            modes = self.solver.solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
-                modes = self._exact_modes(poses, effects, params, modes, vectors, q=stash.get("q"), M=stash.get("M"))
+                modes = self.solver.exact_modes(
+                    poses, effects, params, modes, vectors, q=stash.get("q"), M=stash.get("M")
+                )
             elif stash and stash.get("q") is not None:  # the NumPy path's kernel outputs, for _damping_inputs
                 rows = np.ones(len(poses), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
                 modes.legs = {"rows": rows, **{k: v[rows] for k, v in stash.items()}}
@@ -635,109 +570,17 @@ class Evaluator:
                 from .damped_modes import damped_of
 
                 modes.damping = damped_of(
-                    self, effects, self._damping_inputs(poses, effects, params, modes), modes, complex_shapes
+                    self, effects, self.solver.damping_inputs(poses, effects, params, modes), modes, complex_shapes
                 )
             modes.stable = modes.stable & modes.damping.stable
         modes.legs = None  # the exact condensation's arrays: not kept with the result
         if unstable == "raise" and not modes.stable.all():
-            self._raise_unstable(poses, modes, effects)
+            self.solver.raise_unstable(poses, modes, effects)
         return modes
-
-    def _damping_inputs(self, poses, effects, params: dict, modes: Modes) -> dict | None:
-        """What :func:`.damped_modes.damped_of` needs from the kernels for the valid rows of
-        ``modes``: their poses, parameters (``params``, the generated inputs ``p``), the
-        ``legs`` kernel's outputs and the matrices (``M`` and the admissible twists ``B``
-        the exact condensation found, where it ran), whether the route condenses rigid
-        directions (``exact``) and the gravity preload; None where no row is valid."""
-        if "legs" not in getattr(self._kernels, "OUTPUTS", {}):
-            raise InputError(
-                f"damped modes of {self.robot.name}: its generated code has no legs kernel (joint "
-                "compliances); regenerate it"
-            )
-        N = len(modes.freq_hz)
-        rows = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
-        if not rows.any():
-            return None
-        pr = np.asarray(poses, dtype=float)[rows]
-        sub = user_rows(params, rows, N)
-        known = modes.legs if modes.legs is not None and np.array_equal(modes.legs["rows"], rows) else None
-        if known is None:
-            p = self.resolver.resolve(len(pr), sub, effects)
-            q = self.checks.ik(pr, p)
-            legs = self._kernels.legs(q, self.completion.with_pose(pr, p))
-        else:  # the kernels' outputs of modes' own pass (the legs kernel where it did not run)
-            q = known["q"]
-            p = known["p"] if "p" in known else self.resolver.resolve(len(pr), sub, effects)
-            legs = known["out"] if "out" in known else self._kernels.legs(q, self.completion.with_pose(pr, p))
-        reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
-        rigid = self.stiffness_model(effects) == "rigid"
-        need = MATRICES if self.resolver.preloaded(effects) else ("M", "K_R" if rigid else "K_F")
-        if known is not None and all(k in known for k in need):
-            mats = {k: known[k] for k in need}
-        else:
-            mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self.completion.with_pose(pr, p))
-        return {
-            "rows": rows,
-            "poses": pr,
-            "params": sub,
-            "p": p,
-            "legs": legs,
-            "mats": mats,
-            "B": known["B"] if reuse else None,
-            "exact": self._rigid_models.get(tuple(effects), True),
-            "preloaded": self.resolver.preloaded(effects),
-        }
-
-    def _one_pass(self, effects, exact: bool = False) -> bool:
-        """Whether the fused C pass solves the damped modes of ``effects`` itself
-        (:func:`.damped_modes.one_pass_takes`): the rigid model on its fixed allowed twists,
-        a flexible one whose legs have no rigid direction (K_F exact, the six twists), or with
-        ``exact`` (the route condenses rigid directions, :meth:`_route`) the exact
-        condensation of legs on the tool body and its damped modes
-        (:func:`.damped_modes.fused_exact`)."""
-        if self.numeric_ik:
-            return False
-        flexible = self.stiffness_model(effects) == "flexible"
-        if not exact and flexible and self._rigid_models.get(tuple(effects)) is not False:
-            return False
-        from .damped_modes import one_pass_takes
-
-        return one_pass_takes(self, effects)
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
-        return any("damping" in self.robot.effect(base_name(e)).primitives for e in self.resolver.model_effects(model))
-
-    # ------------------------------------------- rigid constraints exact
-    def _route(self, effects, params: dict) -> tuple[dict, bool]:
-        """How :meth:`modes` solves ``effects`` exactly: ``(params, condense)``.
-
-        * not a flexible model of legs with virtual joints (or no generated ``legs``
-          kernel), or ``c_rigid`` given with a value other than the description's default
-          (the user's finite constraint compliance): ``(params, False)``, K_F as is;
-        * no leg has a rigid direction in this model (e.g. every rod compliant; probed
-          once per model at the reference pose ``x_ref``: which effects are on decides):
-          ``({**params, "c_rigid": condense.EXACT}, False)``, K_F exact with c_rigid = 0;
-        * else ``(params, True)``: the finite modes come from :meth:`_exact_modes`, also
-          where the probe fails (x_ref out of reach with these values, or values refused):
-          that answer is for this call only, the next call probes again.
-        """
-        outputs = getattr(self._kernels, "OUTPUTS", {})
-        if self.stiffness_model(effects) != "flexible" or "legs" not in outputs or outputs["legs"]["Je"][1] < 2:
-            return params, False
-        default = self.parameters["c_rigid"].default if "c_rigid" in self.parameters else None
-        if "c_rigid" in params and default is not None and np.any(np.asarray(params["c_rigid"]) != default):
-            return params, False
-        key = tuple(effects)
-        rigid = self._rigid_models.get(key)
-        if rigid is None:
-            rigid = self._probe_rigid(effects, params)
-            if rigid is None:  # no answer at x_ref with these values: condense, remember nothing
-                return params, True
-            self._rigid_models[key] = rigid
-        if rigid or default is None:
-            return params, rigid
-        return {**params, "c_rigid": condense.EXACT}, False
+        return self.solver.damped_model(model)
 
     def constraint_route(self, model="paper", **params) -> tuple[dict, bool]:
         """``(params, condensed)``: the parameters :meth:`modes` solves ``model`` with
@@ -745,148 +588,7 @@ class Evaluator:
         :meth:`matrices` with them gives the K_F of the frequencies), and whether its
         finite modes come from the exact condensation instead (rigid directions; K_F then
         keeps the ``c_rigid`` penalty); :mod:`.condense`."""
-        return self._route(self.resolver.model_effects(model), params)
-
-    def _probe_rigid(self, effects, params: dict) -> bool | None:
-        """Whether a leg of ``effects`` has a rigid direction: its joint compliance at the
-        reference pose with the first pose's parameters; None where that fails (x_ref out of
-        reach with these values, or the values refused)."""
-        first = {
-            k: (np.asarray(v).reshape(-1)[:1] if np.ndim(v) == 1 else v) for k, v in params.items() if np.ndim(v) <= 1
-        }
-        x = np.array([self.robot.x_ref], dtype=float)
-        try:
-            p = self.resolver.resolve(1, first, effects)
-            Cq = self._kernels.legs(self.checks.ik(x, p), self.completion.with_pose(x, p))["Cq"]
-        except Exception:  # an unreachable reference, or refused values (the call names them)
-            return None
-        return condense.has_rigid_direction(Cq)
-
-    def _exact_modes(self, poses, effects, params: dict, modes: Modes, vectors: bool, q=None, M=None, p=None) -> Modes:
-        """``modes`` (K_F's) with the exact condensation's finite modes on its valid rows
-        (:func:`.condense.compliance_from_legs`, :func:`.condense.compliance_eigh`,
-        :func:`.condense.merge_modes`). ``q``, ``M`` and the validated inputs ``p`` of every
-        row, when the caller has them (the fused C pass), are not recomputed."""
-        rows = np.ones(len(modes.freq_hz), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
-        if not rows.any():
-            return modes
-        poses = np.asarray(poses, dtype=float)
-        n = len(poses)
-        sub = user_rows(params, rows, n)
-        pr = poses[rows]
-        p = self.resolver.resolve(len(pr), sub, effects) if p is None else (p if rows.all() else masked(p, rows, n))
-        q = self.checks.ik(pr, p) if q is None else q[rows]
-        pk = self.completion.with_pose(pr, p)
-        out = self._kernels.legs(q, pk)
-        M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
-        modes.legs = {"rows": rows, "q": q, "p": p, "out": out, "M": M}  # the damped modes reuse them
-        coupled = any(c.effect in set(effects) for c in self.robot.couplings)
-        if not coupled and not self.resolver.preloaded(effects):  # legs on the tool: stiffness form, admissible twists
-            f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh, basis=modes.legs)
-            return condense.merge_modes(modes, rows, f, V, vectors)
-        K_G = None
-        if self.resolver.preloaded(effects):
-            from .gravity import gravity_stiffness
-
-            K_G = gravity_stiffness(self, pr, effects, sub, self.matrices(pr, effects, **sub), False)
-        f, V = condense.compliance_eigh(condense.compliance_from_legs(self.robot, effects, out, K_G), M)
-        return condense.merge_modes(modes, rows, f, V, vectors)
-
-    def _eigh(self, K: np.ndarray, M: np.ndarray):
-        """``K v = lambda M v`` for a batch: the C Jacobi solver where it has the size, else
-        :func:`.eigen.generalized_eigh`."""
-        if self.c_route.fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"] and len(K):
-            return self._kernels.generalized_eigh(K, M, threads=self.c_route.nthreads())
-        return generalized_eigh(K, M)
-
-    def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
-        """:meth:`modes` at measured joint coordinates (no gravity preload: its static
-        deflection needs the pose's inverse kinematics)."""
-        effects = self.resolver.model_effects(model)
-        if self.resolver.preloaded(effects):
-            raise InputError(
-                "joints= with a gravity preload: not supported (the preload's derivative needs the "
-                "inverse kinematics); drop gravity_preload from the model or give poses only"
-            )
-        q, poses = self.joint_coordinates(joints, poses)
-        params, exact = self._route(effects, params)
-        mats = self.joint_matrices(poses, q, effects, **params)
-        stiffness = self.stiffness_model(effects)
-        if stiffness == "rigid":
-            if getattr(self.space, "basis", None) is None:
-                raise InputError(
-                    f"joints= with {self.robot.name}'s rigid model (allowed twists that turn with the "
-                    "pose): not supported; give poses"
-                )
-            B = self.allowed_twists(poses)
-            M, K = reduce(mats["M"], B), reduce(mats["K_R"], B)
-        else:
-            M, K = mats["M"], mats["K_F"]
-        modes = self._solve(M, K, vectors, stiffness)
-        if exact:
-            modes = self._exact_modes(poses, effects, params, modes, vectors, q=q, M=M)
-            modes.legs = None
-        if unstable == "raise" and not modes.stable.all():
-            self._raise_unstable(poses, modes, effects)
-        return modes
-
-    def _solved_modes(self, poses, effects, params, check: bool, vectors: bool, stash: dict | None = None) -> Modes:
-        """Matrices (and the gravity preload), then the batched eigen-solver; ``stash``
-        receives ``q`` and ``M`` of every row (NaN where invalid) on the NumPy path."""
-        if check:
-            return self._solve(*self._stiffness(poses, effects, params, stash), vectors, self.stiffness_model(effects))
-        ok = self.valid(poses, effects, **params)
-        n = len(poses)
-        stiffness = self.stiffness_model(effects)
-        size = self.rigid_size() if stiffness == "rigid" else 6
-        freq = np.full((n, size), np.nan)
-        vec = np.full((n, size, size), np.nan) if vectors else None
-        stable = np.ones(n, dtype=bool)
-        if ok.any():
-            part = {} if stash is not None else None
-            m = self._solve(*self._stiffness(poses[ok], effects, user_rows(params, ok, n), part), vectors, stiffness)
-            freq[ok], stable[ok] = m.freq_hz, m.stable
-            if vectors:
-                vec[ok] = m.eigentwists
-            for key, val in (part or {}).items():
-                stash[key] = np.full((n,) + val.shape[1:], np.nan)
-                stash[key][ok] = val
-        return Modes(freq, vec, self.axes(stiffness), stiffness, ok, stable)
-
-    def _solve(self, M, K, vectors: bool = True, stiffness: str | None = None) -> Modes:
-        if self.c_route.fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:  # the C solver's sizes
-            lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self.c_route.nthreads())
-        else:
-            # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
-            # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
-            lam, V = generalized_eigh(K, M)
-        if stiffness is None:
-            stiffness = "rigid" if M.shape[-1] == 3 else "flexible"
-        return Modes(
-            frequencies_hz(lam),
-            normalize_eigentwists(V) if vectors else None,
-            self.axes(stiffness),
-            stiffness,
-            stable=~unstable_modes(lam).any(axis=-1),
-        )
-
-    def _raise_unstable(self, poses, modes: Modes, effects) -> None:
-        k = int(np.argmax(~modes.stable))
-        bad = np.flatnonzero(np.isnan(modes.freq_hz[k]))
-        if not len(bad) and modes.damping is not None:
-            zeta = modes.damping_ratio[k]
-            j = int(np.nanargmin(zeta)) if np.isfinite(zeta).any() else 0
-            raise UnstablePoseError(
-                f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: a pole grows (mode {j + 1} has "
-                f"damping ratio {zeta[j]:.3g}, or an actuator's internal pole); check the torque lag t_d against "
-                "c_a / k_a and negative damping"
-            )
-        which = ", ".join(str(j + 1) for j in bad)
-        raise UnstablePoseError(
-            f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: mode{'s' if len(bad) > 1 else ''} "
-            f"{which} of {modes.freq_hz.shape[1]} {'have' if len(bad) > 1 else 'has'} a negative stiffness "
-            "(omega^2 < 0, no natural frequency); check negative or extreme parameters and the gravity preload"
-        )
+        return self.solver.route(self.resolver.model_effects(model), params)
 
     def sensitivities(
         self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None, method: str = "exact", **params
@@ -947,7 +649,7 @@ class Evaluator:
             with np.errstate(divide="ignore", invalid="ignore"):
                 dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
             return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.axes("rigid"), "rigid"), dfdp
-        solved, exact = self._route(effects, params)
+        solved, exact = self.solver.route(effects, params)
         args = (given, poses, wrt, effects, params, method, rigid, rtol, progress)
         freq, vec, dfdp = self._derivatives_at(solved, *args)
         if exact and "c_rigid" in self.parameters:
@@ -958,7 +660,7 @@ class Evaluator:
         stiffness = "rigid" if rigid else "flexible"
         modes = Modes(freq, vec, self.axes(stiffness), stiffness)
         if exact:  # K_F's penalty: the finite modes exact
-            modes = self._exact_modes(poses, effects, params, modes, True)
+            modes = self.solver.exact_modes(poses, effects, params, modes, True)
             modes.legs = None
         return modes, dfdp
 
