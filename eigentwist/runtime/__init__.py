@@ -17,6 +17,7 @@ from .kernels import CompiledKernels, Kernels
 from .loader import evaluator_from_description, load
 from .mode_solver import ModeSolver
 from .routes import ROUTES, Route
+from .sensitivity_route import SensitivityRoute
 from .validity import CONDITIONING_TOL, POSE_STATUS
 
 __all__ = [
@@ -38,6 +39,7 @@ __all__ = [
     "PoseChecks",
     "CPassRoute",
     "ModeSolver",
+    "SensitivityRoute",
     "Kernels",
     "CompiledKernels",
     "ROUTES",

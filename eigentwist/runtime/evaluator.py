@@ -10,7 +10,6 @@ import numpy as np
 from ..description import RobotDescription
 from ..description.joints import joint_kind
 from ..description.pose import TWIST_AXIS, twist_order
-from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .errors import InputError
 from .c_route import CPassRoute
 from .checks import PoseChecks
@@ -19,6 +18,7 @@ from .completion import PoseCompletion, chunks, take, user_rows
 from .inputs import InputResolver
 from .kernels import Kernels
 from .routes import choose_route
+from .sensitivity_route import SensitivityRoute
 from .modes import AXES, Modes
 from .threads import resolve_threads
 from .validity import (
@@ -56,7 +56,8 @@ class Evaluator:
     :mod:`.checks`: reachable, not singular), the kernels (``ev.kernels``,
     :mod:`.kernels`: the generated NumPy module or the C library), and the route that solves
     the modes (:mod:`.routes`): the fused C pass (``ev.c_route``, :mod:`.c_route`) or the
-    matrices and the eigen-solver (``ev.solver``, :mod:`.mode_solver`).
+    matrices and the eigen-solver (``ev.solver``, :mod:`.mode_solver`); the frequencies'
+    derivatives: ``ev.sensitivity_route`` (:mod:`.sensitivity_route`).
     """
 
     def __init__(
@@ -93,6 +94,8 @@ class Evaluator:
         #: the matrices route and what both routes share: the constraints' treatment, the
         #: exact condensation, the damped modes' inputs, the eigen-solver (:mod:`.mode_solver`)
         self.solver = ModeSolver(self)
+        #: the frequencies' derivatives with respect to the parameters (:mod:`.sensitivity_route`)
+        self.sensitivity_route = SensitivityRoute(self)
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -629,91 +632,7 @@ class Evaluator:
         differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved; its
         flexible models add the followers' motion with each parameter to every route
         (:func:`.implicit.follower_terms`)."""
-        from .sensitivity import check_model, check_wrt
-
-        if method not in ("exact", "differences"):
-            raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
-        given = poses
-        poses = self.completion.poses(poses, params)
-        effects = self.resolver.model_effects(model)
-        check_model(effects)
-        wrt = check_wrt(self, wrt)
-        rigid = self.stiffness_model(effects) == "rigid"
-        if rigid and getattr(self.space, "basis", 0) is None:
-            from .implicit import reduced_derivatives
-            from .sensitivity import eigenvalue_derivatives
-
-            out = reduced_derivatives(self, given, wrt, effects, params)
-            lam, V = generalized_eigh(out["K"], out["M"])
-            omega = np.sqrt(np.clip(lam, 0.0, None))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
-            return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.axes("rigid"), "rigid"), dfdp
-        solved, exact = self.solver.route(effects, params)
-        args = (given, poses, wrt, effects, params, method, rigid, rtol, progress)
-        freq, vec, dfdp = self._derivatives_at(solved, *args)
-        if exact and "c_rigid" in self.parameters:
-            # the finite modes come from the exact condensation, their derivatives from K_F with
-            # the penalty c_rigid: its first-order error removed (Richardson: 2 f'(c/2) - f'(c))
-            c = np.asarray(solved.get("c_rigid", self.parameters["c_rigid"].default), dtype=float)
-            dfdp = 2 * self._derivatives_at({**solved, "c_rigid": c / 2}, *args)[2] - dfdp
-        stiffness = "rigid" if rigid else "flexible"
-        modes = Modes(freq, vec, self.axes(stiffness), stiffness)
-        if exact:  # K_F's penalty: the finite modes exact
-            modes = self.solver.exact_modes(poses, effects, params, modes, True)
-            modes.legs = None
-        return modes, dfdp
-
-    def _derivatives_at(self, solved: dict, given, poses, wrt, effects, params, method, rigid, rtol, progress):
-        """``(freq_hz, eigentwists, dfdp)`` of :meth:`modes_and_sensitivities` with the
-        parameters ``solved`` (the route's, or a penalty's other value), other than the
-        rigid model on turning allowed twists."""
-        from .sensitivity import (
-            frequency_derivatives,
-            kernel_wrt,
-            own_legs,
-            sensitivity_kernels,
-            shared_columns,
-        )
-
-        basis = None if self.c_route.c_rigid else getattr(self.space, "basis", None)  # a point's translations
-        # a flexible model on a lower-mobility platform: the followers move with the parameters
-        follow = not rigid and bool(getattr(self.space, "followers", ()))
-
-        def total(out: dict, names, sl=slice(None)) -> dict:
-            if follow:
-                from .implicit import follower_terms
-
-                terms = follower_terms(self, np.asarray(given, dtype=float)[sl], poses[sl], names, effects, solved)
-                for k, d in terms.items():
-                    if k in out:
-                        out[k] = out[k] + d
-            return out
-
-        if method == "exact" and self.numeric_ik:
-            from .implicit import numeric_matrix_derivatives
-
-            out = total(numeric_matrix_derivatives(self, poses, wrt, effects, solved), wrt)
-            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
-        elif method == "differences":
-            out = total(self.matrix_derivatives(poses, wrt, effects, **solved), wrt)
-            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
-        else:
-            own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
-            full = kernel_wrt(wrt, own)
-            kern = sensitivity_kernels(self, full, progress)
-            p = self.resolver.resolve(len(poses), solved, effects)
-            parts = []
-            for sl in chunks(len(poses)):
-                pc = take(p, sl)
-                self.checks.check_rows(poses[sl], pc, strict=True)
-                out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self.completion.with_pose(poses[sl], pc))
-                out = total(dict(out), full, sl)
-                parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis))
-            freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
-            if own:
-                dfdp = shared_columns(dfdp, wrt, full, own)
-        return freq, vec, dfdp
+        return self.sensitivity_route.modes_and_sensitivities(poses, wrt, model, rtol, progress, method, params)
 
     def matrix_derivatives(self, poses, wrt, model="paper", **params) -> dict:
         """``M``, ``K_R``, ``K_F`` (N, 6, 6) and their derivatives ``dM``, ``dK_R``, ``dK_F``
@@ -723,41 +642,7 @@ class Evaluator:
         between parameters: ``r_i < r_o``, the inertia triangle inequality): the output of the
         generated sensitivity kernel without deriving anything. ``wrt`` names parameters,
         ``P@N`` a leg's own value."""
-        from .sensitivity import difference_step
-
-        poses = self.completion.poses(poses, params)
-        out = dict(self.matrices(poses, model, **params))
-        d = {k: np.empty((len(poses), len(wrt), 6, 6)) for k in ("dM", "dK_R", "dK_F")}
-        for j, name in enumerate(wrt):
-            value, h = difference_step(self, name, params)
-            step = np.reshape(2 * h, (-1, 1, 1) if np.ndim(h) else ())
-            hi, lo = (self._admissible(poses, model, params, name, value + s * h) for s in (1, -1))
-            if hi is not None and lo is not None:  # central differences
-                for k in MATRICES:
-                    d["d" + k][:, j] = (hi[k] - lo[k]) / step
-                continue
-            sign = 1 if hi is not None else -1  # at a bound: one-sided, second order
-            far = self._admissible(poses, model, params, name, value + 2 * sign * h)
-            if far is None:
-                raise InputError(
-                    f"parameter {name!r} = {float(np.max(value)):g}: no difference step of "
-                    f"{float(np.max(h)):.3g} either way stays within its bounds and constraints; "
-                    "expected a value away from them"
-                )
-            near = hi if sign == 1 else lo
-            for k in MATRICES:
-                d["d" + k][:, j] = sign * (4 * near[k] - 3 * out[k] - far[k]) / step
-        out.update(d)
-        return out
-
-    def _admissible(self, poses, model, params: dict, name: str, value):
-        """:meth:`matrices` with ``name`` at ``value``; None where that value leaves the
-        parameter's bounds or a constraint between parameters (a difference step never
-        crosses them)."""
-        try:
-            return self.matrices(poses, model, **{**params, name: value})
-        except InputError:
-            return None
+        return self.sensitivity_route.matrix_derivatives(poses, wrt, model, params)
 
     def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,
