@@ -39,12 +39,12 @@ def main() -> None:
                 repeat = 50 if n == 30 else 5
                 f = ev.frequencies(P, model)
                 exact = _cpu(lambda: ev.frequencies(P, model), repeat)
-                ev._route = lambda effects, params: (params, False)  # the penalty route of before
+                ev.solver.route = lambda effects, params: (params, False)  # the penalty route of before
                 try:
                     g = ev.frequencies(P, model)
                     penalty = _cpu(lambda: ev.frequencies(P, model), repeat)
                 finally:
-                    del ev._route
+                    del ev.solver.route
                 finite = f < 1e5
                 print(
                     f"{backend:5s} N={n:5d} {model:28s} exact {exact * 1e3:7.2f} ms  penalty {penalty * 1e3:7.2f} ms"

@@ -7,7 +7,7 @@ For each robot and model, in one process, one thread, poses per CPU-second (best
 
 * the raw kernel: ``CKernels.fused`` with the poses' inputs built beforehand, no checks;
 * the prepared call: the pass ``Evaluator.modes`` prepares once per model and options
-  (``Evaluator._plan``), the pose checks included;
+  (``ev.c_route.plan``), the pose checks included;
 * the public path: ``Evaluator.frequencies``;
 
 the three interleaved within each repetition (a shared machine's speed drifts).
@@ -59,7 +59,7 @@ def main() -> None:
             (P[:, 0].copy(), P[:, 1].copy(), P[:, 2].copy(), {**params, **ev.kernel_pose_inputs(P)})
             for P in batches[: args.repeat]
         ]
-        plan = ev._plan(model, {}, "raise", "nan", False)
+        plan = ev.c_route.plan(model, {}, "raise", "nan", False)
         if not plan:
             print(f"{name}, {model} | no prepared pass")
             continue

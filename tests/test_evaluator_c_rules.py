@@ -67,7 +67,7 @@ def _legs(full):
 
 def test_c_followers_close_every_legs_plane(rps, monkeypatch):
     evc, ev = rps
-    assert evc._fused and evc.c_newton and "followers" in evc.kernels.OUTPUTS
+    assert evc.c_route.fused and evc.c_newton and "followers" in evc.kernels.OUTPUTS
     x = _poses()
     calls, follow = [], evc.kernels.follow  # the iterations run by the C driver
     monkeypatch.setattr(evc.kernels, "follow", lambda *a, **kw: calls.append(a[2]) or follow(*a, **kw))
@@ -150,7 +150,7 @@ def test_c_modes_of_the_lower_mobility_platform_are_numpys(rps):
     pass (it reads x, y, z): the general route, the modes of NumPy's matrices."""
     evc, ev = rps
     x = _poses()
-    assert evc._plan("none", {}, "raise", "nan", True) is None
+    assert evc.c_route.plan("none", {}, "raise", "nan", True) is None
     for model in ("none", "rigid"):
         np.testing.assert_allclose(evc.frequencies(x, model), ev.frequencies(x, model), rtol=1e-9)
 
@@ -162,7 +162,7 @@ def heli4():
     valid in every model."""
     mp = compiled_tier()
     fast, general = (eigentwist.load("heli4", backend="c", threads=1) for _ in range(2))
-    general._plan = lambda *args: None
+    general.c_route.plan = lambda *args: None
     poses = random_poses(fast.robot, 40, seed=50)
     yield fast, general, poses[fast.valid(poses, "rigid") & fast.valid(poses, "paper")][:6]
     mp.undo()
@@ -180,7 +180,7 @@ def test_the_prepared_pass_answers_by_itself(heli4, monkeypatch):
     def general_route(*args, **kw):
         raise AssertionError("the general route")
 
-    monkeypatch.setattr(fast, "_route", general_route)
+    monkeypatch.setattr(fast.solver, "route", general_route)
     flagged = np.vstack([x[:2], [0.0, 0.0, 0.0]])  # unreachable: checked with the pass's outputs
     got, want = fast.modes(flagged, "rigid", invalid="nan"), general.modes(flagged, "rigid", invalid="nan")
     assert got.valid.tolist() == [True, True, False] and got.freq_hz.tobytes() == want.freq_hz.tobytes()
@@ -207,7 +207,7 @@ def test_the_prepared_pass_answers_by_itself(heli4, monkeypatch):
 )
 def test_the_prepared_pass_leaves_bad_shapes_to_the_general_route(heli4, poses, message):
     fast, _, _ = heli4
-    assert fast._plan("rigid", {}, "raise", "nan", True)
+    assert fast.c_route.plan("rigid", {}, "raise", "nan", True)
     with pytest.raises(InputError) as err:
         fast.modes(poses, "rigid")
     assert str(err.value).startswith(message)

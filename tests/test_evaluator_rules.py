@@ -14,7 +14,7 @@ import scipy.linalg
 import eigentwist
 from eigentwist.runtime import InputError, SingularPoseError, UnreachablePoseError, UnstablePoseError
 from eigentwist.runtime import condense
-from eigentwist.runtime.completion import CHUNK, chunks, take
+from eigentwist.runtime.completion import CHUNK, chunks, masked, take, user_rows
 from eigentwist.runtime.evaluator import AXES, Evaluator, Modes
 
 
@@ -291,13 +291,13 @@ def test_rows_of_the_inputs_are_taken_where_an_input_has_one_per_pose():
     t = take(p, slice(1, 3))
     assert t["a"].tolist() == [1.0, 2.0] and t["s"] == 2.0 and t["one"].tolist() == [5.0]
     mask = np.array([True, False, True])
-    m = Evaluator._mask(p, mask, n)
+    m = masked(p, mask, n)
     assert m["a"].tolist() == [0.0, 2.0] and m["one"].tolist() == [5.0] and m["s"] == 2.0
     single = {"a": np.array([7.0])}
-    assert Evaluator._mask(single, np.array([True]), 1)["a"] is single["a"]
-    r = Evaluator._rows({"a": [1.0, 2.0, 3.0], "s": 4.0, "two": np.ones(2)}, mask, n)
+    assert masked(single, np.array([True]), 1)["a"] is single["a"]
+    r = user_rows({"a": [1.0, 2.0, 3.0], "s": 4.0, "two": np.ones(2)}, mask, n)
     assert r["a"].tolist() == [1.0, 3.0] and r["s"] == 4.0 and r["two"].tolist() == [1.0, 1.0]
-    assert Evaluator._rows({"a": [1.0]}, slice(0, 1), 1)["a"] == [1.0]
+    assert user_rows({"a": [1.0]}, slice(0, 1), 1)["a"] == [1.0]
 
 
 def test_a_batch_longer_than_a_chunk_gives_each_poses_own_result(heli4):
@@ -524,7 +524,7 @@ def test_two_unstable_modes_are_named_together(heli4):
         UnstablePoseError,
         match=r"^pose \[0.1, 0.2, 0.3\] m is unstable in model a,b: modes 1, 3 of 3 have a negative stiffness",
     ):
-        heli4._raise_unstable(np.array([[9.0, 9.0, 9.0], [0.1, 0.2, 0.3]]), m, ("a", "b"))
+        heli4.solver.raise_unstable(np.array([[9.0, 9.0, 9.0], [0.1, 0.2, 0.3]]), m, ("a", "b"))
 
 
 def test_a_growing_pole_names_the_least_damped_mode(heli4):
@@ -547,7 +547,7 @@ def test_a_growing_pole_names_the_least_damped_mode(heli4):
     nan = types.SimpleNamespace(damping_ratio=np.full((1, 3), np.nan))
     lost = Modes(np.ones((1, 3)), None, ("x", "y", "z"), "rigid", stable=np.array([False]), damping=nan)
     with pytest.raises(UnstablePoseError, match=r"a pole grows \(mode 1 has damping ratio nan"):
-        heli4._raise_unstable(X[:1], lost, ("a",))
+        heli4.solver.raise_unstable(X[:1], lost, ("a",))
 
 
 def test_the_modes_options_are_checked(heli4):

@@ -256,26 +256,26 @@ def test_parallel_screen_is_remembered_per_geometry(ev_c, monkeypatch):
     """The parallel-singularity screen is computed once per content of the poses and the
     inputs of the kernels it runs: a stiffness leaves it, a geometric parameter (l1) or a
     pose computes it anew, and the answer is always the one computed afresh."""
-    import eigentwist.runtime.evaluator as evaluator
+    import eigentwist.runtime.checks as checks
 
-    ev_c._parallel_memo = evaluator.BoundedMemo()
+    ev_c.checks.parallel_memo = checks.BoundedMemo()
     calls = []
-    rows_of = ev_c._platform_rows
-    monkeypatch.setattr(ev_c, "_platform_rows", lambda at, pp: calls.append(1) or rows_of(at, pp))
+    rows_of = ev_c.checks.platform_rows
+    monkeypatch.setattr(ev_c.checks, "platform_rows", lambda at, pp: calls.append(1) or rows_of(at, pp))
     # a screen that depends on the rows' values: a stale answer would differ from a fresh one
-    monkeypatch.setattr(evaluator, "parallel_mask", lambda W: W[:, 0, 3] > -0.47)
+    monkeypatch.setattr(checks, "parallel_mask", lambda W: W[:, 0, 3] > -0.47)
     poses = np.array([[0.0, 0.0, -0.625], [0.05, -0.03, -0.6], [0.0, 0.0, -0.625]])
     idx = np.arange(3)
 
     def screen(poses=poses, **params):
         p = ev_c.resolver.resolve(len(poses), params, "paper")
-        return ev_c._parallel_ok(poses, p, idx, strict=False)
+        return ev_c.checks.parallel_ok(poses, p, idx, strict=False)
 
     def fresh(poses=poses, **params):
         p = ev_c.resolver.resolve(len(poses), params, "paper")
-        return evaluator.parallel_mask(rows_of(poses, ev_c.completion.with_pose(poses, p)))
+        return checks.parallel_mask(rows_of(poses, ev_c.completion.with_pose(poses, p)))
 
-    assert "l1" in ev_c._geometry_names() and "k_a" not in ev_c._geometry_names()
+    assert "l1" in ev_c.checks.geometry_names() and "k_a" not in ev_c.checks.geometry_names()
     first = screen()
     assert len(calls) == 1 and np.array_equal(first, fresh())
     assert np.array_equal(screen(), first) and np.array_equal(screen(k_a=2000.0), first)
@@ -338,7 +338,7 @@ def test_kernel_scalars_packed_once_follow_the_values(ev_c):
     ev_c.resolver.resolve(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # the defaults' first use checks them
     frozen = ev_c.resolver.resolve(2, {"k_a": np.array([900.0, 1100.0])}, "paper")  # arrays: not memoised
     assert frozen["l1"] is ev_c.resolver.resolve(2, {"k_a": np.array([1.0, 2.0])}, "paper")["l1"]  # same default object
-    q = ev_c._ik(poses, frozen)
+    q = ev_c.checks.ik(poses, frozen)
     a = ev_c.kernels.matrices(q, ev_c.completion.with_pose(poses, frozen))["K_F"]
     packed = ev_c.kernels._kernel_packed["matrices"]
     b = ev_c.kernels.matrices(q, ev_c.completion.with_pose(poses, frozen))["K_F"]
@@ -365,11 +365,11 @@ def test_kernel_scalars_packed_once_follow_the_values(ev_c):
 def test_the_rigid_model_takes_the_c_pass_for_translations_or_all_six_twists(pose, fused):
     from types import SimpleNamespace
 
-    from eigentwist.runtime.evaluator import Evaluator
+    from eigentwist.runtime.c_route import CPassRoute
 
     stub = SimpleNamespace(space=SimpleNamespace(basis=(tuple(range(len(pose))),)), pose_names=pose)
-    assert Evaluator._c_rigid.fget(stub) is fused
-    assert Evaluator._c_rigid.fget(SimpleNamespace(space=SimpleNamespace(), pose_names=pose)) is False
+    assert CPassRoute.c_rigid.fget(stub) is fused
+    assert CPassRoute.c_rigid.fget(SimpleNamespace(space=SimpleNamespace(), pose_names=pose)) is False
 
 
 # ------------------------------------------------- the prepared pass of small calls
@@ -392,17 +392,17 @@ def _outcome(ev, poses, model, **kw):
 @compiled
 @pytest.mark.parametrize("robot, bad", [("heli4", (0.0, 0.0, 0.0)), ("hexapod", (0.0,) * 6)])
 def test_prepared_pass_gives_the_general_routes_bits(robot, bad, monkeypatch):
-    """``modes`` of scalar values by the prepared C pass (``Evaluator._plan``) equals the
+    """``modes`` of scalar values by the prepared C pass (``ev.c_route.plan``) equals the
     general route bit for bit, on both sides of each of its guards: a clean batch and one
     with an unreachable or singular pose (``invalid`` raise and nan), every pose through the
     parallel screen or none, a pose not finite, values per pose (no plan), a strided batch,
     one pose, several threads, a rotation vector below and above the series' threshold."""
-    import eigentwist.runtime.evaluator as evaluator
+    import eigentwist.runtime.c_route as c_route
 
     monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
     fast, many = (eigentwist.load(robot, backend="c", threads=t) for t in (1, 2))
     general = eigentwist.load(robot, backend="c", threads=1)
-    monkeypatch.setattr(general, "_plan", lambda *args: None)
+    monkeypatch.setattr(general.c_route, "plan", lambda *args: None)
     poses = random_poses(fast.robot, 2085, seed=46)  # > 16 blocks a thread on two threads
     poses = poses[fast.valid(poses, "paper") & fast.valid(poses, "rigid")]
     if robot == "hexapod":
@@ -420,17 +420,18 @@ def test_prepared_pass_gives_the_general_routes_bits(robot, bad, monkeypatch):
         (np.where(few == few[0, 0], np.nan, few), "paper", {}),
         (few, "paper", dict(k_a=np.linspace(1500.0, 2500.0, 5))),
     ]
-    for screen in (evaluator.PARALLEL_SCREEN, 1.0):  # 1.0: every pose goes to the exact check
-        monkeypatch.setattr(evaluator, "PARALLEL_SCREEN", screen)
+    for screen in (c_route.PARALLEL_SCREEN, 1.0):  # 1.0: every pose goes to the exact check
+        monkeypatch.setattr(c_route, "PARALLEL_SCREEN", screen)
         for P, model, kw in cases:
             got, want = _outcome(fast, P, model, **kw), _outcome(general, P, model, **kw)
             assert type(got) is type(want), (model, kw, got, want)
             assert got == want if isinstance(got, str) else _same_modes(got, want), (model, kw)
-    assert len(fast._plans) == 5  # one per (model, options); none for k_a per pose
+    assert len(fast.c_route.plans) == 5  # one per (model, options); none for k_a per pose
     assert all(
-        fast._plan(m, {}, inv, "nan", vec) for m, inv, vec in [("paper", "raise", True), ("rigid", "raise", False)]
+        fast.c_route.plan(m, {}, inv, "nan", vec)
+        for m, inv, vec in [("paper", "raise", True), ("rigid", "raise", False)]
     )
-    assert fast._plan("paper", {"k_a": np.ones(5)}, "raise", "nan", True) is None
+    assert fast.c_route.plan("paper", {"k_a": np.ones(5)}, "raise", "nan", True) is None
     if robot == "hexapod":
         clean = poses[4:9]
         assert _same_modes(fast.modes(clean, "paper"), general.modes(clean, "paper"))
@@ -505,16 +506,16 @@ def test_an_array_default_takes_the_general_route(monkeypatch):
     prepared pass, the general route's answer; a scalar default is prepared."""
     monkeypatch.setenv("EIGENTWIST_CACHE", str(c_cache_dir()))
     fast, general = (eigentwist.load("heli4", backend="c", threads=1) for _ in range(2))
-    monkeypatch.setattr(general, "_plan", lambda *args: None)
+    monkeypatch.setattr(general.c_route, "plan", lambda *args: None)
     poses = random_poses(fast.robot, 4, seed=48)
     m_e = fast.parameters["m_e"]
     for ev in (fast, general):
         monkeypatch.setitem(ev.parameters, "m_e", m_e.with_values(default=np.full(4, m_e.default)))
     got, want = fast.modes(poses, "rigid", vectors=False), general.modes(poses, "rigid", vectors=False)
-    assert fast._plan("rigid", {}, "raise", "raise", False) is None
+    assert fast.c_route.plan("rigid", {}, "raise", "raise", False) is None
     assert got.freq_hz.tobytes() == want.freq_hz.tobytes()
     scalar = eigentwist.load("heli4", backend="c", threads=1)
-    assert scalar._plan("rigid", {}, "raise", "raise", False) is not None
+    assert scalar.c_route.plan("rigid", {}, "raise", "raise", False) is not None
     assert scalar.modes(poses, "rigid", vectors=False).freq_hz.tobytes() == got.freq_hz.tobytes()
 
 

@@ -400,7 +400,7 @@ def test_point_platform_numpy_equals_c(mechanisms, monkeypatch):
     a, b = ev.matrices(x, "none"), evc.matrices(x, "none")
     for k in ("M", "K_R", "K_F"):
         np.testing.assert_allclose(b[k], a[k], rtol=1e-11, atol=1e-11 * np.abs(a[k]).max())
-    assert evc._pass_rigid and not ev._pass_rigid
+    assert evc.c_route.pass_rigid and not ev.c_route.pass_rigid
     chosen = []
     real = evaluator_module.choose_route
     monkeypatch.setattr(evaluator_module, "choose_route", lambda **kw: chosen.append(real(**kw)) or chosen[-1])

@@ -542,7 +542,7 @@ def test_a_pose_off_the_recorded_branch_is_named(numeric, backend, monkeypatch):
             skip_tier("compiled", str(exc))
         ev = eigentwist.load(hexapod_urdf.describe(), backend="c", threads=1, progress=lambda m: None)
     flipped = Evaluator(ev.robot, ev.module, backend, kernels=ev.kernels, threads=1)
-    assert flipped._fused is (backend == "c")
+    assert flipped.c_route.fused is (backend == "c")
     if backend == "c":  # the legs' Newton iterations run in C: at x_ref, the geometry's joints
         iterations, newton = [], ev.kernels.newton
         monkeypatch.setattr(ev.kernels, "newton", lambda *a, **kw: iterations.append(1) or newton(*a, **kw))

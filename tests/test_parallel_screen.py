@@ -1,11 +1,11 @@
-"""The parallel screen of the C pass's results (eigentwist.runtime.evaluator.above_screen)."""
+"""The parallel screen of the C pass's results (eigentwist.runtime.c_route.above_screen)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from eigentwist.runtime.evaluator import PARALLEL_SCREEN, above_screen
+from eigentwist.runtime.c_route import PARALLEL_SCREEN, above_screen
 
 
 def test_the_screen_is_the_rows_lowest_against_their_highest():
@@ -44,7 +44,8 @@ def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monk
     """The prepared C pass's result goes on to the exact check where a pose's lowest
     frequency lies below the screen times its highest (not its second highest: here 0.5)."""
     import eigentwist
-    from eigentwist.runtime.evaluator import AXES, Evaluator, Modes
+    from eigentwist.runtime.c_route import CPassRoute
+    from eigentwist.runtime.evaluator import AXES, Modes
 
     ev = eigentwist.load("heli4", backend="numpy")
     freq = np.array([[3.0, 4.0, 5.0, 6.0, 7.0, 8.0], [lowest, 0.2, 0.3, 0.4, 0.5, 1.0]])
@@ -54,13 +55,13 @@ def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monk
         checked.append(len(arr))
         return Modes(kw["out"]["freq_hz"], None, AXES, "flexible", None, np.ones(len(arr), dtype=bool))
 
-    monkeypatch.setattr(Evaluator, "_fused_modes", fused_modes)
+    monkeypatch.setattr(CPassRoute, "modes", fused_modes)
 
     def call(addresses, n, threads):
         return {"status": np.zeros(n, dtype=np.int8), "freq_hz": freq[:n]}
 
     plan = (call, 3, ("actuator_loss",), {}, "flexible", AXES, True, False, "nan")
-    modes = ev._planned_modes(plan, np.zeros((2, 3)))
+    modes = ev.c_route.planned_modes(plan, np.zeros((2, 3)))
     assert checked == ([2] if sent else []) and np.array_equal(modes.freq_hz, freq)
-    ev._planned_modes(plan, np.zeros((1, 3)))  # the first row alone: above the screen
+    ev.c_route.planned_modes(plan, np.zeros((1, 3)))  # the first row alone: above the screen
     assert checked == ([2] if sent else [])

@@ -212,7 +212,7 @@ def test_the_fused_pass_checks_exactly_the_poses_below_its_screen(monkeypatch):
     distance: of two poses whose f1 / f_max lie either side of PARALLEL_SCREEN (within 10 %
     of each other), the one below gets the exact check and the one above does not (both are
     regular: the check finds them so)."""
-    from eigentwist.runtime import evaluator
+    from eigentwist.runtime import c_route
 
     numpy_ev = eigentwist.load("delta", backend="numpy")
     d = numpy_ev.defaults
@@ -221,16 +221,18 @@ def test_the_fused_pass_checks_exactly_the_poses_below_its_screen(monkeypatch):
     dz = np.geomspace(1e-5, 0.05, 200)  # consecutive distances 4.4 % apart
     f = numpy_ev.frequencies(np.column_stack([0 * dz, 0 * dz, z0 - dz]), "paper", l2=0.4)
     ratio = f.min(axis=1) / f.max(axis=1)
-    k = int(np.argmax(ratio > evaluator.PARALLEL_SCREEN))
-    assert ratio[k - 1] < evaluator.PARALLEL_SCREEN < ratio[k] < 1.1 * ratio[k - 1]
+    k = int(np.argmax(ratio > c_route.PARALLEL_SCREEN))
+    assert ratio[k - 1] < c_route.PARALLEL_SCREEN < ratio[k] < 1.1 * ratio[k - 1]
     checked = []
-    original = evaluator.Evaluator._parallel_ok
+    from eigentwist.runtime.checks import PoseChecks
+
+    original = PoseChecks.parallel_ok
 
     def spy(self, poses, p, rows, strict):
         checked.extend(poses[rows, 2].tolist())
         return original(self, poses, p, rows, strict)
 
-    monkeypatch.setattr(evaluator.Evaluator, "_parallel_ok", spy)
+    monkeypatch.setattr(PoseChecks, "parallel_ok", spy)
     ev = eigentwist.load("delta", backend="c", threads=1)
     x = np.array([[0.0, 0.0, z0 - dz[k - 1]], [0.0, 0.0, z0 - dz[k]]])
     assert np.isfinite(ev.frequencies(x, "paper", l2=0.4)).all()

@@ -8,12 +8,16 @@ from .errors import (
     UnreachablePoseError,
     UnstablePoseError,
 )
+from .c_route import CPassRoute
+from .checks import PoseChecks
 from .completion import PoseCompletion
 from .evaluator import AXES, Evaluator, Modes
 from .inputs import InputResolver
 from .kernels import CompiledKernels, Kernels
 from .loader import evaluator_from_description, load
+from .mode_solver import ModeSolver
 from .routes import ROUTES, Route
+from .sensitivity_route import SensitivityRoute
 from .validity import CONDITIONING_TOL, POSE_STATUS
 
 __all__ = [
@@ -32,6 +36,10 @@ __all__ = [
     "POSE_STATUS",
     "InputResolver",
     "PoseCompletion",
+    "PoseChecks",
+    "CPassRoute",
+    "ModeSolver",
+    "SensitivityRoute",
     "Kernels",
     "CompiledKernels",
     "ROUTES",

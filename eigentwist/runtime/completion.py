@@ -19,7 +19,7 @@ from ..description.pose import FULL
 from ..description.serial import padded_references, padded_units
 from .errors import InputError
 
-__all__ = ["PoseCompletion", "CompletedPoses", "CHUNK", "chunks", "take"]
+__all__ = ["PoseCompletion", "CompletedPoses", "CHUNK", "chunks", "take", "masked", "user_rows"]
 
 CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
@@ -44,6 +44,19 @@ def chunks(n: int, size: int = CHUNK):
 def take(p: dict, sl: slice) -> dict:
     """The rows ``sl`` of a kernel input dict: per-pose (N,) arrays sliced, scalars as they are."""
     return {k: (v[sl] if v.ndim == 1 and v.shape[0] > 1 else v) for k, v in p.items()}
+
+
+def masked(p: dict, mask: np.ndarray, n: int) -> dict:
+    """The rows ``mask`` ((n,) bool) of a kernel input dict of n poses: (n,) arrays masked,
+    scalars as they are."""
+    return {k: (v[mask] if v.ndim == 1 and v.shape[0] == n and n > 1 else v) for k, v in p.items()}
+
+
+def user_rows(params: dict, sl, n: int) -> dict:
+    """The user's parameters for rows ``sl`` of n poses ((n,) arrays sliced, the rest kept)."""
+    return {
+        k: (np.asarray(v)[sl] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v) for k, v in params.items()
+    }
 
 
 class PoseCompletion:

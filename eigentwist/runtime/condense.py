@@ -52,7 +52,7 @@ RIGID_RTOL = 1e-10
 #: an eigenvalue of the stacked rigid rows' Gram matrix A^T A at most NULL_FACTOR * rtol times the
 #: largest is an admissible twist (a squared singular value: rtol on the rows, with margin)
 NULL_FACTOR = 1e-2
-#: ``c_rigid`` as ``Evaluator._route`` passes it when no leg direction of the model is rigid: zero
+#: ``c_rigid`` as ``ModeSolver.route`` (:mod:`.mode_solver`) passes it when no leg direction of the model is rigid: zero
 #: (K_F exact), the one value the parameter's bounds refuse from a user (the evaluator
 #: knows this object and does not check it)
 EXACT = np.float64(0.0)

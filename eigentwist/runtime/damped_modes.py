@@ -64,7 +64,7 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
     the model's coordinates (a rigid model: its allowed twists and the actuated joints
     alone; a flexible one: the twists the legs' rigid constraints admit; coupled platform
     bodies: condensed). ``inputs``: the evaluator's kernel outputs of the valid rows
-    (``Evaluator._damping_inputs``), None where no row is valid; those rows stay NaN."""
+    (``ModeSolver.damping_inputs``, :mod:`.mode_solver`), None where no row is valid; those rows stay NaN."""
     from . import condense
 
     N, size = modes.freq_hz.shape
@@ -90,7 +90,7 @@ def damped_of(ev, effects, inputs: dict | None, modes, shapes: bool) -> Damping:
         Je, Cq = Je[:, :, :1, :], Cq[:, :, :1, :1]
         K_model = np.broadcast_to(mats["K_R"], (n, 6, 6))
     else:
-        # rigid joint combinations only where the evaluator's route condenses them (Evaluator._route)
+        # rigid joint combinations only where the evaluator's route condenses them (ModeSolver.route)
         B = inputs.get("B")
         if B is None:
             B = _admissible(Je, Cq, condense) if inputs["exact"] else np.broadcast_to(np.eye(6), (n, 6, 6))
@@ -205,7 +205,7 @@ def one_pass_takes(ev, effects) -> bool:
     call (:func:`fused_damped`): the C backend with a generated ``legs`` kernel of at most
     :data:`.c_damped.MAX_LEGS` legs and :data:`.c_damped.MAX_MODES` elastic joints each, real
     and uncoupled (no structural loss factor, no couplings of platform bodies on) and the
-    damped driver built. The caller also checks the model's route (``Evaluator._one_pass``)."""
+    damped driver built. The caller also checks the model's route (``ModeSolver.one_pass``)."""
     from . import c_damped
 
     on = set(effects)
@@ -366,7 +366,7 @@ def fused_exact(ev, effects, poses, p: dict, pk: dict, vectors: bool, damped: bo
 def exact_merge(ev, effects, poses, params: dict, p: dict, solved: dict, modes, vectors: bool):
     """``modes`` (the fused pass's K_F modes, the evaluator's checks done) with the exact
     condensation's finite modes of :func:`fused_exact` on its valid rows
-    (:func:`.condense.merge_modes`, as ``Evaluator._exact_modes`` does) and, where the pass
+    (:func:`.condense.merge_modes`, as ``ModeSolver.exact_modes`` does) and, where the pass
     solved them, ``modes.damping`` (:class:`~.damped.Damping` as :func:`damped_of` gives it;
     the poses the driver leaves undecided solved by :func:`damped_of` from the pass's kernel
     outputs). None, with ``modes`` untouched, where the pass does not stand for the

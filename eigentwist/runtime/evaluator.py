@@ -3,25 +3,23 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
 from types import ModuleType
 
 import numpy as np
 
 from ..description import RobotDescription
-from ..description.effects import base_name
 from ..description.joints import joint_kind
-from ..description.pose import FULL, TWIST_AXIS, twist_order
-from . import condense
-from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
-from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
-from .errors import InputError, UnstablePoseError
-from .completion import CompletedPoses, PoseCompletion, chunks, take
+from ..description.pose import TWIST_AXIS, twist_order
+from .errors import InputError
+from .c_route import CPassRoute
+from .checks import PoseChecks
+from .mode_solver import MATRICES, ModeSolver
+from .completion import PoseCompletion, chunks, take, user_rows
 from .inputs import InputResolver
 from .kernels import Kernels
 from .routes import choose_route
-from .labels import directions, energy_shares
-from .memo import BoundedMemo, content_key
+from .sensitivity_route import SensitivityRoute
+from .modes import AXES, Modes
 from .threads import resolve_threads
 from .validity import (
     CONDITIONING_TOL,
@@ -29,132 +27,12 @@ from .validity import (
     LEVER_TOL,
     POSE_STATUS,
     STATUS,
-    conditioning,
-    lever_mask,
-    parallel_mask,
-    platform_rows,
-    raise_parallel,
     raise_singular,
-    raise_unreachable,
-    reachable_mask,
 )
 
 __all__ = ["Evaluator", "Modes", "AXES", "LEVER_TOL", "CONDITIONING_TOL", "POSE_STATUS"]
 
-#: the fused C pass checks a pose for a parallel singularity when its lowest frequency is
-#: 0, NaN or below this fraction of its highest: a twist escaping the legs' wrenches with a
-#: conditioning c has omega about c times the others' (the stiffness along it scales with
-#: c^2), so at CONDITIONING_TOL (1.5e-6) it lies ~700 times below this screen. A loss of every
-#: allowed twist at once keeps the ratio and is caught where the frequencies reach 0 or
-#: NaN; the other paths (NumPy, matrices, valid, pose_status) check every pose exactly.
-PARALLEL_SCREEN = 1e-3
-
-
-def above_screen(freq: np.ndarray) -> np.ndarray:
-    """(N,) whether each pose's lowest frequency (a row of ``freq``, Hz) lies above
-    :data:`PARALLEL_SCREEN` times its highest; False where the row holds a NaN. One pass per
-    column: NumPy's reductions along a short last axis cost about 100 ns a pose, more than
-    the C pass's checks (a NaN propagates through minimum and maximum and compares False)."""
-    lo = freq[:, 0].copy()
-    hi = lo.copy()
-    for j in range(1, freq.shape[1]):
-        np.minimum(lo, freq[:, j], out=lo)
-        np.maximum(hi, freq[:, j], out=hi)
-    return lo > PARALLEL_SCREEN * hi
-
-
-AXES = ("rx", "ry", "rz", "x", "y", "z")
 MATRIX_CHUNK = 65536  # default chunk of Evaluator.iter_matrices: 3 x 18 MiB of (6, 6) matrices
-MATRICES = ("M", "K_R", "K_F")
-
-
-@dataclass
-class Modes:
-    """Natural frequencies and eigentwists of a batch of poses.
-
-    freq_hz : (N, n) ascending, Hz. An unstable mode (negative stiffness: an eigenvalue
-        omega^2 below round-off, see :data:`eigentwist.runtime.eigen.ROUNDOFF_EPS`) is NaN,
-        never 0 Hz.
-    eigentwists : (N, n, n), one column per mode, largest entry +1 (Eqs. 57, 65); None
-        from ``modes(..., vectors=False)``.
-    axes : names of the n coordinates (``("x", "y", "z")`` for a 3-DoF robot's rigid
-        model, ``("rx", "ry", "rz", "x", "y", "z")`` for the flexible one and for every
-        model of a 6-DoF robot).
-    stiffness_model : ``"rigid"`` (K_R, Eq. 14: the 3x3 translational subsets for a 3-DoF
-        robot, the full 6x6 for a 6-DoF one) or ``"flexible"`` (K_F, Eq. 13).
-    valid : (N,) bool, which poses were evaluated (reachable, not singular); the others
-        hold NaN. Set by ``modes(..., invalid="nan")``; None when every pose is valid.
-    stable : (N,) bool, False where a mode is unstable (its frequency is NaN); all True
-        unless the evaluator found one.
-    constrained : (N, n) bool, True where a column is a rigid constraint's mode (infinite
-        frequency: the value there is K_F's stand-in, ~1e6 Hz, not a measurable mode); None
-        when no column is (:mod:`.condense`).
-    shares : (N, n, n) each coordinate's share of each mode's energy
-        (:func:`eigentwist.runtime.labels.energy_shares`) where the evaluator had M at hand
-        (the C pass of a flexible model); None: computed from the eigentwists when needed.
-    damping : the damped modes (:class:`eigentwist.runtime.damped.Damping`: poles, complex
-        eigentwists) of a model with a damping effect (``servo_damping``, ``servo_delay``,
-        ``structural_loss``) or where ``complex_shapes`` was asked; None: no damping, and
-        :attr:`natural_hz` and :attr:`damped_hz` are :attr:`freq_hz`, :attr:`damping_ratio` 0.
-    """
-
-    freq_hz: np.ndarray
-    eigentwists: np.ndarray | None
-    axes: tuple
-    stiffness_model: str
-    valid: np.ndarray | None = None
-    stable: np.ndarray | None = None
-    constrained: np.ndarray | None = None
-    shares: np.ndarray | None = None
-    damping: object = None
-    #: the valid rows' joint coordinates, matrices, inputs and legs-kernel outputs where the
-    #: pass computed them (reused by the damped modes, then dropped); None otherwise
-    legs: dict | None = field(default=None, repr=False)
-
-    def __post_init__(self):
-        if self.stable is None:
-            self.stable = np.ones(self.freq_hz.shape[:1], dtype=bool)
-
-    @property
-    def kind(self) -> str:
-        """Deprecated name of :attr:`stiffness_model`."""
-        warnings.warn("Modes.kind is deprecated: use Modes.stiffness_model", DeprecationWarning, stacklevel=2)
-        return self.stiffness_model
-
-    @property
-    def natural_hz(self) -> np.ndarray:
-        """(N, n) undamped natural frequency omega_n / 2 pi of each damped mode, Hz: the
-        modulus of its pole (a curve fit's omega_n); :attr:`freq_hz` without damping."""
-        return self.freq_hz if self.damping is None else self.damping.natural_hz
-
-    @property
-    def damped_hz(self) -> np.ndarray:
-        """(N, n) damped frequency omega_d / 2 pi = omega_n sqrt(1 - zeta^2) / 2 pi, Hz (a
-        free decay, a step response); :attr:`freq_hz` without damping."""
-        return self.freq_hz if self.damping is None else self.damping.damped_hz
-
-    @property
-    def damping_ratio(self) -> np.ndarray:
-        """(N, n) damping ratio zeta of each mode (-); 0 without damping."""
-        if self.damping is None:
-            return np.where(np.isnan(self.freq_hz), np.nan, 0.0)
-        return self.damping.damping_ratio
-
-    @property
-    def complex_eigentwists(self) -> np.ndarray | None:
-        """(N, n, n) complex eigentwists (columns, largest entry 1 + 0j) of the damped modes,
-        from ``modes(..., complex_shapes=True)``; None otherwise."""
-        return None if self.damping is None else self.damping.shapes
-
-    @property
-    def direction(self) -> np.ndarray:
-        """(N, n) axis index (into :data:`AXES`) carrying the largest share of each mode's
-        energy (:mod:`eigentwist.runtime.labels`: unit-free, not an entry of the eigentwist);
-        a rigid model's coordinates are its allowed twists, named by :attr:`axes`."""
-        if self.eigentwists is None:
-            raise InputError("these modes were computed without eigentwists: call modes(..., vectors=True)")
-        local = directions(self.eigentwists, shares=self.shares)
-        return np.asarray([AXES.index(a) for a in self.axes])[local]  # the allowed twists' axes
 
 
 class Evaluator:
@@ -174,9 +52,12 @@ class Evaluator:
 
     A call runs in stages: the inputs resolver (``ev.resolver``, :mod:`.inputs`: model and
     values -> the kernels' inputs), pose completion (``ev.completion``, :mod:`.completion`:
-    poses -> the kernels' coordinates, legs solved by Newton), the kernels (``ev.kernels``,
+    poses -> the kernels' coordinates, legs solved by Newton), the pose checks (``ev.checks``,
+    :mod:`.checks`: reachable, not singular), the kernels (``ev.kernels``,
     :mod:`.kernels`: the generated NumPy module or the C library), and the route that solves
-    the modes (:mod:`.routes`).
+    the modes (:mod:`.routes`): the fused C pass (``ev.c_route``, :mod:`.c_route`) or the
+    matrices and the eigen-solver (``ev.solver``, :mod:`.mode_solver`); the frequencies'
+    derivatives: ``ev.sensitivity_route`` (:mod:`.sensitivity_route`).
     """
 
     def __init__(
@@ -191,6 +72,8 @@ class Evaluator:
         self.resolver = InputResolver(robot)
         #: pose completion (poses -> the kernels' coordinates, legs solved by Newton: :mod:`.completion`)
         self.completion = PoseCompletion(robot, module, self.resolver, lambda: self._kernels, self._c_threads)
+        #: pose checks (reachability, serial and parallel singularity: :mod:`.checks`)
+        self.checks = PoseChecks(robot, self.completion, lambda: self._kernels)
         self.defaults = robot.defaults
         self.effects = robot.effects
         self.n_legs = len(robot.legs)
@@ -203,15 +86,16 @@ class Evaluator:
         self.space = self.completion.space
         #: True when the kernels take a rigid platform's six coordinates (rotation included)
         self._six = self.completion.six
-        #: a point platform's translations (6 x d): the only twists its legs' rows must fix
-        self._freedoms = self.space.basis if getattr(self.space, "point", False) else None
-        self._rigid_models: dict = {}  # model -> whether a leg has a rigid direction (_route)
         #: C backend: run the Newton iterations of legs in URDF form and of a platform's followers in C
         #: (:mod:`.c_levenberg_marquardt`)
         self.c_newton = True
-        self._parallel_memo = BoundedMemo()  # content of poses and kernel inputs -> _parallel_ok
-        self._plans = BoundedMemo(64)  # (values key, invalid, unstable, vectors) -> prepared C pass (_plan)
-        self._planned_for = self._kernels  # the kernels the plans were prepared for
+        #: the fused C pass and its route of the modes (:mod:`.c_route`)
+        self.c_route = CPassRoute(self)
+        #: the matrices route and what both routes share: the constraints' treatment, the
+        #: exact condensation, the damped modes' inputs, the eigen-solver (:mod:`.mode_solver`)
+        self.solver = ModeSolver(self)
+        #: the frequencies' derivatives with respect to the parameters (:mod:`.sensitivity_route`)
+        self.sensitivity_route = SensitivityRoute(self)
         if self.numeric_ik:
             self.assembly()  # a reference on no branch is refused at load
 
@@ -233,7 +117,7 @@ class Evaluator:
 
     def _c_threads(self):
         """The threads of the Newton iterations in C (the C backend with ``c_newton``), else None."""
-        return self._nthreads() if self._fused and self.c_newton else None
+        return self.c_route.nthreads() if self.c_route.fused and self.c_newton else None
 
     def __repr__(self) -> str:
         return f"<eigentwist evaluator {self.robot.name!r} backend={self.backend!r}>"
@@ -367,104 +251,6 @@ class Evaluator:
         return self.stiffness_model(model)
 
     # ---------------------------------------------------------------- kernels
-    def _check_rows(self, poses: np.ndarray, p: dict, strict: bool):
-        """Inverse kinematics with the reachability and singularity checks.
-
-        Returns ``(q, jacobians, ok)``: joint angles (n, legs, 3), the ``jacobians``
-        kernel output for the valid rows (None when none is valid) and the (n,) mask of
-        valid rows. With ``strict`` the first invalid row raises an error naming the
-        pose, the leg and the violated condition (:mod:`.validity`).
-        """
-        n = len(poses)
-        legs = self.robot.legs
-        if strict:
-            self._raise_unfollowed(poses)
-        p = self.completion.with_pose(poses, p)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], p)
-        if strict:
-            self.completion.raise_off_branch(poses, p)
-            raise_unreachable(legs, poses, out, self.pose_names)
-        ok = reachable_mask(out)
-        q, jac = out["q"], None
-        if ok.any():
-            sub = p if ok.all() else self._mask(p, ok, n)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                jac = self._kernels.jacobians(q if ok.all() else q[ok], sub)
-            lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
-            rows = platform_rows(jac["J_rows"], legs, self._freedoms)
-            if strict:
-                raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None, self.pose_names)
-                raise_parallel(poses[ok], rows, self.pose_names)
-            ok[ok] = lever_mask(lever) & parallel_mask(rows)
-        return q, jac, ok
-
-    def _platform_rows(self, poses: np.ndarray, pp: dict) -> np.ndarray:
-        """(n, r, 6) the platform's actuation and constraint rows at reachable poses
-        (:func:`~.validity.platform_rows`; the IK and jacobians kernels of either backend);
-        ``pp`` the kernels' inputs with the pose (:meth:`_with_pose`)."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            q = self._kernels.inverse_kinematics(poses[:, 0], poses[:, 1], poses[:, 2], pp)["q"]
-            return platform_rows(self._kernels.jacobians(q, pp)["J_rows"], self.robot.legs, self._freedoms)
-
-    def _geometry_names(self):
-        """The inputs the inverse-kinematics and jacobians kernels read (the C library's
-        signature); None for kernels that do not declare them (no memo)."""
-        spec = getattr(self._kernels, "_spec", None)
-        if spec is None:
-            return None
-        return sorted(
-            {name for k in ("inverse_kinematics", "jacobians") for group, name, _ in spec[k]["inputs"] if group != "q"}
-        )
-
-    def _parallel_ok(self, poses: np.ndarray, p: dict, rows: np.ndarray, strict: bool) -> np.ndarray:
-        """(len(rows),) bool: the poses ``rows`` (indices) are not parallel singular; with
-        ``strict`` the first that is raises :class:`SingularPoseError`. Remembered per content
-        of the poses and every input of the kernels it runs (:mod:`.memo`): the stiffnesses a
-        fit varies leave it unchanged, a geometric parameter or a pose computes it anew."""
-        if not len(rows):
-            return np.ones(0, dtype=bool)
-        n = len(poses)
-        mask = np.zeros(n, dtype=bool)
-        mask[rows] = True
-        sub = p if mask.all() else self._mask(p, mask, n)
-        at = poses[mask]
-        pp = self.completion.with_pose(at, sub)
-        names = self._geometry_names()
-        key = None if names is None else content_key(at, pp, names)
-        ok = None if key is None else self._parallel_memo.get(key)
-        if ok is None:
-            ok = parallel_mask(self._platform_rows(at, pp))
-            if key is not None:
-                ok.flags.writeable = False
-                self._parallel_memo.put(key, ok)
-        if strict and not ok.all():
-            raise_parallel(at, self._platform_rows(at, pp), self.pose_names)
-        return ok.copy()
-
-    def _raise_unfollowed(self, poses: np.ndarray) -> None:
-        """Raise :class:`UnreachablePoseError` for the first pose whose followers did not
-        converge (NaN, :mod:`.platform`), naming its commanded coordinates."""
-        bad = np.isnan(poses).any(axis=1)
-        if bad.any():
-            from .errors import UnreachablePoseError
-            from .platform import MAX_STEPS
-
-            k = int(np.argmax(bad))
-            given = ", ".join(f"{c} = {poses[k, FULL.index(c)]:.6g}" for c in self.pose_names)
-            raise UnreachablePoseError(
-                f"pose {given} ({self.completion.pose_units()}) is unreachable for {self.robot.name}: its "
-                f"{', '.join(self.space.followers)} did not converge (damped Newton on the legs' closures, "
-                f"{MAX_STEPS} steps from the reference and from the previous pose)"
-            )
-
-    @staticmethod
-    def _mask(p: dict, mask: np.ndarray, n: int) -> dict:
-        return {k: (v[mask] if v.ndim == 1 and v.shape[0] == n and n > 1 else v) for k, v in p.items()}
-
-    def _ik(self, poses: np.ndarray, p: dict) -> np.ndarray:
-        return self._check_rows(poses, p, strict=True)[0]
-
     def _run(self, kernel: str, poses, model, params: dict) -> dict:
         poses = self.completion.poses(poses, params)
         n = len(poses)
@@ -472,7 +258,7 @@ class Evaluator:
         results: dict = {}
         for sl in chunks(n):
             pc = take(p, sl)
-            q, jac, _ = self._check_rows(poses[sl], pc, strict=True)
+            q, jac, _ = self.checks.check_rows(poses[sl], pc, strict=True)
             # the checks already evaluated the jacobians kernel: every result carries it
             out = (
                 {"q": q, **jac}
@@ -482,52 +268,6 @@ class Evaluator:
             for key, val in out.items():
                 results.setdefault(key, []).append(val)
         return {k: np.concatenate(v, axis=0) for k, v in results.items()}
-
-    # ------------------------------------------------------- the C pass
-    @property
-    def _fused(self) -> bool:
-        """Whether the kernels have the C backend's fused pass."""
-        return hasattr(self._kernels, "fused")
-
-    def _nthreads(self) -> int:
-        return resolve_threads(self.threads)
-
-    def _c_pass(self, poses: np.ndarray, p: dict, **kw) -> dict:
-        """One fused C pass over the batch (status included), on the evaluator's threads."""
-        return self._kernels.fused(
-            poses[:, 0],
-            poses[:, 1],
-            poses[:, 2],
-            self.completion.with_pose(poses, p),
-            status=True,
-            threads=self._nthreads(),
-            **kw,
-        )
-
-    def _raise_first(self, poses: np.ndarray, p: dict, bad: np.ndarray) -> None:
-        """Raise the error of the first pose flagged in ``bad`` (unreachable, singular, ...)."""
-        self._raise_unfollowed(poses)
-        if self.numeric_ik:
-            self.completion.raise_off_branch(poses, self.completion.with_pose(poses, p))
-        k = int(np.argmax(bad))
-        self._kernels.raise_invalid(
-            k,
-            poses[:, 0],
-            poses[:, 1],
-            poses[:, 2],
-            self.completion.with_pose(poses, p),
-            (len(poses),),
-            legs=self.robot.legs,
-            names=self.pose_names,
-        )
-
-    @staticmethod
-    def _rows(params: dict, sl, n: int) -> dict:
-        """The user's parameters for rows ``sl`` of n poses ((n,) arrays sliced, the rest kept)."""
-        return {
-            k: (np.asarray(v)[sl] if np.ndim(v) == 1 and np.shape(v)[0] == n and n > 1 else v)
-            for k, v in params.items()
-        }
 
     # ----------------------------------------------------------------- public
     def valid(self, poses, model="paper", **params) -> np.ndarray:
@@ -539,12 +279,9 @@ class Evaluator:
         """
         poses = self.completion.poses(poses, params)
         p = self.resolver.resolve(len(poses), params, model)
-        if self._fused:
-            st = self._c_pass(poses, p, matrices=())["status"]
-            ok = (st != STATUS["unreachable"]) & (st != STATUS["singular"])
-            ok[ok] = self._parallel_ok(poses, p, np.flatnonzero(ok), strict=False)
-            return ok
-        return np.concatenate([self._check_rows(poses[sl], take(p, sl), strict=False)[2] for sl in chunks(len(poses))])
+        return self.checks.valid(
+            poses, p, self.c_route.run(poses, p, matrices=())["status"] if self.c_route.fused else None
+        )
 
     def pose_status(self, poses, model="paper", **params) -> dict:
         """Each pose's status and conditioning, never an error.
@@ -562,43 +299,14 @@ class Evaluator:
         :class:`SingularPoseError` at either singularity and :meth:`valid` is False there.
         """
         poses = self.completion.poses(poses, params)
-        n = len(poses)
-        p = self.resolver.resolve(n, params, model)
-        code = np.full(n, POSE_STATUS.index("unreachable"), dtype=np.int8)
-        cond, lever_min = np.full(n, np.nan), np.full(n, np.nan)
-        for sl in chunks(n):
-            pc = self.completion.with_pose(poses[sl], take(p, sl))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                ik = self._kernels.inverse_kinematics(poses[sl, 0], poses[sl, 1], poses[sl, 2], pc)
-            reach = reachable_mask(ik) & np.isfinite(poses[sl]).all(axis=1)
-            if not reach.any():
-                continue
-            sub = self._mask(pc, reach, len(reach)) if not reach.all() else pc
-            with np.errstate(invalid="ignore", divide="ignore"):
-                jac = self._kernels.jacobians(ik["q"][reach], sub)
-            lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
-            rows = platform_rows(jac["J_rows"], self.robot.legs, self._freedoms)
-            idx = np.arange(sl.start, sl.stop)[reach]
-            cond[idx] = conditioning(rows)
-            lever_min[idx] = np.abs(lever).min(axis=-1)
-            code[idx] = np.where(
-                ~lever_mask(lever),
-                POSE_STATUS.index("serial singular"),
-                np.where(~parallel_mask(rows), POSE_STATUS.index("parallel singular"), POSE_STATUS.index("reachable")),
-            )
-        return {
-            "status": np.array(POSE_STATUS, dtype=object)[code],
-            "code": code,
-            "conditioning": cond,
-            "lever": lever_min,
-        }
+        return self.checks.pose_status(poses, self.resolver.resolve(len(poses), params, model))
 
     def joint_angles(self, poses, **params) -> np.ndarray:
         """Joint coordinates from the closed-form IK, shape (N, legs, k): (q1, q2, q3) per
         leg in rad for the Heli4/Delta (k = 3); the leg length in m for the hexapod (k = 1)."""
         poses = self.completion.poses(poses, params)
         p = self.resolver.resolve(len(poses), params, "paper")
-        return np.concatenate([self._ik(poses[sl], take(p, sl)) for sl in chunks(len(poses))])
+        return np.concatenate([self.checks.ik(poses[sl], take(p, sl)) for sl in chunks(len(poses))])
 
     def jacobians(self, poses, **params) -> dict:
         """Inverse-Jacobian rows ``J_rows`` (N, legs, 4, 6), (N, legs, 6, 6) for the hexapod
@@ -643,30 +351,14 @@ class Evaluator:
         n = len(poses)
         p = self.resolver.resolve(n, params, model)
         out = self._check_out(out, n)
-        if self._fused:
-            res = self._c_pass(poses, p, matrices=MATRICES, out=out)
+        if self.c_route.fused:
+            res = self.c_route.run(poses, p, matrices=MATRICES, out=out)
             bad = res["status"] != STATUS["ok"]
             if bad.any():
-                self._raise_first(poses, p, bad)
-            self._parallel_ok(poses, p, np.arange(n), strict=True)
+                self.checks.raise_first(poses, p, bad)
+            self.checks.parallel_ok(poses, p, np.arange(n), strict=True)
             return {k: res[k] for k in MATRICES}
-        return self._matrices_q(poses, p, out)[0]
-
-    def _matrices_q(self, poses: np.ndarray, p: dict, out: dict | None = None):
-        """``(matrices, q)`` of the NumPy path: the joint coordinates come along (for
-        :meth:`_exact_modes`)."""
-        n = len(poses)
-        out = out or {}
-        mats = {k: out.get(k) if k in out else np.empty((n, 6, 6)) for k in MATRICES}
-        qs = []
-        for sl in chunks(n):
-            pc = take(p, sl)
-            q = self._check_rows(poses[sl], pc, strict=True)[0]
-            qs.append(q)
-            chunk = self._kernels.matrices(q, self.completion.with_pose(poses[sl], pc))
-            for k in MATRICES:
-                mats[k][sl] = chunk[k]
-        return mats, np.concatenate(qs) if qs else None
+        return self.solver.matrices_q(poses, p, out)[0]
 
     @staticmethod
     def _check_out(out, n: int) -> dict:
@@ -769,7 +461,7 @@ class Evaluator:
         self.resolver.resolve(n, params, model)
         for start in range(0, n, int(chunk)):
             sl = slice(start, min(n, start + int(chunk)))
-            yield sl, self.matrices(poses[sl], model, **self._rows(params, sl, n))
+            yield sl, self.matrices(poses[sl], model, **user_rows(params, sl, n))
 
     def stiffness(self, poses, model="paper", **params):
         """The (M, K) pair the model's eigenproblem uses, with the gravity preload if on.
@@ -778,43 +470,7 @@ class Evaluator:
         the paper does); a 6-DoF robot's rigid model the full 6x6 M and K_R; flexible
         models the full 6x6 M and K_F.
         """
-        return self._stiffness(poses, model, params)
-
-    def _stiffness(self, poses, model, params: dict, stash: dict | None = None):
-        """:meth:`stiffness`; ``stash`` (a dict) receives the joint coordinates ``q`` and the
-        matrices ``M``, ``K_R``, ``K_F`` of the NumPy path (for :meth:`_exact_modes` and the
-        damped modes, :meth:`_damping_inputs`)."""
-        poses_arr = self.completion.poses(poses, params)
-        effects = self.resolver.model_effects(model)
-        rigid = self.stiffness_model(effects) == "rigid"
-        if (
-            rigid
-            and self._fused
-            and stash is None
-            and getattr(self.space, "basis", 0) is None
-            and not self._preloaded(effects)
-        ):
-            # allowed twists that turn with the pose: M, K_R and J_rows from one C pass
-            p = self.resolver.resolve(len(poses_arr), params, effects)
-            res = self._c_pass(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
-            bad = res["status"] != STATUS["ok"]
-            if bad.any():
-                self._raise_first(poses_arr, p, bad)
-            B = self._basis(res["J_rows"])
-            return reduce(res["M"], B, compiled=True), reduce(res["K_R"], B, compiled=True)
-        if stash is not None and not self._fused:
-            mats, stash["q"] = self._matrices_q(poses_arr, self.resolver.resolve(len(poses_arr), params, effects))
-            stash.update((k, mats[k]) for k in MATRICES)
-        else:
-            mats = self.matrices(poses_arr, effects, **params)
-        B = self.allowed_twists(poses_arr, **params) if rigid else None
-        M = reduce(mats["M"], B, self._fused) if rigid else mats["M"]
-        K = reduce(mats["K_R"], B, self._fused) if rigid else mats["K_F"]
-        if self._preloaded(effects):
-            from .gravity import gravity_stiffness
-
-            K = K + gravity_stiffness(self, poses_arr, effects, params, mats, rigid, B)
-        return M, K
+        return self.solver.stiffness(poses, model, params)
 
     def allowed_twists(self, poses, **params) -> np.ndarray:
         """(N, 6, n) orthonormal bases of the platform's allowed twists ``[omega; v]`` at
@@ -826,59 +482,16 @@ class Evaluator:
         fixed = getattr(self.space, "basis", None)
         if fixed is not None:
             return np.broadcast_to(np.asarray(fixed, dtype=float), (len(poses), 6, len(fixed[0])))
-        if self._fused:  # the C pass: IK, checks and J_rows at once
+        if self.c_route.fused:  # the C pass: IK, checks and J_rows at once
             p = self.resolver.resolve(len(poses), params, "paper")
-            res = self._c_pass(poses, p, matrices=(), jacobians=("J_rows",))
+            res = self.c_route.run(poses, p, matrices=(), jacobians=("J_rows",))
             bad = res["status"] != STATUS["ok"]
             if bad.any():
-                self._raise_first(poses, p, bad)
+                self.checks.raise_first(poses, p, bad)
             rows = res["J_rows"]
         else:
             rows = self.jacobians(poses, **params)["J_rows"]
-        return self._basis(rows)
-
-    def _basis(self, rows: np.ndarray) -> np.ndarray:
-        """The allowed twists (N, 6, n) from the legs' inverse-Jacobian rows (N, legs, r, 6):
-        the null space of their virtual joints' rows (:func:`.allowed.allowed_twists`)."""
-        per_leg = rows.shape[2]
-        picks = [i * per_leg + r for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
-        candidates = coordinate_twists(twist_order(self.pose_names))
-        return allowed_twists(rows, candidates, compiled=self._fused, threads=self._nthreads(), picks=picks)
-
-    @property
-    def _c_rigid(self) -> bool:
-        """Whether the rigid model's allowed twists are what the C pass reduces to: the
-        three translations of a translational robot's 3x3 blocks or a free platform's six
-        twists (a pose space's fixed basis of either). Any other pose space's rigid model
-        (a point in a plane, a planar or lower-mobility platform) is reduced here."""
-        basis = getattr(self.space, "basis", None)
-        if basis is None:
-            return False
-        names = twist_order(self.pose_names)
-        return names in (twist_order(("x", "y", "z")), twist_order(FULL)) and len(basis[0]) == len(names)
-
-    @property
-    def _pass_rigid(self) -> bool:
-        """Whether the C pass solves this robot's rigid model itself: :attr:`_c_rigid`, or a
-        point platform's translations that its generated pass takes as one block (the
-        signature's ``offsets``: the 2x2 at [v_x, v_y] of a planar five-bar)."""
-        if self._c_rigid:
-            return True
-        if not self._fused:
-            return False
-        spec = self._kernels.signature["fused"]
-        if "offsets" not in spec or "rigid" not in spec["models"]:
-            return False
-        k = spec["models"].index("rigid")
-        n, off = spec["dims"][k], spec["offsets"][k]
-        basis = np.asarray(self.space.basis, dtype=float)
-        return basis.shape == (6, n) and bool(np.array_equal(basis, np.eye(6)[:, off : off + n]))
-
-    def _preloaded(self, effects) -> bool:
-        return self.resolver.remembered(
-            ("preloaded", effects),
-            lambda: any("preload" in self.robot.effect(base_name(e)).primitives for e in effects),
-        )
+        return self.solver.basis(rows)
 
     def modes(
         self,
@@ -920,8 +533,8 @@ class Evaluator:
         if unstable not in ("raise", "nan"):
             raise InputError(f"unstable={unstable!r}: expected 'raise' or 'nan'")
         if joints is None and not complex_shapes:
-            plan = self._plan(model, params, invalid, unstable, vectors)
-            modes = plan and self._planned_modes(plan, poses)
+            plan = self.c_route.plan(model, params, invalid, unstable, vectors)
+            modes = plan and self.c_route.planned_modes(plan, poses)
             if modes is not None:
                 return modes
         if joints is not None:
@@ -930,26 +543,28 @@ class Evaluator:
                     "joints= with a damping effect or complex_shapes: not supported (the damped "
                     "modes need the pose's inverse kinematics); give poses"
                 )
-            return self._joint_modes(poses, joints, model, vectors, unstable, params)
+            return self.solver.joint_modes(poses, joints, model, vectors, unstable, params)
         poses = self.completion.poses(poses, params)
         effects = self.resolver.model_effects(model)
-        params, exact = self._route(effects, params)
-        fixed = self._pass_rigid or self.stiffness_model(effects) == "flexible"
+        params, exact = self.solver.route(effects, params)
+        fixed = self.c_route.pass_rigid or self.stiffness_model(effects) == "flexible"
         damped = complex_shapes or self.damped_model(effects)
         route = choose_route(
-            c_pass=self._fused and fixed and not self._preloaded(effects),
+            c_pass=self.c_route.fused and fixed and not self.resolver.preloaded(effects),
             exact=exact,
             damped=damped,
-            pass_solves=lambda: not complex_shapes and self._one_pass(effects, exact),
-            c_backend=self._fused,
+            pass_solves=lambda: not complex_shapes and self.solver.one_pass(effects, exact),
+            c_backend=self.c_route.fused,
         )
         if route.solver == "pass":
-            modes = self._fused_modes(poses, effects, params, invalid == "raise", vectors, exact, route.how)
+            modes = self.c_route.modes(poses, effects, params, invalid == "raise", vectors, exact, route.how)
         else:
             stash = {} if route.keep else None
-            modes = self._solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
+            modes = self.solver.solved_modes(poses, effects, params, invalid == "raise", vectors, stash)
             if exact:
-                modes = self._exact_modes(poses, effects, params, modes, vectors, q=stash.get("q"), M=stash.get("M"))
+                modes = self.solver.exact_modes(
+                    poses, effects, params, modes, vectors, q=stash.get("q"), M=stash.get("M")
+                )
             elif stash and stash.get("q") is not None:  # the NumPy path's kernel outputs, for _damping_inputs
                 rows = np.ones(len(poses), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
                 modes.legs = {"rows": rows, **{k: v[rows] for k, v in stash.items()}}
@@ -958,109 +573,17 @@ class Evaluator:
                 from .damped_modes import damped_of
 
                 modes.damping = damped_of(
-                    self, effects, self._damping_inputs(poses, effects, params, modes), modes, complex_shapes
+                    self, effects, self.solver.damping_inputs(poses, effects, params, modes), modes, complex_shapes
                 )
             modes.stable = modes.stable & modes.damping.stable
         modes.legs = None  # the exact condensation's arrays: not kept with the result
         if unstable == "raise" and not modes.stable.all():
-            self._raise_unstable(poses, modes, effects)
+            self.solver.raise_unstable(poses, modes, effects)
         return modes
-
-    def _damping_inputs(self, poses, effects, params: dict, modes: Modes) -> dict | None:
-        """What :func:`.damped_modes.damped_of` needs from the kernels for the valid rows of
-        ``modes``: their poses, parameters (``params``, the generated inputs ``p``), the
-        ``legs`` kernel's outputs and the matrices (``M`` and the admissible twists ``B``
-        the exact condensation found, where it ran), whether the route condenses rigid
-        directions (``exact``) and the gravity preload; None where no row is valid."""
-        if "legs" not in getattr(self._kernels, "OUTPUTS", {}):
-            raise InputError(
-                f"damped modes of {self.robot.name}: its generated code has no legs kernel (joint "
-                "compliances); regenerate it"
-            )
-        N = len(modes.freq_hz)
-        rows = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
-        if not rows.any():
-            return None
-        pr = np.asarray(poses, dtype=float)[rows]
-        sub = self._rows(params, rows, N)
-        known = modes.legs if modes.legs is not None and np.array_equal(modes.legs["rows"], rows) else None
-        if known is None:
-            p = self.resolver.resolve(len(pr), sub, effects)
-            q = self._ik(pr, p)
-            legs = self._kernels.legs(q, self.completion.with_pose(pr, p))
-        else:  # the kernels' outputs of modes' own pass (the legs kernel where it did not run)
-            q = known["q"]
-            p = known["p"] if "p" in known else self.resolver.resolve(len(pr), sub, effects)
-            legs = known["out"] if "out" in known else self._kernels.legs(q, self.completion.with_pose(pr, p))
-        reuse = known is not None and "B" in known and self.stiffness_model(effects) != "rigid"
-        rigid = self.stiffness_model(effects) == "rigid"
-        need = MATRICES if self._preloaded(effects) else ("M", "K_R" if rigid else "K_F")
-        if known is not None and all(k in known for k in need):
-            mats = {k: known[k] for k in need}
-        else:
-            mats = {"M": known["M"]} if reuse else self._kernels.matrices(q, self.completion.with_pose(pr, p))
-        return {
-            "rows": rows,
-            "poses": pr,
-            "params": sub,
-            "p": p,
-            "legs": legs,
-            "mats": mats,
-            "B": known["B"] if reuse else None,
-            "exact": self._rigid_models.get(tuple(effects), True),
-            "preloaded": self._preloaded(effects),
-        }
-
-    def _one_pass(self, effects, exact: bool = False) -> bool:
-        """Whether the fused C pass solves the damped modes of ``effects`` itself
-        (:func:`.damped_modes.one_pass_takes`): the rigid model on its fixed allowed twists,
-        a flexible one whose legs have no rigid direction (K_F exact, the six twists), or with
-        ``exact`` (the route condenses rigid directions, :meth:`_route`) the exact
-        condensation of legs on the tool body and its damped modes
-        (:func:`.damped_modes.fused_exact`)."""
-        if self.numeric_ik:
-            return False
-        flexible = self.stiffness_model(effects) == "flexible"
-        if not exact and flexible and self._rigid_models.get(tuple(effects)) is not False:
-            return False
-        from .damped_modes import one_pass_takes
-
-        return one_pass_takes(self, effects)
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
-        return any("damping" in self.robot.effect(base_name(e)).primitives for e in self.resolver.model_effects(model))
-
-    # ------------------------------------------- rigid constraints exact
-    def _route(self, effects, params: dict) -> tuple[dict, bool]:
-        """How :meth:`modes` solves ``effects`` exactly: ``(params, condense)``.
-
-        * not a flexible model of legs with virtual joints (or no generated ``legs``
-          kernel), or ``c_rigid`` given with a value other than the description's default
-          (the user's finite constraint compliance): ``(params, False)``, K_F as is;
-        * no leg has a rigid direction in this model (e.g. every rod compliant; probed
-          once per model at the reference pose ``x_ref``: which effects are on decides):
-          ``({**params, "c_rigid": condense.EXACT}, False)``, K_F exact with c_rigid = 0;
-        * else ``(params, True)``: the finite modes come from :meth:`_exact_modes`, also
-          where the probe fails (x_ref out of reach with these values, or values refused):
-          that answer is for this call only, the next call probes again.
-        """
-        outputs = getattr(self._kernels, "OUTPUTS", {})
-        if self.stiffness_model(effects) != "flexible" or "legs" not in outputs or outputs["legs"]["Je"][1] < 2:
-            return params, False
-        default = self.parameters["c_rigid"].default if "c_rigid" in self.parameters else None
-        if "c_rigid" in params and default is not None and np.any(np.asarray(params["c_rigid"]) != default):
-            return params, False
-        key = tuple(effects)
-        rigid = self._rigid_models.get(key)
-        if rigid is None:
-            rigid = self._probe_rigid(effects, params)
-            if rigid is None:  # no answer at x_ref with these values: condense, remember nothing
-                return params, True
-            self._rigid_models[key] = rigid
-        if rigid or default is None:
-            return params, rigid
-        return {**params, "c_rigid": condense.EXACT}, False
+        return self.solver.damped_model(model)
 
     def constraint_route(self, model="paper", **params) -> tuple[dict, bool]:
         """``(params, condensed)``: the parameters :meth:`modes` solves ``model`` with
@@ -1068,333 +591,7 @@ class Evaluator:
         :meth:`matrices` with them gives the K_F of the frequencies), and whether its
         finite modes come from the exact condensation instead (rigid directions; K_F then
         keeps the ``c_rigid`` penalty); :mod:`.condense`."""
-        return self._route(self.resolver.model_effects(model), params)
-
-    def _probe_rigid(self, effects, params: dict) -> bool | None:
-        """Whether a leg of ``effects`` has a rigid direction: its joint compliance at the
-        reference pose with the first pose's parameters; None where that fails (x_ref out of
-        reach with these values, or the values refused)."""
-        first = {
-            k: (np.asarray(v).reshape(-1)[:1] if np.ndim(v) == 1 else v) for k, v in params.items() if np.ndim(v) <= 1
-        }
-        x = np.array([self.robot.x_ref], dtype=float)
-        try:
-            p = self.resolver.resolve(1, first, effects)
-            Cq = self._kernels.legs(self._ik(x, p), self.completion.with_pose(x, p))["Cq"]
-        except Exception:  # an unreachable reference, or refused values (the call names them)
-            return None
-        return condense.has_rigid_direction(Cq)
-
-    def _exact_modes(self, poses, effects, params: dict, modes: Modes, vectors: bool, q=None, M=None, p=None) -> Modes:
-        """``modes`` (K_F's) with the exact condensation's finite modes on its valid rows
-        (:func:`.condense.compliance_from_legs`, :func:`.condense.compliance_eigh`,
-        :func:`.condense.merge_modes`). ``q``, ``M`` and the validated inputs ``p`` of every
-        row, when the caller has them (the fused C pass), are not recomputed."""
-        rows = np.ones(len(modes.freq_hz), dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
-        if not rows.any():
-            return modes
-        poses = np.asarray(poses, dtype=float)
-        n = len(poses)
-        sub = self._rows(params, rows, n)
-        pr = poses[rows]
-        p = self.resolver.resolve(len(pr), sub, effects) if p is None else (p if rows.all() else self._mask(p, rows, n))
-        q = self._ik(pr, p) if q is None else q[rows]
-        pk = self.completion.with_pose(pr, p)
-        out = self._kernels.legs(q, pk)
-        M = np.broadcast_to(self._kernels.matrices(q, pk)["M"] if M is None else M[rows], (len(pr), 6, 6))
-        modes.legs = {"rows": rows, "q": q, "p": p, "out": out, "M": M}  # the damped modes reuse them
-        coupled = any(c.effect in set(effects) for c in self.robot.couplings)
-        if not coupled and not self._preloaded(effects):  # legs on the tool: stiffness form, admissible twists
-            f, V = condense.condensed_modes(out["Je"], out["Cq"], out["K_ground"], M, self._eigh, basis=modes.legs)
-            return condense.merge_modes(modes, rows, f, V, vectors)
-        K_G = None
-        if self._preloaded(effects):
-            from .gravity import gravity_stiffness
-
-            K_G = gravity_stiffness(self, pr, effects, sub, self.matrices(pr, effects, **sub), False)
-        f, V = condense.compliance_eigh(condense.compliance_from_legs(self.robot, effects, out, K_G), M)
-        return condense.merge_modes(modes, rows, f, V, vectors)
-
-    def _eigh(self, K: np.ndarray, M: np.ndarray):
-        """``K v = lambda M v`` for a batch: the C Jacobi solver where it has the size, else
-        :func:`.eigen.generalized_eigh`."""
-        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"] and len(K):
-            return self._kernels.generalized_eigh(K, M, threads=self._nthreads())
-        return generalized_eigh(K, M)
-
-    def _joint_modes(self, poses, joints, model, vectors: bool, unstable: str, params: dict) -> Modes:
-        """:meth:`modes` at measured joint coordinates (no gravity preload: its static
-        deflection needs the pose's inverse kinematics)."""
-        effects = self.resolver.model_effects(model)
-        if self._preloaded(effects):
-            raise InputError(
-                "joints= with a gravity preload: not supported (the preload's derivative needs the "
-                "inverse kinematics); drop gravity_preload from the model or give poses only"
-            )
-        q, poses = self.joint_coordinates(joints, poses)
-        params, exact = self._route(effects, params)
-        mats = self.joint_matrices(poses, q, effects, **params)
-        stiffness = self.stiffness_model(effects)
-        if stiffness == "rigid":
-            if getattr(self.space, "basis", None) is None:
-                raise InputError(
-                    f"joints= with {self.robot.name}'s rigid model (allowed twists that turn with the "
-                    "pose): not supported; give poses"
-                )
-            B = self.allowed_twists(poses)
-            M, K = reduce(mats["M"], B), reduce(mats["K_R"], B)
-        else:
-            M, K = mats["M"], mats["K_F"]
-        modes = self._solve(M, K, vectors, stiffness)
-        if exact:
-            modes = self._exact_modes(poses, effects, params, modes, vectors, q=q, M=M)
-            modes.legs = None
-        if unstable == "raise" and not modes.stable.all():
-            self._raise_unstable(poses, modes, effects)
-        return modes
-
-    def _solved_modes(self, poses, effects, params, check: bool, vectors: bool, stash: dict | None = None) -> Modes:
-        """Matrices (and the gravity preload), then the batched eigen-solver; ``stash``
-        receives ``q`` and ``M`` of every row (NaN where invalid) on the NumPy path."""
-        if check:
-            return self._solve(*self._stiffness(poses, effects, params, stash), vectors, self.stiffness_model(effects))
-        ok = self.valid(poses, effects, **params)
-        n = len(poses)
-        stiffness = self.stiffness_model(effects)
-        size = self.rigid_size() if stiffness == "rigid" else 6
-        freq = np.full((n, size), np.nan)
-        vec = np.full((n, size, size), np.nan) if vectors else None
-        stable = np.ones(n, dtype=bool)
-        if ok.any():
-            part = {} if stash is not None else None
-            m = self._solve(*self._stiffness(poses[ok], effects, self._rows(params, ok, n), part), vectors, stiffness)
-            freq[ok], stable[ok] = m.freq_hz, m.stable
-            if vectors:
-                vec[ok] = m.eigentwists
-            for key, val in (part or {}).items():
-                stash[key] = np.full((n,) + val.shape[1:], np.nan)
-                stash[key][ok] = val
-        return Modes(freq, vec, self.axes(stiffness), stiffness, ok, stable)
-
-    def _solve(self, M, K, vectors: bool = True, stiffness: str | None = None) -> Modes:
-        if self._fused and K.shape[-1] in self._kernels.signature["eigh"]["dims"]:  # the C solver's sizes
-            lam, V = self._kernels.generalized_eigh(K, M, vectors=vectors, threads=self._nthreads())
-        else:
-            # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
-            # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
-            lam, V = generalized_eigh(K, M)
-        if stiffness is None:
-            stiffness = "rigid" if M.shape[-1] == 3 else "flexible"
-        return Modes(
-            frequencies_hz(lam),
-            normalize_eigentwists(V) if vectors else None,
-            self.axes(stiffness),
-            stiffness,
-            stable=~unstable_modes(lam).any(axis=-1),
-        )
-
-    def _fused_modes(
-        self,
-        poses,
-        effects,
-        params,
-        check: bool,
-        vectors: bool,
-        exact: bool = False,
-        damped: str | None = None,
-        out: dict | None = None,
-    ) -> Modes:
-        """The C backend's single pass from poses to checked frequencies (and eigentwists),
-        written straight into the result arrays; with ``exact`` the pass also returns the
-        joint coordinates and M for :meth:`_exact_modes`; ``damped="pass"``: the same C call
-        also solves the damped modes (:func:`.damped_modes.fused_damped`, :meth:`_one_pass`);
-        ``"keep"``: the pass also returns the joint coordinates, M and the model's stiffness,
-        kept in ``Modes.legs`` for :meth:`_damping_inputs` (no kernel runs twice); ``"exact"``
-        (with ``exact``): the same C call also runs the legs kernel, the exact condensation and
-        a damped model's damped modes (:func:`.damped_modes.fused_exact`,
-        :func:`.damped_modes.exact_merge`; where that does not stand for the condensation,
-        :meth:`_exact_modes` on the pass's q and M). ``out``:
-        the pass's outputs where they are computed already (:meth:`_planned_modes`, undamped)."""
-        p = self.resolver.resolve(len(poses), params, effects)
-        stiffness = self.stiffness_model(effects)
-        # M for the energy shares of a flexible model's eigentwists (6x6: the pass's M as it is)
-        shares = vectors and not exact and stiffness == "flexible"
-        keep = ("K_R" if stiffness == "rigid" else "K_F",) if damped == "keep" else ()
-        if out is None and damped == "exact":
-            from .damped_modes import exact_merge, fused_exact
-
-            pk = self.completion.with_pose(poses, p)
-            out, solved = fused_exact(
-                self, effects, poses, p, pk, vectors, self.damped_model(effects), self._nthreads()
-            )
-        elif out is None and damped == "pass":
-            from .damped_modes import fused_damped, pass_damping
-
-            basis = getattr(self.space, "basis", None)
-            pk = self.completion.with_pose(poses, p)
-            out, solved = fused_damped(self, effects, poses, p, pk, vectors, basis, self._nthreads())
-        elif out is None:
-            out = self._c_pass(
-                poses,
-                p,
-                matrices=("M",) + keep if exact or shares or keep else (),
-                ik=("q",) if exact or keep else (),
-                model=stiffness,
-                vectors=vectors,
-                normalize=True,
-            )
-        st = out["status"]
-        valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
-        if check and not valid.all():
-            self._raise_first(poses, p, ~valid)
-        # a parallel singularity drives the lowest frequency to 0: the poses whose lowest
-        # mode is 0, NaN or below PARALLEL_SCREEN times their highest get the exact check
-        freq = out["freq_hz"]
-        low = valid & ~above_screen(freq)
-        suspect = np.flatnonzero(low)
-        singular = suspect[~self._parallel_ok(poses, p, suspect, strict=check)]
-        if singular.size:
-            valid[singular] = False
-            out["freq_hz"][singular] = np.nan
-            if out.get("eigentwists") is not None:
-                out["eigentwists"][singular] = np.nan
-        modes = Modes(
-            out["freq_hz"],
-            out.get("eigentwists"),
-            self.axes(stiffness),
-            stiffness,
-            None if check else valid,
-            st != STATUS["unstable"],
-        )
-        if shares and out["eigentwists"].shape[-1] == 6:
-            with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
-                modes.shares = energy_shares(out["eigentwists"], out["M"])
-        if damped == "pass":
-            modes.damping = pass_damping(self, effects, poses, params, p, solved, modes)
-        elif keep:  # the damped modes' inputs, on the valid rows (_damping_inputs)
-            rows = np.ones(len(poses), dtype=bool) if modes.valid is None else modes.valid
-            n = len(poses)
-            mats = {k: out[k][rows] for k in ("M",) + keep}
-            modes.legs = {"rows": rows, "q": out["q"][rows], "p": p if rows.all() else self._mask(p, rows, n), **mats}
-        merged = exact_merge(self, effects, poses, params, p, solved, modes, vectors) if damped == "exact" else None
-        if merged is not None:
-            modes = merged
-        elif exact:
-            modes = self._exact_modes(poses, effects, params, modes, vectors, q=out["q"], M=out["M"], p=p)
-        return modes
-
-    def _plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
-        """The prepared C pass of :meth:`modes` for ``model`` and these scalar ``params``
-        (:class:`.fused_call.FusedCall`, with what the result needs), remembered per (model,
-        values, options); None where :meth:`modes` takes another route (values per pose, the
-        NumPy backend, numeric IK, a completed pose, the exact condensation, the gravity
-        preload, damping) or where the values are refused (:meth:`modes` raises)."""
-        if self._planned_for is not self._kernels:
-            self._plans, self._planned_for = BoundedMemo(64), self._kernels
-        values = self.resolver.key(params, model)
-        if values is None:
-            return None
-        key = (values, invalid, unstable, vectors)
-        plan = self._plans.get(key)
-        if plan is None:
-            plan = self._make_plan(model, params, invalid, unstable, vectors)
-            if plan is None:
-                return None
-            self._plans.put(key, plan)
-        return plan or None
-
-    def _make_plan(self, model, params: dict, invalid: str, unstable: str, vectors: bool):
-        """:meth:`_plan`'s answer computed: a tuple, False (another route) or None (refused)."""
-        if (
-            not hasattr(self._kernels, "prepare_fused")
-            or self.numeric_ik
-            or (self._six and self.pose_names != FULL)
-            or invalid not in ("raise", "nan")
-            or unstable not in ("raise", "nan")
-        ):
-            return False
-        try:
-            effects = self.resolver.model_effects(model)
-            routed, exact = self._route(effects, params)
-            stiffness = self.stiffness_model(effects)
-            fixed = self._pass_rigid or stiffness == "flexible"
-            if exact or not fixed or self._preloaded(effects) or self.damped_model(effects):
-                return False
-            p = self.resolver.resolve(1, routed, effects)
-        except Exception:  # refused values: the general route raises
-            return None
-        # the poses' columns (a row of dof doubles apart): the position and the rotation vector
-        names = {n: self.dof for n in FULL[: self.dof]}
-        shares = vectors and stiffness == "flexible"
-        try:
-            call = self._kernels.prepare_fused(
-                p, names, model=stiffness, vectors=vectors, matrices=("M",) if shares else ()
-            )
-        except (KeyError, ValueError):  # an input per pose (an array default) or not in p: the general route
-            return False
-        if call.pose_inputs != tuple(names)[: len(call.pose_inputs)] or len(call.pose_inputs) not in (3, self.dof):
-            return False
-        return (
-            call,
-            len(call.pose_inputs),
-            effects,
-            routed,
-            stiffness,
-            self.axes(stiffness),
-            invalid == "raise",
-            vectors,
-            unstable,
-        )
-
-    def _planned_modes(self, plan: tuple, poses) -> Modes | None:
-        """:meth:`modes` by the prepared pass ``plan`` (:meth:`_plan`); None for poses that
-        :meth:`modes` refuses (it names them). A pose flagged by the pass (unreachable,
-        singular, unstable) or by the parallel screen goes on to :meth:`_fused_modes` with
-        the pass's outputs, which checks it as :meth:`modes` does."""
-        call, columns, effects, routed, stiffness, axes, check, vectors, unstable = plan
-        arr = np.asarray(poses, dtype=float)
-        if arr.ndim == 1:
-            arr = arr[None, :]
-        if arr.ndim != 2 or arr.shape[1] != self.dof or not arr.shape[0] or not np.isfinite(arr).all():
-            return None
-        if not arr.flags.c_contiguous:
-            arr = np.ascontiguousarray(arr)
-        n = len(arr)
-        base = arr.ctypes.data
-        out = call([base + 8 * k for k in range(columns)], n, self._nthreads())
-        st, freq = out["status"], out["freq_hz"]
-        # a flagged pose, or one below the parallel screen (the pass's frequencies ascend and
-        # are finite where no pose is flagged: the lowest is the first, the highest the last)
-        if np.count_nonzero(st) or np.count_nonzero(freq[:, 0] > PARALLEL_SCREEN * freq[:, -1]) != n:
-            arr = arr.view(CompletedPoses)
-            modes = self._fused_modes(arr, effects, routed, check, vectors, out=out)
-        else:
-            valid = None if check else np.ones(n, dtype=bool)
-            modes = Modes(freq, out.get("eigentwists"), axes, stiffness, valid, np.ones(n, dtype=bool))
-            if "M" in out and out["eigentwists"].shape[-1] == 6:
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    modes.shares = energy_shares(out["eigentwists"], out["M"])
-        if unstable == "raise" and not modes.stable.all():
-            self._raise_unstable(arr, modes, effects)
-        return modes
-
-    def _raise_unstable(self, poses, modes: Modes, effects) -> None:
-        k = int(np.argmax(~modes.stable))
-        bad = np.flatnonzero(np.isnan(modes.freq_hz[k]))
-        if not len(bad) and modes.damping is not None:
-            zeta = modes.damping_ratio[k]
-            j = int(np.nanargmin(zeta)) if np.isfinite(zeta).any() else 0
-            raise UnstablePoseError(
-                f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: a pole grows (mode {j + 1} has "
-                f"damping ratio {zeta[j]:.3g}, or an actuator's internal pole); check the torque lag t_d against "
-                "c_a / k_a and negative damping"
-            )
-        which = ", ".join(str(j + 1) for j in bad)
-        raise UnstablePoseError(
-            f"pose {poses[k].tolist()} m is unstable in model {','.join(effects)}: mode{'s' if len(bad) > 1 else ''} "
-            f"{which} of {modes.freq_hz.shape[1]} {'have' if len(bad) > 1 else 'has'} a negative stiffness "
-            "(omega^2 < 0, no natural frequency); check negative or extreme parameters and the gravity preload"
-        )
+        return self.solver.route(self.resolver.model_effects(model), params)
 
     def sensitivities(
         self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None, method: str = "exact", **params
@@ -1435,91 +632,7 @@ class Evaluator:
         differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved; its
         flexible models add the followers' motion with each parameter to every route
         (:func:`.implicit.follower_terms`)."""
-        from .sensitivity import check_model, check_wrt
-
-        if method not in ("exact", "differences"):
-            raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
-        given = poses
-        poses = self.completion.poses(poses, params)
-        effects = self.resolver.model_effects(model)
-        check_model(effects)
-        wrt = check_wrt(self, wrt)
-        rigid = self.stiffness_model(effects) == "rigid"
-        if rigid and getattr(self.space, "basis", 0) is None:
-            from .implicit import reduced_derivatives
-            from .sensitivity import eigenvalue_derivatives
-
-            out = reduced_derivatives(self, given, wrt, effects, params)
-            lam, V = generalized_eigh(out["K"], out["M"])
-            omega = np.sqrt(np.clip(lam, 0.0, None))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
-            return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.axes("rigid"), "rigid"), dfdp
-        solved, exact = self._route(effects, params)
-        args = (given, poses, wrt, effects, params, method, rigid, rtol, progress)
-        freq, vec, dfdp = self._derivatives_at(solved, *args)
-        if exact and "c_rigid" in self.parameters:
-            # the finite modes come from the exact condensation, their derivatives from K_F with
-            # the penalty c_rigid: its first-order error removed (Richardson: 2 f'(c/2) - f'(c))
-            c = np.asarray(solved.get("c_rigid", self.parameters["c_rigid"].default), dtype=float)
-            dfdp = 2 * self._derivatives_at({**solved, "c_rigid": c / 2}, *args)[2] - dfdp
-        stiffness = "rigid" if rigid else "flexible"
-        modes = Modes(freq, vec, self.axes(stiffness), stiffness)
-        if exact:  # K_F's penalty: the finite modes exact
-            modes = self._exact_modes(poses, effects, params, modes, True)
-            modes.legs = None
-        return modes, dfdp
-
-    def _derivatives_at(self, solved: dict, given, poses, wrt, effects, params, method, rigid, rtol, progress):
-        """``(freq_hz, eigentwists, dfdp)`` of :meth:`modes_and_sensitivities` with the
-        parameters ``solved`` (the route's, or a penalty's other value), other than the
-        rigid model on turning allowed twists."""
-        from .sensitivity import (
-            frequency_derivatives,
-            kernel_wrt,
-            own_legs,
-            sensitivity_kernels,
-            shared_columns,
-        )
-
-        basis = None if self._c_rigid else getattr(self.space, "basis", None)  # a point's translations
-        # a flexible model on a lower-mobility platform: the followers move with the parameters
-        follow = not rigid and bool(getattr(self.space, "followers", ()))
-
-        def total(out: dict, names, sl=slice(None)) -> dict:
-            if follow:
-                from .implicit import follower_terms
-
-                terms = follower_terms(self, np.asarray(given, dtype=float)[sl], poses[sl], names, effects, solved)
-                for k, d in terms.items():
-                    if k in out:
-                        out[k] = out[k] + d
-            return out
-
-        if method == "exact" and self.numeric_ik:
-            from .implicit import numeric_matrix_derivatives
-
-            out = total(numeric_matrix_derivatives(self, poses, wrt, effects, solved), wrt)
-            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
-        elif method == "differences":
-            out = total(self.matrix_derivatives(poses, wrt, effects, **solved), wrt)
-            freq, vec, dfdp = frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis)
-        else:
-            own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
-            full = kernel_wrt(wrt, own)
-            kern = sensitivity_kernels(self, full, progress)
-            p = self.resolver.resolve(len(poses), solved, effects)
-            parts = []
-            for sl in chunks(len(poses)):
-                pc = take(p, sl)
-                self._check_rows(poses[sl], pc, strict=True)
-                out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self.completion.with_pose(poses[sl], pc))
-                out = total(dict(out), full, sl)
-                parts.append(frequency_derivatives(out, rigid, rtol, translational=not self._six, basis=basis))
-            freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
-            if own:
-                dfdp = shared_columns(dfdp, wrt, full, own)
-        return freq, vec, dfdp
+        return self.sensitivity_route.modes_and_sensitivities(poses, wrt, model, rtol, progress, method, params)
 
     def matrix_derivatives(self, poses, wrt, model="paper", **params) -> dict:
         """``M``, ``K_R``, ``K_F`` (N, 6, 6) and their derivatives ``dM``, ``dK_R``, ``dK_F``
@@ -1529,41 +642,7 @@ class Evaluator:
         between parameters: ``r_i < r_o``, the inertia triangle inequality): the output of the
         generated sensitivity kernel without deriving anything. ``wrt`` names parameters,
         ``P@N`` a leg's own value."""
-        from .sensitivity import difference_step
-
-        poses = self.completion.poses(poses, params)
-        out = dict(self.matrices(poses, model, **params))
-        d = {k: np.empty((len(poses), len(wrt), 6, 6)) for k in ("dM", "dK_R", "dK_F")}
-        for j, name in enumerate(wrt):
-            value, h = difference_step(self, name, params)
-            step = np.reshape(2 * h, (-1, 1, 1) if np.ndim(h) else ())
-            hi, lo = (self._admissible(poses, model, params, name, value + s * h) for s in (1, -1))
-            if hi is not None and lo is not None:  # central differences
-                for k in MATRICES:
-                    d["d" + k][:, j] = (hi[k] - lo[k]) / step
-                continue
-            sign = 1 if hi is not None else -1  # at a bound: one-sided, second order
-            far = self._admissible(poses, model, params, name, value + 2 * sign * h)
-            if far is None:
-                raise InputError(
-                    f"parameter {name!r} = {float(np.max(value)):g}: no difference step of "
-                    f"{float(np.max(h)):.3g} either way stays within its bounds and constraints; "
-                    "expected a value away from them"
-                )
-            near = hi if sign == 1 else lo
-            for k in MATRICES:
-                d["d" + k][:, j] = sign * (4 * near[k] - 3 * out[k] - far[k]) / step
-        out.update(d)
-        return out
-
-    def _admissible(self, poses, model, params: dict, name: str, value):
-        """:meth:`matrices` with ``name`` at ``value``; None where that value leaves the
-        parameter's bounds or a constraint between parameters (a difference step never
-        crosses them)."""
-        try:
-            return self.matrices(poses, model, **{**params, name: value})
-        except InputError:
-            return None
+        return self.sensitivity_route.matrix_derivatives(poses, wrt, model, params)
 
     def frequencies(self, poses, model="paper", *, joints=None, **params) -> np.ndarray:
         """Natural frequencies in Hz, shape (N, 6) for flexible models (the default,

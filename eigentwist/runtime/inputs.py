@@ -327,6 +327,14 @@ class InputResolver:
             lambda: "flexible" if any(self.robot.effect(base_name(e)).structural for e in effects) else "rigid",
         )
 
+    def preloaded(self, effects) -> bool:
+        """Whether the model's ``effects`` hold the gravity preload (an effect with the
+        ``preload`` primitive: :mod:`.gravity`), remembered per model."""
+        return self.remembered(
+            ("preloaded", effects),
+            lambda: any("preload" in self.robot.effect(base_name(e)).primitives for e in effects),
+        )
+
     def remembered(self, key, compute):
         """``compute()``, remembered per (hashable) ``key`` of the model's effects."""
         try:

@@ -1,0 +1,170 @@
+"""The route of the frequencies' derivatives with respect to the parameters.
+
+A stage of an evaluation (:class:`~eigentwist.runtime.evaluator.Evaluator` holds one as
+``ev.sensitivity_route``): d f / d p of a model's natural frequencies from the eigenvalue
+perturbation d omega^2 / d p = phi^T (dK - omega^2 dM) phi of the matrices' derivatives, which
+come from the generated sensitivity kernel (:mod:`.sensitivity`), from central differences of
+the matrices, or through the solved coordinates of legs solved by Newton and of a
+lower-mobility platform's followers (:mod:`.implicit`); a model whose finite modes come from the
+exact condensation takes the penalty's derivatives with its first-order error removed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .completion import chunks, take
+from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
+from .errors import InputError
+from .mode_solver import MATRICES
+from .modes import Modes
+
+__all__ = ["SensitivityRoute"]
+
+
+class SensitivityRoute:
+    """The frequencies' derivatives of one evaluator.
+
+    ev : the :class:`~eigentwist.runtime.evaluator.Evaluator` (its stages, models and
+    matrices; ``ev.solver``: the constraints' treatment and the exact condensation).
+    """
+
+    def __init__(self, ev):
+        self.ev = ev
+
+    def modes_and_sensitivities(self, poses, wrt, model, rtol: float, progress, method: str, params: dict):
+        """``(Modes, dfdp)`` of ``Evaluator.modes_and_sensitivities``, the user's parameter values
+        as the dict ``params``: the rigid model on allowed twists that turn with the pose by
+        :func:`.implicit.reduced_derivatives`, every other model by :meth:`derivatives_at` on the
+        constraints' route (``ev.solver.route``)."""
+        from .sensitivity import check_model, check_wrt
+
+        if method not in ("exact", "differences"):
+            raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
+        given = poses
+        poses = self.ev.completion.poses(poses, params)
+        effects = self.ev.resolver.model_effects(model)
+        check_model(effects)
+        wrt = check_wrt(self.ev, wrt)
+        rigid = self.ev.stiffness_model(effects) == "rigid"
+        if rigid and getattr(self.ev.space, "basis", 0) is None:
+            from .implicit import reduced_derivatives
+            from .sensitivity import eigenvalue_derivatives
+
+            out = reduced_derivatives(self.ev, given, wrt, effects, params)
+            lam, V = generalized_eigh(out["K"], out["M"])
+            omega = np.sqrt(np.clip(lam, 0.0, None))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
+            return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.ev.axes("rigid"), "rigid"), dfdp
+        solved, exact = self.ev.solver.route(effects, params)
+        args = (given, poses, wrt, effects, params, method, rigid, rtol, progress)
+        freq, vec, dfdp = self.derivatives_at(solved, *args)
+        if exact and "c_rigid" in self.ev.parameters:
+            # the finite modes come from the exact condensation, their derivatives from K_F with
+            # the penalty c_rigid: its first-order error removed (Richardson: 2 f'(c/2) - f'(c))
+            c = np.asarray(solved.get("c_rigid", self.ev.parameters["c_rigid"].default), dtype=float)
+            dfdp = 2 * self.derivatives_at({**solved, "c_rigid": c / 2}, *args)[2] - dfdp
+        stiffness = "rigid" if rigid else "flexible"
+        modes = Modes(freq, vec, self.ev.axes(stiffness), stiffness)
+        if exact:  # K_F's penalty: the finite modes exact
+            modes = self.ev.solver.exact_modes(poses, effects, params, modes, True)
+            modes.legs = None
+        return modes, dfdp
+
+    def derivatives_at(self, solved: dict, given, poses, wrt, effects, params, method, rigid, rtol, progress):
+        """``(freq_hz, eigentwists, dfdp)`` of :meth:`modes_and_sensitivities` with the
+        parameters ``solved`` (the route's, or a penalty's other value), other than the
+        rigid model on turning allowed twists."""
+        from .sensitivity import (
+            frequency_derivatives,
+            kernel_wrt,
+            own_legs,
+            sensitivity_kernels,
+            shared_columns,
+        )
+
+        basis = None if self.ev.c_route.c_rigid else getattr(self.ev.space, "basis", None)  # a point's translations
+        # a flexible model on a lower-mobility platform: the followers move with the parameters
+        follow = not rigid and bool(getattr(self.ev.space, "followers", ()))
+
+        def total(out: dict, names, sl=slice(None)) -> dict:
+            if follow:
+                from .implicit import follower_terms
+
+                terms = follower_terms(self.ev, np.asarray(given, dtype=float)[sl], poses[sl], names, effects, solved)
+                for k, d in terms.items():
+                    if k in out:
+                        out[k] = out[k] + d
+            return out
+
+        if method == "exact" and self.ev.numeric_ik:
+            from .implicit import numeric_matrix_derivatives
+
+            out = total(numeric_matrix_derivatives(self.ev, poses, wrt, effects, solved), wrt)
+            freq, vec, dfdp = frequency_derivatives(
+                out, rigid, rtol, translational=not self.ev.completion.six, basis=basis
+            )
+        elif method == "differences":
+            out = total(self.ev.matrix_derivatives(poses, wrt, effects, **solved), wrt)
+            freq, vec, dfdp = frequency_derivatives(
+                out, rigid, rtol, translational=not self.ev.completion.six, basis=basis
+            )
+        else:
+            own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
+            full = kernel_wrt(wrt, own)
+            kern = sensitivity_kernels(self.ev, full, progress)
+            p = self.ev.resolver.resolve(len(poses), solved, effects)
+            parts = []
+            for sl in chunks(len(poses)):
+                pc = take(p, sl)
+                self.ev.checks.check_rows(poses[sl], pc, strict=True)
+                out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self.ev.completion.with_pose(poses[sl], pc))
+                out = total(dict(out), full, sl)
+                parts.append(
+                    frequency_derivatives(out, rigid, rtol, translational=not self.ev.completion.six, basis=basis)
+                )
+            freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
+            if own:
+                dfdp = shared_columns(dfdp, wrt, full, own)
+        return freq, vec, dfdp
+
+    def matrix_derivatives(self, poses, wrt, model, params: dict) -> dict:
+        """``Evaluator.matrix_derivatives``, the user's parameter values as the dict ``params``:
+        the matrices and their derivatives by central differences (one-sided, second order, at a
+        bound or a constraint between parameters: :meth:`admissible`)."""
+        from .sensitivity import difference_step
+
+        poses = self.ev.completion.poses(poses, params)
+        out = dict(self.ev.matrices(poses, model, **params))
+        d = {k: np.empty((len(poses), len(wrt), 6, 6)) for k in ("dM", "dK_R", "dK_F")}
+        for j, name in enumerate(wrt):
+            value, h = difference_step(self.ev, name, params)
+            step = np.reshape(2 * h, (-1, 1, 1) if np.ndim(h) else ())
+            hi, lo = (self.admissible(poses, model, params, name, value + s * h) for s in (1, -1))
+            if hi is not None and lo is not None:  # central differences
+                for k in MATRICES:
+                    d["d" + k][:, j] = (hi[k] - lo[k]) / step
+                continue
+            sign = 1 if hi is not None else -1  # at a bound: one-sided, second order
+            far = self.admissible(poses, model, params, name, value + 2 * sign * h)
+            if far is None:
+                raise InputError(
+                    f"parameter {name!r} = {float(np.max(value)):g}: no difference step of "
+                    f"{float(np.max(h)):.3g} either way stays within its bounds and constraints; "
+                    "expected a value away from them"
+                )
+            near = hi if sign == 1 else lo
+            for k in MATRICES:
+                d["d" + k][:, j] = sign * (4 * near[k] - 3 * out[k] - far[k]) / step
+        out.update(d)
+        return out
+
+    def admissible(self, poses, model, params: dict, name: str, value):
+        """``Evaluator.matrices`` with ``name`` at ``value``; None where that value leaves the
+        parameter's bounds or a constraint between parameters (a difference step never
+        crosses them)."""
+        try:
+            return self.ev.matrices(poses, model, **{**params, name: value})
+        except InputError:
+            return None
