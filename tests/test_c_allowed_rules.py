@@ -126,11 +126,24 @@ def test_the_driver_is_built_once_and_none_without_a_compiler(monkeypatch):
 
     class Lib:
         et_allowed_twists = ctypes.CFUNCTYPE(ctypes.c_int)(lambda: 0)
+        et_reduce = ctypes.CFUNCTYPE(None)(lambda: None)
 
     seen = []
     monkeypatch.setattr(c_allowed, "_DRIVER", [])
     monkeypatch.setattr(c_allowed, "_LIBRARIES", [])
+    monkeypatch.setattr(c_allowed, "_REDUCE", [])
     monkeypatch.setattr(ccompile, "load_library", lambda source, name: seen.append((source, name)) or Lib())
     fn = c_allowed.driver()
     assert fn is Lib.et_allowed_twists and c_allowed.driver() is fn and seen == [(c_allowed.SOURCE, "allowed")]
     assert fn.restype is ctypes.c_int and len(fn.argtypes) == 11
+    assert c_allowed._REDUCE == [Lib.et_reduce] and Lib.et_reduce.restype is None
+    assert Lib.et_reduce.argtypes == [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+
+
+def test_the_reduction_falls_back_to_numpy_without_the_driver(monkeypatch):
+    monkeypatch.setattr(c_allowed, "_DRIVER", [None])
+    rng = np.random.default_rng(2)
+    X, B = rng.standard_normal((5, 6, 6)), rng.standard_normal((5, 6, 2))
+    assert np.array_equal(allowed.reduce(X, B, compiled=True), np.swapaxes(B, 1, 2) @ X @ B)
+    with pytest.raises(RuntimeError, match="no compiler"):
+        c_allowed.reduce(X, B)

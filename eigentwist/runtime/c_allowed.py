@@ -173,6 +173,7 @@ void et_reduce(int64_t n, int m, const double *X, const double *Bm, double *out)
 BLOCK = 64  # poses per block (B in the source): ranges split over threads on its multiples
 _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []  # the loaded driver library, kept for the process
+_REDUCE: list = []  # its et_reduce, bound with the driver
 
 
 def driver():
@@ -202,6 +203,7 @@ def driver():
             fn.restype = ctypes.c_int
             lib.et_reduce.argtypes = [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
             lib.et_reduce.restype = None
+            _REDUCE.append(lib.et_reduce)
         _DRIVER.append(fn)
     return _DRIVER[0]
 
@@ -219,7 +221,7 @@ def reduce(X: np.ndarray, B: np.ndarray) -> np.ndarray:
         raise ValueError(f"reduce takes X (N, 6, 6) and B (N, 6, m <= 6): got {X.shape} and {B.shape}")
     out = np.empty((n, m, m))
     if n:
-        _LIBRARIES[0].et_reduce(n, m, X.ctypes.data, B.ctypes.data, out.ctypes.data)
+        _REDUCE[-1](n, m, X.ctypes.data, B.ctypes.data, out.ctypes.data)
     return out
 
 
