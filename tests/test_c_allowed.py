@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from eigentwist.errors import InputError
 from eigentwist.runtime import c_allowed
 from eigentwist.runtime.allowed import VANISHING, allowed_twists, coordinate_twists
 from eigentwist.runtime.threads import MIN_BLOCKS_PER_THREAD
@@ -130,7 +131,7 @@ def test_c_reduction_is_b_transpose_x_b(m):
     assert np.allclose(got, want, rtol=1e-13, atol=1e-13 * np.abs(want[np.isfinite(want)]).max(), equal_nan=True)
     assert np.array_equal(allowed.reduce(X, B, compiled=True), got, equal_nan=True)
     assert allowed.reduce(X[:0], B[:0], compiled=True).shape == (0, m, m)
-    with pytest.raises(ValueError, match=r"reduce takes X \(N, 6, 6\) and B \(N, 6, m <= 6\): got \(70, 6, 6\)"):
+    with pytest.raises(InputError, match=r"reduce takes X \(N, 6, 6\) and B \(N, 6, m <= 6\): got \(70, 6, 6\)"):
         c_allowed.reduce(X, np.zeros((70, 5, m)))
-    with pytest.raises(ValueError, match=r"got \(70, 6, 6\) and \(70, 6, 7\)"):
+    with pytest.raises(InputError, match=r"got \(70, 6, 6\) and \(70, 6, 7\)"):
         c_allowed.reduce(X, np.zeros((70, 6, 7)))

@@ -19,6 +19,8 @@ import ctypes
 
 import numpy as np
 
+from ..errors import InputError
+
 __all__ = ["driver", "allowed_twists", "reduce", "SOURCE", "BLOCK"]
 
 SOURCE = r"""
@@ -218,7 +220,7 @@ def reduce(X: np.ndarray, B: np.ndarray) -> np.ndarray:
     B = np.ascontiguousarray(B, dtype=np.float64)
     n, m = len(X), B.shape[-1]
     if X.shape != (n, 6, 6) or B.shape != (n, 6, m) or m > 6:
-        raise ValueError(f"reduce takes X (N, 6, 6) and B (N, 6, m <= 6): got {X.shape} and {B.shape}")
+        raise InputError(f"reduce takes X (N, 6, 6) and B (N, 6, m <= 6): got {X.shape} and {B.shape}")
     out = np.empty((n, m, m))
     if n:
         _REDUCE[-1](n, m, X.ctypes.data, B.ctypes.data, out.ctypes.data)
