@@ -246,7 +246,7 @@ def cpu_rate(fn, batches, n: int) -> float:
 def robot_figures(name: str, model: str, n: int, repeat: int, transcendental: float) -> dict:
     """Flop counts, sweeps taken and CPU rates of the raw kernel and the public path of one robot."""
     ev = eigentwist.load(name, backend="c", threads=1)
-    ck = ev._kernels
+    ck = ev.kernels
     stiffness = ev.stiffness_model(model)
     spec = ck.signature["fused"]
     dim = spec.get("dims", ck.signature["eigh"]["dims"])[spec["models"].index(stiffness)]
@@ -331,7 +331,7 @@ def main(argv=None) -> None:
     only = {s for s in args.only.split(",") if s}
 
     ev = eigentwist.load("heli4", backend="c", threads=1)
-    build = ev._kernels.build
+    build = ev.kernels.build
     widths = vector_width(build.path)
     lanes = 8 if widths["zmm"] else 4 if widths["ymm"] else 2 if widths["xmm"] else 1
     mhz = cpu_mhz()

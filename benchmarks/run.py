@@ -183,7 +183,7 @@ def public_path(n: int, repeat: int, log) -> dict:
     from eigentwist.runtime.threads import available_cores
 
     evs = {t: eigentwist.load("heli4", backend="c", threads=t) for t in (1, available_cores())}
-    ev1, ck = evs[1], evs[1]._kernels
+    ev1, ck = evs[1], evs[1].kernels
     ev_np = eigentwist.load("heli4", backend="numpy")
     poses = poses_for(ev1.robot, n)
     x, y, z = (np.ascontiguousarray(poses[:, k]) for k in range(3))
