@@ -28,7 +28,15 @@ from ..description.names import did_you_mean
 from ..runtime import AXES, InputError
 from ..runtime.labels import DEGENERATE_REL, degenerate_groups, energy_shares, group_shares
 
-__all__ = ["ModeMatchError", "parse_mode", "match_modes", "match_frequencies", "DIRECTIONS", "DEGENERATE_REL"]
+__all__ = [
+    "ModeMatchError",
+    "parse_mode",
+    "match_modes",
+    "match_frequencies",
+    "directions_asked",
+    "DIRECTIONS",
+    "DEGENERATE_REL",
+]
 
 DIRECTIONS = AXES  # ("rx", "ry", "rz", "x", "y", "z")
 
@@ -109,6 +117,12 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
             groups = degenerate_groups(f)
             idx[rows], freq[rows] = _match_axes(modes, shares, groups, axis, rows, labels, strict, lines, f)
     return freq, idx
+
+
+def directions_asked(modes, labels, lines=None) -> bool:
+    """Whether a label is a direction (matched by the modes' energy shares); raises
+    :class:`ModeMatchError` for a label ``modes`` cannot provide, as :func:`match_frequencies`."""
+    return _label_codes(modes, labels, lines)[2].size > 0
 
 
 #: label sequences seen, with the number of modes and their axes -> _label_codes' arrays

@@ -14,7 +14,8 @@ import numpy as np
 
 from ..runtime import InputError
 from ..runtime.memo import BoundedMemo, content_key
-from .matching import match_frequencies
+from ..runtime.labels import energy_shares
+from .matching import directions_asked, match_frequencies
 from .shapes import has_shape, match_by_shape, setting_rows
 
 __all__ = ["evaluate", "Predictor", "EVAL_BLOCK", "distinct_rows", "take_rows", "setting_keys", "setting_groups"]
@@ -99,9 +100,12 @@ def evaluate(
                 first, inverse = unique
                 at = {k: (v[first] if np.ndim(v) >= 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
                 modes = _modes(ev, effects, poses[first], at, None if joints is None else joints[first])
-                modes = take_rows(modes, inverse)
     except np.linalg.LinAlgError as exc:
         raise InputError(_numerical_failure(ev, effects, poses, params, lines, exc)) from None
+    if unique is not None:
+        if modes.shares is None and modes.eigentwists is not None and directions_asked(modes, labels, lines):
+            modes.shares = energy_shares(modes.eigentwists)  # once per distinct row, as matching would
+        modes = take_rows(modes, unique[1])
     freq, idx = match_frequencies(modes, labels, strict=strict, lines=lines)
     if shapes is not None:
         n = len(idx)
@@ -176,17 +180,27 @@ def take_rows(modes, index: np.ndarray):
     n = len(modes.freq_hz)
 
     def rows(obj):
-        if isinstance(obj, np.ndarray) and obj.ndim >= 1 and obj.shape[0] == n:
+        if type(obj) is np.ndarray and obj.ndim >= 1 and obj.shape[0] == n:
             return obj[index]
         if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-            return dataclasses.replace(obj, **{f.name: rows(getattr(obj, f.name)) for f in dataclasses.fields(obj)})
+            return dataclasses.replace(obj, **{name: rows(getattr(obj, name)) for name in _field_names(type(obj))})
         return obj
 
     out = dataclasses.replace(
-        modes, **{f.name: rows(getattr(modes, f.name)) for f in dataclasses.fields(modes) if f.name != "legs"}
+        modes, **{name: rows(getattr(modes, name)) for name in _field_names(type(modes)) if name != "legs"}
     )
     out.legs = None
     return out
+
+
+_FIELDS: dict = {}  # dataclass -> its field names
+
+
+def _field_names(cls) -> tuple:
+    names = _FIELDS.get(cls)
+    if names is None:
+        names = _FIELDS[cls] = tuple(f.name for f in dataclasses.fields(cls))
+    return names
 
 
 def _numerical_failure(ev, effects, poses, params, lines, exc, row: int | None = None) -> str:
