@@ -206,9 +206,12 @@ def _match_single(modes, shares, f, axis, rows, labels, strict, lines):
     (a mode is along the axis where no other axis has a larger share; its frequency is
     ``(w f) / w`` with ``w`` its clipped share, or 1 where that is not positive)."""
     r = np.arange(len(rows))
-    total = np.nan_to_num(shares)  # (rows, axes, modes)
+    total = shares if np.isfinite(shares).all() else np.nan_to_num(shares)  # (rows, axes, modes)
     target = total[r, axis]  # (rows, modes) the axis's shares
-    along = target >= total.max(axis=1)  # no axis with a larger share
+    largest = total[:, 0]
+    for i in range(1, total.shape[1]):  # the largest share of each mode (a loop: faster than max on axis 1)
+        largest = np.maximum(largest, total[:, i])
+    along = target >= largest  # no axis with a larger share
     first = np.argmax(along, axis=1)  # lowest mode along the axis
     missing = ~along[r, first]
     if missing.any():
