@@ -180,7 +180,7 @@ def take_rows(modes, index: np.ndarray):
     n = len(modes.freq_hz)
 
     def rows(obj):
-        if type(obj) is np.ndarray:
+        if isinstance(obj, np.ndarray):
             return obj[index] if obj.ndim >= 1 and obj.shape[0] == n else obj
         if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
             return dataclasses.replace(obj, **{name: rows(getattr(obj, name)) for name in _field_names(type(obj))})
