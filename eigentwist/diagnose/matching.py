@@ -137,7 +137,7 @@ def _label_codes(modes, labels, lines):
     parsed again."""
     n_modes = modes.freq_hz.shape[1]
     key = None
-    if type(labels) in (list, tuple) and all(type(label) is str for label in labels):
+    if type(labels) in (list, tuple) and set(map(type, labels)) <= {str}:
         key = (tuple(labels), n_modes, tuple(modes.axes))
         found = _CODES.get(key)
         if found is not None:
