@@ -245,6 +245,7 @@ class Predictor:
         self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in meas.params}
         self._distinct = _DISTINCT_UNSET
         self._measured_shapes = None  # (shapes, projection, settings) or () without shapes: _shapes
+        self._repeated: dict = {}  # repeat -> the measured rows' arrays repeated (_repeated_rows)
 
     def _unique(self, repeat: int = 1):
         """``(first, inverse)`` of the measured rows tiled ``repeat`` times (the model is
@@ -268,9 +269,34 @@ class Predictor:
         sets = np.arange(repeat)[:, None]
         return (sets * n + first).reshape(-1), (sets * u + inverse).reshape(-1)
 
+    def _repeated_rows(self, repeat: int) -> dict:
+        """The measured rows' arrays for ``repeat`` parameter sets, built once per count
+        (read-only): ``params`` (k_a and the per-row columns), ``poses``, ``labels``,
+        ``lines``, ``joints``, ``damped``, ``unique``."""
+        rows = self._repeated.get(repeat)
+        if rows is None:
+            if len(self._repeated) >= 8:
+                self._repeated.clear()
+            rows = {
+                "params": {k: np.tile(v, repeat) for k, v in self.meas.evaluation_params().items()},
+                "poses": np.tile(self.meas.poses, (repeat, 1)),
+                "labels": self.meas.mode * repeat,
+                "lines": np.tile(self.meas.lines, repeat),
+                "joints": self._joints(repeat),
+                "damped": self._damped(repeat),
+                "unique": self._unique(repeat),
+            }
+            for arr in [*rows["params"].values(), rows["poses"], rows["lines"], rows["joints"], rows["damped"]]:
+                if isinstance(arr, np.ndarray):
+                    arr.flags.writeable = False
+            for arr in rows["unique"] or ():
+                arr.flags.writeable = False
+            self._repeated[repeat] = rows
+        return rows
+
     def _params(self, values: dict, repeat: int = 1) -> dict:
         n = len(self.meas)
-        out = {k: np.tile(v, repeat) for k, v in self.meas.evaluation_params().items()}
+        out = dict(self._repeated_rows(repeat)["params"])
         for k, v in {**self.fixed, **values}.items():
             if k in self.meas.params:
                 continue
@@ -340,20 +366,19 @@ class Predictor:
         b = table.shape[0]
         values = {name: table[:, j] for j, name in enumerate(names)}
         params = self._params(values, repeat=b)
-        poses = np.tile(self.meas.poses, (b, 1))
-        labels = self.meas.mode * b
+        rows = self._repeated_rows(b)
         freq, idx, modes = evaluate(
             self.ev,
             self.effects,
-            poses,
-            labels,
+            rows["poses"],
+            rows["labels"],
             params,
             strict,
-            np.tile(self.meas.lines, b),
-            joints=self._joints(b),
-            damped=self._damped(b),
+            rows["lines"],
+            joints=rows["joints"],
+            damped=rows["damped"],
             return_modes=True,
-            unique=self._unique(b),
+            unique=rows["unique"],
             **self._shapes(b),
         )
         if zeta:
