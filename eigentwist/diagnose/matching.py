@@ -219,9 +219,10 @@ def _match_single(modes, shares, f, axis, rows, labels, strict, lines):
             raise _missing(modes, missing, rows, labels, lines)
         first = np.where(missing, _by_order(modes.direction[rows], target), first)
     own = shares[r, axis, first]
-    w = np.clip(own, 0.0, None)
+    w = np.maximum(own, 0.0)  # NaN stays NaN, as np.clip keeps it
     w = np.where(w > 0, w, 1.0)
-    freq = (w * np.nan_to_num(f[r, first])) / w
+    at = f[r, first]
+    freq = (w * (at if np.isfinite(at).all() else np.nan_to_num(at))) / w
     index = np.where(own == -np.inf, 0, first)
     return index, np.where(np.isfinite(f[:, 0]), freq, np.nan)
 
