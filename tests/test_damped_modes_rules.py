@@ -265,7 +265,6 @@ def test_actuator_values_of_the_effects_on():
     assert np.array_equal(k_d, np.full((3, 2), 1000.0))
 
 
-
 def _pass_outputs(n: int, r: int, seed: int):
     """K_F's modes of n poses and a pass's exact condensation (nb = r finite modes, damped
     poles), random but shaped as :func:`.damped_modes.fused_exact` gives them."""
