@@ -226,3 +226,19 @@ def test_the_old_names_of_the_stiffness_model_still_answer_with_a_warning():
         assert ev.kind("rigid") == "rigid"
     with pytest.warns(DeprecationWarning, match="stiffness_model"):
         assert m.kind == "flexible"
+
+
+def test_label_codes_beyond_the_memo_bound_stay_right():
+    """More label sequences than the memo keeps (``_CODES_SIZE``): each still gets its codes."""
+    from eigentwist.diagnose import matching
+
+    m = _random_modes(2, seed=2)
+    size = matching._CODES_SIZE
+    pairs = [(a, b) for a in ("1", "2", "3", "4", "5", "6", "x", "y", "z", "rx") for b in "123456"]
+    assert len(pairs) > size + 1
+    for first, second in pairs:  # inside, at and beyond the bound
+        idx = match_frequencies(m, [first, second], strict=False)[1]
+        assert idx[1] == int(second) - 1 and (not first.isdigit() or idx[0] == int(first) - 1)
+        assert len(matching._CODES) <= size
+    again = match_frequencies(m, ["x", "y"], strict=False)[1]
+    assert np.array_equal(again, match_frequencies(m, np.array(["x", "y"]), strict=False)[1])  # not memoised
