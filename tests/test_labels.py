@@ -234,7 +234,7 @@ def test_label_codes_beyond_the_memo_bound_stay_right():
 
     m = _random_modes(2, seed=2)
     size = matching._CODES_SIZE
-    pairs = [(a, b) for a in ("1", "2", "3", "4", "5", "6", "x", "y", "z", "rx") for b in "123456"]
+    pairs = [(a, b) for a in ("1", "2", "3", "4", "5", "6", "x", "y", "z", "rx", "ry", "rz") for b in "123456"]
     assert len(pairs) > size + 1
     for first, second in pairs:  # inside, at and beyond the bound
         idx = match_frequencies(m, [first, second], strict=False)[1]
