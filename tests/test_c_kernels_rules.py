@@ -180,6 +180,24 @@ def test_packed_matches_the_same_objects_at_the_same_positions():
     assert p.matches([a, np.zeros(3), b]) and not p.matches([2.0, arr, b]) and not p.matches([a, arr, b, b])
 
 
+def test_packed_renewed_reads_only_the_new_objects_and_keeps_the_old_table():
+    a, b = 1.0, 2.5
+    arr = np.ones(3)
+    p = ck._Packed([a, arr, b])
+    c = np.array(4.0)
+    c.flags.writeable = False
+    r = p.renewed([c, np.zeros(3), b])  # a fit's new value at a fixed position
+    assert r is not None and r.fixed == [0, 2] and r.others == [1] and r.matches([c, arr, b])
+    assert list(r.packed) == [4.0, 2.5] and list(p.packed) == [1.0, 2.5]  # the old table as it was
+    fresh = ck._Packed([c, arr, b])
+    base = r.packed.ctypes.data
+    assert r.array.tolist() == [base, 0, base + 8] and [r.addresses[i] for i in range(3)] == [base, None, base + 8]
+    assert list(r.strides) == list(fresh.strides) and list(r.packed) == list(fresh.packed)
+    writeable = np.array(4.0)  # not fixed: the layout does not hold, pack anew
+    assert p.renewed([writeable, arr, b]) is None and p.renewed([a, arr]) is None
+    assert ck._repacked(p, [writeable, arr, b]).fixed == [2] and ck._repacked(None, [a, arr, b]).fixed == [0, 2]
+
+
 def test_the_c_tables_have_at_least_one_entry():
     assert len(ck._ptrs([])) == 1 and len(ck._strides([])) == 1
     assert list(ck._strides([3, 0])) == [3, 0] and ck._ptrs([5, 0])[0] == 5

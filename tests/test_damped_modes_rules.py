@@ -11,7 +11,7 @@ from types import SimpleNamespace as NS
 import numpy as np
 import pytest
 
-from eigentwist.runtime import condense
+from eigentwist.runtime import Modes, condense
 from eigentwist.runtime import damped_modes as dm
 from eigentwist.runtime.errors import InputError
 
@@ -263,3 +263,63 @@ def test_actuator_values_of_the_effects_on():
     plain = NS(n_legs=2, effects=("servo_damping",))  # a robot without actuator_loss: no switch read
     k_d, *_ = dm.actuator_values(plain, {"k_a": 1000.0, "c_a": 1.0, "t_d": 0.0, "eta_s": 0.0}, (), 3)
     assert np.array_equal(k_d, np.full((3, 2), 1000.0))
+
+
+def _pass_outputs(n: int, r: int, seed: int):
+    """K_F's modes of n poses and a pass's exact condensation (nb = r finite modes, damped
+    poles), random but shaped as :func:`.damped_modes.fused_exact` gives them."""
+    rng = np.random.default_rng(seed)
+    freq = np.sort(rng.uniform(5.0, 80.0, (n, 6)), axis=1)
+    wn = rng.uniform(30.0, 500.0, (n, 6))
+    zeta = rng.uniform(0.0, 0.1, (n, 6))
+    poles = -zeta * wn + 1j * wn * np.sqrt(1 - zeta**2)
+    solved = {
+        "nb": np.full(n, r),
+        "code": np.zeros(n, dtype=np.int8),
+        "lam": np.sort(rng.uniform(1e3, 1e5, (n, 6)), axis=1),
+        "V": rng.normal(size=(n, 6, 6)),
+        "M": np.broadcast_to(np.eye(6), (n, 6, 6)),
+        "damped": (wn, zeta, wn * np.sqrt(1 - zeta**2), poles, rng.uniform(size=n) > 0.2),
+    }
+    return freq, rng.normal(size=(n, 6, 6)), solved
+
+
+def _merged(freq, vec, solved, valid=None):
+    modes = Modes(freq.copy(), vec.copy(), ("rx", "ry", "rz", "x", "y", "z"), "flexible", valid=valid)
+    return dm.exact_merge(None, (), None, {}, {}, solved, modes, True)
+
+
+def _first(solved: dict, n: int) -> dict:
+    return {k: tuple(a[:n] for a in v) if k == "damped" else v[:n] for k, v in solved.items()}
+
+
+@pytest.mark.parametrize("r", [4, 6])
+def test_exact_merge_of_every_row_equals_the_merge_of_the_valid_rows(r):
+    """Every row valid (the pass's arrays as they are) and the same rows beside an invalid one
+    (rows taken from the arrays): bit for bit; only the r finite columns replaced, a rigid
+    direction's column keeps K_F's mode and is marked constrained."""
+    n = 5
+    freq, vec, solved = _pass_outputs(n + 1, r, seed=r)
+    every = _merged(freq[:n], vec[:n], _first(solved, n))
+    some = _merged(freq, vec, solved, valid=np.arange(n + 1) < n)
+    for name in ("freq_hz", "eigentwists", "stable"):
+        assert np.array_equal(getattr(every, name), getattr(some, name)[:n]), name
+    for name in ("natural_hz", "damped_hz", "damping_ratio", "poles", "stable"):
+        assert np.array_equal(getattr(every.damping, name), getattr(some.damping, name)[:n], equal_nan=True), name
+    want = np.sqrt(solved["lam"][:n, :r]) / (2 * np.pi)
+    assert np.allclose(every.freq_hz[:, :r], want, rtol=1e-15) and np.array_equal(every.freq_hz[:, r:], freq[:n, r:])
+    assert np.array_equal(every.damping.damping_ratio[:, r:], np.zeros((n, 6 - r)))
+    if r == 6:
+        assert every.constrained is None and some.constrained is None
+    else:
+        assert every.constrained[:, r:].all() and not every.constrained[:, :r].any()
+        assert np.array_equal(every.constrained, some.constrained[:n]) and not some.constrained[n].any()
+    assert np.array_equal(some.freq_hz[n], freq[n])  # the invalid row untouched
+
+
+def test_exact_merge_refuses_rows_of_different_admissible_counts_or_unsolved():
+    freq, vec, solved = _pass_outputs(3, 5, seed=1)
+    solved["nb"] = np.array([5, 5, 4])
+    assert _merged(freq, vec, solved) is None
+    solved["nb"], solved["code"] = np.full(3, 5), np.array([0, 2, 0], dtype=np.int8)  # a row not solved
+    assert _merged(freq, vec, solved) is None

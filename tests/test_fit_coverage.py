@@ -439,3 +439,21 @@ def test_a_stalled_fit_returns_its_best_point_and_says_so(ev_fast, truth, monkey
     assert short.nfev < full.nfev
     assert short.chi2 >= full.chi2  # the best of fewer points, no better than the converged fit
     assert full.values["m_p"] == pytest.approx(TRUTH_MP, rel=1e-6)
+
+
+def test_predictor_rows_repeated_per_count_read_only_within_the_bound():
+    """The measured rows for B parameter sets are np.tile of the rows, read-only, whatever the
+    number of counts asked (beyond the predictor's bound of 8 they are built again)."""
+    from eigentwist.diagnose import paper_measurements
+
+    meas = paper_measurements()
+    pred = Predictor(meas, MODEL, None)
+    for b in [*range(1, 11), 3]:
+        rows = pred._repeated_rows(b)
+        assert len(pred._repeated) <= 8
+        assert np.array_equal(rows["poses"], np.tile(meas.poses, (b, 1))) and not rows["poses"].flags.writeable
+        assert np.array_equal(rows["params"]["k_a"], np.tile(meas.k_a, b)) and rows["labels"] == meas.mode * b
+        first, inverse = rows["unique"]
+        assert np.array_equal(rows["poses"][first][inverse], rows["poses"])
+        with pytest.raises(ValueError):
+            rows["lines"][0] = 0

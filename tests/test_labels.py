@@ -9,7 +9,7 @@ import pytest
 
 import eigentwist
 from eigentwist.diagnose import diagnose, paper_measurements, synth
-from eigentwist.diagnose.matching import match_frequencies, match_modes
+from eigentwist.diagnose.matching import ModeMatchError, match_frequencies, match_modes
 from eigentwist.diagnose.measurements import Measurements
 from eigentwist.runtime import Modes
 from eigentwist.runtime.labels import DEGENERATE_REL, degenerate_groups, directions, energy_shares, group_shares
@@ -96,6 +96,58 @@ def test_degenerate_groups_chain_near_equal_modes():
     assert group_shares(shares, degenerate_groups(f))[0, 1].tolist() == [1, 1, 1, 0]
 
 
+def _random_modes(n: int, seed: int, apart: bool = True) -> Modes:
+    """Six modes of n rows with random eigentwists; ``apart``: no two within DEGENERATE_REL."""
+    rng = np.random.default_rng(seed)
+    freq = np.cumsum(rng.uniform(1.05, 3.0, (n, 6)), axis=1) * 10.0 if apart else np.full((n, 6), 10.0)
+    return Modes(freq, rng.normal(size=(n, 6, 6)) + 3 * np.eye(6), ("rx", "ry", "rz", "x", "y", "z"), "flexible")
+
+
+def test_modes_all_apart_match_as_groups_of_one_mode():
+    """Rows whose modes are all apart (each its own group) give, bit for bit, what the group
+    rule gives with singleton groups (an axis no mode points along: the order rule; a row
+    whose eigentwists are not finite: shares 0); a batch with a degenerate row matches the
+    other rows the same (row by row, whichever rule the batch takes)."""
+    from eigentwist.diagnose import matching
+
+    m = _random_modes(60, seed=5)
+    m.eigentwists[7] = np.nan
+    labels = [("x", "y", "z", "rx", "ry", "rz")[i % 6] for i in range(60)]
+    with np.errstate(all="ignore"):
+        freq, idx = match_frequencies(m, labels, strict=False)
+        shares = energy_shares(m.eigentwists)
+        axis = np.array([m.axes.index(label) for label in labels])
+        singles = np.tile(np.arange(6), (60, 1))
+        want_idx, want = matching._match_axes(m, shares, singles, axis, np.arange(60), labels, False, None)
+    assert np.array_equal(idx, want_idx) and freq.tobytes() == want.tobytes()
+    assert np.allclose(freq, m.freq_hz[np.arange(60), idx], rtol=1e-15)  # each row's one mode
+    with pytest.raises(matching.ModeMatchError, match="no mode of the flexible model points along"):
+        match_frequencies(m, labels, strict=True)
+    pair = _random_modes(1, seed=6)
+    pair.freq_hz[0, 1] = pair.freq_hz[0, 0] * (1 + DEGENERATE_REL / 2)  # one degenerate pair
+    both = Modes(np.vstack([m.freq_hz, pair.freq_hz]), np.vstack([m.eigentwists, pair.eigentwists]), m.axes, "flexible")
+    with np.errstate(all="ignore"):
+        f2, i2 = match_frequencies(both, labels + ["x"], strict=False)
+    assert f2[:60].tobytes() == freq.tobytes() and np.array_equal(i2[:60], idx)
+
+
+def test_label_codes_follow_the_model_they_are_matched_on():
+    """A label sequence met before is not parsed again, yet each model gets its own codes and
+    a label the model lacks is refused every time."""
+    flexible = _random_modes(3, seed=1)
+    rigid = Modes(flexible.freq_hz[:, :3], flexible.eigentwists[:, :3, :3], ("x", "y", "z"), "rigid")
+    labels = ["z", "2", "x"]
+    for m in (flexible, rigid, flexible):
+        idx = match_modes(m, labels)
+        assert idx[1] == 1 and idx[0] == idx[0]  # rank 2: the second mode, whatever the model
+    assert match_frequencies(rigid, ["3", "1", "2"])[1].tolist() == [2, 0, 1]
+    for _ in range(2):
+        with pytest.raises(ModeMatchError, match="rank 4 does not exist"):
+            match_modes(rigid, ["4", "1", "2"])
+        with pytest.raises(ModeMatchError, match="has no mode along rz"):
+            match_modes(rigid, ["rz", "x", "y"])
+
+
 def _rotated_pair(m: Modes, turn_deg: float) -> Modes:
     """The same eigenspaces with the basis of modes 0 and 1 turned by ``turn_deg``."""
     c, s = np.cos(np.radians(turn_deg)), np.sin(np.radians(turn_deg))
@@ -174,3 +226,19 @@ def test_the_old_names_of_the_stiffness_model_still_answer_with_a_warning():
         assert ev.kind("rigid") == "rigid"
     with pytest.warns(DeprecationWarning, match="stiffness_model"):
         assert m.kind == "flexible"
+
+
+def test_label_codes_beyond_the_memo_bound_stay_right():
+    """More label sequences than the memo keeps (``_CODES_SIZE``): each still gets its codes."""
+    from eigentwist.diagnose import matching
+
+    m = _random_modes(2, seed=2)
+    size = matching._CODES_SIZE
+    pairs = [(a, b) for a in ("1", "2", "3", "4", "5", "6", "x", "y", "z", "rx", "ry", "rz") for b in "123456"]
+    assert len(pairs) > size + 1
+    for first, second in pairs:  # inside, at and beyond the bound
+        idx = match_frequencies(m, [first, second], strict=False)[1]
+        assert idx[1] == int(second) - 1 and (not first.isdigit() or idx[0] == int(first) - 1)
+        assert len(matching._CODES) <= size
+    again = match_frequencies(m, ["x", "y"], strict=False)[1]
+    assert np.array_equal(again, match_frequencies(m, np.array(["x", "y"]), strict=False)[1])  # not memoised

@@ -184,12 +184,10 @@ class RobotDescription:
 
     def effect(self, name: str):
         """The :class:`Effect` called ``name`` (the robot's own first, then the catalogue)."""
-        from .effects import EFFECTS
-
         for e in self.custom_effects:
             if e.name == name:
                 return e
-        return EFFECTS[name]
+        return _catalogue()[name]
 
     constraints: tuple = ()
     #: names of the pose coordinates: ``x, y, z`` (m) for a 3-DoF translational robot
@@ -217,3 +215,15 @@ class RobotDescription:
     @property
     def defaults(self) -> dict[str, float]:
         return {p.name: p.default for p in self.parameters}
+
+
+_EFFECTS: list = []  # the catalogue dict of .effects, once imported (that module imports this one)
+
+
+def _catalogue() -> dict:
+    """The effect catalogue (:data:`.effects.EFFECTS`, the same dict), imported on first use."""
+    if not _EFFECTS:
+        from .effects import EFFECTS
+
+        _EFFECTS.append(EFFECTS)
+    return _EFFECTS[0]

@@ -28,7 +28,15 @@ from ..description.names import did_you_mean
 from ..runtime import AXES, InputError
 from ..runtime.labels import DEGENERATE_REL, degenerate_groups, energy_shares, group_shares
 
-__all__ = ["ModeMatchError", "parse_mode", "match_modes", "match_frequencies", "DIRECTIONS", "DEGENERATE_REL"]
+__all__ = [
+    "ModeMatchError",
+    "parse_mode",
+    "match_modes",
+    "match_frequencies",
+    "directions_asked",
+    "DIRECTIONS",
+    "DEGENERATE_REL",
+]
 
 DIRECTIONS = AXES  # ("rx", "ry", "rz", "x", "y", "z")
 
@@ -87,10 +95,54 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
     freq : (N,) Hz: the matched mode's, or for a group of near-equal modes the
         share-weighted mean (module doc); index : (N,) int.
     """
-    labels = np.asarray(labels).astype(str)  # whole-array conversion: no per-row Python
     n_rows, n_modes = modes.freq_hz.shape
+    ranked_rows, ranks, axis_rows, axis = _label_codes(modes, labels, lines)
     idx = np.zeros(n_rows, dtype=int)
     freq = np.full(n_rows, np.nan)
+    if ranked_rows.size:
+        idx[ranked_rows] = ranks
+        freq[ranked_rows] = modes.freq_hz[ranked_rows, ranks]
+    if axis_rows.size:
+        every = axis_rows.size == n_rows  # the rows as they are: no copy
+        rows = axis_rows
+        f = modes.freq_hz if every else modes.freq_hz[rows]
+        if modes.shares is not None:
+            shares = modes.shares if every else modes.shares[rows]
+        else:
+            shares = energy_shares(modes.eigentwists if every else modes.eigentwists[rows])
+        split = np.diff(f, axis=-1) > DEGENERATE_REL * np.abs(f[:, 1:])
+        if split.all():  # every mode its own group
+            idx[rows], freq[rows] = _match_single(modes, shares, f, axis, rows, labels, strict, lines)
+        else:
+            groups = degenerate_groups(f)
+            idx[rows], freq[rows] = _match_axes(modes, shares, groups, axis, rows, labels, strict, lines, f)
+    return freq, idx
+
+
+def directions_asked(modes, labels, lines=None) -> bool:
+    """Whether a label is a direction (matched by the modes' energy shares); raises
+    :class:`ModeMatchError` for a label ``modes`` cannot provide, as :func:`match_frequencies`."""
+    return _label_codes(modes, labels, lines)[2].size > 0
+
+
+#: label sequences seen, with the number of modes and their axes -> _label_codes' arrays
+_CODES: dict = {}
+_CODES_SIZE = 64
+
+
+def _label_codes(modes, labels, lines):
+    """``(ranked_rows, ranks, axis_rows, axis)``: the rows whose label is a rank and their
+    0-based mode index, the rows whose label is a direction and its index into ``modes.axes``.
+    A sequence of labels (str) met before with as many modes along the same axes is not
+    parsed again."""
+    n_modes = modes.freq_hz.shape[1]
+    key = None
+    if type(labels) in (list, tuple) and set(map(type, labels)) <= {str}:
+        key = (tuple(labels), n_modes, tuple(modes.axes))
+        found = _CODES.get(key)
+        if found is not None:
+            return found
+    labels = np.asarray(labels).astype(str)  # whole-array conversion: no per-row Python
     distinct, firsts, inverse = np.unique(labels, return_index=True, return_inverse=True)
     code = {}  # label -> rank - 1 (>= 0), or -1 - local axis (< 0)
     for label, first in zip(map(str, distinct), firsts):  # errors in label order, as the labels sort
@@ -112,17 +164,15 @@ def match_frequencies(modes, labels, strict: bool = True, lines=None):
         code[label] = -1 - modes.axes.index(label)
     codes = np.array([code[str(label)] for label in distinct], dtype=int)[np.reshape(inverse, -1)]
     ranked = codes >= 0
-    if ranked.any():
-        rows = np.flatnonzero(ranked)
-        idx[rows] = codes[rows]
-        freq[rows] = modes.freq_hz[rows, codes[rows]]
-    if not ranked.all():
-        rows = np.flatnonzero(~ranked)
-        axis = -1 - codes[rows]
-        shares = energy_shares(modes.eigentwists[rows]) if modes.shares is None else modes.shares[rows]
-        groups = degenerate_groups(modes.freq_hz[rows])
-        idx[rows], freq[rows] = _match_axes(modes, shares, groups, axis, rows, labels, strict, lines)
-    return freq, idx
+    ranked_rows, axis_rows = np.flatnonzero(ranked), np.flatnonzero(~ranked)
+    found = (ranked_rows, codes[ranked_rows], axis_rows, -1 - codes[axis_rows])
+    for arr in found:
+        arr.flags.writeable = False
+    if key is not None:
+        if len(_CODES) >= _CODES_SIZE:
+            _CODES.clear()
+        _CODES[key] = found
+    return found
 
 
 def _by_order(direction: np.ndarray, share: np.ndarray) -> np.ndarray:
@@ -137,9 +187,51 @@ def _by_order(direction: np.ndarray, share: np.ndarray) -> np.ndarray:
     return np.where(repeat.any(axis=1), pick, np.argmax(share, axis=1))
 
 
-def _match_axes(modes, shares, groups, axis, rows, labels, strict, lines):
-    """(index, frequency) of the lowest mode group along each row's local ``axis``."""
+def _missing(modes, missing, rows, labels, lines):
+    """The :class:`ModeMatchError` of the first row (as the labels sort) whose axis no mode
+    points along."""
+    labels = np.asarray(labels).astype(str)
+    k = min(np.flatnonzero(missing), key=lambda i: (labels[rows[i]], i))  # as the labels sort
+    direction = modes.direction[rows[k]]
+    return ModeMatchError(
+        f"{_where(rows[k], lines)}no mode of the {modes.stiffness_model} model points along "
+        f"{labels[rows[k]]} at this row (mode directions: "
+        f"{', '.join(DIRECTIONS[d] for d in direction)}); use a rank instead"
+    )
+
+
+def _match_single(modes, shares, f, axis, rows, labels, strict, lines):
+    """:func:`_match_axes` where every mode of every row is a group of its own (no two modes
+    within ``DEGENERATE_REL``): the same numbers with a group's sums reduced to its one mode
+    (a mode is along the axis where no other axis has a larger share; its frequency is
+    ``(w f) / w`` with ``w`` its clipped share, or 1 where that is not positive)."""
     r = np.arange(len(rows))
+    total = shares if np.isfinite(shares).all() else np.nan_to_num(shares)  # (rows, axes, modes)
+    target = total[r, axis]  # (rows, modes) the axis's shares
+    largest = total[:, 0]
+    for i in range(1, total.shape[1]):  # the largest share of each mode (a loop: faster than max on axis 1)
+        largest = np.maximum(largest, total[:, i])
+    along = target >= largest  # no axis with a larger share
+    first = np.argmax(along, axis=1)  # lowest mode along the axis
+    missing = ~along[r, first]
+    if missing.any():
+        if strict:
+            raise _missing(modes, missing, rows, labels, lines)
+        first = np.where(missing, _by_order(modes.direction[rows], target), first)
+    own = shares[r, axis, first]
+    w = np.maximum(own, 0.0)  # NaN stays NaN, as np.clip keeps it
+    w = np.where(w > 0, w, 1.0)
+    at = f[r, first]
+    freq = (w * (at if np.isfinite(at).all() else np.nan_to_num(at))) / w
+    index = np.where(own == -np.inf, 0, first)
+    return index, np.where(np.isfinite(f[:, 0]), freq, np.nan)
+
+
+def _match_axes(modes, shares, groups, axis, rows, labels, strict, lines, f=None):
+    """(index, frequency) of the lowest mode group along each row's local ``axis``; ``f``:
+    the rows' frequencies (``modes.freq_hz[rows]``) where known."""
+    r = np.arange(len(rows))
+    f = modes.freq_hz[rows] if f is None else f
     total = group_shares(shares, groups)  # (rows, axes, modes)
     size = (groups[:, :, None] == groups[:, None, :]).sum(axis=1)  # (rows, modes) group sizes
     rank = (total > total[r, axis][:, None, :]).sum(axis=1)  # axes with a larger group share
@@ -149,17 +241,11 @@ def _match_axes(modes, shares, groups, axis, rows, labels, strict, lines):
     own_share = shares[r, axis]  # (rows, modes) the axis's shares
     if missing.any():
         if strict:
-            k = min(np.flatnonzero(missing), key=lambda i: (labels[rows[i]], i))  # as the labels sort
-            direction = modes.direction[rows[k]]
-            raise ModeMatchError(
-                f"{_where(rows[k], lines)}no mode of the {modes.stiffness_model} model points along "
-                f"{labels[rows[k]]} at this row (mode directions: "
-                f"{', '.join(DIRECTIONS[d] for d in direction)}); use a rank instead"
-            )
+            raise _missing(modes, missing, rows, labels, lines)
         first = np.where(missing, _by_order(modes.direction[rows], total[r, axis]), first)
     member = groups == groups[r, first][:, None]  # (rows, modes) the chosen group
     own = np.where(member, np.clip(own_share, 0.0, None), 0.0)
     weight = np.where(own.sum(axis=1, keepdims=True) > 0, own, member.astype(float))
-    freq = np.sum(weight * np.nan_to_num(modes.freq_hz[rows]), axis=1) / weight.sum(axis=1)
+    freq = np.sum(weight * np.nan_to_num(f), axis=1) / weight.sum(axis=1)
     index = np.argmax(np.where(member, own_share, -np.inf), axis=1)
-    return index, np.where(np.isfinite(modes.freq_hz[rows, 0]), freq, np.nan)
+    return index, np.where(np.isfinite(f[:, 0]), freq, np.nan)

@@ -14,7 +14,8 @@ import numpy as np
 
 from ..runtime import InputError
 from ..runtime.memo import BoundedMemo, content_key
-from .matching import match_frequencies
+from ..runtime.labels import energy_shares
+from .matching import directions_asked, match_frequencies
 from .shapes import has_shape, match_by_shape, setting_rows
 
 __all__ = ["evaluate", "Predictor", "EVAL_BLOCK", "distinct_rows", "take_rows", "setting_keys", "setting_groups"]
@@ -99,9 +100,12 @@ def evaluate(
                 first, inverse = unique
                 at = {k: (v[first] if np.ndim(v) >= 1 and np.shape(v)[0] == n else v) for k, v in params.items()}
                 modes = _modes(ev, effects, poses[first], at, None if joints is None else joints[first])
-                modes = take_rows(modes, inverse)
     except np.linalg.LinAlgError as exc:
         raise InputError(_numerical_failure(ev, effects, poses, params, lines, exc)) from None
+    if unique is not None:
+        if modes.shares is None and modes.eigentwists is not None and directions_asked(modes, labels, lines):
+            modes.shares = energy_shares(modes.eigentwists)  # once per distinct row, as matching would
+        modes = take_rows(modes, unique[1])
     freq, idx = match_frequencies(modes, labels, strict=strict, lines=lines)
     if shapes is not None:
         n = len(idx)
@@ -176,17 +180,27 @@ def take_rows(modes, index: np.ndarray):
     n = len(modes.freq_hz)
 
     def rows(obj):
-        if isinstance(obj, np.ndarray) and obj.ndim >= 1 and obj.shape[0] == n:
-            return obj[index]
+        if isinstance(obj, np.ndarray):
+            return obj[index] if obj.ndim >= 1 and obj.shape[0] == n else obj
         if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-            return dataclasses.replace(obj, **{f.name: rows(getattr(obj, f.name)) for f in dataclasses.fields(obj)})
+            return dataclasses.replace(obj, **{name: rows(getattr(obj, name)) for name in _field_names(type(obj))})
         return obj
 
     out = dataclasses.replace(
-        modes, **{f.name: rows(getattr(modes, f.name)) for f in dataclasses.fields(modes) if f.name != "legs"}
+        modes, **{name: rows(getattr(modes, name)) for name in _field_names(type(modes)) if name != "legs"}
     )
     out.legs = None
     return out
+
+
+_FIELDS: dict = {}  # dataclass -> its field names
+
+
+def _field_names(cls) -> tuple:
+    names = _FIELDS.get(cls)
+    if names is None:
+        names = _FIELDS[cls] = tuple(f.name for f in dataclasses.fields(cls))
+    return names
 
 
 def _numerical_failure(ev, effects, poses, params, lines, exc, row: int | None = None) -> str:
@@ -231,6 +245,7 @@ class Predictor:
         self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in meas.params}
         self._distinct = _DISTINCT_UNSET
         self._measured_shapes = None  # (shapes, projection, settings) or () without shapes: _shapes
+        self._repeated: dict = {}  # repeat -> the measured rows' arrays repeated (_repeated_rows)
 
     def _unique(self, repeat: int = 1):
         """``(first, inverse)`` of the measured rows tiled ``repeat`` times (the model is
@@ -254,9 +269,34 @@ class Predictor:
         sets = np.arange(repeat)[:, None]
         return (sets * n + first).reshape(-1), (sets * u + inverse).reshape(-1)
 
+    def _repeated_rows(self, repeat: int) -> dict:
+        """The measured rows' arrays for ``repeat`` parameter sets, built once per count
+        (read-only): ``params`` (k_a and the per-row columns), ``poses``, ``labels``,
+        ``lines``, ``joints``, ``damped``, ``unique``."""
+        rows = self._repeated.get(repeat)
+        if rows is None:
+            if len(self._repeated) >= 8:
+                self._repeated.clear()
+            rows = {
+                "params": {k: np.tile(v, repeat) for k, v in self.meas.evaluation_params().items()},
+                "poses": np.tile(self.meas.poses, (repeat, 1)),
+                "labels": self.meas.mode * repeat,
+                "lines": np.tile(self.meas.lines, repeat),
+                "joints": self._joints(repeat),
+                "damped": self._damped(repeat),
+                "unique": self._unique(repeat),
+            }
+            for arr in [*rows["params"].values(), rows["poses"], rows["lines"], rows["joints"], rows["damped"]]:
+                if isinstance(arr, np.ndarray):
+                    arr.flags.writeable = False
+            for arr in rows["unique"] or ():
+                arr.flags.writeable = False
+            self._repeated[repeat] = rows
+        return rows
+
     def _params(self, values: dict, repeat: int = 1) -> dict:
         n = len(self.meas)
-        out = {k: np.tile(v, repeat) for k, v in self.meas.evaluation_params().items()}
+        out = dict(self._repeated_rows(repeat)["params"])
         for k, v in {**self.fixed, **values}.items():
             if k in self.meas.params:
                 continue
@@ -326,20 +366,19 @@ class Predictor:
         b = table.shape[0]
         values = {name: table[:, j] for j, name in enumerate(names)}
         params = self._params(values, repeat=b)
-        poses = np.tile(self.meas.poses, (b, 1))
-        labels = self.meas.mode * b
+        rows = self._repeated_rows(b)
         freq, idx, modes = evaluate(
             self.ev,
             self.effects,
-            poses,
-            labels,
+            rows["poses"],
+            rows["labels"],
             params,
             strict,
-            np.tile(self.meas.lines, b),
-            joints=self._joints(b),
-            damped=self._damped(b),
+            rows["lines"],
+            joints=rows["joints"],
+            damped=rows["damped"],
             return_modes=True,
-            unique=self._unique(b),
+            unique=rows["unique"],
             **self._shapes(b),
         )
         if zeta:

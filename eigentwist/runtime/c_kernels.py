@@ -233,7 +233,20 @@ class _Packed:
     strides: reused by a later call that passes the very same (immutable, :func:`_fixed`)
     objects at the same positions, which then fills in only its per-pose arrays."""
 
-    __slots__ = ("size", "fixed", "ids", "refs", "packed", "addresses", "strides", "others", "array", "at")
+    __slots__ = (
+        "size",
+        "fixed",
+        "ids",
+        "refs",
+        "packed",
+        "addresses",
+        "strides",
+        "others",
+        "array",
+        "at",
+        "fixed_at",
+        "offsets",
+    )
 
     def __init__(self, values: list):
         self.size = len(values)
@@ -251,9 +264,41 @@ class _Packed:
         self.others = [i for i in range(self.size) if i not in fixed]
         self.array = np.array(addresses, dtype=np.uint64)  # the addresses, for a kernel's call (_run)
         self.at = np.array(self.others, dtype=np.intp)
+        self.fixed_at = np.array(self.fixed, dtype=np.intp)
+        self.offsets = np.arange(len(self.fixed), dtype=np.uint64) * np.uint64(8)  # bytes into packed
 
     def matches(self, values: list) -> bool:
         return len(values) == self.size and tuple(map(id, map(values.__getitem__, self.fixed))) == self.ids
+
+    def renewed(self, values: list):
+        """``values`` packed like this call's inputs (the same positions fixed): a new
+        :class:`_Packed` with a copy of this one's scalars, of which only the positions holding
+        other objects are read again (a fit's new parameter values among unchanged ones); this
+        one stays as it is. None where the number of inputs differs, or an object at a fixed
+        position is not :func:`_fixed` (then pack anew)."""
+        if len(values) != self.size or not self.size:
+            return None
+        refs = tuple(map(values.__getitem__, self.fixed))
+        changed = [k for k, (new, old) in enumerate(zip(refs, self.refs)) if new is not old]
+        if not all(_fixed(refs[k]) for k in changed):
+            return None
+        out = _Packed.__new__(_Packed)
+        out.size, out.fixed, out.others, out.at = self.size, self.fixed, self.others, self.at
+        out.strides, out.fixed_at, out.offsets = self.strides, self.fixed_at, self.offsets  # never written
+        out.refs, out.ids = refs, tuple(map(id, refs))
+        out.packed = self.packed.copy()
+        if changed:
+            out.packed[changed] = [float(refs[k]) for k in changed]
+        out.array = np.zeros(self.size, dtype=np.uint64)
+        out.array[self.fixed_at] = np.uint64(out.packed.ctypes.data) + self.offsets
+        out.addresses = type(self.addresses).from_buffer_copy(out.array)
+        return out
+
+
+def _repacked(packed, values: list) -> _Packed:
+    """The :class:`_Packed` of ``values``: renewed from the previous call's ``packed`` (None:
+    none) where the layout holds (:meth:`_Packed.renewed`), else packed anew."""
+    return (packed is not None and packed.renewed(values)) or _Packed(values)
 
 
 def _check_rc(rc: int, what: str) -> None:
@@ -370,7 +415,7 @@ class CKernels:
             return np.zeros(0, dtype=np.uint64), np.zeros(0, dtype=np.int64)
         packed = self._kernel_packed.get(kernel)
         if packed is None or not packed.matches(values):
-            packed = self._kernel_packed[kernel] = _Packed(values)
+            packed = self._kernel_packed[kernel] = _repacked(packed, values)
         keep.append(packed)
         addresses, strides = packed.array.copy(), np.zeros(packed.size, dtype=np.int64)
         if packed.others:
@@ -549,7 +594,7 @@ class CKernels:
         (the evaluator's resolved parameters), only the per-pose arrays marshalled anew."""
         packed = self._packed
         if packed is None or not packed.matches(values):
-            packed = self._packed = _Packed(values)
+            packed = self._packed = _repacked(packed, values)
         others = [values[i] for i in packed.others]
         shapes = {np.shape(v) for v in others}
         lead = shapes.pop() if len(shapes) == 1 and len(next(iter(shapes))) <= 1 else self._lead(shapes or [()])
