@@ -7,6 +7,8 @@ it; a second robot with the same joint types needs a new description only.
 
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -217,13 +219,10 @@ class RobotDescription:
         return {p.name: p.default for p in self.parameters}
 
 
-_EFFECTS: list = []  # the catalogue dict of .effects, once imported (that module imports this one)
-
-
+@functools.cache
 def _catalogue() -> dict:
-    """The effect catalogue (:data:`.effects.EFFECTS`, the same dict), imported on first use."""
-    if not _EFFECTS:
-        from .effects import EFFECTS
+    """The effect catalogue (:data:`.effects.EFFECTS`, the same dict), imported on first use
+    (that module imports this one)."""
+    from .effects import EFFECTS
 
-        _EFFECTS.append(EFFECTS)
-    return _EFFECTS[0]
+    return EFFECTS

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..description.names import did_you_mean
 from ..runtime import AXES, InputError
+from ..runtime.memo import BoundedMemo
 from ..runtime.labels import DEGENERATE_REL, degenerate_groups, energy_shares, group_shares
 
 __all__ = [
@@ -126,8 +127,8 @@ def directions_asked(modes, labels, lines=None) -> bool:
 
 
 #: label sequences seen, with the number of modes and their axes -> _label_codes' arrays
-_CODES: dict = {}
 _CODES_SIZE = 64
+_CODES = BoundedMemo(_CODES_SIZE)
 
 
 def _label_codes(modes, labels, lines):
@@ -169,9 +170,7 @@ def _label_codes(modes, labels, lines):
     for arr in found:
         arr.flags.writeable = False
     if key is not None:
-        if len(_CODES) >= _CODES_SIZE:
-            _CODES.clear()
-        _CODES[key] = found
+        _CODES.put(key, found)
     return found
 
 

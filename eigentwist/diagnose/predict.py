@@ -9,6 +9,7 @@ evaluator's 0/1 switches; nothing is re-derived.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -193,14 +194,10 @@ def take_rows(modes, index: np.ndarray):
     return out
 
 
-_FIELDS: dict = {}  # dataclass -> its field names
-
-
+@functools.cache
 def _field_names(cls) -> tuple:
-    names = _FIELDS.get(cls)
-    if names is None:
-        names = _FIELDS[cls] = tuple(f.name for f in dataclasses.fields(cls))
-    return names
+    """A dataclass's field names, looked up once per class."""
+    return tuple(f.name for f in dataclasses.fields(cls))
 
 
 def _numerical_failure(ev, effects, poses, params, lines, exc, row: int | None = None) -> str:
@@ -245,7 +242,7 @@ class Predictor:
         self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in meas.params}
         self._distinct = _DISTINCT_UNSET
         self._measured_shapes = None  # (shapes, projection, settings) or () without shapes: _shapes
-        self._repeated: dict = {}  # repeat -> the measured rows' arrays repeated (_repeated_rows)
+        self._repeated = BoundedMemo(8)  # repeat -> the measured rows' arrays repeated (_repeated_rows)
 
     def _unique(self, repeat: int = 1):
         """``(first, inverse)`` of the measured rows tiled ``repeat`` times (the model is
@@ -275,8 +272,6 @@ class Predictor:
         ``lines``, ``joints``, ``damped``, ``unique``."""
         rows = self._repeated.get(repeat)
         if rows is None:
-            if len(self._repeated) >= 8:
-                self._repeated.clear()
             rows = {
                 "params": {k: np.tile(v, repeat) for k, v in self.meas.evaluation_params().items()},
                 "poses": np.tile(self.meas.poses, (repeat, 1)),
@@ -291,7 +286,7 @@ class Predictor:
                     arr.flags.writeable = False
             for arr in rows["unique"] or ():
                 arr.flags.writeable = False
-            self._repeated[repeat] = rows
+            self._repeated.put(repeat, rows)
         return rows
 
     def _params(self, values: dict, repeat: int = 1) -> dict:

@@ -396,10 +396,10 @@ class CKernels:
             strides[at_q] = qa.shape[1]
         out_ptrs = np.array([o.ctypes.data for o in outs.values()], dtype=np.uint64)
         out_rows = np.array([8 * int(np.prod(shape, dtype=np.int64)) for _, shape in outputs], dtype=np.uint64)
-        fn = self._fn[kernel]
+        fn, steps = self._fn[kernel], strides.astype(np.uint64) * np.uint64(8)  # bytes per pose
 
         def call(begin: int, end: int) -> int:
-            at = addresses + np.uint64(8 * begin) * strides.astype(np.uint64)
+            at = addresses + np.uint64(begin) * steps
             out = out_ptrs + np.uint64(begin) * out_rows
             return fn(end - begin, at.ctypes.data_as(_PTRS), strides.ctypes.data_as(_I64P), out.ctypes.data_as(_PTRS))
 

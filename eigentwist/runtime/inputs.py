@@ -187,17 +187,12 @@ class InputResolver:
             out[name] = self.default(name, p.default, n, check)
             if check:
                 self._checked_defaults.add(name)
-        for e in self.effects:
-            effect = self._effect[e]
-            if not effect.leg_level:
-                out[switch_name(e)] = _ON if e in effects else _OFF
-                continue
-            for k in range(1, self.n_legs + 1):
-                out[leg_switch_name(e, k)] = _ON if e in effects or f"{e}@{k}" in effects else _OFF
-                for q in effect.params:
-                    own = (q.name, k) in scoped
-                    value = self.array(f"{q.name}@{k}", scoped[(q.name, k)], n, True) if own else out[q.name]
-                    out[leg_input_name(q.name, k)] = value
+        for name, switch, effect, k in self.effect_switches(effects):
+            out[name] = switch
+            for q in effect.params if k else ():
+                own = (q.name, k) in scoped
+                value = self.array(f"{q.name}@{k}", scoped[(q.name, k)], n, True) if own else out[q.name]
+                out[leg_input_name(q.name, k)] = value
         check_constraints(self.constraints, out, on)
         self.check_leg_constraints(out, effects, scoped)
         return out
@@ -254,23 +249,18 @@ class InputResolver:
                 template[name] = self.default(name, p.default, 1, False)
             else:
                 return None
-        for e in self.effects:
-            effect = self._effect[e]
-            if not effect.leg_level:
-                template[switch_name(e)] = _ON if e in effects else _OFF
-                continue
-            for k in range(1, self.n_legs + 1):
-                template[leg_switch_name(e, k)] = _ON if e in effects or f"{e}@{k}" in effects else _OFF
-                for q in effect.params:
-                    target = leg_input_name(q.name, k)
-                    if (q.name, k) in scoped:
-                        template[target] = None
-                        feeds.setdefault(f"{q.name}@{k}", []).append(target)
-                    elif q.name in params:
-                        template[target] = None
-                        feeds[q.name].append(target)
-                    else:
-                        template[target] = template[q.name]
+        for name, switch, effect, k in self.effect_switches(effects):
+            template[name] = switch
+            for q in effect.params if k else ():
+                target = leg_input_name(q.name, k)
+                if (q.name, k) in scoped:
+                    template[target] = None
+                    feeds.setdefault(f"{q.name}@{k}", []).append(target)
+                elif q.name in params:
+                    template[target] = None
+                    feeds[q.name].append(target)
+                else:
+                    template[target] = template[q.name]
         # the order of _resolve_params's checks: the parameters, then the legs' own values
         given = [
             (name, name, tuple(t), params[name] is not condense.EXACT) for name, t in feeds.items() if "@" not in name
@@ -282,6 +272,18 @@ class InputResolver:
         fed = {target for _, _, targets, _ in given for target in targets}
         live = [c for c in self.constraints if fed.intersection(c.names)]
         return template, given, live, on, effects, {k: None for k in scoped}
+
+    def effect_switches(self, effects):
+        """``(input name, switch, effect, leg)`` of every effect's switch, in the inputs' order:
+        a robot-level effect's one (``leg`` None), a leg-level effect's one per leg (``leg``
+        1..n_legs); on where ``effects`` has the effect, or that leg's ``EFFECT@N``."""
+        for e in self.effects:
+            effect = self._effect[e]
+            if not effect.leg_level:
+                yield switch_name(e), _ON if e in effects else _OFF, effect, None
+                continue
+            for k in range(1, self.n_legs + 1):
+                yield leg_switch_name(e, k), _ON if e in effects or f"{e}@{k}" in effects else _OFF, effect, k
 
     def default(self, name: str, value, n: int, check: bool) -> np.ndarray:
         """The default ``value`` of parameter ``name`` as a read-only 0-d array, the same
