@@ -210,7 +210,29 @@ def _kernel_context(kern: Kernel, prefix: str, units: dict) -> dict:
         n_in=len(inputs),
         n_ent=len(entries),
         export=kern.name not in FUSED_ONLY,
+        via=None,
     )
+
+
+# a kernel whose outputs lead a fused-only kernel's, on the same inputs: its exported
+# function runs that kernel's block and drops the further outputs (one block compiled, not two)
+SHARED_BLOCKS = (("matrices", "matrices_lever"),)
+
+
+def _share_blocks(by_name: dict) -> None:
+    """Mark each kernel of :data:`SHARED_BLOCKS` to run its fused-only partner's block
+    (``via``) where the partner takes the same inputs in the same order and its output
+    rows begin with the kernel's own rows, so the kernel's block function is not rendered.
+    The partner's CSE covers the further outputs too, so the shared outputs may differ
+    from the kernel's own CSE in the last bits."""
+    for name, partner in SHARED_BLOCKS:
+        k, p = by_name.get(name), by_name.get(partner)
+        if k is None or p is None:
+            continue
+        same_inputs = [i["name"] for i in k["inputs"]] == [i["name"] for i in p["inputs"]]
+        leading = p["entries"][: k["n_ent"]] == k["entries"] and p["outputs"][: len(k["outputs"])] == k["outputs"]
+        if same_inputs and leading:
+            k["via"] = p
 
 
 # ------------------------------------------------------------------- fused
@@ -389,6 +411,7 @@ def render_c(robot, kernels: list[Kernel], digest: str) -> str:
     units = {p.name: p.unit for p in robot.parameters} | EffectSymbols(robot).units()
     kctx = [_kernel_context(k, prefix, units) for k in kernels]
     by_name = {k["name"]: k for k in kctx}
+    _share_blocks(by_name)
     fused = _fused_context(by_name, eigen_models(robot))
     sig = _signature(robot, prefix, kctx, fused, digest)
     lib = library_context(robot, kernels, prefix)
