@@ -20,6 +20,7 @@ import ctypes
 import numpy as np
 
 from ..errors import InputError
+from .addresses import address
 
 __all__ = ["driver", "allowed_twists", "reduce", "SOURCE", "BLOCK"]
 
@@ -223,7 +224,7 @@ def reduce(X: np.ndarray, B: np.ndarray) -> np.ndarray:
         raise InputError(f"reduce takes X (N, 6, 6) and B (N, 6, m <= 6): got {X.shape} and {B.shape}")
     out = np.empty((n, m, m))
     if n:
-        _REDUCE[-1](n, m, X.ctypes.data, B.ctypes.data, out.ctypes.data)
+        _REDUCE[-1](n, m, address(X), address(B), address(out))
     return out
 
 
@@ -254,16 +255,16 @@ def allowed_twists(rows: np.ndarray, candidates: np.ndarray, rtol: float, tol_co
     def call(a: int, b: int) -> int:
         return fn(
             b - a,
-            A.ctypes.data + 8 * a * stride,
+            address(A) + 8 * a * stride,
             stride,
             len(picks),
             pick,
             m,
-            E.ctypes.data + (8 * a * 6 * m if per_pose else 0),
+            address(E) + (8 * a * 6 * m if per_pose else 0),
             int(per_pose),
             float(rtol),
             float(tol_col),
-            out.ctypes.data + 8 * a * 6 * m,
+            address(out) + 8 * a * 6 * m,
         )
 
     for rc in run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads)):

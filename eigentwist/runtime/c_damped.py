@@ -49,6 +49,8 @@ import ctypes
 
 import numpy as np
 
+from .addresses import address
+
 __all__ = [
     "driver",
     "solve",
@@ -1604,12 +1606,12 @@ def _run_poles(fn, N: int, n: int, L: int, inputs, rules, threads: int, what: st
             b - a,
             n,
             L,
-            *(None if v is None else v.ctypes.data + a * size for v, size in inputs),
+            *(None if v is None else address(v) + a * size for v, size in inputs),
             *rules,
-            *(x.ctypes.data + 8 * a * n for x in (wn, zeta, wd)),
-            poles.ctypes.data + 16 * a * n,
-            stable.ctypes.data + a,
-            status.ctypes.data + a,
+            *(address(x) + 8 * a * n for x in (wn, zeta, wd)),
+            address(poles) + 16 * a * n,
+            address(stable) + a,
+            address(status) + a,
         )
 
     for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
@@ -1633,13 +1635,13 @@ def wrenches(Je, Cq, rigid: float, a0=None, loss=None):
     dtype = float if loss is None else complex
     K, W, h = np.empty((N, c, c), dtype), np.empty((N, L, c), dtype), np.empty((N, L), dtype)
     if loss is None:
-        args = (Je.ctypes.data, Cq.ctypes.data, rigid)
-        rc = _WRENCHES[0](N, L, e, c, *args, K.ctypes.data, W.ctypes.data, h.ctypes.data)
+        args = (address(Je), address(Cq), rigid)
+        rc = _WRENCHES[0](N, L, e, c, *args, address(K), address(W), address(h))
     else:
         a0 = np.ascontiguousarray(np.broadcast_to(a0, (N, L)), dtype=np.float64)
         eta = np.ascontiguousarray(np.broadcast_to(loss, (N,)), dtype=np.float64)
-        args = (Je.ctypes.data, Cq.ctypes.data, a0.ctypes.data, eta.ctypes.data, rigid)
-        rc = _WRENCHES[1](N, L, e, c, *args, K.ctypes.data, W.ctypes.data, h.ctypes.data)
+        args = (address(Je), address(Cq), address(a0), address(eta), rigid)
+        rc = _WRENCHES[1](N, L, e, c, *args, address(K), address(W), address(h))
     if rc != 0:
         raise RuntimeError(f"C actuator wrenches returned {rc}")
     return K, W, h
@@ -1651,18 +1653,18 @@ def _legs_arguments(legs, n: int):
     joint coordinates, the number of outputs and their addresses and sizes per pose; and the
     arrays those addresses point into (keep them alive for the call). ``legs``: the kernel's
     :meth:`~.c_kernels.CKernels.kernel_arguments`; n poses."""
-    address, inputs, strides, q_of, outs, _ = legs
-    out_ptrs = np.array([a.ctypes.data for a in outs.values()], dtype=np.uint64)
+    kernel_at, inputs, strides, q_of, outs, _ = legs
+    out_ptrs = np.array([address(a) for a in outs.values()], dtype=np.uint64)
     sizes = np.array([a[0].size if n else 0 for a in outs.values()], dtype=np.int64)
     args = (
-        address,
+        kernel_at,
         len(q_of),
-        inputs.ctypes.data,
-        strides.ctypes.data,
-        q_of.ctypes.data,
+        address(inputs),
+        address(strides),
+        address(q_of),
         len(out_ptrs),
-        out_ptrs.ctypes.data,
-        sizes.ctypes.data,
+        address(out_ptrs),
+        address(sizes),
     )
     return args, (out_ptrs, sizes)
 
@@ -1686,7 +1688,7 @@ def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k
 
     driver()
     fn = _PASS[0]
-    address, args = fused
+    pass_at, args = fused
     L, e = np.shape(Je)[1:3]
     r = 6 if B is None else np.shape(B)[1]
     Bc = None if B is None else np.ascontiguousarray(B, dtype=np.float64)
@@ -1703,30 +1705,30 @@ def one_pass(fused, legs, block: int, n: int, q, M, K, Je, Cq, e_used: int, B, k
             a,
             b,
             block,
-            address,
+            pass_at,
             *args,
             *legs_args,
-            q.ctypes.data,
+            address(q),
             q_row,
-            M.ctypes.data,
-            K.ctypes.data,
-            Je.ctypes.data,
-            Cq.ctypes.data,
+            address(M),
+            address(K),
+            address(Je),
+            address(Cq),
             L,
             e,
             e_used,
-            None if Bc is None else Bc.ctypes.data,
+            None if Bc is None else address(Bc),
             r,
-            kd.ctypes.data,
-            cd.ctypes.data,
-            td.ctypes.data,
+            address(kd),
+            address(cd),
+            address(td),
             *rules,
-            wn.ctypes.data,
-            zeta.ctypes.data,
-            wd.ctypes.data,
-            poles.ctypes.data,
-            stable.ctypes.data,
-            redo.ctypes.data,
+            address(wn),
+            address(zeta),
+            address(wd),
+            address(poles),
+            address(stable),
+            address(redo),
         )
 
     for rc in run_ranges(call, n, block, threads_for(n, block, threads)):
@@ -1762,7 +1764,7 @@ def solve_legs(M, K, K_ground, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, thr
     status = np.empty(N, dtype=np.int8)
 
     def at(v, a: int, size: int):
-        return None if v is None else v.ctypes.data + (0 if v.ndim == 2 else 8 * a * size)
+        return None if v is None else address(v) + (0 if v.ndim == 2 else 8 * a * size)
 
     def call(a: int, b: int) -> int:
         return fn(
@@ -1771,21 +1773,21 @@ def solve_legs(M, K, K_ground, Je, Cq, e_used: int, B, k_d, c_d, t_d, rules, thr
             e,
             e_used,
             r,
-            M.ctypes.data + 8 * a * 36,
+            address(M) + 8 * a * 36,
             at(K, a, 36),
             int(K is not None and K.ndim == 2),
             at(Kg, a, 36),
             int(Kg is not None and Kg.ndim == 2),
-            Je.ctypes.data + 8 * a * L * e * 6,
-            Cq.ctypes.data + 8 * a * L * e * e,
+            address(Je) + 8 * a * L * e * 6,
+            address(Cq) + 8 * a * L * e * e,
             at(Bc, a, 6 * r),
             int(Bc is not None and Bc.ndim == 2),
-            *(x.ctypes.data + 8 * a * L for x in (kd, cd, td)),
+            *(address(x) + 8 * a * L for x in (kd, cd, td)),
             *rules,
-            *(x.ctypes.data + 8 * a * r for x in (wn, zeta, wd)),
-            poles.ctypes.data + 16 * a * r,
-            stable.ctypes.data + a,
-            status.ctypes.data + a,
+            *(address(x) + 8 * a * r for x in (wn, zeta, wd)),
+            address(poles) + 16 * a * r,
+            address(stable) + a,
+            address(status) + a,
         )
 
     for rc in run_ranges(call, N, BLOCK, threads_for(N, BLOCK, threads)):
@@ -1815,7 +1817,7 @@ def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null
 
     driver()
     fn = _EXACT[0]
-    address, args = fused
+    pass_at, args = fused
     l_outs = legs[4]
     Je, Cq, Kg = l_outs["Je"], l_outs["Cq"], l_outs["K_ground"]
     L, e = np.shape(Je)[1:3]
@@ -1832,7 +1834,7 @@ def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null
     wn, zeta, wd = (np.empty((n, 6)) for _ in range(3))
     poles = np.empty((n, 6), dtype=complex)
     stable = np.empty(n, dtype=np.int8)
-    ptr = lambda a: None if a is None else a.ctypes.data  # noqa: E731
+    ptr = lambda a: None if a is None else address(a)  # noqa: E731
     q_row = int(np.prod(np.shape(q)[1:]))
 
     def call(a: int, b: int) -> int:
@@ -1840,15 +1842,15 @@ def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null
             a,
             b,
             block,
-            address,
+            pass_at,
             *args,
             *legs_args,
-            q.ctypes.data,
+            address(q),
             q_row,
-            M.ctypes.data,
-            Je.ctypes.data,
-            Cq.ctypes.data,
-            Kg.ctypes.data,
+            address(M),
+            address(Je),
+            address(Cq),
+            address(Kg),
             L,
             e,
             ptr(kd),
@@ -1857,10 +1859,10 @@ def exact_pass(fused, legs, block: int, n: int, q, M, k_d, c_d, t_d, rules, null
             *rules[:1],
             null_rtol,
             *rules[1:],
-            nb.ctypes.data,
-            lam.ctypes.data,
+            address(nb),
+            address(lam),
             ptr(V),
-            *(x.ctypes.data for x in (wn, zeta, wd, poles, stable, code)),
+            *(address(x) for x in (wn, zeta, wd, poles, stable, code)),
         )
 
     for rc in run_ranges(call, n, block, threads_for(n, block, threads)):

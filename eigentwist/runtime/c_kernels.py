@@ -24,8 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..generated import generated_name
 from ..errors import InputError
+from ..generated import generated_name
+from . import eigen, validity
+from .addresses import address
 from .ccompile import (
     BuildError,
     CompilerNotFoundError,
@@ -35,7 +37,6 @@ from .ccompile import (
     flag_sets,
     read_shipped,
 )
-from . import eigen, validity
 from .threads import run_ranges, threads_for
 from .validity import LEVER_SCALE, STATUS
 
@@ -190,7 +191,7 @@ def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
     scalar = [a.size == 1 for a in arrays]
     packed = np.array([a.reshape(-1)[0] if sc else 0.0 for a, sc in zip(arrays, scalar)], dtype=np.float64)
     keep.append(packed)
-    base = packed.ctypes.data
+    base = address(packed)
     addresses, strides = [], []
     for k, (arr, sc) in enumerate(zip(arrays, scalar)):
         if sc:
@@ -198,12 +199,12 @@ def _inputs(values, lead: tuple, keep: list) -> tuple[list, list]:
             strides.append(0)
         elif arr.ndim == 1 and arr.shape == lead and arr.strides[0] > 0 and arr.strides[0] % 8 == 0:
             keep.append(arr)
-            addresses.append(arr.ctypes.data)
+            addresses.append(address(arr))
             strides.append(arr.strides[0] // 8)
         else:
             flat = np.ascontiguousarray(np.broadcast_to(arr, lead)).reshape(-1)
             keep.append(flat)
-            addresses.append(flat.ctypes.data)
+            addresses.append(address(flat))
             strides.append(1)
     return addresses, strides
 
@@ -254,7 +255,7 @@ class _Packed:
         self.refs = tuple(values[i] for i in self.fixed)  # keeps the ids valid
         self.ids = tuple(map(id, self.refs))
         self.packed = np.array([float(v) for v in self.refs], dtype=np.float64)
-        base = self.packed.ctypes.data
+        base = address(self.packed)
         addresses = [0] * self.size
         for k, i in enumerate(self.fixed):
             addresses[i] = base + 8 * k
@@ -290,7 +291,7 @@ class _Packed:
         if changed:
             out.packed[changed] = [float(refs[k]) for k in changed]
         out.array = np.zeros(self.size, dtype=np.uint64)
-        out.array[self.fixed_at] = np.uint64(out.packed.ctypes.data) + self.offsets
+        out.array[self.fixed_at] = np.uint64(address(out.packed)) + self.offsets
         out.addresses = type(self.addresses).from_buffer_copy(out.array)
         return out
 
@@ -392,9 +393,9 @@ class CKernels:
             qa = np.ascontiguousarray(np.broadcast_to(np.asarray(q, dtype=np.float64), lead + (legs, nq)))
             qa = qa.reshape(n, legs * nq)
             keep.append(qa)
-            addresses[at_q] = np.uint64(qa.ctypes.data) + q_offsets
+            addresses[at_q] = np.uint64(address(qa)) + q_offsets
             strides[at_q] = qa.shape[1]
-        out_ptrs = np.array([o.ctypes.data for o in outs.values()], dtype=np.uint64)
+        out_ptrs = np.array([address(o) for o in outs.values()], dtype=np.uint64)
         out_rows = np.array([8 * int(np.prod(shape, dtype=np.int64)) for _, shape in outputs], dtype=np.uint64)
         fn, steps = self._fn[kernel], strides.astype(np.uint64) * np.uint64(8)  # bytes per pose
 
@@ -574,10 +575,10 @@ class CKernels:
             return fn(
                 b - a,
                 dim,
-                K.ctypes.data + a * mat,
-                M.ctypes.data + a * mat,
-                lam.ctypes.data + a * 8 * dim,
-                V.ctypes.data + a * mat if vectors else None,
+                address(K) + a * mat,
+                address(M) + a * mat,
+                address(lam) + a * 8 * dim,
+                address(V) + a * mat if vectors else None,
             )
 
         for rc in run_ranges(call, n, self.BLOCK, threads_for(n, self.BLOCK, threads)):
@@ -696,7 +697,7 @@ class CKernels:
                     f"{getattr(arr, 'dtype', type(arr).__name__)}"
                 )
             result[name] = arr
-            return arr.ctypes.data
+            return address(arr)
 
         def outputs(kernel: str, table: dict, names):
             if not names:

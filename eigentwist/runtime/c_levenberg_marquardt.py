@@ -20,6 +20,7 @@ import ctypes
 
 import numpy as np
 
+from .addresses import address
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
 __all__ = ["driver", "iterate", "followers_driver", "follow", "SOURCE"]
@@ -579,8 +580,8 @@ def iterate(
             legs,
             rows,
             nq,
-            qq.ctypes.data + 8 * a * legs * nq,
-            norm.ctypes.data + 8 * a * legs,
+            address(qq) + 8 * a * legs * nq,
+            address(norm) + 8 * a * legs,
             int(iterations),
             float(tol),
             LAMBDA0,
@@ -664,9 +665,9 @@ def follow(
             nf,
             which,
             rows,
-            poses.ctypes.data + 8 * a * 6,
-            qq.ctypes.data + 8 * a * nf,
-            norm.ctypes.data + 8 * a,
+            address(poses) + 8 * a * 6,
+            address(qq) + 8 * a * nf,
+            address(norm) + 8 * a,
             int(iterations),
             float(tol),
             LAMBDA0,

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..description.pose import FULL, twist_order
+from .addresses import address
 from .completion import CompletedPoses, masked
 from .labels import energy_shares
 from .memo import BoundedMemo
@@ -287,7 +288,7 @@ class CPassRoute:
         if not arr.flags.c_contiguous:
             arr = np.ascontiguousarray(arr)
         n = len(arr)
-        base = arr.ctypes.data
+        base = address(arr)
         out = call([base + 8 * k for k in range(columns)], n, self.nthreads())
         st, freq = out["status"], out["freq_hz"]
         # a flagged pose, or one below the parallel screen (the pass's frequencies ascend and

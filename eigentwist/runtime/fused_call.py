@@ -15,6 +15,7 @@ import ctypes
 
 import numpy as np
 
+from .addresses import address
 from .errors import InputError
 from .threads import run_ranges, threads_for
 
@@ -76,7 +77,7 @@ class FusedCall:
             scalars[k] = value.reshape(-1)[0]
         scalars.flags.writeable = False
         self.scalars = scalars  # the addresses point into it: kept as long as this object
-        base = scalars.ctypes.data
+        base = address(scalars)
         self.addresses = (ctypes.c_void_p * len(names))(
             *(None if name in unread else base + 8 * k for k, name in enumerate(names))
         )
@@ -95,8 +96,8 @@ class FusedCall:
         each, in :attr:`pose_inputs` order. Returns ``freq_hz`` (n, dim), ``status`` (n,)
         int8, with ``vectors`` ``eigentwists`` (n, dim, dim), and the ``matrices`` asked for."""
         ins = type(self.addresses).from_buffer_copy(self.addresses)
-        for k, address in zip(self.at, addresses):
-            ins[k] = address
+        for k, at in zip(self.at, addresses):
+            ins[k] = at
         result = {}
         mat_p = None
         size, wanted = self.matrices
@@ -104,15 +105,15 @@ class FusedCall:
             mat_p = (ctypes.c_void_p * size)()
             for k, name, shape in wanted:
                 arr = result[name] = np.empty((n,) + shape)
-                mat_p[k] = arr.ctypes.data
+                mat_p[k] = address(arr)
         freq = result["freq_hz"] = np.empty((n, self.dim))
         vec = None
         if self.vectors:
             vec = result["eigentwists"] = np.empty((n, self.dim, self.dim))
-            vec = vec.ctypes.data
+            vec = address(vec)
         status = result["status"] = np.empty(n, dtype=np.int8)
         fn, model_id, strides, opts = self.fn, self.model_id, self.strides, self.options()
-        a_freq, a_status = freq.ctypes.data, status.ctypes.data
+        a_freq, a_status = address(freq), address(status)
 
         def call(begin: int, end: int) -> int:
             return fn(begin, end, ins, strides, model_id, None, mat_p, None, a_freq, vec, a_status, opts)

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..hashing import canonical, content_hash, package_digest
+from .addresses import address
 from .ccompile import private_directory, read_verified, write_verified
 from .memo import NewestKept
 
@@ -160,10 +161,10 @@ class _CKernel:
                 arr = np.ascontiguousarray(np.broadcast_to(arr, lead)).reshape(-1)
                 strides.append(1)
             keep.append(arr)
-            addr.append(arr.ctypes.data)
+            addr.append(address(arr))
         ins = (ctypes.c_void_p * len(addr))(*addr)
         st = (ctypes.c_int64 * len(strides))(*strides)
-        out_ptrs = (ctypes.c_void_p * len(outs))(*[o.ctypes.data for o in outs.values()])
+        out_ptrs = (ctypes.c_void_p * len(outs))(*[address(o) for o in outs.values()])
         rc = self._fn(n, ins, st, out_ptrs)
         if rc != 0:
             raise (
