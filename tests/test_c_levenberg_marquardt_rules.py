@@ -26,7 +26,7 @@ def doubles(address, count=1):
 
 
 class Newton:
-    """``rc et_newton_lm(n, closure, n_in, in, stride, q_of, legs, rows, nq, q, norm, iterations,
+    """``rc et_newton_lm(n, closure, block, n_in, in, stride, q_of, legs, rows, nq, q, norm, iterations,
     tol, lambda0, max_step)``: q[i, l, j] += (sum over the other inputs k of (k + 1) x_k(i)) +
     rows; norm[i, l] = l + iterations + tol."""
 
@@ -34,8 +34,12 @@ class Newton:
         self.calls = []
         self.rc = rc
 
-    def __call__(self, n, closure, n_in, ins, strides, q_of, legs, rows, nq, q, norm, iterations, tol, lam, step):
-        self.calls.append(dict(n=n, closure=closure, n_in=n_in, q_of=list(q_of)[: max(n_in, 1)], legs=legs))
+    def __call__(
+        self, n, closure, block, n_in, ins, strides, q_of, legs, rows, nq, q, norm, iterations, tol, lam, step
+    ):
+        self.calls.append(
+            dict(n=n, closure=closure, block=block, n_in=n_in, q_of=list(q_of)[: max(n_in, 1)], legs=legs)
+        )
         self.calls[-1].update(rows=rows, nq=nq, iterations=iterations, tol=tol, lam=lam, step=step)
         self.calls[-1].update(q=q, norm=norm, sizes=(len(ins), len(strides)))
         for i in range(n):
@@ -60,7 +64,7 @@ def run(n, threads=1, legs=2, nq=3):
     table = np.column_stack([np.zeros(n), 100.0 + np.arange(n), np.zeros(n)])
     q = np.arange(n * legs * nq, dtype=float).reshape(n, legs, nq)
     addresses = [0, per_pose.ctypes.data, scalar.ctypes.data, table.ctypes.data + 8]
-    q_out, norm = clm.iterate(1234, [4, -1, -1, -1], addresses, [0, 1, 0, 3], q, 5, 7, 1e-9, threads=threads)
+    q_out, norm = clm.iterate(1234, None, [4, -1, -1, -1], addresses, [0, 1, 0, 3], q, 5, 7, 1e-9, threads=threads)
     x = 2 * per_pose + 3 * 0.5 + 4 * (100.0 + np.arange(n)) + 5
     return q, q_out, norm, x
 
@@ -91,14 +95,16 @@ def test_ranges_of_blocks_on_threads(newton):
     for threads in (1, None):  # one thread unless asked: one call
         newton.calls.clear()
         per_pose = np.zeros(n)
-        clm.iterate(1, [-1], [per_pose.ctypes.data], [1], np.zeros((n, 1, 1)), 1, 1, 1.0, *[threads][: threads or 0])
+        clm.iterate(
+            1, None, [-1], [per_pose.ctypes.data], [1], np.zeros((n, 1, 1)), 1, 1, 1.0, *[threads][: threads or 0]
+        )
         assert [c["n"] for c in newton.calls] == [n]
 
 
 @pytest.mark.parametrize("q", [np.arange(6).reshape(2, 1, 3), np.asfortranarray(np.arange(6.0).reshape(2, 3, 1))])
 def test_the_start_is_copied_to_c_ordered_doubles(newton, q):
     """Integer or Fortran-ordered starting coordinates: the driver reads C-ordered doubles."""
-    q_out, _ = clm.iterate(1, [], [], [], q, 2, 1, 1.0)
+    q_out, _ = clm.iterate(1, None, [], [], [], q, 2, 1, 1.0)
     assert q_out.dtype == np.float64 and q_out.flags.c_contiguous
     assert np.array_equal(q_out, q + 2.0)
 
@@ -106,7 +112,7 @@ def test_the_start_is_copied_to_c_ordered_doubles(newton, q):
 def test_no_inputs_but_the_coordinates(newton):
     """A closure of joint coordinates alone, or of nothing: tables of one entry (never empty)."""
     q = np.zeros((2, 1, 1))
-    q_out, norm = clm.iterate(1, [], [], [], q, 1, 3, 0.5)
+    q_out, norm = clm.iterate(1, None, [], [], [], q, 1, 3, 0.5)
     assert newton.calls[0]["n_in"] == 0 and newton.calls[0]["sizes"] == (1, 1)
     assert newton.calls[0]["q_of"] == [0]
     assert np.array_equal(q_out, np.ones((2, 1, 1))) and np.array_equal(norm, np.full((2, 1), 3.5))
@@ -115,7 +121,7 @@ def test_no_inputs_but_the_coordinates(newton):
 def test_a_failing_driver_raises(monkeypatch):
     monkeypatch.setattr(clm, "driver", lambda: Newton(rc=-2))
     with pytest.raises(RuntimeError) as err:
-        clm.iterate(1, [], [], [], np.zeros((1, 1, 1)), 1, 1, 1.0)
+        clm.iterate(1, None, [], [], [], np.zeros((1, 1, 1)), 1, 1, 1.0)
     assert str(err.value) == "C Newton iterations returned -2"
 
 
@@ -237,3 +243,9 @@ def test_followers_driver_is_bound_once_from_the_newton_library(monkeypatch):
     monkeypatch.setattr(clm, "_LIBRARIES", [])
     monkeypatch.setattr(ccompile, "load_library", lambda source, name: None)
     assert clm.followers_driver() is None and clm._FOLLOWERS == [None]
+
+
+def test_the_closures_block_function_reaches_the_driver(newton):
+    clm.iterate(1234, 5678, [], [], [], np.zeros((3, 1, 1)), 1, 1, 1.0)
+    clm.iterate(1234, None, [], [], [], np.zeros((3, 1, 1)), 1, 1, 1.0)
+    assert [(c["closure"], c["block"]) for c in newton.calls] == [(1234, 5678), (1234, None)]

@@ -56,6 +56,10 @@ JACOBI_MAX_SWEEPS = 20
 JACOBI_TOL = 1e-30  # sum of squared off-diagonals relative to the squared diagonal
 # kernels rendered only for the fused pass (not exported, not in the signature's kernels)
 FUSED_ONLY = ("matrices_lever",)
+# kernels whose block function is also exported (``<function>_block``, the signature's
+# ``block``): a C driver that iterates them keeps the block's inputs and outputs in its own
+# structure-of-arrays buffers (:mod:`eigentwist.runtime.c_levenberg_marquardt`)
+BLOCK_ENTRIES = ("loop_closure",)
 # per-pose status codes of the fused pass, in order of precedence (0: evaluated and stable)
 STATUS = {"ok": 0, "unreachable": 1, "singular": 2, "not_finite": 3, "unstable": 4}
 
@@ -102,11 +106,13 @@ class CCodePrinter(C99CodePrinter):
     Symbols print as their C identifiers (``names``); an unknown symbol raises
     :class:`UndeclaredSymbolError`. Small integer powers are products, parenthesised
     because they may stand in a denominator (``a/(b*b)``, never ``a/b*b``); square
-    roots use ``sqrt``; ``pi`` is ``ET_PI``; anything else falls back to ``pow``.
+    roots use ``sqrt``; ``pi`` is ``ET_PI``; anything else falls back to ``pow``. Terms and
+    factors print in their expression's own order (``order="none"``, SymPy's canonical
+    argument order: the same in every process), not sorted again for reading.
     """
 
     def __init__(self, names: dict[str, str]):
-        super().__init__({"allow_unknown_functions": False})
+        super().__init__({"allow_unknown_functions": False, "order": "none"})
         self._names = names
 
     def _print_Symbol(self, expr):
@@ -210,6 +216,7 @@ def _kernel_context(kern: Kernel, prefix: str, units: dict) -> dict:
         n_in=len(inputs),
         n_ent=len(entries),
         export=kern.name not in FUSED_ONLY,
+        block_entry=kern.name in BLOCK_ENTRIES,
         via=None,
     )
 
@@ -370,6 +377,7 @@ def _signature(robot, prefix: str, kernels: list[dict], fused: dict, digest: str
                 function=k["cname"],
                 inputs=[[i["group"], i["name"], i["joint"]] for i in k["inputs"]],
                 outputs=[[o["name"], o["shape"]] for o in k["outputs"]],
+                **({"block": f"{k['cname']}_block_entry"} if k["block_entry"] else {}),
             )
             for k in kernels
             if k["name"] not in FUSED_ONLY

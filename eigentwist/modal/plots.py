@@ -68,6 +68,8 @@ def plot_frfs(res, path) -> None:
     plt = pyplot("modal")
     from matplotlib.ticker import NullLocator
 
+    from matplotlib.ticker import LogFormatter
+
     frfs = res.frfs
     n_p = min(frfs.H.shape[1], MAX_PANELS)
     n_c = min(n_p, 3)
@@ -81,12 +83,12 @@ def plot_frfs(res, path) -> None:
             continue
         ax.semilogy(f[band], np.abs(frfs.H[band, p]), color="tab:blue", lw=0.9, label="measured")
         ax.semilogy(f[band], np.abs(res.resynthesised[:, p]), "--", color="tab:red", lw=0.9, label="re-synthesised")
-        ax.set_title(frfs.pair_label(p), fontsize=8)
+        ax.set_title(frfs.pair_label(p), fontsize=8, y=1.0)  # a fixed y: no search over the tick labels
         ax.tick_params(labelsize=7)
         ax.yaxis.set_minor_locator(NullLocator())  # decades are enough: minor ticks cost most of the drawing
+        ax.yaxis.set_major_formatter(LogFormatter())  # 1e-02, plain text: no mathtext to parse
     axes[0, 0].legend(fontsize=7)
-    for ax in axes[-1]:
-        ax.set_xlabel("frequency [Hz]")
+    fig.supxlabel("frequency [Hz]", fontsize=9)  # one label: no alignment across the panels
     more = f" (first {n_p} of {frfs.H.shape[1]} FRFs)" if frfs.H.shape[1] > n_p else ""
     fig.suptitle(
         f"{Path(res.source).name}: {frfs.form} (LSFD with residuals on {res.band[0]:.3g}..{res.band[1]:.3g} Hz)" + more,

@@ -275,9 +275,13 @@ static int et_lm_block(et_eval eval, void *ctx, int m, int64_t b0, int legs, int
     return 0;
 }
 
-/* A closure of the legs' coordinates: the generated loop_closure kernel */
+typedef int (*et_block_fn)(int, const double *const *, double *const *);
+
+/* A closure of the legs' coordinates: the generated loop_closure kernel, or its block
+   function (block: NULL where the library has none) */
 typedef struct {
     et_kernel closure;
+    et_block_fn block;
     int n_in, legs, rows, nq;
     const double *const *in;
     const int64_t *stride;
@@ -285,6 +289,9 @@ typedef struct {
     const double **ptr;
     int64_t *st;
     double *outs[2];
+    double *held;       /* block: the other inputs of the block at held_b0, n_in rows of B */
+    int64_t held_b0;    /* -1: none held */
+    double **rows_at;   /* block: the outputs' rows, legs * rows * (1 + nq) */
 } et_legs;
 
 static int et_legs_eval(void *ctx, int m, int64_t b0, const double *qs, double *rs, double *As)
@@ -295,6 +302,43 @@ static int et_legs_eval(void *ctx, int m, int64_t b0, const double *qs, double *
     if ((rc = c->closure(m, c->ptr, c->st, c->outs)) != 0)
         return rc;
     et_soa(m, c->legs, c->rows, c->nq, c->outs[0], c->outs[1], rs, As);
+    return 0;
+}
+
+/* et_legs_eval by the kernel's block function, writing rs and As in place: the inputs
+   other than the coordinates are copied once per block (padded with the last pose), the
+   residual's rows then the Jacobian's are the kernel's output rows, and the lanes past
+   the last pose computed (a multiple of 8) get the last pose's values, as et_soa gives. */
+static int et_legs_eval_block(void *ctx, int m, int64_t b0, const double *qs, double *rs, double *As)
+{
+    et_legs *c = ctx;
+    const int lr = c->legs * c->rows, lanes = m >= B ? B : (m + 7) / 8 * 8;
+    if (c->held_b0 != b0) {
+        for (int k = 0; k < c->n_in; ++k) {
+            if (c->q_of[k] >= 0)
+                continue;
+            double *row = c->held + (int64_t)k * B;
+            const double *src = c->in[k];
+            const int64_t s = c->stride[k];
+            for (int i = 0; i < B; ++i)
+                row[i] = src[(b0 + (i < m ? i : m - 1)) * s];
+        }
+        c->held_b0 = b0;
+    }
+    for (int k = 0; k < c->n_in; ++k)
+        c->ptr[k] = c->q_of[k] >= 0 ? qs + (int64_t)c->q_of[k] * B : c->held + (int64_t)k * B;
+    for (int e = 0; e < lr; ++e)
+        c->rows_at[e] = rs + (int64_t)e * B;
+    for (int e = 0; e < lr * c->nq; ++e)
+        c->rows_at[lr + e] = As + (int64_t)e * B;
+    int rc = c->block(lanes, c->ptr, c->rows_at);
+    if (rc != 0 || lanes == B)
+        return rc;
+    for (int e = 0; e < lr * (1 + c->nq); ++e) {
+        double *row = c->rows_at[e];
+        for (int i = lanes; i < B; ++i)
+            row[i] = row[m - 1];
+    }
     return 0;
 }
 
@@ -325,7 +369,8 @@ static double *et_alloc_work(int legs, int rows, int nq, et_work *wk, double **q
     return buf;
 }
 
-int et_newton_lm(int64_t n, void *closure_address, int n_in, const double *const *in, const int64_t *stride,
+int et_newton_lm(int64_t n, void *closure_address, void *block_address, int n_in, const double *const *in,
+                 const int64_t *stride,
                  const int *q_of, int legs, int rows, int nq, double *q, double *norm, int iterations,
                  double tol, double lambda0, double max_step)
 {
@@ -336,19 +381,21 @@ int et_newton_lm(int64_t n, void *closure_address, int n_in, const double *const
     double *qs, *rs, *As, *nrm;
     double *buf = et_alloc_work(legs, rows, nq, &wk, &qs, &rs, &As, &nrm);
     double *out = malloc(sizeof(double) * (size_t)B * (size_t)(lr * (1 + nq)));
-    et_legs c = {(et_kernel)closure_address, n_in, legs, rows, nq, in, stride, q_of,
+    et_legs c = {(et_kernel)closure_address, (et_block_fn)block_address, n_in, legs, rows, nq, in, stride, q_of,
                  malloc(sizeof(double *) * (size_t)(n_in > 0 ? n_in : 1)),
-                 malloc(sizeof(int64_t) * (size_t)(n_in > 0 ? n_in : 1)), {out, out + B * lr}};
+                 malloc(sizeof(int64_t) * (size_t)(n_in > 0 ? n_in : 1)), {out, out + B * lr},
+                 block_address ? malloc(sizeof(double) * B * (size_t)(n_in > 0 ? n_in : 1)) : NULL, -1,
+                 block_address ? malloc(sizeof(double *) * (size_t)(lr * (1 + nq))) : NULL};
     int rc = 0;
-    if (!buf || !out || !c.ptr || !c.st)
+    if (!buf || !out || !c.ptr || !c.st || (block_address && (!c.held || !c.rows_at)))
         rc = -2;
     for (int64_t b0 = 0; b0 < n && rc == 0; b0 += B) {
         const int m = n - b0 < B ? (int)(n - b0) : B;
         for (int k = 0; k < lq; ++k)
             for (int i = 0; i < B; ++i)
                 qs[k * B + i] = q[(b0 + (i < m ? i : m - 1)) * lq + k];
-        if ((rc = et_lm_block(et_legs_eval, &c, m, b0, legs, rows, nq, qs, rs, As, nrm, &wk, iterations, tol,
-                              lambda0, max_step)) != 0)
+        if ((rc = et_lm_block(c.block ? et_legs_eval_block : et_legs_eval, &c, m, b0, legs, rows, nq, qs, rs, As,
+                              nrm, &wk, iterations, tol, lambda0, max_step)) != 0)
             break;
         for (int i = 0; i < m; ++i) {
             for (int k = 0; k < lq; ++k)
@@ -357,7 +404,7 @@ int et_newton_lm(int64_t n, void *closure_address, int n_in, const double *const
                 norm[(b0 + i) * legs + l] = nrm[l * B + i];
         }
     }
-    free(buf); free(wk.act); free(out); free(c.ptr); free(c.st);
+    free(buf); free(wk.act); free(out); free(c.ptr); free(c.st); free(c.held); free(c.rows_at);
     return rc;
 }
 
@@ -528,6 +575,7 @@ def driver():
             fn.argtypes = [
                 ctypes.c_int64,
                 ctypes.c_void_p,
+                ctypes.c_void_p,
                 ctypes.c_int,
                 P(ctypes.c_void_p),
                 P(ctypes.c_int64),
@@ -549,6 +597,7 @@ def driver():
 
 def iterate(
     closure_address: int,
+    block_address: int | None,
     n_q_inputs: list,
     addresses: list,
     strides: list,
@@ -559,7 +608,9 @@ def iterate(
     threads: int = 1,
 ):
     """Run the driver: ``(q, |r|)`` from ``q`` (n, legs, n_q) for the closure kernel at
-    ``closure_address``; ``n_q_inputs[k]`` is ``leg * n_q + coordinate`` for the kernel's
+    ``closure_address``, evaluated by its block function at ``block_address`` where that is
+    not None (the kernel's outputs: the residual (legs, rows), then its Jacobian (legs, rows,
+    n_q)); ``n_q_inputs[k]`` is ``leg * n_q + coordinate`` for the kernel's
     joint-coordinate inputs and -1 for the others, read at ``addresses[k]`` with
     ``strides[k]`` (doubles). ``threads`` > 1 runs ranges of whole blocks on that many
     threads (each pose's iterations are its own: the results do not depend on it).
@@ -574,6 +625,7 @@ def iterate(
         return fn(
             b - a,
             closure_address,
+            block_address,
             len(addresses),
             *_inputs_at(addresses, strides, a),
             q_of,
