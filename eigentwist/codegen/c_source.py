@@ -106,13 +106,11 @@ class CCodePrinter(C99CodePrinter):
     Symbols print as their C identifiers (``names``); an unknown symbol raises
     :class:`UndeclaredSymbolError`. Small integer powers are products, parenthesised
     because they may stand in a denominator (``a/(b*b)``, never ``a/b*b``); square
-    roots use ``sqrt``; ``pi`` is ``ET_PI``; anything else falls back to ``pow``. Terms and
-    factors print in their expression's own order (``order="none"``, SymPy's canonical
-    argument order: the same in every process), not sorted again for reading.
+    roots use ``sqrt``; ``pi`` is ``ET_PI``; anything else falls back to ``pow``.
     """
 
     def __init__(self, names: dict[str, str]):
-        super().__init__({"allow_unknown_functions": False, "order": "none"})
+        super().__init__({"allow_unknown_functions": False})
         self._names = names
 
     def _print_Symbol(self, expr):

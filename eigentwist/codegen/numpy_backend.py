@@ -12,12 +12,10 @@ __all__ = ["render_numpy", "NumpyCodePrinter"]
 
 
 class NumpyCodePrinter(NumPyPrinter):
-    """Prints ``x**2`` as ``(x*x)`` and ``x**-1`` as ``1/x`` (cheaper in NumPy). Terms and
-    factors print in their expression's own order (``order="none"``, SymPy's canonical
-    argument order: the same in every process), not sorted again for reading."""
+    """Prints ``x**2`` as ``(x*x)`` and ``x**-1`` as ``1/x`` (cheaper in NumPy)."""
 
     def __init__(self):
-        super().__init__({"fully_qualified_modules": False, "allow_unknown_functions": False, "order": "none"})
+        super().__init__({"fully_qualified_modules": False, "allow_unknown_functions": False})
 
     def _print_Pow(self, expr, rational=False):
         base, exp = expr.args

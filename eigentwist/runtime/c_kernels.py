@@ -484,7 +484,7 @@ class CKernels:
         rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
         block = None  # the kernel's block function, where its outputs are the driver's rows
         if "block" in spec and spec["outputs"] == [["residual", [legs, rows]], ["dresidual", [legs, rows, nq]]]:
-            block = ctypes.cast(self._lib[spec["block"]], ctypes.c_void_p).value
+            block = ctypes.cast(getattr(self._lib, spec["block"]), ctypes.c_void_p).value
         return c_levenberg_marquardt.iterate(
             ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value,
             block,
