@@ -49,6 +49,26 @@ int closure(int64_t n, const double *const *in, const int64_t *st, double *const
     }
     return 0;
 }
+
+/* the same on one block as the generated block functions lay it out: in[k][i] for lane i,
+   closure row k in out[k], its rate j in out[4 + 6 k + j] */
+int closure_block(int nb, const double *const *in, double *const *out)
+{
+    const int64_t one[16] = {1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1};
+    for (int i = 0; i < nb; ++i) {
+        const double *at[16];
+        for (int k = 0; k < 16; ++k)
+            at[k] = in[k] + i;
+        double r[4], g[24];
+        double *pose_out[2] = {r, g};
+        closure(1, at, one, pose_out);
+        for (int k = 0; k < 4; ++k)
+            out[k][i] = r[k];
+        for (int e = 0; e < 24; ++e)
+            out[4 + e][i] = g[e];
+    }
+    return 0;
+}
 """
 
 
@@ -101,14 +121,17 @@ def test_c_followers_equal_numpy_and_close_the_loop(kernel, n):
     addresses = [0] * 12 + [a.ctypes.data for a in keep]
     strides = [0] * 12 + [1] * 4
     address = ctypes.cast(kernel.closure, ctypes.c_void_p).value
-    got_q, got_norm = clm.follow(address, roles, addresses, strides, followers, full, q0, 4, MAX_STEPS, TOL_M)
+    block = ctypes.cast(kernel.closure_block, ctypes.c_void_p).value
+    got_q, got_norm = clm.follow(address, None, roles, addresses, strides, followers, full, q0, 4, MAX_STEPS, TOL_M)
+    by_block = clm.follow(address, block, roles, addresses, strides, followers, full, q0, 4, MAX_STEPS, TOL_M)
+    assert np.array_equal(by_block[0], got_q) and np.array_equal(by_block[1], got_norm)  # the same steps
     assert (want_norm < TOL_M).all() and (got_norm < TOL_M).all()
     np.testing.assert_allclose(got_q, want_q, rtol=0, atol=1e-12)
     np.testing.assert_allclose(got_q[:, 0, 1], x, rtol=0, atol=1e-12)  # the position follower
     np.testing.assert_allclose(got_q[:, 0, [0, 2, 3]], phi, rtol=0, atol=1e-9)  # the rotation it was made from
     # two iterations only: the path, not just the root, is NumPy's (the same residuals and Jacobians)
     want_q, want_norm = _iterate(closure, q0, {**p, "_full": full}, 2, TOL_M)
-    got_q, got_norm = clm.follow(address, roles, addresses, strides, followers, full, q0, 4, 2, TOL_M)
+    got_q, got_norm = clm.follow(address, block, roles, addresses, strides, followers, full, q0, 4, 2, TOL_M)
     assert (want_norm > 1e-9).any()  # not converged: the steps themselves are compared
     np.testing.assert_allclose(got_q, want_q, rtol=0, atol=1e-12)
     np.testing.assert_allclose(got_norm, want_norm, rtol=1e-9, atol=1e-15)

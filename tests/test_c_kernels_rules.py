@@ -1124,9 +1124,10 @@ def test_follow_hands_the_followers_kernel_and_its_inputs_to_the_driver(monkeypa
     kern = ck.CKernels(lib, sig, ck.Build("lib.so", "portable", []))
     seen, blocks = [], []
 
-    def follow(address, roles, addresses, strides, followers, full, q, rows, iterations, tol, threads):
+    def follow(address, block, roles, addresses, strides, followers, full, q, rows, iterations, tol, threads):
         values = [doubles(a + 8 * s * 2)[0] if r < 0 else None for a, s, r in zip(addresses, strides, roles)]
         seen.append((address, roles, strides, followers, full, q, rows, iterations, tol, threads, values))
+        blocks.append(block)
         assert all(a == 0 for a, r in zip(addresses, roles) if r >= 0)  # filled by the driver: no address
         return "the driver's result"
 
@@ -1149,5 +1150,15 @@ def test_follow_hands_the_followers_kernel_and_its_inputs_to_the_driver(monkeypa
     kern = ck.CKernels(lib, dict(sig, kernels=dict(sig["kernels"], followers=only_pose)), kern.build)
     kern.follow(q, p, [0], 40, 1e-12)
     assert seen[2][1] == [0, 3 + 8] and seen[2][2] == [0, 0] and seen[2][10] == [None, None]
+    assert blocks == [None, None, None]  # the signature names no block function
+    lib.et_toy_followers_block_entry = proto(lambda *a: 0)
+    block = ctypes.cast(lib.et_toy_followers_block_entry, ctypes.c_void_p).value
+    for outputs, want in (
+        ([["closure", [2, 3]], ["closure_rate", [2, 3, 6]]], block),  # rows of the driver's layout
+        ([["closure", [2, 3]], ["closure_rate", [2, 6, 3]]], None),  # the rates in another layout
+    ):
+        spec = dict(follow_spec, outputs=outputs, block="et_toy_followers_block_entry")
+        ck.CKernels(lib, dict(sig, kernels=dict(sig["kernels"], followers=spec)), kern.build).follow(q, p, [0], 4, 1e-9)
+        assert blocks[-1] == want
     monkeypatch.setattr(clm, "followers_driver", lambda: None)  # no C driver: NumPy's
     assert kern.follow(q, p, (0, 1, 5), 40, 1e-12) is None

@@ -166,15 +166,17 @@ def test_followers_driver_declares_its_c_signature():
 
 
 class Followers:
-    """``rc et_followers_lm(n, kernel, n_in, in, stride, role, nf, followers, rows, full, q,
+    """``rc et_followers_lm(n, kernel, block, n_in, in, stride, role, nf, followers, rows, full, q,
     norm, iterations, tol, lambda0, max_step)``: q[i, f] += (sum over the inputs k read at
     their addresses of (k + 1) x_k(i)) + full[i, followers[f]] + rows; norm[i] = iterations + tol."""
 
     def __init__(self):
         self.calls = []
 
-    def __call__(self, n, kernel, n_in, ins, strides, role, nf, followers, rows, full, q, norm, its, tol, lam, step):
-        self.calls.append(dict(n=n, kernel=kernel, n_in=n_in, role=list(role)[:n_in], nf=nf, rows=rows))
+    def __call__(
+        self, n, kernel, block, n_in, ins, strides, role, nf, followers, rows, full, q, norm, its, tol, lam, step
+    ):
+        self.calls.append(dict(n=n, kernel=kernel, block=block, n_in=n_in, role=list(role)[:n_in], nf=nf, rows=rows))
         self.calls[-1].update(followers=list(followers)[:nf], full=full, q=q, norm=norm, its=its, tol=tol)
         self.calls[-1].update(lam=lam, step=step)
         for i in range(n):
@@ -193,7 +195,7 @@ def test_followers_driver_gets_each_poses_inputs_and_its_full_pose(monkeypatch):
     scalar = np.array([0.5])
     full = np.arange(6.0 * n).reshape(n, 6)
     q = np.arange(2.0 * n).reshape(n, 1, 2)
-    args = (4321, [0, -1, 7, -1], [0, per_pose.ctypes.data, 0, scalar.ctypes.data], [0, 1, 0, 0], [1, 5])
+    args = (4321, 8765, [0, -1, 7, -1], [0, per_pose.ctypes.data, 0, scalar.ctypes.data], [0, 1, 0, 0], [1, 5])
     for threads in (1, 2):
         fn.calls.clear()
         q_out, norm = clm.follow(*args, full, q, 3, 9, 1e-10, threads=threads)
@@ -202,7 +204,8 @@ def test_followers_driver_gets_each_poses_inputs_and_its_full_pose(monkeypatch):
         assert q_out.shape == (n, 1, 2) and norm.shape == (n, 1) and np.all(norm == 9 + 1e-10)
         assert (len(fn.calls) > 1) == (threads == 2) and sum(c["n"] for c in fn.calls) == n
         call = fn.calls[0]
-        assert (call["kernel"], call["n_in"], call["role"], call["nf"], call["rows"]) == (4321, 4, [0, -1, 7, -1], 2, 3)
+        assert (call["kernel"], call["block"], call["n_in"], call["role"]) == (4321, 8765, 4, [0, -1, 7, -1])
+        assert (call["nf"], call["rows"]) == (2, 3)
         assert call["followers"] == [1, 5] and (call["its"], call["tol"]) == (9, 1e-10)
         assert (call["lam"], call["step"]) == (LAMBDA0, MAX_STEP)
     assert np.array_equal(q, np.arange(2.0 * n).reshape(n, 1, 2))  # the start is not changed
@@ -219,7 +222,7 @@ def test_followers_driver_failure_is_named(monkeypatch):
 
     monkeypatch.setattr(clm, "followers_driver", lambda: fails)
     with pytest.raises(RuntimeError) as err:
-        clm.follow(1, [-1], [np.zeros(1).ctypes.data], [0], [0], np.zeros((1, 6)), np.zeros((1, 1, 1)), 1, 1, 1.0)
+        clm.follow(1, None, [-1], [np.zeros(1).ctypes.data], [0], [0], np.zeros((1, 6)), np.zeros((1, 1, 1)), 1, 1, 1.0)
     assert str(err.value) == "C follower iterations returned -2"
 
 

@@ -59,7 +59,7 @@ FUSED_ONLY = ("matrices_lever",)
 # kernels whose block function is also exported (``<function>_block``, the signature's
 # ``block``): a C driver that iterates them keeps the block's inputs and outputs in its own
 # structure-of-arrays buffers (:mod:`eigentwist.runtime.c_levenberg_marquardt`)
-BLOCK_ENTRIES = ("loop_closure",)
+BLOCK_ENTRIES = ("loop_closure", "followers")
 # per-pose status codes of the fused pass, in order of precedence (0: evaluated and stable)
 STATUS = {"ok": 0, "unreachable": 1, "singular": 2, "not_finite": 3, "unstable": 4}
 

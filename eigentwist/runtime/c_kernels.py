@@ -526,8 +526,12 @@ class CKernels:
         names = [name if r < 0 else None for (_, name, _), r in zip(spec["inputs"], roles)]
         addresses, strides = _driver_inputs(names, p, n, keep)
         rows = int(np.prod(shapes["closure"], dtype=np.int64))
+        block = None  # the kernel's block function, where its outputs are the driver's rows
+        if "block" in spec and shapes["closure_rate"] == shapes["closure"] + (6,):
+            block = ctypes.cast(getattr(self._lib, spec["block"]), ctypes.c_void_p).value
         return c_levenberg_marquardt.follow(
             ctypes.cast(self._fn["followers"], ctypes.c_void_p).value,
+            block,
             roles,
             addresses,
             strides,

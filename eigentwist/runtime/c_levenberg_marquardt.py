@@ -412,6 +412,7 @@ int et_newton_lm(int64_t n, void *closure_address, void *block_address, int n_in
    full pose (x, y, z; rotation vector) whose follower coordinates are the unknowns. */
 typedef struct {
     et_kernel kernel;
+    et_block_fn block;        /* the kernel's block function, or NULL */
     int n_in, rows, nf;
     const double *const *in;
     const int64_t *stride;
@@ -421,7 +422,10 @@ typedef struct {
     double *pose, *R;         /* 6 and 9 rows of B */
     const double **ptr;
     int64_t *st;
-    double *outs[2];          /* closure (m, rows), closure_rate (m, rows, 6) */
+    double *outs[2];          /* closure (m, rows), closure_rate (m, rows, 6); rows of B with block */
+    double *held;             /* block: the caller's inputs of the block at held_b0, n_in rows of B */
+    int64_t held_b0;          /* -1: none held */
+    double **rows_at;         /* block: the output rows, closure's then closure_rate's (rows * 7) */
 } et_followers;
 
 static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, double *rs, double *As)
@@ -455,21 +459,37 @@ static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, dou
         R[7 * B + i] = a * x + b * (y * z);
         R[8 * B + i] = 1 + b * (-yy - xx);
     }
+    if (c->block && c->held_b0 != b0) {   /* the caller's inputs of this block, padded */
+        for (int k = 0; k < c->n_in; ++k) {
+            if (c->role[k] >= 0)
+                continue;
+            double *row = c->held + (int64_t)k * B;
+            const double *src = c->in[k];
+            const int64_t s = c->stride[k];
+            for (int i = 0; i < B; ++i)
+                row[i] = src[(b0 + (i < m ? i : m - 1)) * s];
+        }
+        c->held_b0 = b0;
+    }
     for (int k = 0; k < c->n_in; ++k) {
         const int r = c->role[k];
         if (r < 0) {
-            c->ptr[k] = c->in[k] + b0 * c->stride[k];
-            c->st[k] = c->stride[k];
+            c->ptr[k] = c->block ? c->held + (int64_t)k * B : c->in[k] + b0 * c->stride[k];
+            c->st[k] = c->block ? 1 : c->stride[k];
         } else {
             c->ptr[k] = r < 3 ? P + r * B : R + (r - 3) * B;
             c->st[k] = 1;
         }
     }
-    int rc = c->kernel(m, c->ptr, c->st, c->outs);
+    const int lanes = m >= B ? B : (m + 7) / 8 * 8;  /* the lanes past m are read by no pose below */
+    int rc = c->block ? c->block(lanes, c->ptr, c->rows_at) : c->kernel(m, c->ptr, c->st, c->outs);
     if (rc != 0)
         return rc;
     const int rows = c->rows, nf = c->nf;
     const double *r = c->outs[0], *rate = c->outs[1];
+    /* entry (pose s, row k[, j]) of the closure and its rates: per-pose arrays, or rows of B */
+    const int64_t r_pose = c->block ? 1 : rows, r_row = c->block ? B : 1;
+    const int64_t g_pose = c->block ? 1 : 6 * (int64_t)rows, g_entry = c->block ? B : 1;
     for (int i = 0; i < B; ++i) {
         const int s = i < m ? i : m - 1;   /* padding lanes: copies of the last pose */
         const double x = P[3 * B + s], y = P[4 * B + s], z = P[5 * B + s], phi[3] = {x, y, z};
@@ -501,8 +521,11 @@ static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, dou
             T[(e + 2) % 3][f] -= a * phi[(e + 1) % 3];
         }
         for (int k = 0; k < rows; ++k) {
-            rs[k * B + i] = r[(int64_t)s * rows + k];
-            const double *g = rate + ((int64_t)s * rows + k) * 6;
+            rs[k * B + i] = r[s * r_pose + k * r_row];
+            const double *gk = rate + s * g_pose + (int64_t)k * 6 * g_entry;
+            double g[6];
+            for (int j = 0; j < 6; ++j)
+                g[j] = gk[j * g_entry];
             for (int f = 0; f < nf; ++f) {
                 double d = g[0] * T[0][f];
                 for (int j = 1; j < 6; ++j)
@@ -517,7 +540,8 @@ static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, dou
 /* et_newton_lm's iterations on a platform's followers: q (n, nf) their starting values,
    on return the iterated ones; norm (n,) their |r|. Returns 0, -1 for sizes it does not
    take, -2 when out of memory, or the kernel's code. */
-int et_followers_lm(int64_t n, void *kernel_address, int n_in, const double *const *in, const int64_t *stride,
+int et_followers_lm(int64_t n, void *kernel_address, void *block_address, int n_in, const double *const *in,
+                    const int64_t *stride,
                     const int *role, int nf, const int *followers, int rows, const double *full, double *q,
                     double *norm, int iterations, double tol, double lambda0, double max_step)
 {
@@ -527,14 +551,19 @@ int et_followers_lm(int64_t n, void *kernel_address, int n_in, const double *con
     double *qs, *rs, *As, *nrm;
     double *buf = et_alloc_work(1, rows, nf, &wk, &qs, &rs, &As, &nrm);
     double *more = malloc(sizeof(double) * (size_t)B * (size_t)(15 + 7 * rows));
-    et_followers c = {(et_kernel)kernel_address, n_in, rows, nf, in, stride, role, followers, full,
-                      more, more ? more + 6 * B : NULL,
+    et_followers c = {(et_kernel)kernel_address, (et_block_fn)block_address, n_in, rows, nf, in, stride, role,
+                      followers, full, more, more ? more + 6 * B : NULL,
                       malloc(sizeof(double *) * (size_t)(n_in > 0 ? n_in : 1)),
                       malloc(sizeof(int64_t) * (size_t)(n_in > 0 ? n_in : 1)),
-                      {more ? more + 15 * B : NULL, more ? more + (15 + rows) * B : NULL}};
+                      {more ? more + 15 * B : NULL, more ? more + (15 + rows) * B : NULL},
+                      block_address ? malloc(sizeof(double) * B * (size_t)(n_in > 0 ? n_in : 1)) : NULL, -1,
+                      block_address ? malloc(sizeof(double *) * (size_t)(7 * rows)) : NULL};
     int rc = 0;
-    if (!buf || !more || !c.ptr || !c.st)
+    if (!buf || !more || !c.ptr || !c.st || (block_address && (!c.held || !c.rows_at)))
         rc = -2;
+    if (rc == 0 && block_address)              /* the kernel's output rows: closure's, then its rates' */
+        for (int e = 0; e < 7 * rows; ++e)
+            c.rows_at[e] = more + (15 + (int64_t)e) * B;
     for (int64_t b0 = 0; b0 < n && rc == 0; b0 += B) {
         const int m = n - b0 < B ? (int)(n - b0) : B;
         for (int f = 0; f < nf; ++f)
@@ -549,7 +578,7 @@ int et_followers_lm(int64_t n, void *kernel_address, int n_in, const double *con
             norm[b0 + i] = nrm[i];
         }
     }
-    free(buf); free(wk.act); free(more); free(c.ptr); free(c.st);
+    free(buf); free(wk.act); free(more); free(c.ptr); free(c.st); free(c.held); free(c.rows_at);
     return rc;
 }
 """
@@ -655,6 +684,7 @@ def followers_driver():
             fn.argtypes = [
                 ctypes.c_int64,
                 ctypes.c_void_p,
+                ctypes.c_void_p,
                 ctypes.c_int,
                 P(ctypes.c_void_p),
                 P(ctypes.c_int64),
@@ -677,6 +707,7 @@ def followers_driver():
 
 def follow(
     kernel_address: int,
+    block_address: int | None,
     roles: list,
     addresses: list,
     strides: list,
@@ -692,7 +723,8 @@ def follow(
     ((n, 1, followers) and (n, 1)) from the starting values ``q`` (n, 1, followers) of the
     followers (indices into x, y, z, rot_x, rot_y, rot_z) at the commanded full poses
     ``full`` (n, 6; m, rad), for the followers kernel at ``kernel_address`` (closed-form
-    legs: its ``closure`` (rows,) and ``closure_rate`` (rows, 6) at a full pose). The
+    legs: its ``closure`` (rows,) and ``closure_rate`` (rows, 6) at a full pose), evaluated
+    by its block function at ``block_address`` where that is not None. The
     kernel's input k is the pose's x, y, z (``roles[k]`` 0-2), its rotation entry R_ij
     (3 + 3 i + j, from the rotation vector by Rodrigues' formula), or else (-1) read at
     ``addresses[k]`` with ``strides[k]`` (doubles). The Jacobian on the followers is the
@@ -711,6 +743,7 @@ def follow(
         return fn(
             b - a,
             kernel_address,
+            block_address,
             len(addresses),
             *_inputs_at(addresses, strides, a),
             role,
