@@ -305,6 +305,22 @@ static int et_legs_eval(void *ctx, int m, int64_t b0, const double *qs, double *
     return 0;
 }
 
+/* The caller's inputs (those k with own[k] < 0) of the m poses of the block at b0 into
+   held (row k of B; the lanes past m repeat the last pose), for a kernel's block function. */
+static void et_hold(int n_in, const int *own, const double *const *in, const int64_t *stride, int64_t b0, int m,
+                    double *held)
+{
+    for (int k = 0; k < n_in; ++k) {
+        if (own[k] >= 0)
+            continue;
+        double *row = held + (int64_t)k * B;
+        const double *src = in[k];
+        const int64_t s = stride[k];
+        for (int i = 0; i < B; ++i)
+            row[i] = src[(b0 + (i < m ? i : m - 1)) * s];
+    }
+}
+
 /* et_legs_eval by the kernel's block function, writing rs and As in place: the inputs
    other than the coordinates are copied once per block (padded with the last pose), the
    residual's rows then the Jacobian's are the kernel's output rows, and the lanes past
@@ -314,15 +330,7 @@ static int et_legs_eval_block(void *ctx, int m, int64_t b0, const double *qs, do
     et_legs *c = ctx;
     const int lr = c->legs * c->rows, lanes = m >= B ? B : (m + 7) / 8 * 8;
     if (c->held_b0 != b0) {
-        for (int k = 0; k < c->n_in; ++k) {
-            if (c->q_of[k] >= 0)
-                continue;
-            double *row = c->held + (int64_t)k * B;
-            const double *src = c->in[k];
-            const int64_t s = c->stride[k];
-            for (int i = 0; i < B; ++i)
-                row[i] = src[(b0 + (i < m ? i : m - 1)) * s];
-        }
+        et_hold(c->n_in, c->q_of, c->in, c->stride, b0, m, c->held);
         c->held_b0 = b0;
     }
     for (int k = 0; k < c->n_in; ++k)
@@ -459,16 +467,8 @@ static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, dou
         R[7 * B + i] = a * x + b * (y * z);
         R[8 * B + i] = 1 + b * (-yy - xx);
     }
-    if (c->block && c->held_b0 != b0) {   /* the caller's inputs of this block, padded */
-        for (int k = 0; k < c->n_in; ++k) {
-            if (c->role[k] >= 0)
-                continue;
-            double *row = c->held + (int64_t)k * B;
-            const double *src = c->in[k];
-            const int64_t s = c->stride[k];
-            for (int i = 0; i < B; ++i)
-                row[i] = src[(b0 + (i < m ? i : m - 1)) * s];
-        }
+    if (c->block && c->held_b0 != b0) {
+        et_hold(c->n_in, c->role, c->in, c->stride, b0, m, c->held);
         c->held_b0 = b0;
     }
     for (int k = 0; k < c->n_in; ++k) {
