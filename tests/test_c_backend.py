@@ -55,6 +55,24 @@ def test_matrices_kernel_runs_the_fused_matrices_block(rendered):
     assert "et_heli4_matrices_lever_block(et_lanes(m), et_ip, et_op);" in exported
 
 
+@pytest.mark.parametrize("name, exported", [("loop_closure", True), ("followers", True), ("jacobians", False)])
+def test_only_the_drivers_kernels_export_their_block_function(name, exported):
+    """A C driver's kernels (loop closure, followers) export their block function, rendered
+    once; any other kernel keeps it static."""
+    from eigentwist.codegen.c_source import kernel_context
+    from eigentwist.codegen.kernel import Kernel, Output
+    from eigentwist.codegen.render import environment
+
+    a, b = sp.symbols("a b", real=True)
+    out = Output("residual", (1,), [a * b])
+    kern = Kernel(name, "a test kernel", [("param", ["a", "b"])], [out], [("out", out, (0,), a * b)])
+    ctx = kernel_context(kern, "et_toy", {"a": "m", "b": "m"})
+    text = environment().get_template("c/kernel.c.jinja").module.kernel(ctx)
+    assert ctx["block_entry"] is exported
+    assert (f"int et_toy_{name}_block_entry(int et_nb" in text) is exported
+    assert text.count(f"static void et_toy_{name}_block(int et_nb, const double *const *et_in") == 1
+
+
 def _kernel_ctx(inputs, rows, outputs):
     return dict(inputs=[{"name": n} for n in inputs], entries=rows, n_ent=len(rows), outputs=outputs, via=None)
 
