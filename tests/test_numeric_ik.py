@@ -225,6 +225,17 @@ def test_c_loop_closure_equals_numpy(numeric):
     start = np.broadcast_to([leg.kinematics.reference for leg in evc.robot.legs], (n, 6, 3))
     one, two = evc.kernels.newton(start, kp, 80, 1e-12), evc.kernels.newton(start, kp, 80, 1e-12, threads=2)
     assert np.array_equal(one[0], two[0], equal_nan=True) and np.array_equal(one[1], two[1], equal_nan=True)
+    # the closure's block function in the driver's own buffers against the exported kernel (gathered,
+    # scattered, copied): the same iterations bit for bit, on a whole block and a short one (5 poses)
+    spec = evc.kernels._spec["loop_closure"]
+    k69 = evc.closure_inputs(many[:69], evc.parameter_values(69))
+    by_block = evc.kernels.newton(start[:69], k69, 80, 1e-12)
+    block = spec.pop("block")
+    try:
+        by_kernel = evc.kernels.newton(start[:69], k69, 80, 1e-12)
+    finally:
+        spec["block"] = block
+    assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(by_block, by_kernel))
     # the branch check's jacobians kernel on the same ranges: the same levers, bit for bit
     lever = evc.kernels.jacobians(one[0], kp)["lever"]
     assert np.array_equal(evc.kernels.jacobians(one[0], kp, threads=2)["lever"], lever, equal_nan=True)
