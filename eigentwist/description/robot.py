@@ -8,7 +8,6 @@ it; a second robot with the same joint types needs a new description only.
 from __future__ import annotations
 
 import functools
-
 from dataclasses import dataclass, field
 from typing import Any
 

@@ -66,9 +66,7 @@ def plot_stabilisation(res, path) -> None:
 def plot_frfs(res, path) -> None:
     """Measured FRF magnitudes and their LSFD re-synthesis on the band, one panel per pair."""
     plt = pyplot("modal")
-    from matplotlib.ticker import NullLocator
-
-    from matplotlib.ticker import LogFormatter
+    from matplotlib.ticker import LogFormatter, NullLocator
 
     frfs = res.frfs
     n_p = min(frfs.H.shape[1], MAX_PANELS)

@@ -482,9 +482,7 @@ class CKernels:
         names = [None if group == "q" else name for group, name, _ in spec["inputs"]]
         addresses, strides = _driver_inputs(names, p, n, keep)
         rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
-        block = None  # the kernel's block function, where its outputs are the driver's rows
-        if "block" in spec and spec["outputs"] == [["residual", [legs, rows]], ["dresidual", [legs, rows, nq]]]:
-            block = ctypes.cast(getattr(self._lib, spec["block"]), ctypes.c_void_p).value
+        block = self._block(spec, spec["outputs"] == [["residual", [legs, rows]], ["dresidual", [legs, rows, nq]]])
         return c_levenberg_marquardt.iterate(
             ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value,
             block,
@@ -497,6 +495,14 @@ class CKernels:
             tol,
             threads,
         )
+
+    def _block(self, spec: dict, driver_rows: bool) -> int | None:
+        """The C address of a kernel's exported block function (``spec``: its signature
+        entry), where it has one and its outputs are laid out as the driver's rows
+        (``driver_rows``); else None (the driver calls the exported kernel)."""
+        if "block" not in spec or not driver_rows:
+            return None
+        return ctypes.cast(getattr(self._lib, spec["block"]), ctypes.c_void_p).value
 
     def follow(self, q, p: dict, followers: list, iterations: int, tol: float, threads: int = 1):
         """``(q, |r|)``: the damped Newton iterations of :mod:`.levenberg_marquardt` on a
@@ -526,9 +532,7 @@ class CKernels:
         names = [name if r < 0 else None for (_, name, _), r in zip(spec["inputs"], roles)]
         addresses, strides = _driver_inputs(names, p, n, keep)
         rows = int(np.prod(shapes["closure"], dtype=np.int64))
-        block = None  # the kernel's block function, where its outputs are the driver's rows
-        if "block" in spec and shapes["closure_rate"] == shapes["closure"] + (6,):
-            block = ctypes.cast(getattr(self._lib, spec["block"]), ctypes.c_void_p).value
+        block = self._block(spec, shapes["closure_rate"] == shapes["closure"] + (6,))
         return c_levenberg_marquardt.follow(
             ctypes.cast(self._fn["followers"], ctypes.c_void_p).value,
             block,

@@ -305,6 +305,12 @@ static int et_legs_eval(void *ctx, int m, int64_t b0, const double *qs, double *
     return 0;
 }
 
+/* The lanes a kernel's block function computes for m poses: all B, or m rounded up to 8 */
+static int et_lanes8(int m)
+{
+    return m >= B ? B : (m + 7) / 8 * 8;
+}
+
 /* The caller's inputs (those k with own[k] < 0) of the m poses of the block at b0 into
    held (row k of B; the lanes past m repeat the last pose), for a kernel's block function. */
 static void et_hold(int n_in, const int *own, const double *const *in, const int64_t *stride, int64_t b0, int m,
@@ -328,7 +334,7 @@ static void et_hold(int n_in, const int *own, const double *const *in, const int
 static int et_legs_eval_block(void *ctx, int m, int64_t b0, const double *qs, double *rs, double *As)
 {
     et_legs *c = ctx;
-    const int lr = c->legs * c->rows, lanes = m >= B ? B : (m + 7) / 8 * 8;
+    const int lr = c->legs * c->rows, lanes = et_lanes8(m);
     if (c->held_b0 != b0) {
         et_hold(c->n_in, c->q_of, c->in, c->stride, b0, m, c->held);
         c->held_b0 = b0;
@@ -481,8 +487,8 @@ static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, dou
             c->st[k] = 1;
         }
     }
-    const int lanes = m >= B ? B : (m + 7) / 8 * 8;  /* the lanes past m are read by no pose below */
-    int rc = c->block ? c->block(lanes, c->ptr, c->rows_at) : c->kernel(m, c->ptr, c->st, c->outs);
+    /* the lanes past m are read by no pose below */
+    int rc = c->block ? c->block(et_lanes8(m), c->ptr, c->rows_at) : c->kernel(m, c->ptr, c->st, c->outs);
     if (rc != 0)
         return rc;
     const int rows = c->rows, nf = c->nf;

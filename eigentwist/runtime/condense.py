@@ -335,15 +335,16 @@ def compliance_from_legs(robot, effects, out: dict, K_extra=None) -> np.ndarray:
 
 def merge_modes(modes, rows: np.ndarray, freq_hz: np.ndarray, V: np.ndarray, vectors: bool):
     """``modes`` (6 columns, K_F's) with the finite modes of :func:`compliance_eigh`
-    (``freq_hz``, ``V`` of the rows ``rows``): frequencies, eigentwists (normalised like
-    the rest) and stability replaced; a rigid direction's column (``inf``) keeps K_F's
-    stand-in frequency and eigentwist and is marked in ``modes.constrained``."""
+    (``freq_hz``, ``V`` of the rows ``rows``: a boolean mask or index array, or a slice):
+    frequencies, eigentwists (normalised like the rest) and stability replaced; a rigid
+    direction's column (``inf``) keeps K_F's stand-in frequency and eigentwist and is marked
+    in ``modes.constrained``."""
     from .eigen import normalize_eigentwists
 
     modes.shares = None  # the eigentwists change: the shares with them
     finite = ~np.isinf(freq_hz)
-    if rows.dtype == bool and rows.all():  # every row: the same values chosen column by column, no row copies
-        return _merge_every_row(modes, finite, freq_hz, V, vectors)
+    if isinstance(rows, np.ndarray) and rows.dtype == bool and rows.all():
+        rows = slice(None)  # every row: views, no row copies
     freq = np.array(modes.freq_hz, dtype=float)
     fr = freq[rows]
     fr[finite] = freq_hz[finite]
@@ -364,21 +365,6 @@ def merge_modes(modes, rows: np.ndarray, freq_hz: np.ndarray, V: np.ndarray, vec
         vr[mask] = normalize_eigentwists(V)[mask]
         vec[rows] = vr
         modes.eigentwists = vec
-    return modes
-
-
-def _merge_every_row(modes, finite: np.ndarray, freq_hz: np.ndarray, V: np.ndarray, vectors: bool):
-    """:func:`merge_modes` where ``rows`` is every row."""
-    from .eigen import normalize_eigentwists
-
-    modes.freq_hz = np.where(finite, freq_hz, np.asarray(modes.freq_hz, dtype=float))
-    if not finite.all():
-        modes.constrained = ~finite
-    if modes.stable is not None:
-        modes.stable = ~np.isnan(freq_hz).any(axis=-1)
-    if vectors and modes.eigentwists is not None:
-        vec = np.asarray(modes.eigentwists, dtype=float)
-        modes.eigentwists = np.where(finite[:, None, :], normalize_eigentwists(V), vec)
     return modes
 
 

@@ -376,12 +376,12 @@ def exact_merge(ev, effects, poses, params: dict, p: dict, solved: dict, modes, 
     from .eigen import frequencies_hz
 
     N = len(modes.freq_hz)
-    rows = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
-    every = N > 0 and (modes.valid is None or bool(rows.all()))
-    if every:  # every row valid: the pass's arrays as they are (no row copies)
-        return _merge_every_row(ev, effects, poses, params, p, solved, modes, vectors)
+    valid = np.ones(N, dtype=bool) if modes.valid is None else np.asarray(modes.valid, dtype=bool)
+    if not valid.any():
+        return None
+    rows = slice(None) if valid.all() else valid  # every row valid: views of the pass's arrays, no row copies
     nb, code = solved["nb"][rows], solved["code"][rows]
-    if not rows.any() or np.any(nb != nb[0]) or np.any(code == 2):
+    if np.any(nb != nb[0]) or np.any(code == 2):
         return None
     r = int(nb[0])
     f = np.full((len(nb), 6), np.inf)
@@ -408,43 +408,7 @@ def exact_merge(ev, effects, poses, params: dict, p: dict, solved: dict, modes, 
     pr[block] = sub[block]
     out.poles[rows] = pr
     out.stable[rows] &= stable[rows]
-    redo = rows & (solved["code"] == 1)
-    if redo.any():  # the driver's undecided poses, on the pass's outputs
-        _undecided(ev, effects, redo, poses, params, p, solved, {"M": solved["M"]}, True, modes, out)
-    modes.damping = out
-    return modes
-
-
-def _merge_every_row(ev, effects, poses, params: dict, p: dict, solved: dict, modes, vectors: bool):
-    """:func:`exact_merge` where every row of ``modes`` is valid (N > 0)."""
-    from . import condense
-    from .eigen import frequencies_hz
-
-    nb, code = solved["nb"], solved["code"]
-    r = int(nb[0])
-    if np.any(nb != r) or np.any(code == 2):
-        return None
-    N = len(nb)
-    every = np.ones(N, dtype=bool)
-    f = np.full((N, 6), np.inf)
-    f[:, :r] = frequencies_hz(solved["lam"][:, :r])
-    modes = condense.merge_modes(modes, every, f, solved["V"] if vectors else None, vectors)
-    if "damped" not in solved:
-        return modes
-    wn, zeta, wd, poles, stable = solved["damped"]
-    freq = np.asarray(modes.freq_hz, dtype=float)
-    first = np.arange(6) < r  # the columns of the finite modes
-    out_poles = np.full((N, 6), np.nan + 0j)
-    out_poles[:, :r] = poles[:, :r]
-    out = Damping(
-        np.where(first, wn / (2 * np.pi), freq),
-        np.where(first, wd / (2 * np.pi), freq),
-        np.where(first, zeta, 0.0),
-        out_poles,
-        None,
-        np.asarray(modes.stable, dtype=bool) & stable,
-    )
-    redo = code == 1
+    redo = valid & (solved["code"] == 1)
     if redo.any():  # the driver's undecided poses, on the pass's outputs
         _undecided(ev, effects, redo, poses, params, p, solved, {"M": solved["M"]}, True, modes, out)
     modes.damping = out
