@@ -1,12 +1,13 @@
-"""Thread scaling of the public path: wall time of ``frequencies`` with 1 and 2 threads.
+"""Thread scaling of the public path: wall time of ``frequencies`` with 1 and more threads.
 
     PYTHONPATH=. python benchmarks/threads.py [--n 200000] [--repeat 3] [--robots NAME:MODEL ...]
+        [--threads 2 4 8 16]
 
 For each robot (a shipped name or a description file) and model: the C backend with
-``threads=1`` and ``threads=2``, **new** reachable poses every call
-(:func:`gallery.fresh_batches`), the two interleaved, best of ``--repeat``; prints poses per
-wall-second of each and their ratio, with the load average before and after (a speed-up is
-only seen where the second core is free). Goal: at least 1.8 on 2 cores (10 on 16).
+``threads=1`` and each count of ``--threads``, **new** reachable poses every call
+(:func:`gallery.fresh_batches`), the counts interleaved, best of ``--repeat``; prints poses per
+wall-second of each and its ratio to one thread, with the load average before and after (a
+speed-up is only seen where the cores are free). Goal: at least 1.8 on 2 cores, 10 on 16.
 """
 
 from __future__ import annotations
@@ -34,14 +35,25 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=200000, help="poses per call")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--robots", nargs="+", default=["hexapod:none", "examples/robots/rus6.py:none"])
-    parser.add_argument("--threads", type=int, default=2, help="the threads compared with one")
+    parser.add_argument("--threads", type=int, nargs="+", default=[2], help="the thread counts compared with one")
     args = parser.parse_args()
-    print(f"robot, model | 1 thread (poses/s, wall) | {args.threads} threads | ratio | load average")
+    counts = [1] + [t for t in args.threads if t != 1]
+    print(
+        "robot, model | "
+        + " | ".join(f"{t} thr. (poses/s, wall)" for t in counts)
+        + " | "
+        + " | ".join(f"ratio {t}" for t in counts[1:])
+        + " | load average"
+    )
     for spec in args.robots:
         name, model = spec.rsplit(":", 1)
-        evs = {t: eigentwist.load(name, backend="c", threads=t, progress=None) for t in (1, args.threads)}
-        batches = fresh_batches(evs[1], np.array(evs[1].robot.workspace), args.n, 2 * args.repeat + 1, model, seed=1)
-        evs[args.threads].frequencies(batches.pop()[:256], model)
+        evs = {t: eigentwist.load(name, backend="c", threads=t, progress=None) for t in counts}
+        batches = fresh_batches(
+            evs[counts[-1]], np.array(evs[1].robot.workspace), args.n, len(counts) * args.repeat + 1, model, seed=1
+        )
+        warm = batches.pop()[:256]
+        for ev in evs.values():
+            ev.frequencies(warm, model)
         best = {t: float("inf") for t in evs}
         load0 = os.getloadavg()[0]
         for _ in range(args.repeat):  # interleaved: a busy phase of a shared machine hits both
@@ -50,8 +62,15 @@ def main() -> None:
                 t0 = time.perf_counter()
                 ev.frequencies(P, model)
                 best[t] = min(best[t], time.perf_counter() - t0)
-        one, many = args.n / best[1], args.n / best[args.threads]
-        print(f"{name}, {model} | {one:.3g} | {many:.3g} | {many / one:.2f} | {load0:.1f} -> {os.getloadavg()[0]:.1f}")
+        rate = {t: args.n / best[t] for t in counts}
+        print(
+            f"{name}, {model} | "
+            + " | ".join(f"{rate[t]:.3g}" for t in counts)
+            + " | "
+            + " | ".join(f"{rate[t] / rate[1]:.2f}" for t in counts[1:])
+            + f" | {load0:.1f} -> {os.getloadavg()[0]:.1f}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -601,6 +601,27 @@ def test_joint_sensitivities_need_a_loop_closure():
 
 
 @pytest.mark.compiled
+@pytest.mark.parametrize("name", ("rus6", "prs3"))
+def test_chunks_of_poses_on_threads_give_the_same_bits(gallery, name):
+    """Past one chunk of poses, the C route completes whole chunks side by side on the
+    threads (numeric IK: joint coordinates, rotation entries; followers): the joint
+    coordinates, completed poses and frequencies equal one thread's bit for bit, and the
+    first chunk's equal that chunk solved alone."""
+    from eigentwist.runtime.completion import CHUNK
+
+    one, two = (eigentwist.load(str(GALLERY / f"{name}.py"), backend="c", threads=t, progress=None) for t in (1, 2))
+    x = _poses(gallery[name], int(1.6 * (CHUNK + 300)), seed=9)[: CHUNK + 300]
+    assert len(x) == CHUNK + 300
+    f1 = one.frequencies(x, "none")
+    assert np.isfinite(f1).all()
+    assert np.array_equal(two.frequencies(x, "none"), f1)
+    assert np.array_equal(two.completed_poses(x), one.completed_poses(x))
+    assert np.array_equal(two.frequencies(x[:CHUNK], "none"), f1[:CHUNK])
+    if name == "rus6":
+        assert np.array_equal(two.joint_angles(x), one.joint_angles(x))
+
+
+@pytest.mark.compiled
 def test_followers_solved_in_c_equal_numpy(gallery, monkeypatch):
     """The 3-PRS's followers (x, y, rot_z) iterated by the C driver on the compiled followers
     kernel equal the NumPy iterations: at the home pose (zero rotation: the series of

@@ -17,6 +17,21 @@ def test_the_screen_is_the_rows_lowest_against_their_highest():
     np.testing.assert_array_equal(above_screen(freq), want)
 
 
+def test_the_screen_on_threads_equals_one_pass():
+    """Past one chunk the rows are screened in chunks side by side: the same answer, row for
+    row (rows below the screen and NaN rows in every chunk)."""
+    from eigentwist.runtime.completion import CHUNK
+
+    rng = np.random.default_rng(4)
+    freq = rng.uniform(1.0, 100.0, (2 * CHUNK + 123, 6))
+    freq[::11, 0] = 1e-4
+    freq[::13, 3] = np.nan
+    one = above_screen(freq)
+    assert 0 < one.sum() < len(freq)
+    np.testing.assert_array_equal(above_screen(freq, threads=2), one)
+    np.testing.assert_array_equal(above_screen(freq[: CHUNK - 5], threads=2), one[: CHUNK - 5])
+
+
 def test_either_side_of_the_screen_and_nan_in_any_column():
     row = np.array([1.0, 5.0, 20.0, 50.0, 70.0, 100.0])
     inside, outside = row.copy(), row.copy()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eigentwist.runtime.poses import exp_twist, rotation_matrix, rotation_vector
+from eigentwist.runtime.poses import exp_twist, rotation_entries, rotation_matrix, rotation_vector
 
 
 def test_rotation_matrix_is_a_rotation_about_its_vector():
@@ -25,6 +25,16 @@ def test_small_angles_use_the_series():
     K = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
     np.testing.assert_allclose(rotation_matrix(r), np.eye(3) + K, atol=1e-17)
     np.testing.assert_array_equal(rotation_matrix(np.zeros(3)), np.eye(3))
+
+
+def test_rotation_entries_written_in_place_are_the_matrix_entries():
+    r = np.random.default_rng(2).normal(size=(7, 3))
+    r[0] = 0.0  # the series
+    out = [np.full(7, np.nan) for _ in range(9)]
+    got = rotation_entries(r, out)
+    assert all(g is o for g, o in zip(got, out))
+    np.testing.assert_array_equal(np.stack(out, -1).reshape(7, 3, 3), rotation_matrix(r))
+    np.testing.assert_array_equal(np.stack(rotation_entries(r), -1).reshape(7, 3, 3), rotation_matrix(r))
 
 
 def test_exp_twist_moves_the_origin_by_v_and_turns_by_omega():

@@ -58,3 +58,19 @@ def test_run_ranges_returns_results_in_order():
     out = threads.run_ranges(lambda a, b: (a, b), 64 * 100 + 3, 64, 3)
     assert out[0][0] == 0 and out[-1][1] == 64 * 100 + 3
     assert [a for a, _ in out] == sorted(a for a, _ in out)
+
+
+def test_map_tasks_keeps_the_items_order_and_runs_small_work_on_the_caller():
+    import threading
+
+    where = []
+
+    def task(k):
+        where.append(threading.current_thread() is threading.main_thread())
+        return k * k
+
+    assert threads.map_tasks(task, [3], 4) == [9] and where == [True]  # one item
+    assert threads.map_tasks(task, list(range(5)), 1) == [0, 1, 4, 9, 16] and all(where)  # one thread
+    where.clear()
+    assert threads.map_tasks(task, list(range(40)), 3) == [k * k for k in range(40)]
+    assert not any(where)  # on the pool's threads

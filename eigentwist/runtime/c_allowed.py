@@ -211,10 +211,13 @@ def driver():
     return _DRIVER[0]
 
 
-def reduce(X: np.ndarray, B: np.ndarray) -> np.ndarray:
+def reduce(X: np.ndarray, B: np.ndarray, threads: int = 1) -> np.ndarray:
     """``B^T X B`` per pose in C: (N, m, m) from (N, 6, 6) and (N, 6, m), m <= 6; what
-    :func:`eigentwist.runtime.allowed.reduce` computes, to round-off. Raises RuntimeError
-    where the driver cannot be built."""
+    :func:`eigentwist.runtime.allowed.reduce` computes, to round-off. ``threads`` > 1 splits
+    the poses over that many threads (each pose on its own: the same results). Raises
+    RuntimeError where the driver cannot be built."""
+    from .threads import run_ranges, threads_for
+
     if driver() is None:
         raise RuntimeError("the C allowed-twist driver could not be built (no compiler)")
     X = np.ascontiguousarray(X, dtype=np.float64)
@@ -223,8 +226,12 @@ def reduce(X: np.ndarray, B: np.ndarray) -> np.ndarray:
     if X.shape != (n, 6, 6) or B.shape != (n, 6, m) or m > 6:
         raise InputError(f"reduce takes X (N, 6, 6) and B (N, 6, m <= 6): got {X.shape} and {B.shape}")
     out = np.empty((n, m, m))
-    if n:
-        _REDUCE[-1](n, m, address(X), address(B), address(out))
+    fn = _REDUCE[-1]
+
+    def call(a: int, b: int) -> None:
+        fn(b - a, m, address(X) + 8 * 36 * a, address(B) + 8 * 6 * m * a, address(out) + 8 * m * m * a)
+
+    run_ranges(call, n, BLOCK, threads_for(n, BLOCK, threads))
     return out
 
 

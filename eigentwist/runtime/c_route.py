@@ -15,11 +15,11 @@ import numpy as np
 
 from ..description.pose import FULL, twist_order
 from .addresses import address
-from .completion import CompletedPoses, masked
+from .completion import CHUNK, CompletedPoses, chunks, masked
 from .labels import energy_shares
 from .memo import BoundedMemo
 from .modes import Modes
-from .threads import resolve_threads
+from .threads import map_tasks, resolve_threads
 from .validity import STATUS
 
 __all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen"]
@@ -33,11 +33,21 @@ __all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen"]
 PARALLEL_SCREEN = 1e-3
 
 
-def above_screen(freq: np.ndarray) -> np.ndarray:
+def above_screen(freq: np.ndarray, threads: int = 1) -> np.ndarray:
     """(N,) whether each pose's lowest frequency (a row of ``freq``, Hz) lies above
     :data:`PARALLEL_SCREEN` times its highest; False where the row holds a NaN. One pass per
     column: NumPy's reductions along a short last axis cost about 100 ns a pose, more than
-    the C pass's checks (a NaN propagates through minimum and maximum and compares False)."""
+    the C pass's checks (a NaN propagates through minimum and maximum and compares False).
+    ``threads`` > 1: chunks of :data:`~.completion.CHUNK` rows side by side."""
+    n = len(freq)
+    if threads > 1 and n > CHUNK:
+        above = np.empty(n, dtype=bool)
+
+        def part(sl):
+            above[sl] = above_screen(freq[sl])
+
+        map_tasks(part, list(chunks(n)), threads)
+        return above
     lo = freq[:, 0].copy()
     hi = lo.copy()
     for j in range(1, freq.shape[1]):
@@ -178,7 +188,7 @@ class CPassRoute:
         # a parallel singularity drives the lowest frequency to 0: the poses whose lowest
         # mode is 0, NaN or below PARALLEL_SCREEN times their highest get the exact check
         freq = out["freq_hz"]
-        low = valid & ~above_screen(freq)
+        low = valid & ~above_screen(freq, self.nthreads())
         suspect = np.flatnonzero(low)
         singular = suspect[~self.ev.checks.parallel_ok(poses, p, suspect, strict=check)]
         if singular.size:

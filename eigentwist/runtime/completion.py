@@ -110,10 +110,27 @@ class PoseCompletion:
             followers = [FULL.index(c) for c in self.space.followers]
             if followers_driver() is not None:  # the followers' Newton iterations in C
 
-                def iterate(q, pp, its, tl):
-                    return self.kernels.follow(q, pp, followers, its, tl, threads=threads)
+                def iterate(q, pp, its, tl, inner):
+                    return self.kernels.follow(q, pp, followers, its, tl, threads=inner)
 
-        return full_poses(self.space, arr, closure, p, reference, iterate).view(CompletedPoses)
+        if not self.space.followers:
+            return full_poses(self.space, arr).view(CompletedPoses)
+        n = len(arr)
+
+        def complete(sl, inner):
+            its = None if iterate is None else (lambda q, pp, i, tl: iterate(q, pp, i, tl, inner))
+            return full_poses(self.space, arr[sl], closure, take(p, sl) if n > 1 else p, reference, its)
+
+        # fixed chunks, as for numeric IK (:meth:`solve_joints`): the results do not depend on
+        # the thread count; on the C route whole chunks run on the threads
+        parts = list(chunks(n))
+        if iterate is not None and threads > 1 and len(parts) > 1:
+            from .threads import map_tasks
+
+            done = map_tasks(lambda sl: complete(sl, 1), parts, threads)
+        else:
+            done = [complete(sl, threads or 1) for sl in parts]
+        return (done[0] if len(done) == 1 else np.concatenate(done)).view(CompletedPoses)
 
     def follower_reference(self):
         """The legs' reference configuration (legs, n_q) from which a lower-mobility
@@ -158,7 +175,16 @@ class PoseCompletion:
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
         out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
         out.update(rot_x=poses[:, 3], rot_y=poses[:, 4], rot_z=poses[:, 5])
-        out.update(zip(_ROTATION_NAMES, rotation_entries(poses[:, 3:6])))
+        threads = self.c_threads() or 1
+        parts = list(chunks(len(poses)))
+        if threads > 1 and len(parts) > 1:  # chunks side by side (NumPy lets go of the GIL)
+            from .threads import map_tasks
+
+            entries = [np.empty(len(poses)) for _ in _ROTATION_NAMES]
+            map_tasks(lambda sl: rotation_entries(poses[sl, 3:6], [e[sl] for e in entries]), parts, threads)
+        else:
+            entries = rotation_entries(poses[:, 3:6])
+        out.update(zip(_ROTATION_NAMES, entries))
         return out
 
     def with_pose(self, poses: np.ndarray, p: dict) -> dict:
@@ -270,23 +296,21 @@ class PoseCompletion:
 
             if c_levenberg_marquardt.driver() is not None:
 
-                def iterate(q, pp, its, tl):
-                    return self.kernels.newton(q, pp, its, tl, threads=threads)
+                def iterate(q, pp, its, tl, inner):
+                    return self.kernels.newton(q, pp, its, tl, threads=inner)
 
-        parts, offs = [], []
-        # bounded memory: (chunk, legs, rows, n_q) Jacobians; the C iterations keep theirs per
-        # block, so their chunks are larger (enough blocks for every thread)
-        for sl in chunks(n, CHUNK if iterate is None else 4 * CHUNK):
+        def one(sl, inner):
             kp = self.closure_inputs(poses[sl], take(p, sl) if n > 1 else p)
+            its = None if iterate is None else (lambda q, pp, i, tl: iterate(q, pp, i, tl, inner))
 
-            def branch(q, kp=kp):
+            def branch(q):
                 with np.errstate(invalid="ignore", divide="ignore"):
                     if iterate is None:
                         return self.kernels.jacobians(q, kp)["lever"]
-                    return self.kernels.jacobians(q, kp, threads=threads)["lever"]
+                    return self.kernels.jacobians(q, kp, threads=inner)["lever"]
 
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-                q, off = solve(
+                return solve(
                     self.kernels.loop_closure,
                     reference,
                     kp,
@@ -294,13 +318,30 @@ class PoseCompletion:
                     branch=branch,
                     signs=signs,
                     report=True,
-                    iterate=iterate,
+                    iterate=its,
                 )
-            parts.append(q)
-            offs.append(off)
-        q = np.concatenate(parts)
+
+        # bounded memory: (chunk, legs, rows, n_q) Jacobians in NumPy; the C iterations keep
+        # theirs per block. The chunks do not depend on the thread count (a pose's warm start
+        # comes from the previous pose of its chunk), so neither do the results; on the C
+        # route whole chunks run on the threads, each on one thread, so that their NumPy
+        # steps run side by side as well
+        q = np.empty((n,) + reference.shape)
+        off = np.empty((n, len(reference)), dtype=bool)
+
+        def into(sl, inner):
+            q[sl], off[sl] = one(sl, inner)
+
+        parts = list(chunks(n))
+        if iterate is not None and threads > 1 and len(parts) > 1:
+            from .threads import map_tasks
+
+            map_tasks(lambda sl: into(sl, 1), parts, threads)
+        else:
+            for sl in parts:
+                into(sl, threads)
         memo.clear()
-        memo[key] = (q, np.concatenate(offs))
+        memo[key] = (q, off)
         return q
 
     def pose_inputs(self, poses: np.ndarray) -> dict:

@@ -86,15 +86,20 @@ class ModeSolver:
             if bad.any():
                 self.ev.checks.raise_first(poses_arr, p, bad)
             B = self.basis(res["J_rows"])
-            return reduce(res["M"], B, compiled=True), reduce(res["K_R"], B, compiled=True)
+            threads = self.ev.c_route.nthreads()
+            return (
+                reduce(res["M"], B, compiled=True, threads=threads),
+                reduce(res["K_R"], B, compiled=True, threads=threads),
+            )
         if stash is not None and not self.ev.c_route.fused:
             mats, stash["q"] = self.matrices_q(poses_arr, self.ev.resolver.resolve(len(poses_arr), params, effects))
             stash.update((k, mats[k]) for k in MATRICES)
         else:
             mats = self.ev.matrices(poses_arr, effects, **params)
         B = self.ev.allowed_twists(poses_arr, **params) if rigid else None
-        M = reduce(mats["M"], B, self.ev.c_route.fused) if rigid else mats["M"]
-        K = reduce(mats["K_R"], B, self.ev.c_route.fused) if rigid else mats["K_F"]
+        threads = self.ev.c_route.nthreads()
+        M = reduce(mats["M"], B, self.ev.c_route.fused, threads) if rigid else mats["M"]
+        K = reduce(mats["K_R"], B, self.ev.c_route.fused, threads) if rigid else mats["K_F"]
         if self.ev.resolver.preloaded(effects):
             from .gravity import gravity_stiffness
 

@@ -40,13 +40,14 @@ _ENTRIES = (
 )
 
 
-def rotation_entries(rotvec) -> list:
+def rotation_entries(rotvec, out=None) -> list:
     """The nine entries ``[R_00, R_01, ..., R_22]`` of the rotation matrices of rotation
     vectors (..., 3) (rad), each an array of shape (...): Rodrigues' formula
     ``R = I + a [r]x + b [r]x^2``, ``a = sin(t)/t``, ``b = (1 - cos t)/t^2``, with their
-    series near t = 0 (the arithmetic of :func:`rotation_matrix`, element by element)."""
+    series near t = 0 (the arithmetic of :func:`rotation_matrix`, element by element).
+    ``out``: nine arrays of shape (...) written in place (and returned)."""
     terms = _rodrigues(np.asarray(rotvec, dtype=float))
-    return [entry(*terms, None) for entry in _ENTRIES]
+    return [entry(*terms, None if out is None else o) for entry, o in zip(_ENTRIES, out or [None] * 9)]
 
 
 def rotation_matrix(rotvec) -> np.ndarray:

@@ -28,6 +28,7 @@ __all__ = [
     "threads_for",
     "block_ranges",
     "run_ranges",
+    "map_tasks",
     "available_cores",
 ]
 
@@ -118,3 +119,12 @@ def run_ranges(call, n: int, block: int, threads: int) -> list:
     pool = _pool(threads)
     futures = [pool.submit(call, a, b) for a, b in ranges]
     return [f.result() for f in futures]
+
+
+def map_tasks(task, items: list, threads: int) -> list:
+    """``[task(item) for item in items]``, the items run on ``threads`` threads (the same
+    pool as :func:`run_ranges`; a task must not itself wait on that pool). One thread or one
+    item: on the calling thread."""
+    if threads <= 1 or len(items) <= 1:
+        return [task(item) for item in items]
+    return list(_pool(threads).map(task, items))
