@@ -80,3 +80,59 @@ def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monk
     assert checked == ([2] if sent else []) and np.array_equal(modes.freq_hz, freq)
     ev.c_route.planned_modes(plan, np.zeros((1, 3)))  # the first row alone: above the screen
     assert checked == ([2] if sent else [])
+
+
+def test_every_chunk_finds_a_failing_row_in_any_chunk():
+    from eigentwist.runtime.c_route import every_chunk
+    from eigentwist.runtime.completion import CHUNK
+
+    n = 2 * CHUNK + 9
+    for bad in (0, CHUNK + 3, n - 1):
+        ok = np.ones(n, dtype=bool)
+        ok[bad] = False
+        for threads in (1, 2):
+            assert not every_chunk(lambda rows: ok[rows].all(), n, threads)
+    seen = []
+    assert every_chunk(lambda rows: seen.append(rows) or True, n, 2)
+    assert sorted((r.start, r.stop) for r in seen) == [(0, CHUNK), (CHUNK, 2 * CHUNK), (2 * CHUNK, n)]
+    assert every_chunk(lambda rows: rows == slice(0, n), n, 1)  # one thread: one call on every row
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_long_prepared_batch_is_checked_in_every_chunk(monkeypatch, threads):
+    """Past one chunk of poses (checked side by side on the threads): a pose below the screen
+    or flagged by the pass in the last chunk sends the batch to the exact check, and a pose
+    that is not finite there sends it back to ``Evaluator.modes`` (None)."""
+    import eigentwist
+    from eigentwist.runtime.c_route import CPassRoute
+    from eigentwist.runtime.completion import CHUNK
+    from eigentwist.runtime.evaluator import AXES, Modes
+
+    ev = eigentwist.load("heli4", backend="numpy", threads=threads)
+    n = CHUNK + 50
+    freq = np.tile(np.array([3.0, 4.0, 5.0, 6.0, 7.0, 8.0]), (n, 1))
+    status = np.zeros(n, dtype=np.int8)
+    checked = []
+
+    def fused_modes(self, arr, *args, **kw):
+        checked.append(len(arr))
+        return Modes(kw["out"]["freq_hz"], None, AXES, "flexible", None, np.ones(len(arr), dtype=bool))
+
+    monkeypatch.setattr(CPassRoute, "modes", fused_modes)
+
+    def call(addresses, m, threads):
+        return {"status": status[:m], "freq_hz": freq[:m]}
+
+    plan = (call, 3, ("actuator_loss",), {}, "flexible", AXES, True, False, "nan")
+    poses = np.zeros((n, 3))
+    ev.c_route.planned_modes(plan, poses)
+    assert checked == []  # every pose clean: the pass's answer
+    freq[n - 2, 0] = 0.5 * PARALLEL_SCREEN * freq[n - 2, -1]
+    ev.c_route.planned_modes(plan, poses)
+    assert checked == [n]
+    freq[n - 2, 0] = 3.0
+    status[n - 1] = 1
+    ev.c_route.planned_modes(plan, poses)
+    assert checked == [n, n]
+    poses[n - 3, 1] = np.nan
+    assert ev.c_route.planned_modes(plan, poses) is None

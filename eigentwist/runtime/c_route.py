@@ -22,7 +22,7 @@ from .modes import Modes
 from .threads import map_tasks, resolve_threads
 from .validity import STATUS
 
-__all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen"]
+__all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen", "every_chunk"]
 
 #: the fused C pass checks a pose for a parallel singularity when its lowest frequency is
 #: 0, NaN or below this fraction of its highest: a twist escaping the legs' wrenches with a
@@ -54,6 +54,16 @@ def above_screen(freq: np.ndarray, threads: int = 1) -> np.ndarray:
         np.minimum(lo, freq[:, j], out=lo)
         np.maximum(hi, freq[:, j], out=hi)
     return lo > PARALLEL_SCREEN * hi
+
+
+def every_chunk(test, n: int, threads: int = 1) -> bool:
+    """Whether ``test(rows)`` holds for every chunk of rows of a batch of ``n`` (slices of
+    :data:`~.completion.CHUNK`), the chunks side by side on ``threads`` threads; one call on
+    all rows where one thread or one chunk."""
+    parts = list(chunks(n))
+    if threads > 1 and len(parts) > 1:
+        return all(map_tasks(test, parts, threads))
+    return bool(test(slice(0, n)))
 
 
 class CPassRoute:
@@ -293,17 +303,24 @@ class CPassRoute:
         arr = np.asarray(poses, dtype=float)
         if arr.ndim == 1:
             arr = arr[None, :]
-        if arr.ndim != 2 or arr.shape[1] != self.dof or not arr.shape[0] or not np.isfinite(arr).all():
+        if arr.ndim != 2 or arr.shape[1] != self.dof or not arr.shape[0]:
+            return None
+        n, threads = len(arr), self.nthreads()
+        if not every_chunk(lambda rows: np.isfinite(arr[rows]).all(), n, threads):
             return None
         if not arr.flags.c_contiguous:
             arr = np.ascontiguousarray(arr)
-        n = len(arr)
         base = address(arr)
-        out = call([base + 8 * k for k in range(columns)], n, self.nthreads())
+        out = call([base + 8 * k for k in range(columns)], n, threads)
         st, freq = out["status"], out["freq_hz"]
-        # a flagged pose, or one below the parallel screen (the pass's frequencies ascend and
-        # are finite where no pose is flagged: the lowest is the first, the highest the last)
-        if np.count_nonzero(st) or np.count_nonzero(freq[:, 0] > PARALLEL_SCREEN * freq[:, -1]) != n:
+
+        def clean(rows):
+            # no pose flagged, none below the parallel screen (the pass's frequencies ascend
+            # and are finite where no pose is flagged: the lowest is the first, the highest the last)
+            above = np.count_nonzero(freq[rows, 0] > PARALLEL_SCREEN * freq[rows, -1])
+            return not np.count_nonzero(st[rows]) and above == len(st[rows])
+
+        if not every_chunk(clean, n, threads):
             arr = arr.view(CompletedPoses)
             modes = self.modes(arr, effects, routed, check, vectors, out=out)
         else:
