@@ -51,6 +51,22 @@ def test_no_warning_where_a_row_holds_nan():
         assert above_screen(np.array([[np.nan, 1.0], [1.0, np.inf]])).tolist() == [False, False]
 
 
+def _exact_checks_counted(monkeypatch) -> list:
+    """The batch sizes the prepared pass sends on to the exact check (``CPassRoute.modes``,
+    stood in for: its answer is the pass's frequencies), appended to the list returned."""
+    from eigentwist.runtime.c_route import CPassRoute
+    from eigentwist.runtime.evaluator import AXES, Modes
+
+    checked = []
+
+    def fused_modes(self, arr, *args, **kw):
+        checked.append(len(arr))
+        return Modes(kw["out"]["freq_hz"], None, AXES, "flexible", None, np.ones(len(arr), dtype=bool))
+
+    monkeypatch.setattr(CPassRoute, "modes", fused_modes)
+    return checked
+
+
 @pytest.mark.parametrize(
     "lowest, sent",
     [(0.99 * PARALLEL_SCREEN, True), (1.01 * PARALLEL_SCREEN, False)],
@@ -59,18 +75,11 @@ def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monk
     """The prepared C pass's result goes on to the exact check where a pose's lowest
     frequency lies below the screen times its highest (not its second highest: here 0.5)."""
     import eigentwist
-    from eigentwist.runtime.c_route import CPassRoute
-    from eigentwist.runtime.evaluator import AXES, Modes
+    from eigentwist.runtime.evaluator import AXES
 
     ev = eigentwist.load("heli4", backend="numpy")
     freq = np.array([[3.0, 4.0, 5.0, 6.0, 7.0, 8.0], [lowest, 0.2, 0.3, 0.4, 0.5, 1.0]])
-    checked = []
-
-    def fused_modes(self, arr, *args, **kw):
-        checked.append(len(arr))
-        return Modes(kw["out"]["freq_hz"], None, AXES, "flexible", None, np.ones(len(arr), dtype=bool))
-
-    monkeypatch.setattr(CPassRoute, "modes", fused_modes)
+    checked = _exact_checks_counted(monkeypatch)
 
     def call(addresses, n, threads):
         return {"status": np.zeros(n, dtype=np.int8), "freq_hz": freq[:n]}
@@ -104,21 +113,14 @@ def test_a_long_prepared_batch_is_checked_in_every_chunk(monkeypatch, threads):
     or flagged by the pass in the last chunk sends the batch to the exact check, and a pose
     that is not finite there sends it back to ``Evaluator.modes`` (None)."""
     import eigentwist
-    from eigentwist.runtime.c_route import CPassRoute
     from eigentwist.runtime.completion import CHUNK
-    from eigentwist.runtime.evaluator import AXES, Modes
+    from eigentwist.runtime.evaluator import AXES
 
     ev = eigentwist.load("heli4", backend="numpy", threads=threads)
     n = CHUNK + 50
     freq = np.tile(np.array([3.0, 4.0, 5.0, 6.0, 7.0, 8.0]), (n, 1))
     status = np.zeros(n, dtype=np.int8)
-    checked = []
-
-    def fused_modes(self, arr, *args, **kw):
-        checked.append(len(arr))
-        return Modes(kw["out"]["freq_hz"], None, AXES, "flexible", None, np.ones(len(arr), dtype=bool))
-
-    monkeypatch.setattr(CPassRoute, "modes", fused_modes)
+    checked = _exact_checks_counted(monkeypatch)
 
     def call(addresses, m, threads):
         return {"status": status[:m], "freq_hz": freq[:m]}
