@@ -101,10 +101,14 @@ def test_every_chunk_finds_a_failing_row_in_any_chunk():
         ok[bad] = False
         for threads in (1, 2):
             assert not every_chunk(lambda rows: ok[rows].all(), n, threads)
-    seen = []
-    assert every_chunk(lambda rows: seen.append(rows) or True, n, 2)
-    assert sorted((r.start, r.stop) for r in seen) == [(0, CHUNK), (CHUNK, 2 * CHUNK), (2 * CHUNK, n)]
-    assert every_chunk(lambda rows: rows == slice(0, n), n, 1)  # one thread: one call on every row
+    for m, want in ((CHUNK, [(0, CHUNK)]), (CHUNK + 1, [(0, CHUNK), (CHUNK, CHUNK + 1)])):  # either side of one chunk
+        seen = []
+        assert every_chunk(lambda rows: seen.append(rows) or True, m, 2)
+        assert sorted((r.start, r.stop) for r in seen) == want
+    for threads in (1, 2):  # the same chunks on any thread count
+        seen = []
+        assert every_chunk(lambda rows: seen.append(rows) or True, n, threads)
+        assert sorted((r.start, r.stop) for r in seen) == [(0, CHUNK), (CHUNK, 2 * CHUNK), (2 * CHUNK, n)]
 
 
 @pytest.mark.parametrize("threads", [1, 2])

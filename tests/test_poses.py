@@ -47,3 +47,21 @@ def test_exp_twist_moves_the_origin_by_v_and_turns_by_omega():
     W = Rdot @ rotation_matrix(pose[3:]).T  # [omega]x in base axes
     np.testing.assert_allclose([W[2, 1], W[0, 2], W[1, 0]], twist[:3], rtol=1e-7)
     assert exp_twist(pose, twist, 0.0) == pytest.approx(pose, abs=1e-15)
+
+
+@pytest.mark.parametrize("extra", [0, 5])
+def test_a_batchs_rotation_entries_either_side_of_one_chunk(extra):
+    """The kernels' pose inputs of a 6-DoF robot: one batch of one chunk, or chunks side by
+    side on the threads past it; the entries of Rodrigues' matrix either way."""
+    import eigentwist
+    from eigentwist.runtime.completion import CHUNK
+
+    ev = eigentwist.load("hexapod", backend="numpy", threads=2)
+    poses = np.zeros((CHUNK + extra, 6))
+    poses[:, 3:] = np.random.default_rng(extra).uniform(-0.3, 0.3, (len(poses), 3))
+    got = ev.kernel_pose_inputs(poses)
+    R = rotation_matrix(poses[:, 3:])
+    for i in range(3):
+        for j in range(3):
+            np.testing.assert_array_equal(got[f"R_{i}{j}"], R[:, i, j])
+    np.testing.assert_array_equal(got["rot_y"], poses[:, 4])

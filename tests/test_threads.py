@@ -74,3 +74,22 @@ def test_map_tasks_keeps_the_items_order_and_runs_small_work_on_the_caller():
     where.clear()
     assert threads.map_tasks(task, list(range(40)), 3) == [k * k for k in range(40)]
     assert not any(where)  # on the pool's threads
+
+
+def test_map_chunks_runs_chunks_side_by_side_with_one_inner_thread():
+    """Several chunks and threads: each chunk on a pool thread with ``inner`` = 1; else the
+    chunks one after another on the caller with ``inner`` = the threads; the results in order."""
+    import threading
+
+    from eigentwist.runtime.completion import CHUNK, map_chunks
+
+    def task(rows, inner):
+        return rows.start, rows.stop, inner, threading.current_thread() is threading.main_thread()
+
+    n = 2 * CHUNK + 1
+    got = map_chunks(task, n, 3)
+    assert [(a, b) for a, b, _, _ in got] == [(0, CHUNK), (CHUNK, 2 * CHUNK), (2 * CHUNK, n)]
+    assert all(inner == 1 and not main for *_, inner, main in got)
+    assert [g[2:] for g in map_chunks(task, n, 1)] == [(1, True)] * 3
+    assert map_chunks(task, CHUNK, 3) == [(0, CHUNK, 3, True)]  # one chunk: its C calls take the threads
+    assert map_chunks(task, 0, 3) == []

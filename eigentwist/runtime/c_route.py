@@ -15,11 +15,11 @@ import numpy as np
 
 from ..description.pose import FULL, twist_order
 from .addresses import address
-from .completion import CHUNK, CompletedPoses, chunks, masked
+from .completion import CHUNK, CompletedPoses, map_chunks, masked
 from .labels import energy_shares
 from .memo import BoundedMemo
 from .modes import Modes
-from .threads import map_tasks, resolve_threads
+from .threads import resolve_threads
 from .validity import STATUS
 
 __all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen", "every_chunk"]
@@ -38,32 +38,28 @@ def above_screen(freq: np.ndarray, threads: int = 1) -> np.ndarray:
     :data:`PARALLEL_SCREEN` times its highest; False where the row holds a NaN. One pass per
     column: NumPy's reductions along a short last axis cost about 100 ns a pose, more than
     the C pass's checks (a NaN propagates through minimum and maximum and compares False).
-    ``threads`` > 1: chunks of :data:`~.completion.CHUNK` rows side by side."""
-    n = len(freq)
-    if threads > 1 and n > CHUNK:
-        above = np.empty(n, dtype=bool)
+    By chunks of rows, side by side on ``threads`` threads (:func:`~.completion.map_chunks`)."""
+    above = np.empty(len(freq), dtype=bool)
 
-        def part(sl):
-            above[sl] = above_screen(freq[sl])
+    def part(rows, _):
+        lo = freq[rows, 0].copy()
+        hi = lo.copy()
+        for j in range(1, freq.shape[1]):
+            np.minimum(lo, freq[rows, j], out=lo)
+            np.maximum(hi, freq[rows, j], out=hi)
+        np.greater(lo, PARALLEL_SCREEN * hi, out=above[rows])
 
-        map_tasks(part, list(chunks(n)), threads)
-        return above
-    lo = freq[:, 0].copy()
-    hi = lo.copy()
-    for j in range(1, freq.shape[1]):
-        np.minimum(lo, freq[:, j], out=lo)
-        np.maximum(hi, freq[:, j], out=hi)
-    return lo > PARALLEL_SCREEN * hi
+    map_chunks(part, len(freq), threads)
+    return above
 
 
 def every_chunk(test, n: int, threads: int = 1) -> bool:
-    """Whether ``test(rows)`` holds for every chunk of rows of a batch of ``n`` (slices of
-    :data:`~.completion.CHUNK`), the chunks side by side on ``threads`` threads; one call on
-    all rows where one thread or one chunk."""
-    parts = list(chunks(n))
-    if threads > 1 and len(parts) > 1:
-        return all(map_tasks(test, parts, threads))
-    return bool(test(slice(0, n)))
+    """Whether ``test(rows)`` holds for every chunk of rows of a batch of ``n``
+    (:func:`~.completion.map_chunks`: side by side on ``threads`` threads; a batch of one
+    chunk in one call, the small calls' path)."""
+    if n <= CHUNK:
+        return bool(test(slice(0, n)))
+    return all(map_chunks(lambda rows, _: bool(test(rows)), n, threads))
 
 
 class CPassRoute:

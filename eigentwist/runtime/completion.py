@@ -19,7 +19,7 @@ from ..description.pose import FULL
 from ..description.serial import padded_references, padded_units
 from .errors import InputError
 
-__all__ = ["PoseCompletion", "CompletedPoses", "CHUNK", "chunks", "take", "masked", "user_rows"]
+__all__ = ["PoseCompletion", "CompletedPoses", "CHUNK", "chunks", "map_chunks", "take", "masked", "user_rows"]
 
 CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
@@ -39,6 +39,20 @@ def chunks(n: int, size: int = CHUNK):
     """Slices of ``range(n)`` of at most ``size`` poses, in order."""
     for start in range(0, n, size):
         yield slice(start, min(n, start + size))
+
+
+def map_chunks(task, n: int, threads: int = 1) -> list:
+    """``[task(rows, inner), ...]`` over the chunks of a batch of ``n`` poses (:func:`chunks`),
+    in order: side by side on ``threads`` threads, each chunk on one (``inner`` = 1), where
+    there are several chunks and threads; else one after another (``inner`` = ``threads``,
+    for the chunk's own C calls). The chunks do not depend on ``threads``, so neither does
+    what is computed chunk by chunk."""
+    parts = list(chunks(n))
+    if threads > 1 and len(parts) > 1:
+        from .threads import map_tasks
+
+        return map_tasks(lambda rows: task(rows, 1), parts, threads)
+    return [task(rows, threads) for rows in parts]
 
 
 def take(p: dict, sl: slice) -> dict:
@@ -121,15 +135,9 @@ class PoseCompletion:
             its = None if iterate is None else (lambda q, pp, i, tl: iterate(q, pp, i, tl, inner))
             return full_poses(self.space, arr[sl], closure, take(p, sl) if n > 1 else p, reference, its)
 
-        # fixed chunks, as for numeric IK (:meth:`solve_joints`): the results do not depend on
-        # the thread count; on the C route whole chunks run on the threads
-        parts = list(chunks(n))
-        if iterate is not None and threads > 1 and len(parts) > 1:
-            from .threads import map_tasks
-
-            done = map_tasks(lambda sl: complete(sl, 1), parts, threads)
-        else:
-            done = [complete(sl, threads or 1) for sl in parts]
+        # fixed chunks, as for numeric IK (:meth:`solve_joints`); on the C route whole chunks
+        # run on the threads
+        done = map_chunks(complete, n, threads if iterate is not None else 1)
         return (done[0] if len(done) == 1 else np.concatenate(done)).view(CompletedPoses)
 
     def follower_reference(self):
@@ -175,15 +183,15 @@ class PoseCompletion:
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
         out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
         out.update(rot_x=poses[:, 3], rot_y=poses[:, 4], rot_z=poses[:, 5])
-        threads = self.c_threads() or 1
-        parts = list(chunks(len(poses)))
-        if threads > 1 and len(parts) > 1:  # chunks side by side (NumPy lets go of the GIL)
-            from .threads import map_tasks
-
-            entries = [np.empty(len(poses)) for _ in _ROTATION_NAMES]
-            map_tasks(lambda sl: rotation_entries(poses[sl, 3:6], [e[sl] for e in entries]), parts, threads)
-        else:
+        if len(poses) <= CHUNK:
             entries = rotation_entries(poses[:, 3:6])
+        else:  # by chunks, side by side on the threads (NumPy lets go of the GIL in its loops)
+            entries = [np.empty(len(poses)) for _ in _ROTATION_NAMES]
+            map_chunks(
+                lambda rows, _: rotation_entries(poses[rows, 3:6], [e[rows] for e in entries]),
+                len(poses),
+                self.c_threads() or 1,
+            )
         out.update(zip(_ROTATION_NAMES, entries))
         return out
 
@@ -322,24 +330,16 @@ class PoseCompletion:
                 )
 
         # bounded memory: (chunk, legs, rows, n_q) Jacobians in NumPy; the C iterations keep
-        # theirs per block. The chunks do not depend on the thread count (a pose's warm start
-        # comes from the previous pose of its chunk), so neither do the results; on the C
-        # route whole chunks run on the threads, each on one thread, so that their NumPy
-        # steps run side by side as well
+        # theirs per block. A pose's warm start comes from the previous pose of its chunk
+        # (:func:`map_chunks`: the same chunks on any thread count); on the C route whole
+        # chunks run on the threads, so that their NumPy steps run side by side as well
         q = np.empty((n,) + reference.shape)
         off = np.empty((n, len(reference)), dtype=bool)
 
         def into(sl, inner):
             q[sl], off[sl] = one(sl, inner)
 
-        parts = list(chunks(n))
-        if iterate is not None and threads > 1 and len(parts) > 1:
-            from .threads import map_tasks
-
-            map_tasks(lambda sl: into(sl, 1), parts, threads)
-        else:
-            for sl in parts:
-                into(sl, threads)
+        map_chunks(into, n, threads if iterate is not None else 1)
         memo.clear()
         memo[key] = (q, off)
         return q
