@@ -29,35 +29,23 @@ def paper_rigid_diagnosis(ev):
 
 
 @pytest.fixture(scope="session")
-def shipped_stages():
-    """Robot name -> the render stages of a shipped robot (``render_robot``'s ``stages``):
-    the Heli4's derivation is made once per worker, by ``derived`` or by the render."""
-    return {}
-
-
-@pytest.fixture(scope="session")
-def derived(shipped_stages):
+def derived():
     """The symbolic Heli4 model (derivation only, no CSE)."""
     from eigentwist.robots import get
     from eigentwist.symbolic import derive
 
-    stages = shipped_stages.setdefault("heli4", {})
-    if "model" not in stages:
-        stages["model"] = derive(get("heli4"))
-    return stages["model"]
+    return derive(get("heli4"))
 
 
 @pytest.fixture(scope="session")
-def rendered_with_progress(shipped_stages):
-    """Every robot's generated files (``render_all``: {filename: text}), the progress
-    messages and the robots whose derivation was made before (by ``derived``: no "derive"
-    step), rendered once per run (tests/test_generated.py, test_c_backend.py, ...: the
+def rendered_with_progress():
+    """Every robot's generated files (``render_all``: {filename: text}) and the progress
+    messages, rendered once per run (tests/test_generated.py, test_c_backend.py, ...: the
     ``derive`` scheduling group below)."""
     from eigentwist.codegen.generate import render_all
 
     messages: list[str] = []
-    before = {name for name, stages in shipped_stages.items() if "model" in stages}
-    return render_all(progress=messages.append, stages=shipped_stages), messages, before
+    return render_all(progress=messages.append), messages
 
 
 @pytest.fixture(scope="session")

@@ -255,14 +255,12 @@ def digests_text(files: dict[str, str]) -> str:
     )
 
 
-def render_all(robots=NAMES, progress=None, timings=None, stages: dict | None = None) -> dict[str, str]:
+def render_all(robots=NAMES, progress=None, timings=None) -> dict[str, str]:
     """Render the generated files of every robot, and each robot's ``<robot>.sha256``
-    (:func:`digests_text`); nothing is written. ``stages``: robot name -> the caller's
-    stages dict of that robot (:func:`render_robot`), e.g. one holding its derived model."""
+    (:func:`digests_text`); nothing is written."""
     files = {}
     for name in robots:
-        kept = None if stages is None else stages.setdefault(name, {})
-        rendered = render_robot(name, progress=progress, timings=timings, stages=kept)
+        rendered = render_robot(name, progress=progress, timings=timings)
         files.update(rendered)
         files[f"{name}.sha256"] = digests_text(rendered)
     return files
