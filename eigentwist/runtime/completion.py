@@ -113,7 +113,9 @@ class PoseCompletion:
             return arr.view(CompletedPoses)
         from .platform import full_poses
 
-        p = self.resolver.resolve(len(arr), params or {}, "rigid") if self.space.followers else None
+        if not self.space.followers:
+            return full_poses(self.space, arr).view(CompletedPoses)
+        p = self.resolver.resolve(len(arr), params or {}, "rigid")
         closure = getattr(self.module, "followers", None)
         reference = self.follower_reference()
         iterate = None
@@ -127,8 +129,6 @@ class PoseCompletion:
                 def iterate(q, pp, its, tl, inner):
                     return self.kernels.follow(q, pp, followers, its, tl, threads=inner)
 
-        if not self.space.followers:
-            return full_poses(self.space, arr).view(CompletedPoses)
         n = len(arr)
 
         def complete(sl, inner):
