@@ -56,7 +56,7 @@ def main() -> None:
             ev.frequencies(warm, model)
         best = {t: float("inf") for t in evs}
         load0 = os.getloadavg()[0]
-        for _ in range(args.repeat):  # interleaved: a busy phase of a shared machine hits both
+        for _ in range(args.repeat):  # interleaved: a busy phase of a shared machine hits every count
             for t, ev in evs.items():
                 P = batches.pop()
                 t0 = time.perf_counter()
