@@ -118,7 +118,7 @@ class PoseCompletion:
         p = self.resolver.resolve(len(arr), params or {}, "rigid")
         closure = getattr(self.module, "followers", None)
         reference = self.follower_reference()
-        iterate = None
+        iterate_on = None  # inner threads -> the C iterations (levenberg_marquardt.solve's iterate)
         threads = self.c_threads()
         if threads is not None and reference is None and "followers" in self.kernels.OUTPUTS:
             from .c_levenberg_marquardt import followers_driver
@@ -126,18 +126,18 @@ class PoseCompletion:
             followers = [FULL.index(c) for c in self.space.followers]
             if followers_driver() is not None:  # the followers' Newton iterations in C
 
-                def iterate(q, pp, its, tl, inner):
-                    return self.kernels.follow(q, pp, followers, its, tl, threads=inner)
+                def iterate_on(inner):
+                    return lambda q, pp, its, tl: self.kernels.follow(q, pp, followers, its, tl, threads=inner)
 
         n = len(arr)
 
         def complete(sl, inner):
-            its = None if iterate is None else (lambda q, pp, i, tl: iterate(q, pp, i, tl, inner))
+            its = None if iterate_on is None else iterate_on(inner)
             return full_poses(self.space, arr[sl], closure, take(p, sl) if n > 1 else p, reference, its)
 
         # fixed chunks, as for numeric IK (:meth:`solve_joints`); on the C route whole chunks
         # run on the threads
-        done = map_chunks(complete, n, threads if iterate is not None else 1)
+        done = map_chunks(complete, n, threads if iterate_on is not None else 1)
         return (done[0] if len(done) == 1 else np.concatenate(done)).view(CompletedPoses)
 
     def follower_reference(self):
@@ -297,23 +297,23 @@ class PoseCompletion:
         n = len(poses)
         reference = np.array(padded_references(self.robot.legs), dtype=float)
         signs = self.assembly()["sign"]
-        iterate = None
+        iterate_on = None  # inner threads -> the C iterations (levenberg_marquardt.solve's iterate)
         threads = self.c_threads()
         if threads is not None:
             from . import c_levenberg_marquardt
 
             if c_levenberg_marquardt.driver() is not None:
 
-                def iterate(q, pp, its, tl, inner):
-                    return self.kernels.newton(q, pp, its, tl, threads=inner)
+                def iterate_on(inner):
+                    return lambda q, pp, its, tl: self.kernels.newton(q, pp, its, tl, threads=inner)
 
         def one(sl, inner):
             kp = self.closure_inputs(poses[sl], take(p, sl) if n > 1 else p)
-            its = None if iterate is None else (lambda q, pp, i, tl: iterate(q, pp, i, tl, inner))
+            its = None if iterate_on is None else iterate_on(inner)
 
             def branch(q):
                 with np.errstate(invalid="ignore", divide="ignore"):
-                    if iterate is None:
+                    if its is None:
                         return self.kernels.jacobians(q, kp)["lever"]
                     return self.kernels.jacobians(q, kp, threads=inner)["lever"]
 
@@ -339,7 +339,7 @@ class PoseCompletion:
         def into(sl, inner):
             q[sl], off[sl] = one(sl, inner)
 
-        map_chunks(into, n, threads if iterate is not None else 1)
+        map_chunks(into, n, threads if iterate_on is not None else 1)
         memo.clear()
         memo[key] = (q, off)
         return q
