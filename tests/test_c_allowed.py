@@ -109,16 +109,20 @@ def test_threads_split_on_blocks_give_the_same_bits():
 
 
 @pytest.mark.parametrize("m", (3, 6))
-def test_the_reduction_on_threads_gives_the_same_bits(m):
+def test_the_reduction_on_threads_gives_the_same_bits(m, monkeypatch):
     """B^T X B split over threads on block boundaries (a short last block) equals one
     thread bit for bit, and the poses' results stay in their rows."""
-    from eigentwist.runtime import allowed
+    from eigentwist.runtime import allowed, threads
 
     rng = np.random.default_rng(m)
     n = 2 * MIN_BLOCKS_PER_THREAD * c_allowed.BLOCK + 17
     X, B = rng.standard_normal((n, 6, 6)), rng.standard_normal((n, 6, m))
     one = c_allowed.reduce(X, B, threads=1)
+    counts = []
+    run = threads.run_ranges
+    monkeypatch.setattr(threads, "run_ranges", lambda call, n, block, t: counts.append(t) or run(call, n, block, t))
     assert np.array_equal(c_allowed.reduce(X, B, threads=2), one)
+    assert counts == [2]  # split over both threads
     assert np.array_equal(allowed.reduce(X, B, compiled=True, threads=2), one)
     np.testing.assert_allclose(one[-1], B[-1].T @ X[-1] @ B[-1], rtol=1e-13, atol=1e-13 * np.abs(one).max())
 

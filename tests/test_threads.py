@@ -54,10 +54,34 @@ def test_ranges_cover_the_batch_on_block_boundaries(n, parts):
     assert len(ranges) <= parts
 
 
+def test_an_empty_batch_has_no_ranges():
+    assert threads.block_ranges(0, 64, 3) == []
+
+
 def test_run_ranges_returns_results_in_order():
     out = threads.run_ranges(lambda a, b: (a, b), 64 * 100 + 3, 64, 3)
     assert out[0][0] == 0 and out[-1][1] == 64 * 100 + 3
     assert [a for a, _ in out] == sorted(a for a, _ in out)
+
+
+@pytest.mark.parametrize("count", [1, 2])
+def test_run_ranges_one_thread_is_one_call_on_the_caller_and_an_empty_batch_none(count):
+    """One thread: the whole batch in one call on the calling thread; two: several calls on
+    the pool's threads. An empty batch: no call on any count."""
+    import threading
+
+    calls = []
+
+    def call(a, b):
+        calls.append((a, b, threading.current_thread() is threading.main_thread()))
+
+    threads.run_ranges(call, 64 * 8, 64, count)
+    if count == 1:
+        assert calls == [(0, 64 * 8, True)]
+    else:
+        assert len(calls) > 1 and not any(main for *_, main in calls)
+    calls.clear()
+    assert threads.run_ranges(call, 0, 64, count) == [] and calls == []
 
 
 def test_map_tasks_keeps_the_items_order_and_runs_small_work_on_the_caller():
@@ -74,6 +98,8 @@ def test_map_tasks_keeps_the_items_order_and_runs_small_work_on_the_caller():
     where.clear()
     assert threads.map_tasks(task, list(range(40)), 3) == [k * k for k in range(40)]
     assert not any(where)  # on the pool's threads
+    where.clear()
+    assert threads.map_tasks(task, [2, 3], 2) == [4, 9] and not any(where)  # two items: on the pool too
 
 
 def test_map_chunks_runs_chunks_side_by_side_with_one_inner_thread():
@@ -92,4 +118,6 @@ def test_map_chunks_runs_chunks_side_by_side_with_one_inner_thread():
     assert all(inner == 1 and not main for *_, inner, main in got)
     assert [g[2:] for g in map_chunks(task, n, 1)] == [(1, True)] * 3
     assert map_chunks(task, CHUNK, 3) == [(0, CHUNK, 3, True)]  # one chunk: its C calls take the threads
+    two = map_chunks(task, CHUNK + 1, 2)  # two chunks: side by side already
+    assert [g[:3] for g in two] == [(0, CHUNK, 1), (CHUNK, CHUNK + 1, 1)] and not any(g[3] for g in two)
     assert map_chunks(task, 0, 3) == []

@@ -86,9 +86,11 @@ def block_ranges(n: int, block: int, parts: int) -> list[tuple[int, int]]:
     """``parts`` (or fewer) contiguous ``(begin, end)`` ranges covering [0, n), every
     boundary a multiple of ``block`` (except the final end, n)."""
     blocks = -(-n // block)
+    if blocks == 0:
+        return []
     parts = max(1, min(parts, blocks))
     cuts = [min(n, (blocks * k // parts) * block) for k in range(parts + 1)]
-    return [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+    return list(zip(cuts[:-1], cuts[1:]))  # parts <= blocks: every range holds a block or more
 
 
 _POOLS: dict = {}
