@@ -800,3 +800,23 @@ def test_three_masses_shapes_are_the_null_vectors():
         x = d.shapes[0, :, j]
         assert x[np.argmax(np.abs(x))] == pytest.approx(1.0, abs=1e-15)
         assert np.linalg.norm(dynamic(d.poles[0, j]) @ x) < 1e-9 * np.linalg.norm(dynamic(d.poles[0, j]))
+
+
+@pytest.mark.parametrize("order", [(0, 1, 2, 3), (3, 2, 1, 0), (1, 3, 0, 2)])
+def test_real_poles_of_equal_share_give_the_slower_whatever_their_order(order):
+    """A decoupled subsystem's real poles share a mode equally (1 each, to round-off): the
+    overdamped mode takes the slowest and pairs it with the next slowest, in whatever order
+    the eigenvalue solver returns them; a share larger by more than SHARE_TIE wins over a
+    slower pole."""
+    s0 = np.array([-20.0 + 0j, -70.0 + 0j, -800.0 + 0j, -5.0 + 0j])
+    share0 = np.array([[1.0, 1.0 - 1e-15, 1.0, damped.SHARE_TIE / 2]])  # the fourth pole: outside the tie
+    share0[0, 3] = 1.0 - 2 * damped.SHARE_TIE
+    idx = np.array(order)
+    s, share = s0[idx], share0[:, idx]
+    wn, zeta, wd, poles, _ = damped._assign(s[None], share[None], 1)
+    assert poles[0, 0] == -20.0 and wn[0, 0] == pytest.approx(np.sqrt(20.0 * 70.0), rel=1e-15) and wd[0, 0] == 0.0
+    # within the tie, the slower pole wins
+    share1 = share0.copy()
+    share1[0, 3] = 1.0 - damped.SHARE_TIE / 2
+    wn, _, _, poles, _ = damped._assign(s[None], share1[:, idx][None], 1)
+    assert poles[0, 0] == -5.0 and wn[0, 0] == pytest.approx(np.sqrt(5.0 * 20.0), rel=1e-15)

@@ -50,6 +50,7 @@ import ctypes
 import numpy as np
 
 from .addresses import address
+from .damped import SHARE_TIE
 
 __all__ = [
     "driver",
@@ -83,6 +84,7 @@ SOURCE = r"""
 #define MAXM (2 * MAXN + MAXL)
 #define MAX_ASSIGN 10
 #define NO_POLE 1e300
+#define SHARE_TIE @SHARE_TIE@ /* runtime.damped.SHARE_TIE: shares this close tie; the slower pole wins */
 
 /* M = C C^T (C lower, n x n row-major); 0 where M is not positive definite */
 static int et_cholesky(int n, const double *M, double *C)
@@ -884,9 +886,12 @@ static int et_poles(int n, int m, const double *Ar, const double complex *Ac, co
                     continue;
                 if (!nr)
                     break;
-                int b = 0;
+                double top = share[j * m + real[0]];
                 for (int r = 1; r < nr; ++r)
-                    if (share[j * m + real[r]] > share[j * m + real[b]])
+                    top = fmax(top, share[j * m + real[r]]);
+                int b = -1;
+                for (int r = 0; r < nr; ++r)
+                    if (share[j * m + real[r]] >= top - SHARE_TIE && (b < 0 || wr[real[r]] > wr[real[b]]))
                         b = r;
                 col[j] = real[b];
                 for (int r = b; r < nr - 1; ++r) /* the remaining poles keep their order */
@@ -911,12 +916,14 @@ static int et_poles(int n, int m, const double *Ar, const double complex *Ac, co
         wd[j] = fabs(im);
         if (im == 0.0) { /* overdamped: this real pole and the real one of next largest share */
             int other = col[j];
-            double best = -1.0;
+            double top = -1.0;
             for (int k = 0; k < m; ++k)
-                if (k != col[j] && wi[k] == 0.0 && fabs(wr[k]) < NO_POLE && share[j * m + k] > best) {
-                    best = share[j * m + k];
+                if (k != col[j] && wi[k] == 0.0 && fabs(wr[k]) < NO_POLE)
+                    top = fmax(top, share[j * m + k]);
+            for (int k = 0; k < m; ++k)
+                if (k != col[j] && wi[k] == 0.0 && fabs(wr[k]) < NO_POLE && share[j * m + k] >= top - SHARE_TIE
+                    && (other == col[j] || wr[k] > wr[other]))
                     other = k;
-                }
             double s1 = re, s2 = wr[other];
             poles[2 * j] = fmax(s1, s2); /* the slower of the pair */
             wn[j] = sqrt(fabs(s1 * s2));
@@ -1511,7 +1518,7 @@ int et_exact_pass(int64_t begin, int64_t end, int64_t block, et_fused_fn fused, 
     }
     return 0;
 }
-"""
+""".replace("@SHARE_TIE@", repr(SHARE_TIE))
 
 _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []  # the loaded driver library, kept for the process

@@ -62,6 +62,10 @@ ELIMINATE = 1e-9
 SINGULAR = 1e-12
 #: where the pencil's infinite eigenvalues are put (far left: never a pole of a mode)
 NO_POLE = 1e300
+#: real poles whose modal-energy shares in a mode differ by less than SHARE_TIE share it
+#: equally (a decoupled subsystem's poles have share 1 each, to round-off ~1e-15): the slower
+#: is taken, so the choice does not follow the order in which LAPACK returns them
+SHARE_TIE = 1e-9
 #: a pole with damping ratio below -UNSTABLE_ZETA grows: the pose is unstable (round-off
 #: of the undamped limit's poles is ~1e-16)
 UNSTABLE_ZETA = 1e-9
@@ -428,11 +432,19 @@ def _assign(s: np.ndarray, share: np.ndarray, n: int):
     return wn, zeta, wd, poles, cols
 
 
+def _largest_share(s: np.ndarray, shares: np.ndarray, real: np.ndarray) -> int:
+    """The real pole (an index of ``s``, one of ``real``) of largest share (``shares``: a
+    mode's shares of every pole), the slower among shares within :data:`SHARE_TIE` of it."""
+    top = shares[real].max()
+    tied = real[shares[real] >= top - SHARE_TIE]
+    return int(tied[np.argmax(s[tied].real)])
+
+
 def _pair(s: np.ndarray, share: np.ndarray, j: int, first: int):
     """The two real poles of overdamped mode j: ``first`` and the real pole with the next
-    largest share in it."""
+    largest share in it (:func:`_largest_share`)."""
     real = np.flatnonzero((s.imag == 0) & (np.arange(len(s)) != first) & (np.abs(s) < NO_POLE))
-    other = real[np.argmax(share[j, real])] if len(real) else first
+    other = _largest_share(s, share[j], real) if len(real) else first
     return s[first].real, s[other].real
 
 
@@ -453,7 +465,7 @@ def _assign_one(s: np.ndarray, share: np.ndarray, n: int):
     for j in np.flatnonzero(~done):
         if not len(real):
             break
-        pick = real[np.argmax(share[j, real])]
+        pick = _largest_share(s, share[j], real)
         poles[j], cols[j] = s[pick], pick
         real = real[real != pick]
     return poles, cols
