@@ -50,7 +50,6 @@ import ctypes
 import numpy as np
 
 from .addresses import address
-from .damped import SHARE_TIE
 
 __all__ = [
     "driver",
@@ -72,6 +71,11 @@ MAX_LEGS = 16
 #: poses per block of the thread ranges
 BLOCK = 16
 
+#: real poles whose modal-energy shares in a mode differ by less than SHARE_TIE share it
+#: equally (a decoupled subsystem's poles have share 1 each, to round-off ~1e-15): the slower
+#: is taken, so the choice does not follow the order in which LAPACK returns them (the C
+#: driver's rule and :func:`eigentwist.runtime.damped._assign`'s)
+SHARE_TIE = 1e-9
 SOURCE = r"""
 #include <complex.h>
 #include <float.h>
@@ -84,7 +88,7 @@ SOURCE = r"""
 #define MAXM (2 * MAXN + MAXL)
 #define MAX_ASSIGN 10
 #define NO_POLE 1e300
-#define SHARE_TIE @SHARE_TIE@ /* runtime.damped.SHARE_TIE: shares this close tie; the slower pole wins */
+#define SHARE_TIE @SHARE_TIE@ /* SHARE_TIE of this module: shares this close tie; the slower pole wins */
 
 /* M = C C^T (C lower, n x n row-major); 0 where M is not positive definite */
 static int et_cholesky(int n, const double *M, double *C)

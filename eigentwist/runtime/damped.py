@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .c_damped import SHARE_TIE
 from .eigen import generalized_eigh
 from .errors import InputError
 
@@ -62,10 +63,6 @@ ELIMINATE = 1e-9
 SINGULAR = 1e-12
 #: where the pencil's infinite eigenvalues are put (far left: never a pole of a mode)
 NO_POLE = 1e300
-#: real poles whose modal-energy shares in a mode differ by less than SHARE_TIE share it
-#: equally (a decoupled subsystem's poles have share 1 each, to round-off ~1e-15): the slower
-#: is taken, so the choice does not follow the order in which LAPACK returns them
-SHARE_TIE = 1e-9
 #: a pole with damping ratio below -UNSTABLE_ZETA grows: the pose is unstable (round-off
 #: of the undamped limit's poles is ~1e-16)
 UNSTABLE_ZETA = 1e-9
