@@ -1,16 +1,18 @@
-"""Sensitivity throughput (all parameters, C, one thread) and compile time.
+"""Sensitivity throughput (all parameters, C, one thread), generation, compile and memory.
 
     PYTHONPATH=. python benchmarks/sensitivity.py                  # Heli4 and Delta, warm cache
     PYTHONPATH=. python benchmarks/sensitivity.py --cold --n 2000  # fresh cache: generation + compile
 
-For each robot: the time to generate (SymPy forward mode, CSE, render) and compile (gcc,
-the kernel split into functions of ``CHUNK`` statements) the C sensitivity kernel for
-every parameter of the description, then, best of 3 repetitions, each on its own ``--n``
-random workspace poses:
+For each robot and the paper model: the time to generate (SymPy: derive, CSE of M and K,
+the reverse sweep, render) and compile (gcc, the kernel split into functions of ``CHUNK``
+statements) the C kernel that ``Evaluator.sensitivities`` uses for every parameter of the
+description (:mod:`eigentwist.codegen.adjoint`), the peak resident memory of this process
+and of the compiler, then, best of 3 repetitions, each on its own ``--n`` random workspace
+poses:
 
 - ``Evaluator.frequencies`` (the baseline: IK, M, K_F, eigen-solve, C backend),
-- the raw sensitivity kernel (M, K and dM/dp, dK/dp for every parameter),
-- ``Evaluator.sensitivities`` (checks, kernel, eigen-solve and cluster-aware dω/dp),
+- ``Evaluator.sensitivities`` (checks, M and K, eigen-solve, one weighting of the kernel
+  per mode, cluster-aware dω/dp),
 - ``Evaluator.sensitivities(method="differences")`` (central differences of the matrices,
   the same eigenvalue perturbation; nothing generated),
 
@@ -75,21 +77,22 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
     poses = sets[0]
 
     t, c, k = time.perf_counter(), time.process_time(), _children_cpu()
-    kern = sensitivity_kernels(ev, wrt, progress=lambda m: print("   ", m, file=sys.stderr, flush=True))
-    gen = dict(wall_s=time.perf_counter() - t, python_cpu_s=time.process_time() - c, compiler_cpu_s=_children_cpu() - k)
-
-    def raw(x):
-        kern(x[:, 0], x[:, 1], x[:, 2], ev.resolver.resolve(len(x), {}, "paper"))
+    sensitivity_kernels(ev, wrt, progress=lambda m: print("   ", m, file=sys.stderr, flush=True), kind="flexible")
+    gen = dict(
+        wall_s=time.perf_counter() - t,
+        python_cpu_s=time.process_time() - c,
+        compiler_cpu_s=_children_cpu() - k,
+        python_peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        compiler_peak_mb=resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
+    )
 
     for fn in (
         ev.frequencies,
-        raw,
         lambda x: ev.sensitivities(x, wrt),
         lambda x: ev.sensitivities(x, wrt, method="differences"),
     ):
         fn(sets[0])
     t_freq = _best(ev.frequencies, sets[1:])
-    t_kern = _best(raw, sets[1:])
     t_sens = _best(lambda x: ev.sensitivities(x, wrt), sets[1:])
     t_diff = _best(lambda x: ev.sensitivities(x, wrt, method="differences"), sets[1:])
     return dict(
@@ -99,7 +102,6 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
         poses=len(poses),
         generate_and_compile=gen,
         frequencies=1 / t_freq,
-        kernel=1 / t_kern,
         sensitivities=1 / t_sens,
         differences=1 / t_diff,
     )
@@ -126,10 +128,10 @@ def main() -> None:
         print(
             f"  kernel {'generated and compiled' if args.cold else 'loaded'} in {g['wall_s']:.1f} s wall "
             f"({g['python_cpu_s']:.1f} s Python CPU, {g['compiler_cpu_s']:.1f} s compiler CPU; "
-            f"{r['chunk']} statements per C function)"
+            f"{r['chunk']} statements per C function; peak memory {g['python_peak_mb']:.0f} MB Python, "
+            f"{g['compiler_peak_mb']:.0f} MB compiler)"
         )
         print(f"  frequencies (baseline)      {r['frequencies']:10.4g} poses/s")
-        print(f"  raw sensitivity kernel      {r['kernel']:10.4g} poses/s  ({r['kernel'] / r['frequencies']:.3f}x)")
         print(
             f"  Evaluator.sensitivities     {r['sensitivities']:10.4g} poses/s  "
             f"({r['sensitivities'] / r['frequencies']:.3f}x)"

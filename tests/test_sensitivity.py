@@ -1,6 +1,7 @@
 """Design sensitivities: generated dM/dp, dK/dp and frequency derivatives.
 
-The derivative code is generated on first use (forward mode on the straight-line program,
+The derivative code is generated on first use (forward mode on the straight-line program
+for dM/dp and dK/dp; reverse mode over the CSE'd M and K for the frequencies' derivatives;
 seconds to a minute per parameter list) and cached by content hash; the fixtures below ask
 for one parameter list per robot, so the suite generates it once per cache.
 """
@@ -226,3 +227,54 @@ def test_each_backend_text_rendered_when_first_asked_for_from_one_kernel(monkeyp
         path.unlink()
     sens._source(ev, ("l1",), "c", None)  # neither on disk nor kept (two newer kernels): built again
     assert built == [("l1",), *others, ("l1",)]
+
+
+def test_reverse_sweep_equals_sympy_diff():
+    """The reverse sweep of a small program (products, powers, functions, a shared
+    intermediate) gives d(w1 e1 + w2 e2)/dx and /dy equal to SymPy's diff of the expanded form."""
+    from eigentwist.symbolic.adjoint import reverse_sweep
+    from eigentwist.symbolic.program import Program
+
+    x, y, w1, w2 = sp.symbols("x y w1 w2", real=True)
+    prog = Program()
+    for s_ in (x, y, w1, w2):
+        prog.declare(s_)
+    a = prog.let("a", x * y + sp.sin(x) ** 2)
+    b = prog.let("b", sp.sqrt(a) * (x + 3 * y) ** 3 / y)
+    e1, e2 = a * b + sp.cos(a * y), b**2 - x * a
+    swept, grads = reverse_sweep(prog, [(w1, e1), (w2, e2)], [x, y])
+    scalar = prog.expand(w1 * e1 + w2 * e2)
+    values = {x: 0.7, y: 1.3, w1: -0.4, w2: 2.1}
+    for s_, g in zip((x, y), grads):
+        want = float(sp.diff(scalar, s_).subs(values))
+        got = float(swept.expand(g).subs(values))
+        assert got == pytest.approx(want, rel=1e-12)
+
+
+def test_reverse_kernel_is_the_forward_kernel_contracted(evs):
+    """The reverse-mode kernel of the flexible model with random symmetric weights W_M, W_K
+    equals the forward-mode kernel's dM/dp and dK_F/dp contracted with them (two derivations
+    of the same program; NumPy)."""
+    from eigentwist.runtime.sensitivity import _weights
+
+    ev = evs["heli4"]
+    wrt = WRT["heli4"]
+    poses = random_poses(ev.robot, 20, seed=8)
+    rng = np.random.default_rng(8)
+    WM, WK = (w + np.swapaxes(w, 1, 2) for w in rng.normal(size=(2, len(poses), 6, 6)))
+    p = ev.completion.with_pose(poses, ev.resolver.resolve(len(poses), {}, "paper"))
+    fwd = sensitivity_kernels(ev, wrt)(poses[:, 0], poses[:, 1], poses[:, 2], p)
+    want = np.einsum("nij,npij->np", WM, fwd["dM"]) + np.einsum("nij,npij->np", WK, fwd["dK_F"])
+    rev = sensitivity_kernels(ev, wrt, kind="flexible")
+    got = rev(poses[:, 0], poses[:, 1], poses[:, 2], {**p, **_weights(WM, "M"), **_weights(WK, "K")})["g"]
+    err = np.abs(got - want) / (np.abs(want) + 1e-12 * np.abs(want).max(axis=0) + 1e-300)
+    assert err.max() <= 1e-10, err.max()
+
+
+def test_a_kernel_kind_or_stiffness_not_known_is_named(evs):
+    from eigentwist.codegen.adjoint import adjoint_kernel
+
+    with pytest.raises(InputError, match="kind='reverse': expected one of forward, rigid, flexible"):
+        sensitivity_kernels(evs["heli4"], ("k_a",), kind="reverse")
+    with pytest.raises(InputError, match="stiffness='soft'"):
+        adjoint_kernel(None, ("k_a",), "soft")

@@ -79,7 +79,7 @@ KERNEL_DOCS = {
 SYMMETRIC = {"M", "K_R", "K_F", "Kqe"}
 
 
-def _pose_split(model) -> tuple[list, list[str]]:
+def pose_split(model) -> tuple[list, list[str]]:
     """(position symbols x, y, z, the other pose inputs' names): the backends take the
     position as the inverse kinematics' arguments and any further pose input (a 6-DoF
     robot's rotation matrix entries R_ij) through the parameter dict."""
@@ -99,7 +99,7 @@ def kernels_for(model, progress=None) -> list[Kernel]:
     parameters; a model whose program also reads the pose (a 6-DoF robot) takes it
     through the parameter dict (names from ``model.pose_inputs``).
     """
-    position, rotation = _pose_split(model)
+    position, rotation = pose_split(model)
     params = list(model.inputs)
     nq = joints_per_leg(model)
     kernels = []
@@ -160,7 +160,7 @@ def fused_kernels_for(model) -> list[Kernel]:
     so the singularity check costs nothing). Empty when the model has no levers."""
     if "lever" not in model.outputs["jacobians"]:
         return []
-    position, rotation = _pose_split(model)
+    position, rotation = pose_split(model)
     params = list(model.inputs) + [s.name for s in position] + rotation
     outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs["matrices"].items()]
     outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))

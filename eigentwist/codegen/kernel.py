@@ -106,8 +106,12 @@ def build_kernel(
     joints: list,
     params: list,
     joints_per_leg: int = 3,
+    cse: bool = True,
 ) -> Kernel:
     """Prune ``program`` to what ``outputs`` need, run CSE and order the statements.
+
+    ``cse=False`` keeps the program's own statements (one already CSE'd, e.g. a reverse
+    sweep over a CSE'd kernel: a second CSE would cost more than it finds).
 
     Raises :class:`UndeclaredSymbolError` naming the symbol when an expression uses
     anything that is not a declared input (style: fail fast, as pydy does).
@@ -136,7 +140,8 @@ def build_kernel(
                 )
             used_inputs.add(s_.name)
 
-    replacements, reduced = sp.cse([r for _, r in lets] + out_exprs, symbols=sp.numbered_symbols("t", real=True))
+    exprs = [r for _, r in lets] + out_exprs
+    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("t", real=True)) if cse else ([], exprs)
     stmts = {s_: e for s_, e in replacements}
     stmts.update({s_: red for (s_, _), red in zip(lets, reduced[: len(lets)])})
     order: list = []

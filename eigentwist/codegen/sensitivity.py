@@ -152,7 +152,9 @@ def split_parts(kernel: Kernel, kctx: dict, chunk: int | None = None) -> list[di
     return parts
 
 
-def render_c_sensitivity(robot, kernel: Kernel, wrt) -> str:
+def render_c_sensitivity(
+    robot, kernel: Kernel, wrt, method: str = "derivatives by forward mode on the straight-line program"
+) -> str:
     """The C source of the sensitivity kernel: ``et_<robot>_sens_<kernel>`` and a signature.
 
     The statements are split into functions of at most :data:`CHUNK` statements
@@ -183,6 +185,7 @@ def render_c_sensitivity(robot, kernel: Kernel, wrt) -> str:
         .get_template("sensitivity/sensitivity.c.jinja")
         .render(
             header=_header(robot.name, wrt, digest, "//"),
+            method=method,
             robot=robot,
             prefix=prefix,
             block=BLOCK,

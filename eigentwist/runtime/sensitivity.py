@@ -7,7 +7,10 @@ straight-line program, :mod:`eigentwist.symbolic.sensitivity`) and cached by con
 hash in :func:`~eigentwist.runtime.ccompile.cache_dir`: the key hashes the robot's
 generated evaluator (its source hash), the parameter list and the code that derives and
 renders the kernel, so a cache hit needs no SymPy at all. The C backend compiles the same
-kernel with :func:`~eigentwist.runtime.ccompile.build_library`.
+kernel with :func:`~eigentwist.runtime.ccompile.build_library`. With ``kind="rigid"`` or
+``"flexible"`` it is the reverse-mode kernel of that stiffness model
+(:mod:`eigentwist.codegen.adjoint`): the derivative of a weighted M and K with respect to
+every parameter, which :func:`adjoint_eigen_derivatives` weights by each mode.
 
 :func:`eigenvalue_derivatives` turns them into dλ/dp for ``K v = λ M v``:
 dλ = vᵀ(dK − λ dM)v for M-orthonormal v; inside a cluster of (nearly) repeated
@@ -19,6 +22,7 @@ for an increasing p), never their mean.
 from __future__ import annotations
 
 import ctypes
+import inspect
 import json
 import types
 from pathlib import Path
@@ -71,26 +75,50 @@ def difference_step(ev, name: str, params: dict) -> tuple[np.ndarray, np.ndarray
     return value, DIFFERENCE_STEP * np.where(scale > 0, scale, 1.0)
 
 
-def cache_key(ev, wrt) -> str:
+#: the kinds of sensitivity kernel: ``"forward"`` (M, K_R, K_F and their derivatives, forward
+#: mode) and, per stiffness model, the reverse-mode kernel of a weighted M and K
+KINDS = ("forward", "rigid", "flexible")
+
+
+def cache_key(ev, wrt, kind: str = "forward") -> str:
     """Content hash of what the kernel is made from (:func:`eigentwist.hashing.content_hash`): the
-    evaluator's source hash, the robot's description (its functions by their code), ``wrt`` and the
-    code that derives and renders the kernel (read from its files: no SymPy is imported)."""
+    evaluator's source hash, the robot's description (its functions by their code), ``wrt``, the
+    kernel's ``kind`` (:data:`KINDS`) and the code that derives and renders the kernel (read from
+    its files: no SymPy is imported)."""
     return content_hash(
-        ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot), tuple(wrt), package_digest()
+        ev.robot.name,
+        getattr(ev.module, "SOURCE_HASH", ""),
+        _description_text(ev.robot),
+        tuple(wrt),
+        kind,
+        package_digest(),
     )
 
 
-def _source(ev, wrt, backend: str, progress) -> str:
-    """The ``backend`` (``"numpy"`` or ``"c"``) text of the kernel from the cache, or
+def _generate(model, wrt, kind: str, progress):
+    """The kernel of ``kind`` (:data:`KINDS`) for a derived model."""
+    if kind == "forward":
+        from ..codegen.sensitivity import sensitivity_kernel
+
+        return sensitivity_kernel(model, wrt, progress=progress)
+    from ..codegen.adjoint import adjoint_kernel
+
+    return adjoint_kernel(model, wrt, kind, progress=progress)
+
+
+def _source(ev, wrt, backend: str, progress, kind: str = "forward") -> str:
+    """The ``backend`` (``"numpy"`` or ``"c"``) text of the kernel of ``kind`` from the cache, or
     generated and cached; the other backend's text is rendered when first asked for,
     from the same process's derivation where it is kept (:data:`KERNELS_KEPT`)."""
-    key = cache_key(ev, wrt)
+    key = cache_key(ev, wrt, kind)
     suffix = {"numpy": "py", "c": "c"}[backend]
-    path = private_directory("sensitivities") / f"{ev.robot.name}_sens_{key}.{suffix}"
+    tag = "sens" if kind == "forward" else f"adjoint_{kind}"
+    path = private_directory("sensitivities") / f"{ev.robot.name}_{tag}_{key}.{suffix}"
     found = read_verified(path)
     if found is not None:
         return found.decode("utf-8")
-    from ..codegen.sensitivity import render_c_sensitivity, render_numpy_sensitivity, sensitivity_kernel
+    from ..codegen.adjoint import METHOD
+    from ..codegen.sensitivity import render_c_sensitivity, render_numpy_sensitivity
 
     say = progress or (lambda msg: None)
     kernel = _KERNELS.pop(key, None)
@@ -100,19 +128,29 @@ def _source(ev, wrt, backend: str, progress) -> str:
         say(f"{ev.robot.name}: generating sensitivity code for {', '.join(wrt)} (once; cached in {path.parent})")
         say(f"{ev.robot.name}: derive")
         model = derive(ev.robot)
-        kernel = sensitivity_kernel(model, wrt, progress=lambda m: say(f"{ev.robot.name}: {m}"))
+        kernel = _generate(model, wrt, kind, lambda m: say(f"{ev.robot.name}: {m}"))
     say(f"{ev.robot.name}: render")
-    render = {"numpy": render_numpy_sensitivity, "c": render_c_sensitivity}[backend]
-    text = render(ev.robot, kernel, wrt)
+    if backend == "numpy":
+        text = render_numpy_sensitivity(ev.robot, kernel, wrt)
+    elif kind == "forward":
+        text = render_c_sensitivity(ev.robot, kernel, wrt)
+    else:
+        text = render_c_sensitivity(ev.robot, kernel, wrt, METHOD)
     write_verified(path, text.encode("utf-8"))
     _KERNELS.put(key, kernel)
     return text
 
 
-def _numpy_kernel(text: str, name: str):
+def _numpy_kernel(text: str, name: str, function: str = "sensitivities"):
     module = types.ModuleType(name)
     exec(compile(text, name, "exec"), module.__dict__)
-    fn = module.sensitivities
+    fn = getattr(module, function)
+    if function != "sensitivities" and "x" not in inspect.signature(fn).parameters:
+        # a kernel that reads no pose argument (the pose comes by name in ``p``)
+        def run(x, y, z, p):
+            return fn(p)
+
+        return run
 
     def run(x, y, z, p):
         return fn(x, y, z, p)
@@ -202,7 +240,7 @@ def _select(kern, columns):
 
     def run(x, y, z, p):
         out = kern(x, y, z, p)
-        return {k: (v[:, idx] if k.startswith("d") else v) for k, v in out.items()}
+        return {k: (v[:, idx] if k.startswith("d") or k == "g" else v) for k, v in out.items()}
 
     return run
 
@@ -215,34 +253,43 @@ def _description_text(robot) -> str:
     return held[1]
 
 
-def _base(ev) -> tuple:
-    """What identifies an evaluator's kernels in memory."""
-    return ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot), ev.backend
+def _base(ev, kind: str = "forward") -> tuple:
+    """What identifies an evaluator's kernels of ``kind`` in memory."""
+    return ev.robot.name, getattr(ev.module, "SOURCE_HASH", ""), _description_text(ev.robot), ev.backend, kind
 
 
-def sensitivity_kernels(ev, wrt, progress=None):
+def sensitivity_kernels(ev, wrt, progress=None, kind: str = "forward"):
     """The sensitivity kernel of evaluator ``ev`` for parameters ``wrt`` (its backend).
 
-    Generated once per content hash (seconds to a minute, ``progress`` called with
-    messages), then loaded from the cache; kept in memory for the process. A kernel
-    already loaded for a superset of ``wrt`` is reused (its rows selected).
+    ``kind`` (:data:`KINDS`): ``"forward"`` gives ``(x, y, z, p) -> {M, K_R, K_F, dM, dK_R,
+    dK_F}``; ``"rigid"`` or ``"flexible"`` the reverse-mode kernel ``(x, y, z, p) -> {g}`` of
+    that stiffness model, ``p`` holding the weights ``w_M_i_j``, ``w_K_i_j``
+    (:mod:`eigentwist.codegen.adjoint`). Generated once per content hash (seconds to a
+    minute, ``progress`` called with messages), then loaded from the cache; kept in memory
+    for the process. A kernel already loaded for a superset of ``wrt`` is reused (its rows
+    selected).
     """
+    from .errors import InputError
+
+    if kind not in KINDS:
+        raise InputError(f"kind={kind!r}: expected one of {', '.join(KINDS)}")
     wrt = tuple(wrt)
-    base = _base(ev)
+    base = _base(ev, kind)
     if (base, wrt) in _MEMORY:
         return _MEMORY[base, wrt]
     for (b, w), kern in list(_MEMORY.items()):
         if b == base and set(wrt) <= set(w):
             _MEMORY[base, wrt] = _select(kern, [w.index(name) for name in wrt])
             return _MEMORY[base, wrt]
-    key = cache_key(ev, wrt)
-    text = _source(ev, wrt, "c" if ev.backend == "c" else "numpy", progress)
+    key = cache_key(ev, wrt, kind)
+    text = _source(ev, wrt, "c" if ev.backend == "c" else "numpy", progress, kind)
     if ev.backend == "c":
         if progress:
             progress(f"{ev.robot.name}: compile (cached by content hash)")
         kern = _c_kernel(text, ev.robot.name)
     else:
-        kern = _numpy_kernel(text, f"eigentwist_sens_{ev.robot.name}_{key}")
+        function = "sensitivities" if kind == "forward" else "adjoint"
+        kern = _numpy_kernel(text, f"eigentwist_sens_{ev.robot.name}_{key}", function)
     _MEMORY[base, wrt] = kern
     return kern
 
@@ -288,6 +335,82 @@ def eigenvalue_derivatives(lam, V, dK, dM, rtol: float = CLUSTER_RTOL) -> np.nda
                 out[r, sl, :] = np.linalg.eigvalsh(P).T
             k = e + 1
     return out
+
+
+def _weights(W: np.ndarray, matrix: str) -> dict:
+    """The kernel's weight inputs of symmetric (R, 6, 6) weights ``W`` of ``matrix`` ("M"
+    or "K"): W_ii on the diagonal, W_ij + W_ji = 2 W_ij above it."""
+    from ..symbolic.adjoint import weight_name
+
+    return {weight_name(matrix, i, j): W[:, i, j] * (1.0 if i == j else 2.0) for i in range(6) for j in range(i, 6)}
+
+
+def _weighted(kern, x, y, z, p: dict, U: np.ndarray, UT: np.ndarray, lam: np.ndarray, extra) -> np.ndarray:
+    """(N, R, P): d/dp of u_rᵀ K t_r − λ_r u_rᵀ M t_r, symmetrised, for R pairs of twists per
+    pose (``U``, ``UT``: (N, 6, R); ``lam`` (N, R)), by the reverse-mode kernel ``kern``
+    (one row per pose and pair) plus ``extra`` (dM, dK) (N, P, 6, 6) contracted alike."""
+    n, _, r = U.shape
+    W = 0.5 * (np.einsum("nir,njr->nrij", U, UT) + np.einsum("nir,njr->nrij", UT, U))  # (N, R, 6, 6)
+    WM = -lam[:, :, None, None] * W
+    rows = {}
+    for k, v in p.items():
+        v = np.asarray(v)
+        rows[k] = np.repeat(v, r) if v.ndim == 1 and v.shape[0] == n and n > 1 else v
+    rows.update(_weights(W.reshape(n * r, 6, 6), "K"))
+    rows.update(_weights(WM.reshape(n * r, 6, 6), "M"))
+    g = kern(np.repeat(x, r), np.repeat(y, r), np.repeat(z, r), rows)["g"].reshape(n, r, -1)
+    if extra is not None:
+        dM, dK = extra
+        g = g + np.einsum("nrij,npij->nrp", W, dK) + np.einsum("nrij,npij->nrp", WM, dM)
+    return g
+
+
+def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLUSTER_RTOL, extra=None):
+    """``(lam, V, dlam)`` of ``Eᵀ K E v = λ Eᵀ M E v`` from the reverse-mode kernel.
+
+    ``kern``: :func:`sensitivity_kernels` of kind ``"rigid"`` or ``"flexible"``; ``x, y, z, p``
+    its inputs for N poses; ``M``, ``K`` (N, 6, 6) the matrices at those inputs; ``E`` (6, n)
+    or (N, 6, n) the twists the eigenproblem is posed on (the identity, the translations, a
+    point platform's allowed twists); ``extra``: further (dM, dK) (N, P, 6, 6) to add (a
+    lower-mobility platform's followers). dλ_k/dp = u_kᵀ(dK − λ_k dM)u_k with u_k = E v_k, each
+    mode one weighting of the kernel: every parameter in one reverse sweep; a cluster of
+    repeated eigenvalues (:func:`clusters`) gets the sorted eigenvalues of its pairs'
+    projected derivative u_aᵀ(dK − λ̄ dM)u_b, as :func:`eigenvalue_derivatives`.
+    """
+    from .eigen import generalized_eigh
+
+    E = np.asarray(E, dtype=float)
+    Mr = np.swapaxes(E, -1, -2) @ M @ E
+    Kr = np.swapaxes(E, -1, -2) @ K @ E
+    lam, V = generalized_eigh(Kr, Mr)
+    U = E @ V  # (N, 6, n): the modes as twists
+    dlam = _weighted(kern, x, y, z, p, U, U, lam, extra)
+    joined = clusters(lam, rtol)
+    n_modes = lam.shape[1]
+    for r in np.flatnonzero(joined.any(axis=1)):
+        k = 0
+        while k < n_modes:
+            e = k
+            while e < n_modes - 1 and joined[r, e]:
+                e += 1
+            if e > k:
+                a, b = np.triu_indices(e - k + 1)
+                one = {
+                    name: (v[r : r + 1] if np.ndim(v) == 1 and len(v) == len(x) and len(x) > 1 else v)
+                    for name, v in p.items()
+                }
+                Ur = U[r : r + 1, :, k : e + 1]
+                mean = np.full((1, len(a)), lam[r, k : e + 1].mean())
+                more = None if extra is None else tuple(d[r : r + 1] for d in extra)
+                g = _weighted(
+                    kern, x[r : r + 1], y[r : r + 1], z[r : r + 1], one, Ur[:, :, a], Ur[:, :, b], mean, more
+                )[0]
+                P = np.zeros((dlam.shape[2], e - k + 1, e - k + 1))
+                P[:, a, b] = g.T
+                P[:, b, a] = g.T
+                dlam[r, k : e + 1, :] = np.linalg.eigvalsh(P).T
+            k = e + 1
+    return lam, V, dlam
 
 
 # ------------------------------------------------------------ frequencies

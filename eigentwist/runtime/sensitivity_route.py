@@ -2,9 +2,9 @@
 
 A stage of an evaluation (:class:`~eigentwist.runtime.evaluator.Evaluator` holds one as
 ``ev.sensitivity_route``): d f / d p of a model's natural frequencies from the eigenvalue
-perturbation d omega^2 / d p = phi^T (dK - omega^2 dM) phi of the matrices' derivatives, which
-come from the generated sensitivity kernel (:mod:`.sensitivity`), from central differences of
-the matrices, or through the solved coordinates of legs solved by Newton and of a
+perturbation d omega^2 / d p = phi^T (dK - omega^2 dM) phi: every parameter at once from the
+generated reverse-mode kernel weighted by each mode (:mod:`.sensitivity`), from central
+differences of the matrices, or through the solved coordinates of legs solved by Newton and of a
 lower-mobility platform's followers (:mod:`.implicit`); a model whose finite modes come from the
 exact condensation takes the penalty's derivatives with its first-order error removed.
 """
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .completion import chunks, take
+from .completion import chunks, take, user_rows
 from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists
 from .errors import InputError
 from .mode_solver import MATRICES
@@ -77,6 +77,7 @@ class SensitivityRoute:
         parameters ``solved`` (the route's, or a penalty's other value), other than the
         rigid model on turning allowed twists."""
         from .sensitivity import (
+            adjoint_eigen_derivatives,
             frequency_derivatives,
             kernel_wrt,
             own_legs,
@@ -113,21 +114,50 @@ class SensitivityRoute:
         else:
             own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)
-            kern = sensitivity_kernels(self.ev, full, progress)
+            stiffness = "rigid" if rigid else "flexible"
+            kern = sensitivity_kernels(self.ev, full, progress, kind=stiffness)
+            E = self.twists(rigid, basis)
             p = self.ev.resolver.resolve(len(poses), solved, effects)
             parts = []
             for sl in chunks(len(poses)):
                 pc = take(p, sl)
                 self.ev.checks.check_rows(poses[sl], pc, strict=True)
-                out = kern(poses[sl, 0], poses[sl, 1], poses[sl, 2], self.ev.completion.with_pose(poses[sl], pc))
-                out = total(dict(out), full, sl)
-                parts.append(
-                    frequency_derivatives(out, rigid, rtol, translational=not self.ev.completion.six, basis=basis)
+                mats = self.ev.matrices(poses[sl], effects, **user_rows(solved, sl, len(poses)))
+                extra = None
+                if follow:
+                    d = total({"dM": 0.0, "dK_R": 0.0, "dK_F": 0.0}, full, sl)
+                    extra = (d["dM"], d["dK_R" if rigid else "dK_F"])
+                x = poses[sl]
+                lam, V, dlam = adjoint_eigen_derivatives(
+                    kern,
+                    x[:, 0],
+                    x[:, 1],
+                    x[:, 2],
+                    self.ev.completion.with_pose(x, pc),
+                    mats["M"],
+                    mats["K_R" if rigid else "K_F"],
+                    E,
+                    rtol,
+                    extra,
                 )
+                omega = np.sqrt(np.clip(lam, 0.0, None))
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    parts.append(
+                        (frequencies_hz(lam), normalize_eigentwists(V), dlam / (2 * omega[..., None]) / (2 * np.pi))
+                    )
             freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
             if own:
                 dfdp = shared_columns(dfdp, wrt, full, own)
         return freq, vec, dfdp
+
+    def twists(self, rigid: bool, basis) -> np.ndarray:
+        """(6, n): the twists a model's eigenproblem is posed on: a constant allowed-twist
+        ``basis`` (a point platform's translations), the translations of a rigid model of a
+        translational robot (the 3x3 subsets of M and K_R), else all six."""
+        if rigid and basis is not None:
+            return np.asarray(basis, dtype=float)
+        eye = np.eye(6)
+        return eye[:, 3:6] if rigid and not self.ev.completion.six else eye
 
     def matrix_derivatives(self, poses, wrt, model, params: dict) -> dict:
         """``Evaluator.matrix_derivatives``, the user's parameter values as the dict ``params``:

@@ -50,6 +50,15 @@ class Program:
         self.assignments.append((sym, expr))
         return sym
 
+    def assign(self, symbol: sp.Symbol, expr) -> sp.Symbol:
+        """Append ``symbol = expr`` under the symbol's own name (a statement carried over from
+        another program); raises :class:`DescriptionError` when the name is taken."""
+        if symbol.name in self._names:
+            raise DescriptionError(f"intermediate {symbol.name!r} assigned twice")
+        self._names.add(symbol.name)
+        self.assignments.append((symbol, expr))
+        return symbol
+
     def let_matrix(self, name: str, matrix: sp.Matrix) -> sp.Matrix:
         """Assign every entry of ``matrix`` to ``name_i`` (vectors) or ``name_i_j``."""
         rows, cols = matrix.shape

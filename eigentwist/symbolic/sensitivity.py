@@ -31,7 +31,7 @@ __all__ = ["gradient", "SensitivityModel", "sensitivity_program", "combined_prog
 OUTPUTS = ("M", "K_R", "K_F")
 
 
-def _postorder(expr) -> list:
+def postorder(expr) -> list:
     """Unique nodes of ``expr``'s tree, children before parents (iterative DFS)."""
     order, seen, stack = [], set(), [(expr, False)]
     while stack:
@@ -49,7 +49,7 @@ def _postorder(expr) -> list:
     return order
 
 
-def _local(node, i: int):
+def local_partial(node, i: int):
     """d node / d node.args[i] as an expression in the node's arguments."""
     args = node.args
     if isinstance(node, sp.Add):
@@ -75,7 +75,7 @@ def gradient(expr) -> dict:
     expr = sp.sympify(expr)
     if expr.is_Symbol:
         return {expr: sp.Integer(1)}
-    order = _postorder(expr)
+    order = postorder(expr)
     adj: dict = defaultdict(list)
     adj[expr].append(sp.Integer(1))
     grad = {}
@@ -91,7 +91,7 @@ def gradient(expr) -> dict:
         for i, child in enumerate(node.args):
             if child.is_Number or not child.free_symbols:
                 continue
-            adj[child].append(a * _local(node, i))
+            adj[child].append(a * local_partial(node, i))
     return grad
 
 
@@ -167,7 +167,7 @@ def _partial(prog: Program, partials: dict, sym_, rhs, dep):
     return partials[key]
 
 
-def _seeds_of(name: str, declared: dict):
+def seeds_of(name: str, declared: dict):
     """The program inputs whose tangent is 1 for a derivative with respect to ``name``.
 
     ``P``: P itself and, for a leg-level parameter, each leg's own input ``P__N``
@@ -196,7 +196,7 @@ def sensitivity_program(model, wrt, progress=None) -> SensitivityModel:
     """
     prog = combined_program(model)
     declared = {s_.name: s_ for s_ in prog.inputs}
-    unknown = [w for w in wrt if _seeds_of(w, declared) is None]
+    unknown = [w for w in wrt if seeds_of(w, declared) is None]
     if unknown:
         raise InputError(
             f"cannot differentiate with respect to {unknown}: not inputs of the model "
@@ -213,7 +213,7 @@ def sensitivity_program(model, wrt, progress=None) -> SensitivityModel:
     for n, name in enumerate(wrt, start=1):
         if progress:
             progress(f"forward mode {n}/{len(wrt)}: {name}")
-        seeds = _seeds_of(name, declared)
+        seeds = seeds_of(name, declared)
         tag = sp.Symbol(name.replace("@", "_at_"))
         tangents = {c: sp.Integer(1) for c in seeds}
         for sym_, rhs in base:
