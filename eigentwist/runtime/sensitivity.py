@@ -41,6 +41,8 @@ __all__ = [
     "CLUSTER_RTOL",
     "DIFFERENCE_STEP",
     "clusters",
+    "cluster_spans",
+    "adjoint_eigen_derivatives",
     "check_wrt",
     "own_legs",
     "kernel_wrt",
@@ -317,24 +319,28 @@ def eigenvalue_derivatives(lam, V, dK, dM, rtol: float = CLUSTER_RTOL) -> np.nda
     dK_d = np.sum(Vb * (dK @ Vb), axis=-2)  # (N, P, n): v_k^T dK v_k
     dM_d = np.sum(Vb * (dM @ Vb), axis=-2)
     out = np.swapaxes(dK_d - lam[:, None, :] * dM_d, 1, 2).copy()
-    joined = clusters(lam, rtol)
-    rows = np.flatnonzero(joined.any(axis=1))
-    for r in rows:
+    for r, sl in cluster_spans(clusters(lam, rtol)):
+        mean = lam[r, sl].mean()
+        Vc = V[r][:, sl]
+        P = Vc.T @ dK[r] @ Vc - mean * (Vc.T @ dM[r] @ Vc)
+        P = 0.5 * (P + np.swapaxes(P, -1, -2))
+        out[r, sl, :] = np.linalg.eigvalsh(P).T
+    return out
+
+
+def cluster_spans(joined: np.ndarray):
+    """``(row, slice)`` of every cluster of two or more eigenvalues, from :func:`clusters`'
+    (N, n-1) flags."""
+    n = joined.shape[1] + 1
+    for r in np.flatnonzero(joined.any(axis=1)):
         k = 0
-        n = lam.shape[1]
         while k < n:
             e = k
             while e < n - 1 and joined[r, e]:
                 e += 1
             if e > k:
-                sl = slice(k, e + 1)
-                mean = lam[r, sl].mean()
-                Vc = V[r][:, sl]
-                P = Vc.T @ dK[r] @ Vc - mean * (Vc.T @ dM[r] @ Vc)
-                P = 0.5 * (P + np.swapaxes(P, -1, -2))
-                out[r, sl, :] = np.linalg.eigvalsh(P).T
+                yield int(r), slice(k, e + 1)
             k = e + 1
-    return out
 
 
 def _weights(W: np.ndarray, matrix: str) -> dict:
@@ -385,31 +391,19 @@ def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLU
     lam, V = generalized_eigh(Kr, Mr)
     U = E @ V  # (N, 6, n): the modes as twists
     dlam = _weighted(kern, x, y, z, p, U, U, lam, extra)
-    joined = clusters(lam, rtol)
-    n_modes = lam.shape[1]
-    for r in np.flatnonzero(joined.any(axis=1)):
-        k = 0
-        while k < n_modes:
-            e = k
-            while e < n_modes - 1 and joined[r, e]:
-                e += 1
-            if e > k:
-                a, b = np.triu_indices(e - k + 1)
-                one = {
-                    name: (v[r : r + 1] if np.ndim(v) == 1 and len(v) == len(x) and len(x) > 1 else v)
-                    for name, v in p.items()
-                }
-                Ur = U[r : r + 1, :, k : e + 1]
-                mean = np.full((1, len(a)), lam[r, k : e + 1].mean())
-                more = None if extra is None else tuple(d[r : r + 1] for d in extra)
-                g = _weighted(
-                    kern, x[r : r + 1], y[r : r + 1], z[r : r + 1], one, Ur[:, :, a], Ur[:, :, b], mean, more
-                )[0]
-                P = np.zeros((dlam.shape[2], e - k + 1, e - k + 1))
-                P[:, a, b] = g.T
-                P[:, b, a] = g.T
-                dlam[r, k : e + 1, :] = np.linalg.eigvalsh(P).T
-            k = e + 1
+    for r, sl in cluster_spans(clusters(lam, rtol)):
+        a, b = np.triu_indices(sl.stop - sl.start)
+        one = {
+            name: (v[r : r + 1] if np.ndim(v) == 1 and len(v) == len(x) and len(x) > 1 else v) for name, v in p.items()
+        }
+        Ur = U[r : r + 1, :, sl]
+        mean = np.full((1, len(a)), lam[r, sl].mean())
+        more = None if extra is None else tuple(d[r : r + 1] for d in extra)
+        g = _weighted(kern, x[r : r + 1], y[r : r + 1], z[r : r + 1], one, Ur[:, :, a], Ur[:, :, b], mean, more)[0]
+        P = np.zeros((dlam.shape[2], len(Ur[0, 0]), len(Ur[0, 0])))
+        P[:, a, b] = g.T
+        P[:, b, a] = g.T
+        dlam[r, sl, :] = np.linalg.eigvalsh(P).T
     return lam, V, dlam
 
 
