@@ -1,7 +1,7 @@
 """The reverse-mode sensitivity kernel: every parameter's derivative of a weighted M and K.
 
 One kernel, ``adjoint``: a pose, the parameters and the weights ``w_M_i_j``, ``w_K_i_j``
-(i ≤ j, :func:`~eigentwist.symbolic.adjoint.weight_name`) to ``g`` (P,), the derivative of
+(i ≤ j, :func:`~eigentwist.description.weights.weight_name`) to ``g`` (P,), the derivative of
 ``Σ w_M_i_j M_ij + w_K_i_j K_ij`` with respect to each of the P requested parameters (per SI
 unit), K the stiffness model's (K_R, Eq. 14, or K_F, Eq. 13), chained through the inverse
 kinematics. With W_K = φφᵀ and W_M = −ω²φφᵀ of an M-orthonormal mode φ it is dω²/dp.
@@ -19,7 +19,8 @@ import sympy as sp
 from ..description.effects import switch_name
 from ..errors import DescriptionError, InputError
 from ..symbolic import POSE
-from ..symbolic.adjoint import reverse_sweep, weight_name
+from ..description.weights import weight_name
+from ..symbolic.adjoint import reverse_sweep
 from ..symbolic.program import Program
 from ..symbolic.sensitivity import seeds_of
 from .kernel import Kernel, Output, build_kernel
@@ -51,7 +52,8 @@ def _program(model, stiffness: str) -> tuple[Program, list]:
         prog.declare(s_)
     joints = set(model.joints)
     declared = {s_.name for s_ in prog.inputs}
-    for name in kern.input_names:
+    # every input of the model (a parameter that M and K do not read has derivative 0)
+    for name in [s_.name for s_ in model.program.inputs] + kern.input_names:
         if name not in declared and name not in {j.name for j in joints}:
             prog.declare(sp.Symbol(name, real=True))
             declared.add(name)

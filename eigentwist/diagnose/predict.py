@@ -404,7 +404,10 @@ class Predictor:
         wrt += tuple(n for n in names if n not in wrt)
         params = self._params({name: float(v) for name, v in zip(names, values)})
         check_model(self.effects)
-        sensitivity_kernels(self.ev, wrt)  # loaded (or generated) once; ``names`` select its rows
+        # the reverse-mode kernel of the model's stiffness, loaded (or generated) once for the
+        # superset; ``names`` select its rows
+        kind = "rigid" if self.ev.stiffness_model(self.effects) == "rigid" else "flexible"
+        sensitivity_kernels(self.ev, wrt, kind=kind)
         modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, tuple(names), self.effects, **params)
         freq, idx = match_frequencies(modes, self.meas.mode, strict=strict, lines=self.meas.lines)
         rows = np.arange(len(idx))

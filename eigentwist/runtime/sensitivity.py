@@ -346,7 +346,7 @@ def cluster_spans(joined: np.ndarray):
 def _weights(W: np.ndarray, matrix: str) -> dict:
     """The kernel's weight inputs of symmetric (R, 6, 6) weights ``W`` of ``matrix`` ("M"
     or "K"): W_ii on the diagonal, W_ij + W_ji = 2 W_ij above it."""
-    from ..symbolic.adjoint import weight_name
+    from ..description.weights import weight_name
 
     return {weight_name(matrix, i, j): W[:, i, j] * (1.0 if i == j else 2.0) for i in range(6) for j in range(i, 6)}
 

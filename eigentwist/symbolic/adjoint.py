@@ -27,13 +27,7 @@ import sympy as sp
 from .program import Program
 from .sensitivity import local_partial, postorder
 
-__all__ = ["elementary", "reverse_sweep", "weight_name", "named_subexpressions"]
-
-
-def weight_name(matrix: str, i: int, j: int) -> str:
-    """The input holding the weight of entry (i, j), i ≤ j, of ``matrix`` ("M" or "K"):
-    W_ii on the diagonal and W_ij + W_ji above it (each upper entry stands for both)."""
-    return f"w_{matrix}_{i}_{j}"
+__all__ = ["elementary", "reverse_sweep", "named_subexpressions"]
 
 
 def _inline(node) -> bool:
