@@ -251,10 +251,10 @@ def test_reverse_sweep_equals_sympy_diff():
         assert got == pytest.approx(want, rel=1e-12)
 
 
-def test_reverse_kernel_is_the_forward_kernel_contracted(evs):
+def test_reverse_kernel_is_the_matrices_derivatives_contracted(evs):
     """The reverse-mode kernel of the flexible model with random symmetric weights W_M, W_K
-    equals the forward-mode kernel's dM/dp and dK_F/dp contracted with them (two derivations
-    of the same program; NumPy)."""
+    equals the central differences of the checked-in M and K_F (nothing derived) contracted
+    with them, for lengths (through the IK), a mass, a modulus, stiffnesses and a ratio."""
     from eigentwist.runtime.sensitivity import _weights
 
     ev = evs["heli4"]
@@ -263,12 +263,12 @@ def test_reverse_kernel_is_the_forward_kernel_contracted(evs):
     rng = np.random.default_rng(8)
     WM, WK = (w + np.swapaxes(w, 1, 2) for w in rng.normal(size=(2, len(poses), 6, 6)))
     p = ev.completion.with_pose(poses, ev.resolver.resolve(len(poses), {}, "paper"))
-    fwd = sensitivity_kernels(ev, wrt)(poses[:, 0], poses[:, 1], poses[:, 2], p)
-    want = np.einsum("nij,npij->np", WM, fwd["dM"]) + np.einsum("nij,npij->np", WK, fwd["dK_F"])
+    d = ev.matrix_derivatives(poses, wrt, "paper")
+    want = np.einsum("nij,npij->np", WM, d["dM"]) + np.einsum("nij,npij->np", WK, d["dK_F"])
     rev = sensitivity_kernels(ev, wrt, kind="flexible")
     got = rev(poses[:, 0], poses[:, 1], poses[:, 2], {**p, **_weights(WM, "M"), **_weights(WK, "K")})["g"]
-    err = np.abs(got - want) / (np.abs(want) + 1e-12 * np.abs(want).max(axis=0) + 1e-300)
-    assert err.max() <= 1e-10, err.max()
+    err = np.abs(got - want) / (np.abs(want) + 1e-6 * np.abs(want).max(axis=0) + 1e-300)
+    assert err.max() <= 1e-6, err.max()
 
 
 def test_a_kernel_kind_or_stiffness_not_known_is_named(evs):
