@@ -18,8 +18,8 @@ import sympy as sp
 
 from ..description.effects import switch_name
 from ..errors import DescriptionError, InputError
-from ..symbolic import POSE
 from ..description.weights import weight_name
+from ..symbolic import POSE
 from ..symbolic.adjoint import reverse_sweep
 from ..symbolic.program import Program
 from ..symbolic.sensitivity import seeds_of
@@ -51,10 +51,10 @@ def _program(model, stiffness: str) -> tuple[Program, list]:
     for s_ in model.ik.inputs:
         prog.declare(s_)
     joints = set(model.joints)
-    declared = {s_.name for s_ in prog.inputs}
+    declared = {s_.name for s_ in prog.inputs} | {j.name for j in joints}
     # every input of the model (a parameter that M and K do not read has derivative 0)
     for name in [s_.name for s_ in model.program.inputs] + kern.input_names:
-        if name not in declared and name not in {j.name for j in joints}:
+        if name not in declared:
             prog.declare(sp.Symbol(name, real=True))
             declared.add(name)
     # the inverse kinematics' intermediates get their own names (a 6-DoF leg's geometry is

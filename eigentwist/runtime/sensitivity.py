@@ -383,6 +383,7 @@ def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLU
     repeated eigenvalues (:func:`clusters`) gets the sorted eigenvalues of its pairs'
     projected derivative u_aᵀ(dK − λ̄ dM)u_b, as :func:`eigenvalue_derivatives`.
     """
+    from .completion import take
     from .eigen import generalized_eigh
 
     E = np.asarray(E, dtype=float)
@@ -393,9 +394,7 @@ def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLU
     dlam = _weighted(kern, x, y, z, p, U, U, lam, extra)
     for r, sl in cluster_spans(clusters(lam, rtol)):
         a, b = np.triu_indices(sl.stop - sl.start)
-        one = {
-            name: (v[r : r + 1] if np.ndim(v) == 1 and len(v) == len(x) and len(x) > 1 else v) for name, v in p.items()
-        }
+        one = take({name: np.asarray(v) for name, v in p.items()}, slice(r, r + 1))
         Ur = U[r : r + 1, :, sl]
         mean = np.full((1, len(a)), lam[r, sl].mean())
         more = None if extra is None else tuple(d[r : r + 1] for d in extra)

@@ -58,8 +58,8 @@ def named_subexpressions(prog: Program, expr, active: set, owner: str, count: li
 
 def elementary(prog: Program, active: set) -> Program:
     """``prog`` in elementary form: each statement's active subexpressions that a local
-    partial reads are named before it (:func:`named_subexpressions`). ``active`` (the symbols that depend
-    on the differentiated inputs) grows by the new names and the statements that stay active."""
+    partial reads are named before it (:func:`named_subexpressions`). ``active`` (the symbols
+    that depend on the differentiated inputs) grows by the new names and active statements."""
     out = Program()
     for s_ in prog.inputs:
         out.declare(s_)
@@ -105,12 +105,11 @@ def _sweep(prog: Program, expr, adjoint, active: set, terms: dict, counts: dict,
             adj[node.args[i]].append(a if local == 1 else a * local)
 
 
-def reverse_sweep(prog: Program, weighted: list, inputs: list, progress=None) -> list:
-    """The derivative of ``Σ w · e`` over ``weighted`` (``(weight symbol, expression)``
-    pairs, expressions in ``prog``'s symbols) with respect to each symbol of ``inputs``
-    (declared inputs of ``prog``), as expressions; the statements of the sweep are
-    appended to ``prog``, which is put in elementary form first (a new program returned
-    with them: ``(program, derivatives)``)."""
+def reverse_sweep(prog: Program, weighted: list, inputs: list, progress=None) -> tuple[Program, list]:
+    """``(program, derivatives)``: ``prog`` in elementary form (:func:`elementary`, a new
+    program) followed by the statements of the sweep, and the derivative of ``Σ w · e`` over
+    ``weighted`` (``(weight symbol, expression)`` pairs in ``prog``'s symbols) with respect to
+    each symbol of ``inputs`` (declared inputs of ``prog``), as expressions in its symbols."""
     active = set(inputs)
     for s_, rhs in prog.assignments:
         if rhs.free_symbols & active:
