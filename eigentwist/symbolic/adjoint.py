@@ -79,14 +79,14 @@ def _accumulate(prog: Program, terms: dict, counts: dict, s_, contribution) -> N
     terms[s_] = new if new.is_Atom else prog.let(f"b{n}_{s_.name}", new)
 
 
-def _sweep(prog: Program, expr, adjoint, active: set, terms: dict, counts: dict, owner: str) -> None:
+def _sweep(prog: Program, expr, adjoint, terms: dict, counts: dict, active: set) -> None:
     """Add ``adjoint`` × d expr / d s to the adjoint of every active symbol s of ``expr``,
-    by reverse accumulation over its (elementary) tree; a node's adjoint that several
-    partials read is named ``a<k>_<owner>``."""
+    by reverse accumulation over its (elementary) tree. A node's adjoint is written out
+    where its partials read it: in elementary form it is ``adjoint``, its negative or a
+    product with short local partials."""
     order = postorder(expr)
     adj: dict = defaultdict(list)
     adj[expr].append(adjoint)
-    k = 0
     for node in reversed(order):
         if node not in adj:
             continue
@@ -97,9 +97,6 @@ def _sweep(prog: Program, expr, adjoint, active: set, terms: dict, counts: dict,
                 _accumulate(prog, terms, counts, node, a)
             continue
         kids = [i for i, c in enumerate(node.args) if not c.is_Number and c.free_symbols & active]
-        if len(kids) > 1 and not isinstance(node, sp.Add) and not a.is_Atom:
-            k += 1
-            a = prog.let(f"a{k}_{owner}", a)
         for i in kids:
             local = sp.Integer(1) if isinstance(node, sp.Add) else local_partial(node, i)
             adj[node.args[i]].append(a if local == 1 else a * local)
@@ -122,10 +119,10 @@ def reverse_sweep(prog: Program, weighted: list, inputs: list, progress=None) ->
     for k, (w, e) in enumerate(weighted):
         if e.free_symbols & active:
             root = named_subexpressions(out, e, active, f"o{k}", [0])
-            _sweep(out, root, w, active, terms, counts, f"o{k}")
+            _sweep(out, root, w, terms, counts, active)
     if progress:
         progress(f"reverse sweep ({len(out.assignments)} statements)")
     for s_, rhs in reversed(list(out.assignments)):
         if s_ in terms:
-            _sweep(out, rhs, terms.pop(s_), active, terms, counts, s_.name)
+            _sweep(out, rhs, terms.pop(s_), terms, counts, active)
     return out, [terms.get(s_, sp.Integer(0)) for s_ in inputs]
