@@ -79,3 +79,40 @@ def test_moving_mass_gradient_equals_central_differences(ev):
         v, h = ev.defaults[name], 1e-5 * ev.defaults[name]
         fd = (moving_mass(ev, ("l2",), {name: v + h})[0] - moving_mass(ev, ("l2",), {name: v - h})[0]) / (2 * h)
         assert np.isclose(g[j], fd, rtol=1e-6, atol=1e-9)
+
+
+def _contracted_differences(ev, x, wrt, model, params, W, h_rel=1e-5):
+    """Central differences of <W, M> (``ev.matrices``) for each parameter of ``wrt``."""
+    out = []
+    for name in wrt:
+        v = params.get(name, ev.defaults[name.partition("@")[0]])
+        h = h_rel * abs(v)
+        hi, lo = ({**params, name: v + s * h} for s in (1, -1))
+        m_hi, m_lo = (ev.matrices(x, model, **pp)["M"] for pp in (hi, lo))
+        out.append(np.einsum("ij,nij->n", W, m_hi - m_lo) / (2 * h))
+    return np.stack(out, axis=-1)
+
+
+def test_weighted_mass_follows_a_legs_own_value_and_refuses_other_weights(ev):
+    """<W, M> and its gradient from the reverse-mode kernel (what the moving-mass constraint
+    reads) equal ``matrices`` contracted with W and its central differences, with leg 2's
+    rotor inertia given its own value (d/dI_add moves legs 1, 3, 4 only); weights that are
+    not a symmetric 6 x 6 matrix are refused, naming their shape."""
+    from eigentwist.runtime.errors import InputError
+
+    rng = np.random.default_rng(4)
+    W = rng.normal(size=(6, 6))
+    W = W + W.T
+    x = np.array(ev.robot.x_ref) + 0.02 * rng.standard_normal((3, 3))
+    model = "paper,rotor_inertia"
+    params = {"I_add": 2e-4, "I_add@2": 5e-4}
+    wrt = ("I_add", "I_add@2", "l2", "m_e")
+    value, grad = ev.sensitivity_route.weighted_mass(x, wrt, model, params, W)
+    np.testing.assert_allclose(value, np.einsum("ij,nij->n", W, ev.matrices(x, model, **params)["M"]), rtol=1e-12)
+    want = _contracted_differences(ev, x, wrt, model, params, W)
+    np.testing.assert_allclose(grad, want, rtol=1e-6, atol=1e-8 * np.abs(want).max())
+    assert np.abs(grad[:, 0]).max() > 0 and np.abs(grad[:, 1]).max() > 0
+    with pytest.raises(InputError, match=r"weights of shape \(6, 5\): expected a symmetric 6x6 matrix"):
+        ev.sensitivity_route.weighted_mass(x, wrt, model, params, W[:, :5])
+    with pytest.raises(InputError, match="symmetric"):
+        ev.sensitivity_route.weighted_mass(x, wrt, model, params, W + np.triu(np.ones((6, 6)), 1))

@@ -95,20 +95,20 @@ class OptimizationResult:
 
 
 def moving_mass(ev, wrt, params: dict, model="paper", method: str = "exact"):
-    """``(mass, gradient)``: the translational apparent mass at x_ref (kg) and d/dp (kg per SI
-    unit): from the generated sensitivity kernel (``method="exact"``) or central differences
-    of M (``"differences"``, nothing derived)."""
-    from ..description.effects import resolve_model
-    from ..runtime.sensitivity import sensitivity_kernels
-
+    """``(mass, gradient)``: the translational apparent mass at x_ref (kg), the mean of M's
+    diagonal entries along v_x, v_y, v_z (Eq. 12), and d/dp (kg per SI unit): from the
+    reverse-mode kernel the frequencies' derivatives use (``method="exact"``: one sweep for
+    every parameter, ``Evaluator.sensitivity_route.weighted_mass``) or central differences of
+    M (``"differences"``, nothing derived)."""
     x = np.asarray(ev.robot.x_ref, dtype=float)[None, :]
     tt = np.arange(3, 6)
     if method == "differences":
         out = ev.matrix_derivatives(x, tuple(wrt), model, **params)
-    else:
-        p = ev.parameter_values(1, resolve_model(model, ev.robot), **params)
-        out = sensitivity_kernels(ev, tuple(wrt))(x[:, 0], x[:, 1], x[:, 2], {**p, **ev.kernel_pose_inputs(x)})
-    return float(out["M"][0, tt, tt].mean()), out["dM"][0][:, tt, tt].mean(axis=-1)
+        return float(out["M"][0, tt, tt].mean()), out["dM"][0][:, tt, tt].mean(axis=-1)
+    weights = np.zeros((6, 6))
+    weights[tt, tt] = 1.0 / 3.0
+    value, gradient = ev.sensitivity_route.weighted_mass(x, tuple(wrt), model, dict(params), weights)
+    return float(value[0]), gradient[0]
 
 
 class _Problem:

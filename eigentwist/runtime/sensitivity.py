@@ -43,6 +43,7 @@ __all__ = [
     "clusters",
     "cluster_spans",
     "adjoint_eigen_derivatives",
+    "weighted_derivatives",
     "check_wrt",
     "own_legs",
     "kernel_wrt",
@@ -351,24 +352,31 @@ def _weights(W: np.ndarray, matrix: str) -> dict:
     return {weight_name(matrix, i, j): W[:, i, j] * (1.0 if i == j else 2.0) for i in range(6) for j in range(i, 6)}
 
 
-def _weighted(kern, x, y, z, p: dict, U: np.ndarray, UT: np.ndarray, lam: np.ndarray, extra) -> np.ndarray:
-    """(N, R, P): d/dp of u_rᵀ K t_r − λ_r u_rᵀ M t_r, symmetrised, for R pairs of twists per
-    pose (``U``, ``UT``: (N, 6, R); ``lam`` (N, R)), by the reverse-mode kernel ``kern``
-    (one row per pose and pair) plus ``extra`` (dM, dK) (N, P, 6, 6) contracted alike."""
-    n, _, r = U.shape
-    W = 0.5 * (np.einsum("nir,njr->nrij", U, UT) + np.einsum("nir,njr->nrij", UT, U))  # (N, R, 6, 6)
-    WM = -lam[:, :, None, None] * W
+def weighted_derivatives(kern, x, y, z, p: dict, W_M: np.ndarray, W_K: np.ndarray, extra=None) -> np.ndarray:
+    """(N, R, P): d/dp of <W_M, M> + <W_K, K> (the sums of W_ij X_ij) for R symmetric
+    weightings per pose (``W_M``, ``W_K``: (N, R, 6, 6)), by the reverse-mode kernel ``kern``
+    (its inputs ``x, y, z, p`` for N poses; one kernel row per pose and weighting, each giving
+    every parameter at once) plus ``extra`` (dM, dK) (N, P, 6, 6) contracted alike."""
+    n, r = W_M.shape[:2]
     rows = {}
     for k, v in p.items():
         v = np.asarray(v)
         rows[k] = np.repeat(v, r) if v.ndim == 1 and v.shape[0] == n and n > 1 else v
-    rows.update(_weights(W.reshape(n * r, 6, 6), "K"))
-    rows.update(_weights(WM.reshape(n * r, 6, 6), "M"))
+    rows.update(_weights(W_K.reshape(n * r, 6, 6), "K"))
+    rows.update(_weights(W_M.reshape(n * r, 6, 6), "M"))
     g = kern(np.repeat(x, r), np.repeat(y, r), np.repeat(z, r), rows)["g"].reshape(n, r, -1)
     if extra is not None:
         dM, dK = extra
-        g = g + np.einsum("nrij,npij->nrp", W, dK) + np.einsum("nrij,npij->nrp", WM, dM)
+        g = g + np.einsum("nrij,npij->nrp", W_K, dK) + np.einsum("nrij,npij->nrp", W_M, dM)
     return g
+
+
+def _weighted(kern, x, y, z, p: dict, U: np.ndarray, UT: np.ndarray, lam: np.ndarray, extra) -> np.ndarray:
+    """(N, R, P): d/dp of u_rᵀ K t_r − λ_r u_rᵀ M t_r, symmetrised, for R pairs of twists per
+    pose (``U``, ``UT``: (N, 6, R); ``lam`` (N, R)): :func:`weighted_derivatives` with
+    W_K = (u tᵀ + t uᵀ) / 2 and W_M = −λ W_K."""
+    W = 0.5 * (np.einsum("nir,njr->nrij", U, UT) + np.einsum("nir,njr->nrij", UT, U))  # (N, R, 6, 6)
+    return weighted_derivatives(kern, x, y, z, p, -lam[:, :, None, None] * W, W, extra)
 
 
 def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLUSTER_RTOL, extra=None):

@@ -150,6 +150,60 @@ class SensitivityRoute:
                 dfdp = shared_columns(dfdp, wrt, full, own)
         return freq, vec, dfdp
 
+    def weighted_mass(self, poses, wrt, model, params: dict, weights) -> tuple[np.ndarray, np.ndarray]:
+        """``(value (N,), gradient (N, len(wrt)))`` of <W, M> = the sum of W_ij M_ij for symmetric
+        ``weights`` W (6, 6), M the Cartesian inertia matrix (Eq. 12) at ``poses`` with the
+        user's parameter values ``params``, the gradient per SI unit of each parameter: from the
+        reverse-mode kernel of the model's stiffness (the one its frequencies' derivatives use)
+        with the stiffness weights 0; legs solved by Newton: through their solved coordinates
+        (:func:`.implicit.numeric_matrix_derivatives`); a lower-mobility platform's followers:
+        their terms added (:func:`.implicit.follower_terms`)."""
+        from .sensitivity import check_model, check_wrt, kernel_wrt, own_legs, sensitivity_kernels, shared_columns
+        from .sensitivity import weighted_derivatives
+
+        W = np.asarray(weights, dtype=float)
+        if W.shape != (6, 6) or not np.allclose(W, W.T, rtol=0.0, atol=1e-12 * max(np.abs(W).max(), 1e-300)):
+            raise InputError(f"weights of shape {W.shape}: expected a symmetric 6x6 matrix")
+        given = poses
+        poses = self.ev.completion.poses(poses, params)
+        effects = self.ev.resolver.model_effects(model)
+        check_model(effects)
+        wrt = check_wrt(self.ev, wrt)
+        n = len(poses)
+        value = np.einsum("ij,nij->n", W, self.ev.matrices(poses, effects, **params)["M"])
+        follow = bool(getattr(self.ev.space, "followers", ()))
+        if self.ev.numeric_ik:
+            from .implicit import numeric_matrix_derivatives
+
+            dM = numeric_matrix_derivatives(self.ev, poses, wrt, effects, params)["dM"]
+        else:
+            own = own_legs(wrt, params)
+            full = kernel_wrt(wrt, own)
+            kind = "rigid" if self.ev.stiffness_model(effects) == "rigid" else "flexible"
+            kern = sensitivity_kernels(self.ev, full, None, kind=kind)
+            p = self.ev.resolver.resolve(n, params, effects)
+            self.ev.checks.check_rows(poses, p, strict=True)
+            Wn = np.broadcast_to(W, (n, 1, 6, 6))
+            g = weighted_derivatives(
+                kern,
+                poses[:, 0],
+                poses[:, 1],
+                poses[:, 2],
+                self.ev.completion.with_pose(poses, p),
+                Wn,
+                np.zeros_like(Wn),
+            )
+            gradient = shared_columns(g, wrt, full, own)[:, 0] if own else g[:, 0]
+            dM = None
+        if dM is not None:
+            gradient = np.einsum("ij,npij->np", W, dM)
+        if follow:
+            from .implicit import follower_terms
+
+            terms = follower_terms(self.ev, np.asarray(given, dtype=float), poses, wrt, effects, params)
+            gradient = gradient + np.einsum("ij,npij->np", W, terms["dM"])
+        return value, gradient
+
     def twists(self, rigid: bool, basis) -> np.ndarray:
         """(6, n): the twists a model's eigenproblem is posed on: a constant allowed-twist
         ``basis`` (a point platform's translations), the translations of a rigid model of a
