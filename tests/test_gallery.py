@@ -243,6 +243,24 @@ def test_numpy_equals_c(gallery, name):
     assert np.isfinite(mats["K_F"]).all()
 
 
+@pytest.mark.parametrize("name", ("rus6", "upu3"))
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=pytest.mark.compiled)])
+def test_the_branch_check_reads_the_levers_alone(gallery, name, backend):
+    """Legs solved by Newton have a generated ``lever`` kernel: the jacobians kernel's levers
+    (the sign each solution's branch is checked by) without its Jacobian rows, equal to them
+    to round-off on either backend; the pose completion reads it. Closed-form legs have none."""
+    ev = gallery[name] if backend == "numpy" else eigentwist.load(str(GALLERY / f"{name}.py"), backend="c", threads=1)
+    x = _poses(ev, 20, seed=5)
+    q = ev.joint_angles(x)
+    kp = ev.completion.closure_inputs(x, ev.resolver.resolve(len(x), {}, "none"))
+    want = ev.kernels.jacobians(q, kp)["lever"]
+    got = ev.kernels.lever(q, kp)["lever"]
+    assert got.shape == want.shape == (len(x), len(ev.robot.legs))
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.abs(want).max())
+    np.testing.assert_array_equal(ev.completion.levers(q, kp), got)
+    assert "lever" not in eigentwist.load("heli4", backend=backend).kernels.OUTPUTS
+
+
 def _check_numpy_equals_c(ev, name):
     """The C backend of the gallery robot ``name`` against its NumPy evaluator ``ev``: M, K_R,
     K_F, frequencies (1e-12) and eigentwists (1e-10) at 20 poses of its box; the C evaluator."""

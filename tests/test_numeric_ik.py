@@ -396,6 +396,8 @@ def test_newton_memo_keys_every_input(numeric):
     nq = len(ev.robot.legs[0].kinematics.coordinates)
 
     class Kernels:
+        OUTPUTS: dict = {}  # no lever kernel: the branch check reads jacobians' levers
+
         @staticmethod
         def loop_closure(q, p):
             r = q - np.asarray(p["q_rod"], dtype=float).reshape(-1, 1, 1)

@@ -60,6 +60,10 @@ KERNEL_DOCS = {
         "respect to the leg's coordinates and its rates along the platform's six unit twists, for the followers of "
         "a lower-mobility pose space solved with the legs' coordinates."
     ),
+    "lever": (
+        "Each leg's actuation lever (m) alone, the jacobians kernel's output: the sign the damped Newton inverse "
+        "kinematics checks against the assembly branch recorded at x_ref."
+    ),
     "loop_closure": (
         "Loop-closure residual of every leg at its joint coordinates and the pose (orientation error, rad, then "
         "position, m) and its exact Jacobian with respect to the leg's coordinates, for the damped Newton inverse "
@@ -129,6 +133,13 @@ def kernels_for(model, progress=None) -> list[Kernel]:
         outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
         kernels.append(
             build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints, program_params, nq)
+        )
+    if model.closure is not None and "lever" in model.outputs["jacobians"]:
+        # the branch check of every Newton solution reads the levers only: ~40 % of the
+        # jacobians kernel's statements (6-RUS)
+        outs = [Output("lever", *model.outputs["jacobians"]["lever"])]
+        kernels.append(
+            build_kernel("lever", KERNEL_DOCS["lever"], model.program, outs, [], model.joints, program_params, nq)
         )
     if getattr(model, "followers", None) is not None:  # the runtime's Newton steps
         prog, closure = model.followers

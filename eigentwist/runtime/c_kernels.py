@@ -458,6 +458,13 @@ class CKernels:
         ``threads`` > 1 splits the poses on block boundaries (bit-identical results)."""
         return self._q_kernel("jacobians", q, p, threads)
 
+    def lever(self, q, p: dict, threads: int = 1) -> dict:
+        """Each leg's actuation lever ``lever`` (..., legs), m, alone (the ``jacobians`` kernel's
+        output) of legs solved numerically; absent for closed-form IK."""
+        if "lever" not in self._spec:
+            raise AttributeError("lever")
+        return self._q_kernel("lever", q, p, threads)
+
     def loop_closure(self, q, p: dict) -> dict:
         """Loop-closure ``residual`` (..., legs, rows) and its Jacobian ``dresidual`` of legs
         solved numerically (:mod:`eigentwist.runtime.levenberg_marquardt`); absent for closed-form IK."""

@@ -236,7 +236,7 @@ class PoseCompletion:
             r0 = self.kernels.loop_closure(reference[None], kp)["residual"][0]
             q_path, _ = continuation(self.kernels.loop_closure, reference, kp)
             q_direct = solve(self.kernels.loop_closure, reference, kp, 1)[0]
-            lever = self.kernels.jacobians(q_path[None], kp)["lever"][0]
+            lever = self.levers(q_path[None], kp)[0]
         residual = np.sqrt((r0 * r0).sum(-1))
         same = same_configuration(q_direct, q_path, np.array(padded_units(self.robot.legs)) == "rad")
         for i, leg in enumerate(self.robot.legs):
@@ -263,6 +263,17 @@ class PoseCompletion:
         record = {"q": q_path, "sign": np.sign(lever), "residual": residual}
         self.__dict__["_assembly"] = record
         return record
+
+    def levers(self, q: np.ndarray, kp: dict, threads: int | None = None) -> np.ndarray:
+        """(N, legs) each leg's actuation lever (m) at joint coordinates ``q`` (N, legs, n_q)
+        and the kernels' inputs ``kp``: the generated ``lever`` kernel where the legs are
+        solved numerically (the jacobians kernel's output alone), else the jacobians kernel's;
+        ``threads``: the C kernels' threads (None: the NumPy call)."""
+        kernel = self.kernels.lever if "lever" in self.kernels.OUTPUTS else self.kernels.jacobians
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if threads is None:
+                return kernel(q, kp)["lever"]
+            return kernel(q, kp, threads=threads)["lever"]
 
     def raise_off_branch(self, poses: np.ndarray, p: dict) -> None:
         """Raise :class:`UnreachablePoseError` for the first pose of the batch last solved
@@ -312,10 +323,7 @@ class PoseCompletion:
             its = None if iterate_on is None else iterate_on(inner)
 
             def branch(q):
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    if its is None:
-                        return self.kernels.jacobians(q, kp)["lever"]
-                    return self.kernels.jacobians(q, kp, threads=inner)["lever"]
+                return self.levers(q, kp, None if its is None else inner)
 
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
                 return solve(
