@@ -214,7 +214,7 @@ COST = {
     "test_readme.py": 210,
     "derive": 139,
     "paper_diagnosis": 110,
-    "sensitivity": 100,
+    "sensitivity": 80,
     "test_diagnose_seeds.py::test_right_in_three_of_four_seeds[payload_offset]": 18,
     "test_diagnose_seeds.py::test_right_in_three_of_four_seeds[two_effects]": 10,
     "test_diagnose_seeds.py": 5,
