@@ -9,7 +9,7 @@ NumPy module's functions do. :meth:`CKernels.fused_frequencies` is the fast path
 sweeps: poses and parameters to natural frequencies in one C call.
 
 Compiling is tried with vectorising flags first (``-march=native -fopenmp-simd
--fno-math-errno``, glibc's vector maths library on x86-64 Linux) and then with portable
+-fno-math-errno -fno-trapping-math``, glibc's vector maths library on x86-64 Linux) and then with portable
 ones (``-O3 -fPIC -shared``); a failure of both raises with the compiler's message.
 """
 

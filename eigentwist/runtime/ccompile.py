@@ -114,12 +114,14 @@ def _glibc_version() -> tuple[int, int]:
 def flag_sets() -> list[tuple[str, list[str]]]:
     """Compiler flag sets to try, fastest first: ``[(name, flags), ...]``.
 
-    ``native`` vectorises the pose loops (AVX-512 or AVX2 where present) and, on x86-64
+    ``native`` vectorises the pose loops (AVX-512 or AVX2 where present; ``-fno-trapping-math``
+    lets a guarded division or square root run in every lane and be selected, which AVX2,
+    without masked vector instructions, needs to vectorise the Jacobi sweeps) and, on x86-64
     glibc, calls libmvec's vector sin/cos (glibc >= 2.22) and asin/acos/atan2 (>= 2.35);
     ``portable`` is plain C99 at ``-O3``.
     """
     base = ["-O3", "-fPIC", "-shared", "-std=gnu99"]
-    native = base + ["-march=native", "-fopenmp-simd", "-fno-math-errno", "-fdisable-tree-sincos"]
+    native = base + ["-march=native", "-fopenmp-simd", "-fno-math-errno", "-fno-trapping-math", "-fdisable-tree-sincos"]
     glibc = _glibc_version()
     if sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64"):
         if glibc >= (2, 22):
