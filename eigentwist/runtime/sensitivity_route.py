@@ -37,15 +37,10 @@ class SensitivityRoute:
         as the dict ``params``: the rigid model on allowed twists that turn with the pose by
         :func:`.implicit.reduced_derivatives`, every other model by :meth:`derivatives_at` on the
         constraints' route (``ev.solver.route``)."""
-        from .sensitivity import check_model, check_wrt
-
         if method not in ("exact", "differences"):
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
         given = poses
-        poses = self.ev.completion.poses(poses, params)
-        effects = self.ev.resolver.model_effects(model)
-        check_model(effects)
-        wrt = check_wrt(self.ev, wrt)
+        poses, effects, wrt = self._checked(poses, wrt, model, params)
         rigid = self.ev.stiffness_model(effects) == "rigid"
         if rigid and getattr(self.ev.space, "basis", 0) is None:
             from .implicit import reduced_derivatives
@@ -150,6 +145,16 @@ class SensitivityRoute:
                 dfdp = shared_columns(dfdp, wrt, full, own)
         return freq, vec, dfdp
 
+    def _checked(self, poses, wrt, model, params: dict) -> tuple:
+        """``(poses, effects, wrt)``: the completed poses, the model's effects (one that can be
+        differentiated) and the checked parameter names."""
+        from .sensitivity import check_model, check_wrt
+
+        poses = self.ev.completion.poses(poses, params)
+        effects = self.ev.resolver.model_effects(model)
+        check_model(effects)
+        return poses, effects, check_wrt(self.ev, wrt)
+
     def weighted_mass(self, poses, wrt, model, params: dict, weights) -> tuple[np.ndarray, np.ndarray]:
         """``(value (N,), gradient (N, len(wrt)))`` of <W, M> = the sum of W_ij M_ij for symmetric
         ``weights`` W (6, 6), M the Cartesian inertia matrix (Eq. 12) at ``poses`` with the
@@ -158,17 +163,13 @@ class SensitivityRoute:
         with the stiffness weights 0; legs solved by Newton: through their solved coordinates
         (:func:`.implicit.numeric_matrix_derivatives`); a lower-mobility platform's followers:
         their terms added (:func:`.implicit.follower_terms`)."""
-        from .sensitivity import check_model, check_wrt, kernel_wrt, own_legs, sensitivity_kernels, shared_columns
-        from .sensitivity import weighted_derivatives
+        from .sensitivity import kernel_wrt, own_legs, sensitivity_kernels, shared_columns, weighted_derivatives
 
         W = np.asarray(weights, dtype=float)
         if W.shape != (6, 6) or not np.allclose(W, W.T, rtol=0.0, atol=1e-12 * max(np.abs(W).max(), 1e-300)):
             raise InputError(f"weights of shape {W.shape}: expected a symmetric 6x6 matrix")
         given = poses
-        poses = self.ev.completion.poses(poses, params)
-        effects = self.ev.resolver.model_effects(model)
-        check_model(effects)
-        wrt = check_wrt(self.ev, wrt)
+        poses, effects, wrt = self._checked(poses, wrt, model, params)
         n = len(poses)
         value = np.einsum("ij,nij->n", W, self.ev.matrices(poses, effects, **params)["M"])
         follow = bool(getattr(self.ev.space, "followers", ()))
