@@ -177,6 +177,7 @@ class SensitivityRoute:
             from .implicit import numeric_matrix_derivatives
 
             dM = numeric_matrix_derivatives(self.ev, poses, wrt, effects, params)["dM"]
+            gradient = np.einsum("ij,npij->np", W, dM)
         else:
             own = own_legs(wrt, params)
             full = kernel_wrt(wrt, own)
@@ -195,9 +196,6 @@ class SensitivityRoute:
                 np.zeros_like(Wn),
             )
             gradient = shared_columns(g, wrt, full, own)[:, 0] if own else g[:, 0]
-            dM = None
-        if dM is not None:
-            gradient = np.einsum("ij,npij->np", W, dM)
         if follow:
             from .implicit import follower_terms
 
