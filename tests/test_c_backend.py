@@ -443,8 +443,8 @@ def test_the_jacobi_sweeps_are_vectorised_with_the_native_flags():
     """The loaded Heli4 library's Jacobi sweep (``et_sweep6``: a rotation's reciprocal square
     root guarded by ``den > 0``) holds packed square roots, not only scalar ones, on x86-64: on
     a CPU without masked vector instructions (AVX2) the vectoriser needs
-    ``-fno-trapping-math`` to evaluate the guarded division and square root in every lane (it
-    left the sweeps scalar, four to five times slower, on an AMD EPYC without it)."""
+    ``-fno-trapping-math`` to evaluate the guarded division and square root in every lane;
+    without it gcc leaves the sweeps scalar there, four to five times slower."""
     import platform
     import shutil
 

@@ -585,7 +585,10 @@ def test_weighted_mass_gradient_equals_differences(gallery, mechanisms, name):
     """<W, M>'s gradient (``sensitivity_route.weighted_mass``: what the optimiser's moving-mass
     constraint reads) equals central differences of ``matrices`` contracted with W to 1e-6:
     through legs solved by Newton (6-RUS), a lower-mobility platform's followers re-solved
-    (3-PRS) and a followed orientation (Tricept)."""
+    (3-PRS) and a followed orientation (Tricept); ``moving_mass`` by the kernel equals its own
+    differences."""
+    from eigentwist.design import moving_mass
+
     ev = {**gallery, **mechanisms}[name]
     rng = np.random.default_rng(12)
     W = rng.normal(size=(6, 6))
@@ -596,6 +599,10 @@ def test_weighted_mass_gradient_equals_differences(gallery, mechanisms, name):
     assert len(x) and len(wrt) >= 2
     value, grad = ev.sensitivity_route.weighted_mass(x, wrt, "none", {}, W)
     np.testing.assert_allclose(value, np.einsum("ij,nij->n", W, ev.matrices(x, "none")["M"]), rtol=1e-12)
+    # the optimiser's moving mass at x_ref, exact against its own differences
+    exact, by_differences = (moving_mass(ev, wrt, {}, "none", method) for method in ("exact", "differences"))
+    assert exact[0] == pytest.approx(by_differences[0], rel=1e-12)
+    np.testing.assert_allclose(exact[1], by_differences[1], rtol=1e-6, atol=1e-9 * abs(exact[0]))
     for j, w in enumerate(wrt):
         v = ev.defaults[w]
         h = 1e-5 * abs(v)

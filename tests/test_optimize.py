@@ -114,5 +114,12 @@ def test_weighted_mass_follows_a_legs_own_value_and_refuses_other_weights(ev):
     assert np.abs(grad[:, 0]).max() > 0 and np.abs(grad[:, 1]).max() > 0
     with pytest.raises(InputError, match=r"weights of shape \(6, 5\): expected a symmetric 6x6 matrix"):
         ev.sensitivity_route.weighted_mass(x, wrt, model, params, W[:, :5])
-    with pytest.raises(InputError, match="symmetric"):
-        ev.sensitivity_route.weighted_mass(x, wrt, model, params, W + np.triu(np.ones((6, 6)), 1))
+    # symmetric to round-off (1e-12 of its largest entry) is symmetric; 1e-10 off is not
+    scale = np.abs(W).max()
+    for off, refused in ((1e-14, False), (1e-10, True)):
+        skewed = W + off * scale * np.triu(np.ones((6, 6)), 1)
+        if refused:
+            with pytest.raises(InputError, match="symmetric"):
+                ev.sensitivity_route.weighted_mass(x, wrt, model, params, skewed)
+        else:
+            assert ev.sensitivity_route.weighted_mass(x, wrt, model, params, skewed)[0] == pytest.approx(value)
