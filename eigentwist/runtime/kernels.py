@@ -24,7 +24,9 @@ class Kernels(Protocol):
     have, named in ``OUTPUTS`` where present: ``legs(q, p)`` (each leg's joint compliance and
     transforms, for the exact condensation (:mod:`.condense`) and the damped models),
     ``loop_closure(q, p) -> {"residual", "dresidual"}`` (legs closed by Newton's method, URDF
-    form) and ``followers`` (a lower-mobility platform's dependent coordinates).
+    form), with it ``lever(q, p) -> {"lever"}`` (the jacobians kernel's levers alone, for the
+    branch check of each Newton solution), and ``followers`` (a lower-mobility platform's
+    dependent coordinates).
     """
 
     OUTPUTS: dict
