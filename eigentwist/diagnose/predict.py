@@ -406,8 +406,7 @@ class Predictor:
         check_model(self.effects)
         # the reverse-mode kernel of the model's stiffness, loaded (or generated) once for the
         # superset; ``names`` select its rows
-        kind = "rigid" if self.ev.stiffness_model(self.effects) == "rigid" else "flexible"
-        sensitivity_kernels(self.ev, wrt, kind=kind)
+        sensitivity_kernels(self.ev, wrt, kind=self.ev.stiffness_model(self.effects))
         modes, dfdp = self.ev.modes_and_sensitivities(self.meas.poses, tuple(names), self.effects, **params)
         freq, idx = match_frequencies(modes, self.meas.mode, strict=strict, lines=self.meas.lines)
         rows = np.arange(len(idx))

@@ -90,6 +90,22 @@ SOURCE = r"""
 #define NO_POLE 1e300
 #define SHARE_TIE @SHARE_TIE@ /* SHARE_TIE of this module: shares this close tie; the slower pole wins */
 
+/* Of the nc poles cand[] (indices into wr), the one of largest share in a mode (share: that
+   mode's share of every pole), the slowest (largest wr) of those within SHARE_TIE of it, the
+   first in cand[] among equals: its position in cand[], -1 when nc is 0 (the rule of
+   damped._largest_share) */
+static int et_largest_share(int nc, const int *cand, const double *share, const double *wr)
+{
+    double top = -INFINITY;
+    for (int r = 0; r < nc; ++r)
+        top = fmax(top, share[cand[r]]);
+    int b = -1;
+    for (int r = 0; r < nc; ++r)
+        if (share[cand[r]] >= top - SHARE_TIE && (b < 0 || wr[cand[r]] > wr[cand[b]]))
+            b = r;
+    return b;
+}
+
 /* M = C C^T (C lower, n x n row-major); 0 where M is not positive definite */
 static int et_cholesky(int n, const double *M, double *C)
 {
@@ -890,13 +906,7 @@ static int et_poles(int n, int m, const double *Ar, const double complex *Ac, co
                     continue;
                 if (!nr)
                     break;
-                double top = share[j * m + real[0]];
-                for (int r = 1; r < nr; ++r)
-                    top = fmax(top, share[j * m + real[r]]);
-                int b = -1;
-                for (int r = 0; r < nr; ++r)
-                    if (share[j * m + real[r]] >= top - SHARE_TIE && (b < 0 || wr[real[r]] > wr[real[b]]))
-                        b = r;
+                int b = et_largest_share(nr, real, share + j * m, wr);
                 col[j] = real[b];
                 for (int r = b; r < nr - 1; ++r) /* the remaining poles keep their order */
                     real[r] = real[r + 1];
@@ -919,15 +929,12 @@ static int et_poles(int n, int m, const double *Ar, const double complex *Ac, co
         zeta[j] = -re / (r > 0.0 ? r : 1.0);
         wd[j] = fabs(im);
         if (im == 0.0) { /* overdamped: this real pole and the real one of next largest share */
-            int other = col[j];
-            double top = -1.0;
+            int cand[MAXM], nc = 0;
             for (int k = 0; k < m; ++k)
                 if (k != col[j] && wi[k] == 0.0 && fabs(wr[k]) < NO_POLE)
-                    top = fmax(top, share[j * m + k]);
-            for (int k = 0; k < m; ++k)
-                if (k != col[j] && wi[k] == 0.0 && fabs(wr[k]) < NO_POLE && share[j * m + k] >= top - SHARE_TIE
-                    && (other == col[j] || wr[k] > wr[other]))
-                    other = k;
+                    cand[nc++] = k;
+            int b = et_largest_share(nc, cand, share + j * m, wr);
+            int other = b < 0 ? col[j] : cand[b];
             double s1 = re, s2 = wr[other];
             poles[2 * j] = fmax(s1, s2); /* the slower of the pair */
             wn[j] = sqrt(fabs(s1 * s2));

@@ -135,10 +135,8 @@ def _source(ev, wrt, backend: str, progress, kind: str = "forward") -> str:
     say(f"{ev.robot.name}: render")
     if backend == "numpy":
         text = render_numpy_sensitivity(ev.robot, kernel, wrt)
-    elif kind == "forward":
-        text = render_c_sensitivity(ev.robot, kernel, wrt)
     else:
-        text = render_c_sensitivity(ev.robot, kernel, wrt, METHOD)
+        text = render_c_sensitivity(ev.robot, kernel, wrt, *(() if kind == "forward" else (METHOD,)))
     write_verified(path, text.encode("utf-8"))
     _KERNELS.put(key, kernel)
     return text
@@ -357,11 +355,10 @@ def weighted_derivatives(kern, x, y, z, p: dict, W_M: np.ndarray, W_K: np.ndarra
     weightings per pose (``W_M``, ``W_K``: (N, R, 6, 6)), by the reverse-mode kernel ``kern``
     (its inputs ``x, y, z, p`` for N poses; one kernel row per pose and weighting, each giving
     every parameter at once) plus ``extra`` (dM, dK) (N, P, 6, 6) contracted alike."""
+    from .completion import user_rows
+
     n, r = W_M.shape[:2]
-    rows = {}
-    for k, v in p.items():
-        v = np.asarray(v)
-        rows[k] = np.repeat(v, r) if v.ndim == 1 and v.shape[0] == n and n > 1 else v
+    rows = user_rows(p, np.repeat(np.arange(n), r), n)  # each pose's values on its R rows
     rows.update(_weights(W_K.reshape(n * r, 6, 6), "K"))
     rows.update(_weights(W_M.reshape(n * r, 6, 6), "M"))
     g = kern(np.repeat(x, r), np.repeat(y, r), np.repeat(z, r), rows)["g"].reshape(n, r, -1)

@@ -181,8 +181,7 @@ class SensitivityRoute:
         else:
             own = own_legs(wrt, params)
             full = kernel_wrt(wrt, own)
-            kind = "rigid" if self.ev.stiffness_model(effects) == "rigid" else "flexible"
-            kern = sensitivity_kernels(self.ev, full, None, kind=kind)
+            kern = sensitivity_kernels(self.ev, full, None, kind=self.ev.stiffness_model(effects))
             p = self.ev.resolver.resolve(n, params, effects)
             self.ev.checks.check_rows(poses, p, strict=True)
             Wn = np.broadcast_to(W, (n, 1, 6, 6))

@@ -43,12 +43,7 @@ class Program:
             isinstance(expr, sp.Mul) and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Symbol
         ):
             return expr
-        if name in self._names:
-            raise DescriptionError(f"intermediate {name!r} assigned twice")
-        self._names.add(name)
-        sym = sp.Symbol(name, real=True)
-        self.assignments.append((sym, expr))
-        return sym
+        return self.assign(sp.Symbol(name, real=True), expr)
 
     def assign(self, symbol: sp.Symbol, expr) -> sp.Symbol:
         """Append ``symbol = expr`` under the symbol's own name (a statement carried over from
