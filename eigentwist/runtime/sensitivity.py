@@ -146,17 +146,10 @@ def _numpy_kernel(text: str, name: str, function: str = "sensitivities"):
     module = types.ModuleType(name)
     exec(compile(text, name, "exec"), module.__dict__)
     fn = getattr(module, function)
-    if function != "sensitivities" and "x" not in inspect.signature(fn).parameters:
-        # a kernel that reads no pose argument (the pose comes by name in ``p``)
-        def run(x, y, z, p):
-            return fn(p)
-
-        return run
-
-    def run(x, y, z, p):
-        return fn(x, y, z, p)
-
-    return run
+    if "x" in inspect.signature(fn).parameters:
+        return fn
+    # a kernel that reads no pose argument (a 6-DoF robot's pose comes by name in ``p``)
+    return lambda x, y, z, p: fn(p)
 
 
 class _CKernel:
