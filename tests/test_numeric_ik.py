@@ -412,6 +412,7 @@ def test_newton_memo_keys_every_input(numeric):
     assembly = ev.assembly()
     ev.completion = PoseCompletion(ev.robot, ev.module, ev.resolver, lambda: Kernels, lambda: None)
     ev.completion.__dict__["_assembly"] = {**assembly, "sign": np.ones(ev.n_legs)}  # the fake lever's branch
+    ev.completion.__dict__["_predictor"] = None  # Newton from the reference (the fake reads no default q_rod)
     poses = np.zeros((3, 3))
     for rod in (0.10, 0.20, 0.20, 0.15):
         q = ev.solve_joints(poses, {"q_rod": np.asarray(rod)})
@@ -451,6 +452,159 @@ def test_damped_step_solves_the_normal_equations(systems):
     again = normal_solve(bad, r, lam, 1e-12 * lam)
     assert not np.isfinite(again[0]).all()
     assert np.array_equal(again[1:], step[1:])
+
+
+def test_the_c_driver_steps_solve_the_normal_equations_for_every_size():
+    """The C driver's steps of one block (a fixed-size version for the common leg sizes, the
+    general loop for the others) for every size it takes, damped and undamped, checked by
+    their defining equation; a lane whose matrix is not finite takes the gradient step -A^T r
+    and leaves the others alone; sizes it does not take are refused, naming them."""
+    from eigentwist.runtime import c_levenberg_marquardt as clm
+
+    if clm.driver() is None:
+        pytest.fail("no C compiler: the driver's steps cannot be checked")
+    assert f"#define B {clm.BLOCK}" in clm.SOURCE
+    rng = np.random.default_rng(7)
+    n = clm.BLOCK
+    for rows in range(1, 8):
+        for nq in range(1, 9):
+            A = rng.normal(size=(n, rows, nq))
+            r = rng.normal(size=(n, rows))
+            lam = 10.0 ** rng.uniform(-6, 1, n)
+            AtA = np.einsum("nri,nrj->nij", A, A)
+            Atr = np.einsum("nri,nr->ni", A, r)
+            damped = AtA + np.einsum(
+                "n,nij->nij", lam, np.einsum("nii->ni", AtA)[:, :, None] * np.eye(nq) + 1e-12 * np.eye(nq)
+            )
+            cases = [(lam, 1e-12, damped)] + ([(None, 1e-300, AtA)] if rows >= nq else [])
+            for scale, shift, H in cases:
+                step = clm.block_steps(A, r, scale, shift)
+                scale_of = np.abs(H).max((1, 2)) * np.abs(step).max(1) + np.abs(Atr).max(1)
+                residual = np.abs(np.einsum("nij,nj->ni", H, step) + Atr).max(1)
+                assert (residual < 1e-13 * scale_of).all(), (rows, nq, scale is None)
+    bad = A.copy()
+    bad[3, 0, 0] = np.inf
+    again = clm.block_steps(bad, r, lam, 1e-12)
+    gradient = -np.einsum("ri,r->i", bad[3], r[3])
+    finite = np.isfinite(gradient)
+    assert np.array_equal(again[3][~finite], gradient[~finite])
+    bound = 1e-14 * np.einsum("ri,r->i", np.abs(bad[3]), np.abs(r[3]))  # a sum's round-off
+    assert (np.abs(again[3][finite] - gradient[finite]) <= bound[finite]).all()
+    assert np.array_equal(np.delete(again, 3, 0), np.delete(clm.block_steps(A, r, lam, 1e-12), 3, 0))
+    with pytest.raises(ValueError, match="n_q=9"):
+        clm.block_steps(rng.normal(size=(n, 3, 9)), rng.normal(size=(n, 3)), lam, 1e-12)
+    with pytest.raises(ValueError, match="64 systems, got 63"):
+        clm.block_steps(A[:63], r[:63], lam[:63], 1e-12)
+
+
+def _two_branch_closure(q, p):
+    """r(q) = q^2 - x per leg and coordinate: the branches q = +sqrt(x) and -sqrt(x)."""
+    x = np.asarray(p["x"], dtype=float).reshape(-1, 1, 1)
+    r = q * q - x
+    return {"residual": r, "dresidual": (2 * q)[..., None]}
+
+
+def test_newton_from_a_guess_falls_back_to_the_reference():
+    """A first guess only changes the iterations: one on the other branch, or one that does
+    not converge, is solved again from the reference, so the answer is the reference's."""
+    from eigentwist.runtime.levenberg_marquardt import solve
+
+    x = np.array([0.5, 2.0, 3.0, 4.0])
+    p = {"x": x}
+    reference = np.ones((1, 1))  # the + branch
+
+    def branch(q):
+        return np.sign(q[..., 0])
+
+    calls = []
+
+    def counted(q, pp):
+        calls.append(len(q))
+        return _two_branch_closure(q, pp)
+
+    plain = solve(counted, reference, p, 4, branch=branch)
+    from_reference = len(calls)
+    assert np.allclose(plain[:, 0, 0], np.sqrt(x), rtol=0, atol=1e-12)
+    calls.clear()
+    near = solve(counted, reference, p, 4, branch=branch, start=np.sqrt(x)[:, None, None] + 1e-3)
+    assert np.allclose(near, plain, rtol=0, atol=1e-14)
+    assert len(calls) < from_reference  # fewer iterations from a good guess
+    wrong = np.where(np.arange(4) % 2 == 0, -np.sqrt(x), np.nan)[:, None, None]  # other branch; NaN
+    q, off = solve(_two_branch_closure, reference, p, 4, branch=branch, start=wrong, report=True)
+    assert np.allclose(q, plain, rtol=0, atol=1e-14)
+    assert not off.any()
+    # without the fall-back the guesses would have given the other branch
+    assert (solve(_two_branch_closure, -reference, p, 4)[::2, 0, 0] < 0).all()
+
+
+def test_iterations_from_a_guess_start_nearly_undamped():
+    """Iterations from a guess start at GUESS_LAMBDA0 (near the solution, Gauss-Newton's
+    quadratic convergence), those from the reference at LAMBDA0; from the guess the
+    undamped start takes fewer closure calls for the same solution."""
+    from eigentwist.runtime import levenberg_marquardt as lm
+
+    assert lm.GUESS_LAMBDA0 < lm.LAMBDA0
+    x = np.linspace(1.5, 3.0, 5)
+    p = {"x": x}
+    used = []
+
+    def iterate(q, pp, its, tl, lambda0=lm.LAMBDA0):
+        used.append((len(q), lambda0))
+        return lm._iterate(_two_branch_closure, q, pp, its, tl, lambda0)
+
+    start = np.where(np.arange(5) == 2, np.nan, np.sqrt(x) * 1.05)[:, None, None]  # pose 2: no guess
+    q = lm.solve(_two_branch_closure, np.ones((1, 1)), p, 5, iterate=iterate, start=start)
+    assert used == [(5, lm.GUESS_LAMBDA0), (1, lm.LAMBDA0)]
+    np.testing.assert_allclose(q[:, 0, 0], np.sqrt(x), rtol=0, atol=1e-14)
+    counts = {}
+    for lam in (lm.LAMBDA0, lm.GUESS_LAMBDA0):
+        calls = []
+
+        def counted(qq, pp):
+            calls.append(1)
+            return _two_branch_closure(qq, pp)
+
+        lm._iterate(counted, np.sqrt(x)[:, None, None] * 1.01, p, lm.MAX_ITERATIONS, lm.TOL, lam)
+        counts[lam] = len(calls)
+    assert counts[lm.GUESS_LAMBDA0] < counts[lm.LAMBDA0]
+
+
+def test_the_predicted_start_is_the_tangent_of_the_solution_and_none_where_singular():
+    """q = sqrt(x) closes r = q^2 - x: at (q, x) = (1, 1) dq/dx = 1/2, so the guess at x is
+    1 + (x - 1)/2; where the closure's Jacobian is not finite there is no guess."""
+    from eigentwist.runtime.levenberg_marquardt import predicted_start
+
+    def inputs_at(x):
+        return {"x": x[:, 0]}
+
+    guess = predicted_start(_two_branch_closure, np.ones((1, 1)), inputs_at, np.array([1.0]))
+    x = np.array([[1.0], [1.2], [0.7]])
+    np.testing.assert_allclose(guess(x)[:, 0, 0], 1 + (x[:, 0] - 1) / 2, rtol=1e-9)
+    assert guess(x).shape == (3, 1, 1)
+
+    def broken(q, p):
+        out = _two_branch_closure(q, p)
+        return {**out, "dresidual": out["dresidual"] * np.nan}
+
+    assert predicted_start(broken, np.ones((1, 1)), inputs_at, np.array([1.0])) is None
+
+
+def test_the_first_guess_is_the_implicit_derivative_of_the_ik(numeric):
+    """The predictor is q_ref at x_ref exactly and moves along dq/dx = -A^+ dr/dx: its error
+    against the solved IK falls as the square of the step from x_ref (first order exact),
+    along any direction of the workspace."""
+    ev, _ = numeric["hexapod"]
+    guess = ev.completion.predictor()
+    x_ref = np.asarray(ev.robot.x_ref, dtype=float)
+    assert np.array_equal(guess(x_ref[None])[0], ev.assembly()["q"])
+    direction = np.random.default_rng(3).standard_normal(len(x_ref))
+    direction /= np.linalg.norm(direction)
+    errors = []
+    for h in (2e-3, 1e-3):
+        x = (x_ref + h * direction)[None]
+        errors.append(np.abs(guess(x) - ev.joint_angles(x)).max())
+    assert errors[1] > 0
+    assert 3.0 < errors[0] / errors[1] < 5.0  # second order: 4 for half the step
 
 
 # ---------------------------------------------------------------- the assembly branch at x_ref

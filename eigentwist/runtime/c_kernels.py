@@ -472,12 +472,12 @@ class CKernels:
             raise AttributeError("loop_closure")
         return self._q_kernel("loop_closure", q, p)
 
-    def newton(self, q, p: dict, iterations: int, tol: float, threads: int = 1):
+    def newton(self, q, p: dict, iterations: int, tol: float, threads: int = 1, lambda0: float | None = None):
         """``(q, |r|)``: the damped Newton iterations of :mod:`.levenberg_marquardt` on this library's
         ``loop_closure`` kernel, run in C (:mod:`.c_levenberg_marquardt`); ``q`` (n, legs, n_q) starting
         coordinates, ``p`` the kernel's inputs ((n,) arrays or scalars); ``threads`` > 1
-        runs ranges of whole blocks on threads (same results). None where the C driver
-        cannot be built."""
+        runs ranges of whole blocks on threads (same results); ``lambda0`` the first damping
+        (None: :data:`~.levenberg_marquardt.LAMBDA0`). None where the C driver cannot be built."""
         from . import c_levenberg_marquardt
 
         if "loop_closure" not in self._spec or c_levenberg_marquardt.driver() is None:
@@ -501,6 +501,7 @@ class CKernels:
             iterations,
             tol,
             threads,
+            *(() if lambda0 is None else (lambda0,)),
         )
 
     def _block(self, spec: dict, driver_rows: bool) -> int | None:

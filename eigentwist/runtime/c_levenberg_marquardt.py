@@ -23,7 +23,9 @@ import numpy as np
 from .addresses import address
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
-__all__ = ["driver", "iterate", "followers_driver", "follow", "SOURCE"]
+__all__ = ["driver", "iterate", "block_steps", "BLOCK", "followers_driver", "follow", "SOURCE"]
+
+BLOCK = 64  # poses per block of the driver (B in SOURCE)
 
 SOURCE = r"""
 #include <math.h>
@@ -124,6 +126,110 @@ static void et_steps(int rows, int nq, const double *As, const double *rs, const
     }
 }
 
+/* et_steps for a leg of R rows and Q coordinates known when compiled: the same operations
+   in the same order, each lane's system held in registers (the lane loop vectorised). */
+#define ET_STEPS_FIXED(R, Q)                                                                                 \
+    static inline __attribute__((always_inline)) void et_lanes_##R##_##Q(                                   \
+        const double *As, const double *rs, const double *scale, double shift, double *x, const int scaled)  \
+    {                                                                                                        \
+        _Pragma("omp simd")                                                                                  \
+        for (int i = 0; i < B; ++i) {                                                                        \
+            double H[Q][Q], g[Q], y[Q], v[Q], inv[Q];                                                        \
+            int fin = 1;                                                                                     \
+            _Pragma("GCC unroll 8")                                                                          \
+            for (int a = 0; a < Q; ++a) {                                                                    \
+                _Pragma("GCC unroll 8")                                                                      \
+                for (int b = 0; b <= a; ++b) {                                                               \
+                    double h = As[a * B + i] * As[b * B + i];                                                \
+                    _Pragma("GCC unroll 8")                                                                  \
+                    for (int k = 1; k < R; ++k)                                                              \
+                        h += As[(k * Q + a) * B + i] * As[(k * Q + b) * B + i];                              \
+                    H[a][b] = h;                                                                             \
+                }                                                                                            \
+                double gg = As[a * B + i] * rs[i];                                                           \
+                _Pragma("GCC unroll 8")                                                                      \
+                for (int k = 1; k < R; ++k)                                                                  \
+                    gg += As[(k * Q + a) * B + i] * rs[k * B + i];                                           \
+                g[a] = gg;                                                                                   \
+            }                                                                                                \
+            _Pragma("GCC unroll 8")                                                                          \
+            for (int a = 0; a < Q; ++a) {                                                                    \
+                H[a][a] = scaled ? H[a][a] + (scale[i] * H[a][a] + shift * scale[i]) : H[a][a] + shift;      \
+                _Pragma("GCC unroll 8")                                                                      \
+                for (int b = 0; b <= a; ++b)                                                                 \
+                    fin &= isfinite(H[a][b]) ? 1 : 0;                                                        \
+            }                                                                                                \
+            _Pragma("GCC unroll 8")                                                                          \
+            for (int j = 0; j < Q; ++j) {                                                                    \
+                double d = H[j][j];                                                                          \
+                _Pragma("GCC unroll 8")                                                                      \
+                for (int k = 0; k < j; ++k)                                                                  \
+                    d = d - H[j][k] * H[j][k];                                                               \
+                d = sqrt(d);                                                                                 \
+                inv[j] = 1.0 / d;                                                                            \
+                _Pragma("GCC unroll 8")                                                                      \
+                for (int a = j + 1; a < Q; ++a) {                                                            \
+                    double t = H[a][j];                                                                      \
+                    _Pragma("GCC unroll 8")                                                                  \
+                    for (int k = 0; k < j; ++k)                                                              \
+                        t = t - H[a][k] * H[j][k];                                                           \
+                    H[a][j] = t * inv[j];                                                                    \
+                }                                                                                            \
+            }                                                                                                \
+            _Pragma("GCC unroll 8")                                                                          \
+            for (int a = 0; a < Q; ++a) {                                                                    \
+                double ya = g[a];                                                                            \
+                _Pragma("GCC unroll 8")                                                                      \
+                for (int k = 0; k < a; ++k)                                                                  \
+                    ya = ya - H[a][k] * y[k];                                                                \
+                y[a] = ya * inv[a];                                                                          \
+            }                                                                                                \
+            _Pragma("GCC unroll 8")                                                                          \
+            for (int a = Q - 1; a >= 0; --a) {                                                               \
+                double xa = y[a];                                                                            \
+                _Pragma("GCC unroll 8")                                                                      \
+                for (int k = a + 1; k < Q; ++k)                                                              \
+                    xa = xa - H[k][a] * v[k];                                                                \
+                v[a] = xa * inv[a];                                                                          \
+            }                                                                                                \
+            _Pragma("GCC unroll 8")                                                                          \
+            for (int a = 0; a < Q; ++a)                                                                      \
+                x[a * B + i] = fin ? -v[a] : -g[a];                                                          \
+        }                                                                                                    \
+    }                                                                                                        \
+    static void et_steps_##R##_##Q(const double *As, const double *rs, const double *scale, double shift,    \
+                                   double *x)                                                                \
+    {                                                                                                        \
+        if (scale)                                                                                           \
+            et_lanes_##R##_##Q(As, rs, scale, shift, x, 1);                                                  \
+        else                                                                                                 \
+            et_lanes_##R##_##Q(As, rs, scale, shift, x, 0);                                                  \
+    }
+
+ET_STEPS_FIXED(3, 2)
+ET_STEPS_FIXED(3, 3)
+ET_STEPS_FIXED(3, 4)
+ET_STEPS_FIXED(6, 5)
+ET_STEPS_FIXED(6, 6)
+
+/* et_steps, by the fixed-size version where there is one for (rows, nq) */
+static void et_solve_steps(int rows, int nq, const double *As, const double *rs, const double *scale, double shift,
+                           double *x, double *w)
+{
+    if (rows == 3 && nq == 2)
+        et_steps_3_2(As, rs, scale, shift, x);
+    else if (rows == 3 && nq == 3)
+        et_steps_3_3(As, rs, scale, shift, x);
+    else if (rows == 3 && nq == 4)
+        et_steps_3_4(As, rs, scale, shift, x);
+    else if (rows == 6 && nq == 5)
+        et_steps_6_5(As, rs, scale, shift, x);
+    else if (rows == 6 && nq == 6)
+        et_steps_6_6(As, rs, scale, shift, x);
+    else
+        et_steps(rows, nq, As, rs, scale, shift, x, w);
+}
+
 /* AoS kernel outputs (pose, leg, rows[, nq]) of m poses -> SoA (leg, rows[, nq], B) */
 static void et_soa(int m, int legs, int rows, int nq, const double *r, const double *A, double *rs, double *As)
 {
@@ -218,7 +324,7 @@ static int et_lm_block(et_eval eval, void *ctx, int m, int64_t b0, int legs, int
         }
         for (int l = 0; l < legs; ++l) {
             const int *a = act + l * B;
-            et_steps(rows, nq, As + (l * rows * nq) * B, rs + (l * rows) * B, polish ? 0 : lam + l * B,
+            et_solve_steps(rows, nq, As + (l * rows * nq) * B, rs + (l * rows) * B, polish ? 0 : lam + l * B,
                      polish ? 1e-300 : 1e-12, x, w);
             if (!polish) {
                 double *big = w;
@@ -381,6 +487,21 @@ static double *et_alloc_work(int legs, int rows, int nq, et_work *wk, double **q
     wk->x = wk->nn + legs * B;
     wk->w = wk->x + nq * B;
     return buf;
+}
+
+/* The steps of one block of B systems laid out as et_steps reads them (As: rows * nq rows of
+   B, rs: rows rows of B; scale: B values or NULL): x (nq rows of B). 0, or -1 for sizes the
+   driver does not take, -2 out of memory. */
+int et_block_steps(int rows, int nq, const double *As, const double *rs, const double *scale, double shift, double *x)
+{
+    if (nq < 1 || nq > 8 || rows < 1)
+        return -1;
+    double *w = malloc(sizeof(double) * (size_t)(nq * nq + 4 * nq) * B);
+    if (!w)
+        return -2;
+    et_solve_steps(rows, nq, As, rs, scale, shift, x, w);
+    free(w);
+    return 0;
 }
 
 int et_newton_lm(int64_t n, void *closure_address, void *block_address, int n_in, const double *const *in,
@@ -605,6 +726,10 @@ def driver():
         fn = None
         if lib is not None:
             _LIBRARIES.append(lib)
+            steps = lib.et_block_steps
+            V = ctypes.c_void_p
+            steps.argtypes = [ctypes.c_int, ctypes.c_int, V, V, V, ctypes.c_double, V]
+            steps.restype = ctypes.c_int
             fn = lib.et_newton_lm
             P = ctypes.POINTER
             fn.argtypes = [
@@ -630,6 +755,30 @@ def driver():
     return _DRIVER[0]
 
 
+def block_steps(A: np.ndarray, r: np.ndarray, scale, shift: float):
+    """The driver's damped Gauss-Newton steps (:func:`eigentwist.runtime.levenberg_marquardt.normal_solve`'s)
+    of one block of ``BLOCK`` systems, A (BLOCK, rows, n_q) and r (BLOCK, rows); ``scale``
+    (BLOCK,) or None (undamped: ``diag(shift)``). Returns (BLOCK, n_q), or None where the
+    driver cannot be built. Raises ValueError for sizes the driver does not take."""
+    if driver() is None:
+        return None
+    fn = _LIBRARIES[0].et_block_steps
+    A = np.asarray(A, dtype=float)
+    n, rows, nq = A.shape
+    if n != BLOCK:
+        raise ValueError(f"block_steps takes {BLOCK} systems, got {n}")
+    As = np.ascontiguousarray(np.moveaxis(A, 0, -1))
+    rs = np.ascontiguousarray(np.asarray(r, dtype=float).T)
+    sc = None if scale is None else np.ascontiguousarray(np.broadcast_to(np.asarray(scale, dtype=float), (BLOCK,)))
+    x = np.empty((nq, BLOCK))
+    rc = fn(rows, nq, address(As), address(rs), None if sc is None else address(sc), float(shift), address(x))
+    if rc == -1:
+        raise ValueError(f"the driver takes 1 to 8 coordinates and at least one row, got rows={rows}, n_q={nq}")
+    if rc != 0:
+        raise MemoryError("et_block_steps: out of memory")
+    return x.T
+
+
 def iterate(
     closure_address: int,
     block_address: int | None,
@@ -641,6 +790,7 @@ def iterate(
     iterations: int,
     tol: float,
     threads: int = 1,
+    lambda0: float = LAMBDA0,
 ):
     """Run the driver: ``(q, |r|)`` from ``q`` (n, legs, n_q) for the closure kernel at
     ``closure_address``, evaluated by its block function at ``block_address`` where that is
@@ -648,8 +798,8 @@ def iterate(
     n_q)); ``n_q_inputs[k]`` is ``leg * n_q + coordinate`` for the kernel's
     joint-coordinate inputs and -1 for the others, read at ``addresses[k]`` with
     ``strides[k]`` (doubles). ``threads`` > 1 runs ranges of whole blocks on that many
-    threads (each pose's iterations are its own: the results do not depend on it).
-    Raises RuntimeError when the driver fails."""
+    threads (each pose's iterations are its own: the results do not depend on it);
+    ``lambda0`` the first damping. Raises RuntimeError when the driver fails."""
     n, legs, nq = q.shape
     qq = np.array(q, dtype=np.float64, order="C")
     norm = np.empty((n, legs))
@@ -671,7 +821,7 @@ def iterate(
             address(norm) + 8 * a * legs,
             int(iterations),
             float(tol),
-            LAMBDA0,
+            float(lambda0),
             MAX_STEP,
         )
 

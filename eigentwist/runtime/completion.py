@@ -213,10 +213,11 @@ class PoseCompletion:
         return hasattr(self.module, "loop_closure")
 
     def numeric_joints(self, poses, p: dict) -> dict:
-        """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.levenberg_marquardt`: damped
-        Newton from the description's reference configuration, warm-started from the
-        previous pose), as the IK kernel's inputs ``q<m>_<leg>`` ((N,) arrays, NaN where it
-        does not converge: the IK's closure check then reports the pose unreachable)."""
+        """Joint coordinates of legs solved numerically at ``poses`` (:mod:`.levenberg_marquardt`:
+        damped Newton from the first-order prediction :meth:`predictor`, else from the
+        description's reference configuration, warm-started from the previous pose), as the IK
+        kernel's inputs ``q<m>_<leg>`` ((N,) arrays, NaN where it does not converge: the IK's
+        closure check then reports the pose unreachable)."""
         q = self.solve_joints(poses, p)
         return {f"q{m + 1}_{i + 1}": q[:, i, m] for i in range(q.shape[1]) for m in range(q.shape[2])}
 
@@ -264,6 +265,23 @@ class PoseCompletion:
         self.__dict__["_assembly"] = record
         return record
 
+    def predictor(self):
+        """``guess(poses) -> (N, legs, n_q)``: each leg's closed configuration predicted to
+        first order from the assembly configuration at x_ref (:meth:`assembly`, default
+        parameters), remembered; Newton's first guesses
+        (:func:`eigentwist.runtime.levenberg_marquardt.predicted_start`). None where that
+        configuration is singular."""
+        if "_predictor" not in self.__dict__:
+            from .levenberg_marquardt import predicted_start
+
+            def inputs_at(x):
+                return self.closure_inputs(x, self.resolver.resolve(len(x), {}, "none"))
+
+            x_ref = self.poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})[0]
+            q_ref = self.assembly()["q"]
+            self.__dict__["_predictor"] = predicted_start(self.kernels.loop_closure, q_ref, inputs_at, x_ref)
+        return self.__dict__["_predictor"]
+
     def levers(self, q: np.ndarray, kp: dict, threads: int | None = None) -> np.ndarray:
         """(N, legs) each leg's actuation lever (m) at joint coordinates ``q`` (N, legs, n_q)
         and the kernels' inputs ``kp``: the generated ``lever`` kernel where the legs are
@@ -308,6 +326,7 @@ class PoseCompletion:
         n = len(poses)
         reference = np.array(padded_references(self.robot.legs), dtype=float)
         signs = self.assembly()["sign"]
+        guess = self.predictor()
         iterate_on = None  # inner threads -> the C iterations (levenberg_marquardt.solve's iterate)
         threads = self.c_threads()
         if threads is not None:
@@ -316,7 +335,10 @@ class PoseCompletion:
             if c_levenberg_marquardt.driver() is not None:
 
                 def iterate_on(inner):
-                    return lambda q, pp, its, tl: self.kernels.newton(q, pp, its, tl, threads=inner)
+                    def iterate(q, pp, its, tl, lambda0=None):
+                        return self.kernels.newton(q, pp, its, tl, threads=inner, lambda0=lambda0)
+
+                    return iterate
 
         def one(sl, inner):
             kp = self.closure_inputs(poses[sl], take(p, sl) if n > 1 else p)
@@ -335,6 +357,7 @@ class PoseCompletion:
                     signs=signs,
                     report=True,
                     iterate=its,
+                    start=None if guess is None else guess(poses[sl]),
                 )
 
         # bounded memory: (chunk, legs, rows, n_q) Jacobians in NumPy; the C iterations keep

@@ -11,9 +11,13 @@ Levenberg-Marquardt steps
 
 accepting a step when ``|r|`` decreases (lambda / 4) and otherwise retrying with a
 larger damping (lambda x 4), each coordinate moving at most ``MAX_STEP`` per iteration,
-started from the description's reference configuration (its assembly branch); poses
-that do not converge from there are retried from the solution of
-the previous pose of the batch (a sweep moves in small steps). A pose converges when
+started from a first-order prediction of the closed configuration
+(:func:`predicted_start`: the assembly configuration at x_ref moved along its implicit
+derivative dq/dx) where the caller gives one, else from the description's reference
+configuration (its assembly branch); poses that do not converge from the prediction, or
+converge on another branch, are solved again from the reference, and poses that do not
+converge from there are retried from the solution of the previous pose of the batch (a
+sweep moves in small steps). A pose converges when
 ``|r| < tol``; one that does not has NaN coordinates, which the IK program's closure check
 reports as unreachable (:mod:`.validity`), never a silently wrong configuration. The
 assembly branch is kept: a solution whose leg determinant (the jacobians kernel's
@@ -27,6 +31,7 @@ import numpy as np
 
 __all__ = [
     "solve",
+    "predicted_start",
     "normal_solve",
     "continuation",
     "same_configuration",
@@ -40,6 +45,10 @@ __all__ = [
 MAX_ITERATIONS = 80
 TOL = 1e-12  # |r| (m and rad) of a converged configuration
 LAMBDA0 = 1e-3
+#: the first damping from a predicted start (:func:`predicted_start`): near the solution
+#: Gauss-Newton converges quadratically, and LAMBDA0's damping would only slow it (a
+#: rejected step still raises the damping x 4)
+GUESS_LAMBDA0 = 1e-8
 MAX_STEP = 0.25  # largest change of one coordinate per iteration (rad; m for P)
 HOMOTOPY_STEPS = 64  # steps of the Newton homotopy from the reference configuration
 HOMOTOPY_ITERATIONS = 12
@@ -145,14 +154,14 @@ def normal_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
         return _lapack_solve(A, r, scale, shift)
 
 
-def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float):
+def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float, lambda0: float = LAMBDA0):
     """Damped Newton steps on every (pose, leg) at once, each iteration on the poses that
-    still have a leg to converge; returns (q, |r|)."""
+    still have a leg to converge, the damping starting at ``lambda0``; returns (q, |r|)."""
     n = len(q)
     out = closure(q, p)
     r, A = out["residual"].copy(), out["dresidual"].copy()
     norm = np.sqrt((r * r).sum(-1))
-    lam = np.full(norm.shape, LAMBDA0)
+    lam = np.full(norm.shape, lambda0)
     q = q.copy()
     for _ in range(iterations):
         active = ~(norm < tol) & np.isfinite(norm)
@@ -247,6 +256,7 @@ def solve(
     signs=None,
     report: bool = False,
     iterate=None,
+    start=None,
 ):
     """Joint coordinates (n, legs, n_q) closing every leg's loop at n poses; NaN where
     Newton does not converge (or lands on another assembly branch).
@@ -259,17 +269,27 @@ def solve(
     signs : (legs,) the branch's signs, recorded where the reference closes the loop
         (:func:`continuation`); None: the reference configuration's own.
     report : also return the (n, legs) mask of solutions rejected for their branch.
-    iterate : optional ``iterate(q, p, iterations, tol) -> (q, |r|)`` that runs this
-        module's iterations on ``closure`` by other means (the C driver, :mod:`.c_levenberg_marquardt`).
+    iterate : optional ``iterate(q, p, iterations, tol[, lambda0]) -> (q, |r|)`` that runs this
+        module's iterations on ``closure`` by other means (the C driver, :mod:`.c_levenberg_marquardt`);
+        ``lambda0`` (the first damping) is given for iterations from ``start`` only.
+    start : optional (n, legs, n_q) first guesses (e.g. :func:`predicted_start`); a pose
+        that does not converge from its guess, or converges on another branch, is solved
+        again from ``reference``, so a guess only changes how many iterations it takes.
     """
     if iterate is None:
 
-        def iterate(q, pp, its, tl):
-            return _iterate(closure, q, pp, its, tl)
+        def iterate(q, pp, its, tl, lambda0=LAMBDA0):
+            return _iterate(closure, q, pp, its, tl, lambda0)
 
-    q0 = np.broadcast_to(reference, (n,) + reference.shape).copy()
-    q, norm = iterate(q0, p, iterations, tol)
+    q0 = np.broadcast_to(reference, (n,) + reference.shape)
+    guessed = start is not None
+    if guessed:
+        q, norm = iterate(np.asarray(start, dtype=float), p, iterations, tol, GUESS_LAMBDA0)
+    else:
+        q, norm = iterate(q0.copy(), p, iterations, tol)
     ok = norm < tol
+    if guessed:
+        q, norm, ok = _from_reference(iterate, q, norm, ~ok.all(-1), q0, p, n, iterations, tol)
     # warm start: a pose that fails from the reference starts from the previous pose's solution
     for _ in range(3):
         retry = ~ok.all(-1)
@@ -289,7 +309,58 @@ def solve(
             else np.broadcast_to(np.asarray(signs, dtype=float), ok.shape)
         )
         # a singular reference (sign 0) names no branch: nothing to compare with
-        off = ok & ~((np.sign(branch(np.where(ok[..., None], q, q0))) == ref_sign) | (ref_sign == 0))
+        off = ok & ~((np.sign(branch(_where_ok(ok, q, q0))) == ref_sign) | (ref_sign == 0))
+        if guessed and off.any():  # a guess led past a singularity: solve those poses from the reference
+            rows = off.any(-1)
+            q, norm, ok = _from_reference(iterate, q, norm, rows, q0, p, n, iterations, tol)
+            again = ok & ~((np.sign(branch(_where_ok(ok, q, q0))) == ref_sign) | (ref_sign == 0))
+            off = np.where(rows[:, None], again, off)
         ok &= ~off
-    q = np.where(ok[..., None], q, np.nan)
+    q = _where_ok(ok, q, np.nan)
     return (q, off) if report else q
+
+
+def _where_ok(ok: np.ndarray, q: np.ndarray, other) -> np.ndarray:
+    """``q`` (n, legs, n_q) where ``ok`` (n, legs), else ``other``; ``q`` itself where every leg is ok."""
+    return q if ok.all() else np.where(ok[..., None], q, other)
+
+
+def _from_reference(iterate, q, norm, again, q0, p: dict, n: int, iterations: int, tol: float):
+    """The poses ``again`` ((n,) bool) iterated anew from the reference ``q0``: (q, |r|, converged)."""
+    rows = np.flatnonzero(again)
+    if rows.size:
+        q, norm = q.copy(), norm.copy()
+        q[rows], norm[rows] = iterate(q0[rows], _take(p, rows, n), iterations, tol)
+    return q, norm, norm < tol
+
+
+def predicted_start(closure, q_ref: np.ndarray, inputs_at, x_ref: np.ndarray, h: float = 1e-6):
+    """``guess(poses) -> (N, legs, n_q)``: the first-order prediction ``q_ref + G (x - x_ref)``
+    of the closed configuration at poses x (N, d), from the implicit function theorem on
+    ``r(q, x) = 0`` at the closed configuration ``q_ref`` (legs, n_q) of pose ``x_ref``
+    (d,): ``G = -A^+ dr/dx`` per leg (A = dr/dq, its pseudo-inverse; dr/dx by central
+    differences of step ``h`` in the pose's units). ``inputs_at(x)`` gives the closure's
+    inputs at poses x (N, d). None where A or dr/dx is not finite at ``q_ref``: no guess.
+
+    A guess only starts :func:`solve` (which falls back to the reference where it fails),
+    so the differences' error (~1e-10) only moves the iteration count, not the solution.
+    """
+    x_ref = np.asarray(x_ref, dtype=float)
+    d = len(x_ref)
+    shifted = x_ref + h * np.concatenate([np.eye(d), -np.eye(d)])
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        r = closure(np.broadcast_to(q_ref, (2 * d,) + q_ref.shape), inputs_at(shifted))["residual"]
+        A = closure(np.asarray(q_ref, dtype=float)[None], inputs_at(x_ref[None]))["dresidual"][0]
+        dr_dx = np.moveaxis((r[:d] - r[d:]) / (2 * h), 0, -1)  # (legs, rows, d)
+        if not (np.isfinite(A).all() and np.isfinite(dr_dx).all()):
+            return None
+        G = -np.linalg.pinv(A) @ dr_dx  # (legs, n_q, d)
+
+    shape = np.shape(q_ref)
+    G = np.ascontiguousarray(G.reshape(-1, d).T)  # (d, legs * n_q)
+    base = np.asarray(q_ref, dtype=float).ravel()
+
+    def guess(poses):  # q_ref itself at x_ref
+        return ((np.asarray(poses, dtype=float) - x_ref) @ G + base).reshape((-1,) + shape)
+
+    return guess
