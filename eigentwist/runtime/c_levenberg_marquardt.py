@@ -23,9 +23,7 @@ import numpy as np
 from .addresses import address
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
-__all__ = ["driver", "iterate", "block_steps", "BLOCK", "followers_driver", "follow", "SOURCE"]
-
-BLOCK = 64  # poses per block of the driver (B in SOURCE)
+__all__ = ["driver", "iterate", "block_steps", "followers_driver", "follow", "SOURCE"]
 
 SOURCE = r"""
 #include <math.h>
@@ -726,10 +724,6 @@ def driver():
         fn = None
         if lib is not None:
             _LIBRARIES.append(lib)
-            steps = lib.et_block_steps
-            V = ctypes.c_void_p
-            steps.argtypes = [ctypes.c_int, ctypes.c_int, V, V, V, ctypes.c_double, V]
-            steps.restype = ctypes.c_int
             fn = lib.et_newton_lm
             P = ctypes.POINTER
             fn.argtypes = [
@@ -759,21 +753,26 @@ def block_steps(A: np.ndarray, r: np.ndarray, scale, shift: float):
     """The driver's damped Gauss-Newton steps (:func:`eigentwist.runtime.levenberg_marquardt.normal_solve`'s)
     of one block of ``BLOCK`` systems, A (BLOCK, rows, n_q) and r (BLOCK, rows); ``scale``
     (BLOCK,) or None (undamped: ``diag(shift)``). Returns (BLOCK, n_q), or None where the
-    driver cannot be built. Raises ValueError for sizes the driver does not take."""
+    driver cannot be built. Raises InputError for sizes the driver does not take."""
+    from .errors import InputError
+
     if driver() is None:
         return None
     fn = _LIBRARIES[0].et_block_steps
+    V = ctypes.c_void_p
+    fn.argtypes = [ctypes.c_int, ctypes.c_int, V, V, V, ctypes.c_double, V]
+    fn.restype = ctypes.c_int
     A = np.asarray(A, dtype=float)
     n, rows, nq = A.shape
     if n != BLOCK:
-        raise ValueError(f"block_steps takes {BLOCK} systems, got {n}")
+        raise InputError(f"block_steps takes {BLOCK} systems, got {n}")
     As = np.ascontiguousarray(np.moveaxis(A, 0, -1))
     rs = np.ascontiguousarray(np.asarray(r, dtype=float).T)
     sc = None if scale is None else np.ascontiguousarray(np.broadcast_to(np.asarray(scale, dtype=float), (BLOCK,)))
     x = np.empty((nq, BLOCK))
     rc = fn(rows, nq, address(As), address(rs), None if sc is None else address(sc), float(shift), address(x))
     if rc == -1:
-        raise ValueError(f"the driver takes 1 to 8 coordinates and at least one row, got rows={rows}, n_q={nq}")
+        raise InputError(f"the driver takes 1 to 8 coordinates and at least one row, got rows={rows}, n_q={nq}")
     if rc != 0:
         raise MemoryError("et_block_steps: out of memory")
     return x.T
