@@ -539,6 +539,28 @@ def test_newton_from_a_guess_falls_back_to_the_reference():
     assert (solve(_two_branch_closure, -reference, p, 4)[::2, 0, 0] < 0).all()
 
 
+def test_a_pose_whose_guess_jumps_branch_is_warm_started_when_the_reference_fails():
+    """From a singular reference (q = 0: no step) nothing converges; a pose whose guess lands
+    on the other branch is solved again from the reference, then from the previous pose's
+    solution, as a pose without a guess would be."""
+    from eigentwist.runtime.levenberg_marquardt import solve
+
+    x = np.array([2.0, 2.5, 3.0])
+    start = np.array([np.sqrt(2.0), -np.sqrt(2.5), np.nan])[:, None, None]
+    q, off = solve(
+        _two_branch_closure,
+        np.zeros((1, 1)),
+        {"x": x},
+        3,
+        branch=lambda q: np.sign(q[..., 0]),
+        signs=[1.0],
+        start=start,
+        report=True,
+    )
+    np.testing.assert_allclose(q[:, 0, 0], np.sqrt(x), rtol=0, atol=1e-14)
+    assert not off.any()
+
+
 def test_iterations_from_a_guess_start_nearly_undamped():
     """Iterations from a guess start at GUESS_LAMBDA0 (near the solution, Gauss-Newton's
     quadratic convergence), those from the reference at LAMBDA0; from the guess the

@@ -290,17 +290,7 @@ def solve(
     ok = norm < tol
     if guessed:
         q, norm, ok = _from_reference(iterate, q, norm, ~ok.all(-1), q0, p, n, iterations, tol)
-    # warm start: a pose that fails from the reference starts from the previous pose's solution
-    for _ in range(3):
-        retry = ~ok.all(-1)
-        retry[0] = False
-        prev = np.flatnonzero(retry)
-        prev = prev[ok[prev - 1].all(-1)] if prev.size else prev
-        if prev.size == 0:
-            break
-        qs, ns = iterate(q[prev - 1].copy(), _take(p, prev, n), iterations, tol)
-        q[prev], norm[prev] = qs, ns
-        ok = norm < tol
+    q, norm, ok = _warm_start(iterate, q, norm, ok, p, n, iterations, tol)
     off = np.zeros(ok.shape, dtype=bool)
     if branch is not None and ok.any():
         ref_sign = (
@@ -313,6 +303,7 @@ def solve(
         if guessed and off.any():  # a guess led past a singularity: solve those poses from the reference
             rows = off.any(-1)
             q, norm, ok = _from_reference(iterate, q, norm, rows, q0, p, n, iterations, tol)
+            q, norm, ok = _warm_start(iterate, q, norm, ok, p, n, iterations, tol)
             again = ok & ~((np.sign(branch(_where_ok(ok, q, q0))) == ref_sign) | (ref_sign == 0))
             off = np.where(rows[:, None], again, off)
         ok &= ~off
@@ -323,6 +314,22 @@ def solve(
 def _where_ok(ok: np.ndarray, q: np.ndarray, other) -> np.ndarray:
     """``q`` (n, legs, n_q) where ``ok`` (n, legs), else ``other``; ``q`` itself where every leg is ok."""
     return q if ok.all() else np.where(ok[..., None], q, other)
+
+
+def _warm_start(iterate, q, norm, ok, p: dict, n: int, iterations: int, tol: float):
+    """A pose that has not converged starts again from the previous pose's solution, where
+    that converged (three passes: a run of failed poses is reached one by one): (q, |r|, converged)."""
+    for _ in range(3):
+        retry = ~ok.all(-1)
+        retry[0] = False
+        prev = np.flatnonzero(retry)
+        prev = prev[ok[prev - 1].all(-1)] if prev.size else prev
+        if prev.size == 0:
+            break
+        q, norm = q.copy(), norm.copy()
+        q[prev], norm[prev] = iterate(q[prev - 1].copy(), _take(p, prev, n), iterations, tol)
+        ok = norm < tol
+    return q, norm, ok
 
 
 def _from_reference(iterate, q, norm, again, q0, p: dict, n: int, iterations: int, tol: float):
