@@ -561,6 +561,26 @@ def test_a_pose_whose_guess_jumps_branch_is_warm_started_when_the_reference_fail
     assert not off.any()
 
 
+def test_a_pose_still_on_the_other_branch_after_the_reference_is_rejected():
+    """The branch recorded at x_ref (+) need not be the reference's own: a guess and the
+    reference both closing on the - branch leave the pose off its branch, NaN."""
+    from eigentwist.runtime.levenberg_marquardt import solve
+
+    x = np.array([2.0, 3.0])
+    q, off = solve(
+        _two_branch_closure,
+        -np.ones((1, 1)),
+        {"x": x},
+        2,
+        branch=lambda q: np.sign(q[..., 0]),
+        signs=[1.0],
+        start=np.array([np.sqrt(2.0), -np.sqrt(3.0)])[:, None, None],
+        report=True,
+    )
+    assert off[:, 0].tolist() == [False, True]
+    assert np.isclose(q[0, 0, 0], np.sqrt(2.0), rtol=0, atol=1e-14) and np.isnan(q[1]).all()
+
+
 def test_iterations_from_a_guess_start_nearly_undamped():
     """Iterations from a guess start at GUESS_LAMBDA0 (near the solution, Gauss-Newton's
     quadratic convergence), those from the reference at LAMBDA0; from the guess the
@@ -591,6 +611,14 @@ def test_iterations_from_a_guess_start_nearly_undamped():
         lm._iterate(counted, np.sqrt(x)[:, None, None] * 1.01, p, lm.MAX_ITERATIONS, lm.TOL, lam)
         counts[lam] = len(calls)
     assert counts[lm.GUESS_LAMBDA0] < counts[lm.LAMBDA0]
+    calls = []
+
+    def counted(qq, pp):
+        calls.append(1)
+        return _two_branch_closure(qq, pp)
+
+    lm.solve(counted, np.ones((1, 1)), p, 5, start=np.sqrt(x)[:, None, None] * 1.01)  # its own iterations
+    assert len(calls) == counts[lm.GUESS_LAMBDA0]
 
 
 def test_the_predicted_start_is_the_tangent_of_the_solution_and_none_where_singular():
