@@ -17,7 +17,7 @@ from ..runtime import InputError
 from ..runtime.memo import BoundedMemo, content_key
 from ..runtime.labels import energy_shares
 from .matching import directions_asked, match_frequencies
-from .shapes import has_shape, match_by_shape, setting_rows
+from .shapes import SettingGroups, has_shape, match_by_shape, setting_rows
 
 __all__ = ["evaluate", "Predictor", "EVAL_BLOCK", "distinct_rows", "take_rows", "setting_keys", "setting_groups"]
 
@@ -148,7 +148,7 @@ def setting_groups(shapes, keys) -> tuple:
     """The settings of the rows with a measured shape (:func:`.shapes.has_shape`): a
     tuple of row-index arrays, rows whose ``keys`` agree to 12 decimals together."""
     rows = np.flatnonzero(has_shape(shapes))
-    return tuple(rows[g] for g in setting_rows(np.asarray(keys, dtype=float)[rows]))
+    return SettingGroups(rows[g] for g in setting_rows(np.asarray(keys, dtype=float)[rows]))
 
 
 def _modes(ev, effects, poses, params: dict, joints):
@@ -243,6 +243,7 @@ class Predictor:
         self._distinct = _DISTINCT_UNSET
         self._measured_shapes = None  # (shapes, projection, settings) or () without shapes: _shapes
         self._repeated = BoundedMemo(8)  # repeat -> the measured rows' arrays repeated (_repeated_rows)
+        self._repeated_shapes = BoundedMemo(8)  # repeat -> the shapes, sensors and settings tiled (_shapes)
 
     def _unique(self, repeat: int = 1):
         """``(first, inverse)`` of the measured rows tiled ``repeat`` times (the model is
@@ -306,8 +307,8 @@ class Predictor:
 
     def _shapes(self, repeat: int = 1):
         """The measured shapes and their projections (:mod:`.shapes`), tiled ``repeat``
-        times; {} without shape columns. Built once per predictor (every evaluation of a
-        fit asks for the same)."""
+        times (read-only, built once per count: every evaluation of a fit asks for the
+        same); {} without shape columns."""
         if self._measured_shapes is None:
             shapes = getattr(self.meas, "shapes", None)
             if shapes is None:
@@ -321,14 +322,20 @@ class Predictor:
                 self._measured_shapes = (shapes, projection, setting_groups(shapes, keys))
         if not self._measured_shapes:
             return {}
-        shapes, projection, groups = self._measured_shapes
-        n = len(self.meas)
-        return {
-            "shapes": np.tile(shapes, (repeat, 1)),
-            "sensor": np.tile(projection, (repeat, 1, 1)),
-            # each parameter set's settings on their own (two sets of equal values stay apart)
-            "groups": tuple(g + k * n for k in range(repeat) for g in groups),
-        }
+        tiled = self._repeated_shapes.get(repeat)
+        if tiled is None:
+            shapes, projection, groups = self._measured_shapes
+            n = len(self.meas)
+            tiled = {
+                "shapes": np.tile(shapes, (repeat, 1)),
+                "sensor": np.tile(projection, (repeat, 1, 1)),
+                # each parameter set's settings on their own (two sets of equal values stay apart)
+                "groups": SettingGroups(g + k * n for k in range(repeat) for g in groups),
+            }
+            for arr in (tiled["shapes"], tiled["sensor"], *tiled["groups"], *tiled["groups"].by_size):
+                arr.flags.writeable = False
+            self._repeated_shapes.put(repeat, tiled)
+        return dict(tiled)
 
     def predict(self, values: dict | None = None, strict: bool = True, return_modes: bool = False):
         """(freq_hz (N,), mode index (N,)) with parameter ``values`` (name -> scalar);

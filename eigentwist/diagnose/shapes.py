@@ -43,6 +43,7 @@ __all__ = [
     "sensor_shapes",
     "mac",
     "match_by_shape",
+    "SettingGroups",
     "setting_rows",
     "has_shape",
     "shape_residuals",
@@ -121,6 +122,20 @@ def setting_rows(keys: np.ndarray) -> tuple:
     return tuple(np.split(order, starts))
 
 
+class SettingGroups(tuple):
+    """The settings' row-index arrays (a tuple, as :func:`match_by_shape` takes them) with
+    their rows stacked once by setting size: ``by_size``, one (G, size) array per size,
+    ascending. A fit matches the same settings at every evaluation."""
+
+    by_size: tuple
+
+    def __new__(cls, groups):
+        obj = super().__new__(cls, groups)
+        sizes = sorted({len(g) for g in obj})
+        obj.by_size = tuple(np.stack([g for g in obj if len(g) == size]) for size in sizes)
+        return obj
+
+
 def match_by_shape(modes, shapes, groups, fallback, sensor=None) -> np.ndarray:
     """Model mode of each row with a measured shape, by MAC; ``fallback`` for the others.
 
@@ -129,8 +144,8 @@ def match_by_shape(modes, shapes, groups, fallback, sensor=None) -> np.ndarray:
     modes : :class:`eigentwist.runtime.Modes` of N rows.
     shapes : (N, 3) measured shapes (NaN rows: none measured).
     groups : the settings (same pose, k_a, parameters, sensor) of the rows with a shape:
-        row-index arrays (:func:`eigentwist.diagnose.predict.setting_groups`); each
-        setting's rows take distinct modes.
+        row-index arrays (:func:`eigentwist.diagnose.predict.setting_groups`; a
+        :class:`SettingGroups` is stacked already); each setting's rows take distinct modes.
     fallback : (N,) indices from the labels (used for rows without a shape).
     sensor : (N, 3) sensor offsets, m (None: the end-effector origin).
 
@@ -149,8 +164,8 @@ def match_by_shape(modes, shapes, groups, fallback, sensor=None) -> np.ndarray:
     score = mac(np.swapaxes(U, -1, -2), np.nan_to_num(shapes)[:, None, :])  # (N, n)
     seen = modes.direction >= 3  # x, y, z (AXES index)
     score = np.where(seen, score, score - 2.0)  # rotations only if nothing else fits
-    for size in sorted({len(g) for g in groups}):
-        members = np.stack([g for g in groups if len(g) == size])  # (G, size)
+    stacked = groups if isinstance(groups, SettingGroups) else SettingGroups(groups)
+    for members in stacked.by_size:  # (G, size) each
         S = score[members]  # (G, size, n)
         cols, unique = _best_assignments(S)
         idx[members[unique]] = cols[unique]
