@@ -621,6 +621,21 @@ def test_iterations_from_a_guess_start_nearly_undamped():
     assert len(calls) == counts[lm.GUESS_LAMBDA0]
 
 
+def test_the_tangent_solves_consistent_closures_and_leaves_unread_coordinates():
+    """dq/ds = -A^+ dr/ds: exact for a consistent system with more rows than coordinates,
+    and 0 for a coordinate no row reads (a padded leg's column of zeros)."""
+    from eigentwist.runtime.levenberg_marquardt import tangent
+
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(4, 6, 3))
+    dq = rng.normal(size=(4, 3, 2))
+    np.testing.assert_allclose(tangent(A, -A @ dq), dq, rtol=0, atol=1e-12)
+    padded = np.concatenate([A, np.zeros((4, 6, 1))], axis=-1)
+    got = tangent(padded, -A @ dq)
+    np.testing.assert_allclose(got[:, :3], dq, rtol=0, atol=1e-12)
+    assert np.array_equal(got[:, 3], np.zeros((4, 2)))
+
+
 def test_the_predicted_start_is_the_tangent_of_the_solution_and_none_where_singular():
     """q = sqrt(x) closes r = q^2 - x: at (q, x) = (1, 1) dq/dx = 1/2, so the guess at x is
     1 + (x - 1)/2; where the closure's Jacobian is not finite there is no guess."""

@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .levenberg_marquardt import tangent
+
 __all__ = [
     "difference_steps",
     "follower_terms",
@@ -93,9 +95,7 @@ def joint_derivatives(ev, poses: np.ndarray, wrt, params: dict) -> tuple[np.ndar
             r0 = closure(q, inputs(p))["residual"]
         cols.append(_difference(residual, name, value, h, central, params, r0))
     dr = np.stack(cols, axis=-1)  # (N, legs, rows, P)
-    At = np.swapaxes(A, -1, -2)
-    dq = -np.linalg.solve(At @ A, At @ dr)
-    return q, dq
+    return q, tangent(A, dr)
 
 
 def numeric_matrix_derivatives(ev, poses: np.ndarray, wrt, model, params: dict) -> dict:

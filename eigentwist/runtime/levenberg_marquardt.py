@@ -32,6 +32,7 @@ import numpy as np
 __all__ = [
     "solve",
     "predicted_start",
+    "tangent",
     "normal_solve",
     "continuation",
     "same_configuration",
@@ -341,6 +342,14 @@ def _from_reference(iterate, q, norm, again, q0, p: dict, n: int, iterations: in
     return q, norm, norm < tol
 
 
+def tangent(A: np.ndarray, dr: np.ndarray) -> np.ndarray:
+    """The implicit function theorem on a closure ``r(q, s) = 0``: ``dq/ds = -A^+ dr/ds``
+    (..., n_q, k) from its Jacobian ``A = dr/dq`` (..., rows, n_q) and ``dr/ds`` (..., rows,
+    k) at fixed q; A's pseudo-inverse: the least-squares solution of a leg with more closure
+    rows than coordinates (a consistent system), and no motion of a coordinate no row reads."""
+    return -np.linalg.pinv(A) @ dr
+
+
 def predicted_start(closure, q_ref: np.ndarray, inputs_at, x_ref: np.ndarray, h: float = 1e-6):
     """``guess(poses) -> (N, legs, n_q)``: the first-order prediction ``q_ref + G (x - x_ref)``
     of the closed configuration at poses x (N, d), from the implicit function theorem on
@@ -361,7 +370,7 @@ def predicted_start(closure, q_ref: np.ndarray, inputs_at, x_ref: np.ndarray, h:
         dr_dx = np.moveaxis((r[:d] - r[d:]) / (2 * h), 0, -1)  # (legs, rows, d)
         if not (np.isfinite(A).all() and np.isfinite(dr_dx).all()):
             return None
-        G = -np.linalg.pinv(A) @ dr_dx  # (legs, n_q, d)
+        G = tangent(A, dr_dx)  # (legs, n_q, d)
 
     shape = np.shape(q_ref)
     G = np.ascontiguousarray(G.reshape(-1, d).T)  # (d, legs * n_q)
