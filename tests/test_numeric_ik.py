@@ -621,6 +621,40 @@ def test_iterations_from_a_guess_start_nearly_undamped():
     assert len(calls) == counts[lm.GUESS_LAMBDA0]
 
 
+def test_a_guess_from_the_default_geometry_finds_what_the_reference_finds(numeric):
+    """The predictor is built at the default parameters; with a geometry changed by 10 %
+    (the platform radius) Newton from its guesses reaches the same poses and the same
+    configurations as from the reference alone."""
+    from eigentwist.runtime.completion import padded_references
+    from eigentwist.runtime.levenberg_marquardt import solve
+
+    ev, shipped = numeric["hexapod"]
+    completion = ev.completion
+    reference = np.array(padded_references(ev.robot.legs), dtype=float)
+    poses = random_poses(shipped.robot, 40, seed=4)
+    for factor in (0.9, 1.1):
+        params = {"R_p": ev.defaults["R_p"] * factor}
+        x = completion.poses(poses, params)
+        kp = completion.closure_inputs(x, completion.resolver.resolve(len(x), params, "none"))
+        signs = completion.assembly()["sign"]
+
+        def branch(q):
+            return completion.levers(q, kp)
+
+        plain = solve(ev.kernels.loop_closure, reference, kp, len(x), branch=branch, signs=signs)
+        guessed = solve(
+            ev.kernels.loop_closure,
+            reference,
+            kp,
+            len(x),
+            branch=branch,
+            signs=signs,
+            start=completion.predictor()(x),
+        )
+        assert np.array_equal(np.isnan(plain), np.isnan(guessed)) and np.isfinite(plain).any()
+        assert np.nanmax(np.abs(plain - guessed)) < 1e-10
+
+
 def test_the_tangent_solves_consistent_closures_and_leaves_unread_coordinates():
     """dq/ds = -A^+ dr/ds: exact for a consistent system with more rows than coordinates,
     and 0 for a coordinate no row reads (a padded leg's column of zeros)."""
