@@ -398,9 +398,10 @@ def test_portable_fallback_when_native_flags_fail(c_cache, ev, monkeypatch):
     """A compiler that rejects the vectorising flags falls back to the portable flags, and
     the portable source (no SIMD math) gives the same numbers. It builds at -O0: the fallback
     and the portable source are under test, not the optimiser (saves ~10 s of compiler)."""
-    native, portable = ccompile.flag_sets()
+    native, vector, portable = ccompile.flag_sets()
     fallback = (portable[0], portable[1] + ["-O0"])
-    monkeypatch.setattr(cb, "flag_sets", lambda: [("native", native[1] + ["-fno-such-flag-et"]), fallback])
+    refused = [(name, flags + ["-fno-such-flag-et"]) for name, flags in (native, vector)]
+    monkeypatch.setattr(cb, "flag_sets", lambda: [*refused, fallback])
     lib, sig, build = cb.compile_and_load("heli4", directory=c_cache)
     assert build.flags_name == "portable"
     ck = cb.CKernels(lib, sig, build)
@@ -438,6 +439,37 @@ def test_evaluator_modes_c_equals_numpy(model):
         ev_c.frequencies([0.0, 0.0, -1.5], model)
 
 
+def _packed_square_roots(path) -> tuple[int, int]:
+    """(packed, scalar) square roots in ``et_sweep6`` of the library at ``path`` (objdump)."""
+    import shutil
+
+    objdump = shutil.which("objdump")
+    assert objdump, "objdump (binutils, which the compiler needs) is not on PATH"
+    asm = subprocess.run([objdump, "-d", "--no-show-raw-insn", str(path)], capture_output=True, text=True).stdout
+    start = asm.index("<et_sweep6>:")
+    body = asm[start : asm.index("\n\n", start)]
+    return body.count("sqrtpd"), body.count("sqrtsd")
+
+
+@compiled
+def test_a_compiler_refusing_gccs_flags_gets_the_vectorising_flags_next(c_cache, monkeypatch):
+    """Where the native set is refused (clang refuses gcc's -fdisable-tree-sincos), the
+    vectorising flags alone come next, not the portable ones: the ones that vectorise the
+    Jacobi sweeps (``-march=native -fno-trapping-math``, the test below) without gcc's
+    trigonometry flag and vector maths. Built at -O0: the order is under test here."""
+    native, vector, portable = ccompile.flag_sets()
+    assert "-fdisable-tree-sincos" in native[1] and "-fdisable-tree-sincos" not in vector[1]
+    assert not any(f.startswith("-DET_SIMD_MATH") for f in vector[1])
+    assert set(vector[1]) < set(native[1]) and {"-march=native", "-fno-trapping-math", "-fopenmp-simd"} <= set(
+        vector[1]
+    )
+    assert "-march=native" not in portable[1]
+    quick = (vector[0], vector[1] + ["-O0"])
+    monkeypatch.setattr(cb, "flag_sets", lambda: [(native[0], native[1] + ["-fno-such-flag-et"]), quick, portable])
+    _, _, build = cb.compile_and_load("heli4", directory=c_cache)
+    assert build.flags_name == "vector" and build.flags == quick[1]
+
+
 @compiled
 def test_the_jacobi_sweeps_are_vectorised_with_the_native_flags():
     """The loaded Heli4 library's Jacobi sweep (``et_sweep6``: a rotation's reciprocal square
@@ -446,7 +478,6 @@ def test_the_jacobi_sweeps_are_vectorised_with_the_native_flags():
     ``-fno-trapping-math`` to evaluate the guarded division and square root in every lane;
     without it gcc leaves the sweeps scalar there, four to five times slower."""
     import platform
-    import shutil
 
     if platform.machine() not in ("x86_64", "AMD64"):
         pytest.skip(f"instruction names of x86-64 (this machine: {platform.machine()})")
@@ -454,10 +485,5 @@ def test_the_jacobi_sweeps_are_vectorised_with_the_native_flags():
     build = ev.kernels.build
     if "-march=native" not in build.flags:
         pytest.fail(f"the library was built with the portable flags {build.flags}: the native set failed")
-    objdump = shutil.which("objdump")
-    assert objdump, "objdump (binutils, which the compiler needs) is not on PATH"
-    asm = subprocess.run([objdump, "-d", "--no-show-raw-insn", str(build.path)], capture_output=True, text=True).stdout
-    start = asm.index("<et_sweep6>:")
-    body = asm[start : asm.index("\n\n", start)]
-    packed = body.count("sqrtpd")
-    assert packed > 0, f"et_sweep6 has no packed square root ({body.count('sqrtsd')} scalar ones)"
+    packed, scalar = _packed_square_roots(build.path)
+    assert packed > 0, f"et_sweep6 has no packed square root ({scalar} scalar ones)"

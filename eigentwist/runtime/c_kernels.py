@@ -9,8 +9,10 @@ NumPy module's functions do. :meth:`CKernels.fused_frequencies` is the fast path
 sweeps: poses and parameters to natural frequencies in one C call.
 
 Compiling is tried with vectorising flags first (``-march=native -fopenmp-simd
--fno-math-errno -fno-trapping-math``, glibc's vector maths library on x86-64 Linux) and then with portable
-ones (``-O3 -fPIC -shared``); a failure of both raises with the compiler's message.
+-fno-math-errno -fno-trapping-math``, gcc's ``-fdisable-tree-sincos`` and glibc's vector maths
+library on x86-64 Linux), then with the vectorising flags alone (a compiler that refuses gcc's:
+clang), then with portable ones (``-O3 -fPIC -shared``); a failure of all raises with the
+compiler's messages (:func:`~eigentwist.runtime.ccompile.flag_sets`).
 """
 
 from __future__ import annotations
