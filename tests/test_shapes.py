@@ -146,3 +146,24 @@ def test_equal_parameter_sets_are_matched_alike(ev):
         one, _ = pred.predict({"m_p": value})
         assert np.allclose(row, one, rtol=1e-13)
     assert np.all(np.diff(freq[0]) > 0)  # three distinct modes, in ascending order
+
+
+def test_settings_of_different_sizes_are_each_matched_by_shape():
+    """Rows of a two-row and of a three-row setting in one call each take the mode their
+    measured shape names (unit translations x, y, z as modes 3, 4, 5), given the settings as a
+    tuple or stacked (SettingGroups); a row without a shape keeps its label's mode."""
+    from types import SimpleNamespace
+
+    from eigentwist.diagnose.shapes import SettingGroups, match_by_shape
+
+    n = 6
+    modes = SimpleNamespace(eigentwists=np.broadcast_to(np.eye(n), (6, n, n)), direction=np.tile(np.arange(n), (6, 1)))
+    e = np.eye(3)
+    shapes = np.array([e[1], e[0], e[2], e[0], e[1], [np.nan] * 3])
+    fallback = np.zeros(6, dtype=int)
+    groups = (np.array([0, 1]), np.array([2, 3, 4]))
+    for given in (groups, SettingGroups(groups)):
+        idx = match_by_shape(modes, shapes, given, fallback)
+        assert idx.tolist() == [4, 3, 5, 3, 4, 0]
+    stacked = SettingGroups(groups)
+    assert [m.shape for m in stacked.by_size] == [(1, 2), (1, 3)]
