@@ -394,6 +394,13 @@ def test_newton_hands_the_closures_block_function_only_where_its_rows_are_the_dr
         sig = dict(SIGNATURE, kernels=dict(SIGNATURE["kernels"], loop_closure=closure))
         ck.CKernels(lib, sig, ck.Build("lib.so", "portable", [])).newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9)
     assert blocks == [ctypes.cast(lib.et_toy_loop_closure_block_entry, ctypes.c_void_p).value, None, None]
+    # the first damping: passed on where given, the driver's default where not
+    damping = []
+    monkeypatch.setattr(clm, "iterate", lambda *a, **kw: damping.append(kw.get("lambda0", a[10:11])))
+    kern = ck.CKernels(lib, sig, ck.Build("lib.so", "portable", []))
+    kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9, lambda0=1e-8)
+    kern.newton(q, {"a": 1.0, "b": 7.0}, 30, 1e-9)
+    assert damping == [(1e-8,), ()]
 
 
 def test_bind_declares_the_generated_c_signatures():

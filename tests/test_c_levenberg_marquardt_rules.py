@@ -82,6 +82,15 @@ def test_each_poses_inputs_reach_it(newton):
     assert type(call["iterations"]) is int and type(call["tol"]) is float
 
 
+def test_the_first_damping_is_passed_as_given(newton):
+    """``lambda0`` (a predicted start's first damping) reaches the driver as a double; the
+    default is LAMBDA0."""
+    q = np.zeros((2, 1, 3))
+    clm.iterate(1234, None, [0], [0], [0], q, 3, 7, 1e-9, lambda0=1e-8)
+    clm.iterate(1234, None, [0], [0], [0], q, 3, 7, 1e-9)
+    assert [c["lam"] for c in newton.calls] == [1e-8, LAMBDA0]
+
+
 def test_ranges_of_blocks_on_threads(newton):
     """Two threads' worth of blocks: ranges of whole blocks, each moved to its first pose."""
     n = 2 * MIN_BLOCKS_PER_THREAD * clm.BLOCK
