@@ -655,6 +655,30 @@ def test_a_guess_from_the_default_geometry_finds_what_the_reference_finds(numeri
         assert np.nanmax(np.abs(plain - guessed)) < 1e-10
 
 
+def test_the_evaluator_starts_newton_from_its_predictor(numeric, monkeypatch):
+    """``solve_joints`` hands Newton the predictor's guesses of its poses (the same solution
+    as from the reference, fewer iterations)."""
+    import copy
+
+    from eigentwist.runtime import levenberg_marquardt as lm
+
+    ev = copy.copy(numeric["hexapod"][0])
+    ev.completion = copy.copy(ev.completion)
+    ev.completion.__dict__.pop("_newton_memo", None)
+    seen = []
+    solve = lm.solve
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("start"))
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(lm, "solve", spy)
+    poses = random_poses(numeric["hexapod"][1].robot, 7, seed=9)
+    x = ev.completion.poses(poses, {})
+    ev.joint_angles(poses)
+    assert len(seen) == 1 and np.array_equal(seen[0], ev.completion.predictor()(x))
+
+
 def test_the_tangent_solves_consistent_closures_and_leaves_unread_coordinates():
     """dq/ds = -A^+ dr/ds: exact for a consistent system with more rows than coordinates,
     and 0 for a coordinate no row reads (a padded leg's column of zeros)."""
