@@ -45,12 +45,6 @@ def fresh_batches(ev, box: np.ndarray, n: int, repeat: int, model: str = "none",
     return [pool[k * n : (k + 1) * n] for k in range(repeat)]
 
 
-def fresh_rate(ev, box: np.ndarray, n: int, repeat: int, model: str = "none", seed: int = 0) -> float:
-    """Best poses per CPU-second of ``ev.frequencies(poses, model)`` over ``repeat`` batches
-    of ``n`` reachable poses, new poses for every batch (:func:`fresh_batches`)."""
-    return paired_rates([(ev, box)], n, repeat, model, seed)[0]
-
-
 def paired_rates(
     evaluators: list, n: int, repeat: int, model: str = "none", seed: int = 0, clock=time.process_time
 ) -> list:

@@ -231,8 +231,7 @@ class PoseCompletion:
         from .levenberg_marquardt import continuation, same_configuration, solve
 
         reference = np.array(padded_references(self.robot.legs), dtype=float)
-        x = self.poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})
-        kp = self.closure_inputs(x, self.resolver.resolve(1, {}, "none"))
+        kp = self.default_closure_inputs(self.reference_pose()[None])
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             r0 = self.kernels.loop_closure(reference[None], kp)["residual"][0]
             q_path, _ = continuation(self.kernels.loop_closure, reference, kp)
@@ -274,13 +273,19 @@ class PoseCompletion:
         if "_predictor" not in self.__dict__:
             from .levenberg_marquardt import predicted_start
 
-            def inputs_at(x):
-                return self.closure_inputs(x, self.resolver.resolve(len(x), {}, "none"))
-
-            x_ref = self.poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})[0]
-            q_ref = self.assembly()["q"]
-            self.__dict__["_predictor"] = predicted_start(self.kernels.loop_closure, q_ref, inputs_at, x_ref)
+            self.__dict__["_predictor"] = predicted_start(
+                self.kernels.loop_closure, self.assembly()["q"], self.default_closure_inputs, self.reference_pose()
+            )
         return self.__dict__["_predictor"]
+
+    def reference_pose(self) -> np.ndarray:
+        """(dof,) ``x_ref`` completed with the default parameters (:meth:`poses`)."""
+        return self.poses(np.atleast_2d(np.asarray(self.robot.x_ref, dtype=float)), {})[0]
+
+    def default_closure_inputs(self, x: np.ndarray) -> dict:
+        """The ``loop_closure`` kernel's inputs at completed poses ``x`` (N, dof) with the
+        default parameters (:meth:`closure_inputs`)."""
+        return self.closure_inputs(x, self.resolver.resolve(len(x), {}, "none"))
 
     def levers(self, q: np.ndarray, kp: dict, threads: int | None = None) -> np.ndarray:
         """(N, legs) each leg's actuation lever (m) at joint coordinates ``q`` (N, legs, n_q)
