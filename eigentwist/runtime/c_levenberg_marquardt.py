@@ -126,9 +126,9 @@ static void et_steps(int rows, int nq, const double *As, const double *rs, const
 
 /* et_steps for a leg of R rows and Q coordinates known when compiled: the same operations
    in the same order, each lane's system held in registers (the lane loop vectorised). The
-   arrays must have these sizes: one lane-loop body for every size (8 x 8 arrays, loops bounded
-   at run time, inlined with constants) was not vectorised and ran 1.6-1.9x slower than this;
-   the other sizes keep et_steps' structure-of-arrays loops. */
+   arrays must have these sizes: gcc does not vectorise one lane-loop body for every size (8 x 8
+   arrays, loops bounded at run time, inlined with constants), which runs 1.6-1.9x slower than
+   this; the other sizes keep et_steps' structure-of-arrays loops. */
 #define ET_STEPS_FIXED(R, Q)                                                                                 \
     static inline __attribute__((always_inline)) void et_lanes_##R##_##Q(                                   \
         const double *As, const double *rs, const double *scale, double shift, double *x, const int scaled)  \
