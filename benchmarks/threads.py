@@ -1,7 +1,7 @@
 """Thread scaling of the public path: wall time of ``frequencies`` with 1 and more threads.
 
     PYTHONPATH=. python benchmarks/threads.py [--n 200000] [--repeat 3] [--robots NAME:MODEL ...]
-        [--threads 2 4 8 16]
+        [--threads 2 4 8 16] [--newton-chunk 4096]
 
 For each robot (a shipped name or a description file) and model: the C backend with
 ``threads=1`` and each count of ``--threads``, **new** reachable poses every call
@@ -36,7 +36,14 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--robots", nargs="+", default=["hexapod:none", "examples/robots/rus6.py:none"])
     parser.add_argument("--threads", type=int, nargs="+", default=[2], help="the thread counts compared with one")
+    parser.add_argument(
+        "--newton-chunk", type=int, default=None, help="poses per chunk of numeric IK (completion.NEWTON_CHUNK)"
+    )
     args = parser.parse_args()
+    if args.newton_chunk:
+        from eigentwist.runtime import completion
+
+        completion.NEWTON_CHUNK = args.newton_chunk
     counts = [1] + [t for t in args.threads if t != 1]
     print(
         "robot, model | "

@@ -852,3 +852,42 @@ def test_a_pose_off_the_recorded_branch_is_named(numeric, backend, monkeypatch):
         "where the description's reference puts the robot)"
     )
     assert not flipped.valid(x).any()
+
+
+def test_the_pose_inputs_are_computed_once_and_left_out_of_the_memo_key(numeric, monkeypatch):
+    """Newton reads the pose inputs (x, y, z, rot_*, R_ij) the caller computed from the same
+    poses, or computes them once for the batch; the memo key, which holds the poses, leaves
+    them out; every other input stays in it."""
+    import copy
+
+    ev, shipped = numeric["hexapod"]
+    completion = copy.copy(ev.completion)
+    completion.__dict__.pop("_newton_memo", None)
+    poses = random_poses(shipped.robot, 9, seed=4)
+    p = ev.resolver.resolve(len(poses), {}, "none")
+    with_pose = completion.closure_inputs(poses, p)
+    assert completion.pose_input_names() == {"x", "y", "z", "rot_x", "rot_y", "rot_z"} | {
+        f"R_{i}{j}" for i in range(3) for j in range(3)
+    }
+    assert completion.pose_input_names() <= with_pose.keys()
+    assert completion.newton_key(poses, with_pose) == completion.newton_key(poses, p)
+    moved = {**p, "R_p": np.asarray(p["R_p"]) * 1.01}
+    assert completion.newton_key(poses, moved) != completion.newton_key(poses, p)
+
+    calls = []
+    kernel_pose_inputs = type(completion).kernel_pose_inputs
+
+    def count(self, x):
+        calls.append(len(x))
+        return kernel_pose_inputs(self, x)
+
+    monkeypatch.setattr(type(completion), "kernel_pose_inputs", count)
+    given = completion.solve_joints(poses, with_pose)
+    assert calls == []  # read from the caller's inputs
+    completion.__dict__.pop("_newton_memo", None)
+    computed = completion.solve_joints(poses, p)
+    assert calls == [len(poses)]  # once for the batch
+    np.testing.assert_array_equal(given, computed)
+    assert completion.solve_joints(poses, with_pose) is computed  # one memo entry for both
+    # a 3-DoF robot's pose inputs are its position
+    assert numeric["heli4"][0].completion.pose_input_names() == {"x", "y", "z"}

@@ -105,10 +105,14 @@ def test_every_chunk_finds_a_failing_row_in_any_chunk():
         seen = []
         assert every_chunk(lambda rows: seen.append(rows) or True, m, 2)
         assert sorted((r.start, r.stop) for r in seen) == want
-    for threads in (1, 2):  # the same chunks on any thread count
-        seen = []
-        assert every_chunk(lambda rows: seen.append(rows) or True, n, threads)
-        assert sorted((r.start, r.stop) for r in seen) == [(0, CHUNK), (CHUNK, 2 * CHUNK), (2 * CHUNK, n)]
+    seen = []  # one thread: the batch in one test
+    assert every_chunk(lambda rows: seen.append(rows) or True, n, 1)
+    assert [(r.start, r.stop) for r in seen] == [(0, n)]
+    seen = []  # threads: contiguous ranges of whole chunks covering the batch
+    assert every_chunk(lambda rows: seen.append(rows) or True, 40 * CHUNK + 9, 2)
+    got = sorted((r.start, r.stop) for r in seen)
+    assert got[0][0] == 0 and got[-1][1] == 40 * CHUNK + 9 and all(a[1] == b[0] for a, b in zip(got, got[1:]))
+    assert 1 < len(got) < 40 and all(a % CHUNK == 0 for a, _ in got)
 
 
 @pytest.mark.parametrize("threads", [1, 2])

@@ -121,3 +121,26 @@ def test_map_chunks_runs_chunks_side_by_side_with_one_inner_thread():
     two = map_chunks(task, CHUNK + 1, 2)  # two chunks: side by side already
     assert [g[:3] for g in two] == [(0, CHUNK, 1), (CHUNK, CHUNK + 1, 1)] and not any(g[3] for g in two)
     assert map_chunks(task, 0, 3) == []
+
+
+def test_map_ranges_splits_large_batches_into_few_ranges_of_whole_chunks():
+    """One call on the caller for one thread or a batch of one chunk; else at most threads ×
+    TASKS_PER_THREAD contiguous ranges, each of whole chunks but the last, on the pool's
+    threads, covering the batch in order."""
+    import threading
+
+    from eigentwist.runtime.completion import CHUNK, map_ranges
+
+    def task(rows):
+        return rows.start, rows.stop, threading.current_thread() is threading.main_thread()
+
+    assert map_ranges(task, 5 * CHUNK, 1) == [(0, 5 * CHUNK, True)]
+    assert map_ranges(task, CHUNK, 4) == [(0, CHUNK, True)]
+    two = map_ranges(task, CHUNK + 1, 4)
+    assert [g[:2] for g in two] == [(0, CHUNK), (CHUNK, CHUNK + 1)] and not any(g[2] for g in two)
+    n = 100 * CHUNK + 7
+    got = map_ranges(task, n, 3)
+    assert len(got) == 3 * threads.TASKS_PER_THREAD and not any(g[2] for g in got)
+    assert got[0][0] == 0 and got[-1][1] == n
+    assert all(a[1] == b[0] for a, b in zip(got, got[1:]))
+    assert all(a % CHUNK == 0 and b - a >= CHUNK for a, b, _ in got[:-1])

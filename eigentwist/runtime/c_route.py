@@ -15,7 +15,7 @@ import numpy as np
 
 from ..description.pose import FULL, twist_order
 from .addresses import address
-from .completion import CHUNK, CompletedPoses, map_chunks, masked
+from .completion import CHUNK, CompletedPoses, map_ranges, masked
 from .labels import energy_shares
 from .memo import BoundedMemo
 from .modes import Modes
@@ -38,10 +38,10 @@ def above_screen(freq: np.ndarray, threads: int = 1) -> np.ndarray:
     :data:`PARALLEL_SCREEN` times its highest; False where the row holds a NaN. One pass per
     column: NumPy's reductions along a short last axis cost about 100 ns a pose, more than
     the C pass's checks (a NaN propagates through minimum and maximum and compares False).
-    By chunks of rows, side by side on ``threads`` threads (:func:`~.completion.map_chunks`)."""
+    By ranges of rows, side by side on ``threads`` threads (:func:`~.completion.map_ranges`)."""
     above = np.empty(len(freq), dtype=bool)
 
-    def part(rows, _):
+    def part(rows):
         lo = freq[rows, 0].copy()
         hi = lo.copy()
         for j in range(1, freq.shape[1]):
@@ -49,17 +49,17 @@ def above_screen(freq: np.ndarray, threads: int = 1) -> np.ndarray:
             np.maximum(hi, freq[rows, j], out=hi)
         np.greater(lo, PARALLEL_SCREEN * hi, out=above[rows])
 
-    map_chunks(part, len(freq), threads)
+    map_ranges(part, len(freq), threads)
     return above
 
 
 def every_chunk(test, n: int, threads: int = 1) -> bool:
-    """Whether ``test(rows)`` holds for every chunk of rows of a batch of ``n``
-    (:func:`~.completion.map_chunks`: side by side on ``threads`` threads; a batch of one
+    """Whether ``test(rows)`` holds for every range of rows of a batch of ``n``
+    (:func:`~.completion.map_ranges`: side by side on ``threads`` threads; a batch of one
     chunk in one call, the small calls' path)."""
     if n <= CHUNK:
         return bool(test(slice(0, n)))
-    return all(map_chunks(lambda rows, _: bool(test(rows)), n, threads))
+    return all(map_ranges(lambda rows: bool(test(rows)), n, threads))
 
 
 class CPassRoute:

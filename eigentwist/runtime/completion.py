@@ -19,9 +19,20 @@ from ..description.pose import FULL
 from ..description.serial import padded_references, padded_units
 from .errors import InputError
 
-__all__ = ["PoseCompletion", "CompletedPoses", "CHUNK", "chunks", "map_chunks", "take", "masked", "user_rows"]
+__all__ = [
+    "PoseCompletion",
+    "CompletedPoses",
+    "CHUNK",
+    "chunks",
+    "map_chunks",
+    "map_ranges",
+    "take",
+    "masked",
+    "user_rows",
+]
 
 CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
+NEWTON_CHUNK = 4096  # poses per chunk of numeric IK and followers (a pose warm-starts the next)
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 
 
@@ -35,24 +46,39 @@ class CompletedPoses(np.ndarray):
         return arr[()] if return_scalar else arr
 
 
-def chunks(n: int, size: int = CHUNK):
-    """Slices of ``range(n)`` of at most ``size`` poses, in order."""
+def chunks(n: int, size: int | None = None):
+    """Slices of ``range(n)`` of at most ``size`` poses (default :data:`CHUNK`), in order."""
+    size = size or CHUNK
     for start in range(0, n, size):
         yield slice(start, min(n, start + size))
 
 
-def map_chunks(task, n: int, threads: int = 1) -> list:
+def map_chunks(task, n: int, threads: int = 1, size: int | None = None) -> list:
     """``[task(rows, inner), ...]`` over the chunks of a batch of ``n`` poses (:func:`chunks`),
     in order: side by side on ``threads`` threads, each chunk on one (``inner`` = 1), where
     there are several chunks and threads; else one after another (``inner`` = ``threads``,
     for the chunk's own C calls). The chunks do not depend on ``threads``, so neither does
     what is computed chunk by chunk."""
-    parts = list(chunks(n))
+    parts = list(chunks(n, size))
     if threads > 1 and len(parts) > 1:
         from .threads import map_tasks
 
         return map_tasks(lambda rows: task(rows, 1), parts, threads)
     return [task(rows, threads) for rows in parts]
+
+
+def map_ranges(task, n: int, threads: int = 1) -> list:
+    """``[task(rows), ...]`` over contiguous slices of ``range(n)``, in order: one slice on one
+    thread, else at most ``threads`` × :data:`~.threads.TASKS_PER_THREAD` slices of whole
+    chunks (:data:`CHUNK` poses) side by side. For work whose result does not depend on how the rows are
+    split (a check, an elementwise conversion): each task is few large NumPy loops, which run
+    without the GIL, where :func:`map_chunks`' fixed chunks would make many small tasks whose
+    Python holds it (the tasks then queue on the GIL, not on the cores)."""
+    if threads <= 1 or n <= CHUNK:
+        return [task(slice(0, n))]
+    from .threads import run_ranges
+
+    return run_ranges(lambda begin, end: task(slice(begin, end)), n, CHUNK, threads)
 
 
 def take(p: dict, sl: slice) -> dict:
@@ -137,7 +163,7 @@ class PoseCompletion:
 
         # fixed chunks, as for numeric IK (:meth:`solve_joints`); on the C route whole chunks
         # run on the threads
-        done = map_chunks(complete, n, threads if iterate_on is not None else 1)
+        done = map_chunks(complete, n, threads if iterate_on is not None else 1, NEWTON_CHUNK)
         return (done[0] if len(done) == 1 else np.concatenate(done)).view(CompletedPoses)
 
     def follower_reference(self):
@@ -187,8 +213,8 @@ class PoseCompletion:
             entries = rotation_entries(poses[:, 3:6])
         else:  # by chunks, side by side on the threads (NumPy lets go of the GIL in its loops)
             entries = [np.empty(len(poses)) for _ in _ROTATION_NAMES]
-            map_chunks(
-                lambda rows, _: rotation_entries(poses[rows, 3:6], [e[rows] for e in entries]),
+            map_ranges(
+                lambda rows: rotation_entries(poses[rows, 3:6], [e[rows] for e in entries]),
                 len(poses),
                 self.c_threads() or 1,
             )
@@ -345,8 +371,12 @@ class PoseCompletion:
 
                     return iterate
 
+        # the pose inputs once for the batch (side by side: :meth:`kernel_pose_inputs`), or as
+        # the caller computed them from these poses (:meth:`with_pose`)
+        whole = p if self.pose_input_names() <= p.keys() else self.closure_inputs(poses, p)
+
         def one(sl, inner):
-            kp = self.closure_inputs(poses[sl], take(p, sl) if n > 1 else p)
+            kp = take(whole, sl) if n > 1 else whole
             its = None if iterate_on is None else iterate_on(inner)
 
             def branch(q):
@@ -375,7 +405,7 @@ class PoseCompletion:
         def into(sl, inner):
             q[sl], off[sl] = one(sl, inner)
 
-        map_chunks(into, n, threads if iterate_on is not None else 1)
+        map_chunks(into, n, threads if iterate_on is not None else 1, NEWTON_CHUNK)
         memo.clear()
         memo[key] = (q, off)
         return q
@@ -391,6 +421,14 @@ class PoseCompletion:
         """The ``loop_closure`` kernel's inputs at ``poses``: ``p`` and the pose by name."""
         return {**p, **self.pose_inputs(poses)}
 
+    def pose_input_names(self) -> frozenset:
+        """Names of :meth:`pose_inputs`: x, y, z, and a 6-DoF robot's rot_x, rot_y, rot_z and
+        rotation matrix entries R_ij (functions of the pose alone)."""
+        names = {"x", "y", "z"}
+        if self.six:
+            names |= {"rot_x", "rot_y", "rot_z", *_ROTATION_NAMES}
+        return frozenset(names)
+
     def joint_inputs(self) -> frozenset:
         """Names of the IK kernel's joint-coordinate inputs ``q<m>_<leg>`` (what
         :meth:`numeric_joints` adds to the inputs)."""
@@ -404,9 +442,10 @@ class PoseCompletion:
 
     def newton_key(self, poses: np.ndarray, p: dict) -> tuple:
         """What a Newton solution depends on: the poses and every input (shape, dtype and
-        bytes) but the joint coordinates it produces itself. The memo keeps one solution,
+        bytes) but the joint coordinates it produces itself and the inputs computed from the
+        pose (:meth:`pose_input_names`: the poses are in the key). The memo keeps one solution,
         so that a public call that reads the joints twice solves once."""
-        skip = self.joint_inputs()
+        skip = self.joint_inputs() | self.pose_input_names()
         return (poses.shape, poses.tobytes()) + tuple(
             (k, np.shape(v), np.asarray(v).dtype.str, np.asarray(v).tobytes())
             for k, v in sorted(p.items())
