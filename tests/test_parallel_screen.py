@@ -146,3 +146,78 @@ def test_a_long_prepared_batch_is_checked_in_every_chunk(monkeypatch, threads):
     assert checked == [n, n]
     poses[n - 3, 1] = np.nan
     assert ev.c_route.planned_modes(plan, poses) is None
+
+
+def test_valid_screens_the_parallel_check_with_the_pass_frequencies(monkeypatch):
+    """``checks.valid`` with the pass's frequencies sends only the reachable poses below the
+    screen to the exact parallel check; without them, every reachable pose."""
+    import eigentwist
+    from eigentwist.runtime.checks import PoseChecks
+    from eigentwist.runtime.validity import STATUS
+
+    ev = eigentwist.load("heli4", backend="numpy")
+    sent = []
+
+    def parallel_ok(self, poses, p, rows, strict):
+        sent.append(rows.tolist())
+        return np.zeros(len(rows), dtype=bool)
+
+    monkeypatch.setattr(PoseChecks, "parallel_ok", parallel_ok)
+    freq = np.array([[3.0, 4.0, 5.0], [0.99 * PARALLEL_SCREEN, 0.5, 1.0], [1.01 * PARALLEL_SCREEN, 0.5, 1.0]] * 2)
+    status = np.array([STATUS["ok"]] * 3 + [STATUS["unreachable"], STATUS["singular"], STATUS["unstable"]], np.int8)
+    poses = np.zeros((6, 3))
+    ok = ev.checks.valid(poses, {}, status, freq)
+    assert sent == [[1]] and ok.tolist() == [True, False, True, False, False, True]
+    sent.clear()
+    ok = ev.checks.valid(poses, {}, status)
+    assert sent == [[0, 1, 2, 5]] and ok.tolist() == [False] * 6
+
+
+@pytest.fixture
+def compiled():
+    from .conftest import compiled_tier
+
+    mp = compiled_tier()
+    yield
+    mp.undo()
+
+
+@pytest.mark.compiled
+def test_the_screen_model_is_the_c_routes(compiled):
+    """The model whose frequencies screen ``valid``'s parallel check: the C route's own
+    (flexible, or rigid where the pass reduces it), none where that route does not take it."""
+    import eigentwist
+
+    heli4 = eigentwist.load("heli4", backend="c")
+    assert heli4.c_screen_model("paper") == "flexible" and heli4.c_screen_model("none") == "rigid"
+    assert heli4.c_screen_model("paper+gravity_preload") is None
+    assert eigentwist.load("heli4", backend="numpy").c_screen_model("none") is None
+    prs3 = eigentwist.load("examples/robots/prs3.py", backend="c", progress=None)
+    assert not prs3.c_route.pass_rigid and prs3.c_screen_model("none") is None
+
+
+@pytest.mark.compiled
+def test_valid_finds_a_parallel_singular_pose_through_the_screen(compiled):
+    """A Delta pose on its parallel singularity (the exact check's conditioning minimised
+    from a nearby pose): ``valid`` on the C pass, which screens with the frequencies, says
+    what the exact check on every pose says, there and around it."""
+    from scipy.optimize import minimize
+
+    import eigentwist
+    from eigentwist.runtime.validity import CONDITIONING_TOL
+
+    ev = eigentwist.load("delta", backend="c", threads=1)
+
+    def conditioning(x):
+        c = ev.pose_status(np.atleast_2d(x), "none")["conditioning"][0]
+        return c if np.isfinite(c) else 1.0
+
+    start = np.array([-0.47868, -0.59388, -0.50101])  # conditioning ~2e-5
+    x = minimize(conditioning, start, method="Nelder-Mead", options={"xatol": 1e-12, "fatol": 1e-14}).x
+    assert conditioning(x) <= CONDITIONING_TOL
+    poses = x + np.random.default_rng(5).normal(scale=[[0.0]] + [[1e-3]] * 40 + [[3e-2]] * 40, size=(81, 3))
+    poses = np.concatenate([poses, np.random.default_rng(6).uniform(-0.5, 0.5, (200, 3)) + [0, 0, -0.6]])
+    completed, p = ev.completion.poses(poses, {}), ev.resolver.resolve(len(poses), {}, "none")
+    exact = ev.checks.valid(completed, p, ev.c_route.run(completed, p, matrices=())["status"])
+    assert not exact[0] and exact.sum() > 100
+    np.testing.assert_array_equal(ev.valid(poses, "none"), exact)

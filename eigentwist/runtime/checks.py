@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..description.pose import FULL
+from .c_route import above_screen
 from .completion import chunks, masked, take
 from .memo import BoundedMemo, content_key
 from .validity import (
@@ -174,14 +175,26 @@ class PoseChecks:
             names=self.pose_names,
         )
 
-    def valid(self, poses: np.ndarray, p: dict, status: np.ndarray | None = None) -> np.ndarray:
+    def valid(
+        self,
+        poses: np.ndarray,
+        p: dict,
+        status: np.ndarray | None = None,
+        freq_hz: np.ndarray | None = None,
+        threads: int = 1,
+    ) -> np.ndarray:
         """(N,) bool: which completed ``poses`` are reachable and neither serial nor parallel
         singular with the kernels' inputs ``p``. ``status``: the C pass's status of each pose
         (:data:`~.validity.STATUS`), which then stands for the IK and the lever checks; None:
-        every check run here, chunk by chunk."""
+        every check run here, chunk by chunk. ``freq_hz`` (N, n): the same pass's frequencies
+        (Hz, ascending), which screen the parallel check as in the C route's modes: a pose
+        whose lowest is above :data:`~.c_route.PARALLEL_SCREEN` times its highest is not
+        parallel singular, the others get the exact check (:meth:`parallel_ok`); None: every
+        reachable pose gets it."""
         if status is not None:
             ok = (status != STATUS["unreachable"]) & (status != STATUS["singular"])
-            ok[ok] = self.parallel_ok(poses, p, np.flatnonzero(ok), strict=False)
+            suspect = ok if freq_hz is None else ok & ~above_screen(freq_hz, threads)
+            ok[suspect] = self.parallel_ok(poses, p, np.flatnonzero(suspect), strict=False)
             return ok
         return np.concatenate([self.check_rows(poses[sl], take(p, sl), strict=False)[2] for sl in chunks(len(poses))])
 
