@@ -656,7 +656,7 @@ def test_chunks_of_poses_on_threads_give_the_same_bits(gallery, name):
     threads (numeric IK: joint coordinates, rotation entries; followers): the joint
     coordinates, completed poses and frequencies equal one thread's bit for bit, and the
     first chunk's equal that chunk solved alone."""
-    from eigentwist.runtime.completion import CHUNK
+    from eigentwist.runtime.completion import NEWTON_CHUNK as CHUNK
 
     one, two = (eigentwist.load(str(GALLERY / f"{name}.py"), backend="c", threads=t, progress=None) for t in (1, 2))
     x = _poses(gallery[name], int(1.6 * (CHUNK + 300)), seed=9)[: CHUNK + 300]

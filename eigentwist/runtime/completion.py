@@ -32,7 +32,10 @@ __all__ = [
 ]
 
 CHUNK = 4096  # poses per NumPy kernel call (temporaries stay in cache)
-NEWTON_CHUNK = 4096  # poses per chunk of numeric IK and followers (a pose warm-starts the next)
+#: poses per chunk of numeric IK and followers, each chunk on one thread (a pose warm-starts
+#: the next within its chunk): few enough chunks that their Python, which holds the GIL, does
+#: not queue on it with 16 threads (benchmarks/README.md), enough to share a batch of 10^5
+NEWTON_CHUNK = 8192
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 
 
