@@ -24,12 +24,13 @@ from .validity import STATUS
 
 __all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen", "every_chunk"]
 
-#: the fused C pass checks a pose for a parallel singularity when its lowest frequency is
-#: 0, NaN or below this fraction of its highest: a twist escaping the legs' wrenches with a
-#: conditioning c has omega about c times the others' (the stiffness along it scales with
-#: c^2), so at CONDITIONING_TOL (1.5e-6) it lies ~700 times below this screen. A loss of every
-#: allowed twist at once keeps the ratio and is caught where the frequencies reach 0 or
-#: NaN; the other paths (NumPy, matrices, valid, pose_status) check every pose exactly.
+#: the fused C pass's route (``modes``, ``frequencies``, ``valid``) checks a pose exactly for
+#: a parallel singularity when its lowest frequency is 0, NaN or below this fraction of its
+#: highest: a twist escaping the legs' wrenches with a conditioning c has omega about c times
+#: the others' (the stiffness along it scales with c^2), so at CONDITIONING_TOL (1.5e-6) it
+#: lies ~700 times below this screen. A loss of every allowed twist at once keeps the ratio
+#: and is caught where the frequencies reach 0 or NaN; the other paths (NumPy, matrices,
+#: pose_status) check every pose exactly.
 PARALLEL_SCREEN = 1e-3
 
 
