@@ -5,9 +5,10 @@
 Shipped robots on the C backend, one thread; each call on its own reachable poses (drawn
 uniformly in the workspace box, batches with an unreachable pose dropped), best of
 ``--rounds`` rounds of ``time.process_time`` (CPU time: a shared machine stretches wall
-time). In the same run, the same batches through the C pass alone (``CKernels.fused``, its
-inputs built beforehand): what a call costs beyond it is the evaluator's handling. Runs
-against any tree (``PYTHONPATH=<tree>``): it uses the public API and ``Evaluator.kernels``.
+time), each round over every robot and size in turn. In the same run, the same batches
+through the C pass alone (``CKernels.fused``, its inputs built beforehand): what a call costs
+beyond it is the evaluator's handling. Runs against any tree (``PYTHONPATH=<tree>``): it uses
+the public API and ``Evaluator.kernels``.
 """
 
 from __future__ import annotations
@@ -27,15 +28,12 @@ import eigentwist  # noqa: E402
 ROBOTS = (("heli4", "paper"), ("heli4", "rigid"), ("hexapod", "none"), ("delta", "paper"))
 
 
-def _best(calls, rounds: int) -> float:
-    """Best over ``rounds`` of the CPU seconds per call of ``calls`` (zero-argument functions)."""
-    best = float("inf")
-    for _ in range(rounds):
-        t0 = time.process_time()
-        for call in calls:
-            call()
-        best = min(best, (time.process_time() - t0) / len(calls))
-    return best
+def _per_call(calls) -> float:
+    """CPU seconds per call of ``calls`` (zero-argument functions), run once each."""
+    t0 = time.process_time()
+    for call in calls:
+        call()
+    return (time.process_time() - t0) / len(calls)
 
 
 def main() -> None:
@@ -43,7 +41,7 @@ def main() -> None:
     parser.add_argument("--calls", type=int, default=400, help="calls per size (each on new poses)")
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
-    print("robot, model | poses | frequencies us | modes us | C pass us | frequencies / C pass")
+    cases = []  # (label, {"frequencies" | "modes" | "C pass": calls})
     for name, model in ROBOTS:
         ev = eigentwist.load(name, backend="c", threads=1)
         box = np.array(ev.robot.workspace)
@@ -55,21 +53,27 @@ def main() -> None:
             pools = [P for P in pools if ev.valid(P, model).all()][: args.calls]
             raw_inputs = [(P, {**p, **ev.kernel_pose_inputs(P)}) for P in pools]
             ev.frequencies(pools[0], model)
-            freq = _best([lambda P=P: ev.frequencies(P, model) for P in pools], args.rounds)
-            modes = _best([lambda P=P: ev.modes(P, model) for P in pools], args.rounds)
-            raw = _best(
-                [
-                    lambda P=P, pp=pp: ev.kernels.fused(
-                        P[:, 0], P[:, 1], P[:, 2], pp, matrices=(), model=stiffness, status=True, normalize=True
+            calls = {
+                "frequencies": [lambda ev=ev, P=P, m=model: ev.frequencies(P, m) for P in pools],
+                "modes": [lambda ev=ev, P=P, m=model: ev.modes(P, m) for P in pools],
+                "C pass": [
+                    lambda ev=ev, P=P, pp=pp, s=stiffness: ev.kernels.fused(
+                        P[:, 0], P[:, 1], P[:, 2], pp, matrices=(), model=s, status=True, normalize=True
                     )
                     for P, pp in raw_inputs
                 ],
-                args.rounds,
-            )
-            print(
-                f"{name}, {model} | {n} | {freq * 1e6:.0f} | {modes * 1e6:.0f} | {raw * 1e6:.0f} | {freq / raw:.2f}",
-                flush=True,
-            )
+            }
+            cases.append((f"{name}, {model} | {n}", calls))
+    # the rounds interleave every case, so that a slow phase of a shared machine hits all of them
+    best = [dict.fromkeys(calls, float("inf")) for _, calls in cases]
+    for _ in range(args.rounds):
+        for (_, calls), b in zip(cases, best):
+            for kind, batch in calls.items():
+                b[kind] = min(b[kind], _per_call(batch))
+    print("robot, model | poses | frequencies us | modes us | C pass us | frequencies / C pass")
+    for (label, _), b in zip(cases, best):
+        f, m, raw = b["frequencies"], b["modes"], b["C pass"]
+        print(f"{label} | {f * 1e6:.0f} | {m * 1e6:.0f} | {raw * 1e6:.0f} | {f / raw:.2f}")
 
 
 if __name__ == "__main__":
