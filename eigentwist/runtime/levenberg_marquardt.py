@@ -377,6 +377,9 @@ def predicted_start(closure, q_ref: np.ndarray, inputs_at, x_ref: np.ndarray, h:
     base = np.asarray(q_ref, dtype=float).ravel()
 
     def guess(poses):  # q_ref itself at x_ref
-        return ((np.asarray(poses, dtype=float) - x_ref) @ G + base).reshape((-1,) + shape)
+        # einsum, not matmul: a (chunk, d) x (d, legs * n_q) product is large enough for a
+        # threaded BLAS to wake its threads, which then spin beside the evaluator's own
+        # (twice the CPU time of a numeric-IK call, benchmarks/README.md)
+        return (np.einsum("nd,dk->nk", np.asarray(poses, dtype=float) - x_ref, G) + base).reshape((-1,) + shape)
 
     return guess
