@@ -73,8 +73,10 @@ def main(argv=None) -> None:
     ap.add_argument("--only", default="", help="comma-separated robot file stems (default: all)")
     ap.add_argument("--threads", type=int, default=1, help="the evaluators' threads; above 1, poses per wall-second")
     args = ap.parse_args(argv)
-    wall = (time.perf_counter, f"s, {args.threads} threads")
-    clock, unit = (time.process_time, "CPU-s") if args.threads == 1 else wall
+    if args.threads == 1:
+        clock, unit = time.process_time, "CPU-s"
+    else:  # several threads: wall seconds
+        clock, unit = time.perf_counter, f"s, {args.threads} threads"
     hexa = eigentwist.load("hexapod", backend=args.backend, threads=args.threads)
     hexa_box = np.array(hexa.robot.workspace)
     only = {s for s in args.only.split(",") if s}

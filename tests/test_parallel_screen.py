@@ -189,11 +189,11 @@ def test_the_screen_model_is_the_c_routes(compiled):
     import eigentwist
 
     heli4 = eigentwist.load("heli4", backend="c")
-    assert heli4.c_screen_model("paper") == "flexible" and heli4.c_screen_model("none") == "rigid"
-    assert heli4.c_screen_model("paper+gravity_preload") is None
-    assert eigentwist.load("heli4", backend="numpy").c_screen_model("none") is None
+    assert heli4.c_route.pass_model("paper") == "flexible" and heli4.c_route.pass_model("none") == "rigid"
+    assert heli4.c_route.pass_model("paper+gravity_preload") is None
+    assert eigentwist.load("heli4", backend="numpy").c_route.pass_model("none") is None
     prs3 = eigentwist.load("examples/robots/prs3.py", backend="c", progress=None)
-    assert not prs3.c_route.pass_rigid and prs3.c_screen_model("none") is None
+    assert not prs3.c_route.pass_rigid and prs3.c_route.pass_model("none") is None
 
 
 @pytest.mark.compiled

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..description.pose import FULL, twist_order
 from .addresses import address
-from .completion import CHUNK, CompletedPoses, map_ranges, masked
+from .completion import CompletedPoses, map_ranges, masked
 from .labels import energy_shares
 from .memo import BoundedMemo
 from .modes import Modes
@@ -58,8 +58,6 @@ def every_chunk(test, n: int, threads: int = 1) -> bool:
     """Whether ``test(rows)`` holds for every range of rows of a batch of ``n``
     (:func:`~.completion.map_ranges`: side by side on ``threads`` threads; a batch of one
     chunk in one call, the small calls' path)."""
-    if n <= CHUNK:
-        return bool(test(slice(0, n)))
     return all(map_ranges(lambda rows: bool(test(rows)), n, threads))
 
 
@@ -137,6 +135,18 @@ class CPassRoute:
         n, off = spec["dims"][k], spec["offsets"][k]
         basis = np.asarray(self.space.basis, dtype=float)
         return basis.shape == (6, n) and bool(np.array_equal(basis, np.eye(6)[:, off : off + n]))
+
+    def pass_model(self, model) -> str | None:
+        """The stiffness model (``"flexible"`` or ``"rigid"``) this pass solves for ``model`` (a
+        model spec or its resolved effects); None where the C route does not take the model: no
+        C pass, a rigid model the pass does not reduce (:attr:`pass_rigid`), a gravity preload."""
+        if not self.fused:
+            return None
+        effects = self.ev.resolver.model_effects(model)
+        stiffness = self.ev.stiffness_model(effects)
+        if self.ev.resolver.preloaded(effects) or not (self.pass_rigid or stiffness == "flexible"):
+            return None
+        return stiffness
 
     def modes(
         self,
@@ -261,9 +271,8 @@ class CPassRoute:
         try:
             effects = self.ev.resolver.model_effects(model)
             routed, exact = self.ev.solver.route(effects, params)
-            stiffness = self.ev.stiffness_model(effects)
-            fixed = self.pass_rigid or stiffness == "flexible"
-            if exact or not fixed or self.ev.resolver.preloaded(effects) or self.ev.damped_model(effects):
+            stiffness = self.pass_model(effects)
+            if exact or stiffness is None or self.ev.damped_model(effects):
                 return False
             p = self.ev.resolver.resolve(1, routed, effects)
         except Exception:  # refused values: the general route raises

@@ -277,30 +277,15 @@ class Evaluator:
         The per-row form of the checks that make :meth:`modes` raise; use it to filter
         a batch (e.g. a sweep over a workspace box) instead of catching errors. With the C
         pass, as in :meth:`modes`: the pass checks reachability and the levers, and solves
-        the model where it can (:meth:`c_screen_model`), so that only the poses below the
+        the model where it can (:meth:`.CPassRoute.pass_model`), so that only the poses below the
         parallel screen (:data:`~.c_route.PARALLEL_SCREEN`) get the exact parallel check.
         """
         poses = self.completion.poses(poses, params)
         p = self.resolver.resolve(len(poses), params, model)
         if not self.c_route.fused:
             return self.checks.valid(poses, p)
-        screen = self.c_screen_model(model)
-        out = self.c_route.run(poses, p, matrices=(), model=screen)
+        out = self.c_route.run(poses, p, matrices=(), model=self.c_route.pass_model(model))
         return self.checks.valid(poses, p, out["status"], out.get("freq_hz"), self.c_route.nthreads())
-
-    def c_screen_model(self, model) -> str | None:
-        """The stiffness model (``"flexible"`` or ``"rigid"``) whose frequencies the C pass
-        solves for ``model``'s parallel screen, as :meth:`modes`' C route does; None where
-        that route does not take the model (a rigid model the pass does not reduce, a
-        gravity preload) or there is no C pass: then every reachable pose gets the exact
-        parallel check."""
-        if not self.c_route.fused:
-            return None
-        effects = self.resolver.model_effects(model)
-        stiffness = self.stiffness_model(effects)
-        if self.resolver.preloaded(effects) or not (self.c_route.pass_rigid or stiffness == "flexible"):
-            return None
-        return stiffness
 
     def pose_status(self, poses, model="paper", **params) -> dict:
         """Each pose's status and conditioning, never an error.
@@ -566,10 +551,9 @@ class Evaluator:
         poses = self.completion.poses(poses, params)
         effects = self.resolver.model_effects(model)
         params, exact = self.solver.route(effects, params)
-        fixed = self.c_route.pass_rigid or self.stiffness_model(effects) == "flexible"
         damped = complex_shapes or self.damped_model(effects)
         route = choose_route(
-            c_pass=self.c_route.fused and fixed and not self.resolver.preloaded(effects),
+            c_pass=self.c_route.pass_model(effects) is not None,
             exact=exact,
             damped=damped,
             pass_solves=lambda: not complex_shapes and self.solver.one_pass(effects, exact),
