@@ -32,7 +32,7 @@ from sympy.printing.precedence import PRECEDENCE
 from . import c_eigen
 from .c_library import ROTATION, fused_input_names, library_context
 from .kernel import Kernel, UndeclaredSymbolError
-from .render import environment, header
+from .render import PRINT_ORDER, environment, header
 
 __all__ = ["render_c", "CCodePrinter", "c_identifiers", "ABI_VERSION", "BLOCK", "EIGEN_MODELS"]
 
@@ -106,11 +106,12 @@ class CCodePrinter(C99CodePrinter):
     Symbols print as their C identifiers (``names``); an unknown symbol raises
     :class:`UndeclaredSymbolError`. Small integer powers are products, parenthesised
     because they may stand in a denominator (``a/(b*b)``, never ``a/b*b``); square
-    roots use ``sqrt``; ``pi`` is ``ET_PI``; anything else falls back to ``pow``.
+    roots use ``sqrt``; ``pi`` is ``ET_PI``; anything else falls back to ``pow``. Terms and
+    factors print in the order SymPy stores them (:data:`~eigentwist.codegen.render.PRINT_ORDER`).
     """
 
     def __init__(self, names: dict[str, str]):
-        super().__init__({"allow_unknown_functions": False})
+        super().__init__({"allow_unknown_functions": False, "order": PRINT_ORDER})
         self._names = names
 
     def _print_Symbol(self, expr):

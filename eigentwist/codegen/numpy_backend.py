@@ -6,16 +6,17 @@ import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 
 from .kernel import Kernel
-from .render import environment, header
+from .render import PRINT_ORDER, environment, header
 
 __all__ = ["render_numpy", "NumpyCodePrinter"]
 
 
 class NumpyCodePrinter(NumPyPrinter):
-    """Prints ``x**2`` as ``(x*x)`` and ``x**-1`` as ``1/x`` (cheaper in NumPy)."""
+    """Prints ``x**2`` as ``(x*x)`` and ``x**-1`` as ``1/x`` (cheaper in NumPy); terms in
+    SymPy's stored order (:data:`~eigentwist.codegen.render.PRINT_ORDER`)."""
 
     def __init__(self):
-        super().__init__({"fully_qualified_modules": False, "allow_unknown_functions": False})
+        super().__init__({"fully_qualified_modules": False, "allow_unknown_functions": False, "order": PRINT_ORDER})
 
     def _print_Pow(self, expr, rational=False):
         base, exp = expr.args
