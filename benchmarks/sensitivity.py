@@ -13,6 +13,8 @@ poses:
 - ``Evaluator.frequencies`` (the baseline: IK, M, K_F, eigen-solve, C backend),
 - ``Evaluator.sensitivities`` (checks, M and K, eigen-solve, one weighting of the kernel
   per mode, cluster-aware dω/dp),
+- ``Evaluator.sensitivities(lowest=1)`` (the lowest mode's derivatives only: one weighting
+  of the kernel a pose; what a study of the lowest frequency asks for),
 - ``Evaluator.sensitivities(method="differences")`` (central differences of the matrices,
   the same eigenvalue perturbation; nothing generated),
 
@@ -89,11 +91,13 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
     for fn in (
         ev.frequencies,
         lambda x: ev.sensitivities(x, wrt),
+        lambda x: ev.sensitivities(x, wrt, lowest=1),
         lambda x: ev.sensitivities(x, wrt, method="differences"),
     ):
         fn(sets[0])
     t_freq = _best(ev.frequencies, sets[1:])
     t_sens = _best(lambda x: ev.sensitivities(x, wrt), sets[1:])
+    t_low = _best(lambda x: ev.sensitivities(x, wrt, lowest=1), sets[1:])
     t_diff = _best(lambda x: ev.sensitivities(x, wrt, method="differences"), sets[1:])
     return dict(
         robot=robot,
@@ -103,6 +107,7 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
         generate_and_compile=gen,
         frequencies=1 / t_freq,
         sensitivities=1 / t_sens,
+        lowest=1 / t_low,
         differences=1 / t_diff,
     )
 
@@ -136,6 +141,7 @@ def main() -> None:
             f"  Evaluator.sensitivities     {r['sensitivities']:10.4g} poses/s  "
             f"({r['sensitivities'] / r['frequencies']:.3f}x)"
         )
+        print(f"  ... lowest=1                {r['lowest']:10.4g} poses/s  ({r['lowest'] / r['frequencies']:.3f}x)")
         print(
             f"  ... method='differences'    {r['differences']:10.4g} poses/s  "
             f"({r['differences'] / r['frequencies']:.3f}x)"

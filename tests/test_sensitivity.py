@@ -278,3 +278,80 @@ def test_a_kernel_kind_or_stiffness_not_known_is_named(evs):
         sensitivity_kernels(evs["heli4"], ("k_a",), kind="reverse")
     with pytest.raises(InputError, match="stiffness='soft'"):
         adjoint_kernel(None, ("k_a",), "soft")
+
+
+def _linear_kernel(A, B):
+    """A stand-in for the reverse-mode kernel of M(p) = M0 + sum_j p_j A_j, K(p) = K0 + sum_j
+    p_j B_j (A, B: (P, 6, 6) symmetric): each row's weights read back from the kernel's inputs
+    (W_ii on the diagonal, W_ij + W_ji above it) and contracted with A_j and B_j."""
+    from eigentwist.description.weights import weight_name
+
+    def weights(rows, matrix, n):
+        W = np.zeros((n, 6, 6))
+        for i in range(6):
+            for j in range(i, 6):
+                w = np.broadcast_to(rows[weight_name(matrix, i, j)], (n,))
+                W[:, i, j] = w if i == j else w / 2
+                W[:, j, i] = W[:, i, j]
+        return W
+
+    def kern(x, y, z, rows):
+        n = len(x)
+        W_M, W_K = weights(rows, "M", n), weights(rows, "K", n)
+        return {"g": np.einsum("rij,pij->rp", W_M, A) + np.einsum("rij,pij->rp", W_K, B)}
+
+    return kern
+
+
+def test_lowest_modes_sweep_only_those_and_solve_a_cluster_across_the_cut_whole():
+    """adjoint_eigen_derivatives with ``lowest``: the first columns of the eigenvalue
+    perturbation of an independent computation (eigenvalue_derivatives on dK = B, dM = A),
+    the kernel asked for one row per pose and kept mode; a double eigenvalue across the cut
+    (modes 2 and 3) gets the sorted eigenvalues of its projected derivative, not the arbitrary
+    basis' Rayleigh quotients."""
+    from eigentwist.runtime.sensitivity import adjoint_eigen_derivatives
+
+    rng = np.random.default_rng(11)
+    P = 4
+    A = rng.normal(size=(P, 6, 6))
+    A = A + np.swapaxes(A, 1, 2)
+    B = rng.normal(size=(P, 6, 6))
+    B = B + np.swapaxes(B, 1, 2)
+    M = np.broadcast_to(np.eye(6), (2, 6, 6)).copy()
+    K = np.array([np.diag([1.0, 2.0, 3.0, 3.0, 5.0, 7.0]), np.diag([1.0, 2.0, 4.0, 5.0, 6.0, 8.0])])
+    Q = np.linalg.qr(rng.normal(size=(6, 6)))[0]  # the double eigenvalue's basis left arbitrary
+    K[0] = Q @ K[0] @ Q.T
+    kern = _linear_kernel(A, B)
+    rows = []
+    counted = lambda x, y, z, r: rows.append(len(x)) or kern(x, y, z, r)  # noqa: E731
+    x = np.zeros(2)
+    lam, V = np.linalg.eigh(K)
+    want = eigenvalue_derivatives(lam, V, np.broadcast_to(B, (2, P, 6, 6)), np.broadcast_to(A, (2, P, 6, 6)))
+    for k in (1, 3, 6):
+        rows.clear()
+        got = adjoint_eigen_derivatives(counted, x, x, x, {}, M, K, np.eye(6), lowest=k)[2]
+        assert got.shape == (2, k, P)
+        np.testing.assert_allclose(got, want[:, :k], rtol=1e-10, atol=1e-10)
+        assert rows[0] == 2 * k  # one row a pose and kept mode
+    # the cut inside the cluster: its members' raw quotients differ from the sorted eigenvalues
+    raw = np.einsum("ik,pij,jk->kp", V[0], B, V[0]) - lam[0][:, None] * np.einsum("ik,pij,jk->kp", V[0], A, V[0])
+    assert np.abs(raw[2] - want[0, 2]).max() > 1e-3
+    assert adjoint_eigen_derivatives(kern, x, x, x, {}, M, K, np.eye(6), lowest=99)[2].shape == (2, 6, P)
+
+
+def test_lowest_is_the_first_columns_of_every_route(evs):
+    """Evaluator.sensitivities(lowest=k): the first k columns of every mode's derivatives, by
+    the generated kernel (flexible and rigid) and by differences; more than the model's modes
+    gives them all; anything but a whole number >= 1 is refused, naming the value."""
+    ev = evs["heli4"]
+    poses = random_poses(ev.robot, 3, seed=5)
+    for model, method in (("paper", "exact"), ("rigid", "exact"), ("paper", "differences")):
+        full = ev.sensitivities(poses, WRT["heli4"], model, method=method)
+        for k in (1, 2):
+            got = ev.sensitivities(poses, WRT["heli4"], model, method=method, lowest=k)
+            assert got.shape == (3, k, len(WRT["heli4"]))
+            np.testing.assert_allclose(got, full[:, :k], rtol=1e-10, atol=1e-12 * np.abs(full).max())
+        np.testing.assert_array_equal(ev.sensitivities(poses, WRT["heli4"], model, method=method, lowest=40), full)
+    for bad in (0, -1, 1.5, True, "2"):
+        with pytest.raises(InputError, match=f"lowest = {bad!r}: expected"):
+            ev.sensitivities(poses, ("k_a",), "paper", lowest=bad)

@@ -140,7 +140,7 @@ class _Problem:
         if key not in self.cache:
             values = {**self.params, **self.design(u)}
             modes, dfdp = frequency_sensitivities(
-                self.ev, self.poses, self.wrt, self.model, values, method=self.jacobian
+                self.ev, self.poses, self.wrt, self.model, values, method=self.jacobian, lowest=self.n_track
             )
             self.evaluations += 1
             f = modes.freq_hz[:, : self.n_track]

@@ -597,9 +597,21 @@ class Evaluator:
         return self.solver.route(self.resolver.model_effects(model), params)
 
     def sensitivities(
-        self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None, method: str = "exact", **params
+        self,
+        poses,
+        wrt=None,
+        model="paper",
+        *,
+        rtol: float = 1e-6,
+        progress=None,
+        method: str = "exact",
+        lowest: int | None = None,
+        **params,
     ) -> np.ndarray:
-        """d f / d p of the model's natural frequencies, (N, n_modes, len(wrt)), Hz per SI unit.
+        """d f / d p of the model's natural frequencies, (N, n_modes, len(wrt)), Hz per SI unit;
+        with ``lowest=k``, of the k lowest modes only, (N, k, len(wrt)) (the exact method's
+        kernel then sweeps k modes a pose instead of every mode: a design study of the lowest
+        frequency asks ``lowest=1``).
 
         ``wrt``: parameter names (default: every parameter of the description); ``P@N`` is
         leg N's own value of a leg-level parameter (a model may scope effects, ``EFFECT@N``,
@@ -614,12 +626,24 @@ class Evaluator:
         twists that turn with the pose are differentiated through their solved coordinates
         (:mod:`eigentwist.runtime.implicit`).
         """
-        return self.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method, **params)[1]
+        return self.modes_and_sensitivities(
+            poses, wrt, model, rtol=rtol, progress=progress, method=method, lowest=lowest, **params
+        )[1]
 
     def modes_and_sensitivities(
-        self, poses, wrt=None, model="paper", *, rtol: float = 1e-6, progress=None, method: str = "exact", **params
+        self,
+        poses,
+        wrt=None,
+        model="paper",
+        *,
+        rtol: float = 1e-6,
+        progress=None,
+        method: str = "exact",
+        lowest: int | None = None,
+        **params,
     ):
-        """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` from one kernel call.
+        """``(Modes, dfdp)``: :meth:`modes` and :meth:`sensitivities` (``lowest`` as there: every
+        mode in ``Modes``, the derivatives of the lowest ``lowest``) from one kernel call.
 
         ``method="exact"`` (the default) uses the generated sensitivity kernel (derived and
         cached on first use per ``wrt``); ``"differences"`` derives nothing: dM/dp and
@@ -635,7 +659,7 @@ class Evaluator:
         differences of its reduced pencil (B^T K_R B, B^T M B), followers re-solved; its
         flexible models add the followers' motion with each parameter to every route
         (:func:`.implicit.follower_terms`)."""
-        return self.sensitivity_route.modes_and_sensitivities(poses, wrt, model, rtol, progress, method, params)
+        return self.sensitivity_route.modes_and_sensitivities(poses, wrt, model, rtol, progress, method, params, lowest)
 
     def matrix_derivatives(self, poses, wrt, model="paper", **params) -> dict:
         """``M``, ``K_R``, ``K_F`` (N, 6, 6) and their derivatives ``dM``, ``dK_R``, ``dK_F``

@@ -45,6 +45,7 @@ __all__ = [
     "adjoint_eigen_derivatives",
     "weighted_derivatives",
     "check_wrt",
+    "check_lowest",
     "own_legs",
     "kernel_wrt",
     "shared_columns",
@@ -369,7 +370,7 @@ def _weighted(kern, x, y, z, p: dict, U: np.ndarray, UT: np.ndarray, lam: np.nda
     return weighted_derivatives(kern, x, y, z, p, -lam[:, :, None, None] * W, W, extra)
 
 
-def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLUSTER_RTOL, extra=None):
+def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLUSTER_RTOL, extra=None, lowest=None):
     """``(lam, V, dlam)`` of ``Eᵀ K E v = λ Eᵀ M E v`` from the reverse-mode kernel.
 
     ``kern``: :func:`sensitivity_kernels` of kind ``"rigid"`` or ``"flexible"``; ``x, y, z, p``
@@ -379,7 +380,10 @@ def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLU
     lower-mobility platform's followers). dλ_k/dp = u_kᵀ(dK − λ_k dM)u_k with u_k = E v_k, each
     mode one weighting of the kernel: every parameter in one reverse sweep; a cluster of
     repeated eigenvalues (:func:`clusters`) gets the sorted eigenvalues of its pairs'
-    projected derivative u_aᵀ(dK − λ̄ dM)u_b, as :func:`eigenvalue_derivatives`.
+    projected derivative u_aᵀ(dK − λ̄ dM)u_b, as :func:`eigenvalue_derivatives`. ``lowest``:
+    the derivatives of the lowest ``lowest`` modes only (``dlam`` (N, lowest, P); one kernel
+    row a pose and mode, so the kernel's work falls in proportion); a cluster across that cut
+    is solved whole and its lowest members kept. None: every mode.
     """
     from .completion import take
     from .eigen import generalized_eigh
@@ -389,8 +393,11 @@ def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLU
     Kr = np.swapaxes(E, -1, -2) @ K @ E
     lam, V = generalized_eigh(Kr, Mr)
     U = E @ V  # (N, 6, n): the modes as twists
-    dlam = _weighted(kern, x, y, z, p, U, U, lam, extra)
+    k = lam.shape[1] if lowest is None else min(int(lowest), lam.shape[1])
+    dlam = _weighted(kern, x, y, z, p, U[:, :, :k], U[:, :, :k], lam[:, :k], extra)
     for r, sl in cluster_spans(clusters(lam, rtol)):
+        if sl.start >= k:
+            continue
         a, b = np.triu_indices(sl.stop - sl.start)
         one = take({name: np.asarray(v) for name, v in p.items()}, slice(r, r + 1))
         Ur = U[r : r + 1, :, sl]
@@ -400,7 +407,8 @@ def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLU
         P = np.zeros((dlam.shape[2], len(Ur[0, 0]), len(Ur[0, 0])))
         P[:, a, b] = g.T
         P[:, b, a] = g.T
-        dlam[r, sl, :] = np.linalg.eigvalsh(P).T
+        stop = min(sl.stop, k)
+        dlam[r, sl.start : stop, :] = np.linalg.eigvalsh(P).T[: stop - sl.start]
     return lam, V, dlam
 
 
@@ -514,7 +522,30 @@ def frequency_derivatives(out: dict, rigid: bool, rtol: float = CLUSTER_RTOL, tr
 
 
 def frequency_sensitivities(
-    ev, poses, wrt=None, model="paper", params=None, *, rtol: float = CLUSTER_RTOL, progress=None, method: str = "exact"
+    ev,
+    poses,
+    wrt=None,
+    model="paper",
+    params=None,
+    *,
+    rtol: float = CLUSTER_RTOL,
+    progress=None,
+    method: str = "exact",
+    lowest=None,
 ):
     """``(Modes, dfdp)`` of evaluator ``ev``: see :meth:`Evaluator.modes_and_sensitivities`."""
-    return ev.modes_and_sensitivities(poses, wrt, model, rtol=rtol, progress=progress, method=method, **(params or {}))
+    return ev.modes_and_sensitivities(
+        poses, wrt, model, rtol=rtol, progress=progress, method=method, lowest=lowest, **(params or {})
+    )
+
+
+def check_lowest(lowest):
+    """``lowest``, the number of lowest modes whose derivatives are asked for, checked: None
+    (every mode) or a whole number >= 1 (a model with fewer modes gives all of its own)."""
+    from .errors import InputError
+
+    if lowest is None:
+        return None
+    if isinstance(lowest, bool) or not isinstance(lowest, (int, np.integer)) or lowest < 1:
+        raise InputError(f"lowest = {lowest!r}: expected None (every mode) or a whole number of modes >= 1")
+    return int(lowest)

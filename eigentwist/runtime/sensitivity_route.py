@@ -32,13 +32,17 @@ class SensitivityRoute:
     def __init__(self, ev):
         self.ev = ev
 
-    def modes_and_sensitivities(self, poses, wrt, model, rtol: float, progress, method: str, params: dict):
+    def modes_and_sensitivities(self, poses, wrt, model, rtol: float, progress, method: str, params: dict, lowest=None):
         """``(Modes, dfdp)`` of ``Evaluator.modes_and_sensitivities``, the user's parameter values
         as the dict ``params``: the rigid model on allowed twists that turn with the pose by
         :func:`.implicit.reduced_derivatives`, every other model by :meth:`derivatives_at` on the
-        constraints' route (``ev.solver.route``)."""
+        constraints' route (``ev.solver.route``). ``lowest``: dfdp of the lowest modes only
+        (:func:`.sensitivity.check_lowest`)."""
+        from .sensitivity import check_lowest
+
         if method not in ("exact", "differences"):
             raise InputError(f"method={method!r}: expected 'exact' or 'differences'")
+        lowest = check_lowest(lowest)
         given = poses
         poses, effects, wrt = self._checked(poses, wrt, model, params)
         rigid = self.ev.stiffness_model(effects) == "rigid"
@@ -51,9 +55,10 @@ class SensitivityRoute:
             omega = np.sqrt(np.clip(lam, 0.0, None))
             with np.errstate(divide="ignore", invalid="ignore"):
                 dfdp = eigenvalue_derivatives(lam, V, out["dK"], out["dM"], rtol) / (2 * omega[..., None]) / (2 * np.pi)
-            return Modes(frequencies_hz(lam), normalize_eigentwists(V), self.ev.axes("rigid"), "rigid"), dfdp
+            modes = Modes(frequencies_hz(lam), normalize_eigentwists(V), self.ev.axes("rigid"), "rigid")
+            return modes, dfdp[:, :lowest]
         solved, exact = self.ev.solver.route(effects, params)
-        args = (given, poses, wrt, effects, params, method, rigid, rtol, progress)
+        args = (given, poses, wrt, effects, params, method, rigid, rtol, progress, lowest)
         freq, vec, dfdp = self.derivatives_at(solved, *args)
         if exact and "c_rigid" in self.ev.parameters:
             # the finite modes come from the exact condensation, their derivatives from K_F with
@@ -67,10 +72,11 @@ class SensitivityRoute:
             modes.legs = None
         return modes, dfdp
 
-    def derivatives_at(self, solved: dict, given, poses, wrt, effects, params, method, rigid, rtol, progress):
+    def derivatives_at(self, solved: dict, given, poses, wrt, effects, params, method, rigid, rtol, progress, lowest):
         """``(freq_hz, eigentwists, dfdp)`` of :meth:`modes_and_sensitivities` with the
         parameters ``solved`` (the route's, or a penalty's other value), other than the
-        rigid model on turning allowed twists."""
+        rigid model on turning allowed twists; dfdp of the ``lowest`` modes (None: all). The
+        reverse-mode kernel sweeps those modes only; the other routes slice theirs."""
         from .sensitivity import (
             adjoint_eigen_derivatives,
             frequency_derivatives,
@@ -101,11 +107,13 @@ class SensitivityRoute:
             freq, vec, dfdp = frequency_derivatives(
                 out, rigid, rtol, translational=not self.ev.completion.six, basis=basis
             )
+            dfdp = dfdp[:, :lowest]
         elif method == "differences":
             out = total(self.ev.matrix_derivatives(poses, wrt, effects, **solved), wrt)
             freq, vec, dfdp = frequency_derivatives(
                 out, rigid, rtol, translational=not self.ev.completion.six, basis=basis
             )
+            dfdp = dfdp[:, :lowest]
         else:
             own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)
@@ -134,8 +142,9 @@ class SensitivityRoute:
                     E,
                     rtol,
                     extra,
+                    lowest,
                 )
-                omega = np.sqrt(np.clip(lam, 0.0, None))
+                omega = np.sqrt(np.clip(lam, 0.0, None))[:, : dlam.shape[1]]
                 with np.errstate(divide="ignore", invalid="ignore"):
                     parts.append(
                         (frequencies_hz(lam), normalize_eigentwists(V), dlam / (2 * omega[..., None]) / (2 * np.pi))
