@@ -355,3 +355,30 @@ def test_lowest_is_the_first_columns_of_every_route(evs):
     for bad in (0, -1, 1.5, True, "2"):
         with pytest.raises(InputError, match=f"lowest = {bad!r}: expected"):
             ev.sensitivities(poses, ("k_a",), "paper", lowest=bad)
+
+
+@compiled
+def test_eigensolver_is_the_c_librarys_where_it_has_the_size(evs, monkeypatch):
+    """The reverse-mode route solves the pencil with the C library's Cholesky and Jacobi
+    where the backend has them for its size (the eigenvalues LAPACK's to round-off), else
+    with LAPACK's (a size the library lacks, the NumPy backend)."""
+    from eigentwist.runtime.eigen import generalized_eigh
+
+    ev_c = eigentwist.load("heli4", backend="c")
+    rng = np.random.default_rng(4)
+    A = rng.normal(size=(5, 6, 6))
+    K = A @ np.swapaxes(A, 1, 2) + 0.1 * np.eye(6)
+    B = rng.normal(size=(5, 6, 6))
+    M = B @ np.swapaxes(B, 1, 2) + np.eye(6)
+    calls = []
+    solve = ev_c.kernels.generalized_eigh
+    monkeypatch.setattr(ev_c.kernels, "generalized_eigh", lambda K, M: calls.append(K.shape) or solve(K, M))
+    lam, V = ev_c.sensitivity_route.eigensolver(K, M)
+    assert calls == [(5, 6, 6)]
+    want, _ = generalized_eigh(K, M)
+    np.testing.assert_allclose(lam, want, rtol=1e-12)
+    np.testing.assert_allclose(np.swapaxes(V, 1, 2) @ M @ V, np.broadcast_to(np.eye(6), (5, 6, 6)), atol=1e-12)
+    small = ev_c.sensitivity_route.eigensolver(K[:, :2, :2], M[:, :2, :2])[0]
+    assert calls == [(5, 6, 6)]  # 2 x 2: LAPACK's
+    np.testing.assert_allclose(small, generalized_eigh(K[:, :2, :2], M[:, :2, :2])[0], rtol=1e-14)
+    np.testing.assert_array_equal(evs["heli4"].sensitivity_route.eigensolver(K, M)[0], want)

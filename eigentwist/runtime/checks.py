@@ -86,10 +86,11 @@ class PoseChecks:
                 jac = kernels.jacobians(q if ok.all() else q[ok], sub)
             lever = jac["lever"] / np.asarray(sub.get(LEVER_SCALE, 1.0), dtype=float)[..., None]
             rows = platform_rows(jac["J_rows"], legs, self.freedoms)
-            if strict:
+            if strict:  # each raises on the first row its mask would drop: none is left to drop
                 raise_singular(legs, poses[ok], lever, LEVER_SCALE if LEVER_SCALE in sub else None, self.pose_names)
                 raise_parallel(poses[ok], rows, self.pose_names)
-            ok[ok] = lever_mask(lever) & parallel_mask(rows)
+            else:
+                ok[ok] = lever_mask(lever) & parallel_mask(rows)
         return q, jac, ok
 
     def ik(self, poses: np.ndarray, p: dict) -> np.ndarray:

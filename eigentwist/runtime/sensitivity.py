@@ -370,7 +370,9 @@ def _weighted(kern, x, y, z, p: dict, U: np.ndarray, UT: np.ndarray, lam: np.nda
     return weighted_derivatives(kern, x, y, z, p, -lam[:, :, None, None] * W, W, extra)
 
 
-def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLUSTER_RTOL, extra=None, lowest=None):
+def adjoint_eigen_derivatives(
+    kern, x, y, z, p: dict, M, K, E, rtol: float = CLUSTER_RTOL, extra=None, lowest=None, eigh=None
+):
     """``(lam, V, dlam)`` of ``Eᵀ K E v = λ Eᵀ M E v`` from the reverse-mode kernel.
 
     ``kern``: :func:`sensitivity_kernels` of kind ``"rigid"`` or ``"flexible"``; ``x, y, z, p``
@@ -383,7 +385,9 @@ def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLU
     projected derivative u_aᵀ(dK − λ̄ dM)u_b, as :func:`eigenvalue_derivatives`. ``lowest``:
     the derivatives of the lowest ``lowest`` modes only (``dlam`` (N, lowest, P); one kernel
     row a pose and mode, so the kernel's work falls in proportion); a cluster across that cut
-    is solved whole and its lowest members kept. None: every mode.
+    is solved whole and its lowest members kept. None: every mode. ``eigh``: the batch solver
+    of the reduced pencil, ``(K, M) -> (lam, V)`` (None: LAPACK's,
+    :func:`~eigentwist.runtime.eigen.generalized_eigh`).
     """
     from .completion import take
     from .eigen import generalized_eigh
@@ -391,7 +395,7 @@ def adjoint_eigen_derivatives(kern, x, y, z, p: dict, M, K, E, rtol: float = CLU
     E = np.asarray(E, dtype=float)
     Mr = np.swapaxes(E, -1, -2) @ M @ E
     Kr = np.swapaxes(E, -1, -2) @ K @ E
-    lam, V = generalized_eigh(Kr, Mr)
+    lam, V = (eigh or generalized_eigh)(Kr, Mr)
     U = E @ V  # (N, 6, n): the modes as twists
     k = lam.shape[1] if lowest is None else min(int(lowest), lam.shape[1])
     dlam = _weighted(kern, x, y, z, p, U[:, :, :k], U[:, :, :k], lam[:, :k], extra)

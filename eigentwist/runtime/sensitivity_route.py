@@ -143,6 +143,7 @@ class SensitivityRoute:
                     rtol,
                     extra,
                     lowest,
+                    self.eigensolver,
                 )
                 omega = np.sqrt(np.clip(lam, 0.0, None))[:, : dlam.shape[1]]
                 with np.errstate(divide="ignore", invalid="ignore"):
@@ -153,6 +154,15 @@ class SensitivityRoute:
             if own:
                 dfdp = shared_columns(dfdp, wrt, full, own)
         return freq, vec, dfdp
+
+    def eigensolver(self, K, M):
+        """``(lam, V)`` of the batch ``K v = lam M v``: the C library's solver (Cholesky and
+        Jacobi, that of the frequencies' pass) where the backend has one for this size, else
+        LAPACK's (:func:`.eigen.generalized_eigh`)."""
+        kernels = self.ev.kernels
+        if hasattr(kernels, "generalized_eigh") and K.shape[-1] in kernels.signature["eigh"]["dims"]:
+            return kernels.generalized_eigh(K, M)
+        return generalized_eigh(K, M)
 
     def _checked(self, poses, wrt, model, params: dict) -> tuple:
         """``(poses, effects, wrt)``: the completed poses, the model's effects (one that can be
