@@ -7,8 +7,8 @@ For each robot and the paper model: the time to generate (SymPy: derive, CSE of 
 the reverse sweep, render) and compile (gcc, the kernel split into functions of ``CHUNK``
 statements) the C kernel that ``Evaluator.sensitivities`` uses for every parameter of the
 description (:mod:`eigentwist.codegen.adjoint`), the peak resident memory of this process
-and of the compiler, then, best of 3 repetitions, each on its own ``--n`` random workspace
-poses:
+and of the compiler, then, best of 5 repetitions (the methods alternated within each), each
+on its own ``--n`` random workspace poses:
 
 - ``Evaluator.frequencies`` (the baseline: IK, M, K_F, eigen-solve, C backend),
 - ``Evaluator.sensitivities`` (checks, M and K, eigen-solve, one weighting of the kernel
@@ -73,7 +73,7 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
     lo = np.array([a for a, _ in ev.robot.workspace])
     hi = np.array([b for _, b in ev.robot.workspace])
     sets = []
-    for _ in range(4):  # the first set warms the kernels; each repetition gets new poses
+    for _ in range(6):  # the first set warms the kernels; each repetition gets new poses
         poses = lo + (hi - lo) * rng.random((n, 3))
         sets.append(poses[ev.valid(poses)])
     poses = sets[0]
@@ -95,10 +95,19 @@ def run(robot: str, n: int, wrt_kind: str) -> dict:
         lambda x: ev.sensitivities(x, wrt, method="differences"),
     ):
         fn(sets[0])
-    t_freq = _best(ev.frequencies, sets[1:])
-    t_sens = _best(lambda x: ev.sensitivities(x, wrt), sets[1:])
-    t_low = _best(lambda x: ev.sensitivities(x, wrt, lowest=1), sets[1:])
-    t_diff = _best(lambda x: ev.sensitivities(x, wrt, method="differences"), sets[1:])
+    # the methods alternate within each repetition, so each ratio compares the same minutes
+    # of a shared machine
+    methods = {
+        "freq": ev.frequencies,
+        "sens": lambda x: ev.sensitivities(x, wrt),
+        "low": lambda x: ev.sensitivities(x, wrt, lowest=1),
+        "diff": lambda x: ev.sensitivities(x, wrt, method="differences"),
+    }
+    best = {k: float("inf") for k in methods}
+    for poses in sets[1:]:
+        for k, fn in methods.items():
+            best[k] = min(best[k], _best(fn, [poses]))
+    t_freq, t_sens, t_low, t_diff = best["freq"], best["sens"], best["low"], best["diff"]
     return dict(
         robot=robot,
         wrt=len(wrt),
