@@ -413,3 +413,21 @@ def test_an_unreachable_pose_raises_on_the_c_backend():
     poses = np.array([ev.robot.x_ref, [0.0, 0.0, -5.0]])
     with pytest.raises(UnreachablePoseError, match=r"pose \[0.0, 0.0, -5.0\]"):
         ev.sensitivities(poses, WRT_C["delta"], "paper")
+
+
+def test_a_bad_pose_is_refused_before_the_kernel_is_loaded_or_generated(evs, monkeypatch):
+    """The poses are checked before the reverse-mode kernel is asked for (its first
+    generation takes a minute): an unreachable pose raises with no kernel requested; a good
+    one requests it once."""
+    from eigentwist.runtime import UnreachablePoseError
+    from eigentwist.runtime import sensitivity as sens
+
+    asked = []
+    real = sens.sensitivity_kernels
+    monkeypatch.setattr(sens, "sensitivity_kernels", lambda *a, **k: asked.append(a[1]) or real(*a, **k))
+    unreachable, _ = _bad_poses(evs["heli4"])
+    with pytest.raises(UnreachablePoseError):
+        evs["heli4"].sensitivities(unreachable, WRT["heli4"], "paper")
+    assert asked == []
+    evs["heli4"].sensitivities(unreachable[:1], WRT["heli4"], "paper")
+    assert len(asked) == 1

@@ -118,7 +118,7 @@ class SensitivityRoute:
             own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)
             stiffness = "rigid" if rigid else "flexible"
-            kern = sensitivity_kernels(self.ev, full, progress, kind=stiffness)
+            kern = None
             E = self.twists(rigid, basis)
             p = self.ev.resolver.resolve(len(poses), solved, effects)
             parts = []
@@ -126,6 +126,8 @@ class SensitivityRoute:
                 pc = take(p, sl)
                 # every pose checked here: the first unreachable or singular one raises
                 mats = self.ev.matrices(poses[sl], effects, **user_rows(solved, sl, len(poses)))
+                if kern is None:  # after the first chunk's checks: a bad pose costs no generation
+                    kern = sensitivity_kernels(self.ev, full, progress, kind=stiffness)
                 extra = None
                 if follow:
                     d = total({"dM": 0.0, "dK_R": 0.0, "dK_F": 0.0}, full, sl)
