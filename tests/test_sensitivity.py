@@ -359,8 +359,8 @@ def test_lowest_is_the_first_columns_of_every_route(evs):
 
 @compiled
 def test_eigensolver_is_the_c_librarys_where_it_has_the_size(evs, monkeypatch):
-    """The reverse-mode route solves the pencil with the C library's Cholesky and Jacobi
-    where the backend has them for its size (the eigenvalues LAPACK's to round-off), else
+    """The reverse-mode route solves the pencil with the mode solver's ``eigh``: the C
+    library's Cholesky and Jacobi where the backend has them for its size (the eigenvalues LAPACK's to round-off), else
     with LAPACK's (a size the library lacks, the NumPy backend)."""
     from eigentwist.runtime.eigen import generalized_eigh
 
@@ -372,16 +372,16 @@ def test_eigensolver_is_the_c_librarys_where_it_has_the_size(evs, monkeypatch):
     M = B @ np.swapaxes(B, 1, 2) + np.eye(6)
     calls = []
     solve = ev_c.kernels.generalized_eigh
-    monkeypatch.setattr(ev_c.kernels, "generalized_eigh", lambda K, M: calls.append(K.shape) or solve(K, M))
-    lam, V = ev_c.sensitivity_route.eigensolver(K, M)
+    monkeypatch.setattr(ev_c.kernels, "generalized_eigh", lambda K, M, **k: calls.append(K.shape) or solve(K, M, **k))
+    lam, V = ev_c.solver.eigh(K, M)
     assert calls == [(5, 6, 6)]
     want, _ = generalized_eigh(K, M)
     np.testing.assert_allclose(lam, want, rtol=1e-12)
     np.testing.assert_allclose(np.swapaxes(V, 1, 2) @ M @ V, np.broadcast_to(np.eye(6), (5, 6, 6)), atol=1e-12)
-    small = ev_c.sensitivity_route.eigensolver(K[:, :2, :2], M[:, :2, :2])[0]
+    small = ev_c.solver.eigh(K[:, :2, :2], M[:, :2, :2])[0]
     assert calls == [(5, 6, 6)]  # 2 x 2: LAPACK's
     np.testing.assert_allclose(small, generalized_eigh(K[:, :2, :2], M[:, :2, :2])[0], rtol=1e-14)
-    np.testing.assert_array_equal(evs["heli4"].sensitivity_route.eigensolver(K, M)[0], want)
+    np.testing.assert_array_equal(evs["heli4"].solver.eigh(K, M)[0], want)
 
 
 def _bad_poses(ev):

@@ -107,13 +107,11 @@ class SensitivityRoute:
             freq, vec, dfdp = frequency_derivatives(
                 out, rigid, rtol, translational=not self.ev.completion.six, basis=basis
             )
-            dfdp = dfdp[:, :lowest]
         elif method == "differences":
             out = total(self.ev.matrix_derivatives(poses, wrt, effects, **solved), wrt)
             freq, vec, dfdp = frequency_derivatives(
                 out, rigid, rtol, translational=not self.ev.completion.six, basis=basis
             )
-            dfdp = dfdp[:, :lowest]
         else:
             own = own_legs(wrt, params)  # legs whose own P@N does not follow a shared P
             full = kernel_wrt(wrt, own)
@@ -145,7 +143,7 @@ class SensitivityRoute:
                     rtol,
                     extra,
                     lowest,
-                    self.eigensolver,
+                    self.ev.solver.eigh,  # the C library's Jacobi where it has the size
                 )
                 omega = np.sqrt(np.clip(lam, 0.0, None))[:, : dlam.shape[1]]
                 with np.errstate(divide="ignore", invalid="ignore"):
@@ -155,16 +153,7 @@ class SensitivityRoute:
             freq, vec, dfdp = (np.concatenate(x) for x in zip(*parts))
             if own:
                 dfdp = shared_columns(dfdp, wrt, full, own)
-        return freq, vec, dfdp
-
-    def eigensolver(self, K, M):
-        """``(lam, V)`` of the batch ``K v = lam M v``: the C library's solver (Cholesky and
-        Jacobi, that of the frequencies' pass) where the backend has one for this size, else
-        LAPACK's (:func:`.eigen.generalized_eigh`)."""
-        kernels = self.ev.kernels
-        if hasattr(kernels, "generalized_eigh") and K.shape[-1] in kernels.signature["eigh"]["dims"]:
-            return kernels.generalized_eigh(K, M)
-        return generalized_eigh(K, M)
+        return freq, vec, dfdp[:, :lowest]  # the kernel's route swept only those; the others slice
 
     def _checked(self, poses, wrt, model, params: dict) -> tuple:
         """``(poses, effects, wrt)``: the completed poses, the model's effects (one that can be
