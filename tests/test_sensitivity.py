@@ -431,3 +431,15 @@ def test_a_bad_pose_is_refused_before_the_kernel_is_loaded_or_generated(evs, mon
     assert asked == []
     evs["heli4"].sensitivities(unreachable[:1], WRT["heli4"], "paper")
     assert len(asked) == 1
+
+
+@compiled
+def test_the_route_solves_its_pencil_with_the_mode_solvers_eigh(monkeypatch):
+    """The reverse-mode route's pencil goes to ``ModeSolver.eigh`` (the C Jacobi where the
+    library has the size), not to a solver of its own."""
+    ev = eigentwist.load("delta", backend="c")
+    sizes = []
+    real = ev.solver.eigh
+    monkeypatch.setattr(ev.solver, "eigh", lambda K, M: sizes.append(K.shape) or real(K, M))
+    ev.sensitivities(random_poses(ev.robot, 4, seed=2), WRT_C["delta"], "paper")
+    assert sizes and all(s == (4, 6, 6) for s in sizes)
