@@ -167,3 +167,46 @@ def test_settings_of_different_sizes_are_each_matched_by_shape():
         assert idx.tolist() == [4, 3, 5, 3, 4, 0]
     stacked = SettingGroups(groups)
     assert [m.shape for m in stacked.by_size] == [(1, 2), (1, 3)]
+
+
+def test_real_mac_equals_the_complex_formula_bit_for_bit():
+    """Real shapes take MAC's real path (products instead of conjugates and moduli): the same
+    bits as the complex formula on the same values, with a measured norm given or not."""
+    rng = np.random.default_rng(11)
+    a, b = rng.standard_normal((40, 6, 3)), rng.standard_normal((40, 1, 3))
+    b[3] = 0.0  # a zero shape: MAC 0, not NaN
+    a[5, 2] = 0.0
+    complex_formula = np.abs(np.sum(np.conj(a + 0j) * b, axis=-1)) ** 2 / (
+        np.sum(np.abs(a + 0j) ** 2, axis=-1) * np.sum(np.abs(b + 0j) ** 2, axis=-1)
+    )
+    expected = np.where(np.isfinite(complex_formula), complex_formula, 0.0)
+    assert np.array_equal(mac(a, b), expected)
+    assert np.array_equal(mac(a, b, np.sum(b * b, axis=-1)), expected)
+    assert mac(a[0, 0], b[0, 0]) == pytest.approx(float(expected[0, 0]), abs=0.0)
+    assert mac(a + 0j, b) == pytest.approx(mac(a, b), abs=1e-15)  # complex input: the complex path
+
+
+def test_prepared_measured_shapes_match_as_the_raw_array():
+    """:class:`MeasuredShapes` (prepared once per fit) gives match_by_shape the same modes as the
+    raw array, and its ``has`` is :func:`has_shape`'s (two finite components)."""
+    from types import SimpleNamespace
+
+    from eigentwist.diagnose.shapes import MeasuredShapes, has_shape, match_by_shape
+
+    rng = np.random.default_rng(12)
+    n = 6
+    V = rng.standard_normal((8, n, n))
+    modes = SimpleNamespace(eigentwists=V, direction=np.tile(np.arange(n), (8, 1)))
+    shapes = rng.standard_normal((8, 3))
+    shapes[1, 0] = np.nan  # two DOFs measured: a shape
+    shapes[2, :2] = np.nan  # one: none
+    shapes[5] = np.nan
+    groups = (np.array([0, 1]), np.array([3, 4]), np.array([6, 7]))  # the rows with a shape
+    prepared = MeasuredShapes(shapes)
+    assert np.array_equal(has_shape(prepared), has_shape(shapes))
+    assert has_shape(shapes).tolist() == [True, True, False, True, True, False, True, True]
+    fallback = np.arange(8) % n
+    sensor = rng.standard_normal((8, 3)) * 0.1
+    raw = match_by_shape(modes, shapes, groups, fallback, sensor)
+    assert np.array_equal(match_by_shape(modes, prepared, groups, fallback, sensor), raw)
+    assert raw[5] == fallback[5] and raw[2] == fallback[2]  # no shape: the label's mode

@@ -17,7 +17,7 @@ from ..runtime import InputError
 from ..runtime.memo import BoundedMemo, content_key
 from ..runtime.labels import energy_shares
 from .matching import directions_asked, match_frequencies
-from .shapes import SettingGroups, has_shape, match_by_shape, setting_rows
+from .shapes import MeasuredShapes, SettingGroups, has_shape, match_by_shape, setting_rows
 
 __all__ = ["evaluate", "Predictor", "EVAL_BLOCK", "distinct_rows", "take_rows", "setting_keys", "setting_groups"]
 
@@ -51,7 +51,8 @@ def evaluate(
     poses : (N, 3) m; labels : N normalised mode labels.
     params : parameter name -> scalar or (N,) array (SI units).
     strict, lines : see :func:`eigentwist.diagnose.matching.match_modes`.
-    shapes, sensor : optional (N, D) measured mode shapes (NaN: not measured) and sensor
+    shapes, sensor : optional (N, D) measured mode shapes (NaN: not measured; or
+        :class:`~.shapes.MeasuredShapes` of them, prepared once for many calls) and sensor
         offsets (N, 3) m or the shapes' projection (N, D, 6): rows with a shape are matched
         by MAC (:mod:`.shapes`).
     return_modes : also return the model's :class:`~eigentwist.runtime.Modes`.
@@ -327,12 +328,18 @@ class Predictor:
             shapes, projection, groups = self._measured_shapes
             n = len(self.meas)
             tiled = {
-                "shapes": np.tile(shapes, (repeat, 1)),
+                "shapes": MeasuredShapes(np.tile(shapes, (repeat, 1))),
                 "sensor": np.tile(projection, (repeat, 1, 1)),
                 # each parameter set's settings on their own (two sets of equal values stay apart)
                 "groups": SettingGroups(g + k * n for k in range(repeat) for g in groups),
             }
-            for arr in (tiled["shapes"], tiled["sensor"], *tiled["groups"], *tiled["groups"].by_size):
+            measured = tiled["shapes"]
+            for arr in (
+                tiled["sensor"],
+                *tiled["groups"],
+                *tiled["groups"].by_size,
+                *(getattr(measured, name) for name in MeasuredShapes.__slots__),
+            ):
                 arr.flags.writeable = False
             self._repeated_shapes.put(repeat, tiled)
         return dict(tiled)

@@ -96,15 +96,42 @@ def sensor_shapes(eigentwists, sensor=None) -> np.ndarray:
     return np.broadcast_to(transport_matrix(r), V.shape[:-2] + (3, 6)) @ V
 
 
-def mac(a, b) -> np.ndarray:
-    """MAC between shapes ``a`` (..., k) and ``b`` (..., k), real or complex: (...,) in [0, 1]."""
+def mac(a, b, nb=None) -> np.ndarray:
+    """MAC between shapes ``a`` (..., k) and ``b`` (..., k), real or complex: (...,) in [0, 1].
+    ``nb``: ``b^H b`` (...,) where known (a measured shape's, computed once)."""
     a = np.asarray(a)
     b = np.asarray(b)
-    cross = np.abs(np.sum(np.conj(a) * b, axis=-1)) ** 2
-    na = np.sum(np.abs(a) ** 2, axis=-1)
-    nb = np.sum(np.abs(b) ** 2, axis=-1)
+    if a.dtype.kind == "f" and b.dtype.kind == "f":  # real: |x|^2 = x x, bit for bit
+        cross = np.sum(a * b, axis=-1)
+        cross *= cross
+        na = np.sum(a * a, axis=-1)
+    else:
+        cross = np.abs(np.sum(np.conj(a) * b, axis=-1)) ** 2
+        na = np.sum(np.abs(a) ** 2, axis=-1)
+    if nb is None:
+        nb = np.sum(np.abs(b) ** 2, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where((na > 0) & (nb > 0), cross / (na * nb), 0.0)
+
+
+class MeasuredShapes:
+    """Measured shapes (N, D) (NaN: a DOF not measured) with what every matching of them
+    reads, computed once: ``values``, ``finite`` (N, D), ``clean`` (NaN as 0), ``has``
+    (N,) (:func:`has_shape`) and ``norm2`` (N,) each row's ``b^H b`` (:func:`mac`). A fit
+    matches the same measured shapes at every evaluation (:func:`match_by_shape`)."""
+
+    __slots__ = ("values", "finite", "clean", "has", "norm2")
+
+    def __init__(self, shapes):
+        values = np.asarray(shapes, dtype=float)
+        self.values = values
+        self.finite = np.isfinite(values)
+        self.clean = np.nan_to_num(values)
+        self.has = np.sum(self.finite, axis=1) >= 2
+        self.norm2 = np.sum(np.abs(self.clean) ** 2, axis=-1)
+
+    def __len__(self) -> int:
+        return len(self.values)
 
 
 def setting_rows(keys: np.ndarray) -> tuple:
@@ -142,7 +169,8 @@ def match_by_shape(modes, shapes, groups, fallback, sensor=None) -> np.ndarray:
     Parameters
     ----------
     modes : :class:`eigentwist.runtime.Modes` of N rows.
-    shapes : (N, 3) measured shapes (NaN rows: none measured).
+    shapes : (N, D) measured shapes (NaN: a DOF not measured), or the same as
+        :class:`MeasuredShapes` (prepared once for many matchings).
     groups : the settings (same pose, k_a, parameters, sensor) of the rows with a shape:
         row-index arrays (:func:`eigentwist.diagnose.predict.setting_groups`; a
         :class:`SettingGroups` is stacked already); each setting's rows take distinct modes.
@@ -155,13 +183,12 @@ def match_by_shape(modes, shapes, groups, fallback, sensor=None) -> np.ndarray:
     """
     from scipy.optimize import linear_sum_assignment  # on first use: commands without it start faster
 
-    shapes = np.asarray(shapes, dtype=float)
-    has = has_shape(shapes)
+    measured = shapes if isinstance(shapes, MeasuredShapes) else MeasuredShapes(shapes)
     idx = np.array(fallback, dtype=int, copy=True)
-    if not has.any():
+    if not measured.has.any():
         return idx
-    U = sensor_shapes(modes.eigentwists, sensor) * np.isfinite(shapes)[:, :, None]  # (N, D, n)
-    score = mac(np.swapaxes(U, -1, -2), np.nan_to_num(shapes)[:, None, :])  # (N, n)
+    U = sensor_shapes(modes.eigentwists, sensor) * measured.finite[:, :, None]  # (N, D, n)
+    score = mac(np.swapaxes(U, -1, -2), measured.clean[:, None, :], measured.norm2[:, None])  # (N, n)
     seen = modes.direction >= 3  # x, y, z (AXES index)
     score = np.where(seen, score, score - 2.0)  # rotations only if nothing else fits
     stacked = groups if isinstance(groups, SettingGroups) else SettingGroups(groups)
@@ -239,5 +266,8 @@ def row_mac(modes, idx, meas_shapes, sensor=None) -> np.ndarray:
 
 
 def has_shape(shapes) -> np.ndarray:
-    """(N,) rows of ``shapes`` (N, D) with a measured shape: at least two finite components."""
+    """(N,) rows of ``shapes`` (N, D) with a measured shape: at least two finite components
+    (``shapes`` may be :class:`MeasuredShapes`)."""
+    if isinstance(shapes, MeasuredShapes):
+        return shapes.has
     return np.sum(np.isfinite(np.asarray(shapes, dtype=float)), axis=1) >= 2
