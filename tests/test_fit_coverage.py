@@ -457,3 +457,26 @@ def test_predictor_rows_repeated_per_count_read_only_within_the_bound():
         assert np.array_equal(rows["poses"][first][inverse], rows["poses"])
         with pytest.raises(ValueError):
             rows["lines"][0] = 0
+
+
+@pytest.mark.parametrize(
+    "model, names",
+    [(MODEL, ("m_p",)), (("actuator_loss", "ee_compliance", "servo_damping"), ("c_a", "eta_a"))],
+    ids=["payload", "damped paper data"],
+)
+def test_the_kept_comparison_is_the_evaluated_one_bit_for_bit(ev_fast, truth, model, names):
+    """The fit's comparison at its optimum comes from its own evaluation there (the first of
+    the batched parameter sets); evaluated anew at the fitted values it is the same, bit for
+    bit: predictions, matched modes, damping ratios and chi2 (the paper's damped rows)."""
+    from eigentwist.diagnose import paper_measurements
+    from eigentwist.diagnose.fit import _comparison
+
+    meas = truth if model == MODEL else paper_measurements(ev_fast)
+    out = fit(meas, model, ev_fast, names)
+    assert out.nfev > 0
+    anew = _comparison(meas, model, ev_fast, out.fixed)
+    assert np.array_equal(out.comparison.predicted, anew.predicted)
+    assert np.array_equal(out.comparison.mode_index, anew.mode_index) and out.comparison.chi2 == anew.chi2
+    if model != MODEL:
+        assert np.array_equal(out.comparison.zeta, anew.zeta)
+        assert np.array_equal(out.comparison.zeta_residuals, anew.zeta_residuals, equal_nan=True)

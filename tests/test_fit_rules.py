@@ -105,14 +105,17 @@ class Linear:
         if ev is not None:
             self.ev = ev
 
-    def predict_sets(self, names, values, strict=True, zeta=False):
+    def predict_sets(self, names, values, strict=True, zeta=False, first=False):
         assert tuple(names) == self.names and strict is False
         self.calls.append(np.array(values))
         f = self.f0 + np.asarray(values) @ self.A.T
-        if not zeta:
-            return f
-        z = self.z0 + np.asarray(values) @ self.Z.T
-        return f, z, z - 0.01
+        out = (
+            f
+            if not zeta
+            else (f, self.z0 + np.asarray(values) @ self.Z.T, self.z0 + np.asarray(values) @ self.Z.T - 0.01)
+        )
+        # the first set kept: a stand-in carrying its values
+        return (out, NS(values=np.array(values)[0].tolist())) if first else out
 
     def predict_with_jacobian(self, names, values, strict=True):
         assert tuple(names) == self.names and strict is False
@@ -285,6 +288,51 @@ def test_the_comparison_at_the_optimum_carries_the_damping_where_measured(monkey
     assert fm._comparison("m", ["d"], ev, {}) == ("damped", comp, "m", "modes", "idx", "spec")
 
 
+def test_the_comparison_at_the_optimum_is_the_kept_first_set_where_there_is_one(monkeypatch):
+    """A kept prediction (the fit's evaluation at the optimum) stands for the comparison's
+    evaluation: no predictor is made; without one the comparison evaluates."""
+    made = []
+    monkeypatch.setattr(fm, "Predictor", lambda *a: made.append(a))
+    monkeypatch.setattr(fm, "Comparison", lambda *a: ("comparison",) + a)
+    monkeypatch.setattr(fm, "_zeta_rows", lambda meas, damped: None)
+    kept = NS(predict=lambda: ("kept pred", "kept idx", "kept modes"))
+    ev = NS(damped_model=lambda effects: False)
+    assert fm._comparison("m", ["e"], ev, {"v": 1}, kept) == (
+        "comparison",
+        "m",
+        ("e",),
+        "kept pred",
+        "kept idx",
+        {"v": 1},
+    )
+    assert made == []
+
+
+def test_the_objective_keeps_the_first_set_of_its_last_two_points_by_differences():
+    obj = _objective(Linear(MEAS, [9, 19, 29], A))
+    thetas = [np.array([0.1, 0.2]), np.array([0.3, 0.2]), np.array([0.5, 0.2])]
+    for theta in thetas:
+        obj.residuals(theta)
+    assert obj.first_set(thetas[0]) is None  # evicted: the comparison evaluates
+    for theta in thetas[1:]:
+        assert obj.first_set(theta).values == pytest.approx([math.exp(theta[0]), 2 * theta[1]], rel=1e-15)
+    assert obj.first_set(np.array([9.0, 9.0])) is None  # never evaluated
+    exact = _objective(Linear(MEAS, [9, 19, 29], A), jacobian="exact")
+    exact.residuals(thetas[0])
+    assert exact.first_set(thetas[0]) is None  # the sensitivities' route keeps no modes
+
+
+@pytest.mark.parametrize("jacobian", ["differences", "exact"])
+def test_the_fit_compares_at_its_optimum_with_the_kept_first_set(monkeypatch, jacobian):
+    meas, ev, _ = _fit_world(monkeypatch)
+    out = fm.fit(meas, ("e",), ev, ("a", "b"), jacobian=jacobian)
+    first = out.comparison.first
+    if jacobian == "exact":
+        assert first is None
+    else:
+        assert first.values == [out.values["a"], out.values["b"]]  # the very values of the optimum
+
+
 def test_the_covariance_of_fewer_rows_than_parameters_is_infinite_along_the_free_direction():
     """One row, two parameters: only their sum is determined, neither parameter is."""
     assert np.isinf(fm._covariance(np.array([[1.0, 1.0]]), 1.0, -1)).all()
@@ -332,9 +380,9 @@ def _fit_world(monkeypatch, jacobian_error=None, zeta=False):
         made.append((m, effects, ev, fixed))
         return p
 
-    def comparison(m, effects, ev, values):
+    def comparison(m, effects, ev, values, first=None):
         r = (F0 + A4 @ np.array([values["a"], values["b"]]) - m.freq_hz) / m.sigma_hz
-        return NS(chi2=float(r @ r), values=dict(values), effects=tuple(effects))
+        return NS(chi2=float(r @ r), values=dict(values), effects=tuple(effects), first=first)
 
     monkeypatch.setattr(fm, "Predictor", predictor)
     monkeypatch.setattr(fm, "_comparison", comparison)

@@ -42,7 +42,7 @@ import numpy as np
 from ..runtime.errors import InputError
 from .compare import Comparison
 from .damping import attach_damping, zeta_count, zeta_residuals, zeta_rows as _zeta_rows
-from .predict import Predictor
+from .predict import FirstSet, Predictor
 from .stats import aicc, gof_p_value
 
 __all__ = ["FitResult", "fit", "Transform", "SPAN", "JACOBIANS", "using_jacobian", "constraint_range"]
@@ -242,13 +242,13 @@ class _Objective:
         if value is None:
             thetas = self._sets(theta)
             values = np.column_stack([t.value(thetas[:, j]) for j, t in enumerate(self.tr)])
-            f, r = self._residuals(values)
+            f, r, first = self._residuals(values, first=True)
             self.nfev += 1
             # a change below round-off (|df/f| <= ROUNDOFF for a 1 % step) is no influence:
             # noise there would send the Gauss-Newton step to a search bound
             flat = np.abs(f[2::2] - f[1::2]) <= ROUNDOFF * np.abs(f[0])
             jac = np.where(flat, 0.0, (r[2::2] - r[1::2]) / (2 * STEP)).T
-            value = (r[0], jac)
+            value = (r[0], jac, first)
         # the two points asked for last are kept: the solver's accepted point survives a
         # rejected trial step after it, so the covariance at the solution costs no evaluation
         older = [k for k in self.cache if k != key][-1:]
@@ -270,15 +270,24 @@ class _Objective:
         if self.stall and self.since >= STALL_EVALS:
             raise _Stalled
 
-    def _residuals(self, values: np.ndarray):
-        """``(f, r)`` for B parameter sets: frequencies (B, N) and whitened residuals (B, N [+ Z])."""
+    def _residuals(self, values: np.ndarray, first: bool = False):
+        """``(f, r)`` for B parameter sets: frequencies (B, N) and whitened residuals (B, N [+ Z]);
+        with ``first`` also the first set's prediction with its modes (:class:`.predict.FirstSet`)."""
         if self.zeta is None:
-            f = self.pred.predict_sets(self.names, values, strict=False)
-            return f, (f - self.meas.freq_hz) / self.meas.sigma_hz
-        f, z, least = self.pred.predict_sets(self.names, values, strict=False, zeta=True)
-        r = (f - self.meas.freq_hz) / self.meas.sigma_hz
-        rz = zeta_residuals(self.meas, z, self.zeta, least)
-        return np.concatenate([f, rz * self.zeta[1]], axis=1), np.concatenate([r, rz], axis=1)
+            f, kept = self.pred.predict_sets(self.names, values, strict=False, first=True)
+            out = f, (f - self.meas.freq_hz) / self.meas.sigma_hz
+        else:
+            (f, z, least), kept = self.pred.predict_sets(self.names, values, strict=False, zeta=True, first=True)
+            r = (f - self.meas.freq_hz) / self.meas.sigma_hz
+            rz = zeta_residuals(self.meas, z, self.zeta, least)
+            out = np.concatenate([f, rz * self.zeta[1]], axis=1), np.concatenate([r, rz], axis=1)
+        return (*out, kept) if first else out
+
+    def first_set(self, theta) -> "FirstSet | None":
+        """The prediction with its modes at ``theta`` where an evaluation kept it (the two
+        points asked for last, differences), else None."""
+        value = self.cache.get(np.asarray(theta, dtype=float).tobytes())
+        return None if value is None or len(value) < 3 else value[2]
 
     def _exact(self, theta: np.ndarray):
         """Residuals and the exact Jacobian in theta (generated sensitivities)."""
@@ -323,11 +332,16 @@ def constraint_range(ev, name: str, values: dict, effects) -> tuple[float, float
     return interval(compiled, base, {n: value(n) for n in names}, {e.partition("@")[0] for e in effects})
 
 
-def _comparison(meas, effects, ev, values: dict) -> Comparison:
+def _comparison(meas, effects, ev, values: dict, first: "FirstSet | None" = None) -> Comparison:
     """The :class:`Comparison` at ``values``; with measured damping ratios or damped rows it
     carries the whitened damping-ratio residuals (:func:`zeta_residuals`; a model without
-    damping predicts zeta = 0), which its chi2 includes."""
-    pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=False, return_modes=True)
+    damping predicts zeta = 0), which its chi2 includes. ``first``: the prediction at
+    ``values`` kept from the fit's evaluation there (:class:`.predict.FirstSet`), else
+    evaluated."""
+    if first is not None:
+        pred, idx, modes = first.predict()
+    else:
+        pred, idx, modes = Predictor(meas, effects, ev, values).predict(strict=False, return_modes=True)
     comp = Comparison(meas, tuple(effects), pred, idx, values)
     spec = _zeta_rows(meas, ev.damped_model(tuple(effects)))
     return comp if spec is None else attach_damping(comp, meas, modes, idx, spec)
@@ -442,7 +456,7 @@ def fit(
     obj.stall = False
     values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}
     all_values = {**fixed, **values}
-    comp = _comparison(meas, effects, ev, all_values)
+    comp = _comparison(meas, effects, ev, all_values, obj.first_set(theta))
     chi2 = comp.chi2
     k = len(names)
     cov = _covariance(obj.jacobian(theta), chi2, n - k)

@@ -19,7 +19,16 @@ from ..runtime.labels import energy_shares
 from .matching import directions_asked, match_frequencies
 from .shapes import MeasuredShapes, SettingGroups, has_shape, match_by_shape, setting_rows
 
-__all__ = ["evaluate", "Predictor", "EVAL_BLOCK", "distinct_rows", "take_rows", "setting_keys", "setting_groups"]
+__all__ = [
+    "evaluate",
+    "Predictor",
+    "FirstSet",
+    "EVAL_BLOCK",
+    "distinct_rows",
+    "take_rows",
+    "setting_keys",
+    "setting_groups",
+]
 
 #: rows evaluated per call when no modes are returned and no row has a shape: the memory
 #: of a comparison stays that of one block (the model's matrices and modes of every row
@@ -128,6 +137,21 @@ def evaluate(
             )
         )
     return (freq, idx, modes) if return_modes else (freq, idx)
+
+
+class FirstSet:
+    """The first parameter set's rows of a :meth:`Predictor.predict_sets` call, taken when
+    asked (:meth:`predict`): ``(freq_hz (N,), mode index (N,), Modes)`` as
+    ``Predictor.predict(values, strict=False, return_modes=True)`` gives them."""
+
+    __slots__ = ("freq", "idx", "modes", "n")
+
+    def __init__(self, freq: np.ndarray, idx: np.ndarray, modes, n: int):
+        self.freq, self.idx, self.modes, self.n = freq, idx, modes, n
+
+    def predict(self) -> tuple:
+        rows = np.arange(self.n)
+        return self.freq[rows], self.idx[rows], take_rows(self.modes, rows)
 
 
 def setting_keys(poses, sensor, values) -> np.ndarray:
@@ -367,10 +391,13 @@ class Predictor:
         damped = getattr(self.meas, "damped", None)
         return None if damped is None else np.tile(damped, repeat)
 
-    def predict_sets(self, names, table: np.ndarray, strict: bool = False, zeta: bool = False):
+    def predict_sets(self, names, table: np.ndarray, strict: bool = False, zeta: bool = False, first: bool = False):
         """Predictions for B parameter sets in one call: ``table`` is (B, P) values of
         ``names``; returns (B, N) Hz, and with ``zeta`` also the (B, N) damping ratios of
-        the matched modes and the (B, N) least damping ratio of each row's modes."""
+        the matched modes and the (B, N) least damping ratio of each row's modes. With
+        ``first``, ``(that, FirstSet)``: the first set's :meth:`predict` with its modes, kept
+        for later (:class:`FirstSet`; each row is evaluated on its own, so these are the numbers
+        :meth:`predict` gives for that set)."""
         table = np.atleast_2d(np.asarray(table, dtype=float))
         b = table.shape[0]
         values = {name: table[:, j] for j, name in enumerate(names)}
@@ -394,8 +421,10 @@ class Predictor:
             z = modes.damping_ratio[np.arange(len(idx)), idx]
             with np.errstate(invalid="ignore"):
                 least = np.nanmin(np.where(np.isnan(modes.damping_ratio), np.inf, modes.damping_ratio), axis=1)
-            return tuple(v.reshape(b, len(self.meas)) for v in (freq, z, least))
-        return freq.reshape(b, len(self.meas))
+            out = tuple(v.reshape(b, len(self.meas)) for v in (freq, z, least))
+        else:
+            out = freq.reshape(b, len(self.meas))
+        return (out, FirstSet(freq, idx, modes, len(self.meas))) if first else out
 
     def predict_with_jacobian(self, names, values, strict: bool = False):
         """Predictions and their exact derivatives for one parameter set.
