@@ -150,6 +150,7 @@ class FirstSet:
         self.freq, self.idx, self.modes, self.n = freq, idx, modes, n
 
     def predict(self) -> tuple:
+        """``(freq_hz (N,) Hz, mode index (N,), Modes of the N rows)`` of the first set."""
         rows = np.arange(self.n)
         return self.freq[rows], self.idx[rows], take_rows(self.modes, rows)
 
