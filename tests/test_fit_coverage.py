@@ -311,19 +311,22 @@ def test_objective_residuals_jacobian_and_start_screening(ev_fast, truth, monkey
     assert obj.nfev == 2 and chi2.shape == (3,)
     want = np.sum(((predictor.predict_sets(["m_p", "k_t"], table) - meas.freq_hz) / meas.sigma_hz) ** 2, axis=1)
     assert chi2 == pytest.approx(want, rel=1e-12) and chi2[0] == pytest.approx(r @ r, rel=1e-12)
-    obj.residuals(theta + 0.1)
-    obj.jacobian(theta + 0.1)
-    assert obj.nfev == 3  # one more call, cached for both
-    # the last two points are kept (an accepted point, then a rejected trial): the first
-    # needs no new call; a third point forgets the oldest
-    obj.jacobian(theta)
-    assert obj.nfev == 3
-    obj.residuals(theta - 0.1)
-    assert obj.nfev == 4
-    obj.residuals(theta)
-    assert obj.nfev == 4
-    obj.residuals(theta + 0.1)
-    assert obj.nfev == 5
+    chi2 = {}
+    for point in (theta + 0.1, theta - 0.1, theta + 0.05):
+        rp = obj.residuals(point)
+        chi2[point.tobytes()] = float(rp @ rp)
+    chi2[theta.tobytes()] = float(r @ r)
+    assert obj.nfev == 5  # one call a new point
+    # the last point and the best point are kept, the rest forgotten
+    best = min(chi2, key=chi2.get)
+    last = (theta + 0.05).tobytes()
+    for point in (theta, theta + 0.1, theta - 0.1, theta + 0.05):
+        calls = obj.nfev
+        obj.jacobian(point)
+        kept = point.tobytes() in (best, last)
+        assert obj.nfev == calls + (0 if kept else 1), point
+        if not kept:  # asked for anew: now the last point, the best one still kept
+            last = point.tobytes()
 
 
 def test_fit_result_carries_its_model_covariance_and_message(ev_fast, truth):

@@ -308,14 +308,25 @@ def test_the_comparison_at_the_optimum_is_the_kept_first_set_where_there_is_one(
     assert made == []
 
 
-def test_the_objective_keeps_the_first_set_of_its_last_two_points_by_differences():
-    obj = _objective(Linear(MEAS, [9, 19, 29], A))
-    thetas = [np.array([0.1, 0.2]), np.array([0.3, 0.2]), np.array([0.5, 0.2])]
+def test_the_objective_keeps_its_last_and_its_best_point_by_differences():
+    """The point asked for last and the lowest chi2 seen keep their evaluation (residuals,
+    Jacobian, the first set's prediction); a worse point asked for before the last is evicted."""
+    pred = Linear(MEAS, [9, 19, 29], A)
+    obj = _objective(pred)
+    chi2 = {}
+    thetas = [np.array([0.9, 0.6]), np.array([0.1, 0.1]), np.array([0.5, 0.2]), np.array([0.8, 0.6])]
     for theta in thetas:
-        obj.residuals(theta)
-    assert obj.first_set(thetas[0]) is None  # evicted: the comparison evaluates
-    for theta in thetas[1:]:
+        r = obj.residuals(theta)
+        chi2[theta.tobytes()] = float(r @ r)
+    best = min(thetas, key=lambda t: chi2[t.tobytes()])
+    assert best is thetas[1] and obj.best[1].tolist() == best.tolist()  # the setting of this test
+    assert obj.first_set(thetas[0]) is None and obj.first_set(thetas[2]) is None  # worse, not last: evicted
+    for theta in (best, thetas[3]):  # the best point and the last
         assert obj.first_set(theta).values == pytest.approx([math.exp(theta[0]), 2 * theta[1]], rel=1e-15)
+    calls = len(pred.calls)
+    obj.jacobian(best)
+    obj.jacobian(thetas[3])
+    assert len(pred.calls) == calls  # no evaluation again
     assert obj.first_set(np.array([9.0, 9.0])) is None  # never evaluated
     exact = _objective(Linear(MEAS, [9, 19, 29], A), jacobian="exact")
     exact.residuals(thetas[0])

@@ -249,13 +249,15 @@ class _Objective:
             flat = np.abs(f[2::2] - f[1::2]) <= ROUNDOFF * np.abs(f[0])
             jac = np.where(flat, 0.0, (r[2::2] - r[1::2]) / (2 * STEP)).T
             value = (r[0], jac, first)
-        # the two points asked for last are kept: the solver's accepted point survives a
-        # rejected trial step after it, so the covariance at the solution costs no evaluation
-        older = [k for k in self.cache if k != key][-1:]
-        fresh = key not in self.cache
-        self.cache = {**{k: self.cache[k] for k in older}, key: value}
-        if fresh:
-            self._progress(theta, float(value[0] @ value[0]))
+        if key in self.cache:
+            return value
+        # a new point: it and the best point seen are kept. The solver asks for the Jacobian
+        # where it has just evaluated, and its optimum (the last accepted point, the lowest
+        # chi2 so far; a stalled fit's best) costs no evaluation at the end
+        chi2 = float(value[0] @ value[0])
+        best = key if chi2 < self.best[0] else None if self.best[1] is None else self.best[1].tobytes()
+        self.cache = {**{k: v for k, v in self.cache.items() if k == best}, key: value}
+        self._progress(theta, chi2)
         return value
 
     def _progress(self, theta: np.ndarray, chi2: float) -> None:
@@ -284,8 +286,8 @@ class _Objective:
         return (*out, kept) if first else out
 
     def first_set(self, theta) -> "FirstSet | None":
-        """The prediction with its modes at ``theta`` where an evaluation kept it (the two
-        points asked for last, differences), else None."""
+        """The prediction with its modes at ``theta`` where an evaluation kept it (the point
+        asked for last and the best point, differences), else None."""
         value = self.cache.get(np.asarray(theta, dtype=float).tobytes())
         return None if value is None or len(value) < 3 else value[2]
 
