@@ -223,7 +223,7 @@ def test_measured_damping_ratios_are_whitened_residuals_beside_the_frequencies()
     pred = Linear(meas, [9.5, 18.0], A1, z0=np.array([0.03, 0.005]), Z=Z, names=("a",), ev=ev)
     obj = fm._Objective(pred, [fm.Transform("a", False, -5, 5, 0.0, 1.0)], "exact")
     assert obj.exact is False and obj.zeta[0].tolist() == [0, 1]  # damping ratios: differences only
-    f, r = obj._residuals(np.array([[1.0]]))
+    f, r, _ = obj._residuals(np.array([[1.0]]))
     zeta = 0.03 + 0.01 * 1.0  # row 1's predicted damping ratio
     least = 0.005 - 0.01  # row 2: the least damped of its modes (the stand-in's zeta - 0.01) grows
     assert r[0].tolist() == pytest.approx([(10.5 - 10.0) / 0.5, 0.0, (zeta - 0.02) / 0.005, least / DECAY_SIGMA])

@@ -242,7 +242,7 @@ class _Objective:
         if value is None:
             thetas = self._sets(theta)
             values = np.column_stack([t.value(thetas[:, j]) for j, t in enumerate(self.tr)])
-            f, r, first = self._residuals(values, first=True)
+            f, r, first = self._residuals(values)
             self.nfev += 1
             # a change below round-off (|df/f| <= ROUNDOFF for a 1 % step) is no influence:
             # noise there would send the Gauss-Newton step to a search bound
@@ -255,8 +255,11 @@ class _Objective:
         # where it has just evaluated, and its optimum (the last accepted point, the lowest
         # chi2 so far; a stalled fit's best) costs no evaluation at the end
         chi2 = float(value[0] @ value[0])
-        best = key if chi2 < self.best[0] else None if self.best[1] is None else self.best[1].tobytes()
-        self.cache = {**{k: v for k, v in self.cache.items() if k == best}, key: value}
+        if chi2 < self.best[0] or self.best[1] is None:  # this point is the best now (or none is)
+            self.cache = {key: value}
+        else:
+            best = self.best[1].tobytes()
+            self.cache = {**{k: v for k, v in self.cache.items() if k == best}, key: value}
         self._progress(theta, chi2)
         return value
 
@@ -272,32 +275,30 @@ class _Objective:
         if self.stall and self.since >= STALL_EVALS:
             raise _Stalled
 
-    def _residuals(self, values: np.ndarray, first: bool = False):
-        """``(f, r)`` for B parameter sets: frequencies (B, N) and whitened residuals (B, N [+ Z]);
-        with ``first`` also the first set's prediction with its modes (:class:`.predict.FirstSet`)."""
+    def _residuals(self, values: np.ndarray):
+        """``(f, r, first)`` for B parameter sets: frequencies (B, N), whitened residuals
+        (B, N [+ Z]) and the first set's prediction with its modes (:class:`.predict.FirstSet`)."""
         if self.zeta is None:
             f, kept = self.pred.predict_sets(self.names, values, strict=False, first=True)
-            out = f, (f - self.meas.freq_hz) / self.meas.sigma_hz
-        else:
-            (f, z, least), kept = self.pred.predict_sets(self.names, values, strict=False, zeta=True, first=True)
-            r = (f - self.meas.freq_hz) / self.meas.sigma_hz
-            rz = zeta_residuals(self.meas, z, self.zeta, least)
-            out = np.concatenate([f, rz * self.zeta[1]], axis=1), np.concatenate([r, rz], axis=1)
-        return (*out, kept) if first else out
+            return f, (f - self.meas.freq_hz) / self.meas.sigma_hz, kept
+        (f, z, least), kept = self.pred.predict_sets(self.names, values, strict=False, zeta=True, first=True)
+        r = (f - self.meas.freq_hz) / self.meas.sigma_hz
+        rz = zeta_residuals(self.meas, z, self.zeta, least)
+        return np.concatenate([f, rz * self.zeta[1]], axis=1), np.concatenate([r, rz], axis=1), kept
 
     def first_set(self, theta) -> "FirstSet | None":
         """The prediction with its modes at ``theta`` where an evaluation kept it (the point
         asked for last and the best point, differences), else None."""
         value = self.cache.get(np.asarray(theta, dtype=float).tobytes())
-        return None if value is None or len(value) < 3 else value[2]
+        return None if value is None else value[2]
 
     def _exact(self, theta: np.ndarray):
-        """Residuals and the exact Jacobian in theta (generated sensitivities)."""
+        """Residuals and the exact Jacobian in theta (generated sensitivities), no first set (None)."""
         values = np.array([t.value(theta[j]) for j, t in enumerate(self.tr)])
         f, dfdp = self.pred.predict_with_jacobian(self.names, values, strict=False)
         self.nfev += 1
         dpdtheta = np.array([v if t.log else t.scale for t, v in zip(self.tr, values)])
-        return (f - self.meas.freq_hz) / self.meas.sigma_hz, dfdp * dpdtheta / self.meas.sigma_hz[:, None]
+        return (f - self.meas.freq_hz) / self.meas.sigma_hz, dfdp * dpdtheta / self.meas.sigma_hz[:, None], None
 
     def residuals(self, theta):
         return self._eval(np.asarray(theta, dtype=float))[0]
@@ -306,7 +307,7 @@ class _Objective:
         return self._eval(np.asarray(theta, dtype=float))[1]
 
     def chi2_of(self, value_table: np.ndarray) -> np.ndarray:
-        _, r = self._residuals(value_table)
+        _, r, _ = self._residuals(value_table)
         self.nfev += 1
         return np.sum(r * r, axis=1)
 
