@@ -6,8 +6,11 @@
 For each robot (a shipped name or a description file) and model: the C backend with
 ``threads=1`` and each count of ``--threads``, **new** reachable poses every call
 (:func:`gallery.fresh_batches`), the counts interleaved, best of ``--repeat``; prints poses per
-wall-second of each and its ratio to one thread, with the load average before and after (a
-speed-up is only seen where the cores are free). Goal: at least 1.8 on 2 cores, 10 on 16.
+wall-second of each and its ratio to one thread, the minor page faults per timed call at the
+largest count (the process's, every thread's: a fault's cost depends on the kernel or sandbox
+underneath) and the load average before and after (a speed-up is only seen where the cores are
+free). Goal: at least 1.8 on 2 cores, 10 on 16; ``benchmarks/processes.py`` measures the
+machine's own bound for the same counts.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import resource  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -50,7 +54,7 @@ def main() -> None:
         + " | ".join(f"{t} thr. (poses/s, wall)" for t in counts)
         + " | "
         + " | ".join(f"ratio {t}" for t in counts[1:])
-        + " | load average"
+        + " | faults/call | load average"
     )
     for spec in args.robots:
         name, model = spec.rsplit(":", 1)
@@ -62,19 +66,24 @@ def main() -> None:
         for ev in evs.values():
             ev.frequencies(warm, model)
         best = {t: float("inf") for t in evs}
+        faults = 0
         load0 = os.getloadavg()[0]
         for _ in range(args.repeat):  # interleaved: a busy phase of a shared machine hits every count
             for t, ev in evs.items():
                 P = batches.pop()
+                f0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
                 t0 = time.perf_counter()
                 ev.frequencies(P, model)
                 best[t] = min(best[t], time.perf_counter() - t0)
+                if t == counts[-1]:
+                    faults += resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0
         rate = {t: args.n / best[t] for t in counts}
         print(
             f"{name}, {model} | "
             + " | ".join(f"{rate[t]:.3g}" for t in counts)
             + " | "
             + " | ".join(f"{rate[t] / rate[1]:.2f}" for t in counts[1:])
+            + f" | {faults / args.repeat:.0f}"
             + f" | {load0:.1f} -> {os.getloadavg()[0]:.1f}",
             flush=True,
         )
