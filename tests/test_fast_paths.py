@@ -186,6 +186,45 @@ def test_threads_give_bit_identical_results(ev_c, ev, threads):
 
 
 @compiled
+@pytest.mark.parametrize("robot, bad", [("heli4", (0.0, 0.0, 0.0)), ("hexapod", (0.0,) * 6)])
+def test_the_scheduled_pass_gives_the_same_bits_on_any_threads_and_by_ranges(robot, bad, monkeypatch):
+    """The prepared pass (scalar parameters) with its blocks handed out in C on 1, 2 and 3
+    threads, and by ranges from Python: the same bits (frequencies, eigentwists, validity),
+    past many grains with a partial last block and invalid poses among them."""
+    from eigentwist.runtime import c_schedule
+    from eigentwist.runtime.fused_call import FusedCall
+
+    one = eigentwist.load(robot, backend="c", threads=1)
+    n = 64 * c_schedule.GRAIN_BLOCKS * 40 + 37
+    poses = random_poses(one.robot, n, seed=46)
+    poses[::97] = bad  # unreachable or singular poses
+    scheduled = []
+    monkeypatch.setattr(FusedCall, "screened", _counted(FusedCall.screened, scheduled))
+    want = {m: one.modes(poses, m, invalid="nan") for m in ("paper", "none")}
+    assert len(scheduled) == 2 and c_schedule.scheduler() is not None
+    assert 0 < np.count_nonzero(want["none"].valid) < n
+    for threads in (2, 3, "ranges"):
+        if threads == "ranges":
+            monkeypatch.setattr(c_schedule, "scheduler", lambda: None)
+        ev = eigentwist.load(robot, backend="c", threads=2 if threads == "ranges" else threads)
+        for m, w in want.items():
+            got = ev.modes(poses, m, invalid="nan")
+            for a, b in ((w.freq_hz, got.freq_hz), (w.eigentwists, got.eigentwists), (w.valid, got.valid)):
+                assert a.tobytes() == b.tobytes()
+    assert len(scheduled) == 2 + 3 * 2
+
+
+def _counted(method, calls: list):
+    """``method`` that appends to ``calls`` at each call."""
+
+    def counted(*args, **kw):
+        calls.append(1)
+        return method(*args, **kw)
+
+    return counted
+
+
+@compiled
 def test_c_matrices_into_out_and_in_chunks(ev_c, ev):
     poses = random_poses(ev.robot, 700, seed=45)
     want = ev.matrices(poses, "coupled", l2=0.55)

@@ -67,11 +67,52 @@ def _exact_checks_counted(monkeypatch) -> list:
     return checked
 
 
+def _fake_pass(freq: np.ndarray, status: np.ndarray, block: int = 64):
+    """A prepared pass (:class:`~eigentwist.runtime.fused_call.FusedCall`) whose C function is
+    a stand-in writing the rows of ``freq`` (Hz) and ``status`` asked for, and recording the
+    ranges it was called on: (the pass, the list of its (begin, end) calls)."""
+    import ctypes
+
+    from eigentwist.runtime.fused_call import FusedCall
+
+    P, dim = ctypes.c_void_p, freq.shape[1]
+    ranges = []
+
+    def fn(begin, end, ins, strides, model, ik, mat, jac, freq_at, vec, status_at, opts):
+        ranges.append((begin, end))
+        f = np.ctypeslib.as_array(ctypes.cast(freq_at, ctypes.POINTER(ctypes.c_double)), (end, dim))
+        s = np.ctypeslib.as_array(ctypes.cast(status_at, ctypes.POINTER(ctypes.c_int8)), (end,))
+        f[begin:end], s[begin:end] = freq[begin:end], status[begin:end]
+        return 0
+
+    proto = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ctypes.c_int64, P, P, ctypes.c_int, *[P] * 7)
+    names = ["x", "y", "z"]
+    call = FusedCall(
+        proto(fn), names, {}, {k: 3 for k in names}, model_id=0, dim=dim, vectors=False, matrices=(0, ()),
+        options=lambda: (ctypes.c_double * 4)(), block=block, check=lambda rc, what: None,
+    )  # fmt: skip
+    return call, ranges
+
+
+@pytest.fixture(params=["C", "ranges"])
+def schedule(request, monkeypatch):
+    """Either way of running a prepared pass: its blocks handed out in C
+    (:mod:`eigentwist.runtime.c_schedule`; skipped without a compiler) or by ranges from Python."""
+    from eigentwist.runtime import c_schedule
+
+    if request.param == "C":
+        if c_schedule.scheduler() is None:
+            pytest.skip("no C compiler")
+    else:
+        monkeypatch.setattr(c_schedule, "scheduler", lambda: None)
+    return request.param
+
+
 @pytest.mark.parametrize(
     "lowest, sent",
     [(0.99 * PARALLEL_SCREEN, True), (1.01 * PARALLEL_SCREEN, False)],
 )
-def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monkeypatch, lowest, sent):
+def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monkeypatch, schedule, lowest, sent):
     """The prepared C pass's result goes on to the exact check where a pose's lowest
     frequency lies below the screen times its highest (not its second highest: here 0.5)."""
     import eigentwist
@@ -80,10 +121,7 @@ def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monk
     ev = eigentwist.load("heli4", backend="numpy")
     freq = np.array([[3.0, 4.0, 5.0, 6.0, 7.0, 8.0], [lowest, 0.2, 0.3, 0.4, 0.5, 1.0]])
     checked = _exact_checks_counted(monkeypatch)
-
-    def call(addresses, n, threads):
-        return {"status": np.zeros(n, dtype=np.int8), "freq_hz": freq[:n]}
-
+    call, _ = _fake_pass(freq, np.zeros(2, dtype=np.int8))
     plan = (call, 3, ("actuator_loss",), {}, "flexible", AXES, True, False, "nan")
     modes = ev.c_route.planned_modes(plan, np.zeros((2, 3)))
     assert checked == ([2] if sent else []) and np.array_equal(modes.freq_hz, freq)
@@ -91,49 +129,23 @@ def test_the_prepared_pass_sends_a_pose_below_the_screen_to_the_exact_check(monk
     assert checked == ([2] if sent else [])
 
 
-def test_every_chunk_finds_a_failing_row_in_any_chunk():
-    from eigentwist.runtime.c_route import every_chunk
-    from eigentwist.runtime.completion import CHUNK
-
-    n = 2 * CHUNK + 9
-    for bad in (0, CHUNK + 3, n - 1):
-        ok = np.ones(n, dtype=bool)
-        ok[bad] = False
-        for threads in (1, 2):
-            assert not every_chunk(lambda rows: ok[rows].all(), n, threads)
-    for m, want in ((CHUNK, [(0, CHUNK)]), (CHUNK + 1, [(0, CHUNK), (CHUNK, CHUNK + 1)])):  # either side of one chunk
-        seen = []
-        assert every_chunk(lambda rows: seen.append(rows) or True, m, 2)
-        assert sorted((r.start, r.stop) for r in seen) == want
-    seen = []  # one thread: the batch in one test
-    assert every_chunk(lambda rows: seen.append(rows) or True, n, 1)
-    assert [(r.start, r.stop) for r in seen] == [(0, n)]
-    seen = []  # threads: contiguous ranges of whole chunks covering the batch
-    assert every_chunk(lambda rows: seen.append(rows) or True, 40 * CHUNK + 9, 2)
-    got = sorted((r.start, r.stop) for r in seen)
-    assert got[0][0] == 0 and got[-1][1] == 40 * CHUNK + 9 and all(a[1] == b[0] for a, b in zip(got, got[1:]))
-    assert 1 < len(got) < 40 and all(a % CHUNK == 0 for a, _ in got)
-
-
 @pytest.mark.parametrize("threads", [1, 2])
-def test_a_long_prepared_batch_is_checked_in_every_chunk(monkeypatch, threads):
-    """Past one chunk of poses (checked side by side on the threads): a pose below the screen
-    or flagged by the pass in the last chunk sends the batch to the exact check, and a pose
-    that is not finite there sends it back to ``Evaluator.modes`` (None)."""
+def test_a_long_prepared_batch_is_checked_in_every_part(monkeypatch, schedule, threads):
+    """Past one block, range or grain of poses (checked side by side on the threads): a pose
+    below the screen, with a NaN highest frequency or flagged by the pass in the last part sends the batch to the
+    exact check, and a pose that is not finite anywhere sends it back to ``Evaluator.modes``
+    (None)."""
     import eigentwist
+    from eigentwist.runtime.c_schedule import GRAIN_BLOCKS
     from eigentwist.runtime.completion import CHUNK
     from eigentwist.runtime.evaluator import AXES
 
     ev = eigentwist.load("heli4", backend="numpy", threads=threads)
-    n = CHUNK + 50
+    n = max(CHUNK, 64 * GRAIN_BLOCKS * 20) + 50
     freq = np.tile(np.array([3.0, 4.0, 5.0, 6.0, 7.0, 8.0]), (n, 1))
     status = np.zeros(n, dtype=np.int8)
     checked = _exact_checks_counted(monkeypatch)
-
-    def call(addresses, m, threads):
-        return {"status": status[:m], "freq_hz": freq[:m]}
-
-    plan = (call, 3, ("actuator_loss",), {}, "flexible", AXES, True, False, "nan")
+    plan = (_fake_pass(freq, status)[0], 3, ("actuator_loss",), {}, "flexible", AXES, True, False, "nan")
     poses = np.zeros((n, 3))
     ev.c_route.planned_modes(plan, poses)
     assert checked == []  # every pose clean: the pass's answer
@@ -141,11 +153,66 @@ def test_a_long_prepared_batch_is_checked_in_every_chunk(monkeypatch, threads):
     ev.c_route.planned_modes(plan, poses)
     assert checked == [n]
     freq[n - 2, 0] = 3.0
-    status[n - 1] = 1
+    freq[n - 1, -1] = np.nan  # a NaN compares False
     ev.c_route.planned_modes(plan, poses)
     assert checked == [n, n]
-    poses[n - 3, 1] = np.nan
-    assert ev.c_route.planned_modes(plan, poses) is None
+    freq[n - 1, -1] = 8.0
+    status[n - 1] = 1
+    ev.c_route.planned_modes(plan, poses)
+    assert checked == [n, n, n]
+    for row, col in ((0, 0), (n // 2, 1), (n - 1, 2)):
+        bad = poses.copy()
+        bad[row, col] = np.inf if row else np.nan
+        assert ev.c_route.planned_modes(plan, bad) is None
+    assert checked == [n, n, n]
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_the_scheduled_grains_cover_the_batch_once_on_block_boundaries(threads):
+    """The C scheduler's grains: every pose in exactly one call of the pass, each call
+    GRAIN_BLOCKS blocks (the last one shorter), beginning on a block boundary."""
+    from eigentwist.runtime.c_schedule import GRAIN_BLOCKS, scheduler
+
+    if scheduler() is None:
+        pytest.skip("no C compiler")
+    block = 64
+    for n in (1, block, block * GRAIN_BLOCKS, block * GRAIN_BLOCKS + 1, 37 * block * GRAIN_BLOCKS + 5):
+        freq = np.tile(np.array([3.0, 4.0]), (n, 1))
+        call, ranges = _fake_pass(freq, np.zeros(n, dtype=np.int8), block)
+        poses = np.zeros((n, 3))
+        at = poses.ctypes.data
+        out, clean = call.screened([at + 8 * k for k in range(3)], n, threads, at, 3, 0.5)
+        got = sorted(ranges)
+        assert clean and np.array_equal(out["freq_hz"], freq)
+        assert got[0][0] == 0 and got[-1][1] == n and all(a[1] == b[0] for a, b in zip(got, got[1:]))
+        assert all(a % block == 0 and b - a == min(block * GRAIN_BLOCKS, n - a) for a, b in got)
+
+
+def test_the_scheduler_stops_at_a_failing_grain_and_reports_its_code():
+    """A nonzero return code of the pass stops the scheduler and reaches the pass's check
+    (which raises); on one thread the grains after it are not run."""
+    import ctypes
+
+    from eigentwist.runtime.c_schedule import GRAIN_BLOCKS, scheduler
+    from eigentwist.runtime.fused_call import FusedCall
+
+    if scheduler() is None:
+        pytest.skip("no C compiler")
+    span, calls, seen = 64 * GRAIN_BLOCKS, [], []
+
+    def fn(begin, *rest):
+        calls.append(begin)
+        return -2 if begin == 2 * span else 0
+
+    P = ctypes.c_void_p
+    proto = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ctypes.c_int64, P, P, ctypes.c_int, *[P] * 7)
+    call = FusedCall(
+        proto(fn), ["x"], {}, {"x": 1}, model_id=0, dim=1, vectors=False, matrices=(0, ()),
+        options=lambda: (ctypes.c_double * 4)(), block=64, check=lambda rc, what: seen.append(rc),
+    )  # fmt: skip
+    poses = np.zeros(10 * span)
+    call.screened([poses.ctypes.data], len(poses), 1, poses.ctypes.data, 1, 0.5)
+    assert seen == [-2] and calls == [0, span, 2 * span]
 
 
 def test_valid_screens_the_parallel_check_with_the_pass_frequencies(monkeypatch):

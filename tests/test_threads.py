@@ -144,3 +144,36 @@ def test_map_ranges_splits_large_batches_into_few_ranges_of_whole_chunks():
     assert got[0][0] == 0 and got[-1][1] == n
     assert all(a[1] == b[0] for a, b in zip(got, got[1:]))
     assert all(a % CHUNK == 0 and b - a >= CHUNK for a, b, _ in got[:-1])
+
+
+@pytest.mark.parametrize("count", [1, 2, 4])
+def test_run_workers_runs_the_work_on_that_many_threads_the_caller_one_of_them(count):
+    """``run_workers``: the work once on each of ``count`` threads at once (all of them busy
+    together: a barrier of ``count`` passes), the calling thread one of them."""
+    import threading
+
+    where, barrier = [], threading.Barrier(count, timeout=30)
+
+    def work():
+        barrier.wait()
+        where.append(threading.current_thread() is threading.main_thread())
+
+    threads.run_workers(work, count)
+    assert len(where) == count and where.count(True) == 1
+
+
+def test_run_workers_waits_for_every_worker_and_raises_the_first_error():
+    import threading
+    import time
+
+    done = []
+
+    def work():
+        if threading.current_thread() is threading.main_thread():
+            raise ValueError("the caller's")
+        time.sleep(0.05)
+        done.append(1)
+
+    with pytest.raises(ValueError, match="the caller's"):
+        threads.run_workers(work, 3)
+    assert len(done) == 2  # the pool's two finished before the error left

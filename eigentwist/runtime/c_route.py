@@ -22,7 +22,7 @@ from .modes import Modes
 from .threads import resolve_threads
 from .validity import STATUS
 
-__all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen", "every_chunk"]
+__all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen"]
 
 #: the fused C pass's route (``modes``, ``frequencies``, ``valid``) checks a pose exactly for
 #: a parallel singularity when its lowest frequency is 0, NaN or below this fraction of its
@@ -52,13 +52,6 @@ def above_screen(freq: np.ndarray, threads: int = 1) -> np.ndarray:
 
     map_ranges(part, len(freq), threads)
     return above
-
-
-def every_chunk(test, n: int, threads: int = 1) -> bool:
-    """Whether ``test(rows)`` holds for every range of rows of a batch of ``n``
-    (:func:`~.completion.map_ranges`: side by side on ``threads`` threads; a batch of one
-    chunk in one call, the small calls' path)."""
-    return all(map_ranges(lambda rows: bool(test(rows)), n, threads))
 
 
 class CPassRoute:
@@ -311,22 +304,19 @@ class CPassRoute:
             arr = arr[None, :]
         if arr.ndim != 2 or arr.shape[1] != self.dof or not arr.shape[0]:
             return None
-        n, threads = len(arr), self.nthreads()
-        if not every_chunk(lambda rows: np.isfinite(arr[rows]).all(), n, threads):
-            return None
+        n = len(arr)
         if not arr.flags.c_contiguous:
             arr = np.ascontiguousarray(arr)
         base = address(arr)
-        out = call([base + 8 * k for k in range(columns)], n, threads)
-        st, freq = out["status"], out["freq_hz"]
-
-        def clean(rows):
-            # no pose flagged, none below the parallel screen (the pass's frequencies ascend
-            # and are finite where no pose is flagged: the lowest is the first, the highest the last)
-            above = np.count_nonzero(freq[rows, 0] > PARALLEL_SCREEN * freq[rows, -1])
-            return not np.count_nonzero(st[rows]) and above == len(st[rows])
-
-        if not every_chunk(clean, n, threads):
+        # poses checked finite first; then none flagged by the pass, none below the parallel
+        # screen (the pass's frequencies ascend and are finite where no pose is flagged: the
+        # lowest is the first, the highest the last)
+        ran = call.screened([base + 8 * k for k in range(columns)], n, self.nthreads(), base, self.dof, PARALLEL_SCREEN)
+        if ran is None:
+            return None
+        out, clean = ran
+        freq = out["freq_hz"]
+        if not clean:
             arr = arr.view(CompletedPoses)
             modes = self.modes(arr, effects, routed, check, vectors, out=out)
         else:

@@ -17,7 +17,7 @@ import numpy as np
 
 from .addresses import address
 from .errors import InputError
-from .threads import run_ranges, threads_for
+from .threads import run_ranges, run_workers, threads_for
 
 __all__ = ["FusedCall"]
 
@@ -95,6 +95,59 @@ class FusedCall:
         """The pass over ``n`` poses whose pose inputs are read at ``addresses`` (bytes), one
         each, in :attr:`pose_inputs` order. Returns ``freq_hz`` (n, dim), ``status`` (n,)
         int8, with ``vectors`` ``eigentwists`` (n, dim, dim), and the ``matrices`` asked for."""
+        result, args = self._outputs(addresses, n)
+        fn, block = self.fn, self.block
+
+        def call(begin: int, end: int) -> int:
+            return fn(begin, end, *args)
+
+        for rc in run_ranges(call, n, block, threads_for(n, block, threads)) if n > block else (call(0, n),):
+            self.check(rc, "fused")
+        return result
+
+    def screened(self, addresses: list, n: int, threads: int, poses: int, dof: int, screen: float):
+        """The pass as :meth:`__call__`, for poses whose ``dof`` values each lie contiguous
+        at address ``poses`` (bytes), checked first: None where one is not finite, else
+        (the result, whether every pose is clean: status 0 and its lowest frequency above
+        ``screen`` times its highest). The blocks are handed out and the checks run in C
+        (:mod:`.c_schedule`), each thread in one call; without the scheduler, by ranges."""
+        from .c_schedule import GRAIN_BLOCKS, Schedule, scheduler
+
+        work = scheduler()
+        if work is None:
+            return self._screened_by_ranges(addresses, n, threads, poses, dof, screen)
+        result, args = self._outputs(addresses, n)
+        ins, strides, model_id, _, mat_p, _, a_freq, vec, a_status, opts = args
+        at = ctypes.addressof
+        sched = Schedule(
+            ctypes.cast(self.fn, _VOID).value, n, self.block, GRAIN_BLOCKS, at(ins), at(strides), model_id,
+            None if mat_p is None else at(mat_p), a_freq, vec, a_status, at(opts), poses, dof, self.dim, screen,
+        )  # fmt: skip
+        state = at(sched)
+        run_workers(lambda: work(state), threads_for(n, self.block, threads))
+        if sched.not_finite:
+            return None
+        self.check(int(sched.rc), "fused")
+        return result, sched.unclean == 0
+
+    def _screened_by_ranges(self, addresses, n, threads, poses, dof, screen):
+        """:meth:`screened` by ranges from Python, the checks in NumPy."""
+        from .completion import map_ranges
+
+        arr = np.ctypeslib.as_array(ctypes.cast(poses, ctypes.POINTER(ctypes.c_double)), (n, dof))
+        if not all(map_ranges(lambda rows: bool(np.isfinite(arr[rows]).all()), n, threads)):
+            return None
+        result = self(addresses, n, threads)
+        st, freq = result["status"], result["freq_hz"]
+
+        def clean(rows):
+            above = np.count_nonzero(freq[rows, 0] > screen * freq[rows, -1])
+            return not np.count_nonzero(st[rows]) and above == len(st[rows])
+
+        return result, all(map_ranges(clean, n, threads))
+
+    def _outputs(self, addresses: list, n: int):
+        """The result's arrays for ``n`` poses and the pass's arguments after its range."""
         ins = type(self.addresses).from_buffer_copy(self.addresses)
         for k, at in zip(self.at, addresses):
             ins[k] = at
@@ -112,13 +165,5 @@ class FusedCall:
             vec = result["eigentwists"] = np.empty((n, self.dim, self.dim))
             vec = address(vec)
         status = result["status"] = np.empty(n, dtype=np.int8)
-        fn, model_id, strides, opts = self.fn, self.model_id, self.strides, self.options()
-        a_freq, a_status = address(freq), address(status)
-
-        def call(begin: int, end: int) -> int:
-            return fn(begin, end, ins, strides, model_id, None, mat_p, None, a_freq, vec, a_status, opts)
-
-        block = self.block
-        for rc in run_ranges(call, n, block, threads_for(n, block, threads)) if n > block else (call(0, n),):
-            self.check(rc, "fused")
-        return result
+        opts = self.options()
+        return result, (ins, self.strides, self.model_id, None, mat_p, None, address(freq), vec, address(status), opts)

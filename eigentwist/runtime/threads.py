@@ -29,6 +29,7 @@ __all__ = [
     "block_ranges",
     "run_ranges",
     "map_tasks",
+    "run_workers",
     "available_cores",
 ]
 
@@ -130,3 +131,18 @@ def map_tasks(task, items: list, threads: int) -> list:
     if threads <= 1 or len(items) <= 1:
         return [task(item) for item in items]
     return list(_pool(threads).map(task, items))
+
+
+def run_workers(work, threads: int) -> None:
+    """``work()`` on ``threads`` threads at once: ``threads - 1`` of the pool's and the calling
+    thread, returning when every one has returned (the first exception raised is raised
+    here). For workers that share out their own work (:mod:`.c_schedule`)."""
+    if threads <= 1:
+        work()
+        return
+    futures = [_pool(threads).submit(work) for _ in range(threads - 1)]
+    try:
+        work()
+    finally:
+        for f in futures:
+            f.result()
