@@ -652,12 +652,19 @@ class CKernels:
         matrix entries ``R_ij`` per block; otherwise it reads ``p``'s ``R_ij``.
 
         ``out`` maps output names to preallocated C-contiguous arrays of the result's shape
-        and dtype, written in place (no other copy is made). ``threads`` > 1 runs ranges
-        of whole blocks on that many threads (bounded by :func:`threads_for`); the results
-        are bit-identical to one thread.
+        and dtype, written in place (no other copy is made). ``threads`` > 1 runs the blocks
+        on that many threads (bounded by :func:`threads_for`; handed out in C,
+        :func:`.c_schedule.run_pass`, else by ranges); the results are bit-identical to one
+        thread.
         """
+        from .c_schedule import run_pass
+
         result, n, keep, args = self.fused_arguments(x, y, z, p, **options)
         fn = self._fn["fused"]
+        sched = run_pass(fn, n, self.BLOCK, threads, args)
+        if sched is not None:
+            _check_rc(int(sched.rc), "fused")
+            return result
 
         def call(begin: int, end: int) -> int:
             return fn(begin, end, *args)

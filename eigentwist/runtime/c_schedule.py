@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import ctypes
 
-__all__ = ["GRAIN_BLOCKS", "Schedule", "scheduler", "SOURCE"]
+__all__ = ["GRAIN_BLOCKS", "Schedule", "scheduler", "run_pass", "SOURCE"]
 
 #: blocks a thread takes at a time: 256 poses at 64 a block, a few hundred microseconds of
 #: work, so the last grains even out the threads' ends while the counter is seldom touched
@@ -48,7 +48,7 @@ typedef struct {
     const double *const *in;
     const int64_t *stride;
     int64_t model;
-    double *const *mat_out;
+    double *const *ik_out, *const *mat_out, *const *jac_out;
     double *freq, *vec;
     int8_t *status;
     const double *opts;
@@ -79,8 +79,8 @@ int et_schedule_work(et_schedule *s)
                 break;
             }
         }
-        const int rc = fn(b0, b1, s->in, s->stride, (int)s->model, 0, s->mat_out, 0, s->freq, s->vec, s->status,
-                          s->opts);
+        const int rc = fn(b0, b1, s->in, s->stride, (int)s->model, s->ik_out, s->mat_out, s->jac_out, s->freq, s->vec,
+                          s->status, s->opts);
         if (rc) {
             int64_t none = 0;
             __atomic_compare_exchange_n(&s->rc, &none, (int64_t)rc, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED);
@@ -109,7 +109,9 @@ class Schedule(ctypes.Structure):
         ("ins", ctypes.c_void_p),
         ("strides", ctypes.c_void_p),
         ("model", ctypes.c_int64),
+        ("ik_out", ctypes.c_void_p),
         ("mat_out", ctypes.c_void_p),
+        ("jac_out", ctypes.c_void_p),
         ("freq", ctypes.c_void_p),
         ("vec", ctypes.c_void_p),
         ("status", ctypes.c_void_p),
@@ -144,3 +146,36 @@ def scheduler():
             fn.restype = ctypes.c_int
         _SCHEDULER.append(fn)
     return _SCHEDULER[0]
+
+
+def _at(arg):
+    """A pass argument as an address: a ctypes array's, an int as it is, None as NULL."""
+    return arg if arg is None or isinstance(arg, int) else ctypes.addressof(arg)
+
+
+def run_pass(
+    fn, n: int, block: int, threads: int, args: tuple, poses=None, dof: int = 0, dim: int = 0, screen: float = 0.0
+):
+    """A generated library's fused pass ``fn`` (its ctypes function) over ``n`` poses with
+    ``args``, its arguments after the range (inputs, strides, model, the ik, matrices and
+    jacobians output tables, frequencies, eigentwists, status, options: ctypes arrays,
+    addresses or None), its blocks handed out to ``threads`` threads in C. With ``poses``
+    (the address of n rows of ``dof`` contiguous doubles) each grain's poses are checked
+    finite first; with ``dim`` > 0 (the frequencies' columns) its poses that are not clean
+    against ``screen`` are counted (status and frequencies must be among the outputs).
+    Returns the finished :class:`Schedule` (``not_finite``, ``unclean``, ``rc``: the first
+    nonzero return code, for the caller's check), or None where the scheduler cannot be
+    built."""
+    from .threads import run_workers, threads_for
+
+    work = scheduler()
+    if work is None:
+        return None
+    ins, strides, model, ik, mats, jacs, freq, vec, status, opts = map(_at, args)
+    sched = Schedule(
+        ctypes.cast(fn, ctypes.c_void_p).value, n, block, GRAIN_BLOCKS, ins, strides, model, ik, mats, jacs, freq,
+        vec, status, opts, poses, dof, dim, screen,
+    )  # fmt: skip
+    state = ctypes.addressof(sched)
+    run_workers(lambda: work(state), threads_for(n, block, threads))
+    return sched

@@ -17,7 +17,7 @@ import numpy as np
 
 from .addresses import address
 from .errors import InputError
-from .threads import run_ranges, run_workers, threads_for
+from .threads import run_ranges, threads_for
 
 __all__ = ["FusedCall"]
 
@@ -95,7 +95,13 @@ class FusedCall:
         """The pass over ``n`` poses whose pose inputs are read at ``addresses`` (bytes), one
         each, in :attr:`pose_inputs` order. Returns ``freq_hz`` (n, dim), ``status`` (n,)
         int8, with ``vectors`` ``eigentwists`` (n, dim, dim), and the ``matrices`` asked for."""
+        from .c_schedule import run_pass
+
         result, args = self._outputs(addresses, n)
+        sched = run_pass(self.fn, n, self.block, threads, args)
+        if sched is not None:
+            self.check(int(sched.rc), "fused")
+            return result
         fn, block = self.fn, self.block
 
         def call(begin: int, end: int) -> int:
@@ -110,21 +116,14 @@ class FusedCall:
         at address ``poses`` (bytes), checked first: None where one is not finite, else
         (the result, whether every pose is clean: status 0 and its lowest frequency above
         ``screen`` times its highest). The blocks are handed out and the checks run in C
-        (:mod:`.c_schedule`), each thread in one call; without the scheduler, by ranges."""
-        from .c_schedule import GRAIN_BLOCKS, Schedule, scheduler
+        (:func:`.c_schedule.run_pass`, each thread in one call); without the scheduler, by
+        ranges from Python with the checks in NumPy."""
+        from .c_schedule import run_pass, scheduler
 
-        work = scheduler()
-        if work is None:
+        if scheduler() is None:
             return self._screened_by_ranges(addresses, n, threads, poses, dof, screen)
         result, args = self._outputs(addresses, n)
-        ins, strides, model_id, _, mat_p, _, a_freq, vec, a_status, opts = args
-        at = ctypes.addressof
-        sched = Schedule(
-            ctypes.cast(self.fn, _VOID).value, n, self.block, GRAIN_BLOCKS, at(ins), at(strides), model_id,
-            None if mat_p is None else at(mat_p), a_freq, vec, a_status, at(opts), poses, dof, self.dim, screen,
-        )  # fmt: skip
-        state = at(sched)
-        run_workers(lambda: work(state), threads_for(n, self.block, threads))
+        sched = run_pass(self.fn, n, self.block, threads, args, poses, dof, self.dim, screen)
         if sched.not_finite:
             return None
         self.check(int(sched.rc), "fused")
