@@ -835,9 +835,9 @@ def test_a_pose_off_the_recorded_branch_is_named(numeric, backend, monkeypatch):
         ev = eigentwist.load(hexapod_urdf.describe(), backend="c", threads=1, progress=lambda m: None)
     flipped = Evaluator(ev.robot, ev.module, backend, kernels=ev.kernels, threads=1)
     assert flipped.c_route.fused is (backend == "c")
-    if backend == "c":  # the legs' Newton iterations run in C: at x_ref, the geometry's joints
-        iterations, newton = [], ev.kernels.newton
-        monkeypatch.setattr(ev.kernels, "newton", lambda *a, **kw: iterations.append(1) or newton(*a, **kw))
+    if backend == "c":  # the legs' Newton iterations run in C (by chunks): at x_ref, the geometry's joints
+        iterations, chunks = [], ev.kernels.chunk_solver
+        monkeypatch.setattr(ev.kernels, "chunk_solver", lambda *a, **kw: iterations.append(1) or chunks(*a, **kw))
         home = np.array([ev.robot.x_ref])
         q = flipped.solve_joints(home, flipped.parameter_values(1))
         np.testing.assert_allclose(q[0], _hexapod_legs_at_home()[2], rtol=0, atol=1e-9)
@@ -891,3 +891,92 @@ def test_the_pose_inputs_are_computed_once_and_left_out_of_the_memo_key(numeric,
     assert completion.solve_joints(poses, with_pose) is computed  # one memo entry for both
     # a 3-DoF robot's pose inputs are its position
     assert numeric["heli4"][0].completion.pose_input_names() == {"x", "y", "z"}
+
+
+def _c_hexapod_urdf():
+    """The hexapod in URDF form on the C backend (skips without a compiler)."""
+    from eigentwist.runtime import ccompile
+
+    try:
+        ccompile.find_compiler()
+    except ccompile.CompilerNotFoundError as exc:
+        skip_tier("compiled", str(exc))
+    return eigentwist.load(hexapod_urdf.describe(), backend="c", threads=1, progress=lambda m: None)
+
+
+def test_a_chunk_in_one_c_call_gives_the_long_ways_bits(monkeypatch):
+    """Numeric IK's chunks solved first in one C call (``CKernels.chunk_solver``) and, where a
+    pose does not converge on its branch there, the long way: the joints, the off-branch
+    flags and the frequencies equal the long way's alone bit for bit, past several chunks
+    with poses beyond the workspace among them (chunks taken both ways), on one and two
+    threads."""
+    from eigentwist.runtime import completion
+
+    ev = _c_hexapod_urdf()
+    monkeypatch.setattr(completion, "NEWTON_CHUNK", 256)
+    poses = random_poses(ev.robot, 1500, seed=33)
+    far = poses[700:1100].copy()
+    far[:, :3] *= 40.0  # beyond the legs' reach: Newton does not close them
+    poses[700:1100] = far
+    p = ev.parameter_values(len(poses))
+    taken = []
+    chunks = ev.kernels.chunk_solver
+
+    def counted(*a, **kw):
+        solver = chunks(*a, **kw)
+
+        def call(*b, **kb):
+            q, done = solver(*b, **kb)
+            taken.append(bool(done.all()))
+            return q, done
+
+        return call
+
+    monkeypatch.setattr(ev.kernels, "chunk_solver", counted)
+    many = eigentwist.load(hexapod_urdf.describe(), backend="c", threads=2, progress=lambda m: None)
+    monkeypatch.setattr(many.kernels, "chunk_solver", counted)
+    fast = [e.completion.solve_joints(poses, p) for e in (ev, many)]
+    fast_off = ev.completion._newton_memo[next(iter(ev.completion._newton_memo))][1]
+    fast_freq = ev.modes(poses, "rigid", invalid="nan").freq_hz
+    assert True in taken and False in taken  # chunks taken in one call and the long way
+    monkeypatch.setattr(ev.kernels, "chunk_solver", lambda *a, **kw: None)
+    ev.completion.__dict__.pop("_newton_memo", None)
+    slow = ev.completion.solve_joints(poses, p)
+    slow_off = ev.completion._newton_memo[next(iter(ev.completion._newton_memo))][1]
+    assert np.isnan(slow[750]).all() and np.isfinite(slow[:700]).all()
+    assert all(q.tobytes() == slow.tobytes() for q in fast) and fast_off.tobytes() == slow_off.tobytes()
+    ev.completion.__dict__.pop("_newton_memo", None)
+    assert ev.modes(poses, "rigid", invalid="nan").freq_hz.tobytes() == fast_freq.tobytes()
+
+
+def test_a_chunk_is_done_only_where_every_leg_closes_on_its_branchs_sign():
+    """``ChunkSolver``'s done flag on each side of its decisions: every leg converged with its
+    branch's lever sign (done); one leg's branch sign flipped (not done, on every pose); a
+    branch sign of 0 (either sign: done); a pose Newton does not close (not done, alone)."""
+    from eigentwist.runtime.levenberg_marquardt import LAMBDA0, MAX_ITERATIONS, TOL
+
+    ev = _c_hexapod_urdf()
+    comp = ev.completion
+    poses = random_poses(ev.robot, 40, seed=34)
+    poses[7, :3] *= 40.0
+    whole = comp.closure_inputs(poses, ev.parameter_values(len(poses)))
+    signs = np.asarray(comp.assembly()["sign"], dtype=float)
+    start = np.broadcast_to(comp.assembly()["q"], (len(poses),) + np.shape(comp.assembly()["q"]))
+    assert set(np.unique(signs)) <= {-1.0, 1.0}
+
+    def done(s, at=0, m=len(poses)):
+        q, ok = ev.kernels.chunk_solver(whole, len(poses), s)(at, start[at : at + m], MAX_ITERATIONS, TOL, LAMBDA0)
+        return q, ok
+
+    q, ok = done(signs)
+    assert ok.sum() == len(poses) - 1 and not ok[7] and np.isfinite(q[ok]).all()
+    levers = comp.levers(q, whole)
+    np.testing.assert_array_equal(np.sign(levers[ok]), np.broadcast_to(signs, levers[ok].shape))
+    flipped = signs.copy()
+    flipped[1] *= -1
+    assert not done(flipped)[1].any()
+    either = signs.copy()
+    either[1] = 0.0
+    assert done(either)[1].sum() == len(poses) - 1
+    q_part, ok_part = done(signs, at=10, m=20)  # a chunk from pose 10: the inputs moved there
+    assert ok_part.all() and q_part.tobytes() == done(signs)[0][10:30].tobytes()

@@ -506,6 +506,33 @@ class CKernels:
             *(() if lambda0 is None else (lambda0,)),
         )
 
+    def chunk_solver(self, p: dict, n: int, signs):
+        """The Newton iterations and the branch check of numeric IK on chunks of a batch of
+        ``n`` poses with the kernels' inputs ``p`` ((n,) arrays or scalars), each chunk in one
+        C call (:class:`.c_levenberg_marquardt.ChunkSolver`; ``signs`` (legs,) the assembly
+        branch's lever signs, 0 for either); None where the library has no ``loop_closure``
+        or one-output ``lever`` kernel or the C driver cannot be built."""
+        from . import c_levenberg_marquardt
+
+        spec, lever = self._spec.get("loop_closure"), self._spec.get("lever")
+        if spec is None or lever is None or [o for o, _ in lever["outputs"]] != ["lever"]:
+            return None
+        if c_levenberg_marquardt.branch_driver() is None:
+            return None
+        legs, nq = self.N_LEGS, self.JOINTS_PER_LEG
+        keep: list = []
+        q_of = [joint[0] * nq + joint[1] if group == "q" else -1 for group, _, joint in spec["inputs"]]
+        names = [None if group == "q" else name for group, name, _ in spec["inputs"]]
+        addresses, strides = _driver_inputs(names, p, n, keep)
+        rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
+        block = self._block(spec, spec["outputs"] == [["residual", [legs, rows]], ["dresidual", [legs, rows, nq]]])
+        closure = (ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value, addresses, strides, q_of)
+        at, l_addresses, l_strides, l_q_of, _, l_keep = self.kernel_arguments("lever", p, n)
+        keep += l_keep
+        return c_levenberg_marquardt.ChunkSolver(
+            closure, block, (at, l_addresses, l_strides, l_q_of), legs, rows, nq, signs, keep
+        )
+
     def _block(self, spec: dict, driver_rows: bool) -> int | None:
         """The C address of a kernel's exported block function (``spec``: its signature
         entry), where it has one and its outputs are laid out as the driver's rows

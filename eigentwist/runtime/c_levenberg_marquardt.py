@@ -23,7 +23,7 @@ import numpy as np
 from .addresses import address
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
-__all__ = ["driver", "iterate", "block_steps", "followers_driver", "follow", "SOURCE"]
+__all__ = ["driver", "iterate", "branch_driver", "ChunkSolver", "block_steps", "followers_driver", "follow", "SOURCE"]
 
 SOURCE = r"""
 #include <math.h>
@@ -709,6 +709,58 @@ int et_followers_lm(int64_t n, void *kernel_address, void *block_address, int n_
     free(buf); free(wk.act); free(more); free(c.ptr); free(c.st); free(c.held); free(c.rows_at);
     return rc;
 }
+
+/* One chunk of numeric IK, levenberg_marquardt.solve's first stage without Python between its
+   steps: et_newton_lm's iterations on the n poses from pose `at` of the inputs (in[k] moved by
+   stride[k] * at; the joint coordinates' entries, NULL, are filled by the driver) from q
+   (n, legs, nq), then each leg's lever by the kernel at lever_address (its inputs lin[k]
+   (lstride[k]) moved to pose `at`, or where lq_of[k] >= 0 the entry lq_of[k] of the pose's
+   row of q) and its sign against ref_sign[leg] (0: either sign). lever_out (n, legs) receives
+   the levers; done[i] = 1 where every leg of pose i converged (norm < tol) with its branch's
+   sign (a NaN lever has none), else 0: the caller solves those poses' chunk the long way.
+   Returns et_newton_lm's code, the lever kernel's, or -2 when out of memory. */
+int et_newton_branch(int64_t n, int64_t at, void *closure_address, void *block_address, int n_in,
+                     const double *const *in, const int64_t *stride, const int *q_of, int legs, int rows, int nq,
+                     double *q, double *norm, int iterations, double tol, double lambda0, double max_step,
+                     void *lever_address, int n_lin, const double *const *lin, const int64_t *lstride,
+                     const int *lq_of, const double *ref_sign, double *lever_out, int8_t *done)
+{
+    const int na = n_in > 0 ? n_in : 1, nl = n_lin > 0 ? n_lin : 1;
+    const double **moved = malloc(sizeof(double *) * (size_t)(na + nl));
+    int64_t *lst = malloc(sizeof(int64_t) * (size_t)nl);
+    int rc = -2;
+    if (moved && lst) {
+        for (int k = 0; k < n_in; ++k)
+            moved[k] = in[k] ? in[k] + stride[k] * at : 0;
+        rc = et_newton_lm(n, closure_address, block_address, n_in, moved, stride, q_of, legs, rows, nq, q, norm,
+                          iterations, tol, lambda0, max_step);
+    }
+    if (rc == 0) {
+        const double **lp = moved + na;
+        for (int k = 0; k < n_lin; ++k) {
+            if (lq_of[k] >= 0) {
+                lp[k] = q + lq_of[k];
+                lst[k] = (int64_t)legs * nq;
+            } else {
+                lp[k] = lin[k] ? lin[k] + lstride[k] * at : 0;
+                lst[k] = lstride[k];
+            }
+        }
+        double *outs[1] = {lever_out};
+        rc = ((et_kernel)lever_address)(n, lp, lst, outs);
+        for (int64_t i = 0; i < n && rc == 0; ++i) {
+            int ok = 1;
+            for (int l = 0; l < legs; ++l) {
+                const double v = lever_out[i * legs + l], sign = (double)((v > 0.0) - (v < 0.0));
+                ok &= norm[i * legs + l] < tol && (ref_sign[l] == 0.0 || (v == v && sign == ref_sign[l]));
+            }
+            done[i] = (int8_t)ok;
+        }
+    }
+    free(moved);
+    free(lst);
+    return rc;
+}
 """
 
 BLOCK = 64  # poses per block (B in the source)
@@ -829,6 +881,67 @@ def iterate(
 
     _run_blocks(call, n, threads, "C Newton iterations")
     return qq, norm
+
+
+_BRANCH: list = []  # [ctypes function et_newton_branch] once bound, [None] when it cannot be
+
+
+def branch_driver():
+    """The compiled ``et_newton_branch`` (:func:`driver`'s library), or None where that cannot
+    be built."""
+    if not _BRANCH:
+        fn = None
+        if driver() is not None and _LIBRARIES:
+            fn = _LIBRARIES[0].et_newton_branch
+            V, I64, I, D = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int, ctypes.c_double
+            fn.argtypes = [I64, I64, V, V, I, V, V, V, I, I, I, V, V, I, D, D, D, V, I, V, V, V, V, V, V]
+            fn.restype = ctypes.c_int
+        _BRANCH.append(fn)
+    return _BRANCH[0]
+
+
+class ChunkSolver:
+    """The first stage of :func:`eigentwist.runtime.levenberg_marquardt.solve` on chunks of one
+    batch, each in one C call (``et_newton_branch``): the Newton iterations from a start, then
+    each leg's lever and its sign against the assembly branch's. The kernels' input tables are
+    made once for the batch (``closure`` and ``lever``: ``(address, addresses, strides,
+    q_of)``, the inputs of pose 0 and their strides in doubles, a joint coordinate's entry of
+    the pose's row of q or -1), each chunk moving them to its first pose. Made by
+    :meth:`~eigentwist.runtime.c_kernels.CKernels.chunk_solver`."""
+
+    def __init__(self, closure, block, lever, legs: int, rows: int, nq: int, signs, keep: list):
+        fn = branch_driver()
+        kernel, addresses, strides, q_of = closure
+        size = max(len(addresses), 1)
+        self._closure = (
+            kernel, block, len(addresses), (ctypes.c_void_p * size)(*(int(a) or None for a in addresses)),
+            (ctypes.c_int64 * size)(*(int(s) for s in strides)), (ctypes.c_int * size)(*(int(k) for k in q_of)),
+        )  # fmt: skip
+        kernel, addresses, strides, q_of = lever
+        size = max(len(addresses), 1)
+        self._lever = (
+            kernel, len(addresses), (ctypes.c_void_p * size)(*(int(a) or None for a in addresses)),
+            (ctypes.c_int64 * size)(*(int(s) for s in strides)), (ctypes.c_int * size)(*(int(k) for k in q_of)),
+        )  # fmt: skip
+        self._signs = np.ascontiguousarray(np.broadcast_to(np.asarray(signs, dtype=np.float64), (legs,)))
+        self._fn, self._shape, self._rows, self._keep = fn, (legs, nq), rows, keep
+
+    def __call__(self, at: int, start: np.ndarray, iterations: int, tol: float, lambda0: float):
+        """``(q, done)`` of the batch's poses ``at`` to ``at + len(start)``: q (m, legs, n_q)
+        iterated from ``start`` (its own copy) with first damping ``lambda0``, and done (m,)
+        where every leg converged on its branch (where not, the caller solves the chunk the
+        long way). Raises RuntimeError when the driver or the lever kernel fails."""
+        q = np.array(start, dtype=np.float64, order="C")
+        m, (legs, nq) = len(q), self._shape
+        norm, lever = np.empty((m, legs)), np.empty((m, legs))
+        done = np.empty(m, dtype=np.int8)
+        rc = self._fn(
+            m, at, *self._closure, legs, self._rows, nq, address(q), address(norm), int(iterations), float(tol),
+            float(lambda0), MAX_STEP, *self._lever, address(self._signs), address(lever), address(done),
+        )  # fmt: skip
+        if rc != 0:
+            raise RuntimeError(f"C Newton iterations on a chunk returned {rc}")
+        return q, done.view(bool)
 
 
 def followers_driver():

@@ -350,7 +350,7 @@ class PoseCompletion:
     def solve_joints(self, poses, p: dict) -> np.ndarray:
         """(N, legs, n_q) joint coordinates by Newton (:func:`eigentwist.runtime.levenberg_marquardt.solve`),
         on each leg's assembly branch recorded at x_ref (:meth:`assembly`)."""
-        from .levenberg_marquardt import solve
+        from .levenberg_marquardt import GUESS_LAMBDA0, LAMBDA0, MAX_ITERATIONS, TOL, solve
 
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
         key = self.newton_key(poses, p)
@@ -377,8 +377,20 @@ class PoseCompletion:
         # the pose inputs once for the batch (side by side: :meth:`kernel_pose_inputs`), or as
         # the caller computed them from these poses (:meth:`with_pose`)
         whole = p if self.pose_input_names() <= p.keys() else self.closure_inputs(poses, p)
+        # a chunk on one thread first tries solve's first stage in one C call; where a pose does
+        # not converge on its branch there, the chunk is solved as below (the same first stage
+        # again, then the retries): either way the same bits
+        fast = None
+        if iterate_on is not None and hasattr(self.kernels, "chunk_solver"):
+            fast = self.kernels.chunk_solver(whole, n, signs)
 
         def one(sl, inner):
+            if fast is not None and inner == 1:
+                m = len(poses[sl])
+                start = np.broadcast_to(reference, (m,) + reference.shape) if guess is None else guess(poses[sl])
+                q, done = fast(sl.start, start, MAX_ITERATIONS, TOL, LAMBDA0 if guess is None else GUESS_LAMBDA0)
+                if done.all():
+                    return q, np.zeros(q.shape[:2], dtype=bool)
             kp = take(whole, sl) if n > 1 else whole
             its = None if iterate_on is None else iterate_on(inner)
 
