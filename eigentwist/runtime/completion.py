@@ -212,15 +212,17 @@ class PoseCompletion:
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
         out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
         out.update(rot_x=poses[:, 3], rot_y=poses[:, 4], rot_z=poses[:, 5])
-        if len(poses) <= CHUNK:
+        threads = self.c_threads()
+        entries = None
+        if threads is not None:  # the C backend's: in C, on its threads (None: no library)
+            from .c_poses import rotation_entries as c_rotation_entries
+
+            entries = c_rotation_entries(poses, threads)
+        if entries is None and (threads is None or len(poses) <= CHUNK):
             entries = rotation_entries(poses[:, 3:6])
-        else:  # by chunks, side by side on the threads (NumPy lets go of the GIL in its loops)
+        elif entries is None:  # by chunks, side by side on the threads (NumPy lets go of the GIL in its loops)
             entries = [np.empty(len(poses)) for _ in _ROTATION_NAMES]
-            map_ranges(
-                lambda rows: rotation_entries(poses[rows, 3:6], [e[rows] for e in entries]),
-                len(poses),
-                self.c_threads() or 1,
-            )
+            map_ranges(lambda rows: rotation_entries(poses[rows, 3:6], [e[rows] for e in entries]), len(poses), threads)
         out.update(zip(_ROTATION_NAMES, entries))
         return out
 

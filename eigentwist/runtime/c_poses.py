@@ -1,0 +1,106 @@
+"""The rotation matrix entries of a batch of 6-DoF poses in C.
+
+:func:`rotation_entries` computes what :func:`eigentwist.runtime.poses.rotation_entries` computes
+(Rodrigues' formula ``R = I + a [r]x + b [r]x^2``, ``a = sin(t)/t``, ``b = (1 - cos t)/t^2``,
+their series below ``t^2 = 1e-12``), with the same operations in the same order and no fused
+multiply-adds, one pose after another in C: a few C calls for a batch on the threads instead
+of some forty NumPy operations a range, each taking the GIL. The sine and cosine are the C
+library's; where NumPy's are its own (SIMD builds on some CPUs) the two may differ in the last
+bit. Where the library cannot be built, :func:`rotation_entries` returns None and the NumPy
+function runs.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from .addresses import address
+
+__all__ = ["rotation_entries", "SOURCE"]
+
+SOURCE = r"""
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+#include <math.h>
+#include <stdint.h>
+
+/* R_ij (9 arrays of n, R[3 i + j][k] for pose k) of rotation vectors r (pose k at r + k * stride,
+   3 contiguous values, rad). */
+void et_rotation_entries(int64_t n, const double *r, int64_t stride, double *const *R)
+{
+    double *R00 = R[0], *R01 = R[1], *R02 = R[2], *R10 = R[3], *R11 = R[4], *R12 = R[5];
+    double *R20 = R[6], *R21 = R[7], *R22 = R[8];
+    for (int64_t k = 0; k < n; ++k) {
+        const double x = r[k * stride], y = r[k * stride + 1], z = r[k * stride + 2];
+        const double xx = x * x, yy = y * y, zz = z * z, t2 = xx + yy + zz;
+        double a, b;
+        if (t2 < 1e-12) {
+            a = 1 - t2 / 6;
+            b = 0.5 - t2 / 24;
+        } else {
+            const double t = sqrt(t2);
+            a = sin(t) / t;
+            b = (1 - cos(t)) / (t * t);
+        }
+        R00[k] = 1 + b * (-zz - yy);
+        R01[k] = -(a * z) + b * (x * y);
+        R02[k] = a * y + b * (x * z);
+        R10[k] = a * z + b * (x * y);
+        R11[k] = 1 + b * (-zz - xx);
+        R12[k] = -(a * x) + b * (y * z);
+        R20[k] = -(a * y) + b * (x * z);
+        R21[k] = a * x + b * (y * z);
+        R22[k] = 1 + b * (-yy - xx);
+    }
+}
+"""
+
+_FN: list = []  # [ctypes function] once built, [None] when it cannot be
+_LIBRARIES: list = []
+
+
+def _function():
+    if not _FN:
+        from .ccompile import load_library
+
+        lib = load_library(SOURCE, "poses")
+        fn = None
+        if lib is not None:
+            _LIBRARIES.append(lib)
+            fn = lib.et_rotation_entries
+            fn.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
+            fn.restype = None
+        _FN.append(fn)
+    return _FN[0]
+
+
+def rotation_entries(poses: np.ndarray, threads: int = 1, block: int = 256) -> list | None:
+    """The nine entries ``[R_00, ..., R_22]`` ((n,) arrays) of the rotation vectors in
+    columns 3 to 5 of ``poses`` (n, 6) (rad), in C, ranges of whole ``block`` poses on
+    ``threads`` threads (:func:`~.threads.run_ranges`, :func:`~.threads.threads_for`; every
+    pose on its own: the same values on any count); None where the C library cannot be built."""
+    from .threads import run_ranges, threads_for
+
+    fn = _function()
+    if fn is None:
+        return None
+    arr = np.asarray(poses, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 6 or arr.strides[1] != 8 or arr.strides[0] % 8:
+        arr = np.ascontiguousarray(arr, dtype=np.float64)
+    n, stride = len(arr), arr.strides[0] // 8
+    entries = [np.empty(n) for _ in range(9)]
+    table = (ctypes.c_void_p * 9)(*(address(e) for e in entries))
+    base = address(arr) + 8 * 3 if n else 0
+
+    def call(begin: int, end: int) -> None:
+        moved = (ctypes.c_void_p * 9)(*(table[k] + 8 * begin for k in range(9)))
+        fn(end - begin, base + 8 * stride * begin, stride, moved)
+
+    if n:
+        run_ranges(call, n, block, threads_for(n, block, threads))
+    return entries
