@@ -214,6 +214,36 @@ def test_the_scheduled_pass_gives_the_same_bits_on_any_threads_and_by_ranges(rob
     assert len(scheduled) == 2 + 3 * 2
 
 
+@compiled
+def test_the_general_pass_counts_its_clean_poses(ev_c):
+    """``CKernels.fused(..., screen=s)``: ``clean`` where every pose has status 0 and its lowest
+    frequency above s times its highest; not where one pose is unreachable or the screen is
+    above the lowest's ratio; absent without a screen. ``modes`` on the general route (values
+    per pose) then skips its checks or runs them: the same frequencies either way."""
+    from eigentwist.runtime.c_route import PARALLEL_SCREEN
+
+    poses = random_poses(ev_c.robot, 3000, seed=47)
+    poses = poses[ev_c.valid(poses, "paper")]
+    p = ev_c.completion.with_pose(poses, ev_c.parameter_values(len(poses)))
+    kw = dict(model="flexible", status=True, threads=2, matrices=())
+    out = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, screen=PARALLEL_SCREEN, **kw)
+    ratio = (out["freq_hz"][:, 0] / out["freq_hz"][:, -1]).min()
+    assert out["clean"] is True and ratio > PARALLEL_SCREEN
+    assert "clean" not in ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, **kw)
+    above = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, screen=1.01 * ratio, **kw)
+    below = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, screen=0.99 * ratio, **kw)
+    assert above["clean"] is False and below["clean"] is True
+    far = poses.copy()
+    far[len(far) // 2, 2] = 5.0  # unreachable
+    pf = ev_c.completion.with_pose(far, ev_c.parameter_values(len(far)))
+    assert ev_c.kernels.fused(far[:, 0], far[:, 1], far[:, 2], pf, screen=PARALLEL_SCREEN, **kw)["clean"] is False
+    k_a = np.full(len(far), 1000.0)  # values per pose: the general route
+    m = ev_c.modes(far, "paper", invalid="nan", k_a=k_a)
+    assert not m.valid[len(far) // 2] and m.valid.sum() == len(far) - 1
+    clean = ev_c.modes(poses, "paper", invalid="nan", k_a=k_a[: len(poses)])
+    assert clean.valid.all() and np.array_equal(clean.freq_hz[: len(far) // 2], m.freq_hz[: len(far) // 2])
+
+
 def _counted(method, calls: list):
     """``method`` that appends to ``calls`` at each call."""
 

@@ -679,18 +679,26 @@ class CKernels:
         matrix entries ``R_ij`` per block; otherwise it reads ``p``'s ``R_ij``.
 
         ``out`` maps output names to preallocated C-contiguous arrays of the result's shape
-        and dtype, written in place (no other copy is made). ``threads`` > 1 runs the blocks
+        and dtype, written in place (no other copy is made). ``screen`` (> 0, with ``model``
+        and ``status``): the result's ``clean`` says whether every pose has status 0 and its
+        lowest frequency above ``screen`` times its highest, counted in the pass (absent where
+        the blocks run by ranges). ``threads`` > 1 runs the blocks
         on that many threads (bounded by :func:`threads_for`; handed out in C,
         :func:`.c_schedule.run_pass`, else by ranges); the results are bit-identical to one
         thread.
         """
         from .c_schedule import run_pass
 
+        screen = options.pop("screen", 0.0)
         result, n, keep, args = self.fused_arguments(x, y, z, p, **options)
         fn = self._fn["fused"]
-        sched = run_pass(fn, n, self.BLOCK, threads, args)
+        check = screen > 0.0 and "freq_hz" in result and "status" in result
+        dim = result["freq_hz"].shape[-1] if check else 0
+        sched = run_pass(fn, n, self.BLOCK, threads, args, dim=dim, screen=screen)
         if sched is not None:
             _check_rc(int(sched.rc), "fused")
+            if check:
+                result["clean"] = sched.unclean == 0
             return result
 
         def call(begin: int, end: int) -> int:

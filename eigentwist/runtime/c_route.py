@@ -190,16 +190,17 @@ class CPassRoute:
                 model=stiffness,
                 vectors=vectors,
                 normalize=True,
+                screen=PARALLEL_SCREEN,
             )
         st = out["status"]
-        valid = (st == STATUS["ok"]) | (st == STATUS["unstable"])
-        if check and not valid.all():
+        clean = out.pop("clean", False)  # every pose ok and above the screen: nothing to check
+        valid = np.ones(len(st), dtype=bool) if clean else (st == STATUS["ok"]) | (st == STATUS["unstable"])
+        if check and not clean and not valid.all():
             self.ev.checks.raise_first(poses, p, ~valid)
         # a parallel singularity drives the lowest frequency to 0: the poses whose lowest
         # mode is 0, NaN or below PARALLEL_SCREEN times their highest get the exact check
         freq = out["freq_hz"]
-        low = valid & ~above_screen(freq, self.nthreads())
-        suspect = np.flatnonzero(low)
+        suspect = np.empty(0, dtype=np.intp) if clean else np.flatnonzero(valid & ~above_screen(freq, self.nthreads()))
         singular = suspect[~self.ev.checks.parallel_ok(poses, p, suspect, strict=check)]
         if singular.size:
             valid[singular] = False
@@ -212,7 +213,7 @@ class CPassRoute:
             self.ev.axes(stiffness),
             stiffness,
             None if check else valid,
-            st != STATUS["unstable"],
+            np.ones(len(st), dtype=bool) if clean else st != STATUS["unstable"],
         )
         if shares and out["eigentwists"].shape[-1] == 6:
             with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
