@@ -22,6 +22,16 @@ from eigentwist.runtime.errors import SingularPoseError, UnreachablePoseError
 from eigentwist.runtime.validity import STATUS
 
 
+@pytest.fixture(autouse=True)
+def by_ranges(monkeypatch):
+    """The stand-ins here are Python callables, not C functions: the pass's blocks run by
+    ranges from Python (the scheduler in C is tested on C functions: tests/test_parallel_screen.py,
+    tests/test_fast_paths.py)."""
+    from eigentwist.runtime import c_schedule
+
+    monkeypatch.setattr(c_schedule, "scheduler", lambda: None)
+
+
 @functools.cache
 def heli4_source() -> str:
     return ck.source_path("heli4").read_text()

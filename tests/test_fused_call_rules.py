@@ -20,6 +20,16 @@ NAMES = ["x", "a", "y", "b", "z"]
 DIM = 3
 
 
+@pytest.fixture(autouse=True)
+def by_ranges(monkeypatch):
+    """The stand-ins here are Python callables, not C functions: the pass's blocks run by
+    ranges from Python (the scheduler in C is tested on C functions: tests/test_parallel_screen.py,
+    tests/test_fast_paths.py)."""
+    from eigentwist.runtime import c_schedule
+
+    monkeypatch.setattr(c_schedule, "scheduler", lambda: None)
+
+
 def read(address, count=1):
     return np.ctypeslib.as_array((ctypes.c_double * count).from_address(address))
 
