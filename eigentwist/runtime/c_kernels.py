@@ -484,16 +484,11 @@ class CKernels:
 
         if "loop_closure" not in self._spec or c_levenberg_marquardt.driver() is None:
             return None
-        spec = self._spec["loop_closure"]
         n, legs, nq = np.shape(q)
         keep: list = []
-        q_of = [joint[0] * nq + joint[1] if group == "q" else -1 for group, _, joint in spec["inputs"]]
-        names = [None if group == "q" else name for group, name, _ in spec["inputs"]]
-        addresses, strides = _driver_inputs(names, p, n, keep)
-        rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
-        block = self._block(spec, spec["outputs"] == [["residual", [legs, rows]], ["dresidual", [legs, rows, nq]]])
+        address, addresses, strides, q_of, rows, block = self._closure_tables(p, n, legs, nq, keep)
         return c_levenberg_marquardt.iterate(
-            ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value,
+            address,
             block,
             q_of,
             addresses,
@@ -521,17 +516,27 @@ class CKernels:
             return None
         legs, nq = self.N_LEGS, self.JOINTS_PER_LEG
         keep: list = []
-        q_of = [joint[0] * nq + joint[1] if group == "q" else -1 for group, _, joint in spec["inputs"]]
-        names = [None if group == "q" else name for group, name, _ in spec["inputs"]]
-        addresses, strides = _driver_inputs(names, p, n, keep)
-        rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
-        block = self._block(spec, spec["outputs"] == [["residual", [legs, rows]], ["dresidual", [legs, rows, nq]]])
-        closure = (ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value, addresses, strides, q_of)
+        *closure, rows, block = self._closure_tables(p, n, legs, nq, keep)
         at, l_addresses, l_strides, l_q_of, _, l_keep = self.kernel_arguments("lever", p, n)
         keep += l_keep
         return c_levenberg_marquardt.ChunkSolver(
             closure, block, (at, l_addresses, l_strides, l_q_of), legs, rows, nq, signs, keep
         )
+
+    def _closure_tables(self, p: dict, n: int, legs: int, nq: int, keep: list) -> tuple:
+        """The ``loop_closure`` kernel's call for the Newton driver on ``n`` poses: ``(address,
+        addresses, strides, q_of, rows, block)``, its C address, its inputs' addresses and
+        strides from ``p`` (a joint coordinate's 0: the driver fills it), the entry of the
+        pose's row of q each joint input reads (-1 for the others), its closure rows per leg
+        and its block function (:meth:`_block`); the arrays pointed into appended to ``keep``."""
+        spec = self._spec["loop_closure"]
+        q_of = [joint[0] * nq + joint[1] if group == "q" else -1 for group, _, joint in spec["inputs"]]
+        names = [None if group == "q" else name for group, name, _ in spec["inputs"]]
+        addresses, strides = _driver_inputs(names, p, n, keep)
+        rows = dict((o, s) for o, s in spec["outputs"])["residual"][-1]
+        block = self._block(spec, spec["outputs"] == [["residual", [legs, rows]], ["dresidual", [legs, rows, nq]]])
+        address = ctypes.cast(self._fn["loop_closure"], ctypes.c_void_p).value
+        return address, addresses, strides, q_of, rows, block
 
     def _block(self, spec: dict, driver_rows: bool) -> int | None:
         """The C address of a kernel's exported block function (``spec``: its signature

@@ -21,16 +21,20 @@ import ctypes
 import numpy as np
 
 from .addresses import address
+from .c_poses import RODRIGUES
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
 __all__ = ["driver", "iterate", "branch_driver", "ChunkSolver", "block_steps", "followers_driver", "follow", "SOURCE"]
 
-SOURCE = r"""
+SOURCE = (
+    r"""
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-
+"""
+    + RODRIGUES
+    + r"""
 typedef int (*et_kernel)(int64_t, const double *const *, const int64_t *, double *const *);
 
 #define B 64
@@ -572,28 +576,11 @@ static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, dou
         FOR_I P[k * B + i] = c->full[(b0 + (i < m ? i : m - 1)) * 6 + k];
     for (int f = 0; f < c->nf; ++f)
         FOR_I P[c->followers[f] * B + i] = qs[f * B + i];
-    /* R = I + a [r]x + b [r]x^2, Rodrigues' a = sin(t)/t, b = (1 - cos t)/t^2 (series below t^2 = 1e-12) */
     FOR_I {
-        const double x = P[3 * B + i], y = P[4 * B + i], z = P[5 * B + i];
-        const double xx = x * x, yy = y * y, zz = z * z, t2 = xx + yy + zz;
-        double a, b;
-        if (t2 < 1e-12) {
-            a = 1 - t2 / 6;
-            b = 0.5 - t2 / 24;
-        } else {
-            const double t = sqrt(t2);
-            a = sin(t) / t;
-            b = (1 - cos(t)) / (t * t);
-        }
-        R[0 * B + i] = 1 + b * (-zz - yy);
-        R[1 * B + i] = -(a * z) + b * (x * y);
-        R[2 * B + i] = a * y + b * (x * z);
-        R[3 * B + i] = a * z + b * (x * y);
-        R[4 * B + i] = 1 + b * (-zz - xx);
-        R[5 * B + i] = -(a * x) + b * (y * z);
-        R[6 * B + i] = -(a * y) + b * (x * z);
-        R[7 * B + i] = a * x + b * (y * z);
-        R[8 * B + i] = 1 + b * (-yy - xx);
+        double e[9];
+        et_rodrigues(P[3 * B + i], P[4 * B + i], P[5 * B + i], e);
+        for (int k = 0; k < 9; ++k)
+            R[k * B + i] = e[k];
     }
     if (c->block && c->held_b0 != b0) {
         et_hold(c->n_in, c->role, c->in, c->stride, b0, m, c->held);
@@ -762,6 +749,7 @@ int et_newton_branch(int64_t n, int64_t at, void *closure_address, void *block_a
     return rc;
 }
 """
+)
 
 BLOCK = 64  # poses per block (B in the source)
 _DRIVER: list = []  # [ctypes function] once built, [None] when it cannot be

@@ -18,9 +18,39 @@ import numpy as np
 
 from .addresses import address
 
-__all__ = ["rotation_entries", "SOURCE"]
+__all__ = ["rotation_entries", "RODRIGUES", "SOURCE"]
 
-SOURCE = r"""
+#: Rodrigues' formula on one rotation vector, the C shared by this module's library and the
+#: followers' Newton driver (:mod:`.c_levenberg_marquardt`)
+RODRIGUES = r"""
+/* e[3 i + j] = R_ij of the rotation vector (x, y, z) (rad): R = I + a [r]x + b [r]x^2,
+   a = sin(t)/t, b = (1 - cos t)/t^2 (their series below t^2 = 1e-12) */
+static inline void et_rodrigues(double x, double y, double z, double *e)
+{
+    const double xx = x * x, yy = y * y, zz = z * z, t2 = xx + yy + zz;
+    double a, b;
+    if (t2 < 1e-12) {
+        a = 1 - t2 / 6;
+        b = 0.5 - t2 / 24;
+    } else {
+        const double t = sqrt(t2);
+        a = sin(t) / t;
+        b = (1 - cos(t)) / (t * t);
+    }
+    e[0] = 1 + b * (-zz - yy);
+    e[1] = -(a * z) + b * (x * y);
+    e[2] = a * y + b * (x * z);
+    e[3] = a * z + b * (x * y);
+    e[4] = 1 + b * (-zz - xx);
+    e[5] = -(a * x) + b * (y * z);
+    e[6] = -(a * y) + b * (x * z);
+    e[7] = a * x + b * (y * z);
+    e[8] = 1 + b * (-yy - xx);
+}
+"""
+
+SOURCE = (
+    r"""
 #if defined(__clang__)
 #pragma clang fp contract(off)
 #elif defined(__GNUC__)
@@ -28,37 +58,22 @@ SOURCE = r"""
 #endif
 #include <math.h>
 #include <stdint.h>
-
+"""
+    + RODRIGUES
+    + r"""
 /* R_ij (9 arrays of n, R[3 i + j][k] for pose k) of rotation vectors r (pose k at r + k * stride,
    3 contiguous values, rad). */
 void et_rotation_entries(int64_t n, const double *r, int64_t stride, double *const *R)
 {
-    double *R00 = R[0], *R01 = R[1], *R02 = R[2], *R10 = R[3], *R11 = R[4], *R12 = R[5];
-    double *R20 = R[6], *R21 = R[7], *R22 = R[8];
     for (int64_t k = 0; k < n; ++k) {
-        const double x = r[k * stride], y = r[k * stride + 1], z = r[k * stride + 2];
-        const double xx = x * x, yy = y * y, zz = z * z, t2 = xx + yy + zz;
-        double a, b;
-        if (t2 < 1e-12) {
-            a = 1 - t2 / 6;
-            b = 0.5 - t2 / 24;
-        } else {
-            const double t = sqrt(t2);
-            a = sin(t) / t;
-            b = (1 - cos(t)) / (t * t);
-        }
-        R00[k] = 1 + b * (-zz - yy);
-        R01[k] = -(a * z) + b * (x * y);
-        R02[k] = a * y + b * (x * z);
-        R10[k] = a * z + b * (x * y);
-        R11[k] = 1 + b * (-zz - xx);
-        R12[k] = -(a * x) + b * (y * z);
-        R20[k] = -(a * y) + b * (x * z);
-        R21[k] = a * x + b * (y * z);
-        R22[k] = 1 + b * (-yy - xx);
+        double e[9];
+        et_rodrigues(r[k * stride], r[k * stride + 1], r[k * stride + 2], e);
+        for (int j = 0; j < 9; ++j)
+            R[j][k] = e[j];
     }
 }
 """
+)
 
 _FN: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []
