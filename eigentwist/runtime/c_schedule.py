@@ -149,8 +149,11 @@ def scheduler():
 
 
 def _at(arg):
-    """A pass argument as an address: a ctypes array's, an int as it is, None as NULL."""
-    return arg if arg is None or isinstance(arg, int) else ctypes.addressof(arg)
+    """A pass argument as a number: a ctypes array's address, an address or a model index as
+    it is, None as NULL."""
+    if arg is None:
+        return None
+    return ctypes.addressof(arg) if isinstance(arg, ctypes.Array) else int(arg)
 
 
 def run_pass(
