@@ -904,12 +904,12 @@ def _c_hexapod_urdf():
     return eigentwist.load(hexapod_urdf.describe(), backend="c", threads=1, progress=lambda m: None)
 
 
-def test_a_chunk_in_one_c_call_gives_the_long_ways_bits(monkeypatch):
-    """Numeric IK's chunks solved first in one C call (``CKernels.chunk_solver``) and, where a
-    pose does not converge on its branch there, the long way: the joints, the off-branch
-    flags and the frequencies equal the long way's alone bit for bit, past several chunks
-    with poses beyond the workspace among them (chunks taken both ways), on one and two
-    threads."""
+def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
+    """Numeric IK's first stage over the batch in C (``CKernels.chunk_solver``, grains on the
+    threads) and, for a chunk with a pose that does not converge on its branch there, the long
+    way: the joints, the off-branch flags and the frequencies equal the long way's alone bit
+    for bit, past several chunks with poses beyond the workspace among them (chunks taken both
+    ways), on one and two threads."""
     from eigentwist.runtime import completion
 
     ev = _c_hexapod_urdf()
@@ -920,15 +920,15 @@ def test_a_chunk_in_one_c_call_gives_the_long_ways_bits(monkeypatch):
     poses[700:1100] = far
     p = ev.parameter_values(len(poses))
     taken = []
-    chunks = ev.kernels.chunk_solver
+    solvers = ev.kernels.chunk_solver
 
     def counted(*a, **kw):
-        solver = chunks(*a, **kw)
+        solver = solvers(*a, **kw)
 
         def call(*b, **kb):
-            q, done = solver(*b, **kb)
-            taken.append(bool(done.all()))
-            return q, done
+            done = solver(*b, **kb)
+            taken.append([bool(done[sl].all()) for sl in completion.chunks(len(done), 256)])
+            return done
 
         return call
 
@@ -938,7 +938,7 @@ def test_a_chunk_in_one_c_call_gives_the_long_ways_bits(monkeypatch):
     fast = [e.completion.solve_joints(poses, p) for e in (ev, many)]
     fast_off = ev.completion._newton_memo[next(iter(ev.completion._newton_memo))][1]
     fast_freq = ev.modes(poses, "rigid", invalid="nan").freq_hz
-    assert True in taken and False in taken  # chunks taken in one call and the long way
+    assert True in taken[0] and False in taken[0]  # chunks taken from C and the long way
     monkeypatch.setattr(ev.kernels, "chunk_solver", lambda *a, **kw: None)
     ev.completion.__dict__.pop("_newton_memo", None)
     slow = ev.completion.solve_joints(poses, p)
@@ -949,27 +949,31 @@ def test_a_chunk_in_one_c_call_gives_the_long_ways_bits(monkeypatch):
     assert ev.modes(poses, "rigid", invalid="nan").freq_hz.tobytes() == fast_freq.tobytes()
 
 
-def test_a_chunk_is_done_only_where_every_leg_closes_on_its_branchs_sign():
+def test_the_first_stage_is_done_only_where_every_leg_closes_on_its_branchs_sign():
     """``ChunkSolver``'s done flag on each side of its decisions: every leg converged with its
     branch's lever sign (done); one leg's branch sign flipped (not done, on every pose); a
-    branch sign of 0 (either sign: done); a pose Newton does not close (not done, alone)."""
+    branch sign of 0 (either sign: done); a pose Newton does not close (not done, alone). A
+    pose's result does not depend on its grain, its batch's first pose or the threads."""
+    from eigentwist.runtime.completion import take
     from eigentwist.runtime.levenberg_marquardt import LAMBDA0, MAX_ITERATIONS, TOL
 
     ev = _c_hexapod_urdf()
     comp = ev.completion
-    poses = random_poses(ev.robot, 40, seed=34)
+    n = 700  # several grains
+    poses = random_poses(ev.robot, n, seed=34)
     poses[7, :3] *= 40.0
-    whole = comp.closure_inputs(poses, ev.parameter_values(len(poses)))
+    whole = comp.closure_inputs(poses, ev.parameter_values(n))
     signs = np.asarray(comp.assembly()["sign"], dtype=float)
-    start = np.broadcast_to(comp.assembly()["q"], (len(poses),) + np.shape(comp.assembly()["q"]))
+    start = np.broadcast_to(comp.assembly()["q"], (n,) + np.shape(comp.assembly()["q"]))
     assert set(np.unique(signs)) <= {-1.0, 1.0}
 
-    def done(s, at=0, m=len(poses)):
-        q, ok = ev.kernels.chunk_solver(whole, len(poses), s)(at, start[at : at + m], MAX_ITERATIONS, TOL, LAMBDA0)
+    def done(s, rows=slice(0, n), threads=1):
+        q = np.array(start[rows], order="C")
+        ok = ev.kernels.chunk_solver(take(whole, rows), len(q), s)(q, MAX_ITERATIONS, TOL, LAMBDA0, threads)
         return q, ok
 
     q, ok = done(signs)
-    assert ok.sum() == len(poses) - 1 and not ok[7] and np.isfinite(q[ok]).all()
+    assert ok.sum() == n - 1 and not ok[7] and np.isfinite(q[ok]).all()
     levers = comp.levers(q, whole)
     np.testing.assert_array_equal(np.sign(levers[ok]), np.broadcast_to(signs, levers[ok].shape))
     flipped = signs.copy()
@@ -977,6 +981,10 @@ def test_a_chunk_is_done_only_where_every_leg_closes_on_its_branchs_sign():
     assert not done(flipped)[1].any()
     either = signs.copy()
     either[1] = 0.0
-    assert done(either)[1].sum() == len(poses) - 1
-    q_part, ok_part = done(signs, at=10, m=20)  # a chunk from pose 10: the inputs moved there
-    assert ok_part.all() and q_part.tobytes() == done(signs)[0][10:30].tobytes()
+    assert done(either)[1].sum() == n - 1
+    q_part, ok_part = done(signs, slice(10, 610))  # other grains, the inputs from pose 10
+    assert ok_part.all() and q_part.tobytes() == q[10:610].tobytes()
+    q_two, ok_two = done(signs, threads=2)
+    assert q_two.tobytes() == q.tobytes() and np.array_equal(ok_two, ok)
+    with pytest.raises(ValueError, match="C-contiguous float64"):
+        ev.kernels.chunk_solver(whole, n, signs)(np.asfortranarray(q), MAX_ITERATIONS, TOL, LAMBDA0)

@@ -748,6 +748,56 @@ int et_newton_branch(int64_t n, int64_t at, void *closure_address, void *block_a
     free(lst);
     return rc;
 }
+
+#if defined(__GNUC__)
+/* A batch's et_newton_branch handed out to threads: each thread makes one call of
+   et_newton_branch_work, which takes grains of `grain` poses from the shared counter `next`
+   until none is left or a grain fails (its code kept in `rc`, the first one). The fields are
+   et_newton_branch's arguments for the whole batch (q, norm, lever_out, done: n rows). */
+typedef struct {
+    int64_t n, grain;
+    void *closure, *block;
+    int64_t n_in;
+    const double *const *in;
+    const int64_t *stride;
+    const int *q_of;
+    int64_t legs, rows, nq;
+    double *q, *norm;
+    int64_t iterations;
+    double tol, lambda0, max_step;
+    void *lever;
+    int64_t n_lin;
+    const double *const *lin;
+    const int64_t *lstride;
+    const int *lq_of;
+    const double *ref_sign;
+    double *lever_out;
+    int8_t *done;
+    int64_t next, rc;
+} et_branch_batch;
+
+int et_newton_branch_work(et_branch_batch *s)
+{
+    const int64_t lq = s->legs * s->nq;
+    while (!__atomic_load_n(&s->rc, __ATOMIC_RELAXED)) {
+        const int64_t b0 = __atomic_fetch_add(&s->next, 1, __ATOMIC_RELAXED) * s->grain;
+        if (b0 >= s->n)
+            break;
+        const int64_t m = s->n - b0 < s->grain ? s->n - b0 : s->grain;
+        const int rc = et_newton_branch(m, b0, s->closure, s->block, (int)s->n_in, s->in, s->stride, s->q_of,
+                                        (int)s->legs, (int)s->rows, (int)s->nq, s->q + b0 * lq, s->norm + b0 * s->legs,
+                                        (int)s->iterations, s->tol, s->lambda0, s->max_step, s->lever, (int)s->n_lin,
+                                        s->lin, s->lstride, s->lq_of, s->ref_sign, s->lever_out + b0 * s->legs,
+                                        s->done + b0);
+        if (rc) {
+            int64_t none = 0;
+            __atomic_compare_exchange_n(&s->rc, &none, (int64_t)rc, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED);
+            break;
+        }
+    }
+    return 0;
+}
+#endif
 """
 )
 
@@ -871,65 +921,103 @@ def iterate(
     return qq, norm
 
 
-_BRANCH: list = []  # [ctypes function et_newton_branch] once bound, [None] when it cannot be
+_BRANCH: list = []  # [ctypes function et_newton_branch_work] once bound, [None] when it cannot be
+GRAIN = 4 * BLOCK  # poses a thread takes at a time from a batch's shared counter
 
 
 def branch_driver():
-    """The compiled ``et_newton_branch`` (:func:`driver`'s library), or None where that cannot
-    be built."""
+    """The compiled ``et_newton_branch_work`` (:func:`driver`'s library; gcc's and clang's
+    ``__atomic`` builtins), or None where that cannot be built."""
     if not _BRANCH:
         fn = None
         if driver() is not None and _LIBRARIES:
-            fn = _LIBRARIES[0].et_newton_branch
-            V, I64, I, D = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int, ctypes.c_double
-            fn.argtypes = [I64, I64, V, V, I, V, V, V, I, I, I, V, V, I, D, D, D, V, I, V, V, V, V, V, V]
-            fn.restype = ctypes.c_int
+            fn = getattr(_LIBRARIES[0], "et_newton_branch_work", None)
+            if fn is not None:
+                fn.argtypes = [ctypes.c_void_p]
+                fn.restype = ctypes.c_int
         _BRANCH.append(fn)
     return _BRANCH[0]
 
 
+class _BranchBatch(ctypes.Structure):
+    """The C ``et_branch_batch`` of one batch (see :data:`SOURCE`)."""
+
+    _fields_ = [
+        (name, kind)
+        for names, kind in (
+            (("n", "grain"), ctypes.c_int64),
+            (("closure", "block"), ctypes.c_void_p),
+            (("n_in",), ctypes.c_int64),
+            (("ins", "strides", "q_of"), ctypes.c_void_p),
+            (("legs", "rows", "nq"), ctypes.c_int64),
+            (("q", "norm"), ctypes.c_void_p),
+            (("iterations",), ctypes.c_int64),
+            (("tol", "lambda0", "max_step"), ctypes.c_double),
+            (("lever",), ctypes.c_void_p),
+            (("n_lin",), ctypes.c_int64),
+            (("lin", "lstrides", "lq_of", "ref_sign", "lever_out", "done"), ctypes.c_void_p),
+            (("next", "rc"), ctypes.c_int64),
+        )
+        for name in names
+    ]
+
+
 class ChunkSolver:
-    """The first stage of :func:`eigentwist.runtime.levenberg_marquardt.solve` on chunks of one
-    batch, each in one C call (``et_newton_branch``): the Newton iterations from a start, then
-    each leg's lever and its sign against the assembly branch's. The kernels' input tables are
-    made once for the batch (``closure`` and ``lever``: ``(address, addresses, strides,
-    q_of)``, the inputs of pose 0 and their strides in doubles, a joint coordinate's entry of
-    the pose's row of q or -1), each chunk moving them to its first pose. Made by
+    """The first stage of :func:`eigentwist.runtime.levenberg_marquardt.solve` on a batch in C:
+    the Newton iterations from a start, then each leg's lever and its sign against the assembly
+    branch's (``et_newton_branch``), on grains of :data:`GRAIN` poses handed out to the threads
+    (``et_newton_branch_work``: each thread one C call). The kernels' input tables are made
+    once for the batch (``closure`` and ``lever``: ``(address, addresses, strides, q_of)``,
+    the inputs of pose 0 and their strides in doubles, a joint coordinate's entry of the
+    pose's row of q or -1), each grain moving them to its first pose. A pose's iterations are
+    its own, so the grains do not change its result. Made by
     :meth:`~eigentwist.runtime.c_kernels.CKernels.chunk_solver`."""
 
     def __init__(self, closure, block, lever, legs: int, rows: int, nq: int, signs, keep: list):
-        fn = branch_driver()
         kernel, addresses, strides, q_of = closure
         size = max(len(addresses), 1)
-        self._closure = (
-            kernel, block, len(addresses), (ctypes.c_void_p * size)(*(int(a) or None for a in addresses)),
-            (ctypes.c_int64 * size)(*(int(s) for s in strides)), (ctypes.c_int * size)(*(int(k) for k in q_of)),
-        )  # fmt: skip
+        self._tables = [
+            (ctypes.c_void_p * size)(*(int(a) or None for a in addresses)),
+            (ctypes.c_int64 * size)(*(int(s) for s in strides)),
+            (ctypes.c_int * size)(*(int(k) for k in q_of)),
+        ]
+        self._closure = (kernel, block, len(addresses))
         kernel, addresses, strides, q_of = lever
         size = max(len(addresses), 1)
-        self._lever = (
-            kernel, len(addresses), (ctypes.c_void_p * size)(*(int(a) or None for a in addresses)),
-            (ctypes.c_int64 * size)(*(int(s) for s in strides)), (ctypes.c_int * size)(*(int(k) for k in q_of)),
-        )  # fmt: skip
+        self._tables += [
+            (ctypes.c_void_p * size)(*(int(a) or None for a in addresses)),
+            (ctypes.c_int64 * size)(*(int(s) for s in strides)),
+            (ctypes.c_int * size)(*(int(k) for k in q_of)),
+        ]
+        self._lever = (kernel, len(addresses))
         self._signs = np.ascontiguousarray(np.broadcast_to(np.asarray(signs, dtype=np.float64), (legs,)))
-        self._fn, self._shape, self._rows, self._keep = fn, (legs, nq), rows, keep
+        self._shape, self._rows, self._keep = (legs, nq), rows, keep
 
-    def __call__(self, at: int, start: np.ndarray, iterations: int, tol: float, lambda0: float):
-        """``(q, done)`` of the batch's poses ``at`` to ``at + len(start)``: q (m, legs, n_q)
-        iterated from ``start`` (its own copy) with first damping ``lambda0``, and done (m,)
-        where every leg converged on its branch (where not, the caller solves the chunk the
-        long way). Raises RuntimeError when the driver or the lever kernel fails."""
-        q = np.array(start, dtype=np.float64, order="C")
-        m, (legs, nq) = len(q), self._shape
-        norm, lever = np.empty((m, legs)), np.empty((m, legs))
-        done = np.empty(m, dtype=np.int8)
-        rc = self._fn(
-            m, at, *self._closure, legs, self._rows, nq, address(q), address(norm), int(iterations), float(tol),
-            float(lambda0), MAX_STEP, *self._lever, address(self._signs), address(lever), address(done),
+    def __call__(self, q: np.ndarray, iterations: int, tol: float, lambda0: float, threads: int = 1) -> np.ndarray:
+        """Iterate the batch's starts ``q`` (n, legs, n_q), C-contiguous float64, in place, with
+        first damping ``lambda0`` on ``threads`` threads (:func:`~.threads.threads_for`). Returns
+        done (n,) bool: every leg of the pose converged on its branch (where not, the caller
+        solves its chunk the long way). Raises RuntimeError when the driver or the lever
+        kernel fails."""
+        from .threads import run_workers, threads_for
+
+        n, (legs, nq) = len(q), self._shape
+        if q.shape != (n, legs, nq) or q.dtype != np.float64 or not q.flags.c_contiguous:
+            raise ValueError(f"q: expected a C-contiguous float64 array ({n}, {legs}, {nq}), got {q.shape} {q.dtype}")
+        norm, lever = np.empty((n, legs)), np.empty((n, legs))
+        done = np.empty(n, dtype=np.int8)
+        at = ctypes.addressof
+        ins, strides, q_of, lin, lstrides, lq_of = self._tables
+        batch = _BranchBatch(
+            n, GRAIN, *self._closure[:2], self._closure[2], at(ins), at(strides), at(q_of), legs, self._rows, nq,
+            address(q), address(norm), int(iterations), float(tol), float(lambda0), MAX_STEP, *self._lever,
+            at(lin), at(lstrides), at(lq_of), address(self._signs), address(lever), address(done),
         )  # fmt: skip
-        if rc != 0:
-            raise RuntimeError(f"C Newton iterations on a chunk returned {rc}")
-        return q, done.view(bool)
+        state, work = at(batch), branch_driver()
+        run_workers(lambda: work(state), threads_for(n, BLOCK, threads))
+        if batch.rc != 0:
+            raise RuntimeError(f"C Newton iterations on a batch returned {batch.rc}")
+        return done.view(bool)
 
 
 def followers_driver():

@@ -379,20 +379,8 @@ class PoseCompletion:
         # the pose inputs once for the batch (side by side: :meth:`kernel_pose_inputs`), or as
         # the caller computed them from these poses (:meth:`with_pose`)
         whole = p if self.pose_input_names() <= p.keys() else self.closure_inputs(poses, p)
-        # a chunk on one thread first tries solve's first stage in one C call; where a pose does
-        # not converge on its branch there, the chunk is solved as below (the same first stage
-        # again, then the retries): either way the same bits
-        fast = None
-        if iterate_on is not None and hasattr(self.kernels, "chunk_solver"):
-            fast = self.kernels.chunk_solver(whole, n, signs)
 
         def one(sl, inner):
-            if fast is not None and inner == 1:
-                m = len(poses[sl])
-                start = np.broadcast_to(reference, (m,) + reference.shape) if guess is None else guess(poses[sl])
-                q, done = fast(sl.start, start, MAX_ITERATIONS, TOL, LAMBDA0 if guess is None else GUESS_LAMBDA0)
-                if done.all():
-                    return q, np.zeros(q.shape[:2], dtype=bool)
             kp = take(whole, sl) if n > 1 else whole
             its = None if iterate_on is None else iterate_on(inner)
 
@@ -417,12 +405,27 @@ class PoseCompletion:
         # (:func:`map_chunks`: the same chunks on any thread count); on the C route whole
         # chunks run on the threads, so that their NumPy steps run side by side as well
         q = np.empty((n,) + reference.shape)
-        off = np.empty((n, len(reference)), dtype=bool)
+        off = np.zeros((n, len(reference)), dtype=bool)
 
         def into(sl, inner):
             q[sl], off[sl] = one(sl, inner)
 
-        map_chunks(into, n, threads if iterate_on is not None else 1, NEWTON_CHUNK)
+        fast = None
+        if iterate_on is not None and hasattr(self.kernels, "chunk_solver"):
+            fast = self.kernels.chunk_solver(whole, n, signs)
+        if fast is None:
+            map_chunks(into, n, threads if iterate_on is not None else 1, NEWTON_CHUNK)
+        else:
+            # solve's first stage over the batch in C, its grains on the threads (each pose's
+            # iterations its own); a chunk with a pose that does not converge on its branch
+            # there is solved as above (the same first stage, then the retries): the same bits
+            def start(sl, inner):
+                q[sl] = reference if guess is None else guess(poses[sl])
+
+            map_chunks(start, n, threads, NEWTON_CHUNK)
+            done = fast(q, MAX_ITERATIONS, TOL, LAMBDA0 if guess is None else GUESS_LAMBDA0, threads)
+            again = [sl for sl in chunks(n, NEWTON_CHUNK) if not done[sl].all()]
+            map_chunks(lambda rows, inner: [into(sl, inner) for sl in again[rows]], len(again), threads, 1)
         memo.clear()
         memo[key] = (q, off)
         return q
