@@ -1,5 +1,8 @@
 # Thread scaling on a many-core machine (benchmarks/README.md's sixteen-core tables):
 #   bash benchmarks/threads_device.sh      (PY, N1, N2, TH, PROCS, CHUNKS, OUT override the defaults below)
+# To spend the machine's minutes on compiling only, generate the gallery robots' sources here first
+# (EIGENTWIST_CACHE=$PWD/.devcache, load examples/robots/rus6.py with backend="c", then delete
+# .devcache/*.so* and *.lock) and carry .devcache along.
 # Compiles the libraries side by side first (each once, in EIGENTWIST_CACHE=.devcache), then, in
 # order of what a cut-off run loses last: the hexapod's threads (benchmarks/threads.py), the same
 # counts as independent processes (benchmarks/processes.py: the machine's own bound), the
