@@ -836,8 +836,8 @@ def test_a_pose_off_the_recorded_branch_is_named(numeric, backend, monkeypatch):
     flipped = Evaluator(ev.robot, ev.module, backend, kernels=ev.kernels, threads=1)
     assert flipped.c_route.fused is (backend == "c")
     if backend == "c":  # the legs' Newton iterations run in C (by chunks): at x_ref, the geometry's joints
-        iterations, chunks = [], ev.kernels.chunk_solver
-        monkeypatch.setattr(ev.kernels, "chunk_solver", lambda *a, **kw: iterations.append(1) or chunks(*a, **kw))
+        iterations, chunks = [], ev.kernels.branch_solver
+        monkeypatch.setattr(ev.kernels, "branch_solver", lambda *a, **kw: iterations.append(1) or chunks(*a, **kw))
         home = np.array([ev.robot.x_ref])
         q = flipped.solve_joints(home, flipped.parameter_values(1))
         np.testing.assert_allclose(q[0], _hexapod_legs_at_home()[2], rtol=0, atol=1e-9)
@@ -905,7 +905,7 @@ def _c_hexapod_urdf():
 
 
 def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
-    """Numeric IK's first stage over the batch in C (``CKernels.chunk_solver``, grains on the
+    """Numeric IK's first stage over the batch in C (``CKernels.branch_solver``, grains on the
     threads) and, for a chunk with a pose that does not converge on its branch there, the long
     way: the joints, the off-branch flags and the frequencies equal the long way's alone bit
     for bit, past several chunks with poses beyond the workspace among them (chunks taken both
@@ -920,7 +920,7 @@ def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
     poses[700:1100] = far
     p = ev.parameter_values(len(poses))
     taken = []
-    solvers = ev.kernels.chunk_solver
+    solvers = ev.kernels.branch_solver
 
     def counted(*a, **kw):
         solver = solvers(*a, **kw)
@@ -932,14 +932,14 @@ def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
 
         return call
 
-    monkeypatch.setattr(ev.kernels, "chunk_solver", counted)
+    monkeypatch.setattr(ev.kernels, "branch_solver", counted)
     many = eigentwist.load(hexapod_urdf.describe(), backend="c", threads=2, progress=lambda m: None)
-    monkeypatch.setattr(many.kernels, "chunk_solver", counted)
+    monkeypatch.setattr(many.kernels, "branch_solver", counted)
     fast = [e.completion.solve_joints(poses, p) for e in (ev, many)]
     fast_off = ev.completion._newton_memo[next(iter(ev.completion._newton_memo))][1]
     fast_freq = ev.modes(poses, "rigid", invalid="nan").freq_hz
     assert True in taken[0] and False in taken[0]  # chunks taken from C and the long way
-    monkeypatch.setattr(ev.kernels, "chunk_solver", lambda *a, **kw: None)
+    monkeypatch.setattr(ev.kernels, "branch_solver", lambda *a, **kw: None)
     ev.completion.__dict__.pop("_newton_memo", None)
     slow = ev.completion.solve_joints(poses, p)
     slow_off = ev.completion._newton_memo[next(iter(ev.completion._newton_memo))][1]
@@ -950,7 +950,7 @@ def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
 
 
 def test_the_first_stage_is_done_only_where_every_leg_closes_on_its_branchs_sign():
-    """``ChunkSolver``'s done flag on each side of its decisions: every leg converged with its
+    """``BranchSolver``'s done flag on each side of its decisions: every leg converged with its
     branch's lever sign (done); one leg's branch sign flipped (not done, on every pose); a
     branch sign of 0 (either sign: done); a pose Newton does not close (not done, alone). A
     pose's result does not depend on its grain, its batch's first pose or the threads."""
@@ -969,7 +969,7 @@ def test_the_first_stage_is_done_only_where_every_leg_closes_on_its_branchs_sign
 
     def done(s, rows=slice(0, n), threads=1):
         q = np.array(start[rows], order="C")
-        ok = ev.kernels.chunk_solver(take(whole, rows), len(q), s)(q, MAX_ITERATIONS, TOL, LAMBDA0, threads)
+        ok = ev.kernels.branch_solver(take(whole, rows), len(q), s)(q, MAX_ITERATIONS, TOL, LAMBDA0, threads)
         return q, ok
 
     q, ok = done(signs)
@@ -986,5 +986,5 @@ def test_the_first_stage_is_done_only_where_every_leg_closes_on_its_branchs_sign
     assert ok_part.all() and q_part.tobytes() == q[10:610].tobytes()
     q_two, ok_two = done(signs, threads=2)
     assert q_two.tobytes() == q.tobytes() and np.array_equal(ok_two, ok)
-    with pytest.raises(ValueError, match="C-contiguous float64"):
-        ev.kernels.chunk_solver(whole, n, signs)(np.asfortranarray(q), MAX_ITERATIONS, TOL, LAMBDA0)
+    with pytest.raises(InputError, match="C-contiguous float64"):
+        ev.kernels.branch_solver(whole, n, signs)(np.asfortranarray(q), MAX_ITERATIONS, TOL, LAMBDA0)

@@ -501,12 +501,12 @@ class CKernels:
             *(() if lambda0 is None else (lambda0,)),
         )
 
-    def chunk_solver(self, p: dict, n: int, signs):
-        """The Newton iterations and the branch check of numeric IK on chunks of a batch of
-        ``n`` poses with the kernels' inputs ``p`` ((n,) arrays or scalars), each chunk in one
-        C call (:class:`.c_levenberg_marquardt.ChunkSolver`; ``signs`` (legs,) the assembly
-        branch's lever signs, 0 for either); None where the library has no ``loop_closure``
-        or one-output ``lever`` kernel or the C driver cannot be built."""
+    def branch_solver(self, p: dict, n: int, signs):
+        """The Newton iterations and the branch check of numeric IK on a batch of ``n`` poses
+        with the kernels' inputs ``p`` ((n,) arrays or scalars), in C on the threads
+        (:class:`.c_levenberg_marquardt.BranchSolver`; ``signs`` (legs,) the assembly branch's
+        lever signs, 0 for either); None where the library has no ``loop_closure`` or
+        one-output ``lever`` kernel or the C driver cannot be built."""
         from . import c_levenberg_marquardt
 
         spec, lever = self._spec.get("loop_closure"), self._spec.get("lever")
@@ -519,7 +519,7 @@ class CKernels:
         *closure, rows, block = self._closure_tables(p, n, legs, nq, keep)
         at, l_addresses, l_strides, l_q_of, _, l_keep = self.kernel_arguments("lever", p, n)
         keep += l_keep
-        return c_levenberg_marquardt.ChunkSolver(
+        return c_levenberg_marquardt.BranchSolver(
             closure, block, (at, l_addresses, l_strides, l_q_of), legs, rows, nq, signs, keep
         )
 

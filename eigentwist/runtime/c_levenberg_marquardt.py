@@ -24,7 +24,7 @@ from .addresses import address
 from .c_poses import RODRIGUES
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
-__all__ = ["driver", "iterate", "branch_driver", "ChunkSolver", "block_steps", "followers_driver", "follow", "SOURCE"]
+__all__ = ["driver", "iterate", "branch_driver", "BranchSolver", "block_steps", "followers_driver", "follow", "SOURCE"]
 
 SOURCE = (
     r"""
@@ -962,7 +962,7 @@ class _BranchBatch(ctypes.Structure):
     ]
 
 
-class ChunkSolver:
+class BranchSolver:
     """The first stage of :func:`eigentwist.runtime.levenberg_marquardt.solve` on a batch in C:
     the Newton iterations from a start, then each leg's lever and its sign against the assembly
     branch's (``et_newton_branch``), on grains of :data:`GRAIN` poses handed out to the threads
@@ -971,7 +971,7 @@ class ChunkSolver:
     the inputs of pose 0 and their strides in doubles, a joint coordinate's entry of the
     pose's row of q or -1), each grain moving them to its first pose. A pose's iterations are
     its own, so the grains do not change its result. Made by
-    :meth:`~eigentwist.runtime.c_kernels.CKernels.chunk_solver`."""
+    :meth:`~eigentwist.runtime.c_kernels.CKernels.branch_solver`."""
 
     def __init__(self, closure, block, lever, legs: int, rows: int, nq: int, signs, keep: list):
         kernel, addresses, strides, q_of = closure
@@ -997,13 +997,15 @@ class ChunkSolver:
         """Iterate the batch's starts ``q`` (n, legs, n_q), C-contiguous float64, in place, with
         first damping ``lambda0`` on ``threads`` threads (:func:`~.threads.threads_for`). Returns
         done (n,) bool: every leg of the pose converged on its branch (where not, the caller
-        solves its chunk the long way). Raises RuntimeError when the driver or the lever
-        kernel fails."""
+        solves its chunk the long way). Raises InputError for another ``q`` and RuntimeError when
+        the driver or the lever kernel fails."""
         from .threads import run_workers, threads_for
 
         n, (legs, nq) = len(q), self._shape
         if q.shape != (n, legs, nq) or q.dtype != np.float64 or not q.flags.c_contiguous:
-            raise ValueError(f"q: expected a C-contiguous float64 array ({n}, {legs}, {nq}), got {q.shape} {q.dtype}")
+            from .errors import InputError
+
+            raise InputError(f"q: expected a C-contiguous float64 array ({n}, {legs}, {nq}), got {q.shape} {q.dtype}")
         norm, lever = np.empty((n, legs)), np.empty((n, legs))
         done = np.empty(n, dtype=np.int8)
         at = ctypes.addressof

@@ -411,8 +411,8 @@ class PoseCompletion:
             q[sl], off[sl] = one(sl, inner)
 
         fast = None
-        if iterate_on is not None and hasattr(self.kernels, "chunk_solver"):
-            fast = self.kernels.chunk_solver(whole, n, signs)
+        if iterate_on is not None and hasattr(self.kernels, "branch_solver"):
+            fast = self.kernels.branch_solver(whole, n, signs)
         if fast is None:
             map_chunks(into, n, threads if iterate_on is not None else 1, NEWTON_CHUNK)
         else:
