@@ -181,7 +181,7 @@ def test_the_scheduled_grains_cover_the_batch_once_on_block_boundaries(threads):
         call, ranges = _fake_pass(freq, np.zeros(n, dtype=np.int8), block)
         poses = np.zeros((n, 3))
         at = poses.ctypes.data
-        out, clean = call.screened([at + 8 * k for k in range(3)], n, threads, at, 3, 0.5)
+        out, clean = call.screened([at + 8 * k for k in range(3)], poses, threads, 0.5)
         got = sorted(ranges)
         assert clean and np.array_equal(out["freq_hz"], freq)
         assert got[0][0] == 0 and got[-1][1] == n and all(a[1] == b[0] for a, b in zip(got, got[1:]))
@@ -210,8 +210,8 @@ def test_the_scheduler_stops_at_a_failing_grain_and_reports_its_code():
         proto(fn), ["x"], {}, {"x": 1}, model_id=0, dim=1, vectors=False, matrices=(0, ()),
         options=lambda: (ctypes.c_double * 4)(), block=64, check=lambda rc, what: seen.append(rc),
     )  # fmt: skip
-    poses = np.zeros(10 * span)
-    call.screened([poses.ctypes.data], len(poses), 1, poses.ctypes.data, 1, 0.5)
+    poses = np.zeros((10 * span, 1))
+    call.screened([poses.ctypes.data], poses, 1, 0.5)
     assert seen == [-2] and calls == [0, span, 2 * span]
 
 

@@ -697,14 +697,14 @@ int et_followers_lm(int64_t n, void *kernel_address, void *block_address, int n_
     return rc;
 }
 
-/* One chunk of numeric IK, levenberg_marquardt.solve's first stage without Python between its
-   steps: et_newton_lm's iterations on the n poses from pose `at` of the inputs (in[k] moved by
+/* A piece of a batch of numeric IK, levenberg_marquardt.solve's first stage without Python
+   between its steps: et_newton_lm's iterations on the n poses from pose `at` of the inputs (in[k] moved by
    stride[k] * at; the joint coordinates' entries, NULL, are filled by the driver) from q
    (n, legs, nq), then each leg's lever by the kernel at lever_address (its inputs lin[k]
    (lstride[k]) moved to pose `at`, or where lq_of[k] >= 0 the entry lq_of[k] of the pose's
    row of q) and its sign against ref_sign[leg] (0: either sign). lever_out (n, legs) receives
    the levers; done[i] = 1 where every leg of pose i converged (norm < tol) with its branch's
-   sign (a NaN lever has none), else 0: the caller solves those poses' chunk the long way.
+   sign (a NaN lever has none), else 0: the caller solves those poses' chunks the long way.
    Returns et_newton_lm's code, the lever kernel's, or -2 when out of memory. */
 int et_newton_branch(int64_t n, int64_t at, void *closure_address, void *block_address, int n_in,
                      const double *const *in, const int64_t *stride, const int *q_of, int legs, int rows, int nq,
@@ -1011,7 +1011,7 @@ class BranchSolver:
         at = ctypes.addressof
         ins, strides, q_of, lin, lstrides, lq_of = self._tables
         batch = _BranchBatch(
-            n, GRAIN, *self._closure[:2], self._closure[2], at(ins), at(strides), at(q_of), legs, self._rows, nq,
+            n, GRAIN, *self._closure, at(ins), at(strides), at(q_of), legs, self._rows, nq,
             address(q), address(norm), int(iterations), float(tol), float(lambda0), MAX_STEP, *self._lever,
             at(lin), at(lstrides), at(lq_of), address(self._signs), address(lever), address(done),
         )  # fmt: skip

@@ -34,9 +34,9 @@ __all__ = ["CPassRoute", "PARALLEL_SCREEN", "above_screen"]
 PARALLEL_SCREEN = 1e-3
 
 
-def above_screen(freq: np.ndarray, threads: int = 1) -> np.ndarray:
+def above_screen(freq: np.ndarray, threads: int = 1, screen: float = PARALLEL_SCREEN) -> np.ndarray:
     """(N,) whether each pose's lowest frequency (a row of ``freq``, Hz) lies above
-    :data:`PARALLEL_SCREEN` times its highest; False where the row holds a NaN. One pass per
+    ``screen`` (:data:`PARALLEL_SCREEN`) times its highest; False where the row holds a NaN. One pass per
     column: NumPy's reductions along a short last axis cost about 100 ns a pose, more than
     the C pass's checks (a NaN propagates through minimum and maximum and compares False).
     By ranges of rows, side by side on ``threads`` threads (:func:`~.completion.map_ranges`)."""
@@ -48,7 +48,7 @@ def above_screen(freq: np.ndarray, threads: int = 1) -> np.ndarray:
         for j in range(1, freq.shape[1]):
             np.minimum(lo, freq[rows, j], out=lo)
             np.maximum(hi, freq[rows, j], out=hi)
-        np.greater(lo, PARALLEL_SCREEN * hi, out=above[rows])
+        np.greater(lo, screen * hi, out=above[rows])
 
     map_ranges(part, len(freq), threads)
     return above
@@ -312,7 +312,7 @@ class CPassRoute:
         # poses checked finite first; then none flagged by the pass, none below the parallel
         # screen (the pass's frequencies ascend and are finite where no pose is flagged: the
         # lowest is the first, the highest the last)
-        ran = call.screened([base + 8 * k for k in range(columns)], n, self.nthreads(), base, self.dof, PARALLEL_SCREEN)
+        ran = call.screened([base + 8 * k for k in range(columns)], arr, self.nthreads(), PARALLEL_SCREEN)
         if ran is None:
             return None
         out, clean = ran

@@ -212,17 +212,17 @@ class PoseCompletion:
         poses = np.atleast_2d(np.asarray(poses, dtype=float))
         out = {"x": poses[:, 0], "y": poses[:, 1], "z": poses[:, 2]}
         out.update(rot_x=poses[:, 3], rot_y=poses[:, 4], rot_z=poses[:, 5])
-        threads = self.c_threads()
-        entries = None
-        if threads is not None:  # the C backend's: in C, on its threads (None: no library)
-            from .c_poses import rotation_entries as c_rotation_entries
+        from .c_poses import rotation_entries as c_rotation_entries
 
-            entries = c_rotation_entries(poses, threads)
-        if entries is None and (threads is None or len(poses) <= CHUNK):
+        threads = self.c_threads()  # the C backend's: in C, on its threads (None: no library)
+        entries = None if threads is None else c_rotation_entries(poses, threads)
+        if entries is None and len(poses) <= CHUNK:
             entries = rotation_entries(poses[:, 3:6])
         elif entries is None:  # by chunks, side by side on the threads (NumPy lets go of the GIL in its loops)
             entries = [np.empty(len(poses)) for _ in _ROTATION_NAMES]
-            map_ranges(lambda rows: rotation_entries(poses[rows, 3:6], [e[rows] for e in entries]), len(poses), threads)
+            map_ranges(
+                lambda rows: rotation_entries(poses[rows, 3:6], [e[rows] for e in entries]), len(poses), threads or 1
+            )
         out.update(zip(_ROTATION_NAMES, entries))
         return out
 
@@ -425,7 +425,12 @@ class PoseCompletion:
             map_chunks(start, n, threads, NEWTON_CHUNK)
             done = fast(q, MAX_ITERATIONS, TOL, LAMBDA0 if guess is None else GUESS_LAMBDA0, threads)
             again = [sl for sl in chunks(n, NEWTON_CHUNK) if not done[sl].all()]
-            map_chunks(lambda rows, inner: [into(sl, inner) for sl in again[rows]], len(again), threads, 1)
+
+            def redo(rows, inner):  # the chunks again[rows], one by one
+                for sl in again[rows]:
+                    into(sl, inner)
+
+            map_chunks(redo, len(again), threads, 1)
         memo.clear()
         memo[key] = (q, off)
         return q

@@ -111,39 +111,36 @@ class FusedCall:
             self.check(rc, "fused")
         return result
 
-    def screened(self, addresses: list, n: int, threads: int, poses: int, dof: int, screen: float):
-        """The pass as :meth:`__call__`, for poses whose ``dof`` values each lie contiguous
-        at address ``poses`` (bytes), checked first: None where one is not finite, else
-        (the result, whether every pose is clean: status 0 and its lowest frequency above
-        ``screen`` times its highest). The blocks are handed out and the checks run in C
-        (:func:`.c_schedule.run_pass`, each thread in one call); without the scheduler, by
-        ranges from Python with the checks in NumPy."""
+    def screened(self, addresses: list, poses: np.ndarray, threads: int, screen: float):
+        """The pass as :meth:`__call__` over ``poses`` (n, dof), C-contiguous, checked first:
+        None where one is not finite, else (the result, whether every pose is clean: status 0
+        and its lowest frequency above ``screen`` times its highest). The blocks are handed out
+        and the checks run in C (:func:`.c_schedule.run_pass`, each thread in one call);
+        without the scheduler, by ranges from Python with the checks in NumPy
+        (:func:`.c_route.above_screen`)."""
         from .c_schedule import run_pass, scheduler
 
+        n, dof = poses.shape
         if scheduler() is None:
-            return self._screened_by_ranges(addresses, n, threads, poses, dof, screen)
+            return self._screened_by_ranges(addresses, poses, threads, screen)
         result, args = self._outputs(addresses, n)
-        sched = run_pass(self.fn, n, self.block, threads, args, poses, dof, self.dim, screen)
+        sched = run_pass(self.fn, n, self.block, threads, args, address(poses), dof, self.dim, screen)
         if sched.not_finite:
             return None
         self.check(int(sched.rc), "fused")
         return result, sched.unclean == 0
 
-    def _screened_by_ranges(self, addresses, n, threads, poses, dof, screen):
+    def _screened_by_ranges(self, addresses: list, poses: np.ndarray, threads: int, screen: float):
         """:meth:`screened` by ranges from Python, the checks in NumPy."""
+        from .c_route import above_screen
         from .completion import map_ranges
 
-        arr = np.ctypeslib.as_array(ctypes.cast(poses, ctypes.POINTER(ctypes.c_double)), (n, dof))
-        if not all(map_ranges(lambda rows: bool(np.isfinite(arr[rows]).all()), n, threads)):
+        n = len(poses)
+        if not all(map_ranges(lambda rows: bool(np.isfinite(poses[rows]).all()), n, threads)):
             return None
         result = self(addresses, n, threads)
-        st, freq = result["status"], result["freq_hz"]
-
-        def clean(rows):
-            above = np.count_nonzero(freq[rows, 0] > screen * freq[rows, -1])
-            return not np.count_nonzero(st[rows]) and above == len(st[rows])
-
-        return result, all(map_ranges(clean, n, threads))
+        clean = not np.count_nonzero(result["status"]) and above_screen(result["freq_hz"], threads, screen).all()
+        return result, bool(clean)
 
     def _outputs(self, addresses: list, n: int):
         """The result's arrays for ``n`` poses and the pass's arguments after its range."""
