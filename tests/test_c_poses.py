@@ -75,3 +75,17 @@ def test_the_c_backend_reads_them_where_numpy_reads_its_own(monkeypatch):
     numpy = ev.completion.kernel_pose_inputs(poses)
     ref = rotation_entries(poses[:, 3:])
     assert all(numpy[k].tobytes() == v.tobytes() for k, v in zip(want, ref))
+
+
+@pytest.mark.parametrize("t2, series", [(0.99e-12, True), (1.01e-12, False)])
+def test_the_series_is_taken_below_the_threshold_and_the_functions_above(t2, series):
+    """R_02 of a rotation about (0.6, 0, 0.8) is b x z alone (y = 0): below t^2 = 1e-12 exactly
+    the series' b = 1/2 - t^2/24 times x z; above it (1 - cos t)/t^2, whose cancellation leaves
+    it off that value by far more than its rounding (~1e-4 relative at t ~ 1e-6)."""
+    axis = np.array([0.6, 0.0, 0.8])
+    poses = np.zeros((1, 6))
+    poses[0, 3:] = np.sqrt(t2) * axis
+    x, _, z = poses[0, 3:]
+    tt = x * x + 0.0 * 0.0 + z * z
+    r02 = c_poses.rotation_entries(poses)[2][0]
+    assert bool(r02 == (0.5 - tt / 24) * (x * z)) == series
