@@ -10,12 +10,18 @@ SCALARS = {"int64_t": ctypes.c_int64, "int": ctypes.c_int, "double": ctypes.c_do
 POINTEES = {"double": ctypes.c_double, "int64_t": ctypes.c_int64, "int": ctypes.c_int, "int8_t": ctypes.c_int8}
 
 
-def parameters(source: str, function: str) -> list[str]:
-    """The parameter types of ``int function(...)`` in ``source`` (the names dropped)."""
-    match = re.search(r"\bint\s+" + function + r"\s*\(([^)]*)\)\s*\{", source)
+def _declaration(source: str, function: str) -> re.Match:
+    """``int function(...) {`` or ``void function(...) {`` in ``source``: groups (return type, parameters)."""
+    match = re.search(r"\b(int|void)\s+" + function + r"\s*\(([^)]*)\)\s*\{", source)
     assert match, function
+    return match
+
+
+def parameters(source: str, function: str) -> list[str]:
+    """The parameter types of ``int function(...)`` (or ``void``) in ``source`` (the names dropped)."""
+    match = _declaration(source, function)
     types = []
-    for p in match.group(1).split(","):
+    for p in match.group(2).split(","):
         p = " ".join(p.split())
         name = re.search(r"\w+$", p).group(0)
         types.append(p[: -len(name)].replace("const", "").replace(" ", ""))
@@ -36,9 +42,10 @@ def accepts(c_type: str, declared) -> bool:
 
 
 def check(source: str, function: str, argtypes, restype) -> None:
-    """Assert ``argtypes``/``restype`` match ``int function(...)`` of ``source``."""
+    """Assert ``argtypes``/``restype`` match ``int function(...)`` (restype ``c_int``) or
+    ``void function(...)`` (restype None) of ``source``."""
     types = parameters(source, function)
-    assert restype is ctypes.c_int, function
+    assert restype is (ctypes.c_int if _declaration(source, function).group(1) == "int" else None), function
     assert len(argtypes) == len(types), (function, len(argtypes), len(types))
     for k, (c_type, declared) in enumerate(zip(types, argtypes)):
         assert accepts(c_type, declared), (function, k, c_type, declared)
@@ -46,9 +53,8 @@ def check(source: str, function: str, argtypes, restype) -> None:
 
 def names(source: str, function: str) -> list[str]:
     """The parameter names of ``int function(...)`` in ``source``, in order."""
-    match = re.search(r"\bint\s+" + function + r"\s*\(([^)]*)\)\s*\{", source)
-    assert match, function
-    return [re.search(r"\w+$", " ".join(p.split())).group(0) for p in match.group(1).split(",")]
+    match = _declaration(source, function)
+    return [re.search(r"\w+$", " ".join(p.split())).group(0) for p in match.group(2).split(",")]
 
 
 class Recorder:

@@ -9,10 +9,20 @@ from eigentwist.runtime import c_poses
 from eigentwist.runtime.poses import rotation_entries
 
 
+pytestmark = pytest.mark.compiled
+
+
 @pytest.fixture(autouse=True)
 def library():
-    if c_poses._function() is None:
-        pytest.skip("no C compiler")
+    """The compiled tier (skips without a compiler, fails where CI requires it); where a
+    compiler exists the library must build (a None here would make every test below compare
+    NumPy with itself)."""
+    from .conftest import compiled_tier
+
+    mp = compiled_tier()
+    assert c_poses._function() is not None
+    yield
+    mp.undo()
 
 
 def _poses(n: int, seed: int) -> np.ndarray:

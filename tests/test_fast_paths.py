@@ -244,6 +244,28 @@ def test_the_general_pass_counts_its_clean_poses(ev_c):
     assert clean.valid.all() and np.array_equal(clean.freq_hz[: len(far) // 2], m.freq_hz[: len(far) // 2])
 
 
+@compiled
+def test_the_general_pass_fills_every_output_the_same_scheduled_or_by_ranges(ev_c, monkeypatch):
+    """``CKernels.fused`` asked for every output (joint coordinates, M and K_F, the Jacobian
+    rows, frequencies, eigentwists, status) on two threads: the C scheduler's blocks and the
+    Python ranges give the same bits in each, an unreachable pose among them."""
+    from eigentwist.runtime import c_schedule
+
+    poses = random_poses(ev_c.robot, 64 * c_schedule.GRAIN_BLOCKS * 12 + 9, seed=48)
+    poses[100, 2] = 5.0  # unreachable
+    p = ev_c.completion.with_pose(poses, ev_c.parameter_values(len(poses)))
+    kw = dict(matrices=("M", "K_F"), ik=("q",), jacobians=("J_rows",), model="flexible", vectors=True)
+    kw.update(status=True, normalize=True, threads=2)
+    scheduled = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, **kw)
+    monkeypatch.setattr(c_schedule, "scheduler", lambda: None)
+    ranges = ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, **kw)
+    assert sorted(scheduled) == sorted(ranges) and {"q", "M", "K_F", "J_rows", "eigentwists"} <= set(ranges)
+    ok = ranges["status"] == 0
+    assert not ok[100] and ok.sum() == len(poses) - 1
+    for name, value in ranges.items():
+        assert value[ok].tobytes() == scheduled[name][ok].tobytes(), name
+
+
 def _counted(method, calls: list):
     """``method`` that appends to ``calls`` at each call."""
 

@@ -895,13 +895,21 @@ def test_the_pose_inputs_are_computed_once_and_left_out_of_the_memo_key(numeric,
 
 def _c_hexapod_urdf():
     """The hexapod in URDF form on the C backend (skips without a compiler)."""
+    return _c_numeric("hexapod_urdf")
+
+
+def _c_numeric(robot: str):
+    """A numeric-IK robot on the C backend, one thread (skips without a compiler): the hexapod
+    in URDF form (its legs' levers read only joint coordinates: the geometry is numbers) or
+    the gallery's 6-RUS (its levers also read the parameters R_b, l_c, l_r and the pose)."""
     from eigentwist.runtime import ccompile
 
     try:
         ccompile.find_compiler()
     except ccompile.CompilerNotFoundError as exc:
         skip_tier("compiled", str(exc))
-    return eigentwist.load(hexapod_urdf.describe(), backend="c", threads=1, progress=lambda m: None)
+    description = hexapod_urdf.describe() if robot == "hexapod_urdf" else ROOT / "examples" / "robots" / "rus6.py"
+    return eigentwist.load(description, backend="c", threads=1, progress=lambda m: None)
 
 
 def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
@@ -949,18 +957,22 @@ def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
     assert ev.modes(poses, "rigid", invalid="nan").freq_hz.tobytes() == fast_freq.tobytes()
 
 
-def test_the_first_stage_is_done_only_where_every_leg_closes_on_its_branchs_sign():
+@pytest.mark.parametrize("robot", ["hexapod_urdf", "rus6"])
+def test_the_first_stage_is_done_only_where_every_leg_closes_on_its_branchs_sign(robot):
     """``BranchSolver``'s done flag on each side of its decisions: every leg converged with its
     branch's lever sign (done); one leg's branch sign flipped (not done, on every pose); a
     branch sign of 0 (either sign: done); a pose Newton does not close (not done, alone). A
-    pose's result does not depend on its grain, its batch's first pose or the threads."""
+    pose's result does not depend on its grain, its batch's first pose, the threads or the
+    signs' number type."""
     from eigentwist.runtime.completion import take
     from eigentwist.runtime.levenberg_marquardt import LAMBDA0, MAX_ITERATIONS, TOL
 
-    ev = _c_hexapod_urdf()
+    ev = _c_numeric(robot)
     comp = ev.completion
     n = 700  # several grains
-    poses = random_poses(ev.robot, n, seed=34)
+    poses = random_poses(ev.robot, 2 * n, seed=34)
+    poses = poses[ev.valid(poses, "none")][:n]  # reachable on the assembly branch
+    assert len(poses) == n
     poses[7, :3] *= 40.0
     whole = comp.closure_inputs(poses, ev.parameter_values(n))
     signs = np.asarray(comp.assembly()["sign"], dtype=float)
@@ -986,5 +998,40 @@ def test_the_first_stage_is_done_only_where_every_leg_closes_on_its_branchs_sign
     assert ok_part.all() and q_part.tobytes() == q[10:610].tobytes()
     q_two, ok_two = done(signs, threads=2)
     assert q_two.tobytes() == q.tobytes() and np.array_equal(ok_two, ok)
-    with pytest.raises(InputError, match="C-contiguous float64"):
-        ev.kernels.branch_solver(whole, n, signs)(np.asfortranarray(q), MAX_ITERATIONS, TOL, LAMBDA0)
+    q_int, ok_int = done(signs.astype(int))
+    assert q_int.tobytes() == q.tobytes() and np.array_equal(ok_int, ok)
+    for bad in (np.asfortranarray(q), q.astype(np.float32), np.ascontiguousarray(q[:, :, :-1])):
+        with pytest.raises(InputError, match="C-contiguous float64"):
+            ev.kernels.branch_solver(whole, n, signs)(bad, MAX_ITERATIONS, TOL, LAMBDA0)
+
+
+def test_the_branch_solver_needs_a_closure_kernel_and_a_one_output_lever():
+    """``CKernels.branch_solver`` on each side of its conditions: with the ``loop_closure``
+    kernel and a ``lever`` kernel whose one output is the lever, a solver; without either, or
+    with a lever kernel of other outputs, None (the caller solves the long way). The closure's
+    block function is the exported one where its outputs are laid out as the driver's rows,
+    else None (the driver calls the kernel)."""
+    ev = _c_numeric("rus6")
+    kernels, n = ev.kernels, 4
+    poses = random_poses(ev.robot, 4 * n, seed=35)
+    whole = ev.completion.closure_inputs(poses[ev.valid(poses, "none")][:n], ev.parameter_values(n))
+    signs = np.asarray(ev.completion.assembly()["sign"], dtype=float)
+    spec = dict(kernels._spec)
+    assert kernels.branch_solver(whole, n, signs) is not None
+    lever = spec["lever"]
+    for changed in (
+        {k: v for k, v in spec.items() if k != "loop_closure"},
+        {k: v for k, v in spec.items() if k != "lever"},
+        {**spec, "lever": {**lever, "outputs": [*lever["outputs"], ["other", [1]]]}},
+    ):
+        kernels._spec = changed
+        try:
+            assert kernels.branch_solver(whole, n, signs) is None
+        finally:
+            kernels._spec = spec
+    closure = spec["loop_closure"]
+    legs, nq = kernels.N_LEGS, kernels.JOINTS_PER_LEG
+    block = kernels._closure_tables(whole, n, legs, nq, [])[-1]
+    assert block == ctypes.cast(getattr(kernels._lib, closure["block"]), ctypes.c_void_p).value
+    assert kernels._block(closure, False) is None
+    assert kernels._block({k: v for k, v in closure.items() if k != "block"}, True) is None

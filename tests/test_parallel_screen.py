@@ -94,6 +94,17 @@ def _fake_pass(freq: np.ndarray, status: np.ndarray, block: int = 64):
     return call, ranges
 
 
+def _scheduler_built():
+    """The compiled tier (skips without a compiler, fails where CI requires it): the C
+    scheduler must then be built (a None would run every "C" case by ranges)."""
+    from eigentwist.runtime import c_schedule
+
+    from .conftest import compiled_tier
+
+    compiled_tier().undo()
+    assert c_schedule.scheduler() is not None
+
+
 @pytest.fixture(params=["C", "ranges"])
 def schedule(request, monkeypatch):
     """Either way of running a prepared pass: its blocks handed out in C
@@ -101,8 +112,7 @@ def schedule(request, monkeypatch):
     from eigentwist.runtime import c_schedule
 
     if request.param == "C":
-        if c_schedule.scheduler() is None:
-            pytest.skip("no C compiler")
+        _scheduler_built()
     else:
         monkeypatch.setattr(c_schedule, "scheduler", lambda: None)
     return request.param
@@ -171,10 +181,9 @@ def test_a_long_prepared_batch_is_checked_in_every_part(monkeypatch, schedule, t
 def test_the_scheduled_grains_cover_the_batch_once_on_block_boundaries(threads):
     """The C scheduler's grains: every pose in exactly one call of the pass, each call
     GRAIN_BLOCKS blocks (the last one shorter), beginning on a block boundary."""
-    from eigentwist.runtime.c_schedule import GRAIN_BLOCKS, scheduler
+    from eigentwist.runtime.c_schedule import GRAIN_BLOCKS
 
-    if scheduler() is None:
-        pytest.skip("no C compiler")
+    _scheduler_built()
     block = 64
     for n in (1, block, block * GRAIN_BLOCKS, block * GRAIN_BLOCKS + 1, 37 * block * GRAIN_BLOCKS + 5):
         freq = np.tile(np.array([3.0, 4.0]), (n, 1))
@@ -193,11 +202,10 @@ def test_the_scheduler_stops_at_a_failing_grain_and_reports_its_code():
     (which raises); on one thread the grains after it are not run."""
     import ctypes
 
-    from eigentwist.runtime.c_schedule import GRAIN_BLOCKS, scheduler
+    from eigentwist.runtime.c_schedule import GRAIN_BLOCKS
     from eigentwist.runtime.fused_call import FusedCall
 
-    if scheduler() is None:
-        pytest.skip("no C compiler")
+    _scheduler_built()
     span, calls, seen = 64 * GRAIN_BLOCKS, [], []
 
     def fn(begin, *rest):

@@ -26,8 +26,48 @@ def test_default_is_every_core_but_one_in_a_dask_worker(monkeypatch):
 @pytest.mark.parametrize("bad", ["0", "-1", "two", "1.5"])
 def test_bad_environment_value_is_named(monkeypatch, bad):
     monkeypatch.setenv("EIGENTWIST_THREADS", bad)
-    with pytest.raises(InputError, match="EIGENTWIST_THREADS"):
+    with pytest.raises(InputError, match=r"^EIGENTWIST_THREADS = "):
         threads.resolve_threads()
+
+
+@pytest.mark.parametrize("count", ["1", "2", " 16 "])
+def test_every_whole_count_from_one_is_taken_from_the_environment(monkeypatch, count):
+    monkeypatch.setenv("EIGENTWIST_THREADS", count)
+    assert threads.resolve_threads() == int(count)
+
+
+def test_available_cores_are_the_affinity_or_the_cpu_count(monkeypatch):
+    import os
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0}, raising=False)
+    assert threads.available_cores() == 1
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 2, 5}, raising=False)
+    assert threads.available_cores() == 3
+    monkeypatch.delattr(os, "sched_getaffinity", raising=False)  # not every OS reports it
+    monkeypatch.setattr(os, "cpu_count", lambda: 3)
+    assert threads.available_cores() == 3
+    monkeypatch.setattr(os, "cpu_count", lambda: None)  # undeterminable: one
+    assert threads.available_cores() == 1
+
+
+def test_a_dask_worker_is_recognised_only_inside_one(monkeypatch):
+    """``distributed`` not imported: not a worker (and nothing imported); imported, the worker
+    is ``get_worker()``'s answer (ValueError outside a worker)."""
+    import sys
+    import types
+
+    monkeypatch.delitem(sys.modules, "distributed", raising=False)
+    assert threads._in_dask_worker() is False and "distributed" not in sys.modules
+    fake = types.ModuleType("distributed")
+
+    def outside():
+        raise ValueError("no worker found")
+
+    fake.get_worker = outside
+    monkeypatch.setitem(sys.modules, "distributed", fake)
+    assert threads._in_dask_worker() is False
+    fake.get_worker = lambda: object()
+    assert threads._in_dask_worker() is True
 
 
 @pytest.mark.parametrize("bad", [0, -2, 1.5, True, "2"])
@@ -42,6 +82,35 @@ def test_small_batches_stay_on_one_thread():
     assert threads.threads_for(2 * per - 64, 64, 8) == 1
     assert threads.threads_for(2 * per, 64, 8) == 2
     assert threads.threads_for(10**6, 64, 8) == 8
+    # a partial last block counts as a block; the count is a whole number
+    got = threads.threads_for(2 * per - 63, 64, 8)
+    assert got == 2 and type(got) is int
+
+
+def test_a_pool_per_size_of_exactly_that_many_named_threads():
+    import threading
+
+    pool = threads._pool(3)
+    assert threads._pool(3) is pool and threads._pool(2) is not pool
+    assert pool._max_workers == 3
+    assert pool.submit(lambda: threading.current_thread().name).result().startswith("eigentwist")
+
+
+@pytest.mark.parametrize("count", [2, 3])
+def test_ranges_and_tasks_run_on_at_most_that_many_threads(count):
+    """``run_ranges`` and ``map_tasks`` on ``count`` threads: many slow tasks at once never
+    occupy more than ``count`` threads (the pool of that size, not a larger default one)."""
+    import threading
+    import time
+
+    def where(*_):
+        time.sleep(0.01)
+        return threading.get_ident()
+
+    used = threads.run_ranges(where, 64 * 64, 64, count)
+    assert len(used) == count * threads.TASKS_PER_THREAD and len(set(used)) <= count
+    used = threads.map_tasks(where, list(range(6 * count)), count)
+    assert len(used) == 6 * count and 1 < len(set(used)) <= count
 
 
 @pytest.mark.parametrize("n", [1, 63, 64, 65, 1000, 64 * 37 + 5])
@@ -156,10 +225,12 @@ def test_run_workers_runs_the_work_on_that_many_threads_the_caller_one_of_them(c
 
     def work():
         barrier.wait()
-        where.append(threading.current_thread() is threading.main_thread())
+        where.append(threading.current_thread())
 
     threads.run_workers(work, count)
-    assert len(where) == count and where.count(True) == 1
+    assert len(where) == count and where.count(threading.main_thread()) == 1
+    # the others: threads of the pool of that size
+    assert all(t in threads._pool(count)._threads for t in where if t is not threading.main_thread())
 
 
 def test_run_workers_waits_for_every_worker_and_raises_the_first_error():
