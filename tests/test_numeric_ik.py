@@ -912,15 +912,19 @@ def _c_numeric(robot: str):
     return eigentwist.load(description, backend="c", threads=1, progress=lambda m: None)
 
 
-def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
+@pytest.mark.parametrize("predicted", [True, False])
+def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch, predicted):
     """Numeric IK's first stage over the batch in C (``CKernels.branch_solver``, grains on the
     threads) and, for a chunk with a pose that does not converge on its branch there, the long
     way: the joints, the off-branch flags and the frequencies equal the long way's alone bit
     for bit, past several chunks with poses beyond the workspace among them (chunks taken both
-    ways), on one and two threads."""
+    ways), on one and two threads; from the predicted start, and from the reference with the
+    reference's first damping where no start is predicted (a singular assembly configuration)."""
     from eigentwist.runtime import completion
 
     ev = _c_hexapod_urdf()
+    if not predicted:
+        monkeypatch.setitem(ev.completion.__dict__, "_predictor", None)
     monkeypatch.setattr(completion, "NEWTON_CHUNK", 256)
     poses = random_poses(ev.robot, 1500, seed=33)
     far = poses[700:1100].copy()
@@ -943,6 +947,8 @@ def test_the_first_stage_in_c_gives_the_long_ways_bits(monkeypatch):
     monkeypatch.setattr(ev.kernels, "branch_solver", counted)
     many = eigentwist.load(hexapod_urdf.describe(), backend="c", threads=2, progress=lambda m: None)
     monkeypatch.setattr(many.kernels, "branch_solver", counted)
+    if not predicted:
+        monkeypatch.setitem(many.completion.__dict__, "_predictor", None)
     fast = [e.completion.solve_joints(poses, p) for e in (ev, many)]
     fast_off = ev.completion._newton_memo[next(iter(ev.completion._newton_memo))][1]
     fast_freq = ev.modes(poses, "rigid", invalid="nan").freq_hz
@@ -1035,3 +1041,23 @@ def test_the_branch_solver_needs_a_closure_kernel_and_a_one_output_lever():
     assert block == ctypes.cast(getattr(kernels._lib, closure["block"]), ctypes.c_void_p).value
     assert kernels._block(closure, False) is None
     assert kernels._block({k: v for k, v in closure.items() if k != "block"}, True) is None
+
+
+def test_a_failing_batch_driver_raises_with_its_code(monkeypatch):
+    """The first return code a grain of the batch driver leaves (a kernel that could not
+    allocate: -2) reaches the caller as a RuntimeError naming it."""
+    from eigentwist.runtime import c_levenberg_marquardt as lm
+    from eigentwist.runtime.levenberg_marquardt import LAMBDA0, MAX_ITERATIONS, TOL
+
+    ev = _c_numeric("hexapod_urdf")
+    whole = ev.completion.closure_inputs(np.array([ev.robot.x_ref]), ev.parameter_values(1))
+    solver = ev.kernels.branch_solver(whole, 1, ev.completion.assembly()["sign"])
+
+    def failing(state):
+        ctypes.cast(state, ctypes.POINTER(lm._BranchBatch)).contents.rc = -2
+        return -2
+
+    monkeypatch.setattr(lm, "branch_driver", lambda: failing)
+    q = np.array(ev.completion.assembly()["q"], dtype=float)[None].copy()
+    with pytest.raises(RuntimeError, match="returned -2"):
+        solver(q, MAX_ITERATIONS, TOL, LAMBDA0)
