@@ -266,6 +266,42 @@ def test_the_general_pass_fills_every_output_the_same_scheduled_or_by_ranges(ev_
         assert value[ok].tobytes() == scheduled[name][ok].tobytes(), name
 
 
+@compiled
+@pytest.mark.parametrize("model", ["paper", "rigid"])
+def test_the_general_pass_marks_its_stable_poses_stable(ev_c, model):
+    """``Modes.stable`` on the C pass's general route (values per pose) in a batch that is not
+    clean (an unreachable pose): True on every pose whose frequencies are finite, as on the
+    NumPy backend; the unreachable pose invalid."""
+    poses = random_poses(ev_c.robot, 300, seed=51)
+    poses = poses[ev_c.valid(poses, model)]
+    poses[5, 2] = 5.0  # unreachable
+    k_a = np.full(len(poses), 1500.0)
+    m = ev_c.modes(poses, model, invalid="nan", k_a=k_a)
+    assert not m.valid[5] and m.valid.sum() == len(poses) - 1
+    assert m.stable[m.valid].all() and np.isfinite(m.freq_hz[m.valid]).all()
+    numpy = eigentwist.load("heli4", backend="numpy").modes(poses, model, invalid="nan", k_a=k_a)
+    assert np.array_equal(numpy.stable[m.valid], m.stable[m.valid])
+
+
+@compiled
+def test_a_failing_general_pass_names_itself(ev_c, monkeypatch):
+    """A nonzero code of the general pass raises naming it, whether its blocks were handed
+    out in C (a schedule left with -2: out of memory) or run by ranges (another code)."""
+    from eigentwist.runtime import c_schedule
+
+    poses = random_poses(ev_c.robot, 3000, seed=50)
+    p = ev_c.completion.with_pose(poses, ev_c.parameter_values(len(poses)))
+    failed = c_schedule.Schedule()
+    failed.rc = -2
+    monkeypatch.setattr(c_schedule, "run_pass", lambda *a, **kw: failed)
+    with pytest.raises(MemoryError, match=r"^C fused: out of memory"):
+        ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, model="flexible", status=True, threads=2)
+    monkeypatch.setattr(c_schedule, "run_pass", lambda *a, **kw: None)  # no scheduler: by ranges
+    monkeypatch.setitem(ev_c.kernels._fn, "fused", lambda *a: 3)
+    with pytest.raises(RuntimeError, match=r"^C fused returned 3"):
+        ev_c.kernels.fused(poses[:, 0], poses[:, 1], poses[:, 2], p, model="flexible", status=True, threads=2)
+
+
 def _counted(method, calls: list):
     """``method`` that appends to ``calls`` at each call."""
 

@@ -223,6 +223,71 @@ def test_the_scheduler_stops_at_a_failing_grain_and_reports_its_code():
     assert seen == [-2] and calls == [0, span, 2 * span]
 
 
+@pytest.mark.parametrize("screen, clean", [(0.39, True), (0.41, False)])
+def test_the_screen_asked_for_decides_clean(schedule, screen, clean):
+    """The prepared call's screen is its argument (not the route's default), either way of
+    running it: every pose's lowest frequency 0.4 times its highest is clean below a screen
+    of 0.4 and not above it."""
+    n = 64 * 12 + 5
+    freq = np.tile(np.array([4.0, 10.0]), (n, 1))
+    call, _ = _fake_pass(freq, np.zeros(n, dtype=np.int8))
+    poses = np.zeros((n, 3))
+    out, got = call.screened([poses.ctypes.data + 8 * k for k in range(3)], poses, 2, screen)
+    assert got is clean and np.array_equal(out["freq_hz"], freq)
+
+
+@pytest.mark.parametrize("way", ["screened", "unchecked"])
+def test_a_failing_grain_reaches_the_pass_check_named(schedule, way):
+    """The first nonzero code of the pass reaches the prepared call's check with the pass's
+    name, scheduled in C or by ranges, through the screened call and the unchecked one
+    (``FusedCall.__call__``: the raw pass of ``benchmarks/public_path.py``)."""
+    import ctypes
+
+    from eigentwist.runtime.fused_call import FusedCall
+
+    seen = []
+
+    def fn(begin, end, *rest):
+        return -2 if end > 640 else 0  # a later grain fails, or the one call over every pose
+
+    P = ctypes.c_void_p
+    proto = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ctypes.c_int64, P, P, ctypes.c_int, *[P] * 7)
+    call = FusedCall(
+        proto(fn), ["x"], {}, {"x": 1}, model_id=0, dim=1, vectors=False, matrices=(0, ()),
+        options=lambda: (ctypes.c_double * 4)(), block=64, check=lambda rc, what: seen.append((rc, what)),
+    )  # fmt: skip
+    poses = np.zeros((64 * 40, 1))
+    if way == "screened":
+        call.screened([poses.ctypes.data], poses, 1, 0.5)
+    else:
+        call([poses.ctypes.data], len(poses), 1)
+    assert (-2, "fused") in seen and all(what == "fused" for _, what in seen)
+
+
+@pytest.mark.compiled
+def test_the_unchecked_prepared_call_gives_the_screened_calls_bits(compiled, monkeypatch):
+    """``FusedCall.__call__`` (no finite check, no screen) on a robot's prepared pass: the
+    outputs of the screened call bit for bit, scheduled in C on two threads and by ranges."""
+    import eigentwist
+    from eigentwist.runtime import c_schedule
+
+    from .conftest import random_poses
+
+    ev = eigentwist.load("hexapod", backend="c", threads=2)
+    call, columns = ev.c_route.plan("none", {}, "raise", "nan", True)[:2]
+    poses = random_poses(ev.robot, 64 * c_schedule.GRAIN_BLOCKS * 6 + 3, seed=49)
+    poses = np.ascontiguousarray(poses[ev.valid(poses, "none")])
+    at = [poses.ctypes.data + 8 * k for k in range(columns)]
+    screened, _ = call.screened(at, poses, 2, PARALLEL_SCREEN)
+    assert len(poses) > 64 * c_schedule.GRAIN_BLOCKS * 2 and {"freq_hz", "status", "eigentwists"} <= set(screened)
+    ways = [call(at, len(poses), 2)]
+    monkeypatch.setattr(c_schedule, "scheduler", lambda: None)
+    ways.append(call(at, len(poses), 2))
+    for got in ways:
+        assert sorted(got) == sorted(screened)
+        assert all(got[k].tobytes() == screened[k].tobytes() for k in got)
+
+
 def test_valid_screens_the_parallel_check_with_the_pass_frequencies(monkeypatch):
     """``checks.valid`` with the pass's frequencies sends only the reachable poses below the
     screen to the exact parallel check; without them, every reachable pose."""
