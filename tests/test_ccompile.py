@@ -122,3 +122,28 @@ def test_unsafe_cache_is_one_line_on_the_command_line(cc, tmp_path, monkeypatch,
     assert main(["matrices", "--backend", "c"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "writable by others" in err, err
+
+
+def test_a_helper_library_is_built_and_bound_once_or_kept_as_none(monkeypatch):
+    """``library_once``: the first call builds and binds, later calls return what it kept
+    (no second build, no second binding); where no compiler builds the library, None is kept
+    and nothing is bound or kept loaded."""
+    from eigentwist.runtime import ccompile
+
+    built, bound = [], []
+    library = object()
+    monkeypatch.setattr(ccompile, "load_library", lambda source, name: built.append((source, name)) or library)
+
+    def bind(lib):
+        bound.append(lib)
+        return "function"
+
+    kept, libraries = [], []
+    for _ in range(3):
+        assert ccompile.library_once(kept, libraries, "int f(void);", "f", bind) == "function"
+    assert built == [("int f(void);", "f")] and bound == [library] and libraries == [library] and kept == ["function"]
+    monkeypatch.setattr(ccompile, "load_library", lambda source, name: built.append(name) or None)
+    kept, libraries = [], []
+    assert ccompile.library_once(kept, libraries, "int g(void);", "g", bind) is None
+    assert ccompile.library_once(kept, libraries, "int g(void);", "g", bind) is None
+    assert kept == [None] and libraries == [] and bound == [library] and built[1:] == ["g"]

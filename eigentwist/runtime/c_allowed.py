@@ -182,33 +182,30 @@ _REDUCE: list = []  # its et_reduce, bound with the driver
 def driver():
     """The compiled driver ``et_allowed_twists`` (built on first use into the cache), or
     None where it cannot be built (no compiler)."""
-    if not _DRIVER:
-        from .ccompile import load_library
+    from .ccompile import library_once
 
-        lib = load_library(SOURCE, "allowed")
-        fn = None
-        if lib is not None:
-            _LIBRARIES.append(lib)
-            fn = lib.et_allowed_twists
-            fn.argtypes = [
-                ctypes.c_int64,
-                ctypes.c_void_p,
-                ctypes.c_int64,
-                ctypes.c_int,
-                ctypes.c_void_p,
-                ctypes.c_int,
-                ctypes.c_void_p,
-                ctypes.c_int,
-                ctypes.c_double,
-                ctypes.c_double,
-                ctypes.c_void_p,
-            ]
-            fn.restype = ctypes.c_int
-            lib.et_reduce.argtypes = [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
-            lib.et_reduce.restype = None
-            _REDUCE.append(lib.et_reduce)
-        _DRIVER.append(fn)
-    return _DRIVER[0]
+    def bind(lib):
+        fn = lib.et_allowed_twists
+        fn.argtypes = [
+            ctypes.c_int64,
+            ctypes.c_void_p,
+            ctypes.c_int64,
+            ctypes.c_int,
+            ctypes.c_void_p,
+            ctypes.c_int,
+            ctypes.c_void_p,
+            ctypes.c_int,
+            ctypes.c_double,
+            ctypes.c_double,
+            ctypes.c_void_p,
+        ]
+        fn.restype = ctypes.c_int
+        lib.et_reduce.argtypes = [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+        lib.et_reduce.restype = None
+        _REDUCE.append(lib.et_reduce)
+        return fn
+
+    return library_once(_DRIVER, _LIBRARIES, SOURCE, "allowed", bind)
 
 
 def reduce(X: np.ndarray, B: np.ndarray, threads: int = 1) -> np.ndarray:

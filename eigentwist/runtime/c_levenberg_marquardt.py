@@ -807,39 +807,34 @@ _LIBRARIES: list = []  # the loaded driver library, kept for the process
 _FOLLOWERS: list = []  # [ctypes function et_followers_lm] once bound, [None] when it cannot be
 
 
+#: the leading arguments of a driver calling a generated kernel: poses, the kernel's and its
+#: block function's addresses, its inputs' count, addresses, strides and joint entries (q_of)
+_KERNEL_ARGS = [
+    ctypes.c_int64,
+    ctypes.c_void_p,
+    ctypes.c_void_p,
+    ctypes.c_int,
+    ctypes.POINTER(ctypes.c_void_p),
+    ctypes.POINTER(ctypes.c_int64),
+    ctypes.POINTER(ctypes.c_int),
+]
+#: the trailing arguments of the Newton drivers: iterations, tolerance, first damping, largest step
+_NEWTON_ARGS = [ctypes.c_int, ctypes.c_double, ctypes.c_double, ctypes.c_double]
+
+
 def driver():
     """The compiled driver ``et_newton_lm`` (built on first use into the cache), or None
     where it cannot be built (no compiler)."""
-    if not _DRIVER:
-        from .ccompile import load_library
+    from .ccompile import library_once
 
-        lib = load_library(SOURCE, "newton")
-        fn = None
-        if lib is not None:
-            _LIBRARIES.append(lib)
-            fn = lib.et_newton_lm
-            P = ctypes.POINTER
-            fn.argtypes = [
-                ctypes.c_int64,
-                ctypes.c_void_p,
-                ctypes.c_void_p,
-                ctypes.c_int,
-                P(ctypes.c_void_p),
-                P(ctypes.c_int64),
-                P(ctypes.c_int),
-                ctypes.c_int,
-                ctypes.c_int,
-                ctypes.c_int,
-                ctypes.c_void_p,
-                ctypes.c_void_p,
-                ctypes.c_int,
-                ctypes.c_double,
-                ctypes.c_double,
-                ctypes.c_double,
-            ]
-            fn.restype = ctypes.c_int
-        _DRIVER.append(fn)
-    return _DRIVER[0]
+    def bind(lib):
+        fn = lib.et_newton_lm
+        # legs, rows, n_q, q, the residual norms
+        fn.argtypes = _KERNEL_ARGS + [ctypes.c_int] * 3 + [ctypes.c_void_p] * 2 + _NEWTON_ARGS
+        fn.restype = ctypes.c_int
+        return fn
+
+    return library_once(_DRIVER, _LIBRARIES, SOURCE, "newton", bind)
 
 
 def block_steps(A: np.ndarray, r: np.ndarray, scale, shift: float):
@@ -1029,26 +1024,9 @@ def followers_driver():
         fn = None
         if driver() is not None and _LIBRARIES:
             fn = _LIBRARIES[0].et_followers_lm
-            P = ctypes.POINTER
-            fn.argtypes = [
-                ctypes.c_int64,
-                ctypes.c_void_p,
-                ctypes.c_void_p,
-                ctypes.c_int,
-                P(ctypes.c_void_p),
-                P(ctypes.c_int64),
-                P(ctypes.c_int),
-                ctypes.c_int,
-                P(ctypes.c_int),
-                ctypes.c_int,
-                ctypes.c_void_p,
-                ctypes.c_void_p,
-                ctypes.c_void_p,
-                ctypes.c_int,
-                ctypes.c_double,
-                ctypes.c_double,
-                ctypes.c_double,
-            ]
+            # the followers' count and indices, the closures per pose, the full poses, q, the norms
+            P, V = ctypes.POINTER, ctypes.c_void_p
+            fn.argtypes = _KERNEL_ARGS + [ctypes.c_int, P(ctypes.c_int), ctypes.c_int, V, V, V] + _NEWTON_ARGS
             fn.restype = ctypes.c_int
         _FOLLOWERS.append(fn)
     return _FOLLOWERS[0]

@@ -80,18 +80,15 @@ _LIBRARIES: list = []
 
 
 def _function():
-    if not _FN:
-        from .ccompile import load_library
+    from .ccompile import library_once
 
-        lib = load_library(SOURCE, "poses")
-        fn = None
-        if lib is not None:
-            _LIBRARIES.append(lib)
-            fn = lib.et_rotation_entries
-            fn.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
-            fn.restype = None
-        _FN.append(fn)
-    return _FN[0]
+    def bind(lib):
+        fn = lib.et_rotation_entries
+        fn.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
+        fn.restype = None
+        return fn
+
+    return library_once(_FN, _LIBRARIES, SOURCE, "poses", bind)
 
 
 def rotation_entries(poses: np.ndarray, threads: int = 1, block: int = 256) -> list | None:

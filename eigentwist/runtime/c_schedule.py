@@ -134,18 +134,15 @@ _LIBRARIES: list = []  # the loaded library, kept for the process
 def scheduler():
     """The compiled ``et_schedule_work`` (built on first use into the cache), or None where
     it cannot be built."""
-    if not _SCHEDULER:
-        from .ccompile import load_library
+    from .ccompile import library_once
 
-        lib = load_library(SOURCE, "schedule")
-        fn = None
-        if lib is not None:
-            _LIBRARIES.append(lib)
-            fn = lib.et_schedule_work
-            fn.argtypes = [ctypes.c_void_p]
-            fn.restype = ctypes.c_int
-        _SCHEDULER.append(fn)
-    return _SCHEDULER[0]
+    def bind(lib):
+        fn = lib.et_schedule_work
+        fn.argtypes = [ctypes.c_void_p]
+        fn.restype = ctypes.c_int
+        return fn
+
+    return library_once(_SCHEDULER, _LIBRARIES, SOURCE, "schedule", bind)
 
 
 def _at(arg):

@@ -60,6 +60,8 @@ __all__ = [
     "note",
     "read_shipped",
     "DamagedFileError",
+    "load_library",
+    "library_once",
 ]
 
 
@@ -338,6 +340,20 @@ def load_library(source: str, name: str):
     except (BuildError, OSError):
         pass
     return None
+
+
+def library_once(kept: list, libraries: list, source: str, name: str, bind):
+    """A hand-written helper library's bound function, built once per process: on the first
+    call the library compiled from ``source`` (:func:`load_library`) is appended to
+    ``libraries`` (the module's list: loaded for the process) and ``bind(library)`` (the
+    function, its argument and return types declared) to ``kept``; where no compiler
+    builds it, None is kept (the callers take their Python or NumPy way). Returns ``kept[0]``."""
+    if not kept:
+        library = load_library(source, name)
+        if library is not None:
+            libraries.append(library)
+        kept.append(None if library is None else bind(library))
+    return kept[0]
 
 
 def build_library(source: str, name: str, cc: str, flags: list[str], directory: Path | None = None) -> Path:
