@@ -320,6 +320,15 @@ def compiled_tier() -> pytest.MonkeyPatch:
     return mp
 
 
+@pytest.fixture
+def compiled():
+    """The ``compiled`` tier for one test (:func:`compiled_tier`: skips without a compiler, fails
+    where CI requires the tier; the run's one cache), undone after it."""
+    mp = compiled_tier()
+    yield
+    mp.undo()
+
+
 def c_cache_dir():
     """The run's one eigentwist cache (``$EIGENTWIST_CACHE``, ``$XDG_CACHE_HOME/eigentwist`` or
     ``~/.cache/eigentwist``), for the tests that compile into an explicit directory: the

@@ -21,15 +21,6 @@ from .c_signatures import check
 pytestmark = pytest.mark.compiled
 
 
-@pytest.fixture
-def compiled():
-    from .conftest import compiled_tier
-
-    mp = compiled_tier()
-    yield
-    mp.undo()
-
-
 def test_the_scheduler_builds_binds_as_declared_and_hands_out_every_block(compiled, monkeypatch):
     from .test_parallel_screen import _fake_pass
 

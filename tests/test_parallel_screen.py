@@ -313,15 +313,6 @@ def test_valid_screens_the_parallel_check_with_the_pass_frequencies(monkeypatch)
     assert sent == [[0, 1, 2, 5]] and ok.tolist() == [False] * 6
 
 
-@pytest.fixture
-def compiled():
-    from .conftest import compiled_tier
-
-    mp = compiled_tier()
-    yield
-    mp.undo()
-
-
 @pytest.mark.compiled
 def test_the_screen_model_is_the_c_routes(compiled):
     """The model whose frequencies screen ``valid``'s parallel check: the C route's own

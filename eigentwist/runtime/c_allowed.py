@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from .addresses import address
+from .ccompile import library_once
 
 __all__ = ["driver", "allowed_twists", "reduce", "SOURCE", "BLOCK"]
 
@@ -179,33 +180,34 @@ _LIBRARIES: list = []  # the loaded driver library, kept for the process
 _REDUCE: list = []  # its et_reduce, bound with the driver
 
 
+def _bind(lib):
+    """et_allowed_twists of the loaded library, its argument and return types declared;
+    et_reduce declared too and kept in ``_REDUCE``."""
+    fn = lib.et_allowed_twists
+    fn.argtypes = [
+        ctypes.c_int64,
+        ctypes.c_void_p,
+        ctypes.c_int64,
+        ctypes.c_int,
+        ctypes.c_void_p,
+        ctypes.c_int,
+        ctypes.c_void_p,
+        ctypes.c_int,
+        ctypes.c_double,
+        ctypes.c_double,
+        ctypes.c_void_p,
+    ]
+    fn.restype = ctypes.c_int
+    lib.et_reduce.argtypes = [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+    lib.et_reduce.restype = None
+    _REDUCE.append(lib.et_reduce)
+    return fn
+
+
 def driver():
     """The compiled driver ``et_allowed_twists`` (built on first use into the cache), or
     None where it cannot be built (no compiler)."""
-    from .ccompile import library_once
-
-    def bind(lib):
-        fn = lib.et_allowed_twists
-        fn.argtypes = [
-            ctypes.c_int64,
-            ctypes.c_void_p,
-            ctypes.c_int64,
-            ctypes.c_int,
-            ctypes.c_void_p,
-            ctypes.c_int,
-            ctypes.c_void_p,
-            ctypes.c_int,
-            ctypes.c_double,
-            ctypes.c_double,
-            ctypes.c_void_p,
-        ]
-        fn.restype = ctypes.c_int
-        lib.et_reduce.argtypes = [ctypes.c_int64, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
-        lib.et_reduce.restype = None
-        _REDUCE.append(lib.et_reduce)
-        return fn
-
-    return library_once(_DRIVER, _LIBRARIES, SOURCE, "allowed", bind)
+    return library_once(_DRIVER, _LIBRARIES, SOURCE, "allowed", _bind)
 
 
 def reduce(X: np.ndarray, B: np.ndarray, threads: int = 1) -> np.ndarray:

@@ -50,6 +50,7 @@ import ctypes
 import numpy as np
 
 from .addresses import address
+from .ccompile import library_once
 
 __all__ = [
     "driver",
@@ -1540,52 +1541,50 @@ _EXACT: list = []  # its et_exact_pass
 _COMPLEX: list = []  # its et_damped_complex
 
 
+def _bind(lib):
+    """et_damped of the loaded library, its argument and return types declared; the functions
+    beside it (the wrenches, the damped pass, the legs', the exact pass, the complex solver)
+    declared too and kept in their lists."""
+    fn = lib.et_damped
+    d, i = ctypes.c_double, ctypes.c_int
+    fn.argtypes = [ctypes.c_int64, i, i] + [ctypes.c_void_p] * 7 + [d, d, d] + [ctypes.c_void_p] * 6
+    fn.restype = ctypes.c_int
+    lib.et_wrenches.argtypes = [ctypes.c_int64, i, i, i, ctypes.c_void_p, ctypes.c_void_p, d] + [ctypes.c_void_p] * 3
+    lib.et_wrenches.restype = ctypes.c_int
+    _WRENCHES.append(lib.et_wrenches)
+    lib.et_wrenches_complex.argtypes = [ctypes.c_int64, i, i, i] + [ctypes.c_void_p] * 4 + [d] + [ctypes.c_void_p] * 3
+    lib.et_wrenches_complex.restype = ctypes.c_int
+    _WRENCHES.append(lib.et_wrenches_complex)
+    v, i64 = ctypes.c_void_p, ctypes.c_int64
+    lib.et_damped_pass.argtypes = (
+        [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
+        + [v, i, v, v, v, i, v, v, v, i]
+        + [v, v, v, v, i, i, i, v, i, v, v, v, d, d, d, d]
+        + [v] * 6
+    )
+    lib.et_damped_pass.restype = ctypes.c_int
+    _PASS.append(lib.et_damped_pass)
+    lib.et_damped_legs.argtypes = [i64, i, i, i, i, v, v, i, v, i, v, v, v, i, v, v, v, d, d, d, d] + [v] * 6
+    lib.et_damped_legs.restype = ctypes.c_int
+    _LEGS.append(lib.et_damped_legs)
+    lib.et_exact_pass.argtypes = (
+        [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
+        + [v, i, v, v, v, i, v, v, v, i]
+        + [v, v, v, v, i, i, v, v, v, d, d, d, d, d]
+        + [v] * 9
+    )
+    lib.et_exact_pass.restype = ctypes.c_int
+    _EXACT.append(lib.et_exact_pass)
+    lib.et_damped_complex.argtypes = [i64, i, i] + [v] * 8 + [d, d, d] + [v] * 6
+    lib.et_damped_complex.restype = ctypes.c_int
+    _COMPLEX.append(lib.et_damped_complex)
+    return fn
+
+
 def driver():
     """The compiled driver ``et_damped`` (built on first use into the cache, loaded after its
     SHA-256 is checked), or None where it cannot be built (no compiler)."""
-    from .ccompile import library_once
-
-    def bind(lib):
-        fn = lib.et_damped
-        d, i = ctypes.c_double, ctypes.c_int
-        fn.argtypes = [ctypes.c_int64, i, i] + [ctypes.c_void_p] * 7 + [d, d, d] + [ctypes.c_void_p] * 6
-        fn.restype = ctypes.c_int
-        lib.et_wrenches.argtypes = [ctypes.c_int64, i, i, i, ctypes.c_void_p, ctypes.c_void_p, d] + [
-            ctypes.c_void_p
-        ] * 3
-        lib.et_wrenches.restype = ctypes.c_int
-        _WRENCHES.append(lib.et_wrenches)
-        lib.et_wrenches_complex.argtypes = (
-            [ctypes.c_int64, i, i, i] + [ctypes.c_void_p] * 4 + [d] + [ctypes.c_void_p] * 3
-        )
-        lib.et_wrenches_complex.restype = ctypes.c_int
-        _WRENCHES.append(lib.et_wrenches_complex)
-        v, i64 = ctypes.c_void_p, ctypes.c_int64
-        lib.et_damped_pass.argtypes = (
-            [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
-            + [v, i, v, v, v, i, v, v, v, i]
-            + [v, v, v, v, i, i, i, v, i, v, v, v, d, d, d, d]
-            + [v] * 6
-        )
-        lib.et_damped_pass.restype = ctypes.c_int
-        _PASS.append(lib.et_damped_pass)
-        lib.et_damped_legs.argtypes = [i64, i, i, i, i, v, v, i, v, i, v, v, v, i, v, v, v, d, d, d, d] + [v] * 6
-        lib.et_damped_legs.restype = ctypes.c_int
-        _LEGS.append(lib.et_damped_legs)
-        lib.et_exact_pass.argtypes = (
-            [i64, i64, i64, v, v, v, i, v, v, v, v, v, v, v]
-            + [v, i, v, v, v, i, v, v, v, i]
-            + [v, v, v, v, i, i, v, v, v, d, d, d, d, d]
-            + [v] * 9
-        )
-        lib.et_exact_pass.restype = ctypes.c_int
-        _EXACT.append(lib.et_exact_pass)
-        lib.et_damped_complex.argtypes = [i64, i, i] + [v] * 8 + [d, d, d] + [v] * 6
-        lib.et_damped_complex.restype = ctypes.c_int
-        _COMPLEX.append(lib.et_damped_complex)
-        return fn
-
-    return library_once(_DRIVER, _LIBRARIES, SOURCE, "damped", bind)
+    return library_once(_DRIVER, _LIBRARIES, SOURCE, "damped", _bind)
 
 
 def solve(M, K, W, h, k_d, c_d, t_d, eliminate: float, unstable: float, ambiguous: float, threads: int = 1):

@@ -21,6 +21,7 @@ import ctypes
 import numpy as np
 
 from .addresses import address
+from .ccompile import library_once
 from .c_poses import RODRIGUES
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
@@ -822,19 +823,19 @@ _KERNEL_ARGS = [
 _NEWTON_ARGS = [ctypes.c_int, ctypes.c_double, ctypes.c_double, ctypes.c_double]
 
 
+def _bind(lib):
+    """et_newton_lm of the loaded library, its argument and return types declared."""
+    fn = lib.et_newton_lm
+    # legs, rows, n_q, q, the residual norms
+    fn.argtypes = _KERNEL_ARGS + [ctypes.c_int] * 3 + [ctypes.c_void_p] * 2 + _NEWTON_ARGS
+    fn.restype = ctypes.c_int
+    return fn
+
+
 def driver():
     """The compiled driver ``et_newton_lm`` (built on first use into the cache), or None
     where it cannot be built (no compiler)."""
-    from .ccompile import library_once
-
-    def bind(lib):
-        fn = lib.et_newton_lm
-        # legs, rows, n_q, q, the residual norms
-        fn.argtypes = _KERNEL_ARGS + [ctypes.c_int] * 3 + [ctypes.c_void_p] * 2 + _NEWTON_ARGS
-        fn.restype = ctypes.c_int
-        return fn
-
-    return library_once(_DRIVER, _LIBRARIES, SOURCE, "newton", bind)
+    return library_once(_DRIVER, _LIBRARIES, SOURCE, "newton", _bind)
 
 
 def block_steps(A: np.ndarray, r: np.ndarray, scale, shift: float):

@@ -17,6 +17,7 @@ import ctypes
 import numpy as np
 
 from .addresses import address
+from .ccompile import library_once
 
 __all__ = ["rotation_entries", "RODRIGUES", "SOURCE"]
 
@@ -79,16 +80,18 @@ _FN: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []
 
 
+def _bind(lib):
+    """et_rotation_entries of the loaded library, its argument and return types declared."""
+    fn = lib.et_rotation_entries
+    fn.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
+    fn.restype = None
+    return fn
+
+
 def _function():
-    from .ccompile import library_once
-
-    def bind(lib):
-        fn = lib.et_rotation_entries
-        fn.argtypes = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
-        fn.restype = None
-        return fn
-
-    return library_once(_FN, _LIBRARIES, SOURCE, "poses", bind)
+    """The compiled ``et_rotation_entries`` (built on first use into the cache), or None where
+    it cannot be built."""
+    return library_once(_FN, _LIBRARIES, SOURCE, "poses", _bind)
 
 
 def rotation_entries(poses: np.ndarray, threads: int = 1, block: int = 256) -> list | None:

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import ctypes
 
+from .ccompile import library_once
+
 __all__ = ["GRAIN_BLOCKS", "Schedule", "scheduler", "run_pass", "SOURCE"]
 
 #: blocks a thread takes at a time: 256 poses at 64 a block, a few hundred microseconds of
@@ -131,18 +133,18 @@ _SCHEDULER: list = []  # [ctypes function] once built, [None] when it cannot be
 _LIBRARIES: list = []  # the loaded library, kept for the process
 
 
+def _bind(lib):
+    """et_schedule_work of the loaded library, its argument and return types declared."""
+    fn = lib.et_schedule_work
+    fn.argtypes = [ctypes.c_void_p]
+    fn.restype = ctypes.c_int
+    return fn
+
+
 def scheduler():
     """The compiled ``et_schedule_work`` (built on first use into the cache), or None where
     it cannot be built."""
-    from .ccompile import library_once
-
-    def bind(lib):
-        fn = lib.et_schedule_work
-        fn.argtypes = [ctypes.c_void_p]
-        fn.restype = ctypes.c_int
-        return fn
-
-    return library_once(_SCHEDULER, _LIBRARIES, SOURCE, "schedule", bind)
+    return library_once(_SCHEDULER, _LIBRARIES, SOURCE, "schedule", _bind)
 
 
 def _at(arg):
