@@ -483,3 +483,38 @@ def test_the_kept_comparison_is_the_evaluated_one_bit_for_bit(ev_fast, truth, mo
     if model != MODEL:
         assert np.array_equal(out.comparison.zeta, anew.zeta)
         assert np.array_equal(out.comparison.zeta_residuals, anew.zeta_residuals, equal_nan=True)
+
+
+def test_a_lag_the_data_do_not_have_fits_no_worse_than_the_model_it_nests(ev_fast):
+    """servo_delay tried on damped data without a lag: a lag makes the stiff settings unstable
+    over its whole start grid (t_d = 0.1-10 ms; chi2 above 1e3 there), so the candidate's fit
+    also starts at the ends of its search range, one of which (t_d = 1 us) is all but the model
+    without it. It ends no worse than that model, to within one unit of chi2 (1 us is not
+    quite no lag), t_d near that end: no lag, not a precise wrong one (2.5e-4 s at chi2 1.7e3
+    from the grid alone)."""
+    import importlib
+
+    from eigentwist.diagnose import scope
+
+    select = importlib.import_module("eigentwist.diagnose.select")
+    poses = [[0.0, 0.0, -0.625], [0.06, -0.04, -0.6]]
+    truth = "paper+servo_damping:c_a=0.12+structural_loss:eta_s=0.08"
+    meas = synth(
+        truth,
+        [250, 500, 1000, 4000],
+        poses,
+        ("x", "y", "z"),
+        "0.5%",
+        seed=1,
+        ev=ev_fast,
+        kind="damped",
+        zeta_noise="5%",
+    )
+    model = scope.order(
+        ev_fast, ["actuator_loss", "rod_compliance", "ee_compliance", "servo_damping", "structural_loss"]
+    )
+    parent = fit(meas, model, ev_fast, ("c_a", "eta_s"))
+    f, own = select._fit_effect(meas, ev_fast, parent, "servo_delay")
+    assert own == ("t_d",) and parent.chi2 < 2 * parent.n  # the parent explains the data
+    assert f.chi2 <= parent.chi2 + 1.0
+    assert f.values["t_d"] < 1e-5  # a tenth of the start grid's least: no lag to speak of

@@ -467,3 +467,133 @@ def test_a_constraint_cuts_the_fits_search_range(monkeypatch):
     out = fm.fit(meas, ("e@2",), ev, ("a", "b"), start={"a": 1.2}, fixed={"c": 3.0})
     assert seen == [("a", {"a": 1.2, "c": 3.0}, {"e"})]
     assert out.values["a"] == pytest.approx(1.5, rel=1e-6) and out.at_bound == ("a",)  # the optimum (2) is beyond
+
+
+# ------------------------------------------------------------------ starts: the grid, the corners, the refit
+
+
+def test_the_corners_of_the_explored_box_pair_each_explored_ends_with_the_others_starts():
+    tr = [
+        fm.Transform("a", True, 0.01, 100.0, 1.0, 1.0),  # explored, positive: its two ends
+        fm.Transform("b", False, -5.0, 5.0, 0.0, 2.0),  # linear: never explored
+        fm.Transform("c", True, 1e-3, 1e3, 1.0, 1.0),  # positive, not in explore: at its start
+        fm.Transform("d", True, 0.1, 10.0, 1.0, 1.0),  # explored, positive
+    ]
+    start = {"a": 2.0, "b": 0.5, "c": 7.0, "d": 1.0}
+    ends = fm._ends(tr, start, {"a", "b", "d"})
+    assert ends.tolist() == [
+        [0.01, 0.5, 7.0, 0.1],
+        [0.01, 0.5, 7.0, 10.0],
+        [100.0, 0.5, 7.0, 0.1],
+        [100.0, 0.5, 7.0, 10.0],
+    ]
+    # a parameter given its own start values is screened over them, not over its ends; a start
+    # outside the search range is clipped into it
+    given = fm._ends(tr, {**start, "c": 5e3}, {"a", "d"}, {"d": (-1.0, 3.0)})
+    assert given.tolist() == [[0.01, 0.5, 1e3, 0.1], [100.0, 0.5, 1e3, 0.1]]
+    assert fm._ends(tr, start, {"b"}).shape == (0, 4) and fm._ends(tr, start, set()).shape == (0, 4)
+
+
+def test_a_start_the_model_cannot_evaluate_is_never_taken():
+    table = np.array([[1.0], [2.0], [3.0]])
+    assert fm._best_start(table, np.array([np.nan, 5.0, 4.0])).tolist() == [3.0]  # argmin would take the NaN
+    assert fm._best_start(table, np.array([2.0, np.inf, np.nan])).tolist() == [1.0]
+    assert fm._best_start(table, np.array([np.nan, np.nan, np.nan])).tolist() == [1.0]  # none: the first
+
+
+class Valley(Linear):
+    """One row measured at 0 Hz (sigma 1): f(a) = (1 + x^2 / 2) (x - x_lo) / -x_lo with x = ln a.
+    Over the start grid (a = 0.1 ... 10) a valley whose floor, near a = 1, is 0.96; at the lower
+    end of the search range (a = 1e-3) the model vanishes, f = 0: the nested model."""
+
+    X_LO = math.log(1e-3)
+
+    def predict_sets(self, names, values, strict=True, zeta=False, first=False):
+        self.calls.append(np.array(values))
+        x = np.log(np.asarray(values, dtype=float)[:, :1])
+        f = (1 + x * x / 2) * (x - self.X_LO) / -self.X_LO
+        return (f, NS(values=np.array(values)[0].tolist())) if first else f
+
+
+def _valley_world(monkeypatch, valley=True):
+    meas = FitRows([0.0], [1.0])
+    made = []
+
+    def predictor(m, effects, ev, fixed):
+        p = (Valley if valley else Linear)(m, [0.5], [[1.0]], names=("a",))
+        made.append(p)
+        return p
+
+    def comparison(m, effects, ev, values, first=None):
+        f = made[-1].predict_sets(("a",), np.array([[values["a"]]]), strict=False)
+        return NS(chi2=float(np.sum(f * f)), values=dict(values), effects=tuple(effects), first=first)
+
+    monkeypatch.setattr(fm, "Predictor", predictor)
+    monkeypatch.setattr(fm, "_comparison", comparison)
+    params = {"a": _param(1.0, (0.0, math.inf), "a")}
+    return meas, NS(parameter=lambda n: params[n], damped_model=lambda effects: False), made
+
+
+def test_a_fit_that_ends_above_a_corner_is_fitted_again_from_it(monkeypatch):
+    meas, ev, made = _valley_world(monkeypatch)
+    solved = []
+    solve = fm._solve
+    monkeypatch.setattr(fm, "_solve", lambda *a: solved.append(a[3]) or solve(*a))
+    out = fm.fit(meas, ("e",), ev, ("a",), explore=("a",))
+    # the start grid's best (a = 1) descends to the valley's floor (chi2 0.96), above the lower
+    # corner (chi2 0): fitted again from there, it ends at the corner, where the model vanishes
+    assert [float(s[0]) for s in solved] == [1.0, pytest.approx(1e-3)]
+    assert out.values["a"] == pytest.approx(1e-3, rel=1e-6) and out.chi2 < 1e-12 and out.at_bound == ("a",)
+    assert out.nfev > 2  # both runs counted
+    screened = made[0].calls[0][:, 0]  # one batched evaluation: the grid, then the two corners
+    assert screened.tolist() == pytest.approx([0.1, 0.3, 1.0, 3.0, 10.0, 1e-3, 1e3])
+
+
+def test_a_fit_that_ends_below_every_corner_runs_once(monkeypatch):
+    meas, ev, _ = _valley_world(monkeypatch, valley=False)  # f = 0.5 + a: the optimum a -> 0 is the lower corner
+    solved = []
+    solve = fm._solve
+    monkeypatch.setattr(fm, "_solve", lambda *a: solved.append(a[3]) or solve(*a))
+    out = fm.fit(meas, ("e",), ev, ("a",), explore=("a",))
+    assert len(solved) == 1 and out.values["a"] == pytest.approx(1e-3, rel=1e-6)
+
+
+@pytest.mark.parametrize("below, refits", [(0.9 * fm.STALL_CHI2, False), (1.1 * fm.STALL_CHI2, True)])
+def test_a_corner_counts_only_below_the_fits_end_by_more_than_stall_chi2(monkeypatch, below, refits):
+    meas, ev, _ = _fit_world(monkeypatch)
+    ended = 10.0  # the chi2 where the first run ends
+    monkeypatch.setattr(fm, "_ends", lambda *a: np.array([[5.0, 1.0]]))
+    monkeypatch.setattr(
+        fm._Objective, "chi2_of", lambda self, table: np.r_[np.full(len(table) - 1, 20.0), ended - below]
+    )
+    solved, runs = [], []
+
+    def solve(least_squares, obj, transforms, start, lo, hi, max_nfev):
+        solved.append(list(start))
+        runs.append(obj)
+        return np.array([math.log(start[0]), start[1] / 2.0]), True, "stub"
+
+    monkeypatch.setattr(fm, "_solve", solve)
+    monkeypatch.setattr(fm, "_chi2", lambda obj, theta: ended if obj is runs[0] else ended - 2 * below)
+    out = fm.fit(meas, ("e",), ev, ("a", "b"), explore=("a",))
+    assert len(solved) == (2 if refits else 1)
+    assert solved[0] == [0.1, 0.0]  # the grid's first row (every row at chi2 20)
+    assert out.values["a"] == pytest.approx(5.0 if refits else 0.1)  # the refit's end kept where it is lower
+
+
+def test_a_refit_that_ends_higher_is_dropped(monkeypatch):
+    meas, ev, _ = _fit_world(monkeypatch)
+    monkeypatch.setattr(fm, "_ends", lambda *a: np.array([[5.0, 1.0]]))
+    monkeypatch.setattr(fm._Objective, "chi2_of", lambda self, table: np.r_[np.full(len(table) - 1, 20.0), 1.0])
+    solved = []
+
+    def solve(least_squares, obj, transforms, start, lo, hi, max_nfev):
+        solved.append(obj)
+        obj.nfev += 3
+        return np.array([math.log(start[0]), start[1] / 2.0]), True, f"run {len(solved)}"
+
+    monkeypatch.setattr(fm, "_solve", solve)
+    monkeypatch.setattr(fm, "_chi2", lambda obj, theta: 10.0 if obj is solved[0] else 12.0)
+    out = fm.fit(meas, ("e",), ev, ("a", "b"), explore=("a",))
+    assert len(solved) == 2 and out.message == "run 1" and out.values["a"] == pytest.approx(0.1)
+    assert out.nfev == 1 + 3  # the screen and the kept run

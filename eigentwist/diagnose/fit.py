@@ -17,7 +17,12 @@ back to differences, with the reason in ``FitResult.jacobian``, where no sensiti
 generated (gravity preload) or a row has no single mode (shape-matched rows, groups of
 near-equal modes). A coarse grid of starts (the new
 parameters at 1/10 ... 10 times their start value) is screened in one batch first, so
-a fit does not hinge on the default being close. A fit whose chi2 has fallen by less than
+a fit does not hinge on the default being close, together with the corners of the new
+parameters' search ranges: where the fit from the grid's best start ends above a corner
+(among them the effect switched off, the model the fit nests), it is fitted again from that
+corner and the lower end is kept, so a candidate never fits worse than the model it extends
+for want of a start (a torque lag makes the stiff settings unstable over its whole grid). A
+fit whose chi2 has fallen by less than
 ``STALL_CHI2`` over its last ``STALL_EVALS`` new points stops at its best point (its message
 says so): a parameter the data do not want otherwise crawls towards its bound for dozens of
 evaluations without meeting the solver's tolerances.
@@ -362,6 +367,67 @@ def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.n
     return np.array(list(itertools.product(*grids)))
 
 
+def _ends(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
+    """(E, P) the corners of the explored box: every combination of the two ends of each
+    explored positive parameter's search range (the parameters :func:`_starts` multiplies
+    by :data:`START_FACTORS`), the others at ``start``; (0, P) where none is explored. A
+    parameter that sets an effect's strength (a lag, a mass, a loss factor at its least; a
+    stiffness at its most) switches the effect off at one end, so one corner is the model
+    without the effects being fitted: the fit of a model that nests another can start no
+    worse than that model, however rough the landscape between (a torque lag makes the stiff
+    settings unstable over the whole start grid)."""
+    explored = [t.name in explore and t.log and not (given and t.name in given) for t in transforms]
+    if not any(explored):
+        return np.empty((0, len(transforms)))
+    grids = [
+        [t.lo, t.hi]
+        if e
+        else [float(np.clip(given[t.name][0] if given and t.name in given else start[t.name], t.lo, t.hi))]
+        for t, e in zip(transforms, explored)
+    ]
+    return np.array(list(itertools.product(*grids)))
+
+
+def _best_start(table: np.ndarray, chi2: np.ndarray) -> np.ndarray:
+    """The row of ``table`` with the lowest finite ``chi2`` (a start where the model cannot be
+    evaluated, chi2 NaN, is never taken while another can be); the first row where none is
+    finite (the solver then names the failure)."""
+    finite = np.isfinite(chi2)
+    return table[int(np.argmin(np.where(finite, chi2, np.inf)))] if finite.any() else table[0]
+
+
+def _solve(least_squares, obj: "_Objective", transforms, start_values, lo, hi, max_nfev: int):
+    """Trust-region least squares from ``start_values`` (P,) on ``obj``: ``(theta, success,
+    message)``; a stalled run (:class:`_Stalled`) ends at its best point."""
+    theta0 = np.array([t.theta(v) for t, v in zip(transforms, start_values)])
+    theta0 = np.clip(theta0, lo + 1e-12, hi - 1e-12)
+    obj.stall = True
+    try:
+        res = least_squares(
+            obj.residuals,
+            theta0,
+            jac=obj.jacobian,
+            bounds=(lo, hi),
+            method="trf",
+            x_scale=1.0,
+            xtol=1e-8,
+            ftol=1e-9,
+            gtol=1e-9,
+            max_nfev=max_nfev,
+        )
+        theta, success, message = res.x, bool(res.success), str(res.message)
+    except _Stalled:
+        theta = obj.best[1]
+        success, message = True, f"stalled: chi2 fell by less than {STALL_CHI2:g} over {STALL_EVALS} new points"
+    obj.stall = False
+    return theta, success, message
+
+
+def _chi2(obj: "_Objective", theta) -> float:
+    r = obj.residuals(theta)
+    return float(r @ r)
+
+
 def _covariance(jac: np.ndarray, chi2: float, dof: int) -> np.ndarray:
     """(J^T J)^-1 scaled by the Birge ratio squared when above 1; infinite in the rows and columns
     of parameters along an undetermined direction (fewer rows than parameters included)."""
@@ -432,31 +498,24 @@ def fit(
         Transform.of(ev.parameter(nm)).within(*constraint_range(ev, nm, {**given, **start}, effects)) for nm in names
     ]
     obj = _Objective(predictor, transforms, jacobian)
-    table = _starts(transforms, start, set(names if explore is None else explore), starts)
-    best = table[int(np.argmin(obj.chi2_of(table)))]
-    theta0 = np.array([t.theta(v) for t, v in zip(transforms, best)])
+    explored = set(names if explore is None else explore)
+    table = _starts(transforms, start, explored, starts)
+    ends = _ends(transforms, start, explored, starts)
+    chi2 = obj.chi2_of(np.vstack([table, ends]))  # one batched evaluation of every start
     lo = np.array([t.bounds[0] for t in transforms])
     hi = np.array([t.bounds[1] for t in transforms])
-    theta0 = np.clip(theta0, lo + 1e-12, hi - 1e-12)
-    obj.stall = True
-    try:
-        res = least_squares(
-            obj.residuals,
-            theta0,
-            jac=obj.jacobian,
-            bounds=(lo, hi),
-            method="trf",
-            x_scale=1.0,
-            xtol=1e-8,
-            ftol=1e-9,
-            gtol=1e-9,
-            max_nfev=max_nfev,
-        )
-        theta, success, message = res.x, bool(res.success), str(res.message)
-    except _Stalled:
-        theta = obj.best[1]
-        success, message = True, f"stalled: chi2 fell by less than {STALL_CHI2:g} over {STALL_EVALS} new points"
-    obj.stall = False
+    theta, success, message = _solve(
+        least_squares, obj, transforms, _best_start(table, chi2[: len(table)]), lo, hi, max_nfev
+    )
+    end_chi2 = chi2[len(table) :]
+    if np.isfinite(end_chi2).any() and np.nanmin(end_chi2) < _chi2(obj, theta) - STALL_CHI2:
+        # the fit ended above a corner of the box (the nested model among them): a local
+        # minimum; fitted again from that corner, the lower of the two ends is kept
+        again = _Objective(predictor, transforms, jacobian)
+        found = _solve(least_squares, again, transforms, _best_start(ends, end_chi2), lo, hi, max_nfev)
+        if _chi2(again, found[0]) < _chi2(obj, theta):
+            again.nfev += obj.nfev
+            obj, (theta, success, message) = again, found
     values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}
     all_values = {**fixed, **values}
     comp = _comparison(meas, effects, ev, all_values, obj.first_set(theta))
