@@ -270,3 +270,64 @@ def test_boundaries_of_better_and_same_are_outside():
         for e, p in (("a", [0.0, 0, 0]), ("b", [search.SAME, 0, 0]))
     ]
     assert search._distinct(meas, ranking) == (ranking, {})  # exactly SAME apart: two entries
+
+
+class RefitWorld(World):
+    """A world whose joint fits from the members' single values end at ``chi2``; fitted again
+    with a member's parameters screened (``explore``), at ``refit``."""
+
+    def __init__(self, chi2, refit):
+        super().__init__(chi2, {frozenset("a"): [1.0, 0.0, 0.0], frozenset("b"): [0.0, 1.0, 0.0]})
+        self.refit = refit
+
+    def fit(self, meas, effects, ev, names, *, start, fixed, explore, max_nfev):
+        out = super().fit(meas, effects, ev, names, start=start, fixed=fixed, explore=explore, max_nfev=max_nfev)
+        if explore:
+            out.chi2 = self.refit[frozenset(effects[2:])]
+            out.aicc = out.chi2 + 2 * out.k
+        return out
+
+
+@pytest.mark.parametrize(
+    "above, refits",
+    [(DELTA_AICC, False), (DELTA_AICC * 1.01, True)],  # above the single a's chi2
+)
+def test_a_joint_fit_ending_above_a_subset_it_contains_is_fitted_again_from_it(monkeypatch, ev, above, refits):
+    chi2 = {frozenset(): 500.0, frozenset("a"): 300.0, frozenset("b"): 320.0, frozenset("ab"): 300.0 + above}
+    w = RefitWorld(chi2, {frozenset("ab"): 25.0})
+    r = _run(monkeypatch, w, ev, [w.single("a", 0), w.single("b", 1)], ("a",), m=2)
+    again = [c for c in w.calls if c.explore]
+    assert r.fitted == 1  # one subset, however many times it is fitted
+    if not refits:
+        assert again == [] and r.best.effects == ("a",)  # b not needed beside a: the pair does not count
+        return
+    # from the lower subset it contains (a: b's removal), b's parameter screened from its single
+    # value, the search's solver budget; the lower end kept: the pair explains the data
+    (c,) = again
+    assert c.members == ("a", "b") and c.explore == ("k_b",) and c.nfev == search.SEARCH_NFEV
+    assert c.start == {"k_base": BASE_VALUE, "k_a": SINGLE_VALUE, "k_b": SINGLE_VALUE}
+    assert r.best.effects == ("a", "b") and r.best.fit.chi2 == 25.0 and r.best.counts
+
+
+@pytest.mark.parametrize("refit, kept", [(311.0, 310.0), (305.0, 305.0)])
+def test_of_a_joint_fit_and_its_refit_the_lower_end_is_kept(monkeypatch, ev, refit, kept):
+    chi2 = {frozenset(): 500.0, frozenset("a"): 300.0, frozenset("b"): 320.0, frozenset("ab"): 310.0}
+    w = RefitWorld(chi2, {frozenset("ab"): refit})
+    monkeypatch.setattr(search, "fit", w.fit)
+    monkeypatch.setattr(search, "scope", w)
+    w.ev, w.meas = ev, NS(sigma_hz=np.ones(3))
+    fits = search._Fits(w.meas, ev, w.result((), BASE_VALUE), [w.single("a", 0), w.single("b", 1)])
+    assert fits(("b", "a")).chi2 == kept and len(w.calls) == 2 and fits.fitted == 1
+    assert fits(("a", "b")).chi2 == kept and len(w.calls) == 2  # fitted once
+
+
+def test_the_refit_starts_from_the_lowest_subset_it_ends_above(monkeypatch, ev):
+    chi2 = {frozenset(): 500.0, frozenset("a"): 301.0, frozenset("b"): 300.0, frozenset("ab"): 310.0}
+    w = RefitWorld(chi2, {frozenset("ab"): 25.0})
+    monkeypatch.setattr(search, "fit", w.fit)
+    monkeypatch.setattr(search, "scope", w)
+    w.ev, w.meas = ev, NS(sigma_hz=np.ones(3))
+    fits = search._Fits(w.meas, ev, w.result((), BASE_VALUE), [w.single("a", 0), w.single("b", 1)])
+    assert fits(("a", "b")).chi2 == 25.0
+    # above both singles: from b's (the lower), a's parameter screened
+    assert [c.explore for c in w.calls] == [(), ("k_a",)]

@@ -141,16 +141,56 @@ class _Fits:
     def __call__(self, effects) -> FitResult | None:
         key = frozenset(effects)
         if key not in self.fits:
-            self.fits[key] = self._joint(sorted(key, key=lambda e: self.by[e].fit.aicc))
+            order = sorted(key, key=lambda e: self.by[e].fit.aicc)
+            f = self._joint(order)
+            self.fits[key] = f if f is None else self._no_worse(order, f)
         return self.fits[key]
+
+    def _model(self, order) -> list | None:
+        """The baseline's effects and ``order``'s, ordered; None where a member shares a part
+        with another."""
+        effects = list(self.base.effects)
+        for e in order:
+            if e not in scope.candidates(self.ev, effects, per_leg=True):
+                return None
+            effects.append(e)
+        return scope.order(self.ev, effects)
+
+    def _no_worse(self, order, f: FitResult) -> FitResult:
+        """``f``, or, where it ends above a subset it contains by more than DELTA_AICC (a model
+        it nests: that subset with the member's parameters at the ends of their ranges), the
+        lower of ``f`` and the joint model fitted again from the lowest such subset's values,
+        the member's parameters screened from its single fit's values and the corners of their
+        ranges (:func:`.fit.fit`'s ``explore``). A warm start from the members' single fits can
+        end in a local minimum far above the model it extends (an actuator loss beside a joint
+        compliance on another leg)."""
+        nested = []
+        for e in order:
+            rest = [x for x in order if x != e]
+            smaller = self(rest) if rest else self.base
+            if smaller is not None and f.chi2 > smaller.chi2 + DELTA_AICC:
+                nested.append((smaller.chi2, e, smaller))
+        if not nested:
+            return f
+        _, e, smaller = min(nested, key=lambda t: t[0])
+        member = self.by[e]
+        g = fit(
+            self.meas,
+            self._model(order),
+            self.ev,
+            f.names,
+            start={**smaller.values, **{n: member.fit.values[n] for n in member.names}},
+            fixed=self.base.fixed,
+            explore=member.names,
+            max_nfev=SEARCH_NFEV,
+        )
+        return g if g.chi2 < f.chi2 else f
 
     def _joint(self, order) -> FitResult | None:
         base = self.base
-        effects = list(base.effects)
-        for e in order:
-            if e not in scope.candidates(self.ev, effects, per_leg=True):
-                return None  # shares a part with another member
-            effects.append(e)
+        effects = self._model(order)
+        if effects is None:
+            return None  # shares a part with another member
         members = [self.by[e] for e in order]
         names = base.names + tuple(n for c in members for n in c.names)
         start = dict(base.values)
@@ -159,7 +199,7 @@ class _Fits:
         self.fitted += 1
         return fit(
             self.meas,
-            scope.order(self.ev, effects),
+            effects,
             self.ev,
             names,
             start=start,
