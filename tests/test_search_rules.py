@@ -278,13 +278,14 @@ class RefitWorld(World):
 
     def __init__(self, chi2, refit):
         super().__init__(chi2, {frozenset("a"): [1.0, 0.0, 0.0], frozenset("b"): [0.0, 1.0, 0.0]})
-        self.refit = refit
+        self.refit, self.returned = refit, []
 
     def fit(self, meas, effects, ev, names, *, start, fixed, explore, max_nfev):
         out = super().fit(meas, effects, ev, names, start=start, fixed=fixed, explore=explore, max_nfev=max_nfev)
         if explore:
             out.chi2 = self.refit[frozenset(effects[2:])]
             out.aicc = out.chi2 + 2 * out.k
+        self.returned.append(out)
         return out
 
 
@@ -306,10 +307,11 @@ def test_a_joint_fit_ending_above_a_subset_it_contains_is_fitted_again_from_it(m
     (c,) = again
     assert c.members == ("a", "b") and c.explore == ("k_b",) and c.nfev == search.SEARCH_NFEV
     assert c.start == {"k_base": BASE_VALUE, "k_a": SINGLE_VALUE, "k_b": SINGLE_VALUE}
+    assert c.names == ("k_base", "k_a", "k_b") and c.fixed == {"k_fixed": 7.0}
     assert r.best.effects == ("a", "b") and r.best.fit.chi2 == 25.0 and r.best.counts
 
 
-@pytest.mark.parametrize("refit, kept", [(311.0, 310.0), (305.0, 305.0)])
+@pytest.mark.parametrize("refit, kept", [(311.0, 310.0), (310.0, 310.0), (305.0, 305.0)])
 def test_of_a_joint_fit_and_its_refit_the_lower_end_is_kept(monkeypatch, ev, refit, kept):
     chi2 = {frozenset(): 500.0, frozenset("a"): 300.0, frozenset("b"): 320.0, frozenset("ab"): 310.0}
     w = RefitWorld(chi2, {frozenset("ab"): refit})
@@ -318,16 +320,19 @@ def test_of_a_joint_fit_and_its_refit_the_lower_end_is_kept(monkeypatch, ev, ref
     w.ev, w.meas = ev, NS(sigma_hz=np.ones(3))
     fits = search._Fits(w.meas, ev, w.result((), BASE_VALUE), [w.single("a", 0), w.single("b", 1)])
     assert fits(("b", "a")).chi2 == kept and len(w.calls) == 2 and fits.fitted == 1
+    assert fits(("a", "b")) is w.returned[1 if refit < 310.0 else 0]  # an equal end: the first fit kept
     assert fits(("a", "b")).chi2 == kept and len(w.calls) == 2  # fitted once
 
 
-def test_the_refit_starts_from_the_lowest_subset_it_ends_above(monkeypatch, ev):
-    chi2 = {frozenset(): 500.0, frozenset("a"): 301.0, frozenset("b"): 300.0, frozenset("ab"): 310.0}
+@pytest.mark.parametrize("a, b, screened", [(301.0, 300.0, "k_a"), (300.0, 301.0, "k_b"), (300.0, 300.0, "k_a")])
+def test_the_refit_starts_from_the_lowest_subset_it_ends_above(monkeypatch, ev, a, b, screened):
+    chi2 = {frozenset(): 500.0, frozenset("a"): a, frozenset("b"): b, frozenset("ab"): 310.0}
     w = RefitWorld(chi2, {frozenset("ab"): 25.0})
     monkeypatch.setattr(search, "fit", w.fit)
     monkeypatch.setattr(search, "scope", w)
     w.ev, w.meas = ev, NS(sigma_hz=np.ones(3))
     fits = search._Fits(w.meas, ev, w.result((), BASE_VALUE), [w.single("a", 0), w.single("b", 1)])
     assert fits(("a", "b")).chi2 == 25.0
-    # above both singles: from b's (the lower), a's parameter screened
-    assert [c.explore for c in w.calls] == [(), ("k_a",)]
+    # above both singles: from the lower one, the other member's parameter screened (equal
+    # singles: a, the first by name, is the member dropped)
+    assert [c.explore for c in w.calls] == [(), (screened,)]

@@ -392,8 +392,7 @@ def _best_start(table: np.ndarray, chi2: np.ndarray) -> np.ndarray:
     """The row of ``table`` with the lowest finite ``chi2`` (a start where the model cannot be
     evaluated, chi2 NaN, is never taken while another can be); the first row where none is
     finite (the solver then names the failure)."""
-    finite = np.isfinite(chi2)
-    return table[int(np.argmin(np.where(finite, chi2, np.inf)))] if finite.any() else table[0]
+    return table[int(np.argmin(np.where(np.isfinite(chi2), chi2, np.inf)))]
 
 
 def _solve(least_squares, obj: "_Objective", transforms, start_values, lo, hi, max_nfev: int):

@@ -167,12 +167,12 @@ class _Fits:
         nested = []
         for e in order:
             rest = [x for x in order if x != e]
-            smaller = self(rest) if rest else self.base
+            smaller = self(rest)  # a subset of one member at least: the singles are preloaded
             if smaller is not None and f.chi2 > smaller.chi2 + DELTA_AICC:
                 nested.append((smaller.chi2, e, smaller))
         if not nested:
             return f
-        _, e, smaller = min(nested, key=lambda t: t[0])
+        _, e, smaller = min(nested)  # the lowest subset; equal ones by the dropped member's name
         member = self.by[e]
         g = fit(
             self.meas,
