@@ -370,7 +370,8 @@ def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.n
 def _ends(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
     """(E, P) the corners of the explored box: every combination of the two ends of each
     explored positive parameter's search range (the parameters :func:`_starts` multiplies
-    by :data:`START_FACTORS`), the others at ``start``; (0, P) where none is explored. A
+    by :data:`START_FACTORS`), the others at ``start`` (one given start values, ``given``, at
+    its first); (0, P) where none is explored. A
     parameter that sets an effect's strength (a lag, a mass, a loss factor at its least; a
     stiffness at its most) switches the effect off at one end, so one corner is the model
     without the effects being fitted: the fit of a model that nests another can start no
