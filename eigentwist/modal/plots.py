@@ -25,13 +25,17 @@ MAX_PANELS = 12
 def plot_stabilisation(res, path) -> None:
     """Stabilisation diagram of one setting's :class:`~eigentwist.modal.identify.SettingModes`."""
     plt = pyplot("modal")
-    from matplotlib.ticker import NullLocator
+    from matplotlib.ticker import LogFormatter, LogLocator, NullLocator
 
     fig, ax = plt.subplots(figsize=(8, 4.5))
     stab = res.stabilisation
-    for order, f, st in zip(stab.orders, stab.freq_hz, stab.stable):
-        ax.plot(f[~st], np.full((~st).sum(), order), ".", color="0.7", ms=3)
-        ax.plot(f[st], np.full(st.sum(), order), "o", color="tab:blue", ms=3.5)
+    # every order's poles in two artists (not yet stable, stable): one line object per order
+    # and kind cost most of the figure's drawing
+    f = np.concatenate([np.asarray(v, dtype=float) for v in stab.freq_hz]) if len(stab.orders) else np.empty(0)
+    st = np.concatenate([np.asarray(v, dtype=bool) for v in stab.stable]) if len(stab.orders) else np.empty(0, bool)
+    at = np.repeat(np.asarray(stab.orders, dtype=float), [len(v) for v in stab.freq_hz])
+    ax.plot(f[~st], at[~st], ".", color="0.7", ms=3)
+    ax.plot(f[st], at[st], "o", color="tab:blue", ms=3.5)
     for m in res.modes:
         ax.axvline(m.freq_hz, color="tab:red", lw=0.8)
         ax.text(
@@ -53,6 +57,8 @@ def plot_stabilisation(res, path) -> None:
         ax2.semilogy(res.frfs.freq_hz[band], np.sum(np.abs(res.frfs.H[band]), axis=1), color="0.3", lw=0.8)
         ax2.set_ylabel(f"sum |{res.frfs.form}|")
         ax2.yaxis.set_minor_locator(NullLocator())
+        ax2.yaxis.set_major_formatter(LogFormatter())  # 1e-02, plain text: no mathtext to parse
+        ax2.yaxis.set_major_locator(LogLocator(numticks=5))
     ax.set_title(
         f"{Path(res.source).name}: stabilisation (grey: pole not yet stable, blue: stable pole, red: identified mode)",
         fontsize=9,
