@@ -508,12 +508,13 @@ def fit(
         least_squares, obj, transforms, _best_start(table, chi2[: len(table)]), lo, hi, max_nfev
     )
     end_chi2 = chi2[len(table) :]
-    if np.isfinite(end_chi2).any() and np.nanmin(end_chi2) < _chi2(obj, theta) - STALL_CHI2:
+    reached = _chi2(obj, theta) if len(ends) else math.inf
+    if np.isfinite(end_chi2).any() and np.nanmin(end_chi2) < reached - STALL_CHI2:
         # the fit ended above a corner of the box (the nested model among them): a local
         # minimum; fitted again from that corner, the lower of the two ends is kept
         again = _Objective(predictor, transforms, jacobian)
         found = _solve(least_squares, again, transforms, _best_start(ends, end_chi2), lo, hi, max_nfev)
-        if _chi2(again, found[0]) < _chi2(obj, theta):
+        if _chi2(again, found[0]) < reached:
             again.nfev += obj.nfev
             obj, (theta, success, message) = again, found
     values = {t.name: float(t.value(theta[j])) for j, t in enumerate(transforms)}

@@ -142,8 +142,8 @@ class _Fits:
         key = frozenset(effects)
         if key not in self.fits:
             order = sorted(key, key=lambda e: self.by[e].fit.aicc)
-            f = self._joint(order)
-            self.fits[key] = f if f is None else self._no_worse(order, f)
+            effects = self._model(order)  # None: a member shares a part with another
+            self.fits[key] = None if effects is None else self._no_worse(order, effects, self._joint(order, effects))
         return self.fits[key]
 
     def _model(self, order) -> list | None:
@@ -156,7 +156,7 @@ class _Fits:
             effects.append(e)
         return scope.order(self.ev, effects)
 
-    def _no_worse(self, order, f: FitResult) -> FitResult:
+    def _no_worse(self, order, effects, f: FitResult) -> FitResult:
         """``f``, or, where it ends above a subset it contains by more than DELTA_AICC (a model
         it nests: that subset with the member's parameters at the ends of their ranges), the
         lower of ``f`` and the joint model fitted again from the lowest such subset's values,
@@ -176,7 +176,7 @@ class _Fits:
         member = self.by[e]
         g = fit(
             self.meas,
-            self._model(order),
+            effects,
             self.ev,
             f.names,
             start={**smaller.values, **{n: member.fit.values[n] for n in member.names}},
@@ -186,11 +186,10 @@ class _Fits:
         )
         return g if g.chi2 < f.chi2 else f
 
-    def _joint(self, order) -> FitResult | None:
+    def _joint(self, order, effects) -> FitResult:
+        """The joint fit of ``order``'s members (the model ``effects``), warm-started from the
+        baseline's and the members' single values, no start grid."""
         base = self.base
-        effects = self._model(order)
-        if effects is None:
-            return None  # shares a part with another member
         members = [self.by[e] for e in order]
         names = base.names + tuple(n for c in members for n in c.names)
         start = dict(base.values)

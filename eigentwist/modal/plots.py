@@ -31,8 +31,8 @@ def plot_stabilisation(res, path) -> None:
     stab = res.stabilisation
     # every order's poles in two artists (not yet stable, stable): one line object per order
     # and kind cost most of the figure's drawing
-    f = np.concatenate([np.asarray(v, dtype=float) for v in stab.freq_hz]) if len(stab.orders) else np.empty(0)
-    st = np.concatenate([np.asarray(v, dtype=bool) for v in stab.stable]) if len(stab.orders) else np.empty(0, bool)
+    f = np.concatenate([np.asarray(v, dtype=float) for v in stab.freq_hz] or [np.empty(0)])
+    st = np.concatenate([np.asarray(v, dtype=bool) for v in stab.stable] or [np.empty(0, bool)])
     at = np.repeat(np.asarray(stab.orders, dtype=float), [len(v) for v in stab.freq_hz])
     ax.plot(f[~st], at[~st], ".", color="0.7", ms=3)
     ax.plot(f[st], at[st], "o", color="tab:blue", ms=3.5)
