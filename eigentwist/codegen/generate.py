@@ -18,7 +18,7 @@ from ..symbolic import POSE, derive
 from ..symbolic.model import EffectSymbols
 from .c_source import render_c
 from .c_library import render_c_header
-from .kernel import Kernel, Output, build_kernel, source_hash
+from .kernel import Kernel, Output, build_kernel, source_hash, sub_kernel
 from .numpy_backend import render_numpy
 from .render import TEMPLATES
 
@@ -27,6 +27,7 @@ __all__ = [
     "joints_per_leg",
     "kernels_for",
     "fused_kernels_for",
+    "cse_kernels",
     "render_robot",
     "render_all",
     "write",
@@ -103,6 +104,25 @@ def kernels_for(model, progress=None) -> list[Kernel]:
     parameters; a model whose program also reads the pose (a 6-DoF robot) takes it
     through the parameter dict (names from ``model.pose_inputs``).
     """
+    return cse_kernels(model, progress)[0]
+
+
+def fused_kernels_for(model) -> list[Kernel]:
+    """Kernels only the C backend's fused pass uses: ``matrices_lever`` (M, K_R, K_F and
+    the jacobians kernel's ``lever``, CSE'd together: the levers are intermediates of K_R,
+    so the singularity check costs nothing). Empty when the model has no levers."""
+    return cse_kernels(model)[1]
+
+
+def cse_kernels(model, progress=None) -> tuple[list[Kernel], list[Kernel]]:
+    """``(kernels_for(model), fused_kernels_for(model))`` from one CSE of each group.
+
+    Where the model has levers, the matrices and the levers are CSE'd once, together, as
+    ``matrices_lever``; the ``matrices`` kernel is its part without the levers, and the
+    ``lever`` kernel (the branch check of every Newton solution reads the levers only:
+    ~40 % of the jacobians kernel's statements, 6-RUS) the jacobians kernel's part
+    (:func:`~.kernel.sub_kernel`: SymPy's CSE, most of a generation's time, runs once).
+    """
     position, rotation = pose_split(model)
     params = list(model.inputs)
     nq = joints_per_leg(model)
@@ -127,20 +147,26 @@ def kernels_for(model, progress=None) -> list[Kernel]:
                 "loop_closure", KERNEL_DOCS["loop_closure"], model.closure, outs, [], model.joints, program_params, nq
             )
         )
+    levers = "lever" in model.outputs["jacobians"]
+    fused = []
     for group in ("matrices", "jacobians", "gravity", "legs"):
         if progress:
             progress(f"CSE {group}")
         outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
+        if group == "matrices" and levers:
+            names = [out.name for out in outs]
+            outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))
+            doc = KERNEL_DOCS["matrices_lever"]
+            both = build_kernel("matrices_lever", doc, model.program, outs, [], model.joints, program_params, nq)
+            fused.append(both)
+            kernels.append(sub_kernel(both, group, KERNEL_DOCS[group], names))
+            continue
         kernels.append(
             build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints, program_params, nq)
         )
-    if model.closure is not None and "lever" in model.outputs["jacobians"]:
-        # the branch check of every Newton solution reads the levers only: ~40 % of the
-        # jacobians kernel's statements (6-RUS)
-        outs = [Output("lever", *model.outputs["jacobians"]["lever"])]
-        kernels.append(
-            build_kernel("lever", KERNEL_DOCS["lever"], model.program, outs, [], model.joints, program_params, nq)
-        )
+    if model.closure is not None and levers:
+        jacobians = next(k for k in kernels if k.name == "jacobians")
+        kernels.append(sub_kernel(jacobians, "lever", KERNEL_DOCS["lever"], ["lever"]))
     if getattr(model, "followers", None) is not None:  # the runtime's Newton steps
         prog, closure = model.followers
         outs = [Output(k, sh, ex) for k, (sh, ex) in closure.items()]
@@ -154,7 +180,7 @@ def kernels_for(model, progress=None) -> list[Kernel]:
             kernels.append(
                 build_kernel("followers", KERNEL_DOCS["followers"], prog, outs, position, [], params + rotation)
             )
-    return kernels
+    return kernels, fused
 
 
 def _compiled(kernel: Kernel) -> bool:
@@ -163,30 +189,6 @@ def _compiled(kernel: Kernel) -> bool:
     the followers kernel of closed-form legs is iterated by the C driver
     (:mod:`eigentwist.runtime.c_levenberg_marquardt`)."""
     return kernel.name != "followers" or not any(names for group, names in kernel.inputs if group == "q")
-
-
-def fused_kernels_for(model) -> list[Kernel]:
-    """Kernels only the C backend's fused pass uses: ``matrices_lever`` (M, K_R, K_F and
-    the jacobians kernel's ``lever``, CSE'd together: the levers are intermediates of K_R,
-    so the singularity check costs nothing). Empty when the model has no levers."""
-    if "lever" not in model.outputs["jacobians"]:
-        return []
-    position, rotation = pose_split(model)
-    params = list(model.inputs) + [s.name for s in position] + rotation
-    outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs["matrices"].items()]
-    outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))
-    return [
-        build_kernel(
-            "matrices_lever",
-            KERNEL_DOCS["matrices_lever"],
-            model.program,
-            outs,
-            [],
-            model.joints,
-            params,
-            joints_per_leg(model),
-        )
-    ]
 
 
 def _template_text(backend: str) -> str:
@@ -206,9 +208,10 @@ TARGETS = {
     "c_header": (FILES["c_header"], render_c_header),
 }
 TEMPLATE_DIR = {"c_header": "c"}
-# progress messages of render_robot per robot (every backend): derive, CSE of the matrices,
-# jacobians, gravity and legs kernels, CSE of the fused pass's matrices_lever, one per file emitted
-PROGRESS_STEPS = 6 + len(TARGETS)
+# progress messages of render_robot per robot (every backend): derive, CSE of the matrices
+# (with the levers: the fused pass's matrices_lever), jacobians, gravity and legs kernels, one
+# per file emitted
+PROGRESS_STEPS = 5 + len(TARGETS)
 
 
 def render_robot(
@@ -235,17 +238,13 @@ def render_robot(
     model = stages["model"]
     t1 = time.perf_counter()
     if "kernels" not in stages:
-        stages["kernels"] = kernels_for(model, progress=say)
+        stages["kernels"], stages["fused"] = cse_kernels(model, progress=say)
     kernels = stages["kernels"]
     t2 = time.perf_counter()
     files = {}
     for backend, (pattern, render) in TARGETS.items():
         if backends is not None and backend not in backends:
             continue
-        if backend in ("c", "c_header") and "fused" not in stages:
-            if say:
-                say("CSE matrices_lever")
-            stages["fused"] = fused_kernels_for(model)
         ks = [k for k in kernels if _compiled(k)] + stages["fused"] if backend in ("c", "c_header") else kernels
         if say:
             say(f"emit {pattern.format(robot=name)}")

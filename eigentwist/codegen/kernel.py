@@ -16,7 +16,7 @@ from ..errors import DescriptionError
 from ..hashing import canonical
 from ..symbolic.program import Program
 
-__all__ = ["Output", "Kernel", "build_kernel", "UndeclaredSymbolError", "source_hash"]
+__all__ = ["Output", "Kernel", "build_kernel", "sub_kernel", "UndeclaredSymbolError", "source_hash"]
 
 
 class UndeclaredSymbolError(DescriptionError):
@@ -180,6 +180,39 @@ def build_kernel(
         ("param", [p for p in params if p in used_inputs]),
     ]
     return Kernel(name, doc, inputs, outputs, body, [s.name for s in joints], joints_per_leg)
+
+
+def sub_kernel(kernel: Kernel, name: str, doc: str, outputs: list[str]) -> Kernel:
+    """The part of a CSE'd ``kernel`` that computes the outputs named in ``outputs`` (in that
+    order): its statements those outputs need, in the kernel's order, and only the inputs they
+    read. No CSE runs again (a kernel of fewer outputs costs nothing to build); the statements
+    are those of the larger kernel, so where the smaller one was CSE'd alone its temporaries
+    could differ, its values not.
+
+    Raises ValueError naming an output the kernel does not have."""
+    have = {out.name: out for out in kernel.outputs}
+    missing = [n for n in outputs if n not in have]
+    if missing:
+        raise ValueError(f"kernel {kernel.name!r} has no output {missing[0]!r} (it has {sorted(have)})")
+    keep_outputs = [have[n] for n in outputs]
+    kept = {id(out) for out in keep_outputs}
+    lets = {item[1]: item[2] for item in kernel.body if item[0] == "let"}
+    needed: set = set()
+    stack = [s for item in kernel.body if item[0] == "out" and id(item[1]) in kept for s in item[3].free_symbols]
+    while stack:
+        s_ = stack.pop()
+        if s_ in needed or s_ not in lets:
+            continue
+        needed.add(s_)
+        stack.extend(lets[s_].free_symbols)
+    body = [
+        item
+        for item in kernel.body
+        if (item[0] == "let" and item[1] in needed) or (item[0] == "out" and id(item[1]) in kept)
+    ]
+    used = {s_.name for item in body for s_ in (item[2] if item[0] == "let" else item[3]).free_symbols}
+    inputs = [(group, [n for n in names if n in used]) for group, names in kernel.inputs]
+    return Kernel(name, doc, inputs, keep_outputs, body, list(kernel.joint_order), kernel.joints_per_leg)
 
 
 def source_hash(kernels: list[Kernel], extra: str = "") -> str:
