@@ -12,6 +12,7 @@ from eigentwist.codegen.generate import GENERATED, PROGRESS_STEPS, render_robot,
 from eigentwist.robots import NAMES
 from eigentwist.codegen.kernel import Output, UndeclaredSymbolError, build_kernel
 from eigentwist.description import sym
+from eigentwist.errors import DescriptionError
 from eigentwist.symbolic import Program
 
 from .conftest import effect_inputs, random_poses
@@ -142,7 +143,7 @@ def test_sub_kernel_computes_its_outputs_from_the_statements_they_need():
     assert [o.name for o in two.outputs] == ["lever", "m"] and _run_kernel(two, values) == {
         k: want[k] for k in ("m", "lever")
     }
-    with pytest.raises(ValueError, match="'K_R'"):
+    with pytest.raises(DescriptionError, match="'K_R'"):
         sub_kernel(whole, "x", "", ["m", "K_R"])
 
 

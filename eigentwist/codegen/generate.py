@@ -118,10 +118,9 @@ def cse_kernels(model, progress=None) -> tuple[list[Kernel], list[Kernel]]:
     """``(kernels_for(model), fused_kernels_for(model))`` from one CSE of each group.
 
     Where the model has levers, the matrices and the levers are CSE'd once, together, as
-    ``matrices_lever``; the ``matrices`` kernel is its part without the levers, and the
-    ``lever`` kernel (the branch check of every Newton solution reads the levers only:
-    ~40 % of the jacobians kernel's statements, 6-RUS) the jacobians kernel's part
-    (:func:`~.kernel.sub_kernel`: SymPy's CSE, most of a generation's time, runs once).
+    ``matrices_lever``, and the ``matrices`` kernel is its part without the levers
+    (:func:`~.kernel.sub_kernel`; for the shipped robots and the gallery the same text as a
+    CSE of the matrices alone, for half the CSE time: ``benchmarks/render.py --cse``).
     """
     position, rotation = pose_split(model)
     params = list(model.inputs)
@@ -165,8 +164,13 @@ def cse_kernels(model, progress=None) -> tuple[list[Kernel], list[Kernel]]:
             build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints, program_params, nq)
         )
     if model.closure is not None and levers:
-        jacobians = next(k for k in kernels if k.name == "jacobians")
-        kernels.append(sub_kernel(jacobians, "lever", KERNEL_DOCS["lever"], ["lever"]))
+        # the branch check of every Newton solution reads the levers only: CSE'd alone they
+        # take ~40 % of the jacobians kernel's statements (6-RUS: 518; its part of the
+        # jacobians kernel, CSE'd with the other rows, 704)
+        outs = [Output("lever", *model.outputs["jacobians"]["lever"])]
+        kernels.append(
+            build_kernel("lever", KERNEL_DOCS["lever"], model.program, outs, [], model.joints, program_params, nq)
+        )
     if getattr(model, "followers", None) is not None:  # the runtime's Newton steps
         prog, closure = model.followers
         outs = [Output(k, sh, ex) for k, (sh, ex) in closure.items()]

@@ -189,11 +189,11 @@ def sub_kernel(kernel: Kernel, name: str, doc: str, outputs: list[str]) -> Kerne
     are those of the larger kernel, so where the smaller one was CSE'd alone its temporaries
     could differ, its values not.
 
-    Raises ValueError naming an output the kernel does not have."""
+    Raises :class:`~eigentwist.errors.DescriptionError` naming an output the kernel does not have."""
     have = {out.name: out for out in kernel.outputs}
     missing = [n for n in outputs if n not in have]
     if missing:
-        raise ValueError(f"kernel {kernel.name!r} has no output {missing[0]!r} (it has {sorted(have)})")
+        raise DescriptionError(f"kernel {kernel.name!r} has no output {missing[0]!r} (it has {sorted(have)})")
     keep_outputs = [have[n] for n in outputs]
     kept = {id(out) for out in keep_outputs}
     lets = {item[1]: item[2] for item in kernel.body if item[0] == "let"}
