@@ -126,10 +126,11 @@ def test_sub_kernel_computes_its_outputs_from_the_statements_they_need():
     s = prog.let("s", sp.sin(a) * b + b**2)
     u = prog.let("u", s * c + sp.cos(c))
     outs = [Output("m", (2,), [s + a * b, s * b]), Output("lever", (), [u * s]), Output("only_c", (), [c**3])]
-    whole = build_kernel("whole", "", prog, outs, [], [], ["a", "b", "c"])
+    whole = build_kernel("whole", "", prog, outs, [], [a, b], ["c"], joints_per_leg=2)
     part = sub_kernel(whole, "m", "M only", ["m"])
     assert [o.name for o in part.outputs] == ["m"] and part.doc == "M only"
-    assert part.input_names == ["a", "b"]  # c is read by the dropped outputs only
+    assert part.inputs == [("pose", []), ("q", ["a", "b"]), ("param", [])]  # c: read by the dropped outputs only
+    assert part.joint_order == ["a", "b"] and part.joints_per_leg == 2 and part.joint_index("b") == (0, 1)
     values = {"a": 0.3, "b": -1.7, "c": 2.2}
     want = _run_kernel(whole, values)
     assert _run_kernel(part, values) == {"m": want["m"]}
