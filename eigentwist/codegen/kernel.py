@@ -14,7 +14,7 @@ import sympy as sp
 
 from ..errors import DescriptionError
 from ..hashing import canonical
-from ..symbolic.program import Program
+from ..symbolic.program import Program, reachable
 
 __all__ = ["Output", "Kernel", "build_kernel", "sub_kernel", "UndeclaredSymbolError", "source_hash"]
 
@@ -116,16 +116,9 @@ def build_kernel(
     Raises :class:`UndeclaredSymbolError` naming the symbol when an expression uses
     anything that is not a declared input (style: fail fast, as pydy does).
     """
-    defs = program.definitions()
     out_exprs = [sp.sympify(out.exprs[flat]) for out in outputs for _, flat in out.entries()]
     # prune: intermediates reachable from the outputs
-    needed, stack = set(), [s for e in out_exprs for s in e.free_symbols]
-    while stack:
-        s_ = stack.pop()
-        if s_ in needed or s_ not in defs:
-            continue
-        needed.add(s_)
-        stack.extend(defs[s_].free_symbols)
+    needed = reachable(program.definitions(), [s for e in out_exprs for s in e.free_symbols])
     lets = [(s_, r) for s_, r in program.assignments if s_ in needed]
     declared = {s.name for s in list(pose) + list(joints)} | set(params)
     used_inputs = set()
@@ -197,14 +190,8 @@ def sub_kernel(kernel: Kernel, name: str, doc: str, outputs: list[str]) -> Kerne
     keep_outputs = [have[n] for n in outputs]
     kept = {id(out) for out in keep_outputs}
     lets = {item[1]: item[2] for item in kernel.body if item[0] == "let"}
-    needed: set = set()
-    stack = [s for item in kernel.body if item[0] == "out" and id(item[1]) in kept for s in item[3].free_symbols]
-    while stack:
-        s_ = stack.pop()
-        if s_ in needed or s_ not in lets:
-            continue
-        needed.add(s_)
-        stack.extend(lets[s_].free_symbols)
+    read = [s for item in kernel.body if item[0] == "out" and id(item[1]) in kept for s in item[3].free_symbols]
+    needed = reachable(lets, read)
     body = [
         item
         for item in kernel.body

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from ..errors import DescriptionError
 import sympy as sp
 
-__all__ = ["Program", "derivative"]
+__all__ = ["Program", "derivative", "reachable"]
 
 
 @dataclass
@@ -96,14 +96,19 @@ class Program:
 
 def _ancestors(prog: Program, symbols) -> set:
     """Intermediates that ``symbols`` depend on (transitively), including themselves."""
-    defs = prog.definitions()
+    return reachable(prog.definitions(), symbols)
+
+
+def reachable(definitions: dict, symbols) -> set:
+    """The symbols of ``definitions`` (symbol -> expression) that ``symbols`` depend on,
+    transitively, including those of ``symbols`` it defines."""
     seen, stack = set(), list(symbols)
     while stack:
         s_ = stack.pop()
-        if s_ in seen or s_ not in defs:
+        if s_ in seen or s_ not in definitions:
             continue
         seen.add(s_)
-        stack.extend(defs[s_].free_symbols)
+        stack.extend(definitions[s_].free_symbols)
     return seen
 
 
