@@ -51,22 +51,25 @@ def _description(name: str):
 
 
 def _matrix_kernels(model, shared: bool) -> dict:
-    """The kernels holding the matrices: {name: statements}."""
-    from eigentwist.codegen.generate import KERNEL_DOCS, SYMMETRIC, joints_per_leg, pose_split
-    from eigentwist.codegen.kernel import Output, build_kernel, sub_kernel
+    """The kernels holding the matrices, one CSE (``matrices_kernels``) or one each:
+    {name: statements}."""
+    from eigentwist.codegen.generate import KERNEL_DOCS, SYMMETRIC, joints_per_leg, matrices_kernels, pose_split
+    from eigentwist.codegen.kernel import Output, build_kernel
 
-    position, rotation = pose_split(model)
-    params = list(model.inputs) + [s.name for s in position] + rotation
-    nq = joints_per_leg(model)
-
-    def build(name, group_outs):
-        outs = [Output(k, *model.outputs[g][k], symmetric=k in SYMMETRIC) for g, k in group_outs]
-        return build_kernel(name, KERNEL_DOCS[name], model.program, outs, [], model.joints, params, nq)
-
-    matrices = [("matrices", k) for k in model.outputs["matrices"]]
-    both = build("matrices_lever", matrices + [("jacobians", "lever")])
-    alone = sub_kernel(both, "matrices", "", [k for _, k in matrices]) if shared else build("matrices", matrices)
-    return {k.name: sum(item[0] == "let" for item in k.body) for k in (both, alone)}
+    if shared:
+        matrices, fused = matrices_kernels(model)
+        kernels = [*fused, matrices]
+    else:
+        position, rotation = pose_split(model)
+        params = list(model.inputs) + [s.name for s in position] + rotation
+        nq = joints_per_leg(model)
+        kernels = []
+        for name, extra in (("matrices_lever", [("lever", model.outputs["jacobians"]["lever"])]), ("matrices", [])):
+            outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs["matrices"].items()]
+            outs += [Output(k, sh, ex) for k, (sh, ex) in extra]
+            doc = KERNEL_DOCS[name]
+            kernels.append(build_kernel(name, doc, model.program, outs, [], model.joints, params, nq))
+    return {k.name: sum(item[0] == "let" for item in k.body) for k in kernels}
 
 
 def cse(names: list[str], rounds: int) -> None:

@@ -28,6 +28,7 @@ __all__ = [
     "kernels_for",
     "fused_kernels_for",
     "cse_kernels",
+    "matrices_kernels",
     "render_robot",
     "render_all",
     "write",
@@ -111,20 +112,39 @@ def fused_kernels_for(model) -> list[Kernel]:
     """Kernels only the C backend's fused pass uses: ``matrices_lever`` (M, K_R, K_F and
     the jacobians kernel's ``lever``, CSE'd together: the levers are intermediates of K_R,
     so the singularity check costs nothing). Empty when the model has no levers."""
-    return cse_kernels(model)[1]
+    return matrices_kernels(model)[1]
+
+
+def _program_inputs(model) -> tuple[list[str], int]:
+    """The parameter inputs of the kernels after the inverse kinematics (the parameters, and a
+    6-DoF robot's pose through them) and the joint coordinates per leg."""
+    position, rotation = pose_split(model)
+    return list(model.inputs) + [s.name for s in position] + rotation, joints_per_leg(model)
+
+
+def matrices_kernels(model) -> tuple[Kernel, list[Kernel]]:
+    """``(matrices, fused)``: the matrices kernel (M, K_R, K_F) and :func:`fused_kernels_for`'s
+    kernels, from one CSE. Where the model has levers, the matrices and the levers are CSE'd
+    together as ``matrices_lever`` and the matrices kernel is its part without the levers
+    (:func:`~.kernel.sub_kernel`; for the shipped robots and the gallery the same text as a
+    CSE of the matrices alone, for half the CSE time: ``benchmarks/render.py --cse``)."""
+    params, nq = _program_inputs(model)
+    outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs["matrices"].items()]
+    if "lever" not in model.outputs["jacobians"]:
+        return build_kernel("matrices", KERNEL_DOCS["matrices"], model.program, outs, [], model.joints, params, nq), []
+    names = [out.name for out in outs]
+    outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))
+    doc = KERNEL_DOCS["matrices_lever"]
+    both = build_kernel("matrices_lever", doc, model.program, outs, [], model.joints, params, nq)
+    return sub_kernel(both, "matrices", KERNEL_DOCS["matrices"], names), [both]
 
 
 def cse_kernels(model, progress=None) -> tuple[list[Kernel], list[Kernel]]:
-    """``(kernels_for(model), fused_kernels_for(model))`` from one CSE of each group.
-
-    Where the model has levers, the matrices and the levers are CSE'd once, together, as
-    ``matrices_lever``, and the ``matrices`` kernel is its part without the levers
-    (:func:`~.kernel.sub_kernel`; for the shipped robots and the gallery the same text as a
-    CSE of the matrices alone, for half the CSE time: ``benchmarks/render.py --cse``).
-    """
+    """``(kernels_for(model), fused_kernels_for(model))`` from one CSE of each group (the
+    matrices and the levers once: :func:`matrices_kernels`)."""
     position, rotation = pose_split(model)
     params = list(model.inputs)
-    nq = joints_per_leg(model)
+    program_params, nq = _program_inputs(model)
     kernels = []
     ik_outs = [Output(k, sh, ex) for k, (sh, ex) in model.ik_outputs.items()]
     kernels.append(
@@ -138,7 +158,6 @@ def cse_kernels(model, progress=None) -> tuple[list[Kernel], list[Kernel]]:
             params + rotation + list(model.ik_joint_inputs),
         )
     )
-    program_params = params + [s.name for s in position] + rotation
     if model.closure is not None:
         outs = [Output(k, sh, ex) for k, (sh, ex) in model.closure_outputs.items()]
         kernels.append(
@@ -146,24 +165,18 @@ def cse_kernels(model, progress=None) -> tuple[list[Kernel], list[Kernel]]:
                 "loop_closure", KERNEL_DOCS["loop_closure"], model.closure, outs, [], model.joints, program_params, nq
             )
         )
-    levers = "lever" in model.outputs["jacobians"]
-    fused = []
     for group in ("matrices", "jacobians", "gravity", "legs"):
         if progress:
             progress(f"CSE {group}")
-        outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
-        if group == "matrices" and levers:
-            names = [out.name for out in outs]
-            outs.append(Output("lever", *model.outputs["jacobians"]["lever"]))
-            doc = KERNEL_DOCS["matrices_lever"]
-            both = build_kernel("matrices_lever", doc, model.program, outs, [], model.joints, program_params, nq)
-            fused.append(both)
-            kernels.append(sub_kernel(both, group, KERNEL_DOCS[group], names))
+        if group == "matrices":
+            matrices, fused = matrices_kernels(model)
+            kernels.append(matrices)
             continue
+        outs = [Output(k, sh, ex, symmetric=k in SYMMETRIC) for k, (sh, ex) in model.outputs[group].items()]
         kernels.append(
             build_kernel(group, KERNEL_DOCS[group], model.program, outs, [], model.joints, program_params, nq)
         )
-    if model.closure is not None and levers:
+    if model.closure is not None and "lever" in model.outputs["jacobians"]:
         # the branch check of every Newton solution reads the levers only: CSE'd alone they
         # take ~40 % of the jacobians kernel's statements (6-RUS: 518; its part of the
         # jacobians kernel, CSE'd with the other rows, 704)

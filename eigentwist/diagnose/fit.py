@@ -355,16 +355,25 @@ def _comparison(meas, effects, ev, values: dict, first: "FirstSet | None" = None
     return comp if spec is None else attach_damping(comp, meas, modes, idx, spec)
 
 
-def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
-    grids = []
-    for t in transforms:
-        if given and t.name in given:
-            grids.append([float(np.clip(v, t.lo, t.hi)) for v in given[t.name]])
-            continue
-        v0 = start[t.name]
-        factors = START_FACTORS if t.name in explore and t.log else (1.0,)
-        grids.append([float(np.clip(v0 * f, t.lo, t.hi)) for f in factors])
+def _explored(t, explore, given: dict | None) -> bool:
+    """Whether the start grid varies parameter ``t``: asked for, positive (log-transformed) and
+    without given start values."""
+    return t.name in explore and t.log and not (given and t.name in given)
+
+
+def _grid(transforms, levels) -> np.ndarray:
+    """(K, P): every combination of each parameter's ``levels(t)``, clipped to its search range."""
+    grids = [[float(np.clip(v, t.lo, t.hi)) for v in levels(t)] for t in transforms]
     return np.array(list(itertools.product(*grids)))
+
+
+def _starts(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
+    def levels(t):
+        if given and t.name in given:
+            return given[t.name]
+        return [start[t.name] * f for f in (START_FACTORS if _explored(t, explore, given) else (1.0,))]
+
+    return _grid(transforms, levels)
 
 
 def _ends(transforms, start: dict, explore, given: dict | None = None) -> np.ndarray:
@@ -377,16 +386,15 @@ def _ends(transforms, start: dict, explore, given: dict | None = None) -> np.nda
     without the effects being fitted: the fit of a model that nests another can start no
     worse than that model, however rough the landscape between (a torque lag makes the stiff
     settings unstable over the whole start grid)."""
-    explored = [t.name in explore and t.log and not (given and t.name in given) for t in transforms]
-    if not any(explored):
+    if not any(_explored(t, explore, given) for t in transforms):
         return np.empty((0, len(transforms)))
-    grids = [
-        [t.lo, t.hi]
-        if e
-        else [float(np.clip(given[t.name][0] if given and t.name in given else start[t.name], t.lo, t.hi))]
-        for t, e in zip(transforms, explored)
-    ]
-    return np.array(list(itertools.product(*grids)))
+
+    def levels(t):
+        if _explored(t, explore, given):
+            return [t.lo, t.hi]
+        return [given[t.name][0] if given and t.name in given else start[t.name]]
+
+    return _grid(transforms, levels)
 
 
 def _best_start(table: np.ndarray, chi2: np.ndarray) -> np.ndarray:

@@ -174,16 +174,8 @@ class _Fits:
             return f
         _, e, smaller = min(nested)  # the lowest subset; equal ones by the dropped member's name
         member = self.by[e]
-        g = fit(
-            self.meas,
-            effects,
-            self.ev,
-            f.names,
-            start={**smaller.values, **{n: member.fit.values[n] for n in member.names}},
-            fixed=self.base.fixed,
-            explore=member.names,
-            max_nfev=SEARCH_NFEV,
-        )
+        start = {**smaller.values, **{n: member.fit.values[n] for n in member.names}}
+        g = self._fit(effects, f.names, start, member.names)
         return g if g.chi2 < f.chi2 else f
 
     def _joint(self, order, effects) -> FitResult:
@@ -196,14 +188,19 @@ class _Fits:
         for c in members:
             start.update({n: c.fit.values[n] for n in c.names})
         self.fitted += 1
+        return self._fit(effects, names, start, ())
+
+    def _fit(self, effects, names, start: dict, explore) -> FitResult:
+        """The model ``effects`` fitted in ``names`` from ``start`` (the grid only over
+        ``explore``), the baseline's fixed values, within the search's solver budget."""
         return fit(
             self.meas,
             effects,
             self.ev,
             names,
             start=start,
-            fixed=base.fixed,
-            explore=(),
+            fixed=self.base.fixed,
+            explore=explore,
             max_nfev=SEARCH_NFEV,
         )
 
