@@ -261,6 +261,29 @@ def test_generalized_eigh_on_blocks_and_a_bad_pair():
     assert str(err.value) == "pair 3: M is not positive definite (or K, M are not finite)"
 
 
+def test_generalized_eigh_post_runs_on_each_range_once_after_its_solve():
+    kern = kernels()
+    kern._fn["eigh"] = Eigh()
+    n = 3 * kern.BLOCK * 16 + 5  # three threads' worth of blocks (threads.MIN_BLOCKS_PER_THREAD)
+    K = np.stack([np.diag([3.0, 1.0, 2.0]) * (k + 1) for k in range(n)])
+    M = np.broadcast_to(np.eye(3), (n, 3, 3))
+    seen, copies = [], np.full((n, 3), np.nan)
+
+    def post(lam, V, rows):
+        seen.append((rows.start, rows.stop))
+        copies[rows] = lam[rows]  # the range's eigenvalues are there when post runs
+
+    lam, _ = kern.generalized_eigh(K, M, threads=3, post=post)
+    seen.sort()
+    assert len(seen) > 1 and seen[0][0] == 0 and seen[-1][1] == n
+    assert all(a[1] == b[0] for a, b in zip(seen, seen[1:]))  # every row once, no gap
+    assert np.array_equal(copies, lam)
+    M = np.array(M)
+    M[7] = 0.0  # a pair that fails: post still runs on the solved rows, then the error
+    with pytest.raises(np.linalg.LinAlgError, match="pair 7: M is not positive definite"):
+        kern.generalized_eigh(K, M, post=post)
+
+
 def test_the_librarys_status_codes_must_be_pythons():
     sig = dict(SIGNATURE, fused=dict(SIGNATURE["fused"], status={"ok": 0}))
     with pytest.raises(RuntimeError) as err:

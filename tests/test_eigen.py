@@ -8,6 +8,7 @@ import scipy.linalg
 
 from eigentwist.runtime.eigen import (
     ROUNDOFF_EPS,
+    frequencies_and_stability,
     frequencies_hz,
     generalized_eigh,
     generalized_eigvalsh,
@@ -88,6 +89,20 @@ def test_a_negative_eigenvalue_is_round_off_up_to_eps_of_the_largest():
     assert unstable_modes(lam).tolist() == [[False, False, False], [True, False, False], [False, False, False]]
     f = frequencies_hz(lam)
     assert f[0, 0] == 0.0 and np.isnan(f[1, 0]) and f[0, 2] == np.sqrt(big) / (2 * np.pi)
+
+
+def test_stability_is_false_where_any_mode_is_unstable():
+    big = 4.0e6
+    edge = -ROUNDOFF_EPS * big
+    lam = np.array(
+        [[edge * 0.99, 1.0, big], [1.0, edge * 1.01, big], [1.0, 2.0, big], [np.nan, 1.0, big], [-5.0, -1.0, big]]
+    )
+    f, stable = frequencies_and_stability(lam)
+    assert stable.tolist() == [True, False, True, True, False]  # a NaN eigenvalue is not unstable
+    assert np.isnan(f[1, 1]) and np.isnan(f[4, :2]).all() and f[0, 0] == 0.0
+    assert f[2, 1] == np.sqrt(2.0) / (2 * np.pi) and np.array_equal(f, frequencies_hz(lam), equal_nan=True)
+    f, stable = frequencies_and_stability(lam[0])  # one pose: a scalar flag
+    assert stable.shape == () and bool(stable) and f[0] == 0.0
 
 
 def test_mac_is_one_for_parallel_and_zero_for_m_orthogonal():

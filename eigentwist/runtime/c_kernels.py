@@ -600,13 +600,16 @@ class CKernels:
         return self._q_kernel("legs", q, p)
 
     # ------------------------------------------------------- fast paths
-    def generalized_eigh(self, K, M, vectors: bool = True, threads: int = 1):
+    def generalized_eigh(self, K, M, vectors: bool = True, threads: int = 1, post=None):
         """``K v = lambda M v`` for (N, n, n) pairs, n = 6 or 3, in C (Cholesky + Jacobi).
 
         Same contract as :func:`eigentwist.runtime.eigen.generalized_eigh`: eigenvalues
         omega^2 in (rad/s)^2 ascending (N, n) and M-orthonormal eigenvectors as columns
         (N, n, n) (None when ``vectors`` is False). Only the upper triangles are read.
         ``threads`` > 1 splits the batch on block boundaries (bit-identical results).
+        ``post(lam, V, rows)``, if given, runs after each range's C call on the thread that
+        ran it, ``rows`` that range's slice (work on the solved rows that then runs side by
+        side, not after the whole batch on the calling thread).
         """
         K = np.ascontiguousarray(K, dtype=np.float64)
         M = np.ascontiguousarray(M, dtype=np.float64)
@@ -626,7 +629,7 @@ class CKernels:
         fn, mat = self._fn["eigh"], 8 * dim * dim
 
         def call(a: int, b: int) -> int:
-            return fn(
+            rc = fn(
                 b - a,
                 dim,
                 address(K) + a * mat,
@@ -634,12 +637,14 @@ class CKernels:
                 address(lam) + a * 8 * dim,
                 address(V) + a * mat if vectors else None,
             )
+            if post is not None and rc == 0:
+                post(lam, V, slice(a, b))
+            return rc
 
         for rc in run_ranges(call, n, self.BLOCK, threads_for(n, self.BLOCK, threads)):
             _check_rc(rc, "eigh")
-        bad = ~np.isfinite(lam).all(axis=1)
-        if bad.any():
-            k = int(np.argmax(bad))
+        if not np.isfinite(lam).all():  # one pass over the batch; per pair only on failure
+            k = int(np.argmax(~np.isfinite(lam).all(axis=1)))
             raise np.linalg.LinAlgError(f"pair {k}: M is not positive definite (or K, M are not finite)")
         return lam, V
 

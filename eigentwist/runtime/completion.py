@@ -159,15 +159,16 @@ class PoseCompletion:
                     return lambda q, pp, its, tl: self.kernels.follow(q, pp, followers, its, tl, threads=inner)
 
         n = len(arr)
+        full = np.empty((n, 6))
 
         def complete(sl, inner):
             its = None if iterate_on is None else iterate_on(inner)
-            return full_poses(self.space, arr[sl], closure, take(p, sl) if n > 1 else p, reference, its)
+            full[sl] = full_poses(self.space, arr[sl], closure, take(p, sl) if n > 1 else p, reference, its)
 
         # fixed chunks, as for numeric IK (:meth:`solve_joints`); on the C route whole chunks
-        # run on the threads
-        done = map_chunks(complete, n, threads if iterate_on is not None else 1, NEWTON_CHUNK)
-        return (done[0] if len(done) == 1 else np.concatenate(done)).view(CompletedPoses)
+        # run on the threads, each writing its rows of the one result (no copy after them)
+        map_chunks(complete, n, threads if iterate_on is not None else 1, NEWTON_CHUNK)
+        return full.view(CompletedPoses)
 
     def follower_reference(self):
         """The legs' reference configuration (legs, n_q) from which a lower-mobility

@@ -15,6 +15,7 @@ __all__ = [
     "generalized_eigh",
     "generalized_eigvalsh",
     "frequencies_hz",
+    "frequencies_and_stability",
     "unstable_modes",
     "largest_magnitude",
     "normalize_eigentwists",
@@ -96,9 +97,19 @@ def frequencies_hz(lam: np.ndarray, eps: float = ROUNDOFF_EPS) -> np.ndarray:
     Negative round-off (|lambda| <= ``eps`` max|lambda| of the pose, a rank-deficient K)
     clips to 0 Hz; an unstable mode (:func:`unstable_modes`) is NaN, never 0 Hz.
     """
+    return frequencies_and_stability(lam, eps)[0]
+
+
+def frequencies_and_stability(lam: np.ndarray, eps: float = ROUNDOFF_EPS) -> tuple:
+    """``(freq_hz, stable)``: :func:`frequencies_hz` of ``lam`` (..., n) and whether each pose
+    has no unstable mode (..., ) bool (:func:`unstable_modes`, found once for both)."""
     lam = np.asarray(lam, dtype=float)
+    unstable = unstable_modes(lam, eps)
     f = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
-    return np.where(unstable_modes(lam, eps), np.nan, f)
+    stable = np.ones(lam.shape[:-1], dtype=bool)
+    for k in range(lam.shape[-1]):  # per column: a reduction along a short last axis runs per row
+        stable &= ~unstable[..., k]
+    return np.where(unstable, np.nan, f), stable
 
 
 def normalize_eigentwists(V: np.ndarray) -> np.ndarray:

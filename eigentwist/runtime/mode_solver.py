@@ -19,7 +19,7 @@ from ..description.pose import twist_order
 from . import condense
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
 from .completion import chunks, masked, take, user_rows
-from .eigen import frequencies_hz, generalized_eigh, normalize_eigentwists, unstable_modes
+from .eigen import frequencies_and_stability, generalized_eigh, normalize_eigentwists
 from .errors import InputError, UnstablePoseError
 from .modes import Modes
 from .validity import STATUS
@@ -305,6 +305,9 @@ class ModeSolver:
         ok = self.ev.valid(poses, effects, **params)
         n = len(poses)
         stiffness = self.ev.stiffness_model(effects)
+        if ok.all():  # every row solved as it is: no copy into NaN-filled arrays
+            m = self.solve(*self.stiffness(poses, effects, params, stash), vectors, stiffness)
+            return Modes(m.freq_hz, m.eigentwists, self.ev.axes(stiffness), stiffness, ok, m.stable)
         size = self.ev.rigid_size() if stiffness == "rigid" else 6
         freq = np.full((n, size), np.nan)
         vec = np.full((n, size, size), np.nan) if vectors else None
@@ -324,20 +327,29 @@ class ModeSolver:
         """:class:`Modes` of the pencils ``K v = omega^2 M v`` (Eq. 7), a batch (N, n, n): the C
         Jacobi solver where it has the size, else :func:`.eigen.generalized_eigh`; ``stiffness``
         names the model (None: ``"rigid"`` for 3x3 pencils, else ``"flexible"``)."""
-        if self.ev.c_route.fused and K.shape[-1] in self.kernels.signature["eigh"]["dims"]:  # the C solver's sizes
-            lam, V = self.kernels.generalized_eigh(K, M, vectors=vectors, threads=self.ev.c_route.nthreads())
-        else:
-            # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
-            # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
-            lam, V = generalized_eigh(K, M)
         if stiffness is None:
             stiffness = "rigid" if M.shape[-1] == 3 else "flexible"
+        if self.ev.c_route.fused and K.shape[-1] in self.kernels.signature["eigh"]["dims"]:  # the C solver's sizes
+            n, dim = K.shape[0], K.shape[-1]
+            freq, stable = np.empty((n, dim)), np.empty(n, dtype=bool)
+
+            def post(lam, V, rows):  # on the thread that solved these rows
+                freq[rows], stable[rows] = frequencies_and_stability(lam[rows])
+                if V is not None:
+                    V[rows] = normalize_eigentwists(V[rows])
+
+            _, V = self.kernels.generalized_eigh(K, M, vectors=vectors, threads=self.ev.c_route.nthreads(), post=post)
+            return Modes(freq, V, self.ev.axes(stiffness), stiffness, stable=stable)
+        # LAPACK's eigenvalue-only driver rounds differently: solving with vectors keeps
+        # frequencies() bit-identical to modes().freq_hz (C: the same Jacobi rotations)
+        lam, V = generalized_eigh(K, M)
+        freq, stable = frequencies_and_stability(lam)
         return Modes(
-            frequencies_hz(lam),
+            freq,
             normalize_eigentwists(V) if vectors else None,
             self.ev.axes(stiffness),
             stiffness,
-            stable=~unstable_modes(lam).any(axis=-1),
+            stable=stable,
         )
 
     def raise_unstable(self, poses, modes: Modes, effects) -> None:
