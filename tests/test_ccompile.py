@@ -21,7 +21,17 @@ SOURCE = "int et_tiny_answer(void) { return 42; }\n"
 
 @pytest.fixture
 def cc(tmp_path):
-    """A compiler wrapper that logs every compilation and takes its time (widens races)."""
+    """A compiler wrapper that logs every compilation (:func:`slow_cc`: one that also takes its time)."""
+    return _logging_cc(tmp_path, ":")
+
+
+@pytest.fixture
+def slow_cc(tmp_path):
+    """A compiler wrapper that logs every compilation and takes a second over it (widens races)."""
+    return _logging_cc(tmp_path, "sleep 1")
+
+
+def _logging_cc(tmp_path, delay: str):
     try:
         real = ccompile.find_compiler()
     except ccompile.CompilerNotFoundError as exc:
@@ -30,7 +40,7 @@ def cc(tmp_path):
     wrapper = tmp_path / "bin" / "logging-cc"
     wrapper.parent.mkdir()
     wrapper.write_text(f"""#!/bin/sh
-case " $* " in *" -shared "*) echo "$$" >> '{log}'; sleep 1 ;; esac
+case " $* " in *" -shared "*) echo "$$" >> '{log}'; {delay} ;; esac
 exec '{real}' "$@"
 """)
     wrapper.chmod(0o755)
@@ -47,8 +57,8 @@ def _build_and_load(cc, directory, barrier, queue):
     queue.put((str(path), ctypes.CDLL(str(path)).et_tiny_answer()))
 
 
-def test_two_processes_compile_once(cc, tmp_path):
-    cc, log = cc
+def test_two_processes_compile_once(slow_cc, tmp_path):
+    cc, log = slow_cc
     directory = tmp_path / "cache"
     ctx = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
     barrier, queue = ctx.Barrier(2), ctx.Queue()
