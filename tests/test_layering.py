@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -42,11 +43,23 @@ def _own_object(value: ast.AST) -> bool:
     return isinstance(value, ast.Call) and isinstance(value.func, ast.Name) and value.func.id == "super"
 
 
-def violations(source: str, module: str, is_package: bool = False) -> list[str]:
-    """Layering and privacy violations of one module's source, as readable lines."""
+def _tree(source) -> ast.AST:
+    """``source`` parsed (a module's text), or the tree itself (:func:`parsed`)."""
+    return source if isinstance(source, ast.AST) else ast.parse(source)
+
+
+@functools.cache
+def parsed(path: Path) -> ast.Module:
+    """A source file's tree, parsed once for both checks below (the generated evaluators
+    are ~0.4 MB each)."""
+    return ast.parse(path.read_text(encoding="utf-8"))
+
+
+def violations(source, module: str, is_package: bool = False) -> list[str]:
+    """Layering and privacy violations of one module's source (text or tree), as readable lines."""
     out = []
     in_cli = module == "eigentwist.cli" or module.startswith("eigentwist.cli.") or module in ENTRY_POINTS
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(_tree(source)):
         targets = []
         if isinstance(node, ast.Import):
             targets = [a.name for a in node.names]
@@ -71,7 +84,7 @@ SOURCES = sorted(PACKAGE.rglob("*.py"))
 
 @pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(PACKAGE.parent)))
 def test_module_respects_the_layers(path):
-    bad = violations(path.read_text(encoding="utf-8"), module_name(path), path.name == "__init__.py")
+    bad = violations(parsed(path), module_name(path), path.name == "__init__.py")
     assert not bad, f"{path.relative_to(PACKAGE.parent)}:\n  " + "\n  ".join(bad)
 
 
@@ -132,11 +145,11 @@ def _resolve(target: str, modules) -> str | None:
     return None
 
 
-def imports_of(source: str, module: str, is_package: bool, modules) -> set[str]:
+def imports_of(source, module: str, is_package: bool, modules) -> set[str]:
     """Modules of ``modules`` that ``module`` imports, at module level or inside functions,
     with the packages whose ``__init__`` such an import runs (not the root package, whose
     ``__init__`` imports nothing at module level); ``if TYPE_CHECKING:`` imports excluded."""
-    tree = ast.parse(source)
+    tree = _tree(source)
     skip = _type_checking_lines(tree)
     out = set()
     for node in ast.walk(tree):
@@ -195,9 +208,7 @@ def import_circles(graph: dict) -> list[list[str]]:
 
 
 def _graph() -> dict:
-    return {
-        m: imports_of(p.read_text(encoding="utf-8"), m, p.name == "__init__.py", MODULES) for m, p in MODULES.items()
-    }
+    return {m: imports_of(parsed(p), m, p.name == "__init__.py", MODULES) for m, p in MODULES.items()}
 
 
 def test_no_import_circles():
