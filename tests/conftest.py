@@ -144,8 +144,8 @@ def _hypothesis_skips_generated_code() -> None:
     """Hypothesis draws constants from the source of the project's own modules, parsing each
     module loaded (``hypothesis.internal.conjecture.providers``, module by module as they
     appear); the generated evaluators are 0.2-0.7 MB of straight-line code each, with no
-    constant a property test needs, and parsing them took ~10 s of CPU a run (9.5 s over the
-    two workers). They are left out; the hand-written modules' constants are still drawn.
+    constant a property test needs, and parsing them costs ~10 s of CPU a suite run (the two
+    workers together). They are left out; the hand-written modules' constants are still drawn.
     Where Hypothesis has no such hook (another version), nothing changes."""
     try:
         from hypothesis.internal.conjecture import providers

@@ -226,10 +226,10 @@ def kernel_flags(name: str, flags: list) -> list:
     time linear in their number; -O3 adds time, not speed, on this straight-line code) and,
     in the ``native`` (gcc) set, gcc's bound on a loop's data references raised to
     :data:`DATAREFS_PER_STATEMENT` per statement of a part, so that every part's pose loop
-    vectorises (the Heli4's: 12 401 scalar and 2 376 packed arithmetic instructions before,
-    none scalar after), and gcc's induction-variable optimisation and predictive commoning
-    left out (:data:`NATIVE_SKIPPED`: on a vectorised part, with its thousands of memory
-    references, they took 48 % and 10 % of the compile, for no speed measured)."""
+    vectorises (under gcc's default a full-size part's loop stays scalar), and gcc's
+    induction-variable optimisation and predictive commoning left out (:data:`NATIVE_SKIPPED`:
+    on a vectorised part, with its thousands of memory references, they are about half of the
+    compile and add no speed: ``benchmarks/README.md``)."""
     from ..codegen.sensitivity import CHUNK
 
     flags = ["-O2" if f == "-O3" else f for f in flags]
