@@ -346,6 +346,19 @@ def test_each_pose_is_valid_or_not_with_its_reason(heli4):
     assert heli4.modes(P[:1]).valid is None
 
 
+def test_an_all_valid_batch_gives_the_rows_a_mixed_batch_gives(heli4):
+    # invalid="nan" with every pose valid takes the rows as they are; with one unreachable
+    # pose among them, the others are solved apart and copied into NaN-filled arrays
+    P = np.array([POSES[0], POSES[1]])
+    whole = heli4.modes(P, invalid="nan")
+    mixed = heli4.modes(np.array([POSES[0], [0.0, 0.0, -1.2], POSES[1]]), invalid="nan")
+    assert whole.valid.dtype == bool and whole.valid.tolist() == [True, True] and whole.stable.all()
+    assert mixed.valid.tolist() == [True, False, True]
+    assert np.array_equal(whole.freq_hz, mixed.freq_hz[[0, 2]])
+    assert np.array_equal(whole.eigentwists, mixed.eigentwists[[0, 2]])
+    assert whole.stiffness_model == mixed.stiffness_model and tuple(whole.axes) == tuple(mixed.axes)
+
+
 def test_no_valid_pose_gives_nan_and_no_error(heli4):
     m = heli4.modes([[0.0, 0.0, -1.2], [0.0, 0.0, -1.3]], invalid="nan", vectors=False)
     assert m.valid.tolist() == [False, False] and np.isnan(m.freq_hz).all() and m.eigentwists is None
