@@ -227,3 +227,19 @@ def test_shipped_robots_run_every_command_without_derivation(tmp_path):
         tmp_path / "cache",
     )
     assert out.count('"freq_hz"') == 6 and "actuator_loss@3" in out and '"dlnf1_dlnp"' in out
+
+
+@pytest.mark.slow
+@pytest.mark.compiled
+def test_a_cached_c_sensitivity_kernel_loads_without_the_code_generator():
+    # the run's cache: the Delta's C kernel for p_x is the one tests/test_sensitivity.py's
+    # test_c_equals_numpy compiles before this test on the same worker (tests/conftest.py:
+    # GROUPS["sensitivity"]); the first process generates it where it is missing, the second
+    # loads it (its compiler flags are the runtime's own) with the derivation and code
+    # generation unimportable
+    from .conftest import c_cache_dir
+
+    cache = c_cache_dir()
+    command = ["sensitivity", "--robot", "delta", "--backend", "c", "--jacobian", "exact", "--wrt", "p_x", "--json"]
+    first = _run([command], cache, blocked=False)
+    assert _run([command], cache) == first

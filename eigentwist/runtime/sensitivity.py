@@ -47,7 +47,7 @@ __all__ = [
     "check_wrt",
     "check_lowest",
     "kernel_flags",
-    "DATAREFS_PER_STATEMENT",
+    "LOOP_DATAREFS",
     "NATIVE_SKIPPED",
     "own_legs",
     "kernel_wrt",
@@ -211,11 +211,13 @@ class _CKernel:
         return outs
 
 
-#: data references gcc's dependence analysis takes in one loop, per statement of a kernel
-#: part: a part's pose loop (codegen.sensitivity.CHUNK statements, each reading a few values
-#: and the values crossing parts stored and loaded) has more than gcc's default of 1 000, and
-#: a loop it gives up on is not vectorised, ``omp simd`` or not
-DATAREFS_PER_STATEMENT = 4
+#: data references gcc's dependence analysis takes in one loop: four per statement of a
+#: kernel part (``codegen.sensitivity.CHUNK`` statements, each reading a few values, the
+#: values crossing parts stored and loaded; tests/test_sensitivity_split.py holds the two
+#: together). A part's pose loop has more than gcc's default of 1 000, and a loop it gives
+#: up on is not vectorised, ``omp simd`` or not. A number, not read from ``codegen``: a
+#: cached kernel is loaded without importing the code generator
+LOOP_DATAREFS = 20_000
 #: gcc passes the sensitivity kernel is compiled without (:func:`kernel_flags`)
 NATIVE_SKIPPED = ("-fno-ivopts", "-fno-predictive-commoning")
 
@@ -225,16 +227,14 @@ def kernel_flags(name: str, flags: list) -> list:
     :func:`.ccompile.flag_sets`: ``-O2`` for ``-O3`` (the kernel's split parts compile in
     time linear in their number; -O3 adds time, not speed, on this straight-line code) and,
     in the ``native`` (gcc) set, gcc's bound on a loop's data references raised to
-    :data:`DATAREFS_PER_STATEMENT` per statement of a part, so that every part's pose loop
+    :data:`LOOP_DATAREFS`, so that every part's pose loop
     vectorises (under gcc's default a full-size part's loop stays scalar), and gcc's
     induction-variable optimisation and predictive commoning left out (:data:`NATIVE_SKIPPED`:
     on a vectorised part, with its thousands of memory references, they are about half of the
     compile and add no speed: ``benchmarks/README.md``)."""
-    from ..codegen.sensitivity import CHUNK
-
     flags = ["-O2" if f == "-O3" else f for f in flags]
     if name == "native":
-        flags += ["--param", f"loop-max-datarefs-for-datadeps={DATAREFS_PER_STATEMENT * CHUNK}", *NATIVE_SKIPPED]
+        flags += ["--param", f"loop-max-datarefs-for-datadeps={LOOP_DATAREFS}", *NATIVE_SKIPPED]
     return flags
 
 
