@@ -239,3 +239,40 @@ def test_every_command_defaults_to_the_backend_of_load(monkeypatch, capsys):
     with pytest.raises(SystemExit):
         build_parser().parse_args(["reproduce"])
     assert "unknown backend 'cuda' (from EIGENTWIST_BACKEND)" in capsys.readouterr().err
+
+
+PROCESS_STATE = """
+import contextlib, gc, io, os, sys
+from eigentwist.cli.main import main
+sys.argv = ["eigentwist", "matrices", "--json"]
+with contextlib.redirect_stdout(io.StringIO()):
+    main()
+from threadpoolctl import threadpool_info
+blas = [i["num_threads"] for i in threadpool_info() if i.get("internal_api") == "openblas"]
+print(os.environ.get("OPENBLAS_NUM_THREADS"), min(blas) if blas else "none", gc.get_freeze_count() > 0)
+"""
+
+
+@pytest.mark.parametrize("given", [None, "2"])
+def test_a_commands_own_process_runs_blas_on_one_thread_and_freezes_its_start_up_objects(given):
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given:
+        env["OPENBLAS_NUM_THREADS"] = given  # the user's choice wins
+    out = subprocess.run(
+        [sys.executable, "-c", PROCESS_STATE], env=env, capture_output=True, text=True, check=True
+    ).stdout.split()
+    want = given or "1"
+    assert out[0] == want and out[2] == "True"
+    assert out[1] in ("none", want)  # OpenBLAS's threads where NumPy links it
+
+
+def test_main_called_with_arguments_leaves_its_process_as_it_is(capsys, monkeypatch):
+    import gc
+    import os
+
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    frozen = gc.get_freeze_count()
+    assert main(["matrices", "--json"]) == 0
+    assert "OPENBLAS_NUM_THREADS" not in os.environ and gc.get_freeze_count() == frozen

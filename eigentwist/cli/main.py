@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import os
 import re
@@ -113,9 +114,23 @@ def version_only(argv: list[str]) -> bool:
     return False
 
 
+def one_blas_thread() -> None:
+    """OpenBLAS on one thread in a command's process, unless the user set
+    ``OPENBLAS_NUM_THREADS``: the commands' linear algebra is on small matrices (a fit's
+    Jacobian, 6 x 6 pencils batched in C or by NumPy's own loops), between whose calls
+    OpenBLAS's threads would only spin (on two cores, 8 % of ``diagnose paper``'s CPU).
+    OpenBLAS reads the variable when NumPy first loads it: a process that has imported NumPy
+    already (a test calling :func:`main`) is left as it is."""
+    if "numpy" not in sys.modules:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
 def main(argv=None) -> int:
     from .examples import requested_robot
 
+    argv_given = argv
+    if argv is None:  # the process is the command's own (the console script)
+        one_blas_thread()
     argv = join_negative_percentages(list(sys.argv[1:] if argv is None else argv))
     if version_only(argv):
         from .. import __version__
@@ -133,6 +148,10 @@ def main(argv=None) -> int:
     formatwarning = warnings.formatwarning
     if not args.debug:
         warnings.formatwarning = _one_line_warning
+    if argv_given is None:
+        # the objects the imports and the parser built live as long as the process: the
+        # cyclic garbage collector skips them in every collection of the command's work
+        gc.freeze()
     try:
         return _run(args)
     finally:
