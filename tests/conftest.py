@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import tempfile
 
-import numpy as np
-import pytest
+# Before NumPy loads OpenBLAS: the tests' linear algebra is on small matrices, and two
+# workers share two cores; OpenBLAS's own threads would only spin between calls, on the
+# other worker's core (the command line does the same for its process: cli.main)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import eigentwist
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import eigentwist  # noqa: E402
 
 
 @pytest.fixture(scope="session")
@@ -186,6 +192,13 @@ DERIVING_MODULES = {
 #: ``rendered_with_progress``) or generate description files' code on first use (``gallery``:
 #: tests/test_gallery.py; ``numeric``: the URDF-form robots of tests/test_numeric_ik.py)
 DERIVING_FIXTURES = {"derived", "rendered", "rendered_with_progress", "gallery", "numeric"}
+
+
+def pytest_collection_finish(session):
+    """The objects collection built (the modules, the items) live as long as the run: the
+    cyclic garbage collector skips them in every later collection (the command line does
+    the same after its start-up: cli.main)."""
+    gc.freeze()
 
 
 def pytest_collection_modifyitems(config, items):
