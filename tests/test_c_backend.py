@@ -459,6 +459,7 @@ def test_a_compiler_refusing_gccs_flags_gets_the_vectorising_flags_next(c_cache,
     trigonometry flag and vector maths. Built at -O0: the order is under test here."""
     native, vector, portable = ccompile.flag_sets()
     assert "-fdisable-tree-sincos" in native[1] and "-fdisable-tree-sincos" not in vector[1]
+    assert set(ccompile.GCC_COMPILE_TIME) <= set(native[1]) and not set(ccompile.GCC_COMPILE_TIME) & set(vector[1])
     assert not any(f.startswith("-DET_SIMD_MATH") for f in vector[1])
     assert set(vector[1]) < set(native[1]) and {"-march=native", "-fno-trapping-math", "-fopenmp-simd"} <= set(
         vector[1]

@@ -50,6 +50,7 @@ __all__ = [
     "find_compiler",
     "compiler_version",
     "flag_sets",
+    "GCC_COMPILE_TIME",
     "cache_dir",
     "build_library",
     "check_private",
@@ -113,6 +114,11 @@ def _glibc_version() -> tuple[int, int]:
         return (0, 0)
 
 
+#: gcc options of the ``native`` flag set that shorten the compile of long straight-line
+#: code without changing its arithmetic (:func:`flag_sets`)
+GCC_COMPILE_TIME = ("-fira-region=one", "-fno-gcse-after-reload")
+
+
 def flag_sets() -> list[tuple[str, list[str]]]:
     """Compiler flag sets to try, fastest first: ``[(name, flags), ...]``.
 
@@ -120,13 +126,18 @@ def flag_sets() -> list[tuple[str, list[str]]]:
     lets a guarded division or square root run in every lane and be selected, which AVX2,
     without masked vector instructions, needs to vectorise the Jacobi sweeps) and, on x86-64
     glibc, calls libmvec's vector sin/cos (glibc >= 2.22) and asin/acos/atan2 (>= 2.35);
-    ``vector`` is the same without gcc's ``-fdisable-tree-sincos`` and the vector maths, for
-    compilers that refuse them (clang): the loops without a sin or cos call still vectorise
-    (the Jacobi sweeps, a pass without trigonometry); ``portable`` is plain C99 at ``-O3``.
+    ``native`` also gives gcc's register allocator one region per function and skips its CSE
+    of loads after reload (:data:`GCC_COMPILE_TIME`): on the generated kernels' long
+    straight-line blocks gcc's defaults there took 14 % more compile time for no speed (the
+    same arithmetic; measured on AVX-512: ``benchmarks/README.md``);
+    ``vector`` is the same without gcc's options (``-fdisable-tree-sincos``, those two) and the
+    vector maths, for compilers that refuse them (clang): the loops without a sin or cos call
+    still vectorise (the Jacobi sweeps, a pass without trigonometry); ``portable`` is plain C99
+    at ``-O3``.
     """
     base = ["-O3", "-fPIC", "-shared", "-std=gnu99"]
     vector = base + ["-march=native", "-fopenmp-simd", "-fno-math-errno", "-fno-trapping-math"]
-    native = vector + ["-fdisable-tree-sincos"]
+    native = vector + ["-fdisable-tree-sincos", *GCC_COMPILE_TIME]
     glibc = _glibc_version()
     if sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64"):
         if glibc >= (2, 22):
