@@ -128,8 +128,8 @@ def one_blas_thread() -> None:
 def main(argv=None) -> int:
     from .examples import requested_robot
 
-    argv_given = argv
-    if argv is None:  # the process is the command's own (the console script)
+    own_process = argv is None  # the console script: the process is the command's own
+    if own_process:
         one_blas_thread()
     argv = join_negative_percentages(list(sys.argv[1:] if argv is None else argv))
     if version_only(argv):
@@ -148,7 +148,7 @@ def main(argv=None) -> int:
     formatwarning = warnings.formatwarning
     if not args.debug:
         warnings.formatwarning = _one_line_warning
-    if argv_given is None:
+    if own_process:
         # the objects the imports and the parser built live as long as the process: the
         # cyclic garbage collector skips them in every collection of the command's work
         gc.freeze()

@@ -85,18 +85,13 @@ class Program:
         SymPy's own arithmetic (``evalf``), not the code generator.
         """
         env = {sp.Symbol(k, real=True) if isinstance(k, str) else k: sp.Float(v, precision) for k, v in values.items()}
-        needed = _ancestors(self, sp.sympify(exprs).free_symbols)  # only what ``exprs`` depend on
+        needed = reachable(self.definitions(), sp.sympify(exprs).free_symbols)  # only what ``exprs`` depend on
         for sym, rhs in self.assignments:
             if sym in needed:
                 env[sym] = rhs.xreplace(env).evalf(precision)
         if isinstance(exprs, sp.MatrixBase):
             return exprs.applyfunc(lambda e: sp.sympify(e).xreplace(env).evalf(precision))
         return sp.sympify(exprs).xreplace(env).evalf(precision)
-
-
-def _ancestors(prog: Program, symbols) -> set:
-    """Intermediates that ``symbols`` depend on (transitively), including themselves."""
-    return reachable(prog.definitions(), symbols)
 
 
 def reachable(definitions: dict, symbols) -> set:
@@ -121,7 +116,7 @@ def derivative(prog: Program, expr, wrt: sp.Symbol):
     cache = prog.__dict__.setdefault("_derivative_cache", {})
     deriv = cache.setdefault(wrt, {wrt: sp.Integer(1)})
     exprs = list(expr) if isinstance(expr, sp.MatrixBase) else [sp.sympify(expr)]
-    needed = _ancestors(prog, set().union(*(e.free_symbols for e in exprs)))
+    needed = reachable(prog.definitions(), set().union(*(e.free_symbols for e in exprs)))
     for sym_, rhs in list(prog.assignments):
         if sym_ not in needed or sym_ in deriv:
             continue
