@@ -135,3 +135,47 @@ def test_c_followers_equal_numpy_and_close_the_loop(kernel, n):
     assert (want_norm > 1e-9).any()  # not converged: the steps themselves are compared
     np.testing.assert_allclose(got_q, want_q, rtol=0, atol=1e-12)
     np.testing.assert_allclose(got_norm, want_norm, rtol=1e-9, atol=1e-15)
+
+
+def test_c_followers_do_not_depend_on_a_poses_lane(kernel):
+    """Each pose's iterations are its own whatever its lane in a block: the batch shifted by
+    three poses (every pose in another lane, the blocks cut elsewhere) gives the same bits.
+    Every lane of the driver's rotation loop takes the same vector sine and cosine; a path
+    computing some lanes otherwise (a scalar remainder) would break it."""
+    followers = [3, 0, 4, 5]
+    n = 140
+    full, p, _, _ = _problem(n, seed=7)
+    q0 = np.zeros((n, 1, 4))
+    keep = [np.ascontiguousarray(p[f"c_{k}"]) for k in range(4)]
+    roles = [0, 1, 2, *range(3, 12), -1, -1, -1, -1]
+    strides = [0] * 12 + [1] * 4
+    address = ctypes.cast(kernel.closure, ctypes.c_void_p).value
+    block = ctypes.cast(kernel.closure_block, ctypes.c_void_p).value
+    whole = clm.follow(
+        address,
+        block,
+        roles,
+        [0] * 12 + [a.ctypes.data for a in keep],
+        strides,
+        followers,
+        full,
+        q0,
+        4,
+        MAX_STEPS,
+        TOL_M,
+    )
+    tail = [np.ascontiguousarray(a[3:]) for a in keep]
+    shifted = clm.follow(
+        address,
+        block,
+        roles,
+        [0] * 12 + [a.ctypes.data for a in tail],
+        strides,
+        followers,
+        np.ascontiguousarray(full[3:]),
+        q0[3:],
+        4,
+        MAX_STEPS,
+        TOL_M,
+    )
+    assert np.array_equal(shifted[0], whole[0][3:]) and np.array_equal(shifted[1], whole[1][3:])

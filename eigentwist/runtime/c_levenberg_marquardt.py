@@ -21,7 +21,7 @@ import ctypes
 import numpy as np
 
 from .addresses import address
-from .ccompile import library_once
+from .ccompile import SIMD_SIN_COS, library_once
 from .c_poses import RODRIGUES
 from .levenberg_marquardt import LAMBDA0, MAX_STEP
 
@@ -34,6 +34,7 @@ SOURCE = (
 #include <stdlib.h>
 #include <string.h>
 """
+    + SIMD_SIN_COS
     + RODRIGUES
     + r"""
 typedef int (*et_kernel)(int64_t, const double *const *, const int64_t *, double *const *);
@@ -561,13 +562,69 @@ typedef struct {
     const int *followers;     /* indices into (x, y, z, rot_x, rot_y, rot_z) */
     const double *full;       /* (n, 6) the commanded full poses */
     double *pose, *R;         /* 6 and 9 rows of B */
+    double *jl;               /* 2 rows of B: a and b of the left Jacobian J_l */
+    double *twist;            /* 6 rows of B: a follower's twist (et_follower_twist) */
     const double **ptr;
     int64_t *st;
     double *outs[2];          /* closure (m, rows), closure_rate (m, rows, 6); rows of B with block */
+    double *lane;             /* no block: the outputs as rows of B (rows * 7), padded */
     double *held;             /* block: the caller's inputs of the block at held_b0, n_in rows of B */
     int64_t held_b0;          /* -1: none held */
     double **rows_at;         /* block: the output rows, closure's then closure_rate's (rows * 7) */
 } et_followers;
+
+/* The rows (x, y, z, rotation vector) of B poses in P: R (9 rows, R_ij at 3 i + j) by
+   Rodrigues' formula and the left Jacobian's a = (1 - cos t)/t^2, b = (t - sin t)/t^3 (2 rows
+   of jl; their series below t^2 = 1e-10), from one sine and cosine a lane: one vector loop
+   (a series' lane computes the formula too and takes the series). */
+static void et_rotation_rows(const double *restrict P, double *restrict R, double *restrict jl)
+{
+    FOR_I {
+        const double x = P[3 * B + i], y = P[4 * B + i], z = P[5 * B + i];
+        const double t2 = x * x + y * y + z * z, t = sqrt(t2), sn = sin(t), cs = cos(t);
+        const double ra = t2 < 1e-12 ? 1 - t2 / 6 : sn / t;
+        const double rb = t2 < 1e-12 ? 0.5 - t2 / 24 : (1 - cs) / (t * t);
+        double e[9];
+        et_rotation_ab(x, y, z, ra, rb, e);
+        for (int k = 0; k < 9; ++k)
+            R[k * B + i] = e[k];
+        jl[i] = t2 < 1e-10 ? 0.5 - t2 / 24 : (1 - cs) / (t * t);
+        jl[B + i] = t2 < 1e-10 ? 1.0 / 6 - t2 / 120 : (t - sn) / (t * t * t);
+    }
+}
+
+/* T (6 rows of B): the twist of pose entry k (x, y, z, rotation vector; a follower) in each
+   lane: e_(3+k) for a position k, J_l's column e = k - 3 for a rotation-vector entry (J_l = I +
+   a [phi]x + b [phi]x^2, a and b the rows of jl; its entries e, e + 1, e + 2 mod 3). */
+static void et_follower_twist(int k, const double *restrict P, const double *restrict jl, double *restrict T)
+{
+    for (int j = 0; j < 6; ++j)
+        FOR_I T[j * B + i] = j == 3 + k ? 1.0 : 0.0;
+    if (k < 3)
+        return;
+    const int e = k - 3, e1 = (e + 1) % 3, e2 = (e + 2) % 3;
+    const double *pe = P + (3 + e) * B, *p1 = P + (3 + e1) * B, *p2 = P + (3 + e2) * B;
+    double *te = T + e * B, *t1 = T + e1 * B, *t2 = T + e2 * B;
+    FOR_I {
+        const double x = P[3 * B + i], y = P[4 * B + i], z = P[5 * B + i];
+        const double s2 = x * x + y * y + z * z, a = jl[i], b = jl[B + i];
+        te[i] = b * pe[i] * pe[i] + (1.0 - b * s2);
+        t1[i] = b * pe[i] * p1[i] + a * p2[i];
+        t2[i] = b * pe[i] * p2[i] - a * p1[i];
+    }
+}
+
+/* out = g . T for B lanes: a closure row's rates along the six pose entries (g, 6 rows of B)
+   times a follower's twist (T, :c:func:`et_follower_twist`), summed in order, zeros included. */
+static void et_follower_rate(const double *restrict g, const double *restrict T, double *restrict out)
+{
+    FOR_I {
+        double d = g[i] * T[i];
+        for (int j = 1; j < 6; ++j)
+            d += g[j * B + i] * T[j * B + i];
+        out[i] = d;
+    }
+}
 
 static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, double *rs, double *As)
 {
@@ -577,12 +634,7 @@ static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, dou
         FOR_I P[k * B + i] = c->full[(b0 + (i < m ? i : m - 1)) * 6 + k];
     for (int f = 0; f < c->nf; ++f)
         FOR_I P[c->followers[f] * B + i] = qs[f * B + i];
-    FOR_I {
-        double e[9];
-        et_rodrigues(P[3 * B + i], P[4 * B + i], P[5 * B + i], e);
-        for (int k = 0; k < 9; ++k)
-            R[k * B + i] = e[k];
-    }
+    et_rotation_rows(P, R, c->jl);
     if (c->block && c->held_b0 != b0) {
         et_hold(c->n_in, c->role, c->in, c->stride, b0, m, c->held);
         c->held_b0 = b0;
@@ -597,58 +649,32 @@ static int et_followers_eval(void *ctx, int m, int64_t b0, const double *qs, dou
             c->st[k] = 1;
         }
     }
+    const int rows = c->rows, nf = c->nf, lanes = et_lanes8(m);
     /* the lanes past m are read by no pose below */
-    int rc = c->block ? c->block(et_lanes8(m), c->ptr, c->rows_at) : c->kernel(m, c->ptr, c->st, c->outs);
+    int rc = c->block ? c->block(lanes, c->ptr, c->rows_at) : c->kernel(m, c->ptr, c->st, c->outs);
     if (rc != 0)
         return rc;
-    const int rows = c->rows, nf = c->nf;
-    const double *r = c->outs[0], *rate = c->outs[1];
-    /* entry (pose s, row k[, j]) of the closure and its rates: per-pose arrays, or rows of B */
-    const int64_t r_pose = c->block ? 1 : rows, r_row = c->block ? B : 1;
-    const int64_t g_pose = c->block ? 1 : 6 * (int64_t)rows, g_entry = c->block ? B : 1;
-    for (int i = 0; i < B; ++i) {
-        const int s = i < m ? i : m - 1;   /* padding lanes: copies of the last pose */
-        const double x = P[3 * B + s], y = P[4 * B + s], z = P[5 * B + s], phi[3] = {x, y, z};
-        const double t2 = x * x + y * y + z * z;
-        double a, b;
-        /* the left Jacobian J_l = I + a [phi]x + b [phi]x^2 (series below t^2 = 1e-10) */
-        if (t2 < 1e-10) {
-            a = 0.5 - t2 / 24;
-            b = 1.0 / 6 - t2 / 120;
-        } else {
-            const double t = sqrt(t2);
-            a = (1 - cos(t)) / (t * t);
-            b = (t - sin(t)) / (t * t * t);
-        }
-        double T[6][8];
-        for (int f = 0; f < nf; ++f) {
-            const int k = c->followers[f];
-            for (int j = 0; j < 6; ++j)
-                T[j][f] = 0.0;
-            if (k < 3) {
-                T[3 + k][f] = 1.0;
-                continue;
-            }
-            const int e = k - 3;
-            for (int j = 0; j < 3; ++j)
-                T[j][f] = b * phi[e] * phi[j];
-            T[e][f] += 1.0 - b * t2;
-            T[(e + 1) % 3][f] += a * phi[(e + 2) % 3];
-            T[(e + 2) % 3][f] -= a * phi[(e + 1) % 3];
-        }
+    /* the closure's rows, then its rates' (row k, entry j at rows + 6 k + j), as rows of B whose
+       lanes past m hold the last pose's values */
+    double *lr = c->block ? c->outs[0] : c->lane;
+    if (c->block) {
+        for (int e = 0; e < 7 * rows; ++e)
+            for (int i = lanes; i < B; ++i)
+                lr[e * B + i] = lr[e * B + m - 1];
+    } else {
         for (int k = 0; k < rows; ++k) {
-            rs[k * B + i] = r[s * r_pose + k * r_row];
-            const double *gk = rate + s * g_pose + (int64_t)k * 6 * g_entry;
-            double g[6];
+            FOR_I lr[k * B + i] = c->outs[0][(i < m ? i : m - 1) * rows + k];
             for (int j = 0; j < 6; ++j)
-                g[j] = gk[j * g_entry];
-            for (int f = 0; f < nf; ++f) {
-                double d = g[0] * T[0][f];
-                for (int j = 1; j < 6; ++j)
-                    d += g[j] * T[j][f];
-                As[(k * nf + f) * B + i] = d;
-            }
+                FOR_I lr[(rows + 6 * k + j) * B + i] = c->outs[1][((i < m ? i : m - 1) * rows + k) * 6 + j];
         }
+    }
+    for (int k = 0; k < rows; ++k)
+        FOR_I rs[k * B + i] = lr[k * B + i];
+    /* As = (d closure / d pose) T, T's column f the follower's twist */
+    for (int f = 0; f < nf; ++f) {
+        et_follower_twist(c->followers[f], P, c->jl, c->twist);
+        for (int row = 0; row < rows; ++row)
+            et_follower_rate(lr + (rows + 6 * row) * B, c->twist, As + (row * nf + f) * B);
     }
     return 0;
 }
@@ -666,12 +692,19 @@ int et_followers_lm(int64_t n, void *kernel_address, void *block_address, int n_
     et_work wk;
     double *qs, *rs, *As, *nrm;
     double *buf = et_alloc_work(1, rows, nf, &wk, &qs, &rs, &As, &nrm);
-    double *more = malloc(sizeof(double) * (size_t)B * (size_t)(15 + 7 * rows));
+    /* P (6 rows of B), R (9), J_l's a and b (2), a twist (6), the kernel's outputs (7 * rows),
+       their rows of B without a block function (7 * rows); aligned, so that every lane takes
+       the vector path */
+    double *more = NULL;
+    if (posix_memalign((void **)&more, 64, sizeof(double) * (size_t)B * (size_t)(23 + 14 * rows)) != 0)
+        more = NULL;
     et_followers c = {(et_kernel)kernel_address, (et_block_fn)block_address, n_in, rows, nf, in, stride, role,
-                      followers, full, more, more ? more + 6 * B : NULL,
+                      followers, full, more, more ? more + 6 * B : NULL, more ? more + 15 * B : NULL,
+                      more ? more + 17 * B : NULL,
                       malloc(sizeof(double *) * (size_t)(n_in > 0 ? n_in : 1)),
                       malloc(sizeof(int64_t) * (size_t)(n_in > 0 ? n_in : 1)),
-                      {more ? more + 15 * B : NULL, more ? more + (15 + rows) * B : NULL},
+                      {more ? more + 23 * B : NULL, more ? more + (23 + rows) * B : NULL},
+                      more ? more + (23 + 7 * rows) * B : NULL,
                       block_address ? malloc(sizeof(double) * B * (size_t)(n_in > 0 ? n_in : 1)) : NULL, -1,
                       block_address ? malloc(sizeof(double *) * (size_t)(7 * rows)) : NULL};
     int rc = 0;
@@ -679,7 +712,7 @@ int et_followers_lm(int64_t n, void *kernel_address, void *block_address, int n_
         rc = -2;
     if (rc == 0 && block_address)              /* the kernel's output rows: closure's, then its rates' */
         for (int e = 0; e < 7 * rows; ++e)
-            c.rows_at[e] = more + (15 + (int64_t)e) * B;
+            c.rows_at[e] = more + (23 + (int64_t)e) * B;
     for (int64_t b0 = 0; b0 < n && rc == 0; b0 += B) {
         const int m = n - b0 < B ? (int)(n - b0) : B;
         for (int f = 0; f < nf; ++f)

@@ -24,20 +24,11 @@ __all__ = ["rotation_entries", "RODRIGUES", "SOURCE"]
 #: Rodrigues' formula on one rotation vector, the C shared by this module's library and the
 #: followers' Newton driver (:mod:`.c_levenberg_marquardt`)
 RODRIGUES = r"""
-/* e[3 i + j] = R_ij of the rotation vector (x, y, z) (rad): R = I + a [r]x + b [r]x^2,
-   a = sin(t)/t, b = (1 - cos t)/t^2 (their series below t^2 = 1e-12) */
-static inline void et_rodrigues(double x, double y, double z, double *e)
+/* e[3 i + j] = R_ij of the rotation vector (x, y, z) (rad), R = I + a [r]x + b [r]x^2, given
+   a = sin(t)/t and b = (1 - cos t)/t^2 */
+static inline void et_rotation_ab(double x, double y, double z, double a, double b, double *e)
 {
-    const double xx = x * x, yy = y * y, zz = z * z, t2 = xx + yy + zz;
-    double a, b;
-    if (t2 < 1e-12) {
-        a = 1 - t2 / 6;
-        b = 0.5 - t2 / 24;
-    } else {
-        const double t = sqrt(t2);
-        a = sin(t) / t;
-        b = (1 - cos(t)) / (t * t);
-    }
+    const double xx = x * x, yy = y * y, zz = z * z;
     e[0] = 1 + b * (-zz - yy);
     e[1] = -(a * z) + b * (x * y);
     e[2] = a * y + b * (x * z);
@@ -47,6 +38,23 @@ static inline void et_rodrigues(double x, double y, double z, double *e)
     e[6] = -(a * y) + b * (x * z);
     e[7] = a * x + b * (y * z);
     e[8] = 1 + b * (-yy - xx);
+}
+
+/* e[3 i + j] = R_ij of the rotation vector (x, y, z) (rad): et_rotation_ab with a and b
+   (their series below t^2 = 1e-12) */
+static inline void et_rodrigues(double x, double y, double z, double *e)
+{
+    const double t2 = x * x + y * y + z * z;
+    double a, b;
+    if (t2 < 1e-12) {
+        a = 1 - t2 / 6;
+        b = 0.5 - t2 / 24;
+    } else {
+        const double t = sqrt(t2);
+        a = sin(t) / t;
+        b = (1 - cos(t)) / (t * t);
+    }
+    et_rotation_ab(x, y, z, a, b, e);
 }
 """
 

@@ -51,6 +51,7 @@ __all__ = [
     "compiler_version",
     "flag_sets",
     "GCC_COMPILE_TIME",
+    "SIMD_SIN_COS",
     "cache_dir",
     "build_library",
     "check_private",
@@ -117,6 +118,18 @@ def _glibc_version() -> tuple[int, int]:
 #: gcc options of the ``native`` flag set that shorten the compile of long straight-line
 #: code without changing its arithmetic (:func:`flag_sets`)
 GCC_COMPILE_TIME = ("-fira-region=one", "-fno-gcse-after-reload")
+
+#: C declaring glibc's vector sin and cos (libmvec) where the ``native`` flag set defines
+#: ``ET_SIMD_MATH`` (:func:`flag_sets`), for the runtime's own C sources: a pose loop calling
+#: them then vectorises (the generated libraries declare them in their template)
+SIMD_SIN_COS = r"""
+#ifdef ET_SIMD_MATH
+#pragma omp declare simd notinbranch
+double sin(double);
+#pragma omp declare simd notinbranch
+double cos(double);
+#endif
+"""
 
 
 def flag_sets() -> list[tuple[str, list[str]]]:
