@@ -179,3 +179,50 @@ def test_c_followers_do_not_depend_on_a_poses_lane(kernel):
         TOL_M,
     )
     assert np.array_equal(shifted[0], whole[0][3:]) and np.array_equal(shifted[1], whole[1][3:])
+
+
+CUBIC = r"""
+#include <stdint.h>
+/* one closure row, r = (x - c)^3 (a triple root: Newton divides the gap by 3/2 a step) */
+int closure(int64_t n, const double *const *in, const int64_t *st, double *const *out)
+{
+    for (int64_t i = 0; i < n; ++i) {
+        const double gap = in[0][i * st[0]] - in[12][i * st[12]];
+        out[0][i] = gap * gap * gap;
+        for (int j = 0; j < 6; ++j)
+            out[1][6 * i + j] = j == 3 ? 3 * gap * gap : 0.0;
+    }
+    return 0;
+}
+"""
+
+
+def test_c_followers_hand_a_slow_leg_back_to_the_damped_steps_as_numpy_does():
+    """r = (x - c)^3 from |r| below EARLY: the undamped step leaves it above TOL_M, the damped
+    steps resume (:func:`~eigentwist.runtime.levenberg_marquardt._iterate`); the C driver takes
+    the same steps, and a pose above EARLY beside it its own."""
+    from eigentwist.runtime.levenberg_marquardt import EARLY
+
+    if clm.followers_driver() is None:
+        skip_tier("compiled", "the C Newton driver cannot be built here (no C compiler)")
+    lib = ccompile.load_library(CUBIC, "followers_cubic_test")
+    c = np.array([0.1, -0.2, 0.05])
+    gap = np.array([(0.5 * EARLY) ** (1 / 3), (5 * EARLY) ** (1 / 3), 0.02])
+    full = np.zeros((3, 6))
+    q0 = (c + gap)[:, None, None]
+
+    def cubic(x, y, z, p):
+        g = np.zeros((len(x), 1, 6))
+        g[:, 0, 3] = 3 * (x - p["c"]) ** 2
+        return {"closure": ((x - p["c"]) ** 3)[:, None], "closure_rate": g}
+
+    want_q, want_norm = _iterate(_follower_closure(cubic, [0]), q0, {"c": c, "_full": full}, MAX_STEPS, TOL_M)
+    keep = np.ascontiguousarray(c)
+    address = ctypes.cast(lib.closure, ctypes.c_void_p).value
+    roles = [0, 1, 2, *range(3, 12), -1]
+    got_q, got_norm = clm.follow(
+        address, None, roles, [0] * 12 + [keep.ctypes.data], [0] * 12 + [1], [0], full, q0, 1, MAX_STEPS, TOL_M
+    )
+    assert (want_norm < TOL_M).all() and (got_norm < TOL_M).all()
+    np.testing.assert_allclose(got_q, want_q, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(got_norm, want_norm, rtol=1e-9, atol=1e-30)

@@ -215,3 +215,46 @@ def test_a_solution_past_a_singularity_of_the_branch_is_rejected():
     assert np.isnan(q).all() and off.tolist() == [[True]]
     q, off = lm.solve(_circle, np.array([[0.8]]), {}, 1, report=True)
     assert q.tolist() == [[[1.0]]] and off.dtype == bool and off.tolist() == [[False]]
+
+
+class _Counted:
+    """A closure of one leg and coordinate counting its evaluations: r = (q - c)^power."""
+
+    def __init__(self, c, power):
+        self.c, self.power, self.calls = c, power, 0
+
+    def __call__(self, q, p):
+        self.calls += 1
+        gap = q - self.c
+        return {"residual": gap**self.power, "dresidual": (self.power * gap ** (self.power - 1))[..., None]}
+
+
+@pytest.mark.parametrize(
+    ("start_r", "calls"),
+    [(0.5 * lm.EARLY, 2), (5.0 * lm.EARLY, 3)],
+    ids=["below EARLY: the undamped step at once", "above EARLY: a damped step first"],
+)
+def test_below_early_a_leg_takes_the_undamped_step_at_once(start_r, calls):
+    """A linear closure (Newton exact in one step) started with |r| below EARLY (but far above
+    TOL) is evaluated twice (the start, the undamped step); above EARLY a damped step comes
+    first (three). Either way the leg closes to round-off."""
+    closure = _Counted(0.3, 1)
+    q, norm = lm._iterate(closure, np.full((1, 1, 1), 0.3 + start_r), {}, lm.MAX_ITERATIONS, lm.TOL, 1e-8)
+    assert closure.calls == calls
+    assert norm[0, 0] <= 2 * EPS and abs(q[0, 0, 0] - 0.3) <= 2 * EPS
+
+
+def test_an_undamped_step_that_leaves_the_leg_above_tol_hands_it_back_to_the_damped_steps():
+    """r = (q - c)^3: Newton only divides the gap by 3/2 a step (a triple root), so the
+    undamped step from |r| below EARLY leaves it above TOL; the damped steps resume and close
+    the leg below TOL (then the last undamped step)."""
+    closure = _Counted(0.1, 3)
+    start = 0.1 + (0.5 * lm.EARLY) ** (1 / 3)
+    q, norm = lm._iterate(closure, np.full((1, 1, 1), start), {}, lm.MAX_ITERATIONS, lm.TOL, 1e-8)
+    assert norm[0, 0] < lm.TOL
+    # the gap shrinks by 2/3 a step: at least log(TOL / r0) / log(8/27) steps past the first
+    assert closure.calls >= 2 + int(np.log(lm.TOL / (0.5 * lm.EARLY)) / np.log(8 / 27))
+    # with no damped steps left after the first stage, the leg stays where the undamped step left it
+    closure = _Counted(0.1, 3)
+    _, norm = lm._iterate(closure, np.full((1, 1, 1), start), {}, 0, lm.TOL, 1e-8)
+    assert lm.TOL < norm[0, 0] < 0.5 * lm.EARLY and closure.calls == 2

@@ -2,7 +2,7 @@
 
 :func:`iterate` (through :meth:`~eigentwist.runtime.c_kernels.CKernels.newton`) runs the
 algorithm of :func:`eigentwist.runtime.levenberg_marquardt._iterate` (the same Levenberg-Marquardt
-steps, acceptance rule, damping updates, bounded steps and final undamped polish, per
+steps, acceptance rule, damping updates, bounded steps and undamped steps below EARLY, per
 (pose, leg)) in one C call per batch: blocks of 64 poses, each iterated to convergence
 with its joint coordinates kept in a structure-of-arrays buffer that the generated
 ``loop_closure`` kernel of the robot's C library reads in place (the driver calls it
@@ -23,7 +23,7 @@ import numpy as np
 from .addresses import address
 from .ccompile import SIMD_SIN_COS, library_once
 from .c_poses import RODRIGUES
-from .levenberg_marquardt import LAMBDA0, MAX_STEP
+from .levenberg_marquardt import EARLY, LAMBDA0, MAX_STEP
 
 __all__ = ["driver", "iterate", "branch_driver", "BranchSolver", "block_steps", "followers_driver", "follow", "SOURCE"]
 
@@ -41,7 +41,9 @@ typedef int (*et_kernel)(int64_t, const double *const *, const int64_t *, double
 
 #define B 64
 #define FOR_I for (int i = 0; i < B; ++i)
-
+"""
+    + f"#define ET_EARLY {EARLY!r}  /* levenberg_marquardt.EARLY */\n"
+    + r"""
 /* Per leg, for all B poses of a block at once (the pose index innermost: vector code):
    x = -(A^T A + diag(scale * (diag(A^T A) + shift)))^-1 A^T r by Cholesky (no scale:
    diag(shift)), where A
@@ -292,97 +294,137 @@ typedef int (*et_eval)(void *ctx, int m, int64_t b0, const double *qs, double *r
 /* The work buffers of one block's iterations */
 typedef struct {
     double *qt, *rts, *Ats, *lam, *nn, *x, *w;
-    int *act;
+    int *act, *res, *kept;    /* legs rows of B each: stepped, rescued (et_lm_block), step kept */
 } et_work;
 
+/* One pass of the block: a damped step (polish = 0: Levenberg-Marquardt, bounded by max_step,
+   kept where it lowers |r|, the damping divided by 4 where kept and multiplied by 4 where not)
+   or an undamped one (polish = 1: kept where it does not raise |r|) of the lanes marked in act;
+   a kept step's coordinates, residual, Jacobian and |r| replace the lane's; kept[l * B + i] = 1
+   where lane i of leg l took its step. */
+static int et_lm_pass(et_eval eval, void *ctx, int m, int64_t b0, int legs, int rows, int nq, double *qs,
+                      double *rs, double *As, double *nrm, const et_work *wk, int polish, double max_step, int *kept)
+{
+    double *qt = wk->qt, *rts = wk->rts, *Ats = wk->Ats, *lam = wk->lam, *nn = wk->nn, *x = wk->x, *w = wk->w;
+    const int *act = wk->act;
+    for (int l = 0; l < legs; ++l) {
+        const int *a = act + l * B;
+        et_solve_steps(rows, nq, As + (l * rows * nq) * B, rs + (l * rows) * B, polish ? 0 : lam + l * B,
+                 polish ? 1e-300 : 1e-12, x, w);
+        if (!polish) {
+            double *big = w;
+            FOR_I big[i] = 0.0;
+            for (int j = 0; j < nq; ++j) {
+                const double *xj = x + j * B;
+                FOR_I big[i] = fabs(xj[i]) > big[i] ? fabs(xj[i]) : big[i];
+            }
+            for (int j = 0; j < nq; ++j) {
+                double *xj = x + j * B;
+                FOR_I xj[i] = big[i] > max_step ? xj[i] * (max_step / big[i]) : xj[i];
+            }
+        }
+        for (int j = 0; j < nq; ++j) {
+            const double *xj = x + j * B, *qj = qs + (l * nq + j) * B;
+            double *tj = qt + (l * nq + j) * B;
+            FOR_I tj[i] = qj[i] + (a[i] ? xj[i] : 0.0);
+        }
+    }
+    int rc;
+    if ((rc = eval(ctx, m, b0, qt, rts, Ats)) != 0)
+        return rc;
+    et_norms(legs, rows, rts, nn);
+    for (int l = 0; l < legs; ++l) {
+        const int *a = act + l * B;
+        double *nl = nrm + l * B, *ll = lam + l * B;
+        const double *nnl = nn + l * B;
+        int *better = kept + l * B;
+        if (polish)
+            FOR_I better[i] = a[i] && nnl[i] <= nl[i];
+        else
+            FOR_I better[i] = a[i] && nnl[i] < nl[i];
+        for (int j = 0; j < nq; ++j) {
+            double *qj = qs + (l * nq + j) * B;
+            const double *tj = qt + (l * nq + j) * B;
+            FOR_I qj[i] = better[i] ? tj[i] : qj[i];
+        }
+        for (int k = 0; k < rows; ++k) {
+            double *rk = rs + (l * rows + k) * B;
+            const double *tk = rts + (l * rows + k) * B;
+            FOR_I rk[i] = better[i] ? tk[i] : rk[i];
+        }
+        for (int k = 0; k < rows * nq; ++k) {
+            double *ak = As + (l * rows * nq + k) * B;
+            const double *tk = Ats + (l * rows * nq + k) * B;
+            FOR_I ak[i] = better[i] ? tk[i] : ak[i];
+        }
+        if (!polish)
+            FOR_I {
+                const double down = ll[i] / 4 > 1e-12 ? ll[i] / 4 : 1e-12, up = ll[i] * 4 < 1e12 ? ll[i] * 4 : 1e12;
+                ll[i] = better[i] ? down : (a[i] ? up : ll[i]);
+            }
+        FOR_I nl[i] = better[i] ? nnl[i] : nl[i];
+    }
+    return 0;
+}
+
 /* The iterations of one block: qs (legs * nq rows of B) the starting coordinates, on return
-   the iterated ones; nrm (legs rows of B) their |r|; rs, As hold the residual and Jacobian at qs. */
+   the iterated ones; nrm (legs rows of B) their |r|; rs, As hold the residual and Jacobian at qs.
+   Per lane (pose and leg), as levenberg_marquardt._iterate: damped steps while |r| is not below
+   early (ET_EARLY, at least tol) and finite, at most `iterations`; one undamped step of every
+   lane below it (quadratic convergence: from ET_EARLY to round-off); then, a lane that step left
+   at tol or above (a slow convergence) takes damped steps again while not below tol (at most
+   `iterations`) and, below it, a last undamped step. */
 static int et_lm_block(et_eval eval, void *ctx, int m, int64_t b0, int legs, int rows, int nq, double *qs,
                        double *rs, double *As, double *nrm, const et_work *wk, int iterations, double tol,
                        double lambda0, double max_step)
 {
-    double *qt = wk->qt, *rts = wk->rts, *Ats = wk->Ats, *lam = wk->lam, *nn = wk->nn, *x = wk->x, *w = wk->w;
-    int *act = wk->act;
+    double *lam = wk->lam;
+    int *act = wk->act, *res = wk->res, *kept = wk->kept;
+    const double early = ET_EARLY > tol ? ET_EARLY : tol;
     int rc;
     if ((rc = eval(ctx, m, b0, qs, rs, As)) != 0)
         return rc;
     et_norms(legs, rows, rs, nrm);
     for (int e = 0; e < legs * B; ++e)
         lam[e] = lambda0;
-    for (int pass = 0; pass <= iterations; ++pass) {
-        const int polish = pass == iterations;     /* the last pass: one undamped step */
-        int any = 0;
-        for (int l = 0; l < legs; ++l) {
-            int *a = act + l * B;
-            const double *nl = nrm + l * B;
-            if (polish)
-                FOR_I a[i] = nl[i] < tol;
-            else
-                FOR_I a[i] = !(nl[i] < tol) && isfinite(nl[i]);
-            for (int i = 0; i < m; ++i)
-                any |= a[i];
+    for (int stage = 0; stage < 2; ++stage) {
+        const double below = stage ? tol : early;
+        for (int pass = 0; pass <= iterations; ++pass) {
+            const int polish = pass == iterations;
+            int any = 0;
+            for (int l = 0; l < legs; ++l) {
+                int *a = act + l * B;
+                const int *rl = res + l * B;
+                const double *nl = nrm + l * B;
+                if (polish)
+                    FOR_I a[i] = nl[i] < below && (stage == 0 || rl[i]);
+                else
+                    FOR_I a[i] = !(nl[i] < below) && isfinite(nl[i]) && (stage == 0 || rl[i]);
+                for (int i = 0; i < m; ++i)
+                    any |= a[i];
+            }
+            if (!any) {
+                if (!polish) {                       /* none left to step: straight to the polish */
+                    pass = iterations - 1;
+                    continue;
+                }
+                break;
+            }
+            if ((rc = et_lm_pass(eval, ctx, m, b0, legs, rows, nq, qs, rs, As, nrm, wk, polish, max_step, kept)) != 0)
+                return rc;
         }
-        if (!any) {
-            if (!polish) {                           /* converged: go straight to the polish */
-                pass = iterations - 1;
-                continue;
+        if (stage == 0) {                            /* the lanes the polish left at tol or above */
+            int any = 0;
+            for (int l = 0; l < legs; ++l) {
+                int *rl = res + l * B;
+                const int *a = act + l * B;
+                const double *nl = nrm + l * B;
+                FOR_I rl[i] = a[i] && !(nl[i] < tol);
+                for (int i = 0; i < m; ++i)
+                    any |= rl[i];
             }
-            break;
-        }
-        for (int l = 0; l < legs; ++l) {
-            const int *a = act + l * B;
-            et_solve_steps(rows, nq, As + (l * rows * nq) * B, rs + (l * rows) * B, polish ? 0 : lam + l * B,
-                     polish ? 1e-300 : 1e-12, x, w);
-            if (!polish) {
-                double *big = w;
-                FOR_I big[i] = 0.0;
-                for (int j = 0; j < nq; ++j) {
-                    const double *xj = x + j * B;
-                    FOR_I big[i] = fabs(xj[i]) > big[i] ? fabs(xj[i]) : big[i];
-                }
-                for (int j = 0; j < nq; ++j) {
-                    double *xj = x + j * B;
-                    FOR_I xj[i] = big[i] > max_step ? xj[i] * (max_step / big[i]) : xj[i];
-                }
-            }
-            for (int j = 0; j < nq; ++j) {
-                const double *xj = x + j * B, *qj = qs + (l * nq + j) * B;
-                double *tj = qt + (l * nq + j) * B;
-                FOR_I tj[i] = qj[i] + (a[i] ? xj[i] : 0.0);
-            }
-        }
-        if ((rc = eval(ctx, m, b0, qt, rts, Ats)) != 0)
-            return rc;
-        et_norms(legs, rows, rts, nn);
-        for (int l = 0; l < legs; ++l) {
-            const int *a = act + l * B;
-            double *nl = nrm + l * B, *ll = lam + l * B;
-            const double *nnl = nn + l * B;
-            int better[B];
-            if (polish)
-                FOR_I better[i] = a[i] && nnl[i] <= nl[i];
-            else
-                FOR_I better[i] = a[i] && nnl[i] < nl[i];
-            for (int j = 0; j < nq; ++j) {
-                double *qj = qs + (l * nq + j) * B;
-                const double *tj = qt + (l * nq + j) * B;
-                FOR_I qj[i] = better[i] ? tj[i] : qj[i];
-            }
-            if (!polish) {
-                for (int k = 0; k < rows; ++k) {
-                    double *rk = rs + (l * rows + k) * B;
-                    const double *tk = rts + (l * rows + k) * B;
-                    FOR_I rk[i] = better[i] ? tk[i] : rk[i];
-                }
-                for (int k = 0; k < rows * nq; ++k) {
-                    double *ak = As + (l * rows * nq + k) * B;
-                    const double *tk = Ats + (l * rows * nq + k) * B;
-                    FOR_I ak[i] = better[i] ? tk[i] : ak[i];
-                }
-                FOR_I ll[i] = better[i] ? (ll[i] / 4 > 1e-12 ? ll[i] / 4 : 1e-12)
-                                        : (a[i] ? (ll[i] * 4 < 1e12 ? ll[i] * 4 : 1e12) : ll[i]);
-            }
-            FOR_I nl[i] = better[i] ? nnl[i] : nl[i];
+            if (!any)
+                break;
         }
     }
     return 0;
@@ -477,7 +519,11 @@ static double *et_alloc_work(int legs, int rows, int nq, et_work *wk, double **q
     const size_t soa = (size_t)B * (size_t)(lr * (1 + nq));
     double *buf = malloc(sizeof(double) * (2 * (size_t)lq * B + 2 * soa + 3 * (size_t)legs * B
                                            + (size_t)(nq * nq + 4 * nq) * B));
-    wk->act = malloc(sizeof(int) * (size_t)legs * B);
+    wk->act = malloc(sizeof(int) * 3 * (size_t)legs * B);
+    if (wk->act) {
+        wk->res = wk->act + legs * B;
+        wk->kept = wk->res + legs * B;
+    }
     if (!buf || !wk->act) {
         free(buf); free(wk->act);
         return NULL;

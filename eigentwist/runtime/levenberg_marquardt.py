@@ -50,6 +50,12 @@ LAMBDA0 = 1e-3
 #: Gauss-Newton converges quadratically, and LAMBDA0's damping would only slow it (a
 #: rejected step still raises the damping x 4)
 GUESS_LAMBDA0 = 1e-8
+#: a (pose, leg) whose |r| falls below this (m and rad; TOL where that is larger) takes no more
+#: damped steps but one undamped step: Newton's quadratic convergence takes |r| ~ 1e-8 to
+#: round-off in it (one closure evaluation fewer than damped steps down to TOL, then the
+#: undamped one); where that step leaves |r| at TOL or above (a slow convergence) the damped
+#: steps resume down to TOL (:func:`_iterate`)
+EARLY = 1e-8
 MAX_STEP = 0.25  # largest change of one coordinate per iteration (rad; m for P)
 HOMOTOPY_STEPS = 64  # steps of the Newton homotopy from the reference configuration
 HOMOTOPY_ITERATIONS = 12
@@ -157,47 +163,66 @@ def normal_solve(A: np.ndarray, r: np.ndarray, scale, shift) -> np.ndarray:
 
 def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float, lambda0: float = LAMBDA0):
     """Damped Newton steps on every (pose, leg) at once, each iteration on the poses that
-    still have a leg to converge, the damping starting at ``lambda0``; returns (q, |r|)."""
+    still have a leg to step, the damping starting at ``lambda0``; returns (q, |r|).
+
+    Per (pose, leg): damped steps while |r| is not below :data:`EARLY` (at least ``tol``) and
+    finite, at most ``iterations``; one undamped step (kept where it does not raise |r|) where
+    it is below; where that step leaves |r| at ``tol`` or above, damped steps again while not
+    below ``tol`` (at most ``iterations``) and, below it, a last undamped step."""
     n = len(q)
     out = closure(q, p)
     r, A = out["residual"].copy(), out["dresidual"].copy()
     norm = np.sqrt((r * r).sum(-1))
     lam = np.full(norm.shape, lambda0)
     q = q.copy()
-    for _ in range(iterations):
-        active = ~(norm < tol) & np.isfinite(norm)
-        some = active.any(-1)
-        every = bool(some.all())
-        rows = slice(None) if every else np.flatnonzero(some)
-        if not every and rows.size == 0:
+    rescue = None  # the (pose, leg) the first undamped step left at tol or above
+    for below in (max(EARLY, tol), tol):
+        for _ in range(iterations):
+            active = ~(norm < below) & np.isfinite(norm)
+            if rescue is not None:
+                active &= rescue
+            some = active.any(-1)
+            every = bool(some.all())
+            rows = slice(None) if every else np.flatnonzero(some)
+            if not every and rows.size == 0:
+                break
+            act, A_, r_, lam_, q_ = active[rows], A[rows], r[rows], lam[rows], q[rows]
+            step = normal_solve(A_, r_, lam_, 1e-12 * lam_)
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                # a bounded step (MAX_STEP rad or m per coordinate) keeps Newton near the branch
+                # it starts on: an undamped first step from far away may jump past a singularity
+                big = np.abs(step).max(-1, keepdims=True)
+                step = np.where(big > MAX_STEP, step * (MAX_STEP / big), step)
+            trial = q_ + np.where(act[..., None], step, 0.0)
+            new = closure(trial, p if every else _take(p, rows, n))
+            new_norm = np.sqrt((new["residual"] ** 2).sum(-1))
+            better = act & (new_norm < norm[rows])
+            q[rows] = np.where(better[..., None], trial, q_)
+            r[rows] = np.where(better[..., None], new["residual"], r_)
+            A[rows] = np.where(better[..., None, None], new["dresidual"], A_)
+            norm[rows] = np.where(better, new_norm, norm[rows])
+            lam[rows] = np.where(better, np.maximum(lam_ / 4, 1e-12), np.where(act, np.minimum(lam_ * 4, 1e12), lam_))
+        # one undamped Gauss-Newton step takes a (pose, leg) below `below` to round-off
+        # (quadratic convergence), kept where it does not raise the residual
+        polish = norm < below
+        if rescue is not None:
+            polish &= rescue
+        rows = np.flatnonzero(polish.any(-1))
+        if rows.size:
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                trial = q[rows] + normal_solve(A[rows], r[rows], 0.0, 1e-300)
+                new = closure(trial, _take(p, rows, n))
+                new_norm = np.sqrt((new["residual"] ** 2).sum(-1))
+            keep = polish[rows] & (new_norm <= norm[rows])
+            q[rows] = np.where(keep[..., None], trial, q[rows])
+            r[rows] = np.where(keep[..., None], new["residual"], r[rows])
+            A[rows] = np.where(keep[..., None, None], new["dresidual"], A[rows])
+            norm[rows] = np.where(keep, new_norm, norm[rows])
+        if rescue is not None:
             break
-        act, A_, r_, lam_, q_ = active[rows], A[rows], r[rows], lam[rows], q[rows]
-        step = normal_solve(A_, r_, lam_, 1e-12 * lam_)
-        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            # a bounded step (MAX_STEP rad or m per coordinate) keeps Newton near the branch
-            # it starts on: an undamped first step from far away may jump past a singularity
-            big = np.abs(step).max(-1, keepdims=True)
-            step = np.where(big > MAX_STEP, step * (MAX_STEP / big), step)
-        trial = q_ + np.where(act[..., None], step, 0.0)
-        new = closure(trial, p if every else _take(p, rows, n))
-        new_norm = np.sqrt((new["residual"] ** 2).sum(-1))
-        better = act & (new_norm < norm[rows])
-        q[rows] = np.where(better[..., None], trial, q_)
-        r[rows] = np.where(better[..., None], new["residual"], r_)
-        A[rows] = np.where(better[..., None, None], new["dresidual"], A_)
-        norm[rows] = np.where(better, new_norm, norm[rows])
-        lam[rows] = np.where(better, np.maximum(lam_ / 4, 1e-12), np.where(act, np.minimum(lam_ * 4, 1e12), lam_))
-    # one undamped Gauss-Newton step polishes a converged configuration to round-off
-    # (quadratic convergence), kept where it does not raise the residual
-    rows = np.flatnonzero((norm < tol).any(-1))
-    if rows.size == 0:
-        return q, norm
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        trial = q[rows] + normal_solve(A[rows], r[rows], 0.0, 1e-300)
-        new_norm = np.sqrt((closure(trial, _take(p, rows, n))["residual"] ** 2).sum(-1))
-    keep = (norm[rows] < tol) & (new_norm <= norm[rows])
-    q[rows] = np.where(keep[..., None], trial, q[rows])
-    norm[rows] = np.where(keep, new_norm, norm[rows])
+        rescue = polish & ~(norm < tol)
+        if not rescue.any():
+            break
     return q, norm
 
 
