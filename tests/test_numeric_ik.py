@@ -1061,3 +1061,29 @@ def test_a_failing_batch_driver_raises_with_its_code(monkeypatch):
     q = np.array(ev.completion.assembly()["q"], dtype=float)[None].copy()
     with pytest.raises(RuntimeError, match="returned -2"):
         solver(q, MAX_ITERATIONS, TOL, LAMBDA0)
+
+
+@pytest.mark.parametrize("robot", ["hexapod_urdf", "rus6"])
+def test_the_starts_predicted_in_c_are_the_predictors_bits(robot):
+    """``BranchSolver(..., predict=(poses, prediction))`` predicts each grain's starts in C
+    (:class:`~eigentwist.runtime.levenberg_marquardt.Prediction`'s products rounded and summed
+    in order): the same joints and done flags, bit for bit, as the predictor's starts computed
+    in NumPy and handed over; poses of another shape are refused, naming both shapes."""
+    from eigentwist.runtime.levenberg_marquardt import GUESS_LAMBDA0, MAX_ITERATIONS, TOL
+
+    ev = _c_numeric(robot)
+    comp = ev.completion
+    n = 300
+    poses = random_poses(ev.robot, n, seed=35)
+    x = comp.poses(poses, {})
+    whole = comp.closure_inputs(x, ev.parameter_values(n))
+    signs = comp.assembly()["sign"]
+    guess = comp.predictor()
+    given = np.ascontiguousarray(guess(x))
+    ok_given = ev.kernels.branch_solver(whole, n, signs)(given, MAX_ITERATIONS, TOL, GUESS_LAMBDA0)
+    q = np.empty_like(given)
+    ok = ev.kernels.branch_solver(whole, n, signs)(q, MAX_ITERATIONS, TOL, GUESS_LAMBDA0, predict=(x, guess))
+    assert ok.any() and np.array_equal(ok, ok_given) and q.tobytes() == given.tobytes()
+    solver = ev.kernels.branch_solver(whole, n, signs)
+    with pytest.raises(InputError, match=rf"poses: expected \({n}, {x.shape[1]}\).*got \({n - 1}, {x.shape[1]}\)"):
+        solver(q, MAX_ITERATIONS, TOL, GUESS_LAMBDA0, predict=(x[1:], guess))

@@ -853,8 +853,38 @@ typedef struct {
     const double *ref_sign;
     double *lever_out;
     int8_t *done;
+    const double *x;          /* the poses (n, d) q is predicted at, or NULL: q holds the starts */
+    int64_t d;
+    const double *x_ref, *G, *base;  /* the prediction q = base + (x - x_ref) G, G (d, legs * nq) */
     int64_t next, rc;
 } et_branch_batch;
+
+/* q (m rows of k) predicted at poses x (m rows of d): base + (x - x_ref) G, G (d, k) row-major,
+   each product rounded and summed in the order of the pose's entries, then base added
+   (levenberg_marquardt.Prediction's einsum: the same bits) */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("fp-contract=off")))
+#endif
+static void et_predict(int64_t m, const double *x, int64_t d, const double *x_ref, const double *G,
+                       const double *base, int64_t k, double *q)
+{
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#endif
+    for (int64_t i = 0; i < m; ++i) {
+        double *qi = q + i * k;
+        const double dx0 = x[i * d] - x_ref[0];
+        for (int64_t e = 0; e < k; ++e)
+            qi[e] = dx0 * G[e];
+        for (int64_t j = 1; j < d; ++j) {
+            const double dx = x[i * d + j] - x_ref[j];
+            for (int64_t e = 0; e < k; ++e)
+                qi[e] = qi[e] + dx * G[j * k + e];
+        }
+        for (int64_t e = 0; e < k; ++e)
+            qi[e] = qi[e] + base[e];
+    }
+}
 
 int et_newton_branch_work(et_branch_batch *s)
 {
@@ -864,6 +894,8 @@ int et_newton_branch_work(et_branch_batch *s)
         if (b0 >= s->n)
             break;
         const int64_t m = s->n - b0 < s->grain ? s->n - b0 : s->grain;
+        if (s->x)
+            et_predict(m, s->x + b0 * s->d, s->d, s->x_ref, s->G, s->base, lq, s->q + b0 * lq);
         const int rc = et_newton_branch(m, b0, s->closure, s->block, (int)s->n_in, s->in, s->stride, s->q_of,
                                         (int)s->legs, (int)s->rows, (int)s->nq, s->q + b0 * lq, s->norm + b0 * s->legs,
                                         (int)s->iterations, s->tol, s->lambda0, s->max_step, s->lever, (int)s->n_lin,
@@ -1030,7 +1062,9 @@ class _BranchBatch(ctypes.Structure):
             (("tol", "lambda0", "max_step"), ctypes.c_double),
             (("lever",), ctypes.c_void_p),
             (("n_lin",), ctypes.c_int64),
-            (("lin", "lstrides", "lq_of", "ref_sign", "lever_out", "done"), ctypes.c_void_p),
+            (("lin", "lstrides", "lq_of", "ref_sign", "lever_out", "done", "x"), ctypes.c_void_p),
+            (("d",), ctypes.c_int64),
+            (("x_ref", "G", "base"), ctypes.c_void_p),
             (("next", "rc"), ctypes.c_int64),
         )
         for name in names
@@ -1068,12 +1102,16 @@ class BranchSolver:
         self._signs = np.ascontiguousarray(np.broadcast_to(np.asarray(signs, dtype=np.float64), (legs,)))
         self._shape, self._rows, self._keep = (legs, nq), rows, keep
 
-    def __call__(self, q: np.ndarray, iterations: int, tol: float, lambda0: float, threads: int = 1) -> np.ndarray:
+    def __call__(
+        self, q: np.ndarray, iterations: int, tol: float, lambda0: float, threads: int = 1, predict=None
+    ) -> np.ndarray:
         """Iterate the batch's starts ``q`` (n, legs, n_q), C-contiguous float64, in place, with
-        first damping ``lambda0`` on ``threads`` threads (:func:`~.threads.threads_for`). Returns
-        done (n,) bool: every leg of the pose converged on its branch (where not, the caller
-        solves its chunk the long way). Raises InputError for another ``q`` and RuntimeError when
-        the driver or the lever kernel fails."""
+        first damping ``lambda0`` on ``threads`` threads (:func:`~.threads.threads_for`);
+        ``predict``: ``(poses, prediction)``, the starts predicted in C on each grain instead
+        (``prediction`` a :class:`~.levenberg_marquardt.Prediction`, ``poses`` (n, d); q then
+        only receives the result). Returns done (n,) bool: every leg of the pose converged on
+        its branch (where not, the caller solves its chunk the long way). Raises InputError for
+        another ``q`` or poses and RuntimeError when the driver or the lever kernel fails."""
         from .threads import run_workers, threads_for
 
         n, (legs, nq) = len(q), self._shape
@@ -1085,10 +1123,24 @@ class BranchSolver:
         done = np.empty(n, dtype=np.int8)
         at = ctypes.addressof
         ins, strides, q_of, lin, lstrides, lq_of = self._tables
+        pred = (None, 0, None, None, None)
+        if predict is not None:
+            poses, prediction = predict
+            poses = np.ascontiguousarray(poses, dtype=np.float64)
+            d = len(prediction.x_ref)
+            if poses.shape != (n, d) or prediction.G.shape != (d, legs * nq):
+                from .errors import InputError
+
+                raise InputError(f"poses: expected ({n}, {d}) to predict ({n}, {legs}, {nq}) from, got {poses.shape}")
+            arrays = [
+                np.ascontiguousarray(a, dtype=np.float64) for a in (prediction.x_ref, prediction.G, prediction.base)
+            ]
+            pred = (address(poses), d, *(address(a) for a in arrays))
+            _alive = (poses, arrays)  # through the call
         batch = _BranchBatch(
             n, GRAIN, *self._closure, at(ins), at(strides), at(q_of), legs, self._rows, nq,
             address(q), address(norm), int(iterations), float(tol), float(lambda0), MAX_STEP, *self._lever,
-            at(lin), at(lstrides), at(lq_of), address(self._signs), address(lever), address(done),
+            at(lin), at(lstrides), at(lq_of), address(self._signs), address(lever), address(done), *pred,
         )  # fmt: skip
         state, work = at(batch), branch_driver()
         run_workers(lambda: work(state), threads_for(n, BLOCK, threads))

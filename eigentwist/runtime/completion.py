@@ -420,11 +420,17 @@ class PoseCompletion:
             # solve's first stage over the batch in C, its grains on the threads (each pose's
             # iterations its own); a chunk with a pose that does not converge on its branch
             # there is solved as above (the same first stage, then the retries): the same bits
-            def start(sl, inner):
-                q[sl] = reference if guess is None else guess(poses[sl])
-
-            map_chunks(start, n, threads, NEWTON_CHUNK)
-            done = fast(q, MAX_ITERATIONS, TOL, LAMBDA0 if guess is None else GUESS_LAMBDA0, threads)
+            # the starts: the reference, or the predictor's, computed in C on each grain
+            if guess is None:
+                q[:] = reference
+            done = fast(
+                q,
+                MAX_ITERATIONS,
+                TOL,
+                LAMBDA0 if guess is None else GUESS_LAMBDA0,
+                threads,
+                predict=None if guess is None else (poses, guess),
+            )
             again = [sl for sl in chunks(n, NEWTON_CHUNK) if not done[sl].all()]
 
             def redo(rows, inner):  # the chunks again[rows], one by one

@@ -32,6 +32,7 @@ import numpy as np
 __all__ = [
     "solve",
     "predicted_start",
+    "Prediction",
     "tangent",
     "normal_solve",
     "continuation",
@@ -376,7 +377,7 @@ def tangent(A: np.ndarray, dr: np.ndarray) -> np.ndarray:
 
 
 def predicted_start(closure, q_ref: np.ndarray, inputs_at, x_ref: np.ndarray, h: float = 1e-6):
-    """``guess(poses) -> (N, legs, n_q)``: the first-order prediction ``q_ref + G (x - x_ref)``
+    """``guess(poses) -> (N, legs, n_q)`` (a :class:`Prediction`): the first-order prediction ``q_ref + G (x - x_ref)``
     of the closed configuration at poses x (N, d), from the implicit function theorem on
     ``r(q, x) = 0`` at the closed configuration ``q_ref`` (legs, n_q) of pose ``x_ref``
     (d,): ``G = -A^+ dr/dx`` per leg (A = dr/dq, its pseudo-inverse; dr/dx by central
@@ -397,14 +398,23 @@ def predicted_start(closure, q_ref: np.ndarray, inputs_at, x_ref: np.ndarray, h:
             return None
         G = tangent(A, dr_dx)  # (legs, n_q, d)
 
-    shape = np.shape(q_ref)
-    G = np.ascontiguousarray(G.reshape(-1, d).T)  # (d, legs * n_q)
-    base = np.asarray(q_ref, dtype=float).ravel()
+    return Prediction(x_ref, np.ascontiguousarray(G.reshape(-1, d).T), np.asarray(q_ref, dtype=float))
 
-    def guess(poses):  # q_ref itself at x_ref
+
+class Prediction:
+    """The first-order prediction of :func:`predicted_start`: ``self(poses)`` (N, legs, n_q) is
+    ``q_ref + (x - x_ref) G`` at poses x (N, d); ``x_ref`` (d,), ``G`` (d, legs * n_q) and
+    ``base`` (legs * n_q,), ``q_ref`` flattened, for a C driver that predicts the same
+    (:class:`~eigentwist.runtime.c_levenberg_marquardt.BranchSolver`: each product rounded,
+    summed in the order of the pose's entries, then ``base`` added; the same bits)."""
+
+    def __init__(self, x_ref: np.ndarray, G: np.ndarray, q_ref: np.ndarray):
+        self.x_ref, self.G, self.shape = x_ref, G, np.shape(q_ref)
+        self.base = np.ascontiguousarray(q_ref.ravel())
+
+    def __call__(self, poses) -> np.ndarray:  # q_ref itself at x_ref
         # einsum, not matmul: a (chunk, d) x (d, legs * n_q) product is large enough for a
         # threaded BLAS to wake its threads, which then spin beside the evaluator's own
         # (twice the CPU time of a numeric-IK call, benchmarks/README.md)
-        return (np.einsum("nd,dk->nk", np.asarray(poses, dtype=float) - x_ref, G) + base).reshape((-1,) + shape)
-
-    return guess
+        dx = np.asarray(poses, dtype=float) - self.x_ref
+        return (np.einsum("nd,dk->nk", dx, self.G) + self.base).reshape((-1,) + self.shape)
