@@ -29,6 +29,9 @@ __all__ = ["driver", "iterate", "branch_driver", "BranchSolver", "block_steps", 
 
 SOURCE = (
     r"""
+#if !defined(_POSIX_C_SOURCE) && !defined(_GNU_SOURCE)
+#define _POSIX_C_SOURCE 200112L  /* posix_memalign under -std=c99 */
+#endif
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
