@@ -17,7 +17,7 @@ import pytest
 import sympy as sp
 
 import eigentwist
-from eigentwist.description.pose import POSE, ROTATION, twist_order
+from eigentwist.description.pose import FULL, POSE, ROTATION, twist_order
 from eigentwist.runtime.allowed import allowed_twists, constraint_positions, coordinate_twists
 from eigentwist.runtime.errors import UnreachablePoseError
 from eigentwist.runtime.poses import rotation_matrix
@@ -699,3 +699,45 @@ def test_followers_solved_in_c_equal_numpy(gallery, monkeypatch):
     with pytest.raises(UnreachablePoseError) as err:
         evc.frequencies(np.array([[0.60, 0.1, -0.1]]), "rigid")
     assert "rot_x = 0.1" in str(err.value) and "did not converge" in str(err.value)
+
+
+@pytest.mark.compiled
+def test_the_followers_first_stage_over_the_batch_gives_each_chunks_bits(monkeypatch):
+    """3-PRS on the C backend, two threads: the followers' first stage runs once over the
+    batch (one C call, its blocks on the threads) and only the chunks with a pose that does not
+    converge there are completed the long way; every completed pose equals, bit for bit, the
+    long way run chunk by chunk (:func:`~eigentwist.runtime.platform.full_poses` with the C
+    iterations). With one Newton step an attempt, small tilts converge and three tilts of
+    0.14 rad do not (NaN in their rows alone)."""
+    from eigentwist.runtime import completion, platform
+    from eigentwist.runtime.completion import chunks, take
+    from eigentwist.runtime.platform import full_poses
+
+    ev = eigentwist.load(str(GALLERY / "prs3.py"), backend="c", threads=2, progress=None)
+    comp = ev.completion
+    monkeypatch.setattr(completion, "NEWTON_CHUNK", 128)
+    monkeypatch.setattr(platform, "MAX_STEPS", 1)
+    rng = np.random.default_rng(3)
+    x = np.column_stack([0.6 + 0.05 * rng.random(600), 0.01 * (rng.random((600, 2)) - 0.5)])
+    x[[150, 151, 400], 1] = 0.14
+    followers = [FULL.index(c) for c in comp.space.followers]
+    calls = []
+    follow = ev.kernels.follow
+
+    def counted(q, *a, **kw):
+        calls.append(len(q))
+        return follow(q, *a, **kw)
+
+    monkeypatch.setattr(ev.kernels, "follow", counted)
+    got = np.asarray(comp.poses(x))
+    assert calls[0] == 600 and calls.count(128) == 2  # the batch, then the two chunks with a failure
+    p = comp.resolver.resolve(len(x), {}, "rigid")
+
+    def its(q, pp, iterations, tol):
+        return follow(q, pp, followers, iterations, tol, threads=1)
+
+    want = np.concatenate(
+        [full_poses(comp.space, x[sl], comp.module.followers, take(p, sl), None, its) for sl in chunks(600, 128)]
+    )
+    assert got.tobytes() == want.tobytes()
+    assert np.isnan(got[[150, 151, 400]]).any(axis=1).all() and np.isfinite(np.delete(got, [150, 151, 400], 0)).all()

@@ -165,9 +165,22 @@ class PoseCompletion:
             its = None if iterate_on is None else iterate_on(inner)
             full[sl] = full_poses(self.space, arr[sl], closure, take(p, sl) if n > 1 else p, reference, its)
 
-        # fixed chunks, as for numeric IK (:meth:`solve_joints`); on the C route whole chunks
-        # run on the threads, each writing its rows of the one result (no copy after them)
-        map_chunks(complete, n, threads if iterate_on is not None else 1, NEWTON_CHUNK)
+        if iterate_on is None:
+            map_chunks(complete, n, 1, NEWTON_CHUNK)
+            return full.view(CompletedPoses)
+        # the first stage of every chunk's solve (:func:`.platform.follow`: the iterations from
+        # the reference, 0) in one C call over the batch, its blocks on the threads; a chunk
+        # with a pose that does not converge there is completed the long way (the same first
+        # stage, then the warm starts: the same bits), fixed chunks as for numeric IK
+        # (:meth:`solve_joints`), whole chunks side by side on the threads
+        from .platform import MAX_STEPS, TOL_M, commanded
+
+        commanded(self.space, arr, out=full)
+        q, norm = iterate_on(threads)(np.zeros((n, 1, len(followers))), {**p, "_full": full}, MAX_STEPS, TOL_M)
+        full[:, followers] = q[:, 0, :]
+        ok = (norm < TOL_M).all(-1)
+        again = [sl for sl in chunks(n, NEWTON_CHUNK) if not ok[sl].all()]
+        map_chunks(lambda rows, inner: [complete(sl, inner) for sl in again[rows]], len(again), threads, 1)
         return full.view(CompletedPoses)
 
     def follower_reference(self):

@@ -20,7 +20,7 @@ from .poses import rotation_entries
 
 _ROTATION_NAMES = tuple(f"R_{i}{j}" for i in range(3) for j in range(3))
 
-__all__ = ["full_poses", "follow", "follow_legs", "left_jacobian", "along_followers", "TOL_M", "MAX_STEPS"]
+__all__ = ["commanded", "full_poses", "follow", "follow_legs", "left_jacobian", "along_followers", "TOL_M", "MAX_STEPS"]
 
 TOL_M = 1e-12  # a closure below this (m) counts as met
 MAX_STEPS = 40  # Newton steps per attempt
@@ -195,6 +195,18 @@ def follow(closure, full: np.ndarray, followers: list, p: dict, iterate=None) ->
     return full
 
 
+def commanded(space, given: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """The (N, 6) full poses (x, y, z m; rotation vector rad) of the user's poses ``given``
+    (N, len(space.coordinates)) in pose space ``space`` with every other coordinate 0 (a
+    follower's reference, before :func:`follow`); into ``out`` (N, 6) where given."""
+    full = np.zeros((len(given), 6)) if out is None else out
+    if out is not None:
+        full[:] = 0.0
+    for c, name in enumerate(space.coordinates):
+        full[:, FULL.index(name)] = given[:, c]
+    return full
+
+
 def full_poses(
     space, given: np.ndarray, closure=None, p: dict | None = None, reference=None, iterate=None
 ) -> np.ndarray:
@@ -203,9 +215,7 @@ def full_poses(
     the followers solved (:func:`follow`; legs solved numerically, their ``reference``
     configuration (legs, n_q) given: :func:`follow_legs`; NaN rows where they do not
     converge), 0 else; ``iterate``: :func:`follow`'s."""
-    full = np.zeros((len(given), 6))
-    for c, name in enumerate(space.coordinates):
-        full[:, FULL.index(name)] = given[:, c]
+    full = commanded(space, given)
     followers = [FULL.index(c) for c in getattr(space, "followers", ())]
     if followers and reference is not None:
         full = follow_legs(closure, full, followers, p or {}, reference)
