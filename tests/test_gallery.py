@@ -741,3 +741,30 @@ def test_the_followers_first_stage_over_the_batch_gives_each_chunks_bits(monkeyp
     )
     assert got.tobytes() == want.tobytes()
     assert np.isnan(got[[150, 151, 400]]).any(axis=1).all() and np.isfinite(np.delete(got, [150, 151, 400], 0)).all()
+
+
+@pytest.mark.compiled
+@pytest.mark.parametrize("name", ["prs3", "rrr3"])
+def test_allowed_twists_chunk_by_chunk_change_no_bit(monkeypatch, name):
+    """A lower-mobility or planar robot's rigid model on the C backend: the pass, the allowed
+    twists and the reductions run chunk by chunk (``CHUNK`` poses, each chunk's outputs in
+    one of a few reused buffers, whole chunks on the threads). Chunks of 128 poses on two
+    threads (a last partial chunk, buffers reused) give the frequencies of one chunk on one
+    thread bit for bit; an unreachable pose in a later chunk raises, naming the first one."""
+    from eigentwist.runtime import mode_solver
+
+    one = eigentwist.load(str(GALLERY / f"{name}.py"), backend="c", threads=1, progress=None)
+    two = eigentwist.load(str(GALLERY / f"{name}.py"), backend="c", threads=2, progress=None)
+    x = _poses(one, 900, seed=5)[:600]
+    assert len(x) == 600
+    monkeypatch.setattr(mode_solver, "CHUNK", 1 << 20)
+    whole = one.frequencies(x, "rigid")
+    monkeypatch.setattr(mode_solver, "CHUNK", 128)
+    assert two.frequencies(x, "rigid").tobytes() == whole.tobytes()
+    assert one.frequencies(x, "rigid").tobytes() == whole.tobytes()
+    far = x.copy()
+    column, first, second = (1, 2.5, 2.7) if name == "prs3" else (0, 5.0, 7.0)  # beyond the legs' reach
+    far[450, column], far[500, column] = first, second
+    with pytest.raises(UnreachablePoseError) as err:
+        two.frequencies(far, "rigid")
+    assert f"{first:.1f}" in str(err.value) and f"{second:.1f}" not in str(err.value)

@@ -12,13 +12,15 @@ error of an unstable pose.
 
 from __future__ import annotations
 
+import queue
+
 import numpy as np
 
 from ..description.effects import base_name
 from ..description.pose import twist_order
 from . import condense
 from .allowed import allowed_twists, constraint_positions, coordinate_twists, reduce
-from .completion import chunks, masked, take, user_rows
+from .completion import CHUNK, chunks, map_chunks, masked, take, user_rows
 from .eigen import frequencies_and_stability, generalized_eigh, normalize_eigentwists
 from .errors import InputError, UnstablePoseError
 from .modes import Modes
@@ -79,18 +81,46 @@ class ModeSolver:
             and getattr(self.ev.space, "basis", 0) is None
             and not self.ev.resolver.preloaded(effects)
         ):
-            # allowed twists that turn with the pose: M, K_R and J_rows from one C pass
+            # allowed twists that turn with the pose: M, K_R and J_rows from one C pass, their
+            # basis and the reductions chunk by chunk (CHUNK poses: the 6 x 6 matrices stay in
+            # cache), whole chunks side by side on the threads; every pose on its own, so the
+            # chunks change no result
             p = self.ev.resolver.resolve(len(poses_arr), params, effects)
-            res = self.ev.c_route.run(poses_arr, p, matrices=("M", "K_R"), jacobians=("J_rows",))
-            bad = res["status"] != STATUS["ok"]
-            if bad.any():
-                self.ev.checks.raise_first(poses_arr, p, bad)
-            B = self.basis(res["J_rows"])
-            threads = self.ev.c_route.nthreads()
-            return (
-                reduce(res["M"], B, compiled=True, threads=threads),
-                reduce(res["K_R"], B, compiled=True, threads=threads),
-            )
+            pk = self.ev.completion.with_pose(poses_arr, p)
+            n, threads = len(poses_arr), self.ev.c_route.nthreads()
+            # the pass's outputs of a chunk in one of `threads` sets of buffers, each used by
+            # one chunk at a time: no fresh memory a chunk (its pages faulted in on two
+            # threads at once cost more than the pass)
+            shapes = {"M": (6, 6), "K_R": (6, 6), "J_rows": tuple(self.kernels.OUTPUTS["jacobians"]["J_rows"])}
+            free = queue.SimpleQueue()
+            for _ in range(min(threads, -(-n // CHUNK))):
+                free.put({k: np.empty((min(n, CHUNK),) + v) for k, v in shapes.items()})
+
+            def part(sl, inner):
+                at, held = poses_arr[sl], free.get()
+                try:
+                    m = len(at)
+                    res = self.kernels.fused(
+                        at[:, 0],
+                        at[:, 1],
+                        at[:, 2],
+                        take(pk, sl) if n > 1 else pk,
+                        status=True,
+                        threads=inner,
+                        matrices=("M", "K_R"),
+                        jacobians=("J_rows",),
+                        out={k: v[:m] for k, v in held.items()},
+                    )
+                    bad = res["status"] != STATUS["ok"]
+                    if bad.any():
+                        self.ev.checks.raise_first(at, take(p, sl) if n > 1 else p, bad)
+                    B = self.basis(res["J_rows"], inner)
+                    return tuple(reduce(res[k], B, compiled=True, threads=inner) for k in ("M", "K_R"))
+                finally:
+                    free.put(held)
+
+            parts = map_chunks(part, n, threads, CHUNK)
+            return tuple(np.concatenate(x) if len(parts) > 1 else x[0] for x in zip(*parts))
         if stash is not None and not self.ev.c_route.fused:
             mats, stash["q"] = self.matrices_q(poses_arr, self.ev.resolver.resolve(len(poses_arr), params, effects))
             stash.update((k, mats[k]) for k in MATRICES)
@@ -106,15 +136,15 @@ class ModeSolver:
             K = K + gravity_stiffness(self.ev, poses_arr, effects, params, mats, rigid, B)
         return M, K
 
-    def basis(self, rows: np.ndarray) -> np.ndarray:
+    def basis(self, rows: np.ndarray, threads: int | None = None) -> np.ndarray:
         """The allowed twists (N, 6, n) from the legs' inverse-Jacobian rows (N, legs, r, 6):
-        the null space of their virtual joints' rows (:func:`.allowed.allowed_twists`)."""
+        the null space of their virtual joints' rows (:func:`.allowed.allowed_twists`), on
+        ``threads`` threads (None: the evaluator's)."""
         per_leg = rows.shape[2]
         picks = [i * per_leg + r for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
         candidates = coordinate_twists(twist_order(self.ev.pose_names))
-        return allowed_twists(
-            rows, candidates, compiled=self.ev.c_route.fused, threads=self.ev.c_route.nthreads(), picks=picks
-        )
+        threads = self.ev.c_route.nthreads() if threads is None else threads
+        return allowed_twists(rows, candidates, compiled=self.ev.c_route.fused, threads=threads, picks=picks)
 
     def damped_model(self, model) -> bool:
         """Whether ``model`` has a damping effect (its modes have poles: :mod:`.damped`)."""
