@@ -154,3 +154,23 @@ def test_c_reduction_is_b_transpose_x_b(m):
         c_allowed.reduce(X, np.zeros((70, 5, m)))
     with pytest.raises(InputError, match=r"got \(70, 6, 6\) and \(70, 6, 7\)"):
         c_allowed.reduce(X, np.zeros((70, 6, 7)))
+
+
+def test_the_reduction_into_given_rows():
+    """``out=``: B^T X B written into the given (N, m, m) rows (a slice of a larger array
+    here), bit for bit what it returns otherwise, in C and in NumPy; an array of another shape,
+    type or layout refused, naming the expected shape."""
+    from eigentwist.runtime import allowed
+
+    rng = np.random.default_rng(9)
+    X, B = rng.standard_normal((70, 6, 6)), rng.standard_normal((70, 6, 3))
+    whole = np.full((100, 3, 3), -1.0)
+    got = c_allowed.reduce(X, B, out=whole[20:90])
+    assert got.base is whole and np.array_equal(whole[20:90], c_allowed.reduce(X, B))
+    assert (whole[:20] == -1).all() and (whole[90:] == -1).all()
+    mine = np.empty((70, 3, 3))
+    assert allowed.reduce(X, B, compiled=False, out=mine) is mine
+    assert np.array_equal(mine, np.swapaxes(B, 1, 2) @ X @ B)
+    for bad in (np.empty((70, 3, 4)), np.empty((70, 3, 3), dtype=np.float32), np.empty((70, 3, 3, 2))[..., 0]):
+        with pytest.raises(InputError, match=r"out: expected a C-contiguous float64 array of shape \(70, 3, 3\)"):
+            c_allowed.reduce(X, B, out=bad)

@@ -140,13 +140,18 @@ def allowed_twists(
     return np.moveaxis(B, -1, 0)
 
 
-def reduce(X: np.ndarray, B: np.ndarray, compiled: bool = False, threads: int = 1) -> np.ndarray:
+def reduce(
+    X: np.ndarray, B: np.ndarray, compiled: bool = False, threads: int = 1, out: np.ndarray | None = None
+) -> np.ndarray:
     """``B^T X B`` per pose: (N, n, n) from (N, 6, 6) and (N, 6, n); with ``compiled``, in C
     (:func:`.c_allowed.reduce`, ~3x faster at 20 000 poses; on ``threads`` threads) where
-    its driver builds."""
+    its driver builds; into ``out`` (N, n, n) where given (C: a C-contiguous float64 array)."""
     if compiled and len(X):
         from . import c_allowed
 
         if c_allowed.driver() is not None:
-            return c_allowed.reduce(X, B, threads)
-    return np.swapaxes(B, 1, 2) @ X @ B
+            return c_allowed.reduce(X, B, threads, out)
+    if out is None:
+        return np.swapaxes(B, 1, 2) @ X @ B
+    out[...] = np.swapaxes(B, 1, 2) @ X @ B
+    return out

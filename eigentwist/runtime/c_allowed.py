@@ -210,11 +210,12 @@ def driver():
     return library_once(_DRIVER, _LIBRARIES, SOURCE, "allowed", _bind)
 
 
-def reduce(X: np.ndarray, B: np.ndarray, threads: int = 1) -> np.ndarray:
+def reduce(X: np.ndarray, B: np.ndarray, threads: int = 1, out: np.ndarray | None = None) -> np.ndarray:
     """``B^T X B`` per pose in C: (N, m, m) from (N, 6, 6) and (N, 6, m), m <= 6; what
-    :func:`eigentwist.runtime.allowed.reduce` computes, to round-off. ``threads`` > 1 splits
-    the poses over that many threads (each pose on its own: the same results). Raises
-    RuntimeError where the driver cannot be built."""
+    :func:`eigentwist.runtime.allowed.reduce` computes, to round-off; into ``out`` (a
+    C-contiguous float64 (N, m, m) array) where given. ``threads`` > 1 splits the poses over
+    that many threads (each pose on its own: the same results). Raises RuntimeError where the
+    driver cannot be built, InputError for shapes it does not take."""
     from .threads import run_ranges, threads_for
 
     if driver() is None:
@@ -224,7 +225,12 @@ def reduce(X: np.ndarray, B: np.ndarray, threads: int = 1) -> np.ndarray:
     n, m = len(X), B.shape[-1]
     if X.shape != (n, 6, 6) or B.shape != (n, 6, m) or m > 6:
         raise InputError(f"reduce takes X (N, 6, 6) and B (N, 6, m <= 6): got {X.shape} and {B.shape}")
-    out = np.empty((n, m, m))
+    if out is None:
+        out = np.empty((n, m, m))
+    elif out.shape != (n, m, m) or out.dtype != np.float64 or not out.flags.c_contiguous:
+        raise InputError(
+            f"out: expected a C-contiguous float64 array of shape {(n, m, m)}, got {out.shape} {out.dtype}"
+        )
     fn = _REDUCE[-1]
 
     def call(a: int, b: int) -> None:

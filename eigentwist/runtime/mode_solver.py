@@ -115,12 +115,15 @@ class ModeSolver:
                     if bad.any():
                         self.ev.checks.raise_first(at, take(p, sl) if n > 1 else p, bad)
                     B = self.basis(res["J_rows"], inner)
-                    return tuple(reduce(res[k], B, compiled=True, threads=inner) for k in ("M", "K_R"))
+                    for k, into in zip(("M", "K_R"), reduced):
+                        reduce(res[k], B, compiled=True, threads=inner, out=into[sl])
                 finally:
                     free.put(held)
 
-            parts = map_chunks(part, n, threads, CHUNK)
-            return tuple(np.concatenate(x) if len(parts) > 1 else x[0] for x in zip(*parts))
+            size = self.ev.rigid_size()
+            reduced = (np.empty((n, size, size)), np.empty((n, size, size)))
+            map_chunks(part, n, threads, CHUNK)
+            return reduced
         if stash is not None and not self.ev.c_route.fused:
             mats, stash["q"] = self.matrices_q(poses_arr, self.ev.resolver.resolve(len(poses_arr), params, effects))
             stash.update((k, mats[k]) for k in MATRICES)
