@@ -750,7 +750,9 @@ def test_allowed_twists_chunk_by_chunk_change_no_bit(monkeypatch, name):
     twists and the reductions run chunk by chunk (``CHUNK`` poses, each chunk's outputs in
     one of a few reused buffers, whole chunks on the threads). Chunks of 128 poses on two
     threads (a last partial chunk, buffers reused) give the frequencies of one chunk on one
-    thread bit for bit; an unreachable pose in a later chunk raises, naming the first one."""
+    thread bit for bit; the buffer sets are kept for the next call (one a thread at most, a
+    new queue for another chunk size); an unreachable pose in a later chunk raises, naming the
+    first one."""
     from eigentwist.runtime import mode_solver
 
     one = eigentwist.load(str(GALLERY / f"{name}.py"), backend="c", threads=1, progress=None)
@@ -759,8 +761,13 @@ def test_allowed_twists_chunk_by_chunk_change_no_bit(monkeypatch, name):
     assert len(x) == 600
     monkeypatch.setattr(mode_solver, "CHUNK", 1 << 20)
     whole = one.frequencies(x, "rigid")
+    kept = one.solver.chunk_buffers()
+    assert kept.qsize() == 1 and one.solver.chunk_buffers() is kept  # one set, kept for the next call
     monkeypatch.setattr(mode_solver, "CHUNK", 128)
+    assert one.solver.chunk_buffers() is not kept  # sets of another size
     assert two.frequencies(x, "rigid").tobytes() == whole.tobytes()
+    assert 1 <= two.solver.chunk_buffers().qsize() <= 2  # at most one set a thread
+    assert len(next(iter(two.solver.chunk_buffers().get().values()))) == 128
     assert one.frequencies(x, "rigid").tobytes() == whole.tobytes()
     far = x.copy()
     column, first, second = (1, 2.5, 2.7) if name == "prs3" else (0, 5.0, 7.0)  # beyond the legs' reach

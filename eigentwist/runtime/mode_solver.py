@@ -88,16 +88,18 @@ class ModeSolver:
             p = self.ev.resolver.resolve(len(poses_arr), params, effects)
             pk = self.ev.completion.with_pose(poses_arr, p)
             n, threads = len(poses_arr), self.ev.c_route.nthreads()
-            # the pass's outputs of a chunk in one of `threads` sets of buffers, each used by
-            # one chunk at a time: no fresh memory a chunk (its pages faulted in on two
-            # threads at once cost more than the pass)
-            shapes = {"M": (6, 6), "K_R": (6, 6), "J_rows": tuple(self.kernels.OUTPUTS["jacobians"]["J_rows"])}
-            free = queue.SimpleQueue()
-            for _ in range(min(threads, -(-n // CHUNK))):
-                free.put({k: np.empty((min(n, CHUNK),) + v) for k, v in shapes.items()})
+            # the pass's outputs of a chunk in a set of CHUNK-pose buffers that one chunk uses at
+            # a time, kept for this solver's later calls (:meth:`chunk_buffers`): fresh memory
+            # for each chunk or call has its pages faulted in and zeroed again, at a cost near
+            # the pass's own
+            free = self.chunk_buffers()
 
             def part(sl, inner):
-                at, held = poses_arr[sl], free.get()
+                at = poses_arr[sl]
+                try:
+                    held = free.get_nowait()
+                except queue.Empty:  # more chunks at once than sets so far: one more set
+                    held = self.new_chunk_buffers()
                 try:
                     m = len(at)
                     res = self.kernels.fused(
@@ -138,6 +140,22 @@ class ModeSolver:
 
             K = K + gravity_stiffness(self.ev, poses_arr, effects, params, mats, rigid, B)
         return M, K
+
+    def new_chunk_buffers(self) -> dict:
+        """One set of the C pass's outputs for :data:`~.completion.CHUNK` poses of a rigid model on
+        allowed twists that turn with the pose (:meth:`stiffness`): M, K_R (6 x 6) and the
+        legs' inverse-Jacobian rows J_rows, uninitialised."""
+        shapes = {"M": (6, 6), "K_R": (6, 6), "J_rows": tuple(self.kernels.OUTPUTS["jacobians"]["J_rows"])}
+        return {k: np.empty((CHUNK,) + v) for k, v in shapes.items()}
+
+    def chunk_buffers(self) -> queue.SimpleQueue:
+        """The sets of :meth:`new_chunk_buffers` not in use, kept for this solver's calls (as
+        many as have run at once; a set is taken by one chunk and put back after it); a new
+        queue where :data:`~.completion.CHUNK` or the kernels changed."""
+        held = self.__dict__.get("_chunk_buffers")
+        if held is None or held[0] != CHUNK or held[1] is not self.kernels:
+            held = self.__dict__["_chunk_buffers"] = (CHUNK, self.kernels, queue.SimpleQueue())
+        return held[2]
 
     def basis(self, rows: np.ndarray, threads: int | None = None) -> np.ndarray:
         """The allowed twists (N, 6, n) from the legs' inverse-Jacobian rows (N, legs, r, 6):
