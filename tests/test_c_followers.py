@@ -151,33 +151,12 @@ def test_c_followers_do_not_depend_on_a_poses_lane(kernel):
     strides = [0] * 12 + [1] * 4
     address = ctypes.cast(kernel.closure, ctypes.c_void_p).value
     block = ctypes.cast(kernel.closure_block, ctypes.c_void_p).value
-    whole = clm.follow(
-        address,
-        block,
-        roles,
-        [0] * 12 + [a.ctypes.data for a in keep],
-        strides,
-        followers,
-        full,
-        q0,
-        4,
-        MAX_STEPS,
-        TOL_M,
-    )
-    tail = [np.ascontiguousarray(a[3:]) for a in keep]
-    shifted = clm.follow(
-        address,
-        block,
-        roles,
-        [0] * 12 + [a.ctypes.data for a in tail],
-        strides,
-        followers,
-        np.ascontiguousarray(full[3:]),
-        q0[3:],
-        4,
-        MAX_STEPS,
-        TOL_M,
-    )
+
+    def run(first):  # the poses from `first` on
+        ins = [0] * 12 + [a[first:].ctypes.data for a in keep]
+        return clm.follow(address, block, roles, ins, strides, followers, full[first:], q0[first:], 4, MAX_STEPS, TOL_M)
+
+    whole, shifted = run(0), run(3)
     assert np.array_equal(shifted[0], whole[0][3:]) and np.array_equal(shifted[1], whole[1][3:])
 
 
