@@ -1,7 +1,7 @@
 """Thread scaling of the public path: wall time of ``frequencies`` with 1 and more threads.
 
     PYTHONPATH=. python benchmarks/threads.py [--n 200000] [--repeat 3] [--robots NAME:MODEL ...]
-        [--threads 2 4 8 16] [--newton-chunk 4096]
+        [--threads 2 4 8 16] [--newton-chunk 4096] [--chunk 4096]
 
 For each robot (a shipped name or a description file) and model: the C backend with
 ``threads=1`` and each count of ``--threads``, **new** reachable poses every call
@@ -43,11 +43,21 @@ def main() -> None:
     parser.add_argument(
         "--newton-chunk", type=int, default=None, help="poses per chunk of numeric IK (completion.NEWTON_CHUNK)"
     )
+    parser.add_argument(
+        "--chunk",
+        type=int,
+        default=None,
+        help="poses per chunk of a rigid model on allowed twists that turn with the pose (mode_solver.CHUNK)",
+    )
     args = parser.parse_args()
     if args.newton_chunk:
         from eigentwist.runtime import completion
 
         completion.NEWTON_CHUNK = args.newton_chunk
+    if args.chunk:
+        from eigentwist.runtime import mode_solver
+
+        mode_solver.CHUNK = args.chunk
     counts = [1] + [t for t in args.threads if t != 1]
     print(
         "robot, model | "
