@@ -623,21 +623,20 @@ typedef struct {
 } et_followers;
 
 /* The rows (x, y, z, rotation vector) of B poses in P: R (9 rows, R_ij at 3 i + j) by
-   Rodrigues' formula and the left Jacobian's a = (1 - cos t)/t^2, b = (t - sin t)/t^3 (2 rows
-   of jl; their series below t^2 = 1e-10), from one sine and cosine a lane: one vector loop
-   (a series' lane computes the formula too and takes the series). */
+   Rodrigues' formula and the left Jacobian's a = (1 - cos t)/t^2 (Rodrigues' b),
+   b = (t - sin t)/t^3 (2 rows of jl; their series below t^2 = 1e-10), from one sine and cosine
+   a lane: one vector loop (a series' lane computes the formula too and takes the series). */
 static void et_rotation_rows(const double *restrict P, double *restrict R, double *restrict jl)
 {
     FOR_I {
         const double x = P[3 * B + i], y = P[4 * B + i], z = P[5 * B + i];
         const double t2 = x * x + y * y + z * z, t = sqrt(t2), sn = sin(t), cs = cos(t);
-        const double ra = t2 < 1e-12 ? 1 - t2 / 6 : sn / t;
-        const double rb = t2 < 1e-12 ? 0.5 - t2 / 24 : (1 - cs) / (t * t);
-        double e[9];
+        double ra, rb, e[9];
+        et_rodrigues_ab(t2, t, sn, cs, &ra, &rb);
         et_rotation_ab(x, y, z, ra, rb, e);
         for (int k = 0; k < 9; ++k)
             R[k * B + i] = e[k];
-        jl[i] = t2 < 1e-10 ? 0.5 - t2 / 24 : (1 - cs) / (t * t);
+        jl[i] = t2 < 1e-10 ? 0.5 - t2 / 24 : rb;
         jl[B + i] = t2 < 1e-10 ? 1.0 / 6 - t2 / 120 : (t - sn) / (t * t * t);
     }
 }
@@ -1139,7 +1138,6 @@ class BranchSolver:
                 np.ascontiguousarray(a, dtype=np.float64) for a in (prediction.x_ref, prediction.G, prediction.base)
             ]
             pred = (address(poses), d, *(address(a) for a in arrays))
-            _alive = (poses, arrays)  # through the call
         batch = _BranchBatch(
             n, GRAIN, *self._closure, at(ins), at(strides), at(q_of), legs, self._rows, nq,
             address(q), address(norm), int(iterations), float(tol), float(lambda0), MAX_STEP, *self._lever,

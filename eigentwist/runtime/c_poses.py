@@ -40,20 +40,21 @@ static inline void et_rotation_ab(double x, double y, double z, double a, double
     e[8] = 1 + b * (-yy - xx);
 }
 
-/* e[3 i + j] = R_ij of the rotation vector (x, y, z) (rad): et_rotation_ab with a and b
-   (their series below t^2 = 1e-12) */
+/* Rodrigues' a = sin(t)/t and b = (1 - cos t)/t^2 from t^2, t, sin t and cos t (their series
+   below t^2 = 1e-12) */
+static inline void et_rodrigues_ab(double t2, double t, double sn, double cs, double *a, double *b)
+{
+    *a = t2 < 1e-12 ? 1 - t2 / 6 : sn / t;
+    *b = t2 < 1e-12 ? 0.5 - t2 / 24 : (1 - cs) / (t * t);
+}
+
+/* e[3 i + j] = R_ij of the rotation vector (x, y, z) (rad): et_rotation_ab with
+   et_rodrigues_ab's a and b */
 static inline void et_rodrigues(double x, double y, double z, double *e)
 {
-    const double t2 = x * x + y * y + z * z;
+    const double t2 = x * x + y * y + z * z, t = sqrt(t2);
     double a, b;
-    if (t2 < 1e-12) {
-        a = 1 - t2 / 6;
-        b = 0.5 - t2 / 24;
-    } else {
-        const double t = sqrt(t2);
-        a = sin(t) / t;
-        b = (1 - cos(t)) / (t * t);
-    }
+    et_rodrigues_ab(t2, t, sin(t), cos(t), &a, &b);
     et_rotation_ab(x, y, z, a, b, e);
 }
 """

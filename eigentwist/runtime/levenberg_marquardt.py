@@ -198,10 +198,7 @@ def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float, lambd
             new = closure(trial, p if every else _take(p, rows, n))
             new_norm = np.sqrt((new["residual"] ** 2).sum(-1))
             better = act & (new_norm < norm[rows])
-            q[rows] = np.where(better[..., None], trial, q_)
-            r[rows] = np.where(better[..., None], new["residual"], r_)
-            A[rows] = np.where(better[..., None, None], new["dresidual"], A_)
-            norm[rows] = np.where(better, new_norm, norm[rows])
+            _keep((q, r, A, norm), rows, better, (trial, new["residual"], new["dresidual"], new_norm))
             lam[rows] = np.where(better, np.maximum(lam_ / 4, 1e-12), np.where(act, np.minimum(lam_ * 4, 1e12), lam_))
         # one undamped Gauss-Newton step takes a (pose, leg) below `below` to round-off
         # (quadratic convergence), kept where it does not raise the residual
@@ -215,16 +212,20 @@ def _iterate(closure, q: np.ndarray, p: dict, iterations: int, tol: float, lambd
                 new = closure(trial, _take(p, rows, n))
                 new_norm = np.sqrt((new["residual"] ** 2).sum(-1))
             keep = polish[rows] & (new_norm <= norm[rows])
-            q[rows] = np.where(keep[..., None], trial, q[rows])
-            r[rows] = np.where(keep[..., None], new["residual"], r[rows])
-            A[rows] = np.where(keep[..., None, None], new["dresidual"], A[rows])
-            norm[rows] = np.where(keep, new_norm, norm[rows])
+            _keep((q, r, A, norm), rows, keep, (trial, new["residual"], new["dresidual"], new_norm))
         if rescue is not None:
             break
         rescue = polish & ~(norm < tol)
         if not rescue.any():
             break
     return q, norm
+
+
+def _keep(state: tuple, rows, keep: np.ndarray, trial: tuple) -> None:
+    """The (pose, leg) ``keep`` of rows ``rows`` take the trial point: ``state`` (q, r, A, |r|)
+    (N, legs, ...) updated in place from ``trial``, the same four at those rows."""
+    for now, new in zip(state, trial):
+        now[rows] = np.where(keep.reshape(keep.shape + (1,) * (new.ndim - keep.ndim)), new, now[rows])
 
 
 def _normal(A: np.ndarray, r: np.ndarray):

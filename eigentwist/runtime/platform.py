@@ -199,12 +199,13 @@ def commanded(space, given: np.ndarray, out: np.ndarray | None = None) -> np.nda
     """The (N, 6) full poses (x, y, z m; rotation vector rad) of the user's poses ``given``
     (N, len(space.coordinates)) in pose space ``space`` with every other coordinate 0 (a
     follower's reference, before :func:`follow`); into ``out`` (N, 6) where given."""
-    full = np.zeros((len(given), 6)) if out is None else out
-    if out is not None:
-        full[:] = 0.0
+    if out is None:
+        out = np.zeros((len(given), 6))
+    else:
+        out[:] = 0.0
     for c, name in enumerate(space.coordinates):
-        full[:, FULL.index(name)] = given[:, c]
-    return full
+        out[:, FULL.index(name)] = given[:, c]
+    return out
 
 
 def full_poses(
