@@ -89,6 +89,10 @@ def test_a_negative_eigenvalue_is_round_off_up_to_eps_of_the_largest():
     assert unstable_modes(lam).tolist() == [[False, False, False], [True, False, False], [False, False, False]]
     f = frequencies_hz(lam)
     assert f[0, 0] == 0.0 and np.isnan(f[1, 0]) and f[0, 2] == np.sqrt(big) / (2 * np.pi)
+    # a bound given is the one applied: twice it takes the second pose's in, half the first's out
+    assert frequencies_hz(lam, 2 * ROUNDOFF_EPS)[1, 0] == 0.0
+    f, stable = frequencies_and_stability(lam, 0.5 * ROUNDOFF_EPS)
+    assert np.isnan(f[0, 0]) and stable.tolist() == [False, False, True]
 
 
 def test_stability_is_false_where_any_mode_is_unstable():

@@ -151,6 +151,32 @@ def test_unreachable_commanded_pose_is_one_line(gallery, monkeypatch):
     assert m.valid.tolist() == [True, False]
 
 
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=pytest.mark.compiled)])
+def test_a_lower_mobility_batch_with_an_unreachable_pose_keeps_the_others(gallery, backend):
+    """The 3-PRS's rigid model over a batch with an unreachable pose (``invalid="nan"``): the
+    model's three coordinates in twist order [omega; v] (z, rot_x, rot_y: rx, ry, z), the pose
+    NaN and invalid, the others' modes those of a batch without it (each pose solved on its
+    own; C's Jacobi sweeps a block until all its poses converge: round-off), stable; without
+    eigentwists the same frequencies."""
+    ev = gallery["prs3"] if backend == "numpy" else eigentwist.load(str(GALLERY / "prs3.py"), backend="c", progress=None)
+    x = np.array([[0.60, 0.0, 0.0], [0.60, 2.5, 0.0], [0.58, 0.05, -0.03]])
+    m = ev.modes(x, "rigid", invalid="nan")
+    alone = ev.modes(x[[0, 2]], "rigid")
+    assert m.stiffness_model == alone.stiffness_model == "rigid" and m.axes == alone.axes == ("rx", "ry", "z")
+    assert m.freq_hz.shape == (3, 3) and m.eigentwists.shape == (3, 3, 3)
+    assert m.valid.tolist() == [True, False, True] and m.stable.tolist() == [True, True, True]
+    assert np.isnan(m.freq_hz[1]).all() and np.isnan(m.eigentwists[1]).all()
+    assert m.freq_hz[[0, 2]] == pytest.approx(alone.freq_hz, rel=1e-12)
+    assert m.eigentwists[[0, 2]] == pytest.approx(alone.eigentwists, abs=1e-9)
+    bare = ev.modes(x, "rigid", invalid="nan", vectors=False)
+    assert bare.eigentwists is None and np.array_equal(bare.freq_hz, m.freq_hz, equal_nan=True)
+    for invalid in ("raise", "nan"):  # every pose reachable
+        every = ev.modes(x[[0, 2]], "rigid", invalid=invalid, vectors=False)
+        assert every.eigentwists is None and every.axes == ("rx", "ry", "z") and every.stiffness_model == "rigid"
+        assert np.array_equal(every.freq_hz, alone.freq_hz) and every.stable.tolist() == [True, True]
+        assert every.valid is None if invalid == "raise" else every.valid.tolist() == [True, True]
+
+
 # -------------------------------------------------- kinetic energy, independently
 def _points(ev, bodies, values):
     """A NumPy function of (full pose, parameters) -> each leg's body points, from the

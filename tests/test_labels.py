@@ -75,6 +75,11 @@ def test_energy_shares_do_not_depend_on_units_or_eigentwist_scale(heli4):
     nan = m.eigentwists.copy()
     nan[0] = np.nan
     assert np.isnan(energy_shares(nan)[0]).all() and np.isfinite(energy_shares(nan)[1:]).all()
+    # the finite rows' shares are those of the definition, t_ik (M t_k)_i / (t_k^T M t_k)
+    M = heli4.matrices(random_poses(heli4.robot, 10, seed=4), "paper", k_a=800.0)["M"]
+    Mt = M @ m.eigentwists
+    definition = m.eigentwists * Mt / np.einsum("nik,nik->nk", m.eigentwists, Mt)[:, None, :]
+    assert energy_shares(nan)[1:] == pytest.approx(definition[1:], abs=1e-9)
 
 
 def test_heli4_labels_unchanged_where_modes_are_well_separated(heli4):

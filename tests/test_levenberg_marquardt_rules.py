@@ -261,3 +261,56 @@ def test_an_undamped_step_that_leaves_the_leg_above_tol_hands_it_back_to_the_dam
     closure = _Counted(0.1, 3)
     _, norm = lm._iterate(closure, np.full((1, 1, 1), start), {}, 0, lm.TOL, 1e-8)
     assert lm.TOL < norm[0, 0] < 0.5 * lm.EARLY and closure.calls == 2
+
+
+def test_a_step_that_raises_the_residual_is_rejected_and_the_damping_quadrupled():
+    """r = q beyond a wall at q = 0.05 (r = 10 before it, where the solution q = 0 lies): from
+    q = 0.2 a damped step lands in the wall until the damping keeps it short. Each rejected
+    trial leaves q where it was and multiplies lambda by 4, so the trial points are
+    q - q / (1 + lambda0 4^k + 1e-12 lambda0 4^k) (the damped step of a = 1) for k = 0, 1, ...,
+    the first one past the wall (1 + lambda > 4 / 3: k = 5 from 1e-3) accepted, lambda then
+    divided by 4 for the next."""
+    seen = []
+
+    def wall(q, p):
+        seen.append(float(q[0, 0, 0]))
+        r = np.where(q > 0.05, q, 10.0)
+        return {"residual": r, "dresidual": np.ones(q.shape + (1,))}
+
+    q0, lam0 = 0.2, 1e-3
+    lm._iterate(wall, np.full((1, 1, 1), q0), {}, 7, lm.TOL, lam0)
+    lam = lam0 * 4.0 ** np.arange(6)
+    want = [q0 - q0 / ((1 + lam_k) + 1e-12 * lam_k) for lam_k in lam]
+    assert seen[0] == q0 and seen[1:7] == pytest.approx(want, rel=1e-15, abs=0)
+    assert all(t <= 0.05 for t in seen[1:6]) and seen[6] > 0.05  # five rejected, the sixth kept
+    q1, lam1 = seen[6], lam[5] / 4
+    assert seen[7] == pytest.approx(q1 - q1 / ((1 + lam1) + 1e-12 * lam1), rel=1e-15, abs=0)
+
+
+def test_the_predicted_start_is_the_closures_tangent_at_the_reference():
+    """Two legs whose closed configuration is q = (sin x0 + x1^2, x0 x1) and (x1, -x0) (rows
+    r = q - q(x)): the prediction's G is dq/dx at x_ref to the central differences' error (h =
+    1e-6: truncation ~1e-13, rounding ~1e-10),
+    the prediction at x_ref is q_ref itself and near it first-order accurate (error O(|dx|^2))."""
+
+    def closed(x):
+        x0, x1 = x[..., 0], x[..., 1]
+        return np.stack([np.stack([np.sin(x0) + x1**2, x0 * x1], -1), np.stack([x1, -x0], -1)], -2)
+
+    def closure(q, p):
+        r = q - closed(np.stack([p["x0"], p["x1"]], -1))
+        return {"residual": r, "dresidual": np.broadcast_to(np.eye(2), q.shape + (2,)).copy()}
+
+    def inputs_at(x):
+        return {"x0": x[:, 0], "x1": x[:, 1]}
+
+    x_ref = np.array([0.3, -0.7])
+    q_ref = closed(x_ref)
+    pred = lm.predicted_start(closure, q_ref, inputs_at, x_ref)
+    c0, x1, x0 = np.cos(x_ref[0]), x_ref[1], x_ref[0]
+    dq_dx = np.array([[[c0, 2 * x1], [x1, x0]], [[0.0, 1.0], [-1.0, 0.0]]])  # (legs, n_q, d)
+    assert pred.G.T.reshape(2, 2, 2) == pytest.approx(dq_dx, abs=1e-9)
+    assert np.array_equal(pred(x_ref[None])[0], q_ref)
+    for step in (1e-2, 1e-3):
+        x = x_ref + step * np.array([[1.0, -2.0]])
+        assert np.abs(pred(x)[0] - closed(x[0])).max() <= 5 * step**2

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from eigentwist.runtime.platform import along_followers, left_jacobian
+from eigentwist.runtime.platform import along_followers, commanded, left_jacobian
 
 
 def _omega_by_differences(phi, d, h=1e-6):
@@ -76,3 +76,18 @@ def test_c_follow_takes_only_a_closed_form_followers_kernel_with_its_two_outputs
     assert kernels.follow(np.zeros((1, 1, 3)), {}, [0, 1, 5], 1, 1e-12) is None
     kernels._spec = {}  # no followers kernel
     assert kernels.follow(np.zeros((1, 1, 3)), {}, [0, 1, 5], 1, 1e-12) is None
+
+
+def test_commanded_poses_are_the_given_coordinates_and_zeros_into_any_array():
+    """The user's coordinates (z, rot_x, rot_y of a 3-PRS-like space) at their places of the
+    full pose [x, y, z, rot_x, rot_y, rot_z], every other entry 0 (the followers' reference),
+    whatever an ``out`` array held before."""
+
+    class Space:
+        coordinates = ("z", "rot_x", "rot_y")
+
+    given = np.array([[0.6, 0.1, -0.2], [0.55, -0.05, 0.0]])
+    want = np.array([[0.0, 0.0, 0.6, 0.1, -0.2, 0.0], [0.0, 0.0, 0.55, -0.05, 0.0, 0.0]])
+    assert np.array_equal(commanded(Space, given), want)
+    held = np.full((2, 6), 7.0)
+    assert commanded(Space, given, out=held) is held and np.array_equal(held, want)

@@ -374,12 +374,10 @@ class ModeSolver:
                 stash[key][ok] = val
         return Modes(freq, vec, self.ev.axes(stiffness), stiffness, ok, stable)
 
-    def solve(self, M, K, vectors: bool = True, stiffness: str | None = None) -> Modes:
+    def solve(self, M, K, vectors: bool, stiffness: str) -> Modes:
         """:class:`Modes` of the pencils ``K v = omega^2 M v`` (Eq. 7), a batch (N, n, n): the C
         Jacobi solver where it has the size, else :func:`.eigen.generalized_eigh`; ``stiffness``
-        names the model (None: ``"rigid"`` for 3x3 pencils, else ``"flexible"``)."""
-        if stiffness is None:
-            stiffness = "rigid" if M.shape[-1] == 3 else "flexible"
+        names the model (``"rigid"`` or ``"flexible"``: the result's axes)."""
         if self.ev.c_route.fused and K.shape[-1] in self.kernels.signature["eigh"]["dims"]:  # the C solver's sizes
             n, dim = K.shape[0], K.shape[-1]
             freq, stable = np.empty((n, dim)), np.empty(n, dtype=bool)
