@@ -177,6 +177,28 @@ def test_a_lower_mobility_batch_with_an_unreachable_pose_keeps_the_others(galler
         assert every.valid is None if invalid == "raise" else every.valid.tolist() == [True, True]
 
 
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=pytest.mark.compiled)])
+def test_a_lower_mobility_rigid_model_with_a_parameter_given_is_its_reduced_pencil(gallery, backend):
+    """The 3-PRS's rigid frequencies with the platform radius R_p given (its followers x, y
+    move with it): those of B^T K_R B, B^T M B from the public matrices and allowed twists at
+    that value (SciPy's solver here), and not those of the default radius."""
+    import scipy.linalg
+
+    ev = gallery["prs3"] if backend == "numpy" else eigentwist.load(str(GALLERY / "prs3.py"), backend="c", progress=None)
+    x = np.array([[0.60, 0.02, -0.03], [0.58, 0.05, -0.03], [0.62, -0.04, 0.01]])
+    mats, B = ev.matrices(x, "rigid", R_p=0.2), ev.allowed_twists(x, R_p=0.2)
+    want = [
+        np.sqrt(scipy.linalg.eigh(b.T @ K @ b, b.T @ M @ b, eigvals_only=True)) / (2 * np.pi)
+        for b, K, M in zip(B, mats["K_R"], mats["M"])
+    ]
+    assert ev.frequencies(x, "rigid", R_p=0.2) == pytest.approx(np.array(want), rel=1e-12)
+    assert np.abs(ev.frequencies(x, "rigid") / want - 1).max() > 1e-3
+    M_r, K_r = ev.stiffness(x, "rigid", R_p=0.2)  # the pair itself, from the user's poses
+    reduced = np.swapaxes(B, 1, 2)
+    assert M_r == pytest.approx(reduced @ mats["M"] @ B, rel=1e-12, abs=1e-12 * np.abs(M_r).max())
+    assert K_r == pytest.approx(reduced @ mats["K_R"] @ B, rel=1e-12, abs=1e-12 * np.abs(K_r).max())
+
+
 # -------------------------------------------------- kinetic energy, independently
 def _points(ev, bodies, values):
     """A NumPy function of (full pose, parameters) -> each leg's body points, from the
