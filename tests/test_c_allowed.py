@@ -174,3 +174,20 @@ def test_the_reduction_into_given_rows():
     for bad in (np.empty((70, 3, 4)), np.empty((70, 3, 3), dtype=np.float32), np.empty((70, 3, 3, 2))[..., 0]):
         with pytest.raises(InputError, match=r"out: expected a C-contiguous float64 array of shape \(70, 3, 3\)"):
             c_allowed.reduce(X, B, out=bad)
+
+
+def test_without_the_driver_the_reduction_is_numpys_and_the_c_one_says_why(monkeypatch):
+    """Where the driver cannot be built (no compiler: ``driver()`` None), ``allowed.reduce``
+    with ``compiled`` gives NumPy's B^T X B (into ``out`` too) and ``c_allowed.reduce`` refuses,
+    naming the missing compiler."""
+    from eigentwist.runtime import allowed
+
+    rng = np.random.default_rng(4)
+    X, B = rng.standard_normal((5, 6, 6)), rng.standard_normal((5, 6, 2))
+    monkeypatch.setattr(c_allowed, "driver", lambda: None)
+    want = np.swapaxes(B, 1, 2) @ X @ B
+    assert np.array_equal(allowed.reduce(X, B, compiled=True), want)
+    into = np.empty((5, 2, 2))
+    assert allowed.reduce(X, B, compiled=True, out=into) is into and np.array_equal(into, want)
+    with pytest.raises(RuntimeError, match=r"^the C allowed-twist driver could not be built \(no compiler\)$"):
+        c_allowed.reduce(X, B)

@@ -78,7 +78,7 @@ class ModeSolver:
             rigid
             and self.ev.c_route.fused
             and stash is None
-            and getattr(self.ev.space, "basis", 0) is None
+            and self.ev.space.basis is None
             and not self.ev.resolver.preloaded(effects)
         ):
             # allowed twists that turn with the pose: M, K_R and J_rows from one C pass, their
