@@ -446,11 +446,15 @@ def test_given_start_values_are_screened_for_their_parameter(monkeypatch):
     fm.fit(meas, ("e",), ev, ("a", "b"), starts={"a": (0.5, 3.0)}, explore=("b",))
     assert sorted(set(calls[0][:, 0])) == [0.5, 3.0] and sorted(set(calls[0][:, 1])) == [0.0]
     calls.clear()
+    fm.fit(meas, ("e",), ev, ("a", "b"), starts={"a": (0.5, 3.0)}, explore=("a",))  # given: no corners of a
+    assert calls[0].tolist() == [[0.5, 0.0], [3.0, 0.0]]
+    calls.clear()
     fm.fit(meas, ("e",), ev, ("a", "b"), fixed={"b": 0.7}, explore=())  # a fitted name's fixed value: its start
     assert calls[0].tolist() == [[1.0, 0.7]]
 
 
-def test_a_constraint_cuts_the_fits_search_range(monkeypatch):
+@pytest.mark.parametrize("hi", [1.5, 2.5], ids=["the optimum beyond: at the bound", "inside: not at it"])
+def test_a_constraint_cuts_the_fits_search_range(monkeypatch, hi):
     from eigentwist.runtime import constraints
 
     meas, ev, _ = _fit_world(monkeypatch)
@@ -460,13 +464,16 @@ def test_a_constraint_cuts_the_fits_search_range(monkeypatch):
     monkeypatch.setattr(
         constraints,
         "interval",
-        lambda compiled, name, values, effects: seen.append((name, values, effects)) or (0.5, 1.5),
+        lambda compiled, name, values, effects: seen.append((name, values, effects)) or (0.5, hi),
     )
     defaults = {"a": ev.parameter("a"), "b": ev.parameter("b"), "c": NS(default=4.0)}
     ev.parameter = lambda n: defaults[n]
     out = fm.fit(meas, ("e@2",), ev, ("a", "b"), start={"a": 1.2}, fixed={"c": 3.0})
     assert seen == [("a", {"a": 1.2, "c": 3.0}, {"e"})]
-    assert out.values["a"] == pytest.approx(1.5, rel=1e-6) and out.at_bound == ("a",)  # the optimum (2) is beyond
+    if hi < 1.6:  # the optimum (a ~ 1.7) beyond the range's end: the fit ends on it, named at its bound
+        assert out.values["a"] == pytest.approx(1.5, rel=1e-6) and out.at_bound == ("a",)
+    else:  # inside: not at a bound
+        assert 0.5 + 0.1 < out.values["a"] < hi - 0.1 and out.at_bound == ()
 
 
 # ------------------------------------------------------------------ starts: the grid, the corners, the refit
@@ -492,6 +499,7 @@ def test_the_corners_of_the_explored_box_pair_each_explored_ends_with_the_others
     given = fm._ends(tr, {**start, "c": 5e3}, {"a", "d"}, {"d": (-1.0, 3.0)})
     assert given.tolist() == [[0.01, 0.5, 1e3, 0.1], [100.0, 0.5, 1e3, 0.1]]
     assert fm._ends(tr, start, {"b"}).shape == (0, 4) and fm._ends(tr, start, set()).shape == (0, 4)
+    assert fm._ends(tr, start, {"a"}, {"a": (1.0, 2.0)}).shape == (0, 4)  # the one explored has its starts
 
 
 def test_a_start_the_model_cannot_evaluate_is_never_taken():
@@ -571,6 +579,7 @@ def test_a_corner_counts_only_below_the_fits_end_by_more_than_stall_chi2(monkeyp
     def solve(least_squares, obj, transforms, start, lo, hi, max_nfev):
         solved.append(list(start))
         runs.append(obj)
+        obj.nfev += 3
         return np.array([math.log(start[0]), start[1] / 2.0]), True, "stub"
 
     monkeypatch.setattr(fm, "_solve", solve)
@@ -579,6 +588,7 @@ def test_a_corner_counts_only_below_the_fits_end_by_more_than_stall_chi2(monkeyp
     assert len(solved) == (2 if refits else 1)
     assert solved[0] == [0.1, 0.0]  # the grid's first row (every row at chi2 20)
     assert out.values["a"] == pytest.approx(5.0 if refits else 0.1)  # the refit's end kept where it is lower
+    assert out.nfev == 1 + 3 + (3 if refits else 0)  # the screen and every run, the refit's too
 
 
 def test_a_refit_that_ends_higher_is_dropped(monkeypatch):
