@@ -314,3 +314,22 @@ def test_the_predicted_start_is_the_closures_tangent_at_the_reference():
     for step in (1e-2, 1e-3):
         x = x_ref + step * np.array([[1.0, -2.0]])
         assert np.abs(pred(x)[0] - closed(x[0])).max() <= 5 * step**2
+
+
+def test_a_legs_iterations_do_not_depend_on_the_other_legs_of_its_pose():
+    """Legs are solved independently: a leg that waits (|r| below EARLY while its neighbour
+    steps) and is then handed back to the damped steps (a triple root: the undamped step leaves
+    it above TOL) ends bit for bit where it ends alone, its damping its own."""
+
+    def pair(q, p):
+        gap = q - np.array([0.1, 0.4])[None, :, None]
+        r = np.concatenate([gap[:, :1] ** 3, 2.0 * gap[:, 1:]], axis=1)
+        d = np.concatenate([3.0 * gap[:, :1] ** 2, np.full_like(gap[:, 1:], 2.0)], axis=1)
+        return {"residual": r, "dresidual": d[..., None]}
+
+    start = 0.1 + (0.5 * lm.EARLY) ** (1 / 3)
+    q, norm = lm._iterate(pair, np.array([[[start], [0.9]]]), {}, lm.MAX_ITERATIONS, lm.TOL, 1e-3)
+    alone = _Counted(0.1, 3)
+    q1, norm1 = lm._iterate(alone, np.full((1, 1, 1), start), {}, lm.MAX_ITERATIONS, lm.TOL, 1e-3)
+    assert q[0, 0, 0] == q1[0, 0, 0] and norm[0, 0] == norm1[0, 0] < lm.TOL
+    assert abs(q[0, 1, 0] - 0.4) <= 4 * EPS  # the neighbour (a linear leg far off) closed too
