@@ -994,3 +994,20 @@ def test_one_sided_derivatives_at_the_lower_bound_and_the_results_shapes(heli4):
         InputError, match=r"not supported \(the damped modes need the pose's inverse kinematics\); give poses$"
     ):
         heli4.modes(None, joints=q, complex_shapes=True)
+
+
+def test_a_heavy_preloaded_payload_is_unstable_where_its_pencil_has_a_negative_eigenvalue(heli4):
+    """A 10 t payload hanging on the Heli4 (``gravity_preload``): its negative geometric
+    stiffness outweighs the legs' at some poses. ``invalid="nan"`` marks exactly the poses
+    whose pencil (K, M) has a negative eigenvalue (SciPy's solver here) unstable, with and
+    without an unreachable pose in the batch, and keeps the others stable."""
+    model, x = ("actuator_loss", "gravity_preload", "payload_mass"), np.array([[0, 0, -0.625], [0.05, 0.02, -0.6]])
+    M, K = heli4.stiffness(x, model, m_p=1e4)
+    negative = [scipy.linalg.eigh(k, m, eigvals_only=True)[0] < 0 for k, m in zip(K, M)]
+    assert negative == [False, True]  # one pose of each kind
+    every = heli4.modes(x, model, invalid="nan", m_p=1e4)
+    assert every.stable.tolist() == [True, False] and every.valid.tolist() == [True, True]
+    assert np.isnan(every.freq_hz[1, 0]) and np.isfinite(every.freq_hz[0]).all()
+    some = heli4.modes(np.vstack([x, [0.0, 0.0, 5.0]]), model, invalid="nan", m_p=1e4)
+    assert some.valid.tolist() == [True, True, False] and some.stable[:2].tolist() == [True, False]
+    np.testing.assert_array_equal(some.freq_hz[:2], every.freq_hz)
