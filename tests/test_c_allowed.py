@@ -171,6 +171,8 @@ def test_the_reduction_into_given_rows():
     mine = np.empty((70, 3, 3))
     assert allowed.reduce(X, B, compiled=False, out=mine) is mine
     assert np.array_equal(mine, np.swapaxes(B, 1, 2) @ X @ B)
+    ints = (rng.integers(-4, 5, (70, 6, 6)), rng.integers(-4, 5, (70, 6, 3)))  # read as numbers, not as bits
+    assert np.array_equal(c_allowed.reduce(*ints), c_allowed.reduce(*(a.astype(float) for a in ints)))
     for bad in (np.empty((70, 3, 4)), np.empty((70, 3, 3), dtype=np.float32), np.empty((70, 3, 3, 2))[..., 0]):
         with pytest.raises(InputError, match=r"out: expected a C-contiguous float64 array of shape \(70, 3, 3\)"):
             c_allowed.reduce(X, B, out=bad)
