@@ -247,3 +247,24 @@ def test_label_codes_beyond_the_memo_bound_stay_right():
         assert len(matching._CODES) <= size
     again = match_frequencies(m, ["x", "y"], strict=False)[1]
     assert np.array_equal(again, match_frequencies(m, np.array(["x", "y"]), strict=False)[1])  # not memoised
+
+
+def test_the_shares_come_from_the_inertia_when_first_read_and_go_with_it():
+    """A pass that has M at hand leaves it in ``Modes.inertia``: the shares are computed from
+    it on first reading (t_ik (M t_k)_i / t_k^T M t_k), then kept and M dropped; shares set
+    (None where the eigentwists change) drop the inertia, and no eigentwists give no shares."""
+    from eigentwist.runtime.modes import AXES, Modes
+
+    rng = np.random.default_rng(5)
+    v, L = rng.normal(size=(3, 6, 6)), rng.normal(size=(3, 6, 6))
+    M = L @ np.swapaxes(L, 1, 2) + 6 * np.eye(6)
+    m = Modes(np.ones((3, 6)), v, AXES, "flexible", inertia=M)
+    assert m.inertia is M
+    s = m.shares
+    Mv = M @ v
+    assert s == pytest.approx(v * Mv / np.einsum("nik,nik->nk", v, Mv)[:, None, :], rel=1e-12)
+    assert m.inertia is None and m.shares is s
+    changed = Modes(np.ones((3, 6)), v, AXES, "flexible", inertia=M)
+    changed.shares = None
+    assert changed.inertia is None and changed.shares is None
+    assert Modes(np.ones((3, 6)), None, AXES, "flexible", inertia=M).shares is None

@@ -16,7 +16,6 @@ import numpy as np
 from ..description.pose import FULL, twist_order
 from .addresses import address
 from .completion import CompletedPoses, map_ranges, masked
-from .labels import energy_shares
 from .memo import BoundedMemo
 from .modes import Modes
 from .threads import resolve_threads
@@ -216,8 +215,7 @@ class CPassRoute:
             np.ones(len(st), dtype=bool) if clean else st != STATUS["unstable"],
         )
         if shares and out["eigentwists"].shape[-1] == 6:
-            with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
-                modes.shares = energy_shares(out["eigentwists"], out["M"])
+            modes.inertia = out["M"]  # the energy shares, when read (Modes.shares)
         if damped == "pass":
             modes.damping = pass_damping(self.ev, effects, poses, params, p, solved, modes)
         elif keep:  # the damped modes' inputs, on the valid rows (_damping_inputs)
@@ -324,8 +322,7 @@ class CPassRoute:
             valid = None if check else np.ones(n, dtype=bool)
             modes = Modes(freq, out.get("eigentwists"), axes, stiffness, valid, np.ones(n, dtype=bool))
             if "M" in out and out["eigentwists"].shape[-1] == 6:
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    modes.shares = energy_shares(out["eigentwists"], out["M"])
+                modes.inertia = out["M"]  # the energy shares, when read (Modes.shares)
         if unstable == "raise" and not modes.stable.all():
             self.ev.solver.raise_unstable(arr, modes, effects)
         return modes

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
-from .labels import directions
+from .labels import directions, energy_shares
 
 __all__ = ["Modes", "AXES"]
 
@@ -42,7 +42,10 @@ class Modes:
         when no column is (:mod:`.condense`).
     shares : (N, n, n) each coordinate's share of each mode's energy
         (:func:`eigentwist.runtime.labels.energy_shares`) where the evaluator had M at hand
-        (the C pass of a flexible model); None: computed from the eigentwists when needed.
+        (the C pass of a flexible model: from M and the eigentwists when first read, from
+        :attr:`inertia`); None: computed from the eigentwists when needed.
+    inertia : (N, n, n) the inertia matrix M the eigentwists are M-orthogonal in, where the
+        evaluator had it at hand and :attr:`shares` were not read yet; None after.
     damping : the damped modes (:class:`eigentwist.runtime.damped.Damping`: poles, complex
         eigentwists) of a model with a damping effect (``servo_damping``, ``servo_delay``,
         ``structural_loss``) or where ``complex_shapes`` was asked; None: no damping, and
@@ -56,8 +59,9 @@ class Modes:
     valid: np.ndarray | None = None
     stable: np.ndarray | None = None
     constrained: np.ndarray | None = None
-    shares: np.ndarray | None = None
     damping: object = None
+    inertia: np.ndarray | None = field(default=None, repr=False)
+    _shares: np.ndarray | None = field(default=None, repr=False)
     #: the valid rows' joint coordinates, matrices, inputs and legs-kernel outputs where the
     #: pass computed them (reused by the damped modes, then dropped); None otherwise
     legs: dict | None = field(default=None, repr=False)
@@ -65,6 +69,21 @@ class Modes:
     def __post_init__(self):
         if self.stable is None:
             self.stable = np.ones(self.freq_hz.shape[:1], dtype=bool)
+
+    @property
+    def shares(self) -> np.ndarray | None:
+        """The energy shares (see the class), from :attr:`inertia` on first reading (a call
+        that never reads them does not pay for them); invalid poses' rows NaN."""
+        if self._shares is None and self.inertia is not None and self.eigentwists is not None:
+            with np.errstate(invalid="ignore", divide="ignore"):  # invalid poses: NaN rows
+                self._shares = energy_shares(self.eigentwists, self.inertia)
+            self.inertia = None
+        return self._shares
+
+    @shares.setter
+    def shares(self, value: np.ndarray | None) -> None:
+        """Set the shares (None: the eigentwists changed); the inertia kept for them goes."""
+        self._shares, self.inertia = value, None
 
     @property
     def kind(self) -> str:
