@@ -158,7 +158,9 @@ def test_a_lower_mobility_batch_with_an_unreachable_pose_keeps_the_others(galler
     NaN and invalid, the others' modes those of a batch without it (each pose solved on its
     own; C's Jacobi sweeps a block until all its poses converge: round-off), stable; without
     eigentwists the same frequencies."""
-    ev = gallery["prs3"] if backend == "numpy" else eigentwist.load(str(GALLERY / "prs3.py"), backend="c", progress=None)
+    ev = (
+        gallery["prs3"] if backend == "numpy" else eigentwist.load(str(GALLERY / "prs3.py"), backend="c", progress=None)
+    )
     x = np.array([[0.60, 0.0, 0.0], [0.60, 2.5, 0.0], [0.58, 0.05, -0.03]])
     m = ev.modes(x, "rigid", invalid="nan")
     alone = ev.modes(x[[0, 2]], "rigid")
@@ -184,7 +186,9 @@ def test_a_lower_mobility_rigid_model_with_a_parameter_given_is_its_reduced_penc
     that value (SciPy's solver here), and not those of the default radius."""
     import scipy.linalg
 
-    ev = gallery["prs3"] if backend == "numpy" else eigentwist.load(str(GALLERY / "prs3.py"), backend="c", progress=None)
+    ev = (
+        gallery["prs3"] if backend == "numpy" else eigentwist.load(str(GALLERY / "prs3.py"), backend="c", progress=None)
+    )
     x = np.array([[0.60, 0.02, -0.03], [0.58, 0.05, -0.03], [0.62, -0.04, 0.01]])
     mats, B = ev.matrices(x, "rigid", R_p=0.2), ev.allowed_twists(x, R_p=0.2)
     want = [
