@@ -45,6 +45,8 @@ class ModeSolver:
         self.ev = ev
         self.robot = ev.robot
         self._rigid_models: dict = {}  # model -> whether a leg has a rigid direction (route)
+        #: rows per leg of J_rows -> (the constraint rows' positions, the pose coordinates' unit twists)
+        self._constraint_rows: dict = {}
 
     @property
     def kernels(self):
@@ -162,8 +164,13 @@ class ModeSolver:
         the null space of their virtual joints' rows (:func:`.allowed.allowed_twists`), on
         ``threads`` threads (None: the evaluator's)."""
         per_leg = rows.shape[2]
-        picks = [i * per_leg + r for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg)]
-        candidates = coordinate_twists(twist_order(self.ev.pose_names))
+        found = self._constraint_rows.get(per_leg)
+        if found is None:  # the robot's: worked out once per row layout
+            picks = tuple(i * per_leg + r for i, leg in enumerate(self.robot.legs) for r in constraint_positions(leg))
+            candidates = coordinate_twists(twist_order(self.ev.pose_names))
+            candidates.flags.writeable = False
+            found = self._constraint_rows[per_leg] = (picks, candidates)
+        picks, candidates = found
         threads = self.ev.c_route.nthreads() if threads is None else threads
         return allowed_twists(rows, candidates, compiled=self.ev.c_route.fused, threads=threads, picks=picks)
 
