@@ -93,7 +93,7 @@ def test_c_allowed_twists_annihilate_the_constraint_wrenches(rps, monkeypatch):
     monkeypatch.setattr(c_allowed, "allowed_twists", lambda *a: calls.append(a[4]) or in_c(*a))
     B = evc.allowed_twists(x)
     # each leg's six joint rows (P, R, the S joint's three, the virtual one): the virtual joint's, the sixth
-    assert len(calls) == 1 and calls[0] == [5, 11, 17]
+    assert len(calls) == 1 and list(calls[0]) == [5, 11, 17]
     assert B.shape == (len(x), 6, 3)
     np.testing.assert_allclose(np.einsum("nji,njk->nik", B, B), np.broadcast_to(np.eye(3), (len(x), 3, 3)), atol=1e-12)
     full = evc.completed_poses(x)
