@@ -1010,4 +1010,4 @@ def test_a_heavy_preloaded_payload_is_unstable_where_its_pencil_has_a_negative_e
     assert np.isnan(every.freq_hz[1, 0]) and np.isfinite(every.freq_hz[0]).all()
     some = heli4.modes(np.vstack([x, [0.0, 0.0, 5.0]]), model, invalid="nan", m_p=1e4)
     assert some.valid.tolist() == [True, True, False] and some.stable[:2].tolist() == [True, False]
-    np.testing.assert_array_equal(some.freq_hz[:2], every.freq_hz)
+    np.testing.assert_allclose(some.freq_hz[:2], every.freq_hz, rtol=1e-12)  # each pose solved on its own
