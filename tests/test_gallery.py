@@ -40,6 +40,14 @@ def gallery():
     return {name: eigentwist.load(str(GALLERY / f"{name}.py"), backend="numpy", progress=None) for name in NAMES}
 
 
+def _on(gallery, name, backend):
+    """The gallery robot ``name`` on ``backend``: the session's NumPy evaluator, or its C one
+    (one thread)."""
+    if backend == "numpy":
+        return gallery[name]
+    return eigentwist.load(str(GALLERY / f"{name}.py"), backend="c", threads=1, progress=None)
+
+
 def _poses(ev, n, seed=1):
     box = np.array(ev.robot.workspace)
     poses = box[:, 0] + (box[:, 1] - box[:, 0]) * np.random.default_rng(seed).random((n, len(box)))
@@ -158,9 +166,7 @@ def test_a_lower_mobility_batch_with_an_unreachable_pose_keeps_the_others(galler
     NaN and invalid, the others' modes those of a batch without it (each pose solved on its
     own; C's Jacobi sweeps a block until all its poses converge: round-off), stable; without
     eigentwists the same frequencies."""
-    ev = (
-        gallery["prs3"] if backend == "numpy" else eigentwist.load(str(GALLERY / "prs3.py"), backend="c", progress=None)
-    )
+    ev = _on(gallery, "prs3", backend)
     x = np.array([[0.60, 0.0, 0.0], [0.60, 2.5, 0.0], [0.58, 0.05, -0.03]])
     m = ev.modes(x, "rigid", invalid="nan")
     alone = ev.modes(x[[0, 2]], "rigid")
@@ -186,9 +192,7 @@ def test_a_lower_mobility_rigid_model_with_a_parameter_given_is_its_reduced_penc
     that value (SciPy's solver here), and not those of the default radius."""
     import scipy.linalg
 
-    ev = (
-        gallery["prs3"] if backend == "numpy" else eigentwist.load(str(GALLERY / "prs3.py"), backend="c", progress=None)
-    )
+    ev = _on(gallery, "prs3", backend)
     x = np.array([[0.60, 0.02, -0.03], [0.58, 0.05, -0.03], [0.62, -0.04, 0.01]])
     mats, B = ev.matrices(x, "rigid", R_p=0.2), ev.allowed_twists(x, R_p=0.2)
     want = [
@@ -301,7 +305,7 @@ def test_the_branch_check_reads_the_levers_alone(gallery, name, backend):
     """Legs solved by Newton have a generated ``lever`` kernel: the jacobians kernel's levers
     (the sign each solution's branch is checked by) without its Jacobian rows, equal to them
     to round-off on either backend; the pose completion reads it. Closed-form legs have none."""
-    ev = gallery[name] if backend == "numpy" else eigentwist.load(str(GALLERY / f"{name}.py"), backend="c", threads=1)
+    ev = _on(gallery, name, backend)
     x = _poses(ev, 20, seed=5)
     q = ev.joint_angles(x)
     kp = ev.completion.closure_inputs(x, ev.resolver.resolve(len(x), {}, "none"))

@@ -77,9 +77,7 @@ def test_energy_shares_do_not_depend_on_units_or_eigentwist_scale(heli4):
     assert np.isnan(energy_shares(nan)[0]).all() and np.isfinite(energy_shares(nan)[1:]).all()
     # the finite rows' shares are those of the definition, t_ik (M t_k)_i / (t_k^T M t_k)
     M = heli4.matrices(random_poses(heli4.robot, 10, seed=4), "paper", k_a=800.0)["M"]
-    Mt = M @ m.eigentwists
-    definition = m.eigentwists * Mt / np.einsum("nik,nik->nk", m.eigentwists, Mt)[:, None, :]
-    assert energy_shares(nan)[1:] == pytest.approx(definition[1:], abs=1e-9)
+    assert energy_shares(nan)[1:] == pytest.approx(_kinetic_shares(M, m.eigentwists)[1:], abs=1e-9)
 
 
 def test_heli4_labels_unchanged_where_modes_are_well_separated(heli4):
@@ -261,8 +259,7 @@ def test_the_shares_come_from_the_inertia_when_first_read_and_go_with_it():
     m = Modes(np.ones((3, 6)), v, AXES, "flexible", inertia=M)
     assert m.inertia is M
     s = m.shares
-    Mv = M @ v
-    assert s == pytest.approx(v * Mv / np.einsum("nik,nik->nk", v, Mv)[:, None, :], rel=1e-12)
+    assert s == pytest.approx(_kinetic_shares(M, v), rel=1e-12)
     assert m.inertia is None and m.shares is s
     changed = Modes(np.ones((3, 6)), v, AXES, "flexible", inertia=M)
     changed.shares = None
